@@ -1,0 +1,75 @@
+# Shared build conventions. Every library target is created through these helpers so that all of
+# regolith gets the same warnings, include layout, install rules and export set.
+
+set(REGOLITH_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
+    -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual -Wnull-dereference
+    -Wformat=2 -Wimplicit-fallthrough)
+
+function(regolith_target_defaults target)
+  target_compile_options(${target} PRIVATE $<$<COMPILE_LANGUAGE:CXX>:${REGOLITH_WARNINGS}>)
+  if(REGOLITH_WERROR)
+    target_compile_options(${target} PRIVATE $<$<COMPILE_LANGUAGE:CXX>:-Werror>)
+  endif()
+endfunction()
+
+# regolith_add_library(<name> SOURCES ... [PUBLIC_LIBS ...] [PRIVATE_LIBS ...])
+# Creates target regolith_<name> (alias regolith::<name>), public headers in ./include,
+# installed and exported in the regolith CMake package.
+function(regolith_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  set(target regolith_${name})
+  add_library(${target} STATIC ${ARG_SOURCES})
+  add_library(regolith::${name} ALIAS ${target})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME regolith_${name})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_LIBS} PRIVATE ${ARG_PRIVATE_LIBS})
+  regolith_target_defaults(${target})
+  install(TARGETS ${target} EXPORT regolithTargets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  endif()
+endfunction()
+
+# regolith_add_gtest(<name> SOURCES ... LIBS ... [LABELS ...])
+# One GoogleTest executable; every TEST() becomes its own CTest test, labelled `unit` unless
+# LABELS says otherwise. Test data paths: REGOLITH_SOURCE_DIR / REGOLITH_SHARED_DIR macros.
+function(regolith_add_gtest name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS unit)
+  endif()
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE
+    REGOLITH_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    REGOLITH_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared"
+    REGOLITH_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  regolith_target_defaults(${name})
+  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# regolith_add_bench(<name> SOURCES ... LIBS ...): a Google Benchmark program in bench/.
+function(regolith_add_bench name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} benchmark::benchmark)
+  target_compile_definitions(${name} PRIVATE REGOLITH_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  regolith_target_defaults(${name})
+endfunction()
+
+# regolith_add_subdirectories(): every sub-folder of the current folder that has a CMakeLists.txt,
+# in name order, except those listed in REGOLITH_SKIP (paths relative to the project root).
+function(regolith_add_subdirectories)
+  file(GLOB _dirs LIST_DIRECTORIES true ${CMAKE_CURRENT_SOURCE_DIR}/*)
+  list(SORT _dirs)
+  foreach(_dir IN LISTS _dirs)
+    file(RELATIVE_PATH _rel ${PROJECT_SOURCE_DIR} ${_dir})
+    if(IS_DIRECTORY ${_dir} AND EXISTS ${_dir}/CMakeLists.txt AND NOT _rel IN_LIST REGOLITH_SKIP)
+      add_subdirectory(${_dir})
+    endif()
+  endforeach()
+endfunction()

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package regolith needs to build, run, test and benchmark,
+# including the driver-test VM (vcan / vivid / vimc under QEMU). Idempotent: packages already
+# present are skipped, and `apt-get update` runs only when something is missing.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git ccache
+  # libraries
+  libopencv-dev libopencv-contrib-dev libeigen3-dev libyaml-cpp-dev
+  cyclonedds-dev cyclonedds-tools
+  libcamera-dev libcamera-ipa libcamera-tools libv4l-dev linux-libc-dev
+  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  # driver tests (tests/hw): QEMU VM with Debian's kernel, can-utils and v4l-utils in the guest
+  qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils
+  # packaging checks
+  dpkg-dev lintian
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]})); then
+  SUDO=""
+  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  echo "regolith setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "regolith setup: all ${#PACKAGES[@]} Debian packages already installed"
+fi

@@ -1,0 +1,46 @@
+#pragma once
+// Time in regolith: signed 64-bit nanoseconds on CLOCK_MONOTONIC (or on the simulated clock when
+// the process runs with --sim-time). Every HAL sample carries its capture time in this base.
+#include <cstdint>
+#include <ctime>
+
+namespace regolith {
+
+using TimeNs = std::int64_t;
+
+inline constexpr TimeNs kNsPerUs = 1'000;
+inline constexpr TimeNs kNsPerMs = 1'000'000;
+inline constexpr TimeNs kNsPerSec = 1'000'000'000;
+
+constexpr double to_seconds(TimeNs t) { return static_cast<double>(t) * 1e-9; }
+constexpr TimeNs from_seconds(double s) { return static_cast<TimeNs>(s * 1e9); }
+
+inline TimeNs monotonic_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+
+inline timespec to_timespec(TimeNs t) {
+  return timespec{static_cast<time_t>(t / kNsPerSec), static_cast<long>(t % kNsPerSec)};
+}
+
+/// The clock every rate group, HAL backend and component reads. `SystemClock` is CLOCK_MONOTONIC;
+/// the runtime's `SimClock` is advanced by the simulated-time executor.
+class Clock {
+ public:
+  virtual ~Clock() = default;
+  virtual TimeNs now() const = 0;
+  /// Sleep until absolute time `t`. On the simulated clock this never blocks on wall time.
+  virtual void sleep_until(TimeNs t) = 0;
+  virtual bool simulated() const = 0;
+};
+
+class SystemClock final : public Clock {
+ public:
+  TimeNs now() const override { return monotonic_now(); }
+  void sleep_until(TimeNs t) override;
+  bool simulated() const override { return false; }
+};
+
+}  // namespace regolith

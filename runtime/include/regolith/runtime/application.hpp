@@ -1,0 +1,71 @@
+#pragma once
+// A deployment assembled from one YAML file: devices, components, rate groups, DDS. Loading
+// validates everything (throwing ConfigError naming file:line:col and field) before any thread
+// starts; `start` activates components, starts devices and the executor.
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "regolith/core/params.hpp"
+#include "regolith/runtime/component.hpp"
+#include "regolith/runtime/context.hpp"
+#include "regolith/runtime/rate_group.hpp"
+
+namespace regolith::dds {
+class Participant;
+}
+
+namespace regolith::runtime {
+
+struct AppOptions {
+  bool sim_time = false;     ///< run rate groups on the simulated clock, as fast as possible
+  bool enable_dds = true;    ///< false: ignore the dds section (e.g. `config check`)
+  bool open_devices = true;  ///< false: backends validate parameters without opening devices
+};
+
+/// Everything the health monitor and the live summary read.
+struct SystemView {
+  std::vector<RateGroup*> groups;
+  std::vector<Component*> components;
+  Context* context = nullptr;
+};
+
+class Application {
+ public:
+  /// Build and configure from a parsed file. Throws ConfigError.
+  static std::unique_ptr<Application> load(Params root, const AppOptions& opts);
+  ~Application();
+
+  void start();
+  /// Run until `duration` (ns of executor time; <= 0 = until `stop_flag`) or `stop_flag`.
+  void run(TimeNs duration, const std::atomic<bool>& stop_flag);
+  void stop();
+
+  Context& context() { return *context_; }
+  Clock& clock();
+  const SystemView& view() const { return view_; }
+  const std::vector<ResolvedParam>& resolved() const { return *resolved_; }
+  dds::Participant* dds() { return dds_.get(); }
+  bool sim_time() const { return opts_.sim_time; }
+  const std::string& name() const { return name_; }
+
+ private:
+  Application() = default;
+  AppOptions opts_;
+  std::string name_;
+  std::unique_ptr<SimClock> sim_clock_;
+  std::unique_ptr<Executor> executor_;
+  std::shared_ptr<dds::Participant> dds_;
+  std::unique_ptr<Context> context_;
+  std::vector<std::unique_ptr<Component>> components_;
+  std::vector<std::unique_ptr<RateGroup>> groups_;
+  SystemView view_;
+  std::shared_ptr<std::vector<ResolvedParam>> resolved_;
+  bool started_ = false;
+};
+
+/// Registers everything built into the runtime (health, joint_state_publisher components).
+void register_builtin_components();
+
+}  // namespace regolith::runtime

@@ -1,0 +1,110 @@
+#pragma once
+// A rate group: a period, an ordered list of member components, optional real-time priority and
+// CPU affinity, and exact accounting of missed periods. The same RateGroup runs under the
+// real-time executor (one thread each, absolute-deadline sleeps on CLOCK_MONOTONIC) and under the
+// simulated-time executor (all groups in lockstep on one thread, as fast as the CPU allows).
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "regolith/core/time.hpp"
+#include "regolith/runtime/component.hpp"
+#include "regolith/runtime/stats.hpp"
+
+namespace regolith::runtime {
+
+enum class OverrunPolicy : std::uint8_t {
+  kSkip,     ///< after an overrun, wait for the next release in the future (missed ones are dropped)
+  kCatchUp,  ///< run the missed releases back to back until on schedule again
+};
+
+struct RateGroupConfig {
+  std::string name;
+  TimeNs period = 0;          ///< ns, > 0
+  TimeNs offset = 0;          ///< phase of the first release after start, ns
+  int priority = 0;           ///< SCHED_FIFO priority 1..99; 0 = normal scheduling
+  int cpu = -1;               ///< CPU to pin the thread to; -1 = any
+  OverrunPolicy overrun = OverrunPolicy::kSkip;
+  std::vector<std::string> members;
+};
+
+struct RateGroupCounters {
+  std::uint64_t cycles = 0;        ///< cycles executed
+  std::uint64_t slips = 0;         ///< releases missed (deadline passed before the cycle ended)
+  std::uint64_t skipped = 0;       ///< releases not executed (skip policy)
+  TimeNs last_release = 0;
+};
+
+class RateGroup {
+ public:
+  RateGroup(RateGroupConfig cfg, std::vector<Component*> members);
+
+  const RateGroupConfig& config() const { return cfg_; }
+  const std::vector<Component*>& members() const { return members_; }
+
+  /// Start the schedule: the first release is `start + offset`.
+  void reset(TimeNs start);
+  /// The next release time to wait for.
+  TimeNs next_release() const { return next_release_; }
+  /// Run one cycle for release `next_release()` using `clock` for timing, then account for slips
+  /// and compute the next release according to the overrun policy. Never allocates.
+  void run_cycle(Clock& clock);
+
+  RateGroupCounters counters() const;
+  const ExecHistogram& cycle_exec() const { return cycle_exec_; }
+  /// Wake-up latency: clock reading at cycle start minus release (real-time executor).
+  const ExecHistogram& wakeup_latency() const { return wakeup_; }
+
+ private:
+  RateGroupConfig cfg_;
+  std::vector<Component*> members_;
+  TimeNs next_release_ = 0;
+  TimeNs slip_horizon_ = 0;  // latest release already accounted as missed
+  std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<std::uint64_t> slips_{0};
+  std::atomic<std::uint64_t> skipped_{0};
+  std::atomic<TimeNs> last_release_{0};
+  ExecHistogram cycle_exec_;
+  ExecHistogram wakeup_;
+};
+
+/// Simulated clock: time advances only when the simulated executor (or a test) says so.
+class SimClock final : public Clock {
+ public:
+  explicit SimClock(TimeNs start = kNsPerSec) : now_(start) {}
+  TimeNs now() const override { return now_.load(std::memory_order_acquire); }
+  /// Jump forward to `t` (never backwards).
+  void sleep_until(TimeNs t) override {
+    if (t > now()) now_.store(t, std::memory_order_release);
+  }
+  /// Let simulated time pass, e.g. to model a member's execution cost in a test.
+  void advance(TimeNs dt) { now_.fetch_add(dt, std::memory_order_acq_rel); }
+  bool simulated() const override { return true; }
+
+ private:
+  std::atomic<TimeNs> now_;
+};
+
+/// Runs rate groups. `run_until` returns when `stop` becomes true or the clock passes `end`.
+class Executor {
+ public:
+  virtual ~Executor() = default;
+  virtual void start(std::vector<RateGroup*> groups) = 0;
+  virtual void stop() = 0;
+  /// Block the caller until `end` (absolute, executor clock) or until `stop_flag` is set.
+  virtual void run_until(TimeNs end, const std::atomic<bool>& stop_flag) = 0;
+  virtual Clock& clock() = 0;
+};
+
+struct RealtimeOptions {
+  bool lock_memory = false;  ///< mlockall(MCL_CURRENT | MCL_FUTURE)
+};
+
+/// One thread per rate group, clock_nanosleep(TIMER_ABSTIME) on CLOCK_MONOTONIC. Priorities,
+/// affinity and memory locking fall back with one warning each when not permitted.
+std::unique_ptr<Executor> make_realtime_executor(RealtimeOptions opts = {});
+/// All rate groups on the calling thread in release order; `clock` is advanced to each release.
+std::unique_ptr<Executor> make_sim_executor(SimClock& clock);
+
+}  // namespace regolith::runtime

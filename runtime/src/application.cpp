@@ -1,0 +1,191 @@
+#include "regolith/runtime/application.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include "regolith/hal/registry.hpp"
+#include "regolith/runtime/dds_hooks.hpp"
+
+namespace regolith::runtime {
+
+Application::~Application() { stop(); }
+
+Clock& Application::clock() { return executor_->clock(); }
+
+std::unique_ptr<Application> Application::load(Params root, const AppOptions& opts) {
+  std::unique_ptr<Application> app(new Application());
+  app->opts_ = opts;
+  app->resolved_ = root.sink();
+  app->name_ = root.get<std::string>("name", "regolith", {.doc = "deployment name (diagnostics, logs)"});
+
+  Params process = root.child("process");
+  RealtimeOptions rt;
+  rt.lock_memory = process.get<bool>("lock_memory", false, {.doc = "mlockall() before the rate groups start"});
+  process.finish();
+
+  if (opts.sim_time) {
+    app->sim_clock_ = std::make_unique<SimClock>();
+    app->executor_ = make_sim_executor(*app->sim_clock_);
+  } else {
+    app->executor_ = make_realtime_executor(rt);
+  }
+  const std::string config_dir =
+      std::filesystem::path(root.file()).has_parent_path() ? std::filesystem::path(root.file()).parent_path().string() : ".";
+  app->context_ = std::make_unique<Context>(app->executor_->clock(), config_dir);
+  Context& ctx = *app->context_;
+  app->view_.context = &ctx;
+  ctx.set_system(&app->view_);
+
+  // ---- DDS ----
+  Params dds = root.child("dds");
+  if (opts.enable_dds) {
+    app->dds_ = make_participant(dds);
+    ctx.set_dds(app->dds_.get());
+  } else {
+    declare_dds_params(dds);
+  }
+  dds.finish();
+
+  // ---- devices ----
+  Params devices = root.child("devices");
+  auto& reg = hal::BackendRegistry::instance();
+  {
+    Params cams = devices.child("cameras");
+    std::uint16_t index = 0;
+    for (const auto& name : cams.keys()) {
+      Params p = cams.child(name);
+      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices};
+      auto cam = reg.make_camera(p, dc);
+      p.finish();
+      ctx.add_camera(name, std::move(cam));
+    }
+    cams.finish();
+    Params encs = devices.child("encoders");
+    index = 0;
+    for (const auto& name : encs.keys()) {
+      Params p = encs.child(name);
+      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices};
+      auto enc = reg.make_encoders(p, dc);
+      p.finish();
+      ctx.add_encoders(name, std::move(enc));
+    }
+    encs.finish();
+  }
+  devices.finish();
+
+  // ---- rate groups (read first so membership errors point at the group) ----
+  std::vector<RateGroupConfig> group_cfgs;
+  std::vector<Params> group_params = root.child_list("rate_groups", true);
+  if (group_params.empty()) root.fail("rate_groups", "at least one rate group is required");
+  std::set<std::string> group_names;
+  std::map<std::string, std::string> member_of;
+  for (auto& g : group_params) {
+    RateGroupConfig c;
+    c.name = g.require<std::string>("name", {.doc = "rate group name"});
+    if (!group_names.insert(c.name).second) g.fail("name", "duplicate rate group name '" + c.name + "'");
+    const bool has_rate = g.has("rate_hz");
+    const bool has_period = g.has("period_ms");
+    if (has_rate == has_period) g.fail({}, "give exactly one of rate_hz or period_ms");
+    if (has_rate) {
+      const double hz = g.require<double>("rate_hz", {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                                      .doc = "cycle rate"});
+      c.period = static_cast<TimeNs>(std::llround(1e9 / hz));
+    } else {
+      const double ms = g.require<double>("period_ms", {.unit = "ms", .min = 0.0, .min_exclusive = true,
+                                                        .doc = "cycle period"});
+      c.period = static_cast<TimeNs>(std::llround(ms * 1e6));
+    }
+    c.offset = static_cast<TimeNs>(std::llround(
+        g.get<double>("offset_ms", 0.0, {.unit = "ms", .min = 0.0, .doc = "phase of the first release"}) * 1e6));
+    c.priority = g.get<int>("priority", 0, {.min = 0, .max = 99, .doc = "SCHED_FIFO priority, 0 = normal"});
+    c.cpu = g.get<int>("cpu", -1, {.min = -1, .max = 1023, .doc = "CPU affinity, -1 = any"});
+    const std::string overrun =
+        g.get<std::string>("overrun", "skip", {.choices = {"skip", "catch_up"}, .doc = "overrun policy"});
+    c.overrun = overrun == "skip" ? OverrunPolicy::kSkip : OverrunPolicy::kCatchUp;
+    c.members = g.require<std::vector<std::string>>("members", {.doc = "components, in execution order"});
+    if (c.members.empty()) g.fail("members", "a rate group needs at least one member");
+    for (const auto& m : c.members) {
+      auto [it, inserted] = member_of.emplace(m, c.name);
+      if (!inserted) g.fail("members", "component '" + m + "' is already a member of rate group '" + it->second + "'");
+    }
+    g.finish();
+    group_cfgs.push_back(std::move(c));
+  }
+
+  // ---- components ----
+  Params comps = root.require_child("components");
+  std::map<std::string, Component*> by_name;
+  const auto names = comps.keys();
+  for (const auto& name : names) {
+    Params p = comps.child(name);
+    const std::string type = p.require<std::string>("type", {.doc = "component type"});
+    auto c = ComponentRegistry::instance().make(p, type);
+    c->name_ = name;
+    c->type_ = type;
+    if (!member_of.count(name)) p.fail({}, "component '" + name + "' is not a member of any rate group");
+    c->configure(p, ctx);
+    p.finish();
+    c->state_.store(Lifecycle::kInactive);
+    by_name[name] = c.get();
+    app->view_.components.push_back(c.get());
+    app->components_.push_back(std::move(c));
+  }
+  comps.finish();
+
+  for (std::size_t gi = 0; gi < group_cfgs.size(); ++gi) {
+    auto& c = group_cfgs[gi];
+    std::vector<Component*> members;
+    for (const auto& m : c.members) {
+      auto it = by_name.find(m);
+      if (it == by_name.end()) {
+        std::string msg = "unknown component '" + m + "'";
+        const std::string guess = did_you_mean(m, names);
+        if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+        group_params[gi].fail("members", msg);
+      }
+      members.push_back(it->second);
+    }
+    app->groups_.push_back(std::make_unique<RateGroup>(std::move(c), std::move(members)));
+    app->view_.groups.push_back(app->groups_.back().get());
+  }
+  root.finish();
+  return app;
+}
+
+void Application::start() {
+  if (started_) return;
+  // Devices first (outside the rate groups), then components, then the schedule.
+  for (auto& [name, cam] : context_->cameras()) cam->start();
+  for (auto& [name, enc] : context_->encoders()) enc->start();
+  for (auto& c : components_) {
+    c->activate();
+    c->state_.store(Lifecycle::kActive);
+  }
+  if (dds_) start_participant(*dds_);
+  executor_->start(view_.groups);
+  started_ = true;
+}
+
+void Application::run(TimeNs duration, const std::atomic<bool>& stop_flag) {
+  const TimeNs end = duration > 0 ? clock().now() + duration : INT64_MAX;
+  executor_->run_until(end, stop_flag);
+}
+
+void Application::stop() {
+  if (!started_) return;
+  executor_->stop();
+  for (auto& c : components_) {
+    c->deactivate();
+    c->state_.store(Lifecycle::kInactive);
+  }
+  for (auto& [name, enc] : context_->encoders()) enc->stop();
+  for (auto& [name, cam] : context_->cameras()) cam->stop();
+  if (dds_) stop_participant(*dds_);
+  started_ = false;
+}
+
+}  // namespace regolith::runtime

@@ -1,0 +1,68 @@
+#include "regolith/runtime/rate_group.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace regolith::runtime {
+
+RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
+    : cfg_(std::move(cfg)), members_(std::move(members)) {
+  if (cfg_.period <= 0) throw std::invalid_argument("rate group '" + cfg_.name + "': period must be > 0");
+}
+
+void RateGroup::reset(TimeNs start) {
+  next_release_ = start + cfg_.offset;
+  slip_horizon_ = next_release_;
+}
+
+void RateGroup::run_cycle(Clock& clock) {
+  const TimeNs release = next_release_;
+  const TimeNs period = cfg_.period;
+  const bool sim = clock.simulated();
+  const TimeNs start = clock.now();
+  wakeup_.record(start - release);
+  last_release_.store(release, std::memory_order_relaxed);
+
+  CycleInfo info{release, start, period, cycles_.load(std::memory_order_relaxed)};
+  for (Component* m : members_) {
+    const TimeNs t0 = clock.now();
+    const TimeNs w0 = sim ? monotonic_now() : t0;
+    info.now = t0;
+    m->step(info);
+    const TimeNs t1 = clock.now();
+    m->exec_.record(t1 - t0);
+    m->wall_.record(sim ? monotonic_now() - w0 : t1 - t0);
+    m->heartbeat_.fetch_add(1, std::memory_order_relaxed);
+  }
+  const TimeNs end = clock.now();
+  cycle_exec_.record(end - start);
+  cycles_.fetch_add(1, std::memory_order_relaxed);
+
+  // Missed releases: release + j*period (j >= 1) that came and went before this cycle ended and
+  // were not already counted by an earlier (late) cycle.
+  if (end > release + period) {
+    const TimeNs lo = std::max(release, slip_horizon_);
+    const TimeNs j0 = (lo - release) / period + 1;
+    const TimeNs j1 = (end - 1 - release) / period;
+    if (j1 >= j0) {
+      slips_.fetch_add(static_cast<std::uint64_t>(j1 - j0 + 1), std::memory_order_relaxed);
+      slip_horizon_ = release + j1 * period;
+    }
+  }
+
+  if (cfg_.overrun == OverrunPolicy::kSkip) {
+    const TimeNs elapsed = end - release;
+    const TimeNs steps = std::max<TimeNs>(1, (elapsed + period - 1) / period);
+    if (steps > 1) skipped_.fetch_add(static_cast<std::uint64_t>(steps - 1), std::memory_order_relaxed);
+    next_release_ = release + steps * period;
+  } else {
+    next_release_ = release + period;
+  }
+}
+
+RateGroupCounters RateGroup::counters() const {
+  return RateGroupCounters{cycles_.load(std::memory_order_relaxed), slips_.load(std::memory_order_relaxed),
+                           skipped_.load(std::memory_order_relaxed), last_release_.load(std::memory_order_relaxed)};
+}
+
+}  // namespace regolith::runtime

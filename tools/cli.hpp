@@ -1,0 +1,26 @@
+#pragma once
+// Sub-commands of the `regolith` tool. Each tools/cmd_<name>.cpp registers itself:
+//   static const bool registered = regolith::cli::add_command([](CLI::App& app) { ... });
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <string>
+
+namespace regolith::cli {
+
+using Setup = std::function<void(CLI::App& app)>;
+bool add_command(Setup setup);
+
+/// The sub-command group `name` (e.g. "config", "calibrate", "eval"), created on first use.
+CLI::App* group(CLI::App& app, const std::string& name, const std::string& description);
+
+/// Register every component type and HAL backend compiled into this build.
+void register_everything();
+
+/// The embedded default deployment (config/mock_rover.yaml at build time).
+const char* embedded_mock_rover();
+
+/// Exit codes: 0 ok, 1 runtime failure, 2 bad configuration or input.
+inline constexpr int kExitConfig = 2;
+
+}  // namespace regolith::cli

@@ -1,0 +1,61 @@
+// regolith: the command-line tool. Sub-commands live in tools/cmd_*.cpp and register themselves.
+#include <spdlog/spdlog.h>
+
+#include <vector>
+
+#include "cli.hpp"
+#include "regolith/core/error.hpp"
+
+namespace regolith::cli {
+
+namespace {
+std::vector<Setup>& setups() {
+  static std::vector<Setup> s;
+  return s;
+}
+}  // namespace
+
+bool add_command(Setup setup) {
+  setups().push_back(std::move(setup));
+  return true;
+}
+
+CLI::App* group(CLI::App& app, const std::string& name, const std::string& description) {
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    if (sub->get_name() == name) return sub;
+  }
+  CLI::App* g = app.add_subcommand(name, description);
+  g->require_subcommand(1);
+  return g;
+}
+
+}  // namespace regolith::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"regolith: real-time terrain assessment for planetary micro-rovers"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("regolith ") + REGOLITH_VERSION);
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+  app.parse_complete_callback([&] { spdlog::set_level(spdlog::level::from_str(log_level)); });
+
+  regolith::cli::register_everything();
+  for (auto& s : regolith::cli::setups()) s(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const regolith::ConfigError& e) {
+    spdlog::error("{}", e.what());
+    return regolith::cli::kExitConfig;
+  } catch (const regolith::InputError& e) {
+    spdlog::error("{}", e.what());
+    return regolith::cli::kExitConfig;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,110 @@
+#include "summary.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <sstream>
+
+#include "regolith/runtime/dds_hooks.hpp"
+
+namespace regolith::cli {
+namespace {
+
+std::string us(TimeNs ns) {
+  if (ns >= 10 * kNsPerMs) return fmt::format("{:.1f}ms", static_cast<double>(ns) / 1e6);
+  return fmt::format("{:.0f}us", static_cast<double>(ns) / 1e3);
+}
+
+}  // namespace
+
+Summary::Summary(runtime::Application& app, bool redraw)
+    : app_(app),
+      redraw_(redraw),
+      start_wall_(monotonic_now()),
+      start_clock_(app.clock().now()),
+      warned_slips_(app.view().groups.size(), 0),
+      last_warn_(app.view().groups.size() + app.context().cameras().size(), 0),
+      warned_faults_(app.context().cameras().size(), 0) {}
+
+void Summary::print(std::ostream& os, bool final) {
+  const auto& v = app_.view();
+  std::ostringstream out;
+  const double wall = to_seconds(monotonic_now() - start_wall_);
+  const double sim = to_seconds(app_.clock().now() - start_clock_);
+  out << fmt::format("regolith '{}'  {:.1f} s{}{}\n", app_.name(), app_.sim_time() ? sim : wall,
+                     app_.sim_time() ? fmt::format(" simulated in {:.1f} s wall ({:.0f}x)", wall, wall > 0 ? sim / wall : 0.0) : "",
+                     final ? "  [final]" : "");
+  out << fmt::format("{:<12} {:>8} {:>9} {:>6} {:>9} {:>9} {:>9} {:>10}\n", "rate group", "rate Hz", "cycles", "slips",
+                     "exec avg", "exec p99", "exec max", "wake p99");
+  for (const auto* g : v.groups) {
+    const auto c = g->counters();
+    const auto e = g->cycle_exec().summary();
+    const auto w = g->wakeup_latency().summary();
+    out << fmt::format("{:<12} {:>8.1f} {:>9} {:>6} {:>9} {:>9} {:>9} {:>10}\n", g->config().name,
+                       1e9 / static_cast<double>(g->config().period), c.cycles, c.slips, us(e.mean), us(e.p99), us(e.max),
+                       app_.sim_time() ? "-" : us(w.p99));
+  }
+  out << fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9} {:>7} {:>6}  {}\n", "component", "steps", "cpu avg", "cpu p99",
+                     "cpu max", "errors", "stale", "status");
+  for (const auto* c : v.components) {
+    const auto s = c->wall().summary();
+    std::uint64_t stale = 0;
+    for (const auto& in : c->inputs()) stale += in->stale_cycles.load();
+    out << fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9} {:>7} {:>6}  {}\n", c->name(), c->heartbeat(), us(s.mean),
+                       us(s.p99), us(s.max), c->errors(), stale, c->status_message());
+  }
+  for (const auto& [name, cam] : app_.context().cameras()) {
+    const auto s = cam->stats();
+    out << fmt::format("camera {:<15} {} frames {} dropped {} corrupt {} faults {} recoveries {}\n", name,
+                       hal::to_string(s.state), s.frames, s.dropped, s.corrupt, s.faults, s.recoveries);
+  }
+  for (const auto& [name, enc] : app_.context().encoders()) {
+    const auto s = enc->stats();
+    out << fmt::format("encoders {:<13} {} samples {} rejected {} faults {}\n", name, hal::to_string(s.state), s.samples,
+                       s.rejected, s.faults);
+  }
+  if (app_.dds() != nullptr) out << runtime::dds_summary(*app_.dds());
+  const std::string text = out.str();
+  if (redraw_ && lines_printed_ > 0 && !final) os << "\x1b[" << lines_printed_ << "F\x1b[J";
+  os << text << std::flush;
+  lines_printed_ = static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+  if (!redraw_) os << '\n';
+}
+
+void Summary::warn_rate_limited(TimeNs interval) {
+  const auto& v = app_.view();
+  const TimeNs now = monotonic_now();
+  for (std::size_t i = 0; i < v.groups.size(); ++i) {
+    const auto c = v.groups[i]->counters();
+    if (c.slips > warned_slips_[i] && now - last_warn_[i] >= interval) {
+      spdlog::warn("rate group '{}': {} cycle slip(s) since the last warning ({} in total, period {})",
+                   v.groups[i]->config().name, c.slips - warned_slips_[i], c.slips, us(v.groups[i]->config().period));
+      warned_slips_[i] = c.slips;
+      last_warn_[i] = now;
+    }
+  }
+  std::size_t k = 0;
+  for (const auto& [name, cam] : app_.context().cameras()) {
+    const auto s = cam->stats();
+    const std::size_t slot = v.groups.size() + k;
+    if (s.faults > warned_faults_[k] && now - last_warn_[slot] >= interval) {
+      spdlog::warn("camera '{}': {} fault(s) ({} in total), state {}", name, s.faults - warned_faults_[k], s.faults,
+                   hal::to_string(s.state));
+      warned_faults_[k] = s.faults;
+      last_warn_[slot] = now;
+    }
+    ++k;
+  }
+}
+
+void print_resolved(std::ostream& os, const std::vector<ResolvedParam>& params) {
+  for (const auto& p : params) {
+    os << p.path << ": " << p.value;
+    if (!p.unit.empty()) os << " [" << p.unit << "]";
+    if (p.defaulted) os << "  # default";
+    if (!p.range.empty()) os << (p.defaulted ? ", " : "  # ") << p.range;
+    os << '\n';
+  }
+}
+
+}  // namespace regolith::cli
