@@ -3,7 +3,10 @@
 
 set(REGOLITH_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
     -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual -Wnull-dereference
-    -Wformat=2 -Wimplicit-fallthrough)
+    -Wformat=2 -Wimplicit-fallthrough
+    # GCC 12 reports false -Wrestrict / -Wmaybe-uninitialized positives inside libstdc++'s
+    # std::string at -O3 (GCC PR 105329, PR 105562); they are not about our code.
+    $<$<CXX_COMPILER_ID:GNU>:-Wno-restrict> $<$<CXX_COMPILER_ID:GNU>:-Wno-maybe-uninitialized>)
 
 function(regolith_target_defaults target)
   target_compile_options(${target} PRIVATE $<$<COMPILE_LANGUAGE:CXX>:${REGOLITH_WARNINGS}>)

@@ -70,12 +70,17 @@ class LatestPool {
 
   /// Writer: a slot no reader holds and that is not the published one. Never fails while at most
   /// `max_readers` leases are held; returns nullptr (and the caller drops its sample) otherwise.
+  //
+  // Ordering: the writer publishes `current_` then checks a slot's reader count; a reader bumps
+  // the count then re-checks `current_`. That is a store->load (Dekker) pattern, so these four
+  // operations are sequentially consistent: acquire/release alone lets the writer miss a reader
+  // that still sees the old `current_` (torn reads, seen in the concurrency test).
   T* begin_write() {
-    const std::size_t cur = current_.load(std::memory_order_acquire);
+    const std::size_t cur = current_.load(std::memory_order_seq_cst);
     for (std::size_t i = 0; i < slots_.size(); ++i) {
       const std::size_t s = (write_hint_ + i) % slots_.size();
       if (s == cur && has_value()) continue;
-      if (slots_[s].readers.load(std::memory_order_acquire) == 0) {
+      if (slots_[s].readers.load(std::memory_order_seq_cst) == 0) {
         writing_ = s;
         write_hint_ = s + 1;
         return &slots_[s].value;
@@ -87,7 +92,7 @@ class LatestPool {
   /// Writer: publish the slot returned by the last successful begin_write().
   void commit() {
     slots_[writing_].generation = ++generation_;
-    current_.store(writing_, std::memory_order_release);
+    current_.store(writing_, std::memory_order_seq_cst);
     has_value_.store(true, std::memory_order_release);
   }
   /// Writer convenience: copy-assign and publish. Returns false if no slot was free.
@@ -103,9 +108,9 @@ class LatestPool {
   Lease acquire() const {
     if (!has_value()) return {};
     for (;;) {
-      const std::size_t s = current_.load(std::memory_order_acquire);
-      slots_[s].readers.fetch_add(1, std::memory_order_acq_rel);
-      if (current_.load(std::memory_order_acquire) == s) return Lease(this, s);
+      const std::size_t s = current_.load(std::memory_order_seq_cst);
+      slots_[s].readers.fetch_add(1, std::memory_order_seq_cst);
+      if (current_.load(std::memory_order_seq_cst) == s) return Lease(this, s);
       slots_[s].readers.fetch_sub(1, std::memory_order_acq_rel);
     }
   }
