@@ -5,6 +5,16 @@
 
 namespace regolith::runtime {
 
+namespace {
+thread_local bool t_in_cycle = false;
+struct CycleFlag {
+  CycleFlag() { t_in_cycle = true; }
+  ~CycleFlag() { t_in_cycle = false; }
+};
+}  // namespace
+
+bool in_rate_group_cycle() { return t_in_cycle; }
+
 RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
     : cfg_(std::move(cfg)), members_(std::move(members)) {
   if (cfg_.period <= 0) throw std::invalid_argument("rate group '" + cfg_.name + "': period must be > 0");
@@ -16,6 +26,7 @@ void RateGroup::reset(TimeNs start) {
 }
 
 void RateGroup::run_cycle(Clock& clock) {
+  const CycleFlag flag;
   const TimeNs release = next_release_;
   const TimeNs period = cfg_.period;
   const bool sim = clock.simulated();

@@ -14,6 +14,10 @@
 
 namespace regolith::runtime {
 
+/// True on a thread while it executes a rate-group cycle: lets allocation probes (tests, the
+/// steady_state_allocations benchmark) count only what happens inside cycles.
+bool in_rate_group_cycle();
+
 enum class OverrunPolicy : std::uint8_t {
   kSkip,     ///< after an overrun, wait for the next release in the future (missed ones are dropped)
   kCatchUp,  ///< run the missed releases back to back until on schedule again
