@@ -14,8 +14,9 @@ PACKAGES=(
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
-  # driver tests (tests/hw): QEMU VM with Debian's kernel, can-utils and v4l-utils in the guest
-  qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils
+  # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
+  # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
+  qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
   # packaging checks
   dpkg-dev lintian
 )

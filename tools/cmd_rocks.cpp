@@ -1,8 +1,9 @@
 // `regolith rocks` (detect rocks in images -> CSV, overlays, saliency maps) and
-// `regolith eval rocks` (N-MODA / N-MODP / precision / recall / centroid hits / max F / MAE of
-// every method on an image + mask folder; weight sweep and k-fold cross-validation).
-// Algorithms: components/saliency. The SAMS structure channel needs regolith::sfs; when this file
-// is compiled without it (header not on the include path), --method sams fails with a message.
+// `regolith eval rocks` (N-MODA / N-MODP / precision / recall / centroid hits /
+// max F / MAE of every method on an image + mask folder; weight sweep and
+// k-fold cross-validation). Algorithms: components/saliency. The SAMS structure
+// channel needs regolith::sfs; when this file is compiled without it (header
+// not on the include path), --method sams fails with a message.
 #include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -35,44 +36,87 @@
 
 namespace regolith::cli {
 
-void add_rocks_commands(CLI::App& app);
+void add_rocks_commands(CLI::App &app);
 
 namespace {
 
 namespace fs = std::filesystem;
 namespace sal = regolith::saliency;
 
-// Default SAMS weights and shared post-processing (see components/saliency/README.md for the
-// cross-validation that chose them).
+// Default SAMS weights and shared post-processing (see
+// components/saliency/README.md for the cross-validation that chose them).
 struct RockOptions {
   std::string method = "sams";
-  double w_intensity = 0.3, w_orientation = 0.3, w_colour = 0.0, w_structure = 0.4;
+  double w_intensity = 0.2, w_orientation = 0.5, w_colour = 0.0,
+         w_structure = 0.3;
   bool colour = false;
   double threshold_scale = 1.0;
   int min_area = 100, open_radius = 2, close_radius = 2, max_detections = 0;
   int sfs_downsample = 2;
+  double sfs_slant_deg = 45.0;
+  std::string structure = "height";
+  std::string normalisation = "local_max";
 
-  void add_to(CLI::App* c) {
-    c->add_option("--method", method, "sams|itti|spectral_residual|fine_grained")
-        ->check(CLI::IsMember({"sams", "itti", "spectral_residual", "fine_grained"}))
+  void add_to(CLI::App *c) {
+    c->add_option("--method", method,
+                  "sams|itti|spectral_residual|fine_grained")
+        ->check(CLI::IsMember(
+            {"sams", "itti", "spectral_residual", "fine_grained"}))
         ->capture_default_str();
-    c->add_option("--w-intensity", w_intensity, "SAMS weight of the intensity channel")->capture_default_str();
-    c->add_option("--w-orientation", w_orientation, "SAMS weight of the orientation channel")->capture_default_str();
-    c->add_option("--w-colour", w_colour, "SAMS weight of the colour channel (needs --colour)")->capture_default_str();
-    c->add_option("--w-structure", w_structure, "SAMS weight of the structure (SfS) channel")->capture_default_str();
-    c->add_flag("--colour", colour, "use the RG/BY colour-opponency channel (Itti and SAMS)");
-    c->add_option("--threshold-scale", threshold_scale, "binary threshold = scale x Otsu")->capture_default_str();
-    c->add_option("--min-area", min_area, "px, smallest detected component kept")->capture_default_str();
-    c->add_option("--open-radius", open_radius, "px, morphological opening radius")->capture_default_str();
-    c->add_option("--close-radius", close_radius, "px, morphological closing radius")->capture_default_str();
-    c->add_option("--max-detections", max_detections, "keep the best N boxes per image (0 = all)")->capture_default_str();
-    c->add_option("--sfs-downsample", sfs_downsample, "SfS runs at 1/2^N of the input size")->capture_default_str();
+    c->add_option("--w-intensity", w_intensity,
+                  "SAMS weight of the intensity channel")
+        ->capture_default_str();
+    c->add_option("--w-orientation", w_orientation,
+                  "SAMS weight of the orientation channel")
+        ->capture_default_str();
+    c->add_option("--w-colour", w_colour,
+                  "SAMS weight of the colour channel (needs --colour)")
+        ->capture_default_str();
+    c->add_option("--w-structure", w_structure,
+                  "SAMS weight of the structure (SfS) channel")
+        ->capture_default_str();
+    c->add_flag("--colour", colour,
+                "use the RG/BY colour-opponency channel (Itti and SAMS)");
+    c->add_option("--threshold-scale", threshold_scale,
+                  "binary threshold = scale x Otsu")
+        ->capture_default_str();
+    c->add_option("--min-area", min_area,
+                  "px, smallest detected component kept")
+        ->capture_default_str();
+    c->add_option("--open-radius", open_radius,
+                  "px, morphological opening radius")
+        ->capture_default_str();
+    c->add_option("--close-radius", close_radius,
+                  "px, morphological closing radius")
+        ->capture_default_str();
+    c->add_option("--max-detections", max_detections,
+                  "keep the best N boxes per image (0 = all)")
+        ->capture_default_str();
+    c->add_option("--sfs-downsample", sfs_downsample,
+                  "SfS runs at 1/2^N of the input size")
+        ->capture_default_str();
+    c->add_option("--sfs-slant-deg", sfs_slant_deg,
+                  "deg, fixed light slant for the SfS (<0: estimate)")
+        ->capture_default_str();
+    c->add_option("--structure", structure,
+                  "SAMS structure feature: height|slope")
+        ->check(CLI::IsMember({"height", "slope"}))
+        ->capture_default_str();
+    c->add_option("--normalisation", normalisation, "N(.): iterative|local_max")
+        ->check(CLI::IsMember({"iterative", "local_max"}))
+        ->capture_default_str();
   }
 
   sal::IttiParams itti() const {
     sal::IttiParams p;
     p.use_colour = colour;
-    p.weights = {w_intensity, w_orientation, colour ? w_colour : 0.0, w_structure};
+    p.structure_feature = structure == "slope" ? sal::StructureFeature::kSlope
+                                               : sal::StructureFeature::kHeight;
+    p.normalisation = normalisation == "local_max"
+                          ? sal::Normalisation::kLocalMax
+                          : sal::Normalisation::kIterative;
+    p.weights = {w_intensity, w_orientation, colour ? w_colour : 0.0,
+                 w_structure};
     return p;
   }
   sal::PostProcessParams post() const {
@@ -87,40 +131,54 @@ struct RockOptions {
 };
 
 // Returns an empty function when SfS is not compiled in.
-sal::HeightFn make_height_fn(int downsample, std::shared_ptr<void>& keep_alive) {
+sal::HeightFn make_height_fn(int downsample, double slant_deg,
+                             std::shared_ptr<void> &keep_alive) {
 #if REGOLITH_ROCKS_HAVE_SFS
   sal::SfsHeightParams hp;
   hp.downsample_levels = downsample;
+  if (slant_deg < 0.0)
+    hp.slant_rad.reset();
+  else
+    hp.slant_rad = slant_deg * 3.14159265358979323846 / 180.0;
+  try {
+    hp.validate();
+  } catch (const std::invalid_argument &e) {
+    throw ConfigError(e.what());
+  }
   auto h = std::make_shared<sal::SfsHeight>(hp);
   keep_alive = h;
   return h->function();
 #else
   (void)downsample;
+  (void)slant_deg;
   (void)keep_alive;
   return {};
 #endif
 }
 
 [[noreturn]] void no_sfs() {
-  throw ConfigError(
-      "--method sams needs the shape-from-shading height map, but this build of regolith has no "
-      "regolith::sfs (the SAMS structure channel); use itti, spectral_residual or fine_grained");
+  throw ConfigError("--method sams needs the shape-from-shading height map, "
+                    "but this build of regolith has no "
+                    "regolith::sfs (the SAMS structure channel); use itti, "
+                    "spectral_residual or fine_grained");
 }
 
-void ensure_dir(const std::string& dir, const char* option) {
-  if (dir.empty()) return;
+void ensure_dir(const std::string &dir, const char *option) {
+  if (dir.empty())
+    return;
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir)) {
-    throw ConfigError(std::string(option) + ": cannot create directory '" + dir + "' (" +
-                      ec.message() + ")");
+    throw ConfigError(std::string(option) + ": cannot create directory '" +
+                      dir + "' (" + ec.message() + ")");
   }
 }
 
-cv::Mat to_bgr8(const cv::Mat& img) {
+cv::Mat to_bgr8(const cv::Mat &img) {
   cv::Mat f;
   double scale = 1.0;
-  if (img.depth() == CV_16U) scale = 255.0 / 65535.0;
+  if (img.depth() == CV_16U)
+    scale = 255.0 / 65535.0;
   else if (img.depth() == CV_32F || img.depth() == CV_64F) {
     double mx = 0.0;
     cv::minMaxLoc(img.reshape(1), nullptr, &mx);
@@ -128,39 +186,45 @@ cv::Mat to_bgr8(const cv::Mat& img) {
   }
   img.convertTo(f, CV_8U, scale);
   cv::Mat out;
-  if (f.channels() == 1) cv::cvtColor(f, out, cv::COLOR_GRAY2BGR);
-  else if (f.channels() == 4) cv::cvtColor(f, out, cv::COLOR_BGRA2BGR);
-  else out = f;
+  if (f.channels() == 1)
+    cv::cvtColor(f, out, cv::COLOR_GRAY2BGR);
+  else if (f.channels() == 4)
+    cv::cvtColor(f, out, cv::COLOR_BGRA2BGR);
+  else
+    out = f;
   return out;
 }
 
-void run_rocks(const std::vector<std::string>& images, const RockOptions& o,
-               const std::string& csv_path, const std::string& overlay_dir,
-               const std::string& saliency_dir) {
+void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
+               const std::string &csv_path, const std::string &overlay_dir,
+               const std::string &saliency_dir) {
   const sal::Method method = sal::method_from_string(o.method);
   const sal::PostProcessParams post = o.post();
   post.validate();
   const sal::IttiParams ip = o.itti();
   try {
     ip.validate();
-  } catch (const std::invalid_argument& e) {
+  } catch (const std::invalid_argument &e) {
     throw ConfigError(e.what());
   }
   std::shared_ptr<void> keep;
   sal::HeightFn height;
   if (method == sal::Method::kSams) {
-    height = make_height_fn(o.sfs_downsample, keep);
-    if (!height) no_sfs();
+    height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
+    if (!height)
+      no_sfs();
   }
   ensure_dir(overlay_dir, "--overlay-dir");
   ensure_dir(saliency_dir, "--saliency-dir");
   std::ofstream csv(csv_path);
-  if (!csv) throw ConfigError("--csv: cannot write '" + csv_path + "'");
+  if (!csv)
+    throw ConfigError("--csv: cannot write '" + csv_path + "'");
   csv << "image,xmin,ymin,xmax,ymax,score\n";
 
   sal::IttiSaliency itti(ip);
   std::unique_ptr<sal::OpenCvSaliency> peer;
-  if (method == sal::Method::kSpectralResidual || method == sal::Method::kFineGrained) {
+  if (method == sal::Method::kSpectralResidual ||
+      method == sal::Method::kFineGrained) {
     peer = std::make_unique<sal::OpenCvSaliency>(method);
   }
   sal::BoxDetector detector(post);
@@ -169,7 +233,7 @@ void run_rocks(const std::vector<std::string>& images, const RockOptions& o,
   int failed = 0;
   std::string first_error;
   size_t total_boxes = 0;
-  for (const std::string& path : images) {
+  for (const std::string &path : images) {
     try {
       const cv::Mat img = sal::read_image(path);
       try {
@@ -181,48 +245,58 @@ void run_rocks(const std::vector<std::string>& images, const RockOptions& o,
         } else {
           itti.compute(img, cv::Mat(), map);
         }
-      } catch (const std::exception& e) {
+      } catch (const std::exception &e) {
         throw sal::DataError(path + ": " + e.what());
       }
       detector.detect(map, dets);
       const std::string name = fs::path(path).filename().string();
       const std::string stem = fs::path(path).stem().string();
-      for (const auto& d : dets) {
+      for (const auto &d : dets) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "%.6f", d.score);
-        csv << name << ',' << d.box.x << ',' << d.box.y << ',' << d.box.x + d.box.width << ','
-            << d.box.y + d.box.height << ',' << buf << '\n';
+        csv << name << ',' << d.box.x << ',' << d.box.y << ','
+            << d.box.x + d.box.width << ',' << d.box.y + d.box.height << ','
+            << buf << '\n';
       }
       total_boxes += dets.size();
       if (!saliency_dir.empty()) {
         sal::to_8bit(map, map8);
-        const std::string out = (fs::path(saliency_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, map8)) throw sal::DataError(out + ": cannot write saliency map");
+        const std::string out =
+            (fs::path(saliency_dir) / (stem + ".png")).string();
+        if (!cv::imwrite(out, map8))
+          throw sal::DataError(out + ": cannot write saliency map");
       }
       if (!overlay_dir.empty()) {
         cv::Mat ov = to_bgr8(img).clone();
-        for (const auto& d : dets) {
+        for (const auto &d : dets) {
           cv::rectangle(ov, d.box, cv::Scalar(0, 255, 255), 2);
           char buf[32];
           std::snprintf(buf, sizeof buf, "%.2f", d.score);
-          cv::putText(ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)),
-                      cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 255), 1);
+          cv::putText(
+              ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)),
+              cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 255), 1);
         }
-        const std::string out = (fs::path(overlay_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, ov)) throw sal::DataError(out + ": cannot write overlay");
+        const std::string out =
+            (fs::path(overlay_dir) / (stem + ".png")).string();
+        if (!cv::imwrite(out, ov))
+          throw sal::DataError(out + ": cannot write overlay");
       }
-    } catch (const sal::DataError& e) {
+    } catch (const sal::DataError &e) {
       ++failed;
-      if (first_error.empty()) first_error = e.what();
+      if (first_error.empty())
+        first_error = e.what();
       std::cerr << "error: " << e.what() << " (skipped)\n";
     }
   }
   csv.flush();
-  if (!csv) throw InputError(csv_path + ": write failed");
-  std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed) << " image(s), "
-            << total_boxes << " box(es) -> " << csv_path << '\n';
+  if (!csv)
+    throw InputError(csv_path + ": write failed");
+  std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed)
+            << " image(s), " << total_boxes << " box(es) -> " << csv_path
+            << '\n';
   if (failed > 0) {
-    throw InputError(std::to_string(failed) + " of " + std::to_string(images.size()) +
+    throw InputError(std::to_string(failed) + " of " +
+                     std::to_string(images.size()) +
                      " image(s) failed; first: " + first_error);
   }
 }
@@ -238,22 +312,26 @@ struct EvalOptions {
   std::string markdown;
 };
 
-std::string mean_std(const std::vector<double>& v) {
-  const double m = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+std::string mean_std(const std::vector<double> &v) {
+  const double m =
+      std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
   double s2 = 0.0;
-  for (double x : v) s2 += (x - m) * (x - m);
-  const double sd = v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
+  for (double x : v)
+    s2 += (x - m) * (x - m);
+  const double sd =
+      v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3f ± %.3f", m, sd);
   return buf;
 }
 
-void run_eval(const EvalOptions& e, const RockOptions& o) {
+void run_eval(const EvalOptions &e, const RockOptions &o) {
   std::vector<sal::Method> methods;
-  for (const auto& m : e.methods) methods.push_back(sal::method_from_string(m));
+  for (const auto &m : e.methods)
+    methods.push_back(sal::method_from_string(m));
   if (methods.empty()) {
-    methods = {sal::Method::kSams, sal::Method::kItti, sal::Method::kSpectralResidual,
-               sal::Method::kFineGrained};
+    methods = {sal::Method::kSams, sal::Method::kItti,
+               sal::Method::kSpectralResidual, sal::Method::kFineGrained};
   }
   sal::StudyConfig cfg;
   cfg.itti = o.itti();
@@ -265,80 +343,100 @@ void run_eval(const EvalOptions& e, const RockOptions& o) {
   cfg.threshold_scales = e.scales;
   try {
     cfg.validate();
-  } catch (const std::invalid_argument& ex) {
+  } catch (const std::invalid_argument &ex) {
     throw ConfigError(ex.what());
   }
   std::shared_ptr<void> keep;
-  sal::HeightFn height = make_height_fn(o.sfs_downsample, keep);
-  const bool want_sams =
-      std::find(methods.begin(), methods.end(), sal::Method::kSams) != methods.end();
-  if (want_sams && !height) no_sfs();
+  sal::HeightFn height =
+      make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
+  const bool want_sams = std::find(methods.begin(), methods.end(),
+                                   sal::Method::kSams) != methods.end();
+  if (want_sams && !height)
+    no_sfs();
   sal::DatasetListing listing = sal::list_dataset(e.images, e.masks);
   int failed = static_cast<int>(listing.errors.size());
-  for (const auto& err : listing.errors) std::cerr << "error: " << err << " (skipped)\n";
+  for (const auto &err : listing.errors)
+    std::cerr << "error: " << err << " (skipped)\n";
   sal::RockStudy study(cfg, height);
-  for (const auto& item : listing.items) {
+  for (const auto &item : listing.items) {
     try {
       study.add(item);
-    } catch (const sal::DataError& ex) {
+    } catch (const sal::DataError &ex) {
       ++failed;
       std::cerr << "error: " << ex.what() << " (skipped)\n";
     }
   }
-  if (study.size() == 0) throw InputError(e.images + ": no usable image/mask pairs");
+  if (study.size() == 0)
+    throw InputError(e.images + ": no usable image/mask pairs");
 
   std::ostringstream md;
-  md << "Images: " << study.size() << " (" << failed << " skipped), ground-truth components >= "
-     << e.min_gt_area << " px, post-processing: Otsu x" << cfg.post.threshold_scale << ", open r="
-     << cfg.post.open_radius << " px, close r=" << cfg.post.close_radius
-     << " px, min area " << cfg.post.min_area << " px; Itti/SAMS colour channel: "
-     << (o.colour ? "on" : "off") << ".\n\n";
+  md << "Images: " << study.size() << " (" << failed
+     << " skipped), ground-truth components >= " << e.min_gt_area
+     << " px, post-processing: Otsu x" << cfg.post.threshold_scale
+     << ", open r=" << cfg.post.open_radius
+     << " px, close r=" << cfg.post.close_radius << " px, min area "
+     << cfg.post.min_area
+     << " px; Itti/SAMS colour channel: " << (o.colour ? "on" : "off")
+     << ".\n\n";
   std::vector<std::pair<std::string, sal::Summary>> rows;
   for (sal::Method m : methods) {
-    sal::Candidate c{m == sal::Method::kSams ? cfg.itti.weights : cfg.itti_weights,
+    sal::Candidate c{m == sal::Method::kSams ? cfg.itti.weights
+                                             : cfg.itti_weights,
                      cfg.post.threshold_scale};
-    rows.emplace_back(sal::to_string(m), sal::summarise(study.evaluate_all(m, c, true)));
+    rows.emplace_back(sal::to_string(m),
+                      sal::summarise(study.evaluate_all(m, c, true)));
   }
-  md << "### Fixed settings (SAMS weights " << sal::Candidate{cfg.itti.weights, 1.0}.describe(true)
-     << ")\n\n" << sal::markdown_table(rows) << '\n';
+  md << "### Fixed settings (SAMS weights "
+     << sal::Candidate{cfg.itti.weights, 1.0}.describe(true) << ")\n\n"
+     << sal::markdown_table(rows) << '\n';
 
   if (e.sweep) {
     if (want_sams) {
       const auto cands = study.candidates(sal::Method::kSams, true, false);
       const auto sweep = study.sweep(sal::Method::kSams, cands);
-      md << "### SAMS weight sweep on all " << study.size() << " images (" << cands.size()
-         << " weight combinations, step " << e.weight_step << ", fixed post-processing), top 10\n\n"
-         << "| rank | weights | N-MODA@0.2 | N-MODA@0.5 | P@0.2 | R@0.2 | boxes |\n"
+      md << "### SAMS weight sweep on all " << study.size() << " images ("
+         << cands.size() << " weight combinations, step " << e.weight_step
+         << ", fixed post-processing), top 10\n\n"
+         << "| rank | weights | N-MODA@0.2 | N-MODA@0.5 | P@0.2 | R@0.2 | "
+            "boxes |\n"
          << "|---:|---|---:|---:|---:|---:|---:|\n";
       for (size_t k = 0; k < std::min<size_t>(10, sweep.size()); ++k) {
-        const auto& s = sweep[k].summary;
+        const auto &s = sweep[k].summary;
         char buf[256];
-        std::snprintf(buf, sizeof buf, "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
-                      sweep[k].candidate.describe(true).c_str(), s.n_moda02, s.n_moda05,
-                      s.precision02, s.recall02, s.boxes);
+        std::snprintf(buf, sizeof buf,
+                      "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
+                      sweep[k].candidate.describe(true).c_str(), s.n_moda02,
+                      s.n_moda05, s.precision02, s.recall02, s.boxes);
         md << buf;
       }
       md << "\nBest on the full set (optimistic, selected on the same images): "
          << sweep.front().candidate.describe(true) << "\n\n";
     }
     for (bool tune_scales : {false, true}) {
-      if (tune_scales && cfg.threshold_scales.size() < 2) continue;
+      if (tune_scales && cfg.threshold_scales.size() < 2)
+        continue;
       std::vector<std::pair<std::string, sal::Summary>> cv_rows;
       std::ostringstream folds_md;
       for (sal::Method m : methods) {
-        const auto cands = study.candidates(m, m == sal::Method::kSams, tune_scales);
+        const auto cands =
+            study.candidates(m, m == sal::Method::kSams, tune_scales);
         const sal::CvResult r = study.cross_validate(m, cands);
         cv_rows.emplace_back(sal::to_string(m), sal::summarise(r.pooled));
-        folds_md << "| " << sal::to_string(m) << " | " << mean_std(r.fold_moda02) << " | "
-                 << mean_std(r.fold_moda05) << " | ";
-        for (size_t f = 0; f < r.chosen.size(); ++f) folds_md << (f ? "; " : "") << r.chosen[f];
+        folds_md << "| " << sal::to_string(m) << " | "
+                 << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
+                 << " | ";
+        for (size_t f = 0; f < r.chosen.size(); ++f)
+          folds_md << (f ? "; " : "") << r.chosen[f];
         folds_md << " |\n";
       }
       md << "### " << cfg.folds << "-fold cross-validation: "
-         << (tune_scales ? "SAMS weights and every method's Otsu scale" : "SAMS weights only (Otsu x1 for all)")
+         << (tune_scales ? "SAMS weights and every method's Otsu scale"
+                         : "SAMS weights only (Otsu x1 for all)")
          << " chosen on the train folds; test folds pooled\n\n"
-         << sal::markdown_table(cv_rows) << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
-         << "test-fold N-MODA@0.5 (mean ± sd) | chosen per fold |\n|---|---|---|---|\n"
+         << sal::markdown_table(cv_rows)
+         << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
+         << "test-fold N-MODA@0.5 (mean ± sd) | chosen per fold "
+            "|\n|---|---|---|---|\n"
          << folds_md.str() << '\n';
     }
   }
@@ -346,18 +444,22 @@ void run_eval(const EvalOptions& e, const RockOptions& o) {
   if (!e.markdown.empty()) {
     std::ofstream f(e.markdown);
     f << md.str();
-    if (!f) throw InputError(e.markdown + ": cannot write");
+    if (!f)
+      throw InputError(e.markdown + ": cannot write");
   }
   if (failed > 0) {
-    throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
+    throw InputError(std::to_string(failed) +
+                     " image(s) skipped (see the errors above)");
   }
 }
 
-}  // namespace
+} // namespace
 
-void add_rocks_commands(CLI::App& app) {
-  // regolith rocks IMAGE... --method M --csv OUT.csv [--overlay-dir DIR] [--saliency-dir DIR]
-  auto* rocks = app.add_subcommand("rocks", "detect rocks (salient objects) in images -> CSV boxes");
+void add_rocks_commands(CLI::App &app) {
+  // regolith rocks IMAGE... --method M --csv OUT.csv [--overlay-dir DIR]
+  // [--saliency-dir DIR]
+  auto *rocks = app.add_subcommand(
+      "rocks", "detect rocks (salient objects) in images -> CSV boxes");
   auto images = std::make_shared<std::vector<std::string>>();
   auto ro = std::make_shared<RockOptions>();
   auto csv = std::make_shared<std::string>();
@@ -365,34 +467,55 @@ void add_rocks_commands(CLI::App& app) {
   auto saliency_dir = std::make_shared<std::string>();
   rocks->add_option("images", *images, "input images")->required();
   ro->add_to(rocks);
-  rocks->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")->required();
-  rocks->add_option("--overlay-dir", *overlay, "write <stem>.png with the boxes drawn");
-  rocks->add_option("--saliency-dir", *saliency_dir, "write <stem>.png 8-bit saliency maps");
-  rocks->callback([=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir); });
+  rocks
+      ->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")
+      ->required();
+  rocks->add_option("--overlay-dir", *overlay,
+                    "write <stem>.png with the boxes drawn");
+  rocks->add_option("--saliency-dir", *saliency_dir,
+                    "write <stem>.png 8-bit saliency maps");
+  rocks->callback(
+      [=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir); });
 
-  // regolith eval rocks --images DIR --masks DIR [--method M]... [--sweep-weights] [--min-gt-area N]
-  CLI::App* eval = group(app, "eval", "evaluate algorithms against ground truth");
-  auto* er = eval->add_subcommand("rocks", "rock detection scores (N-MODA, N-MODP, P, R, F, MAE)");
+  // regolith eval rocks --images DIR --masks DIR [--method M]...
+  // [--sweep-weights] [--min-gt-area N]
+  CLI::App *eval =
+      group(app, "eval", "evaluate algorithms against ground truth");
+  auto *er = eval->add_subcommand(
+      "rocks", "rock detection scores (N-MODA, N-MODP, P, R, F, MAE)");
   auto eo = std::make_shared<EvalOptions>();
   auto ro2 = std::make_shared<RockOptions>();
   er->add_option("--images", eo->images, "image directory")->required();
-  er->add_option("--masks", eo->masks, "mask directory (<stem>.png, nonzero = rock)")->required();
+  er->add_option("--masks", eo->masks,
+                 "mask directory (<stem>.png, nonzero = rock)")
+      ->required();
   ro2->add_to(er);
   er->remove_option(er->get_option("--method"));
-  er->add_option("--method", eo->methods, "methods to score (repeatable; default: all four)")
-      ->check(CLI::IsMember({"sams", "itti", "spectral_residual", "fine_grained"}));
-  er->add_flag("--sweep-weights", eo->sweep,
-               "SAMS weight grid (Table 5.2 analogue) and k-fold cross-validation");
-  er->add_option("--min-gt-area", eo->min_gt_area, "px, ignore smaller mask components")->capture_default_str();
-  er->add_option("--folds", eo->folds, "k of the k-fold cross-validation")->capture_default_str();
-  er->add_option("--weight-step", eo->weight_step, "grid step of the weight sweep")->capture_default_str();
-  er->add_option("--threshold-scales", eo->scales, "Otsu scales tried by the cross-validation")->capture_default_str();
-  er->add_option("--markdown", eo->markdown, "also write the tables to this file");
+  er->add_option("--method", eo->methods,
+                 "methods to score (repeatable; default: all four)")
+      ->check(
+          CLI::IsMember({"sams", "itti", "spectral_residual", "fine_grained"}));
+  er->add_flag(
+      "--sweep-weights", eo->sweep,
+      "SAMS weight grid (Table 5.2 analogue) and k-fold cross-validation");
+  er->add_option("--min-gt-area", eo->min_gt_area,
+                 "px, ignore smaller mask components")
+      ->capture_default_str();
+  er->add_option("--folds", eo->folds, "k of the k-fold cross-validation")
+      ->capture_default_str();
+  er->add_option("--weight-step", eo->weight_step,
+                 "grid step of the weight sweep")
+      ->capture_default_str();
+  er->add_option("--threshold-scales", eo->scales,
+                 "Otsu scales tried by the cross-validation")
+      ->capture_default_str();
+  er->add_option("--markdown", eo->markdown,
+                 "also write the tables to this file");
   er->callback([=] { run_eval(*eo, *ro2); });
 }
 
 namespace {
 [[maybe_unused]] const bool registered = add_command(add_rocks_commands);
-}  // namespace
+} // namespace
 
-}  // namespace regolith::cli
+} // namespace regolith::cli

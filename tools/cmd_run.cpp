@@ -10,6 +10,8 @@
 #include "cli.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/application.hpp"
+#include "regolith/runtime/health.hpp"
+#include "regolith/runtime/watchdog.hpp"
 #include "summary.hpp"
 
 namespace regolith::cli {
@@ -29,14 +31,22 @@ struct RunOptions {
   bool sim_time = false;
   double summary_interval_s = 1.0;
   bool quiet = false;
+  std::vector<std::string> wait_for;
+  double wait_timeout_s = 30.0;
 };
 
 void run(const RunOptions& o) {
-  auto app = runtime::Application::load(load_config(o.config), {.sim_time = o.sim_time});
+  auto app = runtime::Application::load(load_config(o.config),
+                                        {.sim_time = o.sim_time, .wait_for = o.wait_for,
+                                         .wait_timeout = from_seconds(o.wait_timeout_s)});
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   spdlog::info("deployment '{}': {} rate groups, {} components{}", app->name(), app->view().groups.size(),
                app->view().components.size(), o.sim_time ? " (simulated time)" : "");
+  // Under systemd (Type=notify): READY=1 once every rate group has cycled, WATCHDOG=1 only while
+  // every critical component is healthy (see runtime/watchdog.hpp). Outside systemd: no-ops.
+  runtime::SystemdNotifier notifier;
+  auto& health = app->context().channel<runtime::HealthSnapshot>("health/snapshot");
   app->start();
 
   Summary summary(*app, isatty(STDOUT_FILENO) != 0 && !o.quiet);
@@ -50,11 +60,16 @@ void run(const RunOptions& o) {
     const TimeNs slice = std::min<TimeNs>(app->sim_time() ? kNsPerSec : 100 * kNsPerMs, t_end - app->clock().now());
     app->run(slice, g_stop);
     summary.warn_rate_limited();
+    {
+      const auto snapshot = health.acquire();
+      notifier.update(app->view(), snapshot ? &*snapshot : nullptr, app->clock().now());
+    }
     if (!o.quiet && monotonic_now() >= next_print) {
       summary.print(std::cout);
       next_print = monotonic_now() + wall_interval;
     }
   }
+  notifier.stopping();
   app->stop();
   if (!o.quiet) summary.print(std::cout, /*final=*/true);
 }
@@ -69,6 +84,9 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--summary-interval", opts->summary_interval_s, "seconds between live summaries")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--quiet,-q", opts->quiet, "no live summary");
+  cmd->add_option("--wait-for", opts->wait_for, "before starting, wait for a subscriber on this DDS topic (repeatable)");
+  cmd->add_option("--wait-timeout", opts->wait_timeout_s, "seconds to wait for --wait-for subscribers")
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([opts] { run(*opts); });
 
   CLI::App* config = group(app, "config", "deployment configuration tools");

@@ -1,4 +1,5 @@
 // regolith: the command-line tool. Sub-commands live in tools/cmd_*.cpp and register themselves.
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <vector>
@@ -32,6 +33,8 @@ CLI::App* group(CLI::App& app, const std::string& name, const std::string& descr
 }  // namespace regolith::cli
 
 int main(int argc, char** argv) {
+  // Logs and errors go to stderr; stdout carries the summary, JSON lines and tables.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("regolith"));
   CLI::App app{"regolith: real-time terrain assessment for planetary micro-rovers"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("regolith ") + REGOLITH_VERSION);

@@ -43,7 +43,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   // ---- DDS ----
   Params dds = root.child("dds");
   if (opts.enable_dds) {
-    app->dds_ = make_participant(dds);
+    app->dds_ = make_participant(dds, opts.sim_time);
     ctx.set_dds(app->dds_.get());
   } else {
     declare_dds_params(dds);
@@ -165,7 +165,16 @@ void Application::start() {
     c->activate();
     c->state_.store(Lifecycle::kActive);
   }
-  if (dds_) start_participant(*dds_);
+  if (dds_) {
+    start_participant(*dds_);
+    if (!opts_.wait_for.empty()) wait_for_readers(*dds_, opts_.wait_for, opts_.wait_timeout);
+    // Simulated time has no deadline to protect: deliver every sample before time moves on, so
+    // a subscriber sees exactly what a real-time run would have published.
+    if (opts_.sim_time) {
+      dds::Participant* p = dds_.get();
+      executor_->set_after_cycle([p] { sync_participant(*p); });
+    }
+  }
   executor_->start(view_.groups);
   started_ = true;
 }

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cstring>
 
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
@@ -10,6 +13,93 @@
 
 namespace regolith::runtime {
 namespace {
+
+using DiagnosticArray = msgs::diagnostic_msgs::DiagnosticArray;
+using JointState = msgs::sensor_msgs::JointState;
+
+constexpr std::uint32_t kValuesPerStatus = 12;
+constexpr std::size_t kDiagString = 64;
+
+template <class Msg>
+std::shared_ptr<dds::Outbox<Msg>> make_outbox(Context& ctx, const char* topic, dds::OutboxMode mode,
+                                              const std::function<void(Msg&)>& reserve) {
+  dds::Participant* p = ctx.dds();
+  if (p == nullptr) return nullptr;
+  const dds::TopicInfo* info = dds::find_topic(topic);
+  return p->make_outbox<Msg>(topic, info->writer_qos(), dds::OutboxOptions{mode, 8}, reserve);
+}
+
+const char* kind_prefix(HealthEntry::Kind k) {
+  switch (k) {
+    case HealthEntry::Kind::kComponent: return "component: ";
+    case HealthEntry::Kind::kRateGroup: return "rate_group: ";
+    case HealthEntry::Kind::kCamera: return "camera: ";
+    case HealthEntry::Kind::kEncoders: return "encoders: ";
+  }
+  return "";
+}
+
+/// diagnostic_msgs/DiagnosticArray from a health snapshot, into pre-reserved strings.
+void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, DiagnosticArray& m) {
+  dds::set_time(m.header.stamp, s.stamp);
+  dds::set_length(m.status, s.count);
+  for (std::uint32_t i = 0; i < m.status._length; ++i) {
+    const HealthEntry& e = s.entries[i];
+    auto& st = m.status._buffer[i];
+    st.level = static_cast<std::uint8_t>(e.level);
+    char name[kDiagString + 1];
+    const char* prefix = kind_prefix(e.kind);
+    const std::size_t pl = std::strlen(prefix);
+    std::memcpy(name, prefix, pl);
+    dds::copy_string(name + pl, kDiagString - pl, e.name.data());
+    dds::copy_string(st.name, kDiagString, name);
+    dds::copy_string(st.message, kDiagString, e.message);
+    dds::copy_string(st.hardware_id, kDiagString, hardware_id);
+    std::uint32_t n = 0;
+    auto kv_int = [&](const char* key, std::int64_t v) {
+      if (n >= st.values._maximum) return;
+      dds::copy_string(st.values._buffer[n].key, kDiagString, key);
+      dds::format_int(st.values._buffer[n].value, kDiagString, v);
+      ++n;
+    };
+    auto kv_us = [&](const char* key, TimeNs v) {
+      if (n >= st.values._maximum) return;
+      dds::copy_string(st.values._buffer[n].key, kDiagString, key);
+      dds::format_double(st.values._buffer[n].value, kDiagString, static_cast<double>(v) / 1e3, 4);
+      ++n;
+    };
+    switch (e.kind) {
+      case HealthEntry::Kind::kRateGroup:
+        kv_us("period_us", e.period);
+        kv_int("cycles", static_cast<std::int64_t>(e.cycles));
+        kv_int("cycle_slips", static_cast<std::int64_t>(e.slips));
+        kv_us("exec_mean_us", e.exec.mean);
+        kv_us("exec_p99_us", e.exec.p99);
+        kv_us("exec_max_us", e.exec.max);
+        kv_us("wakeup_p99_us", e.wall.p99);
+        break;
+      case HealthEntry::Kind::kComponent:
+        kv_int("heartbeat", static_cast<std::int64_t>(e.heartbeat));
+        kv_us("period_us", e.period);
+        kv_int("cycle_slips", static_cast<std::int64_t>(e.slips));
+        kv_us("exec_min_us", e.wall.min);
+        kv_us("exec_mean_us", e.wall.mean);
+        kv_us("exec_p99_us", e.wall.p99);
+        kv_us("exec_max_us", e.wall.max);
+        kv_int("errors", static_cast<std::int64_t>(e.errors));
+        kv_int("stale_inputs", static_cast<std::int64_t>(e.stale_inputs));
+        break;
+      case HealthEntry::Kind::kCamera:
+      case HealthEntry::Kind::kEncoders:
+        kv_int(e.kind == HealthEntry::Kind::kCamera ? "frames" : "samples", static_cast<std::int64_t>(e.frames));
+        kv_int(e.kind == HealthEntry::Kind::kCamera ? "dropped" : "rejected", static_cast<std::int64_t>(e.dropped));
+        kv_int("faults", static_cast<std::int64_t>(e.errors));
+        kv_int("stale_inputs", static_cast<std::int64_t>(e.stale_inputs));
+        break;
+    }
+    dds::set_length(st.values, n);
+  }
+}
 
 void copy_name(std::array<char, kNameLen>& dst, const std::string& src) {
   const std::size_t n = std::min(src.size(), dst.size() - 1);
@@ -24,6 +114,11 @@ class HealthComponent final : public Component {
     stall_cycles_ = p.get<int>("stall_cycles", 3, {.min = 1, .max = 1000,
         .doc = "health cycles without a heartbeat before a component is reported stale"});
     out_ = &ctx.channel<HealthSnapshot>("health/snapshot");
+    hardware_id_ = p.get<std::string>("hardware_id", "regolith", {.doc = "hardware_id of every DiagnosticStatus"});
+    diag_ = make_outbox<DiagnosticArray>(ctx, "/diagnostics", dds::OutboxMode::kLatest, [](DiagnosticArray& m) {
+      dds::reserve(m, dds::DiagnosticArrayCapacity{static_cast<std::uint32_t>(kMaxHealthEntries), kValuesPerStatus,
+                                                   kDiagString, 32});
+    });
   }
 
   void activate() override {
@@ -144,6 +239,12 @@ class HealthComponent final : public Component {
       else if (e->stale_inputs > 0) e->level = Level::kWarn;
     }
     out_->commit();
+    if (diag_) {
+      if (DiagnosticArray* m = diag_->begin()) {
+        fill_diagnostics(*s, hardware_id_, *m);
+        diag_->commit();
+      }
+    }
   }
 
   bool critical() const override { return true; }
@@ -153,6 +254,8 @@ class HealthComponent final : public Component {
   LatestPool<HealthSnapshot>* out_ = nullptr;
   int stall_cycles_ = 3;
   TimeNs stale_timeout_ = 500 * kNsPerMs;
+  std::string hardware_id_;
+  std::shared_ptr<dds::Outbox<DiagnosticArray>> diag_;
   std::vector<std::uint64_t> last_heartbeat_;
   std::vector<std::uint64_t> unchanged_;
   std::vector<std::uint64_t> last_slips_;
@@ -168,6 +271,15 @@ class JointStatePublisher final : public Component {
     if (enc_->wheel_count() > kMaxJoints) p.fail("encoders", "more wheels than JointState supports (16)");
     out_ = &ctx.channel<JointStateSample>("joint_states");
     input_ = &watch_input("encoders", stale_timeout_);
+    frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of joint_states"});
+    const auto& names = enc_->wheel_names();
+    const std::string frame = frame_id_;
+    js_ = make_outbox<JointState>(ctx, "joint_states", dds::OutboxMode::kFifo, [&names, &frame](JointState& m) {
+      dds::reserve(m, dds::JointStateCapacity{static_cast<std::uint32_t>(names.size()), 32, 32});
+      dds::copy_string(m.header.frame_id, 32, frame);
+      dds::set_length(m.name, names.size());
+      for (std::size_t i = 0; i < names.size(); ++i) dds::copy_string(m.name._buffer[i], 32, names[i]);
+    });
   }
   void step(const CycleInfo& cycle) override {
     JointStateSample* s = out_->begin_write();
@@ -187,9 +299,23 @@ class JointStatePublisher final : public Component {
     }
     if (!any) return;  // nothing to publish yet; the slot is reused next cycle
     s->stamp = newest;
-    if (newest != last_stamp_) input_updated(*input_, cycle.now);
+    const bool fresh = newest != last_stamp_;
+    if (fresh) input_updated(*input_, cycle.now);
     last_stamp_ = newest;
     out_->commit();
+    if (js_ && fresh) {
+      if (JointState* m = js_->begin()) {
+        dds::set_time(m->header.stamp, s->stamp);
+        dds::set_length(m->position, s->count);
+        dds::set_length(m->velocity, s->count);
+        dds::set_length(m->effort, 0);
+        for (std::uint32_t w = 0; w < s->count; ++w) {
+          m->position._buffer[w] = s->position[w];
+          m->velocity._buffer[w] = s->velocity[w];
+        }
+        js_->commit();
+      }
+    }
   }
   const hal::WheelEncoders& encoders() const { return *enc_; }
 
@@ -199,6 +325,8 @@ class JointStatePublisher final : public Component {
   InputWatch* input_ = nullptr;
   TimeNs stale_timeout_ = 0;
   TimeNs last_stamp_ = 0;
+  std::string frame_id_;
+  std::shared_ptr<dds::Outbox<JointState>> js_;
 };
 
 }  // namespace

@@ -123,13 +123,16 @@ class SimExecutor final : public Executor {
       if (next == nullptr || next->next_release() > end) break;
       clock_.sleep_until(next->next_release());
       next->run_cycle(clock_);
+      if (after_cycle_) after_cycle_();
     }
     clock_.sleep_until(end);
   }
 
   Clock& clock() override { return clock_; }
+  void set_after_cycle(std::function<void()> f) override { after_cycle_ = std::move(f); }
 
  private:
+  std::function<void()> after_cycle_;
   SimClock& clock_;
   std::vector<RateGroup*> groups_;
 };

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "regolith/dds/participant.hpp"
 
 #include <chrono>
@@ -8,7 +9,8 @@ namespace regolith::dds {
 
 void ParticipantConfig::validate() const {
   if (domain_id > 232)
-    throw std::invalid_argument("dds.domain: must be in [0, 232] (got " + std::to_string(domain_id) + ")");
+    throw std::invalid_argument("dds.domain: must be in [0, 232] (got " +
+                                std::to_string(domain_id) + ")");
   (void)normalize_namespace(ns);
 }
 
@@ -16,7 +18,8 @@ Participant::Participant(ParticipantConfig cfg) : cfg_(std::move(cfg)) {
   cfg_.validate();
   cfg_.ns = normalize_namespace(cfg_.ns);
   participant_ = dds_create_participant(cfg_.domain_id, nullptr, nullptr);
-  check(participant_, "dds_create_participant(domain " + std::to_string(cfg_.domain_id) +
+  check(participant_, "dds_create_participant(domain " +
+                          std::to_string(cfg_.domain_id) +
                           ") (check CYCLONEDDS_URI)");
 }
 
@@ -24,22 +27,25 @@ Participant::~Participant() {
   stop();
   {
     std::lock_guard lock(mutex_);
-    outboxes_.clear();  // deletes the writers of outboxes nobody else holds
+    outboxes_.clear(); // deletes the writers of outboxes nobody else holds
     topics_.clear();
   }
-  (void)dds_delete(participant_);  // deletes every remaining child entity
+  (void)dds_delete(participant_); // deletes every remaining child entity
 }
 
-dds_entity_t Participant::topic(std::string_view name, const dds_topic_descriptor_t* desc) {
+dds_entity_t Participant::topic(std::string_view name,
+                                const dds_topic_descriptor_t *desc) {
   const std::string wire = wire_name(name);
   std::lock_guard lock(mutex_);
   if (auto it = topics_.find(wire); it != topics_.end()) {
     if (it->second.second != desc)
       throw DdsError("topic " + ros_name(name) + ": already used with type " +
-                     it->second.second->m_typename + ", cannot use it with " + desc->m_typename);
+                     it->second.second->m_typename + ", cannot use it with " +
+                     desc->m_typename);
     return it->second.first;
   }
-  const dds_entity_t tp = dds_create_topic(participant_, desc, wire.c_str(), nullptr, nullptr);
+  const dds_entity_t tp =
+      dds_create_topic(participant_, desc, wire.c_str(), nullptr, nullptr);
   check(tp, "dds_create_topic " + wire + " (" + desc->m_typename + ")");
   topics_.emplace(wire, std::make_pair(tp, desc));
   return tp;
@@ -51,17 +57,19 @@ void Participant::attach(std::shared_ptr<OutboxBase> box) {
 }
 
 void Participant::start() {
-  if (thread_.joinable()) return;
+  if (thread_.joinable())
+    return;
   stop_.store(false);
   thread_ = std::thread([this] { run(); });
 }
 
 void Participant::stop() {
-  if (!thread_.joinable()) return;
+  if (!thread_.joinable())
+    return;
   stop_.store(true);
   waker_->notify();
   thread_.join();
-  flush_all();  // whatever was committed after the thread's last pass
+  flush_all(); // whatever was committed after the thread's last pass
 }
 
 std::size_t Participant::flush_all() {
@@ -71,7 +79,8 @@ std::size_t Participant::flush_all() {
     boxes = outboxes_;
   }
   std::size_t n = 0;
-  for (auto& b : boxes) n += b->flush();
+  for (auto &b : boxes)
+    n += b->flush();
   return n;
 }
 
@@ -88,37 +97,73 @@ void Participant::run() {
       }
     }
     std::size_t written = 0;
-    for (auto& b : boxes) written += b->flush();
+    for (auto &b : boxes)
+      written += b->flush();
     {
-      std::lock_guard lock(idle_mutex_);  // no lost wake-up for drain()
+      std::lock_guard lock(idle_mutex_); // no lost wake-up for drain()
       passes_.fetch_add(1, std::memory_order_release);
     }
     idle_cv_.notify_all();
-    if (stop_.load(std::memory_order_acquire)) break;
-    if (written == 0) waker_->counter.wait(seen, std::memory_order_acquire);
+    if (stop_.load(std::memory_order_acquire))
+      break;
+    if (written == 0)
+      waker_->counter.wait(seen, std::memory_order_acquire);
+  }
+}
+
+bool Participant::wait_for_acks(TimeNs timeout_ns) {
+  bool ok = drain(timeout_ns);
+  std::lock_guard lock(mutex_);
+  for (auto &b : outboxes_) {
+    if (b->matched_readers() == 0) continue;
+    ok = dds_wait_for_acks(b->writer(), timeout_ns) == DDS_RETCODE_OK && ok;
+  }
+  return ok;
+}
+
+bool Participant::wait_for_readers(const std::vector<std::string> &topics, TimeNs timeout_ns) {
+  std::vector<std::string> wanted;
+  for (const auto &t : topics) wanted.push_back(ros_name(t));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
+  for (;;) {
+    bool all = true;
+    {
+      std::lock_guard lock(mutex_);
+      for (auto &b : outboxes_) {
+        const bool selected = wanted.empty() || std::find(wanted.begin(), wanted.end(), b->topic()) != wanted.end();
+        if (selected) all = all && b->matched_readers() > 0;
+      }
+    }
+    if (all) return true;
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
 
 bool Participant::drain(TimeNs timeout_ns) {
   auto all_idle = [this] {
     std::lock_guard lock(mutex_);
-    for (auto& b : outboxes_)
-      if (!b->idle()) return false;
+    for (auto &b : outboxes_)
+      if (!b->idle())
+        return false;
     return true;
   };
   if (!thread_.joinable()) {
     flush_all();
     return all_idle();
   }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
   std::unique_lock lock(idle_mutex_);
   while (!all_idle()) {
-    // Wait for the publisher to complete two more passes: then everything committed before this
-    // call has been written (a pass may have started before our samples were committed).
+    // Wait for the publisher to complete two more passes: then everything
+    // committed before this call has been written (a pass may have started
+    // before our samples were committed).
     const std::uint64_t target = passes_.load(std::memory_order_acquire) + 2;
     waker_->notify();
     while (passes_.load(std::memory_order_acquire) < target) {
-      if (idle_cv_.wait_until(lock, deadline) == std::cv_status::timeout) return all_idle();
+      if (idle_cv_.wait_until(lock, deadline) == std::cv_status::timeout)
+        return all_idle();
     }
   }
   return true;
@@ -128,18 +173,21 @@ std::vector<OutboxStats> Participant::stats() const {
   std::lock_guard lock(mutex_);
   std::vector<OutboxStats> out;
   out.reserve(outboxes_.size());
-  for (auto& b : outboxes_) out.push_back(b->stats());
+  for (auto &b : outboxes_)
+    out.push_back(b->stats());
   return out;
 }
 
 std::string Participant::summary() const {
   std::ostringstream os;
-  for (const auto& s : stats()) {
+  for (const auto &s : stats()) {
     os << s.topic << " published " << s.published << " dropped " << s.dropped;
-    if (s.write_errors > 0) os << " write_errors " << s.write_errors;
-    os << " deadline_missed " << s.deadline_missed << " readers " << s.matched_readers << "\n";
+    if (s.write_errors > 0)
+      os << " write_errors " << s.write_errors;
+    os << " deadline_missed " << s.deadline_missed << " readers "
+       << s.matched_readers << "\n";
   }
   return os.str();
 }
 
-}  // namespace regolith::dds
+} // namespace regolith::dds

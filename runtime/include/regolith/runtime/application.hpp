@@ -22,6 +22,8 @@ struct AppOptions {
   bool sim_time = false;     ///< run rate groups on the simulated clock, as fast as possible
   bool enable_dds = true;    ///< false: ignore the dds section (e.g. `config check`)
   bool open_devices = true;  ///< false: backends validate parameters without opening devices
+  std::vector<std::string> wait_for{};  ///< DDS topics that need a subscriber before starting
+  TimeNs wait_timeout = 30 * kNsPerSec; ///< how long to wait for them
 };
 
 /// Everything the health monitor and the live summary read.

@@ -5,6 +5,8 @@
 // simulated-time executor (all groups in lockstep on one thread, as fast as the CPU allows).
 #include <atomic>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -99,6 +101,9 @@ class Executor {
   /// Block the caller until `end` (absolute, executor clock) or until `stop_flag` is set.
   virtual void run_until(TimeNs end, const std::atomic<bool>& stop_flag) = 0;
   virtual Clock& clock() = 0;
+  /// Called on the executing thread after every cycle (simulated-time executor only): lets the
+  /// application synchronise off-loop work, e.g. DDS delivery, with simulated time.
+  virtual void set_after_cycle(std::function<void()> f) { (void)f; }
 };
 
 struct RealtimeOptions {

@@ -1,6 +1,6 @@
 #pragma once
-// One DDS domain participant per process, with the robot namespace, the topic cache and the
-// publisher thread that drains every Outbox created through it.
+// One DDS domain participant per process, with the robot namespace, the topic
+// cache and the publisher thread that drains every Outbox created through it.
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -22,74 +22,103 @@
 namespace regolith::dds {
 
 struct ParticipantConfig {
-  std::uint32_t domain_id = 0;  ///< DDS domain (= ROS_DOMAIN_ID), 0..232
-  std::string ns;               ///< robot namespace, e.g. "rover1" ("" = none)
-  void validate() const;        ///< throws std::invalid_argument naming the field
+  std::uint32_t domain_id = 0; ///< DDS domain (= ROS_DOMAIN_ID), 0..232
+  std::string ns;              ///< robot namespace, e.g. "rover1" ("" = none)
+  void validate() const; ///< throws std::invalid_argument naming the field
 };
 
 class Participant {
- public:
-  /// Creates the DDS participant. Throws std::invalid_argument for a bad config and DdsError when
-  /// Cyclone refuses (e.g. a malformed CYCLONEDDS_URI).
+public:
+  /// Creates the DDS participant. Throws std::invalid_argument for a bad config
+  /// and DdsError when Cyclone refuses (e.g. a malformed CYCLONEDDS_URI).
   explicit Participant(ParticipantConfig cfg);
-  /// Stops the publisher thread (writing what is pending) and deletes every DDS entity.
+  /// Stops the publisher thread (writing what is pending) and deletes every DDS
+  /// entity.
   ~Participant();
-  Participant(const Participant&) = delete;
-  Participant& operator=(const Participant&) = delete;
+  Participant(const Participant &) = delete;
+  Participant &operator=(const Participant &) = delete;
 
   dds_entity_t handle() const { return participant_; }
   std::uint32_t domain_id() const { return cfg_.domain_id; }
-  const std::string& ns() const { return cfg_.ns; }
-  /// "joint_states" -> "/rover1/joint_states"; "/diagnostics" -> "/diagnostics".
-  std::string ros_name(std::string_view topic) const { return ros_topic_name(cfg_.ns, topic); }
-  /// "joint_states" -> "rt/rover1/joint_states"; "/diagnostics" -> "rt/diagnostics".
-  std::string wire_name(std::string_view topic) const { return wire_topic_name(cfg_.ns, topic); }
+  const std::string &ns() const { return cfg_.ns; }
+  /// "joint_states" -> "/rover1/joint_states"; "/diagnostics" ->
+  /// "/diagnostics".
+  std::string ros_name(std::string_view topic) const {
+    return ros_topic_name(cfg_.ns, topic);
+  }
+  /// "joint_states" -> "rt/rover1/joint_states"; "/diagnostics" ->
+  /// "rt/diagnostics".
+  std::string wire_name(std::string_view topic) const {
+    return wire_topic_name(cfg_.ns, topic);
+  }
 
-  /// The DDS topic for `topic` (relative or absolute ROS name) and `desc`, created on first use.
-  /// Throws DdsError when the same name was already created with another type.
-  dds_entity_t topic(std::string_view topic, const dds_topic_descriptor_t* desc);
+  /// The DDS topic for `topic` (relative or absolute ROS name) and `desc`,
+  /// created on first use. Throws DdsError when the same name was already
+  /// created with another type.
+  dds_entity_t topic(std::string_view topic,
+                     const dds_topic_descriptor_t *desc);
 
-  /// Creates a writer on `topic` with a pre-allocated RT-side outbox (see outbox.hpp).
+  /// Creates a writer on `topic` with a pre-allocated RT-side outbox (see
+  /// outbox.hpp).
   template <class Msg>
-  std::shared_ptr<Outbox<Msg>> make_outbox(std::string_view topic_name, const QosProfile& qos,
-                                           const OutboxOptions& opt,
-                                           const std::function<void(Msg&)>& reserve) {
+  std::shared_ptr<Outbox<Msg>>
+  make_outbox(std::string_view topic_name, const QosProfile &qos,
+              const OutboxOptions &opt,
+              const std::function<void(Msg &)> &reserve) {
     qos.validate();
     const dds_entity_t tp = topic(topic_name, MsgTraits<Msg>::descriptor());
-    auto box = std::make_shared<Outbox<Msg>>(participant_, tp, ros_name(topic_name), qos, opt,
-                                             reserve, waker_);
+    auto box = std::make_shared<Outbox<Msg>>(
+        participant_, tp, ros_name(topic_name), qos, opt, reserve, waker_);
     attach(box);
     return box;
   }
 
+  /// Lossless mode (simulated time): stream writers created from now on keep all history, so a
+  /// reliable reader receives every sample however fast the producer runs. Call before creating
+  /// outboxes.
+  void set_lossless(bool on) { lossless_ = on; }
+  bool lossless() const { return lossless_; }
   /// Starts the publisher thread (idempotent).
   void start();
   /// Stops it after writing everything pending (idempotent).
   void stop();
   bool running() const { return thread_.joinable(); }
-  /// Non-RT: writes everything pending on the calling thread (use when no thread runs, e.g. in
-  /// single-threaded tests). Returns the number of samples written.
+  /// Non-RT: writes everything pending on the calling thread (use when no
+  /// thread runs, e.g. in single-threaded tests). Returns the number of samples
+  /// written.
   std::size_t flush_all();
-  /// Non-RT: waits until every outbox is idle (all committed samples written), at most
-  /// `timeout_ns`. With no publisher thread running it flushes on the calling thread. Returns
-  /// false on timeout. Useful under the simulated clock before sampling counters.
+  /// Non-RT: waits until every outbox is idle (all committed samples written),
+  /// at most `timeout_ns`. With no publisher thread running it flushes on the
+  /// calling thread. Returns false on timeout. Useful under the simulated clock
+  /// before sampling counters.
   bool drain(TimeNs timeout_ns);
 
+  /// Non-RT: drain(), then wait until every matched reader acknowledged what was written, at most
+  /// `timeout_ns` per writer. Used under the simulated clock so no reliable sample is lost however
+  /// fast simulated time runs. Returns false on timeout.
+  bool wait_for_acks(TimeNs timeout_ns);
+  /// Non-RT: wait until the outboxes of `topics` (ROS names, relative or absolute; empty = all
+  /// outboxes) each have at least one matched reader, at most `timeout_ns`. False on timeout.
+  bool wait_for_readers(const std::vector<std::string>& topics, TimeNs timeout_ns);
   std::vector<OutboxStats> stats() const;
-  /// One line per outbox: "/rover1/joint_states published 1000 dropped 0 deadline_missed 0 readers 1".
+  /// One line per outbox: "/rover1/joint_states published 1000 dropped 0
+  /// deadline_missed 0 readers 1".
   std::string summary() const;
 
- private:
+private:
   void attach(std::shared_ptr<OutboxBase> box);
   void run();
 
   ParticipantConfig cfg_;
+  bool lossless_ = false;
   dds_entity_t participant_ = 0;
   std::shared_ptr<Waker> waker_ = std::make_shared<Waker>();
 
-  mutable std::mutex mutex_;  // outboxes_, topics_ (never taken on the RT side)
+  mutable std::mutex mutex_; // outboxes_, topics_ (never taken on the RT side)
   std::vector<std::shared_ptr<OutboxBase>> outboxes_;
-  std::map<std::string, std::pair<dds_entity_t, const dds_topic_descriptor_t*>, std::less<>> topics_;
+  std::map<std::string, std::pair<dds_entity_t, const dds_topic_descriptor_t *>,
+           std::less<>>
+      topics_;
 
   std::thread thread_;
   std::atomic<bool> stop_{false};
@@ -98,4 +127,4 @@ class Participant {
   std::atomic<std::uint64_t> passes_{0};
 };
 
-}  // namespace regolith::dds
+} // namespace regolith::dds

@@ -1,0 +1,189 @@
+// Per-frame saliency + post-processing time at the MarsData image size (560 x
+// 500) and at 640 x 480: SAMS (structure channel from a precomputed / shared
+// DTM, and including its own SfS), Itti, OpenCV spectral residual and
+// fine-grained. Prints each time as a ratio against Itti measured in the same
+// run. Single thread (cv::setNumThreads(1)).
+#include <benchmark/benchmark.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "regolith/saliency/detect.hpp"
+#include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/peers.hpp"
+#if __has_include(<regolith/sfs/sfs.hpp>)
+#include "regolith/saliency/sfs_height.hpp"
+#define BENCH_HAVE_SFS 1
+#else
+#define BENCH_HAVE_SFS 0
+#endif
+
+namespace rs = regolith::saliency;
+
+namespace {
+
+cv::Mat frame(cv::Size size) {
+  const std::string p =
+      std::string(REGOLITH_SHARED_DIR) +
+      "/data/marsdata_rocks_dev/images/1044_1044MR0045730490204497E01_DXXX.jpg";
+  cv::Mat img = cv::imread(p);
+  if (img.empty()) { // shared data absent: a synthetic textured frame with
+                     // bright blobs
+    img.create(size, CV_8UC3);
+    cv::randu(img, cv::Scalar::all(60), cv::Scalar::all(160));
+    cv::GaussianBlur(img, img, cv::Size(0, 0), 2.0);
+    for (int k = 0; k < 12; ++k) {
+      cv::circle(img, {40 + 45 * k, 100 + 25 * (k % 5)}, 10 + k,
+                 cv::Scalar(220, 220, 230), -1);
+    }
+  }
+  if (img.size() != size)
+    cv::resize(img, img, size, 0, 0, cv::INTER_AREA);
+  return img;
+}
+
+void record(benchmark::State &st) {
+  st.counters["fps"] = benchmark::Counter(static_cast<double>(st.iterations()),
+                                          benchmark::Counter::kIsRate);
+}
+
+cv::Size size_of(int arg) {
+  return arg == 0 ? cv::Size(560, 500) : cv::Size(640, 480);
+}
+
+void BM_Itti(benchmark::State &st) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  rs::IttiSaliency itti;
+  rs::BoxDetector det;
+  cv::Mat sal;
+  std::vector<rs::Detection> out;
+  for (auto _ : st) {
+    itti.compute(img, sal);
+    det.detect(sal, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  record(st);
+}
+
+void BM_SamsSharedDtm(benchmark::State &st) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  // A DTM computed elsewhere (shared with the terrain map): here a smooth
+  // synthetic relief.
+  cv::Mat height(img.size(), CV_32F);
+  cv::randu(height, 0.0, 1.0);
+  cv::GaussianBlur(height, height, cv::Size(0, 0), 6.0);
+  rs::IttiParams p;
+  p.weights.structure = 0.4;
+  rs::IttiSaliency sams(p);
+  rs::BoxDetector det;
+  cv::Mat sal;
+  std::vector<rs::Detection> out;
+  for (auto _ : st) {
+    sams.compute(img, height, sal);
+    det.detect(sal, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  record(st);
+}
+
+#if BENCH_HAVE_SFS
+void BM_SamsWithSfs(benchmark::State &st) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  rs::IttiParams p;
+  p.weights.structure = 0.4;
+  rs::IttiSaliency sams(p);
+  rs::SfsHeight sfs;
+  rs::BoxDetector det;
+  cv::Mat sal, h;
+  std::vector<rs::Detection> out;
+  for (auto _ : st) {
+    sfs(img, h);
+    sams.compute(img, h, sal);
+    det.detect(sal, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  record(st);
+}
+BENCHMARK(BM_SamsWithSfs)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+#endif
+
+void peer(benchmark::State &st, rs::Method m) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  rs::OpenCvSaliency s(m);
+  rs::BoxDetector det;
+  cv::Mat sal;
+  std::vector<rs::Detection> out;
+  for (auto _ : st) {
+    s.compute(img, sal);
+    det.detect(sal, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  record(st);
+}
+void BM_SpectralResidual(benchmark::State &st) {
+  peer(st, rs::Method::kSpectralResidual);
+}
+void BM_FineGrained(benchmark::State &st) {
+  peer(st, rs::Method::kFineGrained);
+}
+
+BENCHMARK(BM_Itti)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SamsSharedDtm)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SpectralResidual)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FineGrained)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Collects the per-iteration real time of every run and prints ratios against
+// Itti.
+class RatioReporter : public benchmark::ConsoleReporter {
+public:
+  void ReportRuns(const std::vector<Run> &runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const auto &r : runs) {
+      if (r.run_type == Run::RT_Iteration) {
+        times_[r.benchmark_name()] = r.GetAdjustedCPUTime();
+        wall_[r.benchmark_name()] = r.GetAdjustedRealTime();
+      }
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    for (const char *size : {"0", "1"}) {
+      const auto itti = times_.find(std::string("BM_Itti/") + size);
+      if (itti == times_.end())
+        continue;
+      std::printf("\nRatios vs Itti at %s (CPU time / Itti CPU time; Itti = "
+                  "%.2f ms CPU):\n",
+                  size[0] == '0' ? "560x500" : "640x480", itti->second);
+      for (const auto &[name, t] : times_) {
+        if (name.size() > 2 &&
+            name.substr(name.size() - 2) == std::string("/") + size) {
+          std::printf(
+              "  %-24s %8.2f ms CPU  %6.1f fps  x%.2f   (wall %.2f ms)\n",
+              name.c_str(), t, 1000.0 / t, t / itti->second, wall_[name]);
+        }
+      }
+    }
+  }
+
+private:
+  std::map<std::string, double> times_, wall_;
+};
+
+} // namespace
+
+int main(int argc, char **argv) {
+  benchmark::Initialize(&argc, argv);
+  RatioReporter rep;
+  benchmark::RunSpecifiedBenchmarks(&rep);
+  benchmark::Shutdown();
+  return 0;
+}

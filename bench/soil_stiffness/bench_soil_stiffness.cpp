@@ -1,0 +1,104 @@
+// Whole retrospective-soil-stiffness estimate on a 640x480 synthetic rear-camera frame versus its
+// peer, the SfS step alone on the same rectified region, and the full-frame SfS. Prints the ratio.
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+
+#include <opencv2/core/utility.hpp>
+
+#include "regolith/sfs/sfs.hpp"
+#include "regolith/soil_stiffness/track_analysis.hpp"
+#include "regolith/track_scene/track_scene.hpp"
+
+using namespace regolith;
+
+namespace {
+struct Fixture {
+  track_scene::TrackSceneParams p;
+  track_scene::TrackScene scene;
+  soil::CameraModel cam;
+  soil::RoverConfig rover;
+  Fixture() {
+    p.tracks = {{0.4, 60.0}, {-0.4, 60.0}};
+    scene = track_scene::generate_track_scene(p);
+    const auto& c = p.camera;
+    cam.width = c.width; cam.height = c.height; cam.fx = c.fx; cam.fy = c.fy; cam.cx = c.cx;
+    cam.cy = c.cy; cam.mount_height_m = c.mount_height_m; cam.pitch_rad = c.pitch_rad;
+    rover.wheel_width_m = p.wheel_width_m;
+    rover.wheel_diameter_m = p.wheel_diameter_m;
+  }
+};
+Fixture& fx() {
+  static Fixture f;
+  return f;
+}
+double g_full_ns = 0, g_sfs_ns = 0;
+
+void BM_SoilEstimate(benchmark::State& st) {
+  auto& f = fx();
+  soil::SoilStiffnessEstimator est(f.cam, f.rover, {});
+  soil::SoilEstimate out;
+  for (auto _ : st) {
+    est.estimate(f.scene.image, {f.p.sun.azimuth_rad, f.p.sun.elevation_rad}, out);
+    benchmark::DoNotOptimize(out.k_fixed);
+  }
+  if (!out.ok) st.SkipWithError(out.reason.c_str());
+}
+BENCHMARK(BM_SoilEstimate)->Unit(benchmark::kMillisecond);
+
+void BM_SfsOnRegion(benchmark::State& st) {
+  auto& f = fx();
+  soil::SoilStiffnessEstimator est(f.cam, f.rover, {});
+  soil::SoilEstimate out;
+  est.estimate(f.scene.image, {f.p.sun.azimuth_rad, f.p.sun.elevation_rad}, out);
+  const cv::Mat e = est.rectified().clone();
+  sfs::SfsParams sp;
+  sp.method = sfs::Method::kPentland;
+  sp.normalise_albedo = false;
+  sfs::ShapeFromShading solver(sp);
+  sfs::SfsResult r;
+  sfs::LightDirection l{0.7854, 3.14159};
+  for (auto _ : st) {
+    solver.compute(e, l, r);
+    benchmark::DoNotOptimize(r.height.data);
+  }
+}
+BENCHMARK(BM_SfsOnRegion)->Unit(benchmark::kMillisecond);
+
+void BM_TsaiShahFullFrame(benchmark::State& st) {
+  auto& f = fx();
+  sfs::SfsParams sp;
+  sp.iterations = 50;
+  sp.tolerance = 0.0;
+  sfs::ShapeFromShading solver(sp);
+  sfs::SfsResult r;
+  for (auto _ : st) {
+    solver.compute(f.scene.image, sfs::LightDirection{0.7854, 3.14159}, r);
+    benchmark::DoNotOptimize(r.height.data);
+  }
+}
+BENCHMARK(BM_TsaiShahFullFrame)->Unit(benchmark::kMillisecond);
+
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const auto& r : runs) {
+      const double ns = r.GetAdjustedRealTime();
+      if (r.benchmark_name() == "BM_SoilEstimate") g_full_ns = ns;
+      if (r.benchmark_name() == "BM_SfsOnRegion") g_sfs_ns = ns;
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);  // one core
+  benchmark::Initialize(&argc, argv);
+  RatioReporter rep;
+  benchmark::RunSpecifiedBenchmarks(&rep);
+  if (g_full_ns > 0 && g_sfs_ns > 0)
+    std::printf("whole soil estimate / SfS(Pentland) of the same region = %.2f\n", g_full_ns / g_sfs_ns);
+  benchmark::Shutdown();
+  return 0;
+}

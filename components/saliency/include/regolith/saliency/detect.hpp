@@ -1,0 +1,66 @@
+#pragma once
+// Post-processing common to every saliency method (spec 6.3 steps 5-6): 8-bit
+// map -> Otsu threshold -> morphological opening / closing -> 8-connected
+// components -> minimum area -> bounding boxes, each scored by the mean
+// saliency inside its box.
+#include <opencv2/core.hpp>
+
+#include "regolith/saliency/image_ops.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace regolith::saliency {
+
+struct PostProcessParams {
+  double threshold_scale =
+      1.0; ///< binary threshold = clamp(scale * Otsu threshold, 0, 254)
+  int open_radius = 2;    ///< px, elliptical opening radius (0 = none)
+  int close_radius = 2;   ///< px, elliptical closing radius (0 = none)
+  int min_area = 100;     ///< px, components with fewer pixels are dropped
+  int max_detections = 0; ///< keep the highest-scoring boxes only (0 = all)
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// One detected salient object. Box in pixels, x/y min inclusive, max exclusive
+/// (cv::Rect).
+struct Detection {
+  cv::Rect box;
+  double score = 0.0; ///< mean saliency in the box, [0,1]
+  int area = 0;       ///< px, pixels of the connected component
+};
+
+/// Otsu (1979) on a 256-bin histogram: T* = argmax w0 w1 (mu0 - mu1)^2, class 0
+/// = values <= T*. Returns 0 for a constant histogram.
+int otsu_threshold(const std::array<double, 256> &histogram);
+/// Otsu threshold of a CV_8U single-channel image (optional CV_8U mask).
+int otsu_threshold(const cv::Mat &image8u, const cv::Mat &mask = cv::Mat());
+
+/// Reusable detector; buffers are allocated on the first frame of a given size.
+class BoxDetector {
+public:
+  explicit BoxDetector(PostProcessParams params = {});
+
+  /// `saliency` CV_32F in [0,1] (or CV_8U 0..255), one channel. Appends
+  /// nothing: `out` is cleared and filled, sorted by descending score. Returns
+  /// the binary threshold used (0..255).
+  int detect(const cv::Mat &saliency, std::vector<Detection> &out);
+
+  /// The binary mask of the last call (CV_8U 0/255) after morphology.
+  const cv::Mat &mask() const { return mask_; }
+  const PostProcessParams &params() const { return params_; }
+
+private:
+  PostProcessParams params_;
+  cv::Mat map8_, mask_, integral_, open_k_, close_k_;
+  cv::Mat morph_tmp_, morph_pad_;
+  ConnectedComponents components_;
+};
+
+/// Convenience: float or 8-bit saliency -> CV_8U 0..255 (float clamped to
+/// [0,1]).
+void to_8bit(const cv::Mat &saliency, cv::Mat &out8);
+
+} // namespace regolith::saliency

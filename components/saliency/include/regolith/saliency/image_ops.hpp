@@ -1,0 +1,86 @@
+#pragma once
+// Allocation-free image operations used on the per-frame path of IttiSaliency and
+// BoxDetector, in place of OpenCV calls that build filter engines / buffers on the heap at
+// every call (cv::filter2D, cv::morphologyEx, cv::connectedComponentsWithStats, cv::resize).
+// Each one reproduces the OpenCV operation it replaces (same border handling, same label
+// numbering) up to float rounding; tests/saliency/test_image_ops.cpp checks that on random
+// inputs. Scratch buffers are passed in (or owned by the object) and are only (re)allocated when
+// the image size changes.
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <vector>
+
+namespace regolith::saliency {
+
+/// Gabor energy |src (*) even| + |src (*) odd| where (*) is the correlation of cv::filter2D
+/// (kernel not flipped, anchor at the kernel centre) with cv::BORDER_REPLICATE.
+/// `src` CV_32FC1; `even`, `odd` CV_32FC1 of one odd size. `dst` becomes CV_32FC1 of src's size
+/// (must not alias src); `pad` and `rows` are scratch (sized on first use for a given size).
+void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
+                  cv::Mat &dst, cv::Mat &pad, cv::Mat &rows);
+
+/// Single-kernel version of the same correlation (= cv::filter2D(src, dst, CV_32F, kernel,
+/// centre anchor, 0, BORDER_REPLICATE)); used by tests and the slope feature.
+void correlate_replicate(const cv::Mat &src, const cv::Mat &kernel, cv::Mat &dst,
+                         cv::Mat &pad);
+
+/// Grey erosion / dilation of a CV_8UC1 image by a structuring element (CV_8UC1, nonzero =
+/// member, anchor at the centre), as cv::erode / cv::dilate with the default border (pixels
+/// outside the image do not take part). `src` and `dst` may alias; `pad` is scratch.
+void erode_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad);
+void dilate_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad);
+
+/// Precomputed resampling of a CV_32FC1 image from one size to another, equal to
+/// cv::resize with INTER_LINEAR (any scale) or INTER_AREA (downscaling, both factors >= 1).
+class ResizeTable {
+public:
+  enum class Mode { kLinear, kArea };
+  /// Allocates the tables. Throws std::invalid_argument on empty sizes or an area upscale.
+  void build(cv::Size src, cv::Size dst, Mode mode);
+  /// `src` CV_32FC1 of the source size; `dst` pre-sized (or created) CV_32FC1 of the target
+  /// size. No allocation once `dst` has the target size.
+  void apply(const cv::Mat &src, cv::Mat &dst);
+  cv::Size src_size() const { return src_; }
+  cv::Size dst_size() const { return dst_; }
+
+private:
+  struct Axis {
+    std::vector<int> begin; // per output index: taps [begin[i], begin[i+1])
+    std::vector<int> index; // source index of each tap
+    std::vector<float> weight;
+  };
+  static void build_linear(int src, int dst, Axis &a);
+  static void build_area(int src, int dst, Axis &a);
+  cv::Size src_, dst_;
+  Axis x_, y_;
+  cv::Mat rows_; // src rows resampled horizontally: src.rows x dst.cols
+};
+
+/// Two-pass union-find labelling of the 8-connected components of the nonzero pixels of a
+/// CV_8UC1 image, with the labels and statistics of cv::connectedComponentsWithStats(...,
+/// 8, CV_32S): label 0 = background, components numbered in the order OpenCV's block-based
+/// algorithm gives them (by the first 2x2 block, in raster order of blocks, that holds one of
+/// their pixels). Buffers are sized on the first image of a given size.
+class ConnectedComponents {
+public:
+  /// Returns the number of labels including the background.
+  int run(const cv::Mat &binary);
+  /// CV_32SC1 labels of the last run.
+  const cv::Mat &labels() const { return labels_; }
+  /// Statistics of `label` (0 .. n-1) in cv::ConnectedComponentsTypes order: left, top,
+  /// width, height, area (px).
+  const std::array<int, 5> &stats(int label) const {
+    return stats_[static_cast<std::size_t>(label)];
+  }
+
+private:
+  int find(int a);
+  void unite(int a, int b);
+  cv::Mat labels_;
+  std::vector<int> parent_;  // provisional label -> parent (root = smallest label of the set)
+  std::vector<int> final_;   // root provisional label -> final label (0 = not yet numbered)
+  std::vector<std::array<int, 5>> stats_;
+};
+
+} // namespace regolith::saliency

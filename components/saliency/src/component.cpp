@@ -1,0 +1,385 @@
+// Component "sams": shared DTM ("terrain/dtm") -> saliency -> boxes -> direct-depth ranging ->
+// "terrain/rocks" (channel + regolith_msgs/RockArray) and a rock-probability grid layer
+// ("terrain/rock_probability"). Every buffer is sized in configure() by a warm-up frame.
+#include "regolith/saliency/component.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/saliency/detect.hpp"
+#include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/peers.hpp"
+#include "regolith/sfs/component.hpp"
+
+namespace regolith::saliency {
+namespace {
+
+using RockArrayMsg = msgs::regolith_msgs::RockArray;
+constexpr std::size_t kIdCapacity = 8;
+constexpr std::size_t kStringCapacity = 32;
+
+class SamsComponent final : public runtime::Component {
+ public:
+  void configure(Params& p, runtime::Context& ctx) override {
+    const std::string method = p.get<std::string>(
+        "method", "sams", {.choices = {"sams", "itti", "spectral_residual", "fine_grained"},
+                           .doc = "saliency method (sams = Itti + SfS structure channel)"});
+    method_ = method_from_string(method);
+
+    // ---- saliency model (Itti / SAMS) ----
+    IttiParams ip;
+    ip.normalisation = Normalisation::kLocalMax;
+    const std::string norm = p.get<std::string>(
+        "normalisation", "local_max",
+        {.choices = {"local_max", "iterative"}, .doc = "N(.) operator: Itti 1998 local-max or iterative DoG"});
+    ip.normalisation = norm == "iterative" ? Normalisation::kIterative : Normalisation::kLocalMax;
+    const std::string feat = p.get<std::string>(
+        "structure", "height", {.choices = {"height", "slope"}, .doc = "SAMS structure feature of the DTM"});
+    ip.structure_feature = feat == "slope" ? StructureFeature::kSlope : StructureFeature::kHeight;
+    ip.centre_min = p.get<int>("centre_min", ip.centre_min, {.min = 0, .max = 10, .doc = "finest centre level c"});
+    ip.centre_max = p.get<int>("centre_max", ip.centre_max, {.min = 0, .max = 10, .doc = "coarsest centre level c"});
+    ip.delta_min = p.get<int>("delta_min", ip.delta_min, {.min = 1, .max = 10, .doc = "smallest surround offset s - c"});
+    ip.delta_max = p.get<int>("delta_max", ip.delta_max, {.min = 1, .max = 10, .doc = "largest surround offset s - c"});
+    ip.map_level = p.get<int>("map_level", ip.map_level, {.min = 0, .max = 12, .doc = "pyramid level of the maps (4 = 1:16)"});
+    ip.weights.intensity = p.get<double>("w_intensity", 0.2, {.min = 0.0, .doc = "SAMS weight of the intensity channel"});
+    ip.weights.orientation = p.get<double>("w_orientation", 0.5, {.min = 0.0, .doc = "SAMS weight of the orientation channel"});
+    ip.weights.structure = p.get<double>("w_structure", 0.3, {.min = 0.0, .doc = "SAMS weight of the structure (DTM) channel"});
+    ip.weights.colour = 0.0;  // the DTM carries a grey image
+    if (method_ == Method::kItti) ip.weights = {1.0, 1.0, 0.0, 0.0};
+    try {
+      ip.validate();
+    } catch (const std::invalid_argument& e) {
+      p.fail(field_of(e.what()), e.what());
+    }
+    if (method_ == Method::kSams && ip.weights.intensity + ip.weights.orientation + ip.weights.structure <= 0.0)
+      p.fail("w_structure", "all SAMS channel weights are 0");
+
+    // ---- post-processing ----
+    PostProcessParams pp;
+    pp.threshold_scale = p.get<double>("threshold_scale", pp.threshold_scale,
+                                       {.min = 0.0, .min_exclusive = true, .doc = "binary threshold = scale x Otsu"});
+    pp.open_radius = p.get<int>("open_radius_px", pp.open_radius, {.unit = "px", .min = 0, .max = 50, .doc = "morphological opening radius (0 = none)"});
+    pp.close_radius = p.get<int>("close_radius_px", pp.close_radius, {.unit = "px", .min = 0, .max = 50, .doc = "morphological closing radius (0 = none)"});
+    pp.min_area = p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
+    pp.max_detections = p.get<int>("max_detections", 32, {.min = 1, .max = static_cast<double>(kMaxRocks),
+                                                          .doc = "rocks kept per frame (highest scores)"});
+    try {
+      pp.validate();
+    } catch (const std::invalid_argument& e) {
+      p.fail({}, e.what());
+    }
+
+    // ---- ranging ----
+    ranging_.hazard_size_m = p.get<double>("hazard_size_m", ranging_.hazard_size_m,
+                                           {.unit = "m", .min = 0.0, .min_exclusive = true,
+                                            .doc = "a rock wider or higher than this is a hazard"});
+    Params cm = p.require_child("camera_model");
+    const int w = cm.require<int>("width", {.unit = "px", .min = 8, .max = 16384, .doc = "image width (= the DTM's)"});
+    const int h = cm.require<int>("height", {.unit = "px", .min = 8, .max = 16384, .doc = "image height (= the DTM's)"});
+    const direct_depth::CameraModel model = sfs::read_camera_model(cm, w, h);
+    size_ = cv::Size(w, h);
+    if (method_ == Method::kSams || method_ == Method::kItti) {
+      const int need = ip.min_input_side();
+      if (w < need || h < need)
+        p.fail("delta_max", "the " + std::to_string(w) + "x" + std::to_string(h) + " px image is smaller than the " +
+                                "pyramid needs (each side >= 2^(centre_max + delta_max) = " + std::to_string(need) +
+                                " px): lower centre_max or delta_max");
+    }
+
+    // ---- grid layer (traversability grid geometry) ----
+    grid_res_ = p.get<double>("resolution_m", 0.05, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid cell size (= traversability)"});
+    grid_lx_ = p.get<double>("length_x_m", 4.0, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid extent along x (= traversability)"});
+    grid_ly_ = p.get<double>("length_y_m", 4.0, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid extent along y (= traversability)"});
+    grid_cx_ = p.get<double>("center_x_m", 3.0, {.unit = "m", .doc = "grid centre ahead of the rover (= traversability)"});
+    grid_cy_ = p.get<double>("center_y_m", 0.0, {.unit = "m", .doc = "grid centre, left positive (= traversability)"});
+    max_range_m_ = p.get<double>("max_range_m", 10.0, {.unit = "m", .min = 0.0, .min_exclusive = true,
+                                                       .doc = "pixels farther than this flat-ground range (and above the horizon) are not searched"});
+    const std::string frame_id = p.get<std::string>("frame_id", "camera_optical_frame",
+                                                    {.doc = "header.frame_id of terrain/rocks (image-space boxes)"});
+    const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
+                                                                    .doc = "the DTM input is stale after this long"});
+    const int nx = std::max(1, static_cast<int>(std::lround(grid_lx_ / grid_res_)));
+    const int ny = std::max(1, static_cast<int>(std::lround(grid_ly_ / grid_res_)));
+    if (static_cast<long>(nx) * ny > 4'000'000L) p.fail("resolution_m", "grid has more than 4e6 cells");
+
+    try {
+      depth_ = std::make_unique<direct_depth::DirectDepth>(model);
+      itti_ = std::make_unique<IttiSaliency>(ip);
+      detector_ = std::make_unique<BoxDetector>(pp);
+      if (method_ == Method::kSpectralResidual || method_ == Method::kFineGrained)
+        peer_ = std::make_unique<OpenCvSaliency>(method_);
+    } catch (const std::invalid_argument& e) {
+      p.fail({}, e.what());
+    }
+    const direct_depth::DirectDepth* dd = depth_.get();
+    ranger_ = [dd](double u, double v) -> std::optional<GroundPoint> {
+      // range_rock: pixel centres at +0.5; direct_depth: pixel centres at integers.
+      const direct_depth::GroundPoint g = dd->ground(u - 0.5, v - 0.5);
+      if (!g.valid) return std::nullopt;
+      return GroundPoint{g.range_m, g.lateral_m};
+    };
+
+    // Region searched: pixels that see the flat ground within max_range_m. The rest (sky, far
+    // terrain) is filled with the mean of the region before saliency, and zeroed afterwards.
+    roi_ = (dd->valid_map() != 0) & (dd->range_map() <= max_range_m_);
+    if (cv::countNonZero(roi_) == 0) p.fail("max_range_m", "no pixel of the image sees the ground within max_range_m");
+    work_gray_.create(size_, CV_8U);
+    work_height_.create(size_, CV_32F);
+
+    // Cell -> pixel lookup (flat ground), -1 = not visible.
+    cell_pixel_.create(nx, ny, CV_32S);
+    for (int i = 0; i < nx; ++i)
+      for (int j = 0; j < ny; ++j) {
+        const double x = grid_cx_ + 0.5 * grid_lx_ - (i + 0.5) * grid_res_;
+        const double y = grid_cy_ + 0.5 * grid_ly_ - (j + 0.5) * grid_res_;
+        int idx = -1;
+        if (x > 0.0) {
+          if (const auto px = dd->project(x, y)) {
+            const int c = static_cast<int>(std::lround(px->x)), r = static_cast<int>(std::lround(px->y));
+            if (c >= 0 && r >= 0 && c < w && r < h && roi_.at<uchar>(r, c) != 0) idx = r * w + c;
+          }
+        }
+        cell_pixel_.at<int>(i, j) = idx;
+      }
+
+    // Warm-up on a synthetic frame of the camera's size: sizes every buffer of the models.
+    cv::Mat gray(size_, CV_8U), height(size_, CV_32F);
+    for (int r = 0; r < h; ++r)
+      for (int c = 0; c < w; ++c) {
+        const double d = std::hypot(c - 0.5 * w, r - 0.6 * h);
+        gray.at<uchar>(r, c) = static_cast<uchar>(110 + (d < 0.1 * w ? 80 : 0) + 20 * std::sin(0.11 * c));
+        height.at<float>(r, c) = static_cast<float>(d < 0.1 * w ? 3.0 : 0.0);
+      }
+    dets_.reserve(kMaxRocks + 1024);  // BoxDetector appends every component before truncating
+    saliency_.create(size_, CV_32F);
+    for (int k = 0; k < 2; ++k) process(gray, height);
+
+    const cv::Size sz = size_;
+    dtm_ = &ctx.channel<sfs::DtmFrame>(sfs::kDtmChannel, 4, [sz] {
+      sfs::DtmFrame f;
+      f.gray.create(sz, CV_8U);
+      f.height.create(sz, CV_32F);
+      f.valid.create(sz, CV_8U);
+      return f;
+    });
+    rocks_out_ = &ctx.channel<RockFrame>(kRocksChannel, 4);
+    const double res = grid_res_, lx = grid_lx_, ly = grid_ly_, gcx = grid_cx_, gcy = grid_cy_;
+    prob_out_ = &ctx.channel<RockProbabilityFrame>(kRockProbabilityChannel, 4, [=] {
+      RockProbabilityFrame f;
+      f.resolution_m = res;
+      f.length_x_m = lx;
+      f.length_y_m = ly;
+      f.center_x_m = gcx;
+      f.center_y_m = gcy;
+      f.probability.create(nx, ny, CV_32F);
+      f.probability.setTo(std::numeric_limits<float>::quiet_NaN());
+      return f;
+    });
+    input_ = &watch_input("dtm", from_seconds(timeout_s));
+
+    if (dds::Participant* part = ctx.dds()) {
+      const dds::TopicInfo* info = dds::find_topic(kRocksChannel);
+      if (info == nullptr) p.fail({}, "DDS topic terrain/rocks is unknown to this build");
+      msg_ = part->make_outbox<RockArrayMsg>(
+          kRocksChannel, info->writer_qos(), dds::OutboxOptions{dds::OutboxMode::kFifo, 4},
+          [&frame_id](RockArrayMsg& m) {
+            dds::reserve(m, dds::RockArrayCapacity{kMaxRocks, 1, kStringCapacity, kStringCapacity});
+            dds::copy_string(m.header.frame_id, kStringCapacity, frame_id);
+            for (std::uint32_t i = 0; i < kMaxRocks; ++i) {
+              auto& d = m.detections._buffer[i];
+              dds::copy_string(d.header.frame_id, kStringCapacity, frame_id);
+              dds::set_length(d.results, 1);
+              dds::copy_string(d.results._buffer[0].hypothesis.class_id, kStringCapacity, "rock");
+              dds::format_int(d.id, kIdCapacity, static_cast<std::int64_t>(i));
+            }
+          });
+    }
+  }
+
+  void step(const runtime::CycleInfo& c) override {
+    auto lease = dtm_->acquire();
+    if (!lease) return;
+    const sfs::DtmFrame& d = *lease;
+    if (have_last_ && d.sequence == last_seq_ && d.stamp == last_stamp_) return;
+    have_last_ = true;
+    last_seq_ = d.sequence;
+    last_stamp_ = d.stamp;
+    input_updated(*input_, c.now);
+    if (d.gray.size() != size_ || d.gray.type() != CV_8UC1 || d.height.size() != size_) {
+      count_error();
+      set_status("DTM size differs from camera_model width/height");
+      return;
+    }
+    try {
+      process(d.gray, d.height);
+    } catch (const std::exception&) {
+      count_error();
+      set_status("saliency failed on this frame");
+      return;
+    }
+    publish(d.stamp, d.sequence);
+    set_status("ok");
+  }
+
+  void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
+    kv.emplace_back("method", to_string(method_));
+    kv.emplace_back("rocks_last_frame", std::to_string(last_.count));
+    kv.emplace_back("hazards_last_frame", std::to_string(last_.hazards));
+  }
+
+ private:
+  /// Field name inside "IttiParams.<field>: ..." / "ChannelWeights.<field>: ..." messages.
+  static std::string field_of(const std::string& msg) {
+    const auto dot = msg.find('.'), colon = msg.find(':');
+    if (dot == std::string::npos || colon == std::string::npos || colon < dot) return {};
+    std::string f = msg.substr(dot + 1, colon - dot - 1);
+    if (msg.rfind("ChannelWeights.", 0) == 0) f = "w_" + f;
+    return f;
+  }
+
+  /// `m` outside the searched region := v, by loop (Mat::setTo with a scalar allocates).
+  template <typename T>
+  void fill_outside(cv::Mat& m, T v) const {
+    for (int r = 0; r < m.rows; ++r) {
+      T* p = m.ptr<T>(r);
+      const uchar* in = roi_.ptr<uchar>(r);
+      for (int c = 0; c < m.cols; ++c)
+        if (in[c] == 0) p[c] = v;
+    }
+  }
+
+  void process(const cv::Mat& gray, const cv::Mat& height) {
+    gray.copyTo(work_gray_);
+    fill_outside(work_gray_, cv::saturate_cast<uchar>(cv::mean(gray, roi_)[0]));
+    if (peer_) {
+      peer_->compute(work_gray_, saliency_);
+    } else if (method_ == Method::kSams) {
+      height.copyTo(work_height_);
+      cv::patchNaNs(work_height_, 0.0);
+      fill_outside(work_height_, static_cast<float>(cv::mean(work_height_, roi_)[0]));
+      itti_->compute(work_gray_, work_height_, saliency_);
+    } else {
+      itti_->compute(work_gray_, cv::Mat(), saliency_);
+    }
+    fill_outside(saliency_, 0.f);
+    detector_->detect(saliency_, dets_);
+    last_.count = 0;
+    last_.hazards = 0;
+    for (const Detection& det : dets_) {
+      if (last_.count >= kMaxRocks) break;
+      RangedRock& r = last_.rocks[last_.count++];
+      r = range_rock(det, ranger_, ranging_);
+      if (r.hazard) ++last_.hazards;
+    }
+    last_.image_width = size_.width;
+    last_.image_height = size_.height;
+  }
+
+  void publish(TimeNs stamp, std::uint64_t sequence) {
+    last_.stamp = stamp;
+    last_.sequence = sequence;
+    if (RockFrame* f = rocks_out_->begin_write()) {
+      *f = last_;
+      rocks_out_->commit();
+    }
+    if (RockProbabilityFrame* g = prob_out_->begin_write()) {
+      const float* s = saliency_.ptr<float>(0);  // continuous (created by resize)
+      const float nan = std::numeric_limits<float>::quiet_NaN();
+      for (int i = 0; i < cell_pixel_.rows; ++i) {
+        const int* idx = cell_pixel_.ptr<int>(i);
+        float* out = g->probability.ptr<float>(i);
+        for (int j = 0; j < cell_pixel_.cols; ++j) out[j] = idx[j] >= 0 ? s[idx[j]] : nan;
+      }
+      g->stamp = stamp;
+      g->sequence = sequence;
+      prob_out_->commit();
+    }
+    if (msg_) {
+      if (RockArrayMsg* m = msg_->begin()) {
+        fill_message(*m);
+        msg_->commit();
+      }
+    }
+  }
+
+  void fill_message(RockArrayMsg& m) const {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    dds::set_time(m.header.stamp, last_.stamp);
+    const std::size_t n = last_.count;
+    dds::set_length(m.detections, n);
+    dds::set_length(m.ground_range_m, n);
+    dds::set_length(m.lateral_offset_m, n);
+    dds::set_length(m.width_m, n);
+    dds::set_length(m.height_m, n);
+    dds::set_length(m.hazard, n);
+    for (std::uint32_t i = 0; i < m.detections._length; ++i) {
+      const RangedRock& r = last_.rocks[i];
+      const cv::Rect& b = r.detection.box;
+      auto& d = m.detections._buffer[i];
+      dds::set_time(d.header.stamp, last_.stamp);
+      auto& hyp = d.results._buffer[0];
+      hyp.hypothesis.score = r.detection.score;
+      // Pose of the hypothesis: ground position of the rock's base (body frame, m).
+      hyp.pose.pose.position.x = r.ranged ? r.range_m : nan;
+      hyp.pose.pose.position.y = r.ranged ? r.lateral_m : nan;
+      hyp.pose.pose.position.z = 0.0;
+      // Box centre / size in px (continuous coordinates: pixel k spans [k, k + 1)).
+      d.bbox.center.position.x = b.x + 0.5 * b.width;
+      d.bbox.center.position.y = b.y + 0.5 * b.height;
+      d.bbox.center.theta = 0.0;
+      d.bbox.size_x = b.width;
+      d.bbox.size_y = b.height;
+      m.ground_range_m._buffer[i] = r.ranged ? r.range_m : nan;
+      m.lateral_offset_m._buffer[i] = r.ranged ? r.lateral_m : nan;
+      m.width_m._buffer[i] = r.ranged ? r.width_m : nan;
+      m.height_m._buffer[i] = r.ranged ? r.height_m : nan;
+      m.hazard._buffer[i] = r.hazard;
+    }
+  }
+
+  Method method_ = Method::kSams;
+  cv::Size size_;
+  RangingParams ranging_;
+  std::unique_ptr<direct_depth::DirectDepth> depth_;
+  std::unique_ptr<IttiSaliency> itti_;
+  std::unique_ptr<OpenCvSaliency> peer_;
+  std::unique_ptr<BoxDetector> detector_;
+  GroundRanger ranger_;
+  double grid_res_ = 0.05, grid_lx_ = 4.0, grid_ly_ = 4.0, grid_cx_ = 3.0, grid_cy_ = 0.0;
+  double max_range_m_ = 10.0;
+  cv::Mat roi_;                      // CV_8U 255 = searched, 0 = not searched
+  cv::Mat work_gray_, work_height_;  // the DTM's images with the unsearched region filled
+  cv::Mat cell_pixel_;  // CV_32S, per grid cell the pixel index r * w + c or -1
+  cv::Mat saliency_;
+  std::vector<Detection> dets_;
+  RockFrame last_;
+  LatestPool<sfs::DtmFrame>* dtm_ = nullptr;
+  LatestPool<RockFrame>* rocks_out_ = nullptr;
+  LatestPool<RockProbabilityFrame>* prob_out_ = nullptr;
+  std::shared_ptr<dds::Outbox<RockArrayMsg>> msg_;
+  runtime::InputWatch* input_ = nullptr;
+  bool have_last_ = false;
+  std::uint64_t last_seq_ = 0;
+  TimeNs last_stamp_ = 0;
+};
+
+}  // namespace
+
+void register_component() {
+  runtime::ComponentRegistry::instance().add(
+      "sams",
+      "terrain/dtm -> SAMS / Itti / OpenCV saliency -> ranged rock boxes (terrain/rocks) + "
+      "rock_probability grid layer (terrain/rock_probability)",
+      [] { return std::make_unique<SamsComponent>(); });
+}
+
+}  // namespace regolith::saliency

@@ -1,0 +1,398 @@
+#include "regolith/saliency/image_ops.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace regolith::saliency {
+
+namespace {
+
+// Copies `src` into the centre of `pad` (rows + 2 ry, cols + 2 rx) and fills the margin by
+// replicating the nearest image pixel (cv::BORDER_REPLICATE).
+void pad_replicate_32f(const cv::Mat &src, cv::Mat &pad, int rx, int ry) {
+  const int w = src.cols, h = src.rows;
+  pad.create(h + 2 * ry, w + 2 * rx, CV_32F);
+  for (int y = 0; y < h; ++y) {
+    const float *s = src.ptr<float>(y);
+    float *p = pad.ptr<float>(y + ry);
+    for (int x = 0; x < rx; ++x) {
+      p[x] = s[0];
+      p[rx + w + x] = s[w - 1];
+    }
+    std::copy(s, s + w, p + rx);
+  }
+  for (int y = 0; y < ry; ++y) {
+    const float *top = pad.ptr<float>(ry);
+    const float *bottom = pad.ptr<float>(ry + h - 1);
+    std::copy(top, top + pad.cols, pad.ptr<float>(y));
+    std::copy(bottom, bottom + pad.cols, pad.ptr<float>(ry + h + y));
+  }
+}
+
+void check_kernel(const cv::Mat &k, const char *what) {
+  if (k.type() != CV_32FC1 || k.rows % 2 == 0 || k.cols % 2 == 0)
+    throw std::invalid_argument(std::string(what) + ": kernel must be CV_32FC1 of odd size");
+}
+
+// Morphology core: dst(y, x) = op over the members (i, j) of `kernel` of src(y + i - ay,
+// x + j - ax); pixels outside the image are `border` (the neutral element of op).
+template <bool kDilate>
+void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
+  if (src.type() != CV_8UC1 || src.empty())
+    throw std::invalid_argument("morphology: image must be non-empty CV_8UC1");
+  if (kernel.type() != CV_8UC1 || kernel.empty())
+    throw std::invalid_argument("morphology: kernel must be non-empty CV_8UC1");
+  const int w = src.cols, h = src.rows;
+  const int ax = kernel.cols / 2, ay = kernel.rows / 2;
+  const uchar border = kDilate ? 0 : 255;
+  pad.create(h + kernel.rows - 1, w + kernel.cols - 1, CV_8U);
+  for (int y = 0; y < pad.rows; ++y) {
+    uchar *p = pad.ptr<uchar>(y);
+    const int sy = y - ay;
+    if (sy < 0 || sy >= h) {
+      std::fill(p, p + pad.cols, border);
+      continue;
+    }
+    std::fill(p, p + ax, border);
+    const uchar *s = src.ptr<uchar>(sy);
+    std::copy(s, s + w, p + ax);
+    std::fill(p + ax + w, p + pad.cols, border);
+  }
+  dst.create(h, w, CV_8U);
+  for (int y = 0; y < h; ++y) {
+    uchar *d = dst.ptr<uchar>(y);
+    bool first = true;
+    for (int i = 0; i < kernel.rows; ++i) {
+      const uchar *k = kernel.ptr<uchar>(i);
+      const uchar *p = pad.ptr<uchar>(y + i);
+      for (int j = 0; j < kernel.cols; ++j) {
+        if (k[j] == 0)
+          continue;
+        const uchar *q = p + j;
+        if (first) {
+          std::copy(q, q + w, d);
+          first = false;
+        } else if (kDilate) {
+          for (int x = 0; x < w; ++x)
+            d[x] = std::max(d[x], q[x]);
+        } else {
+          for (int x = 0; x < w; ++x)
+            d[x] = std::min(d[x], q[x]);
+        }
+      }
+    }
+    if (first) // empty structuring element: OpenCV gives the border value
+      std::fill(d, d + w, border);
+  }
+}
+
+} // namespace
+
+void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
+                  cv::Mat &dst, cv::Mat &pad, cv::Mat &rows) {
+  if (src.type() != CV_32FC1 || src.empty())
+    throw std::invalid_argument("gabor_energy: image must be non-empty CV_32FC1");
+  check_kernel(even, "gabor_energy");
+  check_kernel(odd, "gabor_energy");
+  if (even.size() != odd.size())
+    throw std::invalid_argument("gabor_energy: even and odd kernels differ in size");
+  const int w = src.cols, h = src.rows, kw = even.cols, kh = even.rows;
+  pad_replicate_32f(src, pad, kw / 2, kh / 2);
+  rows.create(2, w, CV_32F);
+  dst.create(h, w, CV_32F);
+  float *e = rows.ptr<float>(0);
+  float *o = rows.ptr<float>(1);
+  for (int y = 0; y < h; ++y) {
+    std::fill(e, e + w, 0.f);
+    std::fill(o, o + w, 0.f);
+    for (int i = 0; i < kh; ++i) {
+      const float *ke = even.ptr<float>(i);
+      const float *ko = odd.ptr<float>(i);
+      const float *p = pad.ptr<float>(y + i);
+      for (int j = 0; j < kw; ++j) {
+        const float a = ke[j], b = ko[j];
+        const float *q = p + j;
+        for (int x = 0; x < w; ++x) {
+          e[x] += a * q[x];
+          o[x] += b * q[x];
+        }
+      }
+    }
+    float *d = dst.ptr<float>(y);
+    for (int x = 0; x < w; ++x)
+      d[x] = std::abs(e[x]) + std::abs(o[x]);
+  }
+}
+
+void correlate_replicate(const cv::Mat &src, const cv::Mat &kernel, cv::Mat &dst,
+                         cv::Mat &pad) {
+  if (src.type() != CV_32FC1 || src.empty())
+    throw std::invalid_argument("correlate_replicate: image must be non-empty CV_32FC1");
+  check_kernel(kernel, "correlate_replicate");
+  const int w = src.cols, h = src.rows, kw = kernel.cols, kh = kernel.rows;
+  pad_replicate_32f(src, pad, kw / 2, kh / 2);
+  dst.create(h, w, CV_32F);
+  for (int y = 0; y < h; ++y) {
+    float *d = dst.ptr<float>(y);
+    std::fill(d, d + w, 0.f);
+    for (int i = 0; i < kh; ++i) {
+      const float *k = kernel.ptr<float>(i);
+      const float *p = pad.ptr<float>(y + i);
+      for (int j = 0; j < kw; ++j) {
+        if (k[j] == 0.f)
+          continue;
+        const float a = k[j];
+        const float *q = p + j;
+        for (int x = 0; x < w; ++x)
+          d[x] += a * q[x];
+      }
+    }
+  }
+}
+
+void erode_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
+  morph_8u<false>(src, dst, kernel, pad);
+}
+
+void dilate_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
+  morph_8u<true>(src, dst, kernel, pad);
+}
+
+// ---- ResizeTable ----
+
+void ResizeTable::build_linear(int src, int dst, Axis &a) {
+  // cv::resize INTER_LINEAR: source coordinate of output pixel d is (d + 0.5) * scale - 0.5,
+  // taps floor(f) and floor(f) + 1 with weights 1 - frac, frac; clamped to the edge pixel
+  // (weight 1) outside the image.
+  const double scale = 1.0 / (static_cast<double>(dst) / src);
+  a.begin.assign(static_cast<std::size_t>(dst) + 1, 0);
+  a.index.clear();
+  a.weight.clear();
+  for (int d = 0; d < dst; ++d) {
+    float f = static_cast<float>((d + 0.5) * scale - 0.5);
+    int s = static_cast<int>(std::floor(f));
+    f -= static_cast<float>(s);
+    if (s < 0) {
+      f = 0.f;
+      s = 0;
+    }
+    if (s >= src - 1) {
+      f = 0.f;
+      s = src - 1;
+    }
+    a.index.push_back(s);
+    a.weight.push_back(1.f - f);
+    a.index.push_back(std::min(s + 1, src - 1));
+    a.weight.push_back(f);
+    a.begin[static_cast<std::size_t>(d) + 1] = static_cast<int>(a.index.size());
+  }
+}
+
+void ResizeTable::build_area(int src, int dst, Axis &a) {
+  // cv::resize INTER_AREA (downscaling): output pixel d averages the source interval
+  // [d * scale, (d + 1) * scale), partial pixels at both ends weighted by their overlap.
+  const double scale = static_cast<double>(src) / dst;
+  a.begin.assign(static_cast<std::size_t>(dst) + 1, 0);
+  a.index.clear();
+  a.weight.clear();
+  for (int d = 0; d < dst; ++d) {
+    const double f1 = d * scale, f2 = f1 + scale;
+    const double cell = std::min(scale, src - f1);
+    int s1 = static_cast<int>(std::ceil(f1)), s2 = static_cast<int>(std::floor(f2));
+    s2 = std::min(s2, src - 1);
+    s1 = std::min(s1, s2);
+    if (s1 - f1 > 1e-3) {
+      a.index.push_back(s1 - 1);
+      a.weight.push_back(static_cast<float>((s1 - f1) / cell));
+    }
+    for (int s = s1; s < s2; ++s) {
+      a.index.push_back(s);
+      a.weight.push_back(static_cast<float>(1.0 / cell));
+    }
+    if (f2 - s2 > 1e-3) {
+      a.index.push_back(s2);
+      a.weight.push_back(static_cast<float>(std::min(std::min(f2 - s2, 1.0), cell) / cell));
+    }
+    a.begin[static_cast<std::size_t>(d) + 1] = static_cast<int>(a.index.size());
+  }
+}
+
+void ResizeTable::build(cv::Size src, cv::Size dst, Mode mode) {
+  if (src.width <= 0 || src.height <= 0 || dst.width <= 0 || dst.height <= 0)
+    throw std::invalid_argument("ResizeTable: empty size");
+  src_ = src;
+  dst_ = dst;
+  if (mode == Mode::kArea) {
+    if (dst.width > src.width || dst.height > src.height)
+      throw std::invalid_argument("ResizeTable: area mode only downscales");
+    build_area(src.width, dst.width, x_);
+    build_area(src.height, dst.height, y_);
+  } else {
+    build_linear(src.width, dst.width, x_);
+    build_linear(src.height, dst.height, y_);
+  }
+  rows_.create(src.height, dst.width, CV_32F);
+}
+
+void ResizeTable::apply(const cv::Mat &src, cv::Mat &dst) {
+  if (src.type() != CV_32FC1 || src.size() != src_)
+    throw std::invalid_argument("ResizeTable::apply: source must be CV_32FC1 of the built size");
+  dst.create(dst_, CV_32F);
+  const int dw = dst_.width;
+  const int *xb = x_.begin.data();
+  const int *xi = x_.index.data();
+  const float *xw = x_.weight.data();
+  for (int y = 0; y < src_.height; ++y) {
+    const float *s = src.ptr<float>(y);
+    float *r = rows_.ptr<float>(y);
+    for (int d = 0; d < dw; ++d) {
+      float acc = 0.f;
+      for (int k = xb[d]; k < xb[d + 1]; ++k)
+        acc += xw[k] * s[xi[k]];
+      r[d] = acc;
+    }
+  }
+  for (int d = 0; d < dst_.height; ++d) {
+    float *o = dst.ptr<float>(d);
+    const int k0 = y_.begin[static_cast<std::size_t>(d)];
+    const int k1 = y_.begin[static_cast<std::size_t>(d) + 1];
+    {
+      const float b = y_.weight[static_cast<std::size_t>(k0)];
+      const float *r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0)]);
+      for (int x = 0; x < dw; ++x)
+        o[x] = b * r[x];
+    }
+    for (int k = k0 + 1; k < k1; ++k) {
+      const float b = y_.weight[static_cast<std::size_t>(k)];
+      if (b == 0.f)
+        continue;
+      const float *r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k)]);
+      for (int x = 0; x < dw; ++x)
+        o[x] += b * r[x];
+    }
+  }
+}
+
+// ---- ConnectedComponents ----
+
+int ConnectedComponents::find(int a) {
+  while (parent_[static_cast<std::size_t>(a)] != a) {
+    const int up = parent_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(a)])];
+    parent_[static_cast<std::size_t>(a)] = up; // path halving
+    a = up;
+  }
+  return a;
+}
+
+void ConnectedComponents::unite(int a, int b) {
+  a = find(a);
+  b = find(b);
+  if (a == b)
+    return;
+  if (a < b)
+    parent_[static_cast<std::size_t>(b)] = a;
+  else
+    parent_[static_cast<std::size_t>(a)] = b;
+}
+
+int ConnectedComponents::run(const cv::Mat &binary) {
+  if (binary.type() != CV_8UC1 || binary.empty())
+    throw std::invalid_argument("ConnectedComponents: image must be non-empty CV_8UC1");
+  const int w = binary.cols, h = binary.rows;
+  if (labels_.size() != binary.size()) {
+    labels_.create(h, w, CV_32S);
+    // A new provisional label needs no labelled 8-neighbour before it, so provisional labels
+    // form an independent set of the king graph: at most ceil(w/2) * ceil(h/2) (+ 1 for 0).
+    const std::size_t cap = static_cast<std::size_t>((w + 1) / 2) * static_cast<std::size_t>((h + 1) / 2) + 1;
+    parent_.resize(cap);
+    final_.resize(cap);
+    stats_.resize(cap);
+  }
+  // Pass 1: provisional labels with union-find over the 4 already visited 8-neighbours.
+  int next = 1;
+  for (int y = 0; y < h; ++y) {
+    const uchar *b = binary.ptr<uchar>(y);
+    int *l = labels_.ptr<int>(y);
+    const int *up = y > 0 ? labels_.ptr<int>(y - 1) : nullptr;
+    for (int x = 0; x < w; ++x) {
+      if (b[x] == 0) {
+        l[x] = 0;
+        continue;
+      }
+      const int n = up != nullptr ? up[x] : 0;
+      if (n != 0) { // N touches NW, NE and W: they are already in N's set
+        l[x] = n;
+        continue;
+      }
+      const int wv = x > 0 ? l[x - 1] : 0;
+      const int nw = (up != nullptr && x > 0) ? up[x - 1] : 0;
+      const int ne = (up != nullptr && x + 1 < w) ? up[x + 1] : 0;
+      const int left = wv != 0 ? wv : nw; // W and NW touch each other
+      if (left != 0) {
+        l[x] = left;
+        if (ne != 0)
+          unite(left, ne);
+      } else if (ne != 0) {
+        l[x] = ne;
+      } else {
+        parent_[static_cast<std::size_t>(next)] = next;
+        l[x] = next++;
+      }
+    }
+  }
+  // Pass 2: number the sets in the order of their first 2x2 block (OpenCV's order), write the
+  // final labels and accumulate the statistics.
+  for (int p = 1; p < next; ++p)
+    final_[static_cast<std::size_t>(p)] = 0;
+  int count = 1;
+  int bg_x0 = w, bg_y0 = h, bg_x1 = -1, bg_y1 = -1, bg_area = 0;
+  for (int by = 0; by < h; by += 2) {
+    const int ny = std::min(2, h - by);
+    for (int bx = 0; bx < w; bx += 2) {
+      const int nx = std::min(2, w - bx);
+      for (int dy = 0; dy < ny; ++dy) {
+        const int y = by + dy;
+        int *l = labels_.ptr<int>(y);
+        for (int dx = 0; dx < nx; ++dx) {
+          const int x = bx + dx;
+          if (l[x] == 0) {
+            ++bg_area;
+            bg_x0 = std::min(bg_x0, x);
+            bg_x1 = std::max(bg_x1, x);
+            bg_y0 = std::min(bg_y0, y);
+            bg_y1 = std::max(bg_y1, y);
+            continue;
+          }
+          const int r = find(l[x]);
+          int &f = final_[static_cast<std::size_t>(r)];
+          if (f == 0) {
+            f = count++;
+            stats_[static_cast<std::size_t>(f)] = {x, y, x, y, 0}; // min x, min y, max x, max y
+          }
+          l[x] = f;
+          auto &s = stats_[static_cast<std::size_t>(f)];
+          s[0] = std::min(s[0], x);
+          s[1] = std::min(s[1], y);
+          s[2] = std::max(s[2], x);
+          s[3] = std::max(s[3], y);
+          ++s[4];
+        }
+      }
+    }
+  }
+  for (int k = 1; k < count; ++k) {
+    auto &s = stats_[static_cast<std::size_t>(k)];
+    s[2] = s[2] - s[0] + 1; // width
+    s[3] = s[3] - s[1] + 1; // height
+  }
+  // Background (label 0) like OpenCV: bounding box of the zero pixels (all -1 / w,h when none).
+  if (bg_area > 0)
+    stats_[0] = {bg_x0, bg_y0, bg_x1 - bg_x0 + 1, bg_y1 - bg_y0 + 1, bg_area};
+  else
+    stats_[0] = {w, h, -w, -h, 0};
+  return count;
+}
+
+} // namespace regolith::saliency

@@ -1,0 +1,33 @@
+#pragma once
+// One-call analysis for the CLI (`regolith soil IMAGE --config ROVER.yaml --out DIR`): estimate,
+// then write the track DTM, the sinkage profiles and the p-z curves as PNG plots plus a JSON result.
+#include <filesystem>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "regolith/soil_stiffness/track_analysis.hpp"
+
+namespace regolith::soil {
+
+struct SoilAnalysisFiles {
+  SoilEstimate estimate;
+  std::filesystem::path json;          ///< result.json (always written)
+  std::filesystem::path dtm_png;       ///< track_dtm.png (empty path when no DTM was computed)
+  std::filesystem::path profiles_png;  ///< sinkage_profiles.png
+  std::filesystem::path pz_png;        ///< pz_curves.png (estimate + mission table)
+};
+
+/// JSON text of an estimate (k, n, uncertainties, class, per-track profiles, rover).
+std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, int indent = 2);
+
+/// Runs SoilStiffnessEstimator on `image` and writes the files into `out_dir` (created if
+/// missing). Throws std::invalid_argument for bad configuration/image and std::runtime_error when
+/// a file cannot be written; a frame without usable tracks gives estimate.ok == false and a
+/// result.json saying why.
+SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera,
+                                    const RoverConfig& rover, const TrackAnalysisParams& params,
+                                    const SunDirection& sun,
+                                    const std::filesystem::path& out_dir);
+
+}  // namespace regolith::soil

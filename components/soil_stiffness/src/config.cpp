@@ -1,0 +1,207 @@
+#include "regolith/soil_stiffness/config.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith::soil {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+RoverConfig read_rover(Params p) {
+  RoverConfig r;
+  r.mass_kg = p.get<double>("mass_kg", r.mass_kg, {.unit = "kg", .min = 0.0, .min_exclusive = true,
+                                                   .doc = "total rover mass"});
+  r.wheel_count = p.get<int>("wheel_count", r.wheel_count, {.min = 1, .max = 64,
+                                                            .doc = "wheels sharing the static load equally"});
+  r.gravity_mps2 = p.get<double>("gravity_mps2", r.gravity_mps2, {.unit = "m/s^2", .min = 0.0, .max = 100.0,
+                                                                  .min_exclusive = true, .doc = "surface gravity"});
+  r.wheel_width_m = p.get<double>("wheel_width_m", r.wheel_width_m, {.unit = "m", .min = 0.0, .max = 10.0,
+                                                                     .min_exclusive = true, .doc = "wheel width b"});
+  r.wheel_diameter_m = p.get<double>("wheel_diameter_m", r.wheel_diameter_m,
+                                     {.unit = "m", .min = 0.0, .max = 20.0, .min_exclusive = true,
+                                      .doc = "wheel diameter D"});
+  p.finish();
+  try {
+    r.validate();
+  } catch (const std::invalid_argument& e) {
+    p.fail({}, e.what());
+  }
+  return r;
+}
+
+CameraModel read_camera(Params p, int width, int height) {
+  CameraModel c;
+  const int w = p.get<int>("width", width, {.unit = "px", .min = 1, .max = 16384,
+                                            .doc = "image width (must match the camera / image)"});
+  const int h = p.get<int>("height", height, {.unit = "px", .min = 1, .max = 16384,
+                                              .doc = "image height (must match the camera / image)"});
+  if (w != width) p.fail("width", "camera_model is " + std::to_string(w) + " px wide but the frames are " + std::to_string(width) + " px");
+  if (h != height) p.fail("height", "camera_model is " + std::to_string(h) + " px high but the frames are " + std::to_string(height) + " px");
+  c.width = width;
+  c.height = height;
+  c.fx = p.require<double>("fx", {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length x"});
+  c.fy = p.get<double>("fy", c.fx, {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length y (default fx)"});
+  c.cx = p.get<double>("cx", 0.5 * (width - 1), {.unit = "px", .doc = "principal point x (default image centre)"});
+  c.cy = p.get<double>("cy", 0.5 * (height - 1), {.unit = "px", .doc = "principal point y (default image centre)"});
+  c.k1 = p.get<double>("k1", 0.0, {.doc = "radial distortion (OpenCV model)"});
+  c.k2 = p.get<double>("k2", 0.0, {.doc = "radial distortion"});
+  c.p1 = p.get<double>("p1", 0.0, {.doc = "tangential distortion"});
+  c.p2 = p.get<double>("p2", 0.0, {.doc = "tangential distortion"});
+  c.k3 = p.get<double>("k3", 0.0, {.doc = "radial distortion"});
+  c.mount_height_m = p.require<double>("mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true,
+                                                          .doc = "optical centre above the ground"});
+  c.pitch_rad = p.require<double>("pitch_rad", {.unit = "rad", .min = -1.5707, .max = 1.5707,
+                                                .doc = "optical axis below the horizontal (down +)"});
+  c.roll_rad = p.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707,
+                                               .doc = "about the optical axis"});
+  p.finish();
+  try {
+    c.validate();
+  } catch (const std::invalid_argument& e) {
+    p.fail({}, e.what());
+  }
+  return c;
+}
+
+}  // namespace
+
+SoilConfig read_soil_config(Params& p, int width_px, int height_px) {
+  SoilConfig cfg;
+  cfg.rover = read_rover(p.child("rover"));
+  cfg.camera = read_camera(p.require_child("camera_model"), width_px, height_px);
+  {
+    Params s = p.child("sun");
+    cfg.sun.azimuth_rad = s.get<double>("azimuth_rad", cfg.sun.azimuth_rad,
+        {.unit = "rad", .min = -2 * kPi, .max = 2 * kPi,
+         .doc = "sun azimuth in the camera ground frame, from the viewing direction towards the left"});
+    cfg.sun.elevation_rad = s.get<double>("elevation_rad", cfg.sun.elevation_rad,
+        {.unit = "rad", .min = 0.02, .max = kPi / 2, .min_exclusive = true, .doc = "sun elevation"});
+    s.finish();
+  }
+  {
+    Params m = p.child("mount");
+    cfg.mount.mount_x_m = m.get<double>("x_m", cfg.mount.mount_x_m,
+        {.unit = "m", .doc = "body x of the ground point below the camera (sinkage layer)"});
+    cfg.mount.mount_y_m = m.get<double>("y_m", cfg.mount.mount_y_m, {.unit = "m", .doc = "body y of that point"});
+    cfg.mount.mount_yaw_rad = m.get<double>("yaw_rad", cfg.mount.mount_yaw_rad,
+        {.unit = "rad", .min = -2 * kPi, .max = 2 * kPi, .doc = "camera viewing heading in the body frame (pi = rear)"});
+    m.finish();
+  }
+  TrackAnalysisParams& a = cfg.analysis;
+  {
+    Params r = p.child("region");
+    a.range_min_m = r.get<double>("range_min_m", a.range_min_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "near edge of the track region"});
+    a.range_max_m = r.get<double>("range_max_m", a.range_max_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "far edge"});
+    a.lateral_min_m = r.get<double>("lateral_min_m", a.lateral_min_m, {.unit = "m", .doc = "right edge (left +)"});
+    a.lateral_max_m = r.get<double>("lateral_max_m", a.lateral_max_m, {.unit = "m", .doc = "left edge"});
+    a.grid_res_m = r.get<double>("grid_res_m", a.grid_res_m, {.unit = "m", .min = 0.0, .max = 0.2, .min_exclusive = true, .doc = "rectified cell size"});
+    r.finish();
+  }
+  {
+    Params t = p.child("tracks");
+    const auto lat = t.get<std::vector<double>>("lateral_m", {}, {.unit = "m", .doc = "configured rut centres (empty = automatic detection)"});
+    const auto load = t.get<std::vector<double>>("load_n", {}, {.unit = "N", .min = 0.0,
+        .doc = "wheel load per configured rut (empty or 0 = M g / wheel_count)"});
+    if (!load.empty() && load.size() != lat.size())
+      t.fail("load_n", "needs one load per lateral_m entry (" + std::to_string(lat.size()) + "), got " + std::to_string(load.size()));
+    a.tracks.clear();
+    for (std::size_t i = 0; i < lat.size(); ++i) a.tracks.push_back({lat[i], load.empty() ? 0.0 : load[i]});
+    a.track_search_m = t.get<double>("search_m", a.track_search_m, {.unit = "m", .min = 0.0, .doc = "search +- around a configured rut"});
+    a.max_tracks = t.get<int>("max_tracks", a.max_tracks, {.min = 1, .max = 8, .doc = "automatic detection keeps at most this many"});
+    a.min_sinkage_m = t.get<double>("min_sinkage_m", a.min_sinkage_m, {.unit = "m", .min = 0.0, .doc = "minimum mean rut depth"});
+    a.detection_snr = t.get<double>("detection_snr", a.detection_snr, {.min = 0.0, .doc = "mean sinkage / standard error needed"});
+    t.finish();
+  }
+  {
+    Params q = p.child("profile");
+    a.floor_fraction = q.get<double>("floor_fraction", a.floor_fraction, {.min = 0.0, .max = 1.0, .min_exclusive = true, .doc = "central part of the rut used as its floor [b]"});
+    a.shoulder_gap = q.get<double>("shoulder_gap", a.shoulder_gap, {.min = 0.0, .doc = "gap rut edge -> shoulder window [b]"});
+    a.shoulder_width = q.get<double>("shoulder_width", a.shoulder_width, {.min = 0.0, .max = 5.0, .min_exclusive = true, .doc = "shoulder window width [b]"});
+    a.profile_window_m = q.get<double>("window_m", a.profile_window_m, {.unit = "m", .min = 0.0, .doc = "along-track smoothing = bootstrap block"});
+    a.presmooth_m = q.get<double>("presmooth_m", a.presmooth_m, {.unit = "m", .min = 0.0, .doc = "along-track box filter before the inversion"});
+    a.min_valid_fraction = q.get<double>("min_valid_fraction", a.min_valid_fraction, {.min = 0.0, .max = 1.0, .doc = "measurable rows needed"});
+    const std::string src = q.get<std::string>("source", "photoclinometry", {.choices = {"photoclinometry", "sfs_dtm"},
+        .doc = "cross-section heights: 1-D photoclinometry or the SfS DTM"});
+    a.profile_source = src == "sfs_dtm" ? ProfileSource::kSfsDtm : ProfileSource::kPhotoclinometry;
+    const std::string m = q.get<std::string>("sfs_method", "pentland", {.choices = {"pentland", "tsai_shah"}, .doc = "DTM solver"});
+    a.sfs_method = m == "tsai_shah" ? SfsMethod::kTsaiShah : SfsMethod::kPentland;
+    a.sfs_iterations = q.get<int>("sfs_iterations", a.sfs_iterations, {.min = 1, .max = 100000, .doc = "Tsai-Shah iterations"});
+    a.min_lateral_sun = q.get<double>("min_lateral_sun", a.min_lateral_sun, {.min = 0.0, .max = 0.999, .doc = "|cos(el) sin(az)| needed"});
+    q.finish();
+  }
+  {
+    Params f = p.child("fit");
+    a.n_fixed = f.get<double>("n_fixed", a.n_fixed, {.min = 0.0, .doc = "sinkage exponent of the fixed-n fit"});
+    const std::string model = f.get<std::string>("model", "bekker", {.choices = {"bekker", "beta"}, .doc = "rigid-wheel closed form"});
+    a.model = model == "beta" ? SinkageModel::kBeta : SinkageModel::kBekker;
+    a.bootstrap_samples = f.get<int>("bootstrap_samples", a.bootstrap_samples, {.min = 0, .max = 100000, .doc = "0 = no uncertainty"});
+    a.seed = static_cast<std::uint32_t>(f.get<std::int64_t>("seed", a.seed, {.min = 0, .max = 4294967295.0, .doc = "bootstrap seed"}));
+    a.min_load_ratio = f.get<double>("min_load_ratio", a.min_load_ratio, {.min = 1.0, .min_exclusive = true, .doc = "distinct loads for the joint fit"});
+    f.finish();
+  }
+  {
+    Params q = p.child("quality");
+    a.max_saturated_fraction = q.get<double>("max_saturated_fraction", a.max_saturated_fraction, {.min = 0.0, .max = 1.0, .doc = "region cells >= 250 DN"});
+    a.max_dark_fraction = q.get<double>("max_dark_fraction", a.max_dark_fraction, {.min = 0.0, .max = 1.0, .doc = "region cells <= 5 DN"});
+    q.finish();
+  }
+  {
+    Params c = p.child("soil_class");
+    a.class_z_ref_m = c.get<double>("z_ref_m", a.class_z_ref_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "sinkage of the class pressure"});
+    a.loose_below_pa = c.get<double>("loose_below_pa", a.loose_below_pa, {.unit = "Pa", .min = 0.0, .min_exclusive = true, .doc = "p(z_ref) below: loose"});
+    a.firm_above_pa = c.get<double>("firm_above_pa", a.firm_above_pa, {.unit = "Pa", .min = 0.0, .min_exclusive = true, .doc = "p(z_ref) above: firm"});
+    c.finish();
+  }
+  try {
+    a.validate();
+  } catch (const std::invalid_argument& e) {
+    p.fail({}, std::string("invalid estimator parameters: ") + e.what());
+  }
+  return cfg;
+}
+
+SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
+                                const std::filesystem::path& rover_yaml,
+                                const std::filesystem::path& out_dir) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(image_path, ec))
+    throw InputError(image_path.string() + ": no such image file");
+  const cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_GRAYSCALE);
+  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
+  if (!std::filesystem::is_regular_file(rover_yaml, ec))
+    throw ConfigError(rover_yaml.string() + ": no such configuration file");
+  Params root = Params::load_file(rover_yaml.string());
+  SoilConfig cfg;
+  if (root.has("components")) {
+    Params comps = root.child("components");
+    bool found = false;
+    for (const auto& name : comps.keys()) {
+      Params c = comps.child(name);
+      if (!c.node()["type"] || c.node()["type"].Scalar() != "soil_stiffness") continue;
+      cfg = read_soil_config(c, image.cols, image.rows);
+      found = true;
+      break;
+    }
+    if (!found) comps.fail({}, "no component of type soil_stiffness in this deployment");
+  } else {
+    Params s = root.require_child("soil_stiffness");
+    cfg = read_soil_config(s, image.cols, image.rows);
+    s.finish();
+    root.finish();
+  }
+  try {
+    return run_soil_analysis(image, cfg.camera, cfg.rover, cfg.analysis, cfg.sun, out_dir);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(image_path.string() + ": " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw InputError(e.what());  // output file problems name the file
+  }
+}
+
+}  // namespace regolith::soil

@@ -1,0 +1,834 @@
+#include "regolith/soil_stiffness/track_analysis.hpp"
+
+#include <algorithm>
+#include <cstdarg>
+#include <cstdio>
+#include <cstring>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+
+#include "regolith/sfs/sfs.hpp"
+
+namespace regolith::soil {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr std::size_t kMessageCapacity = 512;  ///< reserved length of reason strings [chars]
+
+[[noreturn]] void bad(const std::string& field, const std::string& what, double got) {
+  std::ostringstream os;
+  os << field << ": " << what << " (got " << got << ")";
+  throw std::invalid_argument(os.str());
+}
+void need(bool ok, const char* field, const char* what, double got) {
+  if (!ok) bad(field, what, got);
+}
+bool finite_pos(double v) { return std::isfinite(v) && v > 0.0; }
+
+/// printf-style message into `dst` without allocating once dst has the capacity (reserved by the
+/// estimator): formats into a stack buffer, then assigns.
+[[gnu::format(printf, 2, 3)]] void say(std::string& dst, const char* fmt, ...) {
+  char buf[kMessageCapacity];
+  va_list ap;
+  va_start(ap, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, ap);
+  va_end(ap);
+  dst.assign(buf);
+}
+[[gnu::format(printf, 2, 3)]] void say_append(std::string& dst, const char* fmt, ...) {
+  char buf[kMessageCapacity];
+  va_list ap;
+  va_start(ap, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, ap);
+  va_end(ap);
+  if (dst.size() + std::strlen(buf) < dst.capacity()) dst.append(buf);  // never grow in estimate()
+}
+
+double percentile(std::vector<double>& v, double q) {
+  if (v.empty()) return kNaN;
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(pos));
+  const auto hi = std::min(v.size() - 1, lo + 1);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+  const double a = v[lo];
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+  const double b = v[hi];
+  return a + (pos - static_cast<double>(lo)) * (b - a);
+}
+
+}  // namespace
+
+const char* to_string(SoilClass c) {
+  switch (c) {
+    case SoilClass::kLoose: return "loose";
+    case SoilClass::kNominal: return "nominal";
+    case SoilClass::kFirm: return "firm";
+    default: return "unknown";
+  }
+}
+
+void TrackAnalysisParams::validate() const {
+  need(std::isfinite(range_min_m) && range_min_m > 0, "range_min_m", "must be > 0", range_min_m);
+  need(std::isfinite(range_max_m) && range_max_m > range_min_m, "range_max_m",
+       "must be > range_min_m", range_max_m);
+  need(std::isfinite(lateral_min_m), "lateral_min_m", "must be finite", lateral_min_m);
+  need(std::isfinite(lateral_max_m) && lateral_max_m > lateral_min_m, "lateral_max_m",
+       "must be > lateral_min_m", lateral_max_m);
+  need(finite_pos(grid_res_m) && grid_res_m < 0.2, "grid_res_m", "must be in (0, 0.2) m",
+       grid_res_m);
+  const double cells = (range_max_m - range_min_m) / grid_res_m * (lateral_max_m - lateral_min_m) /
+                       grid_res_m;
+  need(cells <= 4.0e6, "grid_res_m", "region too large for the grid (> 4e6 cells)", cells);
+  need(cells >= 100.0, "grid_res_m", "region too small for the grid (< 100 cells)", cells);
+  for (const auto& t : tracks) {
+    need(std::isfinite(t.lateral_m), "tracks[].lateral_m", "must be finite", t.lateral_m);
+    need(std::isfinite(t.load_n) && t.load_n >= 0, "tracks[].load_n", "must be >= 0", t.load_n);
+  }
+  need(std::isfinite(track_search_m) && track_search_m >= 0, "track_search_m", "must be >= 0",
+       track_search_m);
+  need(max_tracks >= 1 && max_tracks <= 16, "max_tracks", "must be in [1, 16]", max_tracks);
+  need(std::isfinite(min_sinkage_m) && min_sinkage_m >= 0, "min_sinkage_m", "must be >= 0",
+       min_sinkage_m);
+  need(std::isfinite(detection_snr) && detection_snr >= 0, "detection_snr", "must be >= 0",
+       detection_snr);
+  need(floor_fraction > 0 && floor_fraction <= 1, "floor_fraction", "must be in (0, 1]",
+       floor_fraction);
+  need(std::isfinite(shoulder_gap) && shoulder_gap >= 0, "shoulder_gap", "must be >= 0",
+       shoulder_gap);
+  need(shoulder_width > 0 && shoulder_width <= 5, "shoulder_width", "must be in (0, 5]",
+       shoulder_width);
+  need(std::isfinite(presmooth_m) && presmooth_m >= 0, "presmooth_m", "must be >= 0", presmooth_m);
+  need(std::isfinite(profile_window_m) && profile_window_m >= 0, "profile_window_m",
+       "must be >= 0", profile_window_m);
+  need(min_valid_fraction >= 0 && min_valid_fraction <= 1, "min_valid_fraction",
+       "must be in [0, 1]", min_valid_fraction);
+  need(sfs_iterations >= 1 && sfs_iterations <= 100000, "sfs_iterations", "must be in [1, 1e5]",
+       sfs_iterations);
+  need(min_lateral_sun >= 0 && min_lateral_sun < 1, "min_lateral_sun", "must be in [0, 1)",
+       min_lateral_sun);
+  need(std::isfinite(n_fixed) && n_fixed >= 0 &&
+           (model == SinkageModel::kBeta || n_fixed < 3.0),
+       "n_fixed", "must be in [0, 3) (Bekker form) or >= 0 (Beta form)", n_fixed);
+  need(bootstrap_samples >= 0 && bootstrap_samples <= 100000, "bootstrap_samples",
+       "must be in [0, 1e5]", bootstrap_samples);
+  need(std::isfinite(min_load_ratio) && min_load_ratio > 1.0, "min_load_ratio", "must be > 1",
+       min_load_ratio);
+  need(max_saturated_fraction >= 0 && max_saturated_fraction <= 1, "max_saturated_fraction",
+       "must be in [0, 1]", max_saturated_fraction);
+  need(max_dark_fraction >= 0 && max_dark_fraction <= 1, "max_dark_fraction",
+       "must be in [0, 1]", max_dark_fraction);
+  need(finite_pos(class_z_ref_m), "class_z_ref_m", "must be > 0", class_z_ref_m);
+  need(finite_pos(loose_below_pa), "loose_below_pa", "must be > 0", loose_below_pa);
+  need(std::isfinite(firm_above_pa) && firm_above_pa > loose_below_pa, "firm_above_pa",
+       "must be > loose_below_pa", firm_above_pa);
+}
+
+// ------------------------------------------------------------------------------------------------
+struct SoilStiffnessEstimator::Impl {
+  struct Candidate {
+    int col;
+    double load;
+    double score;
+    bool configured;
+    double configured_lateral;
+  };
+  int rows = 0, cols = 0;
+  int track_cap = 0;      // most candidate tracks one frame can produce
+  // bilinear sampling of the image at each grid cell (precomputed ground projection)
+  std::vector<std::int32_t> src_x, src_y;  // top-left neighbour of the cell's pixel, -1 outside
+  std::vector<float> wx, wy;             // bilinear weights of the right / lower neighbour
+  cv::Mat inside;         // CV_8U, 255 = cell projects into the image
+  cv::Mat grey;           // CV_8U image size (BGR input converted here)
+  cv::Mat rect8;          // CV_8U grid (rounded, for the frame-quality histogram)
+  cv::Mat rectf;          // CV_32F grid: bilinear brightness without re-quantisation [DN]
+  cv::Mat e;              // CV_32F normalised brightness (flat ground = sin(elevation))
+  cv::Mat e_smooth;       // e box-filtered along the track (photoclinometry input)
+  cv::Mat dtm;            // CV_32F metres
+  sfs::ShapeFromShading solver;
+  sfs::SfsResult sfs_out;
+  std::vector<double> col_mean, score, line_h, slope, raw, valid_scores, column_acc;
+  std::vector<double> mean_xs, cnt_xs, row_xs;
+  std::vector<Candidate> cands, kept;
+  std::vector<std::vector<double>> kept_raw;    // [track_cap][rows]: raw per-row sinkage (NaN invalid)
+  std::vector<std::vector<double>> valid_raw;   // [track_cap]: finite raw samples (bootstrap)
+  std::vector<double> ks, means, bmeans, bk, bjk, bjn;
+  std::vector<SinkageSample> samples;
+  std::vector<std::size_t> order;
+  std::vector<TrackProfile> spare;  // profiles not in use by `out`, keeping their buffers
+  std::string rejected;
+  int inside_count = 0;
+
+  explicit Impl(const sfs::SfsParams& sp) : solver(sp) {}
+
+  /// Moves every profile of `out` to the spare list (buffers kept) and resets the scalars.
+  void release_tracks(SoilEstimate& out) {
+    for (auto& t : out.tracks)
+      if (spare.size() < spare.capacity()) spare.push_back(std::move(t));
+    out.tracks.clear();
+  }
+  void reset(SoilEstimate& out, const TrackAnalysisParams& P) {
+    release_tracks(out);
+    if (out.tracks.capacity() < static_cast<std::size_t>(track_cap))
+      out.tracks.reserve(static_cast<std::size_t>(track_cap));
+    if (out.reason.capacity() < kMessageCapacity) out.reason.reserve(kMessageCapacity);
+    if (out.joint_reason.capacity() < kMessageCapacity) out.joint_reason.reserve(kMessageCapacity);
+    out.ok = false;
+    out.reason.clear();
+    out.mean_sinkage_m = 0.0;
+    out.samples_used = 0;
+    out.n_fixed = P.n_fixed;
+    out.k_fixed = out.k_fixed_std = out.k_spread_p25 = out.k_spread_p75 = 0.0;
+    out.joint_ok = false;
+    out.joint_reason.clear();
+    out.k_joint = out.n_joint = out.k_joint_std = out.n_joint_std = 0.0;
+    out.soil_class = SoilClass::kUnknown;
+    out.class_pressure_pa = 0.0;
+    out.sfs_iterations = 0;
+  }
+  /// A profile appended to out.tracks, reusing a spare one's buffers when available.
+  TrackProfile& add_profile(SoilEstimate& out) {
+    if (!spare.empty()) {
+      out.tracks.push_back(std::move(spare.back()));
+      spare.pop_back();
+    } else {
+      out.tracks.emplace_back();
+    }
+    return out.tracks.back();
+  }
+};
+
+namespace {
+sfs::SfsParams make_sfs_params(const TrackAnalysisParams& p) {
+  sfs::SfsParams sp;
+  sp.method = p.sfs_method == SfsMethod::kPentland ? sfs::Method::kPentland : sfs::Method::kTsaiShah;
+  sp.iterations = p.sfs_iterations;
+  sp.normalise_albedo = false;  // done here from the flat-ground median
+  sp.estimate_light = false;    // the sun is known
+  return sp;
+}
+}  // namespace
+
+SoilStiffnessEstimator::SoilStiffnessEstimator(const CameraModel& camera, const RoverConfig& rover,
+                                               const TrackAnalysisParams& params)
+    : camera_(camera), rover_(rover), params_(params) {
+  rover_.validate();
+  params_.validate();
+  const direct_depth::DirectDepth geometry(camera_);  // validates the camera (names the field)
+  impl_ = std::make_unique<Impl>(make_sfs_params(params_));
+  Impl& m = *impl_;
+  m.rows = static_cast<int>(std::lround((params_.range_max_m - params_.range_min_m) / params_.grid_res_m));
+  m.cols = static_cast<int>(std::lround((params_.lateral_max_m - params_.lateral_min_m) / params_.grid_res_m));
+  const auto cells = static_cast<std::size_t>(m.rows) * static_cast<std::size_t>(m.cols);
+  m.src_x.assign(cells, -1);
+  m.src_y.assign(cells, -1);
+  m.wx.assign(cells, 0.f);
+  m.wy.assign(cells, 0.f);
+  m.inside.create(m.rows, m.cols, CV_8U);
+  m.inside_count = 0;
+  const int W = camera_.width, H = camera_.height;
+  for (int i = 0; i < m.rows; ++i) {
+    for (int j = 0; j < m.cols; ++j) {
+      const auto px = geometry.project(row_range_m(i), col_lateral_m(j), 0.0);
+      const bool ok = px.has_value() && px->x >= 0.0 && px->y >= 0.0 && px->x <= W - 1 &&
+                      px->y <= H - 1;
+      m.inside.at<unsigned char>(i, j) = ok ? 255 : 0;
+      if (!ok) continue;
+      const auto q = static_cast<std::size_t>(i) * static_cast<std::size_t>(m.cols) + static_cast<std::size_t>(j);
+      const int x0 = std::min(static_cast<int>(px->x), W - 1), y0 = std::min(static_cast<int>(px->y), H - 1);
+      m.src_x[q] = x0;
+      m.src_y[q] = y0;
+      m.wx[q] = static_cast<float>(px->x - x0);
+      m.wy[q] = static_cast<float>(px->y - y0);
+      ++m.inside_count;
+    }
+  }
+  m.grey.create(H, W, CV_8U);
+  m.rect8.create(m.rows, m.cols, CV_8U);
+  m.rectf.create(m.rows, m.cols, CV_32F);
+  m.e.create(m.rows, m.cols, CV_32F);
+  m.e_smooth.create(m.rows, m.cols, CV_32F);
+  m.dtm.create(m.rows, m.cols, CV_32F);
+  const auto rows = static_cast<std::size_t>(m.rows), cols = static_cast<std::size_t>(m.cols);
+  m.track_cap = std::max(2 * params_.max_tracks, static_cast<int>(params_.tracks.size()));
+  const auto cap = static_cast<std::size_t>(m.track_cap);
+  m.col_mean.resize(cols);
+  m.score.resize(cols);
+  m.line_h.resize(cols + 2);
+  m.slope.resize(cols + 2);
+  m.raw.resize(rows);
+  m.column_acc.resize(cols);
+  m.valid_scores.reserve(cols);
+  m.mean_xs.reserve(cols + 1);
+  m.cnt_xs.reserve(cols + 1);
+  m.row_xs.reserve(cols + 1);
+  m.cands.reserve(cols + params_.tracks.size());
+  m.kept.reserve(cols + params_.tracks.size());
+  m.kept_raw.assign(cap, std::vector<double>(rows, kNaN));
+  m.valid_raw.assign(cap, {});
+  for (auto& v : m.valid_raw) v.reserve(rows);
+  m.ks.reserve(rows * cap);
+  m.means.reserve(cap);
+  m.bmeans.reserve(cap);
+  m.samples.reserve(cap);
+  m.order.reserve(cap);
+  const auto boot = static_cast<std::size_t>(params_.bootstrap_samples);
+  m.bk.reserve(boot);
+  m.bjk.reserve(boot);
+  m.bjn.reserve(boot);
+  m.spare.reserve(cap);
+  m.rejected.reserve(kMessageCapacity);
+}
+
+SoilStiffnessEstimator::~SoilStiffnessEstimator() = default;
+
+void SoilStiffnessEstimator::reserve(SoilEstimate& out) {
+  Impl& m = *impl_;
+  m.reset(out, params_);
+  const auto rows = static_cast<std::size_t>(m.rows);
+  while (m.spare.size() < m.spare.capacity()) {
+    TrackProfile t;
+    t.range_m.reserve(rows);
+    t.sinkage_m.reserve(rows);
+    m.spare.push_back(std::move(t));
+  }
+  for (auto& t : m.spare) {
+    t.range_m.reserve(rows);
+    t.sinkage_m.reserve(rows);
+  }
+}
+
+const cv::Mat& SoilStiffnessEstimator::rectified() const { return impl_->e; }
+const cv::Mat& SoilStiffnessEstimator::dtm_m() const { return impl_->dtm; }
+double SoilStiffnessEstimator::row_range_m(int row) const {
+  return params_.range_max_m - (row + 0.5) * params_.grid_res_m;
+}
+double SoilStiffnessEstimator::col_lateral_m(int col) const {
+  return params_.lateral_max_m - (col + 0.5) * params_.grid_res_m;
+}
+
+void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& sun,
+                                      SoilEstimate& out) {
+  Impl& m = *impl_;
+  const TrackAnalysisParams& P = params_;
+  // ---- input checks (programming/config errors -> exceptions)
+  if (image.empty()) throw std::invalid_argument("image: empty frame");
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+    throw std::invalid_argument("image: expected CV_8UC1 or CV_8UC3 (got type " +
+                                std::to_string(image.type()) + ")");
+  if (image.cols != camera_.width || image.rows != camera_.height)
+    throw std::invalid_argument("image: size " + std::to_string(image.cols) + "x" +
+                                std::to_string(image.rows) + " does not match camera " +
+                                std::to_string(camera_.width) + "x" +
+                                std::to_string(camera_.height));
+  need(std::isfinite(sun.azimuth_rad), "sun.azimuth_rad", "must be finite", sun.azimuth_rad);
+  need(std::isfinite(sun.elevation_rad) && sun.elevation_rad > 0.02 &&
+           sun.elevation_rad <= kPi / 2,
+       "sun.elevation_rad", "must be in (0.02, pi/2] rad", sun.elevation_rad);
+
+  m.reset(out, P);
+
+  const double sz = std::sin(sun.elevation_rad);
+  const double sx = std::cos(sun.elevation_rad) * std::cos(sun.azimuth_rad);
+  const double sy = std::cos(sun.elevation_rad) * std::sin(sun.azimuth_rad);
+
+  // ---- 1. rectify (bilinear, precomputed ground projection)
+  if (static_cast<double>(m.inside_count) < 0.5 * m.rows * m.cols) {
+    say(out.reason,
+        "region of interest (range %.3g m to %.3g m, lateral %.3g m to %.3g m) is mostly outside "
+        "the image",
+        P.range_min_m, P.range_max_m, P.lateral_min_m, P.lateral_max_m);
+    return;
+  }
+  const cv::Mat* src = &image;
+  if (image.channels() == 3) {
+    for (int r = 0; r < image.rows; ++r) {
+      const auto* b = image.ptr<unsigned char>(r);
+      auto* g = m.grey.ptr<unsigned char>(r);
+      for (int c = 0; c < image.cols; ++c, b += 3)  // ITU-R BT.601 luma, as cv::COLOR_BGR2GRAY
+        g[c] = static_cast<unsigned char>((1868 * b[0] + 9617 * b[1] + 4899 * b[2] + 8192) >> 14);
+    }
+    src = &m.grey;
+  }
+  for (int i = 0; i < m.rows; ++i) {
+    auto* r8 = m.rect8.ptr<unsigned char>(i);
+    float* rf = m.rectf.ptr<float>(i);
+    for (int j = 0; j < m.cols; ++j) {
+      const auto q = static_cast<std::size_t>(i) * static_cast<std::size_t>(m.cols) + static_cast<std::size_t>(j);
+      const int x0 = m.src_x[q], y0 = m.src_y[q];
+      if (x0 < 0) { r8[j] = 0; rf[j] = 0.f; continue; }
+      const unsigned char* p0 = src->ptr<unsigned char>(y0) + x0;
+      const unsigned char* p1 = src->ptr<unsigned char>(std::min(y0 + 1, camera_.height - 1)) + x0;
+      const float a = m.wx[q], b = m.wy[q];
+      const int dx = x0 + 1 < camera_.width ? 1 : 0;
+      const float top = (1.f - a) * p0[0] + a * p0[dx];
+      const float bot = (1.f - a) * p1[0] + a * p1[dx];
+      rf[j] = (1.f - b) * top + b * bot;
+      r8[j] = static_cast<unsigned char>(std::lround(rf[j]));
+    }
+  }
+
+  // ---- 2. frame quality + albedo normalisation
+  int hist[256] = {0};
+  for (int i = 0; i < m.rows; ++i) {
+    const auto* r = m.rect8.ptr<unsigned char>(i);
+    const auto* in = m.inside.ptr<unsigned char>(i);
+    for (int j = 0; j < m.cols; ++j)
+      if (in[j]) ++hist[r[j]];
+  }
+  int sat = 0, dark = 0;
+  for (int v = 250; v < 256; ++v) sat += hist[v];
+  for (int v = 0; v <= 5; ++v) dark += hist[v];
+  const double nin = m.inside_count;
+  if (sat / nin > P.max_saturated_fraction) {
+    say(out.reason, "frame saturated: %d %% of the track region at >= 250 DN",
+        static_cast<int>(100.0 * sat / nin));
+    return;
+  }
+  if (dark / nin > P.max_dark_fraction) {
+    say(out.reason, "frame too dark: %d %% of the track region at <= 5 DN",
+        static_cast<int>(100.0 * dark / nin));
+    return;
+  }
+  int median = 0;
+  for (int acc = 0; median < 256; ++median) {
+    acc += hist[median];
+    if (acc * 2 >= m.inside_count) break;
+  }
+  if (median < 10) {
+    say(out.reason, "frame too dark: median brightness of the track region %d DN", median);
+    return;
+  }
+  const float gain = static_cast<float>(sz / median);
+  for (int i = 0; i < m.rows; ++i) {
+    const float* r = m.rectf.ptr<float>(i);
+    const auto* in = m.inside.ptr<unsigned char>(i);
+    float* e = m.e.ptr<float>(i);
+    for (int j = 0; j < m.cols; ++j)
+      e[j] = in[j] ? std::min(1.0f, gain * r[j]) : static_cast<float>(sz);
+  }
+
+  // ---- 3. SfS DTM of the region. Grid frame: columns = -y (right), rows = -x (towards the
+  // camera), third axis up; the sun vector in that frame is (-sy, -sx, sz).
+  sfs::LightDirection light;
+  light.slant_rad = kPi / 2 - sun.elevation_rad;
+  light.tilt_rad = std::atan2(-sx, -sy);
+  m.solver.compute(m.e, light, m.sfs_out);
+  out.sfs_iterations = m.sfs_out.iterations;
+  m.sfs_out.height.convertTo(m.dtm, CV_32F, P.grid_res_m);
+
+  // ---- 4. tracks
+  const double b = rover_.wheel_width_m;
+  const double res = P.grid_res_m;
+  const int half = std::max(1, static_cast<int>(std::lround(0.5 * b / res)));
+  const int fhalf = std::max(0, static_cast<int>(std::lround(0.5 * b * P.floor_fraction / res)));
+  const int gap = static_cast<int>(std::lround(P.shoulder_gap * b / res));
+  const int sw = std::max(2, static_cast<int>(std::lround(P.shoulder_width * b / res)));
+  const int reach = half + gap + sw;  // cells from the rut centre to the outer shoulder edge
+  if (2 * reach + 1 > m.cols) {
+    say(out.reason, "region of interest narrower than one track cross-section (%.3g m)",
+        (2 * reach + 1) * res);
+    return;
+  }
+  // along-track mean cross-section of the DTM (inside cells only)
+  for (int j = 0; j < m.cols; ++j) {
+    double acc = 0.0;
+    int n = 0;
+    for (int i = 0; i < m.rows; ++i) {
+      if (!m.inside.at<unsigned char>(i, j)) continue;
+      acc += m.dtm.at<float>(i, j);
+      ++n;
+    }
+    m.col_mean[static_cast<std::size_t>(j)] = n > 0 ? acc / n : kNaN;
+  }
+  auto window_mean = [&](const std::vector<double>& v, int a, int e) {  // [a, e]
+    double acc = 0.0;
+    int n = 0;
+    for (int j = std::max(0, a); j <= std::min(m.cols - 1, e); ++j) {
+      const double x = v[static_cast<std::size_t>(j)];
+      if (std::isfinite(x)) { acc += x; ++n; }
+    }
+    return n > 0 ? acc / n : kNaN;
+  };
+  // matched filter: mean of both shoulders minus the floor
+  m.valid_scores.clear();
+  for (int c = 0; c < m.cols; ++c) {
+    double s = kNaN;
+    if (c - reach >= 0 && c + reach < m.cols) {
+      const double l = window_mean(m.col_mean, c - reach, c - half - gap - 1);
+      const double r = window_mean(m.col_mean, c + half + gap + 1, c + reach);
+      const double f = window_mean(m.col_mean, c - fhalf, c + fhalf);
+      s = 0.5 * (l + r) - f;
+      if (std::isfinite(s)) m.valid_scores.push_back(s);
+    }
+    m.score[static_cast<std::size_t>(c)] = s;
+  }
+  if (m.valid_scores.size() < 3) {
+    say(out.reason, "region of interest too small to search for tracks");
+    return;
+  }
+  const double score_median = percentile(m.valid_scores, 0.5);
+  for (auto& v : m.valid_scores) v = std::abs(v - score_median);
+  const double score_sigma = 1.4826 * percentile(m.valid_scores, 0.5);
+  // weak gate only: the decision is taken on the measured sinkage (depth and significance)
+  const double score_threshold = std::max(0.0, score_median + 1.0 * score_sigma);
+
+  using Candidate = Impl::Candidate;
+  m.cands.clear();
+  const double default_load = rover_.wheel_load_n();
+  if (!P.tracks.empty()) {
+    for (const auto& t : P.tracks) {
+      const double cf = (P.lateral_max_m - t.lateral_m) / res - 0.5;
+      const int c0 = static_cast<int>(std::floor(cf - P.track_search_m / res));
+      const int c1 = static_cast<int>(std::ceil(cf + P.track_search_m / res));
+      if (c1 < reach || c0 > m.cols - 1 - reach) {
+        say(out.reason,
+            "configured track at lateral %.3g m lies outside the region of interest (lateral "
+            "%.3g m to %.3g m incl. shoulders)",
+            t.lateral_m, P.lateral_min_m, P.lateral_max_m);
+        return;
+      }
+      int best = -1;
+      double best_s = -std::numeric_limits<double>::infinity();
+      for (int c = std::max(reach, c0); c <= std::min(m.cols - 1 - reach, c1); ++c) {
+        const double s = m.score[static_cast<std::size_t>(c)];
+        if (std::isfinite(s) && s > best_s) { best_s = s; best = c; }
+      }
+      m.cands.push_back({best, t.load_n > 0 ? t.load_n : default_load, best_s, true, t.lateral_m});
+    }
+  } else {
+    for (int c = 1; c + 1 < m.cols; ++c) {
+      const double s = m.score[static_cast<std::size_t>(c)];
+      if (!std::isfinite(s) || s <= score_threshold) continue;
+      const double sl = m.score[static_cast<std::size_t>(c - 1)];
+      const double sr = m.score[static_cast<std::size_t>(c + 1)];
+      if ((std::isfinite(sl) && sl > s) || (std::isfinite(sr) && sr >= s)) continue;
+      m.cands.push_back({c, default_load, s, false, 0.0});
+    }
+    std::sort(m.cands.begin(), m.cands.end(),
+              [](const Candidate& a, const Candidate& c) { return a.score > c.score; });
+    m.kept.clear();
+    const int min_sep = 2 * half + gap;
+    for (const auto& cd : m.cands) {
+      bool clash = false;
+      for (const auto& k : m.kept) clash = clash || std::abs(k.col - cd.col) < min_sep;
+      if (!clash) m.kept.push_back(cd);
+      if (static_cast<int>(m.kept.size()) >= 2 * P.max_tracks) break;
+    }
+    m.cands.assign(m.kept.begin(), m.kept.end());
+    std::sort(m.cands.begin(), m.cands.end(),
+              [](const Candidate& a, const Candidate& c) { return a.col < c.col; });
+    if (m.cands.empty()) {
+      say(out.reason,
+          "no wheel tracks detected: no trough in the DTM cross-section (matched-filter response "
+          "never exceeds its median + 1 robust sigma)");
+      return;
+    }
+  }
+
+  // ---- 5. sinkage profiles
+  const bool photoclin = P.profile_source == ProfileSource::kPhotoclinometry;
+  if (photoclin && std::abs(sy) < P.min_lateral_sun) {
+    say(out.reason,
+        "sun too close to the track direction for cross-track photoclinometry (lateral component "
+        "%.3f < min_lateral_sun %.3f)",
+        std::abs(sy), P.min_lateral_sun);
+    return;
+  }
+  const int win = std::max(1, static_cast<int>(std::lround(P.profile_window_m / res)));
+  {
+    // along-track pre-smoothing before the non-linear inversion (ruts are uniform along x): a
+    // vertical box filter with replicated borders, as running sums per column
+    const int kh = static_cast<int>(std::lround(0.5 * P.presmooth_m / res));
+    if (kh < 1) {
+      m.e.copyTo(m.e_smooth);
+    } else {
+      const float inv = 1.0f / static_cast<float>(2 * kh + 1);
+      double* acc = m.column_acc.data();
+      for (int j = 0; j < m.cols; ++j) acc[j] = 0.0;
+      auto row_at = [&](int i) { return m.e.ptr<float>(std::clamp(i, 0, m.rows - 1)); };
+      for (int i = -kh; i <= kh; ++i) {
+        const float* r = row_at(i);
+        for (int j = 0; j < m.cols; ++j) acc[j] += r[j];
+      }
+      for (int i = 0; i < m.rows; ++i) {
+        float* o = m.e_smooth.ptr<float>(i);
+        for (int j = 0; j < m.cols; ++j) o[j] = static_cast<float>(acc[j]) * inv;
+        const float* add = row_at(i + kh + 1);
+        const float* sub = row_at(i - kh);
+        for (int j = 0; j < m.cols; ++j) acc[j] += add[j] - sub[j];
+      }
+    }
+  }
+  // heights of row i over columns [j0, j1] into m.line_h[0..]; false if a cell is unusable
+  auto cross_section = [&](int i, int j0, int j1) {
+    const auto* in = m.inside.ptr<unsigned char>(i);
+    const auto* sv = m.sfs_out.valid.empty() ? nullptr : m.sfs_out.valid.ptr<unsigned char>(i);
+    for (int j = j0; j <= j1; ++j)
+      if (!in[j] || (!photoclin && sv != nullptr && !sv[j])) return false;
+    double* h = m.line_h.data();
+    if (photoclin) {
+      const float* e = m.e_smooth.ptr<float>(i);
+      // Lambert with zero along-track slope: (sz - g sy) / sqrt(1 + g^2) = e, g = dh/dy
+      const double gmax = sz / std::abs(sy);  // self-shadow boundary
+      for (int j = j0; j <= j1; ++j) {
+        const double ev = std::clamp(static_cast<double>(e[j]), 0.0, 1.0);
+        const double a = sy * sy - ev * ev, bq = -2.0 * sy * sz, cq = sz * sz - ev * ev;
+        const double g_lin = (sz - ev) / sy;
+        double g = g_lin;
+        if (std::abs(a) > 1e-9) {
+          const double disc = std::max(0.0, bq * bq - 4.0 * a * cq);
+          const double r1 = (-bq + std::sqrt(disc)) / (2.0 * a);
+          const double r2 = (-bq - std::sqrt(disc)) / (2.0 * a);
+          g = std::abs(r1 - g_lin) < std::abs(r2 - g_lin) ? r1 : r2;
+        } else if (std::abs(bq) > 1e-12) {
+          g = -cq / bq;
+        }
+        m.slope[static_cast<std::size_t>(j - j0)] = std::clamp(g, -4.0 * gmax, 4.0 * gmax);
+      }
+      // columns run towards -y: h(j+1) = h(j) - g * res (trapezoid)
+      h[0] = 0.0;
+      for (int j = j0 + 1; j <= j1; ++j) {
+        const auto k = static_cast<std::size_t>(j - j0);
+        h[k] = h[k - 1] - 0.5 * (m.slope[k - 1] + m.slope[k]) * res;
+      }
+    } else {
+      const float* d = m.dtm.ptr<float>(i);
+      for (int j = j0; j <= j1; ++j) h[j - j0] = d[j];
+    }
+    return true;
+  };
+  // matched-filter depth of a profile v (indexable by column offset from `base`) centred at c
+  auto depth_at = [&](const std::vector<double>& v, int base, int c) {
+    double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
+    auto add = [&](int j) {
+      const double x = j - c, y = v[static_cast<std::size_t>(j - base)];
+      s0 += 1; s1 += x; s2 += x * x; t0 += y; t1 += x * y;
+    };
+    for (int j = c - reach; j <= c - half - gap - 1; ++j) add(j);
+    for (int j = c + half + gap + 1; j <= c + reach; ++j) add(j);
+    const double det = s0 * s2 - s1 * s1;
+    if (std::abs(det) < 1e-12) return kNaN;
+    const double la = (s2 * t0 - s1 * t1) / det, lb = (s0 * t1 - s1 * t0) / det;
+    double acc = 0.0;
+    int n = 0;
+    for (int j = c - fhalf; j <= c + fhalf; ++j) {
+      acc += (la + lb * (j - c)) - v[static_cast<std::size_t>(j - base)];
+      ++n;
+    }
+    return acc / n;
+  };
+  m.rejected.clear();
+  for (const auto& cd : m.cands) {
+    if (cd.col < 0) continue;
+    // refine the centre on the along-track mean cross-section of the measured heights
+    const int search = std::max(1, half);
+    const int ja = std::max(0, cd.col - reach - search), jb = std::min(m.cols - 1, cd.col + reach + search);
+    m.mean_xs.assign(static_cast<std::size_t>(jb - ja + 1), 0.0);
+    m.cnt_xs.assign(m.mean_xs.size(), 0.0);
+    for (int i = 0; i < m.rows; ++i) {
+      if (!cross_section(i, ja, jb)) continue;
+      for (int j = ja; j <= jb; ++j) {
+        m.mean_xs[static_cast<std::size_t>(j - ja)] += m.line_h[static_cast<std::size_t>(j - ja)];
+        m.cnt_xs[static_cast<std::size_t>(j - ja)] += 1.0;
+      }
+    }
+    int c = cd.col;
+    if (m.cnt_xs[0] > 0) {
+      for (std::size_t q = 0; q < m.mean_xs.size(); ++q) m.mean_xs[q] /= m.cnt_xs[q];
+      double best = -std::numeric_limits<double>::infinity();
+      for (int cc = std::max(ja + reach, cd.col - search); cc <= std::min(jb - reach, cd.col + search); ++cc) {
+        const double d = depth_at(m.mean_xs, ja, cc);
+        if (std::isfinite(d) && d > best) { best = d; c = cc; }
+      }
+    }
+    const int j0 = c - reach, j1 = c + reach;
+    int valid_rows = 0;
+    m.row_xs.resize(static_cast<std::size_t>(j1 - j0 + 1));
+    for (int i = 0; i < m.rows; ++i) {
+      double& zi = m.raw[static_cast<std::size_t>(i)];
+      zi = kNaN;
+      if (!cross_section(i, j0, j1)) continue;
+      std::copy(m.line_h.begin(), m.line_h.begin() + (j1 - j0 + 1), m.row_xs.begin());
+      zi = depth_at(m.row_xs, j0, c);
+      if (std::isfinite(zi)) ++valid_rows;
+    }
+    const double lateral = col_lateral_m(c);
+    if (valid_rows < std::max(3.0, P.min_valid_fraction * m.rows)) {
+      say_append(m.rejected, " track at %.3g m: too few measurable rows (%d);", lateral, valid_rows);
+      continue;
+    }
+    double acc = 0.0, acc2 = 0.0;
+    for (int i = 0; i < m.rows; ++i) {
+      const double z = m.raw[static_cast<std::size_t>(i)];
+      if (!std::isfinite(z)) continue;
+      acc += z;
+      acc2 += z * z;
+    }
+    const double mean = acc / valid_rows;
+    const double sd = std::sqrt(std::max(0.0, acc2 / valid_rows - mean * mean));
+    const double std_err = sd / std::sqrt(std::max(1.0, static_cast<double>(valid_rows) / win));
+    if (!(mean >= P.min_sinkage_m) || mean <= 0.0 || mean < P.detection_snr * std_err) {
+      if (cd.configured) {
+        say(out.reason,
+            "no track found at configured lateral %.3g m: mean sinkage %.3g mm below "
+            "min_sinkage_m %.3g mm or not significant (%.3g standard errors, detection_snr %.3g)",
+            cd.configured_lateral, mean * 1e3, P.min_sinkage_m * 1e3,
+            std_err > 0 ? mean / std_err : 0.0, P.detection_snr);
+        m.release_tracks(out);
+        return;
+      }
+      say_append(m.rejected, " trough at %.3g m only %.3g mm deep;", lateral, mean * 1e3);
+      continue;
+    }
+    const std::size_t slot = out.tracks.size();  // < track_cap: one slot per candidate at most
+    TrackProfile& tp = m.add_profile(out);
+    tp.lateral_m = lateral;
+    tp.load_n = cd.load;
+    tp.samples = valid_rows;
+    tp.mean_sinkage_m = mean;
+    tp.std_sinkage_m = sd;
+    // smoothed output profile
+    tp.range_m.resize(static_cast<std::size_t>(m.rows));
+    tp.sinkage_m.resize(static_cast<std::size_t>(m.rows));
+    for (int i = 0; i < m.rows; ++i) {
+      double a2 = 0.0;
+      int n = 0;
+      for (int q = std::max(0, i - win / 2); q <= std::min(m.rows - 1, i + win / 2); ++q) {
+        const double z = m.raw[static_cast<std::size_t>(q)];
+        if (std::isfinite(z)) { a2 += z; ++n; }
+      }
+      tp.range_m[static_cast<std::size_t>(i)] = row_range_m(i);
+      tp.sinkage_m[static_cast<std::size_t>(i)] =
+          (n * 2 >= std::min(m.rows, win / 2 * 2 + 1) && std::isfinite(m.raw[static_cast<std::size_t>(i)])) ? a2 / n : kNaN;
+    }
+    tp.k_fixed = stiffness_from_sinkage(tp.mean_sinkage_m, P.n_fixed, tp.load_n, b,
+                                        rover_.wheel_diameter_m, P.model);
+    std::copy(m.raw.begin(), m.raw.end(), m.kept_raw[slot].begin());
+  }
+  if (static_cast<int>(out.tracks.size()) > P.max_tracks) {
+    // keep the max_tracks deepest, in their lateral order (swaps move buffers, no allocation)
+    m.order.resize(out.tracks.size());
+    std::iota(m.order.begin(), m.order.end(), std::size_t{0});
+    std::sort(m.order.begin(), m.order.end(), [&](std::size_t a, std::size_t c) {
+      return out.tracks[a].mean_sinkage_m > out.tracks[c].mean_sinkage_m;
+    });
+    m.order.resize(static_cast<std::size_t>(P.max_tracks));
+    std::sort(m.order.begin(), m.order.end());
+    for (std::size_t w = 0; w < m.order.size(); ++w) {
+      const std::size_t q = m.order[w];  // q >= w: ascending selection
+      if (q == w) continue;
+      std::swap(out.tracks[w], out.tracks[q]);
+      std::swap(m.kept_raw[w], m.kept_raw[q]);
+    }
+    while (static_cast<int>(out.tracks.size()) > P.max_tracks) {
+      if (m.spare.size() < m.spare.capacity()) m.spare.push_back(std::move(out.tracks.back()));
+      out.tracks.pop_back();
+    }
+  }
+  if (out.tracks.empty()) {
+    say(out.reason, "no wheel tracks detected: candidate troughs rejected:%s (min_sinkage_m %.3g mm)",
+        m.rejected.c_str(), P.min_sinkage_m * 1e3);
+    return;
+  }
+
+  // ---- 6. fits
+  const double D = rover_.wheel_diameter_m;
+  const std::size_t nt = out.tracks.size();
+  auto fixed_k = [&](const std::vector<double>& means) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t t = 0; t < nt; ++t) {
+      if (!(means[t] > 0.0)) return kNaN;
+      const double w = out.tracks[t].samples;
+      num += w * std::log(stiffness_from_sinkage(means[t], P.n_fixed, out.tracks[t].load_n, b, D, P.model));
+      den += w;
+    }
+    return std::exp(num / den);
+  };
+  auto joint = [&](const std::vector<double>& means) {
+    m.samples.clear();
+    for (std::size_t t = 0; t < nt; ++t) m.samples.push_back({means[t], out.tracks[t].load_n, b, D});
+    return fit_joint(m.samples, P.model, P.min_load_ratio);
+  };
+  m.means.clear();
+  m.ks.clear();
+  double all = 0.0;
+  int all_n = 0;
+  for (std::size_t t = 0; t < nt; ++t) {
+    m.means.push_back(out.tracks[t].mean_sinkage_m);
+    all += out.tracks[t].mean_sinkage_m * out.tracks[t].samples;
+    all_n += out.tracks[t].samples;
+    for (double z : m.kept_raw[t])
+      if (std::isfinite(z) && z > 0.0)
+        m.ks.push_back(stiffness_from_sinkage(z, P.n_fixed, out.tracks[t].load_n, b, D, P.model));
+  }
+  out.mean_sinkage_m = all / all_n;
+  out.samples_used = all_n;
+  out.k_fixed = fixed_k(m.means);
+  out.k_spread_p25 = percentile(m.ks, 0.25);
+  out.k_spread_p75 = percentile(m.ks, 0.75);
+  const JointFit jf = joint(m.means);
+  out.joint_ok = jf.ok;
+  if (!jf.ok) say(out.joint_reason, "%s", jf.reason);
+  out.k_joint = jf.k;
+  out.n_joint = jf.n;
+  if (P.bootstrap_samples > 0) {
+    // moving-block bootstrap over each track's rows (block = smoothing window: rows are correlated)
+    std::mt19937 rng(P.seed);
+    m.bk.clear();
+    m.bjk.clear();
+    m.bjn.clear();
+    m.bmeans.assign(nt, 0.0);
+    for (std::size_t t = 0; t < nt; ++t) {
+      m.valid_raw[t].clear();
+      for (double z : m.kept_raw[t])
+        if (std::isfinite(z)) m.valid_raw[t].push_back(z);
+    }
+    for (int s = 0; s < P.bootstrap_samples; ++s) {
+      for (std::size_t t = 0; t < nt; ++t) {
+        const auto& v = m.valid_raw[t];
+        const int nv = static_cast<int>(v.size());
+        const int blk = std::min(nv, win);
+        std::uniform_int_distribution<int> pick(0, nv - blk);
+        double acc = 0.0;
+        int n = 0;
+        while (n < nv) {
+          const int st = pick(rng);
+          for (int q = 0; q < blk && n < nv; ++q, ++n) acc += v[static_cast<std::size_t>(st + q)];
+        }
+        m.bmeans[t] = acc / nv;
+      }
+      const double k = fixed_k(m.bmeans);
+      if (std::isfinite(k)) m.bk.push_back(k);
+      if (out.joint_ok) {
+        const JointFit b2 = joint(m.bmeans);
+        if (b2.ok) { m.bjk.push_back(b2.k); m.bjn.push_back(b2.n); }
+      }
+    }
+    auto sd = [](const std::vector<double>& v) {
+      if (v.size() < 2) return 0.0;
+      const double mu = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+      double a = 0.0;
+      for (double x : v) a += (x - mu) * (x - mu);
+      return std::sqrt(a / static_cast<double>(v.size() - 1));
+    };
+    out.k_fixed_std = sd(m.bk);
+    out.k_joint_std = sd(m.bjk);
+    out.n_joint_std = sd(m.bjn);
+  }
+  const double kc = out.joint_ok ? out.k_joint : out.k_fixed;
+  const double nc = out.joint_ok ? out.n_joint : out.n_fixed;
+  out.class_pressure_pa = bg_pressure(kc, nc, P.class_z_ref_m);
+  out.soil_class = out.class_pressure_pa < P.loose_below_pa  ? SoilClass::kLoose
+                   : out.class_pressure_pa > P.firm_above_pa ? SoilClass::kFirm
+                                                             : SoilClass::kNominal;
+  out.ok = true;
+}
+
+}  // namespace regolith::soil

@@ -1,0 +1,130 @@
+#pragma once
+// Metric elevation + traversability grid ahead of the rover from SfS heights and direct depth.
+//
+// Grid conventions follow grid_map (frameworks.md 2.5 / 5): the map lies in the rover body frame
+// (REP-103: x forward, y left, z up, metres); GridMap::data[k] is a cv::Mat of CV_32F with
+// rows = cells along x and cols = cells along y; cell index (0, 0) is the +x/+y corner and indices
+// grow towards -x / -y. Cell (i, j) centre:
+//   x = center_x + length_x / 2 - (i + 0.5) * resolution
+//   y = center_y + length_y / 2 - (j + 0.5) * resolution
+// NaN marks unknown cells in every layer (confidence is 0 there).
+//
+// Scale recovery (SfS heights are relative, in image pixel units; see README "Scale recovery"):
+// Lambertian shading senses the slope along the sun's horizontal direction. Linear SfS in the
+// image frame returns dH/ds = -(dE/E0) / tan(slant) per image pixel along the light's image
+// direction, while the ground truth obeys dh/dl = -(dE/E0) * tan(sun elevation above the ground).
+// Hence, per pixel,
+//   h [m] = H [px units] * tan(slant) * tan(elevation) * L_g
+// with L_g the ground length (m) of a one-pixel image step along the light's image direction,
+// from the direct-depth footprints (range footprint for the row component, lateral footprint for
+// the column component). The SfS height image is first high-pass filtered (a smooth background of
+// detrend_sigma_px, three box passes ~ Gaussian, is subtracted: SfS low frequencies are drift).
+// Each pixel's point is then placed on its viewing ray at that height: (x, y) = flat-ground
+// (range, lateral) * (1 - z / mount_height).
+#include <opencv2/core.hpp>
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "regolith/direct_depth/direct_depth.hpp"
+
+namespace regolith::traversability {
+
+struct GridMap {
+  double resolution_m = 0.0;
+  double length_x_m = 0.0, length_y_m = 0.0;
+  double center_x_m = 0.0, center_y_m = 0.0;  ///< map centre in the body frame
+  std::vector<std::string> layers;
+  std::vector<cv::Mat> data;  ///< one CV_32F (size_x rows, size_y cols) per layer
+  int size_x() const { return data.empty() ? 0 : data[0].rows; }
+  int size_y() const { return data.empty() ? 0 : data[0].cols; }
+  /// Index of a layer; throws std::out_of_range naming it if absent.
+  /// (string_view: no temporary std::string, so lookups do not allocate.)
+  std::size_t layer_index(std::string_view name) const;
+  const cv::Mat& layer(std::string_view name) const { return data[layer_index(name)]; }
+  /// Cell centre in the body frame.
+  cv::Point2d cell_center(int i, int j) const;
+  /// Cell containing (x, y); false if outside.
+  bool cell_of(double x, double y, int& i, int& j) const;
+};
+
+/// Copies layer `k` into `out` in grid_map's column-major order (index i + j * size_x) — the
+/// layout of grid_map_msgs Float32MultiArray data (dim[0] "column_index" = size_y,
+/// dim[1] "row_index" = size_x). `out` must hold size_x * size_y floats (else invalid_argument).
+void export_column_major(const GridMap& map, std::size_t k, float* out, std::size_t n);
+std::vector<float> export_column_major(const GridMap& map, std::size_t k);
+
+struct TraversabilityParams {
+  double resolution_m = 0.05;   ///< m per cell
+  double length_x_m = 4.0;      ///< m, extent along x
+  double length_y_m = 4.0;      ///< m, extent along y
+  double center_x_m = 3.0;      ///< m, map centre ahead of the rover (body frame)
+  double center_y_m = 0.0;      ///< m
+  double detrend_sigma_px = 30.0;  ///< px, smooth background removed from SfS heights (0 = off)
+  double height_gain = 1.0;     ///< extra multiplier on the metric SfS heights (calibration)
+  double max_range_m = 10.0;    ///< m, pixels beyond this flat-ground range are ignored
+  double critical_slope_rad = 0.35;   ///< rad (20 deg), slope at which traversability_slope = 0
+  double critical_step_m = 0.12;      ///< m, step height at which traversability_step = 0
+  double critical_roughness_m = 0.05; ///< m, roughness at which traversability_roughness = 0
+  double slope_radius_m = 0.10;       ///< m, neighbourhood for the plane fit (slope, roughness)
+  double step_radius_m = 0.10;        ///< m, neighbourhood for max - min height (step)
+  double weight_slope = 0.4, weight_step = 0.4, weight_roughness = 0.2;  ///< combination weights
+  double full_confidence_points = 4.0;  ///< points per cell for confidence 1
+  void validate() const;  ///< throws std::invalid_argument naming the field
+};
+
+/// Layer names, in GridMap::layers order.
+inline const std::vector<std::string>& layer_names() {
+  static const std::vector<std::string> names{"elevation", "traversability_slope",
+                                              "traversability_roughness", "traversability_step",
+                                              "traversability", "confidence"};
+  return names;
+}
+
+/// Light used by the SfS solver, in the camera image frame (regolith::sfs::LightDirection
+/// convention: slant from the line of sight back to the camera, tilt from image +x towards +y).
+struct ImageLight {
+  double slant_rad = 0.0;  ///< rad
+  double tilt_rad = 0.0;   ///< rad
+};
+
+/// Sun elevation above the ground plane (rad) for a light given in the image frame of `model`.
+double sun_elevation(const direct_depth::CameraModel& model, const ImageLight& light);
+
+class TraversabilityMapper {
+ public:
+  /// Pre-allocates every buffer for the camera's image size and the grid.
+  TraversabilityMapper(const direct_depth::DirectDepth& depth, const TraversabilityParams& params);
+
+  /// SfS heights (CV_32F, pixel units, up positive, image size) + validity (CV_8U, may be empty)
+  /// + the light the SfS used -> metric grid. No heap allocation after the first call when `out`
+  /// is reused. A light whose sun is at or below the ground horizon (or a non-finite light) gives
+  /// an all-unknown map (NaN, confidence 0): shading carries no usable height information.
+  void compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid, const ImageLight& light,
+                        GridMap& out);
+  /// Metric height above the flat ground per pixel (CV_32F metres, NaN = unknown).
+  void compute_from_metric(const cv::Mat& height_m, const cv::Mat& valid, GridMap& out);
+  /// Metric per-pixel heights produced by the last compute_from_sfs (scale recovery output).
+  const cv::Mat& metric_heights() const { return metric_; }
+
+ private:
+  void check_image(const cv::Mat& m, const cv::Mat& valid, const char* what) const;
+  void layers_from_elevation(GridMap& out);
+  const direct_depth::DirectDepth& depth_;
+  TraversabilityParams p_;
+  void smooth(const cv::Mat& src, cv::Mat& dst);  // 3 box passes, no allocation
+  cv::Mat metric_, blur_, tmp_;
+  cv::Mat ground_step_x_, ground_step_y_;  // m per px along columns / rows (footprints)
+  std::vector<double> line_;
+  cv::Mat sum_, count_;
+  int nx_ = 0, ny_ = 0;
+};
+
+/// Computes the traversability layers of an existing elevation grid (for tests and other
+/// sources of elevation): `map` must contain an "elevation" layer; the other layers are
+/// (re)created. Confidence is left as is if present, else 1 where elevation is finite.
+void compute_layers(GridMap& map, const TraversabilityParams& params);
+
+}  // namespace regolith::traversability

@@ -1,0 +1,260 @@
+// Component "traversability": shared DTM -> metric grid map (channel + grid_map_msgs/GridMap).
+#include "regolith/traversability/component.hpp"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+#include <memory>
+#include <string>
+
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/sfs/component.hpp"
+#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
+#include "regolith/saliency/component.hpp"
+#endif
+#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
+#include "regolith/soil_stiffness/component.hpp"
+#include "regolith/soil_stiffness/sinkage_layer.hpp"
+#endif
+
+namespace regolith::traversability {
+namespace {
+
+using GridMapMsg = msgs::grid_map_msgs::GridMap;
+
+class TraversabilityComponent final : public runtime::Component {
+ public:
+  void configure(Params& p, runtime::Context& ctx) override {
+    Params cm = p.child("camera_model");
+    const int w = cm.require<int>("width", {.unit = "px", .min = 8, .max = 16384, .doc = "image width"});
+    const int h = cm.require<int>("height", {.unit = "px", .min = 8, .max = 16384, .doc = "image height"});
+    const direct_depth::CameraModel model = sfs::read_camera_model(cm, w, h);
+
+    TraversabilityParams tp;
+    tp.resolution_m = p.get<double>("resolution_m", tp.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid cell size"});
+    tp.length_x_m = p.get<double>("length_x_m", tp.length_x_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "map extent along x (forward)"});
+    tp.length_y_m = p.get<double>("length_y_m", tp.length_y_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "map extent along y (left)"});
+    tp.center_x_m = p.get<double>("center_x_m", tp.center_x_m, {.unit = "m", .doc = "map centre ahead of the rover (body frame)"});
+    tp.center_y_m = p.get<double>("center_y_m", tp.center_y_m, {.unit = "m", .doc = "map centre, left positive"});
+    tp.detrend_sigma_px = p.get<double>("detrend_sigma_px", tp.detrend_sigma_px, {.unit = "px", .min = 0.0, .doc = "low-frequency SfS drift removed (0 = off)"});
+    tp.height_gain = p.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true, .doc = "extra multiplier on metric SfS heights"});
+    tp.max_range_m = p.get<double>("max_range_m", tp.max_range_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "pixels farther than this are ignored"});
+    tp.critical_slope_rad = p.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true, .doc = "slope with traversability_slope = 0"});
+    tp.critical_step_m = p.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "step with traversability_step = 0"});
+    tp.critical_roughness_m = p.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "roughness with traversability_roughness = 0"});
+    tp.slope_radius_m = p.get<double>("slope_radius_m", tp.slope_radius_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "plane-fit neighbourhood"});
+    tp.step_radius_m = p.get<double>("step_radius_m", tp.step_radius_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "max-min neighbourhood"});
+    tp.weight_slope = p.get<double>("weight_slope", tp.weight_slope, {.min = 0.0, .doc = "weight of the slope score"});
+    tp.weight_step = p.get<double>("weight_step", tp.weight_step, {.min = 0.0, .doc = "weight of the step score"});
+    tp.weight_roughness = p.get<double>("weight_roughness", tp.weight_roughness, {.min = 0.0, .doc = "weight of the roughness score"});
+    tp.full_confidence_points = p.get<double>("full_confidence_points", tp.full_confidence_points, {.min = 0.0, .min_exclusive = true, .doc = "pixels per cell for confidence 1"});
+    const std::string frame_id = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of the grid map"});
+    const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
+                                                                    .doc = "the DTM input is stale after this long"});
+    try {
+      depth_ = std::make_unique<direct_depth::DirectDepth>(model);
+      mapper_ = std::make_unique<TraversabilityMapper>(*depth_, tp);
+    } catch (const std::invalid_argument& e) {
+      p.fail({}, e.what());
+    }
+    // Warm-up on a flat DTM: sizes every buffer of the mapper and of map_.
+    cv::Mat flat(h, w, CV_32F, cv::Scalar(0));
+    mapper_->compute_from_sfs(flat, cv::Mat(), {0.5, 0.5}, map_);
+    // Layers other components measure, appended after the mapper's own (NaN until they arrive).
+    std::vector<std::string> available;
+#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
+    available.emplace_back("rock_probability");
+#endif
+#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
+    available.emplace_back("sinkage");
+#endif
+    const auto extra = p.get<std::vector<std::string>>(
+        "extra_layers", {}, {.choices = available,
+                             .doc = "layers merged from other components: rock_probability (sams), sinkage (soil_stiffness)"});
+    full_ = map_;
+    for (auto& m : full_.data) m = m.clone();
+    base_layers_ = map_.data.size();
+    for (const auto& name : extra) {
+      full_.layers.push_back(name);
+      full_.data.emplace_back(map_.size_x(), map_.size_y(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
+      if (name == "rock_probability") {
+        rock_index_ = full_.data.size() - 1;
+        // Whichever of sams / traversability configures first creates the channel: both describe
+        // the same grid (sams is configured with the traversability grid's geometry).
+        const int nx = map_.size_x(), ny = map_.size_y();
+        const GridMap& g = map_;
+        rocks_ = &ctx.channel<saliency::RockProbabilityFrame>(saliency::kRockProbabilityChannel, 4, [nx, ny, &g] {
+          saliency::RockProbabilityFrame f;
+          f.resolution_m = g.resolution_m;
+          f.length_x_m = g.length_x_m;
+          f.length_y_m = g.length_y_m;
+          f.center_x_m = g.center_x_m;
+          f.center_y_m = g.center_y_m;
+          f.probability.create(nx, ny, CV_32F);
+          f.probability.setTo(std::numeric_limits<float>::quiet_NaN());
+          return f;
+        });
+      }
+#endif
+#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
+      if (name == "sinkage") {
+        sinkage_index_ = full_.data.size() - 1;
+        sinkage_ = &ctx.channel<soil::SinkageLayer>(soil::kSinkageLayerChannel, 2, [] { return soil::SinkageLayer{}; });
+      }
+#endif
+    }
+    const GridMap proto = full_;
+    dtm_ = &ctx.channel<sfs::DtmFrame>(sfs::kDtmChannel, 4, [w, h] {
+      sfs::DtmFrame f;
+      f.gray.create(h, w, CV_8U);
+      f.height.create(h, w, CV_32F);
+      f.valid.create(h, w, CV_8U);
+      return f;
+    });
+    out_ = &ctx.channel<GridMapFrame>(kGridMapChannel, 4, [proto] {
+      GridMapFrame f;
+      f.map = proto;
+      for (auto& m : f.map.data) m = m.clone();
+      return f;
+    });
+    input_ = &watch_input("dtm", from_seconds(timeout_s));
+    if (dds::Participant* part = ctx.dds()) {
+      const dds::TopicInfo* info = dds::find_topic(kGridMapChannel);
+      if (info == nullptr) p.fail({}, "DDS topic terrain/grid_map is unknown to this build");
+      const auto nx = static_cast<std::uint32_t>(map_.size_x()), ny = static_cast<std::uint32_t>(map_.size_y());
+      const GridMap& g = full_;
+      msg_ = part->make_outbox<GridMapMsg>(
+          kGridMapChannel, info->writer_qos(), dds::OutboxOptions{dds::OutboxMode::kLatest, 4},
+          [nx, ny, &g, &frame_id](GridMapMsg& m) {
+            const auto nl = static_cast<std::uint32_t>(g.layers.size());
+            dds::reserve(m, dds::GridMapCapacity{nl, 1, nx, ny, 32, 32});
+            dds::copy_string(m.header.frame_id, 32, frame_id);
+            dds::set_length(m.layers, nl);
+            dds::set_length(m.data, nl);  // reserve() sizes every layer; the sequence length is ours
+            for (std::uint32_t k = 0; k < nl; ++k) dds::copy_string(m.layers._buffer[k], 32, g.layers[k]);
+            dds::set_length(m.basic_layers, 1);
+            dds::copy_string(m.basic_layers._buffer[0], 32, "elevation");
+            m.info.resolution = g.resolution_m;
+            m.info.length_x = g.length_x_m;
+            m.info.length_y = g.length_y_m;
+            m.info.pose.position.x = g.center_x_m;
+            m.info.pose.position.y = g.center_y_m;
+          });
+    }
+  }
+
+  void step(const runtime::CycleInfo& c) override {
+    auto lease = dtm_->acquire();
+    if (!lease) return;
+    const sfs::DtmFrame& d = *lease;
+    if (have_last_ && d.sequence == last_seq_ && d.stamp == last_stamp_) return;
+    have_last_ = true;
+    last_seq_ = d.sequence;
+    last_stamp_ = d.stamp;
+    input_updated(*input_, c.now);
+    if (d.height.size() != cv::Size(depth_->model().width, depth_->model().height)) {
+      count_error();
+      set_status("DTM size differs from camera_model width/height");
+      return;
+    }
+    try {
+      mapper_->compute_from_sfs(d.height, d.valid, {d.light.slant_rad, d.light.tilt_rad}, map_);
+    } catch (const std::exception&) {
+      count_error();
+      set_status("grid map computation failed on this frame");
+      return;
+    }
+    for (std::size_t k = 0; k < base_layers_; ++k) map_.data[k].copyTo(full_.data[k]);
+    merge_extra_layers(d.sequence);
+    if (GridMapFrame* f = out_->begin_write()) {
+      for (std::size_t k = 0; k < full_.data.size(); ++k) full_.data[k].copyTo(f->map.data[k]);
+      f->stamp = d.stamp;
+      f->sequence = d.sequence;
+      out_->commit();
+    }
+    if (msg_) {
+      if (GridMapMsg* m = msg_->begin()) {
+        dds::set_time(m->header.stamp, d.stamp);
+        for (std::size_t k = 0; k < full_.data.size(); ++k) {
+          auto& seq = m->data._buffer[k].data;
+          export_column_major(full_, k, seq._buffer, seq._length);
+        }
+        msg_->commit();
+      }
+    }
+    set_status("ok");
+  }
+
+ private:
+  // Copies the newest layers of other components into full_ (NaN when absent or mismatched).
+  void merge_extra_layers([[maybe_unused]] std::uint64_t sequence) {
+    constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
+    if (rocks_ != nullptr) {
+      cv::Mat& dst = full_.data[rock_index_];
+      auto r = rocks_->acquire();
+      // Same frame and same grid only: the sams component runs before this one in the group.
+      if (r && r->sequence == sequence && r->probability.size() == dst.size() &&
+          std::abs(r->resolution_m - map_.resolution_m) < 1e-9) {
+        r->probability.copyTo(dst);
+      } else {
+        fill_nan(dst, kNaN);
+      }
+    }
+#endif
+#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
+    if (sinkage_ != nullptr) {
+      cv::Mat& dst = full_.data[sinkage_index_];
+      auto l = sinkage_->acquire();
+      if (l && l->valid) {
+        const soil::GridGeometry g{map_.resolution_m, map_.length_x_m, map_.length_y_m, map_.center_x_m, map_.center_y_m};
+        soil::rasterise_sinkage(*l, g, dst);
+      } else {
+        fill_nan(dst, kNaN);
+      }
+    }
+#endif
+  }
+  static void fill_nan(cv::Mat& m, float nan) {
+    for (int r = 0; r < m.rows; ++r) {
+      float* row = m.ptr<float>(r);
+      for (int c = 0; c < m.cols; ++c) row[c] = nan;
+    }
+  }
+
+  GridMap full_;                 // the mapper's layers + extra layers, as published
+  std::size_t base_layers_ = 0;
+#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
+  LatestPool<saliency::RockProbabilityFrame>* rocks_ = nullptr;
+  std::size_t rock_index_ = 0;
+#endif
+#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
+  LatestPool<soil::SinkageLayer>* sinkage_ = nullptr;
+  std::size_t sinkage_index_ = 0;
+#endif
+  std::unique_ptr<direct_depth::DirectDepth> depth_;
+  std::unique_ptr<TraversabilityMapper> mapper_;
+  GridMap map_;
+  LatestPool<sfs::DtmFrame>* dtm_ = nullptr;
+  LatestPool<GridMapFrame>* out_ = nullptr;
+  std::shared_ptr<dds::Outbox<GridMapMsg>> msg_;
+  runtime::InputWatch* input_ = nullptr;
+  bool have_last_ = false;
+  std::uint64_t last_seq_ = 0;
+  TimeNs last_stamp_ = 0;
+};
+
+}  // namespace
+
+void register_component() {
+  runtime::ComponentRegistry::instance().add(
+      "traversability",
+      "terrain/dtm + camera model -> metric elevation and traversability layers (terrain/grid_map)",
+      [] { return std::make_unique<TraversabilityComponent>(); });
+}
+
+}  // namespace regolith::traversability

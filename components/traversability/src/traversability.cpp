@@ -1,0 +1,362 @@
+#include "regolith/traversability/traversability.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace regolith::traversability {
+namespace {
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw std::invalid_argument("traversability: " + field + ": " + why);
+}
+
+// Fills a continuous or strided Mat of float / double / uchar with v without allocating
+// (cv::Mat::setTo converts the scalar through a heap buffer).
+template <class T>
+void fill(cv::Mat& m, T v) {
+  for (int r = 0; r < m.rows; ++r) {
+    T* p = m.ptr<T>(r);
+    std::fill(p, p + m.cols * m.channels(), v);
+  }
+}
+
+void check_pos(double v, const char* name) {
+  if (!std::isfinite(v) || v <= 0) fail(name, "must be > 0");
+}
+
+// (Re)shapes `out` for the parameters; allocates only when the geometry changes.
+void ensure_grid(GridMap& out, const TraversabilityParams& p, int nx, int ny) {
+  out.resolution_m = p.resolution_m;
+  out.length_x_m = nx * p.resolution_m;
+  out.length_y_m = ny * p.resolution_m;
+  out.center_x_m = p.center_x_m;
+  out.center_y_m = p.center_y_m;
+  const auto& names = layer_names();
+  if (out.layers != names) out.layers = names;
+  if (out.data.size() != names.size()) out.data.resize(names.size());
+  for (auto& m : out.data) m.create(nx, ny, CV_32F);
+}
+
+}  // namespace
+
+std::size_t GridMap::layer_index(std::string_view name) const {
+  for (std::size_t k = 0; k < layers.size(); ++k)
+    if (layers[k] == name) return k;
+  throw std::out_of_range("traversability: GridMap has no layer '" + std::string(name) + "'");
+}
+
+cv::Point2d GridMap::cell_center(int i, int j) const {
+  return {center_x_m + 0.5 * length_x_m - (i + 0.5) * resolution_m,
+          center_y_m + 0.5 * length_y_m - (j + 0.5) * resolution_m};
+}
+
+bool GridMap::cell_of(double x, double y, int& i, int& j) const {
+  const double fi = (center_x_m + 0.5 * length_x_m - x) / resolution_m;
+  const double fj = (center_y_m + 0.5 * length_y_m - y) / resolution_m;
+  if (!(fi >= 0 && fj >= 0 && fi < size_x() && fj < size_y())) return false;
+  i = static_cast<int>(fi);
+  j = static_cast<int>(fj);
+  return true;
+}
+
+void export_column_major(const GridMap& map, std::size_t k, float* out, std::size_t n) {
+  if (k >= map.data.size()) fail("layer", "index " + std::to_string(k) + " out of range");
+  const cv::Mat& m = map.data[k];
+  if (m.type() != CV_32FC1) fail("layer " + map.layers.at(k), "must be CV_32FC1");
+  if (out == nullptr || n != m.total())
+    fail("out", "buffer must hold size_x * size_y = " + std::to_string(m.total()) + " floats");
+  const int rows = m.rows;
+  for (int i = 0; i < rows; ++i) {
+    const float* p = m.ptr<float>(i);
+    for (int j = 0; j < m.cols; ++j) out[static_cast<std::size_t>(i) + static_cast<std::size_t>(j) * static_cast<std::size_t>(rows)] = p[j];
+  }
+}
+
+std::vector<float> export_column_major(const GridMap& map, std::size_t k) {
+  if (k >= map.data.size()) fail("layer", "index " + std::to_string(k) + " out of range");
+  std::vector<float> v(map.data[k].total());
+  export_column_major(map, k, v.data(), v.size());
+  return v;
+}
+
+void TraversabilityParams::validate() const {
+  check_pos(resolution_m, "resolution_m");
+  check_pos(length_x_m, "length_x_m");
+  check_pos(length_y_m, "length_y_m");
+  if (length_x_m / resolution_m > 4096 || length_y_m / resolution_m > 4096)
+    fail("length_x_m/length_y_m", "more than 4096 cells per side");
+  if (!std::isfinite(center_x_m) || !std::isfinite(center_y_m)) fail("center_x_m/center_y_m", "must be finite");
+  if (!std::isfinite(detrend_sigma_px) || detrend_sigma_px < 0) fail("detrend_sigma_px", "must be >= 0");
+  if (!std::isfinite(height_gain)) fail("height_gain", "must be finite");
+  check_pos(max_range_m, "max_range_m");
+  if (!std::isfinite(critical_slope_rad) || critical_slope_rad <= 0 || critical_slope_rad >= CV_PI / 2)
+    fail("critical_slope_rad", "must be in (0, pi/2)");
+  check_pos(critical_step_m, "critical_step_m");
+  check_pos(critical_roughness_m, "critical_roughness_m");
+  check_pos(slope_radius_m, "slope_radius_m");
+  check_pos(step_radius_m, "step_radius_m");
+  for (double w : {weight_slope, weight_step, weight_roughness})
+    if (!std::isfinite(w) || w < 0) fail("weight_slope/weight_step/weight_roughness", "must be >= 0");
+  if (!(weight_slope + weight_step + weight_roughness > 0))
+    fail("weight_slope/weight_step/weight_roughness", "at least one must be > 0");
+  check_pos(full_confidence_points, "full_confidence_points");
+}
+
+TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& depth,
+                                           const TraversabilityParams& params)
+    : depth_(depth), p_(params) {
+  p_.validate();
+  nx_ = static_cast<int>(std::lround(p_.length_x_m / p_.resolution_m));
+  ny_ = static_cast<int>(std::lround(p_.length_y_m / p_.resolution_m));
+  nx_ = std::max(nx_, 1);
+  ny_ = std::max(ny_, 1);
+  const cv::Size sz(depth_.model().width, depth_.model().height);
+  metric_.create(sz, CV_32F);
+  blur_.create(sz, CV_32F);
+  tmp_.create(sz, CV_32F);
+  line_.assign(static_cast<std::size_t>(std::max(sz.width, sz.height)), 0.0);
+  sum_.create(nx_, ny_, CV_64F);
+  count_.create(nx_, ny_, CV_32F);
+}
+
+void TraversabilityMapper::check_image(const cv::Mat& m, const cv::Mat& valid, const char* what) const {
+  const cv::Size sz(depth_.model().width, depth_.model().height);
+  if (m.empty()) fail(what, "empty image");
+  if (m.type() != CV_32FC1) fail(what, "must be CV_32FC1");
+  if (m.size() != sz)
+    fail(what, "size " + std::to_string(m.cols) + "x" + std::to_string(m.rows) +
+                   " differs from the camera model " + std::to_string(sz.width) + "x" +
+                   std::to_string(sz.height));
+  if (!valid.empty() && (valid.type() != CV_8UC1 || valid.size() != sz))
+    fail("valid", "must be empty or CV_8UC1 of the image size");
+}
+
+double sun_elevation(const direct_depth::CameraModel& m, const ImageLight& l) {
+  // Sun in the image frame (x right, y down, z towards the viewer) -> optical (z forward) ->
+  // body (x forward, y left, z up), with the rotation conventions of direct_depth.
+  const cv::Vec3d s_opt(std::cos(l.tilt_rad) * std::sin(l.slant_rad), std::sin(l.tilt_rad) * std::sin(l.slant_rad),
+                        -std::cos(l.slant_rad));
+  const double cr = std::cos(m.roll_rad), sr = std::sin(m.roll_rad);
+  const cv::Matx33d roll(cr, -sr, 0, sr, cr, 0, 0, 0, 1);
+  const cv::Matx33d b0(0, 0, 1, -1, 0, 0, 0, -1, 0);
+  const double ca = std::cos(m.pitch_rad), sa = std::sin(m.pitch_rad);
+  const cv::Matx33d pitch(ca, 0, sa, 0, 1, 0, -sa, 0, ca);
+  const cv::Vec3d s_body = pitch * b0 * roll * s_opt;
+  return std::asin(std::clamp(s_body[2], -1.0, 1.0));
+}
+
+// Three passes of a running box filter of half-width k (separable): ~Gaussian of sigma
+// sqrt(3 * ((2k+1)^2 - 1) / 12). Border: clamped. Uses line_ (sized in the constructor).
+void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst) {
+  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * p_.detrend_sigma_px * p_.detrend_sigma_px + 1.0) - 1.0) / 2.0)));
+  src.copyTo(dst);
+  const int W = dst.cols, H = dst.rows;
+  auto pass = [&](float* base, int n, std::ptrdiff_t stride) {
+    for (int i = 0; i < n; ++i) line_[static_cast<std::size_t>(i)] = static_cast<double>(base[i * stride]);
+    double acc = 0.0;
+    for (int i = -k; i <= k; ++i) acc += line_[static_cast<std::size_t>(std::clamp(i, 0, n - 1))];
+    const double inv = 1.0 / (2 * k + 1);
+    for (int i = 0; i < n; ++i) {
+      base[i * stride] = static_cast<float>(acc * inv);
+      acc += line_[static_cast<std::size_t>(std::min(i + k + 1, n - 1))] - line_[static_cast<std::size_t>(std::max(i - k, 0))];
+    }
+  };
+  for (int rep = 0; rep < 3; ++rep) {
+    for (int r = 0; r < H; ++r) pass(dst.ptr<float>(r), W, 1);
+    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(dst.step1());
+    for (int c = 0; c < W; ++c) pass(dst.ptr<float>(0) + c, H, stride);
+  }
+}
+
+void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid,
+                                            const ImageLight& light, GridMap& out) {
+  check_image(height_px, valid, "height_px");
+  const double el = sun_elevation(depth_.model(), light);
+  if (!std::isfinite(light.slant_rad) || !std::isfinite(light.tilt_rad) || !(el > 0.01) ||
+      !(light.slant_rad >= 0.0) || !(light.slant_rad < CV_PI / 2)) {
+    fill(metric_, kNaNf);  // no usable shading: unknown everywhere
+    compute_from_metric(metric_, valid, out);
+    return;
+  }
+  if (p_.detrend_sigma_px > 0) {
+    smooth(height_px, blur_);
+    for (int r = 0; r < metric_.rows; ++r) {  // plain loop: no temporaries
+      const float* ph = height_px.ptr<float>(r);
+      const float* pb = blur_.ptr<float>(r);
+      float* pm = metric_.ptr<float>(r);
+      for (int c = 0; c < metric_.cols; ++c) pm[c] = ph[c] - pb[c];
+    }
+  } else {
+    height_px.copyTo(metric_);
+  }
+  // h = H * tan(slant) * tan(elevation) * L_g (see the header); L_g from the footprints.
+  const double k = std::tan(light.slant_rad) * std::tan(el) * p_.height_gain;
+  const double ct = std::abs(std::cos(light.tilt_rad)), st = std::abs(std::sin(light.tilt_rad));
+  const cv::Mat& fl = depth_.footprint_lateral_map();
+  const cv::Mat& fr = depth_.footprint_range_map();
+  for (int r = 0; r < metric_.rows; ++r) {
+    float* pm = metric_.ptr<float>(r);
+    const float* pl = fl.ptr<float>(r);
+    const float* pr = fr.ptr<float>(r);
+    for (int c = 0; c < metric_.cols; ++c) {
+      const double lg = std::hypot(ct * static_cast<double>(pl[c]), st * static_cast<double>(pr[c]));
+      pm[c] = static_cast<float>(static_cast<double>(pm[c]) * k * lg);  // NaN where invalid
+    }
+  }
+  compute_from_metric(metric_, valid, out);
+}
+
+void TraversabilityMapper::compute_from_metric(const cv::Mat& height_m, const cv::Mat& valid, GridMap& out) {
+  check_image(height_m, valid, "height_m");
+  ensure_grid(out, p_, nx_, ny_);
+  fill(sum_, 0.0);
+  fill(count_, 0.0f);
+  const cv::Mat& rng = depth_.range_map();
+  const cv::Mat& lat = depth_.lateral_map();
+  const double h = depth_.model().mount_height_m;
+  const double x0 = p_.center_x_m + 0.5 * out.length_x_m, y0 = p_.center_y_m + 0.5 * out.length_y_m;
+  for (int r = 0; r < height_m.rows; ++r) {
+    const float* pz = height_m.ptr<float>(r);
+    const float* pr = rng.ptr<float>(r);
+    const float* pl = lat.ptr<float>(r);
+    const uchar* pv = valid.empty() ? nullptr : valid.ptr<uchar>(r);
+    for (int c = 0; c < height_m.cols; ++c) {
+      if (pv && !pv[c]) continue;
+      const double z = static_cast<double>(pz[c]);
+      const double fr = static_cast<double>(pr[c]);
+      if (!std::isfinite(z) || !std::isfinite(fr) || fr > p_.max_range_m) continue;
+      if (z >= h) continue;  // above the camera: cannot lie on this downward ray
+      const double k = 1.0 - z / h;
+      const double x = fr * k, y = static_cast<double>(pl[c]) * k;
+      const double fi = (x0 - x) / p_.resolution_m, fj = (y0 - y) / p_.resolution_m;
+      if (!(fi >= 0 && fj >= 0 && fi < nx_ && fj < ny_)) continue;
+      const int i = static_cast<int>(fi), j = static_cast<int>(fj);
+      sum_.at<double>(i, j) += z;
+      count_.at<float>(i, j) += 1.0f;
+    }
+  }
+  cv::Mat& elev = out.data[0];
+  cv::Mat& conf = out.data[5];
+  const float full = static_cast<float>(p_.full_confidence_points);
+  for (int i = 0; i < nx_; ++i)
+    for (int j = 0; j < ny_; ++j) {
+      const float n = count_.at<float>(i, j);
+      elev.at<float>(i, j) = n > 0 ? static_cast<float>(sum_.at<double>(i, j) / static_cast<double>(n)) : kNaNf;
+      conf.at<float>(i, j) = n > 0 ? std::min(1.0f, n / full) : 0.0f;
+    }
+  layers_from_elevation(out);
+}
+
+void TraversabilityMapper::layers_from_elevation(GridMap& out) { compute_layers(out, p_); }
+
+void compute_layers(GridMap& map, const TraversabilityParams& p) {
+  p.validate();
+  const std::size_t ke = map.layer_index("elevation");
+  const cv::Mat elev = map.data[ke];
+  if (elev.type() != CV_32FC1) fail("elevation", "must be CV_32FC1");
+  const int nx = elev.rows, ny = elev.cols;
+  bool has_conf = true;
+  try {
+    (void)map.layer_index("confidence");
+  } catch (const std::out_of_range&) {
+    has_conf = false;
+  }
+  if (!has_conf) {
+    map.layers.push_back("confidence");
+    cv::Mat c(nx, ny, CV_32F);
+    for (int i = 0; i < nx; ++i)
+      for (int j = 0; j < ny; ++j) c.at<float>(i, j) = std::isfinite(elev.at<float>(i, j)) ? 1.0f : 0.0f;
+    map.data.push_back(c);
+  }
+  // Create missing layers first (push_back may reallocate), then take references.
+  for (const char* name : {"traversability_slope", "traversability_roughness", "traversability_step",
+                           "traversability"}) {
+    bool found = false;
+    for (std::size_t k = 0; k < map.layers.size(); ++k)
+      if (map.layers[k] == name) {
+        map.data[k].create(nx, ny, CV_32F);
+        found = true;
+      }
+    if (!found) {
+      map.layers.emplace_back(name);
+      map.data.emplace_back(nx, ny, CV_32F);
+    }
+  }
+  cv::Mat& ts = map.data[map.layer_index("traversability_slope")];
+  cv::Mat& tr = map.data[map.layer_index("traversability_roughness")];
+  cv::Mat& tst = map.data[map.layer_index("traversability_step")];
+  cv::Mat& tt = map.data[map.layer_index("traversability")];
+  const cv::Mat e = map.data[map.layer_index("elevation")];
+  const double res = map.resolution_m;
+  const int rs = std::max(1, static_cast<int>(std::ceil(p.slope_radius_m / res - 1e-9)));
+  const int rst = std::max(1, static_cast<int>(std::ceil(p.step_radius_m / res - 1e-9)));
+  const double wsum = p.weight_slope + p.weight_step + p.weight_roughness;
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) {
+      const float z0 = e.at<float>(i, j);
+      if (!std::isfinite(z0)) {
+        ts.at<float>(i, j) = tr.at<float>(i, j) = tst.at<float>(i, j) = tt.at<float>(i, j) = kNaNf;
+        continue;
+      }
+      // Plane z = a + b dx + c dy over the disc of radius rs (metres).
+      double s1 = 0, sx = 0, sy = 0, sz = 0, sxx = 0, syy = 0, sxy = 0, sxz = 0, syz = 0, szz = 0;
+      for (int di = -rs; di <= rs; ++di)
+        for (int dj = -rs; dj <= rs; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= nx || jj >= ny || di * di + dj * dj > rs * rs) continue;
+          const float zf = e.at<float>(ii, jj);
+          if (!std::isfinite(zf)) continue;
+          const double x = di * res, y = dj * res, z = static_cast<double>(zf);
+          s1 += 1; sx += x; sy += y; sz += z; sxx += x * x; syy += y * y; sxy += x * y;
+          sxz += x * z; syz += y * z; szz += z * z;
+        }
+      float vs = kNaNf, vr = kNaNf;
+      if (s1 >= 3) {
+        const cv::Matx33d A(s1, sx, sy, sx, sxx, sxy, sy, sxy, syy);
+        const cv::Vec3d bb(sz, sxz, syz);
+        cv::Vec3d sol;
+        if (cv::solve(A, bb, sol, cv::DECOMP_LU) && std::abs(cv::determinant(A)) > 1e-18) {
+          const double slope = std::atan(std::hypot(sol[1], sol[2]));
+          // Residual sum of squares from the normal equations.
+          const double ssr = szz - sol[0] * sz - sol[1] * sxz - sol[2] * syz;
+          const double rough = std::sqrt(std::max(0.0, ssr) / s1);
+          vs = static_cast<float>(slope >= p.critical_slope_rad ? 0.0 : 1.0 - slope / p.critical_slope_rad);
+          vr = static_cast<float>(rough >= p.critical_roughness_m ? 0.0 : 1.0 - rough / p.critical_roughness_m);
+        }
+      }
+      float zmin = z0, zmax = z0;
+      for (int di = -rst; di <= rst; ++di)
+        for (int dj = -rst; dj <= rst; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= nx || jj >= ny || di * di + dj * dj > rst * rst) continue;
+          const float zf = e.at<float>(ii, jj);
+          if (!std::isfinite(zf)) continue;
+          zmin = std::min(zmin, zf);
+          zmax = std::max(zmax, zf);
+        }
+      const double step = static_cast<double>(zmax - zmin);
+      const float vst = static_cast<float>(step >= p.critical_step_m ? 0.0 : 1.0 - step / p.critical_step_m);
+      ts.at<float>(i, j) = vs;
+      tr.at<float>(i, j) = vr;
+      tst.at<float>(i, j) = vst;
+      float t = kNaNf;
+      if (std::isfinite(vs) && std::isfinite(vr)) {
+        // Weighted combination (ETH traversability_estimation); any critical hazard -> 0.
+        if (vs <= 0.0f || vr <= 0.0f || vst <= 0.0f)
+          t = 0.0f;
+        else
+          t = static_cast<float>((p.weight_slope * static_cast<double>(vs) + p.weight_step * static_cast<double>(vst) +
+                                  p.weight_roughness * static_cast<double>(vr)) / wsum);
+      }
+      tt.at<float>(i, j) = t;
+    }
+}
+
+}  // namespace regolith::traversability

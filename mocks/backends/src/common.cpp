@@ -1,0 +1,148 @@
+#include "common.hpp"
+
+#include <cstdlib>
+#include <stdexcept>
+
+namespace regolith::mocks::detail {
+
+Clock* clock_of(const hal::DeviceContext& ctx) {
+  static SystemClock system_clock;
+  return ctx.clock != nullptr ? ctx.clock : &system_clock;
+}
+
+TimeNs read_max_extrapolation(Params& p) {
+  const double ms = p.get<double>("max_extrapolation_ms", 50.0,
+                                  {.unit = "ms", .min = 0.0, .max = 10000.0,
+                                   .doc = "angle_at may extrapolate this far past the newest sample"});
+  return static_cast<TimeNs>(std::llround(ms * 1e6));
+}
+
+// ---- PreloadedCamera ---------------------------------------------------------------------------
+
+PreloadedCamera::PreloadedCamera(const hal::DeviceContext& ctx, hal::CameraFormat fmt, std::vector<cv::Mat> images,
+                                 bool loop)
+    : id_(ctx.id),
+      index_(ctx.index),
+      clock_(clock_of(ctx)),
+      fmt_(fmt),
+      images_(std::move(images)),
+      loop_(loop),
+      grid_(fmt.rate_hz) {
+  if (images_.empty()) throw std::invalid_argument("PreloadedCamera: no images");
+  for (const auto& m : images_) {
+    if (m.cols != fmt_.width || m.rows != fmt_.height || m.type() != hal::cv_type(fmt_.format) || !m.isContinuous())
+      throw std::invalid_argument("PreloadedCamera: image geometry differs from the format");
+  }
+  pool_ = hal::make_frame_pool(fmt_.width, fmt_.height, fmt_.format);
+}
+
+void PreloadedCamera::start() {
+  published_.store(-1, std::memory_order_release);
+  start_.store(clock_->now(), std::memory_order_release);
+  started_.store(true, std::memory_order_release);
+}
+
+void PreloadedCamera::stop() { started_.store(false, std::memory_order_release); }
+
+bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
+  out.reset();
+  if (!started_.load(std::memory_order_acquire)) return false;
+  const TimeNs start = start_.load(std::memory_order_acquire);
+  std::int64_t k = grid_.index(now - start);
+  if (k < 0) return false;
+  const auto n = static_cast<std::int64_t>(images_.size());
+  if (!loop_ && k >= n) k = n - 1;  // the last image stays the newest frame
+  if (k > published_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
+    if (k > published_.load(std::memory_order_relaxed)) {
+      hal::Frame* f = pool_->begin_write();
+      if (f != nullptr) {
+        images_[static_cast<std::size_t>(k % n)].copyTo(f->image);  // same geometry: no allocation
+        f->capture_time = start + grid_.offset(k);
+        f->sequence = static_cast<std::uint64_t>(k);
+        f->camera_index = index_;
+        f->corrupt = false;
+        pool_->commit();
+        last_frame_time_.store(f->capture_time, std::memory_order_relaxed);
+        published_.store(k, std::memory_order_release);
+      } else {
+        write_failures_.fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+    writing_.clear(std::memory_order_release);
+  }
+  if (published_.load(std::memory_order_acquire) < 0) return false;
+  out = pool_->acquire();
+  return static_cast<bool>(out);
+}
+
+hal::CameraStats PreloadedCamera::stats() const {
+  hal::CameraStats s;
+  const std::int64_t k = published_.load(std::memory_order_acquire);
+  s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
+  s.dropped = write_failures_.load(std::memory_order_relaxed);
+  s.state = started_.load(std::memory_order_acquire) ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+  s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
+  return s;
+}
+
+// ---- LazyEncoders ------------------------------------------------------------------------------
+
+LazyEncoders::LazyEncoders(const hal::DeviceContext& ctx, std::vector<std::string> wheels, TimeNs max_extrapolation)
+    : id_(ctx.id), wheels_(std::move(wheels)), clock_(clock_of(ctx)), max_extrapolation_(max_extrapolation) {}
+
+void LazyEncoders::start() {
+  start_.store(clock_->now(), std::memory_order_release);
+  started_.store(true, std::memory_order_release);
+}
+
+void LazyEncoders::stop() { started_.store(false, std::memory_order_release); }
+
+bool LazyEncoders::latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const {
+  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size()) return false;
+  const TimeNs start = start_time();
+  const std::int64_t g = index_at(wheel, now - start);
+  if (g < 0) return false;
+  out = sample(wheel, g);
+  out.stamp += start;
+  return true;
+}
+
+bool LazyEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) const {
+  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size()) return false;
+  const TimeNs start = start_time();
+  const TimeNs rel = t - start;
+  const std::int64_t newest = index_at(wheel, clock_->now() - start);
+  if (newest < 0) return false;
+  const hal::AngleSample b = sample(wheel, newest);
+  if (rel >= b.stamp) {
+    if (rel - b.stamp > max_extrapolation_) return false;
+    if (newest == 0) {
+      angle = b.angle;
+      return true;
+    }
+    const hal::AngleSample a = sample(wheel, newest - 1);
+    const double dt = static_cast<double>(b.stamp - a.stamp);
+    angle = dt > 0 ? b.angle + (b.angle - a.angle) * static_cast<double>(rel - b.stamp) / dt : b.angle;
+    return true;
+  }
+  const std::int64_t g0 = index_at(wheel, rel);
+  if (g0 < 0) return false;  // before the first sample
+  const hal::AngleSample s0 = sample(wheel, g0);
+  const hal::AngleSample s1 = sample(wheel, g0 + 1);
+  const double dt = static_cast<double>(s1.stamp - s0.stamp);
+  const double f = dt > 0 ? static_cast<double>(rel - s0.stamp) / dt : 0.0;
+  angle = s0.angle + f * (s1.angle - s0.angle);
+  return true;
+}
+
+hal::EncoderStats LazyEncoders::stats() const {
+  hal::EncoderStats s;
+  s.rejected = rejected_;
+  if (!started_.load(std::memory_order_acquire)) return s;
+  s.state = hal::DeviceState::kStreaming;
+  const TimeNs rel = clock_->now() - start_time();
+  for (std::size_t w = 0; w < wheels_.size(); ++w) s.samples += static_cast<std::uint64_t>(index_at(w, rel) + 1);
+  return s;
+}
+
+}  // namespace regolith::mocks::detail

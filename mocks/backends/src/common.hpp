@@ -1,0 +1,140 @@
+#pragma once
+// Internal building blocks shared by the mock backends: deterministic hashing "randomness", the
+// lazy frame camera (preloaded images served on a time grid) and the lazy encoder base (samples
+// computed on demand from a script or a log). Not installed.
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "regolith/core/params.hpp"
+#include "regolith/core/time.hpp"
+#include "regolith/hal/camera.hpp"
+#include "regolith/hal/frame.hpp"
+#include "regolith/hal/registry.hpp"
+#include "regolith/hal/wheel_encoders.hpp"
+
+namespace regolith::mocks::detail {
+
+// ---- deterministic pseudo-randomness (stateless: a pure function of its inputs) ---------------
+
+/// SplitMix64 finaliser: a good 64-bit mixing function.
+inline std::uint64_t mix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+inline std::uint64_t hash(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0, std::uint64_t c = 0) {
+  return mix64(mix64(mix64(seed ^ 0x5851F42D4C957F2DULL) ^ a) ^ mix64(b + 0x2545F4914F6CDD1DULL) ^ (c << 1));
+}
+/// Uniform in [0, 1).
+inline double unit(std::uint64_t h) { return static_cast<double>(h >> 11) * 0x1.0p-53; }
+/// Standard normal from two hashes (Box-Muller).
+inline double gaussian(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
+  const double u1 = 1.0 - unit(hash(seed, a, b, 1));  // (0, 1]
+  const double u2 = unit(hash(seed, a, b, 2));
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * 3.14159265358979323846 * u2);
+}
+
+/// The clock of the device context, or the process-wide monotonic clock when none was given.
+Clock* clock_of(const hal::DeviceContext& ctx);
+
+// ---- a regular time grid: sample k is at k / rate after the start ------------------------------
+
+class TimeGrid {
+ public:
+  TimeGrid() = default;
+  explicit TimeGrid(double rate_hz) : period_ns_(1e9 / rate_hz) {}
+  double period_ns() const { return period_ns_; }
+  /// Offset of sample k from the start (ns).
+  TimeNs offset(std::int64_t k) const { return std::llround(static_cast<double>(k) * period_ns_); }
+  /// Newest k with offset(k) <= rel; -1 when rel < 0.
+  std::int64_t index(TimeNs rel) const {
+    if (rel < 0) return -1;
+    auto k = static_cast<std::int64_t>(std::floor(static_cast<double>(rel) / period_ns_));
+    while (offset(k + 1) <= rel) ++k;
+    while (k > 0 && offset(k) > rel) --k;
+    return k;
+  }
+
+ private:
+  double period_ns_ = 1e9;
+};
+
+// ---- camera serving preloaded images lazily ----------------------------------------------------
+
+/// Camera whose frame k (captured at start + k / rate) is `images[k % n]` (or the last one held
+/// when not looping). Pixels are copied into a FramePool slot when a newer frame becomes due; of
+/// two concurrent callers only one (atomic try-flag) writes, the other leases the current frame.
+class PreloadedCamera : public hal::Camera {
+ public:
+  PreloadedCamera(const hal::DeviceContext& ctx, hal::CameraFormat fmt, std::vector<cv::Mat> images, bool loop);
+
+  const std::string& id() const override { return id_; }
+  hal::CameraFormat format() const override { return fmt_; }
+  void start() override;
+  void stop() override;
+  bool latest(TimeNs now, hal::FrameLease& out) override;
+  hal::CameraStats stats() const override;
+
+  std::size_t image_count() const { return images_.size(); }
+  const cv::Mat& image(std::size_t i) const { return images_[i]; }
+
+ private:
+  std::string id_;
+  std::uint16_t index_ = 0;
+  Clock* clock_ = nullptr;
+  hal::CameraFormat fmt_;
+  std::vector<cv::Mat> images_;
+  bool loop_ = true;
+  TimeGrid grid_;
+  std::unique_ptr<hal::FramePool> pool_;
+  std::atomic<bool> started_{false};
+  std::atomic<TimeNs> start_{0};
+  std::atomic<std::int64_t> published_{-1};
+  std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
+  std::atomic<std::uint64_t> write_failures_{0};
+  std::atomic<TimeNs> last_frame_time_{0};
+};
+
+// ---- encoders computed on demand ---------------------------------------------------------------
+
+/// Base of the lazy encoders: a subclass says which sample of a wheel is the newest at time t
+/// (`index_at`) and what that sample is (`sample`); latest / angle_at / stats follow from it.
+class LazyEncoders : public hal::WheelEncoders {
+ public:
+  LazyEncoders(const hal::DeviceContext& ctx, std::vector<std::string> wheels, TimeNs max_extrapolation);
+
+  const std::string& id() const override { return id_; }
+  const std::vector<std::string>& wheel_names() const override { return wheels_; }
+  void start() override;
+  void stop() override;
+  bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override;
+  bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
+  hal::EncoderStats stats() const override;
+
+ protected:
+  /// Global number of the newest sample of `wheel` with stamp <= start + rel; -1 if none.
+  virtual std::int64_t index_at(std::size_t wheel, TimeNs rel) const = 0;
+  /// Sample number g of `wheel` (stamp relative to the start).
+  virtual hal::AngleSample sample(std::size_t wheel, std::int64_t g) const = 0;
+
+  TimeNs start_time() const { return start_.load(std::memory_order_acquire); }
+  std::uint64_t rejected_ = 0;  ///< set at construction (lines / frames that could not be decoded)
+
+ private:
+  std::string id_;
+  std::vector<std::string> wheels_;
+  Clock* clock_ = nullptr;
+  TimeNs max_extrapolation_ = 0;
+  std::atomic<bool> started_{false};
+  std::atomic<TimeNs> start_{0};
+};
+
+/// Read `max_extrapolation_ms` (shared by the encoder backends).
+TimeNs read_max_extrapolation(Params& p);
+
+}  // namespace regolith::mocks::detail

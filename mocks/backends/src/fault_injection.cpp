@@ -1,0 +1,370 @@
+// Cameras and encoders "fault_injection": wrap another backend (`inner:`) and withhold, freeze,
+// corrupt, delay or disconnect its data, deterministically for a seed and a clock sequence.
+#include <algorithm>
+#include <cmath>
+
+#include "backends_internal.hpp"
+#include "common.hpp"
+
+namespace regolith::mocks {
+namespace detail {
+namespace {
+
+enum Salt : std::uint64_t { kDrop = 0xD409, kCorrupt = 0xC044, kBytes = 0xB17E, kGarbage = 0x6A4B };
+
+struct FaultConfig {
+  double drop_rate = 0.0;
+  double corrupt_rate = 0.0;
+  std::int64_t freeze_after = 0;      // frames / samples; 0 = never
+  std::int64_t disconnect_after = 0;  // frames / samples; 0 = never
+  std::int64_t reconnect_after = 0;   // frames / samples of outage; 0 = never reconnect
+  bool repeat = false;
+  TimeNs delay = 0;
+  std::uint64_t seed = 1;
+};
+
+FaultConfig read_fault_config(Params& p, std::string_view unit) {
+  FaultConfig c;
+  c.drop_rate = p.get<double>("drop_rate", 0.0, {.min = 0.0, .max = 1.0, .doc = "probability a new item is withheld"});
+  c.corrupt_rate = p.get<double>("corrupt_rate", 0.0, {.min = 0.0, .max = 1.0,
+                                                       .doc = "probability an item is damaged (bytes / garbage angle)"});
+  c.freeze_after = p.get<std::int64_t>("freeze_after", 0, {.unit = unit, .min = 0,
+                                                           .doc = "content stops changing after N items (0 = never)"});
+  const double delay_ms = p.get<double>("delay_ms", 0.0, {.unit = "ms", .min = 0.0, .max = 60000.0,
+                                                          .doc = "deliver what the inner device had this long ago"});
+  c.delay = static_cast<TimeNs>(std::llround(delay_ms * 1e6));
+  c.disconnect_after = p.get<std::int64_t>(
+      "disconnect_after", 0, {.unit = unit, .min = 0, .doc = "device faults after N items' worth of time (0 = never)"});
+  c.reconnect_after = p.get<std::int64_t>(
+      "reconnect_after", 0, {.unit = unit, .min = 0, .doc = "outage length in items' worth of time (0 = for good)"});
+  c.repeat = p.get<bool>("repeat", false, {.doc = "cycle disconnect/reconnect forever (else only once)"});
+  if (c.repeat && (c.disconnect_after == 0 || c.reconnect_after == 0))
+    p.fail("repeat", "needs disconnect_after > 0 and reconnect_after > 0");
+  c.seed = static_cast<std::uint64_t>(p.get<std::int64_t>("seed", 1, {.min = 0, .doc = "fault random seed"}));
+  return c;
+}
+
+/// Disconnect / reconnect as a function of the time since start(), on the device's item grid.
+class FaultSchedule {
+ public:
+  struct At {
+    bool down = false;
+    std::uint64_t faults = 0;      // disconnects so far
+    std::uint64_t recoveries = 0;  // reconnects so far
+    TimeNs outage_begin = 0;       // rel. start of the current outage (when down)
+  };
+  FaultSchedule(const FaultConfig& c, double rate_hz) : cfg_(c), grid_(rate_hz) {}
+  const TimeGrid& grid() const { return grid_; }
+
+  At at(TimeNs rel) const {
+    At a;
+    const std::int64_t n = cfg_.disconnect_after;
+    const std::int64_t m = cfg_.reconnect_after;
+    const std::int64_t k = grid_.index(rel);
+    if (n == 0 || k < n) return a;
+    if (m == 0) return {true, 1, 0, grid_.offset(n)};
+    if (cfg_.repeat) {
+      const std::int64_t period = n + m;
+      const std::int64_t cycle = k / period;
+      a.down = k % period >= n;
+      a.recoveries = static_cast<std::uint64_t>(cycle);
+      a.faults = a.recoveries + (a.down ? 1 : 0);
+      a.outage_begin = grid_.offset(cycle * period + n);
+      return a;
+    }
+    a.down = k < n + m;
+    a.faults = 1;
+    a.recoveries = a.down ? 0 : 1;
+    a.outage_begin = grid_.offset(n);
+    return a;
+  }
+
+ private:
+  FaultConfig cfg_;
+  TimeGrid grid_;
+};
+
+// ---- camera ------------------------------------------------------------------------------------
+
+class FaultCamera final : public hal::Camera {
+ public:
+  FaultCamera(const hal::DeviceContext& ctx, std::unique_ptr<hal::Camera> inner, const FaultConfig& cfg)
+      : id_(ctx.id),
+        index_(ctx.index),
+        clock_(clock_of(ctx)),
+        inner_(std::move(inner)),
+        cfg_(cfg),
+        fmt_(inner_->format()),
+        sched_(cfg, fmt_.rate_hz),
+        pool_(hal::make_frame_pool(fmt_.width, fmt_.height, fmt_.format)),
+        frozen_(fmt_.height, fmt_.width, hal::cv_type(fmt_.format), cv::Scalar::all(0)) {}
+
+  const std::string& id() const override { return id_; }
+  hal::CameraFormat format() const override { return fmt_; }
+
+  void start() override {
+    inner_->start();
+    last_seen_.store(-1);
+    frames_.store(0);
+    dropped_.store(0);
+    corrupt_.store(0);
+    published_epoch_.store(-1);
+    frozen_valid_ = false;
+    start_.store(clock_->now(), std::memory_order_release);
+    started_.store(true, std::memory_order_release);
+  }
+  void stop() override {
+    started_.store(false, std::memory_order_release);
+    inner_->stop();
+  }
+
+  bool latest(TimeNs now, hal::FrameLease& out) override {
+    out.reset();
+    if (!started_.load(std::memory_order_acquire)) return false;
+    const TimeNs start = start_.load(std::memory_order_acquire);
+    const FaultSchedule::At st = sched_.at(now - start);
+    if (st.down) return false;
+    hal::FrameLease in;
+    if (inner_->latest(now - cfg_.delay, in)) {
+      const auto seq = static_cast<std::int64_t>(in->sequence);
+      if (seq > last_seen_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
+        if (seq > last_seen_.load(std::memory_order_relaxed)) {
+          // Frames captured while the device was disconnected never arrive.
+          if (!sched_.at(in->capture_time - start).down) process(*in, st.faults);
+          last_seen_.store(seq, std::memory_order_release);
+        }
+        writing_.clear(std::memory_order_release);
+      }
+    }
+    // A frame from before the latest outage is not served after the reconnection.
+    if (published_epoch_.load(std::memory_order_acquire) != static_cast<std::int64_t>(st.faults)) return false;
+    out = pool_->acquire();
+    return static_cast<bool>(out);
+  }
+
+  hal::CameraStats stats() const override {
+    hal::CameraStats s;
+    const hal::CameraStats in = inner_->stats();
+    s.frames = frames_.load(std::memory_order_relaxed);
+    s.dropped = dropped_.load(std::memory_order_relaxed);
+    s.corrupt = corrupt_.load(std::memory_order_relaxed) + in.corrupt;
+    s.faults = in.faults;
+    s.recoveries = in.recoveries;
+    s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
+    if (!started_.load(std::memory_order_acquire)) return s;
+    const FaultSchedule::At st = sched_.at(clock_->now() - start_.load(std::memory_order_acquire));
+    s.faults += st.faults;
+    s.recoveries += st.recoveries;
+    s.state = st.down ? hal::DeviceState::kFaulted : in.state;
+    return s;
+  }
+
+ private:
+  // Runs under the writing_ flag.
+  void process(const hal::Frame& in, std::uint64_t epoch) {
+    const auto seq = in.sequence;
+    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, seq, kDrop)) < cfg_.drop_rate) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    const bool frozen = cfg_.freeze_after > 0 && static_cast<std::int64_t>(seq) >= cfg_.freeze_after;
+    if (frozen && !frozen_valid_) {
+      // The content stops at the last frame delivered before the freeze.
+      auto cur = pool_->acquire();
+      if (cur && published_epoch_.load(std::memory_order_relaxed) >= 0) {
+        cur->image.copyTo(frozen_);
+      } else {
+        in.image.copyTo(frozen_);
+      }
+      frozen_valid_ = true;
+    }
+    hal::Frame* f = pool_->begin_write();
+    if (f == nullptr) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    (frozen ? frozen_ : in.image).copyTo(f->image);
+    f->corrupt = in.corrupt;
+    if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, seq, kCorrupt)) < cfg_.corrupt_rate) {
+      corrupt_rows(*f, seq);
+      f->corrupt = true;
+      corrupt_.fetch_add(1, std::memory_order_relaxed);
+    }
+    f->capture_time = in.capture_time;
+    f->sequence = in.sequence;
+    f->camera_index = index_;
+    pool_->commit();
+    frames_.fetch_add(1, std::memory_order_relaxed);
+    last_frame_time_.store(in.capture_time, std::memory_order_relaxed);
+    published_epoch_.store(static_cast<std::int64_t>(epoch), std::memory_order_release);
+  }
+
+  /// Overwrite a band of rows (1/16 of the image at a random height) with random bytes.
+  void corrupt_rows(hal::Frame& f, std::uint64_t seq) const {
+    cv::Mat& img = f.image;
+    const int band = std::max(1, img.rows / 16);
+    const int row0 = static_cast<int>(unit(hash(cfg_.seed, seq, kBytes)) * (img.rows - band + 1));
+    const auto row_bytes = static_cast<std::size_t>(img.cols) * img.elemSize();
+    for (int r = row0; r < row0 + band; ++r) {
+      std::uint8_t* p = img.ptr<std::uint8_t>(r);
+      std::uint64_t h = hash(cfg_.seed, seq, kBytes, static_cast<std::uint64_t>(r));
+      for (std::size_t i = 0; i < row_bytes; ++i) {
+        if (i % 8 == 0) h = mix64(h);
+        p[i] = static_cast<std::uint8_t>(h >> (8 * (i % 8)));
+      }
+    }
+  }
+
+  std::string id_;
+  std::uint16_t index_ = 0;
+  Clock* clock_ = nullptr;
+  std::unique_ptr<hal::Camera> inner_;
+  FaultConfig cfg_;
+  hal::CameraFormat fmt_;
+  FaultSchedule sched_;
+  std::unique_ptr<hal::FramePool> pool_;
+  cv::Mat frozen_;
+  bool frozen_valid_ = false;  // written under writing_
+  std::atomic<bool> started_{false};
+  std::atomic<TimeNs> start_{0};
+  std::atomic<std::int64_t> last_seen_{-1};
+  std::atomic<std::int64_t> published_epoch_{-1};  // outage count when the served frame was made
+  std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
+  std::atomic<std::uint64_t> frames_{0}, dropped_{0}, corrupt_{0};
+  std::atomic<TimeNs> last_frame_time_{0};
+};
+
+// ---- encoders ----------------------------------------------------------------------------------
+
+class FaultEncoders final : public hal::WheelEncoders {
+ public:
+  FaultEncoders(const hal::DeviceContext& ctx, std::unique_ptr<hal::WheelEncoders> inner, const FaultConfig& cfg,
+                double rate_hz, TimeNs max_extrapolation)
+      : id_(ctx.id),
+        clock_(clock_of(ctx)),
+        inner_(std::move(inner)),
+        cfg_(cfg),
+        sched_(cfg, rate_hz),
+        max_extrapolation_(max_extrapolation) {}
+
+  const std::string& id() const override { return id_; }
+  const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
+  void start() override {
+    inner_->start();
+    start_.store(clock_->now(), std::memory_order_release);
+    started_.store(true, std::memory_order_release);
+  }
+  void stop() override {
+    started_.store(false, std::memory_order_release);
+    inner_->stop();
+  }
+
+  bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override {
+    if (!started_.load(std::memory_order_acquire)) return false;
+    if (sched_.at(now - start_time()).down) return false;
+    return visible(wheel, now - cfg_.delay, out);
+  }
+
+  bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override {
+    hal::AngleSample newest;
+    if (!latest(wheel, clock_->now(), newest)) return false;
+    if (t >= newest.stamp) {
+      if (t - newest.stamp > max_extrapolation_) return false;
+      hal::AngleSample prev;
+      if (!visible(wheel, newest.stamp - 1, prev) || prev.stamp >= newest.stamp) {
+        angle = newest.angle;
+        return true;
+      }
+      angle = newest.angle + (newest.angle - prev.angle) * static_cast<double>(t - newest.stamp) /
+                                 static_cast<double>(newest.stamp - prev.stamp);
+      return true;
+    }
+    // Inside the history: the inner device's interpolation, frozen like the samples.
+    if (!inner_->angle_at(wheel, t, angle)) return false;
+    if (frozen(t)) return frozen_angle(wheel, angle);
+    return true;
+  }
+
+  hal::EncoderStats stats() const override {
+    hal::EncoderStats s = inner_->stats();
+    if (!started_.load(std::memory_order_acquire)) return s;
+    const FaultSchedule::At st = sched_.at(clock_->now() - start_time());
+    s.faults += st.faults;
+    if (st.down) s.state = hal::DeviceState::kFaulted;
+    return s;
+  }
+
+ private:
+  TimeNs start_time() const { return start_.load(std::memory_order_acquire); }
+  bool frozen(TimeNs stamp) const {
+    return cfg_.freeze_after > 0 && stamp - start_time() >= sched_.grid().offset(cfg_.freeze_after);
+  }
+  /// Angle of the last inner sample before the freeze (false: there was none).
+  bool frozen_angle(std::size_t wheel, double& angle) const {
+    hal::AngleSample f;
+    if (!inner_->latest(wheel, start_time() + sched_.grid().offset(cfg_.freeze_after) - 1, f)) return false;
+    angle = f.angle;
+    return true;
+  }
+
+  /// Newest sample the consumer can have received with stamp <= q: walks back over withheld
+  /// samples (drops, outages), then applies freeze and corruption.
+  bool visible(std::size_t wheel, TimeNs q, hal::AngleSample& out) const {
+    constexpr int kMaxWalk = 256;
+    const TimeNs start = start_time();
+    for (int i = 0; i < kMaxWalk; ++i) {
+      if (!inner_->latest(wheel, q, out)) return false;
+      const FaultSchedule::At st = sched_.at(out.stamp - start);
+      if (st.down) {
+        q = start + st.outage_begin - 1;
+        continue;
+      }
+      const auto key = static_cast<std::uint64_t>(out.stamp);
+      if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kDrop)) < cfg_.drop_rate) {
+        q = out.stamp - 1;
+        continue;
+      }
+      if (frozen(out.stamp)) frozen_angle(wheel, out.angle);
+      if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kCorrupt)) < cfg_.corrupt_rate)
+        out.angle = (2.0 * unit(hash(cfg_.seed, wheel, key, kGarbage)) - 1.0) * 1e4;
+      return true;
+    }
+    return false;
+  }
+
+  std::string id_;
+  Clock* clock_ = nullptr;
+  std::unique_ptr<hal::WheelEncoders> inner_;
+  FaultConfig cfg_;
+  FaultSchedule sched_;
+  TimeNs max_extrapolation_ = 0;
+  std::atomic<bool> started_{false};
+  std::atomic<TimeNs> start_{0};
+};
+
+}  // namespace
+}  // namespace detail
+
+std::unique_ptr<hal::Camera> make_fault_camera(Params& p, const hal::DeviceContext& ctx,
+                                               const hal::BackendRegistry& registry) {
+  Params inner_p = p.require_child("inner");
+  auto inner = registry.make_camera(inner_p, ctx);
+  inner_p.finish();
+  const detail::FaultConfig cfg = detail::read_fault_config(p, "frames");
+  return std::make_unique<detail::FaultCamera>(ctx, std::move(inner), cfg);
+}
+
+std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::DeviceContext& ctx,
+                                                        const hal::BackendRegistry& registry) {
+  Params inner_p = p.require_child("inner");
+  auto inner = registry.make_encoders(inner_p, ctx);
+  inner_p.finish();
+  const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
+  const double rate = p.get<double>("sample_rate_hz", 100.0,
+                                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                     .doc = "inner report rate: converts the sample counts above into time"});
+  const TimeNs max_ex = detail::read_max_extrapolation(p);
+  return std::make_unique<detail::FaultEncoders>(ctx, std::move(inner), cfg, rate, max_ex);
+}
+
+}  // namespace regolith::mocks

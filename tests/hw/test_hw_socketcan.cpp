@@ -1,0 +1,238 @@
+// Driver tests of the SocketCAN backend on vcan0 with can-utils' cansend (label hw; skipped when
+// there is no vcan0).
+#include <gtest/gtest.h>
+
+#include <linux/can.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstring>
+
+#include "hw_util.hpp"
+#include "regolith/hal_socketcan/socketcan.hpp"
+
+using namespace regolith;
+using namespace regolith::hal;
+using regolith::hwtest::sh;
+using regolith::hwtest::wait_until;
+
+namespace {
+
+bool have_vcan0() {
+  for (const auto& i : socketcan::list_can_interfaces())
+    if (i.name == "vcan0") return true;
+  return false;
+}
+
+#define REQUIRE_VCAN0()                                                                               \
+  if (!have_vcan0()) GTEST_SKIP() << "no vcan0 (needs the vcan driver: run tests/hw/run.sh BUILD_DIR)"; \
+  if (sh("command -v cansend") != 0) GTEST_SKIP() << "cansend missing (apt-get install can-utils)"
+
+std::unique_ptr<socketcan::SocketCanEncoders> make(const std::string& extra = "") {
+  auto p = Params::load_string(R"(interface: vcan0
+wheels:
+  front_left: {id: 0x101, length: 4, scale: 0.001}
+  front_right: {id: 0x101, byte_offset: 4, length: 4, scale: 0.001}
+  rear_left: {id: 0x18FF0102, extended: true, length: 2, scale: 0.01}
+transducers:
+  sinkage: {id: 0x200, length: 2, signed: false, wrap: false, scale: 1.0e-5}
+stale_timeout: 0.3
+retry_min: 0.02
+retry_max: 0.2
+)" + extra,
+                               "hw_encoders.yaml");
+  DeviceContext ctx;
+  ctx.id = "wheels";
+  return std::make_unique<socketcan::SocketCanEncoders>(socketcan::config_from_params(p), ctx);
+}
+
+bool sample(const WheelEncoders& e, std::size_t wheel, AngleSample& s) { return e.latest(wheel, monotonic_now(), s); }
+
+bool wait_angle(const WheelEncoders& e, std::size_t wheel, double value, double timeout = 5.0) {
+  return wait_until(
+      [&] {
+        AngleSample s;
+        return sample(e, wheel, s) && std::abs(s.angle - value) < 1e-9;
+      },
+      timeout);
+}
+
+}  // namespace
+
+TEST(HwSocketCan, ListsVcan0) {
+  REQUIRE_VCAN0();
+  const auto ifs = socketcan::list_can_interfaces();
+  const auto it = std::find_if(ifs.begin(), ifs.end(), [](const auto& i) { return i.name == "vcan0"; });
+  ASSERT_NE(it, ifs.end());
+  EXPECT_TRUE(it->up);
+  EXPECT_TRUE(it->virtual_can);
+}
+
+TEST(HwSocketCan, CansendFramesBecomeWheelAnglesWithKernelStamps) {
+  REQUIRE_VCAN0();
+  auto enc = make();
+  ASSERT_EQ(enc->wheel_names(), (std::vector<std::string>{"front_left", "front_right", "rear_left", "sinkage"}));
+  enc->start();
+  const TimeNs before = monotonic_now();
+  // front_left = 1000 counts (little endian), front_right = -2000 counts
+  ASSERT_EQ(sh("cansend vcan0 101#E803000030F8FFFF"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 0, 1.0)) << "front_left never became 1.0 rad";
+  ASSERT_TRUE(wait_angle(*enc, 1, -2.0));
+  const TimeNs after = monotonic_now();
+  AngleSample s;
+  ASSERT_TRUE(sample(*enc, 0, s));
+  EXPECT_GE(s.stamp, before);
+  EXPECT_LE(s.stamp, after);
+  EXPECT_TRUE(enc->bus_stats().kernel_timestamps);
+  // extended id, 16-bit counter crossing its wrap: 0x7FF0 -> 0x8010 continues upwards
+  ASSERT_EQ(sh("cansend vcan0 18FF0102#F07F"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 2, 0x7FF0 * 0.01));
+  ASSERT_EQ(sh("cansend vcan0 18FF0102#1080"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 2, (0x8010 - 0x10000 + 0x10000) * 0.01)) << "wrap not unwrapped";
+  // bench transducer: unsigned 12345 counts * 1e-5 m
+  ASSERT_EQ(sh("cansend vcan0 200#3930"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 3, 0.12345));
+  double a = 0;
+  ASSERT_TRUE(enc->angle_at(0, s.stamp, a));
+  EXPECT_DOUBLE_EQ(a, 1.0);
+  const EncoderStats st = enc->stats();
+  EXPECT_EQ(st.samples, 5u);
+  EXPECT_EQ(st.rejected, 0u);
+  EXPECT_EQ(st.state, DeviceState::kStreaming);
+  enc->stop();
+  EXPECT_EQ(enc->stats().state, DeviceState::kStopped);
+}
+
+TEST(HwSocketCan, KernelFiltersDropOtherIdsAndShortFramesAreCounted) {
+  REQUIRE_VCAN0();
+  auto enc = make();
+  enc->start();
+  for (const char* f : {"102#01020304", "7FF#00", "18FF0103#0102", "201#1122", "101#R"}) ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
+  ASSERT_EQ(sh("cansend vcan0 101#0A000000F6FFFFFF"), 0);  // 0.010, -0.010
+  ASSERT_TRUE(wait_angle(*enc, 0, 0.010));
+  ASSERT_EQ(sh("cansend vcan0 101#0102"), 0);  // DLC 2: too short for both wheels
+  ASSERT_TRUE(wait_until([&] { return enc->bus_stats().short_frames >= 1; }, 5.0));
+  const auto b = enc->bus_stats();
+  EXPECT_EQ(b.frames, 2u) << "only the two 0x101 data frames pass the kernel filters";
+  EXPECT_EQ(b.unexpected_ids, 0u);
+  EXPECT_EQ(b.short_frames, 1u);
+  EXPECT_EQ(enc->stats().rejected, 1u);
+  EXPECT_NE(b.last_error.find("frame 0x101 has DLC 2"), std::string::npos) << b.last_error;
+  AngleSample s;
+  ASSERT_TRUE(sample(*enc, 1, s));
+  EXPECT_DOUBLE_EQ(s.angle, -0.010) << "the short frame must not change the angles";
+  enc->stop();
+}
+
+TEST(HwSocketCan, StaleWheelsAreFlaggedAndRecover) {
+  REQUIRE_VCAN0();
+  auto enc = make();
+  enc->start();
+  ASSERT_EQ(sh("cansend vcan0 101#0100000001000000"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 0, 0.001));
+  EXPECT_FALSE(enc->stale_flag(0));
+  ASSERT_TRUE(wait_until([&] { return enc->stale_flag(0); }, 5.0)) << "no stale flag after 0.3 s without data";
+  EXPECT_GE(enc->stats().stale_events, 4u) << "every channel went stale (two never had data)";
+  ASSERT_EQ(sh("cansend vcan0 101#0200000002000000"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 0, 0.002));
+  EXPECT_FALSE(enc->stale_flag(0));
+  AngleSample s;
+  ASSERT_TRUE(sample(*enc, 0, s));
+  EXPECT_FALSE(enc->stale(0, s.stamp + 100 * kNsPerMs, 300 * kNsPerMs));
+  EXPECT_TRUE(enc->stale(0, s.stamp + 400 * kNsPerMs, 300 * kNsPerMs));
+  enc->stop();
+}
+
+TEST(HwSocketCan, SurvivesInterfaceDownUpAndRemoval) {
+  REQUIRE_VCAN0();
+  if (sh("ip link set vcan0 up") != 0) GTEST_SKIP() << "cannot change vcan0 (needs CAP_NET_ADMIN)";
+  auto enc = make();
+  enc->start();
+  ASSERT_EQ(sh("cansend vcan0 101#0100000000000000"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 0, 0.001));
+  ASSERT_EQ(sh("ip link set vcan0 down"), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->stats().state == DeviceState::kFaulted; }, 5.0)) << "down not detected";
+  EXPECT_EQ(enc->bus_stats().interface_down, 1u);
+  EXPECT_NE(enc->bus_stats().last_error.find("interface 'vcan0' went down"), std::string::npos);
+  ASSERT_EQ(sh("ip link set vcan0 up"), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->stats().state == DeviceState::kStreaming; }, 5.0)) << "up not detected";
+  ASSERT_EQ(sh("cansend vcan0 101#0300000000000000"), 0);
+  ASSERT_TRUE(wait_angle(*enc, 0, 0.003)) << "no data after down/up";
+  // interface deleted and re-created: the socket is re-opened on the new interface
+  ASSERT_EQ(sh("ip link del vcan0"), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->stats().state != DeviceState::kStreaming; }, 5.0));
+  ASSERT_EQ(sh("ip link add dev vcan0 type vcan && ip link set vcan0 up"), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->stats().state == DeviceState::kStreaming; }, 5.0)) << enc->bus_stats().last_error;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        sh("cansend vcan0 101#0400000000000000");
+        AngleSample s;
+        return sample(*enc, 0, s) && std::abs(s.angle - 0.004) < 1e-9;
+      },
+      5.0))
+      << "no data after re-creation";
+  EXPECT_GE(enc->stats().faults, 2u);
+  enc->stop();
+}
+
+TEST(HwSocketCan, ErrorFramesAreDecodedIntoCounters) {
+  REQUIRE_VCAN0();
+  auto enc = make();
+  enc->start();
+  // vcan has no controller, but an error frame sent by a raw socket loops back to error filters
+  ASSERT_EQ(sh("cansend vcan0 20000040#0000000000000000"), 0);  // bus-off
+  ASSERT_TRUE(wait_until([&] { return enc->bus_stats().bus_off >= 1; }, 5.0)) << "bus-off not counted";
+  EXPECT_EQ(enc->stats().state, DeviceState::kFaulted);
+  ASSERT_EQ(sh("cansend vcan0 20000004#0020000000000000"), 0);  // controller: tx error passive
+  ASSERT_EQ(sh("cansend vcan0 20000002#0500000000000000"), 0);  // lost arbitration at bit 5
+  ASSERT_EQ(sh("cansend vcan0 20000100#0000000000000000"), 0);  // controller restarted
+  ASSERT_TRUE(wait_until([&] { return enc->bus_stats().restarts >= 1; }, 5.0));
+  const auto b = enc->bus_stats();
+  EXPECT_EQ(b.error_frames, 4u);
+  EXPECT_EQ(b.error_passive, 1u);
+  EXPECT_EQ(b.lost_arbitration, 1u);
+  EXPECT_EQ(b.controller_problems, 1u);
+  EXPECT_EQ(enc->stats().state, DeviceState::kStreaming) << "restart ends the bus-off fault";
+  EXPECT_EQ(enc->stats().faults, 1u);
+  enc->stop();
+}
+
+TEST(HwSocketCan, CommandFramesAreSentOnlyWhenEnabled) {
+  REQUIRE_VCAN0();
+  auto disabled = make();
+  const std::uint8_t payload[3] = {0xAA, 0xBB, 0xCC};
+  EXPECT_THROW(disabled->send(payload, 3), std::logic_error);
+  auto enc = make("command: {enabled: true, id: 0x300}\n");
+  // a listener socket on vcan0 for id 0x300
+  const int fd = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
+  ASSERT_GE(fd, 0);
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = static_cast<int>(if_nametoindex("vcan0"));
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  timeval tv{2, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  ASSERT_TRUE(enc->send(payload, 3));
+  can_frame f{};
+  ASSERT_EQ(::read(fd, &f, sizeof f), static_cast<ssize_t>(sizeof f));
+  ::close(fd);
+  EXPECT_EQ(f.can_id, 0x300u);
+  EXPECT_EQ(f.len, 3u);
+  EXPECT_EQ(f.data[2], 0xCC);
+  EXPECT_EQ(enc->bus_stats().tx_frames, 1u);
+}
+
+TEST(HwSocketCan, DownInterfaceIsAStartupError) {
+  REQUIRE_VCAN0();
+  if (sh("ip link set vcan0 down") != 0) GTEST_SKIP() << "cannot change vcan0 (needs CAP_NET_ADMIN)";
+  std::string msg;
+  try {
+    make();
+  } catch (const ConfigError& e) {
+    msg = e.what();
+  }
+  sh("ip link set vcan0 up");
+  EXPECT_NE(msg.find("socketcan 'wheels': interface 'vcan0' is down (bring it up: ip link set vcan0 up)"), std::string::npos) << msg;
+}

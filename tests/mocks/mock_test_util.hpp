@@ -1,0 +1,89 @@
+#pragma once
+// Helpers for the mock-backend tests: a manual clock, temp directories, YAML -> backends.
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+
+#include "regolith/core/params.hpp"
+#include "regolith/hal/registry.hpp"
+#include "regolith/mocks/backends.hpp"
+
+namespace regolith::mocks::test {
+
+/// A simulated clock the test moves by hand (like the runtime's SimClock).
+class ManualClock final : public Clock {
+ public:
+  explicit ManualClock(TimeNs t = 5 * kNsPerSec) : now_(t) {}
+  TimeNs now() const override { return now_.load(); }
+  void sleep_until(TimeNs t) override {
+    if (t > now_.load()) now_.store(t);
+  }
+  bool simulated() const override { return true; }
+  void set(TimeNs t) { now_.store(t); }
+
+ private:
+  std::atomic<TimeNs> now_;
+};
+
+/// A fresh directory under the system temp dir, removed at destruction.
+class TempDir {
+ public:
+  TempDir() {
+    static int counter = 0;
+    path_ = std::filesystem::temp_directory_path() /
+            ("regolith_mocks_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  std::string str() const { return path_.string(); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  void write(const std::string& name, const std::string& text) const {
+    std::filesystem::create_directories((path_ / name).parent_path());
+    std::ofstream(path_ / name) << text;
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+/// Owns a registry with the mock backends and builds devices from YAML text.
+struct Fixture {
+  hal::BackendRegistry registry;
+  ManualClock clock;
+  TempDir dir;
+  Fixture() { register_mock_backends(registry); }
+  hal::DeviceContext ctx(std::uint16_t index = 0) { return {"dev", index, &clock, dir.str()}; }
+
+  std::unique_ptr<hal::Camera> camera(const std::string& yaml, std::uint16_t index = 0) {
+    Params p = Params::load_string(yaml, dir.file("test.yaml"));
+    auto cam = registry.make_camera(p, ctx(index));
+    p.finish();
+    return cam;
+  }
+  std::unique_ptr<hal::WheelEncoders> encoders(const std::string& yaml) {
+    Params p = Params::load_string(yaml, dir.file("test.yaml"));
+    auto enc = registry.make_encoders(p, ctx());
+    p.finish();
+    return enc;
+  }
+};
+
+/// Message of the ConfigError thrown by `f` (empty string when nothing is thrown).
+template <class F>
+std::string config_error(F&& f) {
+  try {
+    f();
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+}  // namespace regolith::mocks::test

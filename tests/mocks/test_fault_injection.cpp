@@ -1,0 +1,272 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "mock_test_util.hpp"
+
+namespace regolith::mocks::test {
+namespace {
+
+// 10 uniform images, image i has value 10 * (i + 1); 10 Hz; looping.
+std::string camera_yaml(Fixture& fx, const std::string& faults) {
+  std::filesystem::create_directories(fx.dir.file("frames"));
+  for (int i = 0; i < 10; ++i) {
+    cv::imwrite(fx.dir.file("frames/f" + std::to_string(i) + ".png"), cv::Mat(24, 32, CV_8UC1, cv::Scalar(10 * (i + 1))));
+  }
+  return "backend: fault_injection\ninner: {backend: image_files, path: frames, rate_hz: 10}\n" + faults;
+}
+int expected_pixel(std::uint64_t seq) { return 10 * static_cast<int>(seq % 10 + 1); }
+const TimeNs kFrame = 100 * kNsPerMs;
+
+// Polls once per frame period and returns the delivered sequence numbers (-1 = nothing).
+std::vector<std::int64_t> poll(hal::Camera& cam, TimeNs t0, int frames, int* bad_pixels = nullptr) {
+  std::vector<std::int64_t> seqs;
+  hal::FrameLease f;
+  for (int k = 0; k < frames; ++k) {
+    if (!cam.latest(t0 + k * kFrame, f)) {
+      seqs.push_back(-1);
+      continue;
+    }
+    seqs.push_back(static_cast<std::int64_t>(f->sequence));
+    if (bad_pixels != nullptr && f->image.at<std::uint8_t>(3, 3) != expected_pixel(f->sequence)) ++*bad_pixels;
+  }
+  return seqs;
+}
+
+TEST(FaultCamera, DropRateWithinToleranceAndDeterministic) {
+  Fixture fx;
+  const std::string yaml = camera_yaml(fx, "drop_rate: 0.3\nseed: 5\n");
+  auto a = fx.camera(yaml);
+  auto b = fx.camera(yaml);
+  auto c = fx.camera(camera_yaml(fx, "drop_rate: 0.3\nseed: 6\n"));
+  a->start();
+  b->start();
+  c->start();
+  const TimeNs t0 = fx.clock.now();
+  const int n = 3000;
+  int bad = 0;
+  const auto sa = poll(*a, t0, n, &bad);
+  const auto sb = poll(*b, t0, n);
+  const auto sc = poll(*c, t0, n);
+  EXPECT_EQ(sa, sb) << "same seed, same clock sequence -> same frames";
+  EXPECT_NE(sa, sc);
+  EXPECT_EQ(bad, 0);
+  int fresh = 0;
+  for (int k = 0; k < n; ++k) {
+    fresh += sa[static_cast<std::size_t>(k)] == k;
+    if (sa[static_cast<std::size_t>(k)] >= 0) {
+      EXPECT_LE(sa[static_cast<std::size_t>(k)], k);  // never from the future
+    }
+  }
+  const auto st = a->stats();
+  EXPECT_EQ(st.frames + st.dropped, static_cast<std::uint64_t>(n));
+  EXPECT_EQ(st.frames, static_cast<std::uint64_t>(fresh));
+  const double rate = static_cast<double>(st.dropped) / n;
+  EXPECT_NEAR(rate, 0.3, 0.03) << "measured drop rate " << rate;
+}
+
+TEST(FaultCamera, FreezeKeepsContentButAdvancesSequence) {
+  Fixture fx;
+  auto cam = fx.camera(camera_yaml(fx, "freeze_after: 4\n"));
+  cam->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::FrameLease f;
+  for (int k = 0; k < 12; ++k) {
+    ASSERT_TRUE(cam->latest(t0 + k * kFrame, f));
+    EXPECT_EQ(f->sequence, static_cast<std::uint64_t>(k));
+    EXPECT_EQ(f->capture_time, t0 + k * kFrame);
+    EXPECT_EQ(f->image.at<std::uint8_t>(0, 0), expected_pixel(k < 4 ? static_cast<std::uint64_t>(k) : 3u)) << k;
+  }
+}
+
+TEST(FaultCamera, DisconnectReconnectCountersAndStates) {
+  Fixture fx;
+  auto cam = fx.camera(camera_yaml(fx, "disconnect_after: 10\nreconnect_after: 5\n"));
+  EXPECT_EQ(cam->stats().state, hal::DeviceState::kStopped);
+  cam->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::FrameLease f;
+  for (int k = 0; k < 30; ++k) {
+    const TimeNs now = t0 + k * kFrame + kFrame / 2;
+    fx.clock.set(now);
+    const bool got = cam->latest(now, f);
+    const auto st = cam->stats();
+    if (k < 10) {
+      EXPECT_TRUE(got) << k;
+      EXPECT_EQ(st.state, hal::DeviceState::kStreaming) << k;
+      EXPECT_EQ(st.faults, 0u);
+    } else if (k < 15) {
+      EXPECT_FALSE(got) << k;
+      EXPECT_EQ(st.state, hal::DeviceState::kFaulted) << k;
+      EXPECT_EQ(st.faults, 1u);
+      EXPECT_EQ(st.recoveries, 0u);
+    } else {
+      ASSERT_TRUE(got) << k;
+      EXPECT_EQ(f->sequence, static_cast<std::uint64_t>(k));
+      EXPECT_EQ(st.state, hal::DeviceState::kStreaming) << k;
+      EXPECT_EQ(st.faults, 1u);
+      EXPECT_EQ(st.recoveries, 1u);
+    }
+  }
+  EXPECT_EQ(cam->stats().frames, 25u);
+  // Repeating outages: up 10, down 5, ... -> after 4 full cycles + 12 frames: 5 faults, 4 recoveries.
+  auto rep = fx.camera(camera_yaml(fx, "disconnect_after: 10\nreconnect_after: 5\nrepeat: true\n"));
+  rep->start();
+  fx.clock.set(fx.clock.now() + (4 * 15 + 12) * kFrame);
+  const auto st = rep->stats();
+  EXPECT_EQ(st.faults, 5u);
+  EXPECT_EQ(st.recoveries, 4u);
+  EXPECT_EQ(st.state, hal::DeviceState::kFaulted);
+  // Without reconnect_after the device stays faulted.
+  auto dead = fx.camera(camera_yaml(fx, "disconnect_after: 3\n"));
+  dead->start();
+  EXPECT_FALSE(dead->latest(fx.clock.now() + 100 * kFrame, f));
+  fx.clock.set(fx.clock.now() + 100 * kFrame);
+  EXPECT_EQ(dead->stats().recoveries, 0u);
+  EXPECT_EQ(dead->stats().state, hal::DeviceState::kFaulted);
+}
+
+TEST(FaultCamera, DelayDeliversWhatTheInnerHadEarlier) {
+  Fixture fx;
+  auto cam = fx.camera(camera_yaml(fx, "delay_ms: 250\n"));
+  cam->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::FrameLease f;
+  EXPECT_FALSE(cam->latest(t0 + 200 * kNsPerMs, f)) << "nothing has arrived yet";
+  ASSERT_TRUE(cam->latest(t0 + kNsPerSec, f));
+  EXPECT_EQ(f->sequence, 7u);  // captured at 700 ms <= 1000 - 250
+  EXPECT_EQ(f->capture_time, t0 + 700 * kNsPerMs);
+  EXPECT_EQ(f->image.at<std::uint8_t>(0, 0), expected_pixel(7));
+}
+
+TEST(FaultCamera, CorruptFramesAreFlaggedAndDamaged) {
+  Fixture fx;
+  auto cam = fx.camera(camera_yaml(fx, "corrupt_rate: 0.5\nseed: 11\n"));
+  cam->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::FrameLease f;
+  int flagged = 0, damaged_unflagged = 0, flagged_intact = 0;
+  const int n = 600;
+  for (int k = 0; k < n; ++k) {
+    ASSERT_TRUE(cam->latest(t0 + k * kFrame, f));
+    const cv::Mat expect(24, 32, CV_8UC1, cv::Scalar(expected_pixel(f->sequence)));
+    const bool damaged = cv::norm(f->image, expect, cv::NORM_INF) > 0;
+    if (f->corrupt) {
+      ++flagged;
+      flagged_intact += !damaged;
+    } else {
+      damaged_unflagged += damaged;
+    }
+  }
+  EXPECT_EQ(damaged_unflagged, 0);
+  EXPECT_EQ(flagged_intact, 0);
+  EXPECT_EQ(cam->stats().corrupt, static_cast<std::uint64_t>(flagged));
+  EXPECT_NEAR(static_cast<double>(flagged) / n, 0.5, 0.06);
+}
+
+TEST(FaultCamera, InnerParametersAreValidated) {
+  Fixture fx;
+  std::string msg = config_error([&] { fx.camera(camera_yaml(fx, "") + "drop_rate: 1.5\n"); });
+  EXPECT_NE(msg.find("drop_rate"), std::string::npos) << msg;
+  msg = config_error([&] {
+    fx.camera("backend: fault_injection\ninner: {backend: image_files, path: frames, rate: 10}\n");
+  });
+  EXPECT_NE(msg.find("inner.rate"), std::string::npos) << msg;
+  msg = config_error([&] { fx.camera("backend: fault_injection\ninner: {backend: image_file}\n"); });
+  EXPECT_NE(msg.find("did you mean 'image_files'"), std::string::npos) << msg;
+  msg = config_error([&] { fx.camera("backend: fault_injection\n"); });
+  EXPECT_NE(msg.find("inner: required section is missing"), std::string::npos) << msg;
+}
+
+// ---- encoders -----------------------------------------------------------------------------------
+
+// Inner: one wheel at 1 rad/s sampled at 100 Hz, so a sample's angle equals its time in seconds.
+std::string encoder_yaml(const std::string& faults) {
+  return "backend: fault_injection\ninner: {backend: scripted, wheels: [w], speed_rad_s: 1, sample_rate_hz: 100}\n"
+         "sample_rate_hz: 100\n" +
+         faults;
+}
+const TimeNs kSample = 10 * kNsPerMs;
+
+TEST(FaultEncoders, DropRateAndPreviousSampleServed) {
+  Fixture fx;
+  auto enc = fx.encoders(encoder_yaml("drop_rate: 0.2\nseed: 9\n"));
+  auto same = fx.encoders(encoder_yaml("drop_rate: 0.2\nseed: 9\n"));
+  enc->start();
+  same->start();
+  const TimeNs t0 = fx.clock.now();
+  const int n = 5000;
+  int fresh = 0;
+  for (int k = 0; k < n; ++k) {
+    hal::AngleSample s, s2;
+    const TimeNs now = t0 + k * kSample;
+    if (!enc->latest(0, now, s)) {
+      EXPECT_LT(k, 5) << "a run of dropped samples at the very start is possible";
+      continue;
+    }
+    ASSERT_TRUE(same->latest(0, now, s2));
+    ASSERT_EQ(s.stamp, s2.stamp);
+    EXPECT_LE(s.stamp, now);
+    EXPECT_NEAR(s.angle, to_seconds(s.stamp - t0), 1e-9);  // an older sample, but a true one
+    fresh += s.stamp == now;
+  }
+  EXPECT_NEAR(1.0 - static_cast<double>(fresh) / n, 0.2, 0.02);
+}
+
+TEST(FaultEncoders, DisconnectReconnect) {
+  Fixture fx;
+  auto enc = fx.encoders(encoder_yaml("disconnect_after: 50\nreconnect_after: 20\n"));
+  enc->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::AngleSample s;
+  for (int k = 0; k < 100; ++k) {
+    const TimeNs now = t0 + k * kSample + kSample / 2;
+    fx.clock.set(now);
+    const bool got = enc->latest(0, now, s);
+    const auto st = enc->stats();
+    if (k >= 50 && k < 70) {
+      EXPECT_FALSE(got) << k;
+      EXPECT_EQ(st.state, hal::DeviceState::kFaulted);
+      EXPECT_TRUE(enc->stale(0, now, 5 * kSample));
+    } else {
+      ASSERT_TRUE(got) << k;
+      EXPECT_EQ(s.stamp, t0 + k * kSample);
+      EXPECT_EQ(st.state, hal::DeviceState::kStreaming);
+    }
+    EXPECT_EQ(st.faults, k >= 50 ? 1u : 0u) << k;
+  }
+  // After reconnecting, interpolation works again inside the new history.
+  double a = 0;
+  ASSERT_TRUE(enc->angle_at(0, t0 + 95 * kSample, a));
+  EXPECT_NEAR(a, 0.95, 1e-9);
+}
+
+TEST(FaultEncoders, DelayFreezeAndCorruption) {
+  Fixture fx;
+  auto delayed = fx.encoders(encoder_yaml("delay_ms: 30\n"));
+  auto frozen = fx.encoders(encoder_yaml("freeze_after: 100\n"));
+  auto corrupt = fx.encoders(encoder_yaml("corrupt_rate: 0.1\nseed: 2\n"));
+  delayed->start();
+  frozen->start();
+  corrupt->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::AngleSample s;
+  ASSERT_TRUE(delayed->latest(0, t0 + 500 * kNsPerMs, s));
+  EXPECT_EQ(s.stamp, t0 + 470 * kNsPerMs);
+  EXPECT_NEAR(s.angle, 0.47, 1e-9);
+  ASSERT_TRUE(frozen->latest(0, t0 + 1500 * kNsPerMs, s));
+  EXPECT_EQ(s.stamp, t0 + 1500 * kNsPerMs);
+  EXPECT_NEAR(s.angle, 0.99, 1e-9) << "angle of sample 99, the last one before the freeze";
+  ASSERT_TRUE(frozen->latest(0, t0 + 990 * kNsPerMs, s));
+  EXPECT_NEAR(s.angle, 0.99, 1e-9);
+  int garbage = 0;
+  const int n = 4000;
+  for (int k = 0; k < n; ++k) {
+    ASSERT_TRUE(corrupt->latest(0, t0 + k * kSample, s));
+    garbage += std::abs(s.angle - to_seconds(s.stamp - t0)) > 1e-6;
+  }
+  EXPECT_NEAR(static_cast<double>(garbage) / n, 0.1, 0.015);
+}
+
+}  // namespace
+}  // namespace regolith::mocks::test

@@ -1,0 +1,87 @@
+#include <gtest/gtest.h>
+
+#include "mock_test_util.hpp"
+
+#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#include "regolith/wheel_scene/wheel_scene.hpp"
+#endif
+
+namespace regolith::mocks::test {
+namespace {
+
+#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+TEST(SyntheticTerrain, RendersMovingDeterministicFrames) {
+  Fixture fx;
+  const std::string yaml = "backend: synthetic_terrain\nwidth: 96\nheight: 72\nframes: 3\nrate_hz: 2\n"
+                           "speed_m_s: 0.4\nresolution_m: 0.05\n";
+  auto a = fx.camera(yaml + "seed: 4\n");
+  auto b = fx.camera(yaml + "seed: 4\n");
+  auto c = fx.camera(yaml + "seed: 5\n");
+  EXPECT_EQ(a->format().width, 96);
+  a->start();
+  b->start();
+  c->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::FrameLease fa, fb, fc;
+  std::vector<cv::Mat> seen;
+  for (int k = 0; k < 3; ++k) {
+    const TimeNs t = t0 + k * 500 * kNsPerMs;
+    ASSERT_TRUE(a->latest(t, fa));
+    ASSERT_TRUE(b->latest(t, fb));
+    ASSERT_TRUE(c->latest(t, fc));
+    EXPECT_EQ(fa->sequence, static_cast<std::uint64_t>(k));
+    EXPECT_EQ(cv::norm(fa->image, fb->image, cv::NORM_INF), 0.0) << "same seed, same frames";
+    EXPECT_GT(cv::norm(fa->image, fc->image, cv::NORM_L1), 0.0) << "other seed, other terrain";
+    const double mean = cv::mean(fa->image)[0];
+    EXPECT_GT(mean, 20.0);
+    EXPECT_LT(mean, 250.0);
+    seen.push_back(fa->image.clone());
+  }
+  EXPECT_GT(cv::norm(seen[0], seen[2], cv::NORM_L1) / static_cast<double>(seen[0].total()), 1.0) << "the rover moved";
+}
+
+TEST(SyntheticTerrain, LeavingTheTerrainIsAConfigError) {
+  Fixture fx;
+  const std::string msg = config_error([&] {
+    fx.camera("backend: synthetic_terrain\nwidth: 32\nheight: 24\nframes: 30\nrate_hz: 1\nspeed_m_s: 1\n");
+  });
+  EXPECT_NE(msg.find("leaves the terrain at frame 12"), std::string::npos) << msg;
+}
+#endif
+
+#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
+  Fixture fx;
+  const std::string body = "frames: 4\nrate_hz: 10\nsample_rate_hz: 100\nspeed_rad_s: 0.5\n"
+                           "initial_angle_rad: 0.1\nsinkage_mm: 15\nseed: 3\n";
+  auto cam = fx.camera("backend: synthetic_wheel\n" + body);
+  auto enc = fx.encoders("backend: synthetic_wheel\n" + body);
+  ASSERT_EQ(enc->wheel_names().at(0), "wheel");
+  cam->start();
+  enc->start();
+  const TimeNs t0 = fx.clock.now();
+  wheel_scene::SceneParams sp;
+  sp.seed = 3;
+  wheel_scene::WheelSceneGenerator gen(sp);
+  // The generator's sensor noise is a random stream: render the reference frames in order.
+  std::vector<cv::Mat> ref(4);
+  for (int i = 0; i < 4; ++i) {
+    const auto truth = gen.render_with_sinkage(0.1 + 0.05 * i, 15.0, ref[static_cast<std::size_t>(i)]);
+    EXPECT_NEAR(truth.sinkage_mm, 15.0, 1e-6);
+  }
+  hal::FrameLease f;
+  hal::AngleSample s;
+  for (int k : {0, 1, 3, 5}) {  // frame 5 loops back to frame 1
+    const TimeNs t = t0 + k * 100 * kNsPerMs;
+    ASSERT_TRUE(cam->latest(t, f));
+    ASSERT_TRUE(enc->latest(0, t, s));
+    EXPECT_EQ(s.stamp, f->capture_time);
+    const double expect_angle = 0.1 + 0.5 * 0.1 * (k % 4);
+    EXPECT_NEAR(s.angle, expect_angle, 1e-12) << k;
+    EXPECT_EQ(cv::norm(f->image, ref[static_cast<std::size_t>(k % 4)], cv::NORM_INF), 0.0) << "frame " << k << " is the scene at the encoder angle";
+  }
+}
+#endif
+
+}  // namespace
+}  // namespace regolith::mocks::test

@@ -1,0 +1,251 @@
+// The allocation-free replacements of image_ops.hpp against the OpenCV calls they replace, on
+// random inputs of odd and even sizes (borders included), and the per-frame allocation count of
+// IttiSaliency::compute + BoxDetector::detect once warmed up (counting global operator new on
+// this thread while armed).
+// The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <new>
+#include <random>
+#include <tuple>
+
+#include "regolith/saliency/detect.hpp"
+#include "regolith/saliency/image_ops.hpp"
+#include "regolith/saliency/itti.hpp"
+
+namespace {
+thread_local bool g_count = false;
+thread_local unsigned long g_allocs = 0;
+} // namespace
+
+void *operator new(std::size_t n) {
+  if (g_count)
+    ++g_allocs;
+  if (void *p = std::malloc(n == 0 ? 1 : n))
+    return p;
+  throw std::bad_alloc();
+}
+void operator delete(void *p) noexcept { std::free(p); }
+void operator delete(void *p, std::size_t) noexcept { std::free(p); }
+
+namespace rs = regolith::saliency;
+
+namespace {
+
+cv::Mat random_float(cv::Size s, int seed) {
+  cv::Mat m(s, CV_32F);
+  cv::RNG rng(static_cast<std::uint64_t>(seed));
+  rng.fill(m, cv::RNG::UNIFORM, 0.0, 1.0);
+  return m;
+}
+
+// Largest |a - b| relative to the largest |b| (1 when b is all zero).
+double rel_diff(const cv::Mat &a, const cv::Mat &b) {
+  EXPECT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.type(), b.type());
+  double mx = 0.0;
+  cv::minMaxLoc(cv::abs(b), nullptr, &mx);
+  return cv::norm(a, b, cv::NORM_INF) / std::max(mx, 1.0);
+}
+
+// Random binary image: blobs of random rectangles and ellipses plus salt noise.
+cv::Mat random_binary(cv::Size s, int seed) {
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  cv::Mat m(s, CV_8U, cv::Scalar(0));
+  std::uniform_int_distribution<int> ux(-5, s.width + 5), uy(-5, s.height + 5), ur(1, 12);
+  for (int k = 0; k < 25; ++k) {
+    if (k % 2 == 0)
+      cv::ellipse(m, {ux(rng), uy(rng)}, {ur(rng), ur(rng)}, 17.0 * k, 0, 360, 255, -1);
+    else
+      cv::rectangle(m, cv::Rect(ux(rng), uy(rng), ur(rng), ur(rng)), 255, -1);
+  }
+  std::bernoulli_distribution salt(0.04);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x)
+      if (salt(rng))
+        m.at<uchar>(y, x) = 255;
+  return m;
+}
+
+const cv::Size kSizes[] = {{1, 1}, {2, 3}, {7, 5}, {9, 9}, {40, 30}, {41, 33}, {80, 61}, {161, 120}};
+
+} // namespace
+
+TEST(ImageOps, GaborEnergyEqualsFilter2DReplicate) {
+  for (const int ks : {3, 9}) {
+    cv::Mat even = cv::getGaborKernel({ks, ks}, 7.0 / 3.0, 0.7, 7.0, 1.0, 0.0, CV_32F);
+    cv::Mat odd = cv::getGaborKernel({ks, ks}, 7.0 / 3.0, 0.7, 7.0, 1.0, CV_PI / 2, CV_32F);
+    odd.at<float>(0, 0) += 0.25f; // make it asymmetric: a flipped kernel would be caught
+    int seed = 1;
+    for (const cv::Size s : kSizes) {
+      const cv::Mat src = random_float(s, seed++);
+      cv::Mat e, o, ref, dst, pad, rows, one;
+      cv::filter2D(src, e, CV_32F, even, {-1, -1}, 0.0, cv::BORDER_REPLICATE);
+      cv::filter2D(src, o, CV_32F, odd, {-1, -1}, 0.0, cv::BORDER_REPLICATE);
+      ref = cv::abs(e) + cv::abs(o);
+      rs::gabor_energy(src, even, odd, dst, pad, rows);
+      EXPECT_LT(rel_diff(dst, ref), 1e-5) << s << " k" << ks;
+      rs::correlate_replicate(src, odd, one, pad);
+      EXPECT_LT(rel_diff(one, o), 1e-5) << s << " k" << ks;
+    }
+  }
+}
+
+TEST(ImageOps, SobelThroughCorrelationEqualsCvSobel) {
+  const cv::Mat kx = (cv::Mat_<float>(3, 3) << -1, 0, 1, -2, 0, 2, -1, 0, 1) / 8.0;
+  const cv::Mat src = random_float({37, 29}, 5);
+  cv::Mat ref, dst, pad;
+  cv::Sobel(src, ref, CV_32F, 1, 0, 3, 1.0 / 8.0, 0.0, cv::BORDER_REPLICATE);
+  rs::correlate_replicate(src, kx, dst, pad);
+  EXPECT_LT(rel_diff(dst, ref), 1e-6);
+}
+
+TEST(ImageOps, ErodeDilateEqualOpenCvDefaultBorder) {
+  int seed = 10;
+  for (const int shape : {cv::MORPH_ELLIPSE, cv::MORPH_RECT, cv::MORPH_CROSS}) {
+    for (const cv::Size ks : {cv::Size(5, 5), cv::Size(3, 7), cv::Size(1, 1), cv::Size(9, 9)}) {
+      const cv::Mat k = cv::getStructuringElement(shape, ks);
+      for (const cv::Size s : kSizes) {
+        const cv::Mat src = random_binary(s, seed++);
+        cv::Mat re, rd, e, d, pad;
+        cv::erode(src, re, k);
+        cv::dilate(src, rd, k);
+        rs::erode_8u(src, e, k, pad);
+        rs::dilate_8u(src, d, k, pad);
+        EXPECT_EQ(cv::norm(e, re, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
+        EXPECT_EQ(cv::norm(d, rd, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
+        // Open / close as morphologyEx, in place like BoxDetector.
+        cv::Mat ro, rc, x = src.clone(), tmp;
+        cv::morphologyEx(src, ro, cv::MORPH_OPEN, k);
+        cv::morphologyEx(ro, rc, cv::MORPH_CLOSE, k);
+        rs::erode_8u(x, tmp, k, pad);
+        rs::dilate_8u(tmp, x, k, pad);
+        EXPECT_EQ(cv::norm(x, ro, cv::NORM_INF), 0.0) << s;
+        rs::dilate_8u(x, tmp, k, pad);
+        rs::erode_8u(tmp, x, k, pad);
+        EXPECT_EQ(cv::norm(x, rc, cv::NORM_INF), 0.0) << s;
+      }
+    }
+  }
+  // Grey values too (the operations are not binary-only).
+  cv::Mat g(23, 31, CV_8U), ref, out, pad;
+  cv::randu(g, 0, 256);
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5});
+  cv::erode(g, ref, k);
+  rs::erode_8u(g, out, k, pad);
+  EXPECT_EQ(cv::norm(out, ref, cv::NORM_INF), 0.0);
+  rs::erode_8u(g, g, k, pad); // in place
+  EXPECT_EQ(cv::norm(g, ref, cv::NORM_INF), 0.0);
+}
+
+TEST(ImageOps, ResizeTableEqualsCvResize) {
+  // Sizes of the dyadic pyramid (ceil halving) to a map level and back, plus odd ratios.
+  const std::tuple<cv::Size, cv::Size, int> cases[] = {
+      {{160, 120}, {40, 30}, cv::INTER_AREA},  {{140, 125}, {35, 32}, cv::INTER_AREA},
+      {{70, 63}, {35, 32}, cv::INTER_AREA},    {{35, 32}, {35, 32}, cv::INTER_AREA},
+      {{101, 77}, {13, 9}, cv::INTER_AREA},    {{5, 4}, {40, 30}, cv::INTER_LINEAR},
+      {{3, 2}, {35, 32}, cv::INTER_LINEAR},    {{80, 60}, {320, 240}, cv::INTER_LINEAR},
+      {{35, 32}, {560, 500}, cv::INTER_LINEAR}, {{1, 1}, {7, 5}, cv::INTER_LINEAR},
+      {{50, 40}, {17, 23}, cv::INTER_LINEAR},  {{20, 15}, {20, 15}, cv::INTER_LINEAR},
+      // the mock deployment (320x240, map level 2, levels 3..7 -> 80x60, map -> input)
+      {{40, 30}, {80, 60}, cv::INTER_LINEAR},  {{20, 15}, {80, 60}, cv::INTER_LINEAR},
+      {{10, 8}, {80, 60}, cv::INTER_LINEAR},   {{5, 4}, {80, 60}, cv::INTER_LINEAR},
+      {{3, 2}, {80, 60}, cv::INTER_LINEAR},    {{80, 60}, {320, 240}, cv::INTER_LINEAR}};
+  int seed = 100;
+  for (const auto &[from, to, interp] : cases) {
+    const cv::Mat src = random_float(from, seed++);
+    cv::Mat ref, dst;
+    cv::resize(src, ref, to, 0, 0, interp);
+    rs::ResizeTable t;
+    t.build(from, to,
+            interp == cv::INTER_AREA ? rs::ResizeTable::Mode::kArea : rs::ResizeTable::Mode::kLinear);
+    t.apply(src, dst);
+    EXPECT_LT(rel_diff(dst, ref), 2e-6) << from << " -> " << to << " interp " << interp;
+  }
+  rs::ResizeTable t;
+  EXPECT_THROW(t.build({10, 10}, {20, 20}, rs::ResizeTable::Mode::kArea), std::invalid_argument);
+  t.build({10, 10}, {5, 5}, rs::ResizeTable::Mode::kLinear);
+  cv::Mat wrong(11, 10, CV_32F, cv::Scalar(0)), out;
+  EXPECT_THROW(t.apply(wrong, out), std::invalid_argument);
+}
+
+TEST(ImageOps, ConnectedComponentsEqualOpenCvLabelsAndStats) {
+  int seed = 200;
+  rs::ConnectedComponents cc;
+  for (const cv::Size s : kSizes) {
+    for (int trial = 0; trial < 4; ++trial) {
+      const cv::Mat bin = random_binary(s, seed++);
+      cv::Mat labels, stats, centroids;
+      const int n_ref = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
+      const int n = cc.run(bin);
+      ASSERT_EQ(n, n_ref) << s;
+      // Same numbering as OpenCV, pixel for pixel.
+      EXPECT_EQ(cv::norm(cc.labels(), labels, cv::NORM_INF), 0.0) << s;
+      for (int i = (static_cast<std::size_t>(cv::countNonZero(bin)) == bin.total() ? 1 : 0); i < n; ++i)
+        for (int f = 0; f < 5; ++f)
+          EXPECT_EQ(cc.stats(i)[static_cast<std::size_t>(f)], stats.at<int>(i, f))
+              << s << " label " << i << " stat " << f;
+    }
+  }
+  // Spiral / U shapes that need label merges across rows.
+  cv::Mat u(20, 30, CV_8U, cv::Scalar(0));
+  cv::rectangle(u, cv::Rect(2, 2, 3, 15), 255, -1);
+  cv::rectangle(u, cv::Rect(20, 2, 3, 15), 255, -1);
+  cv::rectangle(u, cv::Rect(2, 15, 21, 2), 255, -1);
+  u.at<uchar>(0, 10) = 255;
+  u.at<uchar>(1, 11) = 255; // diagonal pair: one component with 8-connectivity
+  cv::Mat labels, stats, centroids;
+  ASSERT_EQ(cc.run(u), cv::connectedComponentsWithStats(u, labels, stats, centroids, 8, CV_32S));
+  EXPECT_EQ(cc.run(u), 3);
+  EXPECT_EQ(cv::norm(cc.labels(), labels, cv::NORM_INF), 0.0);
+  EXPECT_THROW(cc.run(cv::Mat(3, 3, CV_32F)), std::invalid_argument);
+}
+
+TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {
+  // The settings of the `sams` component in the mock deployment (320x240, delta_max 3, map
+  // level 2, local-max N) and the library defaults at 640x480 (map level 4: INTER_AREA tables),
+  // each with the height and the slope structure feature.
+  struct Case {
+    cv::Size size;
+    int delta_max, map_level;
+    rs::StructureFeature feature;
+  };
+  for (const Case &c : {Case{{320, 240}, 3, 2, rs::StructureFeature::kHeight},
+                        Case{{320, 240}, 3, 2, rs::StructureFeature::kSlope},
+                        Case{{640, 480}, 4, 4, rs::StructureFeature::kHeight}}) {
+    cv::Mat gray(c.size, CV_8U), height(c.size, CV_32F);
+    cv::randu(gray, 0, 256);
+    cv::GaussianBlur(gray, gray, {0, 0}, 2.0);
+    cv::randu(height, 0.f, 1.f);
+    cv::GaussianBlur(height, height, {0, 0}, 4.0);
+    rs::IttiParams ip;
+    ip.delta_max = c.delta_max;
+    ip.map_level = c.map_level;
+    ip.normalisation = rs::Normalisation::kLocalMax;
+    ip.structure_feature = c.feature;
+    ip.weights = {0.2, 0.5, 0.0, 0.3};
+    rs::PostProcessParams pp;
+    pp.threshold_scale = 1.2;
+    rs::IttiSaliency itti(ip);
+    rs::BoxDetector det(pp);
+    cv::Mat sal;
+    std::vector<rs::Detection> out;
+    out.reserve(4096);
+    itti.compute(gray, height, sal);
+    det.detect(sal, out);
+    g_allocs = 0;
+    g_count = true;
+    for (int k = 0; k < 3; ++k) {
+      itti.compute(gray, height, sal);
+      det.detect(sal, out);
+    }
+    g_count = false;
+    EXPECT_EQ(g_allocs, 0u) << c.size << " map level " << c.map_level;
+    EXPECT_FALSE(out.empty());
+  }
+}

@@ -1,0 +1,377 @@
+// The "sams" component behind the "sfs" component in a deployment under the simulated clock
+// (synthetic_terrain camera, DDS off). The rocks published on "terrain/rocks" are matched against
+// the rocks of the rendered scene (terrain_scene::render_camera boxes, one-to-one Hungarian
+// matching at IoU 0.2), their ranged positions against the rocks' true positions, the
+// rock_probability layer against the rocks' cells; heap allocations inside rate-group cycles are
+// counted; configuration errors must name the field.
+// The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#include <execinfo.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "regolith/core/error.hpp"
+#include "regolith/hal/registry.hpp"
+#include "regolith/mocks/backends.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/rate_group.hpp"
+#include "regolith/saliency/component.hpp"
+#include "regolith/saliency/evaluate.hpp"
+#include "regolith/sfs/component.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
+
+namespace {
+std::atomic<std::uint64_t> g_in_cycle{0};
+// Debugging aid: with REGOLITH_TRACE_ALLOC=N in the environment, the stacks of the first N
+// allocations inside cycles after the warm-up are printed to stderr (resolve with addr2line).
+std::atomic<int> g_trace_left{0};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  if (regolith::runtime::in_rate_group_cycle()) {
+    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+    if (g_trace_left.load(std::memory_order_relaxed) > 0 && g_trace_left.fetch_sub(1) > 0) {
+      void* bt[24];
+      const int nb = backtrace(bt, 24);
+      backtrace_symbols_fd(bt, nb, 2);
+      static const char sep[] = "----\n";
+      (void)!write(2, sep, sizeof sep - 1);
+    }
+  }
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace {
+using namespace regolith;
+namespace ts = regolith::terrain_scene;
+
+void register_once() {
+  static bool done = false;
+  if (done) return;
+  done = true;
+  runtime::register_builtin_components();
+  mocks::register_mock_backends(hal::BackendRegistry::instance());
+  sfs::register_component();
+  saliency::register_component();
+}
+
+// Camera and sun of the deployment (synthetic_terrain defaults except the sun; static rover).
+constexpr int kW = 320, kH = 240;
+constexpr double kHfov = 1.349, kCamH = 0.5, kPitch = 0.35, kSunAz = 2.5, kSunEl = 0.6;
+constexpr int kRocks = 40;      // rocks in the scene (synthetic_terrain `rocks`)
+constexpr int kMinGtArea = 100;  // px, = the component's min_area_px: smaller rocks are "ignored"
+
+ts::CameraPose camera_pose() {
+  ts::CameraPose cam;
+  cam.width = kW;
+  cam.height = kH;
+  cam.fx = cam.fy = 0.5 * kW / std::tan(0.5 * kHfov);
+  cam.cx = 0.5 * (kW - 1);
+  cam.cy = 0.5 * (kH - 1);
+  cam.height_m = kCamH;
+  cam.pitch_rad = kPitch;
+  return cam;
+}
+
+std::string deployment(int seed, const std::string& sams_extra = "") {
+  const ts::CameraPose cam = camera_pose();
+  const cv::Vec2d l = ts::camera_light(cam, ts::Sun{kSunAz, kSunEl});
+  char buf[4096];
+  std::snprintf(buf, sizeof buf, R"(name: saliency_test
+dds: {enabled: false}
+devices:
+  cameras:
+    front: {backend: synthetic_terrain, seed: %d, rate_hz: 2, frames: 1, speed_m_s: 0, noise_sigma: 0.01,
+            rocks: %d, camera_height_m: %.3f, camera_pitch_rad: %.3f, hfov_rad: %.3f,
+            sun_azimuth_rad: %.3f, sun_elevation_rad: %.3f}
+rate_groups:
+  - {name: terrain, rate_hz: 2, members: [sfs, sams]}
+components:
+  sfs: {type: sfs, camera: front, method: tsai_shah, sun_slant_rad: %.9f, sun_tilt_rad: %.9f,
+        camera_model: {fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}}
+  sams:
+    type: sams
+    camera_model: {width: %d, height: %d, fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}
+    delta_max: 3
+    map_level: 2
+    threshold_scale: 2.0
+%s)",
+                seed, kRocks, kCamH, kPitch, kHfov, kSunAz, kSunEl, l[0], l[1], cam.fx, kCamH, kPitch, kW, kH, cam.fx,
+                kCamH, kPitch, sams_extra.c_str());
+  return buf;
+}
+
+struct Truth {
+  ts::SceneParams scene;
+  std::vector<ts::Rock> rocks;
+  ts::CameraImage image;
+  saliency::FrameTruth frame;  // objects = rock boxes; small / cut rocks "ignored"
+  std::vector<int> rock_of;    // frame.objects[k] -> rock index
+};
+
+Truth render_truth(int seed) {
+  Truth t;
+  t.scene.seed = static_cast<std::uint64_t>(seed);
+  t.scene.num_rocks = kRocks;
+  const ts::Terrain terrain(t.scene);
+  t.rocks = terrain.rocks();
+  ts::RenderOptions ro;
+  ro.noise_sigma = 0.01;
+  ro.noise_seed = t.scene.seed * 1000003ULL;
+  t.image = ts::render_camera(terrain, camera_pose(), ts::Sun{kSunAz, kSunEl}, ro);
+  t.frame.labels = cv::Mat(kH, kW, CV_32S, cv::Scalar(0));
+  for (const ts::PixelBox& b : t.image.rock_boxes) {
+    saliency::GtObject o;
+    o.box = b.box;
+    o.area = b.box.area();
+    o.ignored = !b.fully_inside || b.box.area() < kMinGtArea;
+    t.frame.objects.push_back(o);
+    t.rock_of.push_back(b.rock_index);
+  }
+  return t;
+}
+
+struct RunResult {
+  saliency::RockFrame rocks;
+  saliency::RockProbabilityFrame grid;
+  bool have_grid = false;
+  std::uint64_t cycle_allocs = 0;
+  std::uint64_t frames_in_window = 0;
+  std::uint64_t errors = 0;
+};
+
+RunResult run(int seed, const std::string& extra = "") {
+  register_once();
+  auto app = runtime::Application::load(Params::load_string(deployment(seed, extra), "<test>"),
+                                        {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(2 * kNsPerSec, stop);  // warm-up: the first frames
+  auto& ch = app->context().channel<saliency::RockFrame>(saliency::kRocksChannel);
+  std::uint64_t seq0 = 0;
+  if (auto l = ch.acquire()) seq0 = l->sequence;
+  const std::uint64_t a0 = g_in_cycle.load();
+  if (const char* t = std::getenv("REGOLITH_TRACE_ALLOC")) g_trace_left = std::atoi(t);
+  app->run(4 * kNsPerSec, stop);
+  g_trace_left = 0;
+  RunResult r;
+  r.cycle_allocs = g_in_cycle.load() - a0;
+  auto lease = ch.acquire();
+  EXPECT_TRUE(lease);
+  if (lease) {
+    r.rocks = *lease;
+    r.frames_in_window = lease->sequence - seq0;
+  }
+  auto& gch = app->context().channel<saliency::RockProbabilityFrame>(saliency::kRockProbabilityChannel);
+  if (auto g = gch.acquire()) {
+    r.grid = *g;
+    r.grid.probability = g->probability.clone();
+    r.have_grid = true;
+  }
+  for (const auto* c : app->view().components) r.errors += c->errors();
+  app->stop();
+  return r;
+}
+
+// Pooled over three scenes (seeds 7, 8, 9: held out; the component settings of the deployment,
+// map_level 2 and threshold_scale 2.0, were chosen on seeds 1-6). Measured numbers are in the
+// README ("Component"); the thresholds below leave a margin under them.
+TEST(SceneRocks, DetectedAndRangedLikeTheTruth) {
+  int n_gt = 0, n_det = 0, matched = 0, ranged = 0, hazard_ok = 0, centre_hits = 0;
+  double sum_range_rel = 0.0, max_range_rel = 0.0, max_lat = 0.0, sum_width_rel = 0.0;
+  double prob_on = 0.0, prob_all = 0.0;
+  std::uint64_t allocs = 0, frames = 0;
+  for (const int seed : {7, 8, 9}) {
+    const Truth truth = render_truth(seed);
+    const RunResult r = run(seed);
+    EXPECT_EQ(r.errors, 0u) << seed;
+    EXPECT_EQ(r.rocks.image_width, kW);
+    EXPECT_EQ(r.rocks.image_height, kH);
+    EXPECT_GT(r.rocks.stamp, 0);
+    EXPECT_EQ(r.rocks.stamp % (kNsPerSec / 2), 0);  // a capture time of the 2 Hz camera
+    allocs += r.cycle_allocs;
+    frames += r.frames_in_window;
+
+    std::vector<cv::Rect> boxes;
+    for (std::uint32_t i = 0; i < r.rocks.count; ++i) boxes.push_back(r.rocks.rocks[i].detection.box);
+    const saliency::FrameMatch m = saliency::match_frame(boxes, truth.frame, 0.2);
+    n_gt += m.n_gt;
+    n_det += m.n_det;
+    matched += m.matched;
+
+    // Centre hits: valid rocks whose box centre lies inside a detection (coarse maps give boxes
+    // larger than the rock, which IoU punishes).
+    for (const saliency::GtObject& o : truth.frame.objects) {
+      if (o.ignored) continue;
+      const cv::Point c(o.box.x + o.box.width / 2, o.box.y + o.box.height / 2);
+      for (const cv::Rect& b : boxes)
+        if (b.contains(c)) {
+          ++centre_hits;
+          break;
+        }
+    }
+
+    // Ranging of each valid rock against its best-overlapping detection (IoU >= 0.2).
+    for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
+      const saliency::GtObject& o = truth.frame.objects[k];
+      if (o.ignored) continue;
+      int best = -1;
+      double best_iou = 0.2;
+      for (std::uint32_t i = 0; i < r.rocks.count; ++i) {
+        const double iou = saliency::iou(o.box, r.rocks.rocks[i].detection.box);
+        if (iou >= best_iou) {
+          best_iou = iou;
+          best = static_cast<int>(i);
+        }
+      }
+      if (best < 0) continue;
+      const saliency::RangedRock& rr = r.rocks.rocks[static_cast<std::size_t>(best)];
+      const ts::Rock& rock = truth.rocks[static_cast<std::size_t>(truth.rock_of[k])];
+      ASSERT_TRUE(rr.ranged);
+      // The box's base is the near edge of the rock's footprint.
+      const double range_truth = rock.x_m - rock.radius_x_m;
+      const double rel = std::abs(rr.range_m - range_truth) / range_truth;
+      const double lat = std::abs(rr.lateral_m - rock.y_m);
+      const double wrel = std::abs(rr.width_m - 2 * rock.radius_y_m) / (2 * rock.radius_y_m);
+      const bool hazard_truth = 2 * rock.radius_y_m > 0.15 || rock.height_m > 0.15;
+      std::printf("seed %d rock %d: range %.3f (truth %.3f) lateral %.3f (truth %.3f) width %.3f (truth %.3f) "
+                  "height %.3f (truth %.3f) hazard %d (truth %d) IoU %.2f\n",
+                  seed, truth.rock_of[k], rr.range_m, range_truth, rr.lateral_m, rock.y_m, rr.width_m,
+                  2 * rock.radius_y_m, rr.height_m, rock.height_m, rr.hazard ? 1 : 0, hazard_truth ? 1 : 0, best_iou);
+      max_range_rel = std::max(max_range_rel, rel);
+      max_lat = std::max(max_lat, lat);
+      sum_range_rel += rel;
+      sum_width_rel += wrel;
+      hazard_ok += rr.hazard == hazard_truth ? 1 : 0;
+      ++ranged;
+    }
+
+    // rock_probability: mean over the cells under the valid rocks vs over all visible cells.
+    ASSERT_TRUE(r.have_grid);
+    const cv::Mat& P = r.grid.probability;
+    double on = 0, all = 0;
+    int non = 0, nall = 0;
+    for (int i = 0; i < P.rows; ++i)
+      for (int j = 0; j < P.cols; ++j) {
+        const float v = P.at<float>(i, j);
+        if (!std::isfinite(v)) continue;
+        ASSERT_GE(v, 0.f);
+        ASSERT_LE(v, 1.f);
+        all += v;
+        ++nall;
+        const double x = r.grid.center_x_m + 0.5 * r.grid.length_x_m - (i + 0.5) * r.grid.resolution_m;
+        const double y = r.grid.center_y_m + 0.5 * r.grid.length_y_m - (j + 0.5) * r.grid.resolution_m;
+        for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
+          if (truth.frame.objects[k].ignored) continue;
+          const ts::Rock& rock = truth.rocks[static_cast<std::size_t>(truth.rock_of[k])];
+          if (std::hypot((x - rock.x_m) / rock.radius_x_m, (y - rock.y_m) / rock.radius_y_m) < 1.0) {
+            on += v;
+            ++non;
+            break;
+          }
+        }
+      }
+    ASSERT_GT(nall, 1000);
+    std::printf("seed %d: GT %d det %d matched %d; rock_probability on rocks %.3f (%d cells), visible %.3f (%d)\n",
+                seed, m.n_gt, m.n_det, m.matched, non ? on / non : 0.0, non, all / nall, nall);
+    if (non > 0) {
+      prob_on += on / non;
+      prob_all += all / nall;
+    }
+  }
+  const double recall = static_cast<double>(matched) / std::max(1, n_gt);
+  const double precision = static_cast<double>(matched) / std::max(1, n_det);
+  std::printf("pooled: %d valid GT rocks, %d detections, matched %d: recall@0.2 %.2f precision@0.2 %.2f, GT centres inside a box %d; "
+              "ranged %d: mean |range err| %.1f %%, max %.1f %%, max |lateral err| %.3f m, mean |width err| %.0f %%, "
+              "hazard flag agrees %d/%d; heap allocations inside cycles: %llu over %llu frames\n",
+              n_gt, n_det, matched, recall, precision, centre_hits, ranged, 100 * sum_range_rel / std::max(1, ranged),
+              100 * max_range_rel, max_lat, 100 * sum_width_rel / std::max(1, ranged), hazard_ok, ranged,
+              static_cast<unsigned long long>(allocs), static_cast<unsigned long long>(frames));
+  // Measured (seeds 7-9): 21 GT, 12 detections, 3 matched (recall 0.14, precision 0.25), 11 GT
+  // centres inside a box; ranged rocks: mean range error 17.5 %, max 28.9 %, lateral <= 0.30 m;
+  // rock_probability on rocks ~2x the visible mean.
+  ASSERT_GT(n_gt, 20);
+  EXPECT_GE(matched, 2);
+  EXPECT_GE(precision, 0.15);
+  EXPECT_GE(centre_hits, 8);
+  ASSERT_GE(ranged, 2);
+  EXPECT_LT(sum_range_rel / ranged, 0.25);
+  EXPECT_LT(max_range_rel, 0.40);
+  EXPECT_LT(max_lat, 0.40);
+  EXPECT_EQ(hazard_ok, ranged);
+  EXPECT_GT(prob_on, 1.5 * prob_all);
+  // Real-time rule: sfs (tsai_shah) + sams allocate nothing inside rate-group cycles once warmed
+  // up (before the own filter / morphology / labelling / resize code: ~743 per frame).
+  EXPECT_EQ(frames, 24u);  // 8 frames of the 2 Hz camera per 4 s window, 3 scenes
+  EXPECT_EQ(allocs, 0u) << "heap allocations inside cycles over " << frames << " frames";
+}
+
+std::string config_error(const std::string& yaml) {
+  register_once();
+  try {
+    runtime::Application::load(Params::load_string(yaml, "<test>"), {.sim_time = true, .enable_dds = false});
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(SamsConfig, ErrorsNameTheField) {
+  const std::string y = deployment(1);
+  auto with = [&](const std::string& from, const std::string& to) {
+    const std::string out = std::regex_replace(y, std::regex(from), to);
+    EXPECT_NE(out, y) << from;
+    return out;
+  };
+  std::string e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    method: gbvs\n"));
+  EXPECT_NE(e.find("method"), std::string::npos) << e;
+  EXPECT_NE(e.find("gbvs"), std::string::npos) << e;
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 4\n"));  // 2^(4+4) = 256 > 240 px
+  EXPECT_NE(e.find("delta_max"), std::string::npos) << e;
+  EXPECT_NE(e.find("320x240"), std::string::npos) << e;
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    hazard_size_m: -0.1\n"));
+  EXPECT_NE(e.find("hazard_size_m"), std::string::npos) << e;
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_structur: 0.4\n"));
+  EXPECT_NE(e.find("w_structur"), std::string::npos) << e;
+  EXPECT_NE(e.find("w_structure"), std::string::npos) << e;  // did you mean
+  e = config_error(with("    camera_model: \\{width: 320[^\n]*\n", ""));
+  EXPECT_NE(e.find("camera_model"), std::string::npos) << e;
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_intensity: 0\n    w_orientation: 0\n    w_structure: 0\n"));
+  EXPECT_NE(e.find("w_structure"), std::string::npos) << e;
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    max_detections: 65\n"));
+  EXPECT_NE(e.find("max_detections"), std::string::npos) << e;
+}
+
+TEST(SamsConfig, DtmOfAnotherSizeIsCountedNotCrashed) {
+  register_once();
+  const std::string y = std::regex_replace(deployment(1), std::regex("width: 320, height: 240"),
+                                           "width: 640, height: 480");
+  auto app = runtime::Application::load(Params::load_string(y, "<test>"), {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(2 * kNsPerSec, stop);
+  app->stop();
+  bool seen = false;
+  for (const auto* c : app->view().components)
+    if (c->name() == "sams") {
+      seen = true;
+      EXPECT_GT(c->errors(), 0u);
+      EXPECT_NE(std::string(c->status_message()).find("DTM size"), std::string::npos) << c->status_message();
+    }
+  EXPECT_TRUE(seen);
+  EXPECT_FALSE(app->context().channel<saliency::RockFrame>(saliency::kRocksChannel).has_value());
+}
+
+}  // namespace

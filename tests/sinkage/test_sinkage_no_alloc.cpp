@@ -1,0 +1,72 @@
+// process() must not allocate once constructed: global operator new is counted in this binary.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "scene_helpers.hpp"
+
+namespace {
+std::atomic<long> g_news{0};
+std::atomic<bool> g_counting{false};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace rs = regolith::sinkage;
+namespace ws = regolith::wheel_scene;
+
+namespace {
+
+long allocations_during(rs::SinkageEstimator& est, const std::vector<ws::SequenceFrame>& seq) {
+  rs::SinkageResult r;
+  est.process(seq.front().bgr, seq.front().truth.encoder_angle_rad, r);  // warm-up
+  g_news = 0;
+  g_counting = true;
+  for (const auto& f : seq) est.process(f.bgr, f.truth.encoder_angle_rad, r);
+  est.process(seq.front().bgr, std::numeric_limits<double>::quiet_NaN(), r);  // invalid path
+  g_counting = false;
+  return g_news.load();
+}
+
+}  // namespace
+
+TEST(SinkageNoAlloc, ProcessDoesNotAllocate) {
+  for (bool poor : {false, true}) {
+    ws::SceneParams sp;
+    sp.light = poor ? ws::Illumination::poor() : ws::Illumination::normal();
+    sp.misalignment_rad = 3.0 * rs::testing::kDeg;
+    ws::WheelSceneGenerator gen(sp);
+    ws::SequenceSpec spec;
+    spec.frames = 12;
+    spec.angle_step_rad = 0.11;
+    const auto seq = ws::make_sequence(gen, spec);
+    for (auto filter : {rs::TemporalFilter::kNone, rs::TemporalFilter::kMedian, rs::TemporalFilter::kEma}) {
+      for (bool masked : {true, false}) {
+        rs::SinkageParams p = rs::testing::params_for(sp.wheel);
+        p.filter = filter;
+        p.use_dynamic_mask = masked;
+        rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), p, sp.size);
+        EXPECT_EQ(allocations_during(est, seq), 0)
+            << "poor=" << poor << " filter=" << static_cast<int>(filter) << " masked=" << masked;
+      }
+    }
+  }
+  // the counter itself works
+  g_news = 0;
+  g_counting = true;
+  auto* v = new std::vector<int>(100);
+  g_counting = false;
+  delete v;
+  EXPECT_GE(g_news.load(), 1);
+}

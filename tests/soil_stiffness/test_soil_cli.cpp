@@ -1,0 +1,164 @@
+// `regolith soil IMAGE --config ROVER.yaml --out DIR`: the in-process entry point run_soil_file on
+// a synthetic image written at test time with the shipped example_rover.yaml, its error messages,
+// and the exit code of the real binary for bad input.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "regolith/core/error.hpp"
+#include "regolith/soil_stiffness/config.hpp"
+#include "regolith/track_scene/track_scene.hpp"
+
+using namespace regolith;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kExample = fs::path(REGOLITH_SOURCE_DIR) / "components/soil_stiffness/example_rover.yaml";
+
+struct TempDir {
+  fs::path path;
+  TempDir() : path(fs::temp_directory_path() / ("regolith_soil_cli_" + std::to_string(::getpid()))) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+// The example rover's scene: mocks/track_scene defaults with Yutu-like wheels (b 0.15 m, D 0.30 m,
+// W = 140 * 1.62 / 6 = 37.8 N) on soil k = 5e5, n = 1.
+track_scene::TrackSceneParams example_scene() {
+  track_scene::TrackSceneParams p;
+  p.wheel_width_m = 0.15;
+  p.wheel_diameter_m = 0.30;
+  p.tracks = {{0.4, 37.8}, {-0.4, 37.8}};
+  return p;
+}
+
+std::string write_text(const fs::path& p, const std::string& text) {
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::string error_of(const fs::path& image, const fs::path& yaml, const fs::path& out) {
+  try {
+    soil::run_soil_file(image, yaml, out);
+  } catch (const ConfigError& e) {
+    return std::string("ConfigError: ") + e.what();
+  } catch (const InputError& e) {
+    return std::string("InputError: ") + e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(SoilCli, WritesPlotsAndJsonForASyntheticImage) {
+  TempDir tmp;
+  const auto p = example_scene();
+  const auto scene = track_scene::generate_track_scene(p);
+  const fs::path image = tmp.path / "tracks.png";
+  ASSERT_TRUE(cv::imwrite(image.string(), scene.image));
+  const auto f = soil::run_soil_file(image, kExample, tmp.path / "out");
+  ASSERT_TRUE(f.estimate.ok) << f.estimate.reason;
+  for (const auto& path : {f.json, f.dtm_png, f.profiles_png, f.pz_png}) {
+    ASSERT_TRUE(fs::exists(path)) << path;
+    EXPECT_GT(fs::file_size(path), 1000u) << path;
+    if (path.extension() == ".png") {
+      const cv::Mat png = cv::imread(path.string());
+      EXPECT_GT(png.cols, 300) << path;
+    }
+  }
+  std::ifstream is(f.json);
+  const auto j = nlohmann::json::parse(is);
+  ASSERT_TRUE(j["ok"].get<bool>());
+  const double k = j["fixed_n"]["k"].get<double>();
+  const double z = j["mean_sinkage_m"].get<double>();
+  const double z_true = scene.truth[0].mean_sinkage_m;
+  std::printf("cli: k %.4g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), class %s\n", k, z * 1e3,
+              z_true * 1e3, j["soil_class"].get<std::string>().c_str());
+  EXPECT_NEAR(k / 5.0e5, 1.0, 0.15);
+  EXPECT_NEAR(z / z_true, 1.0, 0.10);
+  EXPECT_EQ(j["tracks"].size(), 2u);
+  EXPECT_DOUBLE_EQ(j["rover"]["wheel_load_n"].get<double>(), 140.0 * 1.62 / 6.0);
+  // the same file as a deployment component section works too
+  const std::string deployment = write_text(tmp.path / "deploy.yaml", R"(name: x
+components:
+  other: {type: health}
+  soil:
+    type: soil_stiffness
+    camera: rear
+    rover: {mass_kg: 140, wheel_count: 6, wheel_width_m: 0.15, wheel_diameter_m: 0.30}
+    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}
+)");
+  const auto g = soil::run_soil_file(image, deployment, tmp.path / "out2");
+  ASSERT_TRUE(g.estimate.ok) << g.estimate.reason;
+  EXPECT_NEAR(g.estimate.k_fixed, f.estimate.k_fixed, 1e-9 * f.estimate.k_fixed);
+}
+
+TEST(SoilCli, BadInputNamesTheFileOrField) {
+  TempDir tmp;
+  const fs::path image = tmp.path / "tracks.png";
+  ASSERT_TRUE(cv::imwrite(image.string(), track_scene::generate_track_scene(example_scene()).image));
+  EXPECT_EQ(error_of(tmp.path / "missing.png", kExample, tmp.path / "o"),
+            "InputError: " + (tmp.path / "missing.png").string() + ": no such image file");
+  const std::string not_image = write_text(tmp.path / "fake.png", "not a png");
+  EXPECT_EQ(error_of(not_image, kExample, tmp.path / "o"),
+            "InputError: " + not_image + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
+  EXPECT_EQ(error_of(image, tmp.path / "nope.yaml", tmp.path / "o"),
+            "ConfigError: " + (tmp.path / "nope.yaml").string() + ": no such configuration file");
+  const std::string zero = write_text(tmp.path / "zero.yaml",
+      "soil_stiffness:\n  rover: {wheel_count: 0}\n  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
+  EXPECT_EQ(error_of(image, zero, tmp.path / "o"),
+            "ConfigError: " + zero + ":2:24: soil_stiffness.rover.wheel_count: value must be >= 1 (got 0)");
+  const std::string neg = write_text(tmp.path / "neg.yaml",
+      "soil_stiffness:\n  rover:\n    wheel_diameter_m: -0.3\n  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
+  const std::string neg_err = error_of(image, neg, tmp.path / "o");
+  EXPECT_NE(neg_err.find(neg + ":3:23: soil_stiffness.rover.wheel_diameter_m: value must be > 0 (got -0.3)"),
+            std::string::npos) << neg_err;
+  const std::string size = write_text(tmp.path / "size.yaml",
+      "soil_stiffness:\n  camera_model: {width: 320, fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
+  const std::string size_err = error_of(image, size, tmp.path / "o");
+  EXPECT_NE(size_err.find("soil_stiffness.camera_model.width: camera_model is 320 px wide but the frames are 640 px"),
+            std::string::npos) << size_err;
+  const std::string top = write_text(tmp.path / "top.yaml", "rover: {}\n");
+  const std::string top_err = error_of(image, top, tmp.path / "o");
+  EXPECT_NE(top_err.find("soil_stiffness: required section is missing"), std::string::npos) << top_err;
+  const std::string nocomp = write_text(tmp.path / "nocomp.yaml", "components:\n  h: {type: health}\n");
+  const std::string nocomp_err = error_of(image, nocomp, tmp.path / "o");
+  EXPECT_NE(nocomp_err.find("no component of type soil_stiffness"), std::string::npos) << nocomp_err;
+}
+
+TEST(SoilCli, ExitCodeTwoForBadInput) {
+#ifndef REGOLITH_EXE
+  GTEST_SKIP() << "the regolith executable is not part of this build";
+#else
+  if (!fs::exists(REGOLITH_EXE)) GTEST_SKIP() << REGOLITH_EXE << " not built";
+  TempDir tmp;
+  const std::string cmd = std::string(REGOLITH_EXE) + " soil " + (tmp.path / "missing.png").string() +
+                          " --config " + kExample.string() + " --out " + (tmp.path / "o").string() +
+                          " > " + (tmp.path / "log.txt").string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  std::ifstream is(tmp.path / "log.txt");
+  std::string log, line;
+  while (std::getline(is, line)) log += line + "\n";
+  EXPECT_NE(log.find("missing.png: no such image file"), std::string::npos) << log;
+  // and a good run through the real binary: exit 0, files written
+  const fs::path image = tmp.path / "tracks.png";
+  ASSERT_TRUE(cv::imwrite(image.string(), track_scene::generate_track_scene(example_scene()).image));
+  const std::string ok = std::string(REGOLITH_EXE) + " soil " + image.string() + " --config " + kExample.string() +
+                         " --out " + (tmp.path / "o").string() + " > " + (tmp.path / "log2.txt").string() + " 2>&1";
+  EXPECT_EQ(std::system(ok.c_str()), 0);
+  EXPECT_TRUE(fs::exists(tmp.path / "o" / "result.json"));
+  EXPECT_TRUE(fs::exists(tmp.path / "o" / "pz_curves.png"));
+#endif
+}

@@ -1,0 +1,252 @@
+// Component "soil_stiffness" under the simulated clock: a deployment with the synthetic_tracks
+// rear camera (known k, n, loads) and the soil component, DDS disabled. Asserts the published k
+// against the synthetic truth, the sinkage layer, zero heap allocations inside rate-group cycles
+// once warm, and the configuration errors (named fields, file:line:col).
+// The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+#include <string>
+
+#include "regolith/core/error.hpp"
+#include "regolith/hal/registry.hpp"
+#include "regolith/mocks/backends.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/rate_group.hpp"
+#include "regolith/sfs/sfs.hpp"
+#include "regolith/soil_stiffness/component.hpp"
+#include "regolith/track_scene/track_scene.hpp"
+
+namespace {
+std::atomic<std::uint64_t> g_all{0};
+std::atomic<std::uint64_t> g_in_cycle{0};
+}  // namespace
+
+// Every operator new of this test binary is counted, and separately when made inside a
+// rate-group cycle.
+void* operator new(std::size_t n) {
+  g_all.fetch_add(1, std::memory_order_relaxed);
+  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace regolith;
+
+namespace {
+
+void register_all() {
+  static bool done = false;
+  if (done) return;
+  done = true;
+  runtime::register_builtin_components();
+  mocks::register_mock_backends(hal::BackendRegistry::instance());
+  soil::register_component();
+}
+
+// Truth: k = 5e5, n = 1, b = 0.15 m, D = 0.30 m, W = 140 kg * 1.62 / 6 = 37.8 N on both ruts.
+const char* kDeployment = R"(name: soil_test
+dds: {enabled: false}
+devices:
+  cameras:
+    rear:
+      backend: synthetic_tracks
+      rate_hz: 1
+      frames: 1
+      fx: 500
+      mount_height_m: 1.2
+      pitch_rad: 0.61
+      k: 5.0e5
+      n: 1.0
+      wheel_width_m: 0.15
+      wheel_diameter_m: 0.30
+      track_lateral_m: [0.4, -0.4]
+      track_load_n: [37.8, 37.8]
+rate_groups:
+  - name: soil
+    rate_hz: 0.5
+    members: [soil]
+components:
+  soil:
+    type: soil_stiffness
+    camera: rear
+    rover: {mass_kg: 140, wheel_count: 6, gravity_mps2: 1.62, wheel_width_m: 0.15, wheel_diameter_m: 0.30}
+    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}
+    sun: {azimuth_rad: 1.5708, elevation_rad: 0.7854}
+)";
+
+// Peer: heap allocations of one warm regolith::sfs Pentland solve on the estimator's default grid
+// (275 x 200 cells), configured as the estimator configures it. The sfs component calls cv::dft,
+// which builds its DFT plan on the heap at every call (not this component's code).
+std::uint64_t sfs_allocations_per_solve() {
+  sfs::SfsParams sp;
+  sp.method = sfs::Method::kPentland;
+  sp.normalise_albedo = false;
+  sp.estimate_light = false;
+  sfs::ShapeFromShading solver(sp);
+  cv::Mat e(275, 200, CV_32F);
+  cv::randu(e, 0.6, 0.8);
+  sfs::LightDirection light;
+  light.slant_rad = 0.7854;
+  light.tilt_rad = 1.0;
+  sfs::SfsResult out;
+  solver.compute(e, light, out);
+  solver.compute(e, light, out);
+  const std::uint64_t a0 = g_all.load();
+  solver.compute(e, light, out);
+  return g_all.load() - a0;
+}
+
+std::string replace(std::string s, const std::string& a, const std::string& b) {
+  const auto p = s.find(a);
+  if (p == std::string::npos) ADD_FAILURE() << "'" << a << "' not in the deployment";
+  else s.replace(p, a.size(), b);
+  return s;
+}
+
+// AppOptions by assignment (robust to new fields)
+runtime::AppOptions sim_options(bool open_devices = true) {
+  runtime::AppOptions o;
+  o.sim_time = true;
+  o.enable_dds = false;
+  o.open_devices = open_devices;
+  return o;
+}
+
+std::string load_error(const std::string& yaml) {
+  register_all();
+  try {
+    auto app = runtime::Application::load(Params::load_string(yaml, "rover.yaml"),
+                                          sim_options(false));
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(SoilComponent, EstimatesKOfTheSyntheticTracksUnderSimulatedTime) {
+  register_all();
+  auto app = runtime::Application::load(Params::load_string(kDeployment, "soil_test.yaml"),
+                                        sim_options());
+  auto& soil_ch = app->context().channel<soil::SoilStiffnessSample>(soil::kSoilChannel);
+  auto& layer_ch = app->context().channel<soil::SinkageLayer>(soil::kSinkageLayerChannel);
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(4 * kNsPerSec, stop);  // warm-up: the first estimates
+  const std::uint64_t a0 = g_in_cycle.load();
+  std::uint64_t cycles0 = 0;
+  for (const auto* g : app->view().groups) cycles0 += g->counters().cycles;
+  app->run(16 * kNsPerSec, stop);
+  const std::uint64_t steady_allocs = g_in_cycle.load() - a0;
+  std::uint64_t cycles1 = 0;
+  for (const auto* g : app->view().groups) cycles1 += g->counters().cycles;
+  app->stop();
+
+  const double z_true = track_scene::rut_depth(5.0e5, 1.0, 37.8, 0.15, 0.30);
+  auto s = soil_ch.acquire();
+  ASSERT_TRUE(s);
+  ASSERT_TRUE(s->ok) << s->reason;
+  std::printf("component: k %.4g +- %.2g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), %u samples, "
+              "%u tracks, class %s; %llu allocations in %llu steady cycles\n",
+              s->k, s->k_sigma, s->mean_sinkage_m * 1e3, z_true * 1e3, s->samples_used, s->tracks,
+              soil::to_string(s->soil_class), static_cast<unsigned long long>(steady_allocs),
+              static_cast<unsigned long long>(cycles1 - cycles0));
+  EXPECT_FALSE(s->joint);  // equal loads: n fixed
+  EXPECT_DOUBLE_EQ(s->n, 1.0);
+  EXPECT_NEAR(s->k / 5.0e5, 1.0, 0.15);
+  EXPECT_GT(s->k_sigma, 0.0);
+  EXPECT_LT(s->k_sigma, 0.1 * s->k);
+  EXPECT_NEAR(s->mean_sinkage_m / z_true, 1.0, 0.10);
+  EXPECT_EQ(s->tracks, 2u);
+  EXPECT_GT(s->samples_used, 200u);
+  EXPECT_EQ(s->soil_class, soil::SoilClass::kNominal);  // p(1 cm) = 5 kPa
+  // stamped with the capture time of the newest frame at the last 0.5 Hz cycle
+  EXPECT_GT(s->stamp, 0);
+  EXPECT_LE(s->stamp, app->clock().now());
+  EXPECT_GT(s->stamp, app->clock().now() - 3 * kNsPerSec);
+  EXPECT_GE(s->sequence, 8u);  // ~10 cycles at 0.5 Hz over 20 s, one new frame each
+
+  auto l = layer_ch.acquire();
+  ASSERT_TRUE(l);
+  ASSERT_TRUE(l->valid);
+  EXPECT_EQ(l->stamp_ns, s->stamp);
+  ASSERT_EQ(l->track_count, 2u);
+  for (std::uint32_t t = 0; t < 2; ++t) {
+    const auto& tr = l->tracks[t];
+    EXPECT_NEAR(std::abs(tr.lateral_m), 0.4, 0.02);
+    EXPECT_DOUBLE_EQ(tr.width_m, 0.15);
+    ASSERT_GT(tr.count, 100u);
+    // rear camera 0.5 m behind base_link looking back: the profile lies at x < -1.3 m
+    EXPECT_LT(tr.x_m[0], -1.3f);
+    EXPECT_NEAR(tr.y_m[0], -tr.lateral_m, 1e-3);
+  }
+
+  // real time: once warm, the only heap allocations inside the cycles are those of the SfS
+  // solver (measured alone as the peer): this component and the estimator add none. Every
+  // steady cycle processed a new frame (camera 1 Hz, rate group 0.5 Hz).
+  const std::uint64_t cycles = cycles1 - cycles0;
+  EXPECT_GE(cycles, 7u);
+  const std::uint64_t sfs_allocs = sfs_allocations_per_solve();
+  std::printf("steady state: %.1f allocations per cycle; regolith::sfs Pentland alone: %llu per solve\n",
+              static_cast<double>(steady_allocs) / static_cast<double>(cycles),
+              static_cast<unsigned long long>(sfs_allocs));
+  EXPECT_EQ(steady_allocs, cycles * sfs_allocs);
+}
+
+TEST(SoilComponent, NoTracksMeansAnExplicitNoEstimate) {
+  register_all();
+  // flat ground: the same scene with no ruts
+  auto app = runtime::Application::load(
+      Params::load_string(replace(replace(kDeployment, "track_lateral_m: [0.4, -0.4]", "track_lateral_m: []"),
+                                  "track_load_n: [37.8, 37.8]", "track_load_n: []"),
+                          "soil_test.yaml"),
+      sim_options());
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(5 * kNsPerSec, stop);
+  app->stop();
+  auto s = app->context().channel<soil::SoilStiffnessSample>(soil::kSoilChannel).acquire();
+  ASSERT_TRUE(s);
+  EXPECT_FALSE(s->ok);
+  EXPECT_TRUE(std::isnan(s->k));
+  EXPECT_TRUE(std::isnan(s->n));
+  EXPECT_EQ(s->samples_used, 0u);
+  EXPECT_NE(std::string(s->reason).find("no wheel tracks"), std::string::npos) << s->reason;
+  auto l = app->context().channel<soil::SinkageLayer>(soil::kSinkageLayerChannel).acquire();
+  ASSERT_TRUE(l);
+  EXPECT_FALSE(l->valid);
+}
+
+TEST(SoilComponent, ConfigurationErrorsNameTheField) {
+  const std::string zero_wheels = load_error(replace(kDeployment, "wheel_count: 6", "wheel_count: 0"));
+  EXPECT_NE(zero_wheels.find("rover.yaml:"), std::string::npos) << zero_wheels;
+  EXPECT_NE(zero_wheels.find("components.soil.rover.wheel_count: value must be >= 1 (got 0)"), std::string::npos)
+      << zero_wheels;
+  const std::string diameter = load_error(replace(kDeployment, "wheel_diameter_m: 0.30}", "wheel_diameter_m: -0.3}"));
+  EXPECT_NE(diameter.find("components.soil.rover.wheel_diameter_m: value must be > 0 (got -0.3)"), std::string::npos)
+      << diameter;
+  const std::string width = load_error(replace(kDeployment, "camera_model: {fx: 500,", "camera_model: {width: 320, fx: 500,"));
+  EXPECT_NE(width.find("components.soil.camera_model.width: camera_model is 320 px wide but the frames are 640 px"),
+            std::string::npos) << width;
+  const std::string typo = load_error(replace(kDeployment, "mass_kg: 140", "mass_kgs: 140"));
+  EXPECT_NE(typo.find("components.soil.rover.mass_kgs: unknown key (did you mean 'mass_kg'?)"), std::string::npos)
+      << typo;
+  const std::string no_model = load_error(replace(kDeployment, "    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n", ""));
+  EXPECT_NE(no_model.find("components.soil.camera_model: required section is missing"), std::string::npos) << no_model;
+  const std::string loads = load_error(replace(kDeployment, "    sun:", "    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n    sun:"));
+  EXPECT_NE(loads.find("components.soil.tracks.load_n: needs one load per lateral_m entry (2), got 1"), std::string::npos)
+      << loads;
+  const std::string region = load_error(replace(kDeployment, "    sun:", "    region: {range_min_m: 3.0, range_max_m: 1.0}\n    sun:"));
+  EXPECT_NE(region.find("range_max_m: must be > range_min_m"), std::string::npos) << region;
+  const std::string camera = load_error(replace(kDeployment, "camera: rear", "camera: front"));
+  EXPECT_NE(camera.find("components.soil.camera"), std::string::npos) << camera;
+}

@@ -1,0 +1,329 @@
+// The sfs and traversability component wrappers in a deployment under the simulated clock (DDS
+// off), checked against the library run on the same rendered frame and against the scene's
+// geometry; heap allocations inside rate-group cycles after warm-up; the assess and calibrate
+// vignetting commands of the regolith tool (run as a process) with good and bad inputs.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <new>
+#include <execinfo.h>
+#include <regex>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <string>
+
+#include "regolith/hal/registry.hpp"
+#include "regolith/mocks/backends.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/rate_group.hpp"
+#include "regolith/sfs/component.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
+#include "regolith/traversability/component.hpp"
+
+namespace {
+std::atomic<std::uint64_t> g_in_cycle{0};
+std::atomic<bool> g_tracing{false};  // debugging aid: print one allocation's stack when armed
+}  // namespace
+
+// Counting replacement of the global allocator (malloc/free underneath on purpose).
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+void* operator new(std::size_t n) {
+  if (regolith::runtime::in_rate_group_cycle()) {
+    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+    if (std::getenv("REGOLITH_TRACE_ALLOC") != nullptr && g_tracing.exchange(false)) {
+      void* bt[24];
+      const int nb = backtrace(bt, 24);
+      backtrace_symbols_fd(bt, nb, 2);
+    }
+  }
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace {
+using namespace regolith;
+namespace fs = std::filesystem;
+
+void register_once() {
+  static bool done = false;
+  if (done) return;
+  done = true;
+  runtime::register_builtin_components();
+  mocks::register_mock_backends(hal::BackendRegistry::instance());
+  sfs::register_component();
+  traversability::register_component();
+}
+
+// Scene and camera of the deployment below (synthetic_terrain defaults, static rover).
+constexpr double kHfov = 1.349, kCamH = 0.5, kPitch = 0.35, kSunAz = 2.5, kSunEl = 0.6;
+
+std::string deployment(const std::string& method) {
+  const double fx = 0.5 * 320 / std::tan(0.5 * kHfov);
+  terrain_scene::CameraPose cam;
+  cam.width = 320; cam.height = 240; cam.fx = cam.fy = fx; cam.cx = 159.5; cam.cy = 119.5;
+  cam.height_m = kCamH; cam.pitch_rad = kPitch;
+  const cv::Vec2d l = terrain_scene::camera_light(cam, terrain_scene::Sun{kSunAz, kSunEl});
+  char buf[2048];
+  std::snprintf(buf, sizeof buf, R"(name: terrain_test
+dds: {enabled: false}
+devices:
+  cameras:
+    front: {backend: synthetic_terrain, rate_hz: 2, frames: 1, speed_m_s: 0, noise_sigma: 0.01,
+            camera_height_m: %.3f, camera_pitch_rad: %.3f, hfov_rad: %.3f,
+            sun_azimuth_rad: %.3f, sun_elevation_rad: %.3f}
+rate_groups:
+  - {name: terrain, rate_hz: 2, members: [sfs, traversability]}
+components:
+  sfs: {type: sfs, camera: front, method: %s, sun_slant_rad: %.9f, sun_tilt_rad: %.9f,
+        camera_model: {fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}}
+  traversability:
+    type: traversability
+    camera_model: {width: 320, height: 240, fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}
+    center_x_m: 2.5
+    length_x_m: 3.0
+    length_y_m: 4.0
+)", kCamH, kPitch, kHfov, kSunAz, kSunEl, method.c_str(), l[0], l[1], fx, kCamH, kPitch, fx, kCamH, kPitch);
+  return buf;
+}
+
+class Pipeline : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Pipeline, GridMapMatchesLibraryAndSceneGeometry) {
+  register_once();
+  auto app = runtime::Application::load(Params::load_string(deployment(GetParam()), "<test>"),
+                                        {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(3 * kNsPerSec, stop);  // warm-up
+  const std::uint64_t a0 = g_in_cycle.load();
+  g_tracing = true;
+  app->run(5 * kNsPerSec, stop);
+  const std::uint64_t allocs = g_in_cycle.load() - a0;
+  auto& ch = app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel);
+  auto lease = ch.acquire();
+  ASSERT_TRUE(lease);
+  const traversability::GridMap& g = lease->map;
+  std::printf("%s: steady-state allocations in cycles: %llu\n", GetParam().c_str(),
+              static_cast<unsigned long long>(allocs));
+  if (GetParam() == "tsai_shah") {
+    EXPECT_EQ(allocs, 0u);  // Pentland: cv::dft allocates internally
+  }
+  EXPECT_GT(lease->stamp, 0);
+  EXPECT_EQ(lease->stamp % (kNsPerSec / 2), 0);  // a capture time of the 2 Hz camera
+  for (const auto* c : app->view().components) EXPECT_EQ(c->errors(), 0u) << c->name();
+
+  // Same frame through the libraries directly: the wrapper must reproduce it exactly.
+  terrain_scene::SceneParams sp;  // synthetic_terrain defaults
+  const terrain_scene::Terrain terrain(sp);
+  terrain_scene::CameraPose cam;
+  cam.width = 320; cam.height = 240; cam.fx = cam.fy = 0.5 * 320 / std::tan(0.5 * kHfov);
+  cam.cx = 159.5; cam.cy = 119.5; cam.height_m = kCamH; cam.pitch_rad = kPitch;
+  terrain_scene::RenderOptions ro;
+  ro.noise_sigma = 0.01;
+  ro.noise_seed = sp.seed * 1000003ULL;
+  const auto img = terrain_scene::render_camera(terrain, cam, terrain_scene::Sun{kSunAz, kSunEl}, ro);
+  sfs::SfsParams spar;
+  spar.method = sfs::method_from_string(GetParam());
+  const auto res = sfs::shape_from_shading(terrain_scene::to_u8(img.image),
+                                           sfs::LightDirection{img.light_slant_rad, img.light_tilt_rad}, spar);
+  direct_depth::CameraModel m;
+  m.fx = m.fy = cam.fx; m.cx = 159.5; m.cy = 119.5; m.width = 320; m.height = 240;
+  m.mount_height_m = kCamH; m.pitch_rad = kPitch;
+  const direct_depth::DirectDepth dd(m);
+  traversability::TraversabilityParams tp;
+  tp.center_x_m = 2.5; tp.length_x_m = 3.0; tp.length_y_m = 4.0;
+  traversability::TraversabilityMapper mapper(dd, tp);
+  traversability::GridMap ref;
+  mapper.compute_from_sfs(res.height, res.valid, {img.light_slant_rad, img.light_tilt_rad}, ref);
+  ASSERT_EQ(g.layers, ref.layers);
+  ASSERT_EQ(g.size_x(), 60);
+  ASSERT_EQ(g.size_y(), 80);
+  int known = 0;
+  for (std::size_t k = 0; k < g.layers.size(); ++k)
+    for (int i = 0; i < g.size_x(); ++i)
+      for (int j = 0; j < g.size_y(); ++j) {
+        const float a = g.data[k].at<float>(i, j), b = ref.data[k].at<float>(i, j);
+        ASSERT_EQ(std::isfinite(a), std::isfinite(b)) << g.layers[k] << " " << i << "," << j;
+        if (std::isfinite(a)) {
+          EXPECT_NEAR(a, b, 1e-4) << g.layers[k];
+        }
+        if (k == 0 && std::isfinite(a)) ++known;
+      }
+  EXPECT_GT(known, 1000);
+
+  // Footprint: cells the camera cannot see are NaN with confidence 0; cells it sees are known.
+  int i = 0, j = 0;
+  ASSERT_TRUE(g.cell_of(1.1, 1.9, i, j));  // 1.1 m ahead, 1.9 m left: outside the 77 deg view
+  EXPECT_TRUE(std::isnan(g.layer("elevation").at<float>(i, j)));
+  EXPECT_TRUE(std::isnan(g.layer("traversability").at<float>(i, j)));
+  EXPECT_EQ(g.layer("confidence").at<float>(i, j), 0.0f);
+  ASSERT_TRUE(g.cell_of(2.5, 0.0, i, j));
+  EXPECT_TRUE(std::isfinite(g.layer("traversability").at<float>(i, j)));
+  EXPECT_GT(g.layer("confidence").at<float>(i, j), 0.0f);
+
+  // Rocks: the elevation over a visible rock exceeds the ring of ground around it (sign and
+  // placement of the projection), on average over the rocks in the map.
+  double diff = 0;
+  int rocks = 0;
+  for (const auto& rk : terrain.rocks()) {
+    if (rk.x_m < 1.3 || rk.x_m > 3.8 || std::abs(rk.y_m) > 1.2) continue;
+    double on = 0, off = 0;
+    int non = 0, noff = 0;
+    for (int a = 0; a < g.size_x(); ++a)
+      for (int b = 0; b < g.size_y(); ++b) {
+        const float e = g.layer("elevation").at<float>(a, b);
+        if (!std::isfinite(e)) continue;
+        const cv::Point2d p = g.cell_center(a, b);
+        const double d = std::hypot((p.x - rk.x_m) / rk.radius_x_m, (p.y - rk.y_m) / rk.radius_y_m);
+        if (d < 0.7) { on += e; ++non; } else if (d > 1.5 && d < 2.5) { off += e; ++noff; }
+      }
+    if (non == 0 || noff == 0) continue;
+    diff += on / non - off / noff;
+    ++rocks;
+  }
+  std::printf("%s: %d rocks in the map, mean rock - ring elevation %.4f m\n", GetParam().c_str(), rocks,
+              rocks ? diff / rocks : 0.0);
+  ASSERT_GT(rocks, 0);
+  EXPECT_GT(diff / rocks, 0.0);
+  app->stop();
+}
+
+INSTANTIATE_TEST_SUITE_P(Methods, Pipeline, ::testing::Values("tsai_shah", "pentland"));
+
+TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
+  register_once();
+  std::string y = deployment("tsai_shah");
+  const std::string bad_sun = std::regex_replace(y, std::regex("sun_slant_rad: [0-9.]+"), "sun_slant_rad: 1.7");
+  try {
+    runtime::Application::load(Params::load_string(bad_sun, "<test>"), {.sim_time = true, .enable_dds = false});
+    FAIL() << "light below the image plane accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sun_slant_rad"), std::string::npos) << e.what();
+  }
+  // A camera model whose size differs from the camera: the DTM is rejected frame by frame
+  // (error count + status), no map is published.
+  const std::string bad_size = std::regex_replace(y, std::regex("width: 320"), "width: 640");
+  auto app = runtime::Application::load(Params::load_string(bad_size, "<test>"), {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(2 * kNsPerSec, stop);
+  app->stop();
+  for (const auto* c : app->view().components)
+    if (c->name() == "traversability") {
+      EXPECT_GT(c->errors(), 0u);
+      EXPECT_NE(std::string(c->status_message()).find("DTM size"), std::string::npos);
+    }
+  EXPECT_FALSE(app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel).has_value());
+}
+
+#ifdef REGOLITH_TOOL
+int run_tool(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(REGOLITH_TOOL) + " " + args + " > " + log.string() + " 2>&1";
+  const int st = std::system(cmd.c_str());
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::string all, line;
+  while (std::getline(f, line)) all += line + "\n";
+  return all;
+}
+
+TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // A rendered orthographic patch with a known sun.
+  terrain_scene::SceneParams sp;
+  sp.x_min_m = 0; sp.x_max_m = 3.2; sp.y_min_m = -1.6; sp.y_max_m = 1.6;
+  sp.place_x_min_m = 0.4; sp.place_x_max_m = 2.8; sp.place_y_abs_max_m = 1.2;
+  sp.num_rocks = 8; sp.num_craters = 1; sp.rock_radius_min_m = 0.12; sp.rock_radius_max_m = 0.25;
+  const terrain_scene::Terrain t(sp);
+  const auto o = terrain_scene::render_ortho(t, terrain_scene::Sun{135 * CV_PI / 180, 35 * CV_PI / 180});
+  const fs::path png = dir / "patch.png";
+  ASSERT_TRUE(cv::imwrite(png.string(), terrain_scene::to_u8(o.image)));
+  char args[512];
+  std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --pixel-size 0.02",
+                png.c_str(), (dir / "out").c_str(), o.light_slant_rad * 180 / CV_PI, o.light_tilt_rad * 180 / CV_PI);
+  ASSERT_EQ(run_tool(args, dir / "log.txt"), 0) << slurp(dir / "log.txt");
+  const cv::Mat h = cv::imread((dir / "out" / "height.tiff").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(h.type(), CV_32FC1);
+  ASSERT_EQ(h.size(), o.image.size());
+  // Height up: correlates positively with the truth.
+  cv::Mat hd, td;
+  h.convertTo(hd, CV_64F);
+  o.height_px.convertTo(td, CV_64F);
+  cv::Scalar mh, sh, mt, st;
+  cv::meanStdDev(hd, mh, sh);
+  cv::meanStdDev(td, mt, st);
+  const double r = cv::mean((hd - mh[0]).mul(td - mt[0]))[0] / (sh[0] * st[0]);
+  std::printf("assess: height.tiff vs truth r = %.3f\n", r);
+  EXPECT_GT(r, 0.5);
+  for (const char* f : {"height_heatmap.png", "hillshade.png", "elevation.png", "traversability.png",
+                        "traversability_slope.png", "traversability_step.png", "traversability_roughness.png",
+                        "confidence.png"})
+    EXPECT_FALSE(cv::imread((dir / "out" / f).string()).empty()) << f;
+  const auto j = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
+  EXPECT_EQ(j["method"], "pentland");  // library default (most accurate per ms)
+  EXPECT_EQ(j["light"]["source"], "given");
+  EXPECT_NEAR(j["light"]["slant_deg"].get<double>(), o.light_slant_rad * 180 / CV_PI, 1e-3);
+  EXPECT_GE(j["iterations"].get<int>(), 1);
+  EXPECT_TRUE(j["timings_ms"].contains("sfs"));
+  EXPECT_TRUE(j["hazards"].is_array());
+
+  // Bad inputs: exit code 2 and a message naming the file / option.
+  std::ofstream(dir / "not_an_image.png") << "hello";
+  EXPECT_EQ(run_tool("assess " + (dir / "not_an_image.png").string() + " --out " + (dir / "o2").string(), dir / "e1.txt"), 2);
+  EXPECT_NE(slurp(dir / "e1.txt").find("not_an_image.png"), std::string::npos) << slurp(dir / "e1.txt");
+  EXPECT_EQ(run_tool("assess " + (dir / "missing.png").string() + " --out " + (dir / "o2").string(), dir / "e2.txt"), 2);
+  EXPECT_NE(slurp(dir / "e2.txt").find("missing.png"), std::string::npos);
+  cv::Mat sixteen(64, 64, CV_16U, cv::Scalar(1000));
+  ASSERT_TRUE(cv::imwrite((dir / "deep.png").string(), sixteen));
+  EXPECT_EQ(run_tool("assess " + (dir / "deep.png").string() + " --out " + (dir / "o2").string() +
+                     " --sun-slant 30 --sun-tilt 0", dir / "e3.txt"), 2);
+  EXPECT_NE(slurp(dir / "e3.txt").find("16-bit"), std::string::npos) << slurp(dir / "e3.txt");
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
+                     dir / "e4.txt"), 2);
+  EXPECT_NE(slurp(dir / "e4.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e4.txt");
+  // Camera pointing above the horizon: no crash, an all-unknown map and a warning.
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o3").string() +
+                     " --sun-slant 40 --sun-tilt 45 --camera 200,200,160,160 --height 0.5 --pitch -60", dir / "e5.txt"), 0)
+      << slurp(dir / "e5.txt");
+  const auto j3 = nlohmann::json::parse(slurp(dir / "o3" / "summary.json"));
+  EXPECT_EQ(j3["grid"]["known_cells"].get<int>(), 0);
+  EXPECT_TRUE(j3.contains("warning"));
+  // Terrain without a sun: the estimator is not trusted -> clear error, exit 2.
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o4").string(), dir / "e6.txt"), 2);
+  EXPECT_NE(slurp(dir / "e6.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e6.txt");
+
+  // calibrate vignetting on a synthetic flat field with known coefficients.
+  cv::Mat ff(240, 320, CV_8U);
+  const double hd2 = std::hypot(160.0, 120.0);
+  for (int rr = 0; rr < ff.rows; ++rr)
+    for (int cc = 0; cc < ff.cols; ++cc) {
+      const double q = std::hypot(cc - 159.5, rr - 119.5) / hd2, q2 = q * q;
+      ff.at<uchar>(rr, cc) = cv::saturate_cast<uchar>(220 * (1 - 0.3 * q2 + 0.04 * q2 * q2));
+    }
+  ASSERT_TRUE(cv::imwrite((dir / "flat.png").string(), ff));
+  ASSERT_EQ(run_tool("calibrate vignetting " + (dir / "flat.png").string(), dir / "v.txt"), 0) << slurp(dir / "v.txt");
+  const std::string v = slurp(dir / "v.txt");
+  const auto a2pos = v.find("vignetting_a2: ");
+  ASSERT_NE(a2pos, std::string::npos) << v;
+  EXPECT_NEAR(std::stod(v.substr(a2pos + 15)), -0.3, 0.03) << v;
+  EXPECT_EQ(run_tool("calibrate vignetting " + (dir / "nope.png").string(), dir / "v2.txt"), 2);
+  EXPECT_NE(slurp(dir / "v2.txt").find("nope.png"), std::string::npos);
+  fs::remove_all(dir);
+}
+#endif
+
+}  // namespace

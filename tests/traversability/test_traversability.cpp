@@ -1,0 +1,294 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <vector>
+
+#include <cmath>
+#include <cstdio>
+
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/sfs/sfs.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
+#include "regolith/traversability/traversability.hpp"
+
+namespace {
+using namespace regolith;
+using traversability::GridMap;
+using traversability::ImageLight;
+using traversability::sun_elevation;
+using traversability::TraversabilityMapper;
+using traversability::TraversabilityParams;
+
+direct_depth::CameraModel cam() {
+  direct_depth::CameraModel m;
+  m.fx = m.fy = 300;
+  m.cx = 159.5;
+  m.cy = 119.5;
+  m.width = 320;
+  m.height = 240;
+  m.mount_height_m = 0.6;
+  m.pitch_rad = 0.45;
+  return m;
+}
+
+TraversabilityParams params() {
+  TraversabilityParams p;
+  p.resolution_m = 0.05;
+  p.length_x_m = 4.0;
+  p.length_y_m = 3.0;
+  p.center_x_m = 1.5;  // map spans x = -0.5 .. 3.5: the near part is outside the camera view
+  return p;
+}
+
+TEST(Traversability, FlatPlaneIsFullyTraversableAndNaNOutsideFootprint) {
+  const direct_depth::DirectDepth dd(cam());
+  TraversabilityMapper mapper(dd, params());
+  const cv::Mat zero(240, 320, CV_32F, cv::Scalar(0));
+  GridMap g;
+  mapper.compute_from_metric(zero, cv::Mat(), g);
+  ASSERT_EQ(g.layers, traversability::layer_names());
+  EXPECT_EQ(g.size_x(), 80);
+  EXPECT_EQ(g.size_y(), 60);
+  const cv::Mat& t = g.layer("traversability");
+  const cv::Mat& conf = g.layer("confidence");
+  int known = 0, unknown = 0;
+  for (int i = 0; i < g.size_x(); ++i)
+    for (int j = 0; j < g.size_y(); ++j) {
+      const cv::Point2d p = g.cell_center(i, j);
+      const auto px = dd.project(p.x, p.y);
+      const bool in_view = p.x > 0 && px && px->x >= 1 && px->x < 318 && px->y >= 1 && px->y < 238;
+      const float v = t.at<float>(i, j);
+      if (p.x < 0.5) {  // behind the camera / below the lowest row: never seen
+        EXPECT_TRUE(std::isnan(v)) << i << "," << j;
+        EXPECT_EQ(conf.at<float>(i, j), 0.0f);
+        EXPECT_TRUE(std::isnan(g.layer("elevation").at<float>(i, j)));
+        ++unknown;
+      } else if (in_view && std::isfinite(v)) {
+        EXPECT_FLOAT_EQ(v, 1.0f);
+        EXPECT_FLOAT_EQ(g.layer("elevation").at<float>(i, j), 0.0f);
+        ++known;
+      }
+    }
+  EXPECT_GT(known, 1500);
+  EXPECT_GT(unknown, 300);
+}
+
+TEST(Traversability, StepAndSlopeAboveCriticalAreFlagged) {
+  TraversabilityParams p = params();
+  GridMap g;
+  g.resolution_m = p.resolution_m;
+  g.length_x_m = 2.0;
+  g.length_y_m = 2.0;
+  g.layers = {"elevation"};
+  cv::Mat e(40, 40, CV_32F);
+  // Rows 0..19 (x > 0): a 0.2 m step at row 20; columns 0..19 flat, 20..39 a 30 deg slope.
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j)
+      e.at<float>(i, j) = static_cast<float>((i < 20 ? 0.2 : 0.0) + (j >= 20 ? (j - 20) * 0.05 * std::tan(30 * CV_PI / 180) : 0.0));
+  g.data = {e};
+  traversability::compute_layers(g, p);
+  const cv::Mat& st = g.layer("traversability_step");
+  const cv::Mat& sl = g.layer("traversability_slope");
+  const cv::Mat& t = g.layer("traversability");
+  EXPECT_EQ(st.at<float>(19, 5), 0.0f);   // at the step
+  EXPECT_EQ(st.at<float>(20, 5), 0.0f);
+  EXPECT_EQ(t.at<float>(20, 5), 0.0f);
+  EXPECT_FLOAT_EQ(st.at<float>(10, 5), 1.0f);  // far from the step
+  EXPECT_FLOAT_EQ(t.at<float>(10, 5), 1.0f);
+  EXPECT_EQ(sl.at<float>(10, 30), 0.0f);  // 30 deg > 20 deg critical
+  EXPECT_EQ(t.at<float>(10, 30), 0.0f);
+  // A gentle 5 deg slope: 1 - 5/20.05 slope score.
+  cv::Mat e5(40, 40, CV_32F);
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) e5.at<float>(i, j) = static_cast<float>(i * 0.05 * std::tan(5 * CV_PI / 180));
+  g.layers = {"elevation"};
+  g.data = {e5};
+  traversability::compute_layers(g, p);
+  EXPECT_NEAR(g.layer("traversability_slope").at<float>(20, 20), 1.0 - (5 * CV_PI / 180) / p.critical_slope_rad, 1e-4);
+  EXPECT_NEAR(g.layer("traversability_roughness").at<float>(20, 20), 1.0, 1e-3);
+  // Step of 0.06 m (half critical): step score 0.5.
+  cv::Mat e6(40, 40, CV_32F, cv::Scalar(0));
+  e6(cv::Rect(0, 0, 40, 20)).setTo(0.06);
+  g.layers = {"elevation"};
+  g.data = {e6};
+  traversability::compute_layers(g, p);
+  EXPECT_NEAR(g.layer("traversability_step").at<float>(20, 20), 0.5, 1e-4);
+}
+
+TEST(Traversability, MetricRockFromCameraIsFlagged) {
+  // A 0.2 m tall block in the metric height image lands in the right cells.
+  const direct_depth::DirectDepth dd(cam());
+  TraversabilityMapper mapper(dd, params());
+  // Exact per-pixel heights of a 0.2 m tall box spanning x = 2.0 .. 2.4 m, y = -0.3 .. 0.3 m.
+  cv::Mat h(240, 320, CV_32F, cv::Scalar(0));
+  const double hc = cam().mount_height_m;
+  for (int r = 0; r < 240; ++r)
+    for (int c = 0; c < 320; ++c) {
+      const float R = dd.range_map().at<float>(r, c), L = dd.lateral_map().at<float>(r, c);
+      if (!std::isfinite(R)) continue;
+      const double k_front = 2.0 / R;  // ray parameter where it reaches x = 2.0
+      const double z_front = hc * (1 - k_front);
+      const double y_front = L * k_front;
+      if (R > 2.0 && z_front <= 0.2 && std::abs(y_front) < 0.3) {
+        h.at<float>(r, c) = static_cast<float>(z_front);  // front face
+        continue;
+      }
+      const double kt = 1 - 0.2 / hc;  // ray reaches z = 0.2
+      const double xt = R * kt, yt = L * kt;
+      if (xt >= 2.0 && xt <= 2.4 && std::abs(yt) < 0.3) h.at<float>(r, c) = 0.2f;  // top
+    }
+  GridMap g;
+  mapper.compute_from_metric(h, cv::Mat(), g);
+  int i, j;
+  ASSERT_TRUE(g.cell_of(2.2, 0.0, i, j));
+  EXPECT_NEAR(g.layer("elevation").at<float>(i, j), 0.2, 1e-4);
+  ASSERT_TRUE(g.cell_of(2.01, 0.0, i, j));
+  EXPECT_EQ(g.layer("traversability").at<float>(i, j), 0.0f);  // step edge
+  ASSERT_TRUE(g.cell_of(2.5, 1.0, i, j));
+  EXPECT_FLOAT_EQ(g.layer("traversability").at<float>(i, j), 1.0f);
+}
+
+struct RockStats {
+  double median_ratio = 0;  // median of (estimated / true) rock height
+  double mean_abs_err_pct = 0;
+  int rocks = 0;
+};
+
+// Rock heights from the grid: max elevation over the cells within 0.7 of the rock's normalised
+// radius minus the median elevation of the ring 1.5..2.5 radii around it (rocks ranged 1.2..3 m).
+RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool print) {
+  std::vector<double> ratios;
+  double err = 0;
+  for (const auto& rk : t.rocks()) {
+    if (rk.x_m < 1.2 || rk.x_m > 3.0 || std::min(rk.radius_x_m, rk.radius_y_m) < 0.06) continue;
+    double peak = -1e9;
+    std::vector<double> ring;
+    for (int i = 0; i < g.size_x(); ++i)
+      for (int j = 0; j < g.size_y(); ++j) {
+        const float e = g.layer("elevation").at<float>(i, j);
+        if (!std::isfinite(e)) continue;
+        const cv::Point2d p = g.cell_center(i, j);
+        const double d = std::hypot((p.x - rk.x_m) / rk.radius_x_m, (p.y - rk.y_m) / rk.radius_y_m);
+        if (d < 0.7) peak = std::max(peak, static_cast<double>(e));
+        else if (d > 1.5 && d < 2.5) ring.push_back(e);
+      }
+    if (peak < -1e8 || ring.size() < 5) continue;
+    std::nth_element(ring.begin(), ring.begin() + static_cast<long>(ring.size() / 2), ring.end());
+    const double est = peak - ring[ring.size() / 2];
+    ratios.push_back(est / rk.height_m);
+    err += std::abs(est - rk.height_m) / rk.height_m;
+    if (print) std::printf("  rock at %.2f,%.2f r %.2f: true %.3f m est %.3f m\n", rk.x_m, rk.y_m, rk.radius_x_m, rk.height_m, est);
+  }
+  RockStats s;
+  s.rocks = static_cast<int>(ratios.size());
+  if (ratios.empty()) return s;
+  std::sort(ratios.begin(), ratios.end());
+  s.median_ratio = ratios[ratios.size() / 2];
+  s.mean_abs_err_pct = 100.0 * err / static_cast<double>(ratios.size());
+  return s;
+}
+
+TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
+  // End to end: rendered rover image -> SfS -> metric grid; rock heights against the generator's
+  // truth. Before the light-aware scale (lateral footprint only) the median ratio was 0.2 (5x low).
+  direct_depth::CameraModel m = cam();
+  const direct_depth::DirectDepth dd(m);
+  terrain_scene::SceneParams sp;
+  sp.seed = 21;
+  sp.fractal_rms_m = 0.005;
+  sp.num_craters = 0;
+  sp.num_rocks = 25;
+  sp.place_x_min_m = 1.0;
+  sp.place_x_max_m = 3.0;
+  sp.place_y_abs_max_m = 1.0;
+  const terrain_scene::Terrain t(sp);
+  terrain_scene::CameraPose pose;
+  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
+  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
+  for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{2.0, 0.6}}) {
+    const auto img = terrain_scene::render_camera(t, pose, sun);
+    const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
+    std::printf("sun az %.2f el %.2f: image slant %.1f deg tilt %.1f deg, ground elevation %.1f deg\n", sun.azimuth_rad,
+                sun.elevation_rad, light.slant_rad * 180 / CV_PI, light.tilt_rad * 180 / CV_PI,
+                sun_elevation(m, light) * 180 / CV_PI);
+    EXPECT_NEAR(sun_elevation(m, light), sun.elevation_rad, 1e-6);
+    for (auto method : {sfs::Method::kTsaiShah, sfs::Method::kPentland}) {
+      sfs::SfsParams spar;
+      spar.method = method;
+      const auto res = sfs::shape_from_shading(img.image, sfs::LightDirection{light.slant_rad, light.tilt_rad}, spar);
+      TraversabilityMapper mapper(dd, params());
+      GridMap g;
+      mapper.compute_from_sfs(res.height, res.valid, light, g);
+      const RockStats s = rock_heights(g, t, false);
+      std::printf("  %s: %d rocks, median est/true height %.2f, mean |error| %.0f %%\n", sfs::to_string(method),
+                  s.rocks, s.median_ratio, s.mean_abs_err_pct);
+      ASSERT_GE(s.rocks, 5);
+      // Measured (README): Pentland 0.16 / 0.24, Tsai-Shah 0.00 / 0.69 -- rock heights are
+      // still underestimated on perspective frames (known limitation). Guard against a sign or
+      // scale regression only for the more stable Pentland path.
+      if (method == sfs::Method::kPentland) {
+        EXPECT_GT(s.median_ratio, 0.1);
+        EXPECT_LT(s.median_ratio, 1.0);
+      }
+    }
+  }
+}
+
+TEST(Traversability, ColumnMajorExport) {
+  GridMap g;
+  g.resolution_m = 1;
+  g.length_x_m = 2;
+  g.length_y_m = 3;
+  g.layers = {"elevation"};
+  cv::Mat e(2, 3, CV_32F);
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 3; ++j) e.at<float>(i, j) = static_cast<float>(10 * i + j);
+  g.data = {e};
+  const auto v = traversability::export_column_major(g, 0);
+  const std::vector<float> expect{0, 10, 1, 11, 2, 12};
+  EXPECT_EQ(v, expect);
+  // (0,0) is the +x/+y corner.
+  const cv::Point2d c00 = g.cell_center(0, 0), c12 = g.cell_center(1, 2);
+  EXPECT_GT(c00.x, c12.x);
+  EXPECT_GT(c00.y, c12.y);
+  float small[3];
+  EXPECT_THROW(traversability::export_column_major(g, 0, small, 3), std::invalid_argument);
+  EXPECT_THROW(traversability::export_column_major(g, 4), std::invalid_argument);
+}
+
+TEST(Traversability, BadInput) {
+  const direct_depth::DirectDepth dd(cam());
+  TraversabilityMapper mapper(dd, params());
+  GridMap g;
+  try {
+    mapper.compute_from_metric(cv::Mat(100, 100, CV_32F, cv::Scalar(0)), cv::Mat(), g);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("differs from the camera model"), std::string::npos);
+  }
+  EXPECT_THROW(mapper.compute_from_sfs(cv::Mat(), cv::Mat(), {0.5, 1.0}, g), std::invalid_argument);
+  EXPECT_THROW(mapper.compute_from_sfs(cv::Mat(240, 320, CV_8U), cv::Mat(), {0.5, 1.0}, g), std::invalid_argument);
+  // Sun below the ground horizon (tilt towards the image bottom with a large slant for a camera
+  // pitched down): no shading information -> all unknown, confidence 0.
+  mapper.compute_from_sfs(cv::Mat(240, 320, CV_32F, cv::Scalar(0)), cv::Mat(), {1.5, CV_PI / 2}, g);
+  EXPECT_EQ(cv::countNonZero(g.layer("confidence")), 0);
+  TraversabilityParams p = params();
+  p.critical_step_m = std::nan("");
+  try {
+    TraversabilityMapper bad(dd, p);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("critical_step_m"), std::string::npos);
+  }
+  // Camera looking above the horizon: an all-NaN map with confidence 0, no crash.
+  direct_depth::CameraModel up = cam();
+  up.pitch_rad = -0.8;
+  const direct_depth::DirectDepth ddu(up);
+  TraversabilityMapper mu(ddu, params());
+  mu.compute_from_metric(cv::Mat(240, 320, CV_32F, cv::Scalar(0)), cv::Mat(), g);
+  EXPECT_EQ(cv::countNonZero(g.layer("confidence")), 0);
+  const cv::Mat& e = g.layer("elevation");
+  EXPECT_EQ(cv::countNonZero(e == e), 0);  // all NaN
+}
+
+}  // namespace

@@ -1,0 +1,427 @@
+// `regolith assess IMAGE --out DIR`: one image -> SfS height map (TIFF, heat map, hillshade),
+// traversability layers (PNG) and a JSON summary. Algorithms: components/sfs, direct_depth,
+// traversability. Bad input -> InputError / ConfigError (exit code 2) naming the file or option.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "regolith/core/error.hpp"
+#include "regolith/core/params.hpp"
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/sfs/sfs.hpp"
+#include "regolith/traversability/traversability.hpp"
+
+namespace regolith::cli {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+struct AssessOptions {
+  std::string image, config, out, method, flat_field, camera;
+  double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
+  double height_m = std::nan(""), pitch_deg = std::nan("");
+  double pixel_size_m = 0.02;
+};
+
+double now_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Robust 2..98 % range of the finite values of a CV_32F image (optionally masked).
+void robust_range(const cv::Mat& m, const cv::Mat& mask, double& lo, double& hi) {
+  std::vector<float> v;
+  v.reserve(m.total());
+  for (int r = 0; r < m.rows; ++r)
+    for (int c = 0; c < m.cols; ++c) {
+      const float x = m.at<float>(r, c);
+      if (std::isfinite(x) && (mask.empty() || mask.at<uchar>(r, c))) v.push_back(x);
+    }
+  if (v.empty()) {
+    lo = 0;
+    hi = 1;
+    return;
+  }
+  std::sort(v.begin(), v.end());
+  lo = v[v.size() * 2 / 100];
+  hi = v[std::min(v.size() - 1, v.size() * 98 / 100)];
+  if (!(hi > lo)) hi = lo + 1e-6;
+}
+
+// Colour bar with min / max labels appended below an image.
+cv::Mat with_legend(const cv::Mat& bgr, const std::string& title, const std::string& lo_txt,
+                    const std::string& hi_txt, int colormap, bool reverse = false) {
+  const int bar_h = 18, text_h = 22;
+  cv::Mat out(bgr.rows + bar_h + 2 * text_h, std::max(bgr.cols, 320), CV_8UC3, cv::Scalar(255, 255, 255));
+  bgr.copyTo(out(cv::Rect(0, 0, bgr.cols, bgr.rows)));
+  cv::Mat ramp(1, 256, CV_8U);
+  for (int i = 0; i < 256; ++i) ramp.at<uchar>(0, i) = static_cast<uchar>(reverse ? 255 - i : i);
+  cv::Mat rc;
+  cv::applyColorMap(ramp, rc, colormap);
+  cv::Mat bar;
+  cv::resize(rc, bar, cv::Size(out.cols - 20, bar_h), 0, 0, cv::INTER_LINEAR);
+  bar.copyTo(out(cv::Rect(10, bgr.rows + text_h, bar.cols, bar_h)));
+  const double fs_ = 0.45;
+  cv::putText(out, title, {10, bgr.rows + 16}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1, cv::LINE_AA);
+  cv::putText(out, lo_txt, {10, out.rows - 6}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1, cv::LINE_AA);
+  int base = 0;
+  const cv::Size ts = cv::getTextSize(hi_txt, cv::FONT_HERSHEY_SIMPLEX, fs_, 1, &base);
+  cv::putText(out, hi_txt, {out.cols - 10 - ts.width, out.rows - 6}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1,
+              cv::LINE_AA);
+  return out;
+}
+
+std::string fmt(double v, int prec = 3) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(prec);
+  s << v;
+  return s.str();
+}
+
+void write_png(const fs::path& p, const cv::Mat& img) {
+  if (!cv::imwrite(p.string(), img)) throw InputError("assess: cannot write '" + p.string() + "'");
+}
+
+// A grid layer as a colour image (0..1 scores: red 0 -> green 1; elevation: turbo), unknown
+// cells grey, scaled up so that each cell is a few pixels.
+cv::Mat layer_image(const cv::Mat& layer, bool score, double& lo, double& hi) {
+  if (score) {
+    lo = 0;
+    hi = 1;
+  } else {
+    robust_range(layer, cv::Mat(), lo, hi);
+  }
+  cv::Mat u8(layer.size(), CV_8U), unknown(layer.size(), CV_8U);
+  for (int r = 0; r < layer.rows; ++r)
+    for (int c = 0; c < layer.cols; ++c) {
+      const float v = layer.at<float>(r, c);
+      unknown.at<uchar>(r, c) = std::isfinite(v) ? 0 : 255;
+      const double t = std::isfinite(v) ? std::clamp((v - lo) / (hi - lo), 0.0, 1.0) : 0.0;
+      u8.at<uchar>(r, c) = static_cast<uchar>(std::lround(255 * t));
+    }
+  cv::Mat bgr;
+  if (score) {
+    bgr.create(layer.size(), CV_8UC3);
+    for (int r = 0; r < layer.rows; ++r)
+      for (int c = 0; c < layer.cols; ++c) {
+        const double t = u8.at<uchar>(r, c) / 255.0;
+        bgr.at<cv::Vec3b>(r, c) = cv::Vec3b(40, static_cast<uchar>(std::lround(220 * t)),
+                                            static_cast<uchar>(std::lround(220 * (1 - t))));
+      }
+  } else {
+    cv::applyColorMap(u8, bgr, cv::COLORMAP_TURBO);
+  }
+  bgr.setTo(cv::Scalar(128, 128, 128), unknown);
+  const int scale = std::max(1, 400 / std::max(1, std::max(layer.rows, layer.cols)));
+  cv::Mat big;
+  cv::resize(bgr, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  return big;
+}
+
+cv::Mat score_legend(const cv::Mat& img, const std::string& title) {
+  cv::Mat out(img.rows + 26, std::max(img.cols, 320), CV_8UC3, cv::Scalar(255, 255, 255));
+  img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
+  cv::putText(out, title + ": red 0 (hazard) .. green 1 (good), grey unknown", {6, img.rows + 18},
+              cv::FONT_HERSHEY_SIMPLEX, 0.42, {0, 0, 0}, 1, cv::LINE_AA);
+  return out;
+}
+
+std::vector<double> parse_camera(const std::string& s) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw ConfigError("--camera: '" + s + "' is not fx,fy,cx,cy (numbers in px)");
+    }
+  }
+  if (v.size() != 4) throw ConfigError("--camera: expected fx,fy,cx,cy (4 numbers in px), got '" + s + "'");
+  return v;
+}
+
+void assess(const AssessOptions& o) {
+  const double t0 = now_ms();
+  // ---- the image ----
+  if (!fs::exists(o.image)) throw InputError("assess: image '" + o.image + "' does not exist");
+  const cv::Mat raw = cv::imread(o.image, cv::IMREAD_UNCHANGED);
+  if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "' (not an image or unsupported format)");
+  if (raw.depth() != CV_8U)
+    throw InputError("assess: image '" + o.image + "' has " + (raw.depth() == CV_16U ? "16-bit" : "non-8-bit") +
+                     " samples; convert it to 8-bit grey or colour");
+  cv::Mat gray;
+  if (raw.channels() == 1) gray = raw;
+  else if (raw.channels() == 3) cv::cvtColor(raw, gray, cv::COLOR_BGR2GRAY);
+  else if (raw.channels() == 4) cv::cvtColor(raw, gray, cv::COLOR_BGRA2GRAY);
+  else throw InputError("assess: image '" + o.image + "' has " + std::to_string(raw.channels()) + " channels");
+  if (gray.rows < 16 || gray.cols < 16)
+    throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" +
+                     std::to_string(gray.rows) + " px; at least 16x16 is needed");
+
+  // ---- configuration: optional YAML, then command-line overrides ----
+  sfs::SfsParams sp;
+  traversability::TraversabilityParams tp;
+  std::optional<sfs::LightDirection> light;
+  std::optional<direct_depth::CameraModel> model;
+  double pixel_size = o.pixel_size_m;
+  if (!o.config.empty()) {
+    Params p = Params::load_file(o.config);
+    sp.method = sfs::method_from_string(p.get<std::string>("method", sfs::to_string(sp.method),
+        {.choices = {"tsai_shah", "pentland", "bichsel_pentland"}, .doc = "SfS method"}));
+    sp.iterations = p.get<int>("iterations", sp.iterations, {.min = 1, .max = 100000});
+    sp.tolerance = p.get<double>("tolerance", sp.tolerance, {.unit = "px", .min = 0.0});
+    sp.vignetting.a2 = p.get<double>("vignetting_a2", 0.0);
+    sp.vignetting.a4 = p.get<double>("vignetting_a4", 0.0);
+    sp.vignetting.a6 = p.get<double>("vignetting_a6", 0.0);
+    sp.vignetting.enabled = sp.vignetting.a2 != 0 || sp.vignetting.a4 != 0 || sp.vignetting.a6 != 0;
+    if (p.has("sun_slant_rad") || p.has("sun_tilt_rad"))
+      light = sfs::LightDirection{p.require<double>("sun_slant_rad", {.unit = "rad"}),
+                                  p.require<double>("sun_tilt_rad", {.unit = "rad"})};
+    pixel_size = p.get<double>("pixel_size_m", pixel_size, {.unit = "m", .min = 0.0, .min_exclusive = true,
+                                                            .doc = "orthographic mode: ground size of a pixel"});
+    if (p.has("camera_model")) {
+      Params cm = p.child("camera_model");
+      direct_depth::CameraModel m;
+      m.width = cm.get<int>("width", gray.cols, {.unit = "px"});
+      m.height = cm.get<int>("height", gray.rows, {.unit = "px"});
+      if (m.width != gray.cols || m.height != gray.rows)
+        throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" +
+                         std::to_string(gray.rows) + " px but " + cm.where("width") + " camera_model is " +
+                         std::to_string(m.width) + "x" + std::to_string(m.height) + " px");
+      m.fx = cm.require<double>("fx", {.unit = "px", .min = 0.0, .min_exclusive = true});
+      m.fy = cm.get<double>("fy", m.fx, {.unit = "px", .min = 0.0, .min_exclusive = true});
+      m.cx = cm.get<double>("cx", 0.5 * (gray.cols - 1), {.unit = "px"});
+      m.cy = cm.get<double>("cy", 0.5 * (gray.rows - 1), {.unit = "px"});
+      m.k1 = cm.get<double>("k1", 0.0);
+      m.k2 = cm.get<double>("k2", 0.0);
+      m.p1 = cm.get<double>("p1", 0.0);
+      m.p2 = cm.get<double>("p2", 0.0);
+      m.k3 = cm.get<double>("k3", 0.0);
+      m.mount_height_m = cm.require<double>("mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true});
+      m.pitch_rad = cm.get<double>("pitch_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707});
+      m.roll_rad = cm.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707});
+      cm.finish();
+      model = m;
+    }
+    Params g = p.child("grid");
+    tp.resolution_m = g.get<double>("resolution_m", tp.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+    tp.length_x_m = g.get<double>("length_x_m", tp.length_x_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+    tp.length_y_m = g.get<double>("length_y_m", tp.length_y_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+    tp.center_x_m = g.get<double>("center_x_m", tp.center_x_m, {.unit = "m"});
+    tp.center_y_m = g.get<double>("center_y_m", tp.center_y_m, {.unit = "m"});
+    tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
+    tp.critical_step_m = g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+    tp.critical_roughness_m = g.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+    tp.height_gain = g.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true});
+    g.finish();
+    p.finish();
+  }
+  if (!o.method.empty()) sp.method = sfs::method_from_string(o.method);
+  if (!o.flat_field.empty()) {
+    const cv::Mat ff = cv::imread(o.flat_field, cv::IMREAD_GRAYSCALE);
+    if (ff.empty()) throw InputError("assess: cannot read flat-field image '" + o.flat_field + "'");
+    sp.vignetting.flat_field = ff;
+    sp.vignetting.enabled = true;
+  }
+  if (std::isfinite(o.sun_slant_deg) != std::isfinite(o.sun_tilt_deg))
+    throw ConfigError("--sun-slant and --sun-tilt must be given together");
+  if (std::isfinite(o.sun_slant_deg)) light = sfs::LightDirection{o.sun_slant_deg * kDeg, o.sun_tilt_deg * kDeg};
+  if (light) {
+    try {
+      light->validate("sun");
+    } catch (const std::invalid_argument& e) {
+      throw ConfigError(std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)");
+    }
+  } else {
+    sp.estimate_light = true;
+  }
+  if (!o.camera.empty()) {
+    const auto v = parse_camera(o.camera);
+    if (!std::isfinite(o.height_m)) throw ConfigError("--camera needs --height M (camera height above the ground)");
+    direct_depth::CameraModel m;
+    m.fx = v[0];
+    m.fy = v[1];
+    m.cx = v[2];
+    m.cy = v[3];
+    m.width = gray.cols;
+    m.height = gray.rows;
+    m.mount_height_m = o.height_m;
+    m.pitch_rad = std::isfinite(o.pitch_deg) ? o.pitch_deg * kDeg : 0.0;
+    model = m;
+  } else if (std::isfinite(o.height_m) || std::isfinite(o.pitch_deg)) {
+    if (!model) throw ConfigError("--height/--pitch need --camera fx,fy,cx,cy");
+    if (std::isfinite(o.height_m)) model->mount_height_m = o.height_m;
+    if (std::isfinite(o.pitch_deg)) model->pitch_rad = o.pitch_deg * kDeg;
+  }
+  std::unique_ptr<direct_depth::DirectDepth> depth;
+  try {
+    sp.validate();
+    tp.validate();
+    if (model) depth = std::make_unique<direct_depth::DirectDepth>(*model);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("assess: ") + e.what());
+  }
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec || !fs::is_directory(o.out)) throw InputError("assess: cannot create output directory '" + o.out + "'");
+
+  // ---- SfS ----
+  const double t1 = now_ms();
+  sfs::SfsResult res;
+  try {
+    sfs::ShapeFromShading solver(sp);
+    solver.compute(gray, light, res);
+  } catch (const std::runtime_error& e) {  // unreliable light estimate
+    throw InputError("assess: " + o.image + ": " + e.what() + " (give --sun-slant DEG --sun-tilt DEG)");
+  } catch (const std::invalid_argument& e) {
+    throw InputError("assess: " + o.image + ": " + e.what());
+  }
+  const double t2 = now_ms();
+
+  // ---- traversability ----
+  traversability::GridMap grid;
+  cv::Mat height_m;  // metric height per pixel (m), NaN where unknown
+  if (depth) {
+    traversability::TraversabilityMapper mapper(*depth, tp);
+    mapper.compute_from_sfs(res.height, res.valid, {res.light.slant_rad, res.light.tilt_rad}, grid);
+    height_m = mapper.metric_heights().clone();
+  } else {
+    // Orthographic top-down patch: image row 0 = +x (forward), column 0 = +y (left); a pixel is
+    // pixel_size metres; SfS heights are in pixel units, so metres = units * pixel_size.
+    height_m = res.height * pixel_size * tp.height_gain;
+    grid.resolution_m = pixel_size;
+    grid.length_x_m = gray.rows * pixel_size;
+    grid.length_y_m = gray.cols * pixel_size;
+    grid.center_x_m = 0;
+    grid.center_y_m = 0;
+    grid.layers = {"elevation"};
+    cv::Mat e = height_m.clone();
+    e.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
+    grid.data = {e};
+    traversability::compute_layers(grid, tp);
+  }
+  const double t3 = now_ms();
+
+  // ---- outputs ----
+  const fs::path out(o.out);
+  cv::Mat h_up = res.height.clone();  // pixel units, up positive
+  if (!cv::imwrite((out / "height.tiff").string(), h_up))
+    throw InputError("assess: cannot write '" + (out / "height.tiff").string() + "'");
+  double lo, hi;
+  robust_range(h_up, res.valid, lo, hi);
+  cv::Mat u8;
+  h_up.convertTo(u8, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));
+  cv::Mat heat;
+  cv::applyColorMap(u8, heat, cv::COLORMAP_TURBO);
+  heat.setTo(cv::Scalar(128, 128, 128), res.valid == 0);
+  write_png(out / "height_heatmap.png",
+            with_legend(heat, "SfS relative height (pixel units, up = red), grey = masked", fmt(lo, 2), fmt(hi, 2),
+                        cv::COLORMAP_TURBO));
+  // Hillshade of the recovered surface (light from the upper left, 45 deg) - independent of the
+  // input shading, so it shows what SfS recovered.
+  cv::Mat shade = sfs::render_lambertian(h_up, sfs::LightDirection{45 * kDeg, -135 * kDeg});
+  shade.convertTo(u8, CV_8U, 255.0);
+  write_png(out / "hillshade.png", u8);
+  nlohmann::json layers = nlohmann::json::object();
+  for (std::size_t k = 0; k < grid.layers.size(); ++k) {
+    const std::string& name = grid.layers[k];
+    const bool score = name != "elevation";
+    cv::Mat img = layer_image(grid.data[k], score, lo, hi);
+    cv::Mat labelled = score ? score_legend(img, name)
+                             : with_legend(img, "elevation (m), grey unknown", fmt(lo, 3) + " m", fmt(hi, 3) + " m",
+                                           cv::COLORMAP_TURBO);
+    write_png(out / (name + ".png"), labelled);
+    layers[name] = name + ".png";
+  }
+  // Hazards: 8-connected groups of cells with traversability 0.
+  const cv::Mat& trav = grid.layer("traversability");
+  cv::Mat haz = (trav == 0.0f);
+  cv::Mat labels, stats, cents;
+  const int n = cv::connectedComponentsWithStats(haz, labels, stats, cents, 8, CV_32S);
+  nlohmann::json hazards = nlohmann::json::array();
+  const cv::Mat& elev = grid.layer("elevation");
+  for (int k = 1; k < n; ++k) {
+    const int area = stats.at<int>(k, cv::CC_STAT_AREA);
+    double zmax = -1e9;
+    for (int i = 0; i < labels.rows; ++i)
+      for (int j = 0; j < labels.cols; ++j)
+        if (labels.at<int>(i, j) == k && std::isfinite(elev.at<float>(i, j))) zmax = std::max(zmax, static_cast<double>(elev.at<float>(i, j)));
+    const cv::Point2d c = grid.cell_center(static_cast<int>(std::lround(cents.at<double>(k, 1))),
+                                           static_cast<int>(std::lround(cents.at<double>(k, 0))));
+    hazards.push_back({{"x_m", c.x}, {"y_m", c.y}, {"cells", area},
+                       {"area_m2", area * grid.resolution_m * grid.resolution_m}, {"max_elevation_m", zmax}});
+  }
+  int known = 0;
+  for (int i = 0; i < trav.rows; ++i)
+    for (int j = 0; j < trav.cols; ++j) known += std::isfinite(trav.at<float>(i, j)) ? 1 : 0;
+  nlohmann::json j = {
+      {"image", o.image},
+      {"width_px", gray.cols},
+      {"height_px", gray.rows},
+      {"method", sfs::to_string(sp.method)},
+      {"light", {{"slant_deg", res.light.slant_rad / kDeg}, {"tilt_deg", res.light.tilt_rad / kDeg},
+                 {"source", res.light_estimated ? "estimated" : "given"}, {"confidence", res.light_confidence}}},
+      {"iterations", res.iterations},
+      {"final_mean_update_px", res.final_mean_update},
+      {"mode", depth ? "camera" : "orthographic"},
+      {"timings_ms", {{"load", t1 - t0}, {"sfs", t2 - t1}, {"traversability", t3 - t2}}},
+      {"grid", {{"resolution_m", grid.resolution_m}, {"length_x_m", grid.length_x_m}, {"length_y_m", grid.length_y_m},
+                {"center_x_m", grid.center_x_m}, {"center_y_m", grid.center_y_m}, {"known_cells", known},
+                {"cells", static_cast<int>(trav.total())}}},
+      {"outputs", {{"height", "height.tiff"}, {"heatmap", "height_heatmap.png"}, {"hillshade", "hillshade.png"},
+                   {"layers", layers}}},
+      {"hazards", hazards},
+  };
+  if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
+  std::ofstream f(out / "summary.json");
+  if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
+  f << j.dump(2) << "\n";
+  std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(sp.method) << ", light "
+            << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
+            << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards, "
+            << known << " known cells)\n";
+}
+
+void add_assess(CLI::App& app) {
+  auto o = std::make_shared<AssessOptions>();
+  CLI::App* cmd = app.add_subcommand("assess", "one image -> SfS height map, traversability layers, JSON summary");
+  cmd->add_option("image", o->image, "input image (8-bit grey or colour)")->required();
+  cmd->add_option("--out,-o", o->out, "output directory")->required();
+  cmd->add_option("--config,-c", o->config, "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
+  cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)");
+  cmd->add_option("--sun-tilt", o->sun_tilt_deg, "deg, sun direction in the image from +x towards +y (clockwise)");
+  cmd->add_option("--method", o->method, "tsai_shah|pentland|bichsel_pentland")
+      ->check(CLI::IsMember({"tsai_shah", "pentland", "bichsel_pentland"}));
+  cmd->add_option("--flat-field", o->flat_field, "flat-field image for vignetting correction");
+  cmd->add_option("--camera", o->camera, "fx,fy,cx,cy in px (perspective rover camera; default: orthographic patch)");
+  cmd->add_option("--height", o->height_m, "m, camera height above the ground");
+  cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
+  cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")
+      ->check(CLI::PositiveNumber);
+  cmd->callback([o] { assess(*o); });
+}
+
+}  // namespace
+
+[[maybe_unused]] const bool registered_assess = add_command(add_assess);
+
+}  // namespace regolith::cli

@@ -1,0 +1,54 @@
+// regolith soil IMAGE --config ROVER.yaml --out DIR: retrospective soil stiffness from a
+// rear-camera image of the rover's tracks (components/soil_stiffness). Writes track_dtm.png,
+// sinkage_profiles.png, pz_curves.png and result.json. Bad input (unreadable image, bad YAML
+// field, size mismatch) -> message naming the file / field, exit code 2. A frame without usable
+// tracks is a result, not an error: result.json says why (ok = false) and the exit code is 0.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "cli.hpp"
+#include "regolith/soil_stiffness/config.hpp"
+
+namespace regolith::cli {
+namespace {
+
+struct SoilArgs {
+  std::string image;
+  std::string config;
+  std::string out;
+};
+
+const bool registered = add_command([](CLI::App& app) {
+  auto a = std::make_shared<SoilArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "soil", "soil stiffness k (and n) from an image of the rover's wheel tracks -> PNG plots + JSON");
+  cmd->add_option("image", a->image, "rear-camera image of the tracks (8-bit, any OpenCV format)")->required();
+  cmd->add_option("--config,-c", a->config,
+                  "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
+                  "or a deployment with a soil_stiffness component")
+      ->required();
+  cmd->add_option("--out,-o", a->out, "output directory (created)")->required();
+  cmd->callback([a] {
+    const soil::SoilAnalysisFiles f = soil::run_soil_file(a->image, a->config, a->out);
+    const soil::SoilEstimate& e = f.estimate;
+    if (e.ok) {
+      std::printf("%s: %zu track(s), mean sinkage %.2f mm, %d samples\n", a->image.c_str(), e.tracks.size(),
+                  e.mean_sinkage_m * 1e3, e.samples_used);
+      std::printf("  n fixed %.2f: k = %.4g +- %.2g N/m^(n+2)\n", e.n_fixed, e.k_fixed, e.k_fixed_std);
+      if (e.joint_ok)
+        std::printf("  joint: k = %.4g +- %.2g, n = %.3f +- %.3f\n", e.k_joint, e.k_joint_std, e.n_joint, e.n_joint_std);
+      std::printf("  soil class: %s (p(z_ref) = %.0f Pa)\n", soil::to_string(e.soil_class), e.class_pressure_pa);
+    } else {
+      std::printf("%s: no estimate: %s\n", a->image.c_str(), e.reason.c_str());
+    }
+    std::printf("wrote %s\n", f.json.string().c_str());
+    for (const auto& p : {f.dtm_png, f.profiles_png, f.pz_png})
+      if (!p.empty()) std::printf("wrote %s\n", p.string().c_str());
+  });
+});
+
+}  // namespace
+}  // namespace regolith::cli
