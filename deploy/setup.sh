@@ -17,8 +17,8 @@ PACKAGES=(
   # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
   # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
-  # packaging checks
-  dpkg-dev lintian
+  # packaging and service checks (tests/deploy): cpack DEB, lintian, systemd-analyze verify
+  dpkg-dev lintian systemd
 )
 
 missing=()
