@@ -19,6 +19,8 @@ PACKAGES=(
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
   # packaging and service checks (tests/deploy): cpack DEB, lintian, systemd-analyze verify
   dpkg-dev lintian systemd
+  # arm64 cross-build and emulated unit tests (deploy/cross/build-arm64.sh)
+  crossbuild-essential-arm64 qemu-user mmdebstrap
 )
 
 missing=()
