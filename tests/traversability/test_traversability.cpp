@@ -188,6 +188,22 @@ RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool p
   return s;
 }
 
+// Pearson correlation of the grid elevation with the true terrain height over known cells at
+// 1.2 .. 3 m (where the rocks are).
+double elevation_correlation(const GridMap& g, const terrain_scene::Terrain& t) {
+  double n = 0, sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  for (int i = 0; i < g.size_x(); ++i)
+    for (int j = 0; j < g.size_y(); ++j) {
+      const float e = g.layer("elevation").at<float>(i, j);
+      const cv::Point2d p = g.cell_center(i, j);
+      if (!std::isfinite(e) || p.x < 1.2 || p.x > 3.0) continue;
+      const double a = e, b = t.height_at(p.x, p.y);
+      n += 1; sa += a; sb += b; saa += a * a; sbb += b * b; sab += a * b;
+    }
+  const double va = saa - sa * sa / n, vb = sbb - sb * sb / n;
+  return (sab - sa * sb / n) / std::sqrt(va * vb);
+}
+
 TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
   // End to end: rendered rover image -> SfS -> metric grid; rock heights against the generator's
   // truth. Before the light-aware scale (lateral footprint only) the median ratio was 0.2 (5x low).
@@ -220,8 +236,8 @@ TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
       GridMap g;
       mapper.compute_from_sfs(res.height, res.valid, light, g);
       const RockStats s = rock_heights(g, t, false);
-      std::printf("  %s: %d rocks, median est/true height %.2f, mean |error| %.0f %%\n", sfs::to_string(method),
-                  s.rocks, s.median_ratio, s.mean_abs_err_pct);
+      std::printf("  %s: %d rocks, median est/true height %.2f, mean |error| %.0f %%, elevation r %.2f\n", sfs::to_string(method),
+                  s.rocks, s.median_ratio, s.mean_abs_err_pct, elevation_correlation(g, t));
       ASSERT_GE(s.rocks, 5);
       // Measured (README): Pentland 0.16 / 0.24, Tsai-Shah 0.00 / 0.69 -- rock heights are
       // still underestimated on perspective frames (known limitation). Guard against a sign or
@@ -232,6 +248,118 @@ TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
       }
     }
   }
+}
+
+// Rover camera pose matching cam().
+terrain_scene::CameraPose pose_of(const direct_depth::CameraModel& m) {
+  terrain_scene::CameraPose pose;
+  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
+  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
+  return pose;
+}
+
+terrain_scene::SceneParams rock_field() {
+  terrain_scene::SceneParams sp;
+  sp.seed = 21;
+  sp.fractal_rms_m = 0.005;
+  sp.num_craters = 0;
+  sp.num_rocks = 25;
+  sp.place_x_min_m = 1.0;
+  sp.place_x_max_m = 3.0;
+  sp.place_y_abs_max_m = 1.0;
+  return sp;
+}
+
+TEST(Traversability, GroundLightIsTheOrthographicSun) {
+  // The image-frame light converted to the rectified ground frame equals the generator's sun in
+  // its orthographic image frame (same axes: columns = -y, rows = -x, up).
+  const direct_depth::CameraModel m = cam();
+  for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{-1.0, 0.9}, terrain_scene::Sun{3.0, 0.2}}) {
+    const cv::Vec2d il = terrain_scene::camera_light(pose_of(m), sun);
+    const cv::Vec2d ol = terrain_scene::ortho_light(sun);
+    const ImageLight g = traversability::ground_light(m, {il[0], il[1]});
+    EXPECT_NEAR(g.slant_rad, ol[0], 1e-9);
+    EXPECT_NEAR(std::remainder(g.tilt_rad - ol[1], 2 * CV_PI), 0.0, 1e-9);
+  }
+  // Below the horizon: NaN slant.
+  EXPECT_TRUE(std::isnan(traversability::ground_light(m, {1.5, CV_PI / 2}).slant_rad));
+}
+
+TEST(Traversability, GroundRectifiedSfsFlatGroundIsTraversable) {
+  // Uniform grey = flat ground for any sun: elevation 0, traversability 1 wherever seen, NaN and
+  // confidence 0 behind the camera; confidence falls with range (fewer pixels per cell).
+  const direct_depth::DirectDepth dd(cam());
+  TraversabilityMapper mapper(dd, params());
+  GridMap g;
+  mapper.compute_from_image(cv::Mat(240, 320, CV_8U, cv::Scalar(120)), {0.8, -2.5}, g);
+  int known = 0;
+  for (int i = 0; i < g.size_x(); ++i)
+    for (int j = 0; j < g.size_y(); ++j) {
+      const cv::Point2d p = g.cell_center(i, j);
+      const float e = g.layer("elevation").at<float>(i, j);
+      if (p.x < 0.5) {
+        EXPECT_TRUE(std::isnan(e));
+        EXPECT_EQ(g.layer("confidence").at<float>(i, j), 0.0f);
+      } else if (std::isfinite(e)) {
+        EXPECT_NEAR(e, 0.0f, 1e-6);
+        if (std::isfinite(g.layer("traversability").at<float>(i, j))) {
+          EXPECT_FLOAT_EQ(g.layer("traversability").at<float>(i, j), 1.0f);
+        }
+        ++known;
+      }
+    }
+  EXPECT_GT(known, 1500);
+  int i_near, j_near, i_far, j_far;
+  ASSERT_TRUE(g.cell_of(1.2, 0.0, i_near, j_near));
+  ASSERT_TRUE(g.cell_of(3.4, 0.0, i_far, j_far));
+  EXPECT_FLOAT_EQ(g.layer("confidence").at<float>(i_near, j_near), 1.0f);
+  EXPECT_LT(g.layer("confidence").at<float>(i_far, j_far), 0.8f);
+  EXPECT_GT(g.layer("confidence").at<float>(i_far, j_far), 0.0f);
+  EXPECT_EQ(cv::countNonZero(mapper.rectified_valid()) > 0, true);
+}
+
+TEST(Traversability, GroundRectifiedSfsRecoversRockHeights) {
+  // Rendered rover frames -> ground-rectified Tsai-Shah -> grid; rock heights against the
+  // generator's truth, next to the image-frame path on the same frames. Four suns, including
+  // one ahead of the rover (image-frame slant > 90 deg: only the ground path can use it).
+  // Measured (README "Two SfS paths"): ground median est/true 0.74 / 0.53 / 0.73 / 0.65
+  // (image-frame Tsai-Shah 0.01 / 0.58 / n.a. / 1.15); elevation-vs-truth correlation is weak in
+  // both paths (ground -0.10 / -0.02 / 0.34 / 0.23; wrong sun -0.12 / -0.21 / 0.01 / -0.05):
+  // layover and occlusion of the grazing view (README limitations).
+  double r_sum = 0, rw_sum = 0;
+  const direct_depth::CameraModel m = cam();
+  const direct_depth::DirectDepth dd(m);
+  const terrain_scene::Terrain t(rock_field());
+  for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{2.0, 0.6},
+                                       terrain_scene::Sun{0.5, 0.5}, terrain_scene::Sun{-1.5, 0.7}}) {
+    const auto img = terrain_scene::render_camera(t, pose_of(m), sun);
+    cv::Mat img8;
+    img.image.convertTo(img8, CV_8U, 255.0);
+    const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
+    TraversabilityMapper mapper(dd, params());
+    GridMap g;
+    mapper.compute_from_image(img8, light, g);
+    const RockStats s = rock_heights(g, t, false);
+    // The sun reversed in azimuth (a wrong light): heights come out inverted / flat.
+    const ImageLight wrong = [&] {
+      const cv::Vec2d l = terrain_scene::camera_light(pose_of(m), terrain_scene::Sun{sun.azimuth_rad + CV_PI, sun.elevation_rad});
+      return ImageLight{l[0], l[1]};
+    }();
+    GridMap gw;
+    mapper.compute_from_image(img8, wrong, gw);
+    const double r = elevation_correlation(g, t), rw = elevation_correlation(gw, t);
+    std::printf("sun az %.1f el %.1f: ground Tsai-Shah %d rocks, median est/true %.2f, mean |err| %.0f %%, "
+                "elevation r %.2f; wrong sun r %.2f\n", sun.azimuth_rad, sun.elevation_rad, s.rocks,
+                s.median_ratio, s.mean_abs_err_pct, r, rw);
+    ASSERT_GE(s.rocks, 15);
+    EXPECT_GT(s.median_ratio, 0.4);
+    EXPECT_LT(s.median_ratio, 1.3);
+    EXPECT_LT(s.mean_abs_err_pct, 120.0);
+    r_sum += r;
+    rw_sum += rw;
+  }
+  // A wrong sun must score clearly worse on average.
+  EXPECT_GT(r_sum / 4, rw_sum / 4 + 0.1);
 }
 
 TEST(Traversability, ColumnMajorExport) {
@@ -268,6 +396,20 @@ TEST(Traversability, BadInput) {
   }
   EXPECT_THROW(mapper.compute_from_sfs(cv::Mat(), cv::Mat(), {0.5, 1.0}, g), std::invalid_argument);
   EXPECT_THROW(mapper.compute_from_sfs(cv::Mat(240, 320, CV_8U), cv::Mat(), {0.5, 1.0}, g), std::invalid_argument);
+  // Ground path: wrong type / size / empty name the input; sun below the ground horizon -> unknown.
+  try {
+    mapper.compute_from_image(cv::Mat(240, 320, CV_16U, cv::Scalar(0)), {0.5, 1.0}, g);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("gray: must be CV_8UC1"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(mapper.compute_from_image(cv::Mat(10, 10, CV_8U), {0.5, 1.0}, g), std::invalid_argument);
+  EXPECT_THROW(mapper.compute_from_image(cv::Mat(), {0.5, 1.0}, g), std::invalid_argument);
+  mapper.compute_from_image(cv::Mat(240, 320, CV_8U, cv::Scalar(100)), {1.5, CV_PI / 2}, g);
+  EXPECT_EQ(cv::countNonZero(g.layer("confidence")), 0);
+  TraversabilityParams pr = params();
+  pr.rectify_resolution_m = 0.0;
+  EXPECT_THROW(TraversabilityMapper(dd, pr), std::invalid_argument);
   // Sun below the ground horizon (tilt towards the image bottom with a large slant for a camera
   // pitched down): no shading information -> all unknown, confidence 0.
   mapper.compute_from_sfs(cv::Mat(240, 320, CV_32F, cv::Scalar(0)), cv::Mat(), {1.5, CV_PI / 2}, g);

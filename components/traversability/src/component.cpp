@@ -51,6 +51,22 @@ class TraversabilityComponent final : public runtime::Component {
     tp.weight_step = p.get<double>("weight_step", tp.weight_step, {.min = 0.0, .doc = "weight of the step score"});
     tp.weight_roughness = p.get<double>("weight_roughness", tp.weight_roughness, {.min = 0.0, .doc = "weight of the roughness score"});
     tp.full_confidence_points = p.get<double>("full_confidence_points", tp.full_confidence_points, {.min = 0.0, .min_exclusive = true, .doc = "pixels per cell for confidence 1"});
+    // Where the map's SfS runs (README "Two SfS paths"): "ground" = this component resamples the
+    // DTM frame's grey image onto the ground plane and solves it there with the sun in the ground
+    // frame (metric by construction); "image" = the sfs component's image-frame heights, scaled.
+    const std::string frame = p.get<std::string>(
+        "sfs_frame", "ground", {.choices = {"ground", "image"}, .doc = "SfS on the ground-rectified image or in the image frame"});
+    ground_ = frame == "ground";
+    tp.rectify_resolution_m = p.get<double>("rectify_resolution_m", tp.rectify_resolution_m,
+                                            {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "cell of the ground-rectified image (sfs_frame ground)"});
+    tp.ground_detrend_sigma_m = p.get<double>("ground_detrend_sigma_m", tp.ground_detrend_sigma_m,
+                                              {.unit = "m", .min = 0.0, .doc = "ground SfS drift removed (0 = off; sfs_frame ground)"});
+    const std::string gmethod = p.get<std::string>(
+        "ground_method", "tsai_shah",
+        {.choices = {"tsai_shah", "pentland"}, .doc = "ground SfS solver (pentland allocates per frame)"});
+    tp.ground_sfs.method = sfs::method_from_string(gmethod);
+    tp.ground_sfs.tsai_shah_leak_px = p.get<double>("ground_leak_px", tp.ground_sfs.tsai_shah_leak_px,
+                                                    {.unit = "px", .min = 0.0, .doc = "Tsai-Shah integration memory on the rectified grid"});
     const std::string frame_id = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of the grid map"});
     const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
                                                                     .doc = "the DTM input is stale after this long"});
@@ -63,6 +79,12 @@ class TraversabilityComponent final : public runtime::Component {
     // Warm-up on a flat DTM: sizes every buffer of the mapper and of map_.
     cv::Mat flat(h, w, CV_32F, cv::Scalar(0));
     mapper_->compute_from_sfs(flat, cv::Mat(), {0.5, 0.5}, map_);
+    if (ground_) {  // and the ground solver's buffers (a shaded ramp so every branch runs)
+      cv::Mat ramp(h, w, CV_8U);
+      for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c) ramp.at<uchar>(r, c) = static_cast<uchar>(60 + (r * 7 + c * 3) % 120);
+      mapper_->compute_from_image(ramp, {0.5, 0.5}, map_);
+    }
     // Layers other components measure, appended after the mapper's own (NaN until they arrive).
     std::vector<std::string> available;
 #ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
@@ -162,7 +184,10 @@ class TraversabilityComponent final : public runtime::Component {
       return;
     }
     try {
-      mapper_->compute_from_sfs(d.height, d.valid, {d.light.slant_rad, d.light.tilt_rad}, map_);
+      if (ground_)
+        mapper_->compute_from_image(d.gray, {d.light.slant_rad, d.light.tilt_rad}, map_);
+      else
+        mapper_->compute_from_sfs(d.height, d.valid, {d.light.slant_rad, d.light.tilt_rad}, map_);
     } catch (const std::exception&) {
       count_error();
       set_status("grid map computation failed on this frame");
@@ -238,6 +263,7 @@ class TraversabilityComponent final : public runtime::Component {
 #endif
   std::unique_ptr<direct_depth::DirectDepth> depth_;
   std::unique_ptr<TraversabilityMapper> mapper_;
+  bool ground_ = true;
   GridMap map_;
   LatestPool<sfs::DtmFrame>* dtm_ = nullptr;
   LatestPool<GridMapFrame>* out_ = nullptr;

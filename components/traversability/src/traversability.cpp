@@ -107,12 +107,21 @@ void TraversabilityParams::validate() const {
   if (!(weight_slope + weight_step + weight_roughness > 0))
     fail("weight_slope/weight_step/weight_roughness", "at least one must be > 0");
   check_pos(full_confidence_points, "full_confidence_points");
+  check_pos(rectify_resolution_m, "rectify_resolution_m");
+  if (length_x_m / rectify_resolution_m > 4096 || length_y_m / rectify_resolution_m > 4096)
+    fail("rectify_resolution_m", "more than 4096 rectified cells per side");
+  if (!std::isfinite(ground_detrend_sigma_m) || ground_detrend_sigma_m < 0)
+    fail("ground_detrend_sigma_m", "must be >= 0");
+  try {
+    ground_sfs.validate();
+  } catch (const std::invalid_argument& e) {
+    fail("ground_sfs", e.what());
+  }
 }
 
 TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& depth,
                                            const TraversabilityParams& params)
-    : depth_(depth), p_(params) {
-  p_.validate();
+    : depth_(depth), p_((params.validate(), params)), ground_solver_(p_.ground_sfs) {
   nx_ = static_cast<int>(std::lround(p_.length_x_m / p_.resolution_m));
   ny_ = static_cast<int>(std::lround(p_.length_y_m / p_.resolution_m));
   nx_ = std::max(nx_, 1);
@@ -121,9 +130,52 @@ TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& dept
   metric_.create(sz, CV_32F);
   blur_.create(sz, CV_32F);
   tmp_.create(sz, CV_32F);
-  line_.assign(static_cast<std::size_t>(std::max(sz.width, sz.height)), 0.0);
   sum_.create(nx_, ny_, CV_64F);
   count_.create(nx_, ny_, CV_32F);
+
+  // Ground rectification over the map's extent: cell (i, j) has the flat-ground centre
+  // x = x0 - (i + 0.5) res, y = y0 - (j + 0.5) res (rows along -x, columns along -y, as the grid).
+  const double res = p_.rectify_resolution_m;
+  const int rx = std::max(1, static_cast<int>(std::lround(nx_ * p_.resolution_m / res)));
+  const int ry = std::max(1, static_cast<int>(std::lround(ny_ * p_.resolution_m / res)));
+  const double x0 = p_.center_x_m + 0.5 * nx_ * p_.resolution_m, y0 = p_.center_y_m + 0.5 * ny_ * p_.resolution_m;
+  rect_src_.create(rx, ry, CV_32SC4);
+  rect_frac_.create(rx, ry, CV_32FC2);
+  rect_x_.create(rx, ry, CV_32F);
+  rect_y_.create(rx, ry, CV_32F);
+  rect_valid_.create(rx, ry, CV_8U);
+  rect_support_.create(rx, ry, CV_32F);
+  const cv::Mat& fl = depth_.footprint_lateral_map();
+  const cv::Mat& fr = depth_.footprint_range_map();
+  rect_visible_ = 0;
+  for (int i = 0; i < rx; ++i)
+    for (int j = 0; j < ry; ++j) {
+      const double x = x0 - (i + 0.5) * res, y = y0 - (j + 0.5) * res;
+      rect_x_.at<float>(i, j) = static_cast<float>(x);
+      rect_y_.at<float>(i, j) = static_cast<float>(y);
+      rect_src_.at<cv::Vec4i>(i, j) = {0, 0, 0, 0};
+      rect_frac_.at<cv::Vec2f>(i, j) = {0.0f, 0.0f};
+      rect_valid_.at<uchar>(i, j) = 0;
+      rect_support_.at<float>(i, j) = 0.0f;
+      if (x <= 0.0 || std::hypot(x, y) > p_.max_range_m) continue;
+      const auto px = depth_.project(x, y, 0.0);
+      if (!px || !(px->x >= 0.0 && px->y >= 0.0 && px->x <= sz.width - 1.0 && px->y <= sz.height - 1.0)) continue;
+      const int c = static_cast<int>(std::lround(px->x)), r = static_cast<int>(std::lround(px->y));
+      const double a = static_cast<double>(fl.at<float>(r, c)) * static_cast<double>(fr.at<float>(r, c));
+      if (!(a > 0.0)) continue;  // pixel at or above the horizon
+      const int c0 = std::min(static_cast<int>(px->x), sz.width - 1), r0 = std::min(static_cast<int>(px->y), sz.height - 1);
+      rect_src_.at<cv::Vec4i>(i, j) = {r0, c0, std::min(r0 + 1, sz.height - 1), std::min(c0 + 1, sz.width - 1)};
+      rect_frac_.at<cv::Vec2f>(i, j) = {static_cast<float>(px->x - c0), static_cast<float>(px->y - r0)};
+      rect_valid_.at<uchar>(i, j) = 255;
+      // Image pixels that fall in this cell (area ratio): the cell's support for confidence.
+      rect_support_.at<float>(i, j) = static_cast<float>(std::min(1.0, res * res / a));
+      ++rect_visible_;
+    }
+  rect_gray_.create(rx, ry, CV_8U);
+  rect_height_.create(rx, ry, CV_32F);
+  rect_blur_.create(rx, ry, CV_32F);
+  rect_mask_.create(rx, ry, CV_8U);
+  line_.assign(static_cast<std::size_t>(std::max({sz.width, sz.height, rx, ry})), 0.0);
 }
 
 void TraversabilityMapper::check_image(const cv::Mat& m, const cv::Mat& valid, const char* what) const {
@@ -138,7 +190,7 @@ void TraversabilityMapper::check_image(const cv::Mat& m, const cv::Mat& valid, c
     fail("valid", "must be empty or CV_8UC1 of the image size");
 }
 
-double sun_elevation(const direct_depth::CameraModel& m, const ImageLight& l) {
+cv::Vec3d sun_in_body(const direct_depth::CameraModel& m, const ImageLight& l) {
   // Sun in the image frame (x right, y down, z towards the viewer) -> optical (z forward) ->
   // body (x forward, y left, z up), with the rotation conventions of direct_depth.
   const cv::Vec3d s_opt(std::cos(l.tilt_rad) * std::sin(l.slant_rad), std::sin(l.tilt_rad) * std::sin(l.slant_rad),
@@ -148,14 +200,24 @@ double sun_elevation(const direct_depth::CameraModel& m, const ImageLight& l) {
   const cv::Matx33d b0(0, 0, 1, -1, 0, 0, 0, -1, 0);
   const double ca = std::cos(m.pitch_rad), sa = std::sin(m.pitch_rad);
   const cv::Matx33d pitch(ca, 0, sa, 0, 1, 0, -sa, 0, ca);
-  const cv::Vec3d s_body = pitch * b0 * roll * s_opt;
-  return std::asin(std::clamp(s_body[2], -1.0, 1.0));
+  return pitch * b0 * roll * s_opt;
+}
+
+double sun_elevation(const direct_depth::CameraModel& m, const ImageLight& l) {
+  return std::asin(std::clamp(sun_in_body(m, l)[2], -1.0, 1.0));
+}
+
+ImageLight ground_light(const direct_depth::CameraModel& m, const ImageLight& l) {
+  const cv::Vec3d s = sun_in_body(m, l);
+  if (!(s[2] > 0.0)) return {std::numeric_limits<double>::quiet_NaN(), 0.0};
+  // Rectified image axes: columns = body -y, rows = body -x, third = up.
+  return {std::acos(std::clamp(s[2], -1.0, 1.0)), std::atan2(-s[0], -s[1])};
 }
 
 // Three passes of a running box filter of half-width k (separable): ~Gaussian of sigma
 // sqrt(3 * ((2k+1)^2 - 1) / 12). Border: clamped. Uses line_ (sized in the constructor).
-void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst) {
-  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * p_.detrend_sigma_px * p_.detrend_sigma_px + 1.0) - 1.0) / 2.0)));
+void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma_px) {
+  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_px * sigma_px + 1.0) - 1.0) / 2.0)));
   src.copyTo(dst);
   const int W = dst.cols, H = dst.rows;
   auto pass = [&](float* base, int n, std::ptrdiff_t stride) {
@@ -186,7 +248,7 @@ void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::
     return;
   }
   if (p_.detrend_sigma_px > 0) {
-    smooth(height_px, blur_);
+    smooth(height_px, blur_, p_.detrend_sigma_px);
     for (int r = 0; r < metric_.rows; ++r) {  // plain loop: no temporaries
       const float* ph = height_px.ptr<float>(r);
       const float* pb = blur_.ptr<float>(r);
@@ -213,21 +275,105 @@ void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::
   compute_from_metric(metric_, valid, out);
 }
 
+void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLight& light, GridMap& out) {
+  const cv::Size sz(depth_.model().width, depth_.model().height);
+  if (gray.empty()) fail("gray", "empty image");
+  if (gray.type() != CV_8UC1) fail("gray", "must be CV_8UC1 (8-bit grey)");
+  if (gray.size() != sz)
+    fail("gray", "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " differs from the camera model " +
+                     std::to_string(sz.width) + "x" + std::to_string(sz.height));
+  ensure_grid(out, p_, nx_, ny_);
+  fill(sum_, 0.0);
+  fill(count_, 0.0f);
+  last_ground_light_ = ground_light(depth_.model(), light);
+  // The image-frame slant may exceed 90 deg here (sun ahead of the camera): only the sun's
+  // elevation above the ground matters for the rectified solve.
+  const bool usable = std::isfinite(light.slant_rad) && std::isfinite(light.tilt_rad) &&
+                      std::isfinite(last_ground_light_.slant_rad) && last_ground_light_.slant_rad < CV_PI / 2 - 0.01;
+  fill(rect_height_, kNaNf);
+  if (!usable || rect_visible_ < 16) {  // no usable shading or no ground in view: unknown everywhere
+    fill(rect_gray_, uchar{0});
+    finish_grid(out);
+    return;
+  }
+  // Bilinear resampling through the precomputed table (cv::remap allocates per call).
+  for (int i = 0; i < rect_gray_.rows; ++i) {
+    uchar* g = rect_gray_.ptr<uchar>(i);
+    const uchar* v = rect_valid_.ptr<uchar>(i);
+    const cv::Vec4i* src = rect_src_.ptr<cv::Vec4i>(i);
+    const cv::Vec2f* fr = rect_frac_.ptr<cv::Vec2f>(i);
+    for (int j = 0; j < rect_gray_.cols; ++j) {
+      if (!v[j]) {
+        g[j] = 0;
+        continue;
+      }
+      const uchar* top = gray.ptr<uchar>(src[j][0]);
+      const uchar* bot = gray.ptr<uchar>(src[j][2]);
+      const float fx = fr[j][0], fy = fr[j][1];
+      const float a = top[src[j][1]] + fx * static_cast<float>(top[src[j][3]] - top[src[j][1]]);
+      const float b = bot[src[j][1]] + fx * static_cast<float>(bot[src[j][3]] - bot[src[j][1]]);
+      g[j] = static_cast<uchar>(std::lround(a + fy * (b - a)));
+    }
+  }
+  // Cells outside the view get the median brightness of the seen ones (= flat ground for the
+  // solver, whose albedo normalisation also takes the median as flat): no false edges.
+  int hist[256] = {};
+  for (int i = 0; i < rect_gray_.rows; ++i) {
+    const uchar* g = rect_gray_.ptr<uchar>(i);
+    const uchar* v = rect_valid_.ptr<uchar>(i);
+    for (int j = 0; j < rect_gray_.cols; ++j)
+      if (v[j]) ++hist[g[j]];
+  }
+  int median = 0;
+  for (int acc = 0; median < 255 && (acc += hist[median]) * 2 < rect_visible_;) ++median;
+  for (int i = 0; i < rect_gray_.rows; ++i) {
+    uchar* g = rect_gray_.ptr<uchar>(i);
+    const uchar* v = rect_valid_.ptr<uchar>(i);
+    for (int j = 0; j < rect_gray_.cols; ++j)
+      if (!v[j]) g[j] = static_cast<uchar>(median);
+  }
+  ground_solver_.compute(rect_gray_, sfs::LightDirection{last_ground_light_.slant_rad, last_ground_light_.tilt_rad},
+                         ground_result_);
+  // Heights: one unit per cell -> metres; drift removed; unknown outside the view / where masked.
+  const double scale = p_.rectify_resolution_m * p_.height_gain;
+  const cv::Mat& hs = ground_result_.height;
+  if (p_.ground_detrend_sigma_m > 0) smooth(hs, rect_blur_, p_.ground_detrend_sigma_m / p_.rectify_resolution_m);
+  for (int i = 0; i < rect_height_.rows; ++i) {
+    const float* ph = hs.ptr<float>(i);
+    const float* pb = p_.ground_detrend_sigma_m > 0 ? rect_blur_.ptr<float>(i) : nullptr;
+    const uchar* v = rect_valid_.ptr<uchar>(i);
+    const uchar* sv = ground_result_.valid.ptr<uchar>(i);
+    float* pz = rect_height_.ptr<float>(i);
+    uchar* pm = rect_mask_.ptr<uchar>(i);
+    for (int j = 0; j < rect_height_.cols; ++j) {
+      pm[j] = (v[j] && sv[j]) ? 255 : 0;
+      if (v[j]) pz[j] = static_cast<float>((static_cast<double>(ph[j]) - (pb ? static_cast<double>(pb[j]) : 0.0)) * scale);
+    }
+  }
+  bin_points(rect_height_, rect_mask_, rect_x_, rect_y_, rect_support_, out);
+  finish_grid(out);
+}
+
 void TraversabilityMapper::compute_from_metric(const cv::Mat& height_m, const cv::Mat& valid, GridMap& out) {
   check_image(height_m, valid, "height_m");
   ensure_grid(out, p_, nx_, ny_);
   fill(sum_, 0.0);
   fill(count_, 0.0f);
-  const cv::Mat& rng = depth_.range_map();
-  const cv::Mat& lat = depth_.lateral_map();
+  bin_points(height_m, valid, depth_.range_map(), depth_.lateral_map(), cv::Mat(), out);
+  finish_grid(out);
+}
+
+void TraversabilityMapper::bin_points(const cv::Mat& z_m, const cv::Mat& valid, const cv::Mat& flat_x,
+                                      const cv::Mat& flat_y, const cv::Mat& weight, GridMap& out) {
   const double h = depth_.model().mount_height_m;
   const double x0 = p_.center_x_m + 0.5 * out.length_x_m, y0 = p_.center_y_m + 0.5 * out.length_y_m;
-  for (int r = 0; r < height_m.rows; ++r) {
-    const float* pz = height_m.ptr<float>(r);
-    const float* pr = rng.ptr<float>(r);
-    const float* pl = lat.ptr<float>(r);
+  for (int r = 0; r < z_m.rows; ++r) {
+    const float* pz = z_m.ptr<float>(r);
+    const float* pr = flat_x.ptr<float>(r);
+    const float* pl = flat_y.ptr<float>(r);
     const uchar* pv = valid.empty() ? nullptr : valid.ptr<uchar>(r);
-    for (int c = 0; c < height_m.cols; ++c) {
+    const float* pw = weight.empty() ? nullptr : weight.ptr<float>(r);
+    for (int c = 0; c < z_m.cols; ++c) {
       if (pv && !pv[c]) continue;
       const double z = static_cast<double>(pz[c]);
       const double fr = static_cast<double>(pr[c]);
@@ -238,10 +384,14 @@ void TraversabilityMapper::compute_from_metric(const cv::Mat& height_m, const cv
       const double fi = (x0 - x) / p_.resolution_m, fj = (y0 - y) / p_.resolution_m;
       if (!(fi >= 0 && fj >= 0 && fi < nx_ && fj < ny_)) continue;
       const int i = static_cast<int>(fi), j = static_cast<int>(fj);
-      sum_.at<double>(i, j) += z;
-      count_.at<float>(i, j) += 1.0f;
+      const float w = pw ? pw[c] : 1.0f;
+      sum_.at<double>(i, j) += z * static_cast<double>(w);
+      count_.at<float>(i, j) += w;
     }
   }
+}
+
+void TraversabilityMapper::finish_grid(GridMap& out) {
   cv::Mat& elev = out.data[0];
   cv::Mat& conf = out.data[5];
   const float full = static_cast<float>(p_.full_confidence_points);

@@ -9,7 +9,18 @@
 //   y = center_y + length_y / 2 - (j + 0.5) * resolution
 // NaN marks unknown cells in every layer (confidence is 0 there).
 //
-// Scale recovery (SfS heights are relative, in image pixel units; see README "Scale recovery"):
+// Two ways from shading to metric heights (README "Two SfS paths"):
+//
+// Ground-rectified SfS (compute_from_image, the component default): the grey camera image is
+// resampled onto the flat-ground plane (a regular grid of rectify_resolution_m cells aligned with
+// the map: rows along -x, columns along -y) through the direct-depth projection, and SfS solves
+// that top-down image with the sun expressed in the ground frame. Lambertian brightness depends
+// only on the surface normal and the sun, not on the viewer, so the rectified image obeys the
+// orthographic model the linear solvers assume, and one height unit is one cell: metres =
+// height * rectify_resolution_m. Each cell's height z is then placed on its viewing ray
+// (x, y) = flat-ground (x, y) * (1 - z / mount_height), as for the image-frame path.
+//
+// Image-frame SfS (compute_from_sfs; SfS heights in image pixel units; README "Scale recovery"):
 // Lambertian shading senses the slope along the sun's horizontal direction. Linear SfS in the
 // image frame returns dH/ds = -(dE/E0) / tan(slant) per image pixel along the light's image
 // direction, while the ground truth obeys dh/dl = -(dE/E0) * tan(sun elevation above the ground).
@@ -29,6 +40,7 @@
 #include <vector>
 
 #include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/sfs/sfs.hpp"
 
 namespace regolith::traversability {
 
@@ -72,6 +84,16 @@ struct TraversabilityParams {
   double step_radius_m = 0.10;        ///< m, neighbourhood for max - min height (step)
   double weight_slope = 0.4, weight_step = 0.4, weight_roughness = 0.2;  ///< combination weights
   double full_confidence_points = 4.0;  ///< points per cell for confidence 1
+  // Ground-rectified SfS (compute_from_image).
+  double rectify_resolution_m = 0.02;   ///< m per cell of the ground-rectified image
+  double ground_detrend_sigma_m = 0.5;  ///< m, smooth background removed from ground SfS heights (0 = off)
+  /// Solver for the rectified image. Default Tsai-Shah marching: no heap allocation per frame.
+  sfs::SfsParams ground_sfs = default_ground_sfs();
+  static sfs::SfsParams default_ground_sfs() {
+    sfs::SfsParams s;
+    s.method = sfs::Method::kTsaiShah;
+    return s;
+  }
   void validate() const;  ///< throws std::invalid_argument naming the field
 };
 
@@ -90,8 +112,15 @@ struct ImageLight {
   double tilt_rad = 0.0;   ///< rad
 };
 
+/// Unit vector towards the sun in the body frame (x forward, y left, z up) for a light given in
+/// the image frame of `model`.
+cv::Vec3d sun_in_body(const direct_depth::CameraModel& model, const ImageLight& light);
 /// Sun elevation above the ground plane (rad) for a light given in the image frame of `model`.
 double sun_elevation(const direct_depth::CameraModel& model, const ImageLight& light);
+/// The same sun in the frame of the ground-rectified image (columns = body -y, rows = body -x,
+/// third axis up): slant from the vertical, tilt from the columns towards the rows. NaN slant when
+/// the sun is at or below the horizon.
+ImageLight ground_light(const direct_depth::CameraModel& model, const ImageLight& light);
 
 class TraversabilityMapper {
  public:
@@ -104,6 +133,20 @@ class TraversabilityMapper {
   /// an all-unknown map (NaN, confidence 0): shading carries no usable height information.
   void compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid, const ImageLight& light,
                         GridMap& out);
+  /// Ground-rectified SfS: grey camera image (CV_8UC1, camera size) + the light in the image
+  /// frame -> metric grid (see the header comment). No heap allocation after the first call with
+  /// a Tsai-Shah ground solver when `out` is reused. Sun at or below the ground horizon, or no
+  /// visible ground cell: all-unknown map.
+  void compute_from_image(const cv::Mat& gray, const ImageLight& light, GridMap& out);
+  /// Rectified grey image of the last compute_from_image (CV_8U; 0 outside the view, filled with
+  /// the median inside it for the solver) and its validity (CV_8U 255 = seen by the camera).
+  const cv::Mat& rectified_image() const { return rect_gray_; }
+  const cv::Mat& rectified_valid() const { return rect_valid_; }
+  /// Metric heights (CV_32F m, NaN outside the view) of the last compute_from_image, per
+  /// rectified cell (before the cells are moved along their rays).
+  const cv::Mat& rectified_heights() const { return rect_height_; }
+  /// Light used by the last ground solve (rectified frame).
+  const ImageLight& last_ground_light() const { return last_ground_light_; }
   /// Metric height above the flat ground per pixel (CV_32F metres, NaN = unknown).
   void compute_from_metric(const cv::Mat& height_m, const cv::Mat& valid, GridMap& out);
   /// Metric per-pixel heights produced by the last compute_from_sfs (scale recovery output).
@@ -114,7 +157,19 @@ class TraversabilityMapper {
   void layers_from_elevation(GridMap& out);
   const direct_depth::DirectDepth& depth_;
   TraversabilityParams p_;
-  void smooth(const cv::Mat& src, cv::Mat& dst);  // 3 box passes, no allocation
+  void smooth(const cv::Mat& src, cv::Mat& dst, double sigma_px);  // 3 box passes, no allocation
+  // Places each point (flat-ground x, y; height z) on its viewing ray and accumulates it into the
+  // grid with weight w (empty = 1): elevation = weighted mean, confidence = sum w / full.
+  void bin_points(const cv::Mat& z, const cv::Mat& valid, const cv::Mat& flat_x, const cv::Mat& flat_y,
+                  const cv::Mat& weight, GridMap& out);
+  void finish_grid(GridMap& out);
+  // Ground rectification: per cell the four source pixels (r0, c0, r1, c1) and bilinear
+  // fractions (x, y), flat-ground coordinates of each cell, the view mask and the solver.
+  cv::Mat rect_src_, rect_frac_, rect_x_, rect_y_, rect_valid_, rect_support_, rect_mask_, rect_gray_, rect_height_, rect_blur_;
+  sfs::ShapeFromShading ground_solver_;
+  sfs::SfsResult ground_result_;
+  ImageLight last_ground_light_{};
+  int rect_visible_ = 0;
   cv::Mat metric_, blur_, tmp_;
   cv::Mat ground_step_x_, ground_step_y_;  // m per px along columns / rows (footprints)
   std::vector<double> line_;
