@@ -1,5 +1,6 @@
-// Host-side logic of the real HAL backends: no device needed (sequence gaps, back-off, control
-// names, device selection, error-frame decoding, YAML validation, start-up errors for absent devices).
+// Host-side logic of the real HAL backends: no device needed (sequence gaps, control names, device
+// selection, error-frame decoding, YAML validation, start-up errors for absent devices). The
+// back-off and the error type they share are tested with regolith::hal (tests/hal/test_device.cpp).
 #include <gtest/gtest.h>
 
 #include <linux/can.h>
@@ -39,19 +40,6 @@ TEST(V4l2Logic, SequenceGapCountsMissingFrames) {
   EXPECT_EQ(sequence_gap(true, 0xFFFFFFFEu, 1u), 2u);  // across the 32-bit wrap
   EXPECT_EQ(sequence_gap(true, 500, 0), 0u);           // driver restarted numbering
   EXPECT_EQ(sequence_gap(true, 9, 9), 0u);
-}
-
-TEST(V4l2Logic, BackoffDoublesToCeilingAndResets) {
-  v4l2::Backoff b(100 * kNsPerMs, 1000 * kNsPerMs);
-  std::vector<TimeNs> got;
-  for (int i = 0; i < 6; ++i) got.push_back(b.next() / kNsPerMs);
-  EXPECT_EQ(got, (std::vector<TimeNs>{100, 200, 400, 800, 1000, 1000}));
-  b.reset();
-  EXPECT_EQ(b.next(), 100 * kNsPerMs);
-  socketcan::Backoff c(50 * kNsPerMs, 120 * kNsPerMs);
-  EXPECT_EQ(c.next(), 50 * kNsPerMs);
-  EXPECT_EQ(c.next(), 100 * kNsPerMs);
-  EXPECT_EQ(c.next(), 120 * kNsPerMs);
 }
 
 TEST(V4l2Logic, ControlNamesFollowV4l2Ctl) {

@@ -94,7 +94,7 @@ TEST(HwLibcamera, RejectsUnknownCameraSizeAndControlClearly) {
   try {
     libcam::LibcameraCamera cam(c, context("front"));
     FAIL() << "unknown camera accepted";
-  } catch (const libcam::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "camera");
     EXPECT_NE(std::string(e.what()).find("no camera '/base/no/such/camera' (cameras: " + id), std::string::npos) << e.what();
   }
@@ -104,7 +104,7 @@ TEST(HwLibcamera, RejectsUnknownCameraSizeAndControlClearly) {
   try {
     libcam::LibcameraCamera cam(c, context("front"));
     FAIL() << "17x5 accepted";
-  } catch (const libcam::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "width");
     EXPECT_NE(std::string(e.what()).find("cannot produce 17x5"), std::string::npos) << e.what();
   }
@@ -114,7 +114,7 @@ TEST(HwLibcamera, RejectsUnknownCameraSizeAndControlClearly) {
   try {
     libcam::LibcameraCamera cam(c, context("front"));
     FAIL() << "unknown control accepted";
-  } catch (const libcam::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "controls");
     EXPECT_NE(std::string(e.what()).find("has no control 'NoSuchControl'"), std::string::npos) << e.what();
   }

@@ -195,7 +195,7 @@ TEST(HwV4l2, AppliesControlsAndRejectsUnknownOnes) {
   try {
     v4l2::V4l2Camera cam(c, context("front"));
     FAIL() << "unknown control accepted";
-  } catch (const v4l2::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "controls");
     EXPECT_NE(std::string(e.what()).find("has no control 'brightnes' (did you mean 'brightness'?)"), std::string::npos) << e.what();
   }
@@ -203,7 +203,7 @@ TEST(HwV4l2, AppliesControlsAndRejectsUnknownOnes) {
   try {
     v4l2::V4l2Camera cam(c, context("front"));
     FAIL() << "out-of-range control accepted";
-  } catch (const v4l2::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("control 'brightness' = 999 is outside [0, 255]"), std::string::npos) << e.what();
   }
 }
@@ -218,7 +218,7 @@ TEST(HwV4l2, RejectsFormatSizeAndBusyDeviceClearly) {
   try {
     v4l2::V4l2Camera cam(c, context("front"));
     FAIL() << "vivid does not offer MJPG";
-  } catch (const v4l2::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "fourcc");
     EXPECT_NE(std::string(e.what()).find("(" + dev->path + "): does not offer 'MJPG' (offers: YUYV"), std::string::npos) << e.what();
   }
@@ -228,7 +228,7 @@ TEST(HwV4l2, RejectsFormatSizeAndBusyDeviceClearly) {
   try {
     v4l2::V4l2Camera cam(c, context("front"));
     FAIL() << "1000x700 accepted";
-  } catch (const v4l2::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "width");
     EXPECT_NE(std::string(e.what()).find("cannot capture 1000x700 in YUYV"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("640x360"), std::string::npos) << "offered sizes listed: " << e.what();
@@ -240,7 +240,7 @@ TEST(HwV4l2, RejectsFormatSizeAndBusyDeviceClearly) {
   try {
     v4l2::V4l2Camera second(c, context("second"));
     FAIL() << "a second camera on a streaming device was accepted";
-  } catch (const v4l2::DeviceConfigError& e) {
+  } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "device");
     EXPECT_NE(std::string(e.what()).find("v4l2 camera 'second' (" + dev->path + "): busy"), std::string::npos) << e.what();
   }

@@ -438,7 +438,7 @@ void LibcameraCamera::Impl::on_complete(lc::Request* r) {
 }
 
 void LibcameraCamera::Impl::run_monitor() {
-  v4l2::Backoff backoff(static_cast<TimeNs>(cfg.retry_min_s * 1e9), static_cast<TimeNs>(cfg.retry_max_s * 1e9));
+  Backoff backoff(static_cast<TimeNs>(cfg.retry_min_s * 1e9), static_cast<TimeNs>(cfg.retry_max_s * 1e9));
   const auto timeout = static_cast<TimeNs>(cfg.frame_timeout_s * 1e9);
   while (running.load()) {
     if (wait_for(std::clamp<TimeNs>(timeout / 4, 10 * kNsPerMs, 250 * kNsPerMs))) break;

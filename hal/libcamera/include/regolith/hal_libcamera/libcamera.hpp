@@ -9,6 +9,7 @@
 
 #include "regolith/core/params.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/device.hpp"
 #include "regolith/hal/registry.hpp"
 
 namespace regolith::hal::libcam {
@@ -68,16 +69,6 @@ class LibcameraCamera final : public Camera {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
-};
-
-/// Field-tagged configuration error (the factory turns it into a ConfigError at that YAML key).
-class DeviceConfigError : public std::runtime_error {
- public:
-  DeviceConfigError(std::string field, const std::string& msg) : std::runtime_error(msg), field_(std::move(field)) {}
-  const std::string& field() const { return field_; }
-
- private:
-  std::string field_;
 };
 
 /// Registers factory "libcamera" in `r`.

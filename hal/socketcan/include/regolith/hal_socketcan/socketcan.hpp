@@ -11,6 +11,7 @@
 
 #include "regolith/core/params.hpp"
 #include "regolith/hal/can.hpp"
+#include "regolith/hal/device.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
 
@@ -81,21 +82,6 @@ struct BusStats {
   std::uint64_t tx_errors = 0;
   bool kernel_timestamps = false;        ///< receive stamps come from the kernel
   std::string last_error;                ///< human-readable last fault (diagnostics)
-};
-
-/// Exponential back-off: initial, doubled per failure, capped; reset() after a success.
-class Backoff {
- public:
-  Backoff(TimeNs initial, TimeNs max) : initial_(initial), max_(max), next_(initial) {}
-  TimeNs next() {
-    const TimeNs d = next_;
-    next_ = next_ > max_ / 2 ? max_ : next_ * 2;
-    return d;
-  }
-  void reset() { next_ = initial_; }
-
- private:
-  TimeNs initial_, max_, next_;
 };
 
 class SocketCanEncoders final : public WheelEncoders {

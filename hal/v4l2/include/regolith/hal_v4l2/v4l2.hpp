@@ -12,6 +12,7 @@
 
 #include "regolith/core/params.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/device.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/hal_v4l2/convert.hpp"
 
@@ -44,21 +45,6 @@ struct Config {
 };
 
 Config config_from_params(Params& p);
-
-/// Exponential back-off (doubles per failure up to a ceiling; reset after success).
-class Backoff {
- public:
-  Backoff(TimeNs initial, TimeNs max) : initial_(initial), max_(max), next_(initial) {}
-  TimeNs next() {
-    const TimeNs d = next_;
-    next_ = next_ > max_ / 2 ? max_ : next_ * 2;
-    return d;
-  }
-  void reset() { next_ = initial_; }
-
- private:
-  TimeNs initial_, max_, next_;
-};
 
 /// Frames lost between two delivered sequence numbers (0 for consecutive or the first frame).
 /// A sequence that goes backwards (driver restarted numbering) counts as no loss.
@@ -93,16 +79,6 @@ std::vector<DeviceInfo> list_v4l2_devices(bool with_formats = true);
 /// Throws std::runtime_error naming the selector and listing the capture devices present.
 std::string select_device(const std::vector<DeviceInfo>& devices, const std::string& device, const std::string& card,
                           const std::string& bus_info);
-
-/// Error in the configuration found while talking to the device; `field` is the YAML key.
-class DeviceConfigError : public std::runtime_error {
- public:
-  DeviceConfigError(std::string field, const std::string& msg) : std::runtime_error(msg), field_(std::move(field)) {}
-  const std::string& field() const { return field_; }
-
- private:
-  std::string field_;
-};
 
 class V4l2Camera final : public Camera {
  public:
