@@ -20,7 +20,10 @@ void register_everything();
 /// The embedded default deployment (config/mock_rover.yaml at build time).
 const char* embedded_mock_rover();
 
-/// Exit codes: 0 ok, 1 runtime failure, 2 bad configuration or input.
+/// Exit codes: 0 ok, 1 runtime failure, 2 bad configuration or input (a restart cannot fix it:
+/// regolith.service's RestartPreventExitStatus), 3 a device unavailable at start-up (missing,
+/// busy, no permission, CAN interface absent or down: regolith.service restarts and retries).
 inline constexpr int kExitConfig = 2;
+inline constexpr int kExitDeviceUnavailable = 3;
 
 }  // namespace regolith::cli

@@ -6,6 +6,7 @@
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/hal/device.hpp"
 
 namespace regolith::cli {
 
@@ -56,6 +57,13 @@ int main(int argc, char** argv) {
   } catch (const regolith::InputError& e) {
     spdlog::error("{}", e.what());
     return regolith::cli::kExitConfig;
+  } catch (const regolith::hal::DeviceUnavailableError& e) {
+    // The message names the deployment file, the field and the device; one line for the journal.
+    spdlog::error(
+        "{}; device unavailable at start-up, will be retried by systemd (exit status {}: regolith.service "
+        "restarts on it)",
+        e.what(), regolith::cli::kExitDeviceUnavailable);
+    return regolith::cli::kExitDeviceUnavailable;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -37,6 +37,9 @@ for want in 'Type=notify' 'WatchdogSec=' 'Restart=on-failure' 'RestartPreventExi
             '#CPUAffinity='; do
   grep -q "^$want" "$unit" || fail "unit lacks '$want'"
 done
+# Exit status 2 (configuration error) must stop restarts, 3 (device unavailable at start-up) must not.
+prevent=$(sed -n 's/^RestartPreventExitStatus=//p' "$unit")
+[[ $prevent == 2 ]] || fail "RestartPreventExitStatus must be exactly 2 (exit status 3 is restartable), got '$prevent'"
 # RestrictRealtime=yes would forbid the SCHED_FIFO rate groups.
 if grep -q '^RestrictRealtime=yes' "$unit"; then fail "RestrictRealtime=yes forbids SCHED_FIFO"; fi
 echo "regolith.service: OK"

@@ -1,8 +1,11 @@
-// What the hardware backends share: the re-open back-off.
+// What the hardware backends share: the re-open back-off, and the start-up device errors with
+// their YAML location (a configuration problem becomes a ConfigError; an unavailable device stays
+// a DeviceUnavailableError so that `regolith run` can exit with its own, restartable status).
 #include <gtest/gtest.h>
 
 #include <vector>
 
+#include "regolith/core/error.hpp"
 #include "regolith/hal/device.hpp"
 
 using namespace regolith;
@@ -24,4 +27,53 @@ TEST(Backoff, CeilingThatIsNotAPowerOfTwoMultipleIsHit) {
   EXPECT_EQ(c.next(), 100 * kNsPerMs);
   EXPECT_EQ(c.next(), 120 * kNsPerMs);
   EXPECT_EQ(c.next(), 120 * kNsPerMs);
+}
+
+TEST(DeviceErrors, KindsShareTheFieldCarryingBase) {
+  const DeviceUnavailableError u("device", "v4l2 camera 'front' (/dev/video99): cannot open");
+  const DeviceConfigError c("fourcc", "v4l2 camera 'front' (/dev/video0): does not offer 'MJPG'");
+  const DeviceError& ub = u;
+  const DeviceError& cb = c;
+  EXPECT_EQ(ub.field(), "device");
+  EXPECT_EQ(cb.field(), "fourcc");
+  EXPECT_STREQ(ub.what(), "v4l2 camera 'front' (/dev/video99): cannot open");
+  EXPECT_EQ(dynamic_cast<const DeviceConfigError*>(&ub), nullptr) << "an unavailable device is not a config error";
+  EXPECT_EQ(dynamic_cast<const DeviceUnavailableError*>(&cb), nullptr);
+}
+
+TEST(DeviceErrors, ConfigProblemIsRethrownAsLocatedConfigError) {
+  auto p = Params::load_string("backend: v4l2\ndevice: /dev/video0\nfourcc: MJPG\n", "rover.yaml");
+  try {
+    rethrow_located(p, DeviceConfigError("fourcc", "v4l2 camera 'front': does not offer 'MJPG'"));
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(e.what(), "rover.yaml:3:9: fourcc: v4l2 camera 'front': does not offer 'MJPG'");
+    return;
+  }
+  FAIL() << "no ConfigError";
+}
+
+TEST(DeviceErrors, UnavailableDeviceStaysUnavailableAndIsLocated) {
+  auto p = Params::load_string("backend: v4l2\ndevice: /dev/video99\n", "rover.yaml");
+  try {
+    rethrow_located(p, DeviceUnavailableError("device", "v4l2 camera 'front' (/dev/video99): cannot open"));
+  } catch (const DeviceUnavailableError& e) {
+    EXPECT_EQ(e.field(), "device");
+    EXPECT_STREQ(e.what(), "rover.yaml:2:9: device: v4l2 camera 'front' (/dev/video99): cannot open");
+    return;
+  } catch (const ConfigError& e) {
+    FAIL() << "became a ConfigError: " << e.what();
+  }
+  FAIL() << "no DeviceUnavailableError";
+}
+
+TEST(DeviceErrors, AbsentFieldIsLocatedAtTheMapping) {
+  auto p = Params::load_string("backend: v4l2\ncard: Arducam\n", "rover.yaml");
+  try {
+    rethrow_located(p, DeviceUnavailableError("bus_info", "v4l2 camera 'front': no video capture device matches"));
+  } catch (const DeviceUnavailableError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("rover.yaml:1:1: <root>: v4l2 camera 'front': no video capture", 0), 0u)
+        << e.what();
+    return;
+  }
+  FAIL() << "no DeviceUnavailableError";
 }

@@ -214,22 +214,26 @@ void LibcameraCamera::Impl::open(bool first) {
     cams = manager->cameras();
   }
   if (cams.empty()) {
-    throw DeviceConfigError("camera", who() + ": libcamera sees no camera (needs libcamera-ipa and udev-initialised devices)");
+    throw DeviceUnavailableError(
+        "camera", who() + ": libcamera sees no camera (needs libcamera-ipa and udev-initialised devices)");
   }
   if (!cfg.camera.empty()) {
     cam = manager->get(cfg.camera);
-    if (!cam) throw DeviceConfigError("camera", who() + ": no camera '" + cfg.camera + "' (cameras: " + join(camera_ids(*manager)) + ")");
+    if (!cam)
+      throw DeviceUnavailableError(
+          "camera", who() + ": no camera '" + cfg.camera + "' (cameras: " + join(camera_ids(*manager)) + ")");
   } else {
     if (static_cast<std::size_t>(cfg.index) >= cams.size()) {
-      throw DeviceConfigError("index", who() + ": index " + std::to_string(cfg.index) + " but only " +
-                                           std::to_string(cams.size()) + " camera(s): " + join(camera_ids(*manager)));
+      throw DeviceUnavailableError("index", who() + ": index " + std::to_string(cfg.index) + " but only " +
+                                                std::to_string(cams.size()) +
+                                                " camera(s): " + join(camera_ids(*manager)));
     }
     cam = cams[static_cast<std::size_t>(cfg.index)];
   }
   cam_id = cam->id();
   if (cam->acquire() < 0) {
     cam.reset();
-    throw DeviceConfigError("camera", who() + ": busy (acquired by another process or camera)");
+    throw DeviceUnavailableError("camera", who() + ": busy (acquired by another process or camera)");
   }
   acquired = true;
   config = cam->generateConfiguration({role_of(cfg.role)});
@@ -515,7 +519,7 @@ void LibcameraCamera::start() {
   try {
     if (!m.cam) m.open(false);
     m.start_streaming();
-  } catch (const DeviceConfigError& e) {
+  } catch (const DeviceError& e) {
     m.teardown();
     throw std::runtime_error(e.what());
   } catch (...) {
@@ -602,8 +606,8 @@ void register_libcamera_backend(BackendRegistry& r) {
                  }
                  try {
                    return std::make_unique<LibcameraCamera>(std::move(c), ctx);
-                 } catch (const DeviceConfigError& e) {
-                   p.fail(p.has(e.field()) ? e.field() : std::string{}, e.what());
+                 } catch (const DeviceError& e) {
+                   rethrow_located(p, e);  // ConfigError, or DeviceUnavailableError (may appear later)
                  }
                });
 }

@@ -11,7 +11,6 @@
 #include <linux/net_tstamp.h>
 #include <poll.h>
 #include <sys/eventfd.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -220,17 +219,21 @@ SocketCanEncoders::SocketCanEncoders(Config cfg, const DeviceContext& ctx)
   last_stamp_ = std::make_unique<std::atomic<TimeNs>[]>(names_.size());
   wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) throw std::runtime_error("socketcan '" + id_ + "': eventfd: " + errno_text(errno));
+  const std::string who = "socketcan '" + id_ + "': ";
   try {
     open_socket();
+  } catch (const DeviceUnavailableError& e) {
+    ::close(wake_fd_);
+    throw DeviceUnavailableError("interface", who + e.what());
   } catch (const std::exception& e) {
     ::close(wake_fd_);
-    throw ConfigError("socketcan '" + id_ + "': " + e.what());
+    throw DeviceConfigError("interface", who + e.what());
   }
   if (!interface_up()) {
     close_socket();
     ::close(wake_fd_);
-    throw ConfigError("socketcan '" + id_ + "': interface '" + cfg_.interface +
-                      "' is down (bring it up: ip link set " + cfg_.interface + " up)");
+    throw DeviceUnavailableError("interface", who + "interface '" + cfg_.interface +
+                                                  "' is down (bring it up: ip link set " + cfg_.interface + " up)");
   }
 }
 
@@ -241,6 +244,22 @@ SocketCanEncoders::~SocketCanEncoders() {
 }
 
 void SocketCanEncoders::open_socket() {
+  // The interface first (a generic socket, not AF_CAN): a missing interface is reported as such,
+  // and as unavailable (it may appear later), even on a kernel without SocketCAN.
+  const unsigned ifindex = ::if_nametoindex(cfg_.interface.c_str());
+  if (ifindex == 0) {
+    const int e = errno;
+    if (e == ENODEV || e == ENXIO) {
+      throw DeviceUnavailableError("interface", "interface '" + cfg_.interface +
+                                                    "' does not exist (CAN interfaces: " + can_interface_names() + ")");
+    }
+    throw std::runtime_error("interface '" + cfg_.interface + "': " + errno_text(e));
+  }
+  const std::string type = read_sysfs("/sys/class/net/" + cfg_.interface + "/type");
+  if (!type.empty() && type != std::to_string(ARPHRD_CAN)) {
+    throw std::runtime_error("interface '" + cfg_.interface + "' is not a CAN interface (link type " + type +
+                             "; CAN interfaces: " + can_interface_names() + ")");
+  }
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd < 0) {
     const int e = errno;
@@ -254,17 +273,6 @@ void SocketCanEncoders::open_socket() {
     ::close(fd);
     throw std::runtime_error(msg);
   };
-  ifreq ifr{};
-  std::strncpy(ifr.ifr_name, cfg_.interface.c_str(), IFNAMSIZ - 1);
-  if (::ioctl(fd, SIOCGIFINDEX, &ifr) < 0) {
-    fail("interface '" + cfg_.interface + "' does not exist (CAN interfaces: " + can_interface_names() + ")");
-  }
-  const int ifindex = ifr.ifr_ifindex;
-  const std::string type = read_sysfs("/sys/class/net/" + cfg_.interface + "/type");
-  if (!type.empty() && type != std::to_string(ARPHRD_CAN)) {
-    fail("interface '" + cfg_.interface + "' is not a CAN interface (link type " + type +
-         "; CAN interfaces: " + can_interface_names() + ")");
-  }
   // Kernel receive filters: exactly the decoder's ids, data frames only.
   std::vector<can_filter> filters;
   for (const auto& [id, ext] : decoder_.ids()) {
@@ -292,9 +300,14 @@ void SocketCanEncoders::open_socket() {
   c_->kernel_ts.store(kts);
   sockaddr_can addr{};
   addr.can_family = AF_CAN;
-  addr.can_ifindex = ifindex;
+  addr.can_ifindex = static_cast<int>(ifindex);
   if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
-    fail("bind to '" + cfg_.interface + "': " + errno_text(errno));
+    const int e = errno;
+    if (e == ENODEV || e == ENXIO) {  // removed since the look-up above
+      ::close(fd);
+      throw DeviceUnavailableError("interface", "bind to '" + cfg_.interface + "': " + errno_text(e));
+    }
+    fail("bind to '" + cfg_.interface + "': " + errno_text(e));
   }
   fd_ = fd;
 }
@@ -602,8 +615,8 @@ void register_socketcan_backend(BackendRegistry& r) {
                    }
                    try {
                      return std::make_unique<SocketCanEncoders>(std::move(c), ctx);
-                   } catch (const ConfigError& e) {
-                     p.fail("interface", e.what());
+                   } catch (const DeviceError& e) {
+                     rethrow_located(p, e);  // ConfigError, or DeviceUnavailableError (may appear later)
                    }
                  });
 }

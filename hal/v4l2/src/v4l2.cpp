@@ -32,6 +32,13 @@ int xioctl(int fd, unsigned long request, void* arg) {
 
 std::string errno_text(int e) { return std::string(std::strerror(e)); }
 
+/// open() failures that say the node is not usable *now* (absent, gone, busy, not yet accessible:
+/// udev may still be creating it or setting its group) rather than a wrong configuration. EPERM
+/// (a device cgroup denying it, e.g. the unit's DevicePolicy) is not among them: it stays so.
+bool unavailable_errno(int e) {
+  return e == ENOENT || e == ENODEV || e == ENXIO || e == EBUSY || e == EACCES;
+}
+
 std::string cstr(const __u8* s, std::size_t n) {
   const auto* c = reinterpret_cast<const char*>(s);
   return std::string(c, strnlen(c, n));
@@ -296,7 +303,7 @@ void V4l2Camera::open_and_configure(bool first) {
     try {
       path = select_device(list_v4l2_devices(false), cfg_.device, cfg_.card, cfg_.bus_info);
     } catch (const std::runtime_error& e) {
-      throw DeviceConfigError(cfg_.card.empty() ? "bus_info" : "card", who + ": " + e.what());
+      throw DeviceUnavailableError(cfg_.card.empty() ? "bus_info" : "card", who + ": " + e.what());
     }
   }
   {
@@ -310,6 +317,7 @@ void V4l2Camera::open_and_configure(bool first) {
     std::string msg = dev + ": cannot open: " + errno_text(e);
     if (e == ENOENT || e == ENODEV) msg += " (capture devices: " + describe_capture_devices(list_v4l2_devices(false)) + ")";
     if (e == EACCES) msg += " (add the user to the 'video' group)";
+    if (unavailable_errno(e)) throw DeviceUnavailableError("device", msg);
     throw DeviceConfigError("device", msg);
   }
   v4l2_capability cap{};
@@ -360,7 +368,7 @@ void V4l2Camera::open_and_configure(bool first) {
   fmt.fmt.pix.field = V4L2_FIELD_NONE;
   if (xioctl(fd_, VIDIOC_S_FMT, &fmt) < 0) {
     const int e = errno;
-    if (e == EBUSY) throw DeviceConfigError("device", dev + ": busy (another process is streaming from it)");
+    if (e == EBUSY) throw DeviceUnavailableError("device", dev + ": busy (another process is streaming from it)");
     throw DeviceConfigError("fourcc", dev + ": VIDIOC_S_FMT " + std::string(to_string(chosen)) + ": " + errno_text(e));
   }
   if (static_cast<int>(fmt.fmt.pix.width) != cfg_.width || static_cast<int>(fmt.fmt.pix.height) != cfg_.height) {
@@ -409,8 +417,8 @@ void V4l2Camera::open_and_configure(bool first) {
   req.memory = V4L2_MEMORY_MMAP;
   if (xioctl(fd_, VIDIOC_REQBUFS, &req) < 0) {
     const int e = errno;
-    throw DeviceConfigError(e == EBUSY ? "device" : "buffers",
-                            dev + (e == EBUSY ? ": busy (another process owns its buffers)" : ": VIDIOC_REQBUFS: " + errno_text(e)));
+    if (e == EBUSY) throw DeviceUnavailableError("device", dev + ": busy (another process owns its buffers)");
+    throw DeviceConfigError("buffers", dev + ": VIDIOC_REQBUFS: " + errno_text(e));
   }
   if (req.count < 2) throw DeviceConfigError("buffers", dev + ": driver granted only " + std::to_string(req.count) + " buffer(s)");
   buffers_.assign(req.count, Buffer{});
@@ -723,8 +731,8 @@ void register_v4l2_backend(BackendRegistry& r) {
                  }
                  try {
                    return std::make_unique<V4l2Camera>(std::move(c), ctx);
-                 } catch (const DeviceConfigError& e) {
-                   p.fail(p.has(e.field()) ? e.field() : std::string{}, e.what());
+                 } catch (const DeviceError& e) {
+                   rethrow_located(p, e);  // ConfigError, or DeviceUnavailableError (may appear later)
                  }
                });
 }

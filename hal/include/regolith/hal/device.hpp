@@ -1,24 +1,47 @@
 #pragma once
-// Shared by the hardware backends (v4l2, libcamera, socketcan): the error a backend throws while
-// configuring its device, and the back-off of the re-open loops that run afterwards.
+// Shared by the hardware backends (v4l2, libcamera, socketcan): the errors a backend throws while
+// opening its device at start-up, and the back-off of the re-open loops that run afterwards.
 #include <stdexcept>
 #include <string>
 #include <utility>
 
+#include "regolith/core/params.hpp"
 #include "regolith/core/time.hpp"
 
 namespace regolith::hal {
 
-/// Error in the configuration found while talking to the device; `field` is the YAML key (the
-/// backend's factory turns it into a ConfigError located at that key).
-class DeviceConfigError : public std::runtime_error {
+/// A problem found while opening or configuring a device. `field` is the YAML key it concerns
+/// (e.g. "device", "fourcc", "interface"); the message names the device. Backends throw one of the
+/// two kinds below, never this base itself.
+class DeviceError : public std::runtime_error {
  public:
-  DeviceConfigError(std::string field, const std::string& msg) : std::runtime_error(msg), field_(std::move(field)) {}
+  DeviceError(std::string field, const std::string& msg) : std::runtime_error(msg), field_(std::move(field)) {}
   const std::string& field() const { return field_; }
 
  private:
   std::string field_;
 };
+
+/// The device that is there cannot do what the configuration asks (format or size not offered,
+/// unknown or out-of-range control, not a capture node, not a CAN interface): restarting the
+/// process cannot fix it. Reported as a ConfigError (`regolith run` exit status 2).
+class DeviceConfigError : public DeviceError {
+ public:
+  using DeviceError::DeviceError;
+};
+
+/// The device is not usable right now (node or interface missing, busy, permission denied,
+/// interface down) but may be later, e.g. a USB camera or CAN driver that appears late at boot:
+/// a restart may succeed (`regolith run` exit status 3, restarted by regolith.service).
+class DeviceUnavailableError : public DeviceError {
+ public:
+  using DeviceError::DeviceError;
+};
+
+/// For backend factories: rethrow `e` located at its field in the backend's mapping `p`
+/// ("file:line:col: path.to.field: message", at the mapping when the field is absent). A
+/// DeviceConfigError becomes a ConfigError, a DeviceUnavailableError stays one.
+[[noreturn]] void rethrow_located(const Params& p, const DeviceError& e);
 
 /// Exponential back-off for re-opening a device: `initial`, doubled per failure up to `max`;
 /// reset() after a success.

@@ -50,8 +50,9 @@ std::vector<CameraInfo> list_libcamera_cameras();
 
 class LibcameraCamera final : public Camera {
  public:
-  /// Acquires and configures the camera now; throws DeviceConfigError (field + message naming the
-  /// camera) when the camera, role, format or size is not available.
+  /// Acquires and configures the camera now; throws (field + message naming the camera)
+  /// DeviceUnavailableError when libcamera sees no such camera (id, index) or it is busy, and
+  /// DeviceConfigError when the role, format, size or a control is not available.
   LibcameraCamera(Config cfg, const DeviceContext& ctx);
   ~LibcameraCamera() override;
 

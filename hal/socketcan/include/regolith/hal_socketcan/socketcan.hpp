@@ -86,8 +86,9 @@ struct BusStats {
 
 class SocketCanEncoders final : public WheelEncoders {
  public:
-  /// Opens and binds the socket now: throws ConfigError naming the interface when it does not
-  /// exist, is not a CAN interface, is down, or the kernel has no SocketCAN.
+  /// Opens and binds the socket now. Throws, naming the interface (field "interface"),
+  /// DeviceUnavailableError when it does not exist or is down, and DeviceConfigError when it is not
+  /// a CAN interface or the kernel has no SocketCAN.
   SocketCanEncoders(Config cfg, const DeviceContext& ctx);
   ~SocketCanEncoders() override;
 
@@ -108,7 +109,7 @@ class SocketCanEncoders final : public WheelEncoders {
   const Config& config() const { return cfg_; }
 
  private:
-  void open_socket();  // throws std::runtime_error with the reason
+  void open_socket();  // throws DeviceUnavailableError / std::runtime_error with the reason
   void close_socket();
   void run();
   void handle_frame(const CanFrame& f);

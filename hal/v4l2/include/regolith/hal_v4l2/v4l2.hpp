@@ -83,7 +83,9 @@ std::string select_device(const std::vector<DeviceInfo>& devices, const std::str
 class V4l2Camera final : public Camera {
  public:
   /// Opens the device, negotiates format and rate, applies controls and allocates the buffers.
-  /// Throws DeviceConfigError (naming the device and the field) for anything it cannot satisfy.
+  /// Throws (naming the device and the field) DeviceUnavailableError when the node is missing,
+  /// busy or not accessible, or no capture node matches card / bus_info; DeviceConfigError for
+  /// anything else it cannot satisfy (not a capture node, format, size, controls, buffers).
   V4l2Camera(Config cfg, const DeviceContext& ctx);
   ~V4l2Camera() override;
 
@@ -107,7 +109,7 @@ class V4l2Camera final : public Camera {
     void* start = nullptr;
     std::size_t length = 0;
   };
-  void open_and_configure(bool first);  // throws DeviceConfigError / std::runtime_error
+  void open_and_configure(bool first);  // throws DeviceError / std::runtime_error
   void apply_controls();
   void stream_on();
   void close_device();
