@@ -34,6 +34,7 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 struct AssessOptions {
   std::string image, config, out, method, flat_field, camera;
+  std::string sfs_frame = "ground";  ///< camera mode: "ground" (rectified) or "image" SfS for the grid
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
   double pixel_size_m = 0.02;
@@ -300,7 +301,25 @@ void assess(const AssessOptions& o) {
   // ---- traversability ----
   traversability::GridMap grid;
   cv::Mat height_m;  // metric height per pixel (m), NaN where unknown
-  if (depth) {
+  cv::Mat rectified;  // ground-rectified grey image (camera mode, --sfs-frame ground)
+  if (depth && o.sfs_frame == "ground") {
+    // The traversability component's default: the (vignetting-corrected) grey image resampled
+    // onto the ground grid and solved there with the sun in the ground frame.
+    traversability::TraversabilityMapper mapper(*depth, tp);
+    cv::Mat corrected = gray;
+    if (sp.vignetting.enabled) {
+      cv::Mat g32, f;
+      gray.convertTo(g32, CV_32F, 1.0 / 255.0);
+      sfs::correct_vignetting(g32, sp.vignetting, f);
+      f.convertTo(corrected, CV_8U, 255.0);
+    }
+    try {
+      mapper.compute_from_image(corrected, {res.light.slant_rad, res.light.tilt_rad}, grid);
+    } catch (const std::invalid_argument& e) {
+      throw InputError("assess: " + o.image + ": " + e.what());
+    }
+    rectified = mapper.rectified_image().clone();
+  } else if (depth) {
     traversability::TraversabilityMapper mapper(*depth, tp);
     mapper.compute_from_sfs(res.height, res.valid, {res.light.slant_rad, res.light.tilt_rad}, grid);
     height_m = mapper.metric_heights().clone();
@@ -342,6 +361,10 @@ void assess(const AssessOptions& o) {
   shade.convertTo(u8, CV_8U, 255.0);
   write_png(out / "hillshade.png", u8);
   nlohmann::json layers = nlohmann::json::object();
+  if (!rectified.empty()) {  // what the ground solve saw: far = top, rover = bottom, left = left
+    write_png(out / "rectified.png", rectified);
+    layers["rectified_input"] = "rectified.png";
+  }
   for (std::size_t k = 0; k < grid.layers.size(); ++k) {
     const std::string& name = grid.layers[k];
     const bool score = name != "elevation";
@@ -383,6 +406,7 @@ void assess(const AssessOptions& o) {
       {"iterations", res.iterations},
       {"final_mean_update_px", res.final_mean_update},
       {"mode", depth ? "camera" : "orthographic"},
+      {"grid_sfs_frame", depth ? o.sfs_frame : "orthographic"},
       {"timings_ms", {{"load", t1 - t0}, {"sfs", t2 - t1}, {"traversability", t3 - t2}}},
       {"grid", {{"resolution_m", grid.resolution_m}, {"length_x_m", grid.length_x_m}, {"length_y_m", grid.length_y_m},
                 {"center_x_m", grid.center_x_m}, {"center_y_m", grid.center_y_m}, {"known_cells", known},
@@ -413,6 +437,9 @@ void add_assess(CLI::App& app) {
       ->check(CLI::IsMember({"tsai_shah", "pentland", "bichsel_pentland"}));
   cmd->add_option("--flat-field", o->flat_field, "flat-field image for vignetting correction");
   cmd->add_option("--camera", o->camera, "fx,fy,cx,cy in px (perspective rover camera; default: orthographic patch)");
+  cmd->add_option("--sfs-frame", o->sfs_frame,
+                  "camera mode: SfS for the grid on the ground-rectified image (default) or in the image frame")
+      ->check(CLI::IsMember({"ground", "image"}));
   cmd->add_option("--height", o->height_m, "m, camera height above the ground");
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")

@@ -145,7 +145,8 @@ TEST_P(Pipeline, GridMapMatchesLibraryAndSceneGeometry) {
   tp.center_x_m = 2.5; tp.length_x_m = 3.0; tp.length_y_m = 4.0;
   traversability::TraversabilityMapper mapper(dd, tp);
   traversability::GridMap ref;
-  mapper.compute_from_sfs(res.height, res.valid, {img.light_slant_rad, img.light_tilt_rad}, ref);
+  // The component's default sfs_frame is ground: it solves the DTM frame's grey image itself.
+  mapper.compute_from_image(terrain_scene::to_u8(img.image), {img.light_slant_rad, img.light_tilt_rad}, ref);
   ASSERT_EQ(g.layers, ref.layers);
   ASSERT_EQ(g.size_x(), 60);
   ASSERT_EQ(g.size_y(), 80);
@@ -302,6 +303,47 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   const auto j3 = nlohmann::json::parse(slurp(dir / "o3" / "summary.json"));
   EXPECT_EQ(j3["grid"]["known_cells"].get<int>(), 0);
   EXPECT_TRUE(j3.contains("warning"));
+  // Camera mode on a rendered rover frame: the ground-rectified path (default) writes the
+  // rectified input and a metric grid in which a 10+ cm rock ahead is a hazard.
+  {
+    terrain_scene::SceneParams rp;
+    rp.seed = 5; rp.fractal_rms_m = 0.003; rp.num_craters = 0; rp.num_rocks = 0;
+    rp.x_min_m = -1; rp.x_max_m = 8; rp.y_min_m = -4; rp.y_max_m = 4;
+    terrain_scene::Terrain flat(rp);
+    cv::Mat hf = flat.height().clone();
+    // One 0.30 m x 0.30 m, 0.15 m tall dome at x = 2 m, y = 0.
+    for (int rr = 0; rr < hf.rows; ++rr)
+      for (int cc = 0; cc < hf.cols; ++cc) {
+        const double x = flat.x_max() - rr * flat.resolution(), y = flat.y_max() - cc * flat.resolution();
+        const double q = 1 - (std::pow((x - 2.0) / 0.15, 2) + std::pow(y / 0.15, 2));
+        if (q > 0) hf.at<float>(rr, cc) += static_cast<float>(0.15 * std::sqrt(q));
+      }
+    const terrain_scene::Terrain rock(hf, flat.resolution(), flat.x_max(), flat.y_max());
+    terrain_scene::CameraPose pose;
+    pose.width = 320; pose.height = 240; pose.fx = pose.fy = 300; pose.cx = 159.5; pose.cy = 119.5;
+    pose.height_m = 0.6; pose.pitch_rad = 0.45;
+    const auto cimg = terrain_scene::render_camera(rock, pose, terrain_scene::Sun{2.2, 0.6});
+    ASSERT_TRUE(cv::imwrite((dir / "rover.png").string(), terrain_scene::to_u8(cimg.image)));
+    char cargs[768];
+    std::snprintf(cargs, sizeof cargs,
+                  "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera 300,300,159.5,119.5 --height 0.6 --pitch %.4f",
+                  (dir / "rover.png").c_str(), (dir / "cam").c_str(), cimg.light_slant_rad * 180 / CV_PI,
+                  cimg.light_tilt_rad * 180 / CV_PI, 0.45 * 180 / CV_PI);
+    ASSERT_EQ(run_tool(cargs, dir / "cam.txt"), 0) << slurp(dir / "cam.txt");
+    const auto jc = nlohmann::json::parse(slurp(dir / "cam" / "summary.json"));
+    EXPECT_EQ(jc["grid_sfs_frame"], "ground");
+    EXPECT_GT(jc["grid"]["known_cells"].get<int>(), 1000);
+    EXPECT_FALSE(cv::imread((dir / "cam" / "rectified.png").string()).empty());
+    bool rock_hazard = false;
+    for (const auto& hz : jc["hazards"]) {
+      std::printf("assess camera mode: hazard at %.2f, %.2f m, max elevation %.3f m\n", hz["x_m"].get<double>(),
+                  hz["y_m"].get<double>(), hz["max_elevation_m"].get<double>());
+      if (std::abs(hz["x_m"].get<double>() - 2.0) < 0.5 && std::abs(hz["y_m"].get<double>()) < 0.4) rock_hazard = true;
+    }
+    EXPECT_TRUE(rock_hazard) << slurp(dir / "cam" / "summary.json");
+    EXPECT_NE(run_tool(std::string(cargs) + " --sfs-frame sideways", dir / "cam2.txt"), 0);
+    EXPECT_NE(slurp(dir / "cam2.txt").find("--sfs-frame"), std::string::npos) << slurp(dir / "cam2.txt");
+  }
   // Terrain without a sun: the estimator is not trusted -> clear error, exit 2.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o4").string(), dir / "e6.txt"), 2);
   EXPECT_NE(slurp(dir / "e6.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e6.txt");
