@@ -95,20 +95,25 @@ void BM_StereoSGBM(benchmark::State& st) {
   }
 }
 
+// Camera model of a rendered pose (no distortion).
+direct_depth::CameraModel model_of(const terrain_scene::CameraPose& c) {
+  direct_depth::CameraModel cm;
+  cm.fx = c.fx;
+  cm.fy = c.fy;
+  cm.cx = c.cx;
+  cm.cy = c.cy;
+  cm.width = c.width;
+  cm.height = c.height;
+  cm.mount_height_m = c.height_m;
+  cm.pitch_rad = c.pitch_rad;
+  return cm;
+}
+
 // SfS on the left image + traversability grid (metric scale, layers) from it: one frame of the
 // monocular path (frame grab / vignetting excluded).
 void run_sfs_trav(benchmark::State& st, sfs::Method m) {
   const Pair& p = pair();
-  direct_depth::CameraModel cm;
-  cm.fx = p.left.fx;
-  cm.fy = p.left.fy;
-  cm.cx = p.left.cx;
-  cm.cy = p.left.cy;
-  cm.width = p.left.width;
-  cm.height = p.left.height;
-  cm.mount_height_m = p.left.height_m;
-  cm.pitch_rad = p.left.pitch_rad;
-  const direct_depth::DirectDepth dd(cm);
+  const direct_depth::DirectDepth dd(model_of(p.left));
   sfs::SfsParams sp;
   sp.method = m;
   sfs::ShapeFromShading s(sp);
@@ -129,16 +134,7 @@ void run_sfs_trav(benchmark::State& st, sfs::Method m) {
 // Tsai-Shah there with the sun in the ground frame, metric grid + layers.
 void run_ground_trav(benchmark::State& st, sfs::Method m) {
   const Pair& p = pair();
-  direct_depth::CameraModel cm;
-  cm.fx = p.left.fx;
-  cm.fy = p.left.fy;
-  cm.cx = p.left.cx;
-  cm.cy = p.left.cy;
-  cm.width = p.left.width;
-  cm.height = p.left.height;
-  cm.mount_height_m = p.left.height_m;
-  cm.pitch_rad = p.left.pitch_rad;
-  const direct_depth::DirectDepth dd(cm);
+  const direct_depth::DirectDepth dd(model_of(p.left));
   traversability::TraversabilityParams tp;
   tp.ground_sfs.method = m;
   traversability::TraversabilityMapper mapper(dd, tp);

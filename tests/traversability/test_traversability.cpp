@@ -188,6 +188,26 @@ RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool p
   return s;
 }
 
+// Rover camera pose matching cam().
+terrain_scene::CameraPose pose_of(const direct_depth::CameraModel& m) {
+  terrain_scene::CameraPose pose;
+  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
+  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
+  return pose;
+}
+
+terrain_scene::SceneParams rock_field() {
+  terrain_scene::SceneParams sp;
+  sp.seed = 21;
+  sp.fractal_rms_m = 0.005;
+  sp.num_craters = 0;
+  sp.num_rocks = 25;
+  sp.place_x_min_m = 1.0;
+  sp.place_x_max_m = 3.0;
+  sp.place_y_abs_max_m = 1.0;
+  return sp;
+}
+
 // Pearson correlation of the grid elevation with the true terrain height over known cells at
 // 1.2 .. 3 m (where the rocks are).
 double elevation_correlation(const GridMap& g, const terrain_scene::Terrain& t) {
@@ -207,20 +227,10 @@ double elevation_correlation(const GridMap& g, const terrain_scene::Terrain& t) 
 TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
   // End to end: rendered rover image -> SfS -> metric grid; rock heights against the generator's
   // truth. Before the light-aware scale (lateral footprint only) the median ratio was 0.2 (5x low).
-  direct_depth::CameraModel m = cam();
+  const direct_depth::CameraModel m = cam();
   const direct_depth::DirectDepth dd(m);
-  terrain_scene::SceneParams sp;
-  sp.seed = 21;
-  sp.fractal_rms_m = 0.005;
-  sp.num_craters = 0;
-  sp.num_rocks = 25;
-  sp.place_x_min_m = 1.0;
-  sp.place_x_max_m = 3.0;
-  sp.place_y_abs_max_m = 1.0;
-  const terrain_scene::Terrain t(sp);
-  terrain_scene::CameraPose pose;
-  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
-  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
+  const terrain_scene::Terrain t(rock_field());
+  const terrain_scene::CameraPose pose = pose_of(m);
   for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{2.0, 0.6}}) {
     const auto img = terrain_scene::render_camera(t, pose, sun);
     const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
@@ -248,26 +258,6 @@ TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
       }
     }
   }
-}
-
-// Rover camera pose matching cam().
-terrain_scene::CameraPose pose_of(const direct_depth::CameraModel& m) {
-  terrain_scene::CameraPose pose;
-  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
-  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
-  return pose;
-}
-
-terrain_scene::SceneParams rock_field() {
-  terrain_scene::SceneParams sp;
-  sp.seed = 21;
-  sp.fractal_rms_m = 0.005;
-  sp.num_craters = 0;
-  sp.num_rocks = 25;
-  sp.place_x_min_m = 1.0;
-  sp.place_x_max_m = 3.0;
-  sp.place_y_abs_max_m = 1.0;
-  return sp;
 }
 
 TEST(Traversability, GroundLightIsTheOrthographicSun) {

@@ -282,9 +282,7 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
   if (gray.size() != sz)
     fail("gray", "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " differs from the camera model " +
                      std::to_string(sz.width) + "x" + std::to_string(sz.height));
-  ensure_grid(out, p_, nx_, ny_);
-  fill(sum_, 0.0);
-  fill(count_, 0.0f);
+  begin_grid(out);
   last_ground_light_ = ground_light(depth_.model(), light);
   // The image-frame slant may exceed 90 deg here (sun ahead of the camera): only the sun's
   // elevation above the ground matters for the rectified solve.
@@ -356,11 +354,15 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
 
 void TraversabilityMapper::compute_from_metric(const cv::Mat& height_m, const cv::Mat& valid, GridMap& out) {
   check_image(height_m, valid, "height_m");
+  begin_grid(out);
+  bin_points(height_m, valid, depth_.range_map(), depth_.lateral_map(), cv::Mat(), out);
+  finish_grid(out);
+}
+
+void TraversabilityMapper::begin_grid(GridMap& out) {
   ensure_grid(out, p_, nx_, ny_);
   fill(sum_, 0.0);
   fill(count_, 0.0f);
-  bin_points(height_m, valid, depth_.range_map(), depth_.lateral_map(), cv::Mat(), out);
-  finish_grid(out);
 }
 
 void TraversabilityMapper::bin_points(const cv::Mat& z_m, const cv::Mat& valid, const cv::Mat& flat_x,

@@ -162,7 +162,8 @@ class TraversabilityMapper {
   // grid with weight w (empty = 1): elevation = weighted mean, confidence = sum w / full.
   void bin_points(const cv::Mat& z, const cv::Mat& valid, const cv::Mat& flat_x, const cv::Mat& flat_y,
                   const cv::Mat& weight, GridMap& out);
-  void finish_grid(GridMap& out);
+  void begin_grid(GridMap& out);   // shapes `out`, clears the accumulators
+  void finish_grid(GridMap& out);  // accumulators -> elevation, confidence, layers
   // Ground rectification: per cell the four source pixels (r0, c0, r1, c1) and bilinear
   // fractions (x, y), flat-ground coordinates of each cell, the view mask and the solver.
   cv::Mat rect_src_, rect_frac_, rect_x_, rect_y_, rect_valid_, rect_support_, rect_mask_, rect_gray_, rect_height_, rect_blur_;
