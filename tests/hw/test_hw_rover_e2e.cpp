@@ -175,10 +175,10 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   const std::string ns = "hwe2e" + std::to_string(getpid());
   const int domain = 1 + static_cast<int>(getpid() % 200);
   setenv("CYCLONEDDS_URI",
-         ("file://" + std::string(REGOLITH_SOURCE_DIR) + "/runtime/dds/cyclonedds_loopback.xml").c_str(), 0);
+         ("file://" + std::string(REGOLITH_HW_DATA_DIR) + "/cyclonedds_loopback.xml").c_str(), 0);
 
   // ---- the deployment, derived from the shipped SMART rover file
-  YAML::Node cfg = YAML::LoadFile(std::string(REGOLITH_SOURCE_DIR) + "/config/smart_rover.yaml");
+  YAML::Node cfg = YAML::LoadFile(std::string(REGOLITH_HW_DATA_DIR) + "/smart_rover.yaml");
   cfg["dds"]["namespace"] = ns;
   cfg["dds"]["domain"] = domain;
   YAML::Node cams = cfg["devices"]["cameras"];
