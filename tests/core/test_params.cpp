@@ -52,3 +52,20 @@ TEST(Params, DidYouMean) {
   EXPECT_EQ(did_you_mean("rate_group", {"rate_groups", "components"}), "rate_groups");
   EXPECT_EQ(did_you_mean("zzzzzz", {"rate_groups", "components"}), "");
 }
+
+TEST(Params, FieldErrorIsRelocatedAtItsKey) {
+  // An algorithm's validate() knows the field, not the file: Params::fail(FieldError) points at
+  // the key it was read from, and keeps the dotted sub-field in the path.
+  auto root = Params::load_string("sfs:\n  iterations: 0\n  hub_center_px: [1, 2]\n", "deploy.yaml");
+  Params p = root.child("sfs");
+  const FieldError e("SfsParams", "iterations", "must be in 1..100000");
+  EXPECT_STREQ(e.what(), "SfsParams.iterations: must be in 1..100000");
+  EXPECT_EQ(error_of([&] { p.fail(e); }), "deploy.yaml:2:15: sfs.iterations: must be in 1..100000");
+  EXPECT_EQ(error_of([&] { p.fail(FieldError("WheelGeometry", "hub_center_px.x", "must be finite")); }),
+            "deploy.yaml:3:18: sfs.hub_center_px.x: must be finite");
+  // A field that is not a key here (computed, or defaulted) is reported at the mapping.
+  EXPECT_EQ(error_of([&] { p.fail(FieldError("", "width/height", "must be in 1..16384 px")); }),
+            "deploy.yaml:2:3: sfs.width/height: must be in 1..16384 px");
+  // Still a std::invalid_argument for code that only knows the standard type.
+  EXPECT_THROW(throw FieldError("", "x", "bad"), std::invalid_argument);
+}

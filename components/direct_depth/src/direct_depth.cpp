@@ -9,13 +9,15 @@
 #include <string>
 #include <vector>
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::direct_depth {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
-  throw std::invalid_argument("direct_depth: " + field + ": " + why);
+  throw FieldError("direct_depth", field, why);
 }
 
 cv::Matx33d rot_z(double a) {

@@ -57,8 +57,9 @@ class SamsComponent final : public runtime::Component {
     if (method_ == Method::kItti) ip.weights = {1.0, 1.0, 0.0, 0.0};
     try {
       ip.validate();
-    } catch (const std::invalid_argument& e) {
-      p.fail(field_of(e.what()), e.what());
+    } catch (const FieldError& e) {
+      if (e.owner() == "ChannelWeights") p.fail("w_" + e.field(), e.problem());  // read from w_<channel>
+      p.fail(e);
     }
     if (method_ == Method::kSams && ip.weights.intensity + ip.weights.orientation + ip.weights.structure <= 0.0)
       p.fail("w_structure", "all SAMS channel weights are 0");
@@ -237,15 +238,6 @@ class SamsComponent final : public runtime::Component {
   }
 
  private:
-  /// Field name inside "IttiParams.<field>: ..." / "ChannelWeights.<field>: ..." messages.
-  static std::string field_of(const std::string& msg) {
-    const auto dot = msg.find('.'), colon = msg.find(':');
-    if (dot == std::string::npos || colon == std::string::npos || colon < dot) return {};
-    std::string f = msg.substr(dot + 1, colon - dot - 1);
-    if (msg.rfind("ChannelWeights.", 0) == 0) f = "w_" + f;
-    return f;
-  }
-
   /// `m` outside the searched region := v, by loop (Mat::setTo with a scalar allocates).
   template <typename T>
   void fill_outside(cv::Mat& m, T v) const {

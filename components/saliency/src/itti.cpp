@@ -11,13 +11,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::saliency {
 
 namespace {
 
 void require(bool ok, const std::string &field, const std::string &why) {
   if (!ok)
-    throw std::invalid_argument("IttiParams." + field + ": " + why);
+    throw FieldError("IttiParams", field, why);
 }
 
 bool finite_nonneg(double v) { return std::isfinite(v) && v >= 0.0; }
@@ -112,9 +114,8 @@ void ChannelWeights::validate() const {
       {"structure", structure}};
   for (const auto &[name, v] : fields) {
     if (!finite_nonneg(v)) {
-      throw std::invalid_argument(std::string("ChannelWeights.") + name +
-                                  ": must be finite and >= 0 (got " +
-                                  std::to_string(v) + ")");
+      throw FieldError("ChannelWeights", name,
+                       "must be finite and >= 0 (got " + std::to_string(v) + ")");
     }
   }
 }

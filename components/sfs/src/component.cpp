@@ -42,8 +42,8 @@ direct_depth::CameraModel read_camera_model(Params p, int width, int height) {
   p.finish();
   try {
     m.validate();
-  } catch (const std::invalid_argument& e) {
-    p.fail({}, e.what());
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return m;
 }
@@ -113,8 +113,8 @@ class SfsComponent final : public runtime::Component {
     }
     try {
       sfs_ = std::make_unique<ShapeFromShading>(sp);
-    } catch (const std::invalid_argument& e) {
-      p.fail({}, e.what());
+    } catch (const FieldError& e) {
+      p.fail(e);
     }
     input_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec);
 

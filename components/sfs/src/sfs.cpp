@@ -10,13 +10,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::sfs {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
-  throw std::invalid_argument("sfs: " + field + ": " + why);
+  throw FieldError("sfs", field, why);
 }
 
 void check_gray(const cv::Mat& gray) {

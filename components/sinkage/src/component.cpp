@@ -45,20 +45,10 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-/// Re-throws a validate() message "Owner.field[.x]: problem" as a ConfigError at `field` of `p`.
-[[noreturn]] void fail_validation(Params& p, const std::string& owner, const std::string& msg) {
-  const std::string prefix = owner + ".";
-  if (msg.rfind(prefix, 0) == 0) {
-    const auto colon = msg.find(": ", prefix.size());
-    if (colon != std::string::npos) {
-      std::string field = msg.substr(prefix.size(), colon - prefix.size());
-      const auto dot = field.find('.');
-      if (dot != std::string::npos) field.resize(dot);
-      if (field == "mode") field = "segmentation";
-      p.fail(field, msg.substr(colon + 2));
-    }
-  }
-  p.fail({}, msg);
+/// Relocates a validate() FieldError ("WheelGeometry.hub_center_px.x: ...") at its key in `p`.
+[[noreturn]] void fail_validation(Params& p, const FieldError& e) {
+  if (e.field() == "mode") p.fail("segmentation", e.problem());  // SinkageParams.mode is read from `segmentation`
+  p.fail(e);
 }
 
 WheelGeometry read_geometry(Params g) {
@@ -88,8 +78,8 @@ WheelGeometry read_geometry(Params g) {
       .doc = "+1 or -1: sign of the encoder angle in the image angle"});
   try {
     w.validate();
-  } catch (const std::invalid_argument& e) {
-    fail_validation(g, "WheelGeometry", e.what());
+  } catch (const FieldError& e) {
+    fail_validation(g, e);
   }
   g.finish();
   return w;
@@ -145,8 +135,8 @@ AlgorithmConfig read_algorithm_config(Params& p) {
                                                                   .doc = "median: window length"});
   try {
     s.validate();
-  } catch (const std::invalid_argument& e) {
-    fail_validation(p, "SinkageParams", e.what());
+  } catch (const FieldError& e) {
+    fail_validation(p, e);
   }
   return a;
 }

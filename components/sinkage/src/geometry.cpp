@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/error.hpp"
 #include "regolith/sinkage/sinkage.hpp"
 
 namespace regolith::sinkage {
@@ -13,8 +14,8 @@ namespace {
 
 [[noreturn]] void fail(const char* owner, const char* field, const std::string& what, double got) {
   std::ostringstream os;
-  os << owner << '.' << field << ": " << what << " (got " << got << ')';
-  throw std::invalid_argument(os.str());
+  os << what << " (got " << got << ')';
+  throw FieldError(owner, field, os.str());
 }
 
 void require_finite(const char* owner, const char* field, double v) {

@@ -29,8 +29,8 @@ RoverConfig read_rover(Params p) {
   p.finish();
   try {
     r.validate();
-  } catch (const std::invalid_argument& e) {
-    p.fail({}, e.what());
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return r;
 }
@@ -63,8 +63,8 @@ CameraModel read_camera(Params p, int width, int height) {
   p.finish();
   try {
     c.validate();
-  } catch (const std::invalid_argument& e) {
-    p.fail({}, e.what());
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return c;
 }

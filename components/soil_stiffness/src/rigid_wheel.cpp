@@ -7,13 +7,15 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::soil {
 namespace {
 
 [[noreturn]] void fail(const std::string& field, const std::string& what, double got) {
   std::ostringstream os;
-  os << field << ": " << what << " (got " << got << ")";
-  throw std::invalid_argument(os.str());
+  os << what << " (got " << got << ")";
+  throw FieldError("", field, os.str());
 }
 
 void require_positive(const char* field, double v) {

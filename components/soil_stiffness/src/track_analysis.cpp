@@ -15,6 +15,8 @@
 
 #include "regolith/sfs/sfs.hpp"
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::soil {
 namespace {
 
@@ -24,8 +26,8 @@ constexpr std::size_t kMessageCapacity = 512;  ///< reserved length of reason st
 
 [[noreturn]] void bad(const std::string& field, const std::string& what, double got) {
   std::ostringstream os;
-  os << field << ": " << what << " (got " << got << ")";
-  throw std::invalid_argument(os.str());
+  os << what << " (got " << got << ")";
+  throw FieldError("", field, os.str());
 }
 void need(bool ok, const char* field, const char* what, double got) {
   if (!ok) bad(field, what, got);

@@ -8,13 +8,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/error.hpp"
+
 namespace regolith::traversability {
 namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
-  throw std::invalid_argument("traversability: " + field + ": " + why);
+  throw FieldError("traversability", field, why);
 }
 
 // Fills a continuous or strided Mat of float / double / uchar with v without allocating

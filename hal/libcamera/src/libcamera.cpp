@@ -83,16 +83,16 @@ std::vector<std::string> camera_ids(lc::CameraManager& m) {
 
 // ------------------------------------------------------------------------------------------------
 void Config::validate() const {
-  if (index < 0) throw std::invalid_argument("index: must be >= 0");
+  if (index < 0) throw FieldError("", "index", "must be >= 0");
   if (role != "raw" && role != "still" && role != "video" && role != "viewfinder") {
-    throw std::invalid_argument("role: must be raw, still, video or viewfinder (got '" + role + "')");
+    throw FieldError("", "role", "must be raw, still, video or viewfinder (got '" + role + "')");
   }
-  if (width <= 0 || width > 16384) throw std::invalid_argument("width: must be in [1, 16384] px");
-  if (height <= 0 || height > 16384) throw std::invalid_argument("height: must be in [1, 16384] px");
-  if (buffers < 1 || buffers > 16) throw std::invalid_argument("buffers: must be in [1, 16]");
-  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw std::invalid_argument("frame_timeout: must be > 0 s");
-  if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s)) throw std::invalid_argument("retry_max: need 0 < retry_min <= retry_max");
-  if (max_readers < 1 || max_readers > 64) throw std::invalid_argument("max_readers: must be in [1, 64]");
+  if (width <= 0 || width > 16384) throw FieldError("", "width", "must be in [1, 16384] px");
+  if (height <= 0 || height > 16384) throw FieldError("", "height", "must be in [1, 16384] px");
+  if (buffers < 1 || buffers > 16) throw FieldError("", "buffers", "must be in [1, 16]");
+  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s");
+  if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s)) throw FieldError("", "retry_max", "need 0 < retry_min <= retry_max");
+  if (max_readers < 1 || max_readers > 64) throw FieldError("", "max_readers", "must be in [1, 64]");
 }
 
 Config config_from_params(Params& p) {
@@ -121,11 +121,8 @@ Config config_from_params(Params& p) {
   p.finish();
   try {
     c.validate();
-  } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    const std::string field = msg.substr(0, msg.find(':'));
-    if (p.has(field)) p.fail(field, msg.substr(field.size() + 2));
-    p.fail({}, msg);
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return c;
 }
@@ -482,9 +479,8 @@ LibcameraCamera::LibcameraCamera(Config cfg, const DeviceContext& ctx) : impl_(s
   m.clock = ctx.clock;
   try {
     m.cfg.validate();
-  } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    throw DeviceConfigError(msg.substr(0, msg.find(':')), "libcamera camera '" + m.id + "': " + msg);
+  } catch (const FieldError& e) {
+    throw DeviceConfigError(e.field(), "libcamera camera '" + m.id + "': " + e.what());
   }
   if (m.clock == nullptr) {
     m.own_clock = std::make_unique<SystemClock>();

@@ -60,34 +60,34 @@ bool wait_wake(int wake_fd, TimeNs d) {
 // ------------------------------------------------------------------------------------------------
 void Config::validate() const {
   if (interface.empty() || interface.size() >= IFNAMSIZ) {
-    throw std::invalid_argument("interface: must be a network interface name of 1.." +
+    throw FieldError("", "interface", "must be a network interface name of 1.." +
                                 std::to_string(IFNAMSIZ - 1) + " characters (got '" + interface + "')");
   }
-  if (wheels.empty() && transducers.empty()) throw std::invalid_argument("wheels: at least one wheel or transducer");
+  if (wheels.empty() && transducers.empty()) throw FieldError("", "wheels", "at least one wheel or transducer");
   std::vector<std::string> seen;
   for (const auto* list : {&wheels, &transducers}) {
     for (const auto& s : *list) {
       if (std::find(seen.begin(), seen.end(), s.name) != seen.end()) {
-        throw std::invalid_argument("wheels: name '" + s.name + "' is used twice (wheels and transducers share names)");
+        throw FieldError("", "wheels", "name '" + s.name + "' is used twice (wheels and transducers share names)");
       }
       seen.push_back(s.name);
       if (s.byte_offset + s.length > 8) {
-        throw std::invalid_argument(s.name + ".length: byte_offset + length must fit a classic CAN payload (8)");
+        throw FieldError("", s.name + ".length", "byte_offset + length must fit a classic CAN payload (8)");
       }
     }
   }
   auto positive = [](double v, const char* field) {
-    if (!(v > 0.0) || !std::isfinite(v)) throw std::invalid_argument(std::string(field) + ": must be > 0 and finite");
+    if (!(v > 0.0) || !std::isfinite(v)) throw FieldError("", field, "must be > 0 and finite");
   };
   positive(stale_timeout_s, "stale_timeout");
   if (!(max_extrapolation_s >= 0.0) || !std::isfinite(max_extrapolation_s)) {
-    throw std::invalid_argument("max_extrapolation: must be >= 0 and finite");
+    throw FieldError("", "max_extrapolation", "must be >= 0 and finite");
   }
   positive(retry_min_s, "retry_min");
   positive(retry_max_s, "retry_max");
-  if (retry_max_s < retry_min_s) throw std::invalid_argument("retry_max: must be >= retry_min");
+  if (retry_max_s < retry_min_s) throw FieldError("", "retry_max", "must be >= retry_min");
   if (tx_enabled && tx_id > (tx_extended ? CAN_EFF_MASK : CAN_SFF_MASK)) {
-    throw std::invalid_argument("command.id: out of range for a " + std::string(tx_extended ? "29" : "11") +
+    throw FieldError("", "command.id", "out of range for a " + std::string(tx_extended ? "29" : "11") +
                                 "-bit identifier");
   }
 }
@@ -124,12 +124,8 @@ Config config_from_params(Params& p) {
   p.finish();
   try {
     c.validate();
-  } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    const auto colon = msg.find(':');
-    const std::string field = msg.substr(0, colon);
-    if (field.find('.') == std::string::npos && p.has(field)) p.fail(field, msg.substr(field.size() + 2));
-    p.fail({}, msg);
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return c;
 }

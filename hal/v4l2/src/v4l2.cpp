@@ -74,31 +74,31 @@ int video_number(const std::string& path) {
 // ------------------------------------------------------------------------------------------------
 void Config::validate() const {
   if (device.empty() && card.empty() && bus_info.empty()) {
-    throw std::invalid_argument("device: give device (e.g. /dev/video0), card or bus_info");
+    throw FieldError("", "device", "give device (e.g. /dev/video0), card or bus_info");
   }
-  if (width <= 0 || width > 16384) throw std::invalid_argument("width: must be in [1, 16384] px");
-  if (height <= 0 || height > 16384) throw std::invalid_argument("height: must be in [1, 16384] px");
+  if (width <= 0 || width > 16384) throw FieldError("", "width", "must be in [1, 16384] px");
+  if (height <= 0 || height > 16384) throw FieldError("", "height", "must be in [1, 16384] px");
   if (fourcc != "auto") {
     DeviceFormat f{};
     std::uint32_t code = 0;
     try {
       code = fourcc_from_string(fourcc);
     } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("fourcc: ") + e.what());
+      throw FieldError("", "fourcc", e.what());
     }
     if (!device_format_from_fourcc(code, f)) {
-      throw std::invalid_argument("fourcc: '" + fourcc + "' cannot be converted (use auto, YUYV, UYVY, GREY, RGB3, BGR3 or MJPG)");
+      throw FieldError("", "fourcc", "'" + fourcc + "' cannot be converted (use auto, YUYV, UYVY, GREY, RGB3, BGR3 or MJPG)");
     }
   }
-  if (!(rate_hz > 0.0) || rate_hz > 1000.0) throw std::invalid_argument("rate: must be in (0, 1000] Hz");
-  if (buffers < 2 || buffers > 32) throw std::invalid_argument("buffers: must be in [2, 32]");
-  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw std::invalid_argument("frame_timeout: must be > 0 s");
+  if (!(rate_hz > 0.0) || rate_hz > 1000.0) throw FieldError("", "rate", "must be in (0, 1000] Hz");
+  if (buffers < 2 || buffers > 32) throw FieldError("", "buffers", "must be in [2, 32]");
+  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s");
   if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s) || !std::isfinite(retry_max_s)) {
-    throw std::invalid_argument("retry_max: need 0 < retry_min <= retry_max");
+    throw FieldError("", "retry_max", "need 0 < retry_min <= retry_max");
   }
-  if (max_readers < 1 || max_readers > 64) throw std::invalid_argument("max_readers: must be in [1, 64]");
+  if (max_readers < 1 || max_readers > 64) throw FieldError("", "max_readers", "must be in [1, 64]");
   for (const auto& c : controls) {
-    if (c.name.empty()) throw std::invalid_argument("controls: empty control name");
+    if (c.name.empty()) throw FieldError("", "controls", "empty control name");
   }
 }
 
@@ -129,11 +129,8 @@ Config config_from_params(Params& p) {
   p.finish();
   try {
     c.validate();
-  } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    const std::string field = msg.substr(0, msg.find(':'));
-    if (p.has(field)) p.fail(field, msg.substr(field.size() + 2));
-    p.fail({}, msg);
+  } catch (const FieldError& e) {
+    p.fail(e);
   }
   return c;
 }
@@ -255,9 +252,8 @@ V4l2Camera::V4l2Camera(Config cfg, const DeviceContext& ctx)
     : cfg_(std::move(cfg)), id_(ctx.id), index_(ctx.index), clock_(ctx.clock) {
   try {
     cfg_.validate();
-  } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    throw DeviceConfigError(msg.substr(0, msg.find(':')), "v4l2 camera '" + id_ + "': " + msg);
+  } catch (const FieldError& e) {
+    throw DeviceConfigError(e.field(), "v4l2 camera '" + id_ + "': " + e.what());
   }
   if (clock_ == nullptr) {
     own_clock_ = std::make_unique<SystemClock>();

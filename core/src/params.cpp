@@ -135,6 +135,15 @@ void Params::fail(std::string_view key, const std::string& problem) const {
   throw ConfigError(where(key) + ": " + field_path(key) + ": " + problem);
 }
 
+void Params::fail(const FieldError& e) const {
+  // Point at the key the field was read from when it is in this mapping ("hub_center_px" for
+  // "hub_center_px.x"), else at the mapping; the path always names the whole field.
+  const std::string& field = e.field();
+  const std::string head = field.substr(0, field.find('.'));
+  throw ConfigError(where(has(head) ? std::string_view(head) : std::string_view()) + ": " + field_path(field) +
+                    ": " + e.problem());
+}
+
 bool Params::has(std::string_view key) const {
   return node_.IsMap() && node_[std::string(key)] && !node_[std::string(key)].IsNull();
 }

@@ -67,6 +67,9 @@ class Params {
 
   /// Throw a ConfigError located at `key` (or at this mapping when the key is absent).
   [[noreturn]] void fail(std::string_view key, const std::string& problem) const;
+  /// Relocate a FieldError thrown by an algorithm or backend while validating values read from
+  /// this mapping: "file:line:col: path.field: problem", located at the field's key when present.
+  [[noreturn]] void fail(const FieldError& e) const;
   /// Location string "file:line:col" of `key` (or of this mapping).
   std::string where(std::string_view key = {}) const;
   std::string field_path(std::string_view key) const;
