@@ -291,11 +291,12 @@ void assess(const AssessOptions& o) {
   try {
     sfs::ShapeFromShading solver(sp);
     solver.compute(gray, light, res);
-  } catch (const std::runtime_error& e) {  // unreliable light estimate
-    throw InputError("assess: " + o.image + ": " + e.what() + " (give --sun-slant DEG --sun-tilt DEG)");
   } catch (const std::invalid_argument& e) {
     throw InputError("assess: " + o.image + ": " + e.what());
   }
+  if (res.status == sfs::SfsStatus::kUnreliableLight)
+    throw InputError("assess: " + o.image + ": " + sfs::unreliable_light_message(res, sp) +
+                     " (give --sun-slant DEG --sun-tilt DEG)");
   const double t2 = now_ms();
 
   // ---- traversability ----

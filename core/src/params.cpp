@@ -144,6 +144,10 @@ void Params::fail(const FieldError& e) const {
                     ": " + e.problem());
 }
 
+void Params::reject_moved(std::string_view key, const std::string& write_instead) const {
+  if (node_.IsMap() && node_[std::string(key)]) fail(key, "no longer read here: " + write_instead);
+}
+
 bool Params::has(std::string_view key) const {
   return node_.IsMap() && node_[std::string(key)] && !node_[std::string(key)].IsNull();
 }
@@ -292,8 +296,12 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
     }
     rendered += "]";
   }
-  sink_->push_back(ResolvedParam{field_path(key), TypeName<T>::v, rendered, std::string(spec.unit),
-                                 range_text(spec), std::string(spec.doc), !present});
+  // A key read twice (e.g. a device name resolved by two helpers) is listed once.
+  ResolvedParam rp{field_path(key), TypeName<T>::v, rendered, std::string(spec.unit),
+                   range_text(spec), std::string(spec.doc), !present};
+  const auto same = std::find_if(sink_->begin(), sink_->end(), [&](const ResolvedParam& r) { return r.path == rp.path; });
+  if (same != sink_->end()) *same = std::move(rp);
+  else sink_->push_back(std::move(rp));
   return value;
 }
 

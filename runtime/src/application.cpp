@@ -50,6 +50,9 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   }
   dds.finish();
 
+  // ---- rover description: camera calibration and mounts, wheels, the sun ----
+  ctx.set_rover(read_rover_description(root, config_dir));
+
   // ---- devices ----
   Params devices = root.child("devices");
   auto& reg = hal::BackendRegistry::instance();
@@ -58,7 +61,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     std::uint16_t index = 0;
     for (const auto& name : cams.keys()) {
       Params p = cams.child(name);
-      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices};
+      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
       auto cam = reg.make_camera(p, dc);
       p.finish();
       ctx.add_camera(name, std::move(cam));
@@ -68,7 +71,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     index = 0;
     for (const auto& name : encs.keys()) {
       Params p = encs.child(name);
-      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices};
+      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
       auto enc = reg.make_encoders(p, dc);
       p.finish();
       ctx.add_encoders(name, std::move(enc));
@@ -76,6 +79,16 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     encs.finish();
   }
   devices.finish();
+  for (const auto& [name, cam] : ctx.rover().cameras) {
+    if (ctx.find_camera(name) == nullptr)
+      throw ConfigError(cam.where + ": rover.cameras." + name + ": no camera device named '" + name +
+                        "' in devices.cameras (the description is keyed by device name)");
+  }
+  for (const auto& w : ctx.rover().wheels) {
+    if (!w.encoders.empty() && ctx.encoders().count(w.encoders) == 0)
+      throw ConfigError(root.where("rover") + ": rover.wheels[" + w.name + "].encoders: no encoder device named '" +
+                        w.encoders + "' in devices.encoders");
+  }
 
   // ---- rate groups (read first so membership errors point at the group) ----
   std::vector<RateGroupConfig> group_cfgs;

@@ -84,6 +84,22 @@ auto& find_device(Map& m, Params& p, std::string_view key, const char* kind) {
 }
 }  // namespace
 
+const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
+  camera(p, key);  // the device must exist: a missing key or an unknown name is reported there
+  const std::string name = p.node()[std::string(key)].Scalar();
+  const RoverCamera* c = rover_.camera(name);
+  if (c == nullptr)
+    p.fail(key, "camera '" + name + "' has no calibration: declare it once as rover.cameras." + name +
+                    " {camera_info: {width, height, k, distortion_model, d} or camera_info_url: file://..., mount: "
+                    "{x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad}}");
+  return *c;
+}
+
+const Sun& Context::sun(Params& p, const std::string& who) const {
+  if (!rover_.sun) p.fail({}, who + " needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block");
+  return *rover_.sun;
+}
+
 hal::Camera& Context::camera(Params& p, std::string_view key) { return find_device(cameras_, p, key, "camera"); }
 hal::WheelEncoders& Context::encoders(Params& p, std::string_view key) {
   return find_device(encoders_, p, key, "encoder set");

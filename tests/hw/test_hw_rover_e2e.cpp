@@ -190,6 +190,8 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   wheel_cam["bus_info"] = vivid->bus_info;
   remove_key(cams, "front", "devices.cameras");
   remove_key(cams, "rear", "devices.cameras");
+  remove_key(cfg["rover"]["cameras"], "front", "rover.cameras");  // their calibrations go with them
+  remove_key(cfg["rover"]["cameras"], "rear", "rover.cameras");
   YAML::Node wheels = cfg["devices"]["encoders"]["wheels"];
   ASSERT_EQ(wheels["backend"].as<std::string>(), "socketcan");
   wheels["interface"] = kCan;

@@ -87,29 +87,33 @@ ts::CameraPose camera_pose() {
 
 std::string deployment(int seed, const std::string& sams_extra = "") {
   const ts::CameraPose cam = camera_pose();
-  const cv::Vec2d l = ts::camera_light(cam, ts::Sun{kSunAz, kSunEl});
+  // The scene sun (counter-clockwise from +x) as the deployment's compass azimuth (clockwise).
+  const double az_deg = -kSunAz * 180.0 / CV_PI, el_deg = kSunEl * 180.0 / CV_PI;
   char buf[4096];
   std::snprintf(buf, sizeof buf, R"(name: saliency_test
 dds: {enabled: false}
+rover:
+  cameras:
+    front:
+      camera_info: {width: %d, height: %d, k: [%.9f, 0, %.9f, 0, %.9f, %.9f, 0, 0, 1]}
+      mount: {z_m: %.3f, pitch_rad: %.3f}
+sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
 devices:
   cameras:
     front: {backend: synthetic_terrain, seed: %d, rate_hz: 2, frames: 1, speed_m_s: 0, noise_sigma: 0.01,
-            rocks: %d, camera_height_m: %.3f, camera_pitch_rad: %.3f, hfov_rad: %.3f,
-            sun_azimuth_rad: %.3f, sun_elevation_rad: %.3f}
+            rocks: %d}
 rate_groups:
   - {name: terrain, rate_hz: 2, members: [sfs, sams]}
 components:
-  sfs: {type: sfs, camera: front, method: tsai_shah, sun_slant_rad: %.9f, sun_tilt_rad: %.9f,
-        camera_model: {fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}}
+  sfs: {type: sfs, camera: front, method: tsai_shah}
   sams:
     type: sams
-    camera_model: {width: %d, height: %d, fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}
+    camera: front
     delta_max: 3
     map_level: 2
     threshold_scale: 2.0
 %s)",
-                seed, kRocks, kCamH, kPitch, kHfov, kSunAz, kSunEl, l[0], l[1], cam.fx, kCamH, kPitch, kW, kH, cam.fx,
-                kCamH, kPitch, sams_extra.c_str());
+                kW, kH, cam.fx, cam.cx, cam.fy, cam.cy, kCamH, kPitch, az_deg, el_deg, seed, kRocks, sams_extra.c_str());
   return buf;
 }
 
@@ -346,8 +350,12 @@ TEST(SamsConfig, ErrorsNameTheField) {
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_structur: 0.4\n"));
   EXPECT_NE(e.find("w_structur"), std::string::npos) << e;
   EXPECT_NE(e.find("w_structure"), std::string::npos) << e;  // did you mean
-  e = config_error(with("    camera_model: \\{width: 320[^\n]*\n", ""));
-  EXPECT_NE(e.find("camera_model"), std::string::npos) << e;
+  e = config_error(with("    camera: front\n", ""));  // which camera's DTM: required
+  EXPECT_NE(e.find("components.sams.camera"), std::string::npos) << e;
+  e = config_error(with("    camera: front\n", "    camera: front\n    camera_model: {fx: 200}\n"));  // old format
+  EXPECT_NE(e.find("components.sams.camera_model: no longer read here: the camera is described once, in rover.cameras"),
+            std::string::npos)
+      << e;
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_intensity: 0\n    w_orientation: 0\n    w_structure: 0\n"));
   EXPECT_NE(e.find("w_structure"), std::string::npos) << e;
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    max_detections: 65\n"));
@@ -356,8 +364,16 @@ TEST(SamsConfig, ErrorsNameTheField) {
 
 TEST(SamsConfig, DtmOfAnotherSizeIsCountedNotCrashed) {
   register_once();
-  const std::string y = std::regex_replace(deployment(1), std::regex("width: 320, height: 240"),
-                                           "width: 640, height: 480");
+  // sams told to read another camera's geometry than the DTM's producer (sfs on `front`): every
+  // DTM frame then has the wrong size for it.
+  std::string y = std::regex_replace(
+      deployment(1), std::regex("sun: \\{"),
+      "    other:\n      camera_info: {width: 640, height: 480, k: [400, 0, 319.5, 0, 400, 239.5, 0, 0, 1]}\n"
+      "      mount: {z_m: 0.5, pitch_rad: 0.35}\nsun: {");
+  y = std::regex_replace(y, std::regex("    rocks: 40\\}\n"), "    rocks: 40}\n    other: {backend: synthetic_terrain, frames: 1, rate_hz: 2}\n");
+  y = std::regex_replace(y, std::regex("    type: sams\n    camera: front"), "    type: sams\n    camera: other");
+  ASSERT_NE(y.find("camera: other"), std::string::npos) << y;
+  ASSERT_NE(y.find("other: {backend"), std::string::npos) << y;
   auto app = runtime::Application::load(Params::load_string(y, "<test>"), {.sim_time = true, .enable_dds = false});
   std::atomic<bool> stop{false};
   app->start();

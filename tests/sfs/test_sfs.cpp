@@ -177,7 +177,11 @@ TEST(Sfs, LightEstimatorRefusesLowConfidenceOnTerrain) {
   p.estimate_light = true;
   sfs::ShapeFromShading s(p);
   sfs::SfsResult res;
-  EXPECT_THROW(s.compute(o.image, std::nullopt, res), std::runtime_error);
+  s.compute(o.image, std::nullopt, res);  // a status, not an exception (real-time path)
+  EXPECT_EQ(res.status, sfs::SfsStatus::kUnreliableLight);
+  EXPECT_LT(res.light_confidence, 0.2);
+  EXPECT_EQ(cv::countNonZero(res.valid), 0);
+  EXPECT_THROW(sfs::shape_from_shading(o.image, std::nullopt, p), std::runtime_error);
 }
 
 TEST(Sfs, LightEstimatorOnSphericalPatches) {

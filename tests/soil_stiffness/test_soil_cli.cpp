@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <sys/wait.h>
 
@@ -90,13 +91,43 @@ TEST(SoilCli, WritesPlotsAndJsonForASyntheticImage) {
   EXPECT_DOUBLE_EQ(j["rover"]["wheel_load_n"].get<double>(), 140.0 * 1.62 / 6.0);
   // the same file as a deployment component section works too
   const std::string deployment = write_text(tmp.path / "deploy.yaml", R"(name: x
+rover:
+  mass_kg: 140
+  wheels: [{name: a, x_m: 0.3, y_m: 0.4, radius_m: 0.15, width_m: 0.15}, {name: b, x_m: 0.3, y_m: -0.4, radius_m: 0.15, width_m: 0.15},
+           {name: c, x_m: 0, y_m: 0.4, radius_m: 0.15, width_m: 0.15}, {name: d, x_m: 0, y_m: -0.4, radius_m: 0.15, width_m: 0.15},
+           {name: e, x_m: -0.3, y_m: 0.4, radius_m: 0.15, width_m: 0.15}, {name: f, x_m: -0.3, y_m: -0.4, radius_m: 0.15, width_m: 0.15}]
+  cameras:
+    rear:
+      camera_info_url: file://rear_calibration.yaml
+      mount: {x_m: -0.5, z_m: 1.2, pitch_rad: 0.61, yaw_rad: 3.14159265}
+sun: {azimuth_deg: 90, elevation_deg: 45}
 components:
   other: {type: health}
   soil:
     type: soil_stiffness
     camera: rear
-    rover: {mass_kg: 140, wheel_count: 6, wheel_width_m: 0.15, wheel_diameter_m: 0.30}
-    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}
+)");
+  // The rear camera's calibration as ROS camera_calibration writes it (camera_info_url).
+  write_text(tmp.path / "rear_calibration.yaml", R"(image_width: 640
+image_height: 480
+camera_name: rear
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [500, 0, 319.5, 0, 500, 239.5, 0, 0, 1]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [0, 0, 0, 0, 0]
+rectification_matrix:
+  rows: 3
+  cols: 3
+  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [500, 0, 319.5, 0, 0, 500, 239.5, 0, 0, 0, 1, 0]
 )");
   const auto g = soil::run_soil_file(image, deployment, tmp.path / "out2");
   ASSERT_TRUE(g.estimate.ok) << g.estimate.reason;
@@ -114,20 +145,33 @@ TEST(SoilCli, BadInputNamesTheFileOrField) {
             "InputError: " + not_image + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
   EXPECT_EQ(error_of(image, tmp.path / "nope.yaml", tmp.path / "o"),
             "ConfigError: " + (tmp.path / "nope.yaml").string() + ": no such configuration file");
-  const std::string zero = write_text(tmp.path / "zero.yaml",
-      "soil_stiffness:\n  rover: {wheel_count: 0}\n  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
-  EXPECT_EQ(error_of(image, zero, tmp.path / "o"),
-            "ConfigError: " + zero + ":2:24: soil_stiffness.rover.wheel_count: value must be >= 1 (got 0)");
-  const std::string neg = write_text(tmp.path / "neg.yaml",
-      "soil_stiffness:\n  rover:\n    wheel_diameter_m: -0.3\n  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
+  // The example file with one thing wrong at a time: located errors naming the field.
+  std::ifstream ex(kExample);
+  std::stringstream buf;
+  buf << ex.rdbuf();
+  const std::string example = buf.str();
+  auto variant = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string t = example;
+    const auto at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    return write_text(tmp.path / name, t);
+  };
+  const std::string neg = variant("neg.yaml", "y_m: 0.4, radius_m: 0.15", "y_m: 0.4, radius_m: -0.15");
   const std::string neg_err = error_of(image, neg, tmp.path / "o");
-  EXPECT_NE(neg_err.find(neg + ":3:23: soil_stiffness.rover.wheel_diameter_m: value must be > 0 (got -0.3)"),
-            std::string::npos) << neg_err;
-  const std::string size = write_text(tmp.path / "size.yaml",
-      "soil_stiffness:\n  camera_model: {width: 320, fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n");
+  EXPECT_NE(neg_err.find(neg + ":13:"), std::string::npos) << neg_err;
+  EXPECT_NE(neg_err.find("rover.wheels[0].radius_m: value must be > 0 (got -0.15)"), std::string::npos) << neg_err;
+  const std::string size = variant("size.yaml", "width: 640, height: 480", "width: 320, height: 480");
   const std::string size_err = error_of(image, size, tmp.path / "o");
-  EXPECT_NE(size_err.find("soil_stiffness.camera_model.width: camera_model is 320 px wide but the frames are 640 px"),
+  EXPECT_NE(size_err.find("soil_stiffness.camera: rover.cameras.rear is 320x480 px but the frames are 640x480 px"),
             std::string::npos) << size_err;
+  const std::string cam = variant("cam.yaml", "  camera: rear ", "  camera: back ");
+  const std::string cam_err = error_of(image, cam, tmp.path / "o");
+  EXPECT_NE(cam_err.find("soil_stiffness.camera: no rover.cameras.back in this file"), std::string::npos) << cam_err;
+  const std::string old = variant("old.yaml", "  camera: rear ", "  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n  camera: rear ");
+  const std::string old_err = error_of(image, old, tmp.path / "o");
+  EXPECT_NE(old_err.find("soil_stiffness.camera_model: no longer read here: the camera is described once"),
+            std::string::npos) << old_err;
   const std::string top = write_text(tmp.path / "top.yaml", "rover: {}\n");
   const std::string top_err = error_of(image, top, tmp.path / "o");
   EXPECT_NE(top_err.find("soil_stiffness: required section is missing"), std::string::npos) << top_err;

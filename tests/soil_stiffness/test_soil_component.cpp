@@ -54,19 +54,29 @@ void register_all() {
 // Truth: k = 5e5, n = 1, b = 0.15 m, D = 0.30 m, W = 140 kg * 1.62 / 6 = 37.8 N on both ruts.
 const char* kDeployment = R"(name: soil_test
 dds: {enabled: false}
+rover:
+  mass_kg: 140
+  gravity_mps2: 1.62
+  wheels:
+    - {name: wheel_fl, x_m: 0.35, y_m: 0.4, radius_m: 0.15, width_m: 0.15}
+    - {name: wheel_fr, x_m: 0.35, y_m: -0.4, radius_m: 0.15, width_m: 0.15}
+    - {name: wheel_ml, x_m: 0.0, y_m: 0.4, radius_m: 0.15, width_m: 0.15}
+    - {name: wheel_mr, x_m: 0.0, y_m: -0.4, radius_m: 0.15, width_m: 0.15}
+    - {name: wheel_rl, x_m: -0.35, y_m: 0.4, radius_m: 0.15, width_m: 0.15}
+    - {name: wheel_rr, x_m: -0.35, y_m: -0.4, radius_m: 0.15, width_m: 0.15}
+  cameras:
+    rear:
+      camera_info: {width: 640, height: 480, k: [500, 0, 319.5, 0, 500, 239.5, 0, 0, 1]}
+      mount: {x_m: -0.5, z_m: 1.2, pitch_rad: 0.61, yaw_rad: 3.141592654}
+sun: {azimuth_deg: 90, elevation_deg: 45}   # due right of the rover: from the left of the rear view
 devices:
   cameras:
     rear:
       backend: synthetic_tracks
       rate_hz: 1
       frames: 1
-      fx: 500
-      mount_height_m: 1.2
-      pitch_rad: 0.61
       k: 5.0e5
       n: 1.0
-      wheel_width_m: 0.15
-      wheel_diameter_m: 0.30
       track_lateral_m: [0.4, -0.4]
       track_load_n: [37.8, 37.8]
 rate_groups:
@@ -77,9 +87,6 @@ components:
   soil:
     type: soil_stiffness
     camera: rear
-    rover: {mass_kg: 140, wheel_count: 6, gravity_mps2: 1.62, wheel_width_m: 0.15, wheel_diameter_m: 0.30}
-    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}
-    sun: {azimuth_rad: 1.5708, elevation_rad: 0.7854}
 )";
 
 // Peer: heap allocations of one warm regolith::sfs Pentland solve on the estimator's default grid
@@ -227,26 +234,35 @@ TEST(SoilComponent, NoTracksMeansAnExplicitNoEstimate) {
 }
 
 TEST(SoilComponent, ConfigurationErrorsNameTheField) {
-  const std::string zero_wheels = load_error(replace(kDeployment, "wheel_count: 6", "wheel_count: 0"));
-  EXPECT_NE(zero_wheels.find("rover.yaml:"), std::string::npos) << zero_wheels;
-  EXPECT_NE(zero_wheels.find("components.soil.rover.wheel_count: value must be >= 1 (got 0)"), std::string::npos)
-      << zero_wheels;
-  const std::string diameter = load_error(replace(kDeployment, "wheel_diameter_m: 0.30}", "wheel_diameter_m: -0.3}"));
-  EXPECT_NE(diameter.find("components.soil.rover.wheel_diameter_m: value must be > 0 (got -0.3)"), std::string::npos)
-      << diameter;
-  const std::string width = load_error(replace(kDeployment, "camera_model: {fx: 500,", "camera_model: {width: 320, fx: 500,"));
-  EXPECT_NE(width.find("components.soil.camera_model.width: camera_model is 320 px wide but the frames are 640 px"),
+  const std::string no_wheels = load_error(replace(kDeployment, "    - {name: wheel_fl", "    - {nam: wheel_fl"));
+  EXPECT_NE(no_wheels.find("rover.yaml:"), std::string::npos) << no_wheels;
+  EXPECT_NE(no_wheels.find("rover.yaml:7:7: rover.wheels[0].name: required string is missing"), std::string::npos) << no_wheels;
+  const std::string radius = load_error(replace(kDeployment, "y_m: 0.4, radius_m: 0.15", "y_m: 0.4, radius_m: -0.15"));
+  EXPECT_NE(radius.find("rover.wheels[0].radius_m: value must be > 0 (got -0.15)"), std::string::npos) << radius;
+  const std::string width = load_error(replace(kDeployment, "      frames: 1\n", "      frames: 1\n      width: 320\n"));
+  EXPECT_NE(width.find("devices.cameras.rear.width: 320x480 px differs from the calibration (640x480 px"),
             std::string::npos) << width;
   const std::string typo = load_error(replace(kDeployment, "mass_kg: 140", "mass_kgs: 140"));
-  EXPECT_NE(typo.find("components.soil.rover.mass_kgs: unknown key (did you mean 'mass_kg'?)"), std::string::npos)
-      << typo;
-  const std::string no_model = load_error(replace(kDeployment, "    camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n", ""));
-  EXPECT_NE(no_model.find("components.soil.camera_model: required section is missing"), std::string::npos) << no_model;
-  const std::string loads = load_error(replace(kDeployment, "    sun:", "    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n    sun:"));
+  EXPECT_NE(typo.find("rover.mass_kgs: unknown key (did you mean 'mass_kg'?)"), std::string::npos) << typo;
+  const std::string no_mass = load_error(replace(kDeployment, "  mass_kg: 140\n", ""));
+  EXPECT_NE(no_mass.find("components.soil: soil stiffness needs the rover's mass and wheels: rover.mass_kg"),
+            std::string::npos) << no_mass;
+  const std::string no_model = load_error(replace(kDeployment, "    rear:\n      camera_info", "    rear_cam:\n      camera_info"));
+  EXPECT_NE(no_model.find("rover.cameras.rear_cam: no camera device named 'rear_cam'"), std::string::npos) << no_model;
+  const std::string loads = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n"));
   EXPECT_NE(loads.find("components.soil.tracks.load_n: needs one load per lateral_m entry (2), got 1"), std::string::npos)
       << loads;
-  const std::string region = load_error(replace(kDeployment, "    sun:", "    region: {range_min_m: 3.0, range_max_m: 1.0}\n    sun:"));
+  const std::string region = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    region: {range_min_m: 3.0, range_max_m: 1.0}\n"));
   EXPECT_NE(region.find("range_max_m: must be > range_min_m"), std::string::npos) << region;
-  const std::string camera = load_error(replace(kDeployment, "camera: rear", "camera: front"));
+  const std::string camera = load_error(replace(kDeployment, "    camera: rear\n", "    camera: front\n"));
   EXPECT_NE(camera.find("components.soil.camera"), std::string::npos) << camera;
+  // The old format (camera, sun and rover repeated in the component): located, saying what to write.
+  const std::string old = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    sun: {azimuth_rad: 1.5708, elevation_rad: 0.7854}\n"));
+  EXPECT_NE(old.find("components.soil.sun: no longer read here: the deployment has one sun: a top-level `sun: "
+                     "{azimuth_deg, elevation_deg}` block"),
+            std::string::npos) << old;
+  const std::string old_model = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    camera_model: {fx: 500}\n"));
+  EXPECT_NE(old_model.find("components.soil.camera_model: no longer read here: the camera is described once, in "
+                           "rover.cameras.<camera>"),
+            std::string::npos) << old_model;
 }

@@ -70,30 +70,31 @@ constexpr double kHfov = 1.349, kCamH = 0.5, kPitch = 0.35, kSunAz = 2.5, kSunEl
 
 std::string deployment(const std::string& method) {
   const double fx = 0.5 * 320 / std::tan(0.5 * kHfov);
-  terrain_scene::CameraPose cam;
-  cam.width = 320; cam.height = 240; cam.fx = cam.fy = fx; cam.cx = 159.5; cam.cy = 119.5;
-  cam.height_m = kCamH; cam.pitch_rad = kPitch;
-  const cv::Vec2d l = terrain_scene::camera_light(cam, terrain_scene::Sun{kSunAz, kSunEl});
+  // The scene sun (counter-clockwise from +x) as the deployment's compass azimuth (clockwise).
+  const double az_deg = -kSunAz * 180.0 / CV_PI, el_deg = kSunEl * 180.0 / CV_PI;
   char buf[2048];
   std::snprintf(buf, sizeof buf, R"(name: terrain_test
 dds: {enabled: false}
+rover:
+  cameras:
+    front:
+      camera_info: {width: 320, height: 240, k: [%.9f, 0, 159.5, 0, %.9f, 119.5, 0, 0, 1]}
+      mount: {z_m: %.3f, pitch_rad: %.3f}
+sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
 devices:
   cameras:
-    front: {backend: synthetic_terrain, rate_hz: 2, frames: 1, speed_m_s: 0, noise_sigma: 0.01,
-            camera_height_m: %.3f, camera_pitch_rad: %.3f, hfov_rad: %.3f,
-            sun_azimuth_rad: %.3f, sun_elevation_rad: %.3f}
+    front: {backend: synthetic_terrain, rate_hz: 2, frames: 1, speed_m_s: 0, noise_sigma: 0.01}
 rate_groups:
   - {name: terrain, rate_hz: 2, members: [sfs, traversability]}
 components:
-  sfs: {type: sfs, camera: front, method: %s, sun_slant_rad: %.9f, sun_tilt_rad: %.9f,
-        camera_model: {fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}}
+  sfs: {type: sfs, camera: front, method: %s}
   traversability:
     type: traversability
-    camera_model: {width: 320, height: 240, fx: %.9f, mount_height_m: %.3f, pitch_rad: %.3f}
+    camera: front
     center_x_m: 2.5
     length_x_m: 3.0
     length_y_m: 4.0
-)", kCamH, kPitch, kHfov, kSunAz, kSunEl, method.c_str(), l[0], l[1], fx, kCamH, kPitch, fx, kCamH, kPitch);
+)", fx, fx, kCamH, kPitch, az_deg, el_deg, method.c_str());
   return buf;
 }
 
@@ -205,27 +206,53 @@ INSTANTIATE_TEST_SUITE_P(Methods, Pipeline, ::testing::Values("tsai_shah", "pent
 TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
   register_once();
   std::string y = deployment("tsai_shah");
-  const std::string bad_sun = std::regex_replace(y, std::regex("sun_slant_rad: [0-9.]+"), "sun_slant_rad: 1.7");
+  const std::string bad_sun = std::regex_replace(y, std::regex("elevation_deg: [0-9.]+"), "elevation_deg: -5");
   try {
     runtime::Application::load(Params::load_string(bad_sun, "<test>"), {.sim_time = true, .enable_dds = false});
-    FAIL() << "light below the image plane accepted";
+    FAIL() << "sun below the horizon accepted";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("sun_slant_rad"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("<test>:8:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sun.elevation_deg"), std::string::npos) << e.what();
   }
-  // A camera model whose size differs from the camera: the DTM is rejected frame by frame
-  // (error count + status), no map is published.
-  const std::string bad_size = std::regex_replace(y, std::regex("width: 320"), "width: 640");
-  auto app = runtime::Application::load(Params::load_string(bad_size, "<test>"), {.sim_time = true, .enable_dds = false});
+  // A calibration whose size differs from what the camera delivers: a located configuration
+  // error at the device key, before anything runs.
+  const std::string bad_size = std::regex_replace(
+      y, std::regex("speed_m_s: 0,"), "speed_m_s: 0, width: 640, height: 480,");
+  try {
+    runtime::Application::load(Params::load_string(bad_size, "<test>"), {.sim_time = true, .enable_dds = false});
+    FAIL() << "calibration of another size accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("devices.cameras.front.width: 640x480 px differs from the calibration (320x240 px"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(PipelineConfig, SunAheadOfTheCameraIsNormalForTheGroundPath) {
+  // Sun in front of the rover, low: behind the image plane of the forward camera (image slant
+  // >= 90 deg). Image-frame SfS has nothing to invert; the sfs component says so in its status and
+  // still publishes the grey frame and the sun; traversability's ground-frame path maps it.
+  register_once();
+  const std::string y = std::regex_replace(deployment("tsai_shah"), std::regex("azimuth_deg: [-0-9.]+, elevation_deg: [0-9.]+"),
+                                           "azimuth_deg: 10, elevation_deg: 15");
+  auto app = runtime::Application::load(Params::load_string(y, "<test>"), {.sim_time = true, .enable_dds = false});
   std::atomic<bool> stop{false};
   app->start();
-  app->run(2 * kNsPerSec, stop);
+  app->run(3 * kNsPerSec, stop);
   app->stop();
-  for (const auto* c : app->view().components)
-    if (c->name() == "traversability") {
-      EXPECT_GT(c->errors(), 0u);
-      EXPECT_NE(std::string(c->status_message()).find("DTM size"), std::string::npos);
+  for (const auto* c : app->view().components) {
+    EXPECT_EQ(c->errors(), 0u) << c->name();
+    if (c->name() == "sfs") {
+      EXPECT_NE(std::string(c->status_message()).find("sun ahead of the camera"), std::string::npos) << c->status_message();
     }
-  EXPECT_FALSE(app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel).has_value());
+  }
+  auto& ch = app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel);
+  auto lease = ch.acquire();
+  ASSERT_TRUE(lease);
+  const cv::Mat& elev = lease->map.layer("elevation");
+  const int known = cv::countNonZero(elev == elev);  // not NaN
+  std::printf("sun ahead: %d of %d cells mapped\n", known, static_cast<int>(elev.total()));
+  EXPECT_GT(known, static_cast<int>(elev.total() / 4));
 }
 
 #ifdef REGOLITH_TOOL

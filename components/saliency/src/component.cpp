@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "regolith/common/camera.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -83,10 +84,11 @@ class SamsComponent final : public runtime::Component {
     ranging_.hazard_size_m = p.get<double>("hazard_size_m", ranging_.hazard_size_m,
                                            {.unit = "m", .min = 0.0, .min_exclusive = true,
                                             .doc = "a rock wider or higher than this is a hazard"});
-    Params cm = p.require_child("camera_model");
-    const int w = cm.require<int>("width", {.unit = "px", .min = 8, .max = 16384, .doc = "image width (= the DTM's)"});
-    const int h = cm.require<int>("height", {.unit = "px", .min = 8, .max = 16384, .doc = "image height (= the DTM's)"});
-    const direct_depth::CameraModel model = sfs::read_camera_model(cm, w, h);
+    // The camera whose DTM frames this reads (its calibration and mount: rover.cameras.<camera>).
+    p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
+                                   "write `camera: <device>` here");
+    const direct_depth::CameraModel model = common::camera_model_of(ctx.rover_camera(p, "camera"));
+    const int w = model.width, h = model.height;
     size_ = cv::Size(w, h);
     if (method_ == Method::kSams || method_ == Method::kItti) {
       const int need = ip.min_input_side();
@@ -217,7 +219,7 @@ class SamsComponent final : public runtime::Component {
     input_updated(*input_, c.now);
     if (d.gray.size() != size_ || d.gray.type() != CV_8UC1 || d.height.size() != size_) {
       count_error();
-      set_status("DTM size differs from camera_model width/height");
+      set_status("DTM size differs from the camera calibration (rover.cameras)");
       return;
     }
     try {

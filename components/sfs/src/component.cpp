@@ -6,11 +6,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "regolith/common/camera.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
 
@@ -73,22 +75,40 @@ class SfsComponent final : public runtime::Component {
                                          .doc = "normalised brightness at/above which a pixel is masked"});
     sp.shadow_level = p.get<double>("shadow_level", sp.shadow_level,
                                     {.min = 0.0, .max = 1.0, .doc = "normalised brightness at/below which a pixel is masked"});
+    const std::string moved_sun = "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` "
+                                  "block, converted into this camera's image frame with its mount (light_source: sun)";
+    p.reject_moved("sun_slant_rad", moved_sun);
+    p.reject_moved("sun_tilt_rad", moved_sun);
+    p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}");
+    if (p.has("light_source") && p.node()["light_source"].Scalar() == "config")
+      p.fail("light_source", "`config` (sun_slant_rad/sun_tilt_rad) is replaced by `sun`: " + moved_sun);
     const std::string source = p.get<std::string>(
-        "light_source", "config",
-        {.choices = {"config", "estimate"},
-         .doc = "config: sun_slant_rad/sun_tilt_rad (camera image frame); estimate: moment estimator"});
-    if (source == "config") {
-      LightDirection l;
-      l.slant_rad = p.require<double>("sun_slant_rad", {.unit = "rad",
-          .doc = "sun angle from the line of sight back to the camera, [0, pi/2)"});
-      l.tilt_rad = p.require<double>("sun_tilt_rad", {.unit = "rad",
-          .doc = "sun direction in the image from +x (columns) towards +y (rows)"});
+        "light_source", "sun",
+        {.choices = {"sun", "estimate"},
+         .doc = "sun: the deployment sun in this camera's frame (needs rover.cameras.<camera>); estimate: moment estimator"});
+    // The camera's calibration and mount (rover.cameras.<camera>): required for the sun, optional
+    // with an estimated light (then the DTM carries no camera model).
+    const RoverCamera* rc = ctx.rover().camera(p.node()["camera"].Scalar());
+    if (source == "sun" || rc != nullptr) rc = &ctx.rover_camera(p, "camera");
+    if (rc != nullptr) {
+      if (rc->info.width != fmt.width || rc->info.height != fmt.height)
+        p.fail("camera", "rover.cameras." + rc->name + " is " + std::to_string(rc->info.width) + "x" +
+                             std::to_string(rc->info.height) + " px but the camera delivers " +
+                             std::to_string(fmt.width) + "x" + std::to_string(fmt.height) + " px (" + rc->where + ")");
+      model_ = std::make_unique<direct_depth::CameraModel>(common::camera_model_of(*rc));
       try {
-        l.validate("sun");
-      } catch (const std::invalid_argument& e) {
-        p.fail("sun_slant_rad", std::string(e.what()) + " (sun at or below the image plane)");
+        model_->validate();
+      } catch (const FieldError& e) {
+        throw ConfigError(rc->where + ": rover.cameras." + rc->name + ": " + e.what());
       }
-      light_ = l;
+    }
+    if (source == "sun") {
+      camera_ = rc;
+      sun_ = &ctx.sun(p, "sfs light_source sun");
+      attitude_ = ctx.attitude();
+      const common::CameraLight cl = common::camera_light(*sun_, *rc, attitude_);
+      light_ = cl.light;
+      sun_in_view_ = cl.in_view;
     } else {
       sp.estimate_light = true;
       sp.min_light_confidence = p.get<double>("min_light_confidence", sp.min_light_confidence,
@@ -108,9 +128,6 @@ class SfsComponent final : public runtime::Component {
     }
     sp.vignetting.enabled = !flat.empty() || sp.vignetting.a2 != 0.0 || sp.vignetting.a4 != 0.0 ||
                             sp.vignetting.a6 != 0.0;
-    if (p.has("camera_model")) {
-      model_ = std::make_unique<direct_depth::CameraModel>(read_camera_model(p.child("camera_model"), fmt.width, fmt.height));
-    }
     try {
       sfs_ = std::make_unique<ShapeFromShading>(sp);
     } catch (const FieldError& e) {
@@ -123,7 +140,7 @@ class SfsComponent final : public runtime::Component {
     for (int r = 0; r < size_.height; ++r)
       for (int c = 0; c < size_.width; ++c)
         gray_.at<uchar>(r, c) = static_cast<uchar>(120 + 40 * std::sin(0.05 * c) * std::cos(0.07 * r));
-    sfs_->compute(gray_, light_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5}), res_);
+    sfs_->compute(gray_, light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5}), res_);
     const cv::Size sz = size_;
     const direct_depth::CameraModel* model = model_.get();
     out_ = &ctx.channel<DtmFrame>(kDtmChannel, 4, [sz, model] {
@@ -150,25 +167,30 @@ class SfsComponent final : public runtime::Component {
       set_status(fr.corrupt ? "corrupt frame skipped" : "frame size/type differs from the camera format");
       return;
     }
-    try {
-      if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
-      else fr.image.copyTo(gray_);
+    // Size and type are checked above and the light at configure: nothing here throws.
+    if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
+    else fr.image.copyTo(gray_);
+    const bool solve = !light_ || sun_in_view_;
+    if (solve) {
       sfs_->compute(gray_, light_, res_);
-    } catch (const std::runtime_error&) {
-      count_error();
-      set_status("light estimate unreliable: frame skipped");
-      return;
-    } catch (const std::exception&) {
-      count_error();
-      set_status("shape from shading failed on this frame");
-      return;
+      if (res_.status == SfsStatus::kUnreliableLight) {
+        count_error();
+        set_status("light estimate unreliable: frame skipped");
+        return;
+      }
     }
     DtmFrame* d = out_->begin_write();
     if (d == nullptr) return;
     gray_.copyTo(d->gray);
-    res_.height.copyTo(d->height);
-    res_.valid.copyTo(d->valid);
-    d->light = res_.light;
+    d->solved = solve;
+    if (solve) {
+      res_.height.copyTo(d->height);
+      res_.valid.copyTo(d->valid);
+      d->light = res_.light;
+    } else {  // sun ahead of the camera: no image-frame SfS, the grey image and sun still go out
+      fill_invalid(*d);
+      d->light = *light_;
+    }
     d->light_estimated = res_.light_estimated;
     d->light_confidence = res_.light_confidence;
     d->iterations = res_.iterations;
@@ -177,19 +199,35 @@ class SfsComponent final : public runtime::Component {
     d->sequence = fr.sequence;
     d->camera = model_.get();
     out_->commit();
-    set_status("ok");
+    set_status(solve ? "ok" : "sun ahead of the camera: no image-frame SfS (ground-frame consumers only)");
   }
 
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("method", to_string(sfs_->params().method));
-    kv.emplace_back("light_source", light_ ? "config" : "estimate");
+    kv.emplace_back("light_source", light_ ? "sun" : "estimate");
   }
 
  private:
+  // NaN height, no valid pixel, by loop (Mat::setTo with a scalar allocates).
+  static void fill_invalid(DtmFrame& d) {
+    for (int r = 0; r < d.height.rows; ++r) {
+      float* h = d.height.ptr<float>(r);
+      uchar* v = d.valid.ptr<uchar>(r);
+      for (int c = 0; c < d.height.cols; ++c) {
+        h[c] = std::numeric_limits<float>::quiet_NaN();
+        v[c] = 0;
+      }
+    }
+  }
+
   hal::Camera* cam_ = nullptr;
   cv::Size size_;
   std::unique_ptr<ShapeFromShading> sfs_;
-  std::optional<LightDirection> light_;
+  std::optional<LightDirection> light_;  ///< empty: estimated per frame
+  bool sun_in_view_ = true;              ///< false: the sun is ahead of the camera (slant >= 90 deg)
+  const RoverCamera* camera_ = nullptr;
+  const Sun* sun_ = nullptr;
+  Attitude attitude_;
   std::unique_ptr<direct_depth::CameraModel> model_;
   cv::Mat gray_;
   SfsResult res_;

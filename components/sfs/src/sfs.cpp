@@ -375,16 +375,22 @@ void ShapeFromShading::compute(const cv::Mat& gray, const std::optional<LightDir
     if (!params_.estimate_light)
       fail("light", "no light direction supplied and estimate_light is false");
     const LightEstimate est = estimate_light(e_, params_.zheng_chellappa_refine, mask_);
-    if (est.confidence < params_.min_light_confidence)
-      throw std::runtime_error(
-          "sfs: estimated light direction is unreliable (confidence " +
-          std::to_string(est.confidence) + " < min_light_confidence " +
-          std::to_string(params_.min_light_confidence) + ", slant " +
-          std::to_string(est.light.slant_rad * 180 / kPi) + " deg); supply the sun direction");
     l = est.light;
     out.light_estimated = true;
     out.light_confidence = est.confidence;
+    if (est.confidence < params_.min_light_confidence) {
+      out.status = SfsStatus::kUnreliableLight;
+      out.light = l;
+      out.height.create(e_.size(), CV_32F);
+      fill(out.height, std::numeric_limits<float>::quiet_NaN());
+      out.valid.create(e_.size(), CV_8U);
+      fill<uchar>(out.valid, 0);
+      out.iterations = 0;
+      out.final_mean_update = 0;
+      return;
+    }
   }
+  out.status = SfsStatus::kSolved;
   out.light = l;
   // Albedo normalisation: the median valid pixel is taken to be locally flat ground,
   // E_flat = cos(slant). Keeps E = I otherwise.
@@ -773,7 +779,14 @@ SfsResult shape_from_shading(const cv::Mat& gray, const std::optional<LightDirec
   ShapeFromShading s(params);
   SfsResult r;
   s.compute(gray, light, r);
+  if (r.status == SfsStatus::kUnreliableLight) throw std::runtime_error(unreliable_light_message(r, params));
   return r;
+}
+
+std::string unreliable_light_message(const SfsResult& r, const SfsParams& params) {
+  return "sfs: estimated light direction is unreliable (confidence " + std::to_string(r.light_confidence) +
+         " < min_light_confidence " + std::to_string(params.min_light_confidence) + ", slant " +
+         std::to_string(r.light.slant_rad * 180 / kPi) + " deg); supply the sun direction";
 }
 
 cv::Mat render_lambertian(const cv::Mat& height, const LightDirection& light) {

@@ -31,7 +31,7 @@ class SoilStiffnessComponent final : public runtime::Component {
   void configure(Params& p, runtime::Context& ctx) override {
     camera_ = &ctx.camera(p, "camera");
     const hal::CameraFormat fmt = camera_->format();
-    cfg_ = read_soil_config(p, fmt.width, fmt.height);
+    cfg_ = read_soil_config(p, ctx.rover(), ctx.rover_camera(p, "camera"), fmt.width, fmt.height);
     const double stale_s = p.get<double>("stale_timeout_s", 10.0,
         {.unit = "s", .min = 0.0, .min_exclusive = true,
          .doc = "the rear camera is reported stale after this long without a new frame"});

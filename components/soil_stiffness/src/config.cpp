@@ -6,93 +6,69 @@
 #include <stdexcept>
 #include <vector>
 
+#include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/rover.hpp"
 
 namespace regolith::soil {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-RoverConfig read_rover(Params p) {
+constexpr const char* kCameraMoved =
+    "the camera is described once, in rover.cameras.<camera> {camera_info, mount}";
+
+RoverConfig rover_config(Params& p, const RoverDescription& d) {
+  if (!(d.mass_kg > 0.0) || d.wheels.empty())
+    p.fail({}, "soil stiffness needs the rover's mass and wheels: rover.mass_kg and rover.wheels "
+               "[{name, x_m, y_m, radius_m, width_m}] (the load per wheel is M g / wheel count)");
   RoverConfig r;
-  r.mass_kg = p.get<double>("mass_kg", r.mass_kg, {.unit = "kg", .min = 0.0, .min_exclusive = true,
-                                                   .doc = "total rover mass"});
-  r.wheel_count = p.get<int>("wheel_count", r.wheel_count, {.min = 1, .max = 64,
-                                                            .doc = "wheels sharing the static load equally"});
-  r.gravity_mps2 = p.get<double>("gravity_mps2", r.gravity_mps2, {.unit = "m/s^2", .min = 0.0, .max = 100.0,
-                                                                  .min_exclusive = true, .doc = "surface gravity"});
-  r.wheel_width_m = p.get<double>("wheel_width_m", r.wheel_width_m, {.unit = "m", .min = 0.0, .max = 10.0,
-                                                                     .min_exclusive = true, .doc = "wheel width b"});
-  r.wheel_diameter_m = p.get<double>("wheel_diameter_m", r.wheel_diameter_m,
-                                     {.unit = "m", .min = 0.0, .max = 20.0, .min_exclusive = true,
-                                      .doc = "wheel diameter D"});
-  p.finish();
+  r.mass_kg = d.mass_kg;
+  if (d.gravity_mps2 > 0.0) r.gravity_mps2 = d.gravity_mps2;
+  r.wheel_count = static_cast<int>(d.wheels.size());
+  r.wheel_width_m = d.wheels.front().width_m;
+  r.wheel_diameter_m = 2.0 * d.wheels.front().radius_m;
+  for (const auto& w : d.wheels)
+    if (w.width_m != r.wheel_width_m || 2.0 * w.radius_m != r.wheel_diameter_m)
+      p.fail({}, "soil stiffness assumes identical wheels: rover.wheels '" + w.name + "' differs from '" +
+                     d.wheels.front().name + "'");
   try {
     r.validate();
   } catch (const FieldError& e) {
-    p.fail(e);
+    p.fail({}, "rover." + std::string(e.what()));
   }
   return r;
 }
 
-CameraModel read_camera(Params p, int width, int height) {
-  CameraModel c;
-  const int w = p.get<int>("width", width, {.unit = "px", .min = 1, .max = 16384,
-                                            .doc = "image width (must match the camera / image)"});
-  const int h = p.get<int>("height", height, {.unit = "px", .min = 1, .max = 16384,
-                                              .doc = "image height (must match the camera / image)"});
-  if (w != width) p.fail("width", "camera_model is " + std::to_string(w) + " px wide but the frames are " + std::to_string(width) + " px");
-  if (h != height) p.fail("height", "camera_model is " + std::to_string(h) + " px high but the frames are " + std::to_string(height) + " px");
-  c.width = width;
-  c.height = height;
-  c.fx = p.require<double>("fx", {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length x"});
-  c.fy = p.get<double>("fy", c.fx, {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length y (default fx)"});
-  c.cx = p.get<double>("cx", 0.5 * (width - 1), {.unit = "px", .doc = "principal point x (default image centre)"});
-  c.cy = p.get<double>("cy", 0.5 * (height - 1), {.unit = "px", .doc = "principal point y (default image centre)"});
-  c.k1 = p.get<double>("k1", 0.0, {.doc = "radial distortion (OpenCV model)"});
-  c.k2 = p.get<double>("k2", 0.0, {.doc = "radial distortion"});
-  c.p1 = p.get<double>("p1", 0.0, {.doc = "tangential distortion"});
-  c.p2 = p.get<double>("p2", 0.0, {.doc = "tangential distortion"});
-  c.k3 = p.get<double>("k3", 0.0, {.doc = "radial distortion"});
-  c.mount_height_m = p.require<double>("mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true,
-                                                          .doc = "optical centre above the ground"});
-  c.pitch_rad = p.require<double>("pitch_rad", {.unit = "rad", .min = -1.5707, .max = 1.5707,
-                                                .doc = "optical axis below the horizontal (down +)"});
-  c.roll_rad = p.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707,
-                                               .doc = "about the optical axis"});
-  p.finish();
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    p.fail(e);
-  }
-  return c;
-}
-
 }  // namespace
 
-SoilConfig read_soil_config(Params& p, int width_px, int height_px) {
+SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const RoverCamera& camera, int width_px,
+                            int height_px) {
+  p.reject_moved("camera_model", kCameraMoved);
+  p.reject_moved("mount", kCameraMoved);
+  p.reject_moved("sun", "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` block, "
+                        "converted into the camera's ground frame with its mount");
+  p.reject_moved("rover", "the rover is described once: rover.mass_kg, rover.gravity_mps2 and rover.wheels");
   SoilConfig cfg;
-  cfg.rover = read_rover(p.child("rover"));
-  cfg.camera = read_camera(p.require_child("camera_model"), width_px, height_px);
-  {
-    Params s = p.child("sun");
-    cfg.sun.azimuth_rad = s.get<double>("azimuth_rad", cfg.sun.azimuth_rad,
-        {.unit = "rad", .min = -2 * kPi, .max = 2 * kPi,
-         .doc = "sun azimuth in the camera ground frame, from the viewing direction towards the left"});
-    cfg.sun.elevation_rad = s.get<double>("elevation_rad", cfg.sun.elevation_rad,
-        {.unit = "rad", .min = 0.02, .max = kPi / 2, .min_exclusive = true, .doc = "sun elevation"});
-    s.finish();
+  cfg.rover = rover_config(p, rover);
+  if (camera.info.width != width_px || camera.info.height != height_px)
+    p.fail("camera", "rover.cameras." + camera.name + " is " + std::to_string(camera.info.width) + "x" +
+                         std::to_string(camera.info.height) + " px but the frames are " + std::to_string(width_px) +
+                         "x" + std::to_string(height_px) + " px (" + camera.where + ")");
+  cfg.camera = common::camera_model_of(camera);
+  try {
+    cfg.camera.validate();
+  } catch (const FieldError& e) {
+    throw ConfigError(camera.where + ": rover.cameras." + camera.name + ": " + e.what());
   }
-  {
-    Params m = p.child("mount");
-    cfg.mount.mount_x_m = m.get<double>("x_m", cfg.mount.mount_x_m,
-        {.unit = "m", .doc = "body x of the ground point below the camera (sinkage layer)"});
-    cfg.mount.mount_y_m = m.get<double>("y_m", cfg.mount.mount_y_m, {.unit = "m", .doc = "body y of that point"});
-    cfg.mount.mount_yaw_rad = m.get<double>("yaw_rad", cfg.mount.mount_yaw_rad,
-        {.unit = "rad", .min = -2 * kPi, .max = 2 * kPi, .doc = "camera viewing heading in the body frame (pi = rear)"});
-    m.finish();
-  }
+  cfg.mount = {camera.mount.x_m, camera.mount.y_m, camera.mount.yaw_rad};
+  if (!rover.sun) p.fail({}, "soil stiffness needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block");
+  const common::GroundSun gs = common::ground_sun(*rover.sun, camera);
+  cfg.sun.azimuth_rad = gs.azimuth_rad;
+  cfg.sun.elevation_rad = gs.elevation_rad;
+  if (!(gs.elevation_rad > 0.02))
+    p.fail({}, "the sun is " + std::to_string(gs.elevation_rad * 180 / kPi) +
+                   " deg above the ground in the camera's frame: the tracks are not lit");
   TrackAnalysisParams& a = cfg.analysis;
   {
     Params r = p.child("region");
@@ -177,6 +153,17 @@ SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
   if (!std::filesystem::is_regular_file(rover_yaml, ec))
     throw ConfigError(rover_yaml.string() + ": no such configuration file");
   Params root = Params::load_file(rover_yaml.string());
+  const std::string dir = rover_yaml.has_parent_path() ? rover_yaml.parent_path().string() : ".";
+  const RoverDescription rover = read_rover_description(root, dir);
+  // The camera of the soil section: its `camera` key names a rover.cameras entry.
+  auto read = [&](Params& c) {
+    const std::string cam = c.require<std::string>("camera", {.doc = "the rear camera (rover.cameras.<name>)"});
+    const RoverCamera* rc = rover.camera(cam);
+    if (rc == nullptr)
+      c.fail("camera", "no rover.cameras." + cam + " in this file: describe the camera once there "
+                       "{camera_info: {width, height, k, d} or camera_info_url, mount: {x_m, y_m, z_m, pitch_rad, yaw_rad}}");
+    return read_soil_config(c, rover, *rc, image.cols, image.rows);
+  };
   SoilConfig cfg;
   if (root.has("components")) {
     Params comps = root.child("components");
@@ -184,14 +171,14 @@ SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
     for (const auto& name : comps.keys()) {
       Params c = comps.child(name);
       if (!c.node()["type"] || c.node()["type"].Scalar() != "soil_stiffness") continue;
-      cfg = read_soil_config(c, image.cols, image.rows);
+      cfg = read(c);
       found = true;
       break;
     }
     if (!found) comps.fail({}, "no component of type soil_stiffness in this deployment");
   } else {
     Params s = root.require_child("soil_stiffness");
-    cfg = read_soil_config(s, image.cols, image.rows);
+    cfg = read(s);
     s.finish();
     root.finish();
   }

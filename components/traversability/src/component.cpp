@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "regolith/common/camera.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -28,10 +29,12 @@ using GridMapMsg = msgs::grid_map_msgs::GridMap;
 class TraversabilityComponent final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
-    Params cm = p.child("camera_model");
-    const int w = cm.require<int>("width", {.unit = "px", .min = 8, .max = 16384, .doc = "image width"});
-    const int h = cm.require<int>("height", {.unit = "px", .min = 8, .max = 16384, .doc = "image height"});
-    const direct_depth::CameraModel model = sfs::read_camera_model(cm, w, h);
+    // The camera whose DTM frames this maps (its calibration and mount: rover.cameras.<camera>).
+    p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
+                                   "write `camera: <device>` here");
+    const RoverCamera& rc = ctx.rover_camera(p, "camera");
+    const direct_depth::CameraModel model = common::camera_model_of(rc);
+    const int w = model.width, h = model.height;
 
     TraversabilityParams tp;
     tp.resolution_m = p.get<double>("resolution_m", tp.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid cell size"});
@@ -180,7 +183,7 @@ class TraversabilityComponent final : public runtime::Component {
     input_updated(*input_, c.now);
     if (d.height.size() != cv::Size(depth_->model().width, depth_->model().height)) {
       count_error();
-      set_status("DTM size differs from camera_model width/height");
+      set_status("DTM size differs from the camera calibration (rover.cameras)");
       return;
     }
     try {

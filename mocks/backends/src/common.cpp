@@ -10,6 +10,39 @@ Clock* clock_of(const hal::DeviceContext& ctx) {
   return ctx.clock != nullptr ? ctx.clock : &system_clock;
 }
 
+SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
+                                   const std::vector<std::string>& moved_camera_keys,
+                                   const std::vector<std::string>& moved_sun_keys) {
+  for (const auto& k : moved_camera_keys)
+    p.reject_moved(k, "the camera is described once, in rover.cameras." + ctx.id +
+                          " {camera_info: {width, height, k, d}, mount: {x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad}}");
+  for (const auto& k : moved_sun_keys)
+    p.reject_moved(k, "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` block "
+                      "(compass azimuth from the rover's heading at start)");
+  SceneDescription d;
+  if (ctx.rover != nullptr) {
+    d.camera = ctx.rover->camera(ctx.id);
+    if (ctx.rover->sun) d.sun = &*ctx.rover->sun;
+  }
+  if (d.camera != nullptr && d.camera->info.distortion_model == "plumb_bob") {
+    for (double v : d.camera->info.d)
+      if (v != 0.0)
+        p.fail({}, "the synthetic renderer is a pinhole: rover.cameras." + ctx.id + ".camera_info.d must be zero");
+  }
+  return d;
+}
+
+cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallback) {
+  if (d.camera != nullptr) fallback = {d.camera->info.width, d.camera->info.height};
+  const cv::Size s(p.get<int>("width", fallback.width, {.unit = "px", .min = 16, .max = 4096, .doc = "image width"}),
+                   p.get<int>("height", fallback.height, {.unit = "px", .min = 16, .max = 4096, .doc = "image height"}));
+  if (d.camera != nullptr && s != fallback)
+    p.fail(s.width != fallback.width ? "width" : "height",
+           std::to_string(s.width) + "x" + std::to_string(s.height) + " px differs from the calibration (" +
+               std::to_string(fallback.width) + "x" + std::to_string(fallback.height) + " px, " + d.camera->where + ")");
+  return s;
+}
+
 TimeNs read_max_extrapolation(Params& p) {
   const double ms = p.get<double>("max_extrapolation_ms", 50.0,
                                   {.unit = "ms", .min = 0.0, .max = 10000.0,

@@ -42,6 +42,21 @@ inline double gaussian(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
 /// The clock of the device context, or the process-wide monotonic clock when none was given.
 Clock* clock_of(const hal::DeviceContext& ctx);
 
+/// The rendering geometry of a synthetic camera, declared once in the deployment: the rover
+/// description's entry for this device (or null: the scene's defaults) and the deployment sun (or
+/// null). Keys an older file format had in the device block are rejected at their key, saying
+/// where they go now.
+struct SceneDescription {
+  const RoverCamera* camera = nullptr;
+  const Sun* sun = nullptr;
+};
+SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
+                                   const std::vector<std::string>& moved_camera_keys,
+                                   const std::vector<std::string>& moved_sun_keys);
+/// Image size: the device's width/height keys, defaulting to the calibration's; a mismatch with the
+/// calibration is an error at the key.
+cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallback);
+
 // ---- a regular time grid: sample k is at k / rate after the start ------------------------------
 
 class TimeGrid {

@@ -16,8 +16,12 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
                                                 .doc = "frame rate of the simulated camera"});
   fmt.format = hal::pixel_format_from_string(
       p.get<std::string>("format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
-  fmt.width = p.get<int>("width", 320, {.unit = "px", .min = 16, .max = 4096, .doc = "image width"});
-  fmt.height = p.get<int>("height", 240, {.unit = "px", .min = 16, .max = 4096, .doc = "image height"});
+  const detail::SceneDescription desc = detail::scene_description(
+      p, ctx, {"hfov_rad", "camera_height_m", "camera_pitch_rad", "camera_roll_rad"},
+      {"sun_azimuth_rad", "sun_elevation_rad"});
+  const cv::Size size = detail::scene_image_size(p, desc, {320, 240});
+  fmt.width = size.width;
+  fmt.height = size.height;
   const int frames = p.get<int>("frames", 20, {.min = 1, .max = 10000, .doc = "frames rendered at configure"});
   const bool loop = p.get<bool>("loop", true, {.doc = "repeat the rendered frames (else the last one stays)"});
 
@@ -33,28 +37,43 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
   ts::CameraPose cam;
   cam.width = fmt.width;
   cam.height = fmt.height;
-  const double hfov = p.get<double>("hfov_rad", 1.349, {.unit = "rad", .min = 0.05, .max = 3.0,
-                                                        .doc = "horizontal field of view (pinhole)"});
-  cam.fx = cam.fy = 0.5 * fmt.width / std::tan(0.5 * hfov);
+  // Without a rover.cameras entry: a 1.349 rad (77 deg) horizontal field of view, 0.5 m high,
+  // pitched 0.35 rad down, at the body origin.
+  Pose mount{.z_m = 0.5, .pitch_rad = 0.35};
+  cam.fx = cam.fy = 0.5 * fmt.width / std::tan(0.5 * 1.349);
   cam.cx = 0.5 * (fmt.width - 1);
   cam.cy = 0.5 * (fmt.height - 1);
-  cam.height_m = p.get<double>("camera_height_m", 0.5, {.unit = "m", .min = 0.01, .max = 100.0,
-                                                        .doc = "optical centre above z = 0"});
-  cam.pitch_rad = p.get<double>("camera_pitch_rad", 0.35, {.unit = "rad", .min = -1.5, .max = 1.5,
-                                                           .doc = "downward pitch of the camera"});
-  cam.roll_rad = p.get<double>("camera_roll_rad", 0.0, {.unit = "rad", .min = -1.5, .max = 1.5, .doc = "roll"});
-  cam.x_m = p.get<double>("start_x_m", 0.0, {.unit = "m", .doc = "rover start position (world x)"});
-  cam.y_m = p.get<double>("start_y_m", 0.0, {.unit = "m", .doc = "rover start position (world y)"});
-  cam.yaw_rad = p.get<double>("start_yaw_rad", 0.0, {.unit = "rad", .doc = "rover start heading"});
+  if (desc.camera != nullptr) {
+    const CameraInfo& ci = desc.camera->info;
+    cam.fx = ci.fx();
+    cam.fy = ci.fy();
+    cam.cx = ci.cx();
+    cam.cy = ci.cy();
+    mount = desc.camera->mount;
+  }
+  cam.height_m = mount.z_m;
+  cam.pitch_rad = mount.pitch_rad;
+  cam.roll_rad = mount.roll_rad;
+  const double start_x = p.get<double>("start_x_m", 0.0, {.unit = "m", .doc = "rover start position (world x)"});
+  const double start_y = p.get<double>("start_y_m", 0.0, {.unit = "m", .doc = "rover start position (world y)"});
+  const double start_yaw = p.get<double>("start_yaw_rad", 0.0, {.unit = "rad", .doc = "rover start heading"});
+  // The world is the local-level frame at start: the camera sits at the mount offset of the body.
+  cam.x_m = start_x + std::cos(start_yaw) * mount.x_m - std::sin(start_yaw) * mount.y_m;
+  cam.y_m = start_y + std::sin(start_yaw) * mount.x_m + std::cos(start_yaw) * mount.y_m;
+  cam.yaw_rad = start_yaw + mount.yaw_rad;
   const double speed = p.get<double>("speed_m_s", 0.05, {.unit = "m/s", .min = -10.0, .max = 10.0,
                                                          .doc = "forward motion between frames"});
   const double yaw_rate = p.get<double>("yaw_rate_rad_s", 0.0, {.unit = "rad/s", .min = -10.0, .max = 10.0,
                                                                 .doc = "turn rate between frames"});
 
-  ts::Sun sun;
-  sun.azimuth_rad = p.get<double>("sun_azimuth_rad", 0.8, {.unit = "rad", .doc = "from +x towards +y"});
-  sun.elevation_rad = p.get<double>("sun_elevation_rad", 0.6, {.unit = "rad", .min = 0.0, .max = 1.5707963,
-                                                               .min_exclusive = true, .doc = "above the horizon"});
+  ts::Sun sun;  // without a deployment sun: 0.8 rad counter-clockwise from +x, 0.6 rad high
+  sun.azimuth_rad = 0.8;
+  sun.elevation_rad = 0.6;
+  if (desc.sun != nullptr) {
+    const Vec3 s = desc.sun->local_level();  // scene world = local level at start
+    sun.azimuth_rad = azimuth_ccw(s);
+    sun.elevation_rad = elevation(s);
+  }
   ts::RenderOptions ro;
   ro.albedo = p.get<double>("albedo", 0.8, {.min = 0.0, .max = 1.0, .doc = "Lambertian albedo"});
   ro.noise_sigma = p.get<double>("noise_sigma", 0.01, {.min = 0.0, .max = 1.0,
@@ -65,6 +84,10 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
   try {
     scene.validate();
     cam.validate();
+    if (!ctx.open_devices) {  // `config check`: parameters validated, nothing rendered
+      images.emplace_back(fmt.height, fmt.width, hal::cv_type(fmt.format), cv::Scalar::all(0));
+      return std::make_unique<detail::PreloadedCamera>(ctx, fmt, std::move(images), loop);
+    }
     const ts::Terrain terrain(scene);
     const double dt = 1.0 / fmt.rate_hz;
     for (int k = 0; k < frames; ++k) {

@@ -19,26 +19,46 @@ std::unique_ptr<hal::Camera> make_synthetic_tracks_camera(Params& p, const hal::
   fmt.format = hal::pixel_format_from_string(
       p.get<std::string>("format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
   tsc::TrackSceneParams s;
-  fmt.width = s.camera.width = p.get<int>("width", 640, {.unit = "px", .min = 16, .max = 4096, .doc = "image width"});
-  fmt.height = s.camera.height = p.get<int>("height", 480, {.unit = "px", .min = 16, .max = 4096, .doc = "image height"});
+  const detail::SceneDescription desc = detail::scene_description(
+      p, ctx, {"fx", "fy", "cx", "cy", "mount_height_m", "pitch_rad"}, {"sun_azimuth_rad", "sun_elevation_rad"});
+  const cv::Size size = detail::scene_image_size(p, desc, {640, 480});
+  fmt.width = s.camera.width = size.width;
+  fmt.height = s.camera.height = size.height;
   const int frames = p.get<int>("frames", 2, {.min = 1, .max = 100, .doc = "frames rendered at configure (noise seeds)"});
-  s.camera.fx = p.get<double>("fx", 500.0, {.unit = "px", .min = 1.0, .doc = "focal length x (pinhole, no distortion)"});
-  s.camera.fy = p.get<double>("fy", s.camera.fx, {.unit = "px", .min = 1.0, .doc = "focal length y (default fx)"});
-  s.camera.cx = p.get<double>("cx", 0.5 * (fmt.width - 1), {.unit = "px", .doc = "principal point x"});
-  s.camera.cy = p.get<double>("cy", 0.5 * (fmt.height - 1), {.unit = "px", .doc = "principal point y"});
-  s.camera.mount_height_m = p.get<double>("mount_height_m", 1.2, {.unit = "m", .min = 0.05, .max = 20.0,
-                                                                  .doc = "optical centre above the ground"});
-  s.camera.pitch_rad = p.get<double>("pitch_rad", 0.61, {.unit = "rad", .min = 0.05, .max = 1.5,
-                                                         .doc = "optical axis below the horizontal"});
-  s.sun.azimuth_rad = p.get<double>("sun_azimuth_rad", 1.5708, {.unit = "rad",
-      .doc = "from the viewing direction towards the left"});
-  s.sun.elevation_rad = p.get<double>("sun_elevation_rad", 0.7854, {.unit = "rad", .min = 0.0, .max = 1.5707963,
-                                                                    .min_exclusive = true, .doc = "above the ground"});
+  // Without a rover.cameras entry: fx = fy = 500 px, centred, 1.2 m high, pitched 0.61 rad down,
+  // looking back (yaw pi). Without a deployment sun: from the left of the view, 45 deg high.
+  s.camera.fx = s.camera.fy = 500.0;
+  s.camera.cx = 0.5 * (fmt.width - 1);
+  s.camera.cy = 0.5 * (fmt.height - 1);
+  Pose mount{.z_m = 1.2, .pitch_rad = 0.61, .yaw_rad = 3.14159265358979323846};
+  if (desc.camera != nullptr) {
+    const CameraInfo& ci = desc.camera->info;
+    s.camera.fx = ci.fx();
+    s.camera.fy = ci.fy();
+    s.camera.cx = ci.cx();
+    s.camera.cy = ci.cy();
+    mount = desc.camera->mount;
+  }
+  s.camera.mount_height_m = mount.z_m;
+  s.camera.pitch_rad = mount.pitch_rad;
+  if (desc.sun != nullptr) {  // the scene frame is the camera's ground frame
+    const Vec3 g = sun_in_camera_ground(*desc.sun, mount);
+    s.sun.azimuth_rad = azimuth_ccw(g);
+    s.sun.elevation_rad = elevation(g);
+  }
   s.k = p.get<double>("k", 5.0e5, {.unit = "N/m^(n+2)", .min = 0.0, .min_exclusive = true,
                                    .doc = "true Bernstein-Goriatchkin modulus of the soil"});
   s.n = p.get<double>("n", 1.0, {.min = 0.0, .max = 2.9, .doc = "true sinkage exponent"});
-  s.wheel_width_m = p.get<double>("wheel_width_m", 0.10, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "b"});
-  s.wheel_diameter_m = p.get<double>("wheel_diameter_m", 0.30, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "D"});
+  if (ctx.rover != nullptr && !ctx.rover->wheels.empty()) {  // the ruts of the rover's own wheels
+    const std::string where = "the wheels are described once, in rover.wheels";
+    p.reject_moved("wheel_width_m", where);
+    p.reject_moved("wheel_diameter_m", where);
+    s.wheel_width_m = ctx.rover->wheels.front().width_m;
+    s.wheel_diameter_m = 2.0 * ctx.rover->wheels.front().radius_m;
+  } else {
+    s.wheel_width_m = p.get<double>("wheel_width_m", 0.10, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "b"});
+    s.wheel_diameter_m = p.get<double>("wheel_diameter_m", 0.30, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "D"});
+  }
   const auto lat = p.get<std::vector<double>>("track_lateral_m", {0.4, -0.4}, {.unit = "m",
       .doc = "rut centres in the camera ground frame (left +)"});
   const auto load = p.get<std::vector<double>>("track_load_n", {60.0, 60.0}, {.unit = "N", .min = 0.0,

@@ -70,6 +70,9 @@ class Params {
   /// Relocate a FieldError thrown by an algorithm or backend while validating values read from
   /// this mapping: "file:line:col: path.field: problem", located at the field's key when present.
   [[noreturn]] void fail(const FieldError& e) const;
+  /// For keys an older file format had here: when `key` is present, fail at it saying what to
+  /// write instead ("... is declared once now: write rover.cameras.front.mount {z_m, pitch_rad}").
+  void reject_moved(std::string_view key, const std::string& write_instead) const;
   /// Location string "file:line:col" of `key` (or of this mapping).
   std::string where(std::string_view key = {}) const;
   std::string field_path(std::string_view key) const;

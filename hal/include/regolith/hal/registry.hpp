@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
@@ -22,6 +23,9 @@ struct DeviceContext {
   std::string config_dir;      ///< directory of the YAML file: relative paths resolve from here
   /// false for `regolith config check`: validate parameters only, do not open or probe devices.
   bool open_devices = true;
+  /// The deployment's rover description (camera calibration and mounts, sun); never null when
+  /// built by the Application. Mock scenes render with it, so geometry is declared once.
+  const RoverDescription* rover = nullptr;
 };
 
 using CameraFactory = std::function<std::unique_ptr<Camera>(Params&, const DeviceContext&)>;

@@ -9,6 +9,7 @@
 
 #include "regolith/core/channels.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
@@ -27,6 +28,17 @@ class Context {
 
   Clock& clock() { return clock_; }
   const std::string& config_dir() const { return config_dir_; }
+
+  /// The deployment's rover description (`rover:` and `sun:` blocks), read before the devices.
+  const RoverDescription& rover() const { return rover_; }
+  void set_rover(RoverDescription d) { rover_ = std::move(d); }
+  /// Calibration and mount of the camera device named by parameter `key` of `p`: ConfigError at
+  /// `key` when the device does not exist or has no `rover.cameras.<name>` entry.
+  const RoverCamera& rover_camera(Params& p, std::string_view key = "camera");
+  /// The deployment sun; ConfigError at `p` (naming `who`) when the deployment has no `sun:` block.
+  const Sun& sun(Params& p, const std::string& who) const;
+  /// Body attitude in the local-level frame: level until an IMU provides it.
+  Attitude attitude() const { return {}; }
 
   void add_camera(const std::string& name, std::unique_ptr<hal::Camera> cam);
   void add_encoders(const std::string& name, std::unique_ptr<hal::WheelEncoders> enc);
@@ -69,6 +81,7 @@ class Context {
   };
   Clock& clock_;
   std::string config_dir_;
+  RoverDescription rover_;
   std::map<std::string, std::unique_ptr<hal::Camera>> cameras_;
   std::map<std::string, std::unique_ptr<hal::WheelEncoders>> encoders_;
   std::map<std::string, ChannelEntry> channels_;

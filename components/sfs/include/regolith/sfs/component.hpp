@@ -21,14 +21,18 @@ struct DtmFrame {
   cv::Mat gray;    ///< CV_8UC1 grey image as captured (before vignetting correction)
   cv::Mat height;  ///< CV_32FC1 relative height, UP positive, pixel units (sfs.hpp conventions)
   cv::Mat valid;   ///< CV_8UC1, 255 = usable pixel
-  LightDirection light;          ///< light used (camera image frame)
+  /// false when no image-frame SfS was run (the sun is ahead of the camera, slant >= 90 deg):
+  /// height is NaN and valid 0, gray and light are set (traversability's ground path uses them).
+  bool solved = true;
+  LightDirection light;          ///< light used (camera image frame); slant >= pi/2 when !solved
   bool light_estimated = false;  ///< true when estimated from the image
   double light_confidence = 1.0; ///< 1 when given, estimator confidence otherwise
   int iterations = 0;            ///< SfS iterations used
   double final_mean_update = 0.0;  ///< px, mean |dZ| of the last iteration
   TimeNs stamp = 0;              ///< capture time of the source frame (ns, process clock)
   std::uint64_t sequence = 0;    ///< camera frame sequence number
-  /// Camera geometry of the frame (null when the sfs component has no `camera_model` block).
+  /// Camera geometry of the frame (rover.cameras.<camera>; null with an estimated light and no
+  /// description of the camera).
   /// Points into the producing component; valid for the lifetime of the deployment.
   const direct_depth::CameraModel* camera = nullptr;
 };

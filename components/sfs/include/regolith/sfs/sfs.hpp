@@ -132,7 +132,14 @@ struct LightEstimate {
 LightEstimate estimate_light(const cv::Mat& gray, bool zheng_chellappa_refine = true,
                              const cv::Mat& mask = cv::Mat());
 
+/// Outcome of one solve. Not an exception: an unusable frame is normal input on a rover.
+enum class SfsStatus {
+  kSolved,           ///< height / valid hold the solution
+  kUnreliableLight,  ///< estimated light below min_light_confidence: height NaN, valid all 0
+};
+
 struct SfsResult {
+  SfsStatus status = SfsStatus::kSolved;
   cv::Mat height;  ///< CV_32F, same size as the input, relative height UP positive, pixel units
   cv::Mat valid;   ///< CV_8U, 255 = valid pixel (not saturated / shadowed / outside)
   LightDirection light;         ///< light direction actually used
@@ -151,8 +158,10 @@ class ShapeFromShading {
 
   /// gray: CV_8U (0..255) or CV_32F (0..1), one channel, non-empty. light: the known light
   /// direction; if absent, params.estimate_light must be true (else std::invalid_argument).
-  /// Throws std::invalid_argument on bad input and std::runtime_error when the estimated
-  /// light's confidence is below params.min_light_confidence.
+  /// Throws std::invalid_argument (FieldError) on bad input. An estimated light whose confidence
+  /// is below params.min_light_confidence is not an error: out.status = kUnreliableLight, with
+  /// out.light / light_confidence set to the estimate and no height (allocation-free after the
+  /// first frame, like a solve).
   void compute(const cv::Mat& gray, const std::optional<LightDirection>& light, SfsResult& out);
 
   const SfsParams& params() const { return params_; }
@@ -177,7 +186,11 @@ class ShapeFromShading {
   double last_tilt_ = 1e9, last_slant_ = 1e9;
 };
 
-/// Convenience: one-off computation with a fresh solver.
+/// "estimated light direction is unreliable (confidence .. < min_light_confidence .., slant ..)".
+std::string unreliable_light_message(const SfsResult& r, const SfsParams& params);
+
+/// Convenience: one-off computation with a fresh solver. Throws std::runtime_error with
+/// unreliable_light_message() when the result's status is kUnreliableLight.
 SfsResult shape_from_shading(const cv::Mat& gray, const std::optional<LightDirection>& light,
                              const SfsParams& params = {});
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/soil_stiffness/run.hpp"
 #include "regolith/soil_stiffness/sinkage_layer.hpp"
 #include "regolith/soil_stiffness/track_analysis.hpp"
@@ -22,16 +23,20 @@ struct SoilConfig {
 };
 
 /// Reads the estimator keys of one mapping (a component section or the `soil_stiffness` section
-/// of a ROVER.yaml): children rover, camera_model, sun, mount, region, tracks, profile, fit,
-/// quality, soil_class (each finished: unknown keys rejected). The image size comes from the
-/// caller (camera device format / the image file); camera_model.width/height, when given, must
-/// match it. Validates the structs and reports their errors at the right key.
-SoilConfig read_soil_config(Params& p, int width_px, int height_px);
+/// of a ROVER.yaml): children region, tracks, profile, fit, quality, soil_class (each finished:
+/// unknown keys rejected). The geometry comes from the rover description: the camera's
+/// calibration and mount (its size must match the frames, width_px x height_px), the sun in the
+/// camera's ground frame, the rover mass and wheels. Keys an older format had here (rover,
+/// camera_model, sun, mount) are located errors saying where they go. Validates the structs and
+/// reports their errors at the right key.
+SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const RoverCamera& camera, int width_px,
+                            int height_px);
 
 /// `regolith soil`: loads IMAGE (InputError naming the file when unreadable), reads ROVER.yaml
-/// (ConfigError), runs run_soil_analysis into `out_dir`. ROVER.yaml is either a standalone file
-/// with a top-level `soil_stiffness:` mapping, or a deployment file (the first component of type
-/// soil_stiffness is used; its `camera`, rate-group and DDS keys are ignored).
+/// (ConfigError), runs run_soil_analysis into `out_dir`. ROVER.yaml holds the rover description
+/// (`rover:` with cameras, mass and wheels, and `sun:`) and either a top-level `soil_stiffness:`
+/// mapping or is a deployment file (the first component of type soil_stiffness is used; its
+/// `camera` key picks rover.cameras.<name>; rate-group and DDS keys are ignored).
 SoilAnalysisFiles run_soil_file(const std::filesystem::path& image,
                                 const std::filesystem::path& rover_yaml,
                                 const std::filesystem::path& out_dir);

@@ -1,0 +1,268 @@
+// The rover description (core/rover.hpp, components/common): one sun converted into each camera's
+// frames, camera calibration inline or from a ROS camera_calibration file, and the located errors
+// an old deployment file gets.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "regolith/common/camera.hpp"
+#include "regolith/core/rover.hpp"
+#include "regolith/hal/registry.hpp"
+#include "regolith/mocks/backends.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/sfs/component.hpp"
+#include "regolith/soil_stiffness/component.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
+
+using namespace regolith;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+Sun sun_deg(double az, double el) {
+  return {az * kDeg, el * kDeg};
+}
+
+void expect_vec(const Vec3& v, double x, double y, double z, double tol = 1e-12) {
+  EXPECT_NEAR(v.x, x, tol);
+  EXPECT_NEAR(v.y, y, tol);
+  EXPECT_NEAR(v.z, z, tol);
+}
+
+std::string load_error(const std::string& yaml) {
+  static bool registered = false;
+  if (!registered) {
+    registered = true;
+    runtime::register_builtin_components();
+    mocks::register_mock_backends(hal::BackendRegistry::instance());
+    sfs::register_component();
+    soil::register_component();
+  }
+  try {
+    runtime::Application::load(Params::load_string(yaml, "old.yaml"),
+                               {.sim_time = true, .enable_dds = false, .open_devices = false});
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(Sun, LocalLevelCompassConvention) {
+  // Compass azimuth: 0 = the heading at start (+x), 90 deg = to the right (-y), elevation up.
+  expect_vec(sun_deg(0, 0).local_level(), 1, 0, 0);
+  expect_vec(sun_deg(90, 0).local_level(), 0, -1, 0);
+  expect_vec(sun_deg(270, 0).local_level(), 0, 1, 0);
+  expect_vec(sun_deg(123, 90).local_level(), 0, 0, 1, 1e-12);
+}
+
+TEST(Sun, IntoTheFramesOfACameraOnATiltedRover) {
+  // Sun due right of the rover's start heading, 30 deg high: (0, -cos 30, sin 30) local level.
+  const Sun sun = sun_deg(90, 30);
+  const double c30 = std::cos(30 * kDeg), s30 = std::sin(30 * kDeg);
+  // Rover pitched 10 deg nose-down (REP-103: +pitch about +y), camera pitched 20 deg down on it:
+  // the optical axis is 30 deg below the horizon in the plane of x and z. By hand: in the camera
+  // link frame the sun is (-sin 30 sin 30, -cos 30, cos 30 sin 30) = (-0.25, -0.866, 0.433);
+  // optical (x right = -y, y down = -z, z forward = x) = (0.866, -0.433, -0.25).
+  const Attitude pitched{.pitch_rad = 10 * kDeg};
+  const Pose mount{.x_m = 0.3, .z_m = 0.9, .pitch_rad = 20 * kDeg};
+  expect_vec(sun_in_body(sun, pitched), -std::sin(10 * kDeg) * s30, -c30, std::cos(10 * kDeg) * s30);
+  expect_vec(sun_in_optical(sun, mount, pitched), c30, -s30 * c30, -s30 * s30);
+  // The same camera on a level rover sees the sun 10 deg differently along the optical axis only.
+  const Vec3 level = sun_in_optical(sun, mount);
+  EXPECT_NEAR(level.x, c30, 1e-12);
+  EXPECT_NEAR(level.z, -std::sin(20 * kDeg) * s30, 1e-12);
+  // Rover rolled 20 deg left side up: the right-hand sun rises to 50 deg in the body frame.
+  const Vec3 rolled = sun_in_body(sun, {.roll_rad = 20 * kDeg});
+  EXPECT_NEAR(elevation(rolled), 50 * kDeg, 1e-12);
+  EXPECT_NEAR(azimuth_ccw(rolled), -90 * kDeg, 1e-12);
+  // A camera looking back (yaw pi): the right-hand sun is on the left of its ground frame.
+  RoverCamera rear;
+  rear.mount = {.z_m = 1.2, .pitch_rad = 0.61, .yaw_rad = 180 * kDeg};
+  const common::GroundSun g = common::ground_sun(sun, rear);
+  EXPECT_NEAR(g.azimuth_rad, 90 * kDeg, 1e-12);
+  EXPECT_NEAR(g.elevation_rad, 30 * kDeg, 1e-12);
+}
+
+TEST(Sun, ImageLightMatchesTheIndependentSceneRenderer) {
+  // mocks/terrain_scene converts a world sun into the image frame its own way (for rendering);
+  // the rover description's conversion must agree with it for any mount.
+  for (double pitch : {0.0, 0.2, 0.35, 0.7})
+    for (double roll : {0.0, 0.1, -0.25})
+      for (double az_ccw : {0.3, 1.5, 2.5, -2.0})
+        for (double el : {0.3, 0.6, 1.1}) {
+          terrain_scene::CameraPose cam;
+          cam.pitch_rad = pitch;
+          cam.roll_rad = roll;
+          const cv::Vec2d want = terrain_scene::camera_light(cam, terrain_scene::Sun{az_ccw, el});
+          RoverCamera rc;
+          rc.mount = {.z_m = 0.5, .roll_rad = roll, .pitch_rad = pitch};
+          const common::CameraLight got = common::camera_light(Sun{-az_ccw, el}, rc);
+          EXPECT_NEAR(got.light.slant_rad, want[0], 1e-9) << pitch << " " << roll << " " << az_ccw << " " << el;
+          const double dt = std::remainder(got.light.tilt_rad - want[1], 2 * 3.14159265358979323846);
+          if (want[0] > 1e-6) {
+            EXPECT_NEAR(dt, 0.0, 1e-9) << pitch << " " << roll << " " << az_ccw << " " << el;
+          }
+          EXPECT_EQ(got.in_view, want[0] < 0.5 * 3.14159265358979323846);
+        }
+}
+
+TEST(CameraCalibration, RosCalibrationFileAndInlineAgree) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_rover_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "front.yaml") << R"(image_width: 640
+image_height: 480
+camera_name: front
+camera_matrix: {rows: 3, cols: 3, data: [512.5, 0, 320.1, 0, 511.0, 241.7, 0, 0, 1]}
+distortion_model: plumb_bob
+distortion_coefficients: {rows: 1, cols: 5, data: [-0.21, 0.04, 0.001, -0.002, 0.0]}
+rectification_matrix: {rows: 3, cols: 3, data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}
+projection_matrix: {rows: 3, cols: 4, data: [512.5, 0, 320.1, 0, 0, 511.0, 241.7, 0, 0, 0, 1, 0]}
+)";
+  Params root = Params::load_string(R"(rover:
+  cameras:
+    a: {camera_info_url: file://front.yaml, mount: {z_m: 0.9, pitch_rad: 0.35}}
+    b:
+      camera_info: {width: 640, height: 480, k: [512.5, 0, 320.1, 0, 511.0, 241.7, 0, 0, 1],
+                    distortion_model: plumb_bob, d: [-0.21, 0.04, 0.001, -0.002, 0.0]}
+      mount: {z_m: 0.9, pitch_rad: 0.35}
+)",
+                                    (dir / "deploy.yaml").string());
+  const RoverDescription d = read_rover_description(root, dir.string());
+  ASSERT_EQ(d.cameras.size(), 2u);
+  const auto ma = common::camera_model_of(d.cameras.at("a")), mb = common::camera_model_of(d.cameras.at("b"));
+  EXPECT_EQ(ma.width, 640);
+  EXPECT_DOUBLE_EQ(ma.fx, 512.5);
+  EXPECT_DOUBLE_EQ(ma.fy, 511.0);
+  EXPECT_DOUBLE_EQ(ma.cy, 241.7);
+  EXPECT_DOUBLE_EQ(ma.k1, -0.21);
+  EXPECT_DOUBLE_EQ(ma.p2, -0.002);
+  EXPECT_DOUBLE_EQ(ma.mount_height_m, 0.9);
+  EXPECT_EQ(std::make_tuple(ma.fx, ma.fy, ma.cx, ma.cy, ma.k1, ma.k2, ma.p1, ma.p2, ma.k3),
+            std::make_tuple(mb.fx, mb.fy, mb.cx, mb.cy, mb.k1, mb.k2, mb.p1, mb.p2, mb.k3));
+  EXPECT_EQ(d.cameras.at("a").frame_id, "a_optical_frame");
+
+  // Errors name the file and the field.
+  std::ofstream(dir / "bad.yaml")
+      << "image_width: 640\nimage_height: 480\ncamera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n";
+  Params bad = Params::load_string("rover:\n  cameras:\n    a: {camera_info_url: file://bad.yaml, mount: {z_m: 1}}\n",
+                                   (dir / "deploy.yaml").string());
+  try {
+    read_rover_description(bad, dir.string());
+    FAIL() << "9-number K accepted with 2";
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("rover.cameras.a.camera_info_url: " + (dir / "bad.yaml").string() + ":3:"), std::string::npos)
+        << m;
+    EXPECT_NE(m.find("camera_matrix.data: needs 9 numbers, got 2"), std::string::npos) << m;
+  }
+  Params both = Params::load_string(
+      "rover:\n  cameras:\n    a: {camera_info_url: file://front.yaml, camera_info: {width: 8}, mount: {z_m: 1}}\n",
+      "d.yaml");
+  EXPECT_THROW(read_rover_description(both, dir.string()), ConfigError);
+  Params rational = Params::load_string(
+      "rover:\n  cameras:\n    a:\n      camera_info: {width: 64, height: 48, k: [50, 0, 32, 0, 50, 24, 0, 0, 1], "
+      "distortion_model: rational_polynomial}\n      mount: {z_m: 1}\n",
+      "d.yaml");
+  try {
+    read_rover_description(rational, dir.string());
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("d.yaml:4:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(
+                  "rover.cameras.a.camera_info.distortion_model: 'rational_polynomial' is not supported"),
+              std::string::npos)
+        << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(OldDeployment, EachRepeatedGeometryIsALocatedErrorSayingWhatToWrite) {
+  // Fragments of the format before the rover description (config/mock_rover.yaml at 8b6dd0b).
+  const std::string head = R"(name: old
+dds: {enabled: false}
+rover:
+  cameras:
+    front:
+      camera_info: {width: 320, height: 240, k: [200, 0, 159.5, 0, 200, 119.5, 0, 0, 1]}
+      mount: {z_m: 0.5, pitch_rad: 0.35}
+sun: {azimuth_deg: 216.76, elevation_deg: 34.38}
+rate_groups: [{name: t, rate_hz: 2, members: [sfs]}]
+)";
+  const std::string scene_old = load_error(head + R"(devices:
+  cameras:
+    front: {backend: synthetic_terrain, camera_height_m: 0.5}
+components:
+  sfs: {type: sfs, camera: front}
+)");
+  EXPECT_NE(scene_old.find("old.yaml:12:"), std::string::npos) << scene_old;
+  EXPECT_NE(
+      scene_old.find("devices.cameras.front.camera_height_m: no longer read here: the camera is described once, "
+                     "in rover.cameras.front {camera_info: {width, height, k, d}, mount: {x_m, y_m, z_m, roll_rad, "
+                     "pitch_rad, yaw_rad}}"),
+      std::string::npos)
+      << scene_old;
+  const std::string sun_old = load_error(head + R"(devices:
+  cameras:
+    front: {backend: synthetic_terrain}
+components:
+  sfs: {type: sfs, camera: front, sun_slant_rad: 0.6185, sun_tilt_rad: -2.5904}
+)");
+  EXPECT_NE(sun_old.find("old.yaml:14:"), std::string::npos) << sun_old;
+  EXPECT_NE(sun_old.find("components.sfs.sun_slant_rad: no longer read here: the deployment has one sun: a top-level "
+                         "`sun: {azimuth_deg, elevation_deg}` block"),
+            std::string::npos)
+      << sun_old;
+  const std::string source_old = load_error(head + R"(devices:
+  cameras:
+    front: {backend: synthetic_terrain}
+components:
+  sfs: {type: sfs, camera: front, light_source: config}
+)");
+  EXPECT_NE(source_old.find("components.sfs.light_source: `config` (sun_slant_rad/sun_tilt_rad) is replaced by `sun`"),
+            std::string::npos)
+      << source_old;
+  // A camera without a calibration, and a calibration without a camera.
+  const std::string uncalibrated = load_error(R"(name: x
+dds: {enabled: false}
+sun: {azimuth_deg: 0, elevation_deg: 30}
+devices:
+  cameras:
+    front: {backend: synthetic_terrain}
+rate_groups: [{name: t, rate_hz: 2, members: [sfs]}]
+components:
+  sfs: {type: sfs, camera: front}
+)");
+  EXPECT_NE(uncalibrated.find("old.yaml:9:"), std::string::npos) << uncalibrated;
+  EXPECT_NE(uncalibrated.find("components.sfs.camera: camera 'front' has no calibration: declare it once as "
+                              "rover.cameras.front"),
+            std::string::npos)
+      << uncalibrated;
+  const std::string orphan = load_error(head + R"(devices:
+  cameras:
+    cam0: {backend: synthetic_terrain}
+components:
+  sfs: {type: sfs, camera: cam0}
+)");
+  EXPECT_NE(orphan.find("old.yaml:6:"), std::string::npos) << orphan;
+  EXPECT_NE(orphan.find("rover.cameras.front: no camera device named 'front' in devices.cameras"), std::string::npos)
+      << orphan;
+  // No sun at all, with the sun as the light source.
+  std::string no_sun = head;
+  no_sun.erase(no_sun.find("sun: {"), no_sun.find("rate_groups") - no_sun.find("sun: {"));
+  const std::string nosun = load_error(no_sun + R"(devices:
+  cameras:
+    front: {backend: synthetic_terrain}
+components:
+  sfs: {type: sfs, camera: front}
+)");
+  EXPECT_NE(nosun.find("sfs light_source sun needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block"),
+            std::string::npos)
+      << nosun;
+}
