@@ -14,6 +14,7 @@ PACKAGES=(
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
+  graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
   # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
   # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3

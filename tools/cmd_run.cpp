@@ -91,13 +91,21 @@ const bool registered = add_command([](CLI::App& app) {
 
   CLI::App* config = group(app, "config", "deployment configuration tools");
   auto file = std::make_shared<std::string>();
-  CLI::App* check = config->add_subcommand("check", "validate a deployment and print the resolved configuration");
+  auto dot = std::make_shared<bool>(false);
+  CLI::App* check = config->add_subcommand(
+      "check", "validate a deployment and print the resolved configuration and the data-flow graph");
   check->add_option("file", *file, "deployment YAML (default: the embedded mocked rover)");
-  check->callback([file] {
+  check->add_flag("--dot", *dot, "print only the data-flow graph, in Graphviz dot (| dot -Tsvg > flow.svg)");
+  check->callback([file, dot] {
     auto loaded = runtime::Application::load(load_config(*file), {.sim_time = true, .enable_dds = false, .open_devices = false});
+    if (*dot) {
+      loaded->dataflow().print_dot(std::cout);
+      return;
+    }
     std::cout << "# " << (file->empty() ? "<embedded>/config/mock_rover.yaml" : *file) << ": OK ("
               << loaded->view().groups.size() << " rate groups, " << loaded->view().components.size() << " components)\n";
     print_resolved(std::cout, loaded->resolved());
+    loaded->dataflow().print(std::cout);
   });
 });
 

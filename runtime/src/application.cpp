@@ -140,7 +140,9 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     c->name_ = name;
     c->type_ = type;
     if (!member_of.count(name)) p.fail({}, "component '" + name + "' is not a member of any rate group");
+    ctx.begin_component(name, comps.where(name));
     c->configure(p, ctx);
+    ctx.end_component();
     p.finish();
     c->state_.store(Lifecycle::kInactive);
     by_name[name] = c.get();
@@ -148,6 +150,12 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     app->components_.push_back(std::move(c));
   }
   comps.finish();
+
+  // ---- data flow: every consumed channel has one producer of its type, no cycle, order ----
+  for (const auto& g : group_cfgs) app->dataflow_.groups.push_back({g.name, g.members});
+  app->dataflow_.ports = ctx.ports();
+  app->dataflow_.check();
+  ctx.link();
 
   for (std::size_t gi = 0; gi < group_cfgs.size(); ++gi) {
     auto& c = group_cfgs[gi];

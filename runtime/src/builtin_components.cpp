@@ -113,7 +113,7 @@ class HealthComponent final : public Component {
     ctx_ = &ctx;
     stall_cycles_ = p.get<int>("stall_cycles", 3, {.min = 1, .max = 1000,
         .doc = "health cycles without a heartbeat before a component is reported stale"});
-    out_ = &ctx.channel<HealthSnapshot>("health/snapshot");
+    out_ = &ctx.produce<HealthSnapshot>("health/snapshot");
     hardware_id_ = p.get<std::string>("hardware_id", "regolith", {.doc = "hardware_id of every DiagnosticStatus"});
     diag_ = make_outbox<DiagnosticArray>(ctx, "/diagnostics", dds::OutboxMode::kLatest, [](DiagnosticArray& m) {
       dds::reserve(m, dds::DiagnosticArrayCapacity{static_cast<std::uint32_t>(kMaxHealthEntries), kValuesPerStatus,
@@ -269,7 +269,7 @@ class JointStatePublisher final : public Component {
         p.get<double>("stale_timeout_s", 0.5, {.unit = "s", .min = 0.0, .min_exclusive = true,
                                                .doc = "a wheel without samples for this long is stale"}) * 1e9);
     if (enc_->wheel_count() > kMaxJoints) p.fail("encoders", "more wheels than JointState supports (16)");
-    out_ = &ctx.channel<JointStateSample>("joint_states");
+    out_ = &ctx.produce<JointStateSample>("joint_states");
     input_ = &watch_input("encoders", stale_timeout_);
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of joint_states"});
     const auto& names = enc_->wheel_names();

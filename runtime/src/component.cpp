@@ -85,8 +85,9 @@ auto& find_device(Map& m, Params& p, std::string_view key, const char* kind) {
 }  // namespace
 
 const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
-  camera(p, key);  // the device must exist: a missing key or an unknown name is reported there
+  find_device(cameras_, p, key, "camera");  // must exist: a missing key or unknown name is reported
   const std::string name = p.node()[std::string(key)].Scalar();
+  declare(Port::Kind::kDevice, name, "calibration");  // reads the camera's geometry, not its frames
   const RoverCamera* c = rover_.camera(name);
   if (c == nullptr)
     p.fail(key, "camera '" + name + "' has no calibration: declare it once as rover.cameras." + name +
@@ -100,9 +101,15 @@ const Sun& Context::sun(Params& p, const std::string& who) const {
   return *rover_.sun;
 }
 
-hal::Camera& Context::camera(Params& p, std::string_view key) { return find_device(cameras_, p, key, "camera"); }
+hal::Camera& Context::camera(Params& p, std::string_view key) {
+  hal::Camera& c = find_device(cameras_, p, key, "camera");
+  declare(Port::Kind::kDevice, p.node()[std::string(key)].Scalar(), "camera");
+  return c;
+}
 hal::WheelEncoders& Context::encoders(Params& p, std::string_view key) {
-  return find_device(encoders_, p, key, "encoder set");
+  hal::WheelEncoders& e = find_device(encoders_, p, key, "encoder set");
+  declare(Port::Kind::kDevice, p.node()[std::string(key)].Scalar(), "encoders");
+  return e;
 }
 
 }  // namespace regolith::runtime

@@ -166,17 +166,10 @@ class SamsComponent final : public runtime::Component {
     saliency_.create(size_, CV_32F);
     for (int k = 0; k < 2; ++k) process(gray, height);
 
-    const cv::Size sz = size_;
-    dtm_ = &ctx.channel<sfs::DtmFrame>(sfs::kDtmChannel, 4, [sz] {
-      sfs::DtmFrame f;
-      f.gray.create(sz, CV_8U);
-      f.height.create(sz, CV_32F);
-      f.valid.create(sz, CV_8U);
-      return f;
-    });
-    rocks_out_ = &ctx.channel<RockFrame>(kRocksChannel, 4);
+    dtm_ = &ctx.consume<sfs::DtmFrame>(sfs::kDtmChannel);
+    rocks_out_ = &ctx.produce<RockFrame>(kRocksChannel, 4);
     const double res = grid_res_, lx = grid_lx_, ly = grid_ly_, gcx = grid_cx_, gcy = grid_cy_;
-    prob_out_ = &ctx.channel<RockProbabilityFrame>(kRockProbabilityChannel, 4, [=] {
+    prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [=] {
       RockProbabilityFrame f;
       f.resolution_m = res;
       f.length_x_m = lx;
@@ -356,7 +349,7 @@ class SamsComponent final : public runtime::Component {
   cv::Mat saliency_;
   std::vector<Detection> dets_;
   RockFrame last_;
-  LatestPool<sfs::DtmFrame>* dtm_ = nullptr;
+  const runtime::Input<sfs::DtmFrame>* dtm_ = nullptr;
   LatestPool<RockFrame>* rocks_out_ = nullptr;
   LatestPool<RockProbabilityFrame>* prob_out_ = nullptr;
   std::shared_ptr<dds::Outbox<RockArrayMsg>> msg_;

@@ -143,7 +143,7 @@ class SfsComponent final : public runtime::Component {
     sfs_->compute(gray_, light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5}), res_);
     const cv::Size sz = size_;
     const direct_depth::CameraModel* model = model_.get();
-    out_ = &ctx.channel<DtmFrame>(kDtmChannel, 4, [sz, model] {
+    out_ = &ctx.produce<DtmFrame>(kDtmChannel, 4, [sz, model] {
       DtmFrame f;
       f.gray.create(sz, CV_8U);
       f.height.create(sz, CV_32F);

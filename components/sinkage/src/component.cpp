@@ -212,7 +212,7 @@ class WheelSinkageComponent final : public runtime::Component {
                                      {.doc = "wheel name in the published message (default: the encoder wheel)"});
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of terrain/wheel_sinkage"});
 
-    out_ = &ctx.channel<WheelSinkageSample>(kSinkageChannel, 4);
+    out_ = &ctx.produce<WheelSinkageSample>(kSinkageChannel, 4);
     cam_watch_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec / 2);
     enc_watch_ = &watch_input("encoders", enc_timeout_);
 

@@ -44,8 +44,8 @@ class SoilStiffnessComponent final : public runtime::Component {
       p.fail({}, e.what());
     }
     estimator_->reserve(estimate_);
-    out_ = &ctx.channel<SoilStiffnessSample>(kSoilChannel);
-    layer_ = &ctx.channel<SinkageLayer>(kSinkageLayerChannel, 2,
+    out_ = &ctx.produce<SoilStiffnessSample>(kSoilChannel);
+    layer_ = &ctx.produce<SinkageLayer>(kSinkageLayerChannel, 2,
                                         [] { return SinkageLayer{}; });
     input_ = &watch_input("camera", static_cast<TimeNs>(stale_s * 1e9));
     if (dds::Participant* dp = ctx.dds()) {

@@ -108,39 +108,19 @@ class TraversabilityComponent final : public runtime::Component {
 #ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
       if (name == "rock_probability") {
         rock_index_ = full_.data.size() - 1;
-        // Whichever of sams / traversability configures first creates the channel: both describe
-        // the same grid (sams is configured with the traversability grid's geometry).
-        const int nx = map_.size_x(), ny = map_.size_y();
-        const GridMap& g = map_;
-        rocks_ = &ctx.channel<saliency::RockProbabilityFrame>(saliency::kRockProbabilityChannel, 4, [nx, ny, &g] {
-          saliency::RockProbabilityFrame f;
-          f.resolution_m = g.resolution_m;
-          f.length_x_m = g.length_x_m;
-          f.length_y_m = g.length_y_m;
-          f.center_x_m = g.center_x_m;
-          f.center_y_m = g.center_y_m;
-          f.probability.create(nx, ny, CV_32F);
-          f.probability.setTo(std::numeric_limits<float>::quiet_NaN());
-          return f;
-        });
+        rocks_ = &ctx.consume<saliency::RockProbabilityFrame>(saliency::kRockProbabilityChannel);
       }
 #endif
 #ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
       if (name == "sinkage") {
         sinkage_index_ = full_.data.size() - 1;
-        sinkage_ = &ctx.channel<soil::SinkageLayer>(soil::kSinkageLayerChannel, 2, [] { return soil::SinkageLayer{}; });
+        sinkage_ = &ctx.consume<soil::SinkageLayer>(soil::kSinkageLayerChannel);
       }
 #endif
     }
     const GridMap proto = full_;
-    dtm_ = &ctx.channel<sfs::DtmFrame>(sfs::kDtmChannel, 4, [w, h] {
-      sfs::DtmFrame f;
-      f.gray.create(h, w, CV_8U);
-      f.height.create(h, w, CV_32F);
-      f.valid.create(h, w, CV_8U);
-      return f;
-    });
-    out_ = &ctx.channel<GridMapFrame>(kGridMapChannel, 4, [proto] {
+    dtm_ = &ctx.consume<sfs::DtmFrame>(sfs::kDtmChannel);
+    out_ = &ctx.produce<GridMapFrame>(kGridMapChannel, 4, [proto] {
       GridMapFrame f;
       f.map = proto;
       for (auto& m : f.map.data) m = m.clone();
@@ -257,18 +237,18 @@ class TraversabilityComponent final : public runtime::Component {
   GridMap full_;                 // the mapper's layers + extra layers, as published
   std::size_t base_layers_ = 0;
 #ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
-  LatestPool<saliency::RockProbabilityFrame>* rocks_ = nullptr;
+  const runtime::Input<saliency::RockProbabilityFrame>* rocks_ = nullptr;
   std::size_t rock_index_ = 0;
 #endif
 #ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
-  LatestPool<soil::SinkageLayer>* sinkage_ = nullptr;
+  const runtime::Input<soil::SinkageLayer>* sinkage_ = nullptr;
   std::size_t sinkage_index_ = 0;
 #endif
   std::unique_ptr<direct_depth::DirectDepth> depth_;
   std::unique_ptr<TraversabilityMapper> mapper_;
   bool ground_ = true;
   GridMap map_;
-  LatestPool<sfs::DtmFrame>* dtm_ = nullptr;
+  const runtime::Input<sfs::DtmFrame>* dtm_ = nullptr;
   LatestPool<GridMapFrame>* out_ = nullptr;
   std::shared_ptr<dds::Outbox<GridMapMsg>> msg_;
   runtime::InputWatch* input_ = nullptr;

@@ -10,6 +10,7 @@
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/component.hpp"
 #include "regolith/runtime/context.hpp"
+#include "regolith/runtime/dataflow.hpp"
 #include "regolith/runtime/rate_group.hpp"
 
 namespace regolith::dds {
@@ -48,6 +49,8 @@ class Application {
   Clock& clock();
   const SystemView& view() const { return view_; }
   const std::vector<ResolvedParam>& resolved() const { return *resolved_; }
+  /// The checked data-flow graph (components, rate groups, devices, channels).
+  const DataFlowGraph& dataflow() const { return dataflow_; }
   dds::Participant* dds() { return dds_.get(); }
   bool sim_time() const { return opts_.sim_time; }
   const std::string& name() const { return name_; }
@@ -63,6 +66,7 @@ class Application {
   std::vector<std::unique_ptr<Component>> components_;
   std::vector<std::unique_ptr<RateGroup>> groups_;
   SystemView view_;
+  DataFlowGraph dataflow_;
   std::shared_ptr<std::vector<ResolvedParam>> resolved_;
   bool started_ = false;
 };

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 #include <typeindex>
+#include <vector>
 
 #include "regolith/core/channels.hpp"
 #include "regolith/core/params.hpp"
@@ -13,6 +14,7 @@
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
+#include "regolith/runtime/dataflow.hpp"
 
 namespace regolith::dds {
 class Participant;
@@ -21,6 +23,23 @@ class Participant;
 namespace regolith::runtime {
 
 struct SystemView;
+
+/// A consumed channel as a component holds it: connected by the loader once every component is
+/// configured (Context::link), so read it from activate() / step() only.
+template <class T>
+class Input {
+ public:
+  using Lease = typename LatestPool<T>::Lease;
+  /// The newest value (empty lease when none was written yet).
+  Lease acquire() const { return pool_ != nullptr ? pool_->acquire() : Lease{}; }
+  bool connected() const { return pool_ != nullptr; }
+  const std::string& name() const { return name_; }
+
+ private:
+  friend class Context;
+  std::string name_;
+  const LatestPool<T>* pool_ = nullptr;
+};
 
 class Context {
  public:
@@ -49,15 +68,58 @@ class Context {
   const std::map<std::string, std::unique_ptr<hal::Camera>>& cameras() const { return cameras_; }
   const std::map<std::string, std::unique_ptr<hal::WheelEncoders>>& encoders() const { return encoders_; }
 
-  /// A named latest-value channel between components (created by the first caller, shared by the
-  /// rest). The type must match between producer and consumers.
+  /// Declares that the component being configured produces channel `name` with payload T, and
+  /// creates its slots now with `make` (one producer per channel, checked by link()).
+  template <class T>
+  LatestPool<T>& produce(const std::string& name, std::size_t max_readers = 4,
+                         const std::function<T()>& make = [] { return T{}; }) {
+    declare(Port::Kind::kProduces, name, type_name(typeid(T)));
+    auto it = channels_.find(name);
+    if (it != channels_.end() && it->second.type != std::type_index(typeid(T)))
+      throw ConfigError(component_where_ + ": components." + component_ + ": produces channel '" + name + "' as " +
+                        type_name(typeid(T)) + " but it already carries " + it->second.type_name);
+    return channel<T>(name, max_readers, make);
+  }
+
+  /// Declares that the component being configured consumes channel `name` with payload T. The
+  /// input is connected by link() after every component is configured.
+  template <class T>
+  Input<T>& consume(const std::string& name) {
+    declare(Port::Kind::kConsumes, name, type_name(typeid(T)));
+    auto in = std::make_shared<Input<T>>();
+    in->name_ = name;
+    Input<T>& ref = *in;
+    links_.push_back([this, name, in] {
+      const auto it = channels_.find(name);
+      if (it != channels_.end() && it->second.type == std::type_index(typeid(T)))
+        in->pool_ = static_cast<const LatestPool<T>*>(it->second.ptr.get());
+    });
+    keep_.push_back(std::move(in));
+    return ref;
+  }
+
+  /// The loader: which component is configuring now (its name and "file:line:col"), so that
+  /// produce / consume / camera / encoders record its ports.
+  void begin_component(const std::string& name, const std::string& where) {
+    component_ = name;
+    component_where_ = where;
+  }
+  void end_component() { component_.clear(); }
+  const std::vector<Port>& ports() const { return ports_; }
+  /// Connects every consumed input to its producer's channel; call after DataFlowGraph::check().
+  void link() {
+    for (auto& f : links_) f();
+  }
+
+  /// A named latest-value channel by name, for observers outside the component graph (the live
+  /// summary, tests): created on first use, the type must match. Components use produce/consume.
   template <class T>
   LatestPool<T>& channel(const std::string& name, std::size_t max_readers = 4,
                          const std::function<T()>& make = [] { return T{}; }) {
     auto it = channels_.find(name);
     if (it == channels_.end()) {
       auto pool = std::make_shared<LatestPool<T>>(max_readers, make);
-      channels_.emplace(name, ChannelEntry{std::type_index(typeid(T)), pool});
+      channels_.emplace(name, ChannelEntry{std::type_index(typeid(T)), type_name(typeid(T)), pool});
       return *pool;
     }
     if (it->second.type != std::type_index(typeid(T)))
@@ -77,8 +139,19 @@ class Context {
  private:
   struct ChannelEntry {
     std::type_index type;
+    std::string type_name;
     std::shared_ptr<void> ptr;
   };
+  void declare(Port::Kind kind, const std::string& name, const std::string& type) {
+    if (component_.empty()) return;
+    for (const auto& q : ports_)
+      if (q.kind == kind && q.component == component_ && q.name == name && q.type == type) return;
+    ports_.push_back(Port{kind, component_, name, type, component_where_});
+  }
+  std::string component_, component_where_;
+  std::vector<Port> ports_;
+  std::vector<std::function<void()>> links_;
+  std::vector<std::shared_ptr<void>> keep_;
   Clock& clock_;
   std::string config_dir_;
   RoverDescription rover_;
