@@ -129,16 +129,18 @@ void DataFlowGraph::print(std::ostream& os) const {
   }
   for (const auto& p : ports) {
     if (p.kind != Kind::kDevice) continue;
-    if (p.type == "calibration") os << "camera " << p.name << " (calibration) --> " << p.component << "\n";
-    else os << p.type << " " << p.name << " --> " << p.component << "\n";
+    if (p.type == "calibration")
+      os << "camera " << p.name << " (calibration) --> " << p.component << "\n";
+    else
+      os << p.type << " " << p.name << " --> " << p.component << "\n";
   }
 }
 
 void DataFlowGraph::print_dot(std::ostream& os) const {
   os << "digraph regolith {\n  rankdir=LR;\n  node [fontname=\"Helvetica\"];\n";
   for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-    os << "  subgraph " << dot_id("cluster_" + groups[gi].name) << " {\n    label=" << dot_id("rate group " + groups[gi].name)
-       << ";\n    style=rounded;\n";
+    os << "  subgraph " << dot_id("cluster_" + groups[gi].name)
+       << " {\n    label=" << dot_id("rate group " + groups[gi].name) << ";\n    style=rounded;\n";
     for (const auto& m : groups[gi].members) os << "    " << dot_id(m) << " [shape=box];\n";
     os << "  }\n";
   }
@@ -152,7 +154,8 @@ void DataFlowGraph::print_dot(std::ostream& os) const {
     if (calibration && frame_edges.count(p.name + ">" + p.component)) continue;
     const std::string kind = calibration ? "camera" : p.type;
     const std::string id = kind + ":" + p.name;
-    if (devices.insert(id).second) os << "  " << dot_id(id) << " [shape=ellipse, label=" << dot_id(kind + " " + p.name) << "];\n";
+    if (devices.insert(id).second)
+      os << "  " << dot_id(id) << " [shape=ellipse, label=" << dot_id(kind + " " + p.name) << "];\n";
     os << "  " << dot_id(id) << " -> " << dot_id(p.component)
        << (calibration ? " [style=dashed, label=\"calibration\"]" : "") << ";\n";
   }
@@ -163,7 +166,8 @@ void DataFlowGraph::print_dot(std::ostream& os) const {
     if (p.kind != Kind::kConsumes) continue;
     const auto it = producer.find(p.name);
     if (it == producer.end()) continue;
-    os << "  " << dot_id(it->second->component) << " -> " << dot_id(p.component) << " [label=" << dot_id(p.name) << "];\n";
+    os << "  " << dot_id(it->second->component) << " -> " << dot_id(p.component) << " [label=" << dot_id(p.name)
+       << "];\n";
   }
   os << "}\n";
 }

@@ -35,12 +35,16 @@ class Node final : public Component {
   void configure(Params& p, Context& ctx) override {
     const auto payload = p.get<std::string>("payload", "meters", {.choices = {"meters", "counts"}});
     for (const auto& name : p.get<std::vector<std::string>>("consumes", {})) {
-      if (payload == "meters") in_.push_back(&ctx.consume<Meters>(name));
-      else ctx.consume<Counts>(name);
+      if (payload == "meters")
+        in_.push_back(&ctx.consume<Meters>(name));
+      else
+        ctx.consume<Counts>(name);
     }
     for (const auto& name : p.get<std::vector<std::string>>("produces", {})) {
-      if (payload == "meters") out_.push_back(&ctx.produce<Meters>(name));
-      else ctx.produce<Counts>(name);
+      if (payload == "meters")
+        out_.push_back(&ctx.produce<Meters>(name));
+      else
+        ctx.produce<Counts>(name);
     }
   }
   void step(const CycleInfo&) override {
@@ -88,8 +92,9 @@ TEST(DataFlow, ConsumerWithoutProducerIsALocatedError) {
   const std::string e = load_error(deployment("a, b", R"(  a: {type: node, produces: [depth]}
   b: {type: node, consumes: [dtm]}
 )"));
-  EXPECT_EQ(e, "flow.yaml:7:6: components.b: consumes channel 'dtm' (Meters), which no component of this deployment "
-               "produces (produced here: 'depth')");
+  EXPECT_EQ(e,
+            "flow.yaml:7:6: components.b: consumes channel 'dtm' (Meters), which no component of this deployment "
+            "produces (produced here: 'depth')");
 }
 
 TEST(DataFlow, TwoProducersAreALocatedError) {
@@ -97,8 +102,9 @@ TEST(DataFlow, TwoProducersAreALocatedError) {
   b: {type: node, produces: [dtm]}
   c: {type: node, consumes: [dtm]}
 )"));
-  EXPECT_EQ(e, "flow.yaml:7:6: components.b: produces channel 'dtm', which 'a' already produces: a channel has "
-               "exactly one producer");
+  EXPECT_EQ(e,
+            "flow.yaml:7:6: components.b: produces channel 'dtm', which 'a' already produces: a channel has "
+            "exactly one producer");
 }
 
 TEST(DataFlow, PayloadTypeMismatchIsALocatedError) {
@@ -113,16 +119,18 @@ TEST(DataFlow, CycleIsALocatedError) {
   b: {type: node, produces: [y], consumes: [x]}
   c: {type: node, produces: [z], consumes: [y]}
 )"));
-  EXPECT_EQ(e, "flow.yaml:6:6: components.a: data-flow cycle a -> b -> c -> a: each component would read what it "
-               "wrote a cycle earlier; break the loop");
+  EXPECT_EQ(e,
+            "flow.yaml:6:6: components.a: data-flow cycle a -> b -> c -> a: each component would read what it "
+            "wrote a cycle earlier; break the loop");
 }
 
 TEST(DataFlow, ConsumerAheadOfItsProducerInOneRateGroupIsALocatedError) {
   const std::string e = load_error(deployment("b, a", R"(  a: {type: node, produces: [dtm]}
   b: {type: node, consumes: [dtm]}
 )"));
-  EXPECT_EQ(e, "flow.yaml:7:6: components.b: runs before 'a', the producer of 'dtm', in rate group 'g': it would "
-               "read the previous cycle's value; list 'a' first in members");
+  EXPECT_EQ(e,
+            "flow.yaml:7:6: components.b: runs before 'a', the producer of 'dtm', in rate group 'g': it would "
+            "read the previous cycle's value; list 'a' first in members");
 }
 
 TEST(DataFlow, LinkedChainRunsInOrderAndIsPrinted) {
@@ -154,7 +162,8 @@ TEST(DataFlow, ConfigCheckDotOfTheMockRoverParsesWithGraphviz) {
   GTEST_SKIP() << "the regolith executable is not part of this build";
 #else
   namespace fs = std::filesystem;
-  if (std::system("command -v dot > /dev/null 2>&1") != 0) GTEST_FAIL() << "Graphviz `dot` missing: run deploy/setup.sh";
+  if (std::system("command -v dot > /dev/null 2>&1") != 0)
+    GTEST_FAIL() << "Graphviz `dot` missing: run deploy/setup.sh";
   const fs::path dir = fs::temp_directory_path() / ("regolith_flow_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string cmd = std::string(REGOLITH_EXE) + " config check --dot > " + (dir / "flow.dot").string() + " 2> " +

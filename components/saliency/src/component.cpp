@@ -19,7 +19,8 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
-#include "regolith/sfs/component.hpp"
+#include "regolith/common/grid_params.hpp"
+#include "regolith/common/payloads.hpp"
 
 namespace regolith::saliency {
 namespace {
@@ -99,19 +100,14 @@ class SamsComponent final : public runtime::Component {
     }
 
     // ---- grid layer (traversability grid geometry) ----
-    grid_res_ = p.get<double>("resolution_m", 0.05, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid cell size (= traversability)"});
-    grid_lx_ = p.get<double>("length_x_m", 4.0, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid extent along x (= traversability)"});
-    grid_ly_ = p.get<double>("length_y_m", 4.0, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid extent along y (= traversability)"});
-    grid_cx_ = p.get<double>("center_x_m", 3.0, {.unit = "m", .doc = "grid centre ahead of the rover (= traversability)"});
-    grid_cy_ = p.get<double>("center_y_m", 0.0, {.unit = "m", .doc = "grid centre, left positive (= traversability)"});
+    grid_ = common::read_grid_geometry(p, {0.05, 4.0, 4.0, 3.0, 0.0}, "rock_probability grid (= the traversability grid)");
     max_range_m_ = p.get<double>("max_range_m", 10.0, {.unit = "m", .min = 0.0, .min_exclusive = true,
                                                        .doc = "pixels farther than this flat-ground range (and above the horizon) are not searched"});
     const std::string frame_id = p.get<std::string>("frame_id", "camera_optical_frame",
                                                     {.doc = "header.frame_id of terrain/rocks (image-space boxes)"});
     const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
                                                                     .doc = "the DTM input is stale after this long"});
-    const int nx = std::max(1, static_cast<int>(std::lround(grid_lx_ / grid_res_)));
-    const int ny = std::max(1, static_cast<int>(std::lround(grid_ly_ / grid_res_)));
+    const int nx = grid_.size_x(), ny = grid_.size_y();
     if (static_cast<long>(nx) * ny > 4'000'000L) p.fail("resolution_m", "grid has more than 4e6 cells");
 
     try {
@@ -142,8 +138,8 @@ class SamsComponent final : public runtime::Component {
     cell_pixel_.create(nx, ny, CV_32S);
     for (int i = 0; i < nx; ++i)
       for (int j = 0; j < ny; ++j) {
-        const double x = grid_cx_ + 0.5 * grid_lx_ - (i + 0.5) * grid_res_;
-        const double y = grid_cy_ + 0.5 * grid_ly_ - (j + 0.5) * grid_res_;
+        const cv::Point2d cell = grid_.cell_center(i, j);
+        const double x = cell.x, y = cell.y;
         int idx = -1;
         if (x > 0.0) {
           if (const auto px = dd->project(x, y)) {
@@ -166,16 +162,12 @@ class SamsComponent final : public runtime::Component {
     saliency_.create(size_, CV_32F);
     for (int k = 0; k < 2; ++k) process(gray, height);
 
-    dtm_ = &ctx.consume<sfs::DtmFrame>(sfs::kDtmChannel);
+    dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
     rocks_out_ = &ctx.produce<RockFrame>(kRocksChannel, 4);
-    const double res = grid_res_, lx = grid_lx_, ly = grid_ly_, gcx = grid_cx_, gcy = grid_cy_;
-    prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [=] {
+    const common::GridGeometry grid = grid_;
+    prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [grid, nx, ny] {
       RockProbabilityFrame f;
-      f.resolution_m = res;
-      f.length_x_m = lx;
-      f.length_y_m = ly;
-      f.center_x_m = gcx;
-      f.center_y_m = gcy;
+      static_cast<common::GridGeometry&>(f) = grid;
       f.probability.create(nx, ny, CV_32F);
       f.probability.setTo(std::numeric_limits<float>::quiet_NaN());
       return f;
@@ -204,11 +196,8 @@ class SamsComponent final : public runtime::Component {
   void step(const runtime::CycleInfo& c) override {
     auto lease = dtm_->acquire();
     if (!lease) return;
-    const sfs::DtmFrame& d = *lease;
-    if (have_last_ && d.sequence == last_seq_ && d.stamp == last_stamp_) return;
-    have_last_ = true;
-    last_seq_ = d.sequence;
-    last_stamp_ = d.stamp;
+    const common::DtmFrame& d = *lease;
+    if (!new_dtm_(lease.generation())) return;
     input_updated(*input_, c.now);
     if (d.gray.size() != size_ || d.gray.type() != CV_8UC1 || d.height.size() != size_) {
       count_error();
@@ -341,7 +330,7 @@ class SamsComponent final : public runtime::Component {
   std::unique_ptr<OpenCvSaliency> peer_;
   std::unique_ptr<BoxDetector> detector_;
   GroundRanger ranger_;
-  double grid_res_ = 0.05, grid_lx_ = 4.0, grid_ly_ = 4.0, grid_cx_ = 3.0, grid_cy_ = 0.0;
+  common::GridGeometry grid_;  ///< of the rock_probability layer
   double max_range_m_ = 10.0;
   cv::Mat roi_;                      // CV_8U 255 = searched, 0 = not searched
   cv::Mat work_gray_, work_height_;  // the DTM's images with the unsearched region filled
@@ -349,14 +338,12 @@ class SamsComponent final : public runtime::Component {
   cv::Mat saliency_;
   std::vector<Detection> dets_;
   RockFrame last_;
-  const runtime::Input<sfs::DtmFrame>* dtm_ = nullptr;
+  const runtime::Input<common::DtmFrame>* dtm_ = nullptr;
   LatestPool<RockFrame>* rocks_out_ = nullptr;
   LatestPool<RockProbabilityFrame>* prob_out_ = nullptr;
   std::shared_ptr<dds::Outbox<RockArrayMsg>> msg_;
   runtime::InputWatch* input_ = nullptr;
-  bool have_last_ = false;
-  std::uint64_t last_seq_ = 0;
-  TimeNs last_stamp_ = 0;
+  NewValue new_dtm_;
 };
 
 }  // namespace

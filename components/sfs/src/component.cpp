@@ -157,9 +157,7 @@ class SfsComponent final : public runtime::Component {
     hal::FrameLease lease;
     if (!cam_->latest(c.now, lease)) return;
     const hal::Frame& fr = *lease;
-    if (have_last_ && fr.sequence == last_seq_) return;
-    have_last_ = true;
-    last_seq_ = fr.sequence;
+    if (!new_frame_(fr.sequence)) return;
     input_updated(*input_, c.now);
     if (fr.corrupt || fr.image.empty() || fr.image.size() != size_ ||
         (fr.image.type() != CV_8UC1 && fr.image.type() != CV_8UC3)) {
@@ -233,8 +231,7 @@ class SfsComponent final : public runtime::Component {
   SfsResult res_;
   LatestPool<DtmFrame>* out_ = nullptr;
   runtime::InputWatch* input_ = nullptr;
-  bool have_last_ = false;
-  std::uint64_t last_seq_ = 0;
+  NewValue new_frame_;
 };
 
 }  // namespace

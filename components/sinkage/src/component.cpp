@@ -264,7 +264,7 @@ class WheelSinkageComponent final : public runtime::Component {
       stop_.store(false);
       writer_ = std::thread([this] { writer_loop(); });
     }
-    have_last_ = false;
+    new_frame_.reset();
     estimator_->reset_filter();
   }
 
@@ -332,9 +332,7 @@ class WheelSinkageComponent final : public runtime::Component {
     hal::FrameLease lease;
     if (!cam_->latest(c.now, lease)) return;
     const hal::Frame& fr = *lease;
-    if (have_last_ && fr.sequence == last_seq_) return;
-    have_last_ = true;
-    last_seq_ = fr.sequence;
+    if (!new_frame_(fr.sequence)) return;
     input_updated(*cam_watch_, c.now);
     frames_.fetch_add(1, std::memory_order_relaxed);
     if (fr.corrupt || fr.image.empty() || fr.image.size() != size_ || fr.image.type() != CV_8UC3) {
@@ -495,8 +493,7 @@ class WheelSinkageComponent final : public runtime::Component {
   std::shared_ptr<dds::Outbox<WheelSinkageMsg>> dds_;
   runtime::InputWatch* cam_watch_ = nullptr;
   runtime::InputWatch* enc_watch_ = nullptr;
-  bool have_last_ = false;
-  std::uint64_t last_seq_ = 0;
+  NewValue new_frame_;
 
   // counters (read by diagnostics() from the health thread)
   std::atomic<std::uint64_t> frames_{0}, valid_{0}, bad_frames_{0}, transducer_missing_{0};

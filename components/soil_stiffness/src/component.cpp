@@ -65,9 +65,7 @@ class SoilStiffnessComponent final : public runtime::Component {
     hal::FrameLease lease;
     if (!camera_->latest(c.now, lease)) return;
     const hal::Frame& f = *lease;
-    if (have_last_ && f.sequence == last_sequence_) return;
-    have_last_ = true;
-    last_sequence_ = f.sequence;
+    if (!new_frame_(f.sequence)) return;
     input_updated(*input_, c.now);
     if (f.corrupt) {
       count_error();
@@ -150,8 +148,7 @@ class SoilStiffnessComponent final : public runtime::Component {
   LatestPool<SinkageLayer>* layer_ = nullptr;
   runtime::InputWatch* input_ = nullptr;
   std::shared_ptr<dds::Outbox<SoilMsg>> dds_;
-  bool have_last_ = false;
-  std::uint64_t last_sequence_ = 0;
+  NewValue new_frame_;
   std::atomic<std::uint64_t> processed_{0};  // read by diagnostics() on the health thread
   std::atomic<std::uint64_t> estimates_{0};
 };

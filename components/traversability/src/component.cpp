@@ -12,14 +12,8 @@
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/runtime/application.hpp"
-#include "regolith/sfs/component.hpp"
-#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
-#include "regolith/saliency/component.hpp"
-#endif
-#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
-#include "regolith/soil_stiffness/component.hpp"
-#include "regolith/soil_stiffness/sinkage_layer.hpp"
-#endif
+#include "regolith/common/grid_params.hpp"
+#include "regolith/common/payloads.hpp"
 
 namespace regolith::traversability {
 namespace {
@@ -37,11 +31,13 @@ class TraversabilityComponent final : public runtime::Component {
     const int w = model.width, h = model.height;
 
     TraversabilityParams tp;
-    tp.resolution_m = p.get<double>("resolution_m", tp.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "grid cell size"});
-    tp.length_x_m = p.get<double>("length_x_m", tp.length_x_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "map extent along x (forward)"});
-    tp.length_y_m = p.get<double>("length_y_m", tp.length_y_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "map extent along y (left)"});
-    tp.center_x_m = p.get<double>("center_x_m", tp.center_x_m, {.unit = "m", .doc = "map centre ahead of the rover (body frame)"});
-    tp.center_y_m = p.get<double>("center_y_m", tp.center_y_m, {.unit = "m", .doc = "map centre, left positive"});
+    const common::GridGeometry grid = common::read_grid_geometry(
+        p, {tp.resolution_m, tp.length_x_m, tp.length_y_m, tp.center_x_m, tp.center_y_m}, "grid map");
+    tp.resolution_m = grid.resolution_m;
+    tp.length_x_m = grid.length_x_m;
+    tp.length_y_m = grid.length_y_m;
+    tp.center_x_m = grid.center_x_m;
+    tp.center_y_m = grid.center_y_m;
     tp.detrend_sigma_px = p.get<double>("detrend_sigma_px", tp.detrend_sigma_px, {.unit = "px", .min = 0.0, .doc = "low-frequency SfS drift removed (0 = off)"});
     tp.height_gain = p.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true, .doc = "extra multiplier on metric SfS heights"});
     tp.max_range_m = p.get<double>("max_range_m", tp.max_range_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "pixels farther than this are ignored"});
@@ -89,13 +85,7 @@ class TraversabilityComponent final : public runtime::Component {
       mapper_->compute_from_image(ramp, {0.5, 0.5}, map_);
     }
     // Layers other components measure, appended after the mapper's own (NaN until they arrive).
-    std::vector<std::string> available;
-#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
-    available.emplace_back("rock_probability");
-#endif
-#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
-    available.emplace_back("sinkage");
-#endif
+    const std::vector<std::string> available{common::kRockProbabilityLayer, "sinkage"};
     const auto extra = p.get<std::vector<std::string>>(
         "extra_layers", {}, {.choices = available,
                              .doc = "layers merged from other components: rock_probability (sams), sinkage (soil_stiffness)"});
@@ -105,21 +95,17 @@ class TraversabilityComponent final : public runtime::Component {
     for (const auto& name : extra) {
       full_.layers.push_back(name);
       full_.data.emplace_back(map_.size_x(), map_.size_y(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
-      if (name == "rock_probability") {
+      if (name == common::kRockProbabilityLayer) {
         rock_index_ = full_.data.size() - 1;
-        rocks_ = &ctx.consume<saliency::RockProbabilityFrame>(saliency::kRockProbabilityChannel);
+        rocks_ = &ctx.consume<common::RockProbabilityFrame>(common::kRockProbabilityChannel);
       }
-#endif
-#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
       if (name == "sinkage") {
         sinkage_index_ = full_.data.size() - 1;
-        sinkage_ = &ctx.consume<soil::SinkageLayer>(soil::kSinkageLayerChannel);
+        sinkage_ = &ctx.consume<common::SinkageLayer>(common::kSinkageLayerChannel);
       }
-#endif
     }
     const GridMap proto = full_;
-    dtm_ = &ctx.consume<sfs::DtmFrame>(sfs::kDtmChannel);
+    dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
     out_ = &ctx.produce<GridMapFrame>(kGridMapChannel, 4, [proto] {
       GridMapFrame f;
       f.map = proto;
@@ -155,11 +141,8 @@ class TraversabilityComponent final : public runtime::Component {
   void step(const runtime::CycleInfo& c) override {
     auto lease = dtm_->acquire();
     if (!lease) return;
-    const sfs::DtmFrame& d = *lease;
-    if (have_last_ && d.sequence == last_seq_ && d.stamp == last_stamp_) return;
-    have_last_ = true;
-    last_seq_ = d.sequence;
-    last_stamp_ = d.stamp;
+    const common::DtmFrame& d = *lease;
+    if (!new_dtm_(lease.generation())) return;
     input_updated(*input_, c.now);
     if (d.height.size() != cv::Size(depth_->model().width, depth_->model().height)) {
       count_error();
@@ -199,33 +182,27 @@ class TraversabilityComponent final : public runtime::Component {
 
  private:
   // Copies the newest layers of other components into full_ (NaN when absent or mismatched).
-  void merge_extra_layers([[maybe_unused]] std::uint64_t sequence) {
+  void merge_extra_layers(std::uint64_t sequence) {
     constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
     if (rocks_ != nullptr) {
       cv::Mat& dst = full_.data[rock_index_];
       auto r = rocks_->acquire();
       // Same frame and same grid only: the sams component runs before this one in the group.
-      if (r && r->sequence == sequence && r->probability.size() == dst.size() &&
-          std::abs(r->resolution_m - map_.resolution_m) < 1e-9) {
+      if (r && r->sequence == sequence && r->probability.size() == dst.size() && r->same_as(map_)) {
         r->probability.copyTo(dst);
       } else {
         fill_nan(dst, kNaN);
       }
     }
-#endif
-#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
     if (sinkage_ != nullptr) {
       cv::Mat& dst = full_.data[sinkage_index_];
       auto l = sinkage_->acquire();
       if (l && l->valid) {
-        const soil::GridGeometry g{map_.resolution_m, map_.length_x_m, map_.length_y_m, map_.center_x_m, map_.center_y_m};
-        soil::rasterise_sinkage(*l, g, dst);
+        common::rasterise_sinkage(*l, map_, dst);
       } else {
         fill_nan(dst, kNaN);
       }
     }
-#endif
   }
   static void fill_nan(cv::Mat& m, float nan) {
     for (int r = 0; r < m.rows; ++r) {
@@ -236,25 +213,19 @@ class TraversabilityComponent final : public runtime::Component {
 
   GridMap full_;                 // the mapper's layers + extra layers, as published
   std::size_t base_layers_ = 0;
-#ifdef REGOLITH_TRAVERSABILITY_WITH_ROCKS
-  const runtime::Input<saliency::RockProbabilityFrame>* rocks_ = nullptr;
+  const runtime::Input<common::RockProbabilityFrame>* rocks_ = nullptr;
   std::size_t rock_index_ = 0;
-#endif
-#ifdef REGOLITH_TRAVERSABILITY_WITH_SINKAGE
-  const runtime::Input<soil::SinkageLayer>* sinkage_ = nullptr;
+  const runtime::Input<common::SinkageLayer>* sinkage_ = nullptr;
   std::size_t sinkage_index_ = 0;
-#endif
   std::unique_ptr<direct_depth::DirectDepth> depth_;
   std::unique_ptr<TraversabilityMapper> mapper_;
   bool ground_ = true;
   GridMap map_;
-  const runtime::Input<sfs::DtmFrame>* dtm_ = nullptr;
+  const runtime::Input<common::DtmFrame>* dtm_ = nullptr;
   LatestPool<GridMapFrame>* out_ = nullptr;
   std::shared_ptr<dds::Outbox<GridMapMsg>> msg_;
   runtime::InputWatch* input_ = nullptr;
-  bool have_last_ = false;
-  std::uint64_t last_seq_ = 0;
-  TimeNs last_stamp_ = 0;
+  NewValue new_dtm_;
 };
 
 }  // namespace

@@ -54,19 +54,6 @@ std::size_t GridMap::layer_index(std::string_view name) const {
   throw std::out_of_range("traversability: GridMap has no layer '" + std::string(name) + "'");
 }
 
-cv::Point2d GridMap::cell_center(int i, int j) const {
-  return {center_x_m + 0.5 * length_x_m - (i + 0.5) * resolution_m,
-          center_y_m + 0.5 * length_y_m - (j + 0.5) * resolution_m};
-}
-
-bool GridMap::cell_of(double x, double y, int& i, int& j) const {
-  const double fi = (center_x_m + 0.5 * length_x_m - x) / resolution_m;
-  const double fj = (center_y_m + 0.5 * length_y_m - y) / resolution_m;
-  if (!(fi >= 0 && fj >= 0 && fi < size_x() && fj < size_y())) return false;
-  i = static_cast<int>(fi);
-  j = static_cast<int>(fj);
-  return true;
-}
 
 void export_column_major(const GridMap& map, std::size_t k, float* out, std::size_t n) {
   if (k >= map.data.size()) fail("layer", "index " + std::to_string(k) + " out of range");

@@ -20,6 +20,25 @@
 
 namespace regolith {
 
+/// "Is this a value I have not processed yet?" for a component that polls an input every cycle:
+/// true the first time an id is seen after a different one. The id is a channel lease's
+/// generation() (every write gets a new one) or a camera frame's sequence number.
+class NewValue {
+ public:
+  bool operator()(std::uint64_t id) {
+    if (seen_ && id == last_) return false;
+    seen_ = true;
+    last_ = id;
+    return true;
+  }
+  /// Forget the last id (e.g. on activate()): the next value counts as new.
+  void reset() { seen_ = false; }
+
+ private:
+  bool seen_ = false;
+  std::uint64_t last_ = 0;
+};
+
 /// Newest-value slot pool with leases. One writer thread; any number of readers (up to
 /// `max_readers` simultaneous leases). Slots are constructed once, by `init`, and reused.
 template <class T>

@@ -19,7 +19,7 @@ namespace regolith::soil {
 
 /// Channel names (the first is also the DDS topic).
 inline constexpr const char* kSoilChannel = "terrain/soil";
-inline constexpr const char* kSinkageLayerChannel = "terrain/sinkage_layer";
+using common::kSinkageLayerChannel;  // payload: regolith/common/payloads.hpp
 
 /// One processed rear frame, on channel "terrain/soil". Fixed size: no heap in the channel.
 struct SoilStiffnessSample {

@@ -39,27 +39,21 @@
 #include <string_view>
 #include <vector>
 
+#include "regolith/common/grid.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
 
 namespace regolith::traversability {
 
-struct GridMap {
-  double resolution_m = 0.0;
-  double length_x_m = 0.0, length_y_m = 0.0;
-  double center_x_m = 0.0, center_y_m = 0.0;  ///< map centre in the body frame
+/// Layers on one grid (regolith/common/grid.hpp: geometry, cell indexing and centres).
+struct GridMap : common::GridGeometry {
+  GridMap() : common::GridGeometry{0.0, 0.0, 0.0, 0.0, 0.0} {}  ///< unset: size 0 x 0
   std::vector<std::string> layers;
   std::vector<cv::Mat> data;  ///< one CV_32F (size_x rows, size_y cols) per layer
-  int size_x() const { return data.empty() ? 0 : data[0].rows; }
-  int size_y() const { return data.empty() ? 0 : data[0].cols; }
   /// Index of a layer; throws std::out_of_range naming it if absent.
   /// (string_view: no temporary std::string, so lookups do not allocate.)
   std::size_t layer_index(std::string_view name) const;
   const cv::Mat& layer(std::string_view name) const { return data[layer_index(name)]; }
-  /// Cell centre in the body frame.
-  cv::Point2d cell_center(int i, int j) const;
-  /// Cell containing (x, y); false if outside.
-  bool cell_of(double x, double y, int& i, int& j) const;
 };
 
 /// Copies layer `k` into `out` in grid_map's column-major order (index i + j * size_x) — the

@@ -1,0 +1,28 @@
+#include "regolith/common/grid_params.hpp"
+
+#include <string>
+
+namespace regolith::common {
+
+GridGeometry read_grid_geometry(Params& p, const GridGeometry& d, std::string_view role) {
+  const std::string r(role);
+  const std::string docs[5] = {r + ": cell size", r + ": extent along x (forward)", r + ": extent along y (left)",
+                               r + ": centre ahead of the rover (body frame)", r + ": centre, left positive"};
+  GridGeometry g;
+  g.resolution_m =
+      p.get<double>("resolution_m", d.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = docs[0]});
+  g.length_x_m =
+      p.get<double>("length_x_m", d.length_x_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = docs[1]});
+  g.length_y_m =
+      p.get<double>("length_y_m", d.length_y_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = docs[2]});
+  g.center_x_m = p.get<double>("center_x_m", d.center_x_m, {.unit = "m", .doc = docs[3]});
+  g.center_y_m = p.get<double>("center_y_m", d.center_y_m, {.unit = "m", .doc = docs[4]});
+  try {
+    g.validate();
+  } catch (const FieldError& e) {
+    p.fail(e);
+  }
+  return g;
+}
+
+}  // namespace regolith::common
