@@ -47,14 +47,21 @@ void Summary::print(std::ostream& os, bool final) {
                        app_.sim_time() ? "-" : us(e.p99), app_.sim_time() ? "-" : us(e.max),
                        app_.sim_time() ? "-" : us(w.p99));
   }
-  out << fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9} {:>7} {:>6}  {}\n", "component", "steps", "cpu avg", "cpu p99",
-                     "cpu max", "errors", "stale", "status");
+  // cpu = CLOCK_THREAD_CPUTIME_ID around step(); wall = elapsed (includes preemption, page faults).
+  out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", "component", "steps", "cpu avg", "cpu p99",
+                     "wall avg", "wall p99", "errors", "stale", "status");
   for (const auto* c : v.components) {
-    const auto s = c->wall().summary();
+    const auto cpu = c->cpu().summary();
+    const auto elapsed = c->wall().summary();
     std::uint64_t stale = 0;
     for (const auto& in : c->inputs()) stale += in->stale_cycles.load();
-    out << fmt::format("{:<22} {:>9} {:>9} {:>9} {:>9} {:>7} {:>6}  {}\n", c->name(), c->heartbeat(), us(s.mean),
-                       us(s.p99), us(s.max), c->errors(), stale, c->status_message());
+    out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", c->name(), c->heartbeat(), us(cpu.mean),
+                       us(cpu.p99), us(elapsed.mean), us(elapsed.p99), c->errors(), stale, c->status_message());
+  }
+  out << "latest results\n";
+  for (const auto* c : v.components) {
+    const std::string r = c->result();
+    if (!r.empty()) out << fmt::format("  {:<14} {}\n", c->name(), r);
   }
   for (const auto& [name, cam] : app_.context().cameras()) {
     const auto s = cam->stats();

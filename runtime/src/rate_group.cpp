@@ -1,5 +1,7 @@
 #include "regolith/runtime/rate_group.hpp"
 
+#include <ctime>
+
 #include <algorithm>
 #include <stdexcept>
 
@@ -25,6 +27,15 @@ void RateGroup::reset(TimeNs start) {
   slip_horizon_ = next_release_;
 }
 
+namespace {
+/// CPU time consumed by the calling thread (vDSO-free but allocation-free clock_gettime).
+TimeNs thread_cpu_now() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+}  // namespace
+
 void RateGroup::run_cycle(Clock& clock) {
   const CycleFlag flag;
   const TimeNs release = next_release_;
@@ -38,9 +49,11 @@ void RateGroup::run_cycle(Clock& clock) {
   for (Component* m : members_) {
     const TimeNs t0 = clock.now();
     const TimeNs w0 = sim ? monotonic_now() : t0;
+    const TimeNs c0 = thread_cpu_now();
     info.now = t0;
     m->step(info);
     const TimeNs t1 = clock.now();
+    m->cpu_.record(thread_cpu_now() - c0);
     m->exec_.record(t1 - t0);
     m->wall_.record(sim ? monotonic_now() - w0 : t1 - t0);
     m->heartbeat_.fetch_add(1, std::memory_order_relaxed);

@@ -3,6 +3,7 @@
 // ("terrain/rock_probability"). Every buffer is sized in configure() by a warm-up frame.
 #include "regolith/saliency/component.hpp"
 
+#include <cstdio>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -219,6 +220,21 @@ class SamsComponent final : public runtime::Component {
     kv.emplace_back("method", to_string(method_));
     kv.emplace_back("rocks_last_frame", std::to_string(last_.count));
     kv.emplace_back("hazards_last_frame", std::to_string(last_.hazards));
+  }
+
+  std::string result() const override {
+    const auto l = rocks_out_ != nullptr ? rocks_out_->acquire() : decltype(rocks_out_->acquire()){};
+    if (!l) return {};
+    double nearest = -1.0;
+    for (std::uint32_t i = 0; i < l->count; ++i)
+      if (l->rocks[i].ranged && (nearest < 0.0 || l->rocks[i].range_m < nearest)) nearest = l->rocks[i].range_m;
+    char buf[96];
+    if (nearest >= 0.0)
+      std::snprintf(buf, sizeof buf, "rocks %u, nearest %.1f m, %u hazard%s", l->count, nearest, l->hazards,
+                    l->hazards == 1 ? "" : "s");
+    else
+      std::snprintf(buf, sizeof buf, "rocks %u, %u hazards", l->count, l->hazards);
+    return buf;
   }
 
  private:

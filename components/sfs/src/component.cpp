@@ -2,6 +2,7 @@
 // DTM ("terrain/dtm"). Everything is sized in configure(); step() reuses the buffers.
 #include "regolith/sfs/component.hpp"
 
+#include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -203,6 +204,22 @@ class SfsComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("method", to_string(sfs_->params().method));
     kv.emplace_back("light_source", light_ ? "sun" : "estimate");
+  }
+
+  std::string result() const override {
+    const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
+    if (!l) return {};
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    char buf[128];
+    if (!l->solved) {
+      std::snprintf(buf, sizeof buf, "no DTM: sun ahead of the camera (slant %.0f deg)", l->light.slant_rad * kDeg);
+    } else {
+      const double valid = 100.0 * cv::countNonZero(l->valid) / static_cast<double>(l->valid.total());
+      std::snprintf(buf, sizeof buf, "DTM %dx%d, %.0f %% valid, sun slant %.0f tilt %.0f deg%s", l->height.cols,
+                    l->height.rows, valid, l->light.slant_rad * kDeg, l->light.tilt_rad * kDeg,
+                    l->light_estimated ? " (estimated)" : "");
+    }
+    return buf;
   }
 
  private:

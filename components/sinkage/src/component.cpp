@@ -299,6 +299,15 @@ class WheelSinkageComponent final : public runtime::Component {
     }
   }
 
+  std::string result() const override {
+    const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
+    if (!l) return {};
+    if (!l->result.valid) return "no sinkage this frame";
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "sinkage %.1f mm (conf %.2f)", l->result.sinkage_mm, l->result.confidence);
+    return buf;
+  }
+
  private:
   static constexpr int kSlots = 2;
 

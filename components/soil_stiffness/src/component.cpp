@@ -4,6 +4,7 @@
 // allocate once the estimator is warm (see README "Real time" for the measurement).
 #include "regolith/soil_stiffness/component.hpp"
 
+#include <cstdio>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -93,6 +94,18 @@ class SoilStiffnessComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("frames_processed", std::to_string(processed_.load()));
     kv.emplace_back("estimates", std::to_string(estimates_.load()));
+  }
+
+  std::string result() const override {
+    const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
+    if (!l) return {};
+    if (!l->ok) return std::string("no estimate: ") + l->reason;
+    const double k = l->joint ? l->k : l->k_fixed, n = l->joint ? l->n : l->n_fixed;
+    const double ks = l->joint ? l->k_sigma : l->k_fixed_sigma;
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "k %.3g n %.2f%s (+-%.0f %%), sinkage %.1f mm, %u tracks", k, n,
+                  l->joint ? "" : " fixed", 100.0 * ks / k, l->mean_sinkage_m * 1e3, l->tracks);
+    return buf;
   }
 
  private:

@@ -1,6 +1,7 @@
 // Component "traversability": shared DTM -> metric grid map (channel + grid_map_msgs/GridMap).
 #include "regolith/traversability/component.hpp"
 
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -178,6 +179,23 @@ class TraversabilityComponent final : public runtime::Component {
       }
     }
     set_status("ok");
+  }
+
+  std::string result() const override {
+    const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
+    if (!l || l->map.data.empty()) return {};
+    const cv::Mat& t = l->map.layer("traversability");
+    int unknown = 0, hazard = 0;
+    for (int r = 0; r < t.rows; ++r)
+      for (int c = 0; c < t.cols; ++c) {
+        const float v = t.at<float>(r, c);
+        if (!(v == v)) ++unknown;
+        else if (v <= 0.0f) ++hazard;
+      }
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "map %.0f %% unknown, %d hazard cells (traversability 0)",
+                  100.0 * unknown / static_cast<double>(t.total()), hazard);
+    return buf;
   }
 
  private:

@@ -55,6 +55,10 @@ class Component {
   virtual void diagnostics(std::vector<std::pair<std::string, std::string>>& /*kv*/) const {}
   /// A critical component's health gates the systemd watchdog.
   virtual bool critical() const { return false; }
+  /// The latest output in one line for the live summary ("sinkage 19.8 mm (conf 0.93)"), empty
+  /// before the first. Called off the real-time threads (may allocate); a component reads its own
+  /// output through a channel lease, so this never races with step().
+  virtual std::string result() const { return {}; }
 
   // ---- filled in by the runtime ----
   const std::string& name() const { return name_; }
@@ -63,6 +67,9 @@ class Component {
   std::uint64_t heartbeat() const { return heartbeat_.load(std::memory_order_relaxed); }
   const ExecHistogram& exec() const { return exec_; }
   const ExecHistogram& wall() const { return wall_; }
+  /// CPU time of step() on its thread (CLOCK_THREAD_CPUTIME_ID): what the component cost, without
+  /// preemption or sleeps; exec() / wall() are elapsed times.
+  const ExecHistogram& cpu() const { return cpu_; }
   const std::vector<std::unique_ptr<InputWatch>>& inputs() const { return inputs_; }
   /// Errors counted by the component (bad frames, failed devices...), published in diagnostics.
   std::uint64_t errors() const { return errors_.load(std::memory_order_relaxed); }
@@ -92,6 +99,7 @@ class Component {
   std::atomic<const char*> status_{"ok"};
   ExecHistogram exec_;
   ExecHistogram wall_;
+  ExecHistogram cpu_;
   std::vector<std::unique_ptr<InputWatch>> inputs_;
 };
 
