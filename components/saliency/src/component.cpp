@@ -205,13 +205,8 @@ class SamsComponent final : public runtime::Component {
       set_status("DTM size differs from the camera calibration (rover.cameras)");
       return;
     }
-    try {
-      process(d.gray, d.height);
-    } catch (const std::exception&) {
-      count_error();
-      set_status("saliency failed on this frame");
-      return;
-    }
+    // Size and type are checked above: the saliency pipeline neither throws nor allocates here.
+    process(d.gray, d.height);
     publish(d.stamp, d.sequence);
     set_status("ok");
   }

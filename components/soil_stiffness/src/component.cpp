@@ -73,14 +73,14 @@ class SoilStiffnessComponent final : public runtime::Component {
       set_status("corrupt rear frame skipped");
       return;
     }
-    try {
-      estimator_->estimate(f.image, cfg_.sun, estimate_);
-    } catch (const std::exception&) {
-      // wrong size / type (a camera that renegotiated its format): never leaves step
+    if (f.image.empty() || f.image.cols != cfg_.camera.width || f.image.rows != cfg_.camera.height ||
+        (f.image.type() != CV_8UC1 && f.image.type() != CV_8UC3)) {
+      // a camera that renegotiated its format: counted, never an exception in the cycle
       count_error();
-      set_status("rear frame rejected (size or pixel format differs from camera_model)");
+      set_status("rear frame rejected (size or pixel format differs from the camera calibration)");
       return;
     }
+    estimator_->estimate(f.image, cfg_.sun, estimate_);
     processed_.fetch_add(1, std::memory_order_relaxed);
     if (estimate_.ok) {
       estimates_.fetch_add(1, std::memory_order_relaxed);
