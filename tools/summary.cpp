@@ -23,8 +23,8 @@ Summary::Summary(runtime::Application& app, bool redraw)
       start_wall_(monotonic_now()),
       start_clock_(app.clock().now()),
       warned_slips_(app.view().groups.size(), 0),
-      last_warn_(app.view().groups.size() + app.context().cameras().size(), 0),
-      warned_faults_(app.context().cameras().size(), 0) {}
+      last_warn_(app.view().groups.size() + app.context().devices_of<hal::Camera>().size(), 0),
+      warned_faults_(app.context().devices_of<hal::Camera>().size(), 0) {}
 
 void Summary::print(std::ostream& os, bool final) {
   const auto& v = app_.view();
@@ -63,15 +63,20 @@ void Summary::print(std::ostream& os, bool final) {
     const std::string r = c->result();
     if (!r.empty()) out << fmt::format("  {:<14} {}\n", c->name(), r);
   }
-  for (const auto& [name, cam] : app_.context().cameras()) {
+  for (const auto& [name, cam] : app_.context().devices_of<hal::Camera>()) {
     const auto s = cam->stats();
     out << fmt::format("camera {:<15} {} frames {} dropped {} corrupt {} faults {} recoveries {}\n", name,
                        hal::to_string(s.state), s.frames, s.dropped, s.corrupt, s.faults, s.recoveries);
   }
-  for (const auto& [name, enc] : app_.context().encoders()) {
+  for (const auto& [name, enc] : app_.context().devices_of<hal::WheelEncoders>()) {
     const auto s = enc->stats();
     out << fmt::format("encoders {:<13} {} samples {} rejected {} faults {}\n", name, hal::to_string(s.state), s.samples,
                        s.rejected, s.faults);
+  }
+  for (const auto& [name, imu] : app_.context().devices_of<hal::Imu>()) {
+    const auto c = imu->counters();
+    out << fmt::format("imu {:<18} {} samples {} rejected {} faults {}\n", name, hal::to_string(c.state), c.delivered,
+                       c.rejected, c.faults);
   }
   if (app_.dds() != nullptr) out << runtime::dds_summary(*app_.dds());
   const std::string text = out.str();
@@ -94,7 +99,7 @@ void Summary::warn_rate_limited(TimeNs interval) {
     }
   }
   std::size_t k = 0;
-  for (const auto& [name, cam] : app_.context().cameras()) {
+  for (const auto& [name, cam] : app_.context().devices_of<hal::Camera>()) {
     const auto s = cam->stats();
     const std::size_t slot = v.groups.size() + k;
     if (s.faults > warned_faults_[k] && now - last_warn_[slot] >= interval) {

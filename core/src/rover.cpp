@@ -231,6 +231,7 @@ RoverDescription read_rover_description(Params& root, const std::string& config_
   d.mass_kg = r.get<double>("mass_kg", 0.0, {.unit = "kg", .min = 0.0, .doc = "total rover mass (0 = not given)"});
   d.gravity_mps2 = r.get<double>("gravity_mps2", 0.0,
                                  {.unit = "m/s^2", .min = 0.0, .max = 100.0, .doc = "surface gravity (0 = not given)"});
+  d.imu = r.get<std::string>("imu", "", {.doc = "IMU device giving the body attitude (devices.imus.<name>); empty: level"});
   std::set<std::string> wheel_names;
   for (Params w : r.child_list("wheels")) {
     Wheel wh;

@@ -14,16 +14,6 @@ PixelFormat pixel_format_from_string(std::string_view s) {
   throw std::invalid_argument("unknown pixel format '" + std::string(s) + "' (expected mono8 or bgr8)");
 }
 
-std::string_view to_string(DeviceState s) {
-  switch (s) {
-    case DeviceState::kStopped: return "stopped";
-    case DeviceState::kStreaming: return "streaming";
-    case DeviceState::kFaulted: return "faulted";
-    case DeviceState::kRecovering: return "recovering";
-  }
-  return "unknown";
-}
-
 std::unique_ptr<FramePool> make_frame_pool(int width, int height, PixelFormat fmt, std::size_t max_readers) {
   if (width <= 0 || height <= 0) throw std::invalid_argument("frame pool: size must be positive");
   return std::make_unique<FramePool>(max_readers, [&] {

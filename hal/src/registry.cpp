@@ -9,22 +9,16 @@ BackendRegistry& BackendRegistry::instance() {
   return r;
 }
 
-void BackendRegistry::add_camera(const std::string& name, const std::string& doc, CameraFactory f) {
-  cameras_[name] = CameraEntry{doc, std::move(f)};
-}
-void BackendRegistry::add_encoders(const std::string& name, const std::string& doc, EncoderFactory f) {
-  encoders_[name] = EncoderEntry{doc, std::move(f)};
-}
-
-namespace {
-template <class Map>
-const typename Map::mapped_type& lookup(const Map& m, Params& p, const char* kind) {
+const BackendRegistry::Entry& BackendRegistry::lookup(const std::string& kind, Params& p) const {
   const std::string name = p.require<std::string>("backend", {.doc = "backend name"});
+  static const std::map<std::string, Entry> kNone;
+  const auto k = kinds_.find(kind);
+  const auto& m = k == kinds_.end() ? kNone : k->second;
   auto it = m.find(name);
   if (it == m.end()) {
     std::vector<std::string> names;
     for (const auto& kv : m) names.push_back(kv.first);
-    std::string msg = std::string("unknown ") + kind + " backend '" + name + "'";
+    std::string msg = "unknown " + std::string(kind == "encoders" ? "encoder" : kind) + " backend '" + name + "'";
     const std::string guess = did_you_mean(name, names);
     if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
     msg += "; available:";
@@ -33,23 +27,12 @@ const typename Map::mapped_type& lookup(const Map& m, Params& p, const char* kin
   }
   return it->second;
 }
-}  // namespace
 
-std::unique_ptr<Camera> BackendRegistry::make_camera(Params& p, const DeviceContext& ctx) const {
-  return lookup(cameras_, p, "camera").make(p, ctx);
-}
-std::unique_ptr<WheelEncoders> BackendRegistry::make_encoders(Params& p, const DeviceContext& ctx) const {
-  return lookup(encoders_, p, "encoder").make(p, ctx);
-}
-
-std::vector<std::pair<std::string, std::string>> BackendRegistry::cameras() const {
+std::vector<std::pair<std::string, std::string>> BackendRegistry::backends(const std::string& kind) const {
   std::vector<std::pair<std::string, std::string>> out;
-  for (const auto& kv : cameras_) out.emplace_back(kv.first, kv.second.doc);
-  return out;
-}
-std::vector<std::pair<std::string, std::string>> BackendRegistry::encoders() const {
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const auto& kv : encoders_) out.emplace_back(kv.first, kv.second.doc);
+  const auto k = kinds_.find(kind);
+  if (k != kinds_.end())
+    for (const auto& kv : k->second) out.emplace_back(kv.first, kv.second.doc);
   return out;
 }
 

@@ -56,39 +56,35 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   // ---- devices ----
   Params devices = root.child("devices");
   auto& reg = hal::BackendRegistry::instance();
-  {
-    Params cams = devices.child("cameras");
+  // One loop for every device kind: devices.<section>.<name> -> BackendRegistry::make<Kind>.
+  auto load_kind = [&]<class Kind>(const char* section) {
+    Params sec = devices.child(section);
     std::uint16_t index = 0;
-    for (const auto& name : cams.keys()) {
-      Params p = cams.child(name);
+    for (const auto& name : sec.keys()) {
+      Params p = sec.child(name);
       hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
-      auto cam = reg.make_camera(p, dc);
+      std::unique_ptr<hal::Device> d = reg.make<Kind>(p, dc);
       p.finish();
-      ctx.add_camera(name, std::move(cam));
+      ctx.add_device(name, std::move(d));
     }
-    cams.finish();
-    Params encs = devices.child("encoders");
-    index = 0;
-    for (const auto& name : encs.keys()) {
-      Params p = encs.child(name);
-      hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
-      auto enc = reg.make_encoders(p, dc);
-      p.finish();
-      ctx.add_encoders(name, std::move(enc));
-    }
-    encs.finish();
-  }
+    sec.finish();
+  };
+  load_kind.operator()<hal::Camera>("cameras");
+  load_kind.operator()<hal::WheelEncoders>("encoders");
+  load_kind.operator()<hal::Imu>("imus");
   devices.finish();
   for (const auto& [name, cam] : ctx.rover().cameras) {
-    if (ctx.find_camera(name) == nullptr)
+    if (ctx.find<hal::Camera>(name) == nullptr)
       throw ConfigError(cam.where + ": rover.cameras." + name + ": no camera device named '" + name +
                         "' in devices.cameras (the description is keyed by device name)");
   }
   for (const auto& w : ctx.rover().wheels) {
-    if (!w.encoders.empty() && ctx.encoders().count(w.encoders) == 0)
+    if (!w.encoders.empty() && ctx.find<hal::WheelEncoders>(w.encoders) == nullptr)
       throw ConfigError(root.where("rover") + ": rover.wheels[" + w.name + "].encoders: no encoder device named '" +
                         w.encoders + "' in devices.encoders");
   }
+  if (!ctx.rover().imu.empty() && ctx.find<hal::Imu>(ctx.rover().imu) == nullptr)
+    throw ConfigError(root.where("rover") + ": rover.imu: no IMU named '" + ctx.rover().imu + "' in devices.imus");
 
   // ---- rate groups (read first so membership errors point at the group) ----
   std::vector<RateGroupConfig> group_cfgs;
@@ -180,8 +176,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
 void Application::start() {
   if (started_) return;
   // Devices first (outside the rate groups), then components, then the schedule.
-  for (auto& [name, cam] : context_->cameras()) cam->start();
-  for (auto& [name, enc] : context_->encoders()) enc->start();
+  for (hal::Device* d : context_->all_devices()) d->start();
   for (auto& c : components_) {
     c->activate();
     c->state_.store(Lifecycle::kActive);
@@ -212,8 +207,8 @@ void Application::stop() {
     c->deactivate();
     c->state_.store(Lifecycle::kInactive);
   }
-  for (auto& [name, enc] : context_->encoders()) enc->stop();
-  for (auto& [name, cam] : context_->cameras()) cam->stop();
+  const auto devices = context_->all_devices();
+  for (auto it = devices.rbegin(); it != devices.rend(); ++it) (*it)->stop();
   if (dds_) stop_participant(*dds_);
   started_ = false;
 }

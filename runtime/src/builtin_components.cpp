@@ -1,5 +1,6 @@
 // Components built into the runtime: `health` (diagnostics, stale inputs, watchdog gate) and
 // `joint_state_publisher` (wheel encoder angles -> sensor_msgs/JointState).
+#include <cstdio>
 #include <algorithm>
 #include <cstring>
 
@@ -16,6 +17,7 @@ namespace {
 
 using DiagnosticArray = msgs::diagnostic_msgs::DiagnosticArray;
 using JointState = msgs::sensor_msgs::JointState;
+using ImuMsg = msgs::sensor_msgs::Imu;
 
 constexpr std::uint32_t kValuesPerStatus = 12;
 constexpr std::size_t kDiagString = 64;
@@ -35,6 +37,7 @@ const char* kind_prefix(HealthEntry::Kind k) {
     case HealthEntry::Kind::kRateGroup: return "rate_group: ";
     case HealthEntry::Kind::kCamera: return "camera: ";
     case HealthEntry::Kind::kEncoders: return "encoders: ";
+    case HealthEntry::Kind::kImu: return "imu: ";
   }
   return "";
 }
@@ -91,6 +94,7 @@ void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, D
         break;
       case HealthEntry::Kind::kCamera:
       case HealthEntry::Kind::kEncoders:
+      case HealthEntry::Kind::kImu:
         kv_int(e.kind == HealthEntry::Kind::kCamera ? "frames" : "samples", static_cast<std::int64_t>(e.frames));
         kv_int(e.kind == HealthEntry::Kind::kCamera ? "dropped" : "rejected", static_cast<std::int64_t>(e.dropped));
         kv_int("faults", static_cast<std::int64_t>(e.errors));
@@ -111,6 +115,11 @@ class HealthComponent final : public Component {
  public:
   void configure(Params& p, Context& ctx) override {
     ctx_ = &ctx;
+    // Device lists made once (devices are loaded before any component configures): step() only
+    // walks them.
+    cameras_ = ctx.devices_of<hal::Camera>();
+    encoders_ = ctx.devices_of<hal::WheelEncoders>();
+    imus_ = ctx.devices_of<hal::Imu>();
     stall_cycles_ = p.get<int>("stall_cycles", 3, {.min = 1, .max = 1000,
         .doc = "health cycles without a heartbeat before a component is reported stale"});
     out_ = &ctx.produce<HealthSnapshot>("health/snapshot");
@@ -210,7 +219,7 @@ class HealthComponent final : public Component {
       if (e->critical && e->level != Level::kOk) s->all_critical_ok = false;
     }
 
-    for (const auto& [name, cam] : ctx_->cameras()) {
+    for (const auto& [name, cam] : cameras_) {
       HealthEntry* e = add();
       if (e == nullptr) break;
       const hal::CameraStats st = cam->stats();
@@ -222,7 +231,7 @@ class HealthComponent final : public Component {
       e->message = hal::to_string(st.state).data();
       if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) e->level = Level::kError;
     }
-    for (const auto& [name, enc] : ctx_->encoders()) {
+    for (const auto& [name, enc] : encoders_) {
       HealthEntry* e = add();
       if (e == nullptr) break;
       const hal::EncoderStats st = enc->stats();
@@ -238,6 +247,18 @@ class HealthComponent final : public Component {
       if (st.state == hal::DeviceState::kFaulted) e->level = Level::kError;
       else if (e->stale_inputs > 0) e->level = Level::kWarn;
     }
+    for (const auto& [name, imu] : imus_) {
+      HealthEntry* e = add();
+      if (e == nullptr) break;
+      const hal::DeviceCounters st = imu->counters();
+      e->kind = HealthEntry::Kind::kImu;
+      copy_name(e->name, name);
+      e->frames = st.delivered;
+      e->dropped = st.rejected;
+      e->errors = st.faults;
+      e->message = hal::to_string(st.state).data();
+      if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) e->level = Level::kError;
+    }
     out_->commit();
     if (diag_) {
       if (DiagnosticArray* m = diag_->begin()) {
@@ -251,6 +272,9 @@ class HealthComponent final : public Component {
 
  private:
   Context* ctx_ = nullptr;
+  std::vector<std::pair<std::string, hal::Camera*>> cameras_;
+  std::vector<std::pair<std::string, hal::WheelEncoders*>> encoders_;
+  std::vector<std::pair<std::string, hal::Imu*>> imus_;
   LatestPool<HealthSnapshot>* out_ = nullptr;
   int stall_cycles_ = 3;
   TimeNs stale_timeout_ = 500 * kNsPerMs;
@@ -329,12 +353,70 @@ class JointStatePublisher final : public Component {
   std::shared_ptr<dds::Outbox<JointState>> js_;
 };
 
+/// imu_publisher: the IMU device's newest sample -> channel "imu" (hal::ImuSample, e.g. for the
+/// drive-long map) and DDS topic imu (sensor_msgs/Imu, covariances unknown = 0).
+class ImuPublisher final : public Component {
+ public:
+  void configure(Params& p, Context& ctx) override {
+    imu_ = &ctx.device<hal::Imu>(p, "imu");
+    const double stale_s = p.get<double>("stale_timeout_s", 0.5, {.unit = "s", .min = 0.0, .min_exclusive = true,
+                                                                  .doc = "the IMU is stale after this long without a sample"});
+    frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of imu (the IMU is body-aligned)"});
+    if (frame_id_.size() > 32) p.fail("frame_id", "longer than 32 characters");
+    input_ = &watch_input("imu", from_seconds(stale_s));
+    out_ = &ctx.produce<hal::ImuSample>("imu");
+    const std::string frame = frame_id_;
+    msg_ = make_outbox<ImuMsg>(ctx, "imu", dds::OutboxMode::kFifo, [frame](ImuMsg& m) {
+      dds::reserve(m, 32);
+      dds::copy_string(m.header.frame_id, 32, frame);
+    });
+  }
+  void step(const CycleInfo& cycle) override {
+    hal::ImuSample s;
+    if (!imu_->latest(cycle.now, s) || !new_sample_(s.sequence)) return;
+    input_updated(*input_, cycle.now);
+    if (hal::ImuSample* o = out_->begin_write()) {
+      *o = s;
+      out_->commit();
+    }
+    if (msg_) {
+      if (ImuMsg* m = msg_->begin()) {
+        dds::set_time(m->header.stamp, s.stamp);
+        const hal::Quaternion q = hal::to_quaternion(s.attitude);
+        m->orientation = {q.x, q.y, q.z, q.w};
+        m->angular_velocity = {s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z};
+        m->linear_acceleration = {s.linear_acceleration.x, s.linear_acceleration.y, s.linear_acceleration.z};
+        msg_->commit();
+      }
+    }
+  }
+  std::string result() const override {
+    const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
+    if (!l) return {};
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "roll %.1f pitch %.1f yaw %.1f deg", l->attitude.roll_rad * kDeg,
+                  l->attitude.pitch_rad * kDeg, l->attitude.yaw_rad * kDeg);
+    return buf;
+  }
+
+ private:
+  const hal::Imu* imu_ = nullptr;
+  LatestPool<hal::ImuSample>* out_ = nullptr;
+  InputWatch* input_ = nullptr;
+  NewValue new_sample_;
+  std::string frame_id_;
+  std::shared_ptr<dds::Outbox<ImuMsg>> msg_;
+};
+
 }  // namespace
 
 void register_builtin_components() {
   auto& r = ComponentRegistry::instance();
   r.add("health", "per-component heartbeat, execution statistics, slips, stale inputs -> /diagnostics",
         [] { return std::make_unique<HealthComponent>(); });
+  r.add("imu_publisher", "IMU attitude, rates and specific force -> channel imu + imu (sensor_msgs/Imu)",
+        [] { return std::make_unique<ImuPublisher>(); });
   r.add("joint_state_publisher", "wheel encoder angles and velocities -> joint_states (sensor_msgs/JointState)",
         [] { return std::make_unique<JointStatePublisher>(); });
 }

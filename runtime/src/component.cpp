@@ -55,38 +55,43 @@ std::vector<std::pair<std::string, std::string>> ComponentRegistry::types() cons
 
 // ---- Context ----------------------------------------------------------------------------------
 
-void Context::add_camera(const std::string& name, std::unique_ptr<hal::Camera> cam) {
-  cameras_[name] = std::move(cam);
-}
-void Context::add_encoders(const std::string& name, std::unique_ptr<hal::WheelEncoders> enc) {
-  encoders_[name] = std::move(enc);
+void Context::add_device(const std::string& name, std::unique_ptr<hal::Device> d) {
+  const std::string kind = d->kind();
+  devices_[kind][name] = std::move(d);
 }
 
-hal::Camera* Context::find_camera(const std::string& name) {
-  auto it = cameras_.find(name);
-  return it == cameras_.end() ? nullptr : it->second.get();
-}
-
-namespace {
-template <class Map>
-auto& find_device(Map& m, Params& p, std::string_view key, const char* kind) {
-  const std::string name = p.require<std::string>(key, {.doc = std::string_view(kind)});
-  auto it = m.find(name);
-  if (it == m.end()) {
-    std::vector<std::string> names;
-    for (const auto& kv : m) names.push_back(kv.first);
-    std::string msg = std::string("no ") + kind + " named '" + name + "' in devices";
-    const std::string guess = did_you_mean(name, names);
-    if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
-    p.fail(key, msg);
+hal::Device& Context::lookup(const std::string& kind, Params& p, std::string_view key) {
+  const std::string label = kind == hal::WheelEncoders::kKind ? "encoder set" : kind == hal::Imu::kKind ? "IMU" : kind;
+  const std::string name = p.require<std::string>(key, {.doc = std::string_view(label)});
+  const auto k = devices_.find(kind);
+  if (k != devices_.end()) {
+    const auto it = k->second.find(name);
+    if (it != k->second.end()) return *it->second;
   }
-  return *it->second;
+  std::vector<std::string> names;
+  if (k != devices_.end())
+    for (const auto& kv : k->second) names.push_back(kv.first);
+  std::string msg = "no " + label + " named '" + name + "' in devices";
+  const std::string guess = did_you_mean(name, names);
+  if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+  p.fail(key, msg);
 }
-}  // namespace
+
+const hal::Imu* Context::attitude_imu() {
+  const hal::Imu* imu = rover_.imu.empty() ? nullptr : find<hal::Imu>(rover_.imu);
+  if (imu != nullptr) declare(Port::Kind::kDevice, rover_.imu, hal::Imu::kKind);
+  return imu;
+}
+
+Attitude Context::attitude() const {
+  hal::ImuSample s;
+  const hal::Imu* imu = rover_.imu.empty() ? nullptr : find<hal::Imu>(rover_.imu);
+  if (imu != nullptr && imu->latest(clock_.now(), s)) return s.attitude;
+  return {};
+}
 
 const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
-  find_device(cameras_, p, key, "camera");  // must exist: a missing key or unknown name is reported
-  const std::string name = p.node()[std::string(key)].Scalar();
+  const std::string name = lookup(hal::Camera::kKind, p, key).id();  // must exist (located error)
   declare(Port::Kind::kDevice, name, "calibration");  // reads the camera's geometry, not its frames
   const RoverCamera* c = rover_.camera(name);
   if (c == nullptr)
@@ -99,17 +104,6 @@ const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
 const Sun& Context::sun(Params& p, const std::string& who) const {
   if (!rover_.sun) p.fail({}, who + " needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block");
   return *rover_.sun;
-}
-
-hal::Camera& Context::camera(Params& p, std::string_view key) {
-  hal::Camera& c = find_device(cameras_, p, key, "camera");
-  declare(Port::Kind::kDevice, p.node()[std::string(key)].Scalar(), "camera");
-  return c;
-}
-hal::WheelEncoders& Context::encoders(Params& p, std::string_view key) {
-  hal::WheelEncoders& e = find_device(encoders_, p, key, "encoder set");
-  declare(Port::Kind::kDevice, p.node()[std::string(key)].Scalar(), "encoders");
-  return e;
 }
 
 }  // namespace regolith::runtime

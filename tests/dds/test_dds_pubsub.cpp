@@ -580,7 +580,7 @@ TEST_F(DdsPubSub, EchoPrintsJsonLines) {
     FAIL() << "no exception";
   } catch (const std::invalid_argument &e) {
     EXPECT_EQ(std::string(e.what()),
-              "unknown topic 'camera/image_raw' (known: joint_states, "
+              "unknown topic 'camera/image_raw' (known: joint_states, imu, "
               "diagnostics, terrain/grid_map, "
               "terrain/rocks, terrain/wheel_sinkage, terrain/soil)");
   }

@@ -284,7 +284,7 @@ TEST(DdsTopics, TableLookupAndList) {
   EXPECT_EQ(rd::find_topic("terrain/soil")->ros_type,
             "regolith_msgs/msg/SoilStiffness");
   EXPECT_EQ(rd::find_topic("camera/image_raw"), nullptr);
-  EXPECT_EQ(rd::known_topics().size(), 6u);
+  EXPECT_EQ(rd::known_topics().size(), 7u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
   for (const auto &t : rd::known_topics()) {

@@ -106,8 +106,8 @@ class SfsComponent final : public runtime::Component {
     if (source == "sun") {
       camera_ = rc;
       sun_ = &ctx.sun(p, "sfs light_source sun");
-      attitude_ = ctx.attitude();
-      const common::CameraLight cl = common::camera_light(*sun_, *rc, attitude_);
+      imu_ = ctx.attitude_imu();  // per frame: the body attitude at the capture time
+      const common::CameraLight cl = common::camera_light(*sun_, *rc, ctx.attitude());
       light_ = cl.light;
       sun_in_view_ = cl.in_view;
     } else {
@@ -159,6 +159,14 @@ class SfsComponent final : public runtime::Component {
     if (!cam_->latest(c.now, lease)) return;
     const hal::Frame& fr = *lease;
     if (!new_frame_(fr.sequence)) return;
+    if (imu_ != nullptr) {  // the sun in the image frame for the body's attitude at capture time
+      Attitude a;
+      if (imu_->attitude_at(fr.capture_time, a)) {
+        const common::CameraLight cl = common::camera_light(*sun_, *camera_, a);
+        light_ = cl.light;
+        sun_in_view_ = cl.in_view;
+      }
+    }
     input_updated(*input_, c.now);
     if (fr.corrupt || fr.image.empty() || fr.image.size() != size_ ||
         (fr.image.type() != CV_8UC1 && fr.image.type() != CV_8UC3)) {
@@ -242,7 +250,7 @@ class SfsComponent final : public runtime::Component {
   bool sun_in_view_ = true;              ///< false: the sun is ahead of the camera (slant >= 90 deg)
   const RoverCamera* camera_ = nullptr;
   const Sun* sun_ = nullptr;
-  Attitude attitude_;
+  const hal::Imu* imu_ = nullptr;  ///< rover.imu: attitude per frame (null: level)
   std::unique_ptr<direct_depth::CameraModel> model_;
   cv::Mat gray_;
   SfsResult res_;

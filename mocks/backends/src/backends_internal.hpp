@@ -13,6 +13,7 @@ std::unique_ptr<hal::WheelEncoders> make_candump_encoders(Params& p, const hal::
 std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Camera> make_synthetic_wheel_camera(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::WheelEncoders> make_synthetic_wheel_encoders(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::Imu> make_scripted_imu(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Camera> make_fault_camera(Params& p, const hal::DeviceContext& ctx,
                                                const hal::BackendRegistry& registry);
 std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::DeviceContext& ctx,

@@ -31,6 +31,8 @@ void register_mock_backends(hal::BackendRegistry& registry) {
   registry.add_camera("synthetic_tracks", "rear camera over the rover's own wheel tracks (rigid-wheel ruts, known soil k, n)",
                       make_synthetic_tracks_camera);
 #endif
+  registry.add<hal::Imu>("scripted", "body attitude from a script (roll/pitch/heading, sway, turn rate), on a sample grid",
+                         make_scripted_imu);
   registry.add_encoders("fault_injection", "wraps `inner:` encoders: drop, freeze, corrupt, delay, disconnect",
                         [reg](Params& p, const hal::DeviceContext& ctx) { return make_fault_encoders(p, ctx, *reg); });
 }

@@ -69,6 +69,24 @@ json to_json(const msgs::geometry_msgs::PoseWithCovariance &m) {
     cov.push_back(num(c));
   return {{"pose", to_json(m.pose)}, {"covariance", cov}};
 }
+json to_json(const msgs::geometry_msgs::Vector3 &m) {
+  return {{"x", num(m.x)}, {"y", num(m.y)}, {"z", num(m.z)}};
+}
+json to_json(const msgs::sensor_msgs::Imu &m) {
+  auto cov = [](const double (&c)[9]) {
+    json a = json::array();
+    for (double v : c)
+      a.push_back(num(v));
+    return a;
+  };
+  return {{"header", to_json(m.header)},
+          {"orientation", to_json(m.orientation)},
+          {"orientation_covariance", cov(m.orientation_covariance)},
+          {"angular_velocity", to_json(m.angular_velocity)},
+          {"angular_velocity_covariance", cov(m.angular_velocity_covariance)},
+          {"linear_acceleration", to_json(m.linear_acceleration)},
+          {"linear_acceleration_covariance", cov(m.linear_acceleration_covariance)}};
+}
 json to_json(const msgs::sensor_msgs::JointState &m) {
   return {{"header", to_json(m.header)},
           {"name", strings(m.name)},

@@ -28,6 +28,10 @@ void reserve_header(msgs::std_msgs::Header &h, std::size_t frame_id_capacity) {
 }
 } // namespace
 
+void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity) {
+  reserve_header(m.header, frame_id_capacity);
+}
+
 void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_string_sequence(m.name, c.joints, c.name_capacity);

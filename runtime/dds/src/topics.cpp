@@ -21,9 +21,10 @@ template <class Msg> TopicInfo entry(std::string_view name, TopicClass cls) {
                    MsgTraits<Msg>::descriptor(), &render<Msg>};
 }
 
-const std::array<TopicInfo, 6> &table() {
-  static const std::array<TopicInfo, 6> t = {
+const std::array<TopicInfo, 7> &table() {
+  static const std::array<TopicInfo, 7> t = {
       entry<msgs::sensor_msgs::JointState>("joint_states", TopicClass::kStream),
+      entry<msgs::sensor_msgs::Imu>("imu", TopicClass::kStream),
       entry<msgs::diagnostic_msgs::DiagnosticArray>("/diagnostics",
                                                     TopicClass::kDiagnostics),
       entry<msgs::grid_map_msgs::GridMap>("terrain/grid_map",

@@ -98,6 +98,7 @@ struct RoverDescription {
   double gravity_mps2 = 0.0;  ///< surface gravity, 0 = not given
   std::vector<Wheel> wheels;
   std::map<std::string, RoverCamera> cameras;
+  std::string imu;             ///< IMU device giving the body attitude (devices.imus.<name>), empty = level
   std::optional<Sun> sun;
 
   const RoverCamera* camera(const std::string& name) const {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "regolith/core/time.hpp"
+#include "regolith/hal/device.hpp"
 #include "regolith/hal/frame.hpp"
 
 namespace regolith::hal {
@@ -14,9 +15,6 @@ struct CameraFormat {
   PixelFormat format = PixelFormat::kMono8;
   double rate_hz = 30.0;
 };
-
-enum class DeviceState : std::uint8_t { kStopped, kStreaming, kFaulted, kRecovering };
-std::string_view to_string(DeviceState s);
 
 /// Counters every camera backend keeps; read from any thread.
 struct CameraStats {
@@ -31,16 +29,16 @@ struct CameraStats {
 
 /// A camera. `start` and `stop` run outside the rate groups; `latest` is real-time safe: it never
 /// blocks, never allocates and never throws.
-class Camera {
+class Camera : public Device {
  public:
-  virtual ~Camera() = default;
-  /// Name from the deployment YAML (e.g. "front").
-  virtual const std::string& id() const = 0;
+  static constexpr const char* kKind = "camera";
+  const char* kind() const final { return kKind; }
+  DeviceCounters counters() const final {
+    const CameraStats s = stats();
+    return {s.frames, s.dropped + s.corrupt, s.faults, s.recoveries, s.state};
+  }
   /// The negotiated format (valid after construction; backends negotiate when configured).
   virtual CameraFormat format() const = 0;
-  /// Begin streaming. Throws std::runtime_error when the device cannot start at all.
-  virtual void start() = 0;
-  virtual void stop() = 0;
   /// Lease the newest frame captured at or before `now`. Returns false when there is none
   /// (not started, no frame yet, device faulted). `now` lets mock cameras follow the simulated
   /// clock; hardware backends ignore it.

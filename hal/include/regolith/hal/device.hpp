@@ -1,14 +1,49 @@
 #pragma once
-// Shared by the hardware backends (v4l2, libcamera, socketcan): the errors a backend throws while
+// The one device base (Device: identity, lifecycle, counters) under every device kind (Camera,
+// WheelEncoders, Imu), and what the hardware backends share: the errors a backend throws while
 // opening its device at start-up, and the back-off of the re-open loops that run afterwards.
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "regolith/core/params.hpp"
 #include "regolith/core/time.hpp"
 
 namespace regolith::hal {
+
+enum class DeviceState : std::uint8_t { kStopped, kStreaming, kFaulted, kRecovering };
+std::string_view to_string(DeviceState s);
+
+/// What every device counts, whatever it delivers (frames, angle samples, IMU samples).
+struct DeviceCounters {
+  std::uint64_t delivered = 0;   ///< frames / samples delivered
+  std::uint64_t rejected = 0;    ///< dropped, corrupt or undecodable items
+  std::uint64_t faults = 0;      ///< device errors (disconnects, timeouts, bus errors)
+  std::uint64_t recoveries = 0;  ///< successful re-opens after a fault
+  DeviceState state = DeviceState::kStopped;
+};
+
+/// One hardware device of a deployment (ros2_control's hardware component, F Prime's driver):
+/// named in the YAML, started and stopped outside the rate groups, counting what it delivers.
+/// A device kind (Camera, WheelEncoders, Imu) adds its real-time query functions; the registry,
+/// the Context, the Application's start/stop and the health monitor handle every kind through
+/// this base.
+class Device {
+ public:
+  virtual ~Device() = default;
+  /// Name from the deployment YAML (e.g. "front").
+  virtual const std::string& id() const = 0;
+  /// The kind: "camera", "encoders", "imu" (the kind's kKind).
+  virtual const char* kind() const = 0;
+  /// Begin delivering. Throws when the device cannot start at all (DeviceUnavailableError for a
+  /// device that may appear later).
+  virtual void start() = 0;
+  virtual void stop() = 0;
+  /// Read from any thread.
+  virtual DeviceCounters counters() const = 0;
+};
 
 /// A problem found while opening or configuring a device. `field` is the YAML key it concerns
 /// (e.g. "device", "fourcc", "interface"); the message names the device. Backends throw one of the

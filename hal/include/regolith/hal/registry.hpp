@@ -11,6 +11,7 @@
 #include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
 
 namespace regolith::hal {
@@ -28,28 +29,50 @@ struct DeviceContext {
   const RoverDescription* rover = nullptr;
 };
 
-using CameraFactory = std::function<std::unique_ptr<Camera>(Params&, const DeviceContext&)>;
-using EncoderFactory = std::function<std::unique_ptr<WheelEncoders>(Params&, const DeviceContext&)>;
+/// Builds a device of kind T (Camera, WheelEncoders, Imu) from its YAML mapping.
+template <class T>
+using Factory = std::function<std::unique_ptr<T>(Params&, const DeviceContext&)>;
+using CameraFactory = Factory<Camera>;
+using EncoderFactory = Factory<WheelEncoders>;
+using ImuFactory = Factory<Imu>;
 
+/// Backends by device kind and name. One implementation for every kind (`add<T>` / `make<T>`).
 class BackendRegistry {
  public:
   static BackendRegistry& instance();
 
-  void add_camera(const std::string& name, const std::string& doc, CameraFactory f);
-  void add_encoders(const std::string& name, const std::string& doc, EncoderFactory f);
+  template <class T>
+  void add(const std::string& backend, const std::string& doc, Factory<T> f) {
+    kinds_[T::kKind][backend] = Entry{doc, std::make_shared<Factory<T>>(std::move(f))};
+  }
+  /// Build the device of kind T named by `p`'s `backend` key; ConfigError (with did-you-mean and
+  /// the available backends of that kind) for an unknown backend.
+  template <class T>
+  std::unique_ptr<T> make(Params& p, const DeviceContext& ctx) const {
+    return (*static_cast<const Factory<T>*>(lookup(T::kKind, p).factory.get()))(p, ctx);
+  }
+  /// (backend, doc) of one kind, sorted by name.
+  std::vector<std::pair<std::string, std::string>> backends(const std::string& kind) const;
 
-  /// Build the backend named by `p`'s `backend` key; throws ConfigError (with did-you-mean).
-  std::unique_ptr<Camera> make_camera(Params& p, const DeviceContext& ctx) const;
-  std::unique_ptr<WheelEncoders> make_encoders(Params& p, const DeviceContext& ctx) const;
-
-  std::vector<std::pair<std::string, std::string>> cameras() const;
-  std::vector<std::pair<std::string, std::string>> encoders() const;
+  // Spelled-out forms used by the backends' registration functions.
+  void add_camera(const std::string& n, const std::string& doc, CameraFactory f) { add<Camera>(n, doc, std::move(f)); }
+  void add_encoders(const std::string& n, const std::string& doc, EncoderFactory f) {
+    add<WheelEncoders>(n, doc, std::move(f));
+  }
+  std::unique_ptr<Camera> make_camera(Params& p, const DeviceContext& ctx) const { return make<Camera>(p, ctx); }
+  std::unique_ptr<WheelEncoders> make_encoders(Params& p, const DeviceContext& ctx) const {
+    return make<WheelEncoders>(p, ctx);
+  }
+  std::vector<std::pair<std::string, std::string>> cameras() const { return backends(Camera::kKind); }
+  std::vector<std::pair<std::string, std::string>> encoders() const { return backends(WheelEncoders::kKind); }
 
  private:
-  struct CameraEntry { std::string doc; CameraFactory make; };
-  struct EncoderEntry { std::string doc; EncoderFactory make; };
-  std::map<std::string, CameraEntry> cameras_;
-  std::map<std::string, EncoderEntry> encoders_;
+  struct Entry {
+    std::string doc;
+    std::shared_ptr<void> factory;  ///< a Factory<T> of the kind's T
+  };
+  const Entry& lookup(const std::string& kind, Params& p) const;
+  std::map<std::string, std::map<std::string, Entry>> kinds_;
 };
 
 /// Resolve `path` relative to the configuration file's directory (absolute paths unchanged).

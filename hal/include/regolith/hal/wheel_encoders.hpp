@@ -26,15 +26,16 @@ struct EncoderStats {
 };
 
 /// Per-wheel angle source. All query functions are real-time safe (no lock, no allocation).
-class WheelEncoders {
+class WheelEncoders : public Device {
  public:
-  virtual ~WheelEncoders() = default;
-  virtual const std::string& id() const = 0;
+  static constexpr const char* kKind = "encoders";
+  const char* kind() const final { return kKind; }
+  DeviceCounters counters() const final {
+    const EncoderStats s = stats();
+    return {s.samples, s.rejected, s.faults, 0, s.state};
+  }
   virtual const std::vector<std::string>& wheel_names() const = 0;
   std::size_t wheel_count() const { return wheel_names().size(); }
-
-  virtual void start() = 0;
-  virtual void stop() = 0;
 
   /// Newest sample of `wheel` available at `now`; false when there is none yet.
   virtual bool latest(std::size_t wheel, TimeNs now, AngleSample& out) const = 0;

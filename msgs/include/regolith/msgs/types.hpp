@@ -14,11 +14,13 @@
 #include "geometry_msgs/msg/Pose2D.h"
 #include "geometry_msgs/msg/PoseWithCovariance.h"
 #include "geometry_msgs/msg/Quaternion.h"
+#include "geometry_msgs/msg/Vector3.h"
 #include "grid_map_msgs/msg/GridMap.h"
 #include "grid_map_msgs/msg/GridMapInfo.h"
 #include "regolith_msgs/msg/RockArray.h"
 #include "regolith_msgs/msg/SoilStiffness.h"
 #include "regolith_msgs/msg/WheelSinkage.h"
+#include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/JointState.h"
 #include "std_msgs/msg/Float32MultiArray.h"
 #include "std_msgs/msg/Header.h"
@@ -51,6 +53,8 @@ REGOLITH_MSGS_ALIAS(geometry_msgs, Pose)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Pose2D)
 REGOLITH_MSGS_ALIAS(geometry_msgs, PoseWithCovariance)
 REGOLITH_MSGS_ALIAS(sensor_msgs, JointState)
+REGOLITH_MSGS_ALIAS(sensor_msgs, Imu)
+REGOLITH_MSGS_ALIAS(geometry_msgs, Vector3)
 REGOLITH_MSGS_ALIAS(diagnostic_msgs, KeyValue)
 REGOLITH_MSGS_ALIAS(diagnostic_msgs, DiagnosticStatus)
 REGOLITH_MSGS_ALIAS(diagnostic_msgs, DiagnosticArray)

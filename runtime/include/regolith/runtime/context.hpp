@@ -13,6 +13,7 @@
 #include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
 #include "regolith/runtime/dataflow.hpp"
 
@@ -56,17 +57,51 @@ class Context {
   const RoverCamera& rover_camera(Params& p, std::string_view key = "camera");
   /// The deployment sun; ConfigError at `p` (naming `who`) when the deployment has no `sun:` block.
   const Sun& sun(Params& p, const std::string& who) const;
-  /// Body attitude in the local-level frame: level until an IMU provides it.
-  Attitude attitude() const { return {}; }
+  /// Body attitude in the local-level frame at start-up: the attitude IMU's newest sample
+  /// (rover.imu) once started, else level. Per frame, components ask the IMU itself
+  /// (attitude_imu(), Imu::attitude_at(capture time)).
+  Attitude attitude() const;
+  /// The IMU named by rover.imu, or null (level rover). Records the component's device port.
+  const hal::Imu* attitude_imu();
 
-  void add_camera(const std::string& name, std::unique_ptr<hal::Camera> cam);
-  void add_encoders(const std::string& name, std::unique_ptr<hal::WheelEncoders> enc);
-  /// The camera named by parameter `key` of `p` (e.g. `camera: front`); ConfigError if unknown.
-  hal::Camera& camera(Params& p, std::string_view key = "camera");
-  hal::WheelEncoders& encoders(Params& p, std::string_view key = "encoders");
-  hal::Camera* find_camera(const std::string& name);
-  const std::map<std::string, std::unique_ptr<hal::Camera>>& cameras() const { return cameras_; }
-  const std::map<std::string, std::unique_ptr<hal::WheelEncoders>>& encoders() const { return encoders_; }
+  // ---- devices: one store for every kind (hal::Device), names unique within a kind ----
+  void add_device(const std::string& name, std::unique_ptr<hal::Device> d);
+  /// The device of kind T named by parameter `key` of `p` (e.g. `camera: front`); ConfigError at
+  /// `key` (with did-you-mean) when there is none. Records the component's device port.
+  template <class T>
+  T& device(Params& p, std::string_view key) {
+    T& d = static_cast<T&>(lookup(T::kKind, p, key));
+    declare(Port::Kind::kDevice, d.id(), T::kKind);
+    return d;
+  }
+  /// The device of kind T named `name`, or null.
+  template <class T>
+  T* find(const std::string& name) const {
+    const auto k = devices_.find(T::kKind);
+    if (k == devices_.end()) return nullptr;
+    const auto it = k->second.find(name);
+    return it == k->second.end() ? nullptr : static_cast<T*>(it->second.get());
+  }
+  /// Every device of kind T, by name.
+  template <class T>
+  std::vector<std::pair<std::string, T*>> devices_of() const {
+    std::vector<std::pair<std::string, T*>> out;
+    const auto k = devices_.find(T::kKind);
+    if (k != devices_.end())
+      for (const auto& [name, d] : k->second) out.emplace_back(name, static_cast<T*>(d.get()));
+    return out;
+  }
+  /// Every device of every kind (start / stop / health).
+  std::vector<hal::Device*> all_devices() const {
+    std::vector<hal::Device*> out;
+    for (const auto& [kind, m] : devices_)
+      for (const auto& [name, d] : m) out.push_back(d.get());
+    return out;
+  }
+  hal::Camera& camera(Params& p, std::string_view key = "camera") { return device<hal::Camera>(p, key); }
+  hal::WheelEncoders& encoders(Params& p, std::string_view key = "encoders") {
+    return device<hal::WheelEncoders>(p, key);
+  }
 
   /// Declares that the component being configured produces channel `name` with payload T, and
   /// creates its slots now with `make` (one producer per channel, checked by link()).
@@ -155,8 +190,8 @@ class Context {
   Clock& clock_;
   std::string config_dir_;
   RoverDescription rover_;
-  std::map<std::string, std::unique_ptr<hal::Camera>> cameras_;
-  std::map<std::string, std::unique_ptr<hal::WheelEncoders>> encoders_;
+  hal::Device& lookup(const std::string& kind, Params& p, std::string_view key);
+  std::map<std::string, std::map<std::string, std::unique_ptr<hal::Device>>> devices_;  ///< kind -> name
   std::map<std::string, ChannelEntry> channels_;
   dds::Participant* dds_ = nullptr;
   const SystemView* system_ = nullptr;

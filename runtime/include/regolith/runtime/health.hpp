@@ -17,7 +17,7 @@ inline constexpr std::size_t kMaxHealthEntries = 32;
 inline constexpr std::size_t kNameLen = 40;
 
 struct HealthEntry {
-  enum class Kind : std::uint8_t { kComponent, kRateGroup, kCamera, kEncoders };
+  enum class Kind : std::uint8_t { kComponent, kRateGroup, kCamera, kEncoders, kImu };
   Kind kind = Kind::kComponent;
   std::array<char, kNameLen> name{};   ///< component / group / device name
   std::array<char, kNameLen> group{};  ///< rate group of a component

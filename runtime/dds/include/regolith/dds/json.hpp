@@ -17,6 +17,8 @@ json to_json(const msgs::std_msgs::MultiArrayLayout &m);
 json to_json(const msgs::std_msgs::Float32MultiArray &m);
 json to_json(const msgs::geometry_msgs::Point &m);
 json to_json(const msgs::geometry_msgs::Quaternion &m);
+json to_json(const msgs::geometry_msgs::Vector3 &m);
+json to_json(const msgs::sensor_msgs::Imu &m);
 json to_json(const msgs::geometry_msgs::Pose &m);
 json to_json(const msgs::geometry_msgs::Pose2D &m);
 json to_json(const msgs::geometry_msgs::PoseWithCovariance &m);
