@@ -76,3 +76,13 @@ function(regolith_add_subdirectories)
     endif()
   endforeach()
 endfunction()
+
+# regolith_register_part(<target> HEADER <include> CALL <statement>)
+# A part that registers itself with the `regolith` tool (HAL backends, mock backends, component
+# wrappers). tools/ generates the registration code from this list and links the targets that
+# exist, so adding a backend or a component is adding a folder. In CALL, `backends` is the
+# hal::BackendRegistry to register with.
+function(regolith_register_part target)
+  cmake_parse_arguments(ARG "" "HEADER;CALL" "" ${ARGN})
+  set_property(GLOBAL APPEND PROPERTY REGOLITH_PARTS "${target}|${ARG_HEADER}|${ARG_CALL}")
+endfunction()

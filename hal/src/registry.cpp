@@ -36,6 +36,12 @@ std::vector<std::pair<std::string, std::string>> BackendRegistry::backends(const
   return out;
 }
 
+std::vector<std::string> BackendRegistry::kinds() const {
+  std::vector<std::string> out;
+  for (const auto& kv : kinds_) out.push_back(kv.first);
+  return out;
+}
+
 std::string resolve_path(const DeviceContext& ctx, const std::string& path) {
   std::filesystem::path p(path);
   if (p.is_absolute() || ctx.config_dir.empty()) return path;

@@ -1,6 +1,8 @@
 #include "regolith/hal_libcamera/libcamera.hpp"
 #include "regolith/hal/unopened.hpp"
 
+#include <ostream>
+
 #include <sys/mman.h>
 
 #include <libcamera/camera.h>
@@ -594,6 +596,19 @@ std::vector<CameraInfo> list_libcamera_cameras() {
 }
 
 void register_libcamera_backend(BackendRegistry& r) {
+  r.add_lister("libcamera", [](std::ostream& os) {
+    const auto cams = hal::libcam::list_libcamera_cameras();
+    os << "libcamera cameras (backend: libcamera):" << (cams.empty() ? " none\n" : "\n");
+    for (const auto& c : cams) {
+      os << "  id: \"" << c.id << "\"" << (c.model.empty() ? "" : "  model: " + c.model) << "\n";
+      for (const auto& f : c.formats) {
+        os << "    " << f.pixel_format << ":";
+        for (const auto& [w, h] : f.sizes) os << " " << w << "x" << h;
+        if (!f.size_range.empty()) os << " (" << f.size_range << ")";
+        os << "\n";
+      }
+    }
+  }, /*slow: the camera manager takes seconds to start*/ true);
   r.add_camera("libcamera", "libcamera camera (CSI sensors with ISP pipelines, UVC, vimc): request queue, sensor timestamps, auto-restart",
                [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<Camera> {
                  Config c = config_from_params(p);

@@ -1,6 +1,8 @@
 #include "regolith/hal_socketcan/socketcan.hpp"
 #include "regolith/hal/unopened.hpp"
 
+#include <ostream>
+
 #include <net/if.h>
 #include <net/if_arp.h>
 #include <fcntl.h>
@@ -599,6 +601,14 @@ std::vector<CanInterfaceInfo> list_can_interfaces() {
 }
 
 void register_socketcan_backend(BackendRegistry& r) {
+  r.add_lister("socketcan", [](std::ostream& os) {
+    const auto cans = hal::socketcan::list_can_interfaces();
+    os << "CAN interfaces (backend: socketcan):" << (cans.empty() ? " none\n" : "\n");
+    for (const auto& c : cans) {
+      os << "  " << c.name << "  " << (c.up ? "up" : "down") << "  kind: " << c.kind
+                << (c.virtual_can ? " (virtual)" : "") << "  mtu: " << c.mtu << (c.mtu >= 72 ? " (CAN FD)" : "") << "\n";
+    }
+  });
   r.add_encoders("socketcan",
                  "wheel angles (and bench transducers) from a SocketCAN interface, kernel-filtered and timestamped",
                  [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<WheelEncoders> {

@@ -1,6 +1,8 @@
 #include "regolith/hal_v4l2/v4l2.hpp"
 #include "regolith/hal/unopened.hpp"
 
+#include <ostream>
+
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <poll.h>
@@ -719,6 +721,27 @@ void V4l2Camera::run() {
 
 // ------------------------------------------------------------------------------------------------
 void register_v4l2_backend(BackendRegistry& r) {
+  r.add_lister("v4l2", [](std::ostream& os) {
+    const auto v4l2 = hal::v4l2::list_v4l2_devices(true);
+    os << "V4L2 cameras (backend: v4l2):" << (v4l2.empty() ? " none\n" : "\n");
+    for (const auto& d : v4l2) {
+      if (!d.capture) continue;
+      os << "  " << d.path << "  card: \"" << d.card << "\"  bus_info: \"" << d.bus_info << "\"  driver: " << d.driver
+                << "\n";
+      for (const auto& f : d.formats) {
+        os << "    " << f.fourcc << (f.convertible ? "" : " (not convertible)") << "  " << f.description << ":";
+        for (const auto& s : f.sizes) {
+          os << " " << s.width << "x" << s.height;
+          if (!s.rates_hz.empty()) {
+            os << "@";
+            for (std::size_t i = 0; i < s.rates_hz.size(); ++i) os << (i ? "/" : "") << s.rates_hz[i];
+          }
+        }
+        if (!f.size_range.empty()) os << " " << f.size_range;
+        os << "\n";
+      }
+    }
+  });
   r.add_camera("v4l2", "Video4Linux2 capture node (USB/CSI/virtual): mmap streaming, kernel timestamps, auto-reconnect",
                [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<Camera> {
                  Config c = config_from_params(p);

@@ -2,6 +2,7 @@
 // Backends are chosen by name in the deployment YAML (`backend: v4l2`). Each backend library
 // registers a factory here; unknown names are rejected with a did-you-mean.
 #include <functional>
+#include <iosfwd>
 #include <map>
 #include <memory>
 #include <string>
@@ -53,6 +54,20 @@ class BackendRegistry {
   }
   /// (backend, doc) of one kind, sorted by name.
   std::vector<std::pair<std::string, std::string>> backends(const std::string& kind) const;
+  /// kinds with at least one backend, sorted.
+  std::vector<std::string> kinds() const;
+
+  /// A hardware backend's "what is attached" listing for `regolith devices` (device nodes with
+  /// their formats, CAN interfaces...). `slow`: takes seconds (skipped with --no-libcamera).
+  struct Lister {
+    std::string backend;
+    bool slow = false;
+    std::function<void(std::ostream&)> list;
+  };
+  void add_lister(std::string backend, std::function<void(std::ostream&)> list, bool slow = false) {
+    listers_.push_back({std::move(backend), slow, std::move(list)});
+  }
+  const std::vector<Lister>& listers() const { return listers_; }
 
   // Spelled-out forms used by the backends' registration functions.
   void add_camera(const std::string& n, const std::string& doc, CameraFactory f) { add<Camera>(n, doc, std::move(f)); }
@@ -73,6 +88,7 @@ class BackendRegistry {
   };
   const Entry& lookup(const std::string& kind, Params& p) const;
   std::map<std::string, std::map<std::string, Entry>> kinds_;
+  std::vector<Lister> listers_;
 };
 
 /// Resolve `path` relative to the configuration file's directory (absolute paths unchanged).
