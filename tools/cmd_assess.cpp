@@ -20,9 +20,11 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/common/grid_params.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/sfs/component.hpp"
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -199,36 +201,10 @@ void assess(const AssessOptions& o) {
                                   p.require<double>("sun_tilt_rad", {.unit = "rad"})};
     pixel_size = p.get<double>("pixel_size_m", pixel_size, {.unit = "m", .min = 0.0, .min_exclusive = true,
                                                             .doc = "orthographic mode: ground size of a pixel"});
-    if (p.has("camera_model")) {
-      Params cm = p.child("camera_model");
-      direct_depth::CameraModel m;
-      m.width = cm.get<int>("width", gray.cols, {.unit = "px"});
-      m.height = cm.get<int>("height", gray.rows, {.unit = "px"});
-      if (m.width != gray.cols || m.height != gray.rows)
-        throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" +
-                         std::to_string(gray.rows) + " px but " + cm.where("width") + " camera_model is " +
-                         std::to_string(m.width) + "x" + std::to_string(m.height) + " px");
-      m.fx = cm.require<double>("fx", {.unit = "px", .min = 0.0, .min_exclusive = true});
-      m.fy = cm.get<double>("fy", m.fx, {.unit = "px", .min = 0.0, .min_exclusive = true});
-      m.cx = cm.get<double>("cx", 0.5 * (gray.cols - 1), {.unit = "px"});
-      m.cy = cm.get<double>("cy", 0.5 * (gray.rows - 1), {.unit = "px"});
-      m.k1 = cm.get<double>("k1", 0.0);
-      m.k2 = cm.get<double>("k2", 0.0);
-      m.p1 = cm.get<double>("p1", 0.0);
-      m.p2 = cm.get<double>("p2", 0.0);
-      m.k3 = cm.get<double>("k3", 0.0);
-      m.mount_height_m = cm.require<double>("mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true});
-      m.pitch_rad = cm.get<double>("pitch_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707});
-      m.roll_rad = cm.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707});
-      cm.finish();
-      model = m;
-    }
+    // The same camera_model reader as the rover description's tools (sfs component header).
+    if (p.has("camera_model")) model = sfs::read_camera_model(p.child("camera_model"), gray.cols, gray.rows);
     Params g = p.child("grid");
-    tp.resolution_m = g.get<double>("resolution_m", tp.resolution_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
-    tp.length_x_m = g.get<double>("length_x_m", tp.length_x_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
-    tp.length_y_m = g.get<double>("length_y_m", tp.length_y_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
-    tp.center_x_m = g.get<double>("center_x_m", tp.center_x_m, {.unit = "m"});
-    tp.center_y_m = g.get<double>("center_y_m", tp.center_y_m, {.unit = "m"});
+    tp.set_grid(common::read_grid_geometry(g, tp.grid(), "grid map"));
     tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
     tp.critical_step_m = g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
     tp.critical_roughness_m = g.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true});

@@ -15,8 +15,9 @@ using namespace regolith;
 
 TEST(LiveResults, MockRoverComponentsReportTheirLatestOutput) {
   cli::register_everything();
-  auto app = runtime::Application::load(Params::load_string(cli::embedded_mock_rover(), "<embedded>/config/mock_rover.yaml"),
-                                        {.sim_time = true, .enable_dds = false});
+  auto app =
+      runtime::Application::load(Params::load_string(cli::embedded_mock_rover(), "<embedded>/config/mock_rover.yaml"),
+                                 {.sim_time = true, .enable_dds = false});
   std::atomic<bool> stop{false};
   app->start();
   app->run(6 * kNsPerSec, stop);
@@ -43,7 +44,8 @@ TEST(LiveResults, MockRoverComponentsReportTheirLatestOutput) {
   ASSERT_EQ(std::sscanf(result["sams"].c_str(), "rocks %u", &rocks), 1) << result["sams"];
   EXPECT_GT(rocks, 0u);
   double unknown = 0;
-  ASSERT_EQ(std::sscanf(result["traversability"].c_str(), "map %lf %% unknown", &unknown), 1) << result["traversability"];
+  ASSERT_EQ(std::sscanf(result["traversability"].c_str(), "map %lf %% unknown", &unknown), 1)
+      << result["traversability"];
   EXPECT_LT(unknown, 50.0);
   EXPECT_EQ(result["sfs"].rfind("DTM 320x240", 0), 0u) << result["sfs"];
   EXPECT_TRUE(result["health"].empty());  // not a perception component

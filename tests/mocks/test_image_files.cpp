@@ -136,7 +136,9 @@ TEST(ImageFiles, BadInputErrors) {
 }
 
 // Two consumers poll concurrently: at most one writes; every leased frame's pixels match its
-// sequence number (no torn or mislabelled frame).
+// sequence number (no torn or mislabelled frame). A reader never waits: while the other thread
+// writes the very first frame there is nothing to lease yet (under emulation or load that window
+// can last thousands of polls), but once a reader has seen a frame it always gets one.
 TEST(ImageFiles, ConcurrentConsumersSeeConsistentFrames) {
   Fixture fx;
   write_images(fx.dir, "frames", 7, 64, 48);
@@ -147,9 +149,14 @@ TEST(ImageFiles, ConcurrentConsumersSeeConsistentFrames) {
   auto worker = [&](int phase) {
     hal::FrameLease f;
     std::uint64_t last = 0;
+    bool had_frame = false;
     for (int i = 0; i < 20000; ++i) {
       const TimeNs now = t0 + (i / 2 + phase) * kNsPerMs / 3;
-      if (!cam->latest(now, f)) continue;
+      if (!cam->latest(now, f)) {
+        if (had_frame) ++bad;  // a frame was published: it must stay leasable
+        continue;
+      }
+      had_frame = true;
       ++seen;
       const int expect = 10 * static_cast<int>(f->sequence % 7 + 1);
       if (pixel(f) != expect || f->image.at<std::uint8_t>(47, 63) != expect) ++bad;
@@ -162,7 +169,7 @@ TEST(ImageFiles, ConcurrentConsumersSeeConsistentFrames) {
   a.join();
   b.join();
   EXPECT_EQ(bad.load(), 0);
-  EXPECT_EQ(seen.load(), 40000);
+  EXPECT_GE(seen.load(), 20000);  // the first writer leases on every poll, the other once it has a frame
 }
 
 }  // namespace

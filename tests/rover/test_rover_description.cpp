@@ -314,8 +314,9 @@ components:
   ASSERT_TRUE(dtm);
   EXPECT_NEAR(dtm->light.slant_rad, want.light.slant_rad, 1e-12);
   EXPECT_NEAR(dtm->light.tilt_rad, want.light.tilt_rad, 1e-12);
-  EXPECT_GT(std::abs(dtm->light.slant_rad - level.light.slant_rad) + std::abs(dtm->light.tilt_rad - level.light.tilt_rad),
-            0.05);  // the attitude matters
+  EXPECT_GT(
+      std::abs(dtm->light.slant_rad - level.light.slant_rad) + std::abs(dtm->light.tilt_rad - level.light.tilt_rad),
+      0.05);  // the attitude matters
   auto imu = app->context().channel<hal::ImuSample>("imu").acquire();
   ASSERT_TRUE(imu);
   EXPECT_NEAR(imu->attitude.roll_rad, 5 * kDeg, 1e-12);

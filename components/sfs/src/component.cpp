@@ -42,12 +42,7 @@ direct_depth::CameraModel read_camera_model(Params p, int width, int height) {
                                                  .doc = "optical axis below the horizontal (down positive)"});
   m.roll_rad = p.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707,
                                                .doc = "rotation about the optical axis"});
-  p.finish();
-  try {
-    m.validate();
-  } catch (const FieldError& e) {
-    p.fail(e);
-  }
+  p.finish_and_check([&] { m.validate(); });
   return m;
 }
 

@@ -19,6 +19,25 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 inline double sq(double v) { return v * v; }
 
 /// Blue chromaticity code: b - (r + g) / 2 in [-255, 255] mapped to [1, 255] (0 = outside mask).
+/// The leg colour test of both segmentation passes: value >= vmin, saturation (v - min) / v >=
+/// smin and hue (degrees, OpenCV's full-range HSV formula) in [hlo, hhi] (wrapping through 0 when
+/// `wrap`). `v` / `mn` are the channel maximum / minimum.
+inline bool in_hsv_range(int b, int g, int r, int v, int mn, float vmin, float smin, float hlo, float hhi, bool wrap) {
+  const int dv = v - mn;
+  if (!(static_cast<float>(v) >= vmin && dv > 0 && static_cast<float>(dv) >= smin * static_cast<float>(v))) return false;
+  const float inv = 60.0F / static_cast<float>(dv);
+  float hue;
+  if (v == r) {
+    hue = static_cast<float>(g - b) * inv;
+    if (hue < 0.0F) hue += 360.0F;
+  } else if (v == g) {
+    hue = 120.0F + static_cast<float>(b - r) * inv;
+  } else {
+    hue = 240.0F + static_cast<float>(r - g) * inv;
+  }
+  return wrap ? (hue >= hlo || hue <= hhi) : (hue >= hlo && hue <= hhi);
+}
+
 inline std::uint8_t chroma_code(int b, int g, int r) {
   const int c = 2 * b - r - g;  // 2x chroma, [-510, 510]
   const int code = (c + 514) / 4;  // [1, 256]
@@ -232,24 +251,9 @@ void SinkageEstimator::build_mask_and_segment(int slot, double phi, const Roi& r
       ++mask_count_;
       value_sum_ += v;
       std::uint8_t leg = 0;
-      const int dv = v - mn;
-      if (static_cast<float>(v) >= vmin && dv > 0 &&
-          static_cast<float>(dv) >= smin * static_cast<float>(v)) {
-        float hue;
-        const float inv = 60.0F / static_cast<float>(dv);
-        if (v == r) {
-          hue = static_cast<float>(g - b) * inv;
-          if (hue < 0.0F) hue += 360.0F;
-        } else if (v == g) {
-          hue = 120.0F + static_cast<float>(b - r) * inv;
-        } else {
-          hue = 240.0F + static_cast<float>(r - g) * inv;
-        }
-        const bool ok = hue_wrap ? (hue >= hlo || hue <= hhi) : (hue >= hlo && hue <= hhi);
-        if (ok) {
-          leg = 255;
-          ++hsv_count_;
-        }
+      if (in_hsv_range(b, g, r, v, mn, vmin, smin, hlo, hhi, hue_wrap)) {
+        leg = 255;
+        ++hsv_count_;
       }
       srow[x] = leg;
     }
@@ -322,21 +326,7 @@ void SinkageEstimator::segment_full_frame(const cv::Mat& bgr, bool force_adaptiv
       ++hist_[code];
       value_sum_ += v;
       std::uint8_t leg = 0;
-      const int dv = v - mn;
-      if (static_cast<float>(v) >= vmin && dv > 0 &&
-          static_cast<float>(dv) >= smin * static_cast<float>(v)) {
-        float hue;
-        const float inv = 60.0F / static_cast<float>(dv);
-        if (v == r) {
-          hue = static_cast<float>(g - b) * inv;
-          if (hue < 0.0F) hue += 360.0F;
-        } else if (v == g) {
-          hue = 120.0F + static_cast<float>(b - r) * inv;
-        } else {
-          hue = 240.0F + static_cast<float>(r - g) * inv;
-        }
-        if (hue_wrap ? (hue >= hlo || hue <= hhi) : (hue >= hlo && hue <= hhi)) leg = 255;
-      }
+      if (in_hsv_range(b, g, r, v, mn, vmin, smin, hlo, hhi, hue_wrap)) leg = 255;
       srow[x] = leg;
     }
   }

@@ -63,9 +63,8 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
   }
   cfg.mount = {camera.mount.x_m, camera.mount.y_m, camera.mount.yaw_rad};
   if (!rover.sun) p.fail({}, "soil stiffness needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block");
-  const common::GroundSun gs = common::ground_sun(*rover.sun, camera);
-  cfg.sun.azimuth_rad = gs.azimuth_rad;
-  cfg.sun.elevation_rad = gs.elevation_rad;
+  cfg.sun = common::ground_sun(*rover.sun, camera);
+  const common::GroundSun& gs = cfg.sun;
   if (!(gs.elevation_rad > 0.02))
     p.fail({}, "the sun is " + std::to_string(gs.elevation_rad * 180 / kPi) +
                    " deg above the ground in the camera's frame: the tracks are not lit");

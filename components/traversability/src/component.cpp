@@ -32,13 +32,7 @@ class TraversabilityComponent final : public runtime::Component {
     const int w = model.width, h = model.height;
 
     TraversabilityParams tp;
-    const common::GridGeometry grid = common::read_grid_geometry(
-        p, {tp.resolution_m, tp.length_x_m, tp.length_y_m, tp.center_x_m, tp.center_y_m}, "grid map");
-    tp.resolution_m = grid.resolution_m;
-    tp.length_x_m = grid.length_x_m;
-    tp.length_y_m = grid.length_y_m;
-    tp.center_x_m = grid.center_x_m;
-    tp.center_y_m = grid.center_y_m;
+    tp.set_grid(common::read_grid_geometry(p, tp.grid(), "grid map"));
     tp.detrend_sigma_px = p.get<double>("detrend_sigma_px", tp.detrend_sigma_px, {.unit = "px", .min = 0.0, .doc = "low-frequency SfS drift removed (0 = off)"});
     tp.height_gain = p.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true, .doc = "extra multiplier on metric SfS heights"});
     tp.max_range_m = p.get<double>("max_range_m", tp.max_range_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "pixels farther than this are ignored"});

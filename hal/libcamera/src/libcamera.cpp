@@ -120,12 +120,7 @@ Config config_from_params(Params& p) {
     c.controls.emplace_back(name, ctl.require<std::string>(name, {.doc = "libcamera control value"}));
   }
   ctl.finish();
-  p.finish();
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    p.fail(e);
-  }
+  p.finish_and_check([&] { c.validate(); });
   return c;
 }
 

@@ -123,12 +123,7 @@ Config config_from_params(Params& p) {
         "id", 0, {.min = 0, .max = c.tx_extended ? 0x1FFFFFFF : 0x7FF, .doc = "command frame identifier"}));
     cmd.finish();
   }
-  p.finish();
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    p.fail(e);
-  }
+  p.finish_and_check([&] { c.validate(); });
   return c;
 }
 

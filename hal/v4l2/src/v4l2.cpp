@@ -128,12 +128,7 @@ Config config_from_params(Params& p) {
     c.controls.push_back({name, ctl.require<std::string>(name, {.doc = "V4L2 control value (integer, bool or menu entry)"})});
   }
   ctl.finish();
-  p.finish();
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    p.fail(e);
-  }
+  p.finish_and_check([&] { c.validate(); });
   return c;
 }
 

@@ -14,9 +14,9 @@ namespace {
 constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
 
 struct AttitudeScript {
-  Attitude base;                 ///< at start [rad]
-  double sway_roll_rad = 0.0;    ///< amplitude of the roll sway
-  double sway_pitch_rad = 0.0;   ///< amplitude of the pitch sway
+  Attitude base;                ///< at start [rad]
+  double sway_roll_rad = 0.0;   ///< amplitude of the roll sway
+  double sway_pitch_rad = 0.0;  ///< amplitude of the pitch sway
   double sway_period_s = 4.0;
   double yaw_rate_rad_s = 0.0;
   double gravity_mps2 = 1.62;
@@ -90,18 +90,30 @@ class ScriptedImu final : public hal::Imu {
 std::unique_ptr<hal::Imu> make_scripted_imu(Params& p, const hal::DeviceContext& ctx) {
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   AttitudeScript s;
-  const double rate = p.get<double>("rate_hz", 100.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true,
-                                                       .doc = "sample rate"});
-  s.base.roll_rad = kDeg * p.get<double>("roll_deg", 0.0, {.unit = "deg", .min = -90.0, .max = 90.0, .doc = "body roll at start (left side up +)"});
-  s.base.pitch_rad = kDeg * p.get<double>("pitch_deg", 0.0, {.unit = "deg", .min = -90.0, .max = 90.0, .doc = "body pitch at start (nose down +)"});
-  s.base.yaw_rad = kDeg * p.get<double>("yaw_deg", 0.0, {.unit = "deg", .min = -360.0, .max = 360.0,
-                                                         .doc = "heading at start, counter-clockwise from the local-level x"});
-  s.sway_roll_rad = kDeg * p.get<double>("sway_roll_deg", 0.0, {.unit = "deg", .min = 0.0, .max = 45.0, .doc = "roll sway amplitude"});
-  s.sway_pitch_rad = kDeg * p.get<double>("sway_pitch_deg", 0.0, {.unit = "deg", .min = 0.0, .max = 45.0, .doc = "pitch sway amplitude"});
-  s.sway_period_s = p.get<double>("sway_period_s", 4.0, {.unit = "s", .min = 0.01, .max = 3600.0, .doc = "sway period"});
-  s.yaw_rate_rad_s = kDeg * p.get<double>("yaw_rate_deg_s", 0.0, {.unit = "deg/s", .min = -360.0, .max = 360.0, .doc = "turn rate"});
-  s.gravity_mps2 = p.get<double>("gravity_mps2", ctx.rover != nullptr && ctx.rover->gravity_mps2 > 0.0 ? ctx.rover->gravity_mps2 : 1.62,
-                                 {.unit = "m/s^2", .min = 0.0, .max = 100.0, .doc = "surface gravity (default rover.gravity_mps2)"});
+  const double rate = p.get<double>(
+      "rate_hz", 100.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true, .doc = "sample rate"});
+  s.base.roll_rad =
+      kDeg * p.get<double>("roll_deg", 0.0,
+                           {.unit = "deg", .min = -90.0, .max = 90.0, .doc = "body roll at start (left side up +)"});
+  s.base.pitch_rad =
+      kDeg * p.get<double>("pitch_deg", 0.0,
+                           {.unit = "deg", .min = -90.0, .max = 90.0, .doc = "body pitch at start (nose down +)"});
+  s.base.yaw_rad = kDeg * p.get<double>("yaw_deg", 0.0,
+                                        {.unit = "deg",
+                                         .min = -360.0,
+                                         .max = 360.0,
+                                         .doc = "heading at start, counter-clockwise from the local-level x"});
+  s.sway_roll_rad = kDeg * p.get<double>("sway_roll_deg", 0.0,
+                                         {.unit = "deg", .min = 0.0, .max = 45.0, .doc = "roll sway amplitude"});
+  s.sway_pitch_rad = kDeg * p.get<double>("sway_pitch_deg", 0.0,
+                                          {.unit = "deg", .min = 0.0, .max = 45.0, .doc = "pitch sway amplitude"});
+  s.sway_period_s =
+      p.get<double>("sway_period_s", 4.0, {.unit = "s", .min = 0.01, .max = 3600.0, .doc = "sway period"});
+  s.yaw_rate_rad_s =
+      kDeg * p.get<double>("yaw_rate_deg_s", 0.0, {.unit = "deg/s", .min = -360.0, .max = 360.0, .doc = "turn rate"});
+  s.gravity_mps2 = p.get<double>(
+      "gravity_mps2", ctx.rover != nullptr && ctx.rover->gravity_mps2 > 0.0 ? ctx.rover->gravity_mps2 : 1.62,
+      {.unit = "m/s^2", .min = 0.0, .max = 100.0, .doc = "surface gravity (default rover.gravity_mps2)"});
   return std::make_unique<ScriptedImu>(ctx, s, rate);
 }
 

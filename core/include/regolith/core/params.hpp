@@ -64,6 +64,17 @@ class Params {
 
   /// Reject every key of this mapping that was not read, suggesting the closest declared key.
   void finish() const;
+  /// finish(), then run `check` (a struct's validate(), which throws FieldError) and report its
+  /// error here, at the field's key: the end of every "read a struct from YAML" function.
+  template <class Check>
+  void finish_and_check(Check&& check) const {
+    finish();
+    try {
+      check();
+    } catch (const FieldError& e) {
+      fail(e);
+    }
+  }
 
   /// Throw a ConfigError located at `key` (or at this mapping when the key is absent).
   [[noreturn]] void fail(std::string_view key, const std::string& problem) const;

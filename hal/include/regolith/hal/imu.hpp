@@ -12,11 +12,11 @@
 namespace regolith::hal {
 
 struct ImuSample {
-  TimeNs stamp = 0;                 ///< capture time (ns, process clock)
+  TimeNs stamp = 0;  ///< capture time (ns, process clock)
   std::uint64_t sequence = 0;
-  Attitude attitude;                ///< roll, pitch, yaw of the body in the local-level frame [rad]
-  Vec3 angular_velocity;            ///< body frame [rad/s]
-  Vec3 linear_acceleration;         ///< specific force, body frame [m/s^2] (level at rest: +g on z)
+  Attitude attitude;         ///< roll, pitch, yaw of the body in the local-level frame [rad]
+  Vec3 angular_velocity;     ///< body frame [rad/s]
+  Vec3 linear_acceleration;  ///< specific force, body frame [m/s^2] (level at rest: +g on z)
 };
 
 /// Unit quaternion (x, y, z, w) of an attitude (R = Rz(yaw) Ry(pitch) Rx(roll)), as

@@ -2,6 +2,7 @@
 // The rover description (regolith/core/rover.hpp) in the algorithms' terms: one camera model per
 // camera device, and the one deployment sun in each camera's frames. Every component that needs
 // a camera's geometry or the sun gets it here, so no component repeats intrinsics, mounts or suns.
+#include "regolith/common/sun.hpp"
 #include "regolith/core/rover.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
@@ -22,12 +23,7 @@ struct CameraLight {
 };
 CameraLight camera_light(const Sun& sun, const RoverCamera& camera, const Attitude& attitude = {});
 
-/// The sun in a camera's ground frame (x = the camera's viewing heading, y left, z up): azimuth
-/// counter-clockwise from x, elevation above the ground. The frame of the soil track analysis.
-struct GroundSun {
-  double azimuth_rad = 0.0;
-  double elevation_rad = 0.0;
-};
+/// The sun in a camera's ground frame (sun.hpp): the frame of the soil track analysis.
 GroundSun ground_sun(const Sun& sun, const RoverCamera& camera, const Attitude& attitude = {});
 
 }  // namespace regolith::common

@@ -22,6 +22,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "regolith/common/sun.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/soil_stiffness/rigid_wheel.hpp"
 
@@ -34,12 +35,9 @@ namespace regolith::soil {
 /// direct_depth::DirectDepth::project once, at construction.
 using CameraModel = direct_depth::CameraModel;
 
-/// Sun in the same body frame: azimuth from +x (viewing direction) towards +y (left), elevation
-/// above the ground plane.
-struct SunDirection {
-  double azimuth_rad = 1.5708;  ///< [rad]
-  double elevation_rad = 0.7854;///< [rad], must be > 0
-};
+/// The sun in the camera's ground frame (azimuth from the viewing direction towards the left,
+/// elevation): the shared type, computed from the deployment sun by common::ground_sun().
+using SunDirection = common::GroundSun;
 
 enum class ProfileSource {
   kPhotoclinometry,  ///< 1-D Lambertian inversion of each cross-section (default, see README)

@@ -89,6 +89,16 @@ struct TraversabilityParams {
     return s;
   }
   void validate() const;  ///< throws std::invalid_argument naming the field
+
+  /// The map's grid (resolution, lengths, centre) as one GridGeometry, and back.
+  common::GridGeometry grid() const { return {resolution_m, length_x_m, length_y_m, center_x_m, center_y_m}; }
+  void set_grid(const common::GridGeometry& g) {
+    resolution_m = g.resolution_m;
+    length_x_m = g.length_x_m;
+    length_y_m = g.length_y_m;
+    center_x_m = g.center_x_m;
+    center_y_m = g.center_y_m;
+  }
 };
 
 /// Layer names, in GridMap::layers order.
@@ -99,12 +109,9 @@ inline const std::vector<std::string>& layer_names() {
   return names;
 }
 
-/// Light used by the SfS solver, in the camera image frame (regolith::sfs::LightDirection
-/// convention: slant from the line of sight back to the camera, tilt from image +x towards +y).
-struct ImageLight {
-  double slant_rad = 0.0;  ///< rad
-  double tilt_rad = 0.0;   ///< rad
-};
+/// The light of the SfS solver in the camera image frame: the same type (sfs::LightDirection:
+/// slant from the line of sight back to the camera, tilt from image +x towards +y).
+using ImageLight = sfs::LightDirection;
 
 /// Unit vector towards the sun in the body frame (x forward, y left, z up) for a light given in
 /// the image frame of `model`.
