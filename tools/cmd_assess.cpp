@@ -20,7 +20,9 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
@@ -36,6 +38,7 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 struct AssessOptions {
   std::string image, config, out, method, flat_field, camera;
+  std::string rover, device;  ///< camera + sun from a deployment's rover description
   std::string sfs_frame = "ground";  ///< camera mode: "ground" (rectified) or "image" SfS for the grid
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
@@ -231,7 +234,37 @@ void assess(const AssessOptions& o) {
   } else {
     sp.estimate_light = true;
   }
-  if (!o.camera.empty()) {
+  if (!o.rover.empty() || !o.device.empty()) {
+    // The camera as the rover describes it (calibration + mount) and, unless given, the one sun
+    // converted into its image frame (level rover).
+    if (o.rover.empty() || o.device.empty()) throw ConfigError("--rover FILE and --device NAME go together");
+    if (!o.camera.empty() || std::isfinite(o.height_m) || std::isfinite(o.pitch_deg))
+      throw ConfigError("--rover gives the camera (rover.cameras." + o.device + "): drop --camera/--height/--pitch");
+    if (!fs::is_regular_file(o.rover)) throw ConfigError("--rover: '" + o.rover + "' does not exist");
+    Params root = Params::load_file(o.rover);
+    const fs::path rp(o.rover);
+    const RoverDescription rd = read_rover_description(root, rp.has_parent_path() ? rp.parent_path().string() : ".");
+    const RoverCamera* rc = rd.camera(o.device);
+    if (rc == nullptr) {
+      std::string names;
+      for (const auto& [n, c] : rd.cameras) names += (names.empty() ? "" : ", ") + n;
+      throw ConfigError(o.rover + ": no rover.cameras." + o.device + " (described: " + (names.empty() ? "none" : names) + ")");
+    }
+    if (rc->info.width != gray.cols || rc->info.height != gray.rows)
+      throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                       " px but rover.cameras." + o.device + " is " + std::to_string(rc->info.width) + "x" +
+                       std::to_string(rc->info.height) + " px (" + rc->where + ")");
+    model = common::camera_model_of(*rc);
+    if (!light && rd.sun) {
+      const common::CameraLight cl = common::camera_light(*rd.sun, *rc);
+      if (!cl.in_view)
+        throw ConfigError(o.rover + ": the sun is ahead of camera '" + o.device + "' (image slant " +
+                          std::to_string(cl.light.slant_rad / kDeg) +
+                          " deg): no image-frame shading to solve; run the deployment (ground-frame path) instead");
+      light = cl.light;
+      sp.estimate_light = false;
+    }
+  } else if (!o.camera.empty()) {
     const auto v = parse_camera(o.camera);
     if (!std::isfinite(o.height_m)) throw ConfigError("--camera needs --height M (camera height above the ground)");
     direct_depth::CameraModel m;
@@ -417,6 +450,8 @@ void add_assess(CLI::App& app) {
   cmd->add_option("--sfs-frame", o->sfs_frame,
                   "camera mode: SfS for the grid on the ground-rectified image (default) or in the image frame")
       ->check(CLI::IsMember({"ground", "image"}));
+  cmd->add_option("--rover", o->rover, "deployment (or any YAML with rover: and sun:) giving the camera and the sun");
+  cmd->add_option("--device", o->device, "with --rover: the camera device (rover.cameras.NAME) that took the image");
   cmd->add_option("--height", o->height_m, "m, camera height above the ground");
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")

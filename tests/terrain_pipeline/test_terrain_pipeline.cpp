@@ -370,6 +370,31 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     EXPECT_TRUE(rock_hazard) << slurp(dir / "cam" / "summary.json");
     EXPECT_NE(run_tool(std::string(cargs) + " --sfs-frame sideways", dir / "cam2.txt"), 0);
     EXPECT_NE(slurp(dir / "cam2.txt").find("--sfs-frame"), std::string::npos) << slurp(dir / "cam2.txt");
+
+    // The same frame with the camera and sun taken from a deployment's rover description
+    // (--rover FILE --device NAME): the same light (to the 1e-4 deg printed above) and hazards.
+    char dep[1024];
+    std::snprintf(dep, sizeof dep, R"(rover:
+  cameras:
+    front:
+      camera_info: {width: 320, height: 240, k: [300, 0, 159.5, 0, 300, 119.5, 0, 0, 1]}
+      mount: {z_m: 0.6, pitch_rad: 0.45}
+sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
+)", -2.2 * 180 / CV_PI, 0.6 * 180 / CV_PI);
+    std::ofstream(dir / "deployment.yaml") << dep;
+    const std::string rargs = "assess " + (dir / "rover.png").string() + " --out " + (dir / "cam3").string() +
+                              " --rover " + (dir / "deployment.yaml").string() + " --device front";
+    ASSERT_EQ(run_tool(rargs, dir / "cam3.txt"), 0) << slurp(dir / "cam3.txt");
+    const auto jr = nlohmann::json::parse(slurp(dir / "cam3" / "summary.json"));
+    EXPECT_NEAR(jr["light"]["slant_deg"].get<double>(), jc["light"]["slant_deg"].get<double>(), 1e-3);
+    EXPECT_NEAR(jr["light"]["tilt_deg"].get<double>(), jc["light"]["tilt_deg"].get<double>(), 1e-3);
+    EXPECT_EQ(jr["light"]["source"], "given");
+    EXPECT_EQ(jr["hazards"].size(), jc["hazards"].size());
+    std::string rear = rargs;
+    rear.replace(rear.rfind("front"), 5, "rear");
+    EXPECT_EQ(run_tool(rear, dir / "cam4.txt"), 2);
+    EXPECT_NE(slurp(dir / "cam4.txt").find("no rover.cameras.rear (described: front)"), std::string::npos)
+        << slurp(dir / "cam4.txt");
   }
   // Terrain without a sun: the estimator is not trusted -> clear error, exit 2.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o4").string(), dir / "e6.txt"), 2);
