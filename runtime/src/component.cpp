@@ -83,13 +83,6 @@ const hal::Imu* Context::attitude_imu() {
   return imu;
 }
 
-Attitude Context::attitude() const {
-  hal::ImuSample s;
-  const hal::Imu* imu = rover_.imu.empty() ? nullptr : find<hal::Imu>(rover_.imu);
-  if (imu != nullptr && imu->latest(clock_.now(), s)) return s.attitude;
-  return {};
-}
-
 const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
   const std::string name = lookup(hal::Camera::kKind, p, key).id();  // must exist (located error)
   declare(Port::Kind::kDevice, name, "calibration");  // reads the camera's geometry, not its frames

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "regolith/core/error.hpp"
 
 namespace regolith::common {
 
@@ -22,6 +25,21 @@ direct_depth::CameraModel camera_model_of(const RoverCamera& camera) {
   m.mount_height_m = camera.mount.z_m;
   m.pitch_rad = camera.mount.pitch_rad;
   m.roll_rad = camera.mount.roll_rad;
+  return m;
+}
+
+direct_depth::CameraModel camera_model_for_frames(const RoverCamera& camera, int width, int height, Params& p,
+                                                  std::string_view key) {
+  if (camera.info.width != width || camera.info.height != height)
+    p.fail(key, "rover.cameras." + camera.name + " is " + std::to_string(camera.info.width) + "x" +
+                    std::to_string(camera.info.height) + " px but the frames are " + std::to_string(width) + "x" +
+                    std::to_string(height) + " px (" + camera.where + ")");
+  direct_depth::CameraModel m = camera_model_of(camera);
+  try {
+    m.validate();
+  } catch (const FieldError& e) {
+    throw ConfigError(camera.where + ": rover.cameras." + camera.name + ": " + e.what());
+  }
   return m;
 }
 

@@ -87,22 +87,16 @@ class SfsComponent final : public runtime::Component {
     const RoverCamera* rc = ctx.rover().camera(p.node()["camera"].Scalar());
     if (source == "sun" || rc != nullptr) rc = &ctx.rover_camera(p, "camera");
     if (rc != nullptr) {
-      if (rc->info.width != fmt.width || rc->info.height != fmt.height)
-        p.fail("camera", "rover.cameras." + rc->name + " is " + std::to_string(rc->info.width) + "x" +
-                             std::to_string(rc->info.height) + " px but the camera delivers " +
-                             std::to_string(fmt.width) + "x" + std::to_string(fmt.height) + " px (" + rc->where + ")");
-      model_ = std::make_unique<direct_depth::CameraModel>(common::camera_model_of(*rc));
-      try {
-        model_->validate();
-      } catch (const FieldError& e) {
-        throw ConfigError(rc->where + ": rover.cameras." + rc->name + ": " + e.what());
-      }
+      model_ = std::make_unique<direct_depth::CameraModel>(
+          common::camera_model_for_frames(*rc, fmt.width, fmt.height, p, "camera"));
     }
     if (source == "sun") {
       camera_ = rc;
       sun_ = &ctx.sun(p, "sfs light_source sun");
       imu_ = ctx.attitude_imu();  // per frame: the body attitude at the capture time
-      const common::CameraLight cl = common::camera_light(*sun_, *rc, ctx.attitude());
+      // Level until the first frame: devices start after configure; with an IMU each frame is
+      // converted through the attitude at its capture time (step).
+      const common::CameraLight cl = common::camera_light(*sun_, *rc);
       light_ = cl.light;
       sun_in_view_ = cl.in_view;
     } else {

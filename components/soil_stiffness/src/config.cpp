@@ -51,16 +51,7 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
   p.reject_moved("rover", "the rover is described once: rover.mass_kg, rover.gravity_mps2 and rover.wheels");
   SoilConfig cfg;
   cfg.rover = rover_config(p, rover);
-  if (camera.info.width != width_px || camera.info.height != height_px)
-    p.fail("camera", "rover.cameras." + camera.name + " is " + std::to_string(camera.info.width) + "x" +
-                         std::to_string(camera.info.height) + " px but the frames are " + std::to_string(width_px) +
-                         "x" + std::to_string(height_px) + " px (" + camera.where + ")");
-  cfg.camera = common::camera_model_of(camera);
-  try {
-    cfg.camera.validate();
-  } catch (const FieldError& e) {
-    throw ConfigError(camera.where + ": rover.cameras." + camera.name + ": " + e.what());
-  }
+  cfg.camera = common::camera_model_for_frames(camera, width_px, height_px, p, "camera");
   cfg.mount = {camera.mount.x_m, camera.mount.y_m, camera.mount.yaw_rad};
   if (!rover.sun) p.fail({}, "soil stiffness needs the sun: add a top-level `sun: {azimuth_deg, elevation_deg}` block");
   cfg.sun = common::ground_sun(*rover.sun, camera);

@@ -139,23 +139,22 @@ class TraversabilityComponent final : public runtime::Component {
     const common::DtmFrame& d = *lease;
     if (!new_dtm_(lease.generation())) return;
     input_updated(*input_, c.now);
-    if (d.height.size() != cv::Size(depth_->model().width, depth_->model().height)) {
+    const cv::Size sz(depth_->model().width, depth_->model().height);
+    if (d.height.size() != sz || d.gray.size() != sz || (!d.valid.empty() && d.valid.size() != sz)) {
       count_error();
       set_status("DTM size differs from the camera calibration (rover.cameras)");
       return;
     }
-    const cv::Size sz(depth_->model().width, depth_->model().height);
-    if (d.gray.size() != sz || d.gray.type() != CV_8UC1 || d.height.type() != CV_32FC1 ||
-        (!d.valid.empty() && (d.valid.size() != sz || d.valid.type() != CV_8UC1))) {
+    if (d.gray.type() != CV_8UC1 || d.height.type() != CV_32FC1 || (!d.valid.empty() && d.valid.type() != CV_8UC1)) {
       count_error();
-      set_status("DTM frame of the wrong size or type");
+      set_status("DTM frame of the wrong type");
       return;
     }
     // Inputs checked: the mapper neither throws nor allocates here.
     if (ground_)
-      mapper_->compute_from_image(d.gray, {d.light.slant_rad, d.light.tilt_rad}, map_);
+      mapper_->compute_from_image(d.gray, d.light, map_);
     else
-      mapper_->compute_from_sfs(d.height, d.valid, {d.light.slant_rad, d.light.tilt_rad}, map_);
+      mapper_->compute_from_sfs(d.height, d.valid, d.light, map_);
     for (std::size_t k = 0; k < base_layers_; ++k) map_.data[k].copyTo(full_.data[k]);
     merge_extra_layers(d.sequence);
     if (GridMapFrame* f = out_->begin_write()) {

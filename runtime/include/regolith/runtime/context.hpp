@@ -57,11 +57,8 @@ class Context {
   const RoverCamera& rover_camera(Params& p, std::string_view key = "camera");
   /// The deployment sun; ConfigError at `p` (naming `who`) when the deployment has no `sun:` block.
   const Sun& sun(Params& p, const std::string& who) const;
-  /// Body attitude in the local-level frame at start-up: the attitude IMU's newest sample
-  /// (rover.imu) once started, else level. Per frame, components ask the IMU itself
-  /// (attitude_imu(), Imu::attitude_at(capture time)).
-  Attitude attitude() const;
-  /// The IMU named by rover.imu, or null (level rover). Records the component's device port.
+  /// The IMU giving the body attitude (rover.imu), or null (a level rover). Records the
+  /// component's device port; ask it per frame: Imu::attitude_at(capture time).
   const hal::Imu* attitude_imu();
 
   // ---- devices: one store for every kind (hal::Device), names unique within a kind ----
