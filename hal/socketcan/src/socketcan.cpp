@@ -356,6 +356,15 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
   c_->frames.fetch_add(1, std::memory_order_relaxed);
   if (f.error) {
     const CanErrorInfo e = decode_error_frame(f);
+    // State first, counters after: a reader that sees a counter move (bus_off, restarts) also sees
+    // the state it caused (all seq_cst).
+    if (e.bus_off) {
+      c_->faults.fetch_add(1);
+      c_->state.store(DeviceState::kFaulted);
+    } else if ((e.restarted || e.error_active) && c_->state.load() == DeviceState::kFaulted) {
+      c_->recoveries.fetch_add(1);
+      c_->state.store(DeviceState::kStreaming);
+    }
     c_->error_frames.fetch_add(1);
     if (e.bus_off) c_->bus_off.fetch_add(1);
     if (e.error_passive) c_->error_passive.fetch_add(1);
@@ -368,13 +377,6 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
     if (e.no_ack) c_->no_ack.fetch_add(1);
     if (e.restarted) c_->restarts.fetch_add(1);
     note_error("error frame: " + e.describe());
-    if (e.bus_off) {
-      c_->faults.fetch_add(1);
-      c_->state.store(DeviceState::kFaulted);
-    } else if ((e.restarted || e.error_active) && c_->state.load() == DeviceState::kFaulted) {
-      c_->recoveries.fetch_add(1);
-      c_->state.store(DeviceState::kStreaming);
-    }
     return;
   }
   const std::uint64_t short_before = decoder_.short_frames();
