@@ -122,44 +122,16 @@ TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& dept
   sum_.create(nx_, ny_, CV_64F);
   count_.create(nx_, ny_, CV_32F);
 
-  // Ground rectification over the map's extent: cell (i, j) has the flat-ground centre
-  // x = x0 - (i + 0.5) res, y = y0 - (j + 0.5) res (rows along -x, columns along -y, as the grid).
-  const double res = p_.rectify_resolution_m;
-  const int rx = std::max(1, static_cast<int>(std::lround(nx_ * p_.resolution_m / res)));
-  const int ry = std::max(1, static_cast<int>(std::lround(ny_ * p_.resolution_m / res)));
-  const double x0 = p_.center_x_m + 0.5 * nx_ * p_.resolution_m, y0 = p_.center_y_m + 0.5 * ny_ * p_.resolution_m;
-  rect_src_.create(rx, ry, CV_32SC4);
-  rect_frac_.create(rx, ry, CV_32FC2);
-  rect_x_.create(rx, ry, CV_32F);
-  rect_y_.create(rx, ry, CV_32F);
-  rect_valid_.create(rx, ry, CV_8U);
-  rect_support_.create(rx, ry, CV_32F);
-  const cv::Mat& fl = depth_.footprint_lateral_map();
-  const cv::Mat& fr = depth_.footprint_range_map();
-  rect_visible_ = 0;
-  for (int i = 0; i < rx; ++i)
-    for (int j = 0; j < ry; ++j) {
-      const double x = x0 - (i + 0.5) * res, y = y0 - (j + 0.5) * res;
-      rect_x_.at<float>(i, j) = static_cast<float>(x);
-      rect_y_.at<float>(i, j) = static_cast<float>(y);
-      rect_src_.at<cv::Vec4i>(i, j) = {0, 0, 0, 0};
-      rect_frac_.at<cv::Vec2f>(i, j) = {0.0f, 0.0f};
-      rect_valid_.at<uchar>(i, j) = 0;
-      rect_support_.at<float>(i, j) = 0.0f;
-      if (x <= 0.0 || std::hypot(x, y) > p_.max_range_m) continue;
-      const auto px = depth_.project(x, y, 0.0);
-      if (!px || !(px->x >= 0.0 && px->y >= 0.0 && px->x <= sz.width - 1.0 && px->y <= sz.height - 1.0)) continue;
-      const int c = static_cast<int>(std::lround(px->x)), r = static_cast<int>(std::lround(px->y));
-      const double a = static_cast<double>(fl.at<float>(r, c)) * static_cast<double>(fr.at<float>(r, c));
-      if (!(a > 0.0)) continue;  // pixel at or above the horizon
-      const int c0 = std::min(static_cast<int>(px->x), sz.width - 1), r0 = std::min(static_cast<int>(px->y), sz.height - 1);
-      rect_src_.at<cv::Vec4i>(i, j) = {r0, c0, std::min(r0 + 1, sz.height - 1), std::min(c0 + 1, sz.width - 1)};
-      rect_frac_.at<cv::Vec2f>(i, j) = {static_cast<float>(px->x - c0), static_cast<float>(px->y - r0)};
-      rect_valid_.at<uchar>(i, j) = 255;
-      // Image pixels that fall in this cell (area ratio): the cell's support for confidence.
-      rect_support_.at<float>(i, j) = static_cast<float>(std::min(1.0, res * res / a));
-      ++rect_visible_;
-    }
+  // Ground rectification over the map's extent (rows along -x, columns along -y, as the grid).
+  direct_depth::RectifiedGrid rg;
+  rg.resolution_m = p_.rectify_resolution_m;
+  rg.rows = std::max(1, static_cast<int>(std::lround(nx_ * p_.resolution_m / rg.resolution_m)));
+  rg.cols = std::max(1, static_cast<int>(std::lround(ny_ * p_.resolution_m / rg.resolution_m)));
+  rg.x_far_m = p_.center_x_m + 0.5 * nx_ * p_.resolution_m;
+  rg.y_left_m = p_.center_y_m + 0.5 * ny_ * p_.resolution_m;
+  rg.max_range_m = p_.max_range_m;
+  rectifier_.emplace(depth_, rg);
+  const int rx = rg.rows, ry = rg.cols;
   rect_gray_.create(rx, ry, CV_8U);
   rect_height_.create(rx, ry, CV_32F);
   rect_blur_.create(rx, ry, CV_32F);
@@ -190,6 +162,18 @@ cv::Vec3d sun_in_body(const direct_depth::CameraModel& m, const ImageLight& l) {
   const double ca = std::cos(m.pitch_rad), sa = std::sin(m.pitch_rad);
   const cv::Matx33d pitch(ca, 0, sa, 0, 1, 0, -sa, 0, ca);
   return pitch * b0 * roll * s_opt;
+}
+
+ImageLight image_light(const direct_depth::CameraModel& m, const cv::Vec3d& sun_body) {
+  // The rotation of sun_in_body transposed: body -> image frame.
+  const double cr = std::cos(m.roll_rad), sr = std::sin(m.roll_rad);
+  const cv::Matx33d roll(cr, -sr, 0, sr, cr, 0, 0, 0, 1);
+  const cv::Matx33d b0(0, 0, 1, -1, 0, 0, 0, -1, 0);
+  const double ca = std::cos(m.pitch_rad), sa = std::sin(m.pitch_rad);
+  const cv::Matx33d pitch(ca, 0, sa, 0, 1, 0, -sa, 0, ca);
+  const double n = cv::norm(sun_body);
+  const cv::Vec3d s = (pitch * b0 * roll).t() * (n > 0 ? sun_body / n : sun_body);
+  return {std::acos(std::clamp(-s[2], -1.0, 1.0)), std::atan2(s[1], s[0])};
 }
 
 double sun_elevation(const direct_depth::CameraModel& m, const ImageLight& l) {
@@ -278,44 +262,26 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
   const bool usable = std::isfinite(light.slant_rad) && std::isfinite(light.tilt_rad) &&
                       std::isfinite(last_ground_light_.slant_rad) && last_ground_light_.slant_rad < CV_PI / 2 - 0.01;
   fill(rect_height_, kNaNf);
-  if (!usable || rect_visible_ < 16) {  // no usable shading or no ground in view: unknown everywhere
+  if (!usable || rectifier_->visible() < 16) {  // no usable shading or no ground in view: unknown everywhere
     fill(rect_gray_, uchar{0});
     finish_grid(out);
     return;
   }
-  // Bilinear resampling through the precomputed table (cv::remap allocates per call).
-  for (int i = 0; i < rect_gray_.rows; ++i) {
-    uchar* g = rect_gray_.ptr<uchar>(i);
-    const uchar* v = rect_valid_.ptr<uchar>(i);
-    const cv::Vec4i* src = rect_src_.ptr<cv::Vec4i>(i);
-    const cv::Vec2f* fr = rect_frac_.ptr<cv::Vec2f>(i);
-    for (int j = 0; j < rect_gray_.cols; ++j) {
-      if (!v[j]) {
-        g[j] = 0;
-        continue;
-      }
-      const uchar* top = gray.ptr<uchar>(src[j][0]);
-      const uchar* bot = gray.ptr<uchar>(src[j][2]);
-      const float fx = fr[j][0], fy = fr[j][1];
-      const float a = top[src[j][1]] + fx * static_cast<float>(top[src[j][3]] - top[src[j][1]]);
-      const float b = bot[src[j][1]] + fx * static_cast<float>(bot[src[j][3]] - bot[src[j][1]]);
-      g[j] = static_cast<uchar>(std::lround(a + fy * (b - a)));
-    }
-  }
+  rectifier_->resample(gray, rect_gray_);  // precomputed table: no allocation (cv::remap allocates)
   // Cells outside the view get the median brightness of the seen ones (= flat ground for the
   // solver, whose albedo normalisation also takes the median as flat): no false edges.
   int hist[256] = {};
   for (int i = 0; i < rect_gray_.rows; ++i) {
     const uchar* g = rect_gray_.ptr<uchar>(i);
-    const uchar* v = rect_valid_.ptr<uchar>(i);
+    const uchar* v = rectifier_->valid().ptr<uchar>(i);
     for (int j = 0; j < rect_gray_.cols; ++j)
       if (v[j]) ++hist[g[j]];
   }
   int median = 0;
-  for (int acc = 0; median < 255 && (acc += hist[median]) * 2 < rect_visible_;) ++median;
+  for (int acc = 0; median < 255 && (acc += hist[median]) * 2 < rectifier_->visible();) ++median;
   for (int i = 0; i < rect_gray_.rows; ++i) {
     uchar* g = rect_gray_.ptr<uchar>(i);
-    const uchar* v = rect_valid_.ptr<uchar>(i);
+    const uchar* v = rectifier_->valid().ptr<uchar>(i);
     for (int j = 0; j < rect_gray_.cols; ++j)
       if (!v[j]) g[j] = static_cast<uchar>(median);
   }
@@ -328,7 +294,7 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
   for (int i = 0; i < rect_height_.rows; ++i) {
     const float* ph = hs.ptr<float>(i);
     const float* pb = p_.ground_detrend_sigma_m > 0 ? rect_blur_.ptr<float>(i) : nullptr;
-    const uchar* v = rect_valid_.ptr<uchar>(i);
+    const uchar* v = rectifier_->valid().ptr<uchar>(i);
     const uchar* sv = ground_result_.valid.ptr<uchar>(i);
     float* pz = rect_height_.ptr<float>(i);
     uchar* pm = rect_mask_.ptr<uchar>(i);
@@ -337,7 +303,7 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
       if (v[j]) pz[j] = static_cast<float>((static_cast<double>(ph[j]) - (pb ? static_cast<double>(pb[j]) : 0.0)) * scale);
     }
   }
-  bin_points(rect_height_, rect_mask_, rect_x_, rect_y_, rect_support_, out);
+  bin_points(rect_height_, rect_mask_, rectifier_->x_map(), rectifier_->y_map(), rectifier_->support(), out);
   finish_grid(out);
 }
 

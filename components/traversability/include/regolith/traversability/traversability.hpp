@@ -35,12 +35,14 @@
 #include <opencv2/core.hpp>
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "regolith/common/grid.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/direct_depth/ground_rectifier.hpp"
 #include "regolith/sfs/sfs.hpp"
 
 namespace regolith::traversability {
@@ -116,6 +118,9 @@ using ImageLight = sfs::LightDirection;
 /// Unit vector towards the sun in the body frame (x forward, y left, z up) for a light given in
 /// the image frame of `model`.
 cv::Vec3d sun_in_body(const direct_depth::CameraModel& model, const ImageLight& light);
+/// Inverse of sun_in_body: the image-frame light of a sun given as a vector in the body frame
+/// (any length; slant may exceed 90 deg when the sun is ahead of the camera).
+ImageLight image_light(const direct_depth::CameraModel& model, const cv::Vec3d& sun_body);
 /// Sun elevation above the ground plane (rad) for a light given in the image frame of `model`.
 double sun_elevation(const direct_depth::CameraModel& model, const ImageLight& light);
 /// The same sun in the frame of the ground-rectified image (columns = body -y, rows = body -x,
@@ -142,7 +147,9 @@ class TraversabilityMapper {
   /// Rectified grey image of the last compute_from_image (CV_8U; 0 outside the view, filled with
   /// the median inside it for the solver) and its validity (CV_8U 255 = seen by the camera).
   const cv::Mat& rectified_image() const { return rect_gray_; }
-  const cv::Mat& rectified_valid() const { return rect_valid_; }
+  const cv::Mat& rectified_valid() const { return rectifier_->valid(); }
+  /// The rectification table (grid, seen cells, per-cell support).
+  const direct_depth::GroundRectifier& rectifier() const { return *rectifier_; }
   /// Metric heights (CV_32F m, NaN outside the view) of the last compute_from_image, per
   /// rectified cell (before the cells are moved along their rays).
   const cv::Mat& rectified_heights() const { return rect_height_; }
@@ -165,13 +172,12 @@ class TraversabilityMapper {
                   const cv::Mat& weight, GridMap& out);
   void begin_grid(GridMap& out);   // shapes `out`, clears the accumulators
   void finish_grid(GridMap& out);  // accumulators -> elevation, confidence, layers
-  // Ground rectification: per cell the four source pixels (r0, c0, r1, c1) and bilinear
-  // fractions (x, y), flat-ground coordinates of each cell, the view mask and the solver.
-  cv::Mat rect_src_, rect_frac_, rect_x_, rect_y_, rect_valid_, rect_support_, rect_mask_, rect_gray_, rect_height_, rect_blur_;
+  // Ground rectification table (built in the constructor) and the per-frame rectified products.
+  std::optional<direct_depth::GroundRectifier> rectifier_;
+  cv::Mat rect_mask_, rect_gray_, rect_height_, rect_blur_;
   sfs::ShapeFromShading ground_solver_;
   sfs::SfsResult ground_result_;
   ImageLight last_ground_light_{};
-  int rect_visible_ = 0;
   cv::Mat metric_, blur_, tmp_;
   cv::Mat ground_step_x_, ground_step_y_;  // m per px along columns / rows (footprints)
   std::vector<double> line_;

@@ -1,0 +1,127 @@
+#pragma once
+// The drive-long terrain map: wheel + visual odometry fused into a corrected pose, and each
+// frame's terrain (ground-rectified SfS via traversability) fused into a world-frame map.
+//
+// Per frame: the wheel odometry increment predicts the pose; ground visual odometry measures the
+// camera's motion since the keyframe; the two relative estimates are combined by their
+// information (inverse covariances), so the wheels carry the motion when vision cannot (too
+// little ground, no texture, black or saturated frame, divergence) and the pose covariance then
+// grows with the wheel model. The map is placed with the corrected pose.
+// Framework-free: the `terrain_map` component and `regolith map` both drive this class.
+#include <opencv2/core.hpp>
+
+#include <optional>
+
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/mapping/ground_vo.hpp"
+#include "regolith/mapping/parallax.hpp"
+#include "regolith/mapping/pose2.hpp"
+#include "regolith/mapping/world_map.hpp"
+#include "regolith/traversability/traversability.hpp"
+
+namespace regolith::mapping {
+
+/// Wheel odometry error model: standard deviations per step, grown with the distance driven.
+struct WheelNoise {
+  double along_fraction = 0.02;    ///< std of the distance, fraction of the step
+  double lateral_fraction = 0.01;  ///< std across the heading, fraction of the step
+  double yaw_per_m_rad = 0.01;     ///< rad of yaw std per m driven
+  double yaw_fraction = 0.05;      ///< std of the yaw change, fraction of it
+  double floor_m = 0.001;          ///< m, std floor per step
+  double floor_rad = 0.0005;       ///< rad, std floor per step
+  double max_step_m = 0.5;         ///< m, a larger step between two frames is an odometry jump
+  double max_step_rad = 0.5;       ///< rad
+  void validate() const;           ///< FieldError("mapping.wheel", ...)
+  Cov3 covariance(const Pose2& step) const;
+};
+
+struct DriveMapperParams {
+  GroundVoParams vo;
+  WheelNoise wheel;
+  WorldMapParams map;
+  ParallaxParams parallax;
+  traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
+  double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
+  double keyframe_yaw_rad = 0.12;     ///< rad
+  double keyframe_min_inlier_fraction = 0.5;  ///< a fit with fewer inliers also makes a new keyframe
+  bool use_vision = true;             ///< false: wheel odometry only (for comparison)
+  bool fuse_terrain = true;           ///< false: odometry only (no terrain in the map)
+  bool fuse_parallax = true;          ///< heights from motion parallax against the keyframe
+  bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
+  double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
+  static traversability::TraversabilityParams default_terrain() {
+    traversability::TraversabilityParams t;
+    t.center_x_m = 2.75;
+    t.length_x_m = 4.5;
+    t.length_y_m = 6.0;
+    t.resolution_m = 0.04;
+    t.max_range_m = 5.0;
+    return t;
+  }
+  void validate() const;
+};
+
+/// Where the camera sits on the rover: its ground frame (camera foot, heading) in the body frame.
+struct CameraMount {
+  double x_m = 0.0, y_m = 0.0, yaw_rad = 0.0;
+  Pose2 pose() const { return {x_m, y_m, yaw_rad}; }
+};
+
+struct FrameReport {
+  VoStatus vo = VoStatus::kNoKeyframe;
+  bool odometry_jump = false;  ///< the wheel step was implausible and was ignored
+  bool keyframe = false;       ///< this frame became the keyframe
+  int vo_inliers = 0;
+  int cells_fused = 0;
+  bool parallax = false;  ///< heights from parallax were fused
+  Pose2 pose;        ///< corrected rover pose (world)
+  Cov3 covariance;   ///< of `pose`
+  Pose2 wheel_pose;  ///< wheel odometry as given
+};
+
+struct DriveCounters {
+  long frames = 0, vo_ok = 0, vo_failed = 0, odometry_jumps = 0, keyframes = 0;
+};
+
+class DriveMapper {
+ public:
+  /// `camera` is copied; `sun_world` = unit vector towards the sun in the world frame (x, y, z up).
+  /// The map window is centred on `map_center` (world).
+  DriveMapper(const direct_depth::CameraModel& camera, const CameraMount& mount, const cv::Vec3d& sun_world,
+              const DriveMapperParams& params, const cv::Point2d& map_center);
+
+  /// One frame: 8-bit grey image (camera size, else FieldError naming "gray") and the wheel
+  /// odometry reading at its capture time (world frame; the first reading sets the origin pose).
+  /// A non-finite reading is treated as an odometry jump. No heap allocation once running.
+  const FrameReport& add_frame(const cv::Mat& gray, const Pose2& wheel_odometry);
+
+  const Pose2& pose() const { return report_.pose; }
+  const Cov3& covariance() const { return report_.covariance; }
+  const DriveCounters& counters() const { return counters_; }
+  WorldMap& map() { return map_; }
+  const WorldMap& map() const { return map_; }
+  const traversability::GridMap& last_terrain() const { return terrain_; }
+  const GroundVisualOdometry& vo() const { return vo_; }
+
+ private:
+  bool use_parallax() const { return p_.fuse_terrain && p_.fuse_parallax; }
+  DriveMapperParams p_;
+  direct_depth::DirectDepth depth_;
+  CameraMount mount_;
+  cv::Vec3d sun_world_;
+  GroundVisualOdometry vo_;
+  traversability::TraversabilityMapper terrain_mapper_;
+  GroundParallax parallax_;
+  traversability::GridMap terrain_;
+  WorldMap map_;
+  FrameReport report_;
+  DriveCounters counters_;
+  bool started_ = false;
+  Pose2 last_wheel_;
+  Pose2 key_foot_;                   // keyframe camera foot in the world
+  Cov3 key_cov_ = Cov3::Zero();      // its covariance
+  Pose2 wheel_since_key_;            // wheel-predicted camera foot in the keyframe frame
+  Cov3 wheel_since_key_cov_ = Cov3::Zero();
+};
+
+}  // namespace regolith::mapping

@@ -1,0 +1,132 @@
+#pragma once
+// Ground-plane visual odometry from one navigation camera (direct, dense, robust).
+//
+// Each frame is resampled onto the flat ground in front of the camera (direct_depth's
+// GroundRectifier: a top-down image in metres). Lambertian ground looks the same from every pose,
+// so two rectified frames differ, on the ground, only by the planar motion of the camera between
+// them (x, y, yaw) and by exposure. The motion is found by dense Gauss-Newton alignment of the
+// current frame to a keyframe over a two-level pyramid, with an affine brightness term and Tukey
+// weights on robustly scaled residuals: what stands above the ground (rocks, their far sides) and
+// what clips (saturation, black) does not fit a ground motion and is weighted out. The camera's
+// known height and pitch make the result metric; no feature detector, no scale ambiguity.
+//
+// Frames: the camera's ground frame of direct_depth (origin on the ground below the camera, x the
+// camera's heading, y left). A measurement is the pose of the current frame's camera foot in the
+// keyframe's camera foot frame, with a covariance from the fit (Gauss-Newton information scaled
+// by the residual variance and `covariance_inflation` for correlated neighbouring cells).
+// Everything is allocated in the constructor: track() does not touch the heap.
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <optional>
+#include <vector>
+
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/direct_depth/ground_rectifier.hpp"
+#include "regolith/mapping/pose2.hpp"
+
+namespace regolith::mapping {
+
+struct GroundVoParams {
+  double resolution_m = 0.02;      ///< m, finest rectified cell
+  double min_range_m = 0.5;        ///< m, ground used from this forward distance ...
+  double max_range_m = 3.0;        ///< m, ... to this one (farther cells are blurred by the view)
+  double half_width_m = 2.0;       ///< m, lateral half-width of the rectified window
+  int levels = 2;                  ///< pyramid levels (each halves the resolution)
+  int iterations = 15;             ///< Gauss-Newton iterations per level (stops earlier on convergence)
+  int stride = 2;                  ///< template cells used every `stride` cells (finest level)
+  double min_support = 0.2;        ///< image pixels per cell below which a cell is too blurred to use
+  double tukey_c = 4.685;          ///< Tukey constant in robust standard deviations
+  int min_points = 300;            ///< inlier cells needed for a measurement
+  double max_sigma_m = 0.01;       ///< m, a fit whose translation std exceeds this is "no texture"
+  double max_correction_m = 0.15;  ///< m, farther from the prior than this = diverged
+  double max_correction_rad = 0.15;  ///< rad
+  double covariance_inflation = 8.0;  ///< x the Gauss-Newton covariance (neighbouring cells are correlated)
+  double scale_uncertainty = 0.05;    ///< std of the motion's scale beyond the fit (height / tilt model error)
+  double attitude_prior_rad = 0.015;  ///< rad, std of a camera's tilt against the ground around the mount
+  /// Throws FieldError("mapping.vo", field, ...) naming the bad field.
+  void validate() const;
+};
+
+enum class VoStatus { kOk, kNoKeyframe, kTooFewPoints, kNoTexture, kDiverged };
+const char* to_string(VoStatus s);
+
+struct VoMeasurement {
+  VoStatus status = VoStatus::kNoKeyframe;
+  bool ok() const { return status == VoStatus::kOk; }
+  Pose2 pose;                          ///< current camera foot in the keyframe's camera foot frame
+  Cov3 covariance = Cov3::Identity();  ///< of `pose`
+  int points = 0;                      ///< template cells compared at the finest level
+  int inliers = 0;                     ///< of those, with a non-zero robust weight
+  int frame_cells = 0;                 ///< usable (textured, unclipped) cells of the current frame
+  double residual_dn = 0.0;            ///< robust residual standard deviation (grey levels)
+  double gain = 1.0, bias_dn = 0.0;    ///< brightness change current = gain * keyframe + bias
+  double pitch_rad = 0.0, roll_rad = 0.0;  ///< the current camera's tilt against the ground, beyond the mount
+  double key_pitch_rad = 0.0, key_roll_rad = 0.0;  ///< the keyframe camera's, estimated in the same fit
+};
+
+class GroundVisualOdometry {
+ public:
+  /// Builds the rectification table and every buffer. `depth` must outlive this object.
+  GroundVisualOdometry(const direct_depth::DirectDepth& depth, const GroundVoParams& params);
+
+  const GroundVoParams& params() const { return p_; }
+  /// Forgets the keyframe: the next tracked frame can only be promoted.
+  void reset() { has_keyframe_ = false; }
+  bool has_keyframe() const { return has_keyframe_; }
+
+  /// Aligns an 8-bit grey frame (the camera's size, else FieldError) to the keyframe, starting
+  /// from `prior` (this frame's camera foot in the keyframe's frame, e.g. from wheel odometry).
+  /// Without a keyframe: status kNoKeyframe. No heap allocation.
+  const VoMeasurement& track(const cv::Mat& gray, const Pose2& prior);
+  /// The last tracked frame becomes the keyframe (buffers are swapped, not copied).
+  void promote_last();
+  /// The last tracked frame's rectified image at the finest level (CV_32F grey, 0 unseen) and
+  /// its usable cells (CV_8U, non-zero = seen, unclipped); the same for the keyframe.
+  const cv::Mat& rectified() const { return cur_.levels[0].img; }
+  const cv::Mat& rectified_usable() const { return cur_.levels[0].usable; }
+  const cv::Mat& keyframe_rectified() const { return key_.levels[0].img; }
+  const cv::Mat& keyframe_usable() const { return key_.levels[0].usable; }
+  /// Usable (textured, unclipped) cells of the last tracked frame.
+  int last_frame_cells() const { return frame_cells_; }
+  /// The finest rectified grid (camera foot frame).
+  const direct_depth::RectifiedGrid& grid() const { return cur_.levels[0].grid; }
+
+ private:
+  struct Level {
+    direct_depth::RectifiedGrid grid;
+    cv::Mat img, usable, gx, gy, support;  // CV_32F; usable CV_8U; gx, gy per metre along body x, y
+  };
+  struct Frame {
+    std::vector<Level> levels;
+  };
+  struct Point {
+    float x, y, value, weight;
+  };
+  void build_frame(const cv::Mat& gray, Frame& f);
+  // One level of Gauss-Newton; returns false when the normal equations are singular.
+    // Unknowns: the planar transform taking keyframe ground points into the current frame, both
+  // cameras' tilts against the ground (pitch, roll beyond the mount) and the brightness change.
+  enum Param { kX, kY, kYaw, kKeyPitch, kKeyRoll, kPitch, kRoll, kGain, kBias, kParams };
+  using Params = std::array<double, kParams>;
+  bool align_level(int level, Params& theta, bool final_level);
+
+  GroundVoParams p_;
+  direct_depth::GroundRectifier rectifier_;
+  Frame key_, cur_;
+  bool has_keyframe_ = false;
+  cv::Mat raw_, tmp_;
+  std::vector<std::vector<Point>> templates_;  // per level, from the keyframe (capacity fixed)
+  std::vector<float> residuals_;
+  std::vector<std::array<float, kParams>> jacobians_;
+  std::array<int, 512> histogram_{};
+  VoMeasurement last_;
+  // Fit statistics of the last align_level on the finest level.
+  Eigen::Matrix<double, kParams, kParams> info_ = Eigen::Matrix<double, kParams, kParams>::Zero();
+  double sigma2_ = 0.0;
+  int used_ = 0, inl_ = 0;
+  int frame_cells_ = 0;
+  double mount_height_ = 0.0;
+};
+
+}  // namespace regolith::mapping

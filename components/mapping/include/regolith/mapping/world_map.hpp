@@ -1,0 +1,105 @@
+#pragma once
+// A terrain map in a fixed world (odometry) frame that improves as the rover drives.
+//
+// Grid: cell (row i, column j) is centred at x = origin_x + j * res, y = origin_y + i * res
+// (rows along +y, row 0 = smallest y; columns along +x; the convention of `regolith map`'s
+// map.json). The window can follow the rover (recenter: whole-cell shifts, no allocation).
+//
+// Fusion (per frame): each cell of a body-frame terrain grid (traversability's GridMap:
+// elevation + confidence, in the camera's ground frame) is looked up from every world cell its
+// footprint covers (inverse mapping: no holes) and merged into a running weighted mean and
+// variance, weight = confidence x 1 / (1 + (range / range_scale)^2) (nearer and better resolved
+// = more weight; each extra look adds weight). Layers (CV_32F, NaN = never seen):
+//   elevation (m), elevation_variance (m^2), confidence (0..1 = 1 - exp(-weight / weight_full)),
+//   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
+//   local ground), hazard (0..1).
+// Derived layers (finish()) and rocks (connected relief blobs) are computed on request.
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "regolith/mapping/pose2.hpp"
+#include "regolith/traversability/traversability.hpp"
+
+namespace regolith::mapping {
+
+struct WorldMapParams {
+  double resolution_m = 0.04;   ///< m per cell
+  double length_x_m = 16.0;     ///< m, window extent along world x
+  double length_y_m = 16.0;     ///< m, window extent along world y
+  double range_scale_m = 2.0;   ///< m, a look from this range weighs half a look from 0 m
+  double max_range_m = 5.0;     ///< m, body cells farther than this are not fused
+  double weight_full = 1.0;     ///< weight at which confidence reaches 1 - 1/e
+  double min_weight = 0.05;     ///< cells with less total weight stay unknown
+  double observation_sigma_m = 0.02;  ///< m, std of one look (floor of elevation_variance)
+  double fill_radius_m = 0.0;         ///< m, holes this close to observed cells are interpolated (0 = off)
+  double fill_min_weight = 0.05;      ///< smoothed confidence a hole needs to be filled
+  double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
+  double hazard_height_m = 0.10;      ///< m, relief at which hazard reaches 1
+  double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
+  double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
+  traversability::TraversabilityParams traversability;  ///< slope / step / roughness thresholds
+  /// Throws FieldError("mapping.map", field, ...) naming the bad field.
+  void validate() const;
+};
+
+struct MapRock {
+  double x_m = 0.0, y_m = 0.0;  ///< world position of the highest cell
+  double height_m = 0.0;        ///< relief at its top
+  double width_m = 0.0;         ///< equivalent diameter of the footprint
+  double score = 0.0;           ///< 0..1
+};
+
+class WorldMap {
+ public:
+  /// Window centred on (center_x, center_y); allocates every layer and scratch buffer.
+  WorldMap(const WorldMapParams& params, double center_x_m, double center_y_m);
+
+  const WorldMapParams& params() const { return p_; }
+  int rows() const { return rows_; }
+  int cols() const { return cols_; }
+  double origin_x() const { return ox_; }  ///< centre of cell (0, 0)
+  double origin_y() const { return oy_; }
+  double resolution() const { return p_.resolution_m; }
+  cv::Point2d cell_center(int i, int j) const { return {ox_ + j * p_.resolution_m, oy_ + i * p_.resolution_m}; }
+
+  /// Layer names in layer() order.
+  static const std::vector<std::string>& layer_names();
+  const cv::Mat& layer(std::string_view name) const;
+
+  /// Keeps (x, y) (the rover) at least `margin_m` inside the window: when it is farther than
+  /// length / 2 - margin from the centre along an axis, the window is re-centred on it (whole
+  /// cells). Cells leaving the window are forgotten. No heap allocation.
+  void recenter(double x_m, double y_m, double margin_m);
+
+  /// Fuses one body-frame grid (elevation + confidence layers) seen from `camera_foot` (the
+  /// grid's frame in the world). No heap allocation. Returns the number of cells updated.
+  int fuse(const traversability::GridMap& body, const Pose2& camera_foot, double weight = 1.0);
+
+  /// Fuses scattered height samples: (x, y) in the frame `camera_foot` places in the world, z up
+  /// (m), weight w (> 0; NaN z or w <= 0 skipped); all CV_32F of one size. Each sample goes to
+  /// its nearest world cell with weight w / (1 + (range / range_scale)^2). No heap allocation.
+  int fuse_points(const cv::Mat& x, const cv::Mat& y, const cv::Mat& z, const cv::Mat& w, const Pose2& camera_foot);
+
+  /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
+  /// accumulators. No heap allocation after the first call.
+  void finish();
+  /// Rocks from the relief layer (call finish() first). Allocates (for offline use and reports).
+  std::vector<MapRock> rocks() const;
+
+ private:
+  void add(int i, int j, double z, double w);
+  void smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells);
+  WorldMapParams p_;
+  int rows_ = 0, cols_ = 0;
+  double ox_ = 0.0, oy_ = 0.0;
+  cv::Mat wsum_, mean_, m2_, count_;  // accumulators (CV_64F weight/mean/m2, CV_32F count)
+  std::vector<cv::Mat> layers_;
+  traversability::GridMap trav_;      // view of elevation for compute_layers
+  cv::Mat scratch_, scratch2_, scratch3_, mask_;
+  std::vector<double> line_, line_w_;
+};
+
+}  // namespace regolith::mapping

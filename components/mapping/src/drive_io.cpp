@@ -1,0 +1,347 @@
+#include "regolith/mapping/drive_io.hpp"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+double number(const nlohmann::json& j, const fs::path& file, const std::string& block, const std::string& key,
+              bool required = true, double fallback = 0.0) {
+  const std::string where = file.string() + ": " + block + "." + key;
+  if (!j.contains(block) || !j[block].is_object()) {
+    if (!required) return fallback;
+    throw InputError(file.string() + ": " + block + ": missing (an object with " + key + ")");
+  }
+  const nlohmann::json& b = j[block];
+  if (!b.contains(key)) {
+    if (!required) return fallback;
+    throw InputError(where + ": missing");
+  }
+  if (!b[key].is_number()) throw InputError(where + ": must be a number");
+  const double v = b[key].get<double>();
+  if (!std::isfinite(v)) throw InputError(where + ": must be finite");
+  return v;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+double parse_double(const std::string& s, const fs::path& file, int line, const std::string& col) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(s, &used);
+    if (used != s.size() && s.find_first_not_of(" \t\r", used) != std::string::npos) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    throw InputError(file.string() + ":" + std::to_string(line) + ": " + col + ": not a number ('" + s + "')");
+  }
+}
+
+void write_tiff(const fs::path& p, const cv::Mat& m) {
+  if (!cv::imwrite(p.string(), m)) throw InputError("map: cannot write '" + p.string() + "'");
+}
+
+}  // namespace
+
+cv::Vec3d RecordedDrive::sun_world() const {
+  const double az = sun_azimuth_deg * kDeg, el = sun_elevation_deg * kDeg;
+  return {std::cos(el) * std::sin(az), std::cos(el) * std::cos(az), std::sin(el)};
+}
+
+RecordedDrive read_drive(const fs::path& dir) {
+  RecordedDrive d;
+  d.dir = dir;
+  if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a directory (a recorded drive)");
+  const fs::path input = dir / "input.json";
+  std::ifstream in(input);
+  if (!in) throw InputError(input.string() + ": cannot open (the drive's camera, sun and wheel description)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(input.string() + ": not valid JSON: " + e.what());
+  }
+  direct_depth::CameraModel& c = d.camera;
+  c.fx = number(j, input, "camera", "fx");
+  c.fy = number(j, input, "camera", "fy");
+  c.cx = number(j, input, "camera", "cx");
+  c.cy = number(j, input, "camera", "cy");
+  c.width = static_cast<int>(number(j, input, "camera", "width"));
+  c.height = static_cast<int>(number(j, input, "camera", "height"));
+  c.mount_height_m = number(j, input, "camera", "mount_height_m");
+  c.pitch_rad = number(j, input, "camera", "pitch_deg") * kDeg;
+  c.roll_rad = number(j, input, "camera", "roll_deg", false) * kDeg;
+  d.mount.x_m = number(j, input, "camera", "mount_x_m", false);
+  d.mount.y_m = number(j, input, "camera", "mount_y_m", false);
+  d.mount.yaw_rad = number(j, input, "camera", "mount_yaw_deg", false) * kDeg;
+  try {
+    c.validate();
+  } catch (const FieldError& e) {
+    throw InputError(input.string() + ": camera: " + e.what());
+  }
+  d.sun_azimuth_deg = number(j, input, "sun", "azimuth_deg");
+  d.sun_elevation_deg = number(j, input, "sun", "elevation_deg");
+  if (d.sun_elevation_deg <= 0 || d.sun_elevation_deg > 90)
+    throw InputError(input.string() + ": sun.elevation_deg: must be in (0, 90] (got " + std::to_string(d.sun_elevation_deg) + ")");
+  d.wheel_radius_m = number(j, input, "wheel", "radius_m", false);
+
+  const fs::path csv = dir / "frames.csv";
+  std::ifstream f(csv);
+  if (!f) throw InputError(csv.string() + ": cannot open (frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad)");
+  std::string line;
+  int n = 0;
+  std::vector<std::string> header;
+  int ci[6] = {-1, -1, -1, -1, -1, -1};
+  static const char* cols[6] = {"frame", "file", "t_s", "odom_x_m", "odom_y_m", "odom_yaw_rad"};
+  while (std::getline(f, line)) {
+    ++n;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    const auto fields = split_csv(line);
+    if (header.empty()) {
+      header = fields;
+      for (int k = 0; k < 6; ++k) {
+        const auto it = std::find(header.begin(), header.end(), cols[k]);
+        if (it == header.end()) throw InputError(csv.string() + ":1: missing column '" + cols[k] + "'");
+        ci[k] = static_cast<int>(it - header.begin());
+      }
+      continue;
+    }
+    if (fields.size() < header.size())
+      throw InputError(csv.string() + ":" + std::to_string(n) + ": " + std::to_string(fields.size()) + " fields, expected " +
+                       std::to_string(header.size()));
+    DriveFrame fr;
+    fr.line = n;
+    fr.index = static_cast<int>(parse_double(fields[static_cast<std::size_t>(ci[0])], csv, n, "frame"));
+    fr.file = dir / fields[static_cast<std::size_t>(ci[1])];
+    fr.t_s = parse_double(fields[static_cast<std::size_t>(ci[2])], csv, n, "t_s");
+    fr.odometry = {parse_double(fields[static_cast<std::size_t>(ci[3])], csv, n, "odom_x_m"),
+                   parse_double(fields[static_cast<std::size_t>(ci[4])], csv, n, "odom_y_m"),
+                   parse_double(fields[static_cast<std::size_t>(ci[5])], csv, n, "odom_yaw_rad")};
+    d.frames.push_back(fr);
+  }
+  if (d.frames.empty()) throw InputError(csv.string() + ": no frames");
+  return d;
+}
+
+DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& params, const fs::path& out,
+                          const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
+  DriveMapSummary sum;
+  fs::create_directories(out);
+  // The window covers the wheel path plus the camera's reach (wheel drift is small against it).
+  double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+  for (const auto& fr : drive.frames)
+    if (fr.odometry.finite()) {
+      xmin = std::min(xmin, fr.odometry.x), xmax = std::max(xmax, fr.odometry.x);
+      ymin = std::min(ymin, fr.odometry.y), ymax = std::max(ymax, fr.odometry.y);
+    }
+  if (xmin > xmax) xmin = xmax = ymin = ymax = 0.0;
+  DriveMapperParams p = params;
+  const double reach = p.map.max_range_m + 1.5;
+  p.map.length_x_m = std::max(p.map.length_x_m, xmax - xmin + 2 * reach);
+  p.map.length_y_m = std::max(p.map.length_y_m, ymax - ymin + 2 * reach);
+  DriveMapper mapper(drive.camera, drive.mount, drive.sun_world(), p, {0.5 * (xmin + xmax), 0.5 * (ymin + ymax)});
+
+  std::vector<Pose2> corrected, wheel;
+  double last_t = -std::numeric_limits<double>::infinity();
+  int last_index = std::numeric_limits<int>::min();
+  for (const DriveFrame& fr : drive.frames) {
+    const std::string name = "frame " + std::to_string(fr.index) + " (" + fr.file.filename().string() + ")";
+    if (fr.index <= last_index || !(fr.t_s > last_t)) {
+      sum.notes.push_back(name + ": out of order (frame " + std::to_string(fr.index) + ", t " + std::to_string(fr.t_s) +
+                          " s after frame " + std::to_string(last_index) + "): skipped");
+      ++sum.skipped;
+      continue;
+    }
+    cv::Mat gray = cv::imread(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    if (gray.empty()) {
+      sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': skipped");
+      ++sum.skipped;
+      continue;
+    }
+    if (gray.cols != drive.camera.width || gray.rows != drive.camera.height) {
+      sum.notes.push_back(name + ": " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                          " px, the camera is " + std::to_string(drive.camera.width) + "x" +
+                          std::to_string(drive.camera.height) + ": skipped");
+      ++sum.skipped;
+      continue;
+    }
+    last_index = fr.index;
+    last_t = fr.t_s;
+    const FrameReport& r = mapper.add_frame(gray, fr.odometry);
+    if (r.odometry_jump) sum.notes.push_back(name + ": wheel odometry jumped: step ignored, vision only");
+    if (!sum.reports.empty() && r.vo != VoStatus::kOk)
+      sum.notes.push_back(name + ": visual odometry: " + std::string(to_string(r.vo)) + ": wheel odometry used");
+    if (!corrected.empty()) sum.path_length_m += std::hypot(r.pose.x - corrected.back().x, r.pose.y - corrected.back().y);
+    sum.reports.push_back(r);
+    sum.frame_index.push_back(fr.index);
+    corrected.push_back(r.pose);
+    wheel.push_back(fr.odometry);
+    if (progress) progress(fr, r);
+  }
+  sum.counters = mapper.counters();
+
+  // Outputs, cropped to the seen cells (+ a margin).
+  WorldMap& map = mapper.map();
+  map.finish();
+  sum.rocks = map.rocks();
+  const cv::Mat& el = map.layer("elevation");
+  int r0 = map.rows(), r1 = -1, c0 = map.cols(), c1 = -1;
+  for (int i = 0; i < map.rows(); ++i)
+    for (int j = 0; j < map.cols(); ++j)
+      if (std::isfinite(el.at<float>(i, j))) r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
+  for (const Pose2& q : corrected) {  // the path is in the map too
+    const int j = static_cast<int>(std::lround((q.x - map.origin_x()) / map.resolution()));
+    const int i = static_cast<int>(std::lround((q.y - map.origin_y()) / map.resolution()));
+    r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
+  }
+  const int margin = 5;
+  r0 = std::clamp(r0 - margin, 0, map.rows() - 1), r1 = std::clamp(r1 + margin, 0, map.rows() - 1);
+  c0 = std::clamp(c0 - margin, 0, map.cols() - 1), c1 = std::clamp(c1 + margin, 0, map.cols() - 1);
+  if (r1 < r0 || c1 < c0) r0 = c0 = 0, r1 = map.rows() - 1, c1 = map.cols() - 1;
+  const cv::Rect roi(c0, r0, c1 - c0 + 1, r1 - r0 + 1);
+  const cv::Point2d origin = map.cell_center(r0, c0);
+
+  nlohmann::json mj;
+  mj["origin_x_m"] = origin.x;
+  mj["origin_y_m"] = origin.y;
+  mj["resolution_m"] = map.resolution();
+  mj["width"] = roi.width;
+  mj["height"] = roi.height;
+  mj["frame"] = "world";
+  mj["row0"] = "min_y";
+  mj["convention"] =
+      "cell (row i, col j) is centred at x = origin_x_m + j*resolution_m, y = origin_y_m + i*resolution_m; "
+      "world = odometry frame of frames.csv (x east, y north, z up)";
+  mj["layers"] = nlohmann::json::object();
+  for (const std::string& name : WorldMap::layer_names()) {
+    const std::string file = name + ".tiff";
+    write_tiff(out / file, map.layer(name)(roi));
+    mj["layers"][name] = file;
+    sum.written.push_back(out / file);
+  }
+  mj["frames"] = sum.counters.frames;
+  mj["frames_skipped"] = sum.skipped;
+  mj["vo_ok"] = sum.counters.vo_ok;
+  mj["vo_failed"] = sum.counters.vo_failed;
+  mj["odometry_jumps"] = sum.counters.odometry_jumps;
+  mj["keyframes"] = sum.counters.keyframes;
+  mj["path_length_m"] = sum.path_length_m;
+  mj["rocks"] = sum.rocks.size();
+  {
+    std::ofstream o(out / "map.json");
+    o << mj.dump(1) << "\n";
+    if (!o) throw InputError("map: cannot write '" + (out / "map.json").string() + "'");
+    sum.written.push_back(out / "map.json");
+  }
+  {
+    std::ofstream o(out / "rocks.csv");
+    o << "x_m,y_m,height_m,width_m,score\n";
+    char buf[160];
+    for (const MapRock& r : sum.rocks) {
+      std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f\n", r.x_m, r.y_m, r.height_m, r.width_m, r.score);
+      o << buf;
+    }
+    sum.written.push_back(out / "rocks.csv");
+  }
+  {
+    std::ofstream o(out / "odometry.csv");
+    o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
+    char buf[320];
+    for (std::size_t k = 0; k < sum.reports.size(); ++k) {
+      const FrameReport& r = sum.reports[k];
+      std::snprintf(buf, sizeof buf, "%d,%.6f,%.6f,%.8f,%.3g,%.3g,%.3g,%s,%.6f,%.6f,%.8f\n", sum.frame_index[k], r.pose.x,
+                    r.pose.y, r.pose.yaw, r.covariance(0, 0), r.covariance(1, 1), r.covariance(2, 2),
+                    r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel"), r.wheel_pose.x, r.wheel_pose.y,
+                    r.wheel_pose.yaw);
+      o << buf;
+    }
+    sum.written.push_back(out / "odometry.csv");
+  }
+  if (!cv::imwrite((out / "overview.png").string(), render_overview(map, corrected, wheel, sum.rocks)))
+    throw InputError("map: cannot write '" + (out / "overview.png").string() + "'");
+  sum.written.push_back(out / "overview.png");
+  return sum;
+}
+
+cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected, const std::vector<Pose2>& wheel,
+                        const std::vector<MapRock>& rocks) {
+  const cv::Mat& el = map.layer("elevation");
+  const cv::Mat& hz = map.layer("hazard");
+  // Crop to what was seen.
+  int r0 = map.rows(), r1 = -1, c0 = map.cols(), c1 = -1;
+  for (int i = 0; i < map.rows(); ++i)
+    for (int j = 0; j < map.cols(); ++j)
+      if (std::isfinite(el.at<float>(i, j))) r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
+  if (r1 < r0) r0 = c0 = 0, r1 = map.rows() - 1, c1 = map.cols() - 1;
+  r0 = std::max(0, r0 - 10), c0 = std::max(0, c0 - 10), r1 = std::min(map.rows() - 1, r1 + 10), c1 = std::min(map.cols() - 1, c1 + 10);
+  const int h = r1 - r0 + 1, w = c1 - c0 + 1;
+  const int scale = std::max(1, 700 / std::max(h, w));
+  const double res = map.resolution();
+  // Hillshade (sun from the north-west), grey; unknown = dark blue-grey; hazard blended red.
+  cv::Mat img(h * scale, w * scale, CV_8UC3, cv::Scalar(60, 45, 40));
+  for (int i = 0; i < h; ++i)
+    for (int j = 0; j < w; ++j) {
+      const int mi = r0 + i, mj = c0 + j;
+      const float z = el.at<float>(mi, mj);
+      if (!std::isfinite(z)) continue;
+      auto at = [&](int a, int b) {
+        a = std::clamp(a, 0, map.rows() - 1), b = std::clamp(b, 0, map.cols() - 1);
+        const float v = el.at<float>(a, b);
+        return std::isfinite(v) ? v : z;
+      };
+      const double dzdx = (at(mi, mj + 1) - at(mi, mj - 1)) / (2 * res), dzdy = (at(mi + 1, mj) - at(mi - 1, mj)) / (2 * res);
+      const cv::Vec3d n(-dzdx * 4, -dzdy * 4, 1.0);  // x4 vertical exaggeration
+      const cv::Vec3d l(-0.5, 0.5, 0.707);
+      const double shade = std::clamp(n.dot(l) / (cv::norm(n) * cv::norm(l)), 0.0, 1.0);
+      double g = 60 + 180 * shade;
+      const float hv = hz.at<float>(mi, mj);
+      const double a = std::isfinite(hv) ? std::clamp(static_cast<double>(hv), 0.0, 1.0) * 0.8 : 0.0;
+      const cv::Vec3b col(cv::saturate_cast<uchar>(g * (1 - a)), cv::saturate_cast<uchar>(g * (1 - a)),
+                          cv::saturate_cast<uchar>(g * (1 - a) + 255 * a));
+      const int y = (h - 1 - i) * scale, x = j * scale;  // north up
+      img(cv::Rect(x, y, scale, scale)).setTo(col);
+    }
+  auto px = [&](double x, double y) {
+    const double j = (x - map.origin_x()) / res - c0, i = (y - map.origin_y()) / res - r0;
+    return cv::Point(static_cast<int>(std::lround((j + 0.5) * scale)), static_cast<int>(std::lround((h - 1 - i + 0.5) * scale)));
+  };
+  for (std::size_t k = 1; k < wheel.size(); ++k)
+    cv::line(img, px(wheel[k - 1].x, wheel[k - 1].y), px(wheel[k].x, wheel[k].y), cv::Scalar(255, 120, 0), 2, cv::LINE_AA);
+  for (std::size_t k = 1; k < corrected.size(); ++k)
+    cv::line(img, px(corrected[k - 1].x, corrected[k - 1].y), px(corrected[k].x, corrected[k].y), cv::Scalar(0, 220, 0), 2,
+             cv::LINE_AA);
+  for (const MapRock& r : rocks)
+    cv::circle(img, px(r.x_m, r.y_m), std::max(3, static_cast<int>(0.5 * r.width_m / res * scale)), cv::Scalar(0, 0, 255), 1,
+               cv::LINE_AA);
+  // Scale bar (1 m), north arrow, legend.
+  const int bar = static_cast<int>(std::lround(1.0 / res * scale));
+  const cv::Point b0(15, img.rows - 20);
+  cv::rectangle(img, b0, b0 + cv::Point(bar, 6), cv::Scalar(255, 255, 255), cv::FILLED);
+  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  cv::arrowedLine(img, cv::Point(img.cols - 25, 50), cv::Point(img.cols - 25, 15), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, 0, 0.3);
+  cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  cv::putText(img, "green: corrected path  blue: wheel odometry  red: hazard, circles: rocks", cv::Point(10, 18),
+              cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  return img;
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,197 @@
+#include "regolith/mapping/drive_mapper.hpp"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+[[noreturn]] void fail(const char* owner, const std::string& field, const std::string& why) {
+  throw FieldError(owner, field, why);
+}
+
+// The wheel step of the body, seen by the camera foot: mount^-1 * step * mount, with covariance.
+void foot_step(const Pose2& mount, const Pose2& step, const Cov3& q, Pose2& out, Cov3& out_cov) {
+  const Pose2 sm = compose(step, mount);
+  const Cov3 c1 = compose_covariance(step, q, mount, Cov3::Zero());
+  const Pose2 im = inverse(mount);
+  out = compose(im, sm);
+  out_cov = compose_covariance(im, Cov3::Zero(), sm, c1);
+}
+
+}  // namespace
+
+void WheelNoise::validate() const {
+  auto nonneg = [](double v, const char* f) {
+    if (!std::isfinite(v) || v < 0) fail("mapping.wheel", f, "must be >= 0");
+  };
+  nonneg(along_fraction, "along_fraction");
+  nonneg(lateral_fraction, "lateral_fraction");
+  nonneg(yaw_per_m_rad, "yaw_per_m_rad");
+  nonneg(yaw_fraction, "yaw_fraction");
+  for (auto [v, f] : {std::pair{floor_m, "floor_m"}, {floor_rad, "floor_rad"}, {max_step_m, "max_step_m"},
+                      {max_step_rad, "max_step_rad"}})
+    if (!std::isfinite(v) || v <= 0) fail("mapping.wheel", f, "must be > 0");
+}
+
+Cov3 WheelNoise::covariance(const Pose2& step) const {
+  const double d = std::hypot(step.x, step.y);
+  const double sa = along_fraction * d + floor_m, sl = lateral_fraction * d + floor_m;
+  const double sy = yaw_per_m_rad * d + yaw_fraction * std::abs(step.yaw) + floor_rad;
+  // Along / across the direction of travel, rotated into the step's frame.
+  const double h = d > 1e-9 ? std::atan2(step.y, step.x) : 0.0, c = std::cos(h), s = std::sin(h);
+  Eigen::Matrix2d r;
+  r << c, -s, s, c;
+  const Eigen::Matrix2d t = r * Eigen::Vector2d(sa * sa, sl * sl).asDiagonal() * r.transpose();
+  Cov3 q = Cov3::Zero();
+  q.topLeftCorner<2, 2>() = t;
+  q(2, 2) = sy * sy;
+  return q;
+}
+
+void DriveMapperParams::validate() const {
+  vo.validate();
+  wheel.validate();
+  map.validate();
+  terrain.validate();
+  parallax.validate();
+  if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
+  if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
+  if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
+    fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
+}
+
+DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMount& mount, const cv::Vec3d& sun_world,
+                         const DriveMapperParams& params, const cv::Point2d& map_center)
+    : p_((params.validate(), params)),
+      depth_(camera),
+      mount_(mount),
+      sun_world_(sun_world),
+      vo_(depth_, p_.vo),
+      terrain_mapper_(depth_, p_.terrain),
+      parallax_(depth_, p_.parallax),
+      map_(p_.map, map_center.x, map_center.y) {
+  if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
+    fail("mapping", "mount", "must be finite");
+  if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world))) fail("mapping", "sun", "must be a finite non-zero vector");
+}
+
+const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& wheel) {
+  const Pose2 mount = mount_.pose();
+  report_.wheel_pose = wheel;
+  report_.odometry_jump = false;
+  report_.keyframe = false;
+  report_.cells_fused = 0;
+  report_.parallax = false;
+  ++counters_.frames;
+  Pose2 foot;
+  Cov3 foot_cov;
+  if (!started_) {
+    report_.odometry_jump = !wheel.finite();
+    report_.pose = wheel.finite() ? wheel : Pose2{};
+    report_.covariance = Cov3::Zero();
+    last_wheel_ = report_.pose;
+    foot = compose(report_.pose, mount);
+    foot_cov = Cov3::Zero();
+    const VoMeasurement& m = vo_.track(gray, Pose2{});
+    report_.vo = m.status;
+    report_.vo_inliers = 0;
+    vo_.promote_last();
+    if (use_parallax()) parallax_.set_frame(gray), parallax_.promote();
+    key_foot_ = foot;
+    key_cov_ = Cov3::Zero();
+    wheel_since_key_ = Pose2{};
+    wheel_since_key_cov_ = Cov3::Zero();
+    report_.keyframe = true;
+    ++counters_.keyframes;
+    started_ = true;
+  } else {
+    // Wheel step in the body frame; an implausible one is ignored (and counted).
+    Pose2 step = wheel.finite() ? between(last_wheel_, wheel) : Pose2{};
+    Cov3 q;
+    if (!wheel.finite() || std::hypot(step.x, step.y) > p_.wheel.max_step_m || std::abs(step.yaw) > p_.wheel.max_step_rad) {
+      report_.odometry_jump = true;
+      ++counters_.odometry_jumps;
+      step = Pose2{};
+      q = Cov3::Zero();
+      q(0, 0) = q(1, 1) = p_.wheel.max_step_m * p_.wheel.max_step_m;
+      q(2, 2) = p_.wheel.max_step_rad * p_.wheel.max_step_rad;
+    } else {
+      q = p_.wheel.covariance(step);
+    }
+    if (wheel.finite()) last_wheel_ = wheel;
+    Pose2 fs;
+    Cov3 fq;
+    foot_step(mount, step, q, fs, fq);
+    // Wheel prediction of this frame's camera foot in the keyframe frame.
+    const Pose2 pred = compose(wheel_since_key_, fs);
+    const Cov3 pred_cov = compose_covariance(wheel_since_key_, wheel_since_key_cov_, fs, fq);
+    const VoMeasurement& m = vo_.track(gray, pred);
+    if (use_parallax()) parallax_.set_frame(gray);
+    report_.vo = m.status;
+    report_.vo_inliers = m.inliers;
+    Pose2 rel = pred;
+    Cov3 rel_cov = pred_cov;
+    if (m.ok() && p_.use_vision) {
+      // Information-weighted mean of the two relative estimates (linearised at the VO pose).
+      const Eigen::Matrix3d iv = m.covariance.inverse(), iw = pred_cov.inverse();
+      const Eigen::Matrix3d s = (iv + iw).inverse();
+      const Eigen::Vector3d d(pred.x - m.pose.x, pred.y - m.pose.y, wrap_angle(pred.yaw - m.pose.yaw));
+      const Eigen::Vector3d corr = s * (iw * d);
+      if (corr.allFinite() && s.allFinite()) {
+        rel = {m.pose.x + corr[0], m.pose.y + corr[1], wrap_angle(m.pose.yaw + corr[2])};
+        rel_cov = s;
+      }
+      ++counters_.vo_ok;
+    } else if (p_.use_vision) {
+      ++counters_.vo_failed;
+    }
+    wheel_since_key_ = rel;
+    wheel_since_key_cov_ = rel_cov;
+    // Heights from the parallax against the keyframe, placed with the keyframe's corrected pose.
+    report_.parallax = false;
+    if (use_parallax() && m.ok() &&
+        parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
+      report_.cells_fused += map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
+      report_.parallax = true;
+    }
+    foot = compose(key_foot_, rel);
+    foot_cov = compose_covariance(key_foot_, key_cov_, rel, rel_cov);
+    report_.pose = compose(foot, inverse(mount));
+    report_.covariance = compose_covariance(foot, foot_cov, inverse(mount), Cov3::Zero());
+    // A new keyframe when the view has moved on, the fit thinned out, or vision failed on a
+    // frame that itself is good (a black or saturated frame never becomes the keyframe).
+    const bool frame_good = m.frame_cells >= 4 * p_.vo.min_points;
+    const bool moved = std::hypot(rel.x, rel.y) > p_.keyframe_distance_m || std::abs(rel.yaw) > p_.keyframe_yaw_rad;
+    const bool thin = m.ok() && m.points > 0 &&
+                      static_cast<double>(m.inliers) < p_.keyframe_min_inlier_fraction * static_cast<double>(m.points);
+    if (frame_good && (moved || thin || !m.ok())) {
+      vo_.promote_last();
+      if (use_parallax()) parallax_.promote();
+      key_foot_ = foot;
+      key_cov_ = foot_cov;
+      wheel_since_key_ = Pose2{};
+      wheel_since_key_cov_ = Cov3::Zero();
+      report_.keyframe = true;
+      ++counters_.keyframes;
+    }
+  }
+  // Terrain of this frame, placed with the corrected pose (never with a frame vision rejects as
+  // unusable: black or saturated frames carry no shading).
+  if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
+    const double c = std::cos(foot.yaw), s = std::sin(foot.yaw);
+    const cv::Vec3d sb(sun_world_[0] * c + sun_world_[1] * s, -sun_world_[0] * s + sun_world_[1] * c, sun_world_[2]);
+    terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);
+    if (vo_.rectified().data && report_.vo != VoStatus::kTooFewPoints)
+      report_.cells_fused += map_.fuse(terrain_, foot, p_.shading_weight);
+  }
+  map_.recenter(report_.pose.x, report_.pose.y, p_.map.max_range_m + 1.0);
+  return report_;
+}
+
+}  // namespace regolith::mapping

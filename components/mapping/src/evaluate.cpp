@@ -1,0 +1,304 @@
+#include "regolith/mapping/evaluate.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "regolith/core/error.hpp"
+#include "regolith/mapping/drive_io.hpp"
+
+namespace regolith::mapping {
+namespace fs = std::filesystem;
+namespace {
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream f(p);
+  if (!f) throw InputError(p.string() + ": cannot open");
+  try {
+    return nlohmann::json::parse(f);
+  } catch (const std::exception& e) {
+    throw InputError(p.string() + ": " + e.what());
+  }
+}
+
+// CSV with a header -> rows of named doubles (non-numeric cells are NaN).
+std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
+  std::ifstream f(p);
+  if (!f) throw InputError(p.string() + ": cannot open");
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, double>> rows;
+  for (std::string line; std::getline(f, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, double> r;
+    for (std::size_t k = 0; k < header.size() && k < cells.size(); ++k) {
+      char* end = nullptr;
+      const double v = std::strtod(cells[k].c_str(), &end);
+      r[header[k]] = (end && *end == '\0' && !cells[k].empty()) ? v : std::nan("");
+    }
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+cv::Mat read_float(const fs::path& p) {
+  cv::Mat m = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty() || m.type() != CV_32FC1) throw InputError(p.string() + ": cannot read as a float32 TIFF");
+  return m;
+}
+
+double pearson(const std::vector<double>& a, const std::vector<double>& b) {
+  const std::size_t n = a.size();
+  if (n < 3) return std::nan("");
+  double ma = 0, mb = 0;
+  for (std::size_t k = 0; k < n; ++k) ma += a[k], mb += b[k];
+  ma /= static_cast<double>(n), mb /= static_cast<double>(n);
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    sab += (a[k] - ma) * (b[k] - mb);
+    saa += (a[k] - ma) * (a[k] - ma);
+    sbb += (b[k] - mb) * (b[k] - mb);
+  }
+  return (saa > 0 && sbb > 0) ? sab / std::sqrt(saa * sbb) : std::nan("");
+}
+
+// Least-squares plane z = a x + b y + c over (x, y, z) samples, removed in place.
+void remove_plane(const std::vector<double>& x, const std::vector<double>& y, std::vector<double>& z) {
+  if (z.size() < 3) return;
+  cv::Mat A(static_cast<int>(z.size()), 3, CV_64F), Z(static_cast<int>(z.size()), 1, CV_64F);
+  for (std::size_t k = 0; k < z.size(); ++k) {
+    A.at<double>(static_cast<int>(k), 0) = x[k];
+    A.at<double>(static_cast<int>(k), 1) = y[k];
+    A.at<double>(static_cast<int>(k), 2) = 1.0;
+    Z.at<double>(static_cast<int>(k), 0) = z[k];
+  }
+  cv::Mat coef;
+  if (!cv::solve(A, Z, coef, cv::DECOMP_SVD)) return;
+  for (std::size_t k = 0; k < z.size(); ++k) z[k] -= coef.at<double>(0) * x[k] + coef.at<double>(1) * y[k] + coef.at<double>(2);
+}
+
+double auc(std::vector<std::pair<double, int>> s) {
+  std::sort(s.begin(), s.end());
+  double pos = 0, neg = 0, rank_sum = 0;
+  for (std::size_t k = 0; k < s.size();) {
+    std::size_t e = k;
+    while (e < s.size() && s[e].first == s[k].first) ++e;
+    const double avg = 0.5 * static_cast<double>(k + 1 + e);  // average 1-based rank of ties
+    for (std::size_t q = k; q < e; ++q)
+      if (s[q].second) rank_sum += avg, ++pos;
+      else ++neg;
+    k = e;
+  }
+  if (pos == 0 || neg == 0) return std::nan("");
+  return (rank_sum - pos * (pos + 1) / 2) / (pos * neg);
+}
+
+// Gaussian blur with NaN-aware normalisation (sigma in cells).
+cv::Mat blur_known(const cv::Mat& z, const cv::Mat& known, double sigma) {
+  cv::Mat zz = z.clone(), w;
+  known.convertTo(w, CV_32F, 1.0 / 255.0);
+  zz.setTo(0, ~known);
+  cv::Mat bz, bw;
+  cv::GaussianBlur(zz, bz, cv::Size(), sigma);
+  cv::GaussianBlur(w, bw, cv::Size(), sigma);
+  return bz / cv::max(bw, 1e-6);
+}
+
+}  // namespace
+
+nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir) {
+  nlohmann::json out;
+  const RecordedDrive drive = read_drive(drive_dir);
+  const auto truth_poses = read_csv(drive_dir / "truth_poses.csv");
+  const auto est = read_csv(map_dir / "odometry.csv");
+  // --- poses
+  std::map<int, std::map<std::string, double>> tp;
+  for (const auto& r : truth_poses) tp[static_cast<int>(r.at("frame"))] = r;
+  double path = 0, mean_err = 0, mean_err_w = 0;
+  int n = 0;
+  std::map<std::string, double> last_t, last_e;
+  const std::map<std::string, double>* prev = nullptr;
+  for (const auto& e : est) {
+    const int f = static_cast<int>(e.at("frame"));
+    if (!tp.count(f)) continue;
+    const auto& t = tp[f];
+    if (prev) path += std::hypot(t.at("rover_x_m") - prev->at("rover_x_m"), t.at("rover_y_m") - prev->at("rover_y_m"));
+    prev = &tp[f];
+    mean_err += std::hypot(e.at("x_m") - t.at("rover_x_m"), e.at("y_m") - t.at("rover_y_m"));
+    mean_err_w += std::hypot(e.at("wheel_x_m") - t.at("rover_x_m"), e.at("wheel_y_m") - t.at("rover_y_m"));
+    ++n;
+    last_t = t, last_e = e;
+  }
+  if (n < 2) throw InputError(map_dir.string() + "/odometry.csv: fewer than two frames match truth_poses.csv");
+  auto yaw_err = [](double a, double b) { return std::abs(std::remainder(a - b, 2 * 3.14159265358979323846)) * 180.0 / 3.14159265358979323846; };
+  const double fe = std::hypot(last_e.at("x_m") - last_t.at("rover_x_m"), last_e.at("y_m") - last_t.at("rover_y_m"));
+  const double fw = std::hypot(last_e.at("wheel_x_m") - last_t.at("rover_x_m"), last_e.at("wheel_y_m") - last_t.at("rover_y_m"));
+  out["poses"] = {{"frames", n},
+                  {"path_m", path},
+                  {"final_position_error_m", fe},
+                  {"final_position_error_pct", 100 * fe / path},
+                  {"final_heading_error_deg", yaw_err(last_e.at("yaw_rad"), last_t.at("rover_yaw_rad"))},
+                  {"mean_position_error_m", mean_err / n},
+                  {"wheel_final_position_error_m", fw},
+                  {"wheel_final_position_error_pct", 100 * fw / path},
+                  {"wheel_final_heading_error_deg", yaw_err(last_e.at("wheel_yaw_rad"), last_t.at("rover_yaw_rad"))},
+                  {"wheel_mean_position_error_m", mean_err_w / n}};
+
+  // --- map vs truth heightfield (averaged onto the map's cells)
+  const nlohmann::json mj = read_json(map_dir / "map.json");
+  const nlohmann::json gj = read_json(drive_dir / "grid.json");
+  const cv::Mat elev = read_float(map_dir / "elevation.tiff");
+  const cv::Mat hazard = read_float(map_dir / "hazard.tiff");
+  const cv::Mat th = read_float(drive_dir / "height.tiff");
+  const double mox = mj.at("origin_x_m").get<double>(), moy = mj.at("origin_y_m").get<double>(),
+               mres = mj.at("resolution_m").get<double>();
+  const double gox = gj.at("origin_x_m").get<double>(), goy = gj.at("origin_y_m").get<double>(),
+               gres = gj.at("resolution_m").get<double>();
+  const int R = elev.rows, C = elev.cols;
+  cv::Mat truth(R, C, CV_32F, cv::Scalar(std::nanf(""))), seen(R, C, CV_8U, cv::Scalar(0));
+  const int k = std::max(1, static_cast<int>(std::lround(mres / gres)));
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j) {
+      const double x = mox + j * mres, y = moy + i * mres;
+      const int gi = static_cast<int>(std::lround((y - goy) / gres)), gj2 = static_cast<int>(std::lround((x - gox) / gres));
+      double acc = 0;
+      int m = 0;
+      for (int a = gi - k / 2; a <= gi + (k - 1) / 2; ++a)
+        for (int b = gj2 - k / 2; b <= gj2 + (k - 1) / 2; ++b)
+          if (a >= 0 && b >= 0 && a < th.rows && b < th.cols && std::isfinite(th.at<float>(a, b))) acc += th.at<float>(a, b), ++m;
+      if (m) truth.at<float>(i, j) = static_cast<float>(acc / m);
+    }
+  // Ground seen within 5 m: flat-ground visibility from the true camera poses.
+  const auto& cam = drive.camera;
+  for (const auto& [f, t] : tp) {
+    (void)f;
+    const double cx = t.at("x_m"), cy = t.at("y_m"), cz = t.at("z_m"), yaw = t.at("yaw_rad"), pitch = t.at("pitch_rad"),
+                 roll = t.at("roll_rad");
+    // Camera axes in the world: forward f (heading yaw, pitched down), right r, down d (roll about f).
+    const cv::Vec3d fwd(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), -std::sin(pitch));
+    cv::Vec3d right(std::sin(yaw), -std::cos(yaw), 0.0);
+    cv::Vec3d down = fwd.cross(right);
+    const cv::Vec3d r2 = right * std::cos(roll) + down * std::sin(roll), d2 = down * std::cos(roll) - right * std::sin(roll);
+    for (int i = 0; i < R; ++i)
+      for (int j = 0; j < C; ++j) {
+        const float zt = truth.at<float>(i, j);
+        if (!std::isfinite(zt)) continue;
+        const cv::Vec3d v(mox + j * mres - cx, moy + i * mres - cy, zt - cz);
+        const double z = v.dot(fwd);
+        if (z <= 0 || cv::norm(v) > 5.0) continue;
+        const double u = cam.fx * v.dot(r2) / z + cam.cx, w = cam.fy * v.dot(d2) / z + cam.cy;
+        if (u >= 0 && w >= 0 && u <= cam.width - 1 && w <= cam.height - 1) seen.at<uchar>(i, j) = 255;
+      }
+  }
+  std::vector<double> xs, ys, ze, zt;
+  int n_seen = 0, n_known = 0;
+  cv::Mat both(R, C, CV_8U, cv::Scalar(0));
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j) {
+      if (!seen.at<uchar>(i, j)) continue;
+      ++n_seen;
+      if (!std::isfinite(elev.at<float>(i, j))) continue;
+      ++n_known;
+      both.at<uchar>(i, j) = 255;
+      xs.push_back(mox + j * mres), ys.push_back(moy + i * mres);
+      ze.push_back(elev.at<float>(i, j)), zt.push_back(truth.at<float>(i, j));
+    }
+  remove_plane(xs, ys, ze);
+  remove_plane(xs, ys, zt);
+  const double r_plane = pearson(ze, zt);
+  // Detail: subtract a 0.2 m Gaussian from both (over the known cells).
+  cv::Mat ez = elev.clone(), tz = truth.clone();
+  const cv::Mat be = blur_known(ez, both, 0.2 / mres), bt = blur_known(tz, both, 0.2 / mres);
+  std::vector<double> de, dt;
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j)
+      if (both.at<uchar>(i, j)) de.push_back(ez.at<float>(i, j) - be.at<float>(i, j)), dt.push_back(tz.at<float>(i, j) - bt.at<float>(i, j));
+  out["map"] = {{"seen_cells", n_seen},
+                {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
+                {"elevation_r", r_plane},
+                {"elevation_detail_r", pearson(de, dt)}};
+
+  // --- rocks and hazard
+  const nlohmann::json tj = read_json(drive_dir / "truth.json");
+  struct TRock {
+    double x, y, h, ext, w, l, yaw;
+    bool observed;
+  };
+  std::vector<TRock> truth_rocks;
+  for (const auto& r : tj.at("rocks"))
+    truth_rocks.push_back({r.at("x_m").get<double>(), r.at("y_m").get<double>(), r.at("height_above_ground_m").get<double>(),
+                           std::max(r.at("width_m").get<double>(), r.at("length_m").get<double>()),
+                           r.at("major_axis_m").get<double>(), r.at("minor_axis_m").get<double>(),
+                           r.at("yaw_deg").get<double>() * 3.14159265358979323846 / 180, r.at("observed").get<bool>()});
+  const auto det = read_csv(map_dir / "rocks.csv");
+  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
+  for (std::size_t a = 0; a < truth_rocks.size(); ++a)
+    for (std::size_t b = 0; b < det.size(); ++b) {
+      const TRock& t = truth_rocks[a];
+      const double d = std::hypot(det[b].at("x_m") - t.x, det[b].at("y_m") - t.y);
+      if (d <= std::max(0.6 * t.ext, 0.10)) pairs.emplace_back(d, a, b);
+    }
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<int> t_of(det.size(), -1), d_of(truth_rocks.size(), -1);
+  for (const auto& [d, a, b] : pairs)
+    if (t_of[b] < 0 && d_of[a] < 0) t_of[b] = static_cast<int>(a), d_of[a] = static_cast<int>(b);
+  int positives = 0, hits = 0, false_alarms = 0;
+  std::vector<double> herr;
+  for (std::size_t a = 0; a < truth_rocks.size(); ++a)
+    if (truth_rocks[a].observed && truth_rocks[a].h >= 0.10) {
+      ++positives;
+      if (d_of[a] >= 0) {
+        ++hits;
+        herr.push_back(100 * std::abs(det[static_cast<std::size_t>(d_of[a])].at("height_m") - truth_rocks[a].h) / truth_rocks[a].h);
+      }
+    }
+  for (std::size_t b = 0; b < det.size(); ++b)
+    if (t_of[b] < 0) ++false_alarms;
+  const double recall = positives ? static_cast<double>(hits) / positives : std::nan("");
+  const double precision = (hits + false_alarms) ? static_cast<double>(hits) / (hits + false_alarms) : std::nan("");
+  std::sort(herr.begin(), herr.end());
+  out["rocks"] = {{"truth_rocks_ge10cm_observed", positives},
+                  {"detections", det.size()},
+                  {"hits", hits},
+                  {"false_alarms", false_alarms},
+                  {"recall", recall},
+                  {"precision", precision},
+                  {"f1", (recall + precision) > 0 ? 2 * recall * precision / (recall + precision) : 0.0},
+                  {"median_height_error_pct", herr.empty() ? std::nan("") : herr[herr.size() / 2]}};
+  std::vector<std::pair<double, int>> scores;
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j) {
+      if (!seen.at<uchar>(i, j) || !std::isfinite(hazard.at<float>(i, j))) continue;
+      const double x = mox + j * mres, y = moy + i * mres;
+      bool pos = false, near5 = false;
+      for (const TRock& t : truth_rocks) {
+        if (t.h < 0.05) continue;
+        const double dx = x - t.x, dy = y - t.y, c = std::cos(t.yaw), s = std::sin(t.yaw);
+        const double u = (c * dx + s * dy) / (0.5 * t.w), v = (-s * dx + c * dy) / (0.5 * t.l);
+        if (u * u + v * v <= 1.0) {
+          near5 = true;
+          if (t.h >= 0.10) pos = true;
+        }
+      }
+      if (pos) scores.emplace_back(hazard.at<float>(i, j), 1);
+      else if (!near5) scores.emplace_back(hazard.at<float>(i, j), 0);
+    }
+  out["hazard"] = {{"cells", scores.size()}, {"auc", auc(scores)}};
+  return out;
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,215 @@
+#include "regolith/mapping/parallax.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+constexpr float kBig = 1e30f;
+
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.parallax", field, why);
+}
+
+template <class T>
+void fill(cv::Mat& m, T v) {  // cv::Mat::setTo goes through a heap buffer
+  for (int r = 0; r < m.rows; ++r) std::fill(m.ptr<T>(r), m.ptr<T>(r) + m.cols, v);
+}
+
+}  // namespace
+
+void ParallaxParams::validate() const {
+  if (!std::isfinite(resolution_m) || resolution_m <= 0) fail("resolution_m", "must be > 0");
+  if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(half_width_m) || half_width_m <= 0) fail("half_width_m", "must be > 0");
+  if ((max_range_m - min_range_m) / resolution_m > 2048 || 2 * half_width_m / resolution_m > 2048)
+    fail("resolution_m", "more than 2048 cells per side");
+  if (!std::isfinite(min_baseline_m) || min_baseline_m <= 0) fail("min_baseline_m", "must be > 0");
+  if (!std::isfinite(min_height_m) || min_height_m > 0) fail("min_height_m", "must be <= 0");
+  if (!std::isfinite(max_height_m) || max_height_m <= 0) fail("max_height_m", "must be > 0");
+  if (!std::isfinite(step_cells) || step_cells <= 0 || step_cells > 2) fail("step_cells", "must be in (0, 2]");
+  if (window < 1 || window > 8) fail("window", "must be 1..8");
+  if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
+  if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
+}
+
+direct_depth::RectifiedGrid parallax_grid(const ParallaxParams& p) {
+  p.validate();
+  direct_depth::RectifiedGrid g;
+  g.resolution_m = p.resolution_m;
+  g.rows = std::max(1, static_cast<int>(std::ceil((p.max_range_m - p.min_range_m) / p.resolution_m)));
+  g.cols = std::max(1, static_cast<int>(std::ceil(2.0 * p.half_width_m / p.resolution_m)));
+  g.x_far_m = p.max_range_m;
+  g.y_left_m = p.half_width_m;
+  g.max_range_m = std::hypot(p.max_range_m, p.half_width_m);
+  return g;
+}
+
+GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const ParallaxParams& params)
+    : p_((params.validate(), params)),
+      rect_(depth, parallax_grid(p_)),
+      grid_(rect_.grid()),
+      h_(depth.model().mount_height_m) {
+  if (!(h_ > p_.max_height_m)) fail("max_height_m", "must be below the camera height");
+  for (cv::Mat* m : {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
+    m->create(grid_.rows, grid_.cols, CV_32F);
+  key_ok_.create(grid_.rows, grid_.cols, CV_8U);
+  cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
+}
+
+void GroundParallax::set_frame(const cv::Mat& gray) {
+  rect_.resample(gray, cur_, 0.0, "gray");
+  const cv::Mat& v = rect_.valid();
+  for (int i = 0; i < cur_.rows; ++i) {
+    const float* c = cur_.ptr<float>(i);
+    const uchar* vv = v.ptr<uchar>(i);
+    uchar* o = cur_ok_.ptr<uchar>(i);
+    for (int j = 0; j < cur_.cols; ++j) o[j] = (vv[j] && c[j] > 3.0f && c[j] < 252.0f) ? 255 : 0;  // clipped = unusable
+  }
+}
+
+void GroundParallax::promote() {
+  std::swap(key_, cur_);
+  std::swap(key_ok_, cur_ok_);
+  has_key_ = true;
+}
+
+void GroundParallax::box(const cv::Mat& src, cv::Mat& dst) {
+  // Window sums with clamped borders: rows then columns (tmp_ holds the intermediate).
+  const int w = p_.window, R = src.rows, C = src.cols;
+  for (int i = 0; i < R; ++i) {
+    const float* s = src.ptr<float>(i);
+    float* t = tmp_.ptr<float>(i);
+    double acc = 0;
+    for (int j = -w; j <= w; ++j) acc += s[std::clamp(j, 0, C - 1)];
+    for (int j = 0; j < C; ++j) {
+      t[j] = static_cast<float>(acc);
+      acc += s[std::min(j + w + 1, C - 1)] - s[std::max(j - w, 0)];
+    }
+  }
+  for (int j = 0; j < C; ++j) {
+    double acc = 0;
+    for (int i = -w; i <= w; ++i) acc += tmp_.at<float>(std::clamp(i, 0, R - 1), j);
+    for (int i = 0; i < R; ++i) {
+      dst.at<float>(i, j) = static_cast<float>(acc);
+      acc += tmp_.at<float>(std::min(i + w + 1, R - 1), j) - tmp_.at<float>(std::max(i - w, 0), j);
+    }
+  }
+}
+
+bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct) {
+  const cv::Mat &key = key_, &key_ok = key_ok_, &cur = cur_, &cur_ok = cur_ok_;
+  const double base = std::hypot(m.x, m.y);
+  for (cv::Mat* q : {&z_, &x_, &y_}) fill(*q, kNaNf);
+  fill(conf_, 0.0f);
+  if (!has_key_ || !(base >= p_.min_baseline_m) || !m.finite()) return false;
+  const double bx = m.x / base, by = m.y / base;
+  const Pose2 a = inverse(m);  // keyframe ground coordinates -> current
+  const double ca = std::cos(a.yaw), sa = std::sin(a.yaw);
+  // Displacements d = base (1 - k) for heights min..max (k = h / (h - z)).
+  const double k_lo = h_ / (h_ - p_.min_height_m), k_hi = h_ / (h_ - p_.max_height_m);
+  const double d_lo = base * (1 - k_hi), d_hi = base * (1 - k_lo);
+  const double step = p_.step_cells * grid_.resolution_m;
+  const int n = static_cast<int>(std::floor((d_hi - d_lo) / step)) + 1;
+  const float penalty = static_cast<float>(4.0 * 255.0 * 255.0);  // unusable sample
+  fill(best_, kBig);
+  fill(bests_, -1.0f);
+  const int R = grid_.rows, C = grid_.cols;
+  // A camera tilted by (pitch, roll) against the ground shows the ground point X at the nominal
+  // rectified position X - D(X) tilt (first order; D as in GroundVisualOdometry).
+  const double h = h_, ih = 1.0 / h_;
+  auto shift = [&](double x, double y, const cv::Vec2d& t) {
+    return cv::Point2d(-(h + x * x * ih) * t[0] + x * y * ih * t[1], -x * y * ih * t[0] + (h + y * y * ih) * t[1]);
+  };
+  auto true_ground = [&](const cv::Point2d& p, const cv::Vec2d& t) { return p + shift(p.x, p.y, t); };
+  auto nominal = [&](double x, double y, const cv::Vec2d& t) { return cv::Point2d(x, y) - shift(x, y, t); };
+  for (int t = 0; t < n; ++t) {
+    const double d = d_lo + t * step;
+    for (int i = 0; i < R; ++i) {
+      float* e = e_.ptr<float>(i);
+      const float* kv = key.ptr<float>(i);
+      const uchar* ko = key_ok.ptr<uchar>(i);
+      for (int j = 0; j < C; ++j) {
+        if (!ko[j]) {
+          e[j] = penalty;
+          continue;
+        }
+        const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
+        const double px = pc.x + d * bx, py = pc.y + d * by;
+        const cv::Point2d q = nominal(ca * px - sa * py + a.x, sa * px + ca * py + a.y, ct);
+        const cv::Point2d cell = grid_.cell(q.x, q.y);
+        const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
+        if (i0 < 0 || j0 < 0 || i0 + 1 >= R || j0 + 1 >= C || !cur_ok.at<uchar>(i0, j0) || !cur_ok.at<uchar>(i0 + 1, j0) ||
+            !cur_ok.at<uchar>(i0, j0 + 1) || !cur_ok.at<uchar>(i0 + 1, j0 + 1)) {
+          e[j] = penalty;
+          continue;
+        }
+        const float fi = static_cast<float>(cell.x - i0), fj = static_cast<float>(cell.y - j0);
+        const float* ra = cur.ptr<float>(i0);
+        const float* rb = cur.ptr<float>(i0 + 1);
+        const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
+        const float r = top + fi * (bot - top) - static_cast<float>(gain) * kv[j] - static_cast<float>(bias);
+        e[j] = r * r;
+      }
+    }
+    // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
+    std::swap(c0_, c1_);
+    std::swap(c1_, c2_);
+    box(e_, c2_);
+    if (t < 2) continue;
+    for (int i = 0; i < R; ++i) {
+      const float* l = c0_.ptr<float>(i);
+      const float* c = c1_.ptr<float>(i);
+      const float* r = c2_.ptr<float>(i);
+      float* b = best_.ptr<float>(i);
+      float* bs = bests_.ptr<float>(i);
+      float* lf = left_.ptr<float>(i);
+      float* rt = right_.ptr<float>(i);
+      for (int j = 0; j < C; ++j)
+        if (c[j] < b[j] && c[j] <= l[j] && c[j] <= r[j]) {
+          b[j] = c[j];
+          bs[j] = static_cast<float>(t - 1);
+          lf[j] = l[j];
+          rt[j] = r[j];
+        }
+    }
+  }
+  // Sub-step minimum, height, true position and confidence.
+  const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
+  const double noise2 = p_.noise_dn * p_.noise_dn;
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j) {
+      const float t = bests_.at<float>(i, j);
+      const float b = best_.at<float>(i, j);
+      if (t < 0 || b >= penalty) continue;
+      const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
+      if (l >= penalty || r >= penalty) continue;
+      const double curv = l + r - 2.0 * b;
+      if (!(curv > 0)) continue;
+      const double off = std::clamp(0.5 * (l - r) / curv, -0.5, 0.5);
+      const double d = d_lo + (t + off) * step;
+      const double k = 1.0 - d / base;
+      if (!(k > 0)) continue;
+      // Curvature per cell in units of the noise: how sharply the match is fixed; a poor best
+      // match (residual well above the noise) lowers it.
+      const double sharp = curv / (cells * noise2);
+      const double fit = std::exp(-std::max(0.0, b / cells - 2.0 * noise2) / (8.0 * noise2));
+      const double conf = sharp / (1.0 + sharp) * fit;
+      if (conf < p_.min_confidence) continue;
+      const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
+      z_.at<float>(i, j) = static_cast<float>(h_ * (1.0 - 1.0 / k));
+      x_.at<float>(i, j) = static_cast<float>(pc.x / k);
+      y_.at<float>(i, j) = static_cast<float>(pc.y / k);
+      conf_.at<float>(i, j) = static_cast<float>(conf);
+    }
+  return true;
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,312 @@
+#include "regolith/mapping/world_map.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
+[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.map", field, why); }
+
+template <class T>
+void fill(cv::Mat& m, T v) {
+  for (int r = 0; r < m.rows; ++r) std::fill(m.ptr<T>(r), m.ptr<T>(r) + m.cols, v);
+}
+
+enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kHazard, kLayers };
+
+}  // namespace
+
+void WorldMapParams::validate() const {
+  auto pos = [](double v, const char* f) {
+    if (!std::isfinite(v) || v <= 0) fail(f, "must be > 0");
+  };
+  pos(resolution_m, "resolution_m");
+  pos(length_x_m, "length_x_m");
+  pos(length_y_m, "length_y_m");
+  pos(range_scale_m, "range_scale_m");
+  pos(max_range_m, "max_range_m");
+  pos(weight_full, "weight_full");
+  pos(observation_sigma_m, "observation_sigma_m");
+  pos(ground_sigma_m, "ground_sigma_m");
+  pos(hazard_height_m, "hazard_height_m");
+  pos(rock_min_height_m, "rock_min_height_m");
+  if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
+  if (!std::isfinite(rock_min_area_m2) || rock_min_area_m2 < 0) fail("rock_min_area_m2", "must be >= 0");
+  if (length_x_m / resolution_m > 4096 || length_y_m / resolution_m > 4096)
+    fail("resolution_m", "more than 4096 cells per side");
+  if (length_x_m < 2 * resolution_m || length_y_m < 2 * resolution_m) fail("length_x_m", "below two cells");
+}
+
+const std::vector<std::string>& WorldMap::layer_names() {
+  static const std::vector<std::string> names{"elevation",
+                                              "elevation_variance",
+                                              "confidence",
+                                              "observed_count",
+                                              "traversability_slope",
+                                              "traversability_roughness",
+                                              "traversability_step",
+                                              "traversability",
+                                              "relief",
+                                              "hazard"};
+  return names;
+}
+
+WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((params.validate(), params)) {
+  rows_ = static_cast<int>(std::lround(p_.length_y_m / p_.resolution_m));
+  cols_ = static_cast<int>(std::lround(p_.length_x_m / p_.resolution_m));
+  ox_ = cx - 0.5 * (cols_ - 1) * p_.resolution_m;
+  oy_ = cy - 0.5 * (rows_ - 1) * p_.resolution_m;
+  for (cv::Mat* m : {&wsum_, &mean_, &m2_}) m->create(rows_, cols_, CV_64F), fill(*m, 0.0);
+  count_.create(rows_, cols_, CV_32F);
+  fill(count_, 0.0f);
+  layers_.resize(kLayers);
+  for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
+  for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_}) m->create(rows_, cols_, CV_32F);
+  mask_.create(rows_, cols_, CV_8U);
+  line_.assign(static_cast<std::size_t>(std::max(rows_, cols_)), 0.0);
+  line_w_ = line_;
+  // traversability::compute_layers works on a GridMap whose layers share our memory.
+  traversability::TraversabilityParams tp = p_.traversability;
+  tp.set_grid({p_.resolution_m, rows_ * p_.resolution_m, cols_ * p_.resolution_m, 0.0, 0.0});
+  p_.traversability = tp;
+  static_cast<common::GridGeometry&>(trav_) = tp.grid();
+  trav_.layers = {"elevation", "confidence", "traversability_slope", "traversability_roughness", "traversability_step",
+                  "traversability"};
+  trav_.data = {layers_[kElevation], layers_[kConfidence], layers_[kSlope], layers_[kRoughness], layers_[kStep],
+                layers_[kTrav]};
+}
+
+const cv::Mat& WorldMap::layer(std::string_view name) const {
+  const auto& n = layer_names();
+  for (std::size_t k = 0; k < n.size(); ++k)
+    if (n[k] == name) return layers_[k];
+  throw std::out_of_range("mapping: WorldMap has no layer '" + std::string(name) + "'");
+}
+
+void WorldMap::recenter(double x, double y, double margin_m) {
+  const double cx = ox_ + 0.5 * (cols_ - 1) * p_.resolution_m, cy = oy_ + 0.5 * (rows_ - 1) * p_.resolution_m;
+  int dj = 0, di = 0;
+  if (std::abs(x - cx) > 0.5 * p_.length_x_m - margin_m) dj = static_cast<int>(std::lround((x - cx) / p_.resolution_m));
+  if (std::abs(y - cy) > 0.5 * p_.length_y_m - margin_m) di = static_cast<int>(std::lround((y - cy) / p_.resolution_m));
+  if (di == 0 && dj == 0) return;
+  // New cell (i, j) = old cell (i + di, j + dj); a shift in place, iterating away from the source.
+  auto shift = [&](cv::Mat& m, auto zero) {
+    using T = decltype(zero);
+    const int r0 = di >= 0 ? 0 : rows_ - 1, r1 = di >= 0 ? rows_ : -1, rs = di >= 0 ? 1 : -1;
+    const int c0 = dj >= 0 ? 0 : cols_ - 1, c1 = dj >= 0 ? cols_ : -1, cs = dj >= 0 ? 1 : -1;
+    for (int i = r0; i != r1; i += rs)
+      for (int j = c0; j != c1; j += cs) {
+        const int si = i + di, sj = j + dj;
+        m.at<T>(i, j) = (si >= 0 && si < rows_ && sj >= 0 && sj < cols_) ? m.at<T>(si, sj) : zero;
+      }
+  };
+  for (cv::Mat* m : {&wsum_, &mean_, &m2_}) shift(*m, 0.0);
+  shift(count_, 0.0f);
+  for (auto& m : layers_) shift(m, kNaNf);
+  ox_ += dj * p_.resolution_m;
+  oy_ += di * p_.resolution_m;
+}
+
+int WorldMap::fuse(const traversability::GridMap& body, const Pose2& foot, double weight) {
+  const std::size_t ke = body.layer_index("elevation"), kc = body.layer_index("confidence");
+  const cv::Mat& e = body.data[ke];
+  const cv::Mat& conf = body.data[kc];
+  if (!foot.finite()) return 0;  // never fuse with a NaN pose
+  // World bounding box of the body grid's corners.
+  const double hx = 0.5 * body.length_x_m, hy = 0.5 * body.length_y_m;
+  double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+  for (double sx : {-1.0, 1.0})
+    for (double sy : {-1.0, 1.0}) {
+      const Eigen::Vector2d w = foot.apply(body.center_x_m + sx * hx, body.center_y_m + sy * hy);
+      xmin = std::min(xmin, w.x()), xmax = std::max(xmax, w.x());
+      ymin = std::min(ymin, w.y()), ymax = std::max(ymax, w.y());
+    }
+  const int j0 = std::max(0, static_cast<int>(std::floor((xmin - ox_) / p_.resolution_m)));
+  const int j1 = std::min(cols_ - 1, static_cast<int>(std::ceil((xmax - ox_) / p_.resolution_m)));
+  const int i0 = std::max(0, static_cast<int>(std::floor((ymin - oy_) / p_.resolution_m)));
+  const int i1 = std::min(rows_ - 1, static_cast<int>(std::ceil((ymax - oy_) / p_.resolution_m)));
+  const Pose2 inv = inverse(foot);
+  const double c = std::cos(inv.yaw), s = std::sin(inv.yaw);
+  const double x_top = body.center_x_m + hx, y_left = body.center_y_m + hy, br = body.resolution_m;
+  const int nx = e.rows, ny = e.cols;
+  const double r2max = p_.max_range_m * p_.max_range_m, inv_rs2 = 1.0 / (p_.range_scale_m * p_.range_scale_m);
+  int updated = 0;
+  for (int i = i0; i <= i1; ++i) {
+    const double wy = oy_ + i * p_.resolution_m;
+    for (int j = j0; j <= j1; ++j) {
+      const double wx = ox_ + j * p_.resolution_m;
+      const double bx = inv.x + c * wx - s * wy, by = inv.y + s * wx + c * wy;
+      const int bi = static_cast<int>(std::floor((x_top - bx) / br)), bj = static_cast<int>(std::floor((y_left - by) / br));
+      if (bi < 0 || bj < 0 || bi >= nx || bj >= ny) continue;
+      const float z = e.at<float>(bi, bj);
+      const float cf = conf.at<float>(bi, bj);
+      const double r2 = bx * bx + by * by;
+      if (!std::isfinite(z) || !(cf > 0.0f) || r2 > r2max) continue;
+      add(i, j, z, weight * static_cast<double>(cf) / (1.0 + r2 * inv_rs2));
+      ++updated;
+    }
+  }
+  return updated;
+}
+
+void WorldMap::add(int i, int j, double z, double w) {
+  // Running weighted mean and sum of squared deviations (West's weighted Welford update).
+  double& ws = wsum_.at<double>(i, j);
+  double& mu = mean_.at<double>(i, j);
+  const double nw = ws + w, d = z - mu;
+  mu += d * w / nw;
+  m2_.at<double>(i, j) += w * d * (z - mu);
+  ws = nw;
+  count_.at<float>(i, j) += 1.0f;
+}
+
+int WorldMap::fuse_points(const cv::Mat& x, const cv::Mat& y, const cv::Mat& z, const cv::Mat& w, const Pose2& foot) {
+  if (!foot.finite()) return 0;
+  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw);
+  const double r2max = p_.max_range_m * p_.max_range_m, inv_rs2 = 1.0 / (p_.range_scale_m * p_.range_scale_m);
+  const double inv_res = 1.0 / p_.resolution_m;
+  int updated = 0;
+  for (int r = 0; r < z.rows; ++r) {
+    const float* px = x.ptr<float>(r);
+    const float* py = y.ptr<float>(r);
+    const float* pz = z.ptr<float>(r);
+    const float* pw = w.ptr<float>(r);
+    for (int k = 0; k < z.cols; ++k) {
+      if (!std::isfinite(pz[k]) || !(pw[k] > 0.0f) || !std::isfinite(px[k]) || !std::isfinite(py[k])) continue;
+      const double bx = px[k], by = py[k], r2 = bx * bx + by * by;
+      if (r2 > r2max) continue;
+      const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
+      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)), i = static_cast<int>(std::lround((wy - oy_) * inv_res));
+      if (i < 0 || j < 0 || i >= rows_ || j >= cols_) continue;
+      add(i, j, pz[k], static_cast<double>(pw[k]) / (1.0 + r2 * inv_rs2));
+      ++updated;
+    }
+  }
+  return updated;
+}
+
+// Normalised-convolution Gaussian (three box passes) of `src` with weights `w` (0 = unknown).
+void WorldMap::smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells) {
+  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_cells * sigma_cells + 1.0) - 1.0) / 2.0)));
+  // scratch2_ = src * w, scratch3_ = w; both blurred; dst = ratio.
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float ww = w.at<float>(i, j);
+      scratch2_.at<float>(i, j) = ww > 0 ? src.at<float>(i, j) * ww : 0.0f;
+      scratch3_.at<float>(i, j) = ww;
+    }
+  auto pass = [&](cv::Mat& m, bool along_rows) {
+    const int n = along_rows ? cols_ : rows_, lines = along_rows ? rows_ : cols_;
+    for (int l = 0; l < lines; ++l) {
+      for (int q = 0; q < n; ++q) line_[static_cast<std::size_t>(q)] = along_rows ? m.at<float>(l, q) : m.at<float>(q, l);
+      double acc = 0.0;
+      for (int q = -k; q <= k; ++q) acc += (q >= 0 && q < n) ? line_[static_cast<std::size_t>(q)] : 0.0;
+      for (int q = 0; q < n; ++q) {
+        (along_rows ? m.at<float>(l, q) : m.at<float>(q, l)) = static_cast<float>(acc);
+        const int add = q + k + 1, sub = q - k;
+        if (add < n) acc += line_[static_cast<std::size_t>(add)];
+        if (sub >= 0) acc -= line_[static_cast<std::size_t>(sub)];
+      }
+    }
+  };
+  for (int rep = 0; rep < 3; ++rep)
+    for (cv::Mat* m : {&scratch2_, &scratch3_}) pass(*m, true), pass(*m, false);
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float ww = scratch3_.at<float>(i, j);
+      dst.at<float>(i, j) = ww > 1e-6f ? scratch2_.at<float>(i, j) / ww : kNaNf;
+    }
+}
+
+void WorldMap::finish() {
+  cv::Mat& el = layers_[kElevation];
+  cv::Mat& var = layers_[kVariance];
+  cv::Mat& conf = layers_[kConfidence];
+  cv::Mat& cnt = layers_[kCount];
+  const double s0 = p_.observation_sigma_m * p_.observation_sigma_m;
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const double w = wsum_.at<double>(i, j);
+      const bool known = w > p_.min_weight;
+      el.at<float>(i, j) = known ? static_cast<float>(mean_.at<double>(i, j)) : kNaNf;
+      var.at<float>(i, j) = known ? static_cast<float>(m2_.at<double>(i, j) / w + s0 / w) : kNaNf;
+      conf.at<float>(i, j) = known ? static_cast<float>(1.0 - std::exp(-w / p_.weight_full)) : 0.0f;
+      const float n = count_.at<float>(i, j);
+      cnt.at<float>(i, j) = n > 0 ? n : kNaNf;
+    }
+  // Small holes (cells between observed ones, up to ~fill_radius away) are interpolated from
+  // their neighbours (normalised convolution) with a lowered confidence.
+  if (p_.fill_radius_m > 0) {
+    smooth_known(el, conf, scratch_, 0.5 * p_.fill_radius_m / p_.resolution_m);
+    for (int i = 0; i < rows_; ++i)
+      for (int j = 0; j < cols_; ++j) {
+        if (std::isfinite(el.at<float>(i, j))) continue;
+        const float w = scratch3_.at<float>(i, j), z = scratch_.at<float>(i, j);
+        if (!(w > p_.fill_min_weight) || !std::isfinite(z)) continue;
+        el.at<float>(i, j) = z;
+        var.at<float>(i, j) = static_cast<float>(s0 / p_.fill_min_weight);
+        conf.at<float>(i, j) = std::min(0.5f * w, 0.5f);
+      }
+  }
+  traversability::compute_layers(trav_, p_.traversability);
+  // Relief above the smoothed local ground, and the hazard it makes.
+  smooth_known(el, conf, scratch_, p_.ground_sigma_m / p_.resolution_m);
+  cv::Mat& relief = layers_[kRelief];
+  cv::Mat& hazard = layers_[kHazard];
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j);
+      const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
+      relief.at<float>(i, j) = r;
+      hazard.at<float>(i, j) =
+          std::isfinite(r) ? static_cast<float>(std::clamp(static_cast<double>(r) / p_.hazard_height_m, 0.0, 1.0)) : kNaNf;
+    }
+}
+
+std::vector<MapRock> WorldMap::rocks() const {
+  const cv::Mat& relief = layers_[kRelief];
+  cv::Mat bin(rows_, cols_, CV_8U);
+  const float thr = static_cast<float>(0.5 * p_.rock_min_height_m);
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) bin.at<uchar>(i, j) = relief.at<float>(i, j) > thr ? 255 : 0;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
+  std::vector<MapRock> out;
+  std::vector<float> top(static_cast<std::size_t>(n), -1e30f);
+  std::vector<cv::Point> at(static_cast<std::size_t>(n));
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const int l = labels.at<int>(i, j);
+      if (l > 0 && relief.at<float>(i, j) > top[static_cast<std::size_t>(l)]) {
+        top[static_cast<std::size_t>(l)] = relief.at<float>(i, j);
+        at[static_cast<std::size_t>(l)] = {j, i};
+      }
+    }
+  const double cell_area = p_.resolution_m * p_.resolution_m;
+  for (int l = 1; l < n; ++l) {
+    const double h = top[static_cast<std::size_t>(l)];
+    const double area = stats.at<int>(l, cv::CC_STAT_AREA) * cell_area;
+    if (h < p_.rock_min_height_m || area < p_.rock_min_area_m2) continue;
+    MapRock r;
+    const cv::Point2d c = cell_center(at[static_cast<std::size_t>(l)].y, at[static_cast<std::size_t>(l)].x);
+    r.x_m = c.x;
+    r.y_m = c.y;
+    r.height_m = h;
+    r.width_m = 2.0 * std::sqrt(area / 3.14159265358979323846);
+    r.score = std::clamp(h / p_.hazard_height_m, 0.0, 1.0);
+    out.push_back(r);
+  }
+  std::sort(out.begin(), out.end(), [](const MapRock& a, const MapRock& b) { return a.score > b.score; });
+  return out;
+}
+
+}  // namespace regolith::mapping
