@@ -1,4 +1,4 @@
-// regolith soil IMAGE --config ROVER.yaml --out DIR: retrospective soil stiffness from a
+// regolith soil IMAGE (--config ROVER.yaml | --scene input.json) --out DIR: retrospective soil stiffness from a
 // rear-camera image of the rover's tracks (components/soil_stiffness). Writes track_dtm.png,
 // sinkage_profiles.png, pz_curves.png and result.json. Bad input (unreadable image, bad YAML
 // field, size mismatch) -> message naming the file / field, exit code 2. A frame without usable
@@ -11,6 +11,7 @@
 
 #include "cli.hpp"
 #include "regolith/soil_stiffness/config.hpp"
+#include "regolith/soil_stiffness/scene.hpp"
 
 namespace regolith::cli {
 namespace {
@@ -18,6 +19,7 @@ namespace {
 struct SoilArgs {
   std::string image;
   std::string config;
+  std::string scene;
   std::string out;
 };
 
@@ -26,13 +28,19 @@ const bool registered = add_command([](CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "soil", "soil stiffness k (and n) from an image of the rover's wheel tracks -> PNG plots + JSON");
   cmd->add_option("image", a->image, "rear-camera image of the tracks (8-bit, any OpenCV format)")->required();
-  cmd->add_option("--config,-c", a->config,
-                  "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
-                  "or a deployment with a soil_stiffness component")
-      ->required();
+  CLI::Option* config = cmd->add_option("--config,-c", a->config,
+                                        "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
+                                        "or a deployment with a soil_stiffness component");
+  CLI::Option* scene = cmd->add_option("--scene", a->scene,
+                                       "a recorded scene's input.json (camera, sun, wheel, per-track load and "
+                                       "x_nominal_m; the development set's tracks format) instead of a YAML");
+  config->excludes(scene);
+  scene->excludes(config);
   cmd->add_option("--out,-o", a->out, "output directory (created)")->required();
   cmd->callback([a] {
-    const soil::SoilAnalysisFiles f = soil::run_soil_file(a->image, a->config, a->out);
+    if (a->config.empty() && a->scene.empty()) throw CLI::RequiredError("--config or --scene");
+    const soil::SoilAnalysisFiles f = a->scene.empty() ? soil::run_soil_file(a->image, a->config, a->out)
+                                                       : soil::run_soil_scene(a->image, a->scene, a->out);
     const soil::SoilEstimate& e = f.estimate;
     if (e.ok) {
       std::printf("%s: %zu track(s), mean sinkage %.2f mm, %d samples\n", a->image.c_str(), e.tracks.size(),

@@ -60,6 +60,7 @@ void DriveMapperParams::validate() const {
   map.validate();
   terrain.validate();
   parallax.validate();
+  shadow.validate();
   if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
   if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
@@ -75,6 +76,7 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
       vo_(depth_, p_.vo),
       terrain_mapper_(depth_, p_.terrain),
       parallax_(depth_, p_.parallax),
+      shadow_(parallax_.grid(), p_.shadow),
       map_(p_.map, map_center.x, map_center.y) {
   if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
     fail("mapping", "mount", "must be finite");
@@ -88,6 +90,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   report_.keyframe = false;
   report_.cells_fused = 0;
   report_.parallax = false;
+  report_.shadow_casters = 0;
   ++counters_.frames;
   Pose2 foot;
   Cov3 foot_cov;
@@ -183,9 +186,13 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   }
   // Terrain of this frame, placed with the corrected pose (never with a frame vision rejects as
   // unusable: black or saturated frames carry no shading).
+  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw);
+  const cv::Vec3d sb(sun_world_[0] * c + sun_world_[1] * s, -sun_world_[0] * s + sun_world_[1] * c, sun_world_[2]);
+  if (use_parallax() && p_.fuse_shadows && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
+    report_.shadow_casters = shadow_.compute(parallax_.current(), parallax_.seen(), sb);
+    if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
+  }
   if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
-    const double c = std::cos(foot.yaw), s = std::sin(foot.yaw);
-    const cv::Vec3d sb(sun_world_[0] * c + sun_world_[1] * s, -sun_world_[0] * s + sun_world_[1] * c, sun_world_[2]);
     terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);
     if (vo_.rectified().data && report_.vo != VoStatus::kTooFewPoints)
       report_.cells_fused += map_.fuse(terrain_, foot, p_.shading_weight);

@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
 
 namespace regolith::mapping {
@@ -17,10 +18,7 @@ constexpr float kBig = 1e30f;
   throw FieldError("mapping.parallax", field, why);
 }
 
-template <class T>
-void fill(cv::Mat& m, T v) {  // cv::Mat::setTo goes through a heap buffer
-  for (int r = 0; r < m.rows; ++r) std::fill(m.ptr<T>(r), m.ptr<T>(r) + m.cols, v);
-}
+using common::fill;
 
 }  // namespace
 

@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
 
 namespace regolith::mapping {
@@ -16,12 +17,9 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.map", field, why); }
 
-template <class T>
-void fill(cv::Mat& m, T v) {
-  for (int r = 0; r < m.rows; ++r) std::fill(m.ptr<T>(r), m.ptr<T>(r) + m.cols, v);
-}
+using common::fill;
 
-enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kHazard, kLayers };
+enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kShadow, kHazard, kLayers };
 
 }  // namespace
 
@@ -39,6 +37,7 @@ void WorldMapParams::validate() const {
   pos(ground_sigma_m, "ground_sigma_m");
   pos(hazard_height_m, "hazard_height_m");
   pos(rock_min_height_m, "rock_min_height_m");
+  if (!std::isfinite(shadow_spread_m) || shadow_spread_m < 0) fail("shadow_spread_m", "must be >= 0");
   if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
   if (!std::isfinite(rock_min_area_m2) || rock_min_area_m2 < 0) fail("rock_min_area_m2", "must be >= 0");
   if (length_x_m / resolution_m > 4096 || length_y_m / resolution_m > 4096)
@@ -56,6 +55,7 @@ const std::vector<std::string>& WorldMap::layer_names() {
                                               "traversability_step",
                                               "traversability",
                                               "relief",
+                                              "shadow_height",
                                               "hazard"};
   return names;
 }
@@ -68,6 +68,7 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) m->create(rows_, cols_, CV_64F), fill(*m, 0.0);
   count_.create(rows_, cols_, CV_32F);
   fill(count_, 0.0f);
+  for (cv::Mat* m : {&shadow_w_, &shadow_h_}) m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
   layers_.resize(kLayers);
   for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
   for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_}) m->create(rows_, cols_, CV_32F);
@@ -111,6 +112,8 @@ void WorldMap::recenter(double x, double y, double margin_m) {
   };
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) shift(*m, 0.0);
   shift(count_, 0.0f);
+  shift(shadow_w_, 0.0f);
+  shift(shadow_h_, 0.0f);
   for (auto& m : layers_) shift(m, kNaNf);
   ox_ += dj * p_.resolution_m;
   oy_ += di * p_.resolution_m;
@@ -162,6 +165,13 @@ void WorldMap::add(int i, int j, double z, double w) {
   // Running weighted mean and sum of squared deviations (West's weighted Welford update).
   double& ws = wsum_.at<double>(i, j);
   double& mu = mean_.at<double>(i, j);
+  // A look far from what the cell already holds firmly is down-weighted (Cauchy-like): one bad
+  // match does not pull a well-seen cell.
+  if (p_.robust_sigma_m > 0 && ws > p_.weight_full) {
+    const double spread = std::sqrt(m2_.at<double>(i, j) / ws) + p_.robust_sigma_m;
+    const double u = (z - mu) / spread;
+    w /= 1.0 + u * u;
+  }
   const double nw = ws + w, d = z - mu;
   mu += d * w / nw;
   m2_.at<double>(i, j) += w * d * (z - mu);
@@ -188,6 +198,33 @@ int WorldMap::fuse_points(const cv::Mat& x, const cv::Mat& y, const cv::Mat& z, 
       const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)), i = static_cast<int>(std::lround((wy - oy_) * inv_res));
       if (i < 0 || j < 0 || i >= rows_ || j >= cols_) continue;
       add(i, j, pz[k], static_cast<double>(pw[k]) / (1.0 + r2 * inv_rs2));
+      ++updated;
+    }
+  }
+  return updated;
+}
+
+int WorldMap::fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const Pose2& foot) {
+  if (!foot.finite()) return 0;
+  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw), inv_res = 1.0 / p_.resolution_m;
+  const double r2max = p_.max_range_m * p_.max_range_m;
+  int updated = 0;
+  for (int r = 0; r < h.rows; ++r) {
+    const float* px = x.ptr<float>(r);
+    const float* py = y.ptr<float>(r);
+    const float* ph = h.ptr<float>(r);
+    const float* pw = w.ptr<float>(r);
+    for (int k = 0; k < h.cols; ++k) {
+      if (!std::isfinite(ph[k]) || !(pw[k] > 0.0f)) continue;
+      const double bx = px[k], by = py[k];
+      if (bx * bx + by * by > r2max) continue;
+      const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
+      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)), i = static_cast<int>(std::lround((wy - oy_) * inv_res));
+      if (i < 0 || j < 0 || i >= rows_ || j >= cols_) continue;
+      float& sw = shadow_w_.at<float>(i, j);
+      float& sh = shadow_h_.at<float>(i, j);
+      sh = (sh * sw + ph[k] * pw[k]) / (sw + pw[k]);
+      sw += pw[k];
       ++updated;
     }
   }
@@ -262,18 +299,39 @@ void WorldMap::finish() {
   smooth_known(el, conf, scratch_, p_.ground_sigma_m / p_.resolution_m);
   cv::Mat& relief = layers_[kRelief];
   cv::Mat& hazard = layers_[kHazard];
+  cv::Mat& shadow = layers_[kShadow];
+  // Caster heights spread over their neighbourhood (max filter of radius shadow_spread_m).
+  const int sr = static_cast<int>(std::lround(p_.shadow_spread_m / p_.resolution_m));
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
-      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j);
+      float best = kNaNf;
+      for (int a = std::max(0, i - sr); a <= std::min(rows_ - 1, i + sr); ++a)
+        for (int b = std::max(0, j - sr); b <= std::min(cols_ - 1, j + sr); ++b)
+          if (shadow_w_.at<float>(a, b) > 0.0f && (a - i) * (a - i) + (b - j) * (b - j) <= sr * sr &&
+              !(best >= shadow_h_.at<float>(a, b)))
+            best = shadow_h_.at<float>(a, b);
+      shadow.at<float>(i, j) = best;
+    }
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j), sh = shadow.at<float>(i, j);
       const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
       relief.at<float>(i, j) = r;
+      float hz = std::isfinite(r) ? r : kNaNf;
+      if (std::isfinite(sh) && !(hz >= sh)) hz = sh;  // the taller of the two cues
       hazard.at<float>(i, j) =
-          std::isfinite(r) ? static_cast<float>(std::clamp(static_cast<double>(r) / p_.hazard_height_m, 0.0, 1.0)) : kNaNf;
+          std::isfinite(hz) ? static_cast<float>(std::clamp(static_cast<double>(hz) / p_.hazard_height_m, 0.0, 1.0)) : kNaNf;
     }
 }
 
 std::vector<MapRock> WorldMap::rocks() const {
-  const cv::Mat& relief = layers_[kRelief];
+  // Object height per cell: the taller of relief and shadow height.
+  cv::Mat relief(rows_, cols_, CV_32F);
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float r = layers_[kRelief].at<float>(i, j), sh = layers_[kShadow].at<float>(i, j);
+      relief.at<float>(i, j) = std::isfinite(sh) && !(r >= sh) ? sh : r;
+    }
   cv::Mat bin(rows_, cols_, CV_8U);
   const float thr = static_cast<float>(0.5 * p_.rock_min_height_m);
   for (int i = 0; i < rows_; ++i)

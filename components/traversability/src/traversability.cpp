@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
 
 namespace regolith::traversability {
@@ -19,15 +20,7 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
   throw FieldError("traversability", field, why);
 }
 
-// Fills a continuous or strided Mat of float / double / uchar with v without allocating
-// (cv::Mat::setTo converts the scalar through a heap buffer).
-template <class T>
-void fill(cv::Mat& m, T v) {
-  for (int r = 0; r < m.rows; ++r) {
-    T* p = m.ptr<T>(r);
-    std::fill(p, p + m.cols * m.channels(), v);
-  }
-}
+using common::fill;
 
 void check_pos(double v, const char* name) {
   if (!std::isfinite(v) || v <= 0) fail(name, "must be > 0");

@@ -15,6 +15,7 @@
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/ground_vo.hpp"
 #include "regolith/mapping/parallax.hpp"
+#include "regolith/mapping/shadow.hpp"
 #include "regolith/mapping/pose2.hpp"
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/traversability/traversability.hpp"
@@ -40,6 +41,7 @@ struct DriveMapperParams {
   WheelNoise wheel;
   WorldMapParams map;
   ParallaxParams parallax;
+  ShadowParams shadow;
   traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
   double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
   double keyframe_yaw_rad = 0.12;     ///< rad
@@ -47,6 +49,7 @@ struct DriveMapperParams {
   bool use_vision = true;             ///< false: wheel odometry only (for comparison)
   bool fuse_terrain = true;           ///< false: odometry only (no terrain in the map)
   bool fuse_parallax = true;          ///< heights from motion parallax against the keyframe
+  bool fuse_shadows = true;           ///< object heights from cast shadows (needs fuse_parallax: its rectification)
   bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
   double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
   static traversability::TraversabilityParams default_terrain() {
@@ -74,6 +77,7 @@ struct FrameReport {
   int vo_inliers = 0;
   int cells_fused = 0;
   bool parallax = false;  ///< heights from parallax were fused
+  int shadow_casters = 0; ///< objects measured from their shadows in this frame
   Pose2 pose;        ///< corrected rover pose (world)
   Cov3 covariance;   ///< of `pose`
   Pose2 wheel_pose;  ///< wheel odometry as given
@@ -112,6 +116,7 @@ class DriveMapper {
   GroundVisualOdometry vo_;
   traversability::TraversabilityMapper terrain_mapper_;
   GroundParallax parallax_;
+  ShadowCue shadow_;
   traversability::GridMap terrain_;
   WorldMap map_;
   FrameReport report_;

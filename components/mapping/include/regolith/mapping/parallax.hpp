@@ -59,6 +59,9 @@ class GroundParallax {
   bool compute(const Pose2& cur_in_key, double gain, double bias, const cv::Vec2d& key_tilt = {},
                const cv::Vec2d& cur_tilt = {});
   const direct_depth::RectifiedGrid& grid() const { return grid_; }
+  /// The current frame's rectified image (CV_32F) and the cells the camera sees (CV_8U).
+  const cv::Mat& current() const { return cur_; }
+  const cv::Mat& seen() const { return rect_.valid(); }
 
   /// Per keyframe cell: height above the ground (m, NaN unknown), its true ground position in the
   /// keyframe's foot frame (m) and the match confidence (0..1).

@@ -12,7 +12,9 @@
 // = more weight; each extra look adds weight). Layers (CV_32F, NaN = never seen):
 //   elevation (m), elevation_variance (m^2), confidence (0..1 = 1 - exp(-weight / weight_full)),
 //   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
-//   local ground), hazard (0..1).
+//   local ground), shadow_height (heights of objects measured from their cast shadows, spread
+//   over shadow_spread_m around their feet), hazard (0..1: max of relief and shadow height over
+//   hazard_height_m).
 // Derived layers (finish()) and rocks (connected relief blobs) are computed on request.
 #include <opencv2/core.hpp>
 
@@ -34,10 +36,12 @@ struct WorldMapParams {
   double weight_full = 1.0;     ///< weight at which confidence reaches 1 - 1/e
   double min_weight = 0.05;     ///< cells with less total weight stay unknown
   double observation_sigma_m = 0.02;  ///< m, std of one look (floor of elevation_variance)
+  double robust_sigma_m = 0.03;       ///< m, looks this far from a well-seen cell's mean weigh half (0 = plain mean)
   double fill_radius_m = 0.0;         ///< m, holes this close to observed cells are interpolated (0 = off)
   double fill_min_weight = 0.05;      ///< smoothed confidence a hole needs to be filled
   double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
   double hazard_height_m = 0.10;      ///< m, relief at which hazard reaches 1
+  double shadow_spread_m = 0.08;      ///< m, a caster's height covers cells this close to its foot
   double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
   double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
   traversability::TraversabilityParams traversability;  ///< slope / step / roughness thresholds
@@ -83,6 +87,11 @@ class WorldMap {
   /// its nearest world cell with weight w / (1 + (range / range_scale)^2). No heap allocation.
   int fuse_points(const cv::Mat& x, const cv::Mat& y, const cv::Mat& z, const cv::Mat& w, const Pose2& camera_foot);
 
+  /// Fuses object heights measured from cast shadows at the objects' feet (ShadowCue): a running
+  /// weighted mean per cell, kept apart from the elevation (a caster height is the height of
+  /// what stands there, not of the ground). No heap allocation.
+  int fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const Pose2& camera_foot);
+
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
   /// accumulators. No heap allocation after the first call.
   void finish();
@@ -96,6 +105,7 @@ class WorldMap {
   int rows_ = 0, cols_ = 0;
   double ox_ = 0.0, oy_ = 0.0;
   cv::Mat wsum_, mean_, m2_, count_;  // accumulators (CV_64F weight/mean/m2, CV_32F count)
+  cv::Mat shadow_w_, shadow_h_;       // caster heights from shadows: weight, weighted mean (CV_32F)
   std::vector<cv::Mat> layers_;
   traversability::GridMap trav_;      // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;

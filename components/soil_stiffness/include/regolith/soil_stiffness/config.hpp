@@ -9,17 +9,14 @@
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
 #include "regolith/soil_stiffness/run.hpp"
+#include "regolith/soil_stiffness/scene.hpp"
 #include "regolith/soil_stiffness/sinkage_layer.hpp"
 #include "regolith/soil_stiffness/track_analysis.hpp"
 
 namespace regolith::soil {
 
-struct SoilConfig {
-  CameraModel camera;            ///< rear camera (regolith::direct_depth model)
-  RoverConfig rover;
-  TrackAnalysisParams analysis;
-  SunDirection sun;
-  LayerPose mount;               ///< camera ground frame in the body frame (sinkage layer)
+struct SoilConfig : SoilSetup {
+  LayerPose mount;  ///< camera ground frame in the body frame (sinkage layer)
 };
 
 /// Reads the estimator keys of one mapping (a component section or the `soil_stiffness` section

@@ -1,0 +1,88 @@
+// DriveMapper::add_frame (VO, fusion, parallax, map fusion, window moves) and WorldMap::finish
+// must not allocate once running: global operator new is counted in this binary.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "regolith/mapping/drive_mapper.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
+
+namespace {
+std::atomic<long> g_news{0};
+std::atomic<bool> g_counting{false};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace {
+using namespace regolith;
+using namespace regolith::mapping;
+
+TEST(DriveMapperNoAlloc, AddFrameAndFinishDoNotAllocateOnceRunning) {
+  terrain_scene::SceneParams sp;
+  sp.seed = 21;
+  sp.resolution_m = 0.01;
+  sp.fractal_rms_m = 0.01;
+  sp.x_min_m = -1;
+  sp.x_max_m = 8;
+  sp.y_min_m = -4;
+  sp.y_max_m = 4;
+  const terrain_scene::Terrain t(sp);
+  const terrain_scene::Sun sun{2.3, 0.8};
+  terrain_scene::CameraPose cam;
+  cam.fx = cam.fy = 220;
+  cam.cx = 159.5;
+  cam.cy = 119.5;
+  cam.width = 320;
+  cam.height = 240;
+  cam.height_m = 0.67;
+  cam.pitch_rad = 0.6;
+  direct_depth::CameraModel m;
+  m.fx = m.fy = 220;
+  m.cx = 159.5;
+  m.cy = 119.5;
+  m.width = 320;
+  m.height = 240;
+  m.mount_height_m = 0.67;
+  m.pitch_rad = 0.6;
+  std::vector<cv::Mat> frames;
+  std::vector<Pose2> odo;
+  Pose2 p{};
+  for (int k = 0; k < 14; ++k) {
+    if (k) p = compose(p, Pose2{0.07, 0, 0.004});
+    cam.x_m = p.x, cam.y_m = p.y, cam.yaw_rad = p.yaw;
+    frames.push_back(terrain_scene::to_u8(terrain_scene::render_camera(t, cam, sun).image));
+    odo.push_back(p);
+  }
+  frames[9] = cv::Mat(240, 320, CV_8U, cv::Scalar(0));  // a black frame
+  odo[11].x += 2.0;                                     // an odometry spike
+  DriveMapperParams params;
+  params.map.length_x_m = params.map.length_y_m = 6;  // small: the window must move
+  params.fuse_shading = true;                         // every path
+  DriveMapper dm(m, CameraMount{0.3, 0.05, 0.0}, sun.vector(), params, {0, 0});
+  dm.add_frame(frames[0], odo[0]);
+  dm.add_frame(frames[1], odo[1]);
+  dm.map().finish();
+  g_news = 0;
+  g_counting = true;
+  for (std::size_t k = 2; k < frames.size(); ++k) dm.add_frame(frames[k], odo[k]);
+  dm.add_frame(frames[2], Pose2{std::nan(""), 0, 0});
+  dm.map().finish();
+  g_counting = false;
+  EXPECT_EQ(g_news.load(), 0);
+  EXPECT_GT(dm.counters().vo_ok, 5);
+  EXPECT_GE(dm.counters().odometry_jumps, 2);
+}
+
+}  // namespace

@@ -1,0 +1,107 @@
+// `regolith soil IMAGE --scene input.json`: the development set's scene description read
+// directly (no YAML), an estimate written in the scene's own keys, and located errors.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "regolith/core/error.hpp"
+#include "regolith/soil_stiffness/scene.hpp"
+
+namespace {
+namespace fs = std::filesystem;
+namespace soil = regolith::soil;
+
+const fs::path kTracks = fs::path(REGOLITH_SHARED_DIR) / "data" / "synthetic_dev" / "tracks";
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("regolith_soil_scene_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+const char* kScene = R"({"camera": {"width": 640, "height": 480, "fx": 637.5, "fy": 637.5, "cx": 319.5, "cy": 239.5,
+  "h_m": 0.78, "pitch_deg": 48.1}, "sun_elevation_deg": 20.4, "sun_azimuth_deg": -120.0,
+  "wheel_width_b_m": 0.15, "wheel_diameter_D_m": 0.25,
+  "tracks": [{"load_N": 26.6, "x_nominal_m": -0.146}, {"load_N": 63.2, "x_nominal_m": 0.196}]})";
+
+TEST(SoilScene, ReadsTheSceneIntoTheEstimatorsTerms) {
+  const fs::path d = temp_dir("read");
+  std::ofstream(d / "input.json") << kScene;
+  const soil::SoilSetup c = soil::read_soil_scene(d / "input.json");
+  EXPECT_EQ(c.camera.width, 640);
+  EXPECT_NEAR(c.camera.pitch_rad, 48.1 * M_PI / 180, 1e-12);
+  EXPECT_NEAR(c.camera.mount_height_m, 0.78, 1e-12);
+  // World X right = body -y: the rut at x = -0.146 (right... of the view: left in X) is at lateral +0.146.
+  ASSERT_EQ(c.analysis.tracks.size(), 2u);
+  EXPECT_NEAR(c.analysis.tracks[0].lateral_m, 0.146, 1e-12);
+  EXPECT_NEAR(c.analysis.tracks[1].load_n, 63.2, 1e-12);
+  // Sun azimuth -120 deg (from +Y towards +X) = 120 deg anticlockwise from the view, i.e. behind-left.
+  EXPECT_NEAR(c.sun.azimuth_rad, 120.0 * M_PI / 180, 1e-12);
+  EXPECT_NEAR(c.sun.elevation_rad, 20.4 * M_PI / 180, 1e-12);
+  // The region of interest starts where the bottom row meets the ground.
+  EXPECT_GT(c.analysis.range_min_m, 0.2);
+  EXPECT_LT(c.analysis.range_min_m, 0.5);
+  EXPECT_GT(c.analysis.lateral_max_m, 0.196);
+}
+
+TEST(SoilScene, BadFieldsAreNamed) {
+  const fs::path d = temp_dir("bad");
+  auto expect_error = [&](const std::string& json, const std::string& what) {
+    std::ofstream(d / "input.json") << json;
+    try {
+      soil::read_soil_scene(d / "input.json");
+      ADD_FAILURE() << "no error for " << what;
+    } catch (const regolith::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("input.json"), std::string::npos) << e.what();
+    }
+  };
+  nlohmann::json j = nlohmann::json::parse(kScene);
+  nlohmann::json k = j;
+  k["sun_elevation_deg"] = -5;
+  expect_error(k.dump(), "sun_elevation_deg: the sun must be above the horizon");
+  k = j;
+  k["tracks"][1]["load_N"] = 0;
+  expect_error(k.dump(), "tracks[1].load_N: must be > 0");
+  k = j;
+  k["camera"].erase("fy");
+  expect_error(k.dump(), "camera.fy: missing");
+  k = j;
+  k.erase("wheel_width_b_m");
+  expect_error(k.dump(), "wheel_width_b_m: missing");
+  expect_error("{not json", "not valid JSON");
+}
+
+TEST(SoilScene, DevelopmentSceneGivesKAndProfilesInTheScenesKeys) {
+  const fs::path scene = kTracks / "tracks_dev_0";
+  if (!fs::exists(scene / "input.json")) GTEST_SKIP() << scene << " not present";
+  const fs::path out = temp_dir("dev0");
+  const soil::SoilAnalysisFiles f = soil::run_soil_scene(scene / "image.png", scene / "input.json", out);
+  std::ifstream in(f.json);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("k"));
+  ASSERT_TRUE(j.contains("n"));
+  ASSERT_TRUE(j["tracks"].is_array());
+  if (f.estimate.ok) {
+    EXPECT_GT(j["k"].get<double>(), 0.0);
+    ASSERT_FALSE(j["tracks"].empty());
+    for (const auto& t : j["tracks"]) {
+      EXPECT_EQ(t["y_m"].size(), t["sinkage_m"].size());
+      EXPECT_TRUE(t.contains("x_m"));
+    }
+  } else {
+    EXPECT_TRUE(j["k"].is_null());
+    EXPECT_FALSE(j["reason"].get<std::string>().empty());
+  }
+  // An image of another size than the scene's camera is refused, naming both.
+  const fs::path small = out / "small.png";
+  std::ofstream(small) << "";  // unreadable: named
+  EXPECT_THROW(soil::run_soil_scene(small, scene / "input.json", out), regolith::InputError);
+}
+
+}  // namespace
