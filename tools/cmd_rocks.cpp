@@ -16,12 +16,14 @@
 #include <iostream>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
@@ -43,15 +45,20 @@ namespace {
 namespace fs = std::filesystem;
 namespace sal = regolith::saliency;
 
-// Default SAMS weights and shared post-processing (see
+// Default SAMS weights, contrast parameters and post-processing (see
 // components/saliency/README.md for the cross-validation that chose them).
 struct RockOptions {
   std::string method = "sams";
   double w_intensity = 0.2, w_orientation = 0.5, w_colour = 0.0,
          w_structure = 0.3;
   bool colour = false;
-  double threshold_scale = 1.0;
-  int min_area = 100, open_radius = 2, close_radius = 2, max_detections = 0;
+  // Unset: the method's default (sal::PostProcessParams, or
+  // sal::contrast_post_processing() for contrast).
+  std::optional<double> threshold_scale;
+  std::optional<int> min_area;
+  int open_radius = 2, close_radius = 2, max_detections = 0;
+  double contrast_sigma = sal::ContrastParams{}.sigma_px;
+  double contrast_smooth = sal::ContrastParams{}.smooth_sigma_px;
   int sfs_downsample = 2;
   double sfs_slant_deg = 45.0;
   std::string structure = "height";
@@ -59,9 +66,8 @@ struct RockOptions {
 
   void add_to(CLI::App *c) {
     c->add_option("--method", method,
-                  "sams|itti|spectral_residual|fine_grained")
-        ->check(CLI::IsMember(
-            {"sams", "itti", "spectral_residual", "fine_grained"}))
+                  "sams|itti|contrast|spectral_residual|fine_grained")
+        ->check(CLI::IsMember(sal::method_names()))
         ->capture_default_str();
     c->add_option("--w-intensity", w_intensity,
                   "SAMS weight of the intensity channel")
@@ -77,11 +83,23 @@ struct RockOptions {
         ->capture_default_str();
     c->add_flag("--colour", colour,
                 "use the RG/BY colour-opponency channel (Itti and SAMS)");
-    c->add_option("--threshold-scale", threshold_scale,
-                  "binary threshold = scale x Otsu")
+    const sal::PostProcessParams shared,
+        contrast_pp = sal::contrast_post_processing();
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "binary threshold = scale x Otsu (default %g; contrast: %g)",
+                  shared.threshold_scale, contrast_pp.threshold_scale);
+    c->add_option("--threshold-scale", threshold_scale, buf);
+    std::snprintf(
+        buf, sizeof buf,
+        "px, smallest detected component kept (default %d; contrast: %d)",
+        shared.min_area, contrast_pp.min_area);
+    c->add_option("--min-area", min_area, buf);
+    c->add_option("--contrast-sigma", contrast_sigma,
+                  "px, contrast: sigma of the Gaussian surround in |I - G*I|")
         ->capture_default_str();
-    c->add_option("--min-area", min_area,
-                  "px, smallest detected component kept")
+    c->add_option("--contrast-smooth", contrast_smooth,
+                  "px, contrast: sigma of the smoothing of |I - G*I| (0 = none)")
         ->capture_default_str();
     c->add_option("--open-radius", open_radius,
                   "px, morphological opening radius")
@@ -119,10 +137,15 @@ struct RockOptions {
                  w_structure};
     return p;
   }
-  sal::PostProcessParams post() const {
-    sal::PostProcessParams p;
-    p.threshold_scale = threshold_scale;
-    p.min_area = min_area;
+  sal::ContrastParams contrast() const {
+    return sal::ContrastParams{contrast_sigma, contrast_smooth};
+  }
+  sal::PostProcessParams post(sal::Method m) const {
+    sal::PostProcessParams p = m == sal::Method::kContrast
+                                   ? sal::contrast_post_processing()
+                                   : sal::PostProcessParams{};
+    p.threshold_scale = threshold_scale.value_or(p.threshold_scale);
+    p.min_area = min_area.value_or(p.min_area);
     p.open_radius = open_radius;
     p.close_radius = close_radius;
     p.max_detections = max_detections;
@@ -160,7 +183,7 @@ sal::HeightFn make_height_fn(int downsample, double slant_deg,
   throw ConfigError("--method sams needs the shape-from-shading height map, "
                     "but this build of regolith has no "
                     "regolith::sfs (the SAMS structure channel); use itti, "
-                    "spectral_residual or fine_grained");
+                    "contrast, spectral_residual or fine_grained");
 }
 
 void ensure_dir(const std::string &dir, const char *option) {
@@ -199,11 +222,13 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
                const std::string &csv_path, const std::string &overlay_dir,
                const std::string &saliency_dir) {
   const sal::Method method = sal::method_from_string(o.method);
-  const sal::PostProcessParams post = o.post();
-  post.validate();
+  const sal::PostProcessParams post = o.post(method);
   const sal::IttiParams ip = o.itti();
+  const sal::ContrastParams cp = o.contrast();
   try {
+    post.validate();
     ip.validate();
+    cp.validate();
   } catch (const std::invalid_argument &e) {
     throw ConfigError(e.what());
   }
@@ -222,6 +247,7 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
   csv << "image,xmin,ymin,xmax,ymax,score\n";
 
   sal::IttiSaliency itti(ip);
+  sal::ContrastSaliency contrast(cp);
   std::unique_ptr<sal::OpenCvSaliency> peer;
   if (method == sal::Method::kSpectralResidual ||
       method == sal::Method::kFineGrained) {
@@ -239,6 +265,8 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
       try {
         if (peer) {
           peer->compute(img, map);
+        } else if (method == sal::Method::kContrast) {
+          contrast.compute(img, map);
         } else if (method == sal::Method::kSams) {
           height(img, h);
           itti.compute(img, h, map);
@@ -309,6 +337,11 @@ struct EvalOptions {
   int folds = 5;
   double weight_step = 0.1;
   std::vector<double> scales{0.8, 1.0, 1.2, 1.4};
+  // The contrast grid of the sweep / CV (defaults: sal::StudyConfig).
+  std::vector<double> contrast_sigmas = sal::StudyConfig{}.contrast_sigmas;
+  std::vector<double> contrast_smooths = sal::StudyConfig{}.contrast_smooth_sigmas;
+  std::vector<double> contrast_scales = sal::StudyConfig{}.contrast_threshold_scales;
+  std::vector<int> contrast_min_areas = sal::StudyConfig{}.contrast_min_areas;
   std::string markdown;
 };
 
@@ -329,18 +362,22 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
   std::vector<sal::Method> methods;
   for (const auto &m : e.methods)
     methods.push_back(sal::method_from_string(m));
-  if (methods.empty()) {
-    methods = {sal::Method::kSams, sal::Method::kItti,
-               sal::Method::kSpectralResidual, sal::Method::kFineGrained};
-  }
+  if (methods.empty())
+    methods.assign(sal::kAllMethods.begin(), sal::kAllMethods.end());
   sal::StudyConfig cfg;
   cfg.itti = o.itti();
   cfg.itti_weights = {1.0, 1.0, o.colour ? 1.0 : 0.0, 0.0};
-  cfg.post = o.post();
+  cfg.post = o.post(sal::Method::kSams);
   cfg.min_gt_area = e.min_gt_area;
   cfg.folds = e.folds;
   cfg.weight_step = e.weight_step;
   cfg.threshold_scales = e.scales;
+  cfg.contrast = o.contrast();
+  cfg.contrast_post = o.post(sal::Method::kContrast);
+  cfg.contrast_sigmas = e.contrast_sigmas;
+  cfg.contrast_smooth_sigmas = e.contrast_smooths;
+  cfg.contrast_threshold_scales = e.contrast_scales;
+  cfg.contrast_min_areas = e.contrast_min_areas;
   try {
     cfg.validate();
   } catch (const std::invalid_argument &ex) {
@@ -376,18 +413,21 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
      << ", open r=" << cfg.post.open_radius
      << " px, close r=" << cfg.post.close_radius << " px, min area "
      << cfg.post.min_area
-     << " px; Itti/SAMS colour channel: " << (o.colour ? "on" : "off")
-     << ".\n\n";
+     << " px (contrast: its own Otsu scale and min area, below); Itti/SAMS "
+        "colour channel: "
+     << (o.colour ? "on" : "off") << ".\n\n";
   std::vector<std::pair<std::string, sal::Summary>> rows;
   for (sal::Method m : methods) {
-    sal::Candidate c{m == sal::Method::kSams ? cfg.itti.weights
-                                             : cfg.itti_weights,
-                     cfg.post.threshold_scale};
     rows.emplace_back(sal::to_string(m),
-                      sal::summarise(study.evaluate_all(m, c, true)));
+                      sal::summarise(study.evaluate_all(
+                          m, study.default_candidate(m), true)));
   }
-  md << "### Fixed settings (SAMS weights "
-     << sal::Candidate{cfg.itti.weights, 1.0}.describe(true) << ")\n\n"
+  md << "### Fixed settings (SAMS "
+     << study.default_candidate(sal::Method::kSams).describe(sal::Method::kSams)
+     << "; contrast "
+     << study.default_candidate(sal::Method::kContrast)
+            .describe(sal::Method::kContrast)
+     << ")\n\n"
      << sal::markdown_table(rows) << '\n';
 
   if (e.sweep) {
@@ -405,39 +445,83 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
         char buf[256];
         std::snprintf(buf, sizeof buf,
                       "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
-                      sweep[k].candidate.describe(true).c_str(), s.n_moda02,
+                      sweep[k].candidate.describe(sal::Method::kSams).c_str(), s.n_moda02,
                       s.n_moda05, s.precision02, s.recall02, s.boxes);
         md << buf;
       }
       md << "\nBest on the full set (optimistic, selected on the same images): "
-         << sweep.front().candidate.describe(true) << "\n\n";
+         << sweep.front().candidate.describe(sal::Method::kSams) << "\n\n";
     }
+    // The folds, grouped by sol (every image of a sol in one fold).
+    const std::vector<int> fold_of = study.folds();
+    md << "### Folds (grouped by sol: every image of one sol in the same fold)\n\n"
+       << "| fold | images | sols |\n|---:|---:|---|\n";
+    for (int f = 0; f < cfg.folds; ++f) {
+      std::vector<std::string> sols;
+      size_t count = 0;
+      for (size_t i = 0; i < study.size(); ++i) {
+        if (fold_of[i] != f)
+          continue;
+        ++count;
+        if (std::find(sols.begin(), sols.end(), study.group(i)) == sols.end())
+          sols.push_back(study.group(i));
+      }
+      md << "| " << f + 1 << " | " << count << " | ";
+      for (size_t j = 0; j < sols.size(); ++j)
+        md << (j ? ", " : "") << sols[j];
+      md << " |\n";
+    }
+    md << '\n';
+    // The contrast grid does not depend on tune_scales: cross-validated once.
+    std::optional<sal::CvResult> contrast_cv;
     for (bool tune_scales : {false, true}) {
       if (tune_scales && cfg.threshold_scales.size() < 2)
         continue;
       std::vector<std::pair<std::string, sal::Summary>> cv_rows;
-      std::ostringstream folds_md;
+      std::ostringstream folds_md, per_fold_md;
       for (sal::Method m : methods) {
-        const auto cands =
-            study.candidates(m, m == sal::Method::kSams, tune_scales);
-        const sal::CvResult r = study.cross_validate(m, cands);
+        const bool own_grid =
+            m == sal::Method::kSams || m == sal::Method::kContrast;
+        sal::CvResult r;
+        if (m == sal::Method::kContrast && contrast_cv) {
+          r = *contrast_cv;
+        } else {
+          r = study.cross_validate(m, study.candidates(m, own_grid, tune_scales));
+          if (m == sal::Method::kContrast)
+            contrast_cv = r;
+        }
         cv_rows.emplace_back(sal::to_string(m), sal::summarise(r.pooled));
+        std::vector<double> maxf;
+        for (const auto &s : r.fold_summaries)
+          maxf.push_back(s.max_f);
         folds_md << "| " << sal::to_string(m) << " | "
                  << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
-                 << " | ";
-        for (size_t f = 0; f < r.chosen.size(); ++f)
-          folds_md << (f ? "; " : "") << r.chosen[f];
-        folds_md << " |\n";
+                 << " | " << mean_std(maxf) << " | "
+                 << r.most_chosen().describe(m) << " |\n";
+        for (size_t f = 0; f < r.fold_summaries.size(); ++f) {
+          const auto &s = r.fold_summaries[f];
+          char buf[128];
+          std::snprintf(buf, sizeof buf, "| %d | %d | %.3f | %.3f | %.3f | ",
+                        s.images, s.gt, s.n_moda02, s.n_moda05, s.max_f);
+          per_fold_md << "| " << sal::to_string(m) << " | " << f + 1 << ' '
+                      << buf << r.chosen[f].describe(m) << " |\n";
+        }
       }
-      md << "### " << cfg.folds << "-fold cross-validation: "
-         << (tune_scales ? "SAMS weights and every method's Otsu scale"
-                         : "SAMS weights only (Otsu x1 for all)")
+      md << "### " << cfg.folds << "-fold cross-validation grouped by sol: "
+         << (tune_scales ? "SAMS weights, the contrast grid and every other "
+                           "method's Otsu scale"
+                         : "SAMS weights and the contrast grid (Otsu x1 for "
+                           "the others)")
          << " chosen on the train folds; test folds pooled\n\n"
          << sal::markdown_table(cv_rows)
          << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
-         << "test-fold N-MODA@0.5 (mean ± sd) | chosen per fold "
-            "|\n|---|---|---|---|\n"
-         << folds_md.str() << '\n';
+         << "test-fold N-MODA@0.5 (mean ± sd) | test-fold max F (mean ± sd) | "
+            "chosen in most folds |\n|---|---|---|---|---|\n"
+         << folds_md.str()
+         << "\n| method | test fold | images | GT | N-MODA@0.2 | N-MODA@0.5 | "
+            "max F | chosen on the other folds |\n"
+            "|---|---:|---:|---:|---:|---:|---:|---|\n"
+         << per_fold_md.str() << '\n';
     }
   }
   std::cout << md.str();
@@ -492,12 +576,12 @@ void add_rocks_commands(CLI::App &app) {
   ro2->add_to(er);
   er->remove_option(er->get_option("--method"));
   er->add_option("--method", eo->methods,
-                 "methods to score (repeatable; default: all four)")
-      ->check(
-          CLI::IsMember({"sams", "itti", "spectral_residual", "fine_grained"}));
-  er->add_flag(
-      "--sweep-weights", eo->sweep,
-      "SAMS weight grid (Table 5.2 analogue) and k-fold cross-validation");
+                 "methods to score (repeatable; default: all)")
+      ->check(CLI::IsMember(sal::method_names()));
+  er->add_flag("--sweep-weights", eo->sweep,
+               "SAMS weight grid (Table 5.2 analogue) and k-fold "
+               "cross-validation grouped by sol (SAMS weights, contrast grid, "
+               "Otsu scales)");
   er->add_option("--min-gt-area", eo->min_gt_area,
                  "px, ignore smaller mask components")
       ->capture_default_str();
@@ -508,6 +592,18 @@ void add_rocks_commands(CLI::App &app) {
       ->capture_default_str();
   er->add_option("--threshold-scales", eo->scales,
                  "Otsu scales tried by the cross-validation")
+      ->capture_default_str();
+  er->add_option("--contrast-sigmas", eo->contrast_sigmas,
+                 "px, contrast surround sigmas tried by the cross-validation")
+      ->capture_default_str();
+  er->add_option("--contrast-smooths", eo->contrast_smooths,
+                 "px, contrast smoothing sigmas tried by the cross-validation")
+      ->capture_default_str();
+  er->add_option("--contrast-threshold-scales", eo->contrast_scales,
+                 "contrast Otsu scales tried by the cross-validation")
+      ->capture_default_str();
+  er->add_option("--contrast-min-areas", eo->contrast_min_areas,
+                 "px, contrast minimum box areas tried by the cross-validation")
       ->capture_default_str();
   er->add_option("--markdown", eo->markdown,
                  "also write the tables to this file");

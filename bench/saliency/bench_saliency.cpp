@@ -1,6 +1,7 @@
 // Per-frame saliency + post-processing time at the MarsData image size (560 x
 // 500) and at 640 x 480: SAMS (structure channel from a precomputed / shared
-// DTM, and including its own SfS), Itti, OpenCV spectral residual and
+// DTM, and including its own SfS), Itti, the intensity contrast |I - G*I|
+// (default parameters and post-processing), OpenCV spectral residual and
 // fine-grained. Prints each time as a ratio against Itti measured in the same
 // run. Single thread (cv::setNumThreads(1)).
 #include <benchmark/benchmark.h>
@@ -13,6 +14,7 @@
 #include <map>
 #include <string>
 
+#include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
@@ -115,6 +117,21 @@ void BM_SamsWithSfs(benchmark::State &st) {
 BENCHMARK(BM_SamsWithSfs)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 #endif
 
+void BM_Contrast(benchmark::State &st) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  rs::ContrastSaliency contrast;
+  rs::BoxDetector det(rs::contrast_post_processing());
+  cv::Mat sal;
+  std::vector<rs::Detection> out;
+  for (auto _ : st) {
+    contrast.compute(img, sal);
+    det.detect(sal, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  record(st);
+}
+
 void peer(benchmark::State &st, rs::Method m) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
@@ -138,6 +155,7 @@ void BM_FineGrained(benchmark::State &st) {
 
 BENCHMARK(BM_Itti)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SamsSharedDtm)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Contrast)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SpectralResidual)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FineGrained)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 

@@ -4,10 +4,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
+
+#include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
 
@@ -97,6 +101,63 @@ FrameTruth read_truth(const std::string &mask_path, cv::Size image_size,
   }
 }
 
+std::string sol_group(const std::string &name) {
+  size_t begin = 0;
+  while (begin <= name.size()) {
+    size_t end = name.find('_', begin);
+    if (end == std::string::npos)
+      end = name.size();
+    const std::string token = name.substr(begin, end - begin);
+    const bool digits =
+        !token.empty() && std::all_of(token.begin(), token.end(), [](char c) {
+          return std::isdigit(static_cast<unsigned char>(c)) != 0;
+        });
+    // The last token holds the extension ("..._DXXX.jpg"): never a number.
+    if (digits && end < name.size()) {
+      const size_t nz = token.find_first_not_of('0');
+      return nz == std::string::npos ? std::string("0") : token.substr(nz);
+    }
+    begin = end + 1;
+  }
+  return name;
+}
+
+std::vector<int> grouped_folds(const std::vector<std::string> &groups, int k) {
+  if (k < 2)
+    throw std::invalid_argument("grouped_folds: k must be >= 2");
+  std::map<std::string, std::vector<size_t>> members;
+  for (size_t i = 0; i < groups.size(); ++i)
+    members[groups[i]].push_back(i);
+  if (members.size() < static_cast<size_t>(k)) {
+    throw std::invalid_argument("grouped_folds: " + std::to_string(members.size()) +
+                                " group(s) (sols) < " + std::to_string(k) + " folds");
+  }
+  std::vector<std::pair<std::string, std::vector<size_t>>> order(members.begin(),
+                                                                 members.end());
+  const auto is_number = [](const std::string &s) {
+    return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+      return std::isdigit(static_cast<unsigned char>(c)) != 0;
+    });
+  };
+  std::stable_sort(order.begin(), order.end(), [&](const auto &a, const auto &b) {
+    if (a.second.size() != b.second.size())
+      return a.second.size() > b.second.size();
+    if (is_number(a.first) && is_number(b.first) && a.first.size() != b.first.size())
+      return a.first.size() < b.first.size(); // no leading zeros: shorter = smaller
+    return a.first < b.first;
+  });
+  std::vector<int> fold(groups.size(), 0);
+  std::vector<size_t> load(static_cast<size_t>(k), 0);
+  for (const auto &[key, idx] : order) {
+    const size_t f = static_cast<size_t>(
+        std::min_element(load.begin(), load.end()) - load.begin());
+    load[f] += idx.size();
+    for (size_t i : idx)
+      fold[i] = static_cast<int>(f);
+  }
+  return fold;
+}
+
 void StudyConfig::validate() const {
   itti.validate();
   itti_weights.validate();
@@ -118,19 +179,61 @@ void StudyConfig::validate() const {
           "StudyConfig.threshold_scales: values must be in (0,10]");
     }
   }
+  contrast.validate();
+  contrast_post.validate();
+  if (contrast_sigmas.empty() || contrast_smooth_sigmas.empty() ||
+      contrast_threshold_scales.empty() || contrast_min_areas.empty()) {
+    throw std::invalid_argument(
+        "StudyConfig.contrast_*: the contrast grid lists must not be empty");
+  }
+  for (double sg : contrast_sigmas)
+    ContrastParams{sg, 0.0}.validate();
+  for (double sm : contrast_smooth_sigmas)
+    ContrastParams{1.0, sm}.validate();
+  for (double sc : contrast_threshold_scales) {
+    if (!(sc > 0.0 && sc <= 10.0)) {
+      throw std::invalid_argument(
+          "StudyConfig.contrast_threshold_scales: values must be in (0,10]");
+    }
+  }
+  for (int a : contrast_min_areas) {
+    if (a < 1)
+      throw std::invalid_argument("StudyConfig.contrast_min_areas: values must be >= 1 px");
+  }
 }
 
-std::string Candidate::describe(bool with_structure) const {
+std::string Candidate::describe(Method m) const {
   char buf[160];
-  if (with_structure) {
+  if (m == Method::kSams || m == Method::kItti) {
     std::snprintf(buf, sizeof buf,
                   "w_I=%.2f w_O=%.2f w_C=%.2f w_Z=%.2f, Otsu x%.2f",
                   weights.intensity, weights.orientation, weights.colour,
                   weights.structure, threshold_scale);
+  } else if (m == Method::kContrast) {
+    std::snprintf(buf, sizeof buf, "sigma=%g px smooth=%g px, Otsu x%.2f",
+                  contrast.sigma_px, contrast.smooth_sigma_px, threshold_scale);
   } else {
     std::snprintf(buf, sizeof buf, "Otsu x%.2f", threshold_scale);
   }
-  return buf;
+  std::string out = buf;
+  if (min_area)
+    out += ", min area " + std::to_string(*min_area) + " px";
+  return out;
+}
+
+Candidate CvResult::most_chosen() const {
+  if (chosen.empty())
+    throw std::logic_error("CvResult::most_chosen: no folds");
+  size_t best = 0, best_count = 0;
+  for (size_t i = 0; i < chosen.size(); ++i) {
+    const size_t n =
+        static_cast<size_t>(std::count(chosen.begin(), chosen.end(), chosen[i]));
+    if (n > best_count) {
+      best_count = n;
+      best = i;
+    }
+  }
+  return chosen[best];
 }
 
 RockStudy::RockStudy(StudyConfig config, HeightFn height)
@@ -143,6 +246,7 @@ RockStudy::RockStudy(StudyConfig config, HeightFn height)
 void RockStudy::add(const DatasetItem &item) {
   Frame f;
   f.name = item.name;
+  f.group = sol_group(item.name);
   const cv::Mat img = read_image(item.image_path);
   f.size = img.size();
   f.truth = read_truth(item.mask_path, img.size(), config_.min_gt_area);
@@ -161,15 +265,18 @@ void RockStudy::add(const DatasetItem &item) {
       f.consp.structure = c.structure.clone();
     sr_.compute(img, f.sr);
     fg_.compute(img, f.fg);
+    to_unit_float(img, unit_);
+    intensity_of(unit_, f.intensity);
   } catch (const std::exception &e) {
     throw DataError(item.image_path + ": " + e.what());
   }
   frames_.push_back(std::move(f));
 }
 
-void RockStudy::saliency(size_t k, Method m, const ChannelWeights &w,
+void RockStudy::saliency(size_t k, Method m, const Candidate &cand,
                          cv::Mat &out) {
   const Frame &f = frames_.at(k);
+  const ChannelWeights &w = cand.weights;
   switch (m) {
   case Method::kSams: {
     if (f.consp.structure.empty()) {
@@ -191,16 +298,43 @@ void RockStudy::saliency(size_t k, Method m, const ChannelWeights &w,
   case Method::kFineGrained:
     f.fg.copyTo(out);
     break;
+  case Method::kContrast:
+    ContrastSaliency(cand.contrast).compute_from_intensity(f.intensity, out);
+    break;
   }
 }
 
 FrameRecord RockStudy::evaluate(size_t k, Method m, const Candidate &c,
                                 bool pixel) {
-  saliency(k, m, c.weights, map_);
-  PostProcessParams pp = config_.post;
-  pp.threshold_scale = c.threshold_scale;
-  BoxDetector det(pp);
-  det.detect(map_, dets_);
+  // The map depends on (frame, method, weights / contrast parameters) and the detections
+  // before the minimum-area filter also on the threshold scale: candidates that differ only
+  // in the later stages reuse them (BoxDetector drops small components, then sorts and
+  // truncates; filtering its min_area = 1 output by area and truncating gives the same list).
+  const MapKey key{k, m, c.weights, c.contrast};
+  if (map_key_ != key) {
+    saliency(k, m, c, map_);
+    map_key_ = key;
+    dets_scale_.reset();
+  }
+  if (dets_scale_ != c.threshold_scale) {
+    PostProcessParams pp = config_.post;
+    pp.threshold_scale = c.threshold_scale;
+    pp.min_area = 1;
+    pp.max_detections = 0;
+    BoxDetector det(pp);
+    det.detect(map_, all_dets_);
+    dets_scale_ = c.threshold_scale;
+  }
+  const int min_area = c.min_area.value_or(config_.post.min_area);
+  dets_.clear();
+  for (const Detection &d : all_dets_) {
+    if (d.area >= min_area)
+      dets_.push_back(d);
+  }
+  if (config_.post.max_detections > 0 &&
+      dets_.size() > static_cast<size_t>(config_.post.max_detections)) {
+    dets_.resize(static_cast<size_t>(config_.post.max_detections));
+  }
   cv::Mat map8;
   if (pixel)
     to_8bit(map_, map8);
@@ -217,12 +351,44 @@ std::vector<FrameRecord> RockStudy::evaluate_all(Method m, const Candidate &c,
   return out;
 }
 
-std::vector<Candidate> RockStudy::candidates(Method m, bool sweep_weights,
+Candidate RockStudy::default_candidate(Method m) const {
+  Candidate c;
+  c.threshold_scale = config_.post.threshold_scale;
+  c.weights = m == Method::kSams ? config_.itti.weights : config_.itti_weights;
+  if (m == Method::kContrast) {
+    c.contrast = config_.contrast;
+    c.threshold_scale = config_.contrast_post.threshold_scale;
+    c.min_area = config_.contrast_post.min_area;
+  }
+  return c;
+}
+
+std::vector<Candidate> RockStudy::candidates(Method m, bool sweep_params,
                                              bool sweep_scales) const {
+  if (m == Method::kContrast) {
+    if (!sweep_params)
+      return {default_candidate(m)};
+    std::vector<Candidate> out;
+    for (double sg : config_.contrast_sigmas) {
+      for (double sm : config_.contrast_smooth_sigmas) {
+        for (double sc : config_.contrast_threshold_scales) {
+          for (int a : config_.contrast_min_areas) {
+            Candidate c;
+            c.weights = config_.itti_weights;
+            c.contrast = {sg, sm};
+            c.threshold_scale = sc;
+            c.min_area = a;
+            out.push_back(c);
+          }
+        }
+      }
+    }
+    return out;
+  }
   std::vector<double> scales =
       sweep_scales ? config_.threshold_scales : std::vector<double>{1.0};
   std::vector<ChannelWeights> ws;
-  if (m == Method::kSams && sweep_weights) {
+  if (m == Method::kSams && sweep_params) {
     const int n = static_cast<int>(std::lround(1.0 / config_.weight_step));
     const bool colour = config_.itti.use_colour;
     for (int a = 0; a <= n; ++a) {
@@ -247,17 +413,33 @@ std::vector<Candidate> RockStudy::candidates(Method m, bool sweep_weights,
   }
   std::vector<Candidate> out;
   for (const auto &w : ws) {
-    for (double s : scales)
-      out.push_back(Candidate{w, s});
+    for (double s : scales) {
+      Candidate c;
+      c.weights = w;
+      c.threshold_scale = s;
+      out.push_back(c);
+    }
   }
   return out;
 }
 
+std::vector<std::vector<FrameRecord>>
+RockStudy::score_table(Method m, const std::vector<Candidate> &cands) {
+  std::vector<std::vector<FrameRecord>> table(
+      cands.size(), std::vector<FrameRecord>(frames_.size()));
+  for (size_t k = 0; k < frames_.size(); ++k) {
+    for (size_t ci = 0; ci < cands.size(); ++ci)
+      table[ci][k] = evaluate(k, m, cands[ci], false);
+  }
+  return table;
+}
+
 std::vector<SweepRow> RockStudy::sweep(Method m,
                                        const std::vector<Candidate> &cands) {
+  const auto table = score_table(m, cands);
   std::vector<SweepRow> rows;
-  for (const auto &c : cands)
-    rows.push_back({c, summarise(evaluate_all(m, c, false))});
+  for (size_t ci = 0; ci < cands.size(); ++ci)
+    rows.push_back({cands[ci], summarise(table[ci])});
   std::stable_sort(rows.begin(), rows.end(),
                    [](const SweepRow &a, const SweepRow &b) {
                      return objective(a.summary) > objective(b.summary);
@@ -271,22 +453,15 @@ CvResult RockStudy::cross_validate(Method m,
     throw std::invalid_argument("cross_validate: no candidates");
   const size_t n = frames_.size();
   const int k = config_.folds;
-  if (n < static_cast<size_t>(k)) {
-    throw std::invalid_argument("cross_validate: " + std::to_string(n) +
-                                " frames < " + std::to_string(k) + " folds");
-  }
-  // Detection-only records of every candidate on every frame, computed once.
-  std::vector<std::vector<FrameRecord>> table;
-  table.reserve(cands.size());
-  for (const auto &c : cands)
-    table.push_back(evaluate_all(m, c, false));
   CvResult r;
+  r.fold_of = folds(); // throws when there are fewer sols than folds
+  // Detection-only records of every candidate on every frame, computed once.
+  const auto table = score_table(m, cands);
   r.pooled.resize(n);
   for (int fold = 0; fold < k; ++fold) {
     std::vector<size_t> train, test;
     for (size_t i = 0; i < n; ++i)
-      (static_cast<int>(i % static_cast<size_t>(k)) == fold ? test : train)
-          .push_back(i);
+      (r.fold_of[i] == fold ? test : train).push_back(i);
     size_t best = 0;
     double best_obj = -1e300;
     for (size_t ci = 0; ci < cands.size(); ++ci) {
@@ -303,12 +478,24 @@ CvResult RockStudy::cross_validate(Method m,
       test_recs.push_back(rec);
     }
     const Summary s = summarise(test_recs);
+    r.fold_summaries.push_back(s);
     r.fold_moda02.push_back(s.n_moda02);
     r.fold_moda05.push_back(s.n_moda05);
-    r.chosen.push_back(
-        cands[best].describe(m == Method::kSams || m == Method::kItti));
+    r.chosen.push_back(cands[best]);
   }
   return r;
+}
+
+std::vector<int> RockStudy::folds() const {
+  std::vector<std::string> groups;
+  groups.reserve(frames_.size());
+  for (const Frame &f : frames_)
+    groups.push_back(f.group);
+  try {
+    return grouped_folds(groups, config_.folds);
+  } catch (const std::invalid_argument &e) {
+    throw std::invalid_argument(std::string("cross_validate: ") + e.what());
+  }
 }
 
 } // namespace regolith::saliency

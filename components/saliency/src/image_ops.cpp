@@ -1,11 +1,62 @@
 #include "regolith/saliency/image_ops.hpp"
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace regolith::saliency {
+
+void to_unit_float(const cv::Mat &image, cv::Mat &out) {
+  double scale = 1.0;
+  switch (image.depth()) {
+  case CV_8U:
+    scale = 1.0 / 255.0;
+    break;
+  case CV_16U:
+    scale = 1.0 / 65535.0;
+    break;
+  case CV_16S:
+    scale = 1.0 / 32767.0;
+    break;
+  case CV_32F:
+  case CV_64F: {
+    double mx = 0.0;
+    cv::minMaxLoc(image.reshape(1), nullptr, &mx);
+    if (!std::isfinite(mx))
+      throw std::invalid_argument("image: contains NaN or infinity");
+    scale = mx > 1.0 ? 1.0 / mx : 1.0;
+    break;
+  }
+  default:
+    throw std::invalid_argument(
+        "image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
+  }
+  image.convertTo(out, CV_32F, scale);
+  if (image.depth() == CV_16S || image.depth() == CV_32F ||
+      image.depth() == CV_64F) {
+    cv::threshold(out, out, 0.0, 0.0, cv::THRESH_TOZERO);
+  }
+}
+
+void intensity_of(const cv::Mat &unit, cv::Mat &intensity) {
+  const int ch = unit.channels();
+  if (unit.depth() != CV_32F || (ch != 1 && ch != 3 && ch != 4)) {
+    throw std::invalid_argument(
+        "intensity_of: input must be CV_32F with 1, 3 or 4 channels");
+  }
+  if (ch == 1) {
+    unit.copyTo(intensity);
+  } else if (ch == 3) {
+    const cv::Matx<float, 1, 3> m3(1.f / 3, 1.f / 3, 1.f / 3);
+    cv::transform(unit, intensity, m3);
+  } else {
+    const cv::Matx<float, 1, 4> m4(1.f / 3, 1.f / 3, 1.f / 3, 0.f);
+    cv::transform(unit, intensity, m4);
+  }
+}
 
 namespace {
 

@@ -361,38 +361,6 @@ void IttiSaliency::prepare(cv::Size size) {
   }
 }
 
-void IttiSaliency::to_float(const cv::Mat &image) {
-  double scale = 1.0;
-  switch (image.depth()) {
-  case CV_8U:
-    scale = 1.0 / 255.0;
-    break;
-  case CV_16U:
-    scale = 1.0 / 65535.0;
-    break;
-  case CV_16S:
-    scale = 1.0 / 32767.0;
-    break;
-  case CV_32F:
-  case CV_64F: {
-    double mx = 0.0;
-    cv::minMaxLoc(image.reshape(1), nullptr, &mx);
-    if (!std::isfinite(mx))
-      throw std::invalid_argument("image: contains NaN or infinity");
-    scale = mx > 1.0 ? 1.0 / mx : 1.0;
-    break;
-  }
-  default:
-    throw std::invalid_argument(
-        "image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
-  }
-  image.convertTo(bgr_, CV_32F, scale);
-  if (image.depth() == CV_16S || image.depth() == CV_32F ||
-      image.depth() == CV_64F) {
-    cv::threshold(bgr_, bgr_, 0.0, 0.0, cv::THRESH_TOZERO);
-  }
-}
-
 void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr) {
   for (size_t l = 1; l < pyr.size(); ++l) {
     downsample_stb(pyr[l - 1], pyr[l], down_tmp_[l]);
@@ -462,20 +430,11 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
       throw std::invalid_argument("height: must have one channel");
   }
   prepare(image.size());
-  to_float(image);
+  to_unit_float(image, bgr_);
 
   // Intensity (and colour opponency) at level 0.
   cv::Mat &i0 = intensity_pyr_[0];
-  if (ch == 1) {
-    bgr_.copyTo(i0);
-  } else {
-    const cv::Matx<float, 1, 4> m4(1.f / 3, 1.f / 3, 1.f / 3, 0.f);
-    const cv::Matx<float, 1, 3> m3(1.f / 3, 1.f / 3, 1.f / 3);
-    if (ch == 3)
-      cv::transform(bgr_, i0, m3);
-    else
-      cv::transform(bgr_, i0, m4);
-  }
+  intensity_of(bgr_, i0);
   const bool colour = params_.use_colour && ch >= 3;
   if (colour) {
     double gmax = 0.0;

@@ -17,19 +17,28 @@ const char *to_string(Method m) {
     return "spectral_residual";
   case Method::kFineGrained:
     return "fine_grained";
+  case Method::kContrast:
+    return "contrast";
   }
   return "?";
 }
 
+std::vector<std::string> method_names() {
+  std::vector<std::string> out;
+  for (Method m : kAllMethods)
+    out.emplace_back(to_string(m));
+  return out;
+}
+
 Method method_from_string(const std::string &name) {
-  for (Method m : {Method::kSams, Method::kItti, Method::kSpectralResidual,
-                   Method::kFineGrained}) {
+  std::string accepted;
+  for (Method m : kAllMethods) {
     if (name == to_string(m))
       return m;
+    accepted += (accepted.empty() ? "" : ", ") + std::string(to_string(m));
   }
-  throw std::invalid_argument(
-      "method: unknown '" + name +
-      "' (accepted: sams, itti, spectral_residual, fine_grained)");
+  throw std::invalid_argument("method: unknown '" + name + "' (accepted: " +
+                              accepted + ")");
 }
 
 struct OpenCvSaliency::Impl {

@@ -13,6 +13,18 @@
 
 namespace regolith::saliency {
 
+/// Input conversion shared by every method that reads intensity (IttiSaliency, ContrastSaliency):
+/// `image` (any channel count; 8U, 16U, 16S, 32F or 64F) -> CV_32F with the same channels in
+/// [0,1]: integers divided by their type's maximum, floats by their maximum when it exceeds 1,
+/// negative values clipped to 0. Throws std::invalid_argument on an unsupported depth or a
+/// non-finite float. `out` is reused when it has the right size and type.
+void to_unit_float(const cv::Mat &image, cv::Mat &out);
+
+/// Intensity I = (r + g + b) / 3 of a to_unit_float() result with 1, 3 (BGR) or 4 (BGRA, alpha
+/// ignored) channels; one channel is copied. `intensity` becomes CV_32FC1 of the same size.
+/// Throws std::invalid_argument for another channel count.
+void intensity_of(const cv::Mat &unit, cv::Mat &intensity);
+
 /// Gabor energy |src (*) even| + |src (*) odd| where (*) is the correlation of cv::filter2D
 /// (kernel not flipped, anchor at the kernel centre) with cv::BORDER_REPLICATE.
 /// `src` CV_32FC1; `even`, `odd` CV_32FC1 of one odd size. `dst` becomes CV_32FC1 of src's size

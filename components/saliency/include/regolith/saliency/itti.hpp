@@ -49,6 +49,7 @@ struct ChannelWeights {
                        ///< has 3 channels
   double structure = 0.0; ///< used only when a height map is supplied
   void validate() const;
+  bool operator==(const ChannelWeights &) const = default;
 };
 
 struct IttiParams {
@@ -126,7 +127,6 @@ public:
 
 private:
   void prepare(cv::Size size);
-  void to_float(const cv::Mat &image);
   void build_pyramid(std::vector<cv::Mat> &pyr);
   void centre_surround_channel(const std::vector<cv::Mat> &pyr, cv::Mat &out);
   void normalise(cv::Mat &map);

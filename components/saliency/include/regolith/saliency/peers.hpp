@@ -5,16 +5,26 @@
 // in [0,1] at the input size.
 #include <opencv2/core.hpp>
 
+#include <array>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace regolith::saliency {
 
-/// The four methods compared by this library.
-enum class Method { kSams, kItti, kSpectralResidual, kFineGrained };
+/// The methods compared by this library (kContrast: contrast.hpp).
+enum class Method { kSams, kItti, kSpectralResidual, kFineGrained, kContrast };
 
-/// "sams" | "itti" | "spectral_residual" | "fine_grained".
+/// Every method, in the order of the tables: sams, itti, contrast, spectral_residual,
+/// fine_grained.
+inline constexpr std::array<Method, 5> kAllMethods{
+    Method::kSams, Method::kItti, Method::kContrast, Method::kSpectralResidual,
+    Method::kFineGrained};
+
+/// "sams" | "itti" | "contrast" | "spectral_residual" | "fine_grained".
 const char *to_string(Method m);
+/// The names of kAllMethods, in that order (for command-line choices).
+std::vector<std::string> method_names();
 /// Parses the names above; throws std::invalid_argument listing the accepted
 /// names.
 Method method_from_string(const std::string &name);
