@@ -99,6 +99,10 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
     a.sfs_method = m == "tsai_shah" ? SfsMethod::kTsaiShah : SfsMethod::kPentland;
     a.sfs_iterations = q.get<int>("sfs_iterations", a.sfs_iterations, {.min = 1, .max = 100000, .doc = "Tsai-Shah iterations"});
     a.min_lateral_sun = q.get<double>("min_lateral_sun", a.min_lateral_sun, {.min = 0.0, .max = 0.999, .doc = "|cos(el) sin(az)| needed"});
+    a.use_shadows = q.get<bool>("use_shadows", a.use_shadows, {.doc = "rows with a measurable cast shadow in the rut take its depth"});
+    a.shadow_fraction = q.get<double>("shadow_fraction", a.shadow_fraction, {.min = 0.0, .max = 1.0, .min_exclusive = true, .doc = "shadow = darker than this x flat-ground brightness"});
+    a.berm_ratio = q.get<double>("berm_ratio", a.berm_ratio, {.min = 0.0, .max = 2.0, .doc = "berm crest height / sinkage (the crest casts the shadow)"});
+    a.wall_slope_rad = q.get<double>("wall_slope_rad", a.wall_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true, .doc = "rut wall slope: shadows used only for a lower sun"});
     q.finish();
   }
   {

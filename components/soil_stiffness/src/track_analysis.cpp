@@ -115,6 +115,9 @@ void TrackAnalysisParams::validate() const {
        sfs_iterations);
   need(min_lateral_sun >= 0 && min_lateral_sun < 1, "min_lateral_sun", "must be in [0, 1)",
        min_lateral_sun);
+  need(shadow_fraction > 0 && shadow_fraction < 1, "shadow_fraction", "must be in (0, 1)", shadow_fraction);
+  need(std::isfinite(berm_ratio) && berm_ratio >= 0 && berm_ratio < 2, "berm_ratio", "must be in [0, 2)", berm_ratio);
+  need(wall_slope_rad > 0 && wall_slope_rad < kPi / 2, "wall_slope_rad", "must be in (0, pi/2)", wall_slope_rad);
   need(std::isfinite(n_fixed) && n_fixed >= 0 &&
            (model == SinkageModel::kBeta || n_fixed < 3.0),
        "n_fixed", "must be in [0, 3) (Bekker form) or >= 0 (Beta form)", n_fixed);
@@ -626,6 +629,41 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
     }
     return acc / n;
   };
+  // Shadow-aware depth of row i at rut centre c (README "Shadows"): with a low sun across the
+  // track, the sunward rim (berm crest) of a rut casts a shadow into it; the dark run that starts
+  // at the rim and ends on the floor has the cross-track width W = H |sy| / sz, H the crest's
+  // height above the floor, so H = W sz / |sy| and the sinkage is H / (1 + berm_ratio). A run
+  // that does not start at a lit rim, or that reaches the far side of the floor (the whole floor
+  // in shadow: only a lower bound), is not a measurement (NaN).
+  // Only when the sun, seen in the cross-track plane, is lower than the rut walls: then the
+  // wall away from the sun is in its own shadow and casts one onto the floor. With a higher sun
+  // every wall is lit, and a dark run is a grazing-lit wall, not a shadow.
+  const bool shadows = P.use_shadows && std::abs(sy) > 1e-6 && std::atan2(sz, std::abs(sy)) < P.wall_slope_rad;
+  const int sun_dir = sy > 0 ? 1 : -1;  // columns run towards -y: away from the sun is +1 when sy > 0
+  auto shadow_depth = [&](int i, int c) {
+    const float* e = m.e.ptr<float>(i);
+    const auto* in = m.inside.ptr<unsigned char>(i);
+    const float shadow_below = static_cast<float>(P.shadow_fraction * sz);
+    auto seen = [&](int j) { return j >= 0 && j < m.cols && in[j] != 0; };
+    const int from = c - sun_dir * (half + gap), far_floor = c + sun_dir * half;
+    int jd = -1;
+    for (int j = from; j != c + sun_dir; j += sun_dir) {
+      if (!seen(j)) return kNaN;
+      if (e[j] < shadow_below) {
+        jd = j;
+        break;
+      }
+    }
+    if (jd < 0 || !seen(jd - sun_dir) || e[jd - sun_dir] < shadow_below) return kNaN;
+    int je = jd;
+    while (seen(je + sun_dir) && e[je + sun_dir] < shadow_below) {
+      je += sun_dir;
+      if ((je - far_floor) * sun_dir >= 0) return kNaN;
+    }
+    if (!seen(je + sun_dir)) return kNaN;
+    const double w = (std::abs(je - jd) + 1) * res;
+    return w * sz / std::abs(sy) / (1.0 + P.berm_ratio);
+  };
   m.rejected.clear();
   for (const auto& cd : m.cands) {
     if (cd.col < 0) continue;
@@ -659,6 +697,10 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
       if (!cross_section(i, j0, j1)) continue;
       std::copy(m.line_h.begin(), m.line_h.begin() + (j1 - j0 + 1), m.row_xs.begin());
       zi = depth_at(m.row_xs, j0, c);
+      if (shadows) {
+        const double zs = shadow_depth(i, c);
+        if (std::isfinite(zs)) zi = zs;  // a shadow is a measurement; shading in shadow is not
+      }
       if (std::isfinite(zi)) ++valid_rows;
     }
     const double lateral = col_lateral_m(c);

@@ -76,6 +76,10 @@ struct TrackAnalysisParams {
   SfsMethod sfs_method = SfsMethod::kPentland;
   int sfs_iterations = 200;       ///< Tsai-Shah only
   double min_lateral_sun = 0.2;   ///< |lateral component of the sun vector| needed (cos el sin az) [-]
+  bool use_shadows = true;        ///< rows whose rut holds a measurable cast shadow take its depth [-]
+  double shadow_fraction = 0.35;  ///< shadow = darker than this x the flat-ground brightness [-]
+  double berm_ratio = 0.25;       ///< berm crest height above the surface / sinkage (the crest casts the shadow) [-]
+  double wall_slope_rad = 0.70;   ///< rut wall slope (~ angle of repose, 40 deg): shadows are used only for a lower sun [rad]
   // fit
   double n_fixed = 1.0;           ///< sinkage exponent for the fixed-n fit [-]
   SinkageModel model = SinkageModel::kBekker;
