@@ -24,6 +24,7 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
   nlohmann::json j;
   j["ok"] = e.ok;
   j["reason"] = e.reason;
+  j["rejected_tracks"] = e.rejected;
   j["rover"] = {{"mass_kg", rover.mass_kg},
                 {"wheel_count", rover.wheel_count},
                 {"gravity_mps2", rover.gravity_mps2},

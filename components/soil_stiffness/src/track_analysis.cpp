@@ -158,7 +158,7 @@ struct SoilStiffnessEstimator::Impl {
   cv::Mat dtm;            // CV_32F metres
   sfs::ShapeFromShading solver;
   sfs::SfsResult sfs_out;
-  std::vector<double> col_mean, score, line_h, slope, raw, valid_scores, column_acc;
+  std::vector<double> col_mean, score, line_h, slope, raw, shade_raw, ratios, valid_scores, column_acc;
   std::vector<double> mean_xs, cnt_xs, row_xs;
   std::vector<Candidate> cands, kept;
   std::vector<std::vector<double>> kept_raw;    // [track_cap][rows]: raw per-row sinkage (NaN invalid)
@@ -184,8 +184,10 @@ struct SoilStiffnessEstimator::Impl {
       out.tracks.reserve(static_cast<std::size_t>(track_cap));
     if (out.reason.capacity() < kMessageCapacity) out.reason.reserve(kMessageCapacity);
     if (out.joint_reason.capacity() < kMessageCapacity) out.joint_reason.reserve(kMessageCapacity);
+    if (out.rejected.capacity() < kMessageCapacity) out.rejected.reserve(kMessageCapacity);
     out.ok = false;
     out.reason.clear();
+    out.rejected.clear();
     out.mean_sinkage_m = 0.0;
     out.samples_used = 0;
     out.n_fixed = P.n_fixed;
@@ -268,6 +270,8 @@ SoilStiffnessEstimator::SoilStiffnessEstimator(const CameraModel& camera, const 
   m.line_h.resize(cols + 2);
   m.slope.resize(cols + 2);
   m.raw.resize(rows);
+  m.shade_raw.resize(rows);
+  m.ratios.reserve(rows);
   m.column_acc.resize(cols);
   m.valid_scores.reserve(cols);
   m.mean_xs.reserve(cols + 1);
@@ -697,11 +701,31 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
       if (!cross_section(i, j0, j1)) continue;
       std::copy(m.line_h.begin(), m.line_h.begin() + (j1 - j0 + 1), m.row_xs.begin());
       zi = depth_at(m.row_xs, j0, c);
+      m.shade_raw[static_cast<std::size_t>(i)] = zi;
       if (shadows) {
         const double zs = shadow_depth(i, c);
         if (std::isfinite(zs)) zi = zs;  // a shadow is a measurement; shading in shadow is not
       }
       if (std::isfinite(zi)) ++valid_rows;
+    }
+    // Rows without a measurable shadow: their photoclinometric depth, scaled by the median ratio
+    // shadow / photoclinometry of the rows of this rut that have both (the same rut, the same
+    // light: shading in a partly shadowed rut under-reads by one factor).
+    if (shadows) {
+      m.ratios.clear();
+      for (int i = 0; i < m.rows; ++i) {
+        const double zs = m.raw[static_cast<std::size_t>(i)], zp = m.shade_raw[static_cast<std::size_t>(i)];
+        if (std::isfinite(zs) && std::isfinite(zp) && zp > 0.001 && zs != zp) m.ratios.push_back(zs / zp);
+      }
+      if (static_cast<int>(m.ratios.size()) >= std::max(5, m.rows / 10)) {
+        std::nth_element(m.ratios.begin(), m.ratios.begin() + static_cast<std::ptrdiff_t>(m.ratios.size() / 2), m.ratios.end());
+        const double ratio = std::clamp(m.ratios[m.ratios.size() / 2], 0.5, 3.0);
+        for (int i = 0; i < m.rows; ++i) {
+          double& z = m.raw[static_cast<std::size_t>(i)];
+          const double zp = m.shade_raw[static_cast<std::size_t>(i)];
+          if (std::isfinite(z) && z == zp) z = zp * ratio;
+        }
+      }
     }
     const double lateral = col_lateral_m(c);
     if (valid_rows < std::max(3.0, P.min_valid_fraction * m.rows)) {
@@ -719,14 +743,13 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
     const double sd = std::sqrt(std::max(0.0, acc2 / valid_rows - mean * mean));
     const double std_err = sd / std::sqrt(std::max(1.0, static_cast<double>(valid_rows) / win));
     if (!(mean >= P.min_sinkage_m) || mean <= 0.0 || mean < P.detection_snr * std_err) {
-      if (cd.configured) {
-        say(out.reason,
-            "no track found at configured lateral %.3g m: mean sinkage %.3g mm below "
-            "min_sinkage_m %.3g mm or not significant (%.3g standard errors, detection_snr %.3g)",
-            cd.configured_lateral, mean * 1e3, P.min_sinkage_m * 1e3,
-            std_err > 0 ? mean / std_err : 0.0, P.detection_snr);
-        m.release_tracks(out);
-        return;
+      if (cd.configured) {  // reported, and the other ruts still give an estimate
+        say_append(m.rejected,
+                   " no track found at configured lateral %.3g m: mean sinkage %.3g mm below "
+                   "min_sinkage_m %.3g mm or not significant (%.3g standard errors, detection_snr %.3g);",
+                   cd.configured_lateral, mean * 1e3, P.min_sinkage_m * 1e3,
+                   std_err > 0 ? mean / std_err : 0.0, P.detection_snr);
+        continue;
       }
       say_append(m.rejected, " trough at %.3g m only %.3g mm deep;", lateral, mean * 1e3);
       continue;
@@ -781,6 +804,7 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
         m.rejected.c_str(), P.min_sinkage_m * 1e3);
     return;
   }
+  if (!m.rejected.empty() && m.rejected.size() < out.rejected.capacity()) out.rejected.assign(m.rejected);
 
   // ---- 6. fits
   const double D = rover_.wheel_diameter_m;

@@ -114,6 +114,7 @@ struct TrackProfile {
 struct SoilEstimate {
   bool ok = false;
   std::string reason;           ///< why there is no estimate (empty when ok)
+  std::string rejected;         ///< ruts not used (configured but too weak, shallow troughs), each with its reason
   std::vector<TrackProfile> tracks;
   double mean_sinkage_m = 0.0;  ///< over all valid samples of all tracks [m]
   int samples_used = 0;
