@@ -271,6 +271,24 @@ TEST(DriveMapper, BlackFrameAndOdometryJumpFallBackAndAreCounted) {
   EXPECT_LT(std::hypot(r.est.x - r.truth.x, r.est.y - r.truth.y), 0.05);  // the jump was ignored
 }
 
+TEST(DriveMapper, AGapInTheFramesIsNotAnOdometryJump) {
+  Rig rig(13, 20);
+  DriveMapperParams p;
+  p.fuse_terrain = false;
+  DriveMapper dm(rig.model, CameraMount{}, rig.sun.vector(), p, {1.5, 0});
+  // 0.1 m per second; frames 4..9 are missing: a 0.7 m step over 7 s is a gap, not a jump.
+  for (int k : {0, 1, 2, 3, 10, 11}) {
+    const Pose2 truth{0.1 * k, 0.0, 0.0};
+    dm.add_frame(rig.frame(truth), Pose2{0.1 * k * 1.01, 0.0, 0.0}, static_cast<double>(k));
+  }
+  EXPECT_EQ(dm.counters().odometry_jumps, 0);
+  EXPECT_NEAR(dm.pose().x, 1.1, 0.03);
+  // The same step without times is a jump (ignored, counted).
+  DriveMapper dm2(rig.model, CameraMount{}, rig.sun.vector(), p, {1.5, 0});
+  for (int k : {0, 10}) dm2.add_frame(rig.frame(Pose2{0.1 * k, 0, 0}), Pose2{0.1 * k, 0, 0});
+  EXPECT_EQ(dm2.counters().odometry_jumps, 1);
+}
+
 fs::path temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("regolith_mapping_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);

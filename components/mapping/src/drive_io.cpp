@@ -186,7 +186,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
     }
     last_index = fr.index;
     last_t = fr.t_s;
-    const FrameReport& r = mapper.add_frame(gray, fr.odometry);
+    const FrameReport& r = mapper.add_frame(gray, fr.odometry, fr.t_s);
     if (r.odometry_jump) sum.notes.push_back(name + ": wheel odometry jumped: step ignored, vision only");
     if (!sum.reports.empty() && r.vo != VoStatus::kOk)
       sum.notes.push_back(name + ": visual odometry: " + std::string(to_string(r.vo)) + ": wheel odometry used");

@@ -35,7 +35,7 @@ void WheelNoise::validate() const {
   nonneg(yaw_per_m_rad, "yaw_per_m_rad");
   nonneg(yaw_fraction, "yaw_fraction");
   for (auto [v, f] : {std::pair{floor_m, "floor_m"}, {floor_rad, "floor_rad"}, {max_step_m, "max_step_m"},
-                      {max_step_rad, "max_step_rad"}})
+                      {max_step_rad, "max_step_rad"}, {max_speed_mps, "max_speed_mps"}, {max_yaw_rate_rps, "max_yaw_rate_rps"}})
     if (!std::isfinite(v) || v <= 0) fail("mapping.wheel", f, "must be > 0");
 }
 
@@ -83,8 +83,10 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
   if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world))) fail("mapping", "sun", "must be a finite non-zero vector");
 }
 
-const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& wheel) {
+const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& wheel, double t_s) {
   const Pose2 mount = mount_.pose();
+  const double prev_t = last_t_;
+  if (std::isfinite(t_s)) last_t_ = t_s;
   report_.wheel_pose = wheel;
   report_.odometry_jump = false;
   report_.keyframe = false;
@@ -117,7 +119,11 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     // Wheel step in the body frame; an implausible one is ignored (and counted).
     Pose2 step = wheel.finite() ? between(last_wheel_, wheel) : Pose2{};
     Cov3 q;
-    if (!wheel.finite() || std::hypot(step.x, step.y) > p_.wheel.max_step_m || std::abs(step.yaw) > p_.wheel.max_step_rad) {
+    const double dt = t_s - prev_t;
+    const double max_m = std::isfinite(dt) && dt > 0 ? std::max(p_.wheel.max_step_m, p_.wheel.max_speed_mps * dt) : p_.wheel.max_step_m;
+    const double max_rad =
+        std::isfinite(dt) && dt > 0 ? std::max(p_.wheel.max_step_rad, p_.wheel.max_yaw_rate_rps * dt) : p_.wheel.max_step_rad;
+    if (!wheel.finite() || std::hypot(step.x, step.y) > max_m || std::abs(step.yaw) > max_rad) {
       report_.odometry_jump = true;
       ++counters_.odometry_jumps;
       step = Pose2{};

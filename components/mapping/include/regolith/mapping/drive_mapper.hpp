@@ -10,6 +10,7 @@
 // Framework-free: the `terrain_map` component and `regolith map` both drive this class.
 #include <opencv2/core.hpp>
 
+#include <limits>
 #include <optional>
 
 #include "regolith/direct_depth/direct_depth.hpp"
@@ -30,8 +31,10 @@ struct WheelNoise {
   double yaw_fraction = 0.05;      ///< std of the yaw change, fraction of it
   double floor_m = 0.001;          ///< m, std floor per step
   double floor_rad = 0.0005;       ///< rad, std floor per step
-  double max_step_m = 0.5;         ///< m, a larger step between two frames is an odometry jump
+  double max_step_m = 0.5;         ///< m, a larger step between two frames is an odometry jump ...
   double max_step_rad = 0.5;       ///< rad
+  double max_speed_mps = 0.3;      ///< m/s ... unless the frames are far apart in time (a gap): speed x dt
+  double max_yaw_rate_rps = 0.3;   ///< rad/s
   void validate() const;           ///< FieldError("mapping.wheel", ...)
   Cov3 covariance(const Pose2& step) const;
 };
@@ -96,8 +99,11 @@ class DriveMapper {
 
   /// One frame: 8-bit grey image (camera size, else FieldError naming "gray") and the wheel
   /// odometry reading at its capture time (world frame; the first reading sets the origin pose).
-  /// A non-finite reading is treated as an odometry jump. No heap allocation once running.
-  const FrameReport& add_frame(const cv::Mat& gray, const Pose2& wheel_odometry);
+  /// t_s: capture time (s; NaN = unknown): a gap between frames allows a proportionally longer
+  /// wheel step before it counts as a jump. A non-finite reading is treated as an odometry jump.
+  /// No heap allocation once running.
+  const FrameReport& add_frame(const cv::Mat& gray, const Pose2& wheel_odometry,
+                               double t_s = std::numeric_limits<double>::quiet_NaN());
 
   const Pose2& pose() const { return report_.pose; }
   const Cov3& covariance() const { return report_.covariance; }
@@ -123,6 +129,7 @@ class DriveMapper {
   DriveCounters counters_;
   bool started_ = false;
   Pose2 last_wheel_;
+  double last_t_ = std::numeric_limits<double>::quiet_NaN();
   Pose2 key_foot_;                   // keyframe camera foot in the world
   Cov3 key_cov_ = Cov3::Zero();      // its covariance
   Pose2 wheel_since_key_;            // wheel-predicted camera foot in the keyframe frame
