@@ -1,5 +1,8 @@
 #include "regolith/mapping/parallax.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -207,7 +210,37 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       y_.at<float>(i, j) = static_cast<float>(pc.y / k);
       conf_.at<float>(i, j) = static_cast<float>(conf);
     }
+  if (p_.remove_plane) remove_plane();
   return true;
+}
+
+void GroundParallax::remove_plane() {
+  // Weighted least-squares plane z = a x + b y + c over the confident cells, twice: the second
+  // pass leaves out cells more than 3 cm off the first plane (rocks). A camera tilt the fit got
+  // slightly wrong shows up as exactly such a plane; the ground's own slope is a plane too and
+  // belongs to the pose, not to the relief.
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (int i = 0; i < z_.rows; ++i)
+      for (int j = 0; j < z_.cols; ++j) {
+        const float z = z_.at<float>(i, j);
+        const double w = conf_.at<float>(i, j);
+        if (!std::isfinite(z) || !(w > 0)) continue;
+        if (pass == 1 && std::abs(z) > 0.03) continue;  // after the first removal: off-plane cells out
+        const Eigen::Vector3d v(x_.at<float>(i, j), y_.at<float>(i, j), 1.0);
+        a.noalias() += w * v * v.transpose();
+        b.noalias() += w * z * v;
+      }
+    if (std::abs(a.determinant()) < 1e-9) return;
+    const Eigen::Vector3d c = a.ldlt().solve(b);
+    if (!c.allFinite()) return;
+    for (int i = 0; i < z_.rows; ++i)
+      for (int j = 0; j < z_.cols; ++j) {
+        float& z = z_.at<float>(i, j);
+        if (std::isfinite(z)) z -= static_cast<float>(c[0] * x_.at<float>(i, j) + c[1] * y_.at<float>(i, j) + c[2]);
+      }
+  }
 }
 
 }  // namespace regolith::mapping

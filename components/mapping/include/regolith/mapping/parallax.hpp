@@ -36,6 +36,7 @@ struct ParallaxParams {
   int window = 2;                ///< half-width of the matching window (cells): 5 x 5
   double noise_dn = 2.0;         ///< grey levels, image noise for the confidence
   double min_confidence = 0.05;  ///< cells below this are unknown
+  bool remove_plane = false;     ///< remove each frame's best-fit plane (tilt error); tried: neutral on the dev drives
   void validate() const;  ///< FieldError("mapping.parallax", ...)
 };
 
@@ -72,6 +73,7 @@ class GroundParallax {
 
  private:
   void box(const cv::Mat& src, cv::Mat& dst);  // window sum, no allocation
+  void remove_plane();
   ParallaxParams p_;
   direct_depth::GroundRectifier rect_;
   direct_depth::RectifiedGrid grid_;
