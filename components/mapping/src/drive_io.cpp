@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -339,8 +340,14 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   cv::arrowedLine(img, cv::Point(img.cols - 25, 50), cv::Point(img.cols - 25, 15), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, 0, 0.3);
   cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  cv::putText(img, "green: corrected path  blue: wheel odometry  red: hazard, circles: rocks", cv::Point(10, 18),
-              cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  // Legend, in the colours it explains.
+  int lx = 10;
+  for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"corrected path", {0, 220, 0}},
+                                     {"wheel odometry", {255, 120, 0}},
+                                     {"hazard / rocks", {0, 0, 255}}}) {
+    cv::putText(img, text, cv::Point(lx, 18), cv::FONT_HERSHEY_SIMPLEX, 0.42, colour, 1, cv::LINE_AA);
+    lx += static_cast<int>(std::strlen(text)) * 8 + 14;
+  }
   return img;
 }
 
