@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -28,6 +29,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
+#include "regolith/saliency/trained.hpp"
 
 #if __has_include(<regolith/sfs/sfs.hpp>)
 #include "regolith/saliency/sfs_height.hpp"
@@ -47,8 +49,16 @@ namespace sal = regolith::saliency;
 
 // Default SAMS weights, contrast parameters and post-processing (see
 // components/saliency/README.md for the cross-validation that chose them).
+// Method names of `regolith rocks`: every saliency method plus the trained ranking stage.
+std::vector<std::string> rock_method_names() {
+  std::vector<std::string> n = sal::method_names();
+  n.push_back("trained");
+  return n;
+}
+
 struct RockOptions {
   std::string method = "sams";
+  std::string model; // --method trained: model file (empty: the shipped one)
   double w_intensity = 0.2, w_orientation = 0.5, w_colour = 0.0,
          w_structure = 0.3;
   bool colour = false;
@@ -66,9 +76,13 @@ struct RockOptions {
 
   void add_to(CLI::App *c) {
     c->add_option("--method", method,
-                  "sams|itti|contrast|spectral_residual|fine_grained")
-        ->check(CLI::IsMember(sal::method_names()))
+                  "sams|itti|contrast|spectral_residual|fine_grained|trained")
+        ->check(CLI::IsMember(rock_method_names()))
         ->capture_default_str();
+    c->add_option("--model", model,
+                  "--method trained: model file from `regolith train rocks` "
+                  "(default: the shipped " +
+                      sal::default_trained_model_path() + ")");
     c->add_option("--w-intensity", w_intensity,
                   "SAMS weight of the intensity channel")
         ->capture_default_str();
@@ -221,7 +235,22 @@ cv::Mat to_bgr8(const cv::Mat &img) {
 void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
                const std::string &csv_path, const std::string &overlay_dir,
                const std::string &saliency_dir) {
-  const sal::Method method = sal::method_from_string(o.method);
+  const bool trained = o.method == "trained";
+  std::optional<sal::TrainedModel> model;
+  std::unique_ptr<sal::CandidateExtractor> extractor;
+  sal::CandidateSet cand_set;
+  if (trained) {
+    const std::string path =
+        o.model.empty() ? sal::default_trained_model_path() : o.model;
+    try {
+      model = sal::TrainedModel::load(path);
+    } catch (const sal::ModelError &e) {
+      throw InputError(e.what());
+    }
+    extractor = std::make_unique<sal::CandidateExtractor>(model->candidates);
+  }
+  const sal::Method method =
+      trained ? sal::Method::kContrast : sal::method_from_string(o.method);
   const sal::PostProcessParams post = o.post(method);
   const sal::IttiParams ip = o.itti();
   const sal::ContrastParams cp = o.contrast();
@@ -259,11 +288,21 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
   int failed = 0;
   std::string first_error;
   size_t total_boxes = 0;
+  double detect_s = 0.0; // wall time of map / candidates + boxes, decoding excluded
+  int detected = 0;
   for (const std::string &path : images) {
     try {
       const cv::Mat img = sal::read_image(path);
+      const auto t0 = std::chrono::steady_clock::now();
       try {
-        if (peer) {
+        if (trained) {
+          extractor->extract(img, cand_set);
+          const std::vector<float> scores = model->score(cand_set);
+          sal::TrainedModel::score_map(cand_set, scores, model->nms_iou, map);
+          dets = sal::TrainedModel::select(cand_set, scores,
+                                           model->score_threshold,
+                                           model->nms_iou);
+        } else if (peer) {
           peer->compute(img, map);
         } else if (method == sal::Method::kContrast) {
           contrast.compute(img, map);
@@ -276,7 +315,12 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
       } catch (const std::exception &e) {
         throw sal::DataError(path + ": " + e.what());
       }
-      detector.detect(map, dets);
+      if (!trained)
+        detector.detect(map, dets);
+      detect_s += std::chrono::duration<double>(
+                      std::chrono::steady_clock::now() - t0)
+                      .count();
+      ++detected;
       const std::string name = fs::path(path).filename().string();
       const std::string stem = fs::path(path).stem().string();
       for (const auto &d : dets) {
@@ -321,7 +365,9 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
     throw InputError(csv_path + ": write failed");
   std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed)
             << " image(s), " << total_boxes << " box(es) -> " << csv_path
-            << '\n';
+            << " (" << o.method << ": "
+            << (detected ? 1e3 * detect_s / detected : 0.0)
+            << " ms per image, decoding excluded)\n";
   if (failed > 0) {
     throw InputError(std::to_string(failed) + " of " +
                      std::to_string(images.size()) +
@@ -343,7 +389,151 @@ struct EvalOptions {
   std::vector<double> contrast_scales = sal::StudyConfig{}.contrast_threshold_scales;
   std::vector<int> contrast_min_areas = sal::StudyConfig{}.contrast_min_areas;
   std::string markdown;
+  bool trained_cv = false;
+  uint64_t train_seed = sal::TrainParams{}.seed;
 };
+
+// Reads every image / mask pair and extracts + labels the trained method's candidates.
+std::vector<sal::LabelledFrame>
+load_labelled(const std::string &images, const std::string &masks,
+              int min_gt_area, const sal::CandidateParams &cp,
+              const sal::TrainParams &tp, int &failed,
+              std::vector<sal::DatasetItem> *items_out = nullptr) {
+  sal::DatasetListing listing = sal::list_dataset(images, masks);
+  failed = static_cast<int>(listing.errors.size());
+  for (const auto &err : listing.errors)
+    std::cerr << "error: " << err << " (skipped)\n";
+  sal::CandidateExtractor extractor(cp);
+  std::vector<sal::LabelledFrame> frames;
+  for (const auto &item : listing.items) {
+    try {
+      frames.push_back(sal::make_labelled_frame(item, extractor, min_gt_area,
+                                                tp.positive_iou));
+      if (items_out)
+        items_out->push_back(item);
+    } catch (const sal::DataError &ex) {
+      ++failed;
+      std::cerr << "error: " << ex.what() << " (skipped)\n";
+    }
+  }
+  if (frames.empty())
+    throw InputError(images + ": no usable image/mask pairs");
+  return frames;
+}
+
+void run_train(const std::string &images, const std::string &masks,
+               const std::string &out, int min_gt_area) {
+  const sal::CandidateParams cp;
+  const sal::TrainParams tp;
+  int failed = 0;
+  const auto frames = load_labelled(images, masks, min_gt_area, cp, tp, failed);
+  std::vector<const sal::LabelledFrame *> ptrs;
+  for (const auto &f : frames)
+    ptrs.push_back(&f);
+  sal::TrainedModel m;
+  try {
+    m = sal::train_model(ptrs, cp, tp);
+  } catch (const std::invalid_argument &ex) {
+    throw InputError(images + ": " + ex.what());
+  }
+  try {
+    m.save(out);
+  } catch (const sal::ModelError &ex) {
+    throw InputError(ex.what());
+  }
+  std::cerr << "train rocks: " << m.training_images << " image(s), "
+            << m.training_samples << " candidates (" << m.training_positives
+            << " positive), score threshold " << m.score_threshold
+            << ", NMS IoU " << m.nms_iou << " -> " << out << '\n';
+  if (failed > 0)
+    throw InputError(std::to_string(failed) +
+                     " image(s) skipped (see the errors above)");
+}
+
+// `eval rocks --trained-cv`: the trained method scored by grouped k-fold CV (models trained
+// only on the other folds), next to the contrast method with its defaults on the same folds.
+void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
+  const sal::CandidateParams cp;
+  sal::TrainParams tp;
+  tp.seed = e.train_seed;
+  int failed = 0;
+  std::vector<sal::DatasetItem> items;
+  const auto frames =
+      load_labelled(e.images, e.masks, e.min_gt_area, cp, tp, failed, &items);
+  // Contrast with its defaults (every fold of its own grouped CV chose them).
+  sal::ContrastSaliency contrast(o.contrast());
+  sal::BoxDetector detector(o.post(sal::Method::kContrast));
+  std::vector<sal::FrameRecord> crec;
+  cv::Mat map, map8;
+  std::vector<sal::Detection> dets;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    contrast.compute(sal::read_image(items[i].image_path), map);
+    detector.detect(map, dets);
+    sal::to_8bit(map, map8);
+    crec.push_back(
+        sal::evaluate_frame(frames[i].name, dets, frames[i].truth, map8));
+  }
+  const sal::TrainedCvResult r =
+      sal::cross_validate_trained(frames, cp, tp, e.folds);
+  std::ostringstream md;
+  md << "### Trained method: " << e.folds
+     << "-fold cross-validation grouped by sol (each fold scored by a model "
+        "trained on the other folds only)\n\nImages: "
+     << frames.size() << " (" << failed << " skipped), GT components >= "
+     << e.min_gt_area << " px.\n\n"
+     << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)},
+                             {"trained", sal::summarise(r.pooled)}})
+     << "\n| test fold | images | GT | contrast N-MODA@0.2 / @0.5 / max F | "
+        "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen score "
+        "threshold, NMS IoU |\n|---:|---:|---:|---|---|---:|---|\n";
+  for (int f = 0; f < e.folds; ++f) {
+    std::vector<size_t> idx;
+    for (size_t i = 0; i < frames.size(); ++i)
+      if (r.fold_of[i] == f)
+        idx.push_back(i);
+    const sal::Summary c = sal::summarise(crec, idx);
+    const sal::Summary t = r.fold_summaries[static_cast<size_t>(f)];
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "| %d | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | "
+                  "%d | %.2f, %.2f |\n",
+                  f + 1, t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f,
+                  t.n_moda02, t.n_moda05, t.max_f, t.boxes,
+                  r.thresholds[static_cast<size_t>(f)],
+                  r.nms_ious[static_cast<size_t>(f)]);
+    md << buf;
+  }
+  // Upper bound set by the candidates: GT components with a candidate at IoU >= 0.2 / 0.5.
+  int n_gt = 0, cover02 = 0, cover05 = 0;
+  size_t n_cand = 0;
+  for (const auto &f : frames) {
+    n_cand += f.set.candidates.size();
+    for (const auto &g : f.truth.objects) {
+      if (g.ignored)
+        continue;
+      ++n_gt;
+      double best = 0.0;
+      for (const auto &c : f.set.candidates)
+        best = std::max(best, sal::iou(c.box, g.box));
+      cover02 += best >= 0.2;
+      cover05 += best >= 0.5;
+    }
+  }
+  md << "\nCandidates: " << n_cand << " (" << n_cand / frames.size()
+     << " per image); GT components with a candidate at IoU >= 0.2: "
+     << cover02 << " of " << n_gt << ", at IoU >= 0.5: " << cover05
+     << " (the recall the ranking stage cannot exceed).\n";
+  std::cout << md.str();
+  if (!e.markdown.empty()) {
+    std::ofstream file(e.markdown);
+    file << md.str();
+    if (!file)
+      throw InputError(e.markdown + ": cannot write");
+  }
+  if (failed > 0)
+    throw InputError(std::to_string(failed) +
+                     " image(s) skipped (see the errors above)");
+}
 
 std::string mean_std(const std::vector<double> &v) {
   const double m =
@@ -359,6 +549,10 @@ std::string mean_std(const std::vector<double> &v) {
 }
 
 void run_eval(const EvalOptions &e, const RockOptions &o) {
+  if (e.trained_cv) {
+    run_trained_cv(e, o);
+    return;
+  }
   std::vector<sal::Method> methods;
   for (const auto &m : e.methods)
     methods.push_back(sal::method_from_string(m));
@@ -575,6 +769,7 @@ void add_rocks_commands(CLI::App &app) {
       ->required();
   ro2->add_to(er);
   er->remove_option(er->get_option("--method"));
+  er->remove_option(er->get_option("--model")); // --trained-cv trains its own
   er->add_option("--method", eo->methods,
                  "methods to score (repeatable; default: all)")
       ->check(CLI::IsMember(sal::method_names()));
@@ -607,7 +802,30 @@ void add_rocks_commands(CLI::App &app) {
       ->capture_default_str();
   er->add_option("--markdown", eo->markdown,
                  "also write the tables to this file");
+  er->add_flag("--trained-cv", eo->trained_cv,
+               "score only the trained method by grouped k-fold CV (models "
+               "trained on the other folds) next to contrast");
+  er->add_option("--train-seed", eo->train_seed,
+                 "--trained-cv: RNG seed of the random forests (to measure "
+                 "the seed-to-seed spread)")
+      ->capture_default_str();
   er->callback([=] { run_eval(*eo, *ro2); });
+
+  // regolith train rocks --images DIR --masks DIR --out MODEL
+  CLI::App *train = group(app, "train", "train models from labelled data");
+  auto *tr = train->add_subcommand(
+      "rocks", "train the rock ranking model of `regolith rocks --method trained`");
+  auto ti = std::make_shared<std::string>();
+  auto tm = std::make_shared<std::string>();
+  auto to = std::make_shared<std::string>();
+  auto tmin = std::make_shared<int>(50);
+  tr->add_option("--images", *ti, "image directory")->required();
+  tr->add_option("--masks", *tm, "mask directory (<stem>.png, nonzero = rock)")
+      ->required();
+  tr->add_option("--out", *to, "model file to write (YAML)")->required();
+  tr->add_option("--min-gt-area", *tmin, "px, ignore smaller mask components")
+      ->capture_default_str();
+  tr->callback([=] { run_train(*ti, *tm, *to, *tmin); });
 }
 
 namespace {

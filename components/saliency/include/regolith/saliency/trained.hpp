@@ -1,0 +1,170 @@
+#pragma once
+// Trained ranking stage for rock boxes (issue 15), method "trained":
+//  1. candidates: connected components of two intensity-contrast maps (ContrastSaliency,
+//     sigma 64 / smooth 8 px and sigma 16 / smooth 4 px) thresholded at several Otsu scales
+//     (BoxDetector, permissive minimum area); identical boxes are kept once;
+//  2. per-candidate features (kFeatureCount, feature_names()): box size / aspect / image row,
+//     contrast saliency inside vs a ring around the box, intensity mean / std inside vs ring,
+//     edge density, bright / dark fractions, dark-region-adjacent cue (dark fraction of the
+//     ring's four side strips: max / mean / min), fill ratio of the thresholded blob, ...;
+//  3. a random forest (cv::ml::RTrees, regression on the 0/1 label "the box matches a
+//     non-ignored ground-truth component with IoU >= 0.5", fixed RNG, no randomness elsewhere)
+//     whose mean tree output is the box score in [0,1];
+//  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold; both chosen on
+//     out-of-fold predictions of an inner grouped CV over the training images only.
+// The model file (cv::FileStorage YAML; gzip-compressed when the name ends in .gz) starts with a format name and
+// version; loading a missing, corrupt or other-version file throws ModelError naming the file.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "regolith/saliency/contrast.hpp"
+#include "regolith/saliency/detect.hpp"
+#include "regolith/saliency/evaluate.hpp"
+
+namespace regolith::saliency {
+
+/// A model file problem (missing, unreadable, corrupt, other version). The message names the file.
+class ModelError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+inline constexpr int kFeatureCount = 30;
+inline constexpr int kTrainedModelVersion = 1;
+inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
+
+/// Names of the features, in order (kFeatureCount entries).
+const std::vector<std::string>& feature_names();
+
+struct CandidateParams {
+  ContrastParams coarse{64.0, 8.0};                       ///< px, the contrast method's defaults
+  ContrastParams fine{16.0, 4.0};                         ///< px, a second, finer contrast map
+  std::vector<double> coarse_scales{0.6, 0.8, 1.0, 1.3};  ///< Otsu scales on the coarse map
+  std::vector<double> fine_scales{0.8, 1.2};              ///< Otsu scales on the fine map
+  int min_area = 200;                                     ///< px, smallest candidate component (contrast method: 1600)
+  int open_radius = 2;                                    ///< px
+  int close_radius = 2;                                   ///< px
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+  bool operator==(const CandidateParams&) const = default;
+};
+
+struct TrainParams {
+  int trees = 100;  ///< random-forest size
+  int max_depth = 8;
+  int min_sample_count = 10;         ///< samples per leaf, at least
+  double positive_iou = 0.5;         ///< label 1 when max IoU with a non-ignored GT box >= this
+  uint64_t seed = 0x5EED0F0C4B5ull;  ///< cv::theRNG() state while a forest trains (bootstrap, splits)
+  int inner_folds = 4;               ///< grouped CV on the training images to choose the thresholds
+  std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50, 0.55, 0.60, 0.70};
+  std::vector<double> nms_ious{0.2, 0.3, 0.5};
+  void validate() const;
+};
+
+/// One candidate box with its features.
+struct RockCandidate {
+  cv::Rect box;
+  int area = 0;    ///< px of the thresholded component
+  int source = 0;  ///< index of the (map, scale) it came from (bit of CandidateSet::source_masks)
+  std::array<float, kFeatureCount> features{};
+};
+
+struct CandidateSet {
+  cv::Size size;
+  std::vector<RockCandidate> candidates;
+  /// CV_8U, bit k set where the binary mask of source k is set (for the pixel score map).
+  cv::Mat source_masks;
+};
+
+/// Reusable candidate generator + feature extractor (plain OpenCV).
+class CandidateExtractor {
+ public:
+  explicit CandidateExtractor(CandidateParams params = {});
+  /// `image`: as ContrastSaliency::compute. Throws std::invalid_argument on bad input.
+  void extract(const cv::Mat& image, CandidateSet& out);
+  const CandidateParams& params() const { return params_; }
+
+ private:
+  CandidateParams params_;
+  ContrastSaliency coarse_, fine_;
+  std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales
+  cv::Mat unit_, intensity_, surround_, small_, small_blur_, s_coarse_, s_fine_, gx_, gy_;
+  std::vector<Detection> dets_;
+};
+
+/// A trained model: candidate parameters, chosen thresholds and the forest.
+class TrainedModel {
+ public:
+  TrainedModel();
+  ~TrainedModel();
+  TrainedModel(const TrainedModel&);
+  TrainedModel& operator=(const TrainedModel&);
+
+  CandidateParams candidates;
+  double score_threshold = 0.5;
+  double nms_iou = 0.3;
+  int training_images = 0, training_samples = 0, training_positives = 0;
+
+  bool trained() const;
+  /// Score in [0,1] of every candidate (same order).
+  std::vector<float> score(const CandidateSet& set) const;
+  /// Scored boxes after NMS and the threshold, best first. `threshold` / `nms` < 0: the model's.
+  std::vector<Detection> detect(const CandidateSet& set, double threshold = -1.0, double nms = -1.0) const;
+  /// Same, from precomputed scores.
+  static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
+                                       double nms);
+  /// Pixel score map (CV_32F [0,1]): max score of the NMS-kept candidates over their blob pixels.
+  static void score_map(const CandidateSet& set, const std::vector<float>& scores, double nms, cv::Mat& map);
+
+  /// Writes the YAML file; throws ModelError naming the file.
+  void save(const std::string& path) const;
+  /// Throws ModelError naming the file (missing, corrupt, other format or version).
+  static TrainedModel load(const std::string& path);
+
+  struct Forest;
+  std::shared_ptr<Forest> forest_;
+};
+
+/// One training / evaluation frame: truth, candidates and their labels.
+struct LabelledFrame {
+  std::string name, group;
+  FrameTruth truth;
+  CandidateSet set;
+  std::vector<float> labels;  ///< 0/1 per candidate
+};
+
+/// Labels of the candidates: 1 when the max IoU with a non-ignored GT object >= positive_iou.
+std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou);
+
+struct DatasetItem;
+/// Reads one image + mask (read_image / read_truth: DataError naming the file), extracts and
+/// labels its candidates.
+LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& extractor, int min_gt_area,
+                                  double positive_iou);
+
+/// Trains on `frames` (all of them): inner grouped CV (by LabelledFrame::group) to choose the
+/// score threshold and NMS IoU, then the forest on every frame. Deterministic.
+TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const CandidateParams& cparams,
+                         const TrainParams& tparams);
+
+struct TrainedCvResult {
+  std::vector<FrameRecord> pooled;  ///< per frame (input order), scored with its test fold's model
+  std::vector<int> fold_of;
+  std::vector<Summary> fold_summaries;
+  std::vector<double> thresholds, nms_ious;  ///< chosen per fold
+};
+
+/// k-fold CV grouped by sol (grouped_folds of the frames' groups): each test fold is scored
+/// by a model trained (thresholds included) on the other folds only.
+TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames, const CandidateParams& cparams,
+                                       const TrainParams& tparams, int folds);
+
+/// The shipped model: the source-tree file when it exists, else the installed one.
+std::string default_trained_model_path();
+
+}  // namespace regolith::saliency

@@ -1,0 +1,597 @@
+// Trained ranking stage for rock boxes: see trained.hpp.
+#include "regolith/saliency/trained.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numeric>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ml.hpp>
+
+#include "regolith/saliency/dataset.hpp"
+#include "regolith/saliency/image_ops.hpp"
+
+#ifndef REGOLITH_ROCKS_MODEL_SOURCE
+#define REGOLITH_ROCKS_MODEL_SOURCE ""
+#endif
+#ifndef REGOLITH_ROCKS_MODEL_INSTALLED
+#define REGOLITH_ROCKS_MODEL_INSTALLED ""
+#endif
+
+namespace regolith::saliency {
+
+namespace {
+
+constexpr float kDarkOffset = 0.05f;     // I - G_64 * I below -this: dark pixel
+constexpr float kBrightOffset = 0.05f;   // above +this: bright pixel
+constexpr float kEdgeMagnitude = 0.08f;  // |grad I| (Sobel / 8) above this: edge pixel
+
+// Sum over a rect of an integral image (CV_64F, (h+1) x (w+1)).
+double rect_sum(const cv::Mat& ii, const cv::Rect& r) {
+  if (r.width <= 0 || r.height <= 0) return 0.0;
+  const double* a = ii.ptr<double>(r.y);
+  const double* b = ii.ptr<double>(r.y + r.height);
+  return b[r.x + r.width] - b[r.x] - a[r.x + r.width] + a[r.x];
+}
+
+struct Integrals {
+  cv::Mat i, i2, sc, sf, g, edge, dark, bright;
+};
+
+std::string trim(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+void integral_of(const cv::Mat& src, cv::Mat& ii) {
+  cv::integral(src, ii, CV_64F);
+}
+
+}  // namespace
+
+const std::vector<std::string>& feature_names() {
+  static const std::vector<std::string> names{"log_box_area",
+                                              "log_aspect",
+                                              "rel_width",
+                                              "rel_height",
+                                              "centre_row",
+                                              "bottom_row",
+                                              "centre_col_offset",
+                                              "fill_ratio",
+                                              "coarse_mean_in",
+                                              "coarse_max_in",
+                                              "coarse_ring",
+                                              "coarse_in_minus_ring",
+                                              "fine_mean_in",
+                                              "fine_in_minus_ring",
+                                              "intensity_in",
+                                              "intensity_std_in",
+                                              "intensity_ring",
+                                              "intensity_std_ring",
+                                              "intensity_in_minus_ring",
+                                              "intensity_in_minus_image",
+                                              "gradient_mean_in",
+                                              "edge_density_in",
+                                              "edge_density_ring",
+                                              "bright_frac_in",
+                                              "dark_frac_in",
+                                              "dark_side_max",
+                                              "dark_side_mean",
+                                              "dark_side_min",
+                                              "source_scale",
+                                              "image_intensity_std"};
+  return names;
+}
+
+void CandidateParams::validate() const {
+  coarse.validate();
+  fine.validate();
+  if (coarse_scales.empty() && fine_scales.empty())
+    throw std::invalid_argument("CandidateParams.coarse_scales: no threshold scale at all");
+  if (coarse_scales.size() + fine_scales.size() > 8)
+    throw std::invalid_argument("CandidateParams.coarse_scales: at most 8 scales in total");
+  for (double s : coarse_scales)
+    if (!(s > 0.0 && s <= 4.0)) throw std::invalid_argument("CandidateParams.coarse_scales: must be in (0, 4]");
+  for (double s : fine_scales)
+    if (!(s > 0.0 && s <= 4.0)) throw std::invalid_argument("CandidateParams.fine_scales: must be in (0, 4]");
+  if (min_area < 1) throw std::invalid_argument("CandidateParams.min_area: must be >= 1 px");
+  if (open_radius < 0) throw std::invalid_argument("CandidateParams.open_radius: must be >= 0");
+  if (close_radius < 0) throw std::invalid_argument("CandidateParams.close_radius: must be >= 0");
+}
+
+void TrainParams::validate() const {
+  if (trees < 1 || trees > 1000) throw std::invalid_argument("TrainParams.trees: must be in [1, 1000]");
+  if (max_depth < 1 || max_depth > 30) throw std::invalid_argument("TrainParams.max_depth: must be in [1, 30]");
+  if (min_sample_count < 1) throw std::invalid_argument("TrainParams.min_sample_count: must be >= 1");
+  if (!(positive_iou > 0.0 && positive_iou <= 1.0))
+    throw std::invalid_argument("TrainParams.positive_iou: must be in (0, 1]");
+  if (inner_folds < 2) throw std::invalid_argument("TrainParams.inner_folds: must be >= 2");
+  if (score_thresholds.empty()) throw std::invalid_argument("TrainParams.score_thresholds: empty");
+  if (nms_ious.empty()) throw std::invalid_argument("TrainParams.nms_ious: empty");
+}
+
+CandidateExtractor::CandidateExtractor(CandidateParams params)
+    : params_(std::move(params)), coarse_(params_.coarse), fine_(params_.fine) {
+  params_.validate();
+  auto add = [&](double scale) {
+    PostProcessParams pp;
+    pp.threshold_scale = scale;
+    pp.min_area = params_.min_area;
+    pp.open_radius = params_.open_radius;
+    pp.close_radius = params_.close_radius;
+    pp.max_detections = 0;
+    detectors_.emplace_back(pp);
+  };
+  for (double s : params_.coarse_scales) add(s);
+  for (double s : params_.fine_scales) add(s);
+}
+
+void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
+  if (image.empty()) throw std::invalid_argument("empty image");
+  to_unit_float(image, unit_);
+  intensity_of(unit_, intensity_);
+  const cv::Mat& I = intensity_;
+  coarse_.compute_from_intensity(I, s_coarse_);
+  fine_.compute_from_intensity(I, s_fine_);
+  gaussian_blur_decimated(I, surround_, params_.coarse.sigma_px, small_, small_blur_);
+  cv::Sobel(I, gx_, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(I, gy_, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::Mat grad, edge, dark, bright, diff, i2;
+  cv::magnitude(gx_, gy_, grad);
+  diff = I - surround_;
+  cv::compare(grad, static_cast<double>(kEdgeMagnitude), edge, cv::CMP_GT);
+  cv::compare(diff, static_cast<double>(-kDarkOffset), dark, cv::CMP_LT);
+  cv::compare(diff, static_cast<double>(kBrightOffset), bright, cv::CMP_GT);
+  Integrals ii;
+  integral_of(I, ii.i);
+  cv::multiply(I, I, i2);
+  integral_of(i2, ii.i2);
+  integral_of(s_coarse_, ii.sc);
+  integral_of(s_fine_, ii.sf);
+  integral_of(grad, ii.g);
+  integral_of(edge / 255, ii.edge);
+  integral_of(dark / 255, ii.dark);
+  integral_of(bright / 255, ii.bright);
+  const int W = I.cols, H = I.rows;
+  const cv::Rect frame(0, 0, W, H);
+  const double n_img = static_cast<double>(W) * H;
+  const double img_mean = rect_sum(ii.i, frame) / n_img;
+  const double img_std = std::sqrt(std::max(0.0, rect_sum(ii.i2, frame) / n_img - img_mean * img_mean));
+
+  out.size = I.size();
+  out.candidates.clear();
+  out.source_masks.create(I.size(), CV_8U);
+  out.source_masks.setTo(0);
+  const size_t n_coarse = params_.coarse_scales.size();
+  for (size_t k = 0; k < detectors_.size(); ++k) {
+    const bool is_coarse = k < n_coarse;
+    detectors_[k].detect(is_coarse ? s_coarse_ : s_fine_, dets_);
+    const cv::Mat& m = detectors_[k].mask();
+    const uchar bit = static_cast<uchar>(1u << k);
+    for (int y = 0; y < H; ++y) {
+      const uchar* mp = m.ptr<uchar>(y);
+      uchar* sp = out.source_masks.ptr<uchar>(y);
+      for (int x = 0; x < W; ++x)
+        if (mp[x]) sp[x] = static_cast<uchar>(sp[x] | bit);
+    }
+    const double scale = is_coarse ? params_.coarse_scales[k] : params_.fine_scales[k - n_coarse];
+    for (const Detection& d : dets_) {
+      const bool dup = std::any_of(out.candidates.begin(), out.candidates.end(),
+                                   [&](const RockCandidate& c) { return c.box == d.box; });
+      if (dup) continue;
+      RockCandidate c;
+      c.box = d.box;
+      c.area = d.area;
+      c.source = static_cast<int>(k);
+      const cv::Rect& b = d.box;
+      const int margin = std::max(3, static_cast<int>(std::lround(0.25 * std::max(b.width, b.height))));
+      const cv::Rect outer = cv::Rect(b.x - margin, b.y - margin, b.width + 2 * margin, b.height + 2 * margin) & frame;
+      const double n_in = static_cast<double>(b.area());
+      const double n_ring = std::max(1.0, static_cast<double>(outer.area()) - n_in);
+      auto in = [&](const cv::Mat& ig) { return rect_sum(ig, b) / n_in; };
+      auto ring = [&](const cv::Mat& ig) { return std::max(0.0, rect_sum(ig, outer) - rect_sum(ig, b)) / n_ring; };
+      const double i_in = in(ii.i), i_ring = ring(ii.i);
+      const double i2_in = in(ii.i2), i2_ring = ring(ii.i2);
+      double smax = 0.0;
+      cv::minMaxLoc(s_coarse_(b), nullptr, &smax);
+      // Dark fraction of the four side strips of the ring.
+      const cv::Rect sides[4] = {
+          cv::Rect(b.x - margin, b.y, margin, b.height) & frame, cv::Rect(b.x + b.width, b.y, margin, b.height) & frame,
+          cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
+      double dmax = 0.0, dsum = 0.0, dmin = 1.0;
+      int nsides = 0;
+      for (const cv::Rect& s : sides) {
+        if (s.area() <= 0) continue;
+        const double f = rect_sum(ii.dark, s) / s.area();
+        dmax = std::max(dmax, f);
+        dmin = std::min(dmin, f);
+        dsum += f;
+        ++nsides;
+      }
+      if (nsides == 0) dmin = 0.0;
+      const double v[kFeatureCount] = {std::log(n_in),
+                                       std::log(static_cast<double>(b.width) / b.height),
+                                       static_cast<double>(b.width) / W,
+                                       static_cast<double>(b.height) / H,
+                                       (b.y + 0.5 * b.height) / H,
+                                       static_cast<double>(b.y + b.height) / H,
+                                       std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
+                                       d.area / n_in,
+                                       in(ii.sc),
+                                       smax,
+                                       ring(ii.sc),
+                                       in(ii.sc) - ring(ii.sc),
+                                       in(ii.sf),
+                                       in(ii.sf) - ring(ii.sf),
+                                       i_in,
+                                       std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
+                                       i_ring,
+                                       std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
+                                       i_in - i_ring,
+                                       i_in - img_mean,
+                                       in(ii.g),
+                                       in(ii.edge),
+                                       ring(ii.edge),
+                                       in(ii.bright),
+                                       in(ii.dark),
+                                       dmax,
+                                       nsides ? dsum / nsides : 0.0,
+                                       dmin,
+                                       scale + (is_coarse ? 0.0 : 10.0),
+                                       img_std};
+      for (int f = 0; f < kFeatureCount; ++f) c.features[f] = static_cast<float>(v[f]);
+      out.candidates.push_back(c);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+struct TrainedModel::Forest {
+  cv::Ptr<cv::ml::RTrees> rtrees;
+};
+
+TrainedModel::TrainedModel() = default;
+TrainedModel::~TrainedModel() = default;
+TrainedModel::TrainedModel(const TrainedModel&) = default;
+TrainedModel& TrainedModel::operator=(const TrainedModel&) = default;
+
+bool TrainedModel::trained() const {
+  return forest_ && forest_->rtrees && forest_->rtrees->isTrained();
+}
+
+namespace {
+
+cv::Mat feature_matrix(const std::vector<RockCandidate>& cands) {
+  cv::Mat m(static_cast<int>(cands.size()), kFeatureCount, CV_32F);
+  for (size_t i = 0; i < cands.size(); ++i)
+    std::copy(cands[i].features.begin(), cands[i].features.end(), m.ptr<float>(static_cast<int>(i)));
+  return m;
+}
+
+std::vector<float> predict(const cv::ml::RTrees& rt, const std::vector<RockCandidate>& cands) {
+  std::vector<float> out(cands.size(), 0.0f);
+  if (cands.empty()) return out;
+  const cv::Mat x = feature_matrix(cands);
+  cv::Mat y;
+  rt.predict(x, y);
+  for (int i = 0; i < x.rows; ++i) out[static_cast<size_t>(i)] = std::clamp(y.at<float>(i), 0.0f, 1.0f);
+  return out;
+}
+
+cv::Ptr<cv::ml::RTrees> fit_forest(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp, int* samples,
+                                   int* positives) {
+  std::vector<RockCandidate> all;
+  std::vector<float> labels;
+  for (const LabelledFrame* f : frames) {
+    all.insert(all.end(), f->set.candidates.begin(), f->set.candidates.end());
+    labels.insert(labels.end(), f->labels.begin(), f->labels.end());
+  }
+  if (samples) *samples = static_cast<int>(all.size());
+  if (positives) *positives = static_cast<int>(std::count(labels.begin(), labels.end(), 1.0f));
+  if (all.size() < 2) throw std::invalid_argument("train rocks: fewer than 2 candidates to train on");
+  const cv::Mat x = feature_matrix(all);
+  const cv::Mat y(static_cast<int>(labels.size()), 1, CV_32F, labels.data());
+  cv::Mat var_type(1, kFeatureCount + 1, CV_8U, cv::Scalar(cv::ml::VAR_ORDERED));
+  auto data = cv::ml::TrainData::create(x, cv::ml::ROW_SAMPLE, y.clone(), cv::noArray(), cv::noArray(), cv::noArray(),
+                                        var_type);
+  auto rt = cv::ml::RTrees::create();
+  rt->setMaxDepth(tp.max_depth);
+  rt->setMinSampleCount(tp.min_sample_count);
+  rt->setRegressionAccuracy(1e-6f);
+  rt->setUseSurrogates(false);
+  rt->setMaxCategories(2);
+  rt->setCVFolds(0);
+  rt->setCalculateVarImportance(false);
+  rt->setActiveVarCount(0);
+  rt->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER, tp.trees, 0.0));
+  // RTrees draws its bootstrap samples and split variables from cv::theRNG(): pin it for a
+  // bit-for-bit reproducible forest, and restore the caller's state afterwards.
+  const uint64 saved = cv::theRNG().state;
+  cv::theRNG().state = tp.seed;
+  bool ok = false;
+  try {
+    ok = rt->train(data);
+  } catch (...) {
+    cv::theRNG().state = saved;
+    throw;
+  }
+  cv::theRNG().state = saved;
+  if (!ok) throw std::runtime_error("train rocks: cv::ml::RTrees::train failed");
+  return rt;
+}
+
+double objective(const Summary& s) {
+  return 0.5 * (s.n_moda02 + s.n_moda05);
+}
+
+}  // namespace
+
+std::vector<float> TrainedModel::score(const CandidateSet& set) const {
+  if (!trained()) throw std::logic_error("TrainedModel::score: no trained forest");
+  return predict(*forest_->rtrees, set.candidates);
+}
+
+std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
+                                            double nms) {
+  std::vector<size_t> order(set.candidates.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a] > scores[b]; });
+  std::vector<Detection> out;
+  for (size_t i : order) {
+    if (scores[i] < threshold) break;
+    const cv::Rect& b = set.candidates[i].box;
+    const bool suppressed =
+        std::any_of(out.begin(), out.end(), [&](const Detection& d) { return iou(d.box, b) > nms; });
+    if (suppressed) continue;
+    out.push_back(Detection{b, scores[i], set.candidates[i].area});
+  }
+  return out;
+}
+
+void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, double nms, cv::Mat& map) {
+  map.create(set.size, CV_32F);
+  map.setTo(0);
+  std::vector<size_t> order(set.candidates.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a] > scores[b]; });
+  std::vector<cv::Rect> kept;
+  for (size_t i : order) {
+    const RockCandidate& c = set.candidates[i];
+    if (std::any_of(kept.begin(), kept.end(), [&](const cv::Rect& r) { return iou(r, c.box) > nms; })) continue;
+    kept.push_back(c.box);
+    const uchar bit = static_cast<uchar>(1u << c.source);
+    for (int y = c.box.y; y < c.box.y + c.box.height; ++y) {
+      const uchar* sp = set.source_masks.ptr<uchar>(y);
+      float* mp = map.ptr<float>(y);
+      for (int x = c.box.x; x < c.box.x + c.box.width; ++x)
+        if ((sp[x] & bit) && mp[x] < scores[i]) mp[x] = scores[i];
+    }
+  }
+}
+
+std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
+  return select(set, score(set), threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms);
+}
+
+void TrainedModel::save(const std::string& path) const {
+  if (!trained()) throw ModelError(path + ": cannot save an untrained model");
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+    if (!fs.isOpened()) throw ModelError(path + ": cannot open for writing");
+    fs << "format" << kTrainedModelFormat;
+    fs << "version" << kTrainedModelVersion;
+    fs << "feature_count" << kFeatureCount;
+    fs << "features"
+       << "[";
+    for (const auto& n : feature_names()) fs << n;
+    fs << "]";
+    fs << "candidates"
+       << "{";
+    fs << "coarse_sigma_px" << candidates.coarse.sigma_px << "coarse_smooth_px" << candidates.coarse.smooth_sigma_px;
+    fs << "fine_sigma_px" << candidates.fine.sigma_px << "fine_smooth_px" << candidates.fine.smooth_sigma_px;
+    fs << "coarse_scales" << candidates.coarse_scales << "fine_scales" << candidates.fine_scales;
+    fs << "min_area_px" << candidates.min_area << "open_radius_px" << candidates.open_radius << "close_radius_px"
+       << candidates.close_radius;
+    fs << "}";
+    fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou;
+    fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
+       << training_positives;
+    fs << "forest"
+       << "{";
+    forest_->rtrees->write(fs);
+    fs << "}";
+    fs.release();
+  } catch (const cv::Exception& e) {
+    throw ModelError(path + ": cannot write model (" + trim(e.msg) + ")");
+  }
+  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": model file not written");
+}
+
+TrainedModel TrainedModel::load(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
+  TrainedModel m;
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::READ);
+    if (!fs.isOpened()) throw ModelError(path + ": cannot read rock model file");
+    const std::string format = fs["format"].isString() ? static_cast<std::string>(fs["format"]) : "";
+    if (format != kTrainedModelFormat)
+      throw ModelError(path + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
+                       "')");
+    const int version = fs["version"].isInt() ? static_cast<int>(fs["version"]) : -1;
+    if (version != kTrainedModelVersion)
+      throw ModelError(path + ": rock model version " + std::to_string(version) + ", this build reads version " +
+                       std::to_string(kTrainedModelVersion) + " (re-train with `regolith train rocks`)");
+    if (static_cast<int>(fs["feature_count"]) != kFeatureCount)
+      throw ModelError(path + ": rock model has " + std::to_string(static_cast<int>(fs["feature_count"])) +
+                       " features, this build computes " + std::to_string(kFeatureCount));
+    const cv::FileNode c = fs["candidates"];
+    if (!c.isMap()) throw ModelError(path + ": rock model: missing 'candidates'");
+    m.candidates.coarse.sigma_px = static_cast<double>(c["coarse_sigma_px"]);
+    m.candidates.coarse.smooth_sigma_px = static_cast<double>(c["coarse_smooth_px"]);
+    m.candidates.fine.sigma_px = static_cast<double>(c["fine_sigma_px"]);
+    m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
+    c["coarse_scales"] >> m.candidates.coarse_scales;
+    c["fine_scales"] >> m.candidates.fine_scales;
+    m.candidates.min_area = static_cast<int>(c["min_area_px"]);
+    m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
+    m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);
+    try {
+      m.candidates.validate();
+    } catch (const std::invalid_argument& e) {
+      throw ModelError(path + ": rock model: " + e.what());
+    }
+    m.score_threshold = static_cast<double>(fs["score_threshold"]);
+    m.nms_iou = static_cast<double>(fs["nms_iou"]);
+    if (!(m.score_threshold >= 0.0 && m.score_threshold <= 1.0) || !(m.nms_iou > 0.0 && m.nms_iou <= 1.0))
+      throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
+    m.training_images = static_cast<int>(fs["training_images"]);
+    m.training_samples = static_cast<int>(fs["training_samples"]);
+    m.training_positives = static_cast<int>(fs["training_positives"]);
+    const cv::FileNode f = fs["forest"];
+    if (!f.isMap()) throw ModelError(path + ": rock model: missing 'forest'");
+    m.forest_ = std::make_shared<Forest>();
+    m.forest_->rtrees = cv::ml::RTrees::create();
+    m.forest_->rtrees->read(f);
+    if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
+      throw ModelError(path + ": rock model: the forest is empty or has the wrong input size");
+  } catch (const cv::Exception& e) {
+    throw ModelError(path + ": corrupt rock model file (" + trim(e.msg) + ")");
+  }
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou) {
+  std::vector<float> labels;
+  labels.reserve(set.candidates.size());
+  for (const RockCandidate& c : set.candidates) {
+    double best = 0.0;
+    for (const GtObject& g : truth.objects)
+      if (!g.ignored) best = std::max(best, iou(c.box, g.box));
+    labels.push_back(best >= positive_iou ? 1.0f : 0.0f);
+  }
+  return labels;
+}
+
+LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& extractor, int min_gt_area,
+                                  double positive_iou) {
+  LabelledFrame f;
+  f.name = item.name;
+  f.group = sol_group(item.name);
+  const cv::Mat img = read_image(item.image_path);
+  f.truth = read_truth(item.mask_path, img.size(), min_gt_area);
+  try {
+    extractor.extract(img, f.set);
+  } catch (const std::exception& e) {
+    throw DataError(item.image_path + ": " + e.what());
+  }
+  f.labels = label_candidates(f.set, f.truth, positive_iou);
+  return f;
+}
+
+namespace {
+
+struct Choice {
+  double threshold = 0.5, nms = 0.3;
+};
+
+// Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS) pair with
+// the best mean of N-MODA@0.2 and @0.5 over them (ties: the first in grid order).
+Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp) {
+  std::vector<std::string> groups;
+  for (const auto* f : frames) groups.push_back(f->group);
+  std::vector<std::string> distinct = groups;
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  const int k = std::min<int>(tp.inner_folds, static_cast<int>(distinct.size()));
+  std::vector<std::vector<float>> scores(frames.size());
+  if (k >= 2) {
+    const std::vector<int> fold = grouped_folds(groups, k);
+    for (int f = 0; f < k; ++f) {
+      std::vector<const LabelledFrame*> train;
+      for (size_t i = 0; i < frames.size(); ++i)
+        if (fold[i] != f) train.push_back(frames[i]);
+      const auto rt = fit_forest(train, tp, nullptr, nullptr);
+      for (size_t i = 0; i < frames.size(); ++i)
+        if (fold[i] == f) scores[i] = predict(*rt, frames[i]->set.candidates);
+    }
+  } else {
+    return Choice{};
+  }
+  Choice best;
+  double best_obj = -1e300;
+  for (double nms : tp.nms_ious) {
+    for (double t : tp.score_thresholds) {
+      std::vector<FrameRecord> recs;
+      for (size_t i = 0; i < frames.size(); ++i)
+        recs.push_back(
+            evaluate_frame(frames[i]->name, TrainedModel::select(frames[i]->set, scores[i], t, nms), frames[i]->truth));
+      const double o = objective(summarise(recs));
+      if (o > best_obj) {
+        best_obj = o;
+        best = Choice{t, nms};
+      }
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const CandidateParams& cparams,
+                         const TrainParams& tparams) {
+  cparams.validate();
+  tparams.validate();
+  if (frames.empty()) throw std::invalid_argument("train rocks: no training images");
+  TrainedModel m;
+  m.candidates = cparams;
+  const Choice c = choose_thresholds(frames, tparams);
+  m.score_threshold = c.threshold;
+  m.nms_iou = c.nms;
+  m.forest_ = std::make_shared<TrainedModel::Forest>();
+  m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
+  m.training_images = static_cast<int>(frames.size());
+  return m;
+}
+
+TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames, const CandidateParams& cparams,
+                                       const TrainParams& tparams, int folds) {
+  std::vector<std::string> groups;
+  for (const auto& f : frames) groups.push_back(f.group);
+  TrainedCvResult r;
+  r.fold_of = grouped_folds(groups, folds);
+  r.pooled.resize(frames.size());
+  cv::Mat map, map8;
+  for (int f = 0; f < folds; ++f) {
+    std::vector<const LabelledFrame*> train;
+    std::vector<size_t> test;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      if (r.fold_of[i] == f)
+        test.push_back(i);
+      else
+        train.push_back(&frames[i]);
+    }
+    const TrainedModel m = train_model(train, cparams, tparams);
+    r.thresholds.push_back(m.score_threshold);
+    r.nms_ious.push_back(m.nms_iou);
+    for (size_t i : test) {
+      const std::vector<float> s = m.score(frames[i].set);
+      TrainedModel::score_map(frames[i].set, s, m.nms_iou, map);
+      to_8bit(map, map8);
+      r.pooled[i] = evaluate_frame(frames[i].name, TrainedModel::select(frames[i].set, s, m.score_threshold, m.nms_iou),
+                                   frames[i].truth, map8);
+    }
+    r.fold_summaries.push_back(summarise(r.pooled, test));
+  }
+  return r;
+}
+
+std::string default_trained_model_path() {
+  const std::string src = REGOLITH_ROCKS_MODEL_SOURCE;
+  if (!src.empty() && std::filesystem::is_regular_file(src)) return src;
+  const std::string inst = REGOLITH_ROCKS_MODEL_INSTALLED;
+  if (!inst.empty()) return inst;
+  return src;
+}
+
+}  // namespace regolith::saliency

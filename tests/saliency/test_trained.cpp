@@ -1,0 +1,294 @@
+// The trained ranking stage (method "trained", issue 15): candidate features on a constructed
+// scene, bit-for-bit deterministic training, model-file errors, the shipped model being a
+// re-training of the dev set, and the grouped cross-validated accuracy on marsdata_rocks_dev.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "regolith/core/error.hpp"
+#include "regolith/saliency/dataset.hpp"
+#include "regolith/saliency/trained.hpp"
+
+namespace regolith::cli {
+void add_rocks_commands(CLI::App& app);
+}
+
+namespace rs = regolith::saliency;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kDev = fs::path(REGOLITH_SHARED_DIR) / "data" / "marsdata_rocks_dev";
+
+int feature_index(const std::string& name) {
+  const auto& n = rs::feature_names();
+  for (size_t i = 0; i < n.size(); ++i)
+    if (n[i] == name) return static_cast<int>(i);
+  ADD_FAILURE() << "no feature " << name;
+  return 0;
+}
+
+// Textured mid-grey ground with bright "rocks" (discs) and a dark shadow strip to the right of
+// each; `mask` marks the discs.
+cv::Mat rock_scene(uint64_t seed, cv::Mat& mask) {
+  cv::Mat img(240, 320, CV_32F);
+  cv::RNG rng(seed);
+  rng.fill(img, cv::RNG::NORMAL, 0.5, 0.05);
+  cv::GaussianBlur(img, img, cv::Size(0, 0), 1.5);
+  mask = cv::Mat::zeros(img.size(), CV_8U);
+  const int n = 2 + static_cast<int>(seed % 3);
+  for (int k = 0; k < n; ++k) {
+    const int r = rng.uniform(10, 26);
+    const cv::Point c(rng.uniform(40, 280), rng.uniform(40, 200));
+    cv::rectangle(img, cv::Rect(c.x + r, c.y - r / 2, r / 2, r), cv::Scalar(0.15), cv::FILLED);
+    cv::circle(img, c, r, cv::Scalar(rng.uniform(0.7, 0.9)), cv::FILLED);
+    cv::circle(mask, c, r, cv::Scalar(255), cv::FILLED);
+  }
+  return img;
+}
+
+std::vector<rs::LabelledFrame> synthetic_frames(int count) {
+  std::vector<rs::LabelledFrame> frames;
+  rs::CandidateExtractor ex;
+  for (int i = 0; i < count; ++i) {
+    cv::Mat mask;
+    const cv::Mat img = rock_scene(static_cast<uint64_t>(100 + i), mask);
+    rs::LabelledFrame f;
+    f.name = std::to_string(i) + "_synthetic.png";
+    f.group = rs::sol_group(f.name);
+    f.truth = rs::truth_from_mask(mask, 50);
+    ex.extract(img, f.set);
+    f.labels = rs::label_candidates(f.set, f.truth, 0.5);
+    frames.push_back(std::move(f));
+  }
+  return frames;
+}
+
+std::string read_all(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+rs::TrainParams small_forest() {
+  rs::TrainParams tp;
+  tp.trees = 20;
+  tp.inner_folds = 2;
+  return tp;
+}
+
+}  // namespace
+
+TEST(Trained, FeaturesOfACandidateOnAConstructedScene) {
+  ASSERT_EQ(rs::feature_names().size(), static_cast<size_t>(rs::kFeatureCount));
+  cv::Mat img(240, 320, CV_32F);
+  cv::RNG rng(3);
+  rng.fill(img, cv::RNG::NORMAL, 0.5, 0.03);
+  cv::GaussianBlur(img, img, cv::Size(0, 0), 1.5);
+  const cv::Rect rock(120, 100, 50, 40);  // bright block with a dark strip to its right
+  img(rock).setTo(0.85);
+  img(cv::Rect(rock.x + rock.width, rock.y, 15, rock.height)).setTo(0.38);  // faint shadow
+  rs::CandidateExtractor ex;
+  rs::CandidateSet set;
+  ex.extract(img, set);
+  ASSERT_FALSE(set.candidates.empty());
+  EXPECT_EQ(set.size, img.size());
+  const rs::RockCandidate* best = nullptr;
+  for (const auto& c : set.candidates) {
+    for (float v : c.features) EXPECT_TRUE(std::isfinite(v));
+    if (!best || rs::iou(c.box, rock) > rs::iou(best->box, rock)) best = &c;
+  }
+  ASSERT_NE(best, nullptr);
+  EXPECT_GE(rs::iou(best->box, rock), 0.5) << best->box;
+  const auto& f = best->features;
+  const cv::Rect& b = best->box;
+  EXPECT_NEAR(f[feature_index("log_box_area")], std::log(static_cast<double>(b.area())), 1e-4);
+  EXPECT_NEAR(f[feature_index("rel_width")], b.width / 320.0, 1e-6);
+  EXPECT_NEAR(f[feature_index("centre_row")], (b.y + 0.5 * b.height) / 240.0, 1e-6);
+  EXPECT_GT(f[feature_index("fill_ratio")], 0.6f);
+  EXPECT_LE(f[feature_index("fill_ratio")], 1.0f);
+  EXPECT_GT(f[feature_index("intensity_in")], 0.6f);
+  EXPECT_GT(f[feature_index("intensity_in_minus_ring")], 0.1f);
+  EXPECT_GT(f[feature_index("coarse_in_minus_ring")], 0.0f);
+  EXPECT_GT(f[feature_index("bright_frac_in")], 0.7f);
+  // The dark strip lies in the ring's right-hand side strip: the max side is mostly dark, the
+  // min side (textured ground) is not.
+  EXPECT_GT(f[feature_index("dark_side_max")], 0.5f);
+  EXPECT_LT(f[feature_index("dark_side_min")], 0.2f);
+  EXPECT_GT(f[feature_index("edge_density_in")], 0.0f);
+}
+
+TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
+  const auto frames = synthetic_frames(8);
+  std::vector<const rs::LabelledFrame*> ptrs;
+  for (const auto& f : frames) ptrs.push_back(&f);
+  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string a = (dir / "a.yml").string(), b = (dir / "b.yml").string(), gz = (dir / "c.yml.gz").string();
+  const rs::TrainedModel m1 = rs::train_model(ptrs, {}, small_forest());
+  m1.save(a);
+  rs::train_model(ptrs, {}, small_forest()).save(b);
+  const std::string ta = read_all(a), tb = read_all(b);
+  ASSERT_GT(ta.size(), 1000u);
+  EXPECT_TRUE(ta == tb) << "two trainings differ";
+  EXPECT_EQ(ta.rfind("%YAML", 0), 0u);
+  EXPECT_NE(ta.find("format: \"regolith.saliency.trained_rocks\""), std::string::npos);
+  EXPECT_NE(ta.find("version: 1"), std::string::npos);
+  m1.save(gz);
+  const rs::TrainedModel l = rs::TrainedModel::load(a), lz = rs::TrainedModel::load(gz);
+  EXPECT_EQ(l.candidates, m1.candidates);
+  EXPECT_EQ(l.score_threshold, m1.score_threshold);
+  EXPECT_EQ(l.nms_iou, m1.nms_iou);
+  EXPECT_EQ(l.score(frames[0].set), m1.score(frames[0].set));
+  EXPECT_EQ(lz.score(frames[1].set), m1.score(frames[1].set));
+  // On its own training scenes the model finds most discs (a sanity check, not an accuracy claim).
+  int matched = 0, gt = 0;
+  for (const auto& f : frames) {
+    const auto r = rs::evaluate_frame(f.name, l.detect(f.set), f.truth);
+    matched += r.at05.matched;
+    gt += r.at05.n_gt;
+  }
+  EXPECT_GT(matched, gt / 2) << matched << " of " << gt;
+  fs::remove_all(dir);
+}
+
+TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_bad_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto expect_error = [](const std::string& path, const std::string& what) {
+    try {
+      rs::TrainedModel::load(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const rs::ModelError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+      EXPECT_NE(msg.find(what), std::string::npos) << msg;
+    }
+  };
+  expect_error((dir / "missing.yml").string(), "not found");
+  const std::string garbage = (dir / "garbage.yml").string();
+  std::ofstream(garbage) << "\x01\x02 this is { not yaml ]]\n";
+  expect_error(garbage, "corrupt");
+  const std::string other = (dir / "other.yml").string();
+  std::ofstream(other) << "%YAML:1.0\n---\nformat: \"something.else\"\nversion: 1\n";
+  expect_error(other, "not a regolith rock model");
+  // A real model with another version number, and the same model truncated.
+  const auto frames = synthetic_frames(4);
+  std::vector<const rs::LabelledFrame*> ptrs;
+  for (const auto& f : frames) ptrs.push_back(&f);
+  const std::string good = (dir / "good.yml").string();
+  rs::train_model(ptrs, {}, small_forest()).save(good);
+  std::string text = read_all(good);
+  const std::string v2 = (dir / "v2.yml").string();
+  std::string t2 = text;
+  t2.replace(t2.find("version: 1"), 10, "version: 2");
+  std::ofstream(v2) << t2;
+  expect_error(v2, "version 2");
+  const std::string trunc = (dir / "truncated.yml").string();
+  std::ofstream(trunc) << text.substr(0, text.size() / 2);
+  expect_error(trunc, "corrupt");
+  fs::remove_all(dir);
+}
+
+TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
+  if (!fs::is_directory(kDev)) GTEST_SKIP() << "no " << kDev << " (shared data absent)";
+#if !defined(__x86_64__)
+  // Bit-for-bit holds on the platform that trained the shipped file (x86-64); another ISA may
+  // round the forest's floating point differently (and under emulation this takes many minutes).
+  GTEST_SKIP() << "the shipped model was trained on x86-64";
+#endif
+  const std::string shipped = fs::path(REGOLITH_SOURCE_DIR) / "components/saliency/models/rocks_trained.yml.gz";
+  ASSERT_TRUE(fs::is_regular_file(shipped));
+  EXPECT_EQ(rs::default_trained_model_path(), shipped);
+  const auto listing = rs::list_dataset((kDev / "images").string(), (kDev / "masks").string());
+  ASSERT_EQ(listing.items.size(), 60u);
+  rs::CandidateExtractor ex;
+  std::vector<rs::LabelledFrame> frames;
+  for (const auto& item : listing.items) frames.push_back(rs::make_labelled_frame(item, ex, 50, 0.5));
+  std::vector<const rs::LabelledFrame*> ptrs;
+  for (const auto& f : frames) ptrs.push_back(&f);
+  const fs::path out = fs::temp_directory_path() / ("regolith_retrained_" + std::to_string(::getpid()) + ".yml.gz");
+  rs::train_model(ptrs, {}, {}).save(out.string());
+  // Compare the decompressed content through a reload + re-save as plain YAML.
+  const fs::path p1 = out.string() + ".a.yml", p2 = out.string() + ".b.yml";
+  rs::TrainedModel::load(out.string()).save(p1.string());
+  rs::TrainedModel::load(shipped).save(p2.string());
+  EXPECT_TRUE(read_all(p1.string()) == read_all(p2.string()))  // no diff of 3 MB texts
+      << "re-training differs from " << shipped;
+  fs::remove(out);
+  fs::remove(p1);
+  fs::remove(p2);
+
+  // Grouped 5-fold CV: every fold scored by a model trained on the other folds only.
+  const rs::TrainedCvResult r = rs::cross_validate_trained(frames, {}, {}, 5);
+  ASSERT_EQ(r.fold_summaries.size(), 5u);
+  const rs::Summary s = rs::summarise(r.pooled);
+  EXPECT_EQ(s.images, 60);
+  EXPECT_EQ(s.gt, 559);
+  // Measured 0.238 / 0.106 / 0.664 with the default seed (components/saliency/README.md; the
+  // contrast method scores 0.245 / 0.141 / 0.704): a no-regression floor, not a win over contrast.
+  EXPECT_GT(s.n_moda02, 0.20) << s.n_moda02;
+  EXPECT_GT(s.n_moda05, 0.07) << s.n_moda05;
+  EXPECT_GT(s.max_f, 0.62) << s.max_f;
+}
+
+TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_cli_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "images");
+  fs::create_directories(dir / "masks");
+  std::vector<std::string> images;
+  for (int i = 0; i < 6; ++i) {
+    cv::Mat mask, img8;
+    rock_scene(static_cast<uint64_t>(200 + i), mask).convertTo(img8, CV_8U, 255.0);
+    const std::string stem = std::to_string(10 + i) + "_scene";
+    ASSERT_TRUE(cv::imwrite((dir / "images" / (stem + ".png")).string(), img8));
+    ASSERT_TRUE(cv::imwrite((dir / "masks" / (stem + ".png")).string(), mask));
+    images.push_back((dir / "images" / (stem + ".png")).string());
+  }
+  auto run = [](std::vector<std::string> args) {
+    CLI::App app{"test"};
+    regolith::cli::add_rocks_commands(app);
+    std::vector<const char*> argv{"regolith"};
+    for (const auto& a : args) argv.push_back(a.c_str());
+    app.parse(static_cast<int>(argv.size()), const_cast<char**>(argv.data()));
+  };
+  const std::string model = (dir / "model.yml").string(), csv = (dir / "out.csv").string();
+  run({"train", "rocks", "--images", (dir / "images").string(), "--masks", (dir / "masks").string(), "--out", model});
+  ASSERT_NO_THROW(rs::TrainedModel::load(model));
+  std::vector<std::string> args{"rocks"};
+  args.insert(args.end(), images.begin(), images.end());
+  for (const char* a : {"--method", "trained", "--model"}) args.push_back(a);
+  args.push_back(model);
+  args.push_back("--csv");
+  args.push_back(csv);
+  run(args);
+  std::ifstream f(csv);
+  std::string header, line;
+  std::getline(f, header);
+  EXPECT_EQ(header, "image,xmin,ymin,xmax,ymax,score");
+  int rows = 0;
+  while (std::getline(f, line)) ++rows;
+  EXPECT_GT(rows, 0);
+  // A corrupt model: exit-code-2 error (InputError) naming the file, before any image is read.
+  const std::string bad = (dir / "bad.yml").string();
+  std::ofstream(bad) << "garbage ]]\n";
+  args[args.size() - 3] = bad;
+  try {
+    run(args);
+    ADD_FAILURE() << "no error for a corrupt model";
+  } catch (const regolith::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
