@@ -582,7 +582,8 @@ TEST_F(DdsPubSub, EchoPrintsJsonLines) {
     EXPECT_EQ(std::string(e.what()),
               "unknown topic 'camera/image_raw' (known: joint_states, imu, "
               "diagnostics, terrain/grid_map, "
-              "terrain/rocks, terrain/wheel_sinkage, terrain/soil)");
+              "terrain/rocks, terrain/wheel_sinkage, terrain/soil, odom, "
+              "odom/wheel, terrain/world_map)");
   }
 }
 

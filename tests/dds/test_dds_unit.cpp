@@ -268,6 +268,13 @@ TEST(DdsTypes, RosWireTypeNamesAndKeyless) {
       "regolith_msgs/msg/SoilStiffness");
   expect_type<m::regolith_msgs::RockArray>(
       "regolith_msgs::msg::dds_::RockArray_", "regolith_msgs/msg/RockArray");
+  expect_type<m::geometry_msgs::Twist>("geometry_msgs::msg::dds_::Twist_",
+                                       "geometry_msgs/msg/Twist");
+  expect_type<m::geometry_msgs::TwistWithCovariance>(
+      "geometry_msgs::msg::dds_::TwistWithCovariance_",
+      "geometry_msgs/msg/TwistWithCovariance");
+  expect_type<m::nav_msgs::Odometry>("nav_msgs::msg::dds_::Odometry_",
+                                     "nav_msgs/msg/Odometry");
 }
 TEST(DdsTopics, TableLookupAndList) {
   ASSERT_NE(rd::find_topic("joint_states"), nullptr);
@@ -283,8 +290,13 @@ TEST(DdsTopics, TableLookupAndList) {
             "regolith_msgs/msg/WheelSinkage");
   EXPECT_EQ(rd::find_topic("terrain/soil")->ros_type,
             "regolith_msgs/msg/SoilStiffness");
+  EXPECT_EQ(rd::find_topic("odom")->ros_type, "nav_msgs/msg/Odometry");
+  EXPECT_EQ(rd::find_topic("odom/wheel")->ros_type, "nav_msgs/msg/Odometry");
+  EXPECT_EQ(rd::find_topic("terrain/world_map")->ros_type,
+            "grid_map_msgs/msg/GridMap");
+  EXPECT_EQ(rd::find_topic("terrain/world_map")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("camera/image_raw"), nullptr);
-  EXPECT_EQ(rd::known_topics().size(), 7u);
+  EXPECT_EQ(rd::known_topics().size(), 10u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
   for (const auto &t : rd::known_topics()) {

@@ -48,5 +48,17 @@ TEST(LiveResults, MockRoverComponentsReportTheirLatestOutput) {
       << result["traversability"];
   EXPECT_LT(unknown, 50.0);
   EXPECT_EQ(result["sfs"].rfind("DTM 320x240", 0), 0u) << result["sfs"];
+  // terrain_map on the moving mock rover: 6 s at 2 Hz = frames 0..12, every frame after the first
+  // tracked by the ground VO, the map growing.
+  long frames = 0, vo_ok = 0, vo_failed = 0, keyframes = 0, cells = 0;
+  ASSERT_EQ(std::sscanf(result["terrain_map"].c_str(), "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known",
+                        &frames, &vo_ok, &vo_failed, &keyframes, &cells),
+            5)
+      << result["terrain_map"];
+  EXPECT_EQ(frames, 13);
+  EXPECT_EQ(vo_ok + vo_failed, frames - 1);
+  EXPECT_GE(vo_ok, 10);
+  EXPECT_GE(keyframes, 1);
+  EXPECT_GT(cells, 1000);
   EXPECT_TRUE(result["health"].empty());  // not a perception component
 }

@@ -60,6 +60,8 @@ void DriveMapperParams::validate() const {
   map.validate();
   terrain.validate();
   parallax.validate();
+  sweep.validate();
+  sightings.validate();
   shadow.validate();
   if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
@@ -76,6 +78,8 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
       vo_(depth_, p_.vo),
       terrain_mapper_(depth_, p_.terrain),
       parallax_(depth_, p_.parallax),
+      sweep_(depth_, p_.sweep),
+      sightings_(depth_, p_.sightings),
       shadow_(parallax_.grid(), p_.shadow),
       map_(p_.map, map_center.x, map_center.y) {
   if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
@@ -93,6 +97,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   report_.cells_fused = 0;
   report_.parallax = false;
   report_.shadow_casters = 0;
+  report_.rock_sightings = 0;
   ++counters_.frames;
   Pose2 foot;
   Cov3 foot_cov;
@@ -106,8 +111,10 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     const VoMeasurement& m = vo_.track(gray, Pose2{});
     report_.vo = m.status;
     report_.vo_inliers = 0;
+    tilt_ = cv::Vec2d();
     vo_.promote_last();
     if (use_parallax()) parallax_.set_frame(gray), parallax_.promote();
+    if (use_parallax() && p_.sweep_in_image) sweep_.set_frame(gray), sweep_.promote();
     key_foot_ = foot;
     key_cov_ = Cov3::Zero();
     wheel_since_key_ = Pose2{};
@@ -142,8 +149,10 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     const Cov3 pred_cov = compose_covariance(wheel_since_key_, wheel_since_key_cov_, fs, fq);
     const VoMeasurement& m = vo_.track(gray, pred);
     if (use_parallax()) parallax_.set_frame(gray);
+    if (use_parallax() && p_.sweep_in_image) sweep_.set_frame(gray);
     report_.vo = m.status;
     report_.vo_inliers = m.inliers;
+    tilt_ = m.ok() ? cv::Vec2d(m.pitch_rad, m.roll_rad) : cv::Vec2d();
     Pose2 rel = pred;
     Cov3 rel_cov = pred_cov;
     if (m.ok() && p_.use_vision) {
@@ -164,7 +173,11 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     wheel_since_key_cov_ = rel_cov;
     // Heights from the parallax against the keyframe, placed with the keyframe's corrected pose.
     report_.parallax = false;
-    if (use_parallax() && m.ok() &&
+    if (use_parallax() && p_.sweep_in_image && m.ok() &&
+        sweep_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
+      report_.cells_fused += map_.fuse_points(sweep_.x(), sweep_.y(), sweep_.height(), sweep_.confidence(), key_foot_);
+      report_.parallax = true;
+    } else if (use_parallax() && !p_.sweep_in_image && m.ok() &&
         parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
       report_.cells_fused += map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
       report_.parallax = true;
@@ -182,6 +195,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (frame_good && (moved || thin || !m.ok())) {
       vo_.promote_last();
       if (use_parallax()) parallax_.promote();
+      if (use_parallax() && p_.sweep_in_image) sweep_.promote();
       key_foot_ = foot;
       key_cov_ = foot_cov;
       wheel_since_key_ = Pose2{};
@@ -197,6 +211,11 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   if (use_parallax() && p_.fuse_shadows && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
     report_.shadow_casters = shadow_.compute(parallax_.current(), parallax_.seen(), sb);
     if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
+  }
+  if (p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
+    report_.rock_sightings = sightings_.compute(gray, tilt_);
+    if (report_.rock_sightings > 0)
+      map_.fuse_sightings(sightings_.x(), sightings_.y(), sightings_.height(), sightings_.width(), sightings_.score(), foot);
   }
   if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
     terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);

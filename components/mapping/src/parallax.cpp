@@ -8,6 +8,7 @@
 #include <limits>
 #include <string>
 
+#include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
 
@@ -82,29 +83,6 @@ void GroundParallax::promote() {
   has_key_ = true;
 }
 
-void GroundParallax::box(const cv::Mat& src, cv::Mat& dst) {
-  // Window sums with clamped borders: rows then columns (tmp_ holds the intermediate).
-  const int w = p_.window, R = src.rows, C = src.cols;
-  for (int i = 0; i < R; ++i) {
-    const float* s = src.ptr<float>(i);
-    float* t = tmp_.ptr<float>(i);
-    double acc = 0;
-    for (int j = -w; j <= w; ++j) acc += s[std::clamp(j, 0, C - 1)];
-    for (int j = 0; j < C; ++j) {
-      t[j] = static_cast<float>(acc);
-      acc += s[std::min(j + w + 1, C - 1)] - s[std::max(j - w, 0)];
-    }
-  }
-  for (int j = 0; j < C; ++j) {
-    double acc = 0;
-    for (int i = -w; i <= w; ++i) acc += tmp_.at<float>(std::clamp(i, 0, R - 1), j);
-    for (int i = 0; i < R; ++i) {
-      dst.at<float>(i, j) = static_cast<float>(acc);
-      acc += tmp_.at<float>(std::min(i + w + 1, R - 1), j) - tmp_.at<float>(std::max(i - w, 0), j);
-    }
-  }
-}
-
 bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct) {
   const cv::Mat &key = key_, &key_ok = key_ok_, &cur = cur_, &cur_ok = cur_ok_;
   const double base = std::hypot(m.x, m.y);
@@ -163,7 +141,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
-    box(e_, c2_);
+    common::box_sum(e_, c2_, tmp_, p_.window);
     if (t < 2) continue;
     for (int i = 0; i < R; ++i) {
       const float* l = c0_.ptr<float>(i);

@@ -19,7 +19,7 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 using common::fill;
 
-enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kShadow, kHazard, kLayers };
+enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kShadow, kHazard, kEvidence, kRockHeight, kLayers };
 
 }  // namespace
 
@@ -40,6 +40,10 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(shadow_spread_m) || shadow_spread_m < 0) fail("shadow_spread_m", "must be >= 0");
   if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
   if (!std::isfinite(rock_min_area_m2) || rock_min_area_m2 < 0) fail("rock_min_area_m2", "must be >= 0");
+  if (!std::isfinite(sighting_radius_m) || sighting_radius_m < 0) fail("sighting_radius_m", "must be >= 0");
+  if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
+  if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
+  if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
   if (length_x_m / resolution_m > 4096 || length_y_m / resolution_m > 4096)
     fail("resolution_m", "more than 4096 cells per side");
   if (length_x_m < 2 * resolution_m || length_y_m < 2 * resolution_m) fail("length_x_m", "below two cells");
@@ -56,7 +60,9 @@ const std::vector<std::string>& WorldMap::layer_names() {
                                               "traversability",
                                               "relief",
                                               "shadow_height",
-                                              "hazard"};
+                                              "hazard",
+                                              "rock_evidence",
+                                              "rock_height"};
   return names;
 }
 
@@ -68,7 +74,7 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) m->create(rows_, cols_, CV_64F), fill(*m, 0.0);
   count_.create(rows_, cols_, CV_32F);
   fill(count_, 0.0f);
-  for (cv::Mat* m : {&shadow_w_, &shadow_h_}) m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
+  for (cv::Mat* m : {&shadow_w_, &shadow_h_, &sight_w_, &sight_h_, &sight_d_}) m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
   layers_.resize(kLayers);
   for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
   for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_}) m->create(rows_, cols_, CV_32F);
@@ -114,6 +120,9 @@ void WorldMap::recenter(double x, double y, double margin_m) {
   shift(count_, 0.0f);
   shift(shadow_w_, 0.0f);
   shift(shadow_h_, 0.0f);
+  shift(sight_w_, 0.0f);
+  shift(sight_h_, 0.0f);
+  shift(sight_d_, 0.0f);
   for (auto& m : layers_) shift(m, kNaNf);
   ox_ += dj * p_.resolution_m;
   oy_ += di * p_.resolution_m;
@@ -231,6 +240,31 @@ int WorldMap::fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h,
   return updated;
 }
 
+int WorldMap::fuse_sightings(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const cv::Mat& score,
+                             const Pose2& foot) {
+  if (!foot.finite()) return 0;
+  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw), inv_res = 1.0 / p_.resolution_m;
+  const int rad = static_cast<int>(std::floor(p_.sighting_radius_m * inv_res));
+  int fused = 0;
+  for (int k = 0; k < h.cols; ++k) {
+    const float hk = h.at<float>(0, k), wk = w.at<float>(0, k), sk = score.at<float>(0, k);
+    if (!std::isfinite(hk)) break;
+    if (!(sk > 0.0f) || !std::isfinite(wk)) continue;
+    const double bx = x.at<float>(0, k), by = y.at<float>(0, k);
+    const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
+    const int j0 = static_cast<int>(std::lround((wx - ox_) * inv_res)), i0 = static_cast<int>(std::lround((wy - oy_) * inv_res));
+    for (int i = std::max(0, i0 - rad); i <= std::min(rows_ - 1, i0 + rad); ++i)
+      for (int j = std::max(0, j0 - rad); j <= std::min(cols_ - 1, j0 + rad); ++j) {
+        if ((i - i0) * (i - i0) + (j - j0) * (j - j0) > rad * rad) continue;
+        sight_w_.at<float>(i, j) += sk;
+        sight_h_.at<float>(i, j) += sk * hk;
+        sight_d_.at<float>(i, j) += sk * wk;
+      }
+    ++fused;
+  }
+  return fused;
+}
+
 // Normalised-convolution Gaussian (three box passes) of `src` with weights `w` (0 = unknown).
 void WorldMap::smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells) {
   const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_cells * sigma_cells + 1.0) - 1.0) / 2.0)));
@@ -312,9 +346,18 @@ void WorldMap::finish() {
             best = shadow_h_.at<float>(a, b);
       shadow.at<float>(i, j) = best;
     }
+  cv::Mat& evidence = layers_[kEvidence];
+  cv::Mat& rock_h = layers_[kRockHeight];
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
-      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j), sh = shadow.at<float>(i, j);
+      const float e = sight_w_.at<float>(i, j);
+      evidence.at<float>(i, j) = e > 0.0f ? e : kNaNf;
+      rock_h.at<float>(i, j) = e >= p_.rock_min_evidence ? sight_h_.at<float>(i, j) / e : kNaNf;
+    }
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j), rh = rock_h.at<float>(i, j);
+      const float sh = std::isfinite(rh) && !(shadow.at<float>(i, j) >= rh) ? rh : shadow.at<float>(i, j);
       const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
       relief.at<float>(i, j) = r;
       float hz = std::isfinite(r) ? r : kNaNf;
@@ -341,10 +384,12 @@ std::vector<MapRock> WorldMap::rocks() const {
   std::vector<MapRock> out;
   std::vector<float> top(static_cast<std::size_t>(n), -1e30f);
   std::vector<cv::Point> at(static_cast<std::size_t>(n));
+  const cv::Mat& conf = layers_[kConfidence];
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
       const int l = labels.at<int>(i, j);
-      if (l > 0 && relief.at<float>(i, j) > top[static_cast<std::size_t>(l)]) {
+      if (l > 0 && relief.at<float>(i, j) > top[static_cast<std::size_t>(l)] &&
+          (p_.rock_min_confidence <= 0 || conf.at<float>(i, j) >= p_.rock_min_confidence)) {
         top[static_cast<std::size_t>(l)] = relief.at<float>(i, j);
         at[static_cast<std::size_t>(l)] = {j, i};
       }
@@ -363,8 +408,36 @@ std::vector<MapRock> WorldMap::rocks() const {
     r.score = std::clamp(h / p_.hazard_height_m, 0.0, 1.0);
     out.push_back(r);
   }
+  // Rocks sighted in several frames: local maxima of the evidence (3 x 3) that reach
+  // rock_min_evidence, with the sightings' mean height and width there.
+  for (int i = 1; i + 1 < rows_; ++i)
+    for (int j = 1; j + 1 < cols_; ++j) {
+      const float e = sight_w_.at<float>(i, j);
+      if (e < p_.rock_min_evidence) continue;
+      bool peak = true;
+      for (int a = -1; a <= 1 && peak; ++a)
+        for (int b = -1; b <= 1 && peak; ++b)
+          if ((a || b) && (sight_w_.at<float>(i + a, j + b) > e || (sight_w_.at<float>(i + a, j + b) == e && (a < 0 || (a == 0 && b < 0)))))
+            peak = false;
+      if (!peak) continue;
+      MapRock r;
+      const cv::Point2d c = cell_center(i, j);
+      r.x_m = c.x;
+      r.y_m = c.y;
+      r.height_m = sight_h_.at<float>(i, j) / e;
+      r.width_m = sight_d_.at<float>(i, j) / e;
+      r.score = std::clamp(r.height_m / p_.hazard_height_m, 0.0, 1.0) * std::min(1.0, e / (2.0 * p_.rock_min_evidence));
+      if (r.height_m >= p_.rock_min_height_m) out.push_back(r);
+    }
+  // One rock per place: the strongest of those closer than rock_merge_m.
   std::sort(out.begin(), out.end(), [](const MapRock& a, const MapRock& b) { return a.score > b.score; });
-  return out;
+  std::vector<MapRock> kept;
+  for (const MapRock& r : out) {
+    bool near = false;
+    for (const MapRock& k : kept) near = near || std::hypot(r.x_m - k.x_m, r.y_m - k.y_m) < p_.rock_merge_m;
+    if (!near) kept.push_back(r);
+  }
+  return kept;
 }
 
 }  // namespace regolith::mapping

@@ -11,6 +11,9 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
 std::unique_ptr<hal::WheelEncoders> make_scripted_encoders(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::WheelEncoders> make_candump_encoders(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::Camera> make_synthetic_drive_camera(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::WheelEncoders> make_synthetic_drive_encoders(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::Imu> make_synthetic_drive_imu(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Camera> make_synthetic_wheel_camera(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::WheelEncoders> make_synthetic_wheel_encoders(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Imu> make_scripted_imu(Params& p, const hal::DeviceContext& ctx);

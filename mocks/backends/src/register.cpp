@@ -20,6 +20,14 @@ void register_mock_backends(hal::BackendRegistry& registry) {
 #ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
   registry.add_camera("synthetic_terrain", "rover camera over generated Lambertian terrain (frames rendered at configure)",
                       make_synthetic_terrain_camera);
+  registry.add_camera("synthetic_drive",
+                      "rover camera driving a scripted arc over a generated tile with rocks, craters and cast shadows "
+                      "(pair: synthetic_drive encoders and imu)",
+                      make_synthetic_drive_camera);
+  registry.add_encoders("synthetic_drive", "the wheel rotations of the synthetic_drive path (rover.wheels, optional slip)",
+                        make_synthetic_drive_encoders);
+  registry.add<hal::Imu>("synthetic_drive", "heading and yaw rate of the synthetic_drive path (level body)",
+                         make_synthetic_drive_imu);
 #endif
 #ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
   registry.add_camera("synthetic_wheel", "wheel-leg scene rendered for a scripted wheel angle (pair: synthetic_wheel encoders)",
@@ -41,6 +49,7 @@ std::vector<std::string> mock_camera_backends() {
   std::vector<std::string> v{"image_files", "fault_injection"};
 #ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
   v.emplace_back("synthetic_terrain");
+  v.emplace_back("synthetic_drive");
 #endif
 #ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
   v.emplace_back("synthetic_wheel");
@@ -52,6 +61,9 @@ std::vector<std::string> mock_camera_backends() {
 }
 std::vector<std::string> mock_encoder_backends() {
   std::vector<std::string> v{"scripted", "candump", "fault_injection"};
+#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+  v.emplace_back("synthetic_drive");
+#endif
 #ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
   v.emplace_back("synthetic_wheel");
 #endif

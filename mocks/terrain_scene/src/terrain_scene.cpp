@@ -113,12 +113,22 @@ Terrain::Terrain(const SceneParams& p) {
   std::uniform_real_distribution<double> ux(p.place_x_min_m, p.place_x_max_m);
   std::uniform_real_distribution<double> uy(-p.place_y_abs_max_m, p.place_y_abs_max_m);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
+  auto clear = [&p](double x, double y, double radius) {
+    for (const cv::Point2d& q : p.keep_clear_points)
+      if (std::hypot(x - q.x, y - q.y) < radius + p.keep_clear_m) return false;
+    return true;
+  };
 
   for (int k = 0; k < p.num_craters; ++k) {
     Crater c;
-    c.x_m = ux(rng);
-    c.y_m = uy(rng);
-    c.radius_m = p.crater_radius_min_m + u01(rng) * (p.crater_radius_max_m - p.crater_radius_min_m);
+    bool placed = false;
+    for (int attempt = 0; attempt < 100 && !placed; ++attempt) {
+      c.x_m = ux(rng);
+      c.y_m = uy(rng);
+      c.radius_m = p.crater_radius_min_m + u01(rng) * (p.crater_radius_max_m - p.crater_radius_min_m);
+      placed = clear(c.x_m, c.y_m, 1.3 * c.radius_m);
+    }
+    if (!placed) continue;
     c.depth_m = p.crater_depth_ratio * c.radius_m;
     craters_.push_back(c);
     // Parabolic bowl inside the rim, raised rim decaying outside (rim height 0.2 depth).
@@ -141,16 +151,20 @@ Terrain::Terrain(const SceneParams& p) {
   }
   for (int k = 0; k < p.num_rocks; ++k) {
     Rock rk;
-    rk.x_m = ux(rng);
-    rk.y_m = uy(rng);
-    const double rad =
-        p.rock_radius_min_m + u01(rng) * (p.rock_radius_max_m - p.rock_radius_min_m);
-    const double elong = 0.8 + 0.4 * u01(rng);
-    rk.radius_x_m = rad * elong;
-    rk.radius_y_m = rad / elong;
-    rk.height_m = rad * (p.rock_height_ratio_min +
-                         u01(rng) * (p.rock_height_ratio_max - p.rock_height_ratio_min));
-    rocks_.push_back(rk);
+    bool placed = false;
+    for (int attempt = 0; attempt < 100 && !placed; ++attempt) {
+      rk.x_m = ux(rng);
+      rk.y_m = uy(rng);
+      const double rad =
+          p.rock_radius_min_m + u01(rng) * (p.rock_radius_max_m - p.rock_radius_min_m);
+      const double elong = 0.8 + 0.4 * u01(rng);
+      rk.radius_x_m = rad * elong;
+      rk.radius_y_m = rad / elong;
+      rk.height_m = rad * (p.rock_height_ratio_min +
+                           u01(rng) * (p.rock_height_ratio_max - p.rock_height_ratio_min));
+      placed = clear(rk.x_m, rk.y_m, std::max(rk.radius_x_m, rk.radius_y_m));
+    }
+    if (placed) rocks_.push_back(rk);
   }
   // Rocks on top of the terrain: z = base + h sqrt(1 - ex^2 - ey^2); base = terrain at the centre
   // (so the rock height above its local ground is exact), taking the max with the terrain.

@@ -72,6 +72,21 @@ json to_json(const msgs::geometry_msgs::PoseWithCovariance &m) {
 json to_json(const msgs::geometry_msgs::Vector3 &m) {
   return {{"x", num(m.x)}, {"y", num(m.y)}, {"z", num(m.z)}};
 }
+json to_json(const msgs::geometry_msgs::Twist &m) {
+  return {{"linear", to_json(m.linear)}, {"angular", to_json(m.angular)}};
+}
+json to_json(const msgs::geometry_msgs::TwistWithCovariance &m) {
+  json cov = json::array();
+  for (double c : m.covariance)
+    cov.push_back(num(c));
+  return {{"twist", to_json(m.twist)}, {"covariance", cov}};
+}
+json to_json(const msgs::nav_msgs::Odometry &m) {
+  return {{"header", to_json(m.header)},
+          {"child_frame_id", str(m.child_frame_id)},
+          {"pose", to_json(m.pose)},
+          {"twist", to_json(m.twist)}};
+}
 json to_json(const msgs::sensor_msgs::Imu &m) {
   auto cov = [](const double (&c)[9]) {
     json a = json::array();

@@ -32,6 +32,14 @@ void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
 }
 
+void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity) {
+  reserve_header(m.header, frame_id_capacity);
+  if (m.child_frame_id != nullptr)
+    dds_free(m.child_frame_id);
+  m.child_frame_id = alloc_string(frame_id_capacity);
+  m.pose.pose.orientation.w = 1.0;
+}
+
 void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_string_sequence(m.name, c.joints, c.name_capacity);

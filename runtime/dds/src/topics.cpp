@@ -21,8 +21,8 @@ template <class Msg> TopicInfo entry(std::string_view name, TopicClass cls) {
                    MsgTraits<Msg>::descriptor(), &render<Msg>};
 }
 
-const std::array<TopicInfo, 7> &table() {
-  static const std::array<TopicInfo, 7> t = {
+const std::array<TopicInfo, 10> &table() {
+  static const std::array<TopicInfo, 10> t = {
       entry<msgs::sensor_msgs::JointState>("joint_states", TopicClass::kStream),
       entry<msgs::sensor_msgs::Imu>("imu", TopicClass::kStream),
       entry<msgs::diagnostic_msgs::DiagnosticArray>("/diagnostics",
@@ -35,6 +35,10 @@ const std::array<TopicInfo, 7> &table() {
                                                TopicClass::kStream),
       entry<msgs::regolith_msgs::SoilStiffness>("terrain/soil",
                                                 TopicClass::kState),
+      entry<msgs::nav_msgs::Odometry>("odom", TopicClass::kStream),
+      entry<msgs::nav_msgs::Odometry>("odom/wheel", TopicClass::kStream),
+      entry<msgs::grid_map_msgs::GridMap>("terrain/world_map",
+                                          TopicClass::kState),
   };
   return t;
 }

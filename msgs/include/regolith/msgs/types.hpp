@@ -14,9 +14,12 @@
 #include "geometry_msgs/msg/Pose2D.h"
 #include "geometry_msgs/msg/PoseWithCovariance.h"
 #include "geometry_msgs/msg/Quaternion.h"
+#include "geometry_msgs/msg/Twist.h"
+#include "geometry_msgs/msg/TwistWithCovariance.h"
 #include "geometry_msgs/msg/Vector3.h"
 #include "grid_map_msgs/msg/GridMap.h"
 #include "grid_map_msgs/msg/GridMapInfo.h"
+#include "nav_msgs/msg/Odometry.h"
 #include "regolith_msgs/msg/RockArray.h"
 #include "regolith_msgs/msg/SoilStiffness.h"
 #include "regolith_msgs/msg/WheelSinkage.h"
@@ -52,6 +55,9 @@ REGOLITH_MSGS_ALIAS(geometry_msgs, Quaternion)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Pose)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Pose2D)
 REGOLITH_MSGS_ALIAS(geometry_msgs, PoseWithCovariance)
+REGOLITH_MSGS_ALIAS(geometry_msgs, Twist)
+REGOLITH_MSGS_ALIAS(geometry_msgs, TwistWithCovariance)
+REGOLITH_MSGS_ALIAS(nav_msgs, Odometry)
 REGOLITH_MSGS_ALIAS(sensor_msgs, JointState)
 REGOLITH_MSGS_ALIAS(sensor_msgs, Imu)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Vector3)

@@ -67,6 +67,9 @@ class DirectDepth {
   /// NaN where invalid). Used by traversability for scale recovery.
   const cv::Mat& footprint_lateral_map() const { return foot_lat_; }
   const cv::Mat& footprint_range_map() const { return foot_rng_; }
+  /// Rotation from the optical frame (x right, y down, z along the axis) to the body frame
+  /// (x forward, y left, z up) for the mount's pitch and roll.
+  const cv::Matx33d& body_from_optical() const { return r_body_from_optical_; }
   /// Row of the horizon at column cx (may be outside the image); rows below it are valid.
   double horizon_row() const;
 

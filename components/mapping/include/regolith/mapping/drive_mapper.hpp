@@ -16,6 +16,8 @@
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/ground_vo.hpp"
 #include "regolith/mapping/parallax.hpp"
+#include "regolith/mapping/plane_sweep.hpp"
+#include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/mapping/shadow.hpp"
 #include "regolith/mapping/pose2.hpp"
 #include "regolith/mapping/world_map.hpp"
@@ -44,6 +46,8 @@ struct DriveMapperParams {
   WheelNoise wheel;
   WorldMapParams map;
   ParallaxParams parallax;
+  PlaneSweepParams sweep;
+  RockSightingParams sightings;
   ShadowParams shadow;
   traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
   double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
@@ -52,7 +56,9 @@ struct DriveMapperParams {
   bool use_vision = true;             ///< false: wheel odometry only (for comparison)
   bool fuse_terrain = true;           ///< false: odometry only (no terrain in the map)
   bool fuse_parallax = true;          ///< heights from motion parallax against the keyframe
-  bool fuse_shadows = true;           ///< object heights from cast shadows (needs fuse_parallax: its rectification)
+  bool sweep_in_image = true;         ///< parallax by a plane sweep in the image (else in the ground-rectified frame)
+  bool fuse_shadows = false;          ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: more false rocks than found on the dev drives
+  bool fuse_sightings = true;         ///< rocks sighted in each frame, ranged on the ground (far rocks)
   bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
   double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
   static traversability::TraversabilityParams default_terrain() {
@@ -81,6 +87,7 @@ struct FrameReport {
   int cells_fused = 0;
   bool parallax = false;  ///< heights from parallax were fused
   int shadow_casters = 0; ///< objects measured from their shadows in this frame
+  int rock_sightings = 0; ///< rocks sighted and ranged in this frame
   Pose2 pose;        ///< corrected rover pose (world)
   Cov3 covariance;   ///< of `pose`
   Pose2 wheel_pose;  ///< wheel odometry as given
@@ -122,6 +129,8 @@ class DriveMapper {
   GroundVisualOdometry vo_;
   traversability::TraversabilityMapper terrain_mapper_;
   GroundParallax parallax_;
+  PlaneSweep sweep_;
+  RockSightings sightings_;
   ShadowCue shadow_;
   traversability::GridMap terrain_;
   WorldMap map_;
@@ -130,6 +139,7 @@ class DriveMapper {
   bool started_ = false;
   Pose2 last_wheel_;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
+  cv::Vec2d tilt_;                   // this frame's camera tilt against the ground (VO; 0 without)
   Pose2 key_foot_;                   // keyframe camera foot in the world
   Cov3 key_cov_ = Cov3::Zero();      // its covariance
   Pose2 wheel_since_key_;            // wheel-predicted camera foot in the keyframe frame

@@ -72,7 +72,6 @@ class GroundParallax {
   const cv::Mat& confidence() const { return conf_; }
 
  private:
-  void box(const cv::Mat& src, cv::Mat& dst);  // window sum, no allocation
   void remove_plane();
   ParallaxParams p_;
   direct_depth::GroundRectifier rect_;

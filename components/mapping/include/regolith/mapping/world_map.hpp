@@ -14,7 +14,8 @@
 //   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
 //   local ground), shadow_height (heights of objects measured from their cast shadows, spread
 //   over shadow_spread_m around their feet), hazard (0..1: max of relief and shadow height over
-//   hazard_height_m).
+//   hazard_height_m), rock_evidence (summed scores of rock sightings within sighting_radius_m)
+//   and rock_height (their weighted mean height, where the evidence reaches rock_min_evidence).
 // Derived layers (finish()) and rocks (connected relief blobs) are computed on request.
 #include <opencv2/core.hpp>
 
@@ -44,6 +45,10 @@ struct WorldMapParams {
   double shadow_spread_m = 0.08;      ///< m, a caster's height covers cells this close to its foot
   double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
   double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
+  double sighting_radius_m = 0.12;    ///< m, a rock sighting counts for cells this close to its centre
+  double rock_min_evidence = 2.0;     ///< summed sighting scores a rock needs (several frames agreeing)
+  double rock_merge_m = 0.25;         ///< m, rocks closer than this are one rock (the stronger kept)
+  double rock_min_confidence = 0.3;   ///< confidence a rock's top cell needs (0 = any; a shadow-only top has none)
   traversability::TraversabilityParams traversability;  ///< slope / step / roughness thresholds
   /// Throws FieldError("mapping.map", field, ...) naming the bad field.
   void validate() const;
@@ -92,6 +97,13 @@ class WorldMap {
   /// what stands there, not of the ground). No heap allocation.
   int fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const Pose2& camera_foot);
 
+  /// Fuses rocks sighted in one frame (RockSightings): centres (x, y) in the frame `camera_foot`
+  /// places in the world, height, width (m) and score (> 0; NaN height ends the list). Each adds
+  /// its score to the evidence of the cells within sighting_radius_m and its height and width to
+  /// their weighted means. No heap allocation.
+  int fuse_sightings(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const cv::Mat& score,
+                     const Pose2& camera_foot);
+
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
   /// accumulators. No heap allocation after the first call.
   void finish();
@@ -106,6 +118,7 @@ class WorldMap {
   double ox_ = 0.0, oy_ = 0.0;
   cv::Mat wsum_, mean_, m2_, count_;  // accumulators (CV_64F weight/mean/m2, CV_32F count)
   cv::Mat shadow_w_, shadow_h_;       // caster heights from shadows: weight, weighted mean (CV_32F)
+  cv::Mat sight_w_, sight_h_, sight_d_;  // rock sightings: evidence, weighted sums of height and width (CV_32F)
   std::vector<cv::Mat> layers_;
   traversability::GridMap trav_;      // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;

@@ -3,8 +3,9 @@
 // simulated one) lazily: a query at time `now` returns what a real device started at `start()`
 // would have delivered by `now`; everything is preloaded at construction (= configure time).
 //
-// Cameras : image_files, synthetic_terrain, fault_injection
-// Encoders: scripted, candump, fault_injection
+// Cameras : image_files, synthetic_terrain, synthetic_drive, fault_injection
+// Encoders: scripted, candump, synthetic_drive, fault_injection
+// IMUs    : scripted, synthetic_drive
 // (synthetic_wheel only when the wheel scene library is available; see README.md)
 #include <string>
 #include <vector>

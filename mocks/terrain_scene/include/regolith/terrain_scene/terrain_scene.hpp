@@ -47,6 +47,11 @@ struct SceneParams {
   double crater_depth_ratio = 0.15;  ///< depth / radius
   /// Objects are placed with x in [place_x_min, place_x_max] and |y| <= place_y_abs_max.
   double place_x_min_m = 1.0, place_x_max_m = 8.0, place_y_abs_max_m = 3.0;
+  /// Objects whose footprint (rim radius, rock half-axis) comes within `keep_clear_m` of any of
+  /// these points are drawn again (up to 100 times, then left out); empty = no constraint (the
+  /// random draws are then exactly those of a scene without it).
+  std::vector<cv::Point2d> keep_clear_points;
+  double keep_clear_m = 0.0;
   void validate() const;
 };
 

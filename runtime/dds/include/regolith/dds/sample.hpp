@@ -158,6 +158,9 @@ void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c);
 /// sensor_msgs/Imu: only header.frame_id is variable-size (fixed-size vectors and covariances).
 void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity = 32);
 
+/// nav_msgs/Odometry: header.frame_id and child_frame_id (fixed-size pose, twist, covariances).
+void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity = 32);
+
 /// diagnostic_msgs/DiagnosticArray with `statuses` statuses of
 /// `values_per_status` key/values; every string has `string_capacity`
 /// characters.

@@ -1,0 +1,87 @@
+#pragma once
+// Heights from motion parallax by a plane sweep in the keyframe image (metric, per pixel).
+//
+// Two frames of one camera whose relative motion is known (GroundVisualOdometry: the current
+// camera foot in the keyframe's foot frame, and each camera's tilt against the ground) see a
+// point at height z above the ground along the keyframe pixel's ray at
+//   P(z) = C + (1 - z / h) t_g d,   d = the pixel's ray, t_g its ground intersection (P(0)).
+// Projected into the current frame, P(z) moves along the epipolar line; the height whose
+// projection looks like the keyframe pixel (sum of squared differences over a window, with the
+// fit's brightness change current = gain * key + bias; sub-step parabola) is the pixel's height.
+// The sweep works at the camera's own resolution, so far ground (where a pixel covers
+// decimetres) is matched as finely as the image allows and no finer: each image row gets its own
+// height step, the one that moves its pixels by `step_px` in the current frame.
+//
+// Per keyframe pixel: height (m above the keyframe camera's ground plane, NaN unknown), the
+// point's ground position in the keyframe's foot frame (x forward, y left, m) and a confidence
+// (curvature of the cost at its minimum against the image noise, lowered by a poor best match).
+// Flat, textureless, occluded or ambiguous pixels get none.
+//
+// Images with lens distortion are undistorted into pinhole images first (maps built once).
+// All buffers are allocated in the constructor: set_frame / promote / compute do not allocate.
+#include <opencv2/core.hpp>
+
+#include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/mapping/pose2.hpp"
+
+namespace regolith::mapping {
+
+struct PlaneSweepParams {
+  double min_range_m = 0.8;      ///< m, keyframe pixels whose ground point is nearer are not swept
+  double max_range_m = 5.0;      ///< m, ... or farther
+  double min_baseline_m = 0.20;  ///< m, shorter camera motions are not used (parallax too small)
+  double min_height_m = -0.06;   ///< m, sweep from this height ...
+  double max_height_m = 0.40;    ///< m, ... to this one above the ground
+  double step_px = 1.0;          ///< px, largest image motion between two height hypotheses
+  int max_steps = 96;            ///< hypotheses per pixel at most (near rows get coarser steps)
+  int window = 2;                ///< half-width of the matching window (px): 5 x 5
+  double noise_dn = 2.0;         ///< grey levels, image noise for the confidence
+  double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far rows,
+                                   ///< short baselines) scale it by (reference / step)^2
+  double min_confidence = 0.001;   ///< pixels below this are unknown
+  void validate() const;         ///< FieldError("mapping.sweep", ...)
+};
+
+class PlaneSweep {
+ public:
+  /// `depth` must outlive this object (its camera model and mount rotation are used).
+  PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepParams& params);
+
+  /// Takes an 8-bit grey frame (camera size, else FieldError naming "gray") as the current frame.
+  void set_frame(const cv::Mat& gray);
+  /// The current frame becomes the keyframe (buffers swapped).
+  void promote();
+  bool has_keyframe() const { return has_key_; }
+
+  /// Heights of the keyframe's pixels from the current frame. cur_in_key: the current camera
+  /// foot in the keyframe's foot frame; gain, bias: current = gain * key + bias; key_tilt,
+  /// cur_tilt: (pitch, roll) of each camera against the ground beyond the mount (rad).
+  /// Returns false (nothing computed) when the baseline is shorter than min_baseline_m.
+  bool compute(const Pose2& cur_in_key, double gain, double bias, const cv::Vec2d& key_tilt = {},
+               const cv::Vec2d& cur_tilt = {});
+
+  /// Per keyframe pixel (CV_32F, camera size): height above the ground (m, NaN unknown), ground
+  /// position in the keyframe's foot frame (m) and confidence (0..1).
+  const cv::Mat& height() const { return z_; }
+  const cv::Mat& x() const { return x_; }
+  const cv::Mat& y() const { return y_; }
+  const cv::Mat& confidence() const { return conf_; }
+  /// Hypotheses evaluated by the last compute() (pixels x steps), for benchmarks.
+  long samples() const { return samples_; }
+
+ private:
+  void load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok);
+  PlaneSweepParams p_;
+  const direct_depth::DirectDepth& depth_;
+  double h_;
+  bool has_key_ = false;
+  long samples_ = 0;
+  cv::Mat undist_x_, undist_y_, undist_;  // distortion maps (empty for a pinhole camera)
+  cv::Mat nrm_;                            // CV_32FC3 nominal ray per pixel (body frame, not normalised)
+  cv::Mat key_, key_ok_, cur_, cur_ok_;
+  cv::Mat ray_, ox_, oy_, oz_, row_step_;  // per compute: tilted key ray scale, o1 components, step per row
+  cv::Mat e_, c0_, c1_, c2_, best_, left_, right_, bests_, tmp_;
+  cv::Mat z_, x_, y_, conf_;
+};
+
+}  // namespace regolith::mapping

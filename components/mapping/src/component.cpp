@@ -1,0 +1,491 @@
+// Component "terrain_map": camera frames + wheel odometry (+ IMU heading) -> DriveMapper ->
+// corrected odometry (channel `odom`, DDS `odom`, `odom/wheel`) and the world-frame map (DDS
+// `terrain/world_map`). Everything is allocated in configure(); step() reuses it.
+#include "regolith/mapping/component.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "regolith/common/camera.hpp"
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
+#include "regolith/hal/camera.hpp"
+#include "regolith/hal/imu.hpp"
+#include "regolith/hal/wheel_encoders.hpp"
+#include "regolith/mapping/wheel_odometry.hpp"
+#include "regolith/runtime/application.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+using OdometryMsg = msgs::nav_msgs::Odometry;
+using GridMapMsg = msgs::grid_map_msgs::GridMap;
+constexpr double kUnobserved = 1e6;  // variance of what a planar odometry does not estimate (z, roll, pitch)
+constexpr std::size_t kMaxSubsteps = 64;
+constexpr const char* kOdomTopic = "odom";
+constexpr const char* kWheelOdomTopic = "odom/wheel";
+constexpr const char* kMapTopic = "terrain/world_map";
+
+// The key of this component's YAML that sets a DriveMapperParams field (FieldError owner + field).
+std::string key_of(const FieldError& e) {
+  if (e.owner() == "mapping.map") return "map_" + e.field();
+  if (e.owner() == "mapping.wheel") return "wheel_" + e.field();
+  return e.field();
+}
+
+// Row-major WorldMap layer (row 0 = smallest y, column 0 = smallest x) -> grid_map's column-major
+// buffer (index 0 = the +x/+y corner, Eigen rows along -x): exactly the reversed row-major order.
+void export_reversed(const cv::Mat& layer, float* out, std::size_t n) {
+  const std::size_t total = layer.total();
+  if (n < total || !layer.isContinuous()) return;
+  const float* src = layer.ptr<float>();
+  for (std::size_t k = 0; k < total; ++k) out[total - 1 - k] = src[k];
+}
+
+void set_pose(OdometryMsg& m, TimeNs stamp, const Pose2& p, const Cov3& c) {
+  dds::set_time(m.header.stamp, stamp);
+  m.pose.pose.position.x = p.x;
+  m.pose.pose.position.y = p.y;
+  m.pose.pose.position.z = 0.0;
+  m.pose.pose.orientation.x = 0.0;
+  m.pose.pose.orientation.y = 0.0;
+  m.pose.pose.orientation.z = std::sin(0.5 * p.yaw);
+  m.pose.pose.orientation.w = std::cos(0.5 * p.yaw);
+  // 6x6 row-major over (x, y, z, roll, pitch, yaw): the planar block from the 3x3 (x, y, yaw).
+  double* cv = m.pose.covariance;
+  for (int k = 0; k < 36; ++k) cv[k] = 0.0;
+  const int idx[3] = {0, 1, 5};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) cv[idx[a] * 6 + idx[b]] = c(a, b);
+  cv[2 * 6 + 2] = cv[3 * 6 + 3] = cv[4 * 6 + 4] = kUnobserved;
+}
+
+void set_twist(OdometryMsg& m, const Pose2& step, double dt, const Cov3& step_cov) {
+  double* cv = m.twist.covariance;
+  for (int k = 0; k < 36; ++k) cv[k] = 0.0;
+  if (!(dt > 0.0) || !step.finite()) {
+    m.twist.twist.linear = {0.0, 0.0, 0.0};
+    m.twist.twist.angular = {0.0, 0.0, 0.0};
+    for (int k = 0; k < 6; ++k) cv[k * 6 + k] = kUnobserved;
+    return;
+  }
+  m.twist.twist.linear = {step.x / dt, step.y / dt, 0.0};
+  m.twist.twist.angular = {0.0, 0.0, step.yaw / dt};
+  const int idx[3] = {0, 1, 5};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) cv[idx[a] * 6 + idx[b]] = step_cov(a, b) / (dt * dt);
+  cv[2 * 6 + 2] = cv[3 * 6 + 3] = cv[4 * 6 + 4] = kUnobserved;
+}
+
+class TerrainMapComponent final : public runtime::Component {
+ public:
+  void configure(Params& p, runtime::Context& ctx) override {
+    // ---- devices and geometry (rover description) ----
+    cam_ = &ctx.camera(p, "camera");
+    const hal::CameraFormat fmt = cam_->format();
+    const RoverCamera& rc = ctx.rover_camera(p, "camera");
+    const direct_depth::CameraModel model = common::camera_model_for_frames(rc, fmt.width, fmt.height, p, "camera");
+    const CameraMount mount{rc.mount.x_m, rc.mount.y_m, rc.mount.yaw_rad};
+    const Sun& sun = ctx.sun(p, "terrain_map (shadow heights)");
+    const Vec3 s = sun.local_level();  // the odometry frame is the local-level frame at start
+    const cv::Vec3d sun_world(s.x, s.y, s.z);
+
+    enc_ = &ctx.encoders(p, "encoders");
+    std::vector<OdometryWheel> wheels;
+    for (const Wheel& w : ctx.rover().wheels) {
+      if (w.encoders != enc_->id()) continue;
+      const auto& names = enc_->wheel_names();
+      const auto it = std::find(names.begin(), names.end(), w.name);
+      if (it == names.end())
+        p.fail("encoders", "rover.wheels." + w.name + " names encoder device '" + enc_->id() +
+                               "', which does not report a wheel of that name");
+      wheel_index_.push_back(static_cast<std::size_t>(it - names.begin()));
+      wheels.push_back({w.y_m, w.radius_m});
+    }
+    if (wheels.empty())
+      p.fail("encoders", "no rover.wheels entry is reported by encoder device '" + enc_->id() +
+                             "' (rover.wheels[].encoders): the odometry needs the wheels' positions and radii");
+    try {
+      odo_ = std::make_unique<SkidSteerOdometry>(wheels);
+    } catch (const FieldError& e) {
+      p.fail("encoders", std::string("rover.wheels reported by '") + enc_->id() + "': " + e.problem());
+    }
+    angles_.assign(wheels.size(), 0.0);
+
+    const std::string heading = p.get<std::string>(
+        "heading_source", ctx.rover().imu.empty() ? "wheels" : "imu",
+        {.choices = {"imu", "wheels"},
+         .doc = "heading change from the IMU (rover.imu; default when the rover has one) or from the wheel speeds"});
+    if (heading == "imu") {
+      imu_ = ctx.attitude_imu();
+      if (imu_ == nullptr)
+        p.fail("heading_source", "`imu` needs an IMU in the rover description (rover.imu: <device>)");
+    }
+    odometry_step_ =
+        from_seconds(p.get<double>("odometry_step_s", 0.05,
+                                   {.unit = "s",
+                                    .min = 0.001,
+                                    .max = 10.0,
+                                    .doc = "wheel odometry is integrated in steps of at most this between frames"}));
+
+    // ---- the mapper (DriveMapperParams read by name; defaults are the library's) ----
+    DriveMapperParams mp;
+    mp.use_vision = p.get<bool>("use_vision", mp.use_vision, {.doc = "false: wheel odometry only (comparison)"});
+    mp.fuse_terrain = p.get<bool>("fuse_terrain", mp.fuse_terrain, {.doc = "false: odometry only, no map"});
+    mp.fuse_parallax = p.get<bool>("fuse_parallax", mp.fuse_parallax, {.doc = "heights from motion parallax"});
+    mp.fuse_shadows = p.get<bool>("fuse_shadows", mp.fuse_shadows, {.doc = "object heights from cast shadows"});
+    mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
+    mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
+                                    {.doc = "rocks sighted in each frame and ranged on the ground (far rocks)"});
+    mp.sweep_in_image = p.get<bool>("sweep_in_image", mp.sweep_in_image,
+                                    {.doc = "parallax by a plane sweep in the image (false: in the ground-rectified frame)"});
+    mp.keyframe_distance_m = p.get<double>("keyframe_distance_m", mp.keyframe_distance_m,
+                                           {.unit = "m",
+                                            .min = 0.0,
+                                            .max = 10.0,
+                                            .min_exclusive = true,
+                                            .doc = "camera motion after which the frame becomes the keyframe"});
+    mp.keyframe_yaw_rad = p.get<double>("keyframe_yaw_rad", mp.keyframe_yaw_rad,
+                                        {.unit = "rad",
+                                         .min = 0.0,
+                                         .max = 3.14,
+                                         .min_exclusive = true,
+                                         .doc = "turn after which the frame becomes the keyframe"});
+    mp.map.resolution_m = p.get<double>("map_resolution_m", mp.map.resolution_m,
+                                        {.unit = "m", .min = 0.005, .max = 1.0, .doc = "map cell size"});
+    const double length = p.get<double>(
+        "map_length_m", mp.map.length_x_m,
+        {.unit = "m", .min = 2.0, .max = 200.0, .doc = "side of the square map window that follows the rover"});
+    mp.map.length_x_m = mp.map.length_y_m = length;
+    mp.map.max_range_m =
+        p.get<double>("max_range_m", mp.map.max_range_m,
+                      {.unit = "m", .min = 0.5, .max = 50.0, .doc = "terrain farther than this is not fused"});
+    mp.map.hazard_height_m = p.get<double>("hazard_height_m", mp.map.hazard_height_m,
+                                           {.unit = "m",
+                                            .min = 0.0,
+                                            .max = 5.0,
+                                            .min_exclusive = true,
+                                            .doc = "relief (or shadow height) at which hazard reaches 1"});
+    mp.wheel.along_fraction =
+        p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
+                      {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});
+    mp.wheel.lateral_fraction =
+        p.get<double>("wheel_lateral_fraction", mp.wheel.lateral_fraction,
+                      {.min = 0.0, .max = 1.0, .doc = "std across the heading, fraction of the step"});
+    mp.wheel.yaw_per_m_rad =
+        p.get<double>("wheel_yaw_per_m_rad", mp.wheel.yaw_per_m_rad,
+                      {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
+    mp.wheel.max_speed_mps =
+        p.get<double>("wheel_max_speed_mps", mp.wheel.max_speed_mps,
+                      {.unit = "m/s",
+                       .min = 0.0,
+                       .max = 20.0,
+                       .min_exclusive = true,
+                       .doc = "faster wheel steps between frames are odometry jumps (ignored, counted)"});
+    map_every_ = p.get<int>(
+        "map_publish_every", 2,
+        {.min = 1, .max = 10000, .doc = "frames between map updates (derived layers, cells known, DDS map)"});
+    std::vector<std::string> all_layers = WorldMap::layer_names();
+    const std::vector<std::string> want = p.get<std::vector<std::string>>(
+        "layers", {"elevation", "elevation_variance", "hazard", "confidence", "observed_count", "traversability"},
+        {.choices = all_layers, .doc = "layers of the published grid map (NaN = never seen)"});
+    frame_id_ = p.get<std::string>("frame_id", "odom", {.doc = "header.frame_id of odom and the map (REP-105 odom)"});
+    child_frame_id_ = p.get<std::string>("child_frame_id", ctx.rover().base_frame,
+                                         {.doc = "child_frame_id of odom (default rover.base_frame)"});
+    const double timeout_s = p.get<double>(
+        "input_timeout_s", 2.0 / std::max(0.1, fmt.rate_hz) + 1.0,
+        {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the camera input is stale after this long"});
+    if (frame_id_.size() > 31 || child_frame_id_.size() > 31)
+      p.fail("frame_id", "frame names are limited to 31 characters");
+    try {
+      mp.validate();
+      // Warm-up on a textured frame pair (sizes OpenCV's and the process's lazily made state); the
+      // mapper that runs is made afterwards and starts clean.
+      cv::Mat a(fmt.height, fmt.width, CV_8U), b;
+      cv::randu(a, 40, 200);
+      cv::GaussianBlur(a, a, cv::Size(5, 5), 1.5);
+      cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 0, 0, 1, -2);
+      cv::warpAffine(a, b, shift, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+      {
+        DriveMapper warm(model, mount, sun_world, mp, {0.0, 0.0});
+        warm.add_frame(a, Pose2{});
+        warm.add_frame(b, Pose2{0.02, 0.0, 0.0});
+        warm.map().finish();
+      }
+      mapper_ = std::make_unique<DriveMapper>(model, mount, sun_world, mp, cv::Point2d(0.0, 0.0));
+      mapper_->map().finish();
+    } catch (const FieldError& e) {
+      p.fail(key_of(e), e.problem());
+    }
+    wheel_noise_ = mp.wheel;
+    gray_.create(fmt.height, fmt.width, CV_8U);
+    for (const auto& name : want) layers_.push_back(&mapper_->map().layer(name));
+
+    // ---- outputs ----
+    state_ = &ctx.produce<TerrainMapState>(kOdometryChannel, 4);
+    input_ = &watch_input("camera", from_seconds(timeout_s));
+    if (dds::Participant* part = ctx.dds()) {
+      for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic})
+        if (dds::find_topic(topic) == nullptr)
+          p.fail({}, std::string("DDS topic ") + topic + " is unknown to this build");
+      const std::string frame = frame_id_, child = child_frame_id_;
+      auto odom_reserve = [frame, child](OdometryMsg& m) {
+        dds::reserve(m, 32);
+        dds::copy_string(m.header.frame_id, 32, frame);
+        dds::copy_string(m.child_frame_id, 32, child);
+      };
+      odom_msg_ = part->make_outbox<OdometryMsg>(kOdomTopic, dds::find_topic(kOdomTopic)->writer_qos(),
+                                                 dds::OutboxOptions{dds::OutboxMode::kFifo, 8}, odom_reserve);
+      wheel_msg_ = part->make_outbox<OdometryMsg>(kWheelOdomTopic, dds::find_topic(kWheelOdomTopic)->writer_qos(),
+                                                  dds::OutboxOptions{dds::OutboxMode::kFifo, 8}, odom_reserve);
+      const WorldMap& map = mapper_->map();
+      const auto nx = static_cast<std::uint32_t>(map.cols()), ny = static_cast<std::uint32_t>(map.rows());
+      const double res = map.resolution();
+      map_msg_ = part->make_outbox<GridMapMsg>(kMapTopic, dds::find_topic(kMapTopic)->writer_qos(),
+                                               dds::OutboxOptions{dds::OutboxMode::kLatest, 3},
+                                               [nx, ny, res, frame, want](GridMapMsg& m) {
+                                                 const auto nl = static_cast<std::uint32_t>(want.size());
+                                                 dds::reserve(m, dds::GridMapCapacity{nl, 1, nx, ny, 32, 32});
+                                                 dds::copy_string(m.header.frame_id, 32, frame);
+                                                 dds::set_length(m.layers, nl);
+                                                 dds::set_length(m.data, nl);
+                                                 for (std::uint32_t k = 0; k < nl; ++k)
+                                                   dds::copy_string(m.layers._buffer[k], 32, want[k]);
+                                                 dds::set_length(m.basic_layers, 1);
+                                                 dds::copy_string(m.basic_layers._buffer[0], 32, "elevation");
+                                                 m.info.resolution = res;
+                                                 m.info.length_x = nx * res;
+                                                 m.info.length_y = ny * res;
+                                               });
+    }
+  }
+
+  void activate() override { new_frame_.reset(); }
+
+  void step(const runtime::CycleInfo& c) override {
+    hal::FrameLease lease;
+    if (!cam_->latest(c.now, lease)) return;
+    if (!new_frame_(lease.generation())) return;
+    const hal::Frame& fr = *lease;
+    input_updated(*input_, c.now);
+    const bool odometry_ok = advance_odometry(fr.capture_time);
+    if (!odometry_ok) ++odometry_unavailable_;
+    const cv::Size size(gray_.cols, gray_.rows);
+    if (fr.corrupt || fr.image.empty() || fr.image.size() != size ||
+        (fr.image.type() != CV_8UC1 && fr.image.type() != CV_8UC3)) {
+      ++rejected_;
+      count_error();
+      set_status(fr.corrupt ? "corrupt frame skipped" : "frame size/type differs from the camera calibration");
+      return;
+    }
+    const cv::Mat* gray = &fr.image;
+    if (fr.image.type() == CV_8UC3) {
+      cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);  // into the pre-sized buffer
+      gray = &gray_;
+    }
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    const Pose2 wheel = odometry_ok ? odo_->pose() : Pose2{kNaN, kNaN, kNaN};
+    const FrameReport* r = nullptr;
+    try {
+      r = &mapper_->add_frame(*gray, wheel, to_seconds(fr.capture_time));
+    } catch (...) {  // inputs are checked above; never let anything leave step()
+      ++rejected_;
+      count_error();
+      set_status("the mapper rejected a frame");
+      return;
+    }
+    if (++since_map_ >= map_every_) {
+      since_map_ = 0;
+      update_map(fr.capture_time);
+    }
+    publish(*r, fr);
+    if (!odometry_ok)
+      set_status("no wheel angles at the frame's capture time: vision only");
+    else if (r->vo != VoStatus::kOk && r->vo != VoStatus::kNoKeyframe)
+      set_status("visual odometry lost: wheel odometry carries the pose");
+    else
+      set_status("ok");
+  }
+
+  void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
+    const auto l = state_ != nullptr ? state_->acquire() : decltype(state_->acquire()){};
+    if (!l) return;
+    kv.emplace_back("frames_mapped", std::to_string(l->counters.frames));
+    kv.emplace_back("vo_ok", std::to_string(l->counters.vo_ok));
+    kv.emplace_back("vo_failed", std::to_string(l->counters.vo_failed));
+    kv.emplace_back("keyframes", std::to_string(l->counters.keyframes));
+    kv.emplace_back("odometry_jumps", std::to_string(l->counters.odometry_jumps));
+    kv.emplace_back("frames_rejected", std::to_string(l->frames_rejected));
+    kv.emplace_back("cells_known", std::to_string(l->cells_known));
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
+    kv.emplace_back("pose_x_y_yawdeg", buf);
+  }
+
+  std::string result() const override {
+    const auto l = state_ != nullptr ? state_->acquire() : decltype(state_->acquire()){};
+    if (!l) return {};
+    char buf[200];
+    const double dw = std::hypot(l->pose.x - l->wheel_pose.x, l->pose.y - l->wheel_pose.y);
+    std::snprintf(buf, sizeof buf,
+                  "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known, pose %.2f %.2f m %.1f deg "
+                  "(wheels %.1f cm away)%s",
+                  l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->cells_known,
+                  l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
+                  l->frames_rejected > 0 ? ", frames rejected" : "");
+    return buf;
+  }
+
+ private:
+  // Wheel (+ IMU heading) odometry up to `t`, in steps of at most odometry_step_. False when the
+  // encoders (or the IMU) have nothing at `t`; the pose then stays where the last good reading left it.
+  bool read_at(TimeNs t, double& yaw) {
+    for (std::size_t i = 0; i < wheel_index_.size(); ++i)
+      if (!enc_->angle_at(wheel_index_[i], t, angles_[i])) return false;
+    yaw = std::numeric_limits<double>::quiet_NaN();
+    if (imu_ != nullptr) {
+      Attitude a;
+      if (!imu_->attitude_at(t, a)) return false;
+      yaw = a.yaw_rad;
+    }
+    return true;
+  }
+  bool advance_odometry(TimeNs t) {
+    double yaw = 0.0;
+    if (!odo_->started()) {
+      if (!read_at(t, yaw)) return false;
+      odo_->reset(angles_, Pose2{}, yaw);
+      odo_time_ = t;
+      return true;
+    }
+    if (t <= odo_time_) return t == odo_time_;
+    const TimeNs span = t - odo_time_;
+    const auto n = static_cast<std::size_t>(
+        std::clamp<TimeNs>((span + odometry_step_ - 1) / odometry_step_, 1, static_cast<TimeNs>(kMaxSubsteps)));
+    const TimeNs from = odo_time_;
+    for (std::size_t k = 1; k <= n; ++k) {
+      const TimeNs tk =
+          from + static_cast<TimeNs>(static_cast<double>(span) * static_cast<double>(k) / static_cast<double>(n));
+      if (!read_at(tk, yaw) || !odo_->update(angles_, yaw)) return false;
+      odo_time_ = tk;
+    }
+    return true;
+  }
+
+  void update_map(TimeNs /*stamp*/) {
+    WorldMap& map = mapper_->map();
+    map.finish();
+    const cv::Mat& el = map.layer("elevation");
+    long known = 0;
+    for (int i = 0; i < el.rows; ++i) {
+      const float* row = el.ptr<float>(i);
+      for (int j = 0; j < el.cols; ++j) known += std::isfinite(row[j]) ? 1 : 0;
+    }
+    cells_known_ = known;
+    ++map_updates_;
+    map_due_ = true;
+  }
+
+  void publish(const FrameReport& r, const hal::Frame& fr) {
+    const double dt = have_prev_ ? to_seconds(fr.capture_time - prev_stamp_) : 0.0;
+    const Pose2 step = have_prev_ ? between(prev_pose_, r.pose) : Pose2{};
+    const Pose2 wstep =
+        have_prev_ && r.wheel_pose.finite() && prev_wheel_.finite() ? between(prev_wheel_, r.wheel_pose) : Pose2{};
+    if (TerrainMapState* s = state_->begin_write()) {
+      s->stamp = fr.capture_time;
+      s->sequence = fr.sequence;
+      s->pose = r.pose;
+      s->covariance = r.covariance;
+      s->wheel_pose = r.wheel_pose;
+      s->vo = r.vo;
+      s->keyframe = r.keyframe;
+      s->vo_inliers = r.vo_inliers;
+      s->counters = mapper_->counters();
+      s->frames_rejected = rejected_;
+      s->odometry_unavailable = odometry_unavailable_;
+      s->cells_known = cells_known_;
+      s->map_updates = map_updates_;
+      s->distance_m = odo_->distance();
+      state_->commit();
+    }
+    if (odom_msg_) {
+      if (OdometryMsg* m = odom_msg_->begin()) {
+        set_pose(*m, fr.capture_time, r.pose, r.covariance);
+        set_twist(*m, step, dt, wheel_noise_.covariance(step));
+        odom_msg_->commit();
+      }
+    }
+    if (wheel_msg_ && r.wheel_pose.finite()) {
+      if (OdometryMsg* m = wheel_msg_->begin()) {
+        // Wheel odometry alone: its covariance grows with the wheel model along the path.
+        if (have_prev_) wheel_cov_ = compose_covariance(prev_wheel_, wheel_cov_, wstep, wheel_noise_.covariance(wstep));
+        set_pose(*m, fr.capture_time, r.wheel_pose, wheel_cov_);
+        set_twist(*m, wstep, dt, wheel_noise_.covariance(wstep));
+        wheel_msg_->commit();
+      }
+    }
+    if (map_msg_ && map_due_) {
+      if (GridMapMsg* m = map_msg_->begin()) {
+        const WorldMap& map = mapper_->map();
+        dds::set_time(m->header.stamp, fr.capture_time);
+        m->info.pose.position.x = map.origin_x() + 0.5 * (map.cols() - 1) * map.resolution();
+        m->info.pose.position.y = map.origin_y() + 0.5 * (map.rows() - 1) * map.resolution();
+        for (std::size_t k = 0; k < layers_.size(); ++k) {
+          auto& seq = m->data._buffer[k].data;
+          export_reversed(*layers_[k], seq._buffer, seq._length);
+        }
+        map_msg_->commit();
+      }
+      map_due_ = false;
+    }
+    prev_pose_ = r.pose;
+    if (r.wheel_pose.finite()) prev_wheel_ = r.wheel_pose;
+    prev_stamp_ = fr.capture_time;
+    have_prev_ = true;
+  }
+
+  hal::Camera* cam_ = nullptr;
+  hal::WheelEncoders* enc_ = nullptr;
+  const hal::Imu* imu_ = nullptr;
+  std::vector<std::size_t> wheel_index_;  // rover wheel k -> encoder wheel index
+  std::vector<double> angles_;
+  std::unique_ptr<SkidSteerOdometry> odo_;
+  TimeNs odo_time_ = 0;
+  TimeNs odometry_step_ = 0;
+  std::unique_ptr<DriveMapper> mapper_;
+  WheelNoise wheel_noise_;
+  cv::Mat gray_;
+  std::vector<const cv::Mat*> layers_;
+  int map_every_ = 2, since_map_ = 0;
+  bool map_due_ = false;
+  long rejected_ = 0, odometry_unavailable_ = 0, cells_known_ = 0, map_updates_ = 0;
+  bool have_prev_ = false;
+  Pose2 prev_pose_, prev_wheel_;
+  Cov3 wheel_cov_ = Cov3::Zero();
+  TimeNs prev_stamp_ = 0;
+  std::string frame_id_, child_frame_id_;
+  LatestPool<TerrainMapState>* state_ = nullptr;
+  std::shared_ptr<dds::Outbox<OdometryMsg>> odom_msg_, wheel_msg_;
+  std::shared_ptr<dds::Outbox<GridMapMsg>> map_msg_;
+  runtime::InputWatch* input_ = nullptr;
+  NewValue new_frame_;
+};
+
+}  // namespace
+
+void register_component() {
+  runtime::ComponentRegistry::instance().add(
+      "terrain_map",
+      "camera + wheel encoders (+ IMU heading) -> visual/wheel odometry and a world-frame terrain map "
+      "(odom, odom/wheel, terrain/world_map)",
+      [] { return std::make_unique<TerrainMapComponent>(); });
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,276 @@
+#include "regolith/mapping/plane_sweep.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "regolith/common/box.hpp"
+#include "regolith/common/fill.hpp"
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+constexpr float kBig = 1e30f;
+constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sample
+
+[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sweep", field, why); }
+
+using common::fill;
+
+// Right-handed rotations about the body axes (x forward, y left).
+cv::Matx33d rot_x(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return {1, 0, 0, 0, c, -s, 0, s, c};
+}
+cv::Matx33d rot_y(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return {c, 0, s, 0, 1, 0, -s, 0, c};
+}
+
+}  // namespace
+
+void PlaneSweepParams::validate() const {
+  if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(min_baseline_m) || min_baseline_m <= 0) fail("min_baseline_m", "must be > 0");
+  if (!std::isfinite(min_height_m) || min_height_m > 0) fail("min_height_m", "must be <= 0");
+  if (!std::isfinite(max_height_m) || max_height_m <= 0) fail("max_height_m", "must be > 0");
+  if (!std::isfinite(step_px) || step_px <= 0 || step_px > 4) fail("step_px", "must be in (0, 4]");
+  if (max_steps < 4 || max_steps > 1024) fail("max_steps", "must be 4..1024");
+  if (window < 1 || window > 8) fail("window", "must be 1..8");
+  if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
+  if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
+  if (!std::isfinite(reference_step_m) || reference_step_m <= 0) fail("reference_step_m", "must be > 0");
+}
+
+PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepParams& params)
+    : p_((params.validate(), params)), depth_(depth), h_(depth.model().mount_height_m) {
+  if (!(h_ > p_.max_height_m)) fail("max_height_m", "must be below the camera height");
+  const auto& m = depth.model();
+  const int H = m.height, W = m.width;
+  if (m.has_distortion()) {
+    // Undistorted images keep the camera matrix: afterwards every pixel is a pinhole ray.
+    const cv::Matx33d K(m.fx, 0, m.cx, 0, m.fy, m.cy, 0, 0, 1);
+    const cv::Vec<double, 5> D(m.k1, m.k2, m.p1, m.p2, m.k3);
+    cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, cv::Size(W, H), CV_32FC1, undist_x_, undist_y_);
+    undist_.create(H, W, CV_8U);
+  }
+  nrm_.create(H, W, CV_32FC3);
+  const cv::Matx33d& r = depth.body_from_optical();
+  for (int i = 0; i < H; ++i)
+    for (int j = 0; j < W; ++j) {
+      const cv::Vec3d d = r * cv::Vec3d((j - m.cx) / m.fx, (i - m.cy) / m.fy, 1.0);
+      nrm_.at<cv::Vec3f>(i, j) = cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
+    }
+  for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_, &tmp_, &z_,
+                     &x_, &y_, &conf_})
+    q->create(H, W, CV_32F);
+  key_ok_.create(H, W, CV_8U);
+  cur_ok_.create(H, W, CV_8U);
+  row_step_.create(H, 1, CV_64F);
+  fill(z_, kNaNf);
+  fill(x_, kNaNf);
+  fill(y_, kNaNf);
+  fill(conf_, 0.0f);
+}
+
+void PlaneSweep::load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok) {
+  const auto& m = depth_.model();
+  if (gray.empty() || gray.type() != CV_8UC1 || gray.cols != m.width || gray.rows != m.height)
+    fail("gray", "expected an 8-bit grey frame of " + std::to_string(m.width) + "x" + std::to_string(m.height));
+  const cv::Mat* src = &gray;
+  if (!undist_x_.empty()) {
+    cv::remap(gray, undist_, undist_x_, undist_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+    src = &undist_;
+  }
+  for (int i = 0; i < img.rows; ++i) {
+    const uchar* s = src->ptr<uchar>(i);
+    float* d = img.ptr<float>(i);
+    uchar* o = ok.ptr<uchar>(i);
+    for (int j = 0; j < img.cols; ++j) {
+      d[j] = s[j];
+      o[j] = (s[j] > 3 && s[j] < 252) ? 255 : 0;  // clipped = unusable
+    }
+  }
+}
+
+void PlaneSweep::set_frame(const cv::Mat& gray) { load(gray, cur_, cur_ok_); }
+
+void PlaneSweep::promote() {
+  std::swap(key_, cur_);
+  std::swap(key_ok_, cur_ok_);
+  has_key_ = true;
+}
+
+bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct) {
+  fill(z_, kNaNf);
+  fill(x_, kNaNf);
+  fill(y_, kNaNf);
+  fill(conf_, 0.0f);
+  samples_ = 0;
+  const double base = std::hypot(m.x, m.y);
+  if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias)) return false;
+  const auto& cam = depth_.model();
+  const int H = cam.height, W = cam.width;
+  const double h = h_;
+  // Rays of the keyframe camera as tilted against the ground; the current camera's rotation.
+  const cv::Matx33d rk = rot_x(kt[1]) * rot_y(kt[0]);
+  const cv::Matx33d rc_t = (rot_x(ct[1]) * rot_y(ct[0]) * depth_.body_from_optical()).t();
+  const double cy = std::cos(m.yaw), sy = std::sin(m.yaw);
+  auto to_cur = [&](double x, double y) { return cv::Vec2d(cy * x + sy * y, -sy * x + cy * y); };  // R(-yaw)
+  // A keyframe point P(w) = (w g, h (1 - w)) (g = the pixel's ground point, z = h (1 - w)) is seen
+  // by the current camera at o(w) = o0 + w o1 (camera coordinates): o0 = Rc^T (R(-yaw)(-t), 0),
+  // o1 = Rc^T (R(-yaw) g, -h).
+  const cv::Vec2d t0 = to_cur(-m.x, -m.y);
+  const cv::Vec3d o0 = rc_t * cv::Vec3d(t0[0], t0[1], 0.0);
+  const double w_lo = 1.0 - p_.max_height_m / h, w_hi = 1.0 - p_.min_height_m / h;
+  const double fx = cam.fx, fy = cam.fy, cx = cam.cx, ccy = cam.cy;
+  const double r2min = p_.min_range_m * p_.min_range_m, r2max = p_.max_range_m * p_.max_range_m;
+  int max_n = 0;
+  for (int i = 0; i < H; ++i) {
+    const cv::Vec3f* n = nrm_.ptr<cv::Vec3f>(i);
+    float *ox = ox_.ptr<float>(i), *oy = oy_.ptr<float>(i), *oz = oz_.ptr<float>(i);
+    float* gx = x_.ptr<float>(i);  // ground point, kept in x_/y_ until the results overwrite them
+    float* gy = y_.ptr<float>(i);
+    double max_disp = 0.0;
+    for (int j = 0; j < W; ++j) {
+      ox[j] = kNaNf;
+      const cv::Vec3d d = rk * cv::Vec3d(n[j][0], n[j][1], n[j][2]);
+      if (!(d[2] < -1e-6)) continue;
+      const double tg = h / -d[2];
+      const double g0 = tg * d[0], g1 = tg * d[1], r2 = g0 * g0 + g1 * g1;
+      if (g0 * g0 < r2min || r2 > r2max || g0 <= 0) continue;
+      const cv::Vec2d gc = to_cur(g0, g1);
+      const cv::Vec3d o1 = rc_t * cv::Vec3d(gc[0], gc[1], -h);
+      const cv::Vec3d o = o0 + o1;  // the ground point (w = 1)
+      if (!(o[2] > 1e-3)) continue;
+      // Image motion per unit w at the ground: d(u, v) / dw.
+      const double du = fx * (o1[0] * o[2] - o[0] * o1[2]) / (o[2] * o[2]);
+      const double dv = fy * (o1[1] * o[2] - o[1] * o1[2]) / (o[2] * o[2]);
+      max_disp = std::max(max_disp, std::hypot(du, dv));
+      ox[j] = static_cast<float>(o1[0]), oy[j] = static_cast<float>(o1[1]), oz[j] = static_cast<float>(o1[2]);
+      gx[j] = static_cast<float>(g0), gy[j] = static_cast<float>(g1);
+    }
+    double step = max_disp > 0 ? p_.step_px / max_disp : (w_hi - w_lo);
+    step = std::max(step, (w_hi - w_lo) / (p_.max_steps - 1));
+    row_step_.at<double>(i) = step;
+    if (max_disp > 0) max_n = std::max(max_n, static_cast<int>(std::ceil((w_hi - w_lo) / step)) + 1);
+  }
+  if (max_n < 3) return false;
+  fill(best_, kBig);
+  fill(bests_, -1.0f);
+  const float g = static_cast<float>(gain), b = static_cast<float>(bias);
+  // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
+  // matching windows see one hypothesis index); such minima are discarded below.
+  for (int t = 0; t < max_n; ++t) {
+    for (int i = 0; i < H; ++i) {
+      const float *ox = ox_.ptr<float>(i), *oy = oy_.ptr<float>(i), *oz = oz_.ptr<float>(i);
+      const float* kv = key_.ptr<float>(i);
+      const uchar* ko = key_ok_.ptr<uchar>(i);
+      float* e = e_.ptr<float>(i);
+      const double w = w_lo + t * row_step_.at<double>(i);
+      const double ax = o0[0], ay = o0[1], az = o0[2];
+      for (int j = 0; j < W; ++j) {
+        if (!ko[j] || std::isnan(ox[j])) {
+          e[j] = kPenalty;
+          continue;
+        }
+        const double qz = az + w * oz[j];
+        if (!(qz > 1e-3)) {
+          e[j] = kPenalty;
+          continue;
+        }
+        const double u = fx * (ax + w * ox[j]) / qz + cx, v = fy * (ay + w * oy[j]) / qz + ccy;
+        const int j0 = static_cast<int>(std::floor(u)), i0 = static_cast<int>(std::floor(v));
+        if (i0 < 0 || j0 < 0 || i0 + 1 >= H || j0 + 1 >= W) {
+          e[j] = kPenalty;
+          continue;
+        }
+        const uchar* ua = cur_ok_.ptr<uchar>(i0);
+        const uchar* ub = cur_ok_.ptr<uchar>(i0 + 1);
+        if (!(ua[j0] & ua[j0 + 1] & ub[j0] & ub[j0 + 1])) {
+          e[j] = kPenalty;
+          continue;
+        }
+        const float fj = static_cast<float>(u - j0), fi = static_cast<float>(v - i0);
+        const float* ra = cur_.ptr<float>(i0);
+        const float* rb = cur_.ptr<float>(i0 + 1);
+        const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
+        const float r = top + fi * (bot - top) - g * kv[j] - b;
+        e[j] = r * r;
+      }
+    }
+    samples_ += static_cast<long>(H) * W;
+    // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
+    std::swap(c0_, c1_);
+    std::swap(c1_, c2_);
+    common::box_sum(e_, c2_, tmp_, p_.window);
+    if (t < 2) continue;
+    for (int i = 0; i < H; ++i) {
+      const float* l = c0_.ptr<float>(i);
+      const float* c = c1_.ptr<float>(i);
+      const float* r = c2_.ptr<float>(i);
+      float* bb = best_.ptr<float>(i);
+      float* bs = bests_.ptr<float>(i);
+      float* lf = left_.ptr<float>(i);
+      float* rt = right_.ptr<float>(i);
+      for (int j = 0; j < W; ++j)
+        if (c[j] < bb[j] && c[j] <= l[j] && c[j] <= r[j]) {
+          bb[j] = c[j];
+          bs[j] = static_cast<float>(t - 1);
+          lf[j] = l[j];
+          rt[j] = r[j];
+        }
+    }
+  }
+  // Sub-step minimum, height, position and confidence.
+  const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
+  const double noise2 = p_.noise_dn * p_.noise_dn;
+  const float pen_sum = static_cast<float>(kPenalty);  // any window holding an unusable sample
+  for (int i = 0; i < H; ++i) {
+    const double step = row_step_.at<double>(i);
+    float* zz = z_.ptr<float>(i);
+    float* xx = x_.ptr<float>(i);
+    float* yy = y_.ptr<float>(i);
+    float* cf = conf_.ptr<float>(i);
+    const float* ox = ox_.ptr<float>(i);
+    for (int j = 0; j < W; ++j) {
+      const float gx = xx[j], gy = yy[j];
+      xx[j] = yy[j] = kNaNf;
+      const float t = bests_.at<float>(i, j);
+      const float bc = best_.at<float>(i, j);
+      if (std::isnan(ox[j]) || t < 0 || bc >= pen_sum) continue;
+      const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
+      if (l >= pen_sum || r >= pen_sum) continue;
+      const double curv = l + r - 2.0 * bc;
+      if (!(curv > 0)) continue;
+      const double off = std::clamp(0.5 * (l - r) / curv, -0.5, 0.5);
+      const double w = w_lo + (t + off) * step;
+      const double z = h * (1.0 - w);
+      if (z < p_.min_height_m) continue;  // beyond this row's own range
+      // Curvature per pixel in units of the noise: how sharply the match is fixed; a poor best
+      // match (residual well above the noise) lowers it.
+      const double sharp = curv / (cells * noise2);
+      const double fit = std::exp(-std::max(0.0, bc / cells - 2.0 * noise2) / (8.0 * noise2));
+      // A height step (m) spans `step` in w: the sharper the image fixes the step, the better the
+      // height; far rows (large steps) fix heights poorly and weigh accordingly.
+      const double dz = h * step;
+      const double precision = std::min(1.0, (p_.reference_step_m * p_.reference_step_m) / (dz * dz));
+      const double conf = sharp / (1.0 + sharp) * fit * precision;
+      if (conf < p_.min_confidence) continue;
+      zz[j] = static_cast<float>(z);
+      xx[j] = static_cast<float>(w * gx);
+      yy[j] = static_cast<float>(w * gy);
+      cf[j] = static_cast<float>(conf);
+    }
+  }
+  return true;
+}
+
+}  // namespace regolith::mapping

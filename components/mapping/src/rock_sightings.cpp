@@ -1,0 +1,185 @@
+#include "regolith/mapping/rock_sightings.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "regolith/common/box.hpp"
+#include "regolith/common/fill.hpp"
+#include "regolith/core/error.hpp"
+
+namespace regolith::mapping {
+namespace {
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
+[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sightings", field, why); }
+
+using common::fill;
+
+cv::Matx33d rot_x(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return {1, 0, 0, 0, c, -s, 0, s, c};
+}
+cv::Matx33d rot_y(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return {c, 0, s, 0, 1, 0, -s, 0, c};
+}
+
+}  // namespace
+
+void RockSightingParams::validate() const {
+  if (!std::isfinite(background_sigma_px) || background_sigma_px < 1 || background_sigma_px > 64)
+    fail("background_sigma_px", "must be in [1, 64]");
+  if (!std::isfinite(smooth_sigma_px) || smooth_sigma_px < 0 || smooth_sigma_px > 16) fail("smooth_sigma_px", "must be in [0, 16]");
+  if (!std::isfinite(threshold) || threshold <= 0) fail("threshold", "must be > 0");
+  if (min_pixels < 1) fail("min_pixels", "must be >= 1");
+  if (max_pixels < min_pixels) fail("max_pixels", "must be >= min_pixels");
+  if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(min_height_m) || min_height_m < 0) fail("min_height_m", "must be >= 0");
+  if (!std::isfinite(max_height_m) || max_height_m <= min_height_m) fail("max_height_m", "must be > min_height_m");
+  if (max_sightings < 1 || max_sightings > 4096) fail("max_sightings", "must be 1..4096");
+}
+
+RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params)
+    : p_((params.validate(), params)), depth_(depth), rot_(depth.body_from_optical()) {
+  const auto& m = depth.model();
+  for (cv::Mat* q : {&img_, &bg_, &tmp_, &tmp2_}) q->create(m.height, m.width, CV_32F);
+  mask_.create(m.height, m.width, CV_8U);
+  label_.create(m.height, m.width, CV_32S);
+  values_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
+  stack_.resize(values_.size());
+  for (cv::Mat* q : {&x_, &y_, &h_, &w_, &s_}) q->create(1, p_.max_sightings, CV_32F), fill(*q, kNaNf);
+}
+
+void RockSightings::blur(cv::Mat& m, double sigma) {
+  // Three box passes of radius r approximate a Gaussian of sigma^2 = r (r + 1) (each pass adds
+  // ((2r + 1)^2 - 1) / 12).
+  if (sigma <= 0) return;
+  const int r = std::max(1, static_cast<int>(std::lround((std::sqrt(1.0 + 4.0 * sigma * sigma) - 1.0) / 2.0)));
+  const float norm = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
+  for (int pass = 0; pass < 3; ++pass) {
+    common::box_sum(m, tmp2_, tmp_, r);
+    for (int i = 0; i < m.rows; ++i) {
+      const float* s = tmp2_.ptr<float>(i);
+      float* d = m.ptr<float>(i);
+      for (int j = 0; j < m.cols; ++j) d[j] = s[j] * norm;
+    }
+  }
+}
+
+cv::Vec3d RockSightings::ray(double col, double row) const {
+  const cv::Point2d q = depth_.normalised(col, row);
+  return rot_ * cv::Vec3d(q.x, q.y, 1.0);
+}
+
+int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
+  const auto& cam = depth_.model();
+  const int H = cam.height, W = cam.width;
+  if (gray.empty() || gray.type() != CV_8UC1 || gray.cols != W || gray.rows != H)
+    fail("gray", "expected an 8-bit grey frame of " + std::to_string(W) + "x" + std::to_string(H));
+  count_ = 0;
+  for (cv::Mat* q : {&x_, &y_, &h_, &w_, &s_}) fill(*q, kNaNf);
+  rot_ = rot_x(tilt[1]) * rot_y(tilt[0]) * depth_.body_from_optical();
+  // Contrast against the local ground, smoothed.
+  for (int i = 0; i < H; ++i) {
+    const uchar* s = gray.ptr<uchar>(i);
+    float* a = img_.ptr<float>(i);
+    float* b = bg_.ptr<float>(i);
+    for (int j = 0; j < W; ++j) a[j] = b[j] = s[j];
+  }
+  blur(bg_, p_.background_sigma_px);
+  for (int i = 0; i < H; ++i) {
+    float* a = img_.ptr<float>(i);
+    const float* b = bg_.ptr<float>(i);
+    for (int j = 0; j < W; ++j) a[j] = std::abs(a[j] - b[j]);
+  }
+  blur(img_, p_.smooth_sigma_px);
+  // Median over the ground the camera sees within max range (rows below the horizon).
+  const cv::Mat& valid = depth_.valid_map();
+  const cv::Mat& range = depth_.range_map();
+  std::size_t n = 0;
+  for (int i = 0; i < H; ++i) {
+    const float* a = img_.ptr<float>(i);
+    const uchar* v = valid.ptr<uchar>(i);
+    const float* r = range.ptr<float>(i);
+    for (int j = 0; j < W; ++j)
+      if (v[j] && r[j] <= p_.max_range_m) values_[n++] = a[j];
+  }
+  if (n < 100) return 0;
+  std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2), values_.begin() + static_cast<std::ptrdiff_t>(n));
+  const float thr = static_cast<float>(p_.threshold) * std::max(values_[n / 2], 0.5f);
+  for (int i = 0; i < H; ++i) {
+    const float* a = img_.ptr<float>(i);
+    const uchar* v = valid.ptr<uchar>(i);
+    uchar* mk = mask_.ptr<uchar>(i);
+    for (int j = 0; j < W; ++j) mk[j] = (v[j] && a[j] > thr) ? 255 : 0;
+  }
+  fill(label_, 0);
+  // Blobs by flood fill with a preallocated stack.
+  const double h = cam.mount_height_m;
+  int next = 0;
+  for (int i0 = 0; i0 < H && count_ < p_.max_sightings; ++i0)
+    for (int j0 = 0; j0 < W && count_ < p_.max_sightings; ++j0) {
+      if (!mask_.at<uchar>(i0, j0) || label_.at<int>(i0, j0)) continue;
+      ++next;
+      int top = 0;
+      stack_[static_cast<std::size_t>(top++)] = i0 * W + j0;
+      label_.at<int>(i0, j0) = next;
+      int pixels = 0, rmin = i0, rmax = i0, cmin = j0, cmax = j0;
+      double contrast = 0.0;
+      bool border = false;
+      while (top > 0) {
+        const int k = stack_[static_cast<std::size_t>(--top)];
+        const int i = k / W, j = k % W;
+        ++pixels;
+        contrast += img_.at<float>(i, j);
+        rmin = std::min(rmin, i), rmax = std::max(rmax, i), cmin = std::min(cmin, j), cmax = std::max(cmax, j);
+        if (i == 0 || j == 0 || i == H - 1 || j == W - 1) border = true;
+        for (int di = -1; di <= 1; ++di)
+          for (int dj = -1; dj <= 1; ++dj) {
+            const int a = i + di, b = j + dj;
+            if (a < 0 || b < 0 || a >= H || b >= W || !mask_.at<uchar>(a, b) || label_.at<int>(a, b)) continue;
+            label_.at<int>(a, b) = next;
+            stack_[static_cast<std::size_t>(top++)] = a * W + b;
+          }
+      }
+      if (border || pixels < p_.min_pixels || pixels > p_.max_pixels) continue;
+      // Contact point: mean column of the blob's lowest row.
+      double csum = 0;
+      int cn = 0;
+      for (int j = cmin; j <= cmax; ++j)
+        if (label_.at<int>(rmax, j) == next) csum += j, ++cn;
+      const double cb = cn > 0 ? csum / cn : 0.5 * (cmin + cmax);
+      const cv::Vec3d d = ray(cb, rmax + 0.5);
+      if (!(d[2] < -1e-6)) continue;
+      const double t = h / -d[2];
+      const cv::Vec2d g(t * d[0], t * d[1]);
+      const double range_m = std::hypot(g[0], g[1]);
+      if (range_m < p_.min_range_m || range_m > p_.max_range_m) continue;
+      // Width: ground distance between the blob's side columns at the contact's depth.
+      const cv::Vec3d dl = ray(cmin - 0.5, rmax + 0.5), dr = ray(cmax + 0.5, rmax + 0.5);
+      if (!(dl[2] < -1e-6) || !(dr[2] < -1e-6)) continue;
+      const double tl = h / -dl[2], tr = h / -dr[2];
+      const double width = std::hypot(tl * dl[0] - tr * dr[0], tl * dl[1] - tr * dr[1]);
+      const cv::Vec2d u = g / range_m;
+      const cv::Vec2d c = g + 0.5 * width * u;
+      // Height: the top ray (through the blob's top, at the contact column) at the centre's distance.
+      const cv::Vec3d dt = ray(cb, rmin - 0.5);
+      const double horiz = std::hypot(dt[0], dt[1]);
+      if (!(horiz > 1e-9)) continue;
+      const double height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+      if (height < p_.min_height_m || height > p_.max_height_m) continue;
+      const int k = count_++;
+      x_.at<float>(0, k) = static_cast<float>(c[0]);
+      y_.at<float>(0, k) = static_cast<float>(c[1]);
+      h_.at<float>(0, k) = static_cast<float>(height);
+      w_.at<float>(0, k) = static_cast<float>(width);
+      s_.at<float>(0, k) = static_cast<float>(std::clamp(contrast / pixels / thr - 1.0, 0.05, 1.0));
+    }
+  return count_;
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,187 @@
+// The terrain_map component on the moving mock rover (synthetic_drive camera, encoders and IMU),
+// under the simulated clock: the corrected pose follows the mock's exact path, the wheels alone
+// drift with their slip, the map fills, the counters add up; bad configuration names its field.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "cli.hpp"
+#include "regolith/core/error.hpp"
+#include "regolith/hal/camera.hpp"
+#include "regolith/mapping/component.hpp"
+#include "regolith/mapping/wheel_odometry.hpp"
+#include "regolith/mocks/synthetic_drive.hpp"
+#include "regolith/runtime/application.hpp"
+
+using namespace regolith;
+
+namespace {
+
+std::string test_yaml() {
+  std::ifstream in(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The test deployment with `edit` applied to its text (find -> replace, once).
+std::string edited(const std::string& find, const std::string& replace) {
+  std::string s = test_yaml();
+  const auto at = s.find(find);
+  EXPECT_NE(at, std::string::npos) << find;
+  if (at != std::string::npos) s.replace(at, find.size(), replace);
+  return s;
+}
+
+std::string load_error(const std::string& yaml) {
+  cli::register_everything();
+  try {
+    // Devices validate their parameters without opening (rendering) anything, as `config check`.
+    runtime::Application::load(Params::load_string(yaml, "terrain_map_test.yaml"),
+                               {.sim_time = true, .enable_dds = false, .open_devices = false});
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+}  // namespace
+
+TEST(SkidSteerOdometry, ArcFromWheelAnglesAndHeadingFromTheImu) {
+  // Track 0.8 m, radius 0.15 m; a 2 m left arc of radius 4 m: left wheels roll (1 - 0.4/4) x 2 m.
+  mapping::SkidSteerOdometry odo({{0.4, 0.15}, {-0.4, 0.15}});
+  EXPECT_DOUBLE_EQ(odo.track_width(), 0.8);
+  const double r = 4.0, s = 2.0, dyaw = s / r;
+  const double left = (1 - 0.4 / r) * s / 0.15, right = (1 + 0.4 / r) * s / 0.15;
+  const double zero[2] = {0, 0};
+  odo.reset(zero);
+  for (int k = 1; k <= 4; ++k) {  // in four steps (constant curvature: exact)
+    const double a[2] = {left * k / 4, right * k / 4};
+    ASSERT_TRUE(odo.update(a));
+  }
+  EXPECT_NEAR(odo.pose().x, r * std::sin(dyaw), 1e-9);
+  EXPECT_NEAR(odo.pose().y, r * (1 - std::cos(dyaw)), 1e-9);
+  EXPECT_NEAR(odo.pose().yaw, dyaw, 1e-12);
+  EXPECT_NEAR(odo.distance(), s, 1e-9);
+  // Heading from an IMU: equal wheel speeds, the IMU turning 0.1 rad -> an arc, not a line.
+  mapping::SkidSteerOdometry imu({{0.4, 0.15}, {-0.4, 0.15}});
+  imu.reset(zero, {}, 1.0);
+  const double a[2] = {1.0 / 0.15, 1.0 / 0.15};
+  ASSERT_TRUE(imu.update(a, 1.1));
+  EXPECT_NEAR(imu.pose().yaw, 0.1, 1e-12);
+  EXPECT_NEAR(imu.pose().x, 10.0 * std::sin(0.1), 1e-9);
+  // A missing angle leaves the pose where it was.
+  const double bad[2] = {std::nan(""), 1.0};
+  EXPECT_FALSE(imu.update(bad));
+  EXPECT_NEAR(imu.pose().yaw, 0.1, 1e-12);
+  // Wheels on one side only: the field is named.
+  try {
+    mapping::SkidSteerOdometry one({{0.4, 0.15}, {0.3, 0.15}});
+    FAIL();
+  } catch (const FieldError& e) {
+    EXPECT_EQ(e.field(), "wheels");
+    EXPECT_NE(std::string(e.what()).find("2 left, 0 right"), std::string::npos) << e.what();
+  }
+}
+
+TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {
+  cli::register_everything();
+  auto app = runtime::Application::load(Params::load_string(test_yaml(), "terrain_map_test.yaml"),
+                                        {.sim_time = true, .enable_dds = false});
+  auto* cam = app->context().find<hal::Camera>("front");
+  ASSERT_NE(cam, nullptr);
+  const auto* truth = dynamic_cast<const mocks::DriveTruth*>(cam);
+  ASSERT_NE(truth, nullptr);
+  ASSERT_NE(truth->drive_terrain(), nullptr);
+  EXPECT_GT(truth->drive_terrain()->rocks().size(), 10u);
+  EXPECT_EQ(truth->drive_terrain()->craters().size(), 2u);
+  auto& state = app->context().channel<mapping::TerrainMapState>(mapping::kOdometryChannel);
+
+  std::atomic<bool> stop{false};
+  app->start();
+  double worst = 0.0, worst_yaw = 0.0, last_wheel_err = 0.0, last_err = 0.0;
+  int samples = 0;
+  std::uint64_t seen = 0;
+  for (int k = 0; k < 32; ++k) {  // 16 s in 0.5 s slices: every mapped frame checked against the truth
+    app->run(500 * kNsPerMs, stop);
+    auto l = state.acquire();
+    if (!l || l.generation() == seen) continue;
+    seen = l.generation();
+    const terrain_scene::DrivePose t = truth->odom_pose_at(l->stamp);
+    const double e = std::hypot(l->pose.x - t.x_m, l->pose.y - t.y_m);
+    const double ey = std::abs(mapping::wrap_angle(l->pose.yaw - t.yaw_rad));
+    worst = std::max(worst, e);
+    worst_yaw = std::max(worst_yaw, ey);
+    last_err = e;
+    last_wheel_err = std::hypot(l->wheel_pose.x - t.x_m, l->wheel_pose.y - t.y_m);
+    ++samples;
+  }
+  app->stop();
+  auto l = state.acquire();
+  ASSERT_TRUE(l);
+  const terrain_scene::DrivePose end = truth->odom_pose_at(l->stamp);
+  std::printf(
+      "frames %ld vo ok %ld failed %ld keyframes %ld jumps %ld cells %ld; pose error worst %.1f mm, final %.1f mm, "
+      "wheel-only final %.1f mm, worst yaw %.3f deg; truth end (%.3f, %.3f, %.2f deg)\n",
+      l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->counters.odometry_jumps,
+      l->cells_known, 1e3 * worst, 1e3 * last_err, 1e3 * last_wheel_err, worst_yaw * 57.2958, end.x_m, end.y_m,
+      end.yaw_rad * 57.2958);
+  EXPECT_GE(samples, 28);
+  // 15 s of driving at 2 Hz: frames 0..30; the 16th second the rover stands (frame 30 held).
+  EXPECT_EQ(l->counters.frames, 31);
+  EXPECT_EQ(l->frames_rejected, 0);
+  EXPECT_EQ(l->odometry_unavailable, 0);
+  EXPECT_EQ(l->counters.odometry_jumps, 0);
+  EXPECT_EQ(l->counters.vo_ok + l->counters.vo_failed, l->counters.frames - 1);
+  EXPECT_GE(l->counters.vo_ok, 26);
+  EXPECT_GE(l->counters.keyframes, 3);  // 1.5 m of driving, a keyframe every ~0.7 m
+  EXPECT_NEAR(end.x_m, 8.0 * std::sin(1.5 / 8.0), 1e-9);
+  // Wheels: 5 % slip over 1.5 m -> ~7.5 cm ahead; the corrected pose stays within a few cm.
+  EXPECT_NEAR(last_wheel_err, 0.075, 0.01);
+  EXPECT_LT(worst, 0.05);                     // measured 37 mm (wheels alone: 75 mm at the end)
+  EXPECT_LT(last_err, 0.6 * last_wheel_err);  // measured 30 mm
+  EXPECT_LT(worst_yaw, 0.5 / 57.2958);
+  EXPECT_NEAR(l->distance_m, 1.05 * 1.5, 0.01);
+  // The map: parallax / shadow heights over the 1.5 m drive, published every 2 frames.
+  EXPECT_GT(l->cells_known, 2000);
+  EXPECT_GE(l->map_updates, 15);
+  const auto* tm = [&]() -> const runtime::Component* {
+    for (const auto* c : app->view().components)
+      if (c->name() == "terrain_map") return c;
+    return nullptr;
+  }();
+  ASSERT_NE(tm, nullptr);
+  EXPECT_EQ(tm->errors(), 0u);
+  EXPECT_EQ(tm->result().rfind("map 31 frames", 0), 0u) << tm->result();
+}
+
+TEST(TerrainMapComponent, BadConfigurationNamesTheField) {
+  // A parameter out of range: located at its key.
+  std::string e = load_error(edited("map_length_m: 12", "map_length_m: -3"));
+  EXPECT_NE(e.find("components.terrain_map.map_length_m"), std::string::npos) << e;
+  // A camera without a rover.cameras entry.
+  e = load_error(edited("    camera: front\n    encoders", "    camera: nocam\n    encoders"));
+  EXPECT_NE(e.find("components.terrain_map.camera"), std::string::npos) << e;
+  // Heading from an IMU on a rover without one.
+  e = load_error(edited("  imu: body_imu\n", ""));
+  EXPECT_EQ(e, "") << "without rover.imu the heading defaults to the wheels";
+  std::string y = edited("  imu: body_imu\n", "");
+  y += "    heading_source: imu\n";
+  e = load_error(y);
+  EXPECT_NE(e.find("components.terrain_map.heading_source"), std::string::npos) << e;
+  EXPECT_NE(e.find("rover.imu"), std::string::npos) << e;
+  // Wheels on one side only: the odometry cannot be built.
+  y = test_yaml();
+  for (std::string::size_type at; (at = y.find("y_m: -0.4")) != std::string::npos;) y.replace(at, 9, "y_m: 0.45");
+  e = load_error(y);
+  EXPECT_NE(e.find("components.terrain_map.encoders"), std::string::npos) << e;
+  EXPECT_NE(e.find("0 right"), std::string::npos) << e;
+  // Unknown keys are rejected (with the runtime's did-you-mean).
+  e = load_error(edited("map_publish_every: 2", "map_publish_evry: 2"));
+  EXPECT_NE(e.find("map_publish_evry"), std::string::npos) << e;
+}

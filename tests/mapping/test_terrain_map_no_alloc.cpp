@@ -1,0 +1,62 @@
+// The terrain_map component allocates nothing on the heap inside rate-group cycles once running,
+// with DDS on (odom, odom/wheel and the grid map are copied into pre-allocated outbox samples):
+// global operator new is counted on the rate-group threads in this binary.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <fstream>
+#include <new>
+#include <sstream>
+
+#include "cli.hpp"
+#include "regolith/mapping/component.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/rate_group.hpp"
+
+namespace {
+std::atomic<std::uint64_t> g_in_cycle{0};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+
+using namespace regolith;
+
+TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
+  setenv("CYCLONEDDS_URI", "file://" REGOLITH_DDS_LOOPBACK_XML, 1);
+  cli::register_everything();
+  std::ifstream in(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string yaml = ss.str();
+  // A namespace and domain of its own.
+  const std::string ns = "namespace: maptest";
+  yaml.replace(yaml.find(ns), ns.size(), "namespace: noalloc" + std::to_string(getpid()));
+  const std::string dom = "domain: 0";
+  yaml.replace(yaml.find(dom), dom.size(), "domain: " + std::to_string(1 + getpid() % 200));
+  auto app = runtime::Application::load(Params::load_string(yaml, "terrain_map_test.yaml"), {.sim_time = true});
+  ASSERT_NE(app->dds(), nullptr);
+  auto& state = app->context().channel<mapping::TerrainMapState>(mapping::kOdometryChannel);
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(3 * kNsPerSec, stop);  // warm-up: the mapper's first frames and keyframe size its buffers
+  const std::uint64_t before = g_in_cycle.load();
+  const auto frames_before = state.acquire()->counters.frames;
+  app->run(12 * kNsPerSec, stop);
+  const auto l = state.acquire();
+  app->stop();
+  EXPECT_GE(l->counters.frames - frames_before, 20);  // frames mapped while counting
+  EXPECT_GE(l->map_updates, 10);                      // map layers derived and published
+  EXPECT_GT(l->counters.keyframes, 1);
+  EXPECT_EQ(g_in_cycle.load() - before, 0u) << "heap allocations inside terrain_map cycles";
+}
