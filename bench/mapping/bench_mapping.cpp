@@ -1,8 +1,9 @@
-// Drive-long map per-frame cost (issue 13 "Speed"): ground visual odometry + wheel fusion, and the
-// whole DriveMapper (VO + motion-parallax heights + world-map fusion), on rendered 320x240 and
-// 640x480 navigation frames of a driving rover, against the textbook peer measured in the same
-// run: OpenCV 5-point VO (goodFeaturesToTrack 300 + pyramidal LK + findEssentialMat RANSAC +
-// recoverPose) on the same frame pairs. One thread (cv::setNumThreads(1)); prints the ratios.
+// Drive-long map per-frame cost (issues 13 and 14 "Speed"): ground visual odometry + wheel fusion,
+// each height cue alone (plane sweep, rectified parallax, rock sightings) and the whole
+// DriveMapper (VO + cues + world-map fusion), on rendered 320x240 and 640x480 navigation frames of
+// a driving rover, against the textbook peer measured in the same run: OpenCV 5-point VO
+// (goodFeaturesToTrack 300 + pyramidal LK + findEssentialMat RANSAC + recoverPose) on the same
+// frame pairs. One thread (cv::setNumThreads(1)); prints the per-frame split and the ratios.
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -101,6 +102,57 @@ void run_mapper(benchmark::State& st, bool terrain) {
 void BM_GroundVoFusion(benchmark::State& st) { run_mapper(st, false); }
 void BM_DriveMapper(benchmark::State& st) { run_mapper(st, true); }
 
+// One cue on one frame pair 0.42 m apart (frames 0 and 7), with the VO's measurement of it.
+struct CuePair {
+  std::unique_ptr<direct_depth::DirectDepth> depth;
+  VoMeasurement m;
+};
+const CuePair& cue_pair(int w) {
+  static std::map<int, CuePair> cache;
+  if (auto it = cache.find(w); it != cache.end()) return it->second;
+  const Drive& d = drive(w);
+  CuePair c;
+  c.depth = std::make_unique<direct_depth::DirectDepth>(d.model);
+  GroundVisualOdometry vo(*c.depth, GroundVoParams{});
+  vo.track(d.frames[0], {});
+  vo.promote_last();
+  c.m = vo.track(d.frames[7], between(d.odometry[0], d.odometry[7]));
+  return cache.emplace(w, std::move(c)).first->second;
+}
+void BM_PlaneSweep(benchmark::State& st) {
+  const Drive& d = drive(static_cast<int>(st.range(0)));
+  const CuePair& c = cue_pair(static_cast<int>(st.range(0)));
+  PlaneSweep sweep(*c.depth, PlaneSweepParams{});
+  sweep.set_frame(d.frames[0]);
+  sweep.promote();
+  for (auto _ : st) {
+    sweep.set_frame(d.frames[7]);
+    benchmark::DoNotOptimize(sweep.compute(c.m.pose, c.m.gain, c.m.bias_dn, {c.m.key_pitch_rad, c.m.key_roll_rad},
+                                           {c.m.pitch_rad, c.m.roll_rad}));
+  }
+  st.counters["hypotheses_M"] = static_cast<double>(sweep.samples()) * 1e-6;
+}
+void BM_GroundParallax(benchmark::State& st) {
+  const Drive& d = drive(static_cast<int>(st.range(0)));
+  const CuePair& c = cue_pair(static_cast<int>(st.range(0)));
+  GroundParallax plx(*c.depth, ParallaxParams{});
+  plx.set_frame(d.frames[0]);
+  plx.promote();
+  for (auto _ : st) {
+    plx.set_frame(d.frames[7]);
+    benchmark::DoNotOptimize(plx.compute(c.m.pose, c.m.gain, c.m.bias_dn, {c.m.key_pitch_rad, c.m.key_roll_rad},
+                                         {c.m.pitch_rad, c.m.roll_rad}));
+  }
+}
+void BM_RockSightings(benchmark::State& st) {
+  const Drive& d = drive(static_cast<int>(st.range(0)));
+  const CuePair& c = cue_pair(static_cast<int>(st.range(0)));
+  RockSightings sightings(*c.depth, RockSightingParams{});
+  int n = 0;
+  for (auto _ : st) benchmark::DoNotOptimize(n = sightings.compute(d.frames[7], {c.m.pitch_rad, c.m.roll_rad}));
+  st.counters["sightings"] = n;
+}
+
 // The peer: sparse 5-point VO between consecutive frames.
 void BM_RecoverPose5pt(benchmark::State& st) {
   const Drive& d = drive(static_cast<int>(st.range(0)));
@@ -132,6 +184,9 @@ void BM_RecoverPose5pt(benchmark::State& st) {
 
 BENCHMARK(BM_RecoverPose5pt)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GroundVoFusion)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlaneSweep)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GroundParallax)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RockSightings)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DriveMapper)->Arg(320)->Arg(640)->Unit(benchmark::kMillisecond);
 
 class RatioReporter : public benchmark::ConsoleReporter {
@@ -147,8 +202,10 @@ class RatioReporter : public benchmark::ConsoleReporter {
     for (int w : {320, 640}) {
       const std::string s = "/" + std::to_string(w);
       const double peer = ms_["BM_RecoverPose5pt" + s], vo = ms_["BM_GroundVoFusion" + s], all = ms_["BM_DriveMapper" + s];
-      std::printf("  %dx%d: ground VO + fusion %6.2f ms (%.2fx the 5-point peer's %.2f ms); with parallax heights + map %6.2f ms\n",
+      std::printf("  %dx%d: ground VO + fusion %6.2f ms (%.2fx the 5-point peer's %.2f ms); with every cue + map %6.2f ms\n",
                   w, w * 3 / 4, vo, peer > 0 ? vo / peer : 0.0, peer, all);
+      for (const char* n : {"BM_PlaneSweep", "BM_GroundParallax", "BM_RockSightings"})
+        if (const double ms = ms_[n + s]; ms > 0) std::printf("      %-18s %6.2f ms (%.2fx peer)\n", n + 3, ms, peer > 0 ? ms / peer : 0.0);
     }
   }
 

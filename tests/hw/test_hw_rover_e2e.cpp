@@ -8,7 +8,7 @@
 // the camera streaming with frames increasing and no fault.
 //
 // Adaptations to the VM (each asserted against the shipped file so a change there is noticed):
-//  * the libcamera `front` camera and its consumers `sfs` / `traversability` are removed (vimc
+//  * the libcamera `front` camera and its consumers `sfs` / `traversability` / `terrain_map` are removed (vimc
 //    start-up under TCG costs 5-10 s per process; libcamera is covered by test_hw_libcamera);
 //  * the `rear` V4L2 camera and its consumer `soil` are removed: vivid offers one capture node
 //    and the wheel camera holds it.
@@ -203,7 +203,7 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
     ASSERT_EQ(kv.second["length"].as<int>(), 4);
     ++w;
   }
-  const std::set<std::string> dropped = {"sfs", "traversability", "soil"};
+  const std::set<std::string> dropped = {"sfs", "traversability", "terrain_map", "soil"};
   for (const auto& c : dropped) remove_key(cfg["components"], c, "components");
   YAML::Node groups(YAML::NodeType::Sequence);
   for (const auto& g : cfg["rate_groups"]) {

@@ -144,8 +144,17 @@ class TerrainMapComponent final : public runtime::Component {
     mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
     mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
                                     {.doc = "rocks sighted in each frame and ranged on the ground (far rocks)"});
-    mp.sweep_in_image = p.get<bool>("sweep_in_image", mp.sweep_in_image,
-                                    {.doc = "parallax by a plane sweep in the image (false: in the ground-rectified frame)"});
+    mp.parallax_spacing_m = p.get<double>(
+        "parallax_spacing_m", 0.15,
+        {.unit = "m", .min = 0.0, .max = 5.0,
+         .doc = "a parallax search runs when the baseline grew this much since the last (0 = every frame: denser map, ~3x the time)"});
+    {
+      const std::string mode = p.get<std::string>(
+          "parallax", "both",
+          {.choices = {"sweep", "rectified", "both"},
+           .doc = "parallax heights: plane sweep in the image, search in the ground-rectified frame, or both"});
+      mp.parallax_mode = mode == "sweep" ? ParallaxMode::kSweep : mode == "rectified" ? ParallaxMode::kRectified : ParallaxMode::kBoth;
+    }
     mp.keyframe_distance_m = p.get<double>("keyframe_distance_m", mp.keyframe_distance_m,
                                            {.unit = "m",
                                             .min = 0.0,

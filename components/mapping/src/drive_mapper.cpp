@@ -65,6 +65,7 @@ void DriveMapperParams::validate() const {
   shadow.validate();
   if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
+  if (!std::isfinite(parallax_spacing_m) || parallax_spacing_m < 0) fail("mapping", "parallax_spacing_m", "must be >= 0");
   if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
     fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
 }
@@ -112,9 +113,10 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     report_.vo = m.status;
     report_.vo_inliers = 0;
     tilt_ = cv::Vec2d();
+    last_parallax_base_ = 0.0;
     vo_.promote_last();
     if (use_parallax()) parallax_.set_frame(gray), parallax_.promote();
-    if (use_parallax() && p_.sweep_in_image) sweep_.set_frame(gray), sweep_.promote();
+    if (use_sweep()) sweep_.set_frame(gray), sweep_.promote();
     key_foot_ = foot;
     key_cov_ = Cov3::Zero();
     wheel_since_key_ = Pose2{};
@@ -149,7 +151,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     const Cov3 pred_cov = compose_covariance(wheel_since_key_, wheel_since_key_cov_, fs, fq);
     const VoMeasurement& m = vo_.track(gray, pred);
     if (use_parallax()) parallax_.set_frame(gray);
-    if (use_parallax() && p_.sweep_in_image) sweep_.set_frame(gray);
+    if (use_sweep()) sweep_.set_frame(gray);
     report_.vo = m.status;
     report_.vo_inliers = m.inliers;
     tilt_ = m.ok() ? cv::Vec2d(m.pitch_rad, m.roll_rad) : cv::Vec2d();
@@ -173,11 +175,15 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     wheel_since_key_cov_ = rel_cov;
     // Heights from the parallax against the keyframe, placed with the keyframe's corrected pose.
     report_.parallax = false;
-    if (use_parallax() && p_.sweep_in_image && m.ok() &&
+    const double base = std::hypot(m.pose.x, m.pose.y);
+    const bool search = m.ok() && base - last_parallax_base_ >= p_.parallax_spacing_m;
+    if (search) last_parallax_base_ = base;
+    if (use_sweep() && search &&
         sweep_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
       report_.cells_fused += map_.fuse_points(sweep_.x(), sweep_.y(), sweep_.height(), sweep_.confidence(), key_foot_);
       report_.parallax = true;
-    } else if (use_parallax() && !p_.sweep_in_image && m.ok() &&
+    }
+    if (use_parallax() && p_.parallax_mode != ParallaxMode::kSweep && search &&
         parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
       report_.cells_fused += map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
       report_.parallax = true;
@@ -195,7 +201,8 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (frame_good && (moved || thin || !m.ok())) {
       vo_.promote_last();
       if (use_parallax()) parallax_.promote();
-      if (use_parallax() && p_.sweep_in_image) sweep_.promote();
+      if (use_sweep()) sweep_.promote();
+      last_parallax_base_ = 0.0;
       key_foot_ = foot;
       key_cov_ = foot_cov;
       wheel_since_key_ = Pose2{};
@@ -215,7 +222,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   if (p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
     report_.rock_sightings = sightings_.compute(gray, tilt_);
     if (report_.rock_sightings > 0)
-      map_.fuse_sightings(sightings_.x(), sightings_.y(), sightings_.height(), sightings_.width(), sightings_.score(), foot);
+      map_.fuse_sightings(sightings_.table(), foot);
   }
   if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
     terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);

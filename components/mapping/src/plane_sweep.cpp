@@ -43,6 +43,7 @@ void PlaneSweepParams::validate() const {
   if (!std::isfinite(max_height_m) || max_height_m <= 0) fail("max_height_m", "must be > 0");
   if (!std::isfinite(step_px) || step_px <= 0 || step_px > 4) fail("step_px", "must be in (0, 4]");
   if (max_steps < 4 || max_steps > 1024) fail("max_steps", "must be 4..1024");
+  if (max_width_px < 32) fail("max_width_px", "must be >= 32");
   if (window < 1 || window > 8) fail("window", "must be 1..8");
   if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
   if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
@@ -53,19 +54,23 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
     : p_((params.validate(), params)), depth_(depth), h_(depth.model().mount_height_m) {
   if (!(h_ > p_.max_height_m)) fail("max_height_m", "must be below the camera height");
   const auto& m = depth.model();
-  const int H = m.height, W = m.width;
+  // Working scale: whole 2x2 (4x4, ...) pixel blocks until the width fits max_width_px.
+  while (m.width / scale_ > p_.max_width_px && m.height / (2 * scale_) >= 16) scale_ *= 2;
+  const int H = m.height / scale_, W = m.width / scale_;
+  const double f = scale_;
+  fx_ = m.fx / f, fy_ = m.fy / f, cx_ = (m.cx + 0.5) / f - 0.5, cy_ = (m.cy + 0.5) / f - 0.5;
   if (m.has_distortion()) {
     // Undistorted images keep the camera matrix: afterwards every pixel is a pinhole ray.
     const cv::Matx33d K(m.fx, 0, m.cx, 0, m.fy, m.cy, 0, 0, 1);
     const cv::Vec<double, 5> D(m.k1, m.k2, m.p1, m.p2, m.k3);
-    cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, cv::Size(W, H), CV_32FC1, undist_x_, undist_y_);
-    undist_.create(H, W, CV_8U);
+    cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, cv::Size(m.width, m.height), CV_32FC1, undist_x_, undist_y_);
+    undist_.create(m.height, m.width, CV_8U);
   }
   nrm_.create(H, W, CV_32FC3);
   const cv::Matx33d& r = depth.body_from_optical();
   for (int i = 0; i < H; ++i)
     for (int j = 0; j < W; ++j) {
-      const cv::Vec3d d = r * cv::Vec3d((j - m.cx) / m.fx, (i - m.cy) / m.fy, 1.0);
+      const cv::Vec3d d = r * cv::Vec3d((j - cx_) / fx_, (i - cy_) / fy_, 1.0);
       nrm_.at<cv::Vec3f>(i, j) = cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
     }
   for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_, &tmp_, &z_,
@@ -89,13 +94,24 @@ void PlaneSweep::load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok) {
     cv::remap(gray, undist_, undist_x_, undist_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
     src = &undist_;
   }
+  // Block means at the working scale; a block with a clipped pixel is unusable.
+  const int f = scale_;
+  const float inv = 1.0f / static_cast<float>(f * f);
   for (int i = 0; i < img.rows; ++i) {
-    const uchar* s = src->ptr<uchar>(i);
     float* d = img.ptr<float>(i);
     uchar* o = ok.ptr<uchar>(i);
     for (int j = 0; j < img.cols; ++j) {
-      d[j] = s[j];
-      o[j] = (s[j] > 3 && s[j] < 252) ? 255 : 0;  // clipped = unusable
+      int sum = 0;
+      bool usable = true;
+      for (int a = 0; a < f; ++a) {
+        const uchar* s = src->ptr<uchar>(i * f + a) + j * f;
+        for (int b = 0; b < f; ++b) {
+          sum += s[b];
+          usable = usable && s[b] > 3 && s[b] < 252;
+        }
+      }
+      d[j] = static_cast<float>(sum) * inv;
+      o[j] = usable ? 255 : 0;
     }
   }
 }
@@ -116,8 +132,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   samples_ = 0;
   const double base = std::hypot(m.x, m.y);
   if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias)) return false;
-  const auto& cam = depth_.model();
-  const int H = cam.height, W = cam.width;
+  const int H = key_.rows, W = key_.cols;
   const double h = h_;
   // Rays of the keyframe camera as tilted against the ground; the current camera's rotation.
   const cv::Matx33d rk = rot_x(kt[1]) * rot_y(kt[0]);
@@ -130,7 +145,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   const cv::Vec2d t0 = to_cur(-m.x, -m.y);
   const cv::Vec3d o0 = rc_t * cv::Vec3d(t0[0], t0[1], 0.0);
   const double w_lo = 1.0 - p_.max_height_m / h, w_hi = 1.0 - p_.min_height_m / h;
-  const double fx = cam.fx, fy = cam.fy, cx = cam.cx, ccy = cam.cy;
+  const double fx = fx_, fy = fy_, cx = cx_, ccy = cy_;
   const double r2min = p_.min_range_m * p_.min_range_m, r2max = p_.max_range_m * p_.max_range_m;
   int max_n = 0;
   for (int i = 0; i < H; ++i) {
@@ -163,13 +178,26 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
     if (max_disp > 0) max_n = std::max(max_n, static_cast<int>(std::ceil((w_hi - w_lo) / step)) + 1);
   }
   if (max_n < 3) return false;
+  // Only the rows that hold swept pixels (plus the matching window) are matched.
+  int r0 = H, r1 = -1;
+  for (int i = 0; i < H; ++i) {
+    const float* ox = ox_.ptr<float>(i);
+    for (int j = 0; j < W; ++j)
+      if (!std::isnan(ox[j])) {
+        r0 = std::min(r0, i), r1 = std::max(r1, i);
+        break;
+      }
+  }
+  r0 = std::max(0, r0 - p_.window);
+  r1 = std::min(H - 1, r1 + p_.window);
+  cv::Mat e_rows = e_.rowRange(r0, r1 + 1), tmp_rows = tmp_.rowRange(r0, r1 + 1);
   fill(best_, kBig);
   fill(bests_, -1.0f);
   const float g = static_cast<float>(gain), b = static_cast<float>(bias);
   // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
   // matching windows see one hypothesis index); such minima are discarded below.
   for (int t = 0; t < max_n; ++t) {
-    for (int i = 0; i < H; ++i) {
+    for (int i = r0; i <= r1; ++i) {
       const float *ox = ox_.ptr<float>(i), *oy = oy_.ptr<float>(i), *oz = oz_.ptr<float>(i);
       const float* kv = key_.ptr<float>(i);
       const uchar* ko = key_ok_.ptr<uchar>(i);
@@ -206,13 +234,14 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
         e[j] = r * r;
       }
     }
-    samples_ += static_cast<long>(H) * W;
+    samples_ += static_cast<long>(r1 - r0 + 1) * W;
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
-    common::box_sum(e_, c2_, tmp_, p_.window);
+    cv::Mat c2_rows = c2_.rowRange(r0, r1 + 1);
+    common::box_sum(e_rows, c2_rows, tmp_rows, p_.window);
     if (t < 2) continue;
-    for (int i = 0; i < H; ++i) {
+    for (int i = r0; i <= r1; ++i) {
       const float* l = c0_.ptr<float>(i);
       const float* c = c1_.ptr<float>(i);
       const float* r = c2_.ptr<float>(i);

@@ -35,23 +35,31 @@ void RockSightingParams::validate() const {
   if (!std::isfinite(smooth_sigma_px) || smooth_sigma_px < 0 || smooth_sigma_px > 16) fail("smooth_sigma_px", "must be in [0, 16]");
   if (!std::isfinite(threshold) || threshold <= 0) fail("threshold", "must be > 0");
   if (min_pixels < 1) fail("min_pixels", "must be >= 1");
+  if (row_band_px < 0 || row_band_px > 256) fail("row_band_px", "must be 0..256");
   if (max_pixels < min_pixels) fail("max_pixels", "must be >= min_pixels");
   if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
   if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
   if (!std::isfinite(min_height_m) || min_height_m < 0) fail("min_height_m", "must be >= 0");
   if (!std::isfinite(max_height_m) || max_height_m <= min_height_m) fail("max_height_m", "must be > min_height_m");
   if (max_sightings < 1 || max_sightings > 4096) fail("max_sightings", "must be 1..4096");
+  if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0) fail("tilt_sigma_rad", "must be >= 0");
 }
 
 RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params)
     : p_((params.validate(), params)), depth_(depth), rot_(depth.body_from_optical()) {
   const auto& m = depth.model();
-  for (cv::Mat* q : {&img_, &bg_, &tmp_, &tmp2_}) q->create(m.height, m.width, CV_32F);
+  for (cv::Mat* q : {&gray_f_, &img_, &bg_, &wimg_, &wsum_, &tmp_, &tmp2_}) q->create(m.height, m.width, CV_32F);
   mask_.create(m.height, m.width, CV_8U);
   label_.create(m.height, m.width, CV_32S);
+  row_thr_.create(1, m.height, CV_32F);
+  row_med_.create(1, m.height, CV_32F);
+  acc_.create(1, m.width, CV_64F);
   values_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
   stack_.resize(values_.size());
-  for (cv::Mat* q : {&x_, &y_, &h_, &w_, &s_}) q->create(1, p_.max_sightings, CV_32F), fill(*q, kNaNf);
+  table_.create(kSightRows, p_.max_sightings, CV_32F);
+  fill(table_, kNaNf);
+  x_ = table_.row(kSightX), y_ = table_.row(kSightY), h_ = table_.row(kSightHeight), w_ = table_.row(kSightWidth);
+  s_ = table_.row(kSightScore), sr_ = table_.row(kSightSigmaRange), sl_ = table_.row(kSightSigmaLateral);
 }
 
 void RockSightings::blur(cv::Mat& m, double sigma) {
@@ -61,7 +69,7 @@ void RockSightings::blur(cv::Mat& m, double sigma) {
   const int r = std::max(1, static_cast<int>(std::lround((std::sqrt(1.0 + 4.0 * sigma * sigma) - 1.0) / 2.0)));
   const float norm = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
   for (int pass = 0; pass < 3; ++pass) {
-    common::box_sum(m, tmp2_, tmp_, r);
+    common::box_sum(m, tmp2_, tmp_, r, &acc_);
     for (int i = 0; i < m.rows; ++i) {
       const float* s = tmp2_.ptr<float>(i);
       float* d = m.ptr<float>(i);
@@ -75,47 +83,88 @@ cv::Vec3d RockSightings::ray(double col, double row) const {
   return rot_ * cv::Vec3d(q.x, q.y, 1.0);
 }
 
+void RockSightings::contrast_and_thresholds() {
+  // img_ = |gray - background| (smoothed); the ground's own contrast grows towards the horizon
+  // (foreshortened texture): a threshold per row, k x the median over the seen pixels of the
+  // rows within +-row_band_px.
+  const int H = img_.rows, W = img_.cols;
+  for (int i = 0; i < H; ++i) {
+    const float* g = gray_f_.ptr<float>(i);
+    const float* b = bg_.ptr<float>(i);
+    float* a = img_.ptr<float>(i);
+    for (int j = 0; j < W; ++j) a[j] = std::abs(g[j] - b[j]);
+  }
+  blur(img_, p_.smooth_sigma_px);
+  const cv::Mat& valid = depth_.valid_map();
+  float* med = row_med_.ptr<float>(0);
+  for (int i = 0; i < H; ++i) {
+    std::size_t n = 0;
+    const float* a = img_.ptr<float>(i);
+    const uchar* v = valid.ptr<uchar>(i);
+    for (int j = 0; j < W; ++j)
+      if (v[j]) values_[n++] = a[j];
+    med[i] = std::numeric_limits<float>::quiet_NaN();
+    if (n < 16) continue;
+    std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2), values_.begin() + static_cast<std::ptrdiff_t>(n));
+    med[i] = values_[n / 2];
+  }
+  float* row_thr = row_thr_.ptr<float>(0);
+  for (int i = 0; i < H; ++i) {
+    double sum = 0;
+    int n = 0;
+    for (int r = std::max(0, i - p_.row_band_px); r <= std::min(H - 1, i + p_.row_band_px); ++r)
+      if (!std::isnan(med[r])) sum += med[r], ++n;
+    row_thr[i] = n > 0 ? static_cast<float>(p_.threshold * std::max(sum / n, 0.5)) : std::numeric_limits<float>::infinity();
+  }
+}
+
 int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
   const auto& cam = depth_.model();
   const int H = cam.height, W = cam.width;
   if (gray.empty() || gray.type() != CV_8UC1 || gray.cols != W || gray.rows != H)
     fail("gray", "expected an 8-bit grey frame of " + std::to_string(W) + "x" + std::to_string(H));
   count_ = 0;
-  for (cv::Mat* q : {&x_, &y_, &h_, &w_, &s_}) fill(*q, kNaNf);
+  fill(table_, kNaNf);
   rot_ = rot_x(tilt[1]) * rot_y(tilt[0]) * depth_.body_from_optical();
-  // Contrast against the local ground, smoothed.
+  // Contrast against the local ground, in two passes: the second background leaves out what the
+  // first found (a bright rock would otherwise lift the ground around it into a halo).
   for (int i = 0; i < H; ++i) {
     const uchar* s = gray.ptr<uchar>(i);
-    float* a = img_.ptr<float>(i);
+    float* g = gray_f_.ptr<float>(i);
     float* b = bg_.ptr<float>(i);
-    for (int j = 0; j < W; ++j) a[j] = b[j] = s[j];
+    for (int j = 0; j < W; ++j) g[j] = b[j] = s[j];
   }
   blur(bg_, p_.background_sigma_px);
+  contrast_and_thresholds();
   for (int i = 0; i < H; ++i) {
-    float* a = img_.ptr<float>(i);
-    const float* b = bg_.ptr<float>(i);
-    for (int j = 0; j < W; ++j) a[j] = std::abs(a[j] - b[j]);
-  }
-  blur(img_, p_.smooth_sigma_px);
-  // Median over the ground the camera sees within max range (rows below the horizon).
-  const cv::Mat& valid = depth_.valid_map();
-  const cv::Mat& range = depth_.range_map();
-  std::size_t n = 0;
-  for (int i = 0; i < H; ++i) {
+    const float* g = gray_f_.ptr<float>(i);
     const float* a = img_.ptr<float>(i);
-    const uchar* v = valid.ptr<uchar>(i);
-    const float* r = range.ptr<float>(i);
-    for (int j = 0; j < W; ++j)
-      if (v[j] && r[j] <= p_.max_range_m) values_[n++] = a[j];
+    const float thr = row_thr_.at<float>(0, i);
+    float* wi = wimg_.ptr<float>(i);
+    float* ws = wsum_.ptr<float>(i);
+    for (int j = 0; j < W; ++j) {
+      const bool ground = a[j] <= thr;
+      wi[j] = ground ? g[j] : 0.0f;
+      ws[j] = ground ? 1.0f : 0.0f;
+    }
   }
-  if (n < 100) return 0;
-  std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2), values_.begin() + static_cast<std::ptrdiff_t>(n));
-  const float thr = static_cast<float>(p_.threshold) * std::max(values_[n / 2], 0.5f);
+  blur(wimg_, p_.background_sigma_px);
+  blur(wsum_, p_.background_sigma_px);
+  for (int i = 0; i < H; ++i) {
+    const float* wi = wimg_.ptr<float>(i);
+    const float* ws = wsum_.ptr<float>(i);
+    float* b = bg_.ptr<float>(i);
+    for (int j = 0; j < W; ++j)
+      if (ws[j] > 0.05f) b[j] = wi[j] / ws[j];
+  }
+  contrast_and_thresholds();
+  const cv::Mat& valid = depth_.valid_map();
+  const float* row_thr = row_thr_.ptr<float>(0);
   for (int i = 0; i < H; ++i) {
     const float* a = img_.ptr<float>(i);
     const uchar* v = valid.ptr<uchar>(i);
     uchar* mk = mask_.ptr<uchar>(i);
-    for (int j = 0; j < W; ++j) mk[j] = (v[j] && a[j] > thr) ? 255 : 0;
+    for (int j = 0; j < W; ++j) mk[j] = (v[j] && a[j] > row_thr[i]) ? 255 : 0;
   }
   fill(label_, 0);
   // Blobs by flood fill with a preallocated stack.
@@ -135,7 +184,7 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
         const int k = stack_[static_cast<std::size_t>(--top)];
         const int i = k / W, j = k % W;
         ++pixels;
-        contrast += img_.at<float>(i, j);
+        contrast += img_.at<float>(i, j) / row_thr[i];
         rmin = std::min(rmin, i), rmax = std::max(rmax, i), cmin = std::min(cmin, j), cmax = std::max(cmax, j);
         if (i == 0 || j == 0 || i == H - 1 || j == W - 1) border = true;
         for (int di = -1; di <= 1; ++di)
@@ -177,7 +226,11 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
       y_.at<float>(0, k) = static_cast<float>(c[1]);
       h_.at<float>(0, k) = static_cast<float>(height);
       w_.at<float>(0, k) = static_cast<float>(width);
-      s_.at<float>(0, k) = static_cast<float>(std::clamp(contrast / pixels / thr - 1.0, 0.05, 1.0));
+      s_.at<float>(0, k) = static_cast<float>(std::clamp(contrast / pixels - 1.0, 0.05, 1.0));
+      const double cr = std::hypot(c[0], c[1]);
+      const double angle = std::hypot(1.0 / cam.fy, p_.tilt_sigma_rad);
+      sr_.at<float>(0, k) = static_cast<float>((h * h + cr * cr) / h * angle + 0.25 * width);
+      sl_.at<float>(0, k) = static_cast<float>(cr / cam.fx + 0.25 * width);
     }
   return count_;
 }

@@ -9,6 +9,7 @@
 
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/rock_sightings.hpp"
 
 namespace regolith::mapping {
 namespace {
@@ -40,7 +41,7 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(shadow_spread_m) || shadow_spread_m < 0) fail("shadow_spread_m", "must be >= 0");
   if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
   if (!std::isfinite(rock_min_area_m2) || rock_min_area_m2 < 0) fail("rock_min_area_m2", "must be >= 0");
-  if (!std::isfinite(sighting_radius_m) || sighting_radius_m < 0) fail("sighting_radius_m", "must be >= 0");
+  if (!std::isfinite(sighting_radius_m) || sighting_radius_m <= 0) fail("sighting_radius_m", "must be > 0");
   if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
   if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
   if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
@@ -240,25 +241,37 @@ int WorldMap::fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h,
   return updated;
 }
 
-int WorldMap::fuse_sightings(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const cv::Mat& score,
-                             const Pose2& foot) {
-  if (!foot.finite()) return 0;
+int WorldMap::fuse_sightings(const cv::Mat& t, const Pose2& foot) {
+  if (!foot.finite() || t.rows < kSightRows || t.type() != CV_32F) return 0;
   const double c = std::cos(foot.yaw), s = std::sin(foot.yaw), inv_res = 1.0 / p_.resolution_m;
-  const int rad = static_cast<int>(std::floor(p_.sighting_radius_m * inv_res));
+  const double s0 = p_.sighting_radius_m;
   int fused = 0;
-  for (int k = 0; k < h.cols; ++k) {
-    const float hk = h.at<float>(0, k), wk = w.at<float>(0, k), sk = score.at<float>(0, k);
+  for (int k = 0; k < t.cols; ++k) {
+    const float hk = t.at<float>(kSightHeight, k), wk = t.at<float>(kSightWidth, k), sk = t.at<float>(kSightScore, k);
     if (!std::isfinite(hk)) break;
-    if (!(sk > 0.0f) || !std::isfinite(wk)) continue;
-    const double bx = x.at<float>(0, k), by = y.at<float>(0, k);
+    const double sr = std::max<double>(t.at<float>(kSightSigmaRange, k), s0 * 0.5);
+    const double sl = std::max<double>(t.at<float>(kSightSigmaLateral, k), s0 * 0.5);
+    if (!(sk > 0.0f) || !std::isfinite(wk) || !std::isfinite(sr) || !std::isfinite(sl)) continue;
+    const double bx = t.at<float>(kSightX, k), by = t.at<float>(kSightY, k);
     const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
-    const int j0 = static_cast<int>(std::lround((wx - ox_) * inv_res)), i0 = static_cast<int>(std::lround((wy - oy_) * inv_res));
-    for (int i = std::max(0, i0 - rad); i <= std::min(rows_ - 1, i0 + rad); ++i)
-      for (int j = std::max(0, j0 - rad); j <= std::min(cols_ - 1, j0 + rad); ++j) {
-        if ((i - i0) * (i - i0) + (j - j0) * (j - j0) > rad * rad) continue;
-        sight_w_.at<float>(i, j) += sk;
-        sight_h_.at<float>(i, j) += sk * hk;
-        sight_d_.at<float>(i, j) += sk * wk;
+    // Unit vector along the viewing ray (world), and the Gaussian's reach (3 sigma).
+    const double rn = std::hypot(bx, by);
+    if (!(rn > 0)) continue;
+    const double ux = (c * bx - s * by) / rn, uy = (s * bx + c * by) / rn;
+    const double reach = 3.0 * std::max(sr, sl);
+    const double peak = sk * std::min(1.0, s0 * s0 / (sr * sl));
+    const int j0 = static_cast<int>(std::floor((wx - reach - ox_) * inv_res)), j1 = static_cast<int>(std::ceil((wx + reach - ox_) * inv_res));
+    const int i0 = static_cast<int>(std::floor((wy - reach - oy_) * inv_res)), i1 = static_cast<int>(std::ceil((wy + reach - oy_) * inv_res));
+    for (int i = std::max(0, i0); i <= std::min(rows_ - 1, i1); ++i)
+      for (int j = std::max(0, j0); j <= std::min(cols_ - 1, j1); ++j) {
+        const double dx = ox_ + j * p_.resolution_m - wx, dy = oy_ + i * p_.resolution_m - wy;
+        const double a = dx * ux + dy * uy, b = -dx * uy + dy * ux;
+        const double q = 0.5 * (a * a / (sr * sr) + b * b / (sl * sl));
+        if (q > 4.5) continue;
+        const float e = static_cast<float>(peak * std::exp(-q));
+        sight_w_.at<float>(i, j) += e;
+        sight_h_.at<float>(i, j) += e * hk;
+        sight_d_.at<float>(i, j) += e * wk;
       }
     ++fused;
   }
@@ -367,7 +380,7 @@ void WorldMap::finish() {
     }
 }
 
-std::vector<MapRock> WorldMap::rocks() const {
+std::vector<MapRock> WorldMap::relief_rocks() const {
   // Object height per cell: the taller of relief and shadow height.
   cv::Mat relief(rows_, cols_, CV_32F);
   for (int i = 0; i < rows_; ++i)
@@ -408,6 +421,12 @@ std::vector<MapRock> WorldMap::rocks() const {
     r.score = std::clamp(h / p_.hazard_height_m, 0.0, 1.0);
     out.push_back(r);
   }
+  return out;
+}
+
+std::vector<MapRock> WorldMap::rocks() const {
+  std::vector<MapRock> out;
+  if (p_.rocks_from_relief) out = relief_rocks();
   // Rocks sighted in several frames: local maxima of the evidence (3 x 3) that reach
   // rock_min_evidence, with the sightings' mean height and width there.
   for (int i = 1; i + 1 < rows_; ++i)

@@ -41,6 +41,10 @@ struct WheelNoise {
   Cov3 covariance(const Pose2& step) const;
 };
 
+/// Parallax heights: the plane sweep in the image (accurate near), the search in the
+/// ground-rectified frame (denser, coarser), or both fused.
+enum class ParallaxMode { kSweep, kRectified, kBoth };
+
 struct DriveMapperParams {
   GroundVoParams vo;
   WheelNoise wheel;
@@ -56,7 +60,9 @@ struct DriveMapperParams {
   bool use_vision = true;             ///< false: wheel odometry only (for comparison)
   bool fuse_terrain = true;           ///< false: odometry only (no terrain in the map)
   bool fuse_parallax = true;          ///< heights from motion parallax against the keyframe
-  bool sweep_in_image = true;         ///< parallax by a plane sweep in the image (else in the ground-rectified frame)
+  ParallaxMode parallax_mode = ParallaxMode::kBoth;  ///< which parallax search(es) give heights
+  double parallax_spacing_m = 0.0;    ///< m, a parallax search runs when the baseline grew this much since the last one
+                                      ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
   bool fuse_shadows = false;          ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: more false rocks than found on the dev drives
   bool fuse_sightings = true;         ///< rocks sighted in each frame, ranged on the ground (far rocks)
   bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
@@ -122,6 +128,7 @@ class DriveMapper {
 
  private:
   bool use_parallax() const { return p_.fuse_terrain && p_.fuse_parallax; }
+  bool use_sweep() const { return use_parallax() && p_.parallax_mode != ParallaxMode::kRectified; }
   DriveMapperParams p_;
   direct_depth::DirectDepth depth_;
   CameraMount mount_;
@@ -139,6 +146,7 @@ class DriveMapper {
   bool started_ = false;
   Pose2 last_wheel_;
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
+  double last_parallax_base_ = 0.0;  // baseline of the last parallax search against this keyframe
   cv::Vec2d tilt_;                   // this frame's camera tilt against the ground (VO; 0 without)
   Pose2 key_foot_;                   // keyframe camera foot in the world
   Cov3 key_cov_ = Cov3::Zero();      // its covariance

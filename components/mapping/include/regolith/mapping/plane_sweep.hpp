@@ -17,7 +17,9 @@
 // (curvature of the cost at its minimum against the image noise, lowered by a poor best match).
 // Flat, textureless, occluded or ambiguous pixels get none.
 //
-// Images with lens distortion are undistorted into pinhole images first (maps built once).
+// Images with lens distortion are undistorted into pinhole images first (maps built once). A
+// camera wider than `max_width_px` is swept at a working scale of 2x2 (4x4, ...) block means:
+// the outputs then have the working size (width / scale x height / scale).
 // All buffers are allocated in the constructor: set_frame / promote / compute do not allocate.
 #include <opencv2/core.hpp>
 
@@ -33,7 +35,8 @@ struct PlaneSweepParams {
   double min_height_m = -0.06;   ///< m, sweep from this height ...
   double max_height_m = 0.40;    ///< m, ... to this one above the ground
   double step_px = 1.0;          ///< px, largest image motion between two height hypotheses
-  int max_steps = 96;            ///< hypotheses per pixel at most (near rows get coarser steps)
+  int max_steps = 32;            ///< hypotheses per pixel at most (near rows get coarser steps)
+  int max_width_px = 400;        ///< wider cameras are swept on 2x2 (4x4, ...) pixel block means
   int window = 2;                ///< half-width of the matching window (px): 5 x 5
   double noise_dn = 2.0;         ///< grey levels, image noise for the confidence
   double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far rows,
@@ -60,7 +63,7 @@ class PlaneSweep {
   bool compute(const Pose2& cur_in_key, double gain, double bias, const cv::Vec2d& key_tilt = {},
                const cv::Vec2d& cur_tilt = {});
 
-  /// Per keyframe pixel (CV_32F, camera size): height above the ground (m, NaN unknown), ground
+  /// Per keyframe pixel (CV_32F, working size: camera size / scale()): height above the ground (m, NaN unknown), ground
   /// position in the keyframe's foot frame (m) and confidence (0..1).
   const cv::Mat& height() const { return z_; }
   const cv::Mat& x() const { return x_; }
@@ -68,12 +71,16 @@ class PlaneSweep {
   const cv::Mat& confidence() const { return conf_; }
   /// Hypotheses evaluated by the last compute() (pixels x steps), for benchmarks.
   long samples() const { return samples_; }
+  /// Working scale (1 = camera pixels).
+  int scale() const { return scale_; }
 
  private:
   void load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok);
   PlaneSweepParams p_;
   const direct_depth::DirectDepth& depth_;
   double h_;
+  int scale_ = 1;
+  double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0;  // pinhole model at the working scale
   bool has_key_ = false;
   long samples_ = 0;
   cv::Mat undist_x_, undist_y_, undist_;  // distortion maps (empty for a pinhole camera)

@@ -4,19 +4,25 @@
 // image, so where motion parallax is too weak the image itself says where a rock stands.
 //
 //  1. Contrast against the local ground: d = I - B (B = the frame blurred over
-//     `background_sigma_px`, three box passes), |d| smoothed over `smooth_sigma_px`. Ground
-//     texture gives a small |d|; a rock's lit and shaded faces and its shadow a large one.
+//     `background_sigma_px`, three box passes; then again leaving out the pixels the first pass
+//     found, so a bright rock does not lift the ground around it), |d| smoothed over
+//     `smooth_sigma_px`. Ground texture gives a small |d|; a rock's lit and shaded faces and its
+//     shadow a large one.
 //  2. Blobs: 8-connected pixels with smoothed |d| above `threshold` x the median over the seen
-//     ground, with at least `min_pixels`, not touching the image border.
+//     ground (per row, averaged over the rows within `row_band_px`: texture contrast grows towards the horizon), with
+//     at least `min_pixels`, not touching the image border.
 //  3. Ranging (direct depth with the camera's tilt against the ground): the blob's lowest row is
 //     its contact with the ground -> ground point g; width = the ground distance between its
 //     leftmost and rightmost columns at that range; centre = g pushed back by half the width
 //     (round footprint); height = where the ray through the blob's top meets the vertical
 //     through the centre. Blobs ranged outside [min_range, max_range] or shorter than
 //     `min_height_m` are dropped.
-// Output: up to `max_sightings` per frame (x, y in the camera foot frame, height, width, score
-// = mean smoothed contrast over the threshold), as 1 x max_sightings CV_32F rows, NaN after
-// count(), the layout WorldMap::fuse_casters takes. Everything is allocated in the constructor.
+// Output: up to `max_sightings` per frame, one column each of a CV_32F table (rows below; NaN
+// after count()), the layout WorldMap::fuse_sightings takes: centre x, y in the camera foot frame,
+// height, width, score (mean contrast over the threshold - 1, 0.05..1) and the centre's standard
+// deviation along the viewing ray and across it: a row of error plus a tilt error of
+// `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle. Everything is allocated in
+// the constructor.
 #include <opencv2/core.hpp>
 
 #include <vector>
@@ -28,16 +34,21 @@ namespace regolith::mapping {
 struct RockSightingParams {
   double background_sigma_px = 16.0; ///< px, scale of the local ground brightness
   double smooth_sigma_px = 0.0;      ///< px, smoothing of |I - background| (0: none; smoothing moves the contact row)
-  double threshold = 3.0;            ///< x the median smoothed contrast of the seen ground
+  double threshold = 3.0;            ///< x the median smoothed contrast of the seen ground in the same rows
+  int row_band_px = 8;               ///< px, rows within this of a row share its threshold
   int min_pixels = 12;               ///< px, smaller blobs are texture
   int max_pixels = 4000;             ///< px, larger blobs are near rocks (parallax sees them) or lighting
   double min_range_m = 1.0;          ///< m, ground range of a blob's contact point, from ...
   double max_range_m = 5.0;          ///< m, ... to
-  double min_height_m = 0.05;        ///< m, lower objects are not reported
+  double min_height_m = 0.07;        ///< m, lower sightings are not reported (most are ground texture)
   double max_height_m = 0.6;         ///< m, taller ones are not rocks (a far wall, a crater's far rim)
   int max_sightings = 64;            ///< per frame
+  double tilt_sigma_rad = 0.01;      ///< rad, error of the camera's tilt against the far ground (ranging)
   void validate() const;             ///< FieldError("mapping.sightings", ...)
 };
+
+/// Rows of RockSightings::table().
+enum SightingRow { kSightX, kSightY, kSightHeight, kSightWidth, kSightScore, kSightSigmaRange, kSightSigmaLateral, kSightRows };
 
 class RockSightings {
  public:
@@ -49,6 +60,7 @@ class RockSightings {
   int compute(const cv::Mat& gray, const cv::Vec2d& tilt = {});
 
   int count() const { return count_; }
+  const cv::Mat& table() const { return table_; }
   const cv::Mat& x() const { return x_; }
   const cv::Mat& y() const { return y_; }
   const cv::Mat& height() const { return h_; }
@@ -63,11 +75,13 @@ class RockSightings {
   RockSightingParams p_;
   const direct_depth::DirectDepth& depth_;
   cv::Matx33d rot_;  // body from optical, with the tilt of the current frame
-  cv::Mat img_, bg_, tmp_, tmp2_, mask_, label_;
+  void contrast_and_thresholds();
+  cv::Mat gray_f_, img_, bg_, wimg_, wsum_, tmp_, tmp2_, mask_, label_, row_thr_, row_med_, acc_;
   std::vector<float> values_;
   std::vector<int> stack_;
   int count_ = 0;
-  cv::Mat x_, y_, h_, w_, s_;
+  cv::Mat table_;
+  cv::Mat x_, y_, h_, w_, s_, sr_, sl_;  // row views of table_
 };
 
 }  // namespace regolith::mapping

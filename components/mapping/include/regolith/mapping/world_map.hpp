@@ -45,9 +45,10 @@ struct WorldMapParams {
   double shadow_spread_m = 0.08;      ///< m, a caster's height covers cells this close to its foot
   double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
   double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
-  double sighting_radius_m = 0.12;    ///< m, a rock sighting counts for cells this close to its centre
-  double rock_min_evidence = 2.0;     ///< summed sighting scores a rock needs (several frames agreeing)
+  double sighting_radius_m = 0.06;    ///< m, standard deviation at which a sighting adds its full score at its centre
+  double rock_min_evidence = 1.0;     ///< summed sighting scores a rock needs (several frames agreeing)
   double rock_merge_m = 0.25;         ///< m, rocks closer than this are one rock (the stronger kept)
+  bool rocks_from_relief = false;     ///< also report connected relief blobs as rocks (off: more false than true rocks on the dev drives)
   double rock_min_confidence = 0.3;   ///< confidence a rock's top cell needs (0 = any; a shadow-only top has none)
   traversability::TraversabilityParams traversability;  ///< slope / step / roughness thresholds
   /// Throws FieldError("mapping.map", field, ...) naming the bad field.
@@ -97,12 +98,13 @@ class WorldMap {
   /// what stands there, not of the ground). No heap allocation.
   int fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const Pose2& camera_foot);
 
-  /// Fuses rocks sighted in one frame (RockSightings): centres (x, y) in the frame `camera_foot`
-  /// places in the world, height, width (m) and score (> 0; NaN height ends the list). Each adds
-  /// its score to the evidence of the cells within sighting_radius_m and its height and width to
-  /// their weighted means. No heap allocation.
-  int fuse_sightings(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const cv::Mat& score,
-                     const Pose2& camera_foot);
+  /// Fuses rocks sighted in one frame: `table` is RockSightings::table() (rows SightingRow,
+  /// columns up to the first NaN height), centres in the frame `camera_foot` places in the world.
+  /// Each sighting adds its score x a Gaussian of its ray/lateral standard deviations (scaled so a
+  /// sighting as sharp as sighting_radius_m adds its full score at its centre, a vaguer one
+  /// proportionally less) to the evidence, and its height and width to their weighted means.
+  /// No heap allocation.
+  int fuse_sightings(const cv::Mat& table, const Pose2& camera_foot);
 
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
   /// accumulators. No heap allocation after the first call.
@@ -112,6 +114,7 @@ class WorldMap {
 
  private:
   void add(int i, int j, double z, double w);
+  std::vector<MapRock> relief_rocks() const;
   void smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells);
   WorldMapParams p_;
   int rows_ = 0, cols_ = 0;
