@@ -11,6 +11,7 @@
 #include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/tilt.hpp"
 
 namespace regolith::mapping {
 namespace {
@@ -22,16 +23,6 @@ constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sampl
 [[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sweep", field, why); }
 
 using common::fill;
-
-// Right-handed rotations about the body axes (x forward, y left).
-cv::Matx33d rot_x(double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  return {1, 0, 0, 0, c, -s, 0, s, c};
-}
-cv::Matx33d rot_y(double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  return {c, 0, s, 0, 1, 0, -s, 0, c};
-}
 
 }  // namespace
 
@@ -135,8 +126,8 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   const int H = key_.rows, W = key_.cols;
   const double h = h_;
   // Rays of the keyframe camera as tilted against the ground; the current camera's rotation.
-  const cv::Matx33d rk = rot_x(kt[1]) * rot_y(kt[0]);
-  const cv::Matx33d rc_t = (rot_x(ct[1]) * rot_y(ct[0]) * depth_.body_from_optical()).t();
+  const cv::Matx33d rk = tilt_rotation(kt[0], kt[1]);
+  const cv::Matx33d rc_t = (tilt_rotation(ct[0], ct[1]) * depth_.body_from_optical()).t();
   const double cy = std::cos(m.yaw), sy = std::sin(m.yaw);
   auto to_cur = [&](double x, double y) { return cv::Vec2d(cy * x + sy * y, -sy * x + cy * y); };  // R(-yaw)
   // A keyframe point P(w) = (w g, h (1 - w)) (g = the pixel's ground point, z = h (1 - w)) is seen

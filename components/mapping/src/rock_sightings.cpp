@@ -8,6 +8,7 @@
 #include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/tilt.hpp"
 
 namespace regolith::mapping {
 namespace {
@@ -17,15 +18,6 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 [[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sightings", field, why); }
 
 using common::fill;
-
-cv::Matx33d rot_x(double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  return {1, 0, 0, 0, c, -s, 0, s, c};
-}
-cv::Matx33d rot_y(double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  return {c, 0, s, 0, 1, 0, -s, 0, c};
-}
 
 }  // namespace
 
@@ -125,7 +117,7 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
     fail("gray", "expected an 8-bit grey frame of " + std::to_string(W) + "x" + std::to_string(H));
   count_ = 0;
   fill(table_, kNaNf);
-  rot_ = rot_x(tilt[1]) * rot_y(tilt[0]) * depth_.body_from_optical();
+  rot_ = tilt_rotation(tilt[0], tilt[1]) * depth_.body_from_optical();
   // Contrast against the local ground, in two passes: the second background leaves out what the
   // first found (a bright rock would otherwise lift the ground around it into a halo).
   for (int i = 0; i < H; ++i) {
