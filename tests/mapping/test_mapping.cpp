@@ -249,6 +249,8 @@ TEST(PlaneSweep, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
     }
   ASSERT_GT(cerr.size(), 500u);
   std::nth_element(cerr.begin(), cerr.begin() + static_cast<long>(cerr.size() / 2), cerr.end());
+  std::printf("plane sweep: median |error| %.4f m (scale 1), %.4f m (scale 2); rock pixels %d of %d within 3 cm\n",
+              err[err.size() / 2], cerr[cerr.size() / 2], rocks_hit, rocks_seen);
   EXPECT_LT(cerr[cerr.size() / 2], 0.025);
   // Too short a baseline or a NaN pose: nothing, and nothing left from the last call.
   EXPECT_FALSE(sweep.compute(Pose2{0.1, 0, 0}, 1.0, 0.0));
@@ -267,9 +269,9 @@ TEST(PlaneSweep, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
 }
 
 TEST(RockSightings, RangesRocksSeenInOneFrame) {
-  // Sightings from one rendered frame against the scene's exact rocks: most sightings lie on a
-  // rock (within max(0.6 x its width, 0.10 m), the scoring rule of the drive maps), and rocks
-  // >= 10 cm in the sighted range are found with their height to within a factor of two.
+  // Sightings from one rendered frame against the scene's exact rocks: at least 40 % of them lie
+  // on a rock (within max(0.6 x its width, 0.10 m), the scoring rule of the drive maps), and most
+  // of those have the rock's height to within a factor of two.
   Rig rig(11, 40);
   const direct_depth::DirectDepth dd(rig.model);
   RockSightings sightings(dd, RockSightingParams{});
@@ -290,7 +292,8 @@ TEST(RockSightings, RangesRocksSeenInOneFrame) {
     }
   }
   std::printf("sightings %d, on a rock %d, height within x2 %d\n", n, on_rock, height_ok);
-  EXPECT_GE(2 * on_rock, n);
+  EXPECT_GE(5 * on_rock, 2 * n);  // measured 8 of 14
+  EXPECT_GE(on_rock, 5);
   EXPECT_GE(2 * height_ok, on_rock);
   EXPECT_TRUE(std::isnan(sightings.height().at<float>(0, n)) || n == sightings.height().cols);
   // A frame of another size names the input; an all-grey frame sights nothing.
