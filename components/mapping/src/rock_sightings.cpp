@@ -35,6 +35,8 @@ void RockSightingParams::validate() const {
   if (!std::isfinite(max_height_m) || max_height_m <= min_height_m) fail("max_height_m", "must be > min_height_m");
   if (max_sightings < 1 || max_sightings > 4096) fail("max_sightings", "must be 1..4096");
   if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0) fail("tilt_sigma_rad", "must be >= 0");
+  if (!std::isfinite(footprint_per_height) || footprint_per_height < 0 || footprint_per_height > 5)
+    fail("footprint_per_height", "must be in [0, 5]");
 }
 
 RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params)
@@ -206,12 +208,21 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
       const double tl = h / -dl[2], tr = h / -dr[2];
       const double width = std::hypot(tl * dl[0] - tr * dr[0], tl * dl[1] - tr * dr[1]);
       const cv::Vec2d u = g / range_m;
-      const cv::Vec2d c = g + 0.5 * width * u;
-      // Height: the top ray (through the blob's top, at the contact column) at the centre's distance.
+      // Height: the top ray (through the blob's top, at the contact column) at the centre's
+      // distance; centre = contact + the footprint radius, which the blob underestimates (a
+      // dome's low flanks barely differ from the ground): at least footprint_per_height x the
+      // height (two passes: the height depends on the centre's distance).
       const cv::Vec3d dt = ray(cb, rmin - 0.5);
       const double horiz = std::hypot(dt[0], dt[1]);
       if (!(horiz > 1e-9)) continue;
-      const double height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+      double radius = 0.5 * width, height = 0.0;
+      cv::Vec2d c = g + radius * u;
+      for (int pass = 0; pass < 2; ++pass) {
+        height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+        radius = std::max(0.5 * width, p_.footprint_per_height * std::max(height, 0.0));
+        c = g + radius * u;
+      }
+      height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
       if (height < p_.min_height_m || height > p_.max_height_m) continue;
       const int k = count_++;
       x_.at<float>(0, k) = static_cast<float>(c[0]);

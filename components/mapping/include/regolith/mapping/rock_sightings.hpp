@@ -43,6 +43,7 @@ struct RockSightingParams {
   double min_height_m = 0.07;        ///< m, lower sightings are not reported (most are ground texture)
   double max_height_m = 0.6;         ///< m, taller ones are not rocks (a far wall, a crater's far rim)
   int max_sightings = 64;            ///< per frame
+  double footprint_per_height = 1.0; ///< footprint radius at least this x the height (the blob misses a dome's flanks)
   double tilt_sigma_rad = 0.01;      ///< rad, error of the camera's tilt against the far ground (ranging)
   void validate() const;             ///< FieldError("mapping.sightings", ...)
 };
