@@ -247,6 +247,26 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   mj["keyframes"] = sum.counters.keyframes;
   mj["path_length_m"] = sum.path_length_m;
   mj["rocks"] = sum.rocks.size();
+  // Which cues made this map (a stationary rover has no parallax; a sun outside the shadow cue's
+  // elevation range has no shadows).
+  {
+    const double sun_el = drive.sun_elevation_deg * 3.14159265358979323846 / 180.0;
+    const bool sun_ok = sun_el >= params.shadow.min_elevation_rad && sun_el <= params.shadow.max_elevation_rad;
+    nlohmann::json cues;
+    cues["parallax"] = {{"enabled", params.fuse_terrain && params.fuse_parallax},
+                        {"mode", params.parallax_mode == ParallaxMode::kSweep       ? "sweep"
+                                 : params.parallax_mode == ParallaxMode::kRectified ? "rectified"
+                                                                                    : "both"},
+                        {"frames", sum.counters.parallax_frames}};
+    cues["rock_sightings"] = {{"enabled", params.fuse_terrain && params.fuse_sightings}, {"sightings", sum.counters.rock_sightings}};
+    cues["shadows"] = {{"enabled", params.fuse_terrain && params.fuse_parallax && params.fuse_shadows},
+                       {"available", sun_ok},
+                       {"frames", sum.counters.shadow_frames}};
+    if (!sun_ok)
+      cues["shadows"]["why"] = "sun elevation " + std::to_string(drive.sun_elevation_deg) + " deg outside the cue's range";
+    cues["shading"] = {{"enabled", params.fuse_terrain && params.fuse_shading}};
+    mj["cues"] = cues;
+  }
   {
     std::ofstream o(out / "map.json");
     o << mj.dump(1) << "\n";

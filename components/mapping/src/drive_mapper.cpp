@@ -229,6 +229,9 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (vo_.rectified().data && report_.vo != VoStatus::kTooFewPoints)
       report_.cells_fused += map_.fuse(terrain_, foot, p_.shading_weight);
   }
+  counters_.parallax_frames += report_.parallax ? 1 : 0;
+  counters_.shadow_frames += report_.shadow_casters > 0 ? 1 : 0;
+  counters_.rock_sightings += report_.rock_sightings;
   map_.recenter(report_.pose.x, report_.pose.y, p_.map.max_range_m + 1.0);
   return report_;
 }

@@ -101,6 +101,9 @@ struct FrameReport {
 
 struct DriveCounters {
   long frames = 0, vo_ok = 0, vo_failed = 0, odometry_jumps = 0, keyframes = 0;
+  long parallax_frames = 0;  ///< frames whose parallax heights were fused (none while the rover stands still)
+  long shadow_frames = 0;    ///< frames with cast-shadow casters fused
+  long rock_sightings = 0;   ///< rocks sighted and fused, over all frames
 };
 
 class DriveMapper {
