@@ -1,11 +1,10 @@
 #include "regolith/mapping/plane_sweep.hpp"
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "regolith/common/box.hpp"
@@ -20,7 +19,9 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kBig = 1e30f;
 constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sample
 
-[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sweep", field, why); }
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.sweep", field, why);
+}
 
 using common::fill;
 
@@ -28,7 +29,8 @@ using common::fill;
 
 void PlaneSweepParams::validate() const {
   if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
-  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m)
+    fail("min_range_m", "must be in [0, max_range_m)");
   if (!std::isfinite(min_baseline_m) || min_baseline_m <= 0) fail("min_baseline_m", "must be > 0");
   if (!std::isfinite(min_height_m) || min_height_m > 0) fail("min_height_m", "must be <= 0");
   if (!std::isfinite(max_height_m) || max_height_m <= 0) fail("max_height_m", "must be > 0");
@@ -54,7 +56,8 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
     // Undistorted images keep the camera matrix: afterwards every pixel is a pinhole ray.
     const cv::Matx33d K(m.fx, 0, m.cx, 0, m.fy, m.cy, 0, 0, 1);
     const cv::Vec<double, 5> D(m.k1, m.k2, m.p1, m.p2, m.k3);
-    cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, cv::Size(m.width, m.height), CV_32FC1, undist_x_, undist_y_);
+    cv::initUndistortRectifyMap(K, D, cv::Matx33d::eye(), K, cv::Size(m.width, m.height), CV_32FC1, undist_x_,
+                                undist_y_);
     undist_.create(m.height, m.width, CV_8U);
   }
   nrm_.create(H, W, CV_32FC3);
@@ -62,10 +65,11 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
   for (int i = 0; i < H; ++i)
     for (int j = 0; j < W; ++j) {
       const cv::Vec3d d = r * cv::Vec3d((j - cx_) / fx_, (i - cy_) / fy_, 1.0);
-      nrm_.at<cv::Vec3f>(i, j) = cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
+      nrm_.at<cv::Vec3f>(i, j) =
+          cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
     }
-  for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_, &tmp_, &z_,
-                     &x_, &y_, &conf_})
+  for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_,
+                     &tmp_, &z_, &x_, &y_, &conf_})
     q->create(H, W, CV_32F);
   key_ok_.create(H, W, CV_8U);
   cur_ok_.create(H, W, CV_8U);
@@ -107,7 +111,9 @@ void PlaneSweep::load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok) {
   }
 }
 
-void PlaneSweep::set_frame(const cv::Mat& gray) { load(gray, cur_, cur_ok_); }
+void PlaneSweep::set_frame(const cv::Mat& gray) {
+  load(gray, cur_, cur_ok_);
+}
 
 void PlaneSweep::promote() {
   std::swap(key_, cur_);
@@ -122,7 +128,8 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   fill(conf_, 0.0f);
   samples_ = 0;
   const double base = std::hypot(m.x, m.y);
-  if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias)) return false;
+  if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias))
+    return false;
   const int H = key_.rows, W = key_.cols;
   const double h = h_;
   // Rays of the keyframe camera as tilted against the ground; the current camera's rotation.

@@ -15,7 +15,9 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.sightings", field, why); }
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.sightings", field, why);
+}
 
 using common::fill;
 
@@ -24,13 +26,15 @@ using common::fill;
 void RockSightingParams::validate() const {
   if (!std::isfinite(background_sigma_px) || background_sigma_px < 1 || background_sigma_px > 64)
     fail("background_sigma_px", "must be in [1, 64]");
-  if (!std::isfinite(smooth_sigma_px) || smooth_sigma_px < 0 || smooth_sigma_px > 16) fail("smooth_sigma_px", "must be in [0, 16]");
+  if (!std::isfinite(smooth_sigma_px) || smooth_sigma_px < 0 || smooth_sigma_px > 16)
+    fail("smooth_sigma_px", "must be in [0, 16]");
   if (!std::isfinite(threshold) || threshold <= 0) fail("threshold", "must be > 0");
   if (min_pixels < 1) fail("min_pixels", "must be >= 1");
   if (row_band_px < 0 || row_band_px > 256) fail("row_band_px", "must be 0..256");
   if (max_pixels < min_pixels) fail("max_pixels", "must be >= min_pixels");
   if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
-  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m)
+    fail("min_range_m", "must be in [0, max_range_m)");
   if (!std::isfinite(min_height_m) || min_height_m < 0) fail("min_height_m", "must be >= 0");
   if (!std::isfinite(max_height_m) || max_height_m <= min_height_m) fail("max_height_m", "must be > min_height_m");
   if (max_sightings < 1 || max_sightings > 4096) fail("max_sightings", "must be 1..4096");
@@ -99,7 +103,8 @@ void RockSightings::contrast_and_thresholds() {
       if (v[j]) values_[n++] = a[j];
     med[i] = std::numeric_limits<float>::quiet_NaN();
     if (n < 16) continue;
-    std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2), values_.begin() + static_cast<std::ptrdiff_t>(n));
+    std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2),
+                     values_.begin() + static_cast<std::ptrdiff_t>(n));
     med[i] = values_[n / 2];
   }
   float* row_thr = row_thr_.ptr<float>(0);
@@ -108,7 +113,8 @@ void RockSightings::contrast_and_thresholds() {
     int n = 0;
     for (int r = std::max(0, i - p_.row_band_px); r <= std::min(H - 1, i + p_.row_band_px); ++r)
       if (!std::isnan(med[r])) sum += med[r], ++n;
-    row_thr[i] = n > 0 ? static_cast<float>(p_.threshold * std::max(sum / n, 0.5)) : std::numeric_limits<float>::infinity();
+    row_thr[i] =
+        n > 0 ? static_cast<float>(p_.threshold * std::max(sum / n, 0.5)) : std::numeric_limits<float>::infinity();
   }
 }
 

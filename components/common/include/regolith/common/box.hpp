@@ -5,9 +5,8 @@
 // radii; for larger ones it keeps running column sums in `acc` (CV_64F, one row: O(1) per pixel).
 // No allocation once `dst`, `tmp` (src's size, CV_32F) and `acc` (1 x cols, CV_64F) exist (the
 // real-time path preallocates them).
-#include <opencv2/core.hpp>
-
 #include <algorithm>
+#include <opencv2/core.hpp>
 
 namespace regolith::common {
 

@@ -29,20 +29,20 @@
 namespace regolith::mapping {
 
 struct PlaneSweepParams {
-  double min_range_m = 0.8;      ///< m, keyframe pixels whose ground point is nearer are not swept
-  double max_range_m = 5.0;      ///< m, ... or farther
-  double min_baseline_m = 0.20;  ///< m, shorter camera motions are not used (parallax too small)
-  double min_height_m = -0.06;   ///< m, sweep from this height ...
-  double max_height_m = 0.40;    ///< m, ... to this one above the ground
-  double step_px = 1.0;          ///< px, largest image motion between two height hypotheses
-  int max_steps = 32;            ///< hypotheses per pixel at most (near rows get coarser steps)
-  int max_width_px = 400;        ///< wider cameras are swept on 2x2 (4x4, ...) pixel block means
-  int window = 2;                ///< half-width of the matching window (px): 5 x 5
-  double noise_dn = 2.0;         ///< grey levels, image noise for the confidence
-  double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far rows,
-                                   ///< short baselines) scale it by (reference / step)^2
-  double min_confidence = 0.001;   ///< pixels below this are unknown
-  void validate() const;         ///< FieldError("mapping.sweep", ...)
+  double min_range_m = 0.8;        ///< m, keyframe pixels whose ground point is nearer are not swept
+  double max_range_m = 5.0;        ///< m, ... or farther
+  double min_baseline_m = 0.20;    ///< m, shorter camera motions are not used (parallax too small)
+  double min_height_m = -0.06;     ///< m, sweep from this height ...
+  double max_height_m = 0.40;      ///< m, ... to this one above the ground
+  double step_px = 1.0;            ///< px, largest image motion between two height hypotheses
+  int max_steps = 32;              ///< hypotheses per pixel at most (near rows get coarser steps)
+  int max_width_px = 400;          ///< wider cameras are swept on 2x2 (4x4, ...) pixel block means
+  int window = 2;                  ///< half-width of the matching window (px): 5 x 5
+  double noise_dn = 2.0;           ///< grey levels, image noise for the confidence
+  double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far
+                                   ///< rows, short baselines) scale it by (reference / step)^2
+  double min_confidence = 0.001;  ///< pixels below this are unknown
+  void validate() const;          ///< FieldError("mapping.sweep", ...)
 };
 
 class PlaneSweep {
@@ -84,7 +84,7 @@ class PlaneSweep {
   bool has_key_ = false;
   long samples_ = 0;
   cv::Mat undist_x_, undist_y_, undist_;  // distortion maps (empty for a pinhole camera)
-  cv::Mat nrm_;                            // CV_32FC3 nominal ray per pixel (body frame, not normalised)
+  cv::Mat nrm_;                           // CV_32FC3 nominal ray per pixel (body frame, not normalised)
   cv::Mat key_, key_ok_, cur_, cur_ok_;
   cv::Mat ray_, ox_, oy_, oz_, row_step_;  // per compute: tilted key ray scale, o1 components, step per row
   cv::Mat e_, c0_, c1_, c2_, best_, left_, right_, bests_, tmp_;

@@ -24,7 +24,6 @@
 // `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle. Everything is allocated in
 // the constructor.
 #include <opencv2/core.hpp>
-
 #include <vector>
 
 #include "regolith/direct_depth/direct_depth.hpp"
@@ -32,24 +31,33 @@
 namespace regolith::mapping {
 
 struct RockSightingParams {
-  double background_sigma_px = 16.0; ///< px, scale of the local ground brightness
-  double smooth_sigma_px = 0.0;      ///< px, smoothing of |I - background| (0: none; smoothing moves the contact row)
-  double threshold = 3.0;            ///< x the median smoothed contrast of the seen ground in the same rows
-  int row_band_px = 8;               ///< px, rows within this of a row share its threshold
-  int min_pixels = 12;               ///< px, smaller blobs are texture
-  int max_pixels = 4000;             ///< px, larger blobs are near rocks (parallax sees them) or lighting
-  double min_range_m = 1.0;          ///< m, ground range of a blob's contact point, from ...
-  double max_range_m = 5.0;          ///< m, ... to
-  double min_height_m = 0.07;        ///< m, lower sightings are not reported (most are ground texture)
-  double max_height_m = 0.6;         ///< m, taller ones are not rocks (a far wall, a crater's far rim)
-  int max_sightings = 64;            ///< per frame
-  double footprint_per_height = 1.0; ///< footprint radius at least this x the height (the blob misses a dome's flanks)
-  double tilt_sigma_rad = 0.01;      ///< rad, error of the camera's tilt against the far ground (ranging)
-  void validate() const;             ///< FieldError("mapping.sightings", ...)
+  double background_sigma_px = 16.0;  ///< px, scale of the local ground brightness
+  double smooth_sigma_px = 0.0;       ///< px, smoothing of |I - background| (0: none; smoothing moves the contact row)
+  double threshold = 3.0;             ///< x the median smoothed contrast of the seen ground in the same rows
+  int row_band_px = 8;                ///< px, rows within this of a row share its threshold
+  int min_pixels = 12;                ///< px, smaller blobs are texture
+  int max_pixels = 4000;              ///< px, larger blobs are near rocks (parallax sees them) or lighting
+  double min_range_m = 1.0;           ///< m, ground range of a blob's contact point, from ...
+  double max_range_m = 5.0;           ///< m, ... to
+  double min_height_m = 0.07;         ///< m, lower sightings are not reported (most are ground texture)
+  double max_height_m = 0.6;          ///< m, taller ones are not rocks (a far wall, a crater's far rim)
+  int max_sightings = 64;             ///< per frame
+  double footprint_per_height = 1.0;  ///< footprint radius at least this x the height (the blob misses a dome's flanks)
+  double tilt_sigma_rad = 0.01;       ///< rad, error of the camera's tilt against the far ground (ranging)
+  void validate() const;              ///< FieldError("mapping.sightings", ...)
 };
 
 /// Rows of RockSightings::table().
-enum SightingRow { kSightX, kSightY, kSightHeight, kSightWidth, kSightScore, kSightSigmaRange, kSightSigmaLateral, kSightRows };
+enum SightingRow {
+  kSightX,
+  kSightY,
+  kSightHeight,
+  kSightWidth,
+  kSightScore,
+  kSightSigmaRange,
+  kSightSigmaLateral,
+  kSightRows
+};
 
 class RockSightings {
  public:

@@ -3,9 +3,8 @@
 // pitch about the body y axis (left; positive = nose further down) and roll about the body x
 // axis (forward). The physical ray of a pixel is tilt_rotation(pitch, roll) x its nominal ray
 // (body frame: x forward, y left, z up). Header-only, no allocation.
-#include <opencv2/core.hpp>
-
 #include <cmath>
+#include <opencv2/core.hpp>
 
 namespace regolith::mapping {
 
