@@ -351,7 +351,7 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
     cv::line(img, px(corrected[k - 1].x, corrected[k - 1].y), px(corrected[k].x, corrected[k].y), cv::Scalar(0, 220, 0), 2,
              cv::LINE_AA);
   for (const MapRock& r : rocks)
-    cv::circle(img, px(r.x_m, r.y_m), std::max(3, static_cast<int>(0.5 * r.width_m / res * scale)), cv::Scalar(0, 0, 255), 1,
+    cv::circle(img, px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m / res * scale)), cv::Scalar(0, 230, 255), 2,
                cv::LINE_AA);
   // Scale bar (1 m), north arrow, legend.
   const int bar = static_cast<int>(std::lround(1.0 / res * scale));
@@ -364,7 +364,8 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   int lx = 10;
   for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"corrected path", {0, 220, 0}},
                                      {"wheel odometry", {255, 120, 0}},
-                                     {"hazard / rocks", {0, 0, 255}}}) {
+                                     {"hazard", {0, 0, 255}},
+                                     {"rocks", {0, 230, 255}}}) {
     cv::putText(img, text, cv::Point(lx, 18), cv::FONT_HERSHEY_SIMPLEX, 0.42, colour, 1, cv::LINE_AA);
     lx += static_cast<int>(std::strlen(text)) * 8 + 14;
   }

@@ -369,8 +369,11 @@ void WorldMap::finish() {
     }
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
-      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j), rh = rock_h.at<float>(i, j);
-      const float sh = std::isfinite(rh) && !(shadow.at<float>(i, j) >= rh) ? rh : shadow.at<float>(i, j);
+      const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j);
+      // Weaker evidence still raises the hazard, in proportion (a ranking, not a detection).
+      const float ev = sight_w_.at<float>(i, j);
+      const float rw = ev > 0.0f ? sight_h_.at<float>(i, j) / ev * std::min(1.0f, ev / static_cast<float>(p_.rock_min_evidence)) : kNaNf;
+      const float sh = std::isfinite(rw) && !(shadow.at<float>(i, j) >= rw) ? rw : shadow.at<float>(i, j);
       const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
       relief.at<float>(i, j) = r;
       float hz = std::isfinite(r) ? r : kNaNf;
