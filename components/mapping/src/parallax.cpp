@@ -11,6 +11,7 @@
 #include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/cost_minimum.hpp"
 
 namespace regolith::mapping {
 namespace {
@@ -142,23 +143,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
     common::box_sum(e_, c2_, tmp_, p_.window);
-    if (t < 2) continue;
-    for (int i = 0; i < R; ++i) {
-      const float* l = c0_.ptr<float>(i);
-      const float* c = c1_.ptr<float>(i);
-      const float* r = c2_.ptr<float>(i);
-      float* b = best_.ptr<float>(i);
-      float* bs = bests_.ptr<float>(i);
-      float* lf = left_.ptr<float>(i);
-      float* rt = right_.ptr<float>(i);
-      for (int j = 0; j < C; ++j)
-        if (c[j] < b[j] && c[j] <= l[j] && c[j] <= r[j]) {
-          b[j] = c[j];
-          bs[j] = static_cast<float>(t - 1);
-          lf[j] = l[j];
-          rt[j] = r[j];
-        }
-    }
+    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, 0, R - 1);
   }
   // Sub-step minimum, height, true position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
@@ -170,17 +155,11 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       if (t < 0 || b >= penalty) continue;
       const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
       if (l >= penalty || r >= penalty) continue;
-      const double curv = l + r - 2.0 * b;
-      if (!(curv > 0)) continue;
-      const double off = std::clamp(0.5 * (l - r) / curv, -0.5, 0.5);
+      double off = 0.0, conf = 0.0;
+      if (!parabola_minimum(l, b, r, cells, noise2, off, conf)) continue;
       const double d = d_lo + (t + off) * step;
       const double k = 1.0 - d / base;
       if (!(k > 0)) continue;
-      // Curvature per cell in units of the noise: how sharply the match is fixed; a poor best
-      // match (residual well above the noise) lowers it.
-      const double sharp = curv / (cells * noise2);
-      const double fit = std::exp(-std::max(0.0, b / cells - 2.0 * noise2) / (8.0 * noise2));
-      const double conf = sharp / (1.0 + sharp) * fit;
       if (conf < p_.min_confidence) continue;
       const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
       z_.at<float>(i, j) = static_cast<float>(h_ * (1.0 - 1.0 / k));

@@ -10,6 +10,7 @@
 #include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/cost_minimum.hpp"
 #include "regolith/mapping/tilt.hpp"
 
 namespace regolith::mapping {
@@ -238,23 +239,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
     std::swap(c1_, c2_);
     cv::Mat c2_rows = c2_.rowRange(r0, r1 + 1);
     common::box_sum(e_rows, c2_rows, tmp_rows, p_.window);
-    if (t < 2) continue;
-    for (int i = r0; i <= r1; ++i) {
-      const float* l = c0_.ptr<float>(i);
-      const float* c = c1_.ptr<float>(i);
-      const float* r = c2_.ptr<float>(i);
-      float* bb = best_.ptr<float>(i);
-      float* bs = bests_.ptr<float>(i);
-      float* lf = left_.ptr<float>(i);
-      float* rt = right_.ptr<float>(i);
-      for (int j = 0; j < W; ++j)
-        if (c[j] < bb[j] && c[j] <= l[j] && c[j] <= r[j]) {
-          bb[j] = c[j];
-          bs[j] = static_cast<float>(t - 1);
-          lf[j] = l[j];
-          rt[j] = r[j];
-        }
-    }
+    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, r0, r1);
   }
   // Sub-step minimum, height, position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
@@ -275,21 +260,16 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
       if (std::isnan(ox[j]) || t < 0 || bc >= pen_sum) continue;
       const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
       if (l >= pen_sum || r >= pen_sum) continue;
-      const double curv = l + r - 2.0 * bc;
-      if (!(curv > 0)) continue;
-      const double off = std::clamp(0.5 * (l - r) / curv, -0.5, 0.5);
+      double off = 0.0, match = 0.0;
+      if (!parabola_minimum(l, bc, r, cells, noise2, off, match)) continue;
       const double w = w_lo + (t + off) * step;
       const double z = h * (1.0 - w);
       if (z < p_.min_height_m) continue;  // beyond this row's own range
-      // Curvature per pixel in units of the noise: how sharply the match is fixed; a poor best
-      // match (residual well above the noise) lowers it.
-      const double sharp = curv / (cells * noise2);
-      const double fit = std::exp(-std::max(0.0, bc / cells - 2.0 * noise2) / (8.0 * noise2));
       // A height step (m) spans `step` in w: the sharper the image fixes the step, the better the
       // height; far rows (large steps) fix heights poorly and weigh accordingly.
       const double dz = h * step;
       const double precision = std::min(1.0, (p_.reference_step_m * p_.reference_step_m) / (dz * dz));
-      const double conf = sharp / (1.0 + sharp) * fit * precision;
+      const double conf = match * precision;
       if (conf < p_.min_confidence) continue;
       zz[j] = static_cast<float>(z);
       xx[j] = static_cast<float>(w * gx);

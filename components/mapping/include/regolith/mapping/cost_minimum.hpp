@@ -1,0 +1,51 @@
+#pragma once
+// The 1-D matching search both parallax cues run (GroundParallax along the baseline in the
+// rectified frame, PlaneSweep over height hypotheses in the image): window costs per hypothesis
+// t arrive as rolling slices c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 bracketed by its
+// neighbours replaces the best so far. Then a parabola through the three gives the sub-step
+// offset and the match confidence. Header-only, no allocation.
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace regolith::mapping {
+
+/// Rows [r0, r1] of CV_32F images: where c1 is a bracketed minimum below best, records it (best,
+/// index t - 1 in `at`, its neighbours in left / right).
+inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const cv::Mat& c2, cv::Mat& best, cv::Mat& at,
+                                   cv::Mat& left, cv::Mat& right, int t, int r0, int r1) {
+  for (int i = r0; i <= r1; ++i) {
+    const float* l = c0.ptr<float>(i);
+    const float* c = c1.ptr<float>(i);
+    const float* r = c2.ptr<float>(i);
+    float* b = best.ptr<float>(i);
+    float* bs = at.ptr<float>(i);
+    float* lf = left.ptr<float>(i);
+    float* rt = right.ptr<float>(i);
+    for (int j = 0; j < best.cols; ++j)
+      if (c[j] < b[j] && c[j] <= l[j] && c[j] <= r[j]) {
+        b[j] = c[j];
+        bs[j] = static_cast<float>(t - 1);
+        lf[j] = l[j];
+        rt[j] = r[j];
+      }
+  }
+}
+
+/// Sub-step offset (-0.5..0.5, in steps) of the parabola through (l, best, r) and the match's
+/// confidence (0..1): the curvature per window sample in units of the noise (how sharply the
+/// match is fixed), lowered when the best residual is well above the noise. False when the three
+/// do not curve upwards. cells = samples per window, noise2 = noise variance (grey levels^2).
+inline bool parabola_minimum(double l, double best, double r, double cells, double noise2, double& offset,
+                             double& confidence) {
+  const double curv = l + r - 2.0 * best;
+  if (!(curv > 0)) return false;
+  offset = std::clamp(0.5 * (l - r) / curv, -0.5, 0.5);
+  const double sharp = curv / (cells * noise2);
+  const double fit = std::exp(-std::max(0.0, best / cells - 2.0 * noise2) / (8.0 * noise2));
+  confidence = sharp / (1.0 + sharp) * fit;
+  return true;
+}
+
+}  // namespace regolith::mapping
