@@ -48,12 +48,14 @@ const bool registered = add_command([](CLI::App& app) {
       std::printf("  n fixed %.2f: k = %.4g +- %.2g N/m^(n+2)\n", e.n_fixed, e.k_fixed, e.k_fixed_std);
       if (e.joint_ok)
         std::printf("  joint: k = %.4g +- %.2g, n = %.3f +- %.3f\n", e.k_joint, e.k_joint_std, e.n_joint, e.n_joint_std);
+      std::printf("  reported: k = %.4g +- %.2g, n = %.3f +- %.3f%s\n", e.k, e.k_std, e.n, e.n_std,
+                  e.n_data_std > 0 ? " (joint fit with the prior on n)" : " (n fixed)");
       std::printf("  soil class: %s (p(z_ref) = %.0f Pa)\n", soil::to_string(e.soil_class), e.class_pressure_pa);
     } else {
       std::printf("%s: no estimate: %s\n", a->image.c_str(), e.reason.c_str());
     }
     std::printf("wrote %s\n", f.json.string().c_str());
-    for (const auto& p : {f.dtm_png, f.profiles_png, f.pz_png})
+    for (const auto& p : {f.dtm_png, f.profiles_png, f.pz_png, f.overlay_png})
       if (!p.empty()) std::printf("wrote %s\n", p.string().c_str());
   });
 });

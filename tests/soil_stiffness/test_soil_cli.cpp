@@ -106,6 +106,7 @@ components:
   soil:
     type: soil_stiffness
     camera: rear
+    profile: {source: photoclinometry}
 )");
   // The rear camera's calibration as ROS camera_calibration writes it (camera_info_url).
   write_text(tmp.path / "rear_calibration.yaml", R"(image_width: 640

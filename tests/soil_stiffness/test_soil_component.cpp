@@ -87,6 +87,7 @@ components:
   soil:
     type: soil_stiffness
     camera: rear
+    profile: {source: photoclinometry}   # the synthetic ruts have no berms and no shadows
 )";
 
 // Peer: heap allocations of one warm regolith::sfs Pentland solve on the estimator's default grid
@@ -207,6 +208,43 @@ TEST(SoilComponent, EstimatesKOfTheSyntheticTracksUnderSimulatedTime) {
               static_cast<double>(steady_allocs) / static_cast<double>(cycles),
               static_cast<unsigned long long>(sfs_allocs));
   EXPECT_EQ(steady_allocs, cycles * sfs_allocs);
+}
+
+// The default profile source (the rut template fit) inside the estimator: once warm, an
+// estimate allocates exactly what the SfS solve alone allocates (the peer), i.e. the template
+// fit, its light estimate and the (k, n) fits add nothing.
+TEST(SoilComponent, TemplateEstimateAddsNoAllocationsToTheSfsSolve) {
+  track_scene::TrackSceneParams p;
+  p.sun.elevation_rad = 0.5;
+  const cv::Mat image = track_scene::generate_track_scene(p).image;
+  soil::CameraModel cam;
+  cam.width = p.camera.width;
+  cam.height = p.camera.height;
+  cam.fx = p.camera.fx;
+  cam.fy = p.camera.fy;
+  cam.cx = p.camera.cx;
+  cam.cy = p.camera.cy;
+  cam.mount_height_m = p.camera.mount_height_m;
+  cam.pitch_rad = p.camera.pitch_rad;
+  soil::RoverConfig rover;
+  rover.wheel_width_m = p.wheel_width_m;
+  rover.wheel_diameter_m = p.wheel_diameter_m;
+  soil::TrackAnalysisParams ap;  // default region: the peer's 275 x 200 grid
+  ASSERT_EQ(ap.profile_source, soil::ProfileSource::kTemplate);
+  ap.tracks = {{0.4, 60.0}, {-0.4, 60.0}};
+  soil::SoilStiffnessEstimator est(cam, rover, ap);
+  soil::SoilEstimate out;
+  est.reserve(out);
+  const soil::SunDirection sun{p.sun.azimuth_rad, p.sun.elevation_rad};
+  est.estimate(image, sun, out);
+  est.estimate(image, sun, out);
+  ASSERT_TRUE(out.ok) << out.reason;
+  const std::uint64_t a0 = g_all.load();
+  est.estimate(image, sun, out);
+  const std::uint64_t allocs = g_all.load() - a0;
+  ASSERT_TRUE(out.ok) << out.reason;
+  EXPECT_EQ(out.tracks.size(), 2u);
+  EXPECT_EQ(allocs, sfs_allocations_per_solve());
 }
 
 TEST(SoilComponent, NoTracksMeansAnExplicitNoEstimate) {

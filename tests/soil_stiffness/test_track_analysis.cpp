@@ -46,6 +46,9 @@ SceneRun run_scene(const track_scene::TrackSceneParams& p, soil::TrackAnalysisPa
   SceneRun r{track_scene::generate_track_scene(p), {}};
   if (configure_tracks)
     for (const auto& t : p.tracks) ap.tracks.push_back({t.lateral_m, t.load_n});
+  // these scenes (mocks/track_scene) render no cast shadows and no berms, with the sun above
+  // the walls: 1-D photoclinometry's case (the template fit is tested in test_rut_template.cpp)
+  ap.profile_source = soil::ProfileSource::kPhotoclinometry;
   soil::SoilStiffnessEstimator est(to_ground(p.camera), rover_for(p, p.tracks.empty() ? 60.0 : p.tracks[0].load_n), ap);
   est.estimate(r.scene.image, {p.sun.azimuth_rad, p.sun.elevation_rad}, r.est);
   return r;

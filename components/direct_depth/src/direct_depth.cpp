@@ -176,12 +176,14 @@ std::optional<cv::Point2d> DirectDepth::project(double range_m, double lateral_m
   const cv::Vec3d p(range_m, lateral_m, z_m - model_.mount_height_m);
   const cv::Vec3d o = r_body_from_optical_.t() * p;
   if (!(o[2] > 1e-9)) return std::nullopt;
-  std::vector<cv::Point3d> obj{{o[0], o[1], o[2]}};
-  std::vector<cv::Point2d> img;
-  const cv::Matx33d K(model_.fx, 0, model_.cx, 0, model_.fy, model_.cy, 0, 0, 1);
-  const cv::Vec<double, 5> D(model_.k1, model_.k2, model_.p1, model_.p2, model_.k3);
-  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, img);
-  return img[0];
+  // OpenCV's 5-coefficient distortion model (as cv::projectPoints), written out so that
+  // projecting allocates nothing
+  const double xn = o[0] / o[2], yn = o[1] / o[2];
+  const double r2 = xn * xn + yn * yn;
+  const double radial = 1.0 + r2 * (model_.k1 + r2 * (model_.k2 + r2 * model_.k3));
+  const double xd = xn * radial + 2.0 * model_.p1 * xn * yn + model_.p2 * (r2 + 2.0 * xn * xn);
+  const double yd = yn * radial + model_.p1 * (r2 + 2.0 * yn * yn) + 2.0 * model_.p2 * xn * yn;
+  return cv::Point2d(model_.fx * xd + model_.cx, model_.fy * yd + model_.cy);
 }
 
 }  // namespace regolith::direct_depth

@@ -100,8 +100,7 @@ class SoilStiffnessComponent final : public runtime::Component {
     const auto l = out_ != nullptr ? out_->acquire() : decltype(out_->acquire()){};
     if (!l) return {};
     if (!l->ok) return std::string("no estimate: ") + l->reason;
-    const double k = l->joint ? l->k : l->k_fixed, n = l->joint ? l->n : l->n_fixed;
-    const double ks = l->joint ? l->k_sigma : l->k_fixed_sigma;
+    const double k = l->k, n = l->n, ks = l->k_sigma;
     char buf[128];
     std::snprintf(buf, sizeof buf, "k %.3g n %.2f%s (+-%.0f %%), sinkage %.1f mm, %u tracks", k, n,
                   l->joint ? "" : " fixed", 100.0 * ks / k, l->mean_sinkage_m * 1e3, l->tracks);
@@ -118,11 +117,12 @@ class SoilStiffnessComponent final : public runtime::Component {
       const std::size_t n = std::min(e.reason.size(), sizeof s->reason - 1);
       std::memcpy(s->reason, e.reason.data(), n);
       s->reason[n] = '\0';
-      s->joint = e.ok && e.joint_ok;
-      s->k = !e.ok ? kNaN : s->joint ? e.k_joint : e.k_fixed;
-      s->n = !e.ok ? kNaN : s->joint ? e.n_joint : e.n_fixed;
-      s->k_sigma = !e.ok ? kNaN : s->joint ? e.k_joint_std : e.k_fixed_std;
-      s->n_sigma = !e.ok ? kNaN : s->joint ? e.n_joint_std : 0.0;
+      s->joint = e.ok && e.n_data_std > 0.0;
+      // the reported pair: the joint fit's n with the prior on n (SoilEstimate::k, n)
+      s->k = !e.ok ? kNaN : e.k;
+      s->n = !e.ok ? kNaN : e.n;
+      s->k_sigma = !e.ok ? kNaN : e.k_std;
+      s->n_sigma = !e.ok ? kNaN : e.n_std;
       s->k_fixed = e.ok ? e.k_fixed : kNaN;
       s->k_fixed_sigma = e.ok ? e.k_fixed_std : kNaN;
       s->n_fixed = e.n_fixed;

@@ -92,9 +92,17 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
     a.profile_window_m = q.get<double>("window_m", a.profile_window_m, {.unit = "m", .min = 0.0, .doc = "along-track smoothing = bootstrap block"});
     a.presmooth_m = q.get<double>("presmooth_m", a.presmooth_m, {.unit = "m", .min = 0.0, .doc = "along-track box filter before the inversion"});
     a.min_valid_fraction = q.get<double>("min_valid_fraction", a.min_valid_fraction, {.min = 0.0, .max = 1.0, .doc = "measurable rows needed"});
-    const std::string src = q.get<std::string>("source", "photoclinometry", {.choices = {"photoclinometry", "sfs_dtm"},
-        .doc = "cross-section heights: 1-D photoclinometry or the SfS DTM"});
-    a.profile_source = src == "sfs_dtm" ? ProfileSource::kSfsDtm : ProfileSource::kPhotoclinometry;
+    const std::string src = q.get<std::string>("source", "template", {.choices = {"template", "photoclinometry", "sfs_dtm"},
+        .doc = "rut depth: rendered cross-sections fitted to the image, 1-D photoclinometry (+ shadow widths) or the SfS DTM"});
+    a.profile_source = src == "sfs_dtm"           ? ProfileSource::kSfsDtm
+                       : src == "photoclinometry" ? ProfileSource::kPhotoclinometry
+                                                  : ProfileSource::kTemplate;
+    a.berm_offset = q.get<double>("berm_offset", a.berm_offset, {.min = -1.0, .max = 5.0, .doc = "berm crest beyond the rut wall's top edge [b] (template)"});
+    a.berm_half_width = q.get<double>("berm_half_width", a.berm_half_width, {.min = 0.0, .max = 5.0, .min_exclusive = true, .doc = "berm half-width [b] (template)"});
+    a.rut_template.max_sinkage_m = q.get<double>("max_sinkage_m", a.rut_template.max_sinkage_m, {.unit = "m", .min = 0.0, .max = 0.5, .min_exclusive = true, .doc = "deepest rut the template fit considers"});
+    a.rut_template.sinkage_step_m = q.get<double>("sinkage_step_m", a.rut_template.sinkage_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "template depth hypotheses spacing (parabola-refined)"});
+    a.rut_template.centre_search_m = q.get<double>("centre_search_m", a.rut_template.centre_search_m, {.unit = "m", .min = 0.0, .max = 0.3, .doc = "+- lateral search of the template around the rut's nominal centre"});
+    a.rut_template.huber_dn = q.get<double>("huber_dn", a.rut_template.huber_dn, {.unit = "DN", .min = 0.0, .min_exclusive = true, .doc = "template residual beyond which the loss is linear"});
     const std::string m = q.get<std::string>("sfs_method", "pentland", {.choices = {"pentland", "tsai_shah"}, .doc = "DTM solver"});
     a.sfs_method = m == "tsai_shah" ? SfsMethod::kTsaiShah : SfsMethod::kPentland;
     a.sfs_iterations = q.get<int>("sfs_iterations", a.sfs_iterations, {.min = 1, .max = 100000, .doc = "Tsai-Shah iterations"});

@@ -1,11 +1,15 @@
 #include "regolith/soil_stiffness/run.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/soil_stiffness/mission_table.hpp"
 #include "regolith/soil_stiffness/plot.hpp"
@@ -41,6 +45,8 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
                   {"k_unit", "N/m^(n+2)"}};
   j["joint"] = {{"ok", e.joint_ok}, {"reason", e.joint_reason}, {"k", num(e.k_joint)},
                 {"n", num(e.n_joint)}, {"k_std", num(e.k_joint_std)}, {"n_std", num(e.n_joint_std)}};
+  j["estimate"] = {{"k", num(e.k)}, {"n", num(e.n)}, {"k_std", num(e.k_std)}, {"n_std", num(e.n_std)},
+                   {"n_data_std", num(e.n_data_std)}, {"k_unit", "N/m^(n+2)"}};
   j["soil_class"] = to_string(e.soil_class);
   j["class_pressure_pa"] = num(e.class_pressure_pa);
   j["tracks"] = nlohmann::json::array();
@@ -59,6 +65,79 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
     j["tracks"].push_back(std::move(tj));
   }
   return j.dump(indent);
+}
+
+cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
+                             const TrackAnalysisParams& params, const SoilEstimate& e) {
+  cv::Mat out;
+  if (image.channels() == 1) cv::cvtColor(image, out, cv::COLOR_GRAY2BGR);
+  else image.copyTo(out);
+  const direct_depth::DirectDepth geometry(camera);
+  // shadowed pixels of the ground region (darker than shadow_fraction of its median), tinted blue
+  cv::Mat grey;
+  if (image.channels() == 1) grey = image;
+  else cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  std::vector<unsigned char> region;
+  for (int r = 0; r < grey.rows; r += 2)
+    for (int c = 0; c < grey.cols; c += 2) {
+      const auto g = geometry.ground(c, r);
+      if (g.valid && g.range_m >= params.range_min_m && g.range_m <= params.range_max_m &&
+          g.lateral_m >= params.lateral_min_m && g.lateral_m <= params.lateral_max_m)
+        region.push_back(grey.at<unsigned char>(r, c));
+    }
+  if (!region.empty()) {
+    std::nth_element(region.begin(), region.begin() + static_cast<std::ptrdiff_t>(region.size() / 2), region.end());
+    const double dark = params.shadow_fraction * region[region.size() / 2];
+    for (int r = 0; r < out.rows; ++r)
+      for (int c = 0; c < out.cols; ++c)
+        if (grey.at<unsigned char>(r, c) < dark) {
+          auto& px = out.at<cv::Vec3b>(r, c);
+          px = cv::Vec3b(static_cast<unsigned char>(std::min(255, px[0] + 140)), px[1], px[2]);
+        }
+  }
+  // per track: the measured floor edges (at the floor's depth) and wall tops; cross-sections
+  const double hb = 0.5 * rover.wheel_width_m, tan_w = std::tan(params.wall_slope_rad);
+  for (std::size_t t = 0; t < e.tracks.size(); ++t) {
+    const TrackProfile& tr = e.tracks[t];
+    const cv::Scalar colour = kColours[t % 6];
+    std::vector<cv::Point> floor_l, floor_r, top_l, top_r;
+    auto px = [&](double range, double lateral, double z) -> std::optional<cv::Point> {
+      const auto p = geometry.project(range, lateral, z);
+      if (!p) return std::nullopt;
+      return cv::Point(static_cast<int>(std::lround(p->x)), static_cast<int>(std::lround(p->y)));
+    };
+    for (std::size_t i = 0; i < tr.range_m.size(); ++i) {
+      const double z = tr.sinkage_m[i];
+      if (!std::isfinite(z)) continue;
+      const double x = tr.range_m[i], y = tr.lateral_m;
+      if (auto p = px(x, y + hb, -z)) floor_l.push_back(*p);
+      if (auto p = px(x, y - hb, -z)) floor_r.push_back(*p);
+      if (auto p = px(x, y + hb + z / tan_w, 0.0)) top_l.push_back(*p);
+      if (auto p = px(x, y - hb - z / tan_w, 0.0)) top_r.push_back(*p);
+    }
+    for (const auto* line : {&floor_l, &floor_r}) cv::polylines(out, *line, false, colour, 2, cv::LINE_AA);
+    for (const auto* line : {&top_l, &top_r}) cv::polylines(out, *line, false, cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+    // a cross-section line every ~0.25 m, labelled with its depth
+    double next = -1e9;
+    for (std::size_t i = 0; i < tr.range_m.size(); ++i) {
+      const double z = tr.sinkage_m[i];
+      if (!std::isfinite(z) || std::abs(tr.range_m[i] - next) < 0.25) continue;
+      next = tr.range_m[i];
+      const double reach = hb + z / tan_w + 0.03;
+      const auto a = px(tr.range_m[i], tr.lateral_m + reach, 0.0), b = px(tr.range_m[i], tr.lateral_m - reach, 0.0);
+      if (!a || !b) continue;
+      cv::line(out, *a, *b, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+      char lab[32];
+      std::snprintf(lab, sizeof lab, "%.1f mm", z * 1e3);
+      cv::putText(out, lab, *b + cv::Point(4, -3), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    }
+  }
+  cv::rectangle(out, cv::Rect(0, 0, out.cols, 34), cv::Scalar(0, 0, 0), cv::FILLED);
+  char head[200];
+  std::snprintf(head, sizeof head, "floor edges (colour), wall tops (yellow), shadow (blue): k %.2g n %.2f",
+                e.k, e.n);
+  cv::putText(out, head, cv::Point(6, 22), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  return out;
 }
 
 SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera,
@@ -113,15 +192,35 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
       s.push_back(std::move(p));
     };
     if (e.ok) {
-      add("image, n fixed", e.k_fixed, e.n_fixed, {0, 0, 0}, false);
-      if (e.joint_ok) add("image, joint k,n", e.k_joint, e.n_joint, {0, 0, 200}, false);
+      char lab[96];
+      std::snprintf(lab, sizeof lab, "image: k %.2g, n %.2f+-%.2f", e.k, e.n, e.n_std);
+      add(lab, e.k, e.n, {0, 0, 200}, false);
+      // +-1 sigma band: ln p = ln k + n ln z, narrowest at the measured mean depth
+      const double rel_k = e.k_fixed > 0 ? e.k_fixed_std / e.k_fixed : 0.0;
+      for (int side : {-1, 1}) {
+        PlotSeries p;
+        p.label = side < 0 ? "image: +-1 sigma" : "";
+        for (const auto& [z, pr] : pz_curve(e.k, e.n, zmax, 64)) {
+          const double rel = std::hypot(rel_k, std::log(std::max(z, 1e-4) / e.mean_sinkage_m) * e.n_std);
+          p.x.push_back(z * 1000.0);
+          p.y.push_back(pr * std::exp(side * rel) / 1000.0);
+        }
+        p.colour = {120, 120, 230};
+        p.dashed = true;
+        s.push_back(std::move(p));
+      }
+      add("image, n fixed " + std::to_string(e.n_fixed).substr(0, 4), e.k_fixed, e.n_fixed, {0, 0, 0}, false);
     }
-    int ci = 1;
+    int ci = 2;
     for (const auto& m : mission_table())
       add(m.mission + " (Sourcebook)", m.k_traditional(), m.n, kColours[ci++ % 6], true);
     PlotSpec spec{"Pressure-sinkage p = k z^n", "sinkage z [mm]", "pressure p [kPa]"};
     f.pz_png = out_dir / "pz_curves.png";
     write_png(f.pz_png, render_plot(spec, s));
+  }
+  if (e.ok) {
+    f.overlay_png = out_dir / "tracks_overlay.png";
+    write_png(f.overlay_png, render_track_overlay(image, camera, rover, params, e));
   }
   f.json = out_dir / "result.json";
   std::ofstream os(f.json);

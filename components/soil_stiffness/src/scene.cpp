@@ -14,8 +14,6 @@
 
 namespace regolith::soil {
 namespace {
-constexpr double kPlausibleN[2] = {0.5, 1.5};  // Bekker n of natural soils and regolith simulants
-constexpr double kMaxNStd = 0.25;
 }  // namespace
 namespace {
 
@@ -142,14 +140,10 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
   nlohmann::json j = nlohmann::json::parse(in);
   in.close();
   const SoilEstimate& e = f.estimate;
-  // The joint (k, n) fit only when n is physically plausible and pinned down; two or three ruts
-  // of different loads fix n through the ratio of their depths, which a few millimetres of
-  // profile error throw far (n 0.27-2.68 on the development scenes): then k with n fixed.
-  const bool joint = e.ok && e.joint_ok && std::isfinite(e.k_joint) && std::isfinite(e.n_joint) &&
-                     e.n_joint >= kPlausibleN[0] && e.n_joint <= kPlausibleN[1] && e.n_joint_std <= kMaxNStd;
-  j["k"] = e.ok ? nlohmann::json(joint ? e.k_joint : e.k_fixed) : nlohmann::json(nullptr);
-  j["n"] = e.ok ? nlohmann::json(joint ? e.n_joint : e.n_fixed) : nlohmann::json(nullptr);
-  j["k_source"] = joint ? "joint" : "n fixed";
+  // The reported pair: the joint fit's n weighed against the prior on n (SoilEstimate::k, n).
+  j["k"] = e.ok ? nlohmann::json(e.k) : nlohmann::json(nullptr);
+  j["n"] = e.ok ? nlohmann::json(e.n) : nlohmann::json(nullptr);
+  j["k_source"] = e.n_data_std > 0 ? "joint with n prior" : "n fixed";
   nlohmann::json tracks = nlohmann::json::array();
   for (const TrackProfile& t : e.tracks) {
     nlohmann::json tj;

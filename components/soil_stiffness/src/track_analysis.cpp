@@ -118,6 +118,7 @@ void TrackAnalysisParams::validate() const {
   need(shadow_fraction > 0 && shadow_fraction < 1, "shadow_fraction", "must be in (0, 1)", shadow_fraction);
   need(std::isfinite(berm_ratio) && berm_ratio >= 0 && berm_ratio < 2, "berm_ratio", "must be in [0, 2)", berm_ratio);
   need(wall_slope_rad > 0 && wall_slope_rad < kPi / 2, "wall_slope_rad", "must be in (0, pi/2)", wall_slope_rad);
+  rut_template.validate();
   need(std::isfinite(n_fixed) && n_fixed >= 0 &&
            (model == SinkageModel::kBeta || n_fixed < 3.0),
        "n_fixed", "must be in [0, 3) (Bekker form) or >= 0 (Beta form)", n_fixed);
@@ -125,6 +126,9 @@ void TrackAnalysisParams::validate() const {
        "must be in [0, 1e5]", bootstrap_samples);
   need(std::isfinite(min_load_ratio) && min_load_ratio > 1.0, "min_load_ratio", "must be > 1",
        min_load_ratio);
+  need(std::isfinite(n_prior) && n_prior > 0 && n_prior < 3, "n_prior", "must be in (0, 3)", n_prior);
+  need(std::isfinite(n_prior_sigma) && n_prior_sigma >= 0, "n_prior_sigma", "must be >= 0", n_prior_sigma);
+  need(std::isfinite(profile_sigma_m) && profile_sigma_m >= 0, "profile_sigma_m", "must be >= 0 m", profile_sigma_m);
   need(max_saturated_fraction >= 0 && max_saturated_fraction <= 1, "max_saturated_fraction",
        "must be in [0, 1]", max_saturated_fraction);
   need(max_dark_fraction >= 0 && max_dark_fraction <= 1, "max_dark_fraction",
@@ -169,6 +173,9 @@ struct SoilStiffnessEstimator::Impl {
   std::vector<TrackProfile> spare;  // profiles not in use by `out`, keeping their buffers
   std::string rejected;
   int inside_count = 0;
+  std::unique_ptr<RutTemplateFit> rut;  // profile_source kTemplate
+  RutLight light;
+  std::vector<double> ranges;           // grid row centres [m]
 
   explicit Impl(const sfs::SfsParams& sp) : solver(sp) {}
 
@@ -255,6 +262,16 @@ SoilStiffnessEstimator::SoilStiffnessEstimator(const CameraModel& camera, const 
       m.wy[q] = static_cast<float>(px->y - y0);
       ++m.inside_count;
     }
+  }
+  m.ranges.resize(static_cast<std::size_t>(m.rows));
+  for (int i = 0; i < m.rows; ++i) m.ranges[static_cast<std::size_t>(i)] = row_range_m(i);
+  if (params_.profile_source == ProfileSource::kTemplate) {
+    RutShape shape;
+    shape.wall_slope_rad = params_.wall_slope_rad;
+    shape.berm_ratio = params_.berm_ratio;
+    shape.berm_offset = params_.berm_offset;
+    shape.berm_half_width = params_.berm_half_width;
+    m.rut = std::make_unique<RutTemplateFit>(camera_, rover_.wheel_width_m, shape, params_.rut_template, m.rows);
   }
   m.grey.create(H, W, CV_8U);
   m.rect8.create(m.rows, m.cols, CV_8U);
@@ -509,6 +526,8 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
         const double s = m.score[static_cast<std::size_t>(c)];
         if (std::isfinite(s) && s > best_s) { best_s = s; best = c; }
       }
+      // no trough response (e.g. the rut near the region's edge): measure at the configured place
+      if (best < 0) best = std::clamp(static_cast<int>(std::lround(cf)), 0, m.cols - 1);
       m.cands.push_back({best, t.load_n > 0 ? t.load_n : default_load, best_s, true, t.lateral_m});
     }
   } else {
@@ -668,9 +687,91 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
     const double w = (std::abs(je - jd) + 1) * res;
     return w * sz / std::abs(sy) / (1.0 + P.berm_ratio);
   };
+  // a measured rut (m.raw per row) -> a profile in out.tracks, or a line in m.rejected
+  auto add_track = [&](const Impl::Candidate& cd, int c, int valid_rows) {
+    const double lateral = col_lateral_m(c);
+    if (valid_rows < std::max(3.0, P.min_valid_fraction * m.rows)) {
+      say_append(m.rejected, " track at %.3g m: too few measurable rows (%d);", lateral, valid_rows);
+      return;
+    }
+    double acc = 0.0, acc2 = 0.0;
+    for (int i = 0; i < m.rows; ++i) {
+      const double z = m.raw[static_cast<std::size_t>(i)];
+      if (!std::isfinite(z)) continue;
+      acc += z;
+      acc2 += z * z;
+    }
+    const double mean = acc / valid_rows;
+    const double sd = std::sqrt(std::max(0.0, acc2 / valid_rows - mean * mean));
+    const double std_err = sd / std::sqrt(std::max(1.0, static_cast<double>(valid_rows) / win));
+    if (!(mean >= P.min_sinkage_m) || mean <= 0.0 || mean < P.detection_snr * std_err) {
+      if (cd.configured) {  // reported, and the other ruts still give an estimate
+        say_append(m.rejected,
+                   " no track found at configured lateral %.3g m: mean sinkage %.3g mm below "
+                   "min_sinkage_m %.3g mm or not significant (%.3g standard errors, detection_snr %.3g);",
+                   cd.configured_lateral, mean * 1e3, P.min_sinkage_m * 1e3,
+                   std_err > 0 ? mean / std_err : 0.0, P.detection_snr);
+        return;
+      }
+      say_append(m.rejected, " trough at %.3g m only %.3g mm deep;", lateral, mean * 1e3);
+      return;
+    }
+    const std::size_t slot = out.tracks.size();  // < track_cap: one slot per candidate at most
+    TrackProfile& tp = m.add_profile(out);
+    tp.lateral_m = lateral;
+    tp.load_n = cd.load;
+    tp.samples = valid_rows;
+    tp.mean_sinkage_m = mean;
+    tp.std_sinkage_m = sd;
+    // smoothed output profile
+    tp.range_m.resize(static_cast<std::size_t>(m.rows));
+    tp.sinkage_m.resize(static_cast<std::size_t>(m.rows));
+    for (int i = 0; i < m.rows; ++i) {
+      double a2 = 0.0;
+      int n = 0;
+      for (int q = std::max(0, i - win / 2); q <= std::min(m.rows - 1, i + win / 2); ++q) {
+        const double z = m.raw[static_cast<std::size_t>(q)];
+        if (std::isfinite(z)) { a2 += z; ++n; }
+      }
+      tp.range_m[static_cast<std::size_t>(i)] = row_range_m(i);
+      tp.sinkage_m[static_cast<std::size_t>(i)] =
+          (n * 2 >= std::min(m.rows, win / 2 * 2 + 1) && std::isfinite(m.raw[static_cast<std::size_t>(i)])) ? a2 / n : kNaN;
+    }
+    tp.k_fixed = stiffness_from_sinkage(tp.mean_sinkage_m, P.n_fixed, tp.load_n, b,
+                                        rover_.wheel_diameter_m, P.model);
+    std::copy(m.raw.begin(), m.raw.end(), m.kept_raw[slot].begin());
+  };
   m.rejected.clear();
+  if (m.rut) {
+    // the light for the rendered cross-sections: flat ground = the region's median; ambient from
+    // the median brightness of shadowed cells (below shadow_fraction of the flat ground)
+    const int dark_below = static_cast<int>(P.shadow_fraction * median);
+    int dark_n = 0;
+    for (int v = 0; v < dark_below; ++v) dark_n += hist[v];
+    m.light.sun = sun;
+    m.light.flat_dn = median;
+    m.light.ambient = 0.0;
+    if (dark_n >= std::max(20, m.inside_count / 500)) {
+      int v = 0;
+      for (int acc = 0; v < dark_below; ++v) {
+        acc += hist[v];
+        if (2 * acc >= dark_n) break;
+      }
+      m.light.ambient = RutTemplateFit::ambient_from_shadow(v + 0.5, median, sun.elevation_rad);
+    }
+  }
   for (const auto& cd : m.cands) {
     if (cd.col < 0) continue;
+    if (m.rut) {
+      const double nominal = cd.configured ? cd.configured_lateral : col_lateral_m(cd.col);
+      const double centre =
+          m.rut->fit(*src, m.light, nominal, m.ranges.data(), m.rows, win, m.raw.data());
+      const int c = std::clamp(static_cast<int>(std::lround((P.lateral_max_m - centre) / res - 0.5)), 0, m.cols - 1);
+      int valid_rows = 0;
+      for (int i = 0; i < m.rows; ++i) valid_rows += std::isfinite(m.raw[static_cast<std::size_t>(i)]) ? 1 : 0;
+      add_track(cd, c, valid_rows);
+      continue;
+    }
     // refine the centre on the along-track mean cross-section of the measured heights
     const int search = std::max(1, half);
     const int ja = std::max(0, cd.col - reach - search), jb = std::min(m.cols - 1, cd.col + reach + search);
@@ -727,57 +828,7 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
         }
       }
     }
-    const double lateral = col_lateral_m(c);
-    if (valid_rows < std::max(3.0, P.min_valid_fraction * m.rows)) {
-      say_append(m.rejected, " track at %.3g m: too few measurable rows (%d);", lateral, valid_rows);
-      continue;
-    }
-    double acc = 0.0, acc2 = 0.0;
-    for (int i = 0; i < m.rows; ++i) {
-      const double z = m.raw[static_cast<std::size_t>(i)];
-      if (!std::isfinite(z)) continue;
-      acc += z;
-      acc2 += z * z;
-    }
-    const double mean = acc / valid_rows;
-    const double sd = std::sqrt(std::max(0.0, acc2 / valid_rows - mean * mean));
-    const double std_err = sd / std::sqrt(std::max(1.0, static_cast<double>(valid_rows) / win));
-    if (!(mean >= P.min_sinkage_m) || mean <= 0.0 || mean < P.detection_snr * std_err) {
-      if (cd.configured) {  // reported, and the other ruts still give an estimate
-        say_append(m.rejected,
-                   " no track found at configured lateral %.3g m: mean sinkage %.3g mm below "
-                   "min_sinkage_m %.3g mm or not significant (%.3g standard errors, detection_snr %.3g);",
-                   cd.configured_lateral, mean * 1e3, P.min_sinkage_m * 1e3,
-                   std_err > 0 ? mean / std_err : 0.0, P.detection_snr);
-        continue;
-      }
-      say_append(m.rejected, " trough at %.3g m only %.3g mm deep;", lateral, mean * 1e3);
-      continue;
-    }
-    const std::size_t slot = out.tracks.size();  // < track_cap: one slot per candidate at most
-    TrackProfile& tp = m.add_profile(out);
-    tp.lateral_m = lateral;
-    tp.load_n = cd.load;
-    tp.samples = valid_rows;
-    tp.mean_sinkage_m = mean;
-    tp.std_sinkage_m = sd;
-    // smoothed output profile
-    tp.range_m.resize(static_cast<std::size_t>(m.rows));
-    tp.sinkage_m.resize(static_cast<std::size_t>(m.rows));
-    for (int i = 0; i < m.rows; ++i) {
-      double a2 = 0.0;
-      int n = 0;
-      for (int q = std::max(0, i - win / 2); q <= std::min(m.rows - 1, i + win / 2); ++q) {
-        const double z = m.raw[static_cast<std::size_t>(q)];
-        if (std::isfinite(z)) { a2 += z; ++n; }
-      }
-      tp.range_m[static_cast<std::size_t>(i)] = row_range_m(i);
-      tp.sinkage_m[static_cast<std::size_t>(i)] =
-          (n * 2 >= std::min(m.rows, win / 2 * 2 + 1) && std::isfinite(m.raw[static_cast<std::size_t>(i)])) ? a2 / n : kNaN;
-    }
-    tp.k_fixed = stiffness_from_sinkage(tp.mean_sinkage_m, P.n_fixed, tp.load_n, b,
-                                        rover_.wheel_diameter_m, P.model);
-    std::copy(m.raw.begin(), m.raw.end(), m.kept_raw[slot].begin());
+    add_track(cd, c, valid_rows);
   }
   if (static_cast<int>(out.tracks.size()) > P.max_tracks) {
     // keep the max_tracks deepest, in their lateral order (swaps move buffers, no allocation)
@@ -890,8 +941,57 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
     out.k_joint_std = sd(m.bjk);
     out.n_joint_std = sd(m.bjn);
   }
-  const double kc = out.joint_ok ? out.k_joint : out.k_fixed;
-  const double nc = out.joint_ok ? out.n_joint : out.n_fixed;
+  // reported (k, n): the joint fit's n weighed against the prior on n. The data's n error comes
+  // from a systematic profile_sigma_m on each rut's mean depth (and its along-track standard
+  // error) through the log-depth vs log-load regression, with the bootstrap spread beside it.
+  out.n = P.n_fixed;
+  out.k = out.k_fixed;
+  out.k_std = out.k_fixed_std;
+  out.n_std = 0.0;
+  out.n_data_std = 0.0;
+  if (out.joint_ok && P.n_prior_sigma > 0.0) {
+    double wsum = 0.0, swx = 0.0;
+    for (std::size_t t = 0; t < nt; ++t) {
+      const TrackProfile& tr = out.tracks[t];
+      const double se = tr.std_sinkage_m / std::sqrt(std::max(1.0, static_cast<double>(tr.samples) / win));
+      const double rel2 = (P.profile_sigma_m * P.profile_sigma_m + se * se) / (tr.mean_sinkage_m * tr.mean_sinkage_m);
+      const double x = std::log(tr.load_n / (b * std::sqrt(D)));
+      wsum += 1.0 / rel2;
+      swx += x / rel2;
+    }
+    double sxx = 0.0;
+    for (std::size_t t = 0; t < nt; ++t) {
+      const TrackProfile& tr = out.tracks[t];
+      const double se = tr.std_sinkage_m / std::sqrt(std::max(1.0, static_cast<double>(tr.samples) / win));
+      const double rel2 = (P.profile_sigma_m * P.profile_sigma_m + se * se) / (tr.mean_sinkage_m * tr.mean_sinkage_m);
+      const double dx = std::log(tr.load_n / (b * std::sqrt(D))) - swx / wsum;
+      sxx += dx * dx / rel2;
+    }
+    const double slope = 2.0 / (2.0 * out.n_joint + 1.0);
+    const double n_data = sxx > 0.0 ? std::sqrt(1.0 / sxx) / (slope * slope) : kNaN;
+    if (std::isfinite(n_data) && n_data > 0.0) {
+      const double var_d = n_data * n_data + out.n_joint_std * out.n_joint_std;
+      const double var_p = P.n_prior_sigma * P.n_prior_sigma;
+      const double n_post = std::clamp((out.n_joint / var_d + P.n_prior / var_p) / (1.0 / var_d + 1.0 / var_p), 0.05,
+                                       P.model == SinkageModel::kBekker ? 2.9 : 10.0);
+      out.n_data_std = std::sqrt(var_d);
+      out.n = n_post;
+      out.n_std = std::sqrt(1.0 / (1.0 / var_d + 1.0 / var_p));
+      double num = 0.0, den = 0.0;
+      for (std::size_t t = 0; t < nt; ++t) {
+        const double w = out.tracks[t].samples;
+        num += w * std::log(stiffness_from_sinkage(out.tracks[t].mean_sinkage_m, n_post, out.tracks[t].load_n, b, D, P.model));
+        den += w;
+      }
+      out.k = std::exp(num / den);
+      // k's spread: the fixed-n bootstrap's relative spread and the n uncertainty at the mean depth
+      const double dlnk_dn = -std::log(std::max(1e-4, out.mean_sinkage_m));
+      const double rel_k = std::hypot(out.k_fixed > 0 ? out.k_fixed_std / out.k_fixed : 0.0, dlnk_dn * out.n_std);
+      out.k_std = out.k * rel_k;
+    }
+  }
+  const double kc = out.k;
+  const double nc = out.n;
   out.class_pressure_pa = bg_pressure(kc, nc, P.class_z_ref_m);
   out.soil_class = out.class_pressure_pa < P.loose_below_pa  ? SoilClass::kLoose
                    : out.class_pressure_pa > P.firm_above_pa ? SoilClass::kFirm

@@ -27,10 +27,10 @@ struct SoilStiffnessSample {
   std::uint64_t sequence = 0;     ///< camera frame sequence number
   bool ok = false;                ///< false: no estimate, see `reason`
   char reason[192] = {};          ///< why there is no estimate (truncated SoilEstimate::reason)
-  bool joint = false;             ///< k, n below come from the joint fit (several loads)
-  double k = std::numeric_limits<double>::quiet_NaN();        ///< [N/m^(n+2)]
-  double n = std::numeric_limits<double>::quiet_NaN();        ///< [-]
-  double k_sigma = std::numeric_limits<double>::quiet_NaN();  ///< bootstrap 1-sigma [N/m^(n+2)]
+  bool joint = false;             ///< n below comes from the joint fit (several loads) with the prior on n
+  double k = std::numeric_limits<double>::quiet_NaN();        ///< reported k [N/m^(n+2)]
+  double n = std::numeric_limits<double>::quiet_NaN();        ///< reported n [-]
+  double k_sigma = std::numeric_limits<double>::quiet_NaN();  ///< 1-sigma (bootstrap and n's) [N/m^(n+2)]
   double n_sigma = std::numeric_limits<double>::quiet_NaN();  ///< 0 when n was fixed [-]
   double k_fixed = std::numeric_limits<double>::quiet_NaN();  ///< fixed-n estimate [N/m^(n+2)]
   double k_fixed_sigma = std::numeric_limits<double>::quiet_NaN();

@@ -16,7 +16,13 @@ struct SoilAnalysisFiles {
   std::filesystem::path dtm_png;       ///< track_dtm.png (empty path when no DTM was computed)
   std::filesystem::path profiles_png;  ///< sinkage_profiles.png
   std::filesystem::path pz_png;        ///< pz_curves.png (estimate + mission table)
+  std::filesystem::path overlay_png;   ///< tracks_overlay.png: the image with ruts, shadows, cross-sections (when ok)
 };
+
+/// The camera image with each measured rut drawn (floor edges at the floor's depth, wall tops),
+/// the shadowed ground tinted blue and labelled cross-sections every ~0.25 m (CV_8UC3).
+cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
+                             const TrackAnalysisParams& params, const SoilEstimate& e);
 
 /// JSON text of an estimate (k, n, uncertainties, class, per-track profiles, rover).
 std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, int indent = 2);

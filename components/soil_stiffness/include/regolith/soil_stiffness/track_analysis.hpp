@@ -10,11 +10,11 @@
 //  3. SfS DTM of the region with regolith::sfs (metric heights = pixel heights x grid cell);
 //  4. tracks: configured lateral positions, or troughs of the along-track mean cross-section of
 //     the DTM (matched filter: shoulders minus floor, one wheel width wide);
-//  5. per grid row and track: cross-track height profile (1-D photoclinometry of the cross-section
-//     by default, or the SfS DTM), undisturbed ground = line through both shoulders, sinkage =
-//     shoulder line minus floor mean, smoothed along the track;
-//  6. fits: k for fixed n (+ bootstrap std, spread over the profile) and joint (k, n) when the
-//     tracks carry at least two distinct loads; soil class.
+//  5. per grid row and track: the sinkage, by default from a rendered rut cross-section fitted to
+//     the image (rut_template.hpp: shading, cast shadows, perspective), else from a cross-track
+//     height profile (1-D photoclinometry or the SfS DTM) against the line through both shoulders;
+//  6. fits: k for fixed n (+ bootstrap std, spread over the profile), joint (k, n) when the
+//     tracks carry at least two distinct loads, the reported (k, n) with a prior on n; soil class.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -25,6 +25,7 @@
 #include "regolith/common/sun.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/soil_stiffness/rigid_wheel.hpp"
+#include "regolith/soil_stiffness/rut_template.hpp"
 
 namespace regolith::soil {
 
@@ -40,7 +41,8 @@ using CameraModel = direct_depth::CameraModel;
 using SunDirection = common::GroundSun;
 
 enum class ProfileSource {
-  kPhotoclinometry,  ///< 1-D Lambertian inversion of each cross-section (default, see README)
+  kTemplate,         ///< rendered rut cross-sections fitted to the image (default, rut_template.hpp)
+  kPhotoclinometry,  ///< 1-D Lambertian inversion of each cross-section, shadow widths where cast
   kSfsDtm,           ///< cross-sections read from the SfS DTM (regolith::sfs)
 };
 
@@ -72,7 +74,10 @@ struct TrackAnalysisParams {
   double profile_window_m = 0.08; ///< along-track smoothing (box) of the profile [m]
   double presmooth_m = 0.04;      ///< along-track box filter of the brightness before inversion [m]
   double min_valid_fraction = 0.3;///< of the profile rows, else the track is rejected [-]
-  ProfileSource profile_source = ProfileSource::kPhotoclinometry;
+  ProfileSource profile_source = ProfileSource::kTemplate;
+  RutTemplateParams rut_template;  ///< the template fit's search (profile_source kTemplate)
+  double berm_offset = 0.15;       ///< berm crest beyond the rut wall's top edge / b (template) [-]
+  double berm_half_width = 0.3;    ///< berm half-width / b (template) [-]
   SfsMethod sfs_method = SfsMethod::kPentland;
   int sfs_iterations = 200;       ///< Tsai-Shah only
   double min_lateral_sun = 0.2;   ///< |lateral component of the sun vector| needed (cos el sin az) [-]
@@ -86,6 +91,10 @@ struct TrackAnalysisParams {
   int bootstrap_samples = 200;    ///< 0 disables the bootstrap
   std::uint32_t seed = 12345;
   double min_load_ratio = 1.2;    ///< loads must differ by this ratio for the joint fit [-]
+  // reported (k, n): the joint fit's n combined with a prior on n (k refitted for that n)
+  double n_prior = 1.0;           ///< prior mean of n (Lunar Sourcebook regolith) [-]
+  double n_prior_sigma = 0.2;     ///< prior standard deviation of n [-]; 0 = always n_prior
+  double profile_sigma_m = 0.0015;///< systematic error of one rut's mean depth [m] (measured, README)
   // frame quality
   double max_saturated_fraction = 0.3;  ///< region cells at >= 250 DN [-]
   double max_dark_fraction = 0.3;       ///< region cells at <= 5 DN [-]
@@ -129,6 +138,11 @@ struct SoilEstimate {
   std::string joint_reason;
   double k_joint = 0.0, n_joint = 0.0;
   double k_joint_std = 0.0, n_joint_std = 0.0;
+  // reported: n from the joint fit (its error from profile_sigma_m and the bootstrap) combined
+  // with the prior on n, k fitted for that n; n_prior and the fixed-n k without a joint fit
+  double k = 0.0, n = 0.0;        ///< [N/m^(n+2)], [-]
+  double k_std = 0.0, n_std = 0.0;
+  double n_data_std = 0.0;        ///< standard deviation of the joint fit's n alone (0 = none) [-]
   // class and diagnostics
   SoilClass soil_class = SoilClass::kUnknown;
   double class_pressure_pa = 0.0;  ///< p(z_ref) used for the class [Pa]
