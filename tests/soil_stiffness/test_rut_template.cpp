@@ -63,10 +63,15 @@ TEST(RutTemplate, LowSunShadowsTheFloorUnderTheSunwardWallAndLightsTheOther) {
   EXPECT_NEAR(fit.predict(l, 0.2, 0.005, 0.0), l.flat_dn, 1.0);
 }
 
-TEST(RutTemplate, FitRecoversDepthAndCentreThroughPerspectiveAndNoise) {
+// Any sun: from either side, along the track ahead (no cross-track shading, no cast shadow across
+// the rut: the walls' shading and widths remain), behind the camera.
+class RutTemplateSun : public ::testing::TestWithParam<double> {};
+
+TEST_P(RutTemplateSun, FitRecoversDepthAndCentreThroughPerspectiveAndNoise) {
   const dd::CameraModel cam = rear_camera();
   const dd::DirectDepth geometry(cam);
-  const soil::RutLight l = low_sun_from_left();
+  soil::RutLight l = low_sun_from_left();
+  l.sun.azimuth_rad = GetParam();
   soil::RutTemplateFit render(cam, kWheel, {}, {}, 10);
   const double z_true = 0.023, centre_true = 0.205;
   cv::Mat img(cam.height, cam.width, CV_8UC1);
@@ -91,6 +96,26 @@ TEST(RutTemplate, FitRecoversDepthAndCentreThroughPerspectiveAndNoise) {
     ++n;
   }
   EXPECT_EQ(n, static_cast<int>(ranges.size()));
+}
+
+INSTANTIATE_TEST_SUITE_P(Azimuths, RutTemplateSun, ::testing::Values(1.4, -1.4, 0.0, 3.14159, 2.5, -0.6));
+
+// A rut inside a larger shadow (the rover's own, a rock's): the cross-section is uniformly dark,
+// at the ambient level, and no depth explains it better than another. Not measurable (NaN),
+// counted, never a made-up number.
+TEST(RutTemplate, RutInFullShadowIsNotMeasurable) {
+  const dd::CameraModel cam = rear_camera();
+  const soil::RutLight l = low_sun_from_left();
+  const double shadow = l.flat_dn * l.ambient / (std::sin(l.sun.elevation_rad) + l.ambient);
+  cv::Mat img(cam.height, cam.width, CV_8UC1);
+  cv::randn(img, shadow, 2.0);
+  std::vector<double> ranges;
+  for (double x = 0.8; x < 1.9; x += 0.01) ranges.push_back(x);
+  std::vector<double> depth(ranges.size());
+  soil::RutTemplateFit fit(cam, kWheel, {}, {}, static_cast<int>(ranges.size()));
+  fit.fit(img, l, 0.2, ranges.data(), static_cast<int>(ranges.size()), 10, depth.data());
+  for (double z : depth) EXPECT_TRUE(std::isnan(z)) << z;
+  EXPECT_EQ(fit.unmeasurable_windows(), static_cast<int>((ranges.size() + 9) / 10));
 }
 
 TEST(RutTemplate, BadParametersAreNamed) {

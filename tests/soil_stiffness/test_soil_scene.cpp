@@ -69,6 +69,9 @@ TEST(SoilScene, BadFieldsAreNamed) {
   k["tracks"][1]["load_N"] = 0;
   expect_error(k.dump(), "tracks[1].load_N: must be > 0");
   k = j;
+  k["tracks"][0]["x_nominal_m"] = 4.0;
+  expect_error(k.dump(), "tracks[0].x_nominal_m: 4.000000 m lies outside the camera's view");
+  k = j;
   k["camera"].erase("fy");
   expect_error(k.dump(), "camera.fy: missing");
   k = j;

@@ -197,6 +197,7 @@ double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double la
   count = std::min(count, max_rows_);
   window = std::max(1, window);
   build_templates(light, lateral_m);
+  unmeasurable_ = 0;
   const int W = grey.cols, Hh = grey.rows;
   // where each cross-section's samples fall in the image, and each row's pixel footprint
   for (int i = 0; i < count; ++i) {
@@ -291,6 +292,28 @@ double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double la
       const double ym = at(best_k - 1), y0 = at(best_k), yp = at(best_k + 1);
       const double den = ym - 2.0 * y0 + yp;
       if (den > 0) z += std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) * p_.sinkage_step_m;
+    }
+    // Measurable only if the residual rises clearly on both sides of the best depth (30 %, at
+    // least 3 mm, away): a rut in full shadow, or deeper than max_sinkage_m, fits many depths
+    // equally well. Noise from the best fit's residual; the rise must be worth chi^2 = 9.
+    auto best_over_c = [&](int k) {
+      double m = std::numeric_limits<double>::infinity();
+      for (int c = 0; c < nc_; ++c)
+        m = std::min(m,
+                     sse_[static_cast<std::size_t>(k) * static_cast<std::size_t>(nc_) + static_cast<std::size_t>(c)]);
+      return m;
+    };
+    const double step_z = std::max(0.003, 0.3 * z);
+    const int k_hi = static_cast<int>(std::ceil((z + step_z) / p_.sinkage_step_m));
+    const int k_lo = static_cast<int>(std::floor((z - step_z) / p_.sinkage_step_m));
+    const double sigma2 = 2.0 * best / std::max(1, valid);
+    const double rise = 9.0 * 0.5 * sigma2;
+    const bool upper_ok = k_hi < nz_ && best_over_c(k_hi) - best >= rise;
+    const bool lower_ok = k_lo < 0 || best_over_c(k_lo) - best >= rise;
+    if (!upper_ok || !lower_ok) {
+      for (int i = i0; i < i1; ++i) depth_m[i] = kNaN;
+      ++unmeasurable_;
+      continue;
     }
     for (int i = i0; i < i1; ++i) depth_m[i] = z;
     centre_acc += (best_c - nc_ / 2) * p_.centre_step_m;

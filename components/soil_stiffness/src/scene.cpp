@@ -105,6 +105,21 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   if (!near.valid) throw InputError(file.string() + ": camera: the bottom image row does not see the ground (pitch_deg too small?)");
   cfg.analysis.range_min_m = near.range_m + 0.05;
   cfg.analysis.range_max_m = std::min(far.valid ? far.range_m - 0.05 : 1e9, near.range_m + 2.5);
+  // every listed rut must be seen somewhere between the region's near and far ends
+  for (std::size_t k = 0; k < cfg.analysis.tracks.size(); ++k) {
+    bool seen = false;
+    for (int q = 0; q <= 10 && !seen; ++q) {
+      const double x = cfg.analysis.range_min_m + (cfg.analysis.range_max_m - cfg.analysis.range_min_m) * q / 10.0;
+      const auto px = dd.project(x, cfg.analysis.tracks[k].lateral_m, 0.0);
+      seen = px && px->x >= 0 && px->x <= c.width - 1 && px->y >= 0 && px->y <= c.height - 1;
+    }
+    if (!seen)
+      throw InputError(file.string() + ": tracks[" + std::to_string(k) + "].x_nominal_m: " +
+                       std::to_string(-cfg.analysis.tracks[k].lateral_m) +
+                       " m lies outside the camera's view of the ground (range " +
+                       std::to_string(cfg.analysis.range_min_m) + " to " + std::to_string(cfg.analysis.range_max_m) +
+                       " m)");
+  }
   const double half = max_abs_x + 2.5 * r.wheel_width_m;
   cfg.analysis.lateral_min_m = -half;
   cfg.analysis.lateral_max_m = half;

@@ -769,6 +769,13 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
       const int c = std::clamp(static_cast<int>(std::lround((P.lateral_max_m - centre) / res - 0.5)), 0, m.cols - 1);
       int valid_rows = 0;
       for (int i = 0; i < m.rows; ++i) valid_rows += std::isfinite(m.raw[static_cast<std::size_t>(i)]) ? 1 : 0;
+      if (valid_rows < std::max(3.0, P.min_valid_fraction * m.rows) && m.rut->unmeasurable_windows() > 0) {
+        say_append(m.rejected,
+                   " track at %.3g m: not measurable (%d stretches fit no single depth: the rut in full "
+                   "shadow or deeper than max_sinkage_m %.3g m);",
+                   centre, m.rut->unmeasurable_windows(), P.rut_template.max_sinkage_m);
+        continue;
+      }
       add_track(cd, c, valid_rows);
       continue;
     }

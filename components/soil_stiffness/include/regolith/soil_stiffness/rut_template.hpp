@@ -77,6 +77,9 @@ class RutTemplateFit {
   double predict(const RutLight& light, double lateral_m, double z_m, double offset_m);
 
   int hypotheses() const { return nz_; }
+  /// Windows of the last fit() whose depth was not measurable (the residual does not rise clearly
+  /// on both sides of the best depth: a rut in full shadow, or deeper than max_sinkage_m).
+  int unmeasurable_windows() const { return unmeasurable_; }
 
  private:
   void build_templates(const RutLight& light, double lateral_m);
@@ -94,6 +97,7 @@ class RutTemplateFit {
   std::vector<double> px_x_, px_y_;      // per row and sample: pixel position (NaN outside)
   std::vector<double> foot_;             // per row: pixel footprint [m]
   std::vector<double> sse_;              // [nz][nc]
+  int unmeasurable_ = 0;
   bool built_ = false;                   // templates of built_light_ / built_lateral_ in prefix_
   RutLight built_light_;
   double built_lateral_ = 0.0;
