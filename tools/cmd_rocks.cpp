@@ -19,6 +19,7 @@
 #include <numeric>
 #include <optional>
 #include <sstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -450,6 +451,37 @@ void run_train(const std::string &images, const std::string &masks,
                      " image(s) skipped (see the errors above)");
 }
 
+// image file name -> subset from a dataset's manifest.csv (columns `image` and `subset`, the
+// image possibly with a directory); empty when there is no such file or column.
+std::map<std::string, std::string> read_subsets(const std::filesystem::path &manifest) {
+  std::map<std::string, std::string> out;
+  std::ifstream in(manifest);
+  std::string line;
+  if (!in || !std::getline(in, line))
+    return out;
+  auto split = [](const std::string &l) {
+    std::vector<std::string> f;
+    std::stringstream ss(l);
+    std::string x;
+    while (std::getline(ss, x, ','))
+      f.push_back(x);
+    return f;
+  };
+  const auto head = split(line);
+  const auto col = [&](const char *n) {
+    return static_cast<size_t>(std::find(head.begin(), head.end(), n) - head.begin());
+  };
+  const size_t ci = col("image"), cs = col("subset");
+  if (ci >= head.size() || cs >= head.size())
+    return out;
+  while (std::getline(in, line)) {
+    const auto f = split(line);
+    if (f.size() > std::max(ci, cs))
+      out[std::filesystem::path(f[ci]).filename().string()] = f[cs];
+  }
+  return out;
+}
+
 // `eval rocks --trained-cv`: the trained method scored by grouped k-fold CV (models trained
 // only on the other folds), next to the contrast method with its defaults on the same folds.
 void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
@@ -502,6 +534,27 @@ void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
                   r.thresholds[static_cast<size_t>(f)],
                   r.nms_ious[static_cast<size_t>(f)]);
     md << buf;
+  }
+  // Per subset, when the dataset has a manifest.csv (image,...,subset,...) beside the image
+  // directory: the held-out goal is to lead the contrast peer on each subset.
+  const std::map<std::string, std::string> subsets = read_subsets(
+      std::filesystem::path(e.images).parent_path() / "manifest.csv");
+  if (!subsets.empty()) {
+    std::map<std::string, std::vector<size_t>> by;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const auto it = subsets.find(frames[i].name);
+      by[it == subsets.end() ? std::string("(not listed)") : it->second].push_back(i);
+    }
+    md << "\n| subset | images | GT | contrast N-MODA@0.2 / @0.5 / max F | trained "
+          "N-MODA@0.2 / @0.5 / max F |\n|---|---:|---:|---|---|\n";
+    for (const auto &[name, idx] : by) {
+      const sal::Summary c = sal::summarise(crec, idx), t = sal::summarise(r.pooled, idx);
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "| %s | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f |\n",
+                    name.c_str(), t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02,
+                    t.n_moda05, t.max_f);
+      md << buf;
+    }
   }
   // Upper bound set by the candidates: GT components with a candidate at IoU >= 0.2 / 0.5.
   int n_gt = 0, cover02 = 0, cover05 = 0;

@@ -143,7 +143,7 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   EXPECT_TRUE(ta == tb) << "two trainings differ";
   EXPECT_EQ(ta.rfind("%YAML", 0), 0u);
   EXPECT_NE(ta.find("format: \"regolith.saliency.trained_rocks\""), std::string::npos);
-  EXPECT_NE(ta.find("version: 1"), std::string::npos);
+  EXPECT_NE(ta.find("version: " + std::to_string(rs::kTrainedModelVersion)), std::string::npos);
   m1.save(gz);
   const rs::TrainedModel l = rs::TrainedModel::load(a), lz = rs::TrainedModel::load(gz);
   EXPECT_EQ(l.candidates, m1.candidates);
@@ -191,9 +191,11 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   std::string text = read_all(good);
   const std::string v2 = (dir / "v2.yml").string();
   std::string t2 = text;
-  t2.replace(t2.find("version: 1"), 10, "version: 2");
+  const std::string ours = "version: " + std::to_string(rs::kTrainedModelVersion);
+  const int next = rs::kTrainedModelVersion + 1;
+  t2.replace(t2.find(ours), ours.size(), "version: " + std::to_string(next));
   std::ofstream(v2) << t2;
-  expect_error(v2, "version 2");
+  expect_error(v2, "version " + std::to_string(next));
   const std::string trunc = (dir / "truncated.yml").string();
   std::ofstream(trunc) << text.substr(0, text.size() / 2);
   expect_error(trunc, "corrupt");
@@ -235,11 +237,11 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   const rs::Summary s = rs::summarise(r.pooled);
   EXPECT_EQ(s.images, 60);
   EXPECT_EQ(s.gt, 559);
-  // Measured 0.238 / 0.106 / 0.664 with the default seed (components/saliency/README.md; the
-  // contrast method scores 0.245 / 0.141 / 0.704): a no-regression floor, not a win over contrast.
-  EXPECT_GT(s.n_moda02, 0.20) << s.n_moda02;
-  EXPECT_GT(s.n_moda05, 0.07) << s.n_moda05;
-  EXPECT_GT(s.max_f, 0.62) << s.max_f;
+  // Measured 0.284 / 0.159 / 0.695 with the default seed (components/saliency/README.md; the
+  // contrast peer scores 0.245 / 0.141 / 0.704): a no-regression floor.
+  EXPECT_GT(s.n_moda02, 0.26) << s.n_moda02;
+  EXPECT_GT(s.n_moda05, 0.13) << s.n_moda05;
+  EXPECT_GT(s.max_f, 0.66) << s.max_f;
 }
 
 TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {

@@ -35,7 +35,7 @@ double rect_sum(const cv::Mat& ii, const cv::Rect& r) {
 }
 
 struct Integrals {
-  cv::Mat i, i2, sc, sf, g, edge, dark, bright;
+  cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb;
 };
 
 std::string trim(std::string s) {
@@ -79,7 +79,16 @@ const std::vector<std::string>& feature_names() {
                                               "dark_side_mean",
                                               "dark_side_min",
                                               "source_scale",
-                                              "image_intensity_std"};
+                                              "image_intensity_std",
+                                              "chroma_r_in_minus_ring",
+                                              "chroma_b_in_minus_ring",
+                                              "chroma_r_in_minus_image",
+                                              "chroma_b_in_minus_image",
+                                              "stability",
+                                              "log_largest_parent_area_ratio",
+                                              "children",
+                                              "parents",
+                                              "max_iou_other_candidate"};
   return names;
 }
 
@@ -152,11 +161,29 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   integral_of(edge / 255, ii.edge);
   integral_of(dark / 255, ii.dark);
   integral_of(bright / 255, ii.bright);
+  // chromaticity r = R / (R + G + B), b = B / (R + G + B): rock against dust; 1/3 for grey images
+  if (image.channels() == 3) {
+    cv::Mat f, sum;
+    image.convertTo(f, CV_32F);
+    std::vector<cv::Mat> ch;
+    cv::split(f, ch);  // B, G, R
+    sum = ch[0] + ch[1] + ch[2] + 1e-3f;
+    cv::Mat r, bl;
+    cv::divide(ch[2], sum, r);
+    cv::divide(ch[0], sum, bl);
+    integral_of(r, ii.cr);
+    integral_of(bl, ii.cb);
+  } else {
+    const cv::Mat third(I.size(), CV_32F, cv::Scalar(1.0 / 3.0));
+    integral_of(third, ii.cr);
+    integral_of(third, ii.cb);
+  }
   const int W = I.cols, H = I.rows;
   const cv::Rect frame(0, 0, W, H);
   const double n_img = static_cast<double>(W) * H;
   const double img_mean = rect_sum(ii.i, frame) / n_img;
   const double img_std = std::sqrt(std::max(0.0, rect_sum(ii.i2, frame) / n_img - img_mean * img_mean));
+  const double img_cr = rect_sum(ii.cr, frame) / n_img, img_cb = rect_sum(ii.cb, frame) / n_img;
 
   out.size = I.size();
   out.candidates.clear();
@@ -176,13 +203,22 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
     }
     const double scale = is_coarse ? params_.coarse_scales[k] : params_.fine_scales[k - n_coarse];
     for (const Detection& d : dets_) {
-      const bool dup = std::any_of(out.candidates.begin(), out.candidates.end(),
-                                   [&](const RockCandidate& c) { return c.box == d.box; });
+      // the same blob at several maps / thresholds (IoU > 0.85): kept once, its stability counted
+      bool dup = false;
+      int near_same = 0;
+      for (RockCandidate& c : out.candidates) {
+        if (iou(c.box, d.box) > 0.85) {
+          ++c.stability;
+          ++near_same;
+        }
+        dup = dup || c.box == d.box;
+      }
       if (dup) continue;
       RockCandidate c;
       c.box = d.box;
       c.area = d.area;
       c.source = static_cast<int>(k);
+      c.stability = 1 + near_same;
       const cv::Rect& b = d.box;
       const int margin = std::max(3, static_cast<int>(std::lround(0.25 * std::max(b.width, b.height))));
       const cv::Rect outer = cv::Rect(b.x - margin, b.y - margin, b.width + 2 * margin, b.height + 2 * margin) & frame;
@@ -209,7 +245,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
         ++nsides;
       }
       if (nsides == 0) dmin = 0.0;
-      const double v[kFeatureCount] = {std::log(n_in),
+      const double v[kFeatureCount - 5] = {std::log(n_in),
                                        std::log(static_cast<double>(b.width) / b.height),
                                        static_cast<double>(b.width) / W,
                                        static_cast<double>(b.height) / H,
@@ -238,10 +274,39 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
                                        nsides ? dsum / nsides : 0.0,
                                        dmin,
                                        scale + (is_coarse ? 0.0 : 10.0),
-                                       img_std};
-      for (int f = 0; f < kFeatureCount; ++f) c.features[f] = static_cast<float>(v[f]);
+                                       img_std,
+                                       in(ii.cr) - ring(ii.cr),
+                                       in(ii.cb) - ring(ii.cb),
+                                       in(ii.cr) - img_cr,
+                                       in(ii.cb) - img_cb};
+      for (int f = 0; f < kFeatureCount - 5; ++f) c.features[f] = static_cast<float>(v[f]);
       out.candidates.push_back(c);
     }
+  }
+  // Context among the candidates: a rock is found at several thresholds, whole and in fragments;
+  // where a box sits in that nesting tells the whole from a fragment.
+  const size_t nc = out.candidates.size();
+  for (size_t a = 0; a < nc; ++a) {
+    RockCandidate& c = out.candidates[a];
+    const cv::Rect& b = c.box;
+    double parent_area = b.area(), max_iou = 0.0;
+    int children = 0, parents = 0;
+    for (size_t o = 0; o < nc; ++o) {
+      if (o == a) continue;
+      const cv::Rect& q = out.candidates[o].box;
+      max_iou = std::max(max_iou, iou(b, q));
+      const cv::Point qc(q.x + q.width / 2, q.y + q.height / 2), bc(b.x + b.width / 2, b.y + b.height / 2);
+      if (q.area() < b.area() && b.contains(qc)) ++children;
+      if (q.area() > b.area() && q.contains(bc)) {
+        ++parents;
+        parent_area = std::max(parent_area, static_cast<double>(q.area()));
+      }
+    }
+    c.features[kFeatureCount - 5] = static_cast<float>(c.stability);
+    c.features[kFeatureCount - 4] = static_cast<float>(std::log(parent_area / std::max(1, b.area())));
+    c.features[kFeatureCount - 3] = static_cast<float>(children);
+    c.features[kFeatureCount - 2] = static_cast<float>(parents);
+    c.features[kFeatureCount - 1] = static_cast<float>(max_iou);
   }
 }
 
@@ -461,14 +526,14 @@ TrainedModel TrainedModel::load(const std::string& path) {
 }
 
 // ---------------------------------------------------------------------------------------------
-std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou) {
+std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou, bool soft) {
   std::vector<float> labels;
   labels.reserve(set.candidates.size());
   for (const RockCandidate& c : set.candidates) {
     double best = 0.0;
     for (const GtObject& g : truth.objects)
       if (!g.ignored) best = std::max(best, iou(c.box, g.box));
-    labels.push_back(best >= positive_iou ? 1.0f : 0.0f);
+    labels.push_back(soft ? static_cast<float>(std::min(1.0, best / positive_iou)) : best >= positive_iou ? 1.0f : 0.0f);
   }
   return labels;
 }

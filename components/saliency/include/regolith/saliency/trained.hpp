@@ -7,8 +7,11 @@
 //     contrast saliency inside vs a ring around the box, intensity mean / std inside vs ring,
 //     edge density, bright / dark fractions, dark-region-adjacent cue (dark fraction of the
 //     ring's four side strips: max / mean / min), fill ratio of the thresholded blob, ...;
-//  3. a random forest (cv::ml::RTrees, regression on the 0/1 label "the box matches a
-//     non-ignored ground-truth component with IoU >= 0.5", fixed RNG, no randomness elsewhere)
+//     context among the candidates (stability: how many maps / thresholds found the same box;
+//     nesting: parents, children, the largest parent's area, the best overlap with another
+//     candidate), chromaticity inside vs ring and image (0 for grey images);
+//  3. a random forest (cv::ml::RTrees, regression on the soft label min(1, IoU / 0.5) with the
+//     best-matching non-ignored ground-truth component; fixed RNG, no randomness elsewhere)
 //     whose mean tree output is the box score in [0,1];
 //  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold; both chosen on
 //     out-of-fold predictions of an inner grouped CV over the training images only.
@@ -34,8 +37,8 @@ class ModelError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-inline constexpr int kFeatureCount = 30;
-inline constexpr int kTrainedModelVersion = 1;
+inline constexpr int kFeatureCount = 39;
+inline constexpr int kTrainedModelVersion = 2;  ///< 2: 39 features (context, chroma), soft labels
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -61,7 +64,7 @@ struct TrainParams {
   double positive_iou = 0.5;         ///< label 1 when max IoU with a non-ignored GT box >= this
   uint64_t seed = 0x5EED0F0C4B5ull;  ///< cv::theRNG() state while a forest trains (bootstrap, splits)
   int inner_folds = 4;               ///< grouped CV on the training images to choose the thresholds
-  std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50, 0.55, 0.60, 0.70};
+  std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90};
   std::vector<double> nms_ious{0.2, 0.3, 0.5};
   void validate() const;
 };
@@ -71,6 +74,7 @@ struct RockCandidate {
   cv::Rect box;
   int area = 0;    ///< px of the thresholded component
   int source = 0;  ///< index of the (map, scale) it came from (bit of CandidateSet::source_masks)
+  int stability = 0;  ///< how many (map, scale) sources found (nearly) this box, itself included
   std::array<float, kFeatureCount> features{};
 };
 
@@ -138,8 +142,11 @@ struct LabelledFrame {
   std::vector<float> labels;  ///< 0/1 per candidate
 };
 
-/// Labels of the candidates: 1 when the max IoU with a non-ignored GT object >= positive_iou.
-std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou);
+/// Labels of the candidates from their max IoU with a non-ignored GT object: soft (default)
+/// min(1, IoU / positive_iou), so that a fragment or an over-sized box ranks between a miss and a
+/// match; hard: 1 when IoU >= positive_iou, else 0.
+std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& truth, double positive_iou,
+                                    bool soft = true);
 
 struct DatasetItem;
 /// Reads one image + mask (read_image / read_truth: DataError naming the file), extracts and
