@@ -246,39 +246,39 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
       }
       if (nsides == 0) dmin = 0.0;
       const double v[kFeatureCount - 5] = {std::log(n_in),
-                                       std::log(static_cast<double>(b.width) / b.height),
-                                       static_cast<double>(b.width) / W,
-                                       static_cast<double>(b.height) / H,
-                                       (b.y + 0.5 * b.height) / H,
-                                       static_cast<double>(b.y + b.height) / H,
-                                       std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
-                                       d.area / n_in,
-                                       in(ii.sc),
-                                       smax,
-                                       ring(ii.sc),
-                                       in(ii.sc) - ring(ii.sc),
-                                       in(ii.sf),
-                                       in(ii.sf) - ring(ii.sf),
-                                       i_in,
-                                       std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
-                                       i_ring,
-                                       std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
-                                       i_in - i_ring,
-                                       i_in - img_mean,
-                                       in(ii.g),
-                                       in(ii.edge),
-                                       ring(ii.edge),
-                                       in(ii.bright),
-                                       in(ii.dark),
-                                       dmax,
-                                       nsides ? dsum / nsides : 0.0,
-                                       dmin,
-                                       scale + (is_coarse ? 0.0 : 10.0),
-                                       img_std,
-                                       in(ii.cr) - ring(ii.cr),
-                                       in(ii.cb) - ring(ii.cb),
-                                       in(ii.cr) - img_cr,
-                                       in(ii.cb) - img_cb};
+                                           std::log(static_cast<double>(b.width) / b.height),
+                                           static_cast<double>(b.width) / W,
+                                           static_cast<double>(b.height) / H,
+                                           (b.y + 0.5 * b.height) / H,
+                                           static_cast<double>(b.y + b.height) / H,
+                                           std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
+                                           d.area / n_in,
+                                           in(ii.sc),
+                                           smax,
+                                           ring(ii.sc),
+                                           in(ii.sc) - ring(ii.sc),
+                                           in(ii.sf),
+                                           in(ii.sf) - ring(ii.sf),
+                                           i_in,
+                                           std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
+                                           i_ring,
+                                           std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
+                                           i_in - i_ring,
+                                           i_in - img_mean,
+                                           in(ii.g),
+                                           in(ii.edge),
+                                           ring(ii.edge),
+                                           in(ii.bright),
+                                           in(ii.dark),
+                                           dmax,
+                                           nsides ? dsum / nsides : 0.0,
+                                           dmin,
+                                           scale + (is_coarse ? 0.0 : 10.0),
+                                           img_std,
+                                           in(ii.cr) - ring(ii.cr),
+                                           in(ii.cb) - ring(ii.cb),
+                                           in(ii.cr) - img_cr,
+                                           in(ii.cb) - img_cb};
       for (int f = 0; f < kFeatureCount - 5; ++f) c.features[f] = static_cast<float>(v[f]);
       out.candidates.push_back(c);
     }
@@ -533,7 +533,9 @@ std::vector<float> label_candidates(const CandidateSet& set, const FrameTruth& t
     double best = 0.0;
     for (const GtObject& g : truth.objects)
       if (!g.ignored) best = std::max(best, iou(c.box, g.box));
-    labels.push_back(soft ? static_cast<float>(std::min(1.0, best / positive_iou)) : best >= positive_iou ? 1.0f : 0.0f);
+    labels.push_back(soft                   ? static_cast<float>(std::min(1.0, best / positive_iou))
+                     : best >= positive_iou ? 1.0f
+                                            : 0.0f);
   }
   return labels;
 }
