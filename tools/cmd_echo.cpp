@@ -18,7 +18,7 @@ struct EchoArgs {
   std::string topic;
   std::size_t count = 0;
   double timeout_s = 0.0;
-  int domain = 0;
+  int domain = dds::default_domain_id();
   std::string ns = "rover1";
   bool best_effort = false;
   bool list = false;
@@ -31,7 +31,7 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--count,-n", a->count, "stop after N samples (default: until Ctrl-C)");
   cmd->add_option("--timeout", a->timeout_s, "give up after this many seconds without reaching --count (exit 1)")
       ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--domain", a->domain, "DDS domain id (ROS_DOMAIN_ID)")->check(CLI::Range(0, 232));
+  cmd->add_option("--domain", a->domain, "DDS domain id (default: $ROS_DOMAIN_ID, else 0)")->check(CLI::Range(0, 232));
   cmd->add_option("--namespace", a->ns, "robot namespace of relative topic names");
   cmd->add_flag("--best-effort", a->best_effort, "best-effort reader (also matches sensor-data publishers)");
   cmd->add_flag("--list", a->list, "list the known topics and their types");

@@ -1,5 +1,7 @@
 #include "regolith/runtime/application.hpp"
 
+#include <chrono>
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -175,6 +177,17 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
 
 void Application::start() {
   if (started_) return;
+  if (opts_.sim_time) {
+    ros_time_offset().store(0, std::memory_order_relaxed);
+  } else {
+    ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
+    ros_time_stop_ = false;
+    ros_time_thread_ = std::thread([this] {
+      std::unique_lock<std::mutex> lock(ros_time_mutex_);
+      while (!ros_time_cv_.wait_for(lock, std::chrono::seconds(1), [this] { return ros_time_stop_; }))
+        ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
+    });
+  }
   // Devices first (outside the rate groups), then components, then the schedule.
   for (hal::Device* d : context_->all_devices()) d->start();
   for (auto& c : components_) {
@@ -210,6 +223,14 @@ void Application::stop() {
   const auto devices = context_->all_devices();
   for (auto it = devices.rbegin(); it != devices.rend(); ++it) (*it)->stop();
   if (dds_) stop_participant(*dds_);
+  if (ros_time_thread_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(ros_time_mutex_);
+      ros_time_stop_ = true;
+    }
+    ros_time_cv_.notify_all();
+    ros_time_thread_.join();
+  }
   started_ = false;
 }
 

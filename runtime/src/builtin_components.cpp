@@ -44,7 +44,7 @@ const char* kind_prefix(HealthEntry::Kind k) {
 
 /// diagnostic_msgs/DiagnosticArray from a health snapshot, into pre-reserved strings.
 void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, DiagnosticArray& m) {
-  dds::set_time(m.header.stamp, s.stamp);
+  dds::set_stamp(m.header.stamp, s.stamp);
   dds::set_length(m.status, s.count);
   for (std::uint32_t i = 0; i < m.status._length; ++i) {
     const HealthEntry& e = s.entries[i];
@@ -329,7 +329,7 @@ class JointStatePublisher final : public Component {
     out_->commit();
     if (js_ && fresh) {
       if (JointState* m = js_->begin()) {
-        dds::set_time(m->header.stamp, s->stamp);
+        dds::set_stamp(m->header.stamp, s->stamp);
         dds::set_length(m->position, s->count);
         dds::set_length(m->velocity, s->count);
         dds::set_length(m->effort, 0);
@@ -381,7 +381,7 @@ class ImuPublisher final : public Component {
     }
     if (msg_) {
       if (ImuMsg* m = msg_->begin()) {
-        dds::set_time(m->header.stamp, s.stamp);
+        dds::set_stamp(m->header.stamp, s.stamp);
         const hal::Quaternion q = hal::to_quaternion(s.attitude);
         m->orientation = {q.x, q.y, q.z, q.w};
         m->angular_velocity = {s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z};

@@ -10,8 +10,9 @@ namespace {
 dds::ParticipantConfig read_config(Params& p, bool& enabled) {
   enabled = p.get<bool>("enabled", true, {.doc = "publish on DDS"});
   dds::ParticipantConfig c;
-  c.domain_id = static_cast<std::uint32_t>(
-      p.get<int>("domain", 0, {.min = 0, .max = 232, .doc = "DDS domain id (ROS_DOMAIN_ID)"}));
+  c.domain_id = static_cast<std::uint32_t>(p.get<int>(
+      "domain", dds::default_domain_id(),
+      {.min = 0, .max = 232, .doc = "DDS domain id (default: the ROS_DOMAIN_ID environment variable, else 0)"}));
   c.ns = p.get<std::string>("namespace", "", {.doc = "topic namespace, e.g. rover1 -> rt/rover1/joint_states"});
   try {
     c.validate();

@@ -474,3 +474,29 @@ TEST(DdsJson, SinkageSoilAndGeometry) {
   EXPECT_EQ(rd::to_json(h).dump(),
             R"({"frame_id":"","stamp":{"nanosec":999999999,"sec":-1}})");
 }
+
+// ROS_DOMAIN_ID: the default domain of the deployment's `dds.domain` and of `regolith echo`.
+TEST(DdsUnit, DefaultDomainFollowsRosDomainId) {
+  const char *saved = std::getenv("ROS_DOMAIN_ID");
+  const std::string keep = saved ? saved : "";
+  setenv("ROS_DOMAIN_ID", "42", 1);
+  EXPECT_EQ(rd::default_domain_id(), 42);
+  setenv("ROS_DOMAIN_ID", "not-a-number", 1);
+  EXPECT_EQ(rd::default_domain_id(), 0);
+  setenv("ROS_DOMAIN_ID", "500", 1);  // outside ROS 2's 0..232
+  EXPECT_EQ(rd::default_domain_id(), 0);
+  unsetenv("ROS_DOMAIN_ID");
+  EXPECT_EQ(rd::default_domain_id(), 0);
+  if (saved) setenv("ROS_DOMAIN_ID", keep.c_str(), 1);
+}
+
+// Header stamps are ROS time: the process clock plus the measured realtime offset.
+TEST(DdsUnit, HeaderStampsAreRosTime) {
+  regolith::ros_time_offset().store(regolith::measure_realtime_offset());
+  regolith::msgs::builtin_interfaces::Time t{};
+  rd::set_stamp(t, regolith::monotonic_now());
+  EXPECT_LT(std::abs(static_cast<double>(t.sec) - static_cast<double>(std::time(nullptr))), 2.0);
+  regolith::ros_time_offset().store(0);
+  rd::set_stamp(t, 5 * regolith::kNsPerSec);
+  EXPECT_EQ(t.sec, 5);
+}

@@ -200,3 +200,27 @@ TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
   EXPECT_EQ(h->entries[2].heartbeat, 1001u);
   EXPECT_EQ(h->entries[4].kind, HealthEntry::Kind::kEncoders);
 }
+
+// ROS time: on the system clock, message stamps are CLOCK_REALTIME (the process clock plus the
+// offset the application measures and refreshes); under --sim-time they are the simulated time.
+TEST(RosTime, RealClockStampsAreWallClockTimeAndSimulatedStampsAreSimulatedTime) {
+  register_test_backends();
+  {
+    auto app = Application::load(Params::load_string(kGood, "rover.yaml"), {});
+    app->start();
+    timespec rt{};
+    const TimeNs mono = monotonic_now();
+    clock_gettime(CLOCK_REALTIME, &rt);
+    const TimeNs real = static_cast<TimeNs>(rt.tv_sec) * kNsPerSec + rt.tv_nsec;
+    EXPECT_LT(std::abs(to_ros_time(mono) - real), 10 * kNsPerMs);
+    EXPECT_GT(to_ros_time(mono), TimeNs{1'700'000'000} * kNsPerSec);  // after 2023: a date, not an uptime
+    app->stop();
+  }
+  {
+    auto app = Application::load(Params::load_string(kGood, "rover.yaml"), {.sim_time = true});
+    app->start();
+    const TimeNs t = app->clock().now();
+    EXPECT_EQ(to_ros_time(t), t);
+    app->stop();
+  }
+}

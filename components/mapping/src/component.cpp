@@ -50,7 +50,7 @@ void export_reversed(const cv::Mat& layer, float* out, std::size_t n) {
 }
 
 void set_pose(OdometryMsg& m, TimeNs stamp, const Pose2& p, const Cov3& c) {
-  dds::set_time(m.header.stamp, stamp);
+  dds::set_stamp(m.header.stamp, stamp);
   m.pose.pose.position.x = p.x;
   m.pose.pose.position.y = p.y;
   m.pose.pose.position.z = 0.0;
@@ -443,7 +443,7 @@ class TerrainMapComponent final : public runtime::Component {
     if (map_msg_ && map_due_) {
       if (GridMapMsg* m = map_msg_->begin()) {
         const WorldMap& map = mapper_->map();
-        dds::set_time(m->header.stamp, fr.capture_time);
+        dds::set_stamp(m->header.stamp, fr.capture_time);
         m->info.pose.position.x = map.origin_x() + 0.5 * (map.cols() - 1) * map.resolution();
         m->info.pose.position.y = map.origin_y() + 0.5 * (map.rows() - 1) * map.resolution();
         for (std::size_t k = 0; k < layers_.size(); ++k) {

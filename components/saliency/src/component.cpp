@@ -300,7 +300,7 @@ class SamsComponent final : public runtime::Component {
 
   void fill_message(RockArrayMsg& m) const {
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    dds::set_time(m.header.stamp, last_.stamp);
+    dds::set_stamp(m.header.stamp, last_.stamp);
     const std::size_t n = last_.count;
     dds::set_length(m.detections, n);
     dds::set_length(m.ground_range_m, n);
@@ -312,7 +312,7 @@ class SamsComponent final : public runtime::Component {
       const RangedRock& r = last_.rocks[i];
       const cv::Rect& b = r.detection.box;
       auto& d = m.detections._buffer[i];
-      dds::set_time(d.header.stamp, last_.stamp);
+      dds::set_stamp(d.header.stamp, last_.stamp);
       auto& hyp = d.results._buffer[0];
       hyp.hypothesis.score = r.detection.score;
       // Pose of the hypothesis: ground position of the rock's base (body frame, m).

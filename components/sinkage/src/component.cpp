@@ -396,7 +396,7 @@ class WheelSinkageComponent final : public runtime::Component {
     }
     if (dds_) {
       if (WheelSinkageMsg* m = dds_->begin()) {
-        dds::set_time(m->header.stamp, fr.capture_time);
+        dds::set_stamp(m->header.stamp, fr.capture_time);
         dds::set_length(m->sinkage_m, 1);
         dds::set_length(m->confidence, 1);
         m->sinkage_m._buffer[0] = r.valid ? r.sinkage_mm * 1e-3 : kNaN;

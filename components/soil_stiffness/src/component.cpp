@@ -134,7 +134,7 @@ class SoilStiffnessComponent final : public runtime::Component {
       out_->commit();
       if (dds_) {
         if (SoilMsg* m = dds_->begin()) {
-          dds::set_time(m->header.stamp, s->stamp);
+          dds::set_stamp(m->header.stamp, s->stamp);
           m->k = s->k;
           m->n = s->n;
           m->k_sigma = s->k_sigma;

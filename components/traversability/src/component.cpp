@@ -165,7 +165,7 @@ class TraversabilityComponent final : public runtime::Component {
     }
     if (msg_) {
       if (GridMapMsg* m = msg_->begin()) {
-        dds::set_time(m->header.stamp, d.stamp);
+        dds::set_stamp(m->header.stamp, d.stamp);
         for (std::size_t k = 0; k < full_.data.size(); ++k) {
           auto& seq = m->data._buffer[k].data;
           export_column_major(full_, k, seq._buffer, seq._length);

@@ -1,11 +1,22 @@
 #include <algorithm>
 #include "regolith/dds/participant.hpp"
 
+#include <cstdlib>
+
 #include <chrono>
 #include <sstream>
 #include <stdexcept>
 
 namespace regolith::dds {
+
+int default_domain_id() {
+  const char *env = std::getenv("ROS_DOMAIN_ID");
+  if (env == nullptr || *env == '\0')
+    return 0;
+  char *end = nullptr;
+  const long v = std::strtol(env, &end, 10);
+  return (*end == '\0' && v >= 0 && v <= 232) ? static_cast<int>(v) : 0;
+}
 
 void ParticipantConfig::validate() const {
   if (domain_id > 232)

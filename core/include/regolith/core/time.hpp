@@ -1,6 +1,7 @@
 #pragma once
 // Time in regolith: signed 64-bit nanoseconds on CLOCK_MONOTONIC (or on the simulated clock when
 // the process runs with --sim-time). Every HAL sample carries its capture time in this base.
+#include <atomic>
 #include <cstdint>
 #include <ctime>
 
@@ -24,6 +25,19 @@ inline TimeNs monotonic_now() {
 inline timespec to_timespec(TimeNs t) {
   return timespec{static_cast<time_t>(t / kNsPerSec), static_cast<long>(t % kNsPerSec)};
 }
+
+/// ROS time (what ROS 2 tools compare stamps with) of a process-clock time: on the system clock
+/// CLOCK_REALTIME = process time + the measured offset realtime - monotonic (refreshed by the
+/// application while it runs, so NTP steps and slews follow); under --sim-time the simulated time
+/// itself (offset 0: ROS's use_sim_time, the same value the application publishes on /clock).
+/// Internally everything stays on the process clock; only message stamps are converted.
+std::atomic<TimeNs>& ros_time_offset() noexcept;
+inline TimeNs to_ros_time(TimeNs process_ns) noexcept {
+  return process_ns + ros_time_offset().load(std::memory_order_relaxed);
+}
+/// CLOCK_REALTIME - CLOCK_MONOTONIC now, read as the midpoint of two monotonic reads around one
+/// realtime read (the tightest of three tries).
+TimeNs measure_realtime_offset() noexcept;
 
 /// The clock every rate group, HAL backend and component reads. `SystemClock` is CLOCK_MONOTONIC;
 /// the runtime's `SimClock` is advanced by the simulated-time executor.

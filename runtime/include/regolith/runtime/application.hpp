@@ -3,8 +3,11 @@
 // validates everything (throwing ConfigError naming file:line:col and field) before any thread
 // starts; `start` activates components, starts devices and the executor.
 #include <atomic>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "regolith/core/params.hpp"
@@ -69,6 +72,12 @@ class Application {
   DataFlowGraph dataflow_;
   std::shared_ptr<std::vector<ResolvedParam>> resolved_;
   bool started_ = false;
+  // ROS time: on the system clock a non-real-time thread re-measures realtime - monotonic every
+  // second while running (regolith::ros_time_offset); under --sim-time the offset is 0.
+  std::thread ros_time_thread_;
+  std::mutex ros_time_mutex_;
+  std::condition_variable ros_time_cv_;
+  bool ros_time_stop_ = false;
 };
 
 /// Registers everything built into the runtime (health, joint_state_publisher components).

@@ -21,6 +21,10 @@
 
 namespace regolith::dds {
 
+/// The ROS 2 convention: the ROS_DOMAIN_ID environment variable when it holds an integer in
+/// 0..232, else 0.
+int default_domain_id();
+
 struct ParticipantConfig {
   std::uint32_t domain_id = 0; ///< DDS domain (= ROS_DOMAIN_ID), 0..232
   std::string ns;              ///< robot namespace, e.g. "rover1" ("" = none)

@@ -133,6 +133,12 @@ inline void set_time(msgs::builtin_interfaces::Time &t, TimeNs ns) noexcept {
   t.sec = static_cast<std::int32_t>(sec);
   t.nanosec = static_cast<std::uint32_t>(rem);
 }
+/// A message's header stamp from a process-clock time: ROS time (regolith::to_ros_time:
+/// CLOCK_REALTIME on the system clock, the simulated time under --sim-time). Every published
+/// header goes through here.
+inline void set_stamp(msgs::builtin_interfaces::Time &t, TimeNs process_ns) noexcept {
+  set_time(t, to_ros_time(process_ns));
+}
 inline TimeNs to_ns(const msgs::builtin_interfaces::Time &t) noexcept {
   return static_cast<TimeNs>(t.sec) * kNsPerSec +
          static_cast<TimeNs>(t.nanosec);
