@@ -26,4 +26,13 @@ const char* embedded_mock_rover();
 inline constexpr int kExitConfig = 2;
 inline constexpr int kExitDeviceUnavailable = 3;
 
+/// Option checks with short messages ("must be >= 0 (got -1)"), where CLI11's own print the
+/// limits of a double.
+CLI::Validator non_negative();
+CLI::Validator positive();
+
+/// Exit code and message for a command-line usage error: 2, one line naming the offending word
+/// (an unknown command gets a suggestion and the list of commands). Help and --version: 0.
+int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv);
+
 }  // namespace regolith::cli

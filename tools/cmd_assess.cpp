@@ -455,7 +455,7 @@ void add_assess(CLI::App& app) {
   cmd->add_option("--height", o->height_m, "m, camera height above the ground");
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")
-      ->check(CLI::PositiveNumber);
+      ->check(regolith::cli::positive());
   cmd->callback([o] { assess(*o); });
 }
 

@@ -30,7 +30,7 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("topic", a->topic, "topic, e.g. joint_states, /diagnostics, terrain/grid_map");
   cmd->add_option("--count,-n", a->count, "stop after N samples (default: until Ctrl-C)");
   cmd->add_option("--timeout", a->timeout_s, "give up after this many seconds without reaching --count (exit 1)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(regolith::cli::non_negative());
   cmd->add_option("--domain", a->domain, "DDS domain id (default: $ROS_DOMAIN_ID, else 0)")->check(CLI::Range(0, 232));
   cmd->add_option("--namespace", a->ns, "robot namespace of relative topic names");
   cmd->add_flag("--best-effort", a->best_effort, "best-effort reader (also matches sensor-data publishers)");

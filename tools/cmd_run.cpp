@@ -79,14 +79,14 @@ const bool registered = add_command([](CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("run", "run a deployment (default: the embedded mocked rover)");
   cmd->add_option("--config,-c", opts->config, "deployment YAML (default: embedded config/mock_rover.yaml)");
   cmd->add_option("--duration,-d", opts->duration_s, "stop after this many seconds (of simulated time with --sim-time)")
-      ->check(CLI::PositiveNumber);
+      ->check(regolith::cli::positive());
   cmd->add_flag("--sim-time", opts->sim_time, "simulated clock: run in lockstep as fast as the CPU allows");
   cmd->add_option("--summary-interval", opts->summary_interval_s, "seconds between live summaries")
-      ->check(CLI::PositiveNumber);
+      ->check(regolith::cli::positive());
   cmd->add_flag("--quiet,-q", opts->quiet, "no live summary");
   cmd->add_option("--wait-for", opts->wait_for, "before starting, wait for a subscriber on this DDS topic (repeatable)");
   cmd->add_option("--wait-timeout", opts->wait_timeout_s, "seconds to wait for --wait-for subscribers")
-      ->check(CLI::NonNegativeNumber);
+      ->check(regolith::cli::non_negative());
   cmd->callback([opts] { run(*opts); });
 
   CLI::App* config = group(app, "config", "deployment configuration tools");

@@ -2,10 +2,13 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdio>
+#include <string>
 #include <vector>
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/params.hpp"
 #include "regolith/hal/device.hpp"
 
 namespace regolith::cli {
@@ -31,6 +34,68 @@ CLI::App* group(CLI::App& app, const std::string& name, const std::string& descr
   return g;
 }
 
+namespace {
+CLI::Validator number_check(bool strict) {
+  return CLI::Validator(
+      [strict](std::string& s) -> std::string {
+        double v = 0.0;
+        std::size_t used = 0;
+        try {
+          v = std::stod(s, &used);
+        } catch (const std::exception&) {
+          return "not a number: '" + s + "'";
+        }
+        if (used != s.size()) return "not a number: '" + s + "'";
+        if (strict ? !(v > 0.0) : !(v >= 0.0)) return std::string(strict ? "must be > 0" : "must be >= 0") + " (got " + s + ")";
+        return {};
+      },
+      strict ? "NUMBER > 0" : "NUMBER >= 0");
+}
+}  // namespace
+
+CLI::Validator non_negative() { return number_check(false); }
+CLI::Validator positive() { return number_check(true); }
+
+int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+  if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+  // Walk the words: the first one that is neither an option (nor an option's value) nor a
+  // command of the level it appears at, where a command is required, is the offending word.
+  CLI::App* level = &app;
+  for (int i = 1; i < argc; ++i) {
+    const std::string w = argv[i];
+    if (w.rfind("-", 0) == 0) {
+      if (w.find('=') == std::string::npos && i + 1 < argc && level->get_option_no_throw(w) != nullptr &&
+          level->get_option_no_throw(w)->get_expected_min() > 0)
+        ++i;  // its value
+      continue;
+    }
+    std::vector<std::string> names;
+    CLI::App* next = nullptr;
+    for (CLI::App* sub : level->get_subcommands([](CLI::App*) { return true; })) {
+      names.push_back(sub->get_name());
+      if (sub->get_name() == w) next = sub;
+    }
+    if (next != nullptr) {
+      level = next;
+      continue;
+    }
+    if (!names.empty() && level->get_require_subcommand_min() > 0) {
+      std::string msg = "unknown command '" + w + "'";
+      const std::string guess = regolith::did_you_mean(w, names);
+      if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+      std::string list;
+      for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      std::fprintf(stderr, "%s: %s; commands: %s\n", level == &app ? "regolith" : level->get_name().c_str(),
+                   msg.c_str(), list.c_str());
+      return kExitConfig;
+    }
+    break;
+  }
+  std::fprintf(stderr, "%s: %s\nRun with --help for more information.\n",
+               level == &app ? "regolith" : level->get_name().c_str(), e.what());
+  return kExitConfig;
+}
+
 }  // namespace regolith::cli
 
 int main(int argc, char** argv) {
@@ -50,7 +115,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return regolith::cli::usage_error(app, e, argc, argv);
   } catch (const regolith::ConfigError& e) {
     spdlog::error("{}", e.what());
     return regolith::cli::kExitConfig;

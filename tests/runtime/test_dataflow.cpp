@@ -3,6 +3,7 @@
 // of violation (each a located ConfigError), a linked deployment that runs, and the printed graph
 // (`regolith config check --dot` parsed by Graphviz's dot).
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <atomic>
 #include <cstdio>
@@ -180,5 +181,37 @@ TEST(DataFlow, ConfigCheckDotOfTheMockRoverParsesWithGraphviz) {
   for (const char* want : {"terrain/dtm", "rock_probability", "camera front", "rate group terrain", "traversability"})
     EXPECT_NE(s.str().find(want), std::string::npos) << want;
   fs::remove_all(dir);
+#endif
+}
+
+// Command-line usage errors exit 2 (as configuration errors do) with one line naming the
+// offending word; an unknown command gets a suggestion. Help and --version exit 0.
+TEST(Cli, UsageErrorsExitTwoNamingTheWord) {
+#ifndef REGOLITH_EXE
+  GTEST_SKIP() << "the regolith executable is not part of this build";
+#else
+  namespace fs = std::filesystem;
+  const fs::path err = fs::temp_directory_path() / ("regolith_usage_" + std::to_string(::getpid()) + ".txt");
+  auto run = [&](const std::string& args, std::string& text) {
+    const int rc = std::system((std::string(REGOLITH_EXE) + " " + args + " > /dev/null 2> " + err.string()).c_str());
+    std::ifstream in(err);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  std::string text;
+  EXPECT_EQ(run("bogus", text), 2);
+  EXPECT_NE(text.find("unknown command 'bogus'"), std::string::npos) << text;
+  EXPECT_EQ(run("eval mapp", text), 2);
+  EXPECT_NE(text.find("unknown command 'mapp' (did you mean 'map'?)"), std::string::npos) << text;
+  EXPECT_EQ(run("run --duration -1", text), 2);
+  EXPECT_NE(text.find("--duration: must be > 0 (got -1)"), std::string::npos) << text;
+  EXPECT_LT(text.size(), 200u) << text;  // one short line, not the limits of a double
+  EXPECT_EQ(run("rocks --method nonsense x.png --csv y.csv", text), 2);
+  EXPECT_NE(text.find("nonsense"), std::string::npos) << text;
+  EXPECT_EQ(run("--help", text), 0);
+  EXPECT_EQ(run("--version", text), 0);
+  fs::remove(err);
 #endif
 }
