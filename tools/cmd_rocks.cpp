@@ -235,7 +235,7 @@ cv::Mat to_bgr8(const cv::Mat &img) {
 
 void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
                const std::string &csv_path, const std::string &overlay_dir,
-               const std::string &saliency_dir) {
+               const std::string &saliency_dir, const std::string &masks_dir) {
   const bool trained = o.method == "trained";
   std::optional<sal::TrainedModel> model;
   std::unique_ptr<sal::CandidateExtractor> extractor;
@@ -341,14 +341,38 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
       }
       if (!overlay_dir.empty()) {
         cv::Mat ov = to_bgr8(img).clone();
+        // ground truth first (cyan outlines of the mask's components), when masks are given
+        std::string legend = "boxes: score red 0 -> green 1";
+        if (!masks_dir.empty()) {
+          const fs::path mp = fs::path(masks_dir) / (stem + ".png");
+          const sal::FrameTruth truth = sal::read_truth(mp.string(), img.size(), 0);
+          cv::Mat m = sal::read_image(mp.string()), bin;
+          if (m.channels() > 1)
+            cv::extractChannel(m, m, 0);
+          cv::compare(m, 0, bin, cv::CMP_GT);
+          std::vector<std::vector<cv::Point>> contours;
+          cv::findContours(bin, contours, cv::RETR_EXTERNAL,
+                           cv::CHAIN_APPROX_SIMPLE);
+          cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1,
+                           cv::LINE_AA);
+          legend += "; ground truth: cyan (" +
+                    std::to_string(truth.objects.size()) + " rocks)";
+        }
         for (const auto &d : dets) {
-          cv::rectangle(ov, d.box, cv::Scalar(0, 255, 255), 2);
+          const double sc = std::clamp(static_cast<double>(d.score), 0.0, 1.0);
+          const cv::Scalar colour(0, 255.0 * sc, 255.0 * (1.0 - sc));
+          cv::rectangle(ov, d.box, colour, 2);
           char buf[32];
           std::snprintf(buf, sizeof buf, "%.2f", d.score);
           cv::putText(
               ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)),
-              cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 255), 1);
+              cv::FONT_HERSHEY_SIMPLEX, 0.4, colour, 1);
         }
+        cv::rectangle(ov, cv::Rect(0, ov.rows - 18, ov.cols, 18),
+                      cv::Scalar(0, 0, 0), cv::FILLED);
+        cv::putText(ov, legend, cv::Point(4, ov.rows - 5),
+                    cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255),
+                    1, cv::LINE_AA);
         const std::string out =
             (fs::path(overlay_dir) / (stem + ".png")).string();
         if (!cv::imwrite(out, ov))
@@ -796,17 +820,21 @@ void add_rocks_commands(CLI::App &app) {
   auto csv = std::make_shared<std::string>();
   auto overlay = std::make_shared<std::string>();
   auto saliency_dir = std::make_shared<std::string>();
+  auto masks_dir = std::make_shared<std::string>();
   rocks->add_option("images", *images, "input images")->required();
   ro->add_to(rocks);
   rocks
       ->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")
       ->required();
-  rocks->add_option("--overlay-dir", *overlay,
-                    "write <stem>.png with the boxes drawn");
+  rocks->add_option("--overlay,--overlay-dir", *overlay,
+                    "write <stem>.png with the boxes drawn (coloured by score)");
+  rocks->add_option("--masks", *masks_dir,
+                    "with --overlay: draw the ground-truth outlines of "
+                    "<masks>/<stem>.png");
   rocks->add_option("--saliency-dir", *saliency_dir,
                     "write <stem>.png 8-bit saliency maps");
   rocks->callback(
-      [=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir); });
+      [=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir, *masks_dir); });
 
   // regolith eval rocks --images DIR --masks DIR [--method M]...
   // [--sweep-weights] [--min-gt-area N]

@@ -86,16 +86,46 @@ TEST(Dataset, UnreadableImageAndMaskSizeMismatchNameTheFile) {
         << e.what();
   }
   const fs::path mask = d / "m.png";
-  cv::imwrite(mask.string(), cv::Mat::zeros(10, 12, CV_8U));
+  cv::imwrite(mask.string(), cv::Mat::zeros(20, 24, CV_8U));
   try {
     rs::read_truth(mask.string(), cv::Size(300, 280), 50);
     FAIL();
   } catch (const rs::DataError &e) {
     const std::string w = e.what();
     EXPECT_NE(w.find(mask.string()), std::string::npos) << w;
-    EXPECT_NE(w.find("12x10"), std::string::npos) << w;
+    EXPECT_NE(w.find("24x20"), std::string::npos) << w;
     EXPECT_NE(w.find("300x280"), std::string::npos) << w;
   }
+  // A JPEG cut short (libjpeg only warns and fills grey rows), a 1x1 image: refused, named.
+  cv::Mat big(120, 160, CV_8UC3);
+  cv::randu(big, 0, 255);
+  std::vector<unsigned char> bytes;
+  cv::imencode(".jpg", big, bytes);
+  const fs::path cut = d / "cut.jpg";
+  std::ofstream(cut, std::ios::binary)
+      .write(reinterpret_cast<const char *>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size() / 2));
+  const fs::path one = d / "one.png";
+  cv::imwrite(one.string(), cv::Mat::zeros(1, 1, CV_8U));
+  for (const auto &[path, what] :
+       {std::pair{cut, std::string("truncated JPEG")},
+        std::pair{one, std::string("1x1 px, too small")}}) {
+    try {
+      rs::read_image(path.string());
+      ADD_FAILURE() << path << " accepted";
+    } catch (const rs::DataError &e) {
+      EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  }
+  // The whole JPEG and a 16-bit PNG are read.
+  const fs::path whole = d / "whole.jpg", deep = d / "deep.png";
+  std::ofstream(whole, std::ios::binary)
+      .write(reinterpret_cast<const char *>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
+  cv::imwrite(deep.string(), cv::Mat(40, 50, CV_16U, cv::Scalar(40000)));
+  EXPECT_EQ(rs::read_image(whole.string()).size(), cv::Size(160, 120));
+  EXPECT_EQ(rs::read_image(deep.string()).depth(), CV_16U);
   // Listing: an image without a mask is reported, not fatal.
   fs::create_directories(d / "img");
   fs::create_directories(d / "msk");

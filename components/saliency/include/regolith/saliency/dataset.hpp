@@ -44,8 +44,11 @@ struct DatasetListing {
 DatasetListing list_dataset(const std::string &images_dir,
                             const std::string &masks_dir);
 
-/// cv::imread with IMREAD_UNCHANGED; throws DataError "<path>: cannot read
-/// image" on failure.
+/// Smallest image side read_image accepts (a rock box needs a few pixels and a surround).
+inline constexpr int kMinImageSide = 16;
+/// cv::imread with IMREAD_UNCHANGED (8- and 16-bit, grey or colour; the methods scale by the
+/// depth); throws DataError naming the file when it cannot be read, is a JPEG cut short (no
+/// end-of-image marker: libjpeg would only warn) or is smaller than kMinImageSide.
 cv::Mat read_image(const std::string &path);
 
 /// Reads the mask (any depth/channels; nonzero in the first channel = rock) and
