@@ -15,6 +15,7 @@ PACKAGES=(
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
+  clang libclang-rt-14-dev   # libFuzzer + ASan/UBSan runtimes for tests/fuzz/run.sh
   # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
   # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
 #include "regolith/core/rover.hpp"
@@ -169,7 +170,7 @@ void assess(const AssessOptions& o) {
   const double t0 = now_ms();
   // ---- the image ----
   if (!fs::exists(o.image)) throw InputError("assess: image '" + o.image + "' does not exist");
-  const cv::Mat raw = cv::imread(o.image, cv::IMREAD_UNCHANGED);
+  const cv::Mat raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED);
   if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "' (not an image or unsupported format)");
   if (raw.depth() != CV_8U)
     throw InputError("assess: image '" + o.image + "' has " + (raw.depth() == CV_16U ? "16-bit" : "non-8-bit") +
@@ -217,7 +218,7 @@ void assess(const AssessOptions& o) {
   }
   if (!o.method.empty()) sp.method = sfs::method_from_string(o.method);
   if (!o.flat_field.empty()) {
-    const cv::Mat ff = cv::imread(o.flat_field, cv::IMREAD_GRAYSCALE);
+    const cv::Mat ff = regolith::read_image_file(o.flat_field, cv::IMREAD_GRAYSCALE);
     if (ff.empty()) throw InputError("assess: cannot read flat-field image '" + o.flat_field + "'");
     sp.vignetting.flat_field = ff;
     sp.vignetting.enabled = true;

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "cli.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/sfs/sfs.hpp"
 
@@ -23,7 +24,7 @@ struct VigOptions {
 
 void calibrate_vignetting(const VigOptions& o) {
   if (!std::filesystem::exists(o.file)) throw InputError("calibrate vignetting: '" + o.file + "' does not exist");
-  const cv::Mat img = cv::imread(o.file, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  const cv::Mat img = regolith::read_image_file(o.file, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   if (img.empty()) throw InputError("calibrate vignetting: cannot read image '" + o.file + "'");
   sfs::VignettingFit fit;
   try {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/sinkage/bench_log.hpp"
@@ -62,7 +63,7 @@ struct CalibrateOptions {
 };
 
 void run_calibrate(const CalibrateOptions& o) {
-  const cv::Mat bgr = cv::imread(o.frame, cv::IMREAD_COLOR);
+  const cv::Mat bgr = regolith::read_image_file(o.frame, cv::IMREAD_COLOR);
   if (bgr.empty()) throw InputError(o.frame + ": cannot read image");
   sk::CalibrationHints h;
   h.leg_count = o.leg_count;
@@ -197,7 +198,7 @@ void eval_sequence(const std::string& arg, const Algorithm& algo, std::vector<Co
   for (const auto& row : seq) {
     fs::path img = row.frame;
     if (img.is_relative()) img = csv.parent_path() / img;
-    const cv::Mat bgr = cv::imread(img.string(), cv::IMREAD_COLOR);
+    const cv::Mat bgr = regolith::read_image_file(img.string(), cv::IMREAD_COLOR);
     const std::string where = csv.string() + ":" + std::to_string(row.line) + ": ";
     if (bgr.empty()) throw InputError(where + "cannot read image '" + img.string() + "'");
     if (!est) {

@@ -160,6 +160,11 @@ TEST(Convert, DamagedPayloadsAreReportedWithByteCounts) {
   std::vector<std::uint8_t> ok(640 * 480 * 2);
   EXPECT_FALSE(convert_frame(DeviceFormat::kYuyv, ok.data(), ok.size(), 640, 480, 0, PixelFormat::kBgr8, wrong, err));
   EXPECT_NE(err.find("destination is 10x10"), std::string::npos) << err;
+  // A stride shorter than a row (found by tests/fuzz: OpenCV threw from inside the converter).
+  cv::Mat small(2, 4, CV_8UC1);
+  std::vector<std::uint8_t> rgb(64, 7);
+  EXPECT_FALSE(convert_frame(DeviceFormat::kBgr24, rgb.data(), rgb.size(), 4, 2, 5, PixelFormat::kMono8, small, err));
+  EXPECT_NE(err.find("stride of 5 bytes is shorter than a row of 4 px (12 bytes)"), std::string::npos) << err;
 }
 
 TEST(Convert, PreferenceOrderPicksCheapestPath) {

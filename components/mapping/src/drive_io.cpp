@@ -1,3 +1,4 @@
+#include "regolith/core/image_file.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
 #include <nlohmann/json.hpp>
@@ -172,7 +173,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
       ++sum.skipped;
       continue;
     }
-    cv::Mat gray = cv::imread(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    cv::Mat gray = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
     if (gray.empty()) {
       sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': skipped");
       ++sum.skipped;

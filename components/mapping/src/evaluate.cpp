@@ -1,3 +1,4 @@
+#include "regolith/core/image_file.hpp"
 #include "regolith/mapping/evaluate.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -56,7 +57,7 @@ std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
 }
 
 cv::Mat read_float(const fs::path& p) {
-  cv::Mat m = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
+  cv::Mat m = regolith::read_image_file(p.string(), cv::IMREAD_UNCHANGED);
   if (m.empty() || m.type() != CV_32FC1) throw InputError(p.string() + ": cannot read as a float32 TIFF");
   return m;
 }

@@ -1,3 +1,4 @@
+#include "regolith/core/image_file.hpp"
 #include "regolith/saliency/dataset.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -91,7 +92,7 @@ cv::Mat read_image(const std::string &path) {
     throw DataError(path + ": truncated JPEG (the file ends before its end-of-image marker)");
   cv::Mat img;
   try {
-    img = cv::imread(path, cv::IMREAD_UNCHANGED);
+    img = regolith::read_image_file(path, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception &e) {
     throw DataError(path + ": cannot read image (" + e.what() + ")");
   }

@@ -1,5 +1,6 @@
 // Component "sfs": camera frame -> grey -> vignetting correction -> shape from shading -> shared
 // DTM ("terrain/dtm"). Everything is sized in configure(); step() reuses the buffers.
+#include "regolith/core/image_file.hpp"
 #include "regolith/sfs/component.hpp"
 
 #include <cstdio>
@@ -112,7 +113,7 @@ class SfsComponent final : public runtime::Component {
     if (!flat.empty()) {
       std::filesystem::path fp(flat);
       if (fp.is_relative() && !ctx.config_dir().empty()) fp = std::filesystem::path(ctx.config_dir()) / fp;
-      cv::Mat ff = cv::imread(fp.string(), cv::IMREAD_GRAYSCALE);
+      cv::Mat ff = regolith::read_image_file(fp.string(), cv::IMREAD_GRAYSCALE);
       if (ff.empty()) p.fail("flat_field", "cannot read image '" + fp.string() + "'");
       sp.vignetting.flat_field = ff;
     }

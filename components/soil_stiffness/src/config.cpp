@@ -1,3 +1,4 @@
+#include "regolith/core/image_file.hpp"
 #include "regolith/soil_stiffness/config.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -150,7 +151,7 @@ SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
   std::error_code ec;
   if (!std::filesystem::is_regular_file(image_path, ec))
     throw InputError(image_path.string() + ": no such image file");
-  const cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE);
   if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
   if (!std::filesystem::is_regular_file(rover_yaml, ec))
     throw ConfigError(rover_yaml.string() + ": no such configuration file");

@@ -1,3 +1,4 @@
+#include "regolith/core/image_file.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -135,7 +136,7 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
                                  const std::filesystem::path& out_dir) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(image_path, ec)) throw InputError(image_path.string() + ": no such image file");
-  const cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE);
   if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
   const SoilSetup cfg = read_soil_scene(input_json);
   if (image.cols != cfg.camera.width || image.rows != cfg.camera.height)

@@ -1,5 +1,9 @@
 #include "regolith/hal_v4l2/convert.hpp"
 
+#include "regolith/core/image_file.hpp"
+
+#include <cstdint>
+
 #include <linux/videodev2.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -109,12 +113,14 @@ bool convert_frame(DeviceFormat f, const std::uint8_t* data, std::size_t bytes, 
     return false;
   }
   if (f == DeviceFormat::kMjpeg) {
-    if (bytes < 4 || data[0] != 0xFF || data[1] != 0xD8) {
+    if (bytes < 4 || data[0] != 0xFF || data[1] != 0xD8 || data[2] != 0xFF) {
       error = "MJPEG payload of " + std::to_string(bytes) + " bytes does not start with a JPEG SOI marker";
       return false;
     }
-    const cv::Mat buf(1, static_cast<int>(bytes), CV_8UC1, const_cast<std::uint8_t*>(data));
-    cv::Mat decoded = cv::imdecode(buf, out == PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    // only OpenCV's JPEG decoder may see it (FF D8 FF): other decoders, tried on bytes no decoder
+    // claims, include GDCM, which aborts on some (found by tests/fuzz: corpus/pixel_convert/gdcm_abort)
+    const cv::Mat decoded =
+        regolith::decode_image(data, bytes, out == PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
     if (decoded.empty()) {
       error = "MJPEG payload of " + std::to_string(bytes) + " bytes could not be decoded";
       return false;
@@ -126,6 +132,14 @@ bool convert_frame(DeviceFormat f, const std::uint8_t* data, std::size_t bytes, 
     }
     decoded.copyTo(dst);
     return true;
+  }
+  // A stride shorter than one row (a driver's bytesperline, a configuration) would make rows
+  // overlap: refused (found by tests/fuzz, corpus/pixel_convert/short_stride).
+  const std::size_t row_bytes = static_cast<std::size_t>(width) * bytes_per_pixel(f);
+  if (stride != 0 && stride < row_bytes) {
+    error = std::string(to_string(f)) + " stride of " + std::to_string(stride) + " bytes is shorter than a row of " +
+            std::to_string(width) + " px (" + std::to_string(row_bytes) + " bytes)";
+    return false;
   }
   const std::size_t need = min_frame_bytes(f, width, height, stride);
   if (bytes < need) {

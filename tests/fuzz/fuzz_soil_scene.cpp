@@ -1,0 +1,29 @@
+// libFuzzer target: the recorded scene reader behind `regolith soil IMAGE --scene input.json`
+// (camera intrinsics, height, pitch, sun, wheel geometry, tracks). Any input either gives a
+// validated setup or an InputError naming the file and field.
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "regolith/soil_stiffness/scene.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / ("regolith_fuzz_scene_" + std::to_string(::getpid()) + ".json");
+  {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  }
+  try {
+    const regolith::soil::SoilSetup s = regolith::soil::read_soil_scene(file);
+    (void)s;
+  } catch (const std::exception&) {
+    // InputError naming the field: expected
+  }
+  return 0;
+}

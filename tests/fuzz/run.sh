@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer target for SECONDS each (default 60) with ASan + UBSan, starting from the
+# seed corpus in tests/fuzz/corpus/<target>/. New interesting inputs go to build/fuzz/corpus/<target>
+# (merge the useful ones into the repository's corpus by hand); a crash writes its input to
+# tests/fuzz/crashes/<target>-<hash> and fails the run: add it to corpus/<target>/ once fixed, so
+# that FuzzCorpus.<target> replays it in every test build.
+# Prints executions per second and total executions per target.
+#   tests/fuzz/run.sh [SECONDS] [TARGET...]   time-bound, a new random seed each run (long runs)
+#   tests/fuzz/run.sh --ci [TARGET...]         what CI runs: seed 1 and a fixed number of executions
+#                                              per target (about 60 s each on a 2-core CI machine),
+#                                              so a CI result is reproducible bit for bit
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+ci=0
+if [[ "${1:-}" == "--ci" ]]; then
+  ci=1
+  shift
+fi
+seconds=60
+if ((!ci)) && [[ "${1:-}" =~ ^[0-9]+$ ]]; then
+  seconds="$1"
+  shift
+fi
+declare -A ci_runs=([candump]=10000000 [can_decoder]=2000000 [deployment_yaml]=100000
+                    [pixel_convert]=6000000 [soil_scene]=150000 [image]=8000)
+build=build/fuzz
+targets=("$@")
+if ((${#targets[@]} == 0)); then
+  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image)
+fi
+if [[ ! -f "$build/CMakeCache.txt" ]]; then
+  CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DREGOLITH_FUZZ=ON \
+    -DREGOLITH_BUILD_BENCH=OFF -DREGOLITH_WITH_LIBCAMERA=OFF >/dev/null
+fi
+cmake --build "$build" --target "${targets[@]/#/fuzz_}"
+mkdir -p tests/fuzz/crashes
+status=0
+printf '%-16s %10s %12s %s\n' target "exec/s" executions result
+for t in "${targets[@]}"; do
+  work="$build/corpus/$t"
+  mkdir -p "$work"
+  log="$build/fuzz_$t.log"
+  set +e
+  if ((ci)); then
+    rm -rf "$work" && mkdir -p "$work"  # the same start every time
+    budget=(-seed=1 -runs="${ci_runs[$t]}")
+  else
+    budget=(-max_total_time="$seconds")
+  fi
+  "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" "${budget[@]}" -print_final_stats=1 \
+    -artifact_prefix="tests/fuzz/crashes/$t-" -rss_limit_mb=2048 -timeout=10 >"$log" 2>&1
+  rc=$?
+  set -e
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  if ((rc == 0)); then result=ok; else result="FAILED (see $log)"; status=1; fi
+  printf '%-16s %10s %12s %s\n' "$t" "$rate" "$execs" "$result"
+done
+exit $status
