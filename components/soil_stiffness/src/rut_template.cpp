@@ -182,13 +182,16 @@ double RutTemplateFit::predict(const RutLight& light, double lateral_m, double z
   if (!same) build_templates(light, lateral_m);
   const int k = std::clamp(static_cast<int>(std::lround(z_m / p_.sinkage_step_m)), 0, nz_ - 1);
   const double* P = prefix_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(nfine_);
-  const double f = 2.0 * fine_step_;
-  auto at = [&](double u) {
-    const double x = std::clamp((u + half_fine_) / fine_step_, 0.0, nfine_ - 1.0);
+  return footprint_mean(P, offset_m, 2.0 * fine_step_, light.saturation_dn);
+}
+
+double RutTemplateFit::footprint_mean(const double* P, double u, double f, double saturation_dn) const {
+  auto at = [&](double v) {
+    const double x = std::clamp((v + half_fine_) / fine_step_, 0.0, nfine_ - 1.0);
     const int i = std::min(nfine_ - 2, static_cast<int>(x));
     return P[i] + (x - i) * (P[i + 1] - P[i]);
   };
-  return std::min(light.saturation_dn, (at(offset_m + 0.5 * f) - at(offset_m - 0.5 * f)) / f);
+  return std::min(saturation_dn, (at(u + 0.5 * f) - at(u - 0.5 * f)) / f);
 }
 
 double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double lateral_m, const double* ranges_m,
@@ -214,11 +217,6 @@ double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double la
     const auto r = geometry_.project(ranges_m[i], lateral_m - 0.05, 0.0);
     foot_[static_cast<std::size_t>(i)] = l && r && std::abs(l->x - r->x) > 1e-6 ? 0.1 / std::abs(l->x - r->x) : kNaN;
   }
-  auto prefix_at = [&](const double* P, double u) {
-    const double x = std::clamp((u + half_fine_) / fine_step_, 0.0, nfine_ - 1.0);
-    const int i = std::min(nfine_ - 2, static_cast<int>(x));
-    return P[i] + (x - i) * (P[i + 1] - P[i]);
-  };
   double centre_acc = 0.0;
   int centre_n = 0;
   for (int i0 = 0; i0 < count; i0 += window) {
@@ -272,8 +270,7 @@ double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double la
         for (int j = 0; j < nsamp_; ++j) {
           if (obs_n_[static_cast<std::size_t>(j)] == 0.0) continue;
           const double u = (j - nsamp_ / 2) * p_.sample_step_m - shift;
-          const double pred =
-              std::min(light.saturation_dn, (prefix_at(P, u + 0.5 * f) - prefix_at(P, u - 0.5 * f)) / f);
+          const double pred = footprint_mean(P, u, f, light.saturation_dn);
           s += huber(obs_[static_cast<std::size_t>(j)] - pred, p_.huber_dn);
         }
         sse_[static_cast<std::size_t>(k) * static_cast<std::size_t>(nc_) + static_cast<std::size_t>(c)] = s;

@@ -867,12 +867,12 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
   // ---- 6. fits
   const double D = rover_.wheel_diameter_m;
   const std::size_t nt = out.tracks.size();
-  auto fixed_k = [&](const std::vector<double>& means) {
+  auto fixed_k = [&](const std::vector<double>& means, double n) {
     double num = 0.0, den = 0.0;
     for (std::size_t t = 0; t < nt; ++t) {
       if (!(means[t] > 0.0)) return kNaN;
       const double w = out.tracks[t].samples;
-      num += w * std::log(stiffness_from_sinkage(means[t], P.n_fixed, out.tracks[t].load_n, b, D, P.model));
+      num += w * std::log(stiffness_from_sinkage(means[t], n, out.tracks[t].load_n, b, D, P.model));
       den += w;
     }
     return std::exp(num / den);
@@ -896,7 +896,7 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
   }
   out.mean_sinkage_m = all / all_n;
   out.samples_used = all_n;
-  out.k_fixed = fixed_k(m.means);
+  out.k_fixed = fixed_k(m.means, P.n_fixed);
   out.k_spread_p25 = percentile(m.ks, 0.25);
   out.k_spread_p75 = percentile(m.ks, 0.75);
   const JointFit jf = joint(m.means);
@@ -930,7 +930,7 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
         }
         m.bmeans[t] = acc / nv;
       }
-      const double k = fixed_k(m.bmeans);
+      const double k = fixed_k(m.bmeans, P.n_fixed);
       if (std::isfinite(k)) m.bk.push_back(k);
       if (out.joint_ok) {
         const JointFit b2 = joint(m.bmeans);
@@ -957,22 +957,22 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
   out.n_std = 0.0;
   out.n_data_std = 0.0;
   if (out.joint_ok && P.n_prior_sigma > 0.0) {
-    double wsum = 0.0, swx = 0.0;
-    for (std::size_t t = 0; t < nt; ++t) {
+    // per rut: x = ln(W / (b sqrt(D))) and the variance of ln(mean depth)
+    auto log_load = [&](std::size_t t) { return std::log(out.tracks[t].load_n / (b * std::sqrt(D))); };
+    auto log_depth_var = [&](std::size_t t) {
       const TrackProfile& tr = out.tracks[t];
       const double se = tr.std_sinkage_m / std::sqrt(std::max(1.0, static_cast<double>(tr.samples) / win));
-      const double rel2 = (P.profile_sigma_m * P.profile_sigma_m + se * se) / (tr.mean_sinkage_m * tr.mean_sinkage_m);
-      const double x = std::log(tr.load_n / (b * std::sqrt(D)));
-      wsum += 1.0 / rel2;
-      swx += x / rel2;
+      return (P.profile_sigma_m * P.profile_sigma_m + se * se) / (tr.mean_sinkage_m * tr.mean_sinkage_m);
+    };
+    double wsum = 0.0, swx = 0.0;
+    for (std::size_t t = 0; t < nt; ++t) {
+      wsum += 1.0 / log_depth_var(t);
+      swx += log_load(t) / log_depth_var(t);
     }
     double sxx = 0.0;
     for (std::size_t t = 0; t < nt; ++t) {
-      const TrackProfile& tr = out.tracks[t];
-      const double se = tr.std_sinkage_m / std::sqrt(std::max(1.0, static_cast<double>(tr.samples) / win));
-      const double rel2 = (P.profile_sigma_m * P.profile_sigma_m + se * se) / (tr.mean_sinkage_m * tr.mean_sinkage_m);
-      const double dx = std::log(tr.load_n / (b * std::sqrt(D))) - swx / wsum;
-      sxx += dx * dx / rel2;
+      const double dx = log_load(t) - swx / wsum;
+      sxx += dx * dx / log_depth_var(t);
     }
     const double slope = 2.0 / (2.0 * out.n_joint + 1.0);
     const double n_data = sxx > 0.0 ? std::sqrt(1.0 / sxx) / (slope * slope) : kNaN;
@@ -984,22 +984,14 @@ void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& 
       out.n_data_std = std::sqrt(var_d);
       out.n = n_post;
       out.n_std = std::sqrt(1.0 / (1.0 / var_d + 1.0 / var_p));
-      double num = 0.0, den = 0.0;
-      for (std::size_t t = 0; t < nt; ++t) {
-        const double w = out.tracks[t].samples;
-        num += w * std::log(stiffness_from_sinkage(out.tracks[t].mean_sinkage_m, n_post, out.tracks[t].load_n, b, D, P.model));
-        den += w;
-      }
-      out.k = std::exp(num / den);
+      out.k = fixed_k(m.means, n_post);  // m.means: the ruts' mean depths
       // k's spread: the fixed-n bootstrap's relative spread and the n uncertainty at the mean depth
       const double dlnk_dn = -std::log(std::max(1e-4, out.mean_sinkage_m));
       const double rel_k = std::hypot(out.k_fixed > 0 ? out.k_fixed_std / out.k_fixed : 0.0, dlnk_dn * out.n_std);
       out.k_std = out.k * rel_k;
     }
   }
-  const double kc = out.k;
-  const double nc = out.n;
-  out.class_pressure_pa = bg_pressure(kc, nc, P.class_z_ref_m);
+  out.class_pressure_pa = bg_pressure(out.k, out.n, P.class_z_ref_m);
   out.soil_class = out.class_pressure_pa < P.loose_below_pa  ? SoilClass::kLoose
                    : out.class_pressure_pa > P.firm_above_pa ? SoilClass::kFirm
                                                              : SoilClass::kNominal;

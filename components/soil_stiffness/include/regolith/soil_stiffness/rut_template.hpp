@@ -84,6 +84,9 @@ class RutTemplateFit {
  private:
   void build_templates(const RutLight& light, double lateral_m);
   double profile_height(double z, double d) const;  ///< height at offset d from the centre
+  /// Mean brightness over a footprint f centred at ground offset u, from the prefix sums P of one
+  /// template, clamped at saturation [DN].
+  double footprint_mean(const double* P, double u, double f, double saturation_dn) const;
 
   direct_depth::DirectDepth geometry_;
   double H_ = 0.0, b_ = 0.0;
@@ -98,7 +101,7 @@ class RutTemplateFit {
   std::vector<double> foot_;             // per row: pixel footprint [m]
   std::vector<double> sse_;              // [nz][nc]
   int unmeasurable_ = 0;
-  bool built_ = false;                   // templates of built_light_ / built_lateral_ in prefix_
+  bool built_ = false;  // templates of built_light_ / built_lateral_ in prefix_
   RutLight built_light_;
   double built_lateral_ = 0.0;
 };
