@@ -12,6 +12,7 @@ PACKAGES=(
   cyclonedds-dev cyclonedds-tools
   libcamera-dev libcamera-ipa libcamera-tools libv4l-dev linux-libc-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
+  libzstd-dev                # record/: MCAP chunk compression
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
@@ -40,4 +41,22 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 else
   echo "regolith setup: all ${#PACKAGES[@]} Debian packages already installed"
+fi
+
+# The independent MCAP check (tests/record/mcap_js): the TypeScript @mcap/core reader, pinned by
+# package-lock.json. Debian's nodejs + npm are installed only when no npm is on PATH (a machine
+# with another Node.js, e.g. nodesource's, keeps it: Debian's npm package conflicts with it).
+if ! command -v npm >/dev/null 2>&1; then
+  SUDO=""
+  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  echo "regolith setup: installing Debian's nodejs and npm for tests/record/mcap_js"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+fi
+mcap_js="$(dirname "$0")/../tests/record/mcap_js"
+if [[ -d $mcap_js/node_modules/@mcap/core && $mcap_js/node_modules/.package-lock.json -nt $mcap_js/package-lock.json ]]; then
+  echo "regolith setup: tests/record/mcap_js node modules up to date"
+else
+  echo "regolith setup: npm ci in tests/record/mcap_js (@mcap/core for the MCAP cross-check)"
+  (cd "$mcap_js" && npm ci --no-audit --no-fund --loglevel=error)
 fi

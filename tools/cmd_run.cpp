@@ -54,12 +54,11 @@ void run(const RunOptions& o) {
   const TimeNs t_end = duration > 0 ? app->clock().now() + duration : INT64_MAX;
   const TimeNs wall_interval = from_seconds(o.summary_interval_s);
   TimeNs next_print = monotonic_now() + wall_interval;
-  // Run in slices so the summary and the rate-limited warnings are produced on this (non
-  // real-time) thread. Under --sim-time a slice is one simulated second.
+  // Run in slices so the summary is produced on this (non real-time) thread. Under --sim-time a
+  // slice is one simulated second.
   while (!g_stop.load() && app->clock().now() < t_end) {
     const TimeNs slice = std::min<TimeNs>(app->sim_time() ? kNsPerSec : 100 * kNsPerMs, t_end - app->clock().now());
     app->run(slice, g_stop);
-    summary.warn_rate_limited();
     {
       const auto snapshot = health.acquire();
       notifier.update(app->view(), snapshot ? &*snapshot : nullptr, app->clock().now());

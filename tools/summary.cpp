@@ -21,10 +21,7 @@ Summary::Summary(runtime::Application& app, bool redraw)
     : app_(app),
       redraw_(redraw),
       start_wall_(monotonic_now()),
-      start_clock_(app.clock().now()),
-      warned_slips_(app.view().groups.size(), 0),
-      last_warn_(app.view().groups.size() + app.context().devices_of<hal::Camera>().size(), 0),
-      warned_faults_(app.context().devices_of<hal::Camera>().size(), 0) {}
+      start_clock_(app.clock().now()) {}
 
 void Summary::print(std::ostream& os, bool final) {
   const auto& v = app_.view();
@@ -84,32 +81,6 @@ void Summary::print(std::ostream& os, bool final) {
   os << text << std::flush;
   lines_printed_ = static_cast<int>(std::count(text.begin(), text.end(), '\n'));
   if (!redraw_) os << '\n';
-}
-
-void Summary::warn_rate_limited(TimeNs interval) {
-  const auto& v = app_.view();
-  const TimeNs now = monotonic_now();
-  for (std::size_t i = 0; i < v.groups.size(); ++i) {
-    const auto c = v.groups[i]->counters();
-    if (c.slips > warned_slips_[i] && now - last_warn_[i] >= interval) {
-      spdlog::warn("rate group '{}': {} cycle slip(s) since the last warning ({} in total, period {})",
-                   v.groups[i]->config().name, c.slips - warned_slips_[i], c.slips, us(v.groups[i]->config().period));
-      warned_slips_[i] = c.slips;
-      last_warn_[i] = now;
-    }
-  }
-  std::size_t k = 0;
-  for (const auto& [name, cam] : app_.context().devices_of<hal::Camera>()) {
-    const auto s = cam->stats();
-    const std::size_t slot = v.groups.size() + k;
-    if (s.faults > warned_faults_[k] && now - last_warn_[slot] >= interval) {
-      spdlog::warn("camera '{}': {} fault(s) ({} in total), state {}", name, s.faults - warned_faults_[k], s.faults,
-                   hal::to_string(s.state));
-      warned_faults_[k] = s.faults;
-      last_warn_[slot] = now;
-    }
-    ++k;
-  }
 }
 
 void print_resolved(std::ostream& os, const std::vector<ResolvedParam>& params) {

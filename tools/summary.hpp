@@ -8,13 +8,12 @@
 namespace regolith::cli {
 
 /// The live summary of `regolith run` (rate groups, cycle times, slips, devices, samples
-/// published) and the rate-limited warnings, both produced off the real-time threads.
+/// published), produced off the real-time threads. Faults, recoveries and slips are logged as
+/// events by the application (runtime/event_log.hpp), on the console and on /rosout.
 class Summary {
  public:
   Summary(runtime::Application& app, bool redraw);
   void print(std::ostream& os, bool final = false);
-  /// At most one warning per rate group / device per `interval`, with the count since the last.
-  void warn_rate_limited(TimeNs interval = kNsPerSec);
 
  private:
   runtime::Application& app_;
@@ -22,9 +21,6 @@ class Summary {
   int lines_printed_ = 0;
   TimeNs start_wall_;
   TimeNs start_clock_;
-  std::vector<std::uint64_t> warned_slips_;
-  std::vector<TimeNs> last_warn_;
-  std::vector<std::uint64_t> warned_faults_;
 };
 
 void print_resolved(std::ostream& os, const std::vector<ResolvedParam>& params);

@@ -130,6 +130,44 @@ Rotation Rotation::from_rpy(double roll, double pitch, double yaw) {
   return rz * ry * rx;
 }
 
+std::array<double, 4> quaternion(const Rotation& r) {
+  const auto& m = r.m;
+  // Shepperd's method: the largest of w, x, y, z first, for accuracy.
+  const double t = m[0] + m[4] + m[8];
+  std::array<double, 4> q{};
+  if (t > m[0] && t > m[4] && t > m[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + t);
+    q = {(m[7] - m[5]) / s, (m[2] - m[6]) / s, (m[3] - m[1]) / s, 0.25 * s};
+  } else if (m[0] >= m[4] && m[0] >= m[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + m[0] - m[4] - m[8]);
+    q = {0.25 * s, (m[1] + m[3]) / s, (m[2] + m[6]) / s, (m[7] - m[5]) / s};
+  } else if (m[4] >= m[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + m[4] - m[0] - m[8]);
+    q = {(m[1] + m[3]) / s, 0.25 * s, (m[5] + m[7]) / s, (m[2] - m[6]) / s};
+  } else {
+    const double s = 2.0 * std::sqrt(1.0 + m[8] - m[0] - m[4]);
+    q = {(m[2] + m[6]) / s, (m[5] + m[7]) / s, 0.25 * s, (m[3] - m[1]) / s};
+  }
+  if (q[3] < 0) q = {-q[0], -q[1], -q[2], -q[3]};
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  for (double& v : q) v /= n;
+  return q;
+}
+
+std::vector<FrameTransform> static_transforms(const RoverDescription& rover) {
+  // Optical axes in the link frame (columns): x right = -y, y down = -z, z forward = +x.
+  const Rotation link_from_optical{{0, 0, 1, -1, 0, 0, 0, -1, 0}};
+  std::vector<FrameTransform> out;
+  for (const auto& [name, cam] : rover.cameras) {
+    const Pose& m = cam.mount;
+    out.push_back({rover.base_frame, name + "_link", {m.x_m, m.y_m, m.z_m}, quaternion(m.rotation())});
+    out.push_back({name + "_link", cam.frame_id, {}, quaternion(link_from_optical)});
+    out.push_back({rover.base_frame, name + "_ground", {m.x_m, m.y_m, 0.0},
+                   quaternion(Rotation::from_rpy(0.0, 0.0, m.yaw_rad))});
+  }
+  return out;
+}
+
 Vec3 Sun::local_level() const {
   const double ce = std::cos(elevation_rad);
   // Compass azimuth: clockwise from +x (heading at start) towards -y (right).

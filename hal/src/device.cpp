@@ -17,12 +17,9 @@ std::string_view to_string(DeviceState s) {
 }
 
 Quaternion to_quaternion(const Attitude& a) {
-  const double cr = std::cos(0.5 * a.roll_rad), sr = std::sin(0.5 * a.roll_rad);
-  const double cp = std::cos(0.5 * a.pitch_rad), sp = std::sin(0.5 * a.pitch_rad);
-  const double cy = std::cos(0.5 * a.yaw_rad), sy = std::sin(0.5 * a.yaw_rad);
-  return {sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy};
+  const auto q = quaternion(a.rotation());
+  return {q[0], q[1], q[2], q[3]};
 }
-
 
 void rethrow_located(const Params& p, const DeviceError& e) {
   const std::string key = p.has(e.field()) ? e.field() : std::string{};

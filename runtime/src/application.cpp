@@ -11,6 +11,7 @@
 
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/dds_hooks.hpp"
+#include "regolith/runtime/event_log.hpp"
 
 namespace regolith::runtime {
 
@@ -47,6 +48,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   if (opts.enable_dds) {
     app->dds_ = make_participant(dds, opts.sim_time);
     ctx.set_dds(app->dds_.get());
+    if (app->dds_ && opts.sim_time) app->clock_pub_ = make_clock_publisher(*app->dds_);
   } else {
     declare_dds_params(dds);
   }
@@ -177,6 +179,12 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
 
 void Application::start() {
   if (started_) return;
+  health_ = &context_->channel<HealthSnapshot>("health/snapshot");
+  if (dds_) {
+    Clock* clk = &clock();
+    rosout_ = std::make_shared<RosoutSink>(*dds_, name_, [clk] { return clk->now(); });
+    spdlog::default_logger()->sinks().push_back(rosout_);
+  }
   if (opts_.sim_time) {
     ros_time_offset().store(0, std::memory_order_relaxed);
   } else {
@@ -184,8 +192,11 @@ void Application::start() {
     ros_time_stop_ = false;
     ros_time_thread_ = std::thread([this] {
       std::unique_lock<std::mutex> lock(ros_time_mutex_);
-      while (!ros_time_cv_.wait_for(lock, std::chrono::seconds(1), [this] { return ros_time_stop_; }))
-        ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
+      for (int tick = 1; !ros_time_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return ros_time_stop_; });
+           ++tick) {
+        if (tick % 4 == 0) ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
+        poll_events();
+      }
     });
   }
   // Devices first (outside the rate groups), then components, then the schedule.
@@ -196,16 +207,38 @@ void Application::start() {
   }
   if (dds_) {
     start_participant(*dds_);
+    tf_static_ = publish_static_transforms(*dds_, context_->rover(), clock().now());
     if (!opts_.wait_for.empty()) wait_for_readers(*dds_, opts_.wait_for, opts_.wait_timeout);
     // Simulated time has no deadline to protect: deliver every sample before time moves on, so
-    // a subscriber sees exactly what a real-time run would have published.
+    // a subscriber sees exactly what a real-time run would have published. /clock carries the
+    // simulated time (ROS use_sim_time).
     if (opts_.sim_time) {
       dds::Participant* p = dds_.get();
-      executor_->set_after_cycle([p] { sync_participant(*p); });
+      Clock* clk = &clock();
+      executor_->set_after_cycle([this, p, clk, pub = clock_pub_] {
+        pub(clk->now());
+        poll_events();
+        sync_participant(*p);
+      });
     }
   }
+  if (opts_.sim_time && !dds_) executor_->set_after_cycle([this] { poll_events(); });
   executor_->start(view_.groups);
   started_ = true;
+}
+
+void Application::poll_events() {
+  const auto lease = health_->acquire();
+  if (!lease || lease->stamp == last_health_stamp_) return;
+  last_health_stamp_ = lease->stamp;
+  if (!health_events_) health_events_ = std::make_unique<HealthEvents>();
+  for (const Event& e : health_events_->update(*lease)) {
+    switch (e.severity) {
+      case Event::Severity::kInfo: spdlog::info("{}", e.text); break;
+      case Event::Severity::kWarn: spdlog::warn("{}", e.text); break;
+      case Event::Severity::kError: spdlog::error("{}", e.text); break;
+    }
+  }
 }
 
 void Application::run(TimeNs duration, const std::atomic<bool>& stop_flag) {
@@ -222,7 +255,6 @@ void Application::stop() {
   }
   const auto devices = context_->all_devices();
   for (auto it = devices.rbegin(); it != devices.rend(); ++it) (*it)->stop();
-  if (dds_) stop_participant(*dds_);
   if (ros_time_thread_.joinable()) {
     {
       std::lock_guard<std::mutex> lock(ros_time_mutex_);
@@ -231,6 +263,12 @@ void Application::stop() {
     ros_time_cv_.notify_all();
     ros_time_thread_.join();
   }
+  if (rosout_) {
+    auto& sinks = spdlog::default_logger()->sinks();
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), rosout_), sinks.end());
+  }
+  if (dds_) stop_participant(*dds_);
+  rosout_.reset();
   started_ = false;
 }
 

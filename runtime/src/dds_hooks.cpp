@@ -2,7 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <limits>
+
 #include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
 
 namespace regolith::runtime {
 
@@ -42,6 +47,46 @@ std::shared_ptr<dds::Participant> make_participant(Params& p, bool lossless) {
 }
 
 void start_participant(dds::Participant& p) { p.start(); }
+
+std::shared_ptr<void> publish_static_transforms(dds::Participant& p, const RoverDescription& rover, TimeNs stamp) {
+  using Tf = msgs::tf2_msgs::TFMessage;
+  const std::vector<FrameTransform> frames = static_transforms(rover);
+  if (frames.empty()) return nullptr;
+  std::size_t longest = 0;
+  for (const auto& f : frames) longest = std::max({longest, f.parent.size(), f.child.size()});
+  const auto n = static_cast<std::uint32_t>(frames.size());
+  auto out = p.make_outbox<Tf>("/tf_static", dds::find_topic("/tf_static")->writer_qos(),
+                               dds::OutboxOptions{dds::OutboxMode::kLatest, 2},
+                               [n, longest](Tf& m) { dds::reserve(m, n, longest); });
+  Tf* m = out->begin();
+  if (m == nullptr) return out;
+  dds::set_length(m->transforms, n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const FrameTransform& f = frames[i];
+    auto& t = m->transforms._buffer[i];
+    dds::set_stamp(t.header.stamp, stamp);
+    dds::copy_string(t.header.frame_id, longest, f.parent);
+    dds::copy_string(t.child_frame_id, longest, f.child);
+    t.transform.translation = {f.translation.x, f.translation.y, f.translation.z};
+    t.transform.rotation = {f.rotation[0], f.rotation[1], f.rotation[2], f.rotation[3]};
+  }
+  out->commit();
+  return out;
+}
+
+std::function<void(TimeNs)> make_clock_publisher(dds::Participant& p) {
+  using Clock = msgs::rosgraph_msgs::Clock;
+  auto out = p.make_outbox<Clock>("/clock", dds::find_topic("/clock")->writer_qos(),
+                                  dds::OutboxOptions{dds::OutboxMode::kLatest, 4}, [](Clock&) {});
+  return [out, last = std::numeric_limits<TimeNs>::min()](TimeNs now) mutable {
+    if (now <= last) return;  // several groups run at one simulated instant: one /clock sample
+    last = now;
+    if (Clock* c = out->begin()) {
+      dds::set_stamp(c->clock, now);
+      out->commit();
+    }
+  };
+}
 void sync_participant(dds::Participant& p) { p.drain(10 * kNsPerSec); }
 void wait_for_readers(dds::Participant& p, const std::vector<std::string>& topics, TimeNs timeout) {
   if (!p.wait_for_readers(topics, timeout)) {

@@ -296,7 +296,11 @@ TEST(DdsTopics, TableLookupAndList) {
             "grid_map_msgs/msg/GridMap");
   EXPECT_EQ(rd::find_topic("terrain/world_map")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("camera/image_raw"), nullptr);
-  EXPECT_EQ(rd::known_topics().size(), 10u);
+  EXPECT_EQ(rd::find_topic("/tf")->ros_type, "tf2_msgs/msg/TFMessage");
+  EXPECT_EQ(rd::find_topic("tf_static")->cls, rd::TopicClass::kState);
+  EXPECT_EQ(rd::find_topic("/clock")->ros_type, "rosgraph_msgs/msg/Clock");
+  EXPECT_EQ(rd::find_topic("/rosout")->ros_type, "rcl_interfaces/msg/Log");
+  EXPECT_EQ(rd::known_topics().size(), 14u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
   for (const auto &t : rd::known_topics()) {
@@ -318,6 +322,37 @@ TEST(DdsTopics, TableLookupAndList) {
 
 // ---- JSON
 // -----------------------------------------------------------------------------------
+TEST(DdsJson, TransformsClockAndLog) {
+  m::tf2_msgs::TFMessage tf{};
+  rd::reserve(tf, 2, 16);
+  rd::set_length(tf.transforms, 1);
+  auto &t = tf.transforms._buffer[0];
+  t.header.stamp = {5, 7};
+  rd::copy_string(t.header.frame_id, 16, "base_link");
+  rd::copy_string(t.child_frame_id, 16, "front_link");
+  t.transform.translation = {0.1, 0.0, 0.5};
+  const auto j = rd::to_json(tf);
+  ASSERT_EQ(j["transforms"].size(), 1u);
+  EXPECT_EQ(j["transforms"][0]["header"]["frame_id"], "base_link");
+  EXPECT_EQ(j["transforms"][0]["child_frame_id"], "front_link");
+  EXPECT_EQ(j["transforms"][0]["transform"]["translation"]["z"], 0.5);
+  EXPECT_EQ(j["transforms"][0]["transform"]["rotation"]["w"], 1.0);
+  rd::free_contents(rd::MsgTraits<m::tf2_msgs::TFMessage>::descriptor(), &tf);
+
+  m::rosgraph_msgs::Clock c{};
+  c.clock = {12, 34};
+  EXPECT_EQ(rd::to_json(c)["clock"]["sec"], 12);
+
+  m::rcl_interfaces::Log log{};
+  rd::reserve(log, 8, 8);
+  log.level = 30;
+  EXPECT_FALSE(rd::copy_string(log.msg, 8, "camera front: faulted"));  // cut to the capacity
+  const auto lj = rd::to_json(log);
+  EXPECT_EQ(lj["level"], 30);
+  EXPECT_EQ(lj["msg"], "camera f");
+  rd::free_contents(rd::MsgTraits<m::rcl_interfaces::Log>::descriptor(), &log);
+}
+
 TEST(DdsJson, JointState) {
   m::sensor_msgs::JointState js{};
   js.header.stamp = {3, 500};

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -73,6 +74,28 @@ struct MapSample {
   double min_z = 1e9, max_z = -1e9;
 };
 
+struct Tf {
+  std::string parent, child;
+  double t = 0;
+  double x = 0, y = 0, z = 0, qx = 0, qy = 0, qz = 0, qw = 1;
+};
+void take_tf(const m::tf2_msgs::TFMessage& msg, std::vector<Tf>& out) {
+  for (std::uint32_t i = 0; i < msg.transforms._length; ++i) {
+    const auto& t = msg.transforms._buffer[i];
+    const auto& r = t.transform.rotation;
+    const auto& v = t.transform.translation;
+    out.push_back({t.header.frame_id != nullptr ? t.header.frame_id : "", t.child_frame_id != nullptr ? t.child_frame_id : "",
+                   static_cast<double>(rd::to_ns(t.header.stamp)) * 1e-9, v.x, v.y, v.z, r.x, r.y, r.z, r.w});
+  }
+}
+// Rotates v by the unit quaternion (x, y, z, w).
+std::array<double, 3> rotate(const Tf& q, std::array<double, 3> v) {
+  const double ux = q.qx, uy = q.qy, uz = q.qz, w = q.qw;
+  const double cx = uy * v[2] - uz * v[1], cy = uz * v[0] - ux * v[2], cz = ux * v[1] - uy * v[0];
+  const double c2x = uy * cz - uz * cy, c2y = uz * cx - ux * cz, c2z = ux * cy - uy * cx;
+  return {v[0] + 2 * (w * cx + c2x), v[1] + 2 * (w * cy + c2y), v[2] + 2 * (w * cz + c2z)};
+}
+
 }  // namespace
 
 TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
@@ -91,12 +114,16 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   rd::Reader<m::nav_msgs::Odometry> odom(pp, "odom", rd::find_topic("odom")->reader_qos());
   rd::Reader<m::nav_msgs::Odometry> wheel(pp, "odom/wheel", rd::find_topic("odom/wheel")->reader_qos());
   rd::Reader<m::grid_map_msgs::GridMap> map(pp, "terrain/world_map", rd::find_topic("terrain/world_map")->reader_qos());
+  rd::Reader<m::tf2_msgs::TFMessage> tf(pp, "/tf", rd::find_topic("/tf")->reader_qos());
+  rd::Reader<m::tf2_msgs::TFMessage> tf_static(pp, "/tf_static", rd::find_topic("/tf_static")->reader_qos());
+  rd::Reader<m::rosgraph_msgs::Clock> clock(pp, "/clock", rd::find_topic("/clock")->reader_qos());
 
   // The rover waits for our readers before its clock starts: nothing is published unseen.
   const std::string exe = REGOLITH_EXE, out = (dir / "run.txt").string();
   std::vector<std::string> args{exe,          "run",        "--config",   cfg.string(),       "--sim-time",
                                 "--duration", "16",         "--quiet",    "--wait-for",       "odom",
-                                "--wait-for", "odom/wheel", "--wait-for", "terrain/world_map"};
+                                "--wait-for", "odom/wheel", "--wait-for", "terrain/world_map", "--wait-for", "/tf",
+                                "--wait-for", "/clock"};
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -109,11 +136,18 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   posix_spawn_file_actions_destroy(&fa);
 
   std::vector<OdomSample> corrected, wheels;
+  std::vector<Tf> dynamic_tf, static_tf;
+  std::vector<double> clock_s;
   MapSample last_map;
   std::size_t maps = 0;
   auto drain = [&] {
     odom.take([&](const m::nav_msgs::Odometry& o, const dds_sample_info_t&) { corrected.push_back(odom_of(o)); }, 1000);
     wheel.take([&](const m::nav_msgs::Odometry& o, const dds_sample_info_t&) { wheels.push_back(odom_of(o)); }, 1000);
+    tf.take([&](const m::tf2_msgs::TFMessage& t, const dds_sample_info_t&) { take_tf(t, dynamic_tf); }, 1000);
+    tf_static.take([&](const m::tf2_msgs::TFMessage& t, const dds_sample_info_t&) { take_tf(t, static_tf); }, 10);
+    clock.take([&](const m::rosgraph_msgs::Clock& c, const dds_sample_info_t&) {
+      clock_s.push_back(static_cast<double>(rd::to_ns(c.clock)) * 1e-9);
+    }, 1000);
     map.take(
         [&](const m::grid_map_msgs::GridMap& g, const dds_sample_info_t&) {
           ++maps;
@@ -194,6 +228,53 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   EXPECT_LT(worst, 0.05);
   EXPECT_LT(worst_wheel_scale, 0.002);
   EXPECT_NEAR(std::hypot(wheels.back().x - corrected.back().x, wheels.back().y - corrected.back().y), 0.075, 0.06);
+
+  // /tf: odom -> base_link with every corrected pose, same stamp and values as odom.
+  ASSERT_EQ(dynamic_tf.size(), corrected.size());
+  for (std::size_t k = 0; k < corrected.size(); ++k) {
+    EXPECT_EQ(dynamic_tf[k].parent, "odom");
+    EXPECT_EQ(dynamic_tf[k].child, "base_link");
+    EXPECT_DOUBLE_EQ(dynamic_tf[k].t, corrected[k].t);
+    EXPECT_DOUBLE_EQ(dynamic_tf[k].x, corrected[k].x);
+    EXPECT_DOUBLE_EQ(dynamic_tf[k].y, corrected[k].y);
+    EXPECT_NEAR(2.0 * std::atan2(dynamic_tf[k].qz, dynamic_tf[k].qw), corrected[k].yaw, 1e-9);
+  }
+  // /tf_static (latched): base_link -> front_link -> front_optical_frame and front_ground; the
+  // tree is connected from odom to the camera's optical frame, whose z axis (the optical axis)
+  // points forward and 0.35 rad down in base_link, 0.5 m up.
+  ASSERT_EQ(static_tf.size(), 3u);
+  auto parent_of = [&](const std::string& child) -> const Tf* {
+    for (const Tf& t : static_tf)
+      if (t.child == child) return &t;
+    for (const Tf& t : dynamic_tf)
+      if (t.child == child) return &t;
+    return nullptr;
+  };
+  std::string frame = "front_optical_frame";
+  std::array<double, 3> axis{0, 0, 1}, origin{0, 0, 0};
+  std::vector<std::string> chain{frame};
+  while (const Tf* t = parent_of(frame)) {
+    if (frame == "base_link") break;
+    axis = rotate(*t, axis);
+    const auto o = rotate(*t, origin);
+    origin = {o[0] + t->x, o[1] + t->y, o[2] + t->z};
+    frame = t->parent;
+    chain.push_back(frame);
+  }
+  EXPECT_EQ(chain, (std::vector<std::string>{"front_optical_frame", "front_link", "base_link"}));
+  EXPECT_NEAR(axis[0], std::cos(0.35), 1e-9);
+  EXPECT_NEAR(axis[1], 0.0, 1e-9);
+  EXPECT_NEAR(axis[2], -std::sin(0.35), 1e-9);
+  EXPECT_NEAR(origin[2], 0.5, 1e-12);
+  ASSERT_NE(parent_of("base_link"), nullptr);
+  EXPECT_EQ(parent_of("base_link")->parent, "odom");
+  ASSERT_NE(parent_of("front_ground"), nullptr);
+  EXPECT_EQ(parent_of("front_ground")->parent, "base_link");
+  // /clock under --sim-time: strictly increasing simulated time that covers every stamp.
+  ASSERT_GT(clock_s.size(), 30u);
+  for (std::size_t k = 1; k < clock_s.size(); ++k) EXPECT_GT(clock_s[k], clock_s[k - 1]) << k;
+  EXPECT_LE(clock_s.front(), corrected.front().t);
+  EXPECT_GE(clock_s.back(), corrected.back().t);
 
   // The map: every 2nd frame, latched (keep-last 1, so a reader may see fewer than published).
   EXPECT_GE(maps, 1u);

@@ -338,3 +338,66 @@ components:
   EXPECT_NE(flow.str().find("imu body_imu --> imu"), std::string::npos) << flow.str();
   EXPECT_NE(flow.str().find("imu body_imu --> sfs"), std::string::npos) << flow.str();
 }
+
+// The rotation -> quaternion conversion (every branch of it) reproduces the matrix.
+TEST(RoverFrames, QuaternionOfARotationReproducesTheMatrix) {
+  for (double roll : {0.0, 0.3, -2.9, 3.1})
+    for (double pitch : {0.0, 1.2, -1.5})
+      for (double yaw : {0.0, 0.7, 3.1, -3.0}) {
+        const Rotation r = Rotation::from_rpy(roll, pitch, yaw);
+        const auto q = quaternion(r);
+        EXPECT_GE(q[3], 0.0);
+        EXPECT_NEAR(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-12);
+        const double x = q[0], y = q[1], z = q[2], w = q[3];
+        const std::array<double, 9> m{1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+                                      2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                                      2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+        for (int k = 0; k < 9; ++k) EXPECT_NEAR(m[k], r.m[k], 1e-12) << roll << " " << pitch << " " << yaw << " " << k;
+      }
+}
+
+// /tf_static content: per camera the mount (base -> link), the optical rotation (link -> optical:
+// z forward, x right, y down) and the ground frame below the camera.
+TEST(RoverFrames, StaticTransformsOfEveryCamera) {
+  RoverDescription d;
+  RoverCamera cam;
+  cam.name = "rear";
+  cam.frame_id = "rear_optical_frame";
+  cam.mount = {-0.5, 0.1, 1.2, 0.0, 0.6, M_PI};  // looking backwards, 0.6 rad down
+  d.cameras["rear"] = cam;
+  const auto tf = static_transforms(d);
+  ASSERT_EQ(tf.size(), 3u);
+  EXPECT_EQ(tf[0].parent, "base_link");
+  EXPECT_EQ(tf[0].child, "rear_link");
+  EXPECT_EQ(tf[1].parent, "rear_link");
+  EXPECT_EQ(tf[1].child, "rear_optical_frame");
+  EXPECT_EQ(tf[2].parent, "base_link");
+  EXPECT_EQ(tf[2].child, "rear_ground");
+  EXPECT_DOUBLE_EQ(tf[0].translation.z, 1.2);
+  EXPECT_DOUBLE_EQ(tf[2].translation.x, -0.5);
+  EXPECT_DOUBLE_EQ(tf[2].translation.y, 0.1);
+  EXPECT_DOUBLE_EQ(tf[2].translation.z, 0.0);
+  auto rotate = [](const std::array<double, 4>& q, const Vec3& v) {
+    const double x = q[0], y = q[1], z = q[2], w = q[3];
+    return Vec3{(1 - 2 * (y * y + z * z)) * v.x + 2 * (x * y - z * w) * v.y + 2 * (x * z + y * w) * v.z,
+                2 * (x * y + z * w) * v.x + (1 - 2 * (x * x + z * z)) * v.y + 2 * (y * z - x * w) * v.z,
+                2 * (x * z - y * w) * v.x + 2 * (y * z + x * w) * v.y + (1 - 2 * (x * x + y * y)) * v.z};
+  };
+  // The optical axis (z) in the body: backwards and 0.6 rad down; the image's x (right) is the
+  // body's +y when looking backwards; image y (down) has a negative z part.
+  const Vec3 axis = rotate(tf[0].rotation, rotate(tf[1].rotation, {0, 0, 1}));
+  EXPECT_NEAR(axis.x, -std::cos(0.6), 1e-12);
+  EXPECT_NEAR(axis.y, 0.0, 1e-12);
+  EXPECT_NEAR(axis.z, -std::sin(0.6), 1e-12);
+  const Vec3 right = rotate(tf[0].rotation, rotate(tf[1].rotation, {1, 0, 0}));
+  EXPECT_NEAR(right.y, 1.0, 1e-12);
+  const Vec3 down = rotate(tf[0].rotation, rotate(tf[1].rotation, {0, 1, 0}));
+  EXPECT_LT(down.z, -0.8);
+  // The same as body_to_optical (the project's one convention for the optical frame).
+  const Vec3 fwd_in_optical = body_to_optical(cam.mount, axis);
+  EXPECT_NEAR(fwd_in_optical.z, 1.0, 1e-12);
+  // The ground frame looks where the camera looks (yaw pi).
+  const Vec3 gx = rotate(tf[2].rotation, {1, 0, 0});
+  EXPECT_NEAR(gx.x, -1.0, 1e-12);
+  EXPECT_TRUE(static_transforms(RoverDescription{}).empty());
+}

@@ -26,12 +26,14 @@ namespace regolith::mapping {
 namespace {
 
 using OdometryMsg = msgs::nav_msgs::Odometry;
+using TfMsg = msgs::tf2_msgs::TFMessage;
 using GridMapMsg = msgs::grid_map_msgs::GridMap;
 constexpr double kUnobserved = 1e6;  // variance of what a planar odometry does not estimate (z, roll, pitch)
 constexpr std::size_t kMaxSubsteps = 64;
 constexpr const char* kOdomTopic = "odom";
 constexpr const char* kWheelOdomTopic = "odom/wheel";
 constexpr const char* kMapTopic = "terrain/world_map";
+constexpr const char* kTfTopic = "/tf";
 
 // The key of this component's YAML that sets a DriveMapperParams field (FieldError owner + field).
 std::string key_of(const FieldError& e) {
@@ -241,7 +243,7 @@ class TerrainMapComponent final : public runtime::Component {
     state_ = &ctx.produce<TerrainMapState>(kOdometryChannel, 4);
     input_ = &watch_input("camera", from_seconds(timeout_s));
     if (dds::Participant* part = ctx.dds()) {
-      for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic})
+      for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic, kTfTopic})
         if (dds::find_topic(topic) == nullptr)
           p.fail({}, std::string("DDS topic ") + topic + " is unknown to this build");
       const std::string frame = frame_id_, child = child_frame_id_;
@@ -252,6 +254,14 @@ class TerrainMapComponent final : public runtime::Component {
       };
       odom_msg_ = part->make_outbox<OdometryMsg>(kOdomTopic, dds::find_topic(kOdomTopic)->writer_qos(),
                                                  dds::OutboxOptions{dds::OutboxMode::kFifo, 8}, odom_reserve);
+      // odom -> base_link on /tf (REP-105), one transform per mapped frame.
+      tf_msg_ = part->make_outbox<TfMsg>(kTfTopic, dds::find_topic(kTfTopic)->writer_qos(),
+                                         dds::OutboxOptions{dds::OutboxMode::kFifo, 8}, [frame, child](TfMsg& m) {
+                                           dds::reserve(m, 1, 32);
+                                           dds::set_length(m.transforms, 1);
+                                           dds::copy_string(m.transforms._buffer[0].header.frame_id, 32, frame);
+                                           dds::copy_string(m.transforms._buffer[0].child_frame_id, 32, child);
+                                         });
       wheel_msg_ = part->make_outbox<OdometryMsg>(kWheelOdomTopic, dds::find_topic(kWheelOdomTopic)->writer_qos(),
                                                   dds::OutboxOptions{dds::OutboxMode::kFifo, 8}, odom_reserve);
       const WorldMap& map = mapper_->map();
@@ -431,6 +441,20 @@ class TerrainMapComponent final : public runtime::Component {
         odom_msg_->commit();
       }
     }
+    if (tf_msg_) {
+      if (TfMsg* m = tf_msg_->begin()) {
+        auto& t = m->transforms._buffer[0];
+        dds::set_stamp(t.header.stamp, fr.capture_time);
+        t.transform.translation.x = r.pose.x;
+        t.transform.translation.y = r.pose.y;
+        t.transform.translation.z = 0.0;
+        t.transform.rotation.x = 0.0;
+        t.transform.rotation.y = 0.0;
+        t.transform.rotation.z = std::sin(0.5 * r.pose.yaw);
+        t.transform.rotation.w = std::cos(0.5 * r.pose.yaw);
+        tf_msg_->commit();
+      }
+    }
     if (wheel_msg_ && r.wheel_pose.finite()) {
       if (OdometryMsg* m = wheel_msg_->begin()) {
         // Wheel odometry alone: its covariance grows with the wheel model along the path.
@@ -482,6 +506,7 @@ class TerrainMapComponent final : public runtime::Component {
   std::string frame_id_, child_frame_id_;
   LatestPool<TerrainMapState>* state_ = nullptr;
   std::shared_ptr<dds::Outbox<OdometryMsg>> odom_msg_, wheel_msg_;
+  std::shared_ptr<dds::Outbox<TfMsg>> tf_msg_;
   std::shared_ptr<dds::Outbox<GridMapMsg>> map_msg_;
   runtime::InputWatch* input_ = nullptr;
   NewValue new_frame_;

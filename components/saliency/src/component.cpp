@@ -89,7 +89,8 @@ class SamsComponent final : public runtime::Component {
     // The camera whose DTM frames this reads (its calibration and mount: rover.cameras.<camera>).
     p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
                                    "write `camera: <device>` here");
-    const direct_depth::CameraModel model = common::camera_model_of(ctx.rover_camera(p, "camera"));
+    const RoverCamera& rover_camera = ctx.rover_camera(p, "camera");
+    const direct_depth::CameraModel model = common::camera_model_of(rover_camera);
     const int w = model.width, h = model.height;
     size_ = cv::Size(w, h);
     if (method_ == Method::kSams || method_ == Method::kItti) {
@@ -104,8 +105,8 @@ class SamsComponent final : public runtime::Component {
     grid_ = common::read_grid_geometry(p, {0.05, 4.0, 4.0, 3.0, 0.0}, "rock_probability grid (= the traversability grid)");
     max_range_m_ = p.get<double>("max_range_m", 10.0, {.unit = "m", .min = 0.0, .min_exclusive = true,
                                                        .doc = "pixels farther than this flat-ground range (and above the horizon) are not searched"});
-    const std::string frame_id = p.get<std::string>("frame_id", "camera_optical_frame",
-                                                    {.doc = "header.frame_id of terrain/rocks (image-space boxes)"});
+    const std::string frame_id = p.get<std::string>("frame_id", rover_camera.frame_id,
+                                                    {.doc = "header.frame_id of terrain/rocks (image-space boxes; default the camera's optical frame, rover.cameras.<camera>.frame_id)"});
     const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
                                                                     .doc = "the DTM input is stale after this long"});
     const int nx = grid_.size_x(), ny = grid_.size_y();

@@ -32,12 +32,13 @@ class SoilStiffnessComponent final : public runtime::Component {
   void configure(Params& p, runtime::Context& ctx) override {
     camera_ = &ctx.camera(p, "camera");
     const hal::CameraFormat fmt = camera_->format();
-    cfg_ = read_soil_config(p, ctx.rover(), ctx.rover_camera(p, "camera"), fmt.width, fmt.height);
+    const RoverCamera& rover_camera = ctx.rover_camera(p, "camera");
+    cfg_ = read_soil_config(p, ctx.rover(), rover_camera, fmt.width, fmt.height);
     const double stale_s = p.get<double>("stale_timeout_s", 10.0,
         {.unit = "s", .min = 0.0, .min_exclusive = true,
          .doc = "the rear camera is reported stale after this long without a new frame"});
-    frame_id_ = p.get<std::string>("frame_id", "rear_camera_ground",
-        {.doc = "header.frame_id of terrain/soil (the camera ground frame of the profiles)"});
+    frame_id_ = p.get<std::string>("frame_id", rover_camera.name + "_ground",
+        {.doc = "header.frame_id of terrain/soil (the camera ground frame of the profiles, <camera>_ground on /tf_static)"});
     if (frame_id_.size() > kFrameIdCapacity) p.fail("frame_id", "longer than 32 characters");
     try {
       estimator_ = std::make_unique<SoilStiffnessEstimator>(cfg_.camera, cfg_.rover, cfg_.analysis);

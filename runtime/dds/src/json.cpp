@@ -81,6 +81,27 @@ json to_json(const msgs::geometry_msgs::TwistWithCovariance &m) {
     cov.push_back(num(c));
   return {{"twist", to_json(m.twist)}, {"covariance", cov}};
 }
+json to_json(const msgs::geometry_msgs::Transform &m) {
+  return {{"translation", to_json(m.translation)},
+          {"rotation", to_json(m.rotation)}};
+}
+json to_json(const msgs::geometry_msgs::TransformStamped &m) {
+  return {{"header", to_json(m.header)},
+          {"child_frame_id", str(m.child_frame_id)},
+          {"transform", to_json(m.transform)}};
+}
+json to_json(const msgs::tf2_msgs::TFMessage &m) {
+  return {{"transforms", structs(m.transforms)}};
+}
+json to_json(const msgs::rosgraph_msgs::Clock &m) {
+  return {{"clock", to_json(m.clock)}};
+}
+json to_json(const msgs::rcl_interfaces::Log &m) {
+  return {{"stamp", to_json(m.stamp)},   {"level", m.level},
+          {"name", str(m.name)},         {"msg", str(m.msg)},
+          {"file", str(m.file)},         {"function", str(m.function)},
+          {"line", m.line}};
+}
 json to_json(const msgs::nav_msgs::Odometry &m) {
   return {{"header", to_json(m.header)},
           {"child_frame_id", str(m.child_frame_id)},

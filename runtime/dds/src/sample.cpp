@@ -40,6 +40,29 @@ void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity) {
   m.pose.pose.orientation.w = 1.0;
 }
 
+void reserve(msgs::tf2_msgs::TFMessage &m, std::uint32_t transforms,
+             std::size_t frame_id_capacity) {
+  reserve_sequence(m.transforms, transforms);
+  for (std::uint32_t i = 0; i < transforms; ++i) {
+    auto &t = m.transforms._buffer[i];
+    reserve_header(t.header, frame_id_capacity);
+    t.child_frame_id = alloc_string(frame_id_capacity);
+    t.transform.rotation.w = 1.0;
+  }
+}
+
+void reserve(msgs::rcl_interfaces::Log &m, std::size_t msg_capacity,
+             std::size_t name_capacity) {
+  for (char **s : {&m.name, &m.file, &m.function}) {
+    if (*s != nullptr)
+      dds_free(*s);
+    *s = alloc_string(name_capacity);
+  }
+  if (m.msg != nullptr)
+    dds_free(m.msg);
+  m.msg = alloc_string(msg_capacity);
+}
+
 void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_string_sequence(m.name, c.joints, c.name_capacity);

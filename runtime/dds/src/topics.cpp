@@ -21,8 +21,8 @@ template <class Msg> TopicInfo entry(std::string_view name, TopicClass cls) {
                    MsgTraits<Msg>::descriptor(), &render<Msg>};
 }
 
-const std::array<TopicInfo, 10> &table() {
-  static const std::array<TopicInfo, 10> t = {
+const std::array<TopicInfo, 14> &table() {
+  static const std::array<TopicInfo, 14> t = {
       entry<msgs::sensor_msgs::JointState>("joint_states", TopicClass::kStream),
       entry<msgs::sensor_msgs::Imu>("imu", TopicClass::kStream),
       entry<msgs::diagnostic_msgs::DiagnosticArray>("/diagnostics",
@@ -39,6 +39,10 @@ const std::array<TopicInfo, 10> &table() {
       entry<msgs::nav_msgs::Odometry>("odom/wheel", TopicClass::kStream),
       entry<msgs::grid_map_msgs::GridMap>("terrain/world_map",
                                           TopicClass::kState),
+      entry<msgs::tf2_msgs::TFMessage>("/tf", TopicClass::kStream),
+      entry<msgs::tf2_msgs::TFMessage>("/tf_static", TopicClass::kState),
+      entry<msgs::rosgraph_msgs::Clock>("/clock", TopicClass::kStream),
+      entry<msgs::rcl_interfaces::Log>("/rosout", TopicClass::kStream),
   };
   return t;
 }

@@ -121,6 +121,22 @@ double azimuth_ccw(const Vec3& v);
 /// Elevation of a z-up vector above the x-y plane [rad].
 double elevation(const Vec3& v);
 
+/// Unit quaternion (x, y, z, w) of a rotation (w >= 0).
+std::array<double, 4> quaternion(const Rotation& r);
+
+/// One fixed transform of the rover (tf2): the pose of `child` in `parent`.
+struct FrameTransform {
+  std::string parent, child;
+  Vec3 translation;                       ///< m, child origin in the parent frame
+  std::array<double, 4> rotation{0, 0, 0, 1};  ///< unit quaternion (x, y, z, w)
+};
+/// The rover's fixed frames for /tf_static, per camera (REP-103/105 names):
+///   base_frame -> <camera>_link: the mount (x along the optical axis, y left, z up);
+///   <camera>_link -> frame_id (<camera>_optical_frame): z forward, x right, y down;
+///   base_frame -> <camera>_ground: the camera's ground frame (origin on level ground below the
+///   camera, x = its viewing heading, y left, z up; the frame of soil profiles and track scenes).
+std::vector<FrameTransform> static_transforms(const RoverDescription& rover);
+
 /// Reads the deployment's `rover:` mapping (may be absent: an empty description) and the top-level
 /// `sun:` mapping. `camera_info_url: file://PATH` (relative to `config_dir`) loads a ROS
 /// `camera_calibration` YAML file. Every problem is a located ConfigError.

@@ -14,13 +14,17 @@
 #include "geometry_msgs/msg/Pose2D.h"
 #include "geometry_msgs/msg/PoseWithCovariance.h"
 #include "geometry_msgs/msg/Quaternion.h"
+#include "geometry_msgs/msg/Transform.h"
+#include "geometry_msgs/msg/TransformStamped.h"
 #include "geometry_msgs/msg/Twist.h"
 #include "geometry_msgs/msg/TwistWithCovariance.h"
 #include "geometry_msgs/msg/Vector3.h"
 #include "grid_map_msgs/msg/GridMap.h"
 #include "grid_map_msgs/msg/GridMapInfo.h"
 #include "nav_msgs/msg/Odometry.h"
+#include "rcl_interfaces/msg/Log.h"
 #include "regolith_msgs/msg/RockArray.h"
+#include "rosgraph_msgs/msg/Clock.h"
 #include "regolith_msgs/msg/SoilStiffness.h"
 #include "regolith_msgs/msg/WheelSinkage.h"
 #include "sensor_msgs/msg/Imu.h"
@@ -29,6 +33,7 @@
 #include "std_msgs/msg/Header.h"
 #include "std_msgs/msg/MultiArrayDimension.h"
 #include "std_msgs/msg/MultiArrayLayout.h"
+#include "tf2_msgs/msg/TFMessage.h"
 #include "vision_msgs/msg/BoundingBox2D.h"
 #include "vision_msgs/msg/Detection2D.h"
 #include "vision_msgs/msg/Detection2DArray.h"
@@ -57,6 +62,11 @@ REGOLITH_MSGS_ALIAS(geometry_msgs, Pose2D)
 REGOLITH_MSGS_ALIAS(geometry_msgs, PoseWithCovariance)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Twist)
 REGOLITH_MSGS_ALIAS(geometry_msgs, TwistWithCovariance)
+REGOLITH_MSGS_ALIAS(geometry_msgs, Transform)
+REGOLITH_MSGS_ALIAS(geometry_msgs, TransformStamped)
+REGOLITH_MSGS_ALIAS(tf2_msgs, TFMessage)
+REGOLITH_MSGS_ALIAS(rosgraph_msgs, Clock)
+REGOLITH_MSGS_ALIAS(rcl_interfaces, Log)
 REGOLITH_MSGS_ALIAS(nav_msgs, Odometry)
 REGOLITH_MSGS_ALIAS(sensor_msgs, JointState)
 REGOLITH_MSGS_ALIAS(sensor_msgs, Imu)

@@ -4,6 +4,7 @@
 // starts; `start` activates components, starts devices and the executor.
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -13,6 +14,7 @@
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/component.hpp"
 #include "regolith/runtime/context.hpp"
+#include "regolith/runtime/health.hpp"
 #include "regolith/runtime/dataflow.hpp"
 #include "regolith/runtime/rate_group.hpp"
 
@@ -21,6 +23,9 @@ class Participant;
 }
 
 namespace regolith::runtime {
+
+class RosoutSink;    // event_log.hpp
+class HealthEvents;  // event_log.hpp
 
 struct AppOptions {
   bool sim_time = false;     ///< run rate groups on the simulated clock, as fast as possible
@@ -65,6 +70,14 @@ class Application {
   std::unique_ptr<SimClock> sim_clock_;
   std::unique_ptr<Executor> executor_;
   std::shared_ptr<dds::Participant> dds_;
+  std::shared_ptr<void> tf_static_;              // the /tf_static writer (latched for late subscribers)
+  std::function<void(TimeNs)> clock_pub_;        // /clock under --sim-time
+  // The event log: health snapshots -> events (spdlog), and spdlog -> /rosout when on DDS.
+  std::shared_ptr<RosoutSink> rosout_;
+  std::unique_ptr<HealthEvents> health_events_;
+  LatestPool<HealthSnapshot>* health_ = nullptr;
+  TimeNs last_health_stamp_ = -1;
+  void poll_events();
   std::unique_ptr<Context> context_;
   std::vector<std::unique_ptr<Component>> components_;
   std::vector<std::unique_ptr<RateGroup>> groups_;
@@ -72,8 +85,10 @@ class Application {
   DataFlowGraph dataflow_;
   std::shared_ptr<std::vector<ResolvedParam>> resolved_;
   bool started_ = false;
-  // ROS time: on the system clock a non-real-time thread re-measures realtime - monotonic every
-  // second while running (regolith::ros_time_offset); under --sim-time the offset is 0.
+  // A non-real-time housekeeping thread while running on the system clock: it re-measures ROS
+  // time (realtime - monotonic, regolith::ros_time_offset) every second and turns new health
+  // snapshots into events every 250 ms. Under --sim-time the offset is 0 and events are polled
+  // after each simulated cycle.
   std::thread ros_time_thread_;
   std::mutex ros_time_mutex_;
   std::condition_variable ros_time_cv_;

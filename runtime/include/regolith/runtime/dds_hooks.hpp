@@ -1,11 +1,13 @@
 #pragma once
 // The runtime's seam to the DDS layer (runtime/dds): reading the `dds` section of a deployment and
 // owning the participant's publisher thread.
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
 
 namespace regolith::dds {
@@ -23,6 +25,14 @@ void start_participant(dds::Participant& p);
 void stop_participant(dds::Participant& p);
 /// Hand everything committed so far to DDS before simulated time moves on.
 void sync_participant(dds::Participant& p);
+/// The rover's fixed frames (static_transforms(rover)) on /tf_static: reliable, transient-local,
+/// keep-last 1 (tf2's static broadcaster QoS), stamped `stamp` (process time). Returns the
+/// writer, which must outlive the run (late subscribers get the transforms from it); nullptr
+/// when the rover describes no frame.
+std::shared_ptr<void> publish_static_transforms(dds::Participant& p, const RoverDescription& rover, TimeNs stamp);
+/// /clock (rosgraph_msgs/Clock) for simulated time: the returned function publishes the time it
+/// is given (no allocation); call it after each simulated cycle.
+std::function<void(TimeNs)> make_clock_publisher(dds::Participant& p);
 /// Wait up to `timeout` for the writers of `topics` to have a matched reader; logs which have none.
 void wait_for_readers(dds::Participant& p, const std::vector<std::string>& topics, TimeNs timeout);
 

@@ -167,6 +167,16 @@ void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity = 32);
 /// nav_msgs/Odometry: header.frame_id and child_frame_id (fixed-size pose, twist, covariances).
 void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity = 32);
 
+/// tf2_msgs/TFMessage with up to `transforms` transforms (length starts at 0),
+/// each with header.frame_id and child_frame_id of `frame_id_capacity` characters.
+void reserve(msgs::tf2_msgs::TFMessage &m, std::uint32_t transforms,
+             std::size_t frame_id_capacity = 32);
+
+/// rcl_interfaces/Log: msg with `msg_capacity` characters, name, file and function with
+/// `name_capacity` each.
+void reserve(msgs::rcl_interfaces::Log &m, std::size_t msg_capacity = 256,
+             std::size_t name_capacity = 64);
+
 /// diagnostic_msgs/DiagnosticArray with `statuses` statuses of
 /// `values_per_status` key/values; every string has `string_capacity`
 /// characters.

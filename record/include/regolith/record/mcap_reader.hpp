@@ -1,0 +1,111 @@
+#pragma once
+// McapReader: reads MCAP files written by McapWriter or by any other conforming writer.
+//
+// Opening validates the magic and the Header, then takes the fast path when the file ends with a
+// Footer whose summary holds a Statistics record (schemas, channels, counts, time range and chunk
+// list come from the summary, nothing else is read); otherwise - a file cut off mid-write, no
+// summary, a summary CRC mismatch - it scans the data section record by record, decompressing
+// every chunk and checking the CRCs.
+//
+// Damage never throws past the constructor: a file cut off mid-write is readable up to its last
+// complete record (info().truncated, info().readable_end); a chunk whose CRC does not match or that
+// cannot be decompressed is skipped and reported in info().problems with its byte offset. Only a
+// file that is not MCAP at all (cannot be opened, wrong magic, no Header) throws regolith::InputError
+// "FILE: byte N: ...".
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "regolith/record/mcap.hpp"
+
+namespace regolith::record {
+
+namespace detail {
+class ByteSource;  // a file (pread) or bytes in memory
+}
+
+/// Damage found while reading: where (byte offset of the record in the file) and what.
+struct ReadProblem {
+  std::uint64_t offset = 0;
+  std::string what;
+};
+
+struct McapFileInfo {
+  std::string name;             ///< the path (or the name given with the bytes)
+  std::uint64_t file_size = 0;  ///< bytes
+  std::string profile, library;
+  std::map<std::uint16_t, Schema> schemas;
+  std::map<std::uint16_t, Channel> channels;
+  std::map<std::uint16_t, std::uint64_t> message_counts;  ///< per channel id (readable messages)
+  std::uint64_t message_count = 0;
+  std::uint64_t message_start_time = 0, message_end_time = 0;  ///< ns log time; 0 without messages
+  std::vector<ChunkInfo> chunks;                               ///< readable chunks, in file order
+  std::vector<AttachmentInfo> attachments;
+  std::vector<Metadata> metadata;
+  bool from_summary = false;          ///< true: the fast path (summary); false: the data section was scanned
+  bool truncated = false;             ///< the file ends before its Footer (cut off mid-write)
+  std::uint64_t readable_end = 0;     ///< truncated: offset of the first incomplete record (bytes before it are read)
+  std::vector<ReadProblem> problems;  ///< damaged records (CRC mismatches, undecodable chunks, summary errors)
+};
+
+struct McapReaderOptions {
+  bool verify_crcs = true;                      ///< chunk, attachment, summary and data-section CRCs (those not 0)
+  bool use_summary = true;                      ///< false: always scan the data section (checks every chunk's CRC)
+  std::uint64_t max_record_bytes = 1ULL << 30;  ///< records / uncompressed chunks above this are refused
+};
+
+/// One message; `data` points into the reader's chunk buffer, valid during the callback only.
+struct MessageView {
+  const Channel& channel;
+  std::uint32_t sequence;
+  std::uint64_t log_time;      ///< ns
+  std::uint64_t publish_time;  ///< ns
+  std::span<const std::uint8_t> data;
+};
+
+class McapReader {
+ public:
+  /// Opens and indexes `path`. Throws regolith::InputError naming the file and byte offset when it
+  /// cannot be opened or is not an MCAP file (wrong magic, no Header).
+  explicit McapReader(const std::filesystem::path& path, McapReaderOptions options = {});
+  /// The same on bytes in memory (fuzzing, tests); `name` is used in messages.
+  McapReader(std::vector<std::uint8_t> bytes, std::string name, McapReaderOptions options = {});
+  ~McapReader();
+  McapReader(const McapReader&) = delete;
+  McapReader& operator=(const McapReader&) = delete;
+
+  const McapFileInfo& info() const { return info_; }
+
+  /// Calls `fn` for every readable message: chunk by chunk in file order, each chunk's messages in
+  /// log-time order (messages outside chunks in file order). Returns the damage met on the way
+  /// (chunks skipped, with offsets); exceptions thrown by `fn` propagate.
+  [[nodiscard]] std::vector<ReadProblem> for_each_message(const std::function<void(const MessageView&)>& fn);
+
+  /// The data of an attachment from info().attachments. Throws InputError (file, offset) if unreadable.
+  std::vector<std::uint8_t> read_attachment(const AttachmentInfo& a);
+
+  /// "FILE: byte N: what", the form of every error message of the reader.
+  std::string describe(const ReadProblem& p) const;
+
+ private:
+  using Emit = std::function<void(const MessageView&)>;
+  void open();
+  bool read_summary();
+  void scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProblem>& problems);
+  bool process_chunk(std::uint64_t offset, const std::vector<std::uint8_t>& content, McapFileInfo& info,
+                     const Emit* emit, bool count, std::vector<ReadProblem>& problems);
+  [[noreturn]] void fail(std::uint64_t offset, const std::string& what) const;
+
+  std::unique_ptr<detail::ByteSource> source_;
+  McapReaderOptions options_;
+  McapFileInfo info_;
+  std::uint64_t data_start_ = 0;            // first record after the Header
+  std::vector<std::uint8_t> chunk_buffer_;  // reused decompression buffer
+};
+
+}  // namespace regolith::record
