@@ -1,10 +1,17 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package regolith needs to build, run, test and benchmark,
-# including the driver-test VM (vcan / vivid / vimc under QEMU). Idempotent: packages already
-# present are skipped, and `apt-get update` runs only when something is missing.
+# Installs the Debian 12 packages regolith needs. Idempotent: packages already present are
+# skipped, and `apt-get update` runs only when something is missing. Profiles:
+#   run    build and run `regolith` (toolchain + libraries): README command 1, the lean first run
+#   test   run + tests, benchmarks, the driver-test VM (QEMU, vcan / vivid / vimc), the Debian
+#          package checks, the fuzzers (clang), the npm-pinned MCAP cross-check
+#   cross  the arm64 cross toolchain and emulator (deploy/cross/build-arm64.sh)
+#   all    test + cross (the default; README command 2 and .ci/run)
+# Usage: bash deploy/setup.sh [run|test|cross|all]
+# apt-get runs as root directly, else through sudo when sudo exists (else: a clear error).
 set -euo pipefail
 
-PACKAGES=(
+profile=${1:-all}
+RUN_PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config git ccache
   # libraries
@@ -13,6 +20,8 @@ PACKAGES=(
   libcamera-dev libcamera-ipa libcamera-tools libv4l-dev linux-libc-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
   libzstd-dev                # record/: MCAP chunk compression
+)
+TEST_PACKAGES=(
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
@@ -22,9 +31,30 @@ PACKAGES=(
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
   # packaging and service checks (tests/deploy): cpack DEB, lintian, systemd-analyze verify
   dpkg-dev lintian systemd
+)
+CROSS_PACKAGES=(
   # arm64 cross-build and emulated unit tests (deploy/cross/build-arm64.sh)
   crossbuild-essential-arm64 qemu-user mmdebstrap
 )
+case "$profile" in
+  run) PACKAGES=("${RUN_PACKAGES[@]}") ;;
+  test) PACKAGES=("${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}") ;;
+  cross) PACKAGES=("${RUN_PACKAGES[@]}" "${CROSS_PACKAGES[@]}") ;;
+  all) PACKAGES=("${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${CROSS_PACKAGES[@]}") ;;
+  *) echo "regolith setup: unknown profile '$profile' (run, test, cross or all)" >&2; exit 2 ;;
+esac
+
+# Root runs apt-get itself; anyone else needs sudo.
+as_root() {
+  if [[ $(id -u) -eq 0 ]]; then
+    "$@"
+  elif command -v sudo >/dev/null 2>&1; then
+    sudo "$@"
+  else
+    echo "regolith setup: installing packages needs root: run this script as root, or install sudo" >&2
+    exit 1
+  fi
+}
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -34,24 +64,21 @@ for p in "${PACKAGES[@]}"; do
 done
 
 if ((${#missing[@]})); then
-  SUDO=""
-  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
-  echo "regolith setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  echo "regolith setup ($profile): installing ${#missing[@]} Debian packages: ${missing[*]}"
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 else
-  echo "regolith setup: all ${#PACKAGES[@]} Debian packages already installed"
+  echo "regolith setup ($profile): all ${#PACKAGES[@]} Debian packages already installed"
 fi
+[[ $profile == run || $profile == cross ]] && exit 0
 
 # The independent MCAP check (tests/record/mcap_js): the TypeScript @mcap/core reader, pinned by
 # package-lock.json. Debian's nodejs + npm are installed only when no npm is on PATH (a machine
 # with another Node.js, e.g. nodesource's, keeps it: Debian's npm package conflicts with it).
 if ! command -v npm >/dev/null 2>&1; then
-  SUDO=""
-  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
   echo "regolith setup: installing Debian's nodejs and npm for tests/record/mcap_js"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm
 fi
 mcap_js="$(dirname "$0")/../tests/record/mcap_js"
 if [[ -d $mcap_js/node_modules/@mcap/core && $mcap_js/node_modules/.package-lock.json -nt $mcap_js/package-lock.json ]]; then

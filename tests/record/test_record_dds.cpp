@@ -1,0 +1,411 @@
+// `regolith record` end to end (label integration, host only): this process publishes JointState,
+// a latched GridMap and RockArray samples over loopback DDS; the `regolith` binary records them in
+// a child process; the file is read back with regolith's McapReader (channels, schemas, counts)
+// and decoded by an independent decoder (tests/record/mcap_js/decode.js: @mcap/core +
+// @foxglove/rosmsg parse + @foxglove/rosmsg2-serialization MessageReader), whose fields must equal
+// what was published.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dds_test_util.hpp"
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
+#include "regolith/dds/topics.hpp"
+#include "regolith/msgs/ros2msg.hpp"
+#include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/mcap_writer.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace rd = regolith::dds;
+namespace m = regolith::msgs;
+using nlohmann::json;
+
+constexpr int kJointStates = 40;
+constexpr int kRockArrays = 3;
+
+/// Runs argv as a child process with stdout and stderr into `log`; returns its pid.
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  return rc == 0 ? pid : -1;
+}
+
+/// Waits for `pid` up to `timeout`; kills it (SIGKILL) after that. Returns the exit status or -1.
+int wait_for(pid_t pid, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  int status = 0;
+  while (std::chrono::steady_clock::now() < end) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// wait_for_readers() returns when our writers have matched the recorder's readers; the reverse
+/// match (the reader accepting our writer) can come a little later, and a volatile reader drops
+/// what a writer it does not know yet sent. No event of ours tells when that happened: wait a
+/// discovery round trip on loopback.
+void let_reader_match_writers() {
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+}
+
+double joint_position(int i, int j) {
+  return 0.01 * i + j;
+}
+
+}  // namespace
+
+TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
+  rd::testing::use_loopback_config();
+  const std::uint32_t domain = rd::testing::test_domain();
+  const std::string ns = rd::testing::unique_ns();
+  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + ns);
+  fs::create_directories(dir);
+  const fs::path file = dir / "rec.mcap";
+  const fs::path log = dir / "record.log";
+
+  rd::Participant pp({domain, ns});
+  auto js = pp.make_outbox<m::sensor_msgs::JointState>(
+      "joint_states", rd::find_topic("joint_states")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 64},
+      [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 3}); });
+  auto map = pp.make_outbox<m::grid_map_msgs::GridMap>(
+      "terrain/grid_map", rd::find_topic("terrain/grid_map")->writer_qos(),
+      {.mode = rd::OutboxMode::kLatest, .slots = 2},
+      [](m::grid_map_msgs::GridMap& g) { rd::reserve(g, {.layers = 2, .basic_layers = 1, .size_x = 3, .size_y = 2}); });
+  auto rocks = pp.make_outbox<m::regolith_msgs::RockArray>(
+      "terrain/rocks", rd::find_topic("terrain/rocks")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 8},
+      [](m::regolith_msgs::RockArray& r) { rd::reserve(r, {.rocks = 2, .hypotheses = 1}); });
+  pp.start();
+
+  // The latched map first: the recorder's transient-local reader gets it when it joins.
+  auto* g = map->begin();
+  ASSERT_NE(g, nullptr);
+  rd::set_time(g->header.stamp, 5 * regolith::kNsPerSec);
+  rd::copy_string(g->header.frame_id, 32, "base_link");
+  rd::set_length(g->layers, 2);
+  rd::copy_string(g->layers._buffer[0], 32, "elevation");
+  rd::copy_string(g->layers._buffer[1], 32, "traversability");
+  rd::set_length(g->basic_layers, 1);
+  rd::copy_string(g->basic_layers._buffer[0], 32, "elevation");
+  rd::set_length(g->data, 2);
+  g->info.resolution = 0.25;
+  g->info.length_x = 0.75;
+  g->info.length_y = 0.5;
+  for (std::uint32_t l = 0; l < 2; ++l) {
+    for (std::uint32_t i = 0; i < 6; ++i)
+      g->data._buffer[l].data._buffer[i] = 0.5f * static_cast<float>(i) + static_cast<float>(l);
+  }
+  g->data._buffer[1].data._buffer[5] = std::nanf("");
+  map->commit();
+
+  const std::string exe = REGOLITH_EXE;
+  const pid_t pid = spawn({exe, "record", "joint_states", "terrain/grid_map", "terrain/rocks", "--out", file.string(),
+                           "--domain", std::to_string(domain), "--namespace", ns, "--count",
+                           std::to_string(kJointStates + kRockArrays + 1), "--duration", "60"},
+                          log);
+  ASSERT_GT(pid, 0);
+  ASSERT_TRUE(pp.wait_for_readers({"joint_states", "terrain/grid_map", "terrain/rocks"}, 20 * regolith::kNsPerSec))
+      << slurp(log);
+  let_reader_match_writers();
+
+  for (int i = 0; i < kJointStates; ++i) {
+    auto* s = js->begin();
+    ASSERT_NE(s, nullptr);
+    rd::set_time(s->header.stamp, (i + 1) * regolith::kNsPerMs);
+    rd::copy_string(s->header.frame_id, 32, "base_link");
+    rd::set_length(s->name, 3);
+    rd::set_length(s->position, 3);
+    rd::set_length(s->velocity, 3);
+    for (int j = 0; j < 3; ++j) {
+      rd::copy_string(s->name._buffer[j], 32, ("wheel_" + std::to_string(j)).c_str());
+      s->position._buffer[j] = joint_position(i, j);
+      s->velocity._buffer[j] = -joint_position(i, j);
+    }
+    js->commit();
+    if (i < kRockArrays) {
+      auto* r = rocks->begin();
+      ASSERT_NE(r, nullptr);
+      rd::set_time(r->header.stamp, (i + 1) * regolith::kNsPerMs);
+      rd::copy_string(r->header.frame_id, 32, "front_optical_frame");
+      rd::set_length(r->detections, 2);
+      for (std::uint32_t k = 0; k < 2; ++k) {
+        auto& d = r->detections._buffer[k];
+        rd::set_length(d.results, 1);
+        rd::copy_string(d.results._buffer[0].hypothesis.class_id, 32, "rock");
+        d.results._buffer[0].hypothesis.score = 0.5 + 0.1 * k;
+        d.bbox.center.position.x = 100.0 * i + k;
+        d.bbox.center.position.y = 50.0 + k;
+        d.bbox.size_x = 10.0 + k;
+        d.bbox.size_y = 8.0;
+        rd::copy_string(d.id, 32, ("r" + std::to_string(i) + "_" + std::to_string(k)).c_str());
+      }
+      rd::set_length(r->ground_range_m, 2);
+      rd::set_length(r->lateral_offset_m, 2);
+      rd::set_length(r->width_m, 2);
+      rd::set_length(r->height_m, 2);
+      rd::set_length(r->hazard, 2);
+      for (std::uint32_t k = 0; k < 2; ++k) {
+        r->ground_range_m._buffer[k] = 1.5 + i + k;
+        r->lateral_offset_m._buffer[k] = -0.25 * k;
+        r->width_m._buffer[k] = 0.1;
+        r->height_m._buffer[k] = 0.05 + 0.1 * k;
+        r->hazard._buffer[k] = k == 1;
+      }
+      rocks->commit();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a steady stream, not one burst
+  }
+  pp.wait_for_acks(5 * regolith::kNsPerSec);
+  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  pp.stop();
+  const std::string rec_log = slurp(log);
+  std::printf("%s", rec_log.c_str());
+
+  // (a) regolith's reader: one channel per topic, one ros2msg schema per type, the counts.
+  regolith::record::McapReader reader(file);
+  const auto& info = reader.info();
+  EXPECT_TRUE(info.from_summary);
+  EXPECT_TRUE(info.problems.empty());
+  EXPECT_EQ(info.profile, "ros2");
+  std::map<std::string, std::uint64_t> counts;
+  std::map<std::string, std::string> types;
+  for (const auto& [id, ch] : info.channels) {
+    EXPECT_EQ(ch.message_encoding, "cdr");
+    const auto& schema = info.schemas.at(ch.schema_id);
+    EXPECT_EQ(schema.encoding, "ros2msg");
+    EXPECT_EQ(std::string(schema.data.begin(), schema.data.end()), m::ros2msg_definition(schema.name));
+    // rosbag2's QoS metadata: the latched map transient-local (1), the streams volatile (2).
+    const std::string qos = ch.metadata.count("offered_qos_profiles") ? ch.metadata.at("offered_qos_profiles") : "";
+    EXPECT_NE(qos.find("reliability: 1\n"), std::string::npos) << ch.topic << ": " << qos;
+    EXPECT_NE(qos.find(ch.topic.ends_with("grid_map") ? "durability: 1\n" : "durability: 2\n"), std::string::npos)
+        << ch.topic << ": " << qos;
+    counts[ch.topic] = info.message_counts.count(id) ? info.message_counts.at(id) : 0;
+    types[ch.topic] = schema.name;
+  }
+  const std::string p = "/" + ns + "/";
+  EXPECT_EQ(counts,
+            (std::map<std::string, std::uint64_t>{
+                {p + "joint_states", kJointStates}, {p + "terrain/grid_map", 1}, {p + "terrain/rocks", kRockArrays}}));
+  EXPECT_EQ(types[p + "joint_states"], "sensor_msgs/msg/JointState");
+  EXPECT_EQ(types[p + "terrain/grid_map"], "grid_map_msgs/msg/GridMap");
+  EXPECT_EQ(types[p + "terrain/rocks"], "regolith_msgs/msg/RockArray");
+  EXPECT_EQ(info.schemas.size(), 3u);
+  std::size_t seen = 0;
+  const auto problems = reader.for_each_message([&](const regolith::record::MessageView& mv) {
+    ++seen;
+    ASSERT_GE(mv.data.size(), 4u);
+    EXPECT_EQ(mv.data[0], 0x00);  // CDR encapsulation header: plain CDR, little endian
+    EXPECT_EQ(mv.data[1], 0x01);
+    EXPECT_GT(mv.log_time, 1'600'000'000ULL * 1'000'000'000ULL);  // wall-clock ns
+    EXPECT_GT(mv.publish_time, 1'600'000'000ULL * 1'000'000'000ULL);
+    EXPECT_LE(mv.publish_time, mv.log_time + 1'000'000'000ULL);
+  });
+  EXPECT_TRUE(problems.empty());
+  EXPECT_EQ(seen, static_cast<std::size_t>(kJointStates + kRockArrays + 1));
+
+  // (b) the independent decoder.
+  const fs::path decoded = dir / "decoded.jsonl";
+  const std::string cmd = std::string("cd '") + REGOLITH_MCAP_JS_DIR + "' && '" + REGOLITH_NODE + "' decode.js '" +
+                          file.string() + "' > '" + decoded.string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(decoded);
+  std::ifstream in(decoded);
+  std::string line;
+  int n_js = 0, n_map = 0, n_rocks = 0, n_channels = 0;
+  while (std::getline(in, line)) {
+    const json j = json::parse(line);
+    if (j.contains("channel")) {
+      ++n_channels;
+      EXPECT_EQ(j["schema_encoding"], "ros2msg");
+      continue;
+    }
+    const json& msg = j["message"];
+    const std::string topic = j["topic"];
+    if (topic == p + "joint_states") {
+      const int i = n_js++;
+      EXPECT_EQ(j["sequence"].get<int>(), i);
+      EXPECT_EQ(msg["header"]["frame_id"], "base_link");
+      EXPECT_EQ(msg["header"]["stamp"]["nanosec"].get<std::uint32_t>(),
+                static_cast<std::uint32_t>((i + 1) * 1'000'000));
+      ASSERT_EQ(msg["name"].size(), 3u);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(msg["name"][k], "wheel_" + std::to_string(k));
+        EXPECT_EQ(msg["position"][k].get<double>(), joint_position(i, k));
+        EXPECT_EQ(msg["velocity"][k].get<double>(), -joint_position(i, k));
+      }
+      EXPECT_TRUE(msg["effort"].empty());
+    } else if (topic == p + "terrain/grid_map") {
+      ++n_map;
+      EXPECT_EQ(msg["header"]["stamp"]["sec"], 5);
+      EXPECT_EQ(msg["layers"], json::array({"elevation", "traversability"}));
+      EXPECT_EQ(msg["basic_layers"], json::array({"elevation"}));
+      EXPECT_EQ(msg["info"]["resolution"].get<double>(), 0.25);
+      EXPECT_EQ(msg["info"]["pose"]["orientation"]["w"].get<double>(), 1.0);
+      ASSERT_EQ(msg["data"].size(), 2u);
+      EXPECT_EQ(msg["data"][0]["layout"]["dim"][0]["label"], "column_index");
+      EXPECT_EQ(msg["data"][0]["layout"]["dim"][0]["size"], 2);
+      EXPECT_EQ(msg["data"][0]["layout"]["dim"][1]["size"], 3);
+      for (int l = 0; l < 2; ++l) {
+        ASSERT_EQ(msg["data"][l]["data"].size(), 6u);
+        for (int i = 0; i < 6; ++i) {
+          if (l == 1 && i == 5) {
+            EXPECT_TRUE(msg["data"][l]["data"][i].is_null());  // NaN (JSON null)
+          } else {
+            EXPECT_EQ(msg["data"][l]["data"][i].get<double>(), 0.5 * i + l);
+          }
+        }
+      }
+    } else if (topic == p + "terrain/rocks") {
+      const int i = n_rocks++;
+      EXPECT_EQ(msg["header"]["frame_id"], "front_optical_frame");
+      ASSERT_EQ(msg["detections"].size(), 2u);
+      for (int k = 0; k < 2; ++k) {
+        const json& d = msg["detections"][k];
+        EXPECT_EQ(d["id"], "r" + std::to_string(i) + "_" + std::to_string(k));
+        EXPECT_EQ(d["results"][0]["hypothesis"]["class_id"], "rock");
+        EXPECT_DOUBLE_EQ(d["results"][0]["hypothesis"]["score"].get<double>(), 0.5 + 0.1 * k);
+        EXPECT_EQ(d["results"][0]["pose"]["covariance"].size(), 36u);
+        EXPECT_EQ(d["bbox"]["center"]["position"]["x"].get<double>(), 100.0 * i + k);
+        EXPECT_EQ(d["bbox"]["size_x"].get<double>(), 10.0 + k);
+        EXPECT_DOUBLE_EQ(msg["ground_range_m"][k].get<double>(), 1.5 + i + k);
+        EXPECT_DOUBLE_EQ(msg["height_m"][k].get<double>(), 0.05 + 0.1 * k);
+        EXPECT_EQ(msg["hazard"][k].get<bool>(), k == 1);
+      }
+    } else {
+      ADD_FAILURE() << "unexpected topic " << topic;
+    }
+  }
+  EXPECT_EQ(n_channels, 3);
+  EXPECT_EQ(n_js, kJointStates);
+  EXPECT_EQ(n_map, 1);
+  EXPECT_EQ(n_rocks, kRockArrays);
+  fs::remove_all(dir);
+}
+
+TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
+  rd::testing::use_loopback_config();
+  const std::uint32_t domain = rd::testing::test_domain();
+  const std::string ns = rd::testing::unique_ns();
+  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + ns);
+  fs::create_directories(dir);
+  const fs::path file = dir / "sigint.mcap";
+  const fs::path log = dir / "record.log";
+  rd::Participant pp({domain, ns});
+  auto js = pp.make_outbox<m::sensor_msgs::JointState>(
+      "joint_states", rd::find_topic("joint_states")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 16},
+      [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 1}); });
+  pp.start();
+  const pid_t pid = spawn({std::string(REGOLITH_EXE), "record", "joint_states", "/diagnostics", "--out", file.string(),
+                           "--domain", std::to_string(domain), "--namespace", ns, "--no-compression"},
+                          log);
+  ASSERT_GT(pid, 0);
+  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  let_reader_match_writers();
+  for (int i = 0; i < 5; ++i) {
+    auto* s = js->begin();
+    ASSERT_NE(s, nullptr);
+    rd::set_length(s->name, 1);
+    rd::copy_string(s->name._buffer[0], 32, "wheel");
+    js->commit();
+  }
+  // Acknowledged = in the recorder's reader cache: it takes them before closing, even when the
+  // signal arrives first.
+  ASSERT_TRUE(pp.wait_for_acks(5 * regolith::kNsPerSec));
+  kill(pid, SIGINT);
+  ASSERT_EQ(wait_for(pid, std::chrono::seconds(20)), 0) << slurp(log);
+  pp.stop();
+  regolith::record::McapReader reader(file);
+  EXPECT_TRUE(reader.info().from_summary);  // footer + summary written on Ctrl-C
+  EXPECT_FALSE(reader.info().truncated);
+  EXPECT_EQ(reader.info().channels.size(), 2u);
+  EXPECT_EQ(reader.info().message_count, 5u) << slurp(log);
+  EXPECT_EQ(reader.info().chunks.size(), 1u);
+  EXPECT_EQ(reader.info().chunks[0].compression, "");
+  fs::remove_all(dir);
+}
+
+TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + rd::testing::unique_ns());
+  fs::create_directories(dir);
+  const fs::path log = dir / "record.log";
+  const std::string exe = REGOLITH_EXE;
+  pid_t pid = spawn({exe, "record", "joint_state", "--out", (dir / "x.mcap").string()}, log);
+  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(slurp(log).find("unknown topic 'joint_state'"), std::string::npos) << slurp(log);
+  EXPECT_FALSE(fs::exists(dir / "x.mcap"));
+  pid = spawn({exe, "record", "--out", (dir / "x.mcap").string()}, log);
+  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(slurp(log).find("no topic given"), std::string::npos) << slurp(log);
+  pid = spawn({exe, "record", "joint_states"}, log);
+  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(slurp(log).find("--out"), std::string::npos) << slurp(log);
+  pid = spawn({exe, "record", "joint_states", "--out", (dir / "x.mcap").string(), "--zstd", "--no-compression"}, log);
+  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
+  fs::remove_all(dir);
+}
+
+TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
+  // One channel per embedded type (no messages): decode.js builds a MessageReader from each
+  // schema with @foxglove/rosmsg's parser, so every definition (constants, defaults, relative
+  // names) must parse.
+  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + rd::testing::unique_ns());
+  fs::create_directories(dir);
+  const fs::path file = dir / "schemas.mcap";
+  const auto types = m::ros2msg_types();
+  {
+    regolith::record::McapWriter w(file);
+    for (const auto t : types) {
+      const std::string name(t);
+      const std::string ros_type = name.substr(0, name.find('/')) + "/msg/" + name.substr(name.find('/') + 1);
+      const auto s = w.add_schema(ros_type, "ros2msg", m::ros2msg_definition(ros_type));
+      w.add_channel(s, "/" + name, "cdr");
+    }
+    w.close();
+  }
+  const fs::path decoded = dir / "decoded.jsonl";
+  const std::string cmd = std::string("cd '") + REGOLITH_MCAP_JS_DIR + "' && '" + REGOLITH_NODE + "' decode.js '" +
+                          file.string() + "' > '" + decoded.string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(decoded);
+  std::ifstream in(decoded);
+  std::string line;
+  std::size_t channels = 0;
+  while (std::getline(in, line)) channels += json::parse(line).contains("channel") ? 1 : 0;
+  EXPECT_EQ(channels, types.size());
+  EXPECT_EQ(types.size(), 36u);
+  fs::remove_all(dir);
+}
