@@ -52,7 +52,14 @@ function(regolith_add_gtest name)
     REGOLITH_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared"
     REGOLITH_BINARY_DIR="${PROJECT_BINARY_DIR}")
   regolith_target_defaults(${name})
-  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+  # gtest_discover_tests() passes properties as a flat list, so a test gets one ctest label: the
+  # first (unit / integration / hw). `concurrency` selects suites for the tsan preset instead: it
+  # adds the target to `concurrency_tests` (tests/CMakeLists.txt).
+  list(GET ARG_LABELS 0 _label)
+  gtest_discover_tests(${name} PROPERTIES LABELS ${_label} DISCOVERY_TIMEOUT 60)
+  if("concurrency" IN_LIST ARG_LABELS)
+    set_property(GLOBAL APPEND PROPERTY REGOLITH_CONCURRENCY_TESTS ${name})
+  endif()
 endfunction()
 
 # regolith_add_bench(<name> SOURCES ... LIBS ...): a Google Benchmark program in bench/.

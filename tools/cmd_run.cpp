@@ -5,14 +5,23 @@
 
 #include <csignal>
 #include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include "cli.hpp"
+#include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
 #include "regolith/runtime/watchdog.hpp"
 #include "summary.hpp"
+#ifdef REGOLITH_HAVE_DDS_RECORD
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/recorder.hpp"
+#endif
 
 namespace regolith::cli {
 namespace {
@@ -33,7 +42,74 @@ struct RunOptions {
   bool quiet = false;
   std::vector<std::string> wait_for;
   double wait_timeout_s = 30.0;
+  std::string record;  ///< --record FILE (overrides record.file)
 };
+
+#ifdef REGOLITH_HAVE_DDS_RECORD
+/// The deployment file's text (the embedded mocked rover without --config) and its name.
+std::pair<std::string, std::string> config_text(const std::string& path) {
+  if (path.empty()) return {"mock_rover.yaml", embedded_mock_rover()};
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return {std::filesystem::path(path).filename().string(), s.str()};
+}
+
+std::string utc_now_iso() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  std::tm tm{};
+  gmtime_r(&ts.tv_sec, &tm);
+  char buf[64];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[96];
+  std::snprintf(out, sizeof out, "%s.%09ldZ", buf, static_cast<long>(ts.tv_nsec));
+  return out;
+}
+
+/// `regolith run --record FILE` / the `record:` block: every DDS topic of the deployment (or
+/// record.topics) into MCAP by a dds::DdsRecorder on the application's own participant, plus the
+/// deployment file as an Attachment and a `regolith` Metadata record. Created before app->start()
+/// so its readers have matched every writer before the first cycle.
+std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const RunOptions& o) {
+  const runtime::RecordConfig& rc = app.record_config();
+  const std::string file = o.record.empty() ? rc.file : o.record;
+  if (file.empty()) return nullptr;
+  if (app.dds() == nullptr)
+    throw InputError("run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
+                     "records the DDS topics the deployment publishes)");
+  dds::DdsRecorderOptions ro;
+  for (const auto& name : rc.topics) {
+    const dds::TopicInfo* t = dds::find_topic(name);
+    if (t == nullptr)
+      throw ConfigError(rc.where_topics + ": record.topics: unknown topic '" + name + "'; known topics:\n" +
+                        dds::list_topics());
+    ro.topics.push_back(t);
+  }
+  ro.compression = rc.compression == "none" ? record::Compression::kNone : record::Compression::kZstd;
+  ro.keep_all = o.sim_time;  // simulated time: every sample, however fast the rover runs
+#ifdef REGOLITH_VERSION
+  const std::string version = REGOLITH_VERSION;
+#else
+  const std::string version = "unknown";
+#endif
+  ro.library = "regolith run " + version;
+  auto rec = std::make_unique<dds::DdsRecorder>(*app.dds(), file, ro);
+  const auto [name, text] = config_text(o.config);
+  rec->add_attachment(name, "application/yaml", text);
+  rec->add_metadata("regolith", {{"deployment", app.name()},
+                                 {"version", version},
+                                 {"sim_time", o.sim_time ? "true" : "false"},
+                                 {"start_time", utc_now_iso()},
+                                 {"config", o.config.empty() ? "<embedded>/config/mock_rover.yaml" : o.config}});
+  std::vector<std::string> topics;
+  for (const auto& c : rec->counts()) topics.push_back(c.ros_name);
+  if (!app.dds()->wait_for_readers(topics, 10 * kNsPerSec))
+    spdlog::warn("record: not every writer matched the recorder within 10 s");
+  spdlog::info("recording {} topic(s) to {}", rec->topic_count(), file);
+  return rec;
+}
+#endif
 
 void run(const RunOptions& o) {
   auto app = runtime::Application::load(load_config(o.config),
@@ -47,6 +123,13 @@ void run(const RunOptions& o) {
   // every critical component is healthy (see runtime/watchdog.hpp). Outside systemd: no-ops.
   runtime::SystemdNotifier notifier;
   auto& health = app->context().channel<runtime::HealthSnapshot>("health/snapshot");
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  std::unique_ptr<dds::DdsRecorder> recorder = make_recorder(*app, o);
+  if (recorder) recorder->start();
+#else
+  if (!o.record.empty() || !app->record_config().file.empty())
+    throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
+#endif
   app->start();
 
   Summary summary(*app, isatty(STDOUT_FILENO) != 0 && !o.quiet);
@@ -70,7 +153,21 @@ void run(const RunOptions& o) {
   }
   notifier.stopping();
   app->stop();
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  if (recorder) recorder->stop();  // takes what is still in flight, then summary + footer
+#endif
   if (!o.quiet) summary.print(std::cout, /*final=*/true);
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  if (recorder) {
+    std::printf("recorded %llu samples on %zu topics to %s (%llu bytes; recorder thread CPU %.3f s)\n",
+                static_cast<unsigned long long>(recorder->total()), recorder->topic_count(),
+                recorder->path().c_str(), static_cast<unsigned long long>(recorder->file_bytes()),
+                static_cast<double>(recorder->thread_cpu_ns()) * 1e-9);
+    for (const auto& t : recorder->counts())
+      std::printf("  recorded %-32s %llu\n", t.ros_name.c_str(), static_cast<unsigned long long>(t.count));
+    std::fflush(stdout);
+  }
+#endif
 }
 
 const bool registered = add_command([](CLI::App& app) {
@@ -86,6 +183,8 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--wait-for", opts->wait_for, "before starting, wait for a subscriber on this DDS topic (repeatable)");
   cmd->add_option("--wait-timeout", opts->wait_timeout_s, "seconds to wait for --wait-for subscribers")
       ->check(regolith::cli::non_negative());
+  cmd->add_option("--record", opts->record,
+                  "record every DDS topic of the deployment into this MCAP file (overrides record.file)");
   cmd->callback([opts] { run(*opts); });
 
   CLI::App* config = group(app, "config", "deployment configuration tools");

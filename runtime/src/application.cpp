@@ -54,6 +54,21 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   }
   dds.finish();
 
+  // ---- record: the in-process recording of `regolith run` (the tool records; read here) ----
+  Params rec = root.child("record");
+  app->record_.file = rec.get<std::string>(
+      "file", "", {.doc = "MCAP file recording every DDS sample the deployment publishes (empty = none; "
+                          "`regolith run --record FILE` overrides)"});
+  app->record_.topics = rec.get<std::vector<std::string>>(
+      "topics", {}, {.doc = "topics to record (names of `regolith echo --list`; empty = every known topic)"});
+  app->record_.compression =
+      rec.get<std::string>("compression", "zstd", {.choices = {"zstd", "none"}, .doc = "MCAP chunk compression"});
+  app->record_.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
+  if (opts.enable_dds && !app->dds_ && !app->record_.file.empty())
+    rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
+                     "deployment publishes)");
+  rec.finish();
+
   // ---- rover description: camera calibration and mounts, wheels, the sun ----
   ctx.set_rover(read_rover_description(root, config_dir));
 

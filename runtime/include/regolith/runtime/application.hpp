@@ -35,6 +35,15 @@ struct AppOptions {
   TimeNs wait_timeout = 30 * kNsPerSec; ///< how long to wait for them
 };
 
+/// The `record:` block (read here so `config check` lists it; the recording itself is done by the
+/// tool, regolith::dds::DdsRecorder): record every DDS topic the deployment publishes into MCAP.
+struct RecordConfig {
+  std::string file;                  ///< MCAP file; empty = no recording (`run --record` overrides)
+  std::vector<std::string> topics;   ///< topic names (`regolith echo --list`); empty = every known one
+  std::string compression = "zstd";  ///< zstd | none
+  std::string where_topics;          ///< file:line:col of record.topics (or of the block), for errors
+};
+
 /// Everything the health monitor and the live summary read.
 struct SystemView {
   std::vector<RateGroup*> groups;
@@ -62,11 +71,13 @@ class Application {
   dds::Participant* dds() { return dds_.get(); }
   bool sim_time() const { return opts_.sim_time; }
   const std::string& name() const { return name_; }
+  const RecordConfig& record_config() const { return record_; }
 
  private:
   Application() = default;
   AppOptions opts_;
   std::string name_;
+  RecordConfig record_;
   std::unique_ptr<SimClock> sim_clock_;
   std::unique_ptr<Executor> executor_;
   std::shared_ptr<dds::Participant> dds_;

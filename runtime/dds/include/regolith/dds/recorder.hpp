@@ -1,0 +1,96 @@
+#pragma once
+// DdsRecorder: records DDS topics into an MCAP file (record/README.md), the one implementation
+// behind `regolith record` (topics of another process) and `regolith run --record` (the topics of
+// the running deployment, on its own participant). Samples are taken as the serialized CDR bytes
+// that were on the wire (take_serialized), one ros2msg Schema per ROS type, one cdr Channel per
+// topic. A non-real-time thread of its own waits on the readers and writes; it only reads DDS,
+// so it never blocks a rate group. Target regolith::dds_record (dds + record + ros2msg).
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "regolith/core/time.hpp"
+#include "regolith/dds/topics.hpp"
+#include "regolith/record/mcap_writer.hpp"
+
+namespace regolith::dds {
+
+class Participant;
+class ReaderWaitSet;
+class Subscription;
+
+struct DdsRecorderOptions {
+  std::vector<const TopicInfo*> topics;  ///< what to record (each once); empty = every known topic
+  record::Compression compression = record::Compression::kZstd;
+  std::string library = "regolith";  ///< MCAP Header.library
+  /// Keep-all reader history (the writers' lossless mode under simulated time): no sample is lost
+  /// however far the recorder falls behind (memory grows instead). False: the topic's reader QoS
+  /// (keep-last, as `regolith echo`).
+  bool keep_all = false;
+  std::uint64_t max_samples = 0;  ///< stop taking after this many samples in total (0 = no limit)
+};
+
+/// The rosbag2 (Humble) `offered_qos_profiles` YAML of regolith's writers of a topic.
+std::string offered_qos_yaml(const QosProfile& q);
+
+class DdsRecorder {
+ public:
+  struct TopicCount {
+    std::string ros_name;  ///< e.g. /rover1/joint_states
+    std::string ros_type;  ///< e.g. sensor_msgs/msg/JointState
+    std::uint64_t count = 0;
+  };
+
+  /// Creates the file (throws when it cannot), the schemas, channels and one reader per topic on
+  /// `p` (which must outlive the recorder). No sample is taken before start().
+  DdsRecorder(Participant& p, const std::filesystem::path& file, DdsRecorderOptions options);
+  ~DdsRecorder();
+  DdsRecorder(const DdsRecorder&) = delete;
+  DdsRecorder& operator=(const DdsRecorder&) = delete;
+
+  /// Attachment / Metadata records (thread-safe, also while recording).
+  void add_attachment(const std::string& name, const std::string& media_type, const std::string& data);
+  void add_metadata(const std::string& name, const std::map<std::string, std::string>& values);
+
+  /// Starts the recording thread (idempotent).
+  void start();
+  /// Stops the thread, takes what the readers still hold (unless max_samples was reached), writes
+  /// the last chunk, the summary and the footer (idempotent). Throws on a write error.
+  void stop();
+  /// True once max_samples samples were recorded.
+  bool done() const;
+
+  std::uint64_t total() const { return total_.load(); }
+  std::vector<TopicCount> counts() const;
+  std::uint64_t file_bytes() const;
+  std::size_t topic_count() const { return rec_.size(); }
+  /// CPU time used by the recording thread so far (CLOCK_THREAD_CPUTIME_ID; updated every wake-up).
+  TimeNs thread_cpu_ns() const { return cpu_ns_.load(); }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  struct Recorded;
+  void take_all();
+  void loop();
+
+  std::filesystem::path path_;
+  DdsRecorderOptions opts_;
+  mutable std::mutex mutex_;  // guards writer_
+  std::unique_ptr<record::McapWriter> writer_;
+  std::unique_ptr<ReaderWaitSet> waitset_;
+  std::vector<std::unique_ptr<Recorded>> rec_;
+  std::vector<std::uint8_t> scratch_;
+  std::atomic<std::uint64_t> total_{0};
+  std::atomic<bool> stop_{false};
+  std::atomic<TimeNs> cpu_ns_{0};
+  std::thread thread_;
+  bool closed_ = false;
+};
+
+}  // namespace regolith::dds

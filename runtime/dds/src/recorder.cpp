@@ -1,0 +1,178 @@
+#include "regolith/dds/recorder.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+
+#include "regolith/dds/participant.hpp"
+#include "regolith/dds/reader.hpp"
+#include "regolith/dds/serialized.hpp"
+#include "regolith/msgs/ros2msg.hpp"
+
+namespace regolith::dds {
+namespace {
+
+std::uint64_t realtime_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+TimeNs thread_cpu_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+
+/// A QoS duration in rosbag2's YAML ({sec, nsec}); 0 = infinite, written as ROS 2 Humble writes
+/// RMW_DURATION_INFINITE.
+std::string yaml_duration(const char* key, TimeNs ns) {
+  const long long sec = ns > 0 ? ns / kNsPerSec : 2147483647LL;
+  const long long nsec = ns > 0 ? ns % kNsPerSec : 4294967295LL;
+  return std::string("  ") + key + ":\n    sec: " + std::to_string(sec) + "\n    nsec: " + std::to_string(nsec) + "\n";
+}
+
+}  // namespace
+
+// Enum values of rmw: history 1 keep_last / 2 keep_all; reliability 1 reliable / 2 best_effort;
+// durability 1 transient_local / 2 volatile; liveliness 1 automatic.
+std::string offered_qos_yaml(const QosProfile& q) {
+  std::string y = "- history: " + std::string(q.keep_all ? "2" : "1") + "\n";
+  y += "  depth: " + std::to_string(q.keep_all ? 0 : q.depth) + "\n";
+  y += "  reliability: " + std::string(q.reliability == Reliability::kReliable ? "1" : "2") + "\n";
+  y += "  durability: " + std::string(q.durability == Durability::kTransientLocal ? "1" : "2") + "\n";
+  y += yaml_duration("deadline", q.deadline_ns);
+  y += yaml_duration("lifespan", 0);
+  y += "  liveliness: 1\n";
+  y += yaml_duration("liveliness_lease_duration", 0);
+  y += "  avoid_ros_namespace_conventions: false";
+  return y;
+}
+
+struct DdsRecorder::Recorded {
+  const TopicInfo* info = nullptr;
+  std::string ros_name;
+  std::unique_ptr<Subscription> sub;
+  std::uint16_t channel = 0;
+  std::uint32_t sequence = 0;
+  std::atomic<std::uint64_t> count{0};
+};
+
+DdsRecorder::DdsRecorder(Participant& p, const std::filesystem::path& file, DdsRecorderOptions options)
+    : path_(file), opts_(std::move(options)) {
+  if (opts_.topics.empty()) {
+    for (const auto& t : known_topics()) opts_.topics.push_back(&t);
+  }
+  record::McapWriterOptions wo;
+  wo.compression = opts_.compression;
+  wo.library = opts_.library;
+  writer_ = std::make_unique<record::McapWriter>(path_, wo);  // throws when the file cannot be created
+  waitset_ = std::make_unique<ReaderWaitSet>(p.handle());
+  std::map<std::string, std::uint16_t> schemas;  // ROS type -> schema id
+  std::vector<const TopicInfo*> seen;
+  for (const TopicInfo* t : opts_.topics) {
+    if (std::find(seen.begin(), seen.end(), t) != seen.end()) continue;
+    seen.push_back(t);
+    const std::string type(t->ros_type);
+    auto s = schemas.find(type);
+    if (s == schemas.end()) {
+      s = schemas.emplace(type, writer_->add_schema(type, "ros2msg", msgs::ros2msg_definition(type))).first;
+    }
+    auto r = std::make_unique<Recorded>();
+    r->info = t;
+    r->ros_name = p.ros_name(t->name);
+    r->channel = writer_->add_channel(s->second, r->ros_name, "cdr",
+                                      {{"offered_qos_profiles", offered_qos_yaml(t->writer_qos())}});
+    QosProfile q = t->reader_qos();
+    if (opts_.keep_all) q.keep_all = true;
+    r->sub = std::make_unique<Subscription>(p, t->name, t->descriptor, q);
+    waitset_->attach(r->sub->reader(), r->ros_name);
+    rec_.push_back(std::move(r));
+  }
+}
+
+DdsRecorder::~DdsRecorder() {
+  try {
+    stop();
+  } catch (...) {  // a destructor must not throw; stop() reports errors to callers that call it
+  }
+}
+
+void DdsRecorder::add_attachment(const std::string& name, const std::string& media_type, const std::string& data) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writer_->add_attachment(
+      name, media_type, realtime_ns(), realtime_ns(),
+      std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
+}
+
+void DdsRecorder::add_metadata(const std::string& name, const std::map<std::string, std::string>& values) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writer_->add_metadata(name, values);
+}
+
+bool DdsRecorder::done() const {
+  return opts_.max_samples > 0 && total_.load() >= opts_.max_samples;
+}
+
+void DdsRecorder::take_all() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto& rp : rec_) {
+    Recorded& r = *rp;
+    const std::uint64_t total = total_.load();
+    const std::size_t max = opts_.max_samples > 0 ? static_cast<std::size_t>(opts_.max_samples - total) : 256;
+    if (max == 0) break;
+    const std::size_t n = take_serialized(
+        r.sub->reader(),
+        [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
+          const std::uint64_t now = realtime_ns();
+          const std::uint64_t pub = info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : now;
+          writer_->write(r.channel, r.sequence++, now, pub, bytes);
+        },
+        scratch_, max);
+    r.count.fetch_add(n);
+    total_.fetch_add(n);
+  }
+}
+
+void DdsRecorder::loop() {
+  while (!stop_.load() && !done()) {
+    if (waitset_->wait(100 * kNsPerMs)) take_all();
+    cpu_ns_.store(thread_cpu_now());
+  }
+}
+
+void DdsRecorder::start() {
+  if (thread_.joinable() || closed_) return;
+  stop_.store(false);
+  thread_ = std::thread([this] { loop(); });
+}
+
+void DdsRecorder::stop() {
+  if (closed_) return;
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+  closed_ = true;
+  // What the readers hold when stopped is still written (keep-all: every sample delivered).
+  if (!done()) {
+    std::size_t before = 0;
+    do {
+      before = static_cast<std::size_t>(total_.load());
+      take_all();
+    } while (total_.load() != before && !done());
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  writer_->close();
+}
+
+std::vector<DdsRecorder::TopicCount> DdsRecorder::counts() const {
+  std::vector<TopicCount> out;
+  for (const auto& r : rec_) out.push_back({r->ros_name, std::string(r->info->ros_type), r->count.load()});
+  return out;
+}
+
+std::uint64_t DdsRecorder::file_bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return writer_->stats().file_bytes;
+}
+
+}  // namespace regolith::dds

@@ -1,0 +1,242 @@
+// `regolith run --record FILE` / the `record:` block: the mocked rover (config/mock_rover.yaml on a
+// test-unique DDS domain and namespace) runs under --sim-time as a child process while recording
+// every DDS topic it publishes in the same process (dds::DdsRecorder on the application's
+// participant). McapReader must find the deployment YAML as an attachment, the `regolith`
+// metadata, one channel per topic with exactly the count the run's DDS summary says was published,
+// log times non-decreasing per channel; `regolith log info` reads the file. Config errors: a
+// `record:` block with DDS disabled names record.file; an unknown record key is located. With node:
+// tests/record/mcap_js/decode.js (@mcap/core, @foxglove/rosmsg2-serialization) decodes every message.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include "regolith/record/mcap_reader.hpp"
+
+namespace fs = std::filesystem;
+using regolith::record::McapReader;
+
+namespace {
+
+struct Result {
+  int status = -1;
+  std::string out;
+};
+
+Result run(const std::string& args) {
+  Result r;
+  const std::string cmd =
+      std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") + REGOLITH_EXE + " " + args + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int st = ::pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class RunRecord : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("regolith_run_record_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+  /// config/mock_rover.yaml on a domain and namespace of this process, plus `extra` at the end.
+  fs::path write_config(const std::string& name, const std::string& extra, bool dds_enabled = true) {
+    std::string yaml = read_text(fs::path(REGOLITH_SOURCE_DIR) / "config/mock_rover.yaml");
+    const std::string from = "  enabled: true\n  domain: 0\n  namespace: rover1";
+    const auto at = yaml.find(from);
+    EXPECT_NE(at, std::string::npos) << "config/mock_rover.yaml's dds block changed";
+    if (at != std::string::npos) {
+      yaml.replace(at, from.size(),
+                   std::string("  enabled: ") + (dds_enabled ? "true" : "false") +
+                       "\n  domain: " + std::to_string(100 + getpid() % 100) + "\n  namespace: " + ns_);
+    }
+    yaml += extra;
+    const fs::path p = dir_ / name;
+    std::ofstream(p, std::ios::binary) << yaml;
+    return p;
+  }
+  fs::path dir_;
+  std::string ns_ = "rr" + std::to_string(getpid());
+};
+
+TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
+  // The record: block names one file; --record overrides it.
+  const fs::path cfg = write_config(
+      "rover_rec.yaml", "\nrecord: {file: " + (dir_ / "from_yaml.mcap").string() + ", compression: zstd}\n");
+  const fs::path out = dir_ / "drive.mcap";
+  const Result r =
+      run("run --sim-time --duration 6 --summary-interval 1000 --config " + cfg.string() + " --record " + out.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  ASSERT_TRUE(fs::exists(out)) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "from_yaml.mcap"));
+
+  // Published counts from the run's final summary: "/rr123/joint_states published 301 dropped 0 ...".
+  std::map<std::string, std::uint64_t> published;
+  const std::regex line(R"((/\S+) published (\d+) dropped (\d+))");
+  for (std::sregex_iterator it(r.out.begin(), r.out.end(), line), end; it != end; ++it) {
+    published[(*it)[1].str()] = std::stoull((*it)[2].str());
+    EXPECT_EQ((*it)[3].str(), "0") << (*it)[0].str();
+  }
+  ASSERT_GE(published.size(), 10u) << r.out;
+
+  McapReader reader(out);
+  const auto& info = reader.info();
+  EXPECT_TRUE(info.from_summary);
+  EXPECT_FALSE(info.truncated);
+  EXPECT_TRUE(info.problems.empty());
+  EXPECT_EQ(info.profile, "ros2");
+  EXPECT_EQ(info.library.rfind("regolith run ", 0), 0u) << info.library;
+
+  // The deployment file, byte for byte.
+  ASSERT_EQ(info.attachments.size(), 1u);
+  EXPECT_EQ(info.attachments[0].name, "rover_rec.yaml");
+  EXPECT_EQ(info.attachments[0].media_type, "application/yaml");
+  const auto bytes = reader.read_attachment(info.attachments[0]);
+  EXPECT_EQ(std::string(bytes.begin(), bytes.end()), read_text(cfg));
+
+  ASSERT_EQ(info.metadata.size(), 1u);
+  EXPECT_EQ(info.metadata[0].name, "regolith");
+  auto md = info.metadata[0].values;
+  EXPECT_EQ(md["deployment"], "mock_rover");
+  EXPECT_EQ(md["sim_time"], "true");
+  EXPECT_FALSE(md["version"].empty());
+  EXPECT_TRUE(std::regex_match(md["start_time"], std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{9}Z)")))
+      << md["start_time"];
+
+  std::map<std::string, std::uint64_t> recorded;
+  for (const auto& [id, ch] : info.channels) {
+    EXPECT_EQ(ch.message_encoding, "cdr");
+    EXPECT_EQ(info.schemas.at(ch.schema_id).encoding, "ros2msg");
+    recorded[ch.topic] = info.message_counts.count(id) ? info.message_counts.at(id) : 0;
+  }
+  const std::string n = "/" + ns_ + "/";
+  for (const std::string& t :
+       {n + "joint_states", n + "imu", std::string("/diagnostics"), std::string("/tf_static"), std::string("/tf"),
+        n + "odom", n + "odom/wheel", n + "terrain/grid_map", n + "terrain/rocks", n + "terrain/wheel_sinkage",
+        n + "terrain/soil", n + "terrain/world_map", std::string("/clock"), std::string("/rosout")}) {
+    EXPECT_TRUE(recorded.count(t)) << t;
+  }
+  // Simulated time: every published sample is in the file, exactly.
+  for (const auto& [topic, count] : published) {
+    ASSERT_TRUE(recorded.count(topic)) << topic;
+    EXPECT_EQ(recorded[topic], count) << topic;
+  }
+  EXPECT_EQ(recorded[n + "joint_states"], 301u);  // 6 s at 50 Hz, cycles 0..300
+  EXPECT_EQ(recorded["/tf_static"], 1u);
+  EXPECT_GT(recorded["/diagnostics"], 0u);
+
+  // Per channel: log times never go back, sequences count from 0, CDR encapsulation header.
+  std::map<std::uint16_t, std::uint64_t> last_time;
+  std::map<std::uint16_t, std::uint32_t> next_seq;
+  std::uint64_t total = 0;
+  const auto problems = reader.for_each_message([&](const regolith::record::MessageView& m) {
+    ++total;
+    EXPECT_GE(m.log_time, last_time[m.channel.id]) << m.channel.topic;
+    last_time[m.channel.id] = m.log_time;
+    EXPECT_EQ(m.sequence, next_seq[m.channel.id]++) << m.channel.topic;
+    ASSERT_GE(m.data.size(), 4u);
+    EXPECT_EQ(m.data[0], 0x00);
+    EXPECT_EQ(m.data[1], 0x01);
+  });
+  EXPECT_TRUE(problems.empty());
+  EXPECT_EQ(total, info.message_count);
+  EXPECT_NE(r.out.find("recorded " + std::to_string(total) + " samples"), std::string::npos) << r.out;
+
+#ifdef REGOLITH_NODE
+  // An independent reader and decoder (@mcap/core + @foxglove/rosmsg2-serialization) decodes every
+  // message of the file.
+  {
+    FILE* p = ::popen(
+        (std::string(REGOLITH_NODE) + " " REGOLITH_MCAP_JS_DIR "/decode.js " + out.string() + " 2>&1").c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string js;
+    char buf[65536];
+    std::size_t got = 0;
+    while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) js.append(buf, got);
+    const int st = ::pclose(p);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << js.substr(0, 2000);
+    std::uint64_t decoded = 0;
+    for (std::size_t at = js.find("{\"topic\":"); at != std::string::npos; at = js.find("{\"topic\":", at + 1))
+      ++decoded;
+    EXPECT_EQ(decoded, total);
+  }
+#endif
+
+  const Result li = run("log info " + out.string());
+  EXPECT_EQ(li.status, 0) << li.out;
+  EXPECT_NE(li.out.find("attachment:  rover_rec.yaml (application/yaml"), std::string::npos) << li.out;
+  EXPECT_NE(li.out.find("metadata:    regolith: "), std::string::npos) << li.out;
+  EXPECT_NE(li.out.find(n + "joint_states"), std::string::npos) << li.out;
+}
+
+TEST_F(RunRecord, RecordBlockFromYamlWithTopicSubset) {
+  const fs::path out = dir_ / "subset.mcap";
+  const fs::path cfg =
+      write_config("subset.yaml", "\nrecord:\n  file: " + out.string() +
+                                      "\n  topics: [joint_states, /diagnostics]\n  compression: none\n");
+  const Result r = run("run --sim-time --duration 2 --quiet --config " + cfg.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  McapReader reader(out);
+  ASSERT_EQ(reader.info().channels.size(), 2u);
+  std::map<std::string, std::uint64_t> recorded;
+  for (const auto& [id, ch] : reader.info().channels) recorded[ch.topic] = reader.info().message_counts.at(id);
+  EXPECT_EQ(recorded["/" + ns_ + "/joint_states"], 101u);  // 2 s at 50 Hz
+  EXPECT_GT(recorded["/diagnostics"], 0u);
+  for (const auto& c : reader.info().chunks) EXPECT_EQ(c.compression, "");
+}
+
+TEST_F(RunRecord, ConfigErrors) {
+  // record: with DDS disabled: a located error naming record.file.
+  const fs::path no_dds = write_config("no_dds.yaml", "\nrecord: {file: x.mcap}\n", /*dds_enabled=*/false);
+  Result r = run("run --sim-time --duration 1 --quiet --config " + no_dds.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("no_dds.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.file: recording needs DDS"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "x.mcap"));
+  // --record with DDS disabled names the option.
+  const fs::path plain_no_dds = write_config("plain_no_dds.yaml", "", /*dds_enabled=*/false);
+  r = run("run --sim-time --duration 1 --quiet --config " + plain_no_dds.string() + " --record " +
+          (dir_ / "y.mcap").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--record: recording needs DDS"), std::string::npos) << r.out;
+  // An unknown key is a located error with a suggestion; an unknown topic names record.topics.
+  const fs::path typo = write_config("typo.yaml", "\nrecord: {fille: x.mcap}\n");
+  r = run("config check " + typo.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("record.fille"), std::string::npos) << r.out;
+  const fs::path bad_topic =
+      write_config("bad_topic.yaml", "\nrecord: {file: " + (dir_ / "z.mcap").string() + ", topics: [joint_state]}\n");
+  r = run("run --sim-time --duration 1 --quiet --config " + bad_topic.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("record.topics: unknown topic 'joint_state'"), std::string::npos) << r.out;
+  // config check lists the block with its defaults.
+  r = run("config check " + write_config("ok.yaml", "").string());
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("record.file"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.compression"), std::string::npos) << r.out;
+}
+
+}  // namespace
