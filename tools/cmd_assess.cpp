@@ -149,6 +149,53 @@ cv::Mat score_legend(const cv::Mat& img, const std::string& title) {
   return out;
 }
 
+// The camera image with the traversability grid drawn where it lies on the ground (camera mode):
+// every known cell's footprint projected through the camera model, hazards (traversability 0)
+// red, poor ground (< 0.5) orange, the rest left clear; each hazard labelled with its number and
+// its highest elevation. What a person compares with: the rocks they can see.
+cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid, const direct_depth::DirectDepth& depth,
+                       const cv::Mat& hazard_labels, const std::vector<std::pair<int, std::string>>& hazard_text) {
+  cv::Mat img;
+  cv::cvtColor(gray, img, cv::COLOR_GRAY2BGR);
+  cv::Mat paint = img.clone();
+  const cv::Mat& trav = grid.layer("traversability");
+  const double h = 0.5 * grid.resolution_m;
+  std::vector<std::vector<cv::Point>> outlines(hazard_text.size() + 1);
+  for (int i = 0; i < trav.rows; ++i)
+    for (int j = 0; j < trav.cols; ++j) {
+      const float t = trav.at<float>(i, j);
+      if (!std::isfinite(t) || t >= 0.5f) continue;
+      const cv::Point2d c = grid.cell_center(i, j);
+      std::vector<cv::Point> quad;
+      for (const auto& [dx, dy] : {std::pair{-h, -h}, std::pair{-h, h}, std::pair{h, h}, std::pair{h, -h}}) {
+        const auto p = depth.project(c.x + dx, c.y + dy);
+        if (!p) break;
+        quad.emplace_back(static_cast<int>(std::lround(p->x)), static_cast<int>(std::lround(p->y)));
+      }
+      if (quad.size() != 4) continue;
+      const bool hazard = t == 0.0f;
+      cv::fillConvexPoly(paint, quad, hazard ? cv::Scalar(40, 40, 230) : cv::Scalar(0, 150, 255), cv::LINE_AA);
+      const int k = hazard_labels.at<int>(i, j);
+      if (k > 0 && k < static_cast<int>(outlines.size())) outlines[k].insert(outlines[k].end(), quad.begin(), quad.end());
+    }
+  cv::addWeighted(paint, 0.45, img, 0.55, 0.0, img);
+  for (const auto& [k, text] : hazard_text) {
+    if (k <= 0 || k >= static_cast<int>(outlines.size()) || outlines[k].empty()) continue;
+    std::vector<cv::Point> hull;
+    cv::convexHull(outlines[k], hull);
+    cv::polylines(img, hull, true, cv::Scalar(0, 0, 255), 2, cv::LINE_AA);
+    const cv::Rect b = cv::boundingRect(hull);
+    const cv::Point at(b.x, std::max(14, b.y - 4));
+    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  }
+  cv::Mat out(img.rows + 26, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+  img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
+  cv::putText(out, "hazards (red, H<n>: highest elevation) and poor ground (orange) on the camera image",
+              {6, img.rows + 18}, cv::FONT_HERSHEY_SIMPLEX, 0.42, {0, 0, 0}, 1, cv::LINE_AA);
+  return out;
+}
+
 std::vector<double> parse_camera(const std::string& s) {
   std::vector<double> v;
   std::stringstream ss(s);
@@ -386,23 +433,52 @@ void assess(const AssessOptions& o) {
     write_png(out / (name + ".png"), labelled);
     layers[name] = name + ".png";
   }
-  // Hazards: 8-connected groups of cells with traversability 0.
+  // Hazards: 8-connected groups of cells with traversability 0. A group touching the edge of the
+  // view (the grid border, or a cell whose centre the camera does not see at all) is where the
+  // solve ran out of image, not an obstacle seen whole: reported apart as `edge_hazards`, not
+  // counted. Unknown cells inside the view (ground hidden behind a rock) do not make an edge.
   const cv::Mat& trav = grid.layer("traversability");
+  cv::Mat in_view(trav.size(), CV_8U, cv::Scalar(1));
+  if (depth)
+    for (int i = 0; i < trav.rows; ++i)
+      for (int j = 0; j < trav.cols; ++j) {
+        const cv::Point2d c = grid.cell_center(i, j);
+        const auto p = depth->project(c.x, c.y);
+        in_view.at<uchar>(i, j) = p && p->x >= 0 && p->y >= 0 && p->x <= gray.cols - 1 && p->y <= gray.rows - 1;
+      }
   cv::Mat haz = (trav == 0.0f);
   cv::Mat labels, stats, cents;
   const int n = cv::connectedComponentsWithStats(haz, labels, stats, cents, 8, CV_32S);
-  nlohmann::json hazards = nlohmann::json::array();
+  nlohmann::json hazards = nlohmann::json::array(), edge_hazards = nlohmann::json::array();
+  std::vector<std::pair<int, std::string>> hazard_text;
   const cv::Mat& elev = grid.layer("elevation");
   for (int k = 1; k < n; ++k) {
     const int area = stats.at<int>(k, cv::CC_STAT_AREA);
     double zmax = -1e9;
+    bool edge = false;
     for (int i = 0; i < labels.rows; ++i)
-      for (int j = 0; j < labels.cols; ++j)
-        if (labels.at<int>(i, j) == k && std::isfinite(elev.at<float>(i, j))) zmax = std::max(zmax, static_cast<double>(elev.at<float>(i, j)));
+      for (int j = 0; j < labels.cols; ++j) {
+        if (labels.at<int>(i, j) != k) continue;
+        if (std::isfinite(elev.at<float>(i, j))) zmax = std::max(zmax, static_cast<double>(elev.at<float>(i, j)));
+        for (const auto& [di, dj] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
+          const int a = i + di, b = j + dj;
+          edge = edge || a < 0 || b < 0 || a >= trav.rows || b >= trav.cols || !in_view.at<uchar>(a, b);
+        }
+      }
     const cv::Point2d c = grid.cell_center(static_cast<int>(std::lround(cents.at<double>(k, 1))),
                                            static_cast<int>(std::lround(cents.at<double>(k, 0))));
-    hazards.push_back({{"x_m", c.x}, {"y_m", c.y}, {"cells", area},
-                       {"area_m2", area * grid.resolution_m * grid.resolution_m}, {"max_elevation_m", zmax}});
+    const nlohmann::json hz = {{"x_m", c.x}, {"y_m", c.y}, {"cells", area},
+                               {"area_m2", area * grid.resolution_m * grid.resolution_m}, {"max_elevation_m", zmax}};
+    if (edge) {
+      edge_hazards.push_back(hz);
+    } else {
+      hazards.push_back(hz);
+      hazard_text.emplace_back(k, "H" + std::to_string(hazards.size()) + " " + fmt(100.0 * zmax, 1) + " cm");
+    }
+  }
+  if (depth) {
+    write_png(out / "overlay.png", camera_overlay(gray, grid, *depth, labels, hazard_text));
+    layers["camera_overlay"] = "overlay.png";
   }
   int known = 0;
   for (int i = 0; i < trav.rows; ++i)
@@ -425,6 +501,7 @@ void assess(const AssessOptions& o) {
       {"outputs", {{"height", "height.tiff"}, {"heatmap", "height_heatmap.png"}, {"hillshade", "hillshade.png"},
                    {"layers", layers}}},
       {"hazards", hazards},
+      {"edge_hazards", edge_hazards},
   };
   if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
   std::ofstream f(out / "summary.json");
@@ -432,7 +509,8 @@ void assess(const AssessOptions& o) {
   f << j.dump(2) << "\n";
   std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(sp.method) << ", light "
             << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
-            << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards, "
+            << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards ("
+            << edge_hazards.size() << " more at the edge of the view, not counted), "
             << known << " known cells)\n";
 }
 

@@ -4,6 +4,8 @@
 // vignetting commands of the regolith tool (run as a process) with good and bad inputs.
 #include <gtest/gtest.h>
 
+#include "regolith/direct_depth/direct_depth.hpp"
+
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -368,6 +370,25 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
       if (std::abs(hz["x_m"].get<double>() - 2.0) < 0.5 && std::abs(hz["y_m"].get<double>()) < 0.4) rock_hazard = true;
     }
     EXPECT_TRUE(rock_hazard) << slurp(dir / "cam" / "summary.json");
+    EXPECT_TRUE(jc["edge_hazards"].is_array());
+    // The hazards drawn on the camera image: overlay.png is the frame (+ a caption strip) with
+    // the rock's hazard cells painted red around where the dome stands (2 m ahead, centre).
+    const cv::Mat ov = cv::imread((dir / "cam" / "overlay.png").string());
+    ASSERT_FALSE(ov.empty());
+    EXPECT_EQ(ov.cols, 320);
+    EXPECT_EQ(ov.rows, 240 + 26);
+    const auto rock_px = direct_depth::DirectDepth(direct_depth::CameraModel{300, 300, 159.5, 119.5, 0, 0, 0, 0, 0, 320, 240, 0.6, 0.45, 0})
+                             .project(2.0, 0.0);
+    ASSERT_TRUE(rock_px);
+    int red_near = 0, red_far = 0;
+    for (int py = 0; py < 240; ++py)
+      for (int px = 0; px < 320; ++px) {
+        const cv::Vec3b v = ov.at<cv::Vec3b>(py, px);
+        if (!(v[2] > v[1] + 60 && v[2] > v[0] + 60)) continue;
+        (std::hypot(px - rock_px->x, py - rock_px->y) < 60 ? red_near : red_far) += 1;
+      }
+    EXPECT_GT(red_near, 100) << "hazard paint around the rock at " << rock_px->x << ", " << rock_px->y;
+    EXPECT_GT(red_near, red_far);
     EXPECT_NE(run_tool(std::string(cargs) + " --sfs-frame sideways", dir / "cam2.txt"), 0);
     EXPECT_NE(slurp(dir / "cam2.txt").find("--sfs-frame"), std::string::npos) << slurp(dir / "cam2.txt");
 
