@@ -3,9 +3,27 @@
 // "truncated at byte N" for a file cut off mid-write (the complete part is still read).
 // A file that is not MCAP, or whose data is damaged (CRC mismatch, undecodable chunk), ends with
 // an error naming the file and the byte offset (exit status 2, bad input).
+//
+// regolith log export FILE.mcap --topic T... --out DIR [--format jsonl|csv] (builds with DDS only):
+// every message of the chosen channels decoded from its CDR bytes by Cyclone DDS's own
+// deserializer into the regolith C struct and written as one JSON line (or CSV row) per message.
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
+#ifdef REGOLITH_HAVE_DDS_RECORD
+#include <dds/dds.h>
+#include <dds/ddsi/ddsi_serdata.h>
+#include <dds/ddsi/ddsi_sertype.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <span>
+
+#include "regolith/dds/topics.hpp"
+#endif
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
@@ -14,6 +32,228 @@
 
 namespace regolith::cli {
 namespace {
+
+#ifdef REGOLITH_HAVE_DDS_RECORD
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// Turns the serialized sample of one regolith type (4-byte encapsulation header + CDR body) back
+/// into its C struct with Cyclone's own deserializer (ddsi_serdata_from_ser_iov validates and
+/// normalizes the bytes, ddsi_serdata_to_sample fills the struct) and renders it with to_json.
+/// The type's sertype is Cyclone's default one for the topic descriptor; the public C API of 0.10
+/// does not hand it out, so it is taken from a serdata: one zeroed sample is written to a reader
+/// of a private topic on `participant` (same-process delivery) and taken back with dds_takecdr.
+class CdrDecoder {
+ public:
+  CdrDecoder(dds_entity_t participant, const dds::TopicInfo& t, int index) : info_(t) {
+    const std::string name = "regolith_log_export_" + std::to_string(index);
+    topic_ = dds_create_topic(participant, t.descriptor, name.c_str(), nullptr, nullptr);
+    if (topic_ < 0) throw std::runtime_error("log export: dds_create_topic: " + std::string(dds_strretcode(topic_)));
+    writer_ = dds_create_writer(participant, topic_, nullptr, nullptr);
+    reader_ = dds_create_reader(participant, topic_, nullptr, nullptr);
+    if (writer_ < 0 || reader_ < 0) throw std::runtime_error("log export: cannot create a DDS reader/writer");
+    void* zero = dds_alloc(t.descriptor->m_size);
+    const dds_return_t wrc = dds_write(writer_, zero);
+    dds_free(zero);
+    if (wrc < 0) throw std::runtime_error("log export: dds_write: " + std::string(dds_strretcode(wrc)));
+    ddsi_serdata* sd = nullptr;
+    dds_sample_info_t si;
+    const dds_return_t n = dds_takecdr(reader_, &sd, 1, &si, DDS_ANY_STATE);
+    if (n != 1 || sd == nullptr) throw std::runtime_error("log export: no Cyclone sertype for " + std::string(t.ros_type));
+    type_ = ddsi_sertype_ref(sd->type);
+    ddsi_serdata_unref(sd);
+  }
+  ~CdrDecoder() {
+    if (type_ != nullptr) ddsi_sertype_unref(type_);
+    if (reader_ > 0) dds_delete(reader_);
+    if (writer_ > 0) dds_delete(writer_);
+    if (topic_ > 0) dds_delete(topic_);
+  }
+  CdrDecoder(const CdrDecoder&) = delete;
+  CdrDecoder& operator=(const CdrDecoder&) = delete;
+
+  /// The message as JSON; nullopt when Cyclone refuses the bytes (malformed CDR).
+  std::optional<json> decode(std::span<const std::uint8_t> bytes) const {
+    ddsrt_iovec_t iov;
+    iov.iov_base = const_cast<std::uint8_t*>(bytes.data());
+    iov.iov_len = static_cast<ddsrt_iov_len_t>(bytes.size());
+    ddsi_serdata* sd = ddsi_serdata_from_ser_iov(type_, SDK_DATA, 1, &iov, bytes.size());
+    if (sd == nullptr) return std::nullopt;
+    void* sample = dds_alloc(info_.descriptor->m_size);
+    const bool ok = ddsi_serdata_to_sample(sd, sample, nullptr, nullptr);
+    ddsi_serdata_unref(sd);
+    std::optional<json> out;
+    if (ok) out = info_.to_json(sample);
+    dds_sample_free(sample, info_.descriptor, DDS_FREE_ALL);
+    return out;
+  }
+
+ private:
+  const dds::TopicInfo& info_;
+  dds_entity_t topic_ = 0, writer_ = 0, reader_ = 0;
+  ddsi_sertype* type_ = nullptr;
+};
+
+/// Nested keys joined with '.', array elements as name[i]; scalars only.
+void flatten(const json& j, const std::string& prefix, std::vector<std::pair<std::string, const json*>>& out) {
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      flatten(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i) flatten(j[i], prefix + "[" + std::to_string(i) + "]", out);
+  } else {
+    out.emplace_back(prefix, &j);
+  }
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + "\"";
+}
+
+std::string csv_value(const json& v) {
+  if (v.is_null()) return "";
+  if (v.is_string()) return csv_field(v.get<std::string>());
+  return v.dump();
+}
+
+struct LogExportArgs {
+  std::string file;
+  std::vector<std::string> topics;
+  std::string out;
+  std::string format = "jsonl";
+};
+
+/// The channel named `want`: the recorded name, the name without its leading slash, or (when only
+/// one channel ends with it) the name without the namespace.
+const record::Channel* find_channel(const record::McapFileInfo& info, const std::string& want) {
+  std::vector<const record::Channel*> suffix;
+  for (const auto& [id, c] : info.channels) {
+    if (c.topic == want || c.topic == "/" + want) return &c;
+    const std::string tail = want.starts_with('/') ? want : "/" + want;
+    if (c.topic.size() > tail.size() && c.topic.ends_with(tail)) suffix.push_back(&c);
+  }
+  return suffix.size() == 1 ? suffix.front() : nullptr;
+}
+
+struct ExportChannel {
+  const record::Channel* channel = nullptr;
+  std::unique_ptr<CdrDecoder> decoder;
+  fs::path path;
+  std::ofstream out;
+  std::vector<std::string> columns;  // csv: from the first message
+  std::uint64_t written = 0, undecodable = 0;
+};
+
+void run_export(const LogExportArgs& a) {
+  if (a.format != "jsonl" && a.format != "csv")
+    throw InputError("log export: --format must be jsonl or csv, not '" + a.format + "'");
+  record::McapReader reader(a.file);
+  const auto& info = reader.info();
+  // Declared before the decoders: they (their sertype references) go first, then the participant.
+  dds_entity_t pp = 0;
+  struct ParticipantGuard {
+    dds_entity_t& p;
+    ~ParticipantGuard() {
+      if (p > 0) dds_delete(p);
+    }
+  } guard{pp};
+  std::map<std::uint16_t, ExportChannel> chans;
+  for (const auto& t : a.topics) {
+    const record::Channel* c = find_channel(info, t);
+    if (c == nullptr) {
+      std::string list;
+      for (const auto& [id, ch] : info.channels) {
+        const auto s = info.schemas.find(ch.schema_id);
+        list += "\n  " + ch.topic + "  " + (s != info.schemas.end() ? s->second.name : std::string("(no schema)"));
+      }
+      throw InputError("log export: " + a.file + ": no channel '" + t + "' (or more than one ends with it); recorded topics:" + list);
+    }
+    chans[c->id].channel = c;
+  }
+  pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  if (pp < 0) throw std::runtime_error("log export: dds_create_participant: " + std::string(dds_strretcode(pp)));
+  std::error_code ec;
+  fs::create_directories(a.out, ec);
+  if (ec) throw InputError("log export: cannot create " + a.out + ": " + ec.message());
+  int index = 0;
+  for (auto& [id, e] : chans) {
+    const auto s = info.schemas.find(e.channel->schema_id);
+    const std::string schema = s != info.schemas.end() ? s->second.name : "";
+    const dds::TopicInfo* ti = nullptr;
+    for (const auto& k : dds::known_topics())
+      if (k.ros_type == schema) ti = &k;
+    if (ti == nullptr || e.channel->message_encoding != "cdr")
+      throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
+                       ") is not a regolith CDR type");
+    e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
+    std::string stem = e.channel->topic;
+    if (stem.starts_with('/')) stem.erase(0, 1);
+    for (char& ch : stem)
+      if (ch == '/') ch = '_';
+    e.path = fs::path(a.out) / (stem + "." + a.format);
+    e.out.open(e.path, std::ios::binary | std::ios::trunc);
+    if (!e.out) throw InputError("log export: cannot write " + e.path.string());
+  }
+  const bool csv = a.format == "csv";
+  std::vector<std::pair<std::string, const json*>> flat;
+  auto problems = reader.for_each_message([&](const record::MessageView& m) {
+    auto it = chans.find(m.channel.id);
+    if (it == chans.end()) return;
+    ExportChannel& e = it->second;
+    auto msg = e.decoder->decode(m.data);
+    if (!msg) {
+      ++e.undecodable;
+      return;
+    }
+    if (!csv) {
+      json line = {{"log_time_ns", m.log_time}, {"publish_time_ns", m.publish_time}, {"sequence", m.sequence},
+                   {"message", std::move(*msg)}};
+      e.out << line.dump() << '\n';
+    } else {
+      flat.clear();
+      flatten(*msg, "", flat);
+      if (e.written == 0) {
+        e.out << "log_time_ns,publish_time_ns,sequence";
+        for (const auto& [k, v] : flat) {
+          e.columns.push_back(k);
+          e.out << ',' << csv_field(k);
+        }
+        e.out << '\n';
+      }
+      std::map<std::string, const json*> by_key(flat.begin(), flat.end());
+      e.out << m.log_time << ',' << m.publish_time << ',' << m.sequence;
+      for (const auto& k : e.columns) {
+        const auto f = by_key.find(k);
+        e.out << ',' << (f != by_key.end() ? csv_value(*f->second) : std::string());
+      }
+      e.out << '\n';
+    }
+    ++e.written;
+  });
+  for (auto& [id, e] : chans) {
+    e.out.close();
+    if (!e.out) throw InputError("log export: write error on " + e.path.string());
+    std::printf("%s: %llu messages -> %s", e.channel->topic.c_str(), static_cast<unsigned long long>(e.written),
+                e.path.string().c_str());
+    if (e.undecodable > 0)
+      std::printf(" (%llu undecodable CDR payloads skipped)", static_cast<unsigned long long>(e.undecodable));
+    std::printf("\n");
+  }
+  if (info.truncated)
+    std::printf("truncated at byte %llu of %llu (no footer: exported up to the last complete record)\n",
+                static_cast<unsigned long long>(info.readable_end), static_cast<unsigned long long>(info.file_size));
+  for (const auto& p : info.problems) problems.push_back(p);
+  for (const auto& p : problems) std::printf("damaged: %s\n", reader.describe(p).c_str());
+  std::fflush(stdout);
+  if (!problems.empty()) throw InputError(reader.describe(problems.front()));
+}
+#endif
 
 struct LogInfoArgs {
   std::string file;
@@ -34,6 +274,15 @@ const bool registered = add_command([](CLI::App& app) {
     std::fflush(stdout);
     if (!reader.info().problems.empty()) throw InputError(reader.describe(reader.info().problems.front()));
   });
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  auto e = std::make_shared<LogExportArgs>();
+  CLI::App* ex = log->add_subcommand("export", "decode channels of an MCAP file into JSON lines or CSV");
+  ex->add_option("file", e->file, "MCAP file")->required();
+  ex->add_option("--topic", e->topics, "recorded topic (repeat for more)")->required()->allow_extra_args(false);
+  ex->add_option("--out", e->out, "output directory (created)")->required();
+  ex->add_option("--format", e->format, "jsonl (default) or csv");
+  ex->callback([e] { run_export(*e); });
+#endif
 });
 
 }  // namespace
