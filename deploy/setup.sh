@@ -20,6 +20,7 @@ RUN_PACKAGES=(
   libcamera-dev libcamera-ipa libcamera-tools libv4l-dev linux-libc-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
   libzstd-dev                # record/: MCAP chunk compression
+  libwebsocketpp-dev libboost-dev  # runtime/live: Foxglove WebSocket server (header-only; optional)
 )
 TEST_PACKAGES=(
   # tests and benchmarks
@@ -86,4 +87,13 @@ if [[ -d $mcap_js/node_modules/@mcap/core && $mcap_js/node_modules/.package-lock
 else
   echo "regolith setup: npm ci in tests/record/mcap_js (@mcap/core for the MCAP cross-check)"
   (cd "$mcap_js" && npm ci --no-audit --no-fund --loglevel=error)
+fi
+# The independent Foxglove WebSocket client of tests/live (@foxglove/ws-protocol over ws, the
+# @foxglove/rosmsg2-serialization decoder), pinned by package-lock.json.
+live_js="$(dirname "$0")/../tests/live/js"
+if [[ -d $live_js/node_modules/@foxglove/ws-protocol && $live_js/node_modules/.package-lock.json -nt $live_js/package-lock.json ]]; then
+  echo "regolith setup: tests/live/js node modules up to date"
+else
+  echo "regolith setup: npm ci in tests/live/js (@foxglove/ws-protocol for the live-view check)"
+  (cd "$live_js" && npm ci --no-audit --no-fund --loglevel=error)
 fi

@@ -22,6 +22,9 @@
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/recorder.hpp"
 #endif
+#ifdef REGOLITH_HAVE_LIVE
+#include "regolith/live/dds_relay.hpp"
+#endif
 
 namespace regolith::cli {
 namespace {
@@ -43,6 +46,7 @@ struct RunOptions {
   std::vector<std::string> wait_for;
   double wait_timeout_s = 30.0;
   std::string record;  ///< --record FILE (overrides record.file)
+  std::string live;    ///< --live [ADDR:]PORT: Foxglove WebSocket server of the DDS topics
 };
 
 #ifdef REGOLITH_HAVE_DDS_RECORD
@@ -130,6 +134,25 @@ void run(const RunOptions& o) {
   if (!o.record.empty() || !app->record_config().file.empty())
     throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
 #endif
+#ifdef REGOLITH_HAVE_LIVE
+  // `--live`: the same server as `regolith live`, on the application's own participant (its own
+  // threads: the relay only reads DDS).
+  std::unique_ptr<live::DdsRelay> relay;
+  if (!o.live.empty()) {
+    if (app->dds() == nullptr) throw InputError("run: --live: needs DDS, but the deployment has dds.enabled: false");
+    live::FoxgloveServerOptions lo;
+    try {
+      live::parse_listen_address(o.live, lo);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("run: --live: ") + e.what());
+    }
+    relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
+    relay->start();
+    spdlog::info("live: Foxglove WebSocket server on ws://{}:{}", lo.address, relay->server().port());
+  }
+#else
+  if (!o.live.empty()) throw InputError("run: --live: this build has no live server (websocketpp not found)");
+#endif
   app->start();
 
   Summary summary(*app, isatty(STDOUT_FILENO) != 0 && !o.quiet);
@@ -153,6 +176,15 @@ void run(const RunOptions& o) {
   }
   notifier.stopping();
   app->stop();
+#ifdef REGOLITH_HAVE_LIVE
+  if (relay) {
+    relay->stop();
+    const auto st = relay->server().stats();
+    std::printf("live: %llu messages sent, %llu clients, %llu dropped (slow), %llu refused\n",
+                static_cast<unsigned long long>(st.messages_sent), static_cast<unsigned long long>(st.accepted),
+                static_cast<unsigned long long>(st.dropped_slow), static_cast<unsigned long long>(st.refused));
+  }
+#endif
 #ifdef REGOLITH_HAVE_DDS_RECORD
   if (recorder) recorder->stop();  // takes what is still in flight, then summary + footer
 #endif
@@ -185,6 +217,9 @@ const bool registered = add_command([](CLI::App& app) {
       ->check(regolith::cli::non_negative());
   cmd->add_option("--record", opts->record,
                   "record every DDS topic of the deployment into this MCAP file (overrides record.file)");
+  cmd->add_option("--live", opts->live,
+                  "serve the DDS topics to Foxglove Studio over the Foxglove WebSocket protocol on [ADDR:]PORT "
+                  "(e.g. 8765 = 127.0.0.1:8765)");
   cmd->callback([opts] { run(*opts); });
 
   CLI::App* config = group(app, "config", "deployment configuration tools");

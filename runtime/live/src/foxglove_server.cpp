@@ -1,0 +1,391 @@
+#include "regolith/live/foxglove_server.hpp"
+
+#include <sys/socket.h>
+
+#include <atomic>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <websocketpp/config/asio_no_tls.hpp>
+#include <websocketpp/server.hpp>
+
+namespace regolith::live {
+namespace {
+
+using WsServer = websocketpp::server<websocketpp::config::asio>;
+using Hdl = websocketpp::connection_hdl;
+using nlohmann::json;
+
+constexpr std::uint8_t kOpMessageData = 0x01;
+constexpr int kStatusError = 2;
+
+void put_le(std::string& out, std::uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xffu));
+}
+
+}  // namespace
+
+void parse_listen_address(const std::string& text, FoxgloveServerOptions& options) {
+  const auto colon = text.rfind(':');
+  const std::string port = colon == std::string::npos ? text : text.substr(colon + 1);
+  const std::string addr = colon == std::string::npos ? options.address : text.substr(0, colon);
+  bool ok = !port.empty() && port.size() <= 5 && !addr.empty();
+  unsigned long v = 0;
+  for (char ch : port) {
+    if (ch < '0' || ch > '9') ok = false;
+  }
+  if (ok) v = std::stoul(port);
+  if (!ok || v > 65535) throw std::invalid_argument("expected [ADDR:]PORT with PORT 0..65535, got '" + text + "'");
+  options.address = addr;
+  options.port = static_cast<std::uint16_t>(v);
+}
+
+struct FoxgloveServer::Impl {
+  struct Client {
+    std::map<std::uint32_t, std::uint32_t> subs;  // subscription id -> channel id
+    bool dropped = false;
+  };
+
+  std::vector<Channel> channels;
+  std::map<std::uint32_t, std::size_t> channel_index;  // id -> index in channels
+  FoxgloveServerOptions opts;
+  WsServer ws;
+  std::uint16_t bound_port = 0;
+  std::thread thread;
+  std::atomic<bool> started{false};
+  std::atomic<bool> stopped{false};
+
+  // Server-thread state.
+  std::map<Hdl, Client, std::owner_less<Hdl>> clients;
+  // Subscriber counts per channel (written on the server thread, read by any).
+  std::unique_ptr<std::atomic<std::uint32_t>[]> subscribers;
+
+  std::atomic<std::size_t> pending_bytes{0};  // posted to the server thread, not yet handled
+  std::atomic<std::uint64_t> connected{0}, accepted{0}, refused{0}, dropped_slow{0}, bad_requests{0}, messages_sent{0},
+      samples_dropped{0};
+
+  std::string info_text, advertise_text;
+  // Last message of each latched channel (server thread only), by channel index.
+  std::vector<std::shared_ptr<std::vector<std::uint8_t>>> last;
+  std::vector<std::uint64_t> last_ns;
+
+  /// Queues one messageData frame to `h`; false when the client's queue is full (then dropped).
+  bool send_frame(const Hdl& h, Client& c, std::uint32_t sub, std::uint64_t receive_ns,
+                  const std::vector<std::uint8_t>& data, std::string& frame) {
+    websocketpp::lib::error_code ec;
+    auto con = ws.get_con_from_hdl(h, ec);
+    if (ec) return true;
+    const std::size_t size = 1 + 4 + 8 + data.size();
+    if (con->get_buffered_amount() + size > opts.max_queue_bytes) {
+      drop(h, c);
+      return false;
+    }
+    frame.clear();
+    frame.reserve(size);
+    frame.push_back(static_cast<char>(kOpMessageData));
+    put_le(frame, sub, 4);
+    put_le(frame, receive_ns, 8);
+    frame.append(reinterpret_cast<const char*>(data.data()), data.size());
+    if (!con->send(frame, websocketpp::frame::opcode::binary)) messages_sent.fetch_add(1);
+    return true;
+  }
+
+  void send_text(const Hdl& h, const std::string& text) {
+    websocketpp::lib::error_code ec;
+    ws.send(h, text, websocketpp::frame::opcode::text, ec);
+  }
+
+  void status_error(const Hdl& h, const std::string& message) {
+    bad_requests.fetch_add(1);
+    send_text(h, json{{"op", "status"}, {"level", kStatusError}, {"message", message}}.dump());
+  }
+
+  void unsubscribe_all(Client& c) {
+    for (const auto& [sub, ch] : c.subs) subscribers[channel_index.at(ch)].fetch_sub(1);
+    c.subs.clear();
+  }
+
+  void on_text(const Hdl& h, Client& c, const std::string& text) {
+    const json j = json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return status_error(h, "invalid JSON message");
+    const auto op = j.find("op");
+    if (op == j.end() || !op->is_string()) return status_error(h, "message without a string 'op'");
+    const std::string o = op->get<std::string>();
+    if (o == "subscribe") {
+      const auto subs = j.find("subscriptions");
+      if (subs == j.end() || !subs->is_array()) return status_error(h, "subscribe: 'subscriptions' must be an array");
+      for (const json& s : *subs) {
+        const auto id = s.find("id");
+        const auto ch = s.find("channelId");
+        if (!s.is_object() || id == s.end() || ch == s.end() || !id->is_number_unsigned() ||
+            !ch->is_number_unsigned()) {
+          status_error(h, "subscribe: each subscription needs unsigned 'id' and 'channelId'");
+          continue;
+        }
+        const auto sub_id = id->get<std::uint64_t>();
+        const auto channel_id = ch->get<std::uint64_t>();
+        const auto idx = channel_index.find(static_cast<std::uint32_t>(channel_id));
+        if (channel_id > 0xffffffffu || idx == channel_index.end()) {
+          status_error(h, "subscribe: unknown channel " + std::to_string(channel_id));
+          continue;
+        }
+        if (sub_id > 0xffffffffu || c.subs.count(static_cast<std::uint32_t>(sub_id)) != 0) {
+          status_error(h, "subscribe: subscription id " + std::to_string(sub_id) + " already in use");
+          continue;
+        }
+        c.subs.emplace(static_cast<std::uint32_t>(sub_id), static_cast<std::uint32_t>(channel_id));
+        subscribers[idx->second].fetch_add(1);
+        if (last[idx->second]) {  // a latched channel's last message, at once
+          std::string frame;
+          if (!send_frame(h, c, static_cast<std::uint32_t>(sub_id), last_ns[idx->second], *last[idx->second], frame)) {
+            return;
+          }
+        }
+      }
+    } else if (o == "unsubscribe") {
+      const auto ids = j.find("subscriptionIds");
+      if (ids == j.end() || !ids->is_array()) return status_error(h, "unsubscribe: 'subscriptionIds' must be an array");
+      for (const json& i : *ids) {
+        const auto it = i.is_number_unsigned() && i.get<std::uint64_t>() <= 0xffffffffu
+                            ? c.subs.find(static_cast<std::uint32_t>(i.get<std::uint64_t>()))
+                            : c.subs.end();
+        if (it == c.subs.end()) {
+          status_error(h, "unsubscribe: unknown subscription " + i.dump());
+          continue;
+        }
+        subscribers[channel_index.at(it->second)].fetch_sub(1);
+        c.subs.erase(it);
+      }
+    } else {
+      status_error(h, "unsupported op '" + o + "'");
+    }
+  }
+
+  void drop(const Hdl& h, Client& c) {
+    c.dropped = true;
+    unsubscribe_all(c);
+    dropped_slow.fetch_add(1);
+    websocketpp::lib::error_code ec;
+    auto con = ws.get_con_from_hdl(h, ec);
+    if (!ec) {
+      // Never waits for the stalled client: the socket is closed, not the WebSocket handshake.
+      boost::system::error_code bec;
+      con->get_raw_socket().close(bec);
+    }
+  }
+
+  void relay(std::uint32_t channel_id, std::uint64_t receive_ns,
+             const std::shared_ptr<std::vector<std::uint8_t>>& data) {
+    pending_bytes.fetch_sub(data->size());
+    const std::size_t index = channel_index.at(channel_id);
+    if (channels[index].latched) {
+      last[index] = data;
+      last_ns[index] = receive_ns;
+    }
+    std::string frame;
+    for (auto& [h, c] : clients) {
+      if (c.dropped) continue;
+      for (const auto& [sub, ch] : c.subs) {
+        // send_frame() may drop the client (clearing c.subs): stop iterating them then.
+        if (ch == channel_id && !send_frame(h, c, sub, receive_ns, *data, frame)) break;
+      }
+    }
+  }
+};
+
+FoxgloveServer::FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& s = *impl_;
+  s.channels = std::move(channels);
+  s.opts = std::move(options);
+  s.subscribers = std::make_unique<std::atomic<std::uint32_t>[]>(s.channels.size());
+  s.last.resize(s.channels.size());
+  s.last_ns.resize(s.channels.size(), 0);
+  json adv = json::array();
+  for (std::size_t i = 0; i < s.channels.size(); ++i) {
+    const Channel& c = s.channels[i];
+    if (!s.channel_index.emplace(c.id, i).second) {
+      throw std::invalid_argument("FoxgloveServer: duplicate channel id " + std::to_string(c.id));
+    }
+    s.subscribers[i].store(0);
+    adv.push_back({{"id", c.id},
+                   {"topic", c.topic},
+                   {"encoding", c.encoding},
+                   {"schemaName", c.schema_name},
+                   {"schema", c.schema},
+                   {"schemaEncoding", c.schema_encoding}});
+  }
+  s.info_text = json{{"op", "serverInfo"},
+                     {"name", s.opts.name},
+                     {"capabilities", json::array()},
+                     {"supportedEncodings", json::array({"cdr"})},
+                     {"metadata", json::object()}}
+                    .dump();
+  s.advertise_text = json{{"op", "advertise"}, {"channels", adv}}.dump();
+
+  s.ws.clear_access_channels(websocketpp::log::alevel::all);
+  s.ws.clear_error_channels(websocketpp::log::elevel::all);
+  s.ws.init_asio();
+  s.ws.set_reuse_addr(true);
+  s.ws.set_max_message_size(s.opts.max_incoming_bytes);
+  s.ws.set_close_handshake_timeout(1000);
+  s.ws.set_socket_init_handler([this](Hdl, boost::asio::ip::tcp::socket& sock) {
+    if (impl_->opts.socket_send_buffer_bytes > 0) {
+      const int v = impl_->opts.socket_send_buffer_bytes;
+      setsockopt(sock.native_handle(), SOL_SOCKET, SO_SNDBUF, &v, sizeof v);
+    }
+  });
+  s.ws.set_validate_handler([this](Hdl h) {
+    Impl& m = *impl_;
+    auto con = m.ws.get_con_from_hdl(h);
+    if (m.clients.size() >= m.opts.max_clients) {
+      m.refused.fetch_add(1);
+      con->set_status(websocketpp::http::status_code::service_unavailable);
+      return false;
+    }
+    for (const std::string& p : con->get_requested_subprotocols()) {
+      if (p == kSubprotocol) {
+        con->select_subprotocol(p);
+        m.clients.emplace(h, Impl::Client{});  // counted against max_clients from the handshake on
+        return true;
+      }
+    }
+    m.refused.fetch_add(1);
+    con->set_status(websocketpp::http::status_code::bad_request);
+    return false;
+  });
+  s.ws.set_open_handler([this](Hdl h) {
+    impl_->connected.fetch_add(1);
+    impl_->accepted.fetch_add(1);
+    impl_->send_text(h, impl_->info_text);
+    impl_->send_text(h, impl_->advertise_text);
+  });
+  auto gone = [this](Hdl h) {
+    Impl& m = *impl_;
+    auto it = m.clients.find(h);
+    if (it == m.clients.end()) return;
+    m.unsubscribe_all(it->second);
+    m.clients.erase(it);
+  };
+  s.ws.set_close_handler([this, gone](Hdl h) {
+    impl_->connected.fetch_sub(1);
+    gone(h);
+  });
+  s.ws.set_fail_handler([gone](Hdl h) { gone(h); });
+  s.ws.set_message_handler([this](Hdl h, WsServer::message_ptr msg) {
+    Impl& m = *impl_;
+    auto it = m.clients.find(h);
+    if (it == m.clients.end() || it->second.dropped) return;
+    if (msg->get_opcode() != websocketpp::frame::opcode::text) {
+      return m.status_error(h, "binary client messages are not supported (no clientPublish capability)");
+    }
+    try {
+      m.on_text(h, it->second, msg->get_payload());
+    } catch (const std::exception& e) {
+      m.status_error(h, std::string("bad message: ") + e.what());
+    }
+  });
+
+  boost::system::error_code aec;
+  const auto addr = boost::asio::ip::make_address(s.opts.address, aec);
+  if (aec) throw std::runtime_error("live: bad address '" + s.opts.address + "': " + aec.message());
+  websocketpp::lib::error_code ec;
+  s.ws.listen(boost::asio::ip::tcp::endpoint(addr, s.opts.port), ec);
+  if (ec) {
+    throw std::runtime_error("live: cannot listen on " + s.opts.address + ":" + std::to_string(s.opts.port) + ": " +
+                             ec.message());
+  }
+  s.bound_port = s.ws.get_local_endpoint(aec).port();
+  s.ws.start_accept(ec);
+  if (ec) throw std::runtime_error("live: cannot accept on port " + std::to_string(s.bound_port) + ": " + ec.message());
+}
+
+FoxgloveServer::~FoxgloveServer() {
+  stop();
+}
+
+void FoxgloveServer::start() {
+  Impl& s = *impl_;
+  if (s.started.load() || s.stopped.load()) return;
+  s.started.store(true);
+  s.thread = std::thread([this] {
+    for (;;) {
+      try {
+        impl_->ws.run();
+        return;
+      } catch (...) {  // a handler must never end the server thread
+      }
+    }
+  });
+}
+
+void FoxgloveServer::stop() {
+  Impl& s = *impl_;
+  if (s.stopped.exchange(true)) return;
+  s.ws.get_io_service().post([this] {
+    Impl& m = *impl_;
+    websocketpp::lib::error_code ec;
+    m.ws.stop_listening(ec);
+    std::vector<Hdl> open;  // terminate() calls the close handler, which erases from clients
+    for (const auto& entry : m.clients) open.push_back(entry.first);
+    for (const Hdl& h : open) {
+      auto con = m.ws.get_con_from_hdl(h, ec);
+      if (!ec) con->terminate(ec);
+    }
+    m.ws.stop();
+  });
+  if (s.thread.joinable()) {
+    s.thread.join();
+  } else {
+    s.ws.stop();
+  }
+}
+
+std::uint16_t FoxgloveServer::port() const {
+  return impl_->bound_port;
+}
+
+const std::vector<Channel>& FoxgloveServer::channels() const {
+  return impl_->channels;
+}
+
+bool FoxgloveServer::has_subscribers(std::uint32_t channel_id) const {
+  const auto it = impl_->channel_index.find(channel_id);
+  return it != impl_->channel_index.end() && impl_->subscribers[it->second].load() > 0;
+}
+
+void FoxgloveServer::send_message(std::uint32_t channel_id, std::uint64_t receive_ns, const std::uint8_t* bytes,
+                                  std::size_t size) {
+  Impl& s = *impl_;
+  const auto it = s.channel_index.find(channel_id);
+  if (!s.started.load() || s.stopped.load() || it == s.channel_index.end()) return;
+  // Latched channels are kept even without subscribers (for the next subscription).
+  if (!s.channels[it->second].latched && s.subscribers[it->second].load() == 0) return;
+  // The server thread's backlog is bounded too: beyond one client queue's worth, samples are
+  // dropped (counted) instead of piling up in the io_service.
+  if (s.pending_bytes.load() + size > s.opts.max_queue_bytes) {
+    s.samples_dropped.fetch_add(1);
+    return;
+  }
+  s.pending_bytes.fetch_add(size);
+  auto data = std::make_shared<std::vector<std::uint8_t>>(bytes, bytes + size);
+  s.ws.get_io_service().post([this, channel_id, receive_ns, data] { impl_->relay(channel_id, receive_ns, data); });
+}
+
+FoxgloveServerStats FoxgloveServer::stats() const {
+  const Impl& s = *impl_;
+  FoxgloveServerStats st;
+  st.connected = s.connected.load();
+  st.accepted = s.accepted.load();
+  st.refused = s.refused.load();
+  st.dropped_slow = s.dropped_slow.load();
+  st.bad_requests = s.bad_requests.load();
+  st.messages_sent = s.messages_sent.load();
+  st.samples_dropped = s.samples_dropped.load();
+  return st;
+}
+
+}  // namespace regolith::live

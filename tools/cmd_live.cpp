@@ -1,0 +1,69 @@
+// regolith live [ADDR:]PORT: relay the DDS topics of a running rover to Foxglove Studio /
+// Lichtblick over the Foxglove WebSocket protocol (runtime/live/README.md), from a separate
+// process, until Ctrl-C.
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include "cli.hpp"
+#include "regolith/core/error.hpp"
+#include "regolith/dds/participant.hpp"
+#include "regolith/live/dds_relay.hpp"
+
+namespace regolith::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_live_interrupt(int) {
+  g_interrupted.store(true);
+}
+
+struct LiveArgs {
+  std::string listen = "127.0.0.1:8765";
+  int domain = dds::default_domain_id();
+  std::string ns = "rover1";
+  double duration_s = 0.0;
+};
+
+const bool registered = add_command([](CLI::App& app) {
+  auto a = std::make_shared<LiveArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("live", "serve the DDS topics to Foxglove Studio / Lichtblick (Foxglove WebSocket protocol)");
+  cmd->add_option("listen", a->listen, "[ADDR:]PORT to listen on (default 127.0.0.1:8765)");
+  cmd->add_option("--domain", a->domain, "DDS domain id (default: $ROS_DOMAIN_ID, else 0)")->check(CLI::Range(0, 232));
+  cmd->add_option("--namespace", a->ns, "robot namespace of relative topic names");
+  cmd->add_option("--duration", a->duration_s, "stop after this many seconds (default: until Ctrl-C)")
+      ->check(regolith::cli::non_negative());
+  cmd->callback([a] {
+    live::FoxgloveServerOptions opt;
+    try {
+      live::parse_listen_address(a->listen, opt);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("live: ") + e.what());
+    }
+    dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
+    live::DdsRelay relay(participant, opt);  // throws (exit 1) when the port cannot be bound
+    std::signal(SIGINT, on_live_interrupt);
+    std::signal(SIGTERM, on_live_interrupt);
+    relay.start();
+    std::cout << "regolith live: ws://" << opt.address << ":" << relay.server().port() << " ("
+              << relay.server().channels().size() << " channels, domain " << a->domain << ", namespace '" << a->ns
+              << "'); Ctrl-C stops" << std::endl;
+    const auto start = std::chrono::steady_clock::now();
+    while (!g_interrupted.load()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (a->duration_s > 0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= a->duration_s) {
+        break;
+      }
+    }
+    relay.stop();
+    const auto st = relay.server().stats();
+    std::cout << "regolith live: " << relay.samples() << " samples taken, " << st.messages_sent << " messages sent, "
+              << st.accepted << " clients, " << st.dropped_slow << " dropped (slow), " << st.refused << " refused, "
+              << st.bad_requests << " bad requests" << std::endl;
+  });
+});
+
+}  // namespace
+}  // namespace regolith::cli
