@@ -44,12 +44,6 @@ std::string can_interface_names() {
   return out.empty() ? "none" : out;
 }
 
-TimeNs realtime_now() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
-}
-
 /// Wait on the wake eventfd for at most `d`; true when woken (stop requested).
 bool wait_wake(int wake_fd, TimeNs d) {
   pollfd p{wake_fd, POLLIN, 0};

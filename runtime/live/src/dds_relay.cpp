@@ -13,11 +13,7 @@
 namespace regolith::live {
 namespace {
 
-std::uint64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
-}
+std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(realtime_now()); }
 
 }  // namespace
 

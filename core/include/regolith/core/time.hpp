@@ -22,6 +22,14 @@ inline TimeNs monotonic_now() {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
 }
 
+/// CLOCK_REALTIME in ns since 1970 (wall-clock stamps of recordings and kernel CAN frames; the
+/// process clock stays monotonic_now()).
+inline TimeNs realtime_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+
 inline timespec to_timespec(TimeNs t) {
   return timespec{static_cast<time_t>(t / kNsPerSec), static_cast<long>(t % kNsPerSec)};
 }
