@@ -3,7 +3,7 @@
 # skipped, and `apt-get update` runs only when something is missing. Profiles:
 #   run    build and run `regolith` (toolchain + libraries): README command 1, the lean first run
 #   test   run + tests, benchmarks, the driver-test VM (QEMU, vcan / vivid / vimc), the Debian
-#          package checks, the fuzzers (clang), the npm-pinned MCAP cross-check
+#          package checks, the fuzzers (clang), the npm-pinned MCAP cross-check, chromium
 #   cross  the arm64 cross toolchain and emulator (deploy/cross/build-arm64.sh)
 #   all    test + cross (the default; README command 2 and .ci/run)
 # Usage: bash deploy/setup.sh [run|test|cross|all]
@@ -32,6 +32,7 @@ TEST_PACKAGES=(
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
   # packaging and service checks (tests/deploy): cpack DEB, lintian, systemd-analyze verify
   dpkg-dev lintian systemd
+  chromium                   # headless browser: the live page test (tests/live/test_live_page.cpp)
 )
 CROSS_PACKAGES=(
   # arm64 cross-build and emulated unit tests (deploy/cross/build-arm64.sh)

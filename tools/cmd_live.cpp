@@ -9,6 +9,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/live/dds_relay.hpp"
+#include "regolith/live/web_root.hpp"
 
 namespace regolith::cli {
 namespace {
@@ -41,6 +42,7 @@ const bool registered = add_command([](CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("live: ") + e.what());
     }
+    opt.web_root = live::default_web_root();  // the built-in page on GET /
     dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
     live::DdsRelay relay(participant, opt);  // throws (exit 1) when the port cannot be bound
     std::signal(SIGINT, on_live_interrupt);
@@ -48,7 +50,7 @@ const bool registered = add_command([](CLI::App& app) {
     relay.start();
     std::cout << "regolith live: ws://" << opt.address << ":" << relay.server().port() << " ("
               << relay.server().channels().size() << " channels, domain " << a->domain << ", namespace '" << a->ns
-              << "'); Ctrl-C stops" << std::endl;
+              << "'); page http://" << opt.address << ":" << relay.server().port() << "/; Ctrl-C stops" << std::endl;
     const auto start = std::chrono::steady_clock::now();
     while (!g_interrupted.load()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -21,9 +21,13 @@
 #ifdef REGOLITH_HAVE_DDS_RECORD
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/recorder.hpp"
+#include "regolith/record/hal_recorder.hpp"
+#include "regolith/record/mcap_reader.hpp"
+#include <yaml-cpp/yaml.h>
 #endif
 #ifdef REGOLITH_HAVE_LIVE
 #include "regolith/live/dds_relay.hpp"
+#include "regolith/live/web_root.hpp"
 #endif
 
 namespace regolith::cli {
@@ -39,6 +43,11 @@ Params load_config(const std::string& path) {
 
 struct RunOptions {
   std::string config;
+  /// `regolith replay`: the deployment as text (the recording's, devices turned into replays);
+  /// used instead of `config` when not empty. `config` then only names it in messages.
+  std::string config_yaml;
+  TimeNs sim_start = kNsPerSec;  ///< simulated clock at start (replay: the recording's origin)
+  TimeNs sim_ros_offset = 0;     ///< ROS time - simulated time (replay: the recording's offset)
   double duration_s = 0.0;
   bool sim_time = false;
   double summary_interval_s = 1.0;
@@ -51,7 +60,9 @@ struct RunOptions {
 
 #ifdef REGOLITH_HAVE_DDS_RECORD
 /// The deployment file's text (the embedded mocked rover without --config) and its name.
-std::pair<std::string, std::string> config_text(const std::string& path) {
+std::pair<std::string, std::string> config_text(const RunOptions& o) {
+  const std::string& path = o.config;
+  if (!o.config_yaml.empty()) return {std::filesystem::path(path).filename().string(), o.config_yaml};
   if (path.empty()) return {"mock_rover.yaml", embedded_mock_rover()};
   std::ifstream in(path, std::ios::binary);
   std::ostringstream s;
@@ -99,7 +110,7 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
 #endif
   ro.library = "regolith run " + version;
   auto rec = std::make_unique<dds::DdsRecorder>(*app.dds(), file, ro);
-  const auto [name, text] = config_text(o.config);
+  const auto [name, text] = config_text(o);
   rec->add_attachment(name, "application/yaml", text);
   rec->add_metadata("regolith", {{"deployment", app.name()},
                                  {"version", version},
@@ -115,10 +126,140 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
 }
 #endif
 
+#ifdef REGOLITH_HAVE_DDS_RECORD
+/// `regolith replay FILE.mcap`: the deployment recorded in FILE (its YAML attachment, or
+/// `config_override`) with every device turned into a `replay` backend of FILE and no record.file
+/// (a replay never writes over its own input). Returns the YAML text; `name` names it.
+std::string replay_deployment(const std::string& file, const std::string& config_override, std::string& name) {
+  const std::string abs = std::filesystem::absolute(file).string();
+  std::string text;
+  if (!config_override.empty()) {
+    std::ifstream in(config_override, std::ios::binary);
+    if (!in) throw InputError("replay: --config: cannot read " + config_override);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+    name = config_override;
+  } else {
+    record::McapReader reader(abs);
+    for (const auto& a : reader.info().attachments) {
+      if (a.media_type != "application/yaml") continue;
+      const std::vector<std::uint8_t> bytes = reader.read_attachment(a);
+      text.assign(bytes.begin(), bytes.end());
+      name = (std::filesystem::path(abs).parent_path() / a.name).string();
+      break;
+    }
+    if (text.empty())
+      throw InputError(file + ": no deployment attached (files of `regolith run --record` carry it; give --config)");
+  }
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(name + ": " + e.what());
+  }
+  if (!root.IsMap()) throw InputError(name + ": not a deployment (no mapping at the top)");
+  YAML::Node devices = root["devices"];
+  for (const char* section : {"cameras", "encoders", "imus"}) {
+    YAML::Node sec = devices[section];
+    if (!sec || !sec.IsMap()) continue;
+    for (auto it = sec.begin(); it != sec.end(); ++it) {
+      YAML::Node r(YAML::NodeType::Map);
+      r["backend"] = "replay";
+      r["file"] = abs;
+      it->second = r;
+    }
+  }
+  if (root["record"] && root["record"].IsMap()) root["record"].remove("file");
+  YAML::Emitter out;
+  out << root;
+  return out.c_str();
+}
+
+/// The time frame of the HAL recording of `file` (`regolith_hal` / `regolith_hal_end` metadata).
+struct RecordedTimes {
+  TimeNs origin = -1, end = -1, ros_offset = 0;
+};
+RecordedTimes recorded_times(const std::string& file) {
+  record::McapReader reader(file);
+  RecordedTimes t;
+  for (const auto& m : reader.info().metadata) {
+    auto get = [&](const char* key, TimeNs& out) {
+      auto it = m.values.find(key);
+      if (it == m.values.end()) return;
+      try {
+        out = std::stoll(it->second);
+      } catch (const std::exception&) {
+        throw InputError(file + ": metadata " + m.name + "." + key + ": not an integer: '" + it->second + "'");
+      }
+    };
+    if (m.name == "regolith_hal") {
+      get("time_origin_ns", t.origin);
+      get("ros_time_offset_ns", t.ros_offset);
+    }
+    if (m.name == "regolith_hal_end") get("time_end_ns", t.end);
+  }
+  return t;
+}
+
+/// The samples each topic of `a` has in `b`, byte for byte (topics under /hal and the ones that
+/// carry measured times or logs - /diagnostics, /rosout, /clock - are left out). Prints one line
+/// per topic; returns the number of topics that differ.
+int compare_recordings(const std::string& a, const std::string& b) {
+  auto load = [](const std::string& f) {
+    std::map<std::string, std::vector<std::vector<std::uint8_t>>> by_topic;
+    record::McapReader r(f);
+    for (const auto& [id, ch] : r.info().channels) {
+      const std::string& t = ch.topic;
+      const bool skip = t.rfind("/hal/", 0) == 0 || t.find("diagnostics") != std::string::npos ||
+                        t.find("rosout") != std::string::npos || t == "/clock";
+      if (!skip) by_topic[t];
+    }
+    (void)r.for_each_message([&](const record::MessageView& m) {
+      auto it = by_topic.find(m.channel.topic);
+      if (it != by_topic.end()) it->second.emplace_back(m.data.begin(), m.data.end());
+    });
+    return by_topic;
+  };
+  const auto ta = load(a), tb = load(b);
+  int differ = 0;
+  std::printf("%-34s %8s %8s %10s  %s\n", "topic", "recorded", "replayed", "identical", "first difference");
+  for (const auto& [topic, sa] : ta) {
+    auto it = tb.find(topic);
+    const std::vector<std::vector<std::uint8_t>> none;
+    const auto& sb = it == tb.end() ? none : it->second;
+    std::size_t same = 0;
+    long first = -1;
+    for (std::size_t i = 0; i < std::min(sa.size(), sb.size()); ++i) {
+      if (sa[i] == sb[i]) {
+        ++same;
+      } else if (first < 0) {
+        first = static_cast<long>(i);
+      }
+    }
+    const bool ok = sa.size() == sb.size() && same == sa.size();
+    if (!ok) ++differ;
+    std::printf("%-34s %8zu %8zu %10zu  %s\n", topic.c_str(), sa.size(), sb.size(), same,
+                ok ? "-" : first >= 0 ? ("sample " + std::to_string(first)).c_str() : "count");
+  }
+  return differ;
+}
+#endif
+
 void run(const RunOptions& o) {
-  auto app = runtime::Application::load(load_config(o.config),
-                                        {.sim_time = o.sim_time, .wait_for = o.wait_for,
-                                         .wait_timeout = from_seconds(o.wait_timeout_s)});
+  runtime::AppOptions ao{.sim_time = o.sim_time,
+                         .wait_for = o.wait_for,
+                         .wait_timeout = from_seconds(o.wait_timeout_s),
+                         .sim_start = o.sim_start,
+                         .sim_ros_offset = o.sim_ros_offset};
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  // Every device is wrapped for the HAL recording; the wrappers only forward unless recording.
+  // Simulated time: lossless (a full ring waits for the writer) so a replay sees every frame.
+  record::HalRecorder hal_recorder({.lossless = o.sim_time});
+  ao.wrap_device = [&](std::unique_ptr<hal::Device> d) { return hal_recorder.wrap(std::move(d)); };
+#endif
+  auto app = runtime::Application::load(
+      o.config_yaml.empty() ? load_config(o.config) : Params::load_string(o.config_yaml, o.config), ao);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   spdlog::info("deployment '{}': {} rate groups, {} components{}", app->name(), app->view().groups.size(),
@@ -130,6 +271,8 @@ void run(const RunOptions& o) {
 #ifdef REGOLITH_HAVE_DDS_RECORD
   std::unique_ptr<dds::DdsRecorder> recorder = make_recorder(*app, o);
   if (recorder) recorder->start();
+  const bool record_hal = recorder && app->record_config().hal;
+  if (record_hal) hal_recorder.start(*recorder, app->clock());
 #else
   if (!o.record.empty() || !app->record_config().file.empty())
     throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
@@ -146,9 +289,11 @@ void run(const RunOptions& o) {
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("run: --live: ") + e.what());
     }
+    lo.web_root = live::default_web_root();  // the built-in page on GET /
     relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
     relay->start();
-    spdlog::info("live: Foxglove WebSocket server on ws://{}:{}", lo.address, relay->server().port());
+    spdlog::info("live: Foxglove WebSocket server on ws://{}:{}, page http://{}:{}/", lo.address,
+                 relay->server().port(), lo.address, relay->server().port());
   }
 #else
   if (!o.live.empty()) throw InputError("run: --live: this build has no live server (websocketpp not found)");
@@ -186,6 +331,7 @@ void run(const RunOptions& o) {
   }
 #endif
 #ifdef REGOLITH_HAVE_DDS_RECORD
+  hal_recorder.stop();             // the devices' last inputs, before the file is closed
   if (recorder) recorder->stop();  // takes what is still in flight, then summary + footer
 #endif
   if (!o.quiet) summary.print(std::cout, /*final=*/true);
@@ -197,6 +343,11 @@ void run(const RunOptions& o) {
                 static_cast<double>(recorder->thread_cpu_ns()) * 1e-9);
     for (const auto& t : recorder->counts())
       std::printf("  recorded %-32s %llu\n", t.ros_name.c_str(), static_cast<unsigned long long>(t.count));
+    if (record_hal) {
+      for (const auto& d : hal_recorder.counts())
+        std::printf("  recorded device %-8s %-12s %llu messages, %llu dropped\n", d.kind.c_str(), d.id.c_str(),
+                    static_cast<unsigned long long>(d.recorded), static_cast<unsigned long long>(d.dropped));
+    }
     std::fflush(stdout);
   }
 #endif
@@ -221,6 +372,56 @@ const bool registered = add_command([](CLI::App& app) {
                   "serve the DDS topics to Foxglove Studio over the Foxglove WebSocket protocol on [ADDR:]PORT "
                   "(e.g. 8765 = 127.0.0.1:8765)");
   cmd->callback([opts] { run(*opts); });
+
+
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  auto ropts = std::make_shared<RunOptions>();
+  auto rfile = std::make_shared<std::string>();
+  auto rconfig = std::make_shared<std::string>();
+  auto realtime = std::make_shared<bool>(false);
+  auto compare = std::make_shared<bool>(false);
+  CLI::App* replay = app.add_subcommand(
+      "replay", "run a recorded deployment again on the inputs its devices delivered (a `run --record` file)");
+  replay->add_option("file", *rfile, "MCAP file written by `regolith run --record`")->required();
+  replay->add_option("--config,-c", *rconfig, "deployment YAML to run instead of the recorded one (devices replaced)");
+  replay->add_option("--duration,-d", ropts->duration_s, "seconds to run (default: as long as the recording)")
+      ->check(regolith::cli::positive());
+  replay->add_flag("--realtime", *realtime, "pace by the wall clock (default: simulated time, as fast as possible)");
+  replay->add_flag("--quiet,-q", ropts->quiet, "no live summary");
+  replay->add_option("--record", ropts->record, "record the replay (DDS topics and devices) into this MCAP file");
+  replay->add_flag("--compare", *compare,
+                   "compare every published topic of the replay with the recording, sample by sample (needs "
+                   "--record; exit status 1 when any differs)");
+  replay->add_option("--live", ropts->live, "serve the replay to Foxglove Studio on [ADDR:]PORT");
+  replay->callback([ropts, rfile, rconfig, realtime, compare] {
+    RunOptions o = *ropts;
+    if (*compare && o.record.empty()) throw InputError("replay: --compare needs --record FILE (the replay's recording)");
+    if (!o.record.empty() && std::filesystem::exists(o.record) && std::filesystem::exists(*rfile) &&
+        std::filesystem::equivalent(o.record, *rfile))
+      throw InputError("replay: --record " + o.record + " is the recording being replayed");
+    o.sim_time = !*realtime;
+    o.config_yaml = replay_deployment(*rfile, *rconfig, o.config);
+    // On simulated time the replay starts at the recorded clock value and ROS time offset: its
+    // stamps are the recording's (a real-time recording's too).
+    const RecordedTimes times = recorded_times(*rfile);
+    if (times.origin >= 0) {
+      o.sim_start = times.origin;
+      o.sim_ros_offset = times.ros_offset;
+    }
+    if (o.duration_s <= 0) {
+      if (times.end <= times.origin)
+        throw InputError(*rfile + ": the recording's length is unknown (no regolith_hal_end); give --duration");
+      o.duration_s = to_seconds(times.end - times.origin);
+    }
+    run(o);
+    if (*compare) {
+      const int differ = compare_recordings(*rfile, o.record);
+      std::printf("%s\n", differ == 0 ? "replay identical to the recording" : "replay differs from the recording");
+      std::fflush(stdout);
+      if (differ != 0) throw CLI::RuntimeError(1);
+    }
+  });
+#endif
 
   CLI::App* config = group(app, "config", "deployment configuration tools");
   auto file = std::make_shared<std::string>();

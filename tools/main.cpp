@@ -58,6 +58,9 @@ CLI::Validator positive() { return number_check(true); }
 
 int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
   if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+  // A command's own exit status (echo: fewer samples than asked; replay --compare: a difference):
+  // the command has said why.
+  if (dynamic_cast<const CLI::RuntimeError*>(&e) != nullptr) return e.get_exit_code();
   // Walk the words: the first one that is neither an option (nor an option's value) nor a
   // command of the level it appears at, where a command is required, is the offending word.
   CLI::App* level = &app;

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include "regolith/hal/wheel_encoders.hpp"
@@ -12,6 +13,14 @@ bool WheelEncoders::velocity(std::size_t wheel, TimeNs now, double& rad_per_s) c
   if (!angle_at(wheel, a.stamp - kWindow, before)) return false;
   rad_per_s = (a.angle - before) / to_seconds(kWindow);
   return true;
+}
+
+std::size_t WheelEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
+                                        std::span<AngleSample> out) const {
+  AngleSample s;
+  if (out.empty() || !latest(wheel, now, s) || s.stamp <= after) return 0;
+  out[0] = s;
+  return 1;
 }
 
 bool WheelEncoders::stale(std::size_t wheel, TimeNs now, TimeNs timeout) const {
@@ -79,6 +88,16 @@ bool AngleHistory::velocity(double& rad_per_s) const {
   if (b.stamp <= a.stamp) return false;
   rad_per_s = (b.angle - a.angle) / to_seconds(b.stamp - a.stamp);
   return true;
+}
+
+std::size_t AngleHistory::since(TimeNs after, std::span<AngleSample> out) const {
+  auto lease = pool_.acquire();
+  if (!lease) return 0;
+  std::size_t n = 0;  // how many of the newest samples are after `after`
+  while (n < lease->count && lease->newest(n).stamp > after) ++n;
+  const std::size_t m = std::min(n, out.size());
+  for (std::size_t i = 0; i < m; ++i) out[i] = lease->newest(n - 1 - i);
+  return m;
 }
 
 }  // namespace regolith::hal

@@ -31,7 +31,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   process.finish();
 
   if (opts.sim_time) {
-    app->sim_clock_ = std::make_unique<SimClock>();
+    app->sim_clock_ = std::make_unique<SimClock>(opts.sim_start);
     app->executor_ = make_sim_executor(*app->sim_clock_);
   } else {
     app->executor_ = make_realtime_executor(rt);
@@ -63,6 +63,9 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
       "topics", {}, {.doc = "topics to record (names of `regolith echo --list`; empty = every known topic)"});
   app->record_.compression =
       rec.get<std::string>("compression", "zstd", {.choices = {"zstd", "none"}, .doc = "MCAP chunk compression"});
+  app->record_.hal = rec.get<bool>(
+      "hal", true, {.doc = "also record what the devices delivered (camera frames, encoder and IMU samples) so "
+                           "`regolith replay` can run the deployment again on them"});
   app->record_.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
   if (opts.enable_dds && !app->dds_ && !app->record_.file.empty())
     rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
@@ -84,6 +87,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
       hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
       std::unique_ptr<hal::Device> d = reg.make<Kind>(p, dc);
       p.finish();
+      if (opts.wrap_device && opts.open_devices) d = opts.wrap_device(std::move(d));
       ctx.add_device(name, std::move(d));
     }
     sec.finish();
@@ -201,7 +205,7 @@ void Application::start() {
     spdlog::default_logger()->sinks().push_back(rosout_);
   }
   if (opts_.sim_time) {
-    ros_time_offset().store(0, std::memory_order_relaxed);
+    ros_time_offset().store(opts_.sim_ros_offset, std::memory_order_relaxed);
   } else {
     ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
     ros_time_stop_ = false;

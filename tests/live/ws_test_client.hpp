@@ -23,9 +23,9 @@ struct Frame {
 
 class WsClient {
  public:
-  /// Connects to 127.0.0.1:port and upgrades with the given subprotocol; `rcvbuf` > 0 sets
-  /// SO_RCVBUF before connecting. ok() tells whether the server accepted (HTTP 101).
-  WsClient(std::uint16_t port, const std::string& subprotocol, int rcvbuf = 0) {
+  /// Connects to 127.0.0.1:port and upgrades `path` with the given subprotocol (none when empty);
+  /// `rcvbuf` > 0 sets SO_RCVBUF before connecting. ok() tells whether the server accepted (HTTP 101).
+  WsClient(std::uint16_t port, const std::string& subprotocol, int rcvbuf = 0, const std::string& path = "/") {
     fd_ = socket(AF_INET, SOCK_STREAM, 0);
     if (rcvbuf > 0) setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
     sockaddr_in a{};
@@ -33,11 +33,10 @@ class WsClient {
     a.sin_port = htons(port);
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     if (connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return;
-    const std::string req = "GET / HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+    const std::string req = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
                             "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                            "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
-                            "Sec-WebSocket-Protocol: " +
-                            subprotocol + "\r\n\r\n";
+                            "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n" +
+                            (subprotocol.empty() ? "" : "Sec-WebSocket-Protocol: " + subprotocol + "\r\n") + "\r\n";
     if (!write_all(req)) return;
     std::string resp;
     char c = 0;

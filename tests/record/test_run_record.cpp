@@ -117,8 +117,13 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   const auto bytes = reader.read_attachment(info.attachments[0]);
   EXPECT_EQ(std::string(bytes.begin(), bytes.end()), read_text(cfg));
 
-  ASSERT_EQ(info.metadata.size(), 1u);
+  // The run's metadata, then the HAL recording's time origin and end.
+  ASSERT_EQ(info.metadata.size(), 3u);
   EXPECT_EQ(info.metadata[0].name, "regolith");
+  EXPECT_EQ(info.metadata[1].name, "regolith_hal");
+  EXPECT_EQ(info.metadata[1].values.at("time_origin_ns"), "1000000000");  // the simulated clock's start
+  EXPECT_EQ(info.metadata[2].name, "regolith_hal_end");
+  EXPECT_EQ(info.metadata[2].values.at("time_end_ns"), "7000000000");
   auto md = info.metadata[0].values;
   EXPECT_EQ(md["deployment"], "mock_rover");
   EXPECT_EQ(md["sim_time"], "true");
@@ -148,22 +153,37 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   EXPECT_EQ(recorded["/tf_static"], 1u);
   EXPECT_GT(recorded["/diagnostics"], 0u);
 
-  // Per channel: log times never go back, sequences count from 0, CDR encapsulation header.
+  // The devices' inputs: every frame the components took (front at the terrain group's 2 Hz, the
+  // wheel camera at 10 Hz), the encoder samples and the answers the components were given.
+  EXPECT_EQ(recorded["/hal/cameras/front/image"], 13u);  // cycles at 0, 0.5, ..., 6 s
+  EXPECT_EQ(recorded["/hal/cameras/wheel_cam/image"], 61u);
+  EXPECT_GT(recorded["/hal/encoders/wheels/samples"], 1000u);
+  EXPECT_GT(recorded["/hal/encoders/wheels/queries"], 0u);
+  EXPECT_GT(recorded["/hal/imus/body_imu/samples"], 0u);
+  EXPECT_EQ(recorded["/hal/imus/body_imu/samples"], recorded["/hal/imus/body_imu/attitude"]);
+  EXPECT_EQ(recorded["/hal/cameras/front/image_corrupt"], 0u);
+  EXPECT_NE(r.out.find(", 0 dropped"), std::string::npos) << r.out;
+
+  // Per channel: log times never go back, sequences count from 0 (the DDS topics; a device's
+  // messages carry its own frame / sample numbers), CDR encapsulation header.
   std::map<std::uint16_t, std::uint64_t> last_time;
   std::map<std::uint16_t, std::uint32_t> next_seq;
-  std::uint64_t total = 0;
+  std::uint64_t total = 0, dds_total = 0;
   const auto problems = reader.for_each_message([&](const regolith::record::MessageView& m) {
     ++total;
     EXPECT_GE(m.log_time, last_time[m.channel.id]) << m.channel.topic;
     last_time[m.channel.id] = m.log_time;
-    EXPECT_EQ(m.sequence, next_seq[m.channel.id]++) << m.channel.topic;
+    if (m.channel.topic.rfind("/hal/", 0) != 0) {
+      ++dds_total;
+      EXPECT_EQ(m.sequence, next_seq[m.channel.id]++) << m.channel.topic;
+    }
     ASSERT_GE(m.data.size(), 4u);
     EXPECT_EQ(m.data[0], 0x00);
     EXPECT_EQ(m.data[1], 0x01);
   });
   EXPECT_TRUE(problems.empty());
   EXPECT_EQ(total, info.message_count);
-  EXPECT_NE(r.out.find("recorded " + std::to_string(total) + " samples"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("recorded " + std::to_string(dds_total) + " samples"), std::string::npos) << r.out;
 
 #ifdef REGOLITH_NODE
   // An independent reader and decoder (@mcap/core + @foxglove/rosmsg2-serialization) decodes every
@@ -200,9 +220,12 @@ TEST_F(RunRecord, RecordBlockFromYamlWithTopicSubset) {
   const Result r = run("run --sim-time --duration 2 --quiet --config " + cfg.string());
   ASSERT_EQ(r.status, 0) << r.out;
   McapReader reader(out);
-  ASSERT_EQ(reader.info().channels.size(), 2u);
+  // The two topics and the devices' inputs (three cameras with a corrupt-frame channel each, two
+  // encoder sets with samples and queries, the IMU's samples, attitudes and queries).
+  ASSERT_EQ(reader.info().channels.size(), 2u + 6u + 4u + 3u);
   std::map<std::string, std::uint64_t> recorded;
-  for (const auto& [id, ch] : reader.info().channels) recorded[ch.topic] = reader.info().message_counts.at(id);
+  for (const auto& [id, ch] : reader.info().channels)
+    recorded[ch.topic] = reader.info().message_counts.count(id) ? reader.info().message_counts.at(id) : 0;
   EXPECT_EQ(recorded["/" + ns_ + "/joint_states"], 101u);  // 2 s at 50 Hz
   EXPECT_GT(recorded["/diagnostics"], 0u);
   for (const auto& c : reader.info().chunks) EXPECT_EQ(c.compression, "");
@@ -237,6 +260,76 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("record.file"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("record.compression"), std::string::npos) << r.out;
+}
+
+TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
+  const fs::path cfg = write_config("rover.yaml", "");
+  const fs::path a = dir_ / "a.mcap", b = dir_ / "b.mcap";
+  Result r = run("run --sim-time --duration 3 --quiet --config " + cfg.string() + " --record " + a.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  // The recorded deployment with replay devices, as long as the recording, on simulated time;
+  // every published sample of every topic equal byte for byte (stamps included).
+  r = run("replay " + a.string() + " --quiet --record " + b.string() + " --compare");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("replay identical to the recording"), std::string::npos) << r.out;
+  const std::string n = "/" + ns_ + "/";
+  for (const std::string& t : {n + "terrain/grid_map", n + "terrain/rocks", n + "terrain/wheel_sinkage",
+                               n + "terrain/soil", n + "odom", n + "imu", std::string("/tf")}) {
+    const std::regex row(t + R"(\s+(\d+)\s+(\d+)\s+(\d+)\s+-)");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.out, m, row)) << t << "\n" << r.out;
+    EXPECT_GT(std::stoi(m[1].str()), 0) << t;
+    EXPECT_EQ(m[1].str(), m[3].str()) << t;
+  }
+  // The replay's own recording holds the devices again: it replays the same way.
+  McapReader rb(b);
+  bool has_hal = false;
+  for (const auto& [id, ch] : rb.info().channels) has_hal = has_hal || ch.topic == "/hal/cameras/front/image";
+  EXPECT_TRUE(has_hal);
+
+  // Another deployment on the same inputs (a different rock threshold): the rocks differ and the
+  // comparison says where, with exit status 1.
+  std::string yaml = read_text(cfg);
+  const auto at = yaml.find("threshold_scale: 2.0");
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, 20, "threshold_scale: 0.5");
+  const fs::path changed = dir_ / "changed.yaml";
+  std::ofstream(changed) << yaml;
+  r = run("replay " + a.string() + " --quiet --config " + changed.string() + " --record " + (dir_ / "c.mcap").string() +
+          " --compare");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("replay differs from the recording"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(n + R"(terrain/rocks\s+\d+\s+\d+\s+\d+\s+sample \d+)"))) << r.out;
+}
+
+TEST_F(RunRecord, ReplayErrorsNameTheFile) {
+  // A recording without the devices' inputs (record.hal: false): the replay devices say so.
+  const fs::path a = dir_ / "no_hal.mcap";
+  const fs::path cfg = write_config("no_hal.yaml", "\nrecord: {hal: false}\n");
+  Result r = run("run --sim-time --duration 1 --quiet --config " + cfg.string() + " --record " + a.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  {
+    McapReader no_hal(a);
+    for (const auto& [id, ch] : no_hal.info().channels) EXPECT_NE(ch.topic.rfind("/hal/", 0), 0u) << ch.topic;
+  }
+  r = run("replay " + a.string() + " --quiet --duration 1");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find(a.string() + ": no HAL recording in this file"), std::string::npos) << r.out;
+  // --compare without --record; a missing file; a file that is not MCAP.
+  r = run("replay " + a.string() + " --compare");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--compare needs --record"), std::string::npos) << r.out;
+  r = run("replay " + (dir_ / "missing.mcap").string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("missing.mcap"), std::string::npos) << r.out;
+  std::ofstream(dir_ / "text.mcap") << "not a recording";
+  r = run("replay " + (dir_ / "text.mcap").string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("text.mcap"), std::string::npos) << r.out;
+  // The recording being replayed is never the replay's output.
+  r = run("replay " + a.string() + " --record " + a.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("is the recording being replayed"), std::string::npos) << r.out;
 }
 
 }  // namespace

@@ -511,6 +511,12 @@ bool SocketCanEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) con
   return history_[wheel]->at(t, static_cast<TimeNs>(cfg_.max_extrapolation_s * 1e9), angle);
 }
 
+std::size_t SocketCanEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs /*now*/,
+                                            std::span<AngleSample> out) const {
+  if (wheel >= history_.size()) return 0;
+  return history_[wheel]->since(after, out);
+}
+
 bool SocketCanEncoders::stale_flag(std::size_t wheel) const {
   return wheel < names_.size() && stale_[wheel].load();
 }

@@ -17,6 +17,9 @@ std::unique_ptr<hal::Imu> make_synthetic_drive_imu(Params& p, const hal::DeviceC
 std::unique_ptr<hal::Camera> make_synthetic_wheel_camera(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::WheelEncoders> make_synthetic_wheel_encoders(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Imu> make_scripted_imu(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::Camera> make_replay_camera(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::WheelEncoders> make_replay_encoders(Params& p, const hal::DeviceContext& ctx);
+std::unique_ptr<hal::Imu> make_replay_imu(Params& p, const hal::DeviceContext& ctx);
 std::unique_ptr<hal::Camera> make_fault_camera(Params& p, const hal::DeviceContext& ctx,
                                                const hal::BackendRegistry& registry);
 std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::DeviceContext& ctx,

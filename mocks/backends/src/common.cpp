@@ -1,5 +1,6 @@
 #include "common.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -69,6 +70,12 @@ PreloadedCamera::PreloadedCamera(const hal::DeviceContext& ctx, hal::CameraForma
   pool_ = hal::make_frame_pool(fmt_.width, fmt_.height, fmt_.format);
 }
 
+std::int64_t PreloadedCamera::frame_index(TimeNs rel) const {
+  const std::int64_t k = grid_.index(rel);
+  const auto n = static_cast<std::int64_t>(images_.size());
+  return !loop_ && k >= n ? n - 1 : k;  // not looping: the last image stays the newest frame
+}
+
 void PreloadedCamera::start() {
   published_.store(-1, std::memory_order_release);
   start_.store(clock_->now(), std::memory_order_release);
@@ -81,19 +88,18 @@ bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
   out.reset();
   if (!started_.load(std::memory_order_acquire)) return false;
   const TimeNs start = start_.load(std::memory_order_acquire);
-  std::int64_t k = grid_.index(now - start);
+  const std::int64_t k = frame_index(now - start);
   if (k < 0) return false;
   const auto n = static_cast<std::int64_t>(images_.size());
-  if (!loop_ && k >= n) k = n - 1;  // the last image stays the newest frame
   if (k > published_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
     if (k > published_.load(std::memory_order_relaxed)) {
       hal::Frame* f = pool_->begin_write();
       if (f != nullptr) {
         images_[static_cast<std::size_t>(k % n)].copyTo(f->image);  // same geometry: no allocation
-        f->capture_time = start + grid_.offset(k);
-        f->sequence = static_cast<std::uint64_t>(k);
+        f->capture_time = start + frame_offset(k);
+        f->sequence = frame_sequence(k);
         f->camera_index = index_;
-        f->corrupt = false;
+        f->corrupt = frame_corrupt(k);
         pool_->commit();
         last_frame_time_.store(f->capture_time, std::memory_order_relaxed);
         published_.store(k, std::memory_order_release);
@@ -166,6 +172,24 @@ bool LazyEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) const {
   const double f = dt > 0 ? static_cast<double>(rel - s0.stamp) / dt : 0.0;
   angle = s0.angle + f * (s1.angle - s0.angle);
   return true;
+}
+
+std::size_t LazyEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
+                                        std::span<hal::AngleSample> out) const {
+  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size() || out.empty()) return 0;
+  const TimeNs start = start_time();
+  const std::int64_t last = index_at(wheel, now - start);
+  if (last < 0) return 0;
+  // The first sample after `after` (index_at gives the newest at or before a time).
+  const std::int64_t first = after < start ? 0 : index_at(wheel, after - start) + 1;
+  const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
+  std::size_t n = 0;
+  for (std::int64_t g = first; g < end; ++g) {
+    hal::AngleSample s = sample(wheel, g);
+    s.stamp += start;
+    if (s.stamp > after) out[n++] = s;
+  }
+  return n;
 }
 
 hal::EncoderStats LazyEncoders::stats() const {

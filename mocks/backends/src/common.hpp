@@ -98,6 +98,15 @@ class PreloadedCamera : public hal::Camera {
   std::size_t image_count() const { return images_.size(); }
   const cv::Mat& image(std::size_t i) const { return images_[i]; }
 
+ protected:
+  // The frame schedule; the default is the rate grid (frame k = images[k % n], sequence k, captured
+  // k / rate after the start). A subclass with recorded times (replay) overrides all four.
+  /// Newest frame due `rel` after the start; -1 when none.
+  virtual std::int64_t frame_index(TimeNs rel) const;
+  virtual TimeNs frame_offset(std::int64_t k) const { return grid_.offset(k); }
+  virtual std::uint64_t frame_sequence(std::int64_t k) const { return static_cast<std::uint64_t>(k); }
+  virtual bool frame_corrupt(std::int64_t /*k*/) const { return false; }
+
  private:
   std::string id_;
   std::uint16_t index_ = 0;
@@ -129,6 +138,8 @@ class LazyEncoders : public hal::WheelEncoders {
   void stop() override;
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override;
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
+  /// Every scripted sample in (after, now]: the script is the history.
+  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override;
   hal::EncoderStats stats() const override;
 
  protected:

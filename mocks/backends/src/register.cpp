@@ -13,6 +13,10 @@ void register_mock_backends(hal::BackendRegistry& registry) {
                       make_image_files_camera);
   registry.add_camera("fault_injection", "wraps `inner:` camera: drop, freeze, corrupt, delay, disconnect/reconnect",
                       [reg](Params& p, const hal::DeviceContext& ctx) { return make_fault_camera(p, ctx, *reg); });
+  registry.add_camera("replay", "the frames a camera delivered in a HAL recording (`regolith run --record`), "
+                      "at their recorded times", make_replay_camera);
+  registry.add_encoders("replay", "the wheel angles (samples and query answers) of a HAL recording", make_replay_encoders);
+  registry.add<hal::Imu>("replay", "the IMU samples and attitude answers of a HAL recording", make_replay_imu);
   registry.add_encoders("scripted", "wheel angles from a constant speed or a CSV profile, on a sample grid",
                         make_scripted_encoders);
   registry.add_encoders("candump", "replay of a can-utils `candump -l` log through the CAN decoder",

@@ -3,6 +3,7 @@
 // script at its defaults the rover is level; the synthetic scenes' attitude is scripted the same
 // way. Angular velocity = the script's Euler-angle rates (exact for the small sways it models);
 // linear acceleration = gravity seen in the body frame (specific force of a rover at rest).
+#include <algorithm>
 #include <cmath>
 
 #include "backends_internal.hpp"
@@ -59,6 +60,18 @@ class ScriptedImu final : public hal::Imu {
     return true;
   }
 
+  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
+    if (!started_.load(std::memory_order_acquire) || out.empty()) return 0;
+    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    const std::int64_t last = grid_.index(now - t0);
+    const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
+    const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
+    std::size_t n = 0;
+    for (std::int64_t k = first; k < end; ++k) {
+      if (latest(t0 + grid_.offset(k), out[n]) && out[n].stamp > after) ++n;
+    }
+    return n;
+  }
   bool attitude_at(TimeNs t, Attitude& out) const override {
     if (!started_.load(std::memory_order_acquire)) return false;
     const TimeNs t0 = start_.load(std::memory_order_acquire);

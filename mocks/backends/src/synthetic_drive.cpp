@@ -377,6 +377,18 @@ class DriveImu final : public hal::Imu, public DriveTruth {
     out.linear_acceleration = {0.0, v[0] * v[1], spec_.gravity_mps2};
     return true;
   }
+  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
+    if (!started_.load(std::memory_order_acquire) || out.empty()) return 0;
+    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    const std::int64_t last = grid_.index(now - t0);
+    const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
+    const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
+    std::size_t n = 0;
+    for (std::int64_t k = first; k < end; ++k) {
+      if (latest(t0 + grid_.offset(k), out[n]) && out[n].stamp > after) ++n;
+    }
+    return n;
+  }
   bool attitude_at(TimeNs t, Attitude& out) const override {
     if (!started_.load(std::memory_order_acquire)) return false;
     const TimeNs t0 = start_.load(std::memory_order_acquire);

@@ -64,20 +64,14 @@ DdsRecorder::DdsRecorder(Participant& p, const std::filesystem::path& file, DdsR
   wo.library = opts_.library;
   writer_ = std::make_unique<record::McapWriter>(path_, wo);  // throws when the file cannot be created
   waitset_ = std::make_unique<ReaderWaitSet>(p.handle());
-  std::map<std::string, std::uint16_t> schemas;  // ROS type -> schema id
   std::vector<const TopicInfo*> seen;
   for (const TopicInfo* t : opts_.topics) {
     if (std::find(seen.begin(), seen.end(), t) != seen.end()) continue;
     seen.push_back(t);
-    const std::string type(t->ros_type);
-    auto s = schemas.find(type);
-    if (s == schemas.end()) {
-      s = schemas.emplace(type, writer_->add_schema(type, "ros2msg", msgs::ros2msg_definition(type))).first;
-    }
     auto r = std::make_unique<Recorded>();
     r->info = t;
     r->ros_name = p.ros_name(t->name);
-    r->channel = writer_->add_channel(s->second, r->ros_name, "cdr",
+    r->channel = writer_->add_channel(schema_for(std::string(t->ros_type)), r->ros_name, "cdr",
                                       {{"offered_qos_profiles", offered_qos_yaml(t->writer_qos())}});
     QosProfile q = t->reader_qos();
     if (opts_.keep_all) q.keep_all = true;
@@ -99,6 +93,25 @@ void DdsRecorder::add_attachment(const std::string& name, const std::string& med
   writer_->add_attachment(
       name, media_type, realtime_ns(), realtime_ns(),
       std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
+}
+
+std::uint16_t DdsRecorder::schema_for(const std::string& ros_type) {
+  auto s = schemas_.find(ros_type);
+  if (s == schemas_.end())
+    s = schemas_.emplace(ros_type, writer_->add_schema(ros_type, "ros2msg", msgs::ros2msg_definition(ros_type))).first;
+  return s->second;
+}
+
+std::uint16_t DdsRecorder::add_cdr_channel(const std::string& topic, const std::string& ros_type,
+                                           const std::map<std::string, std::string>& metadata) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return writer_->add_channel(schema_for(ros_type), topic, "cdr", metadata);
+}
+
+void DdsRecorder::write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
+                        std::uint64_t publish_time, std::span<const std::uint8_t> data) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!writer_closed_) writer_->write(channel, sequence, log_time, publish_time, data);
 }
 
 void DdsRecorder::add_metadata(const std::string& name, const std::map<std::string, std::string>& values) {
@@ -157,6 +170,7 @@ void DdsRecorder::stop() {
     } while (total_.load() != before && !done());
   }
   std::lock_guard<std::mutex> lock(mutex_);
+  writer_closed_ = true;
   writer_->close();
 }
 

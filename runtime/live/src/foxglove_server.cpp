@@ -3,10 +3,13 @@
 #include <sys/socket.h>
 
 #include <atomic>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <websocketpp/config/asio_no_tls.hpp>
@@ -24,6 +27,33 @@ constexpr int kStatusError = 2;
 
 void put_le(std::string& out, std::uint64_t v, int bytes) {
   for (int i = 0; i < bytes; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xffu));
+}
+
+/// The Content-Type of a page file by its extension; nullptr = a kind of file never served.
+const char* content_type(const std::string& name) {
+  static const std::pair<const char*, const char*> kTypes[] = {{".html", "text/html; charset=utf-8"},
+                                                               {".js", "text/javascript; charset=utf-8"},
+                                                               {".css", "text/css; charset=utf-8"},
+                                                               {".svg", "image/svg+xml"},
+                                                               {".png", "image/png"},
+                                                               {".ico", "image/x-icon"}};
+  for (const auto& [ext, type] : kTypes) {
+    const std::size_t n = std::char_traits<char>::length(ext);
+    if (name.size() > n && name.compare(name.size() - n, n, ext) == 0) return type;
+  }
+  return nullptr;
+}
+
+/// A plain file name of the web root: no directories, no `..`, no hidden files, nothing
+/// percent-encoded, so a request can never name a file outside it.
+bool plain_file_name(const std::string& name) {
+  if (name.empty() || name.front() == '.' || name.find("..") != std::string::npos) return false;
+  for (char ch : name) {
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' ||
+                    ch == '-' || ch == '.';
+    if (!ok) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -101,6 +131,46 @@ struct FoxgloveServer::Impl {
   void status_error(const Hdl& h, const std::string& message) {
     bad_requests.fetch_add(1);
     send_text(h, json{{"op", "status"}, {"level", kStatusError}, {"message", message}}.dump());
+  }
+
+  /// A plain HTTP request (no WebSocket upgrade): the built-in page's files from opts.web_root.
+  void on_http(const Hdl& h) {
+    websocketpp::lib::error_code ec;
+    auto con = ws.get_con_from_hdl(h, ec);
+    if (ec) return;
+    auto reply = [&](websocketpp::http::status_code::value status, const std::string& type, std::string body) {
+      con->set_status(status);
+      con->replace_header("Content-Type", type);
+      con->replace_header("Cache-Control", "no-cache");
+      con->replace_header("X-Content-Type-Options", "nosniff");
+      con->set_body(std::move(body));
+    };
+    const std::string text = "text/plain; charset=utf-8";
+    if (con->get_request().get_method() != "GET") {
+      con->replace_header("Allow", "GET");
+      return reply(websocketpp::http::status_code::method_not_allowed, text, "only GET\n");
+    }
+    if (opts.web_root.empty()) {
+      return reply(websocketpp::http::status_code::not_found, text,
+                   "regolith live: the built-in page is not installed (no web root); connect Foxglove Studio or "
+                   "Lichtblick to this address over WebSocket\n");
+    }
+    std::string path = con->get_resource();
+    path = path.substr(0, path.find_first_of("?#"));
+    if (path == "/") path = "/index.html";
+    // Only origin-form paths ("/name"): anything else names no file.
+    const std::string name = !path.empty() && path.front() == '/' ? path.substr(1) : std::string();
+    const char* type = content_type(name);
+    std::ifstream in;
+    if (plain_file_name(name) && type != nullptr) {
+      const std::filesystem::path file = std::filesystem::path(opts.web_root) / name;
+      std::error_code fec;
+      if (std::filesystem::is_regular_file(file, fec)) in.open(file, std::ios::binary);
+    }
+    if (!in.is_open()) return reply(websocketpp::http::status_code::not_found, text, "not found\n");
+    std::ostringstream body;
+    body << in.rdbuf();
+    reply(websocketpp::http::status_code::ok, type, body.str());
   }
 
   void unsubscribe_all(Client& c) {
@@ -257,6 +327,7 @@ FoxgloveServer::FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOpti
     con->set_status(websocketpp::http::status_code::bad_request);
     return false;
   });
+  s.ws.set_http_handler([this](Hdl h) { impl_->on_http(h); });
   s.ws.set_open_handler([this](Hdl h) {
     impl_->connected.fetch_add(1);
     impl_->accepted.fetch_add(1);

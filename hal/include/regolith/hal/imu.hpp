@@ -3,7 +3,9 @@
 // Frames: the IMU is mounted aligned with the body frame (REP-103: x forward, y left, z up);
 // orientation = the body in the local-level frame (z up, x = the heading at start). Real backends
 // (Linux IIO) rotate their sensor frame into the body frame; the mock scripts it.
+#include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
@@ -37,6 +39,15 @@ class Imu : public Device {
   /// The attitude at time `t` (e.g. a camera frame's capture time), interpolated between the
   /// samples around it; false outside the history.
   virtual bool attitude_at(TimeNs t, Attitude& out) const = 0;
+  /// The samples with `after` < stamp <= `now`, oldest first, at most out.size() (call again from
+  /// the last one's stamp for the rest); returns how many. For recorders, outside the rate groups.
+  /// The default gives the newest only.
+  virtual std::size_t samples_since(TimeNs after, TimeNs now, std::span<ImuSample> out) const {
+    ImuSample s;
+    if (out.empty() || !latest(now, s) || s.stamp <= after) return 0;
+    out[0] = s;
+    return 1;
+  }
 };
 
 }  // namespace regolith::hal

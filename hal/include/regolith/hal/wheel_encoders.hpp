@@ -2,6 +2,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,11 @@ class WheelEncoders : public Device {
   virtual bool angle_at(std::size_t wheel, TimeNs t, double& angle) const = 0;
   /// Angular velocity (rad/s) from the last two samples at `now`; false if unknown.
   virtual bool velocity(std::size_t wheel, TimeNs now, double& rad_per_s) const;
+  /// The samples of `wheel` with `after` < stamp <= `now`, oldest first, at most out.size() of them
+  /// (call again from the last one's stamp for the rest); returns how many were written. For
+  /// recorders, outside the rate groups. Backends that keep a history give every sample they still
+  /// hold; the default gives only the newest one.
+  virtual std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const;
 
   /// A wheel is stale when its newest sample is older than `timeout` at `now`.
   bool stale(std::size_t wheel, TimeNs now, TimeNs timeout) const;
@@ -73,6 +79,8 @@ class AngleHistory {
   bool latest(AngleSample& out) const;
   bool at(TimeNs t, TimeNs max_extrapolation, double& angle) const;
   bool velocity(double& rad_per_s) const;
+  /// Samples with `after` < stamp still held, oldest first, at most out.size().
+  std::size_t since(TimeNs after, std::span<AngleSample> out) const;
 
  private:
   Snapshot work_{};

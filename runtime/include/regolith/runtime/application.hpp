@@ -33,6 +33,14 @@ struct AppOptions {
   bool open_devices = true;  ///< false: backends validate parameters without opening devices
   std::vector<std::string> wait_for{};  ///< DDS topics that need a subscriber before starting
   TimeNs wait_timeout = 30 * kNsPerSec; ///< how long to wait for them
+  /// Simulated time: the clock's value at start and the ROS time offset (ROS time = clock +
+  /// offset; 0 = ROS's use_sim_time). `regolith replay` starts at a recording's own time origin and
+  /// offset, so the replay's stamps are the recorded ones.
+  TimeNs sim_start = kNsPerSec;
+  TimeNs sim_ros_offset = 0;
+  /// Applied to every device right after its backend built it (configure time, devices opened):
+  /// a decorator such as the HAL recorder's (record::HalRecorder::wrap). Empty = none.
+  std::function<std::unique_ptr<hal::Device>(std::unique_ptr<hal::Device>)> wrap_device{};
 };
 
 /// The `record:` block (read here so `config check` lists it; the recording itself is done by the
@@ -41,6 +49,7 @@ struct RecordConfig {
   std::string file;                  ///< MCAP file; empty = no recording (`run --record` overrides)
   std::vector<std::string> topics;   ///< topic names (`regolith echo --list`); empty = every known one
   std::string compression = "zstd";  ///< zstd | none
+  bool hal = true;                   ///< also the devices' inputs (record::HalRecorder), for `regolith replay`
   std::string where_topics;          ///< file:line:col of record.topics (or of the block), for errors
 };
 

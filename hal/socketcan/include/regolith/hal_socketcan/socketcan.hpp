@@ -98,6 +98,8 @@ class SocketCanEncoders final : public WheelEncoders {
   void stop() override;
   bool latest(std::size_t wheel, TimeNs now, AngleSample& out) const override;
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
+  /// Every sample of the receive history (64 per wheel) after `after`.
+  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const override;
   EncoderStats stats() const override;
 
   BusStats bus_stats() const;

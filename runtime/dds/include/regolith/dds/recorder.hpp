@@ -18,6 +18,7 @@
 #include "regolith/core/time.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "regolith/record/sink.hpp"
 
 namespace regolith::dds {
 
@@ -39,7 +40,7 @@ struct DdsRecorderOptions {
 /// The rosbag2 (Humble) `offered_qos_profiles` YAML of regolith's writers of a topic.
 std::string offered_qos_yaml(const QosProfile& q);
 
-class DdsRecorder {
+class DdsRecorder final : public record::MessageSink {
  public:
   struct TopicCount {
     std::string ros_name;  ///< e.g. /rover1/joint_states
@@ -56,7 +57,13 @@ class DdsRecorder {
 
   /// Attachment / Metadata records (thread-safe, also while recording).
   void add_attachment(const std::string& name, const std::string& media_type, const std::string& data);
-  void add_metadata(const std::string& name, const std::map<std::string, std::string>& values);
+  void add_metadata(const std::string& name, const std::map<std::string, std::string>& values) override;
+  /// Channels and messages of other recorders in the same file (record::MessageSink: the HAL
+  /// recorder of `regolith run --record`); thread-safe.
+  std::uint16_t add_cdr_channel(const std::string& topic, const std::string& ros_type,
+                                const std::map<std::string, std::string>& metadata) override;
+  void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time, std::uint64_t publish_time,
+             std::span<const std::uint8_t> data) override;
 
   /// Starts the recording thread (idempotent).
   void start();
@@ -86,11 +93,14 @@ class DdsRecorder {
   std::unique_ptr<ReaderWaitSet> waitset_;
   std::vector<std::unique_ptr<Recorded>> rec_;
   std::vector<std::uint8_t> scratch_;
+  std::map<std::string, std::uint16_t> schemas_;  // ROS type -> schema id (guarded by mutex_)
+  std::uint16_t schema_for(const std::string& ros_type);
   std::atomic<std::uint64_t> total_{0};
   std::atomic<bool> stop_{false};
   std::atomic<TimeNs> cpu_ns_{0};
   std::thread thread_;
   bool closed_ = false;
+  bool writer_closed_ = false;  // guarded by mutex_: late write()s of other recorders are ignored
 };
 
 }  // namespace regolith::dds

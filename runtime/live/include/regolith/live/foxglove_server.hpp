@@ -2,10 +2,11 @@
 // FoxgloveServer: a Foxglove WebSocket protocol server (subprotocol foxglove.websocket.v1,
 // https://github.com/foxglove/ws-protocol docs/spec.md), the subset Foxglove Studio / Lichtblick
 // need to show live topics: serverInfo, advertise, subscribe / unsubscribe, binary messageData,
-// status. Serves from one asio thread of its own; send_message() is called from any other thread
-// (the DDS relay's) and never blocks. Per-client send queue limited in bytes: a client whose queue
-// would exceed it is disconnected and counted, never waited for. Bounded number of clients.
-// Not for real-time threads. (Its source is compiled as C++17: websocketpp 0.8 is not C++20.) Target regolith::live
+// status. Plain HTTP GETs (no WebSocket upgrade) get the built-in page's static files from
+// options.web_root. Serves from one asio thread of its own; send_message() is called from any
+// other thread (the DDS relay's) and never blocks. Per-client send queue limited in bytes: a
+// client whose queue would exceed it is disconnected and counted, never waited for. Bounded
+// number of clients. Not for real-time threads. (Its source is compiled as C++17: websocketpp 0.8 is not C++20.) Target regolith::live
 // (websocketpp + Boost.Asio, nlohmann-json).
 #include <cstddef>
 #include <cstdint>
@@ -43,6 +44,9 @@ struct FoxgloveServerOptions {
   std::size_t max_queue_bytes = 8u << 20;     ///< per-client send queue limit (B); above: dropped
   std::size_t max_incoming_bytes = 1u << 20;  ///< largest client message accepted (B)
   int socket_send_buffer_bytes = 0;           ///< SO_SNDBUF of client sockets (0 = system default)
+  /// Directory of the built-in page (index.html and its assets) answered to plain HTTP GETs on
+  /// the same port; empty = no page (HTTP 404). See default_web_root() (web_root.hpp).
+  std::string web_root;
 };
 
 struct FoxgloveServerStats {

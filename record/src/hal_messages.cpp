@@ -1,0 +1,123 @@
+#include "regolith/record/hal_messages.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "regolith/record/cdr.hpp"
+
+namespace regolith::record {
+
+void encode_image(std::vector<std::uint8_t>& out, TimeNs stamp, const std::string& frame_id, const cv::Mat& image) {
+  CdrWriter w(out);
+  w.header(stamp, frame_id);
+  w.u32(static_cast<std::uint32_t>(image.rows));
+  w.u32(static_cast<std::uint32_t>(image.cols));
+  w.string(image.channels() == 1 ? "mono8" : "bgr8");
+  w.u8(0);
+  const std::size_t step = static_cast<std::size_t>(image.cols) * image.elemSize();
+  w.u32(static_cast<std::uint32_t>(step));
+  if (image.isContinuous()) {
+    w.bytes(image.data, step * static_cast<std::size_t>(image.rows));
+  } else {
+    w.u32(static_cast<std::uint32_t>(step * static_cast<std::size_t>(image.rows)));
+    for (int r = 0; r < image.rows; ++r) out.insert(out.end(), image.ptr(r), image.ptr(r) + step);
+  }
+}
+
+void encode_wheel_angle(std::vector<std::uint8_t>& out, TimeNs stamp, const std::string& wheel, double angle) {
+  CdrWriter w(out);
+  w.header(stamp, "");
+  w.u32(1);
+  w.string(wheel);
+  w.f64_sequence(std::span<const double>(&angle, 1));
+  w.u32(0);  // velocity
+  w.u32(0);  // effort
+}
+
+void encode_imu(std::vector<std::uint8_t>& out, const hal::ImuSample& s, const std::string& frame_id) {
+  CdrWriter w(out);
+  w.header(s.stamp, frame_id);
+  const hal::Quaternion q = hal::to_quaternion(s.attitude);
+  for (double v : {q.x, q.y, q.z, q.w}) w.f64(v);
+  for (int i = 0; i < 9; ++i) w.f64(0.0);
+  for (double v : {s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z}) w.f64(v);
+  for (int i = 0; i < 9; ++i) w.f64(0.0);
+  for (double v : {s.linear_acceleration.x, s.linear_acceleration.y, s.linear_acceleration.z}) w.f64(v);
+  for (int i = 0; i < 9; ++i) w.f64(0.0);
+}
+
+void encode_attitude(std::vector<std::uint8_t>& out, TimeNs stamp, const Attitude& a) {
+  CdrWriter w(out);
+  w.header(stamp, "");
+  w.f64(a.roll_rad);
+  w.f64(a.pitch_rad);
+  w.f64(a.yaw_rad);
+}
+
+DecodedImage decode_image(std::span<const std::uint8_t> cdr) {
+  CdrReader r(cdr);
+  DecodedImage d;
+  d.stamp = r.header(&d.frame_id);
+  const std::uint32_t height = r.u32(), width = r.u32();
+  const std::string encoding = r.string();
+  r.u8();
+  const std::uint32_t step = r.u32();
+  const std::span<const std::uint8_t> data = r.bytes();
+  int type = 0;
+  if (encoding == "mono8") {
+    type = CV_8UC1;
+  } else if (encoding == "bgr8") {
+    type = CV_8UC3;
+  } else {
+    throw std::invalid_argument("image encoding '" + encoding + "' (mono8 and bgr8 are replayed)");
+  }
+  const std::size_t row = static_cast<std::size_t>(width) * (type == CV_8UC1 ? 1 : 3);
+  if (height == 0 || width == 0 || height > 65535 || width > 65535 || step < row ||
+      data.size() < static_cast<std::size_t>(step) * height)
+    throw std::invalid_argument("image " + std::to_string(width) + "x" + std::to_string(height) + ", step " +
+                                std::to_string(step) + ": " + std::to_string(data.size()) + " bytes of pixels");
+  d.image.create(static_cast<int>(height), static_cast<int>(width), type);
+  for (std::uint32_t y = 0; y < height; ++y)
+    std::copy_n(data.data() + static_cast<std::size_t>(y) * step, row, d.image.ptr(static_cast<int>(y)));
+  return d;
+}
+
+DecodedWheelAngle decode_wheel_angle(std::span<const std::uint8_t> cdr) {
+  CdrReader r(cdr);
+  DecodedWheelAngle d;
+  d.stamp = r.header();
+  if (r.u32() != 1) throw std::invalid_argument("a wheel-angle message names one joint");
+  d.wheel = r.string();
+  const std::vector<double> p = r.f64_sequence();
+  if (p.size() != 1) throw std::invalid_argument("a wheel-angle message has one position");
+  d.angle = p[0];
+  return d;
+}
+
+hal::ImuSample decode_imu(std::span<const std::uint8_t> cdr) {
+  CdrReader r(cdr);
+  hal::ImuSample s;
+  s.stamp = r.header();
+  const double x = r.f64(), y = r.f64(), z = r.f64(), w = r.f64();
+  // R = Rz(yaw) Ry(pitch) Rx(roll) from the unit quaternion.
+  s.attitude.roll_rad = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
+  s.attitude.pitch_rad = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
+  s.attitude.yaw_rad = std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
+  for (int i = 0; i < 9; ++i) r.f64();
+  s.angular_velocity = {r.f64(), r.f64(), r.f64()};
+  for (int i = 0; i < 9; ++i) r.f64();
+  s.linear_acceleration = {r.f64(), r.f64(), r.f64()};
+  return s;
+}
+
+DecodedAttitude decode_attitude(std::span<const std::uint8_t> cdr) {
+  CdrReader r(cdr);
+  DecodedAttitude d;
+  d.stamp = r.header();
+  d.a.roll_rad = r.f64();
+  d.a.pitch_rad = r.f64();
+  d.a.yaw_rad = r.f64();
+  return d;
+}
+
+}  // namespace regolith::record
