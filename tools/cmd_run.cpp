@@ -281,14 +281,18 @@ void run(const RunOptions& o) {
   // `--live`: the same server as `regolith live`, on the application's own participant (its own
   // threads: the relay only reads DDS).
   std::unique_ptr<live::DdsRelay> relay;
-  if (!o.live.empty()) {
+  const runtime::LiveConfig& lc = app->live_config();
+  if (!o.live.empty() || lc.enabled) {
     if (app->dds() == nullptr) throw InputError("run: --live: needs DDS, but the deployment has dds.enabled: false");
     live::FoxgloveServerOptions lo;
     try {
-      live::parse_listen_address(o.live, lo);
+      live::parse_listen_address(o.live.empty() ? lc.listen : o.live, lo);
     } catch (const std::invalid_argument& e) {
+      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
       throw InputError(std::string("run: --live: ") + e.what());
     }
+    lo.max_clients = static_cast<std::size_t>(lc.max_clients);
+    lo.max_queue_bytes = static_cast<std::size_t>(lc.max_queue_mb * 1024 * 1024);
     lo.web_root = live::default_web_root();  // the built-in page on GET /
     relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
     relay->start();
@@ -296,7 +300,8 @@ void run(const RunOptions& o) {
                  relay->server().port(), lo.address, relay->server().port());
   }
 #else
-  if (!o.live.empty()) throw InputError("run: --live: this build has no live server (websocketpp not found)");
+  if (!o.live.empty() || app->live_config().enabled) 
+    throw InputError("run: live view (--live / live.enabled): this build has no live server (websocketpp not found)");
 #endif
   app->start();
 

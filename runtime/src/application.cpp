@@ -72,6 +72,23 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
                      "deployment publishes)");
   rec.finish();
 
+  // ---- live: the Foxglove WebSocket server and page of `regolith run` (the tool serves; read here) ----
+  Params live = root.child("live");
+  app->live_.enabled = live.get<bool>(
+      "enabled", false, {.doc = "serve every DDS topic over the Foxglove WebSocket protocol and the built-in page "
+                                "(`regolith run --live [ADDR:]PORT` enables it too)"});
+  app->live_.listen = live.get<std::string>("listen", "127.0.0.1:8765",
+                                            {.doc = "[ADDR:]PORT to listen on (0.0.0.0 = every interface)"});
+  app->live_.max_clients =
+      live.get<int>("max_clients", 8, {.min = 1, .max = 1000, .doc = "connections beyond this are refused"});
+  app->live_.max_queue_mb = live.get<double>(
+      "max_queue_mb", 8.0, {.unit = "MiB", .min = 0.0, .max = 4096.0, .min_exclusive = true,
+                            .doc = "per-client send queue; a client whose queue would exceed it is dropped"});
+  app->live_.where = live.where(live.has("listen") ? "listen" : std::string_view{});
+  if (opts.enable_dds && !app->dds_ && app->live_.enabled)
+    live.fail("enabled", "the live view needs DDS: set dds.enabled: true (it serves the DDS topics)");
+  live.finish();
+
   // ---- rover description: camera calibration and mounts, wheels, the sun ----
   ctx.set_rover(read_rover_description(root, config_dir));
 

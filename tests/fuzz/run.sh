@@ -22,11 +22,12 @@ if ((!ci)) && [[ "${1:-}" =~ ^[0-9]+$ ]]; then
   shift
 fi
 declare -A ci_runs=([candump]=10000000 [can_decoder]=2000000 [deployment_yaml]=100000
-                    [pixel_convert]=6000000 [soil_scene]=150000 [image]=8000 [mcap]=120000)
+                    [pixel_convert]=6000000 [soil_scene]=150000 [image]=8000 [mcap]=120000
+                    [hal_messages]=1000000)
 build=build/fuzz
 targets=("$@")
 if ((${#targets[@]} == 0)); then
-  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image mcap)
+  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image mcap hal_messages)
 fi
 if [[ ! -f "$build/CMakeCache.txt" ]]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DREGOLITH_FUZZ=ON \

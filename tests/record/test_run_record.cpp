@@ -255,11 +255,27 @@ TEST_F(RunRecord, ConfigErrors) {
   r = run("run --sim-time --duration 1 --quiet --config " + bad_topic.string());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("record.topics: unknown topic 'joint_state'"), std::string::npos) << r.out;
-  // config check lists the block with its defaults.
+  // config check lists the blocks with their defaults.
   r = run("config check " + write_config("ok.yaml", "").string());
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("record.file"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("record.compression"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.hal"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("live.listen"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("127.0.0.1:8765"), std::string::npos) << r.out;
+#ifndef REGOLITH_NO_LIVE
+  // live: a port out of range is located at live.listen; the block serves on an ephemeral port.
+  const fs::path bad_live = write_config("bad_live.yaml", "\nlive: {enabled: true, listen: '127.0.0.1:99999'}\n");
+  r = run("run --sim-time --duration 1 --quiet --config " + bad_live.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("bad_live.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("live.listen: "), std::string::npos) << r.out;
+  const fs::path ok_live = write_config("ok_live.yaml", "\nlive: {enabled: true, listen: '127.0.0.1:0', max_clients: 2}\n");
+  r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string());
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://127\.0\.0\.1:[1-9]\d*, page http://)")))
+      << r.out;
+#endif
 }
 
 TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {

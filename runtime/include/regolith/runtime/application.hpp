@@ -53,6 +53,16 @@ struct RecordConfig {
   std::string where_topics;          ///< file:line:col of record.topics (or of the block), for errors
 };
 
+/// The `live:` block (read here so `config check` lists it; the server is started by the tool,
+/// regolith::live::DdsRelay): a Foxglove WebSocket server of every DDS topic and the built-in page.
+struct LiveConfig {
+  bool enabled = false;                 ///< `regolith run --live ADDR` enables it too (and overrides listen)
+  std::string listen = "127.0.0.1:8765";///< [ADDR:]PORT
+  int max_clients = 8;                  ///< connections beyond this are refused
+  double max_queue_mb = 8.0;            ///< per-client send queue limit; a client above it is dropped
+  std::string where;                    ///< file:line:col of live.listen (or of the block), for errors
+};
+
 /// Everything the health monitor and the live summary read.
 struct SystemView {
   std::vector<RateGroup*> groups;
@@ -81,12 +91,14 @@ class Application {
   bool sim_time() const { return opts_.sim_time; }
   const std::string& name() const { return name_; }
   const RecordConfig& record_config() const { return record_; }
+  const LiveConfig& live_config() const { return live_; }
 
  private:
   Application() = default;
   AppOptions opts_;
   std::string name_;
   RecordConfig record_;
+  LiveConfig live_;
   std::unique_ptr<SimClock> sim_clock_;
   std::unique_ptr<Executor> executor_;
   std::shared_ptr<dds::Participant> dds_;
