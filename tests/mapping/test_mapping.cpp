@@ -304,6 +304,37 @@ TEST(RockSightings, RangesRocksSeenInOneFrame) {
   EXPECT_THROW(RockSightings(dd, bad), FieldError);
 }
 
+TEST(RockSightings, ARockCutByTheTopEdgeIsSightedWithItsContact) {
+  // Far rocks enter a pitched camera's view through the top edge: their ground contact is in the
+  // frame, their top is not. Textured grey ground with one dark object over rows 0..14: it is
+  // sighted at the ground range of its lowest row, with a height that is a lower bound (the
+  // visible part); with keep_top_cut false it is refused like any blob touching the border.
+  Rig rig(11, 0);
+  const direct_depth::DirectDepth dd(rig.model);
+  cv::Mat f(240, 320, CV_8U);
+  cv::RNG rng(5);
+  rng.fill(f, cv::RNG::NORMAL, 120, 6);
+  f(cv::Rect(150, 0, 24, 15)).setTo(25);
+  RockSightings kept(dd, RockSightingParams{});
+  ASSERT_EQ(kept.compute(f), 1);
+  // Contact: row 14 (lower pixel edge 14.5), column 161.5 (the object's middle): its flat-ground
+  // point, pushed back by the footprint radius (at least half the width).
+  const direct_depth::GroundPoint g = dd.ground(161.5, 14.5);
+  ASSERT_TRUE(g.valid);
+  const double x = kept.x().at<float>(0, 0), y = kept.y().at<float>(0, 0), h = kept.height().at<float>(0, 0);
+  const double w = kept.width().at<float>(0, 0);
+  std::printf("top-cut sighting at %.2f %.2f m (contact %.2f m), height >= %.2f m, width %.2f m\n", x, y, g.range_m, h, w);
+  EXPECT_GT(x, g.range_m);
+  EXPECT_LT(x, g.range_m + std::max(0.5 * w, h) + 0.02);
+  EXPECT_NEAR(y, g.lateral_m, 0.05);
+  EXPECT_NEAR(w, 24 * g.slant_m / 220.0, 0.05);  // 24 columns at that distance
+  EXPECT_GT(h, 0.07);
+  RockSightingParams refuse;
+  refuse.keep_top_cut = false;
+  RockSightings refused(dd, refuse);
+  EXPECT_EQ(refused.compute(f), 0);
+}
+
 TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
   WorldMapParams p;
   p.resolution_m = 0.1;

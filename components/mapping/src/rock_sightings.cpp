@@ -186,7 +186,8 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
         ++pixels;
         contrast += img_.at<float>(i, j) / row_thr[i];
         rmin = std::min(rmin, i), rmax = std::max(rmax, i), cmin = std::min(cmin, j), cmax = std::max(cmax, j);
-        if (i == 0 || j == 0 || i == H - 1 || j == W - 1) border = true;
+        // The top edge cuts far rocks above their ground contact: kept unless keep_top_cut is off.
+        if (j == 0 || i == H - 1 || j == W - 1 || (i == 0 && !p_.keep_top_cut)) border = true;
         for (int di = -1; di <= 1; ++di)
           for (int dj = -1; dj <= 1; ++dj) {
             const int a = i + di, b = j + dj;

@@ -10,7 +10,9 @@
 //     shadow a large one.
 //  2. Blobs: 8-connected pixels with smoothed |d| above `threshold` x the median over the seen
 //     ground (per row, averaged over the rows within `row_band_px`: texture contrast grows towards the horizon), with
-//     at least `min_pixels`, not touching the image border.
+//     at least `min_pixels`, not touching the image's sides or bottom. A blob cut by the top edge
+//     is kept (`keep_top_cut`): a pitched camera first sees far rocks there, with their ground
+//     contact in view and their top cut off, so its height is a lower bound.
 //  3. Ranging (direct depth with the camera's tilt against the ground): the blob's lowest row is
 //     its contact with the ground -> ground point g; width = the ground distance between its
 //     leftmost and rightmost columns at that range; centre = g pushed back by half the width
@@ -43,6 +45,7 @@ struct RockSightingParams {
   double max_height_m = 0.6;          ///< m, taller ones are not rocks (a far wall, a crater's far rim)
   int max_sightings = 64;             ///< per frame
   double footprint_per_height = 1.0;  ///< footprint radius at least this x the height (the blob misses a dome's flanks)
+  bool keep_top_cut = true;           ///< blobs cut by the image's top edge are kept (their height is a lower bound)
   double tilt_sigma_rad = 0.01;       ///< rad, error of the camera's tilt against the far ground (ranging)
   void validate() const;              ///< FieldError("mapping.sightings", ...)
 };
