@@ -419,7 +419,7 @@ TEST(WorldMap, SightingsAgreeingAcrossFramesMakeOneRock) {
     EXPECT_EQ(map.fuse_sightings(t, foot), 1);
   }
   // One vague sighting far away: spread thin, not a rock.
-  set(0, 4.0, 1.0, 0.3, 0.3, 1.0, 0.4, 0.1);
+  set(0, 3.0, 1.0, 0.3, 0.3, 1.0, 0.4, 0.1);
   map.fuse_sightings(t, foot);
   map.finish();
   const std::vector<MapRock> rocks = map.rocks();
@@ -428,11 +428,20 @@ TEST(WorldMap, SightingsAgreeingAcrossFramesMakeOneRock) {
   EXPECT_NEAR(rocks[0].y_m, 2.0, 0.041);
   EXPECT_NEAR(rocks[0].height_m, 0.12, 0.005);
   EXPECT_NEAR(rocks[0].width_m, 0.2, 0.005);
-  // The hazard there comes from the sighted height; a NaN pose fuses nothing.
-  const int j = static_cast<int>(std::lround((0.0 - map.origin_x()) / map.resolution()));
-  const int i = static_cast<int>(std::lround((2.0 - map.origin_y()) / map.resolution()));
-  EXPECT_FLOAT_EQ(map.layer("hazard").at<float>(i, j), 1.0f);
-  EXPECT_GT(map.layer("rock_evidence").at<float>(i, j), 2.5f);
+  // The hazard there is the probability the sightings give a rock of at least hazard_height_m:
+  // 1 - exp(-evidence / hazard_evidence_scale) for a sighted height above it (no relief fused).
+  // The vague sighting's centre gets a small one; a NaN pose fuses nothing.
+  auto cell = [&](double x, double y) {
+    return cv::Point(static_cast<int>(std::lround((x - map.origin_x()) / map.resolution())),
+                     static_cast<int>(std::lround((y - map.origin_y()) / map.resolution())));
+  };
+  const float ev = map.layer("rock_evidence").at<float>(cell(0.0, 2.0));
+  EXPECT_GT(ev, 2.5f);
+  EXPECT_NEAR(map.layer("hazard").at<float>(cell(0.0, 2.0)), 1.0 - std::exp(-ev / p.hazard_evidence_scale), 1e-5);
+  const float vague = map.layer("hazard").at<float>(cell(-1.0, 3.0));  // body (3, 1) facing +y
+  EXPECT_GT(vague, 0.0f);
+  EXPECT_LT(vague, 0.15f);
+  EXPECT_TRUE(std::isnan(map.layer("hazard").at<float>(cell(3.0, -3.0))));
   EXPECT_EQ(map.fuse_sightings(t, Pose2{std::nan(""), 0, 0}), 0);
 }
 

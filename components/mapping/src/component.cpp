@@ -183,7 +183,14 @@ class TerrainMapComponent final : public runtime::Component {
                                             .min = 0.0,
                                             .max = 5.0,
                                             .min_exclusive = true,
-                                            .doc = "relief (or shadow height) at which hazard reaches 1"});
+                                            .doc = "obstacle height the hazard layer is the probability of"});
+    mp.map.hazard_relief_weight = p.get<double>(
+        "hazard_relief_weight", mp.map.hazard_relief_weight,
+        {.min = 0.0, .max = 1.0, .doc = "probability the parallax relief alone gives a cell at full height"});
+    mp.map.hazard_evidence_scale = p.get<double>(
+        "hazard_evidence_scale", mp.map.hazard_evidence_scale,
+        {.min = 0.0, .max = 100.0, .min_exclusive = true,
+         .doc = "summed sighting scores at which a sighted rock's probability is 1 - 1/e"});
     mp.wheel.along_fraction =
         p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
                       {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});

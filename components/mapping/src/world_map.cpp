@@ -37,6 +37,8 @@ void WorldMapParams::validate() const {
   pos(observation_sigma_m, "observation_sigma_m");
   pos(ground_sigma_m, "ground_sigma_m");
   pos(hazard_height_m, "hazard_height_m");
+  pos(hazard_evidence_scale, "hazard_evidence_scale");
+  if (!(hazard_relief_weight >= 0 && hazard_relief_weight <= 1)) fail("hazard_relief_weight", "must be in [0, 1]");
   pos(rock_min_height_m, "rock_min_height_m");
   if (!std::isfinite(shadow_spread_m) || shadow_spread_m < 0) fail("shadow_spread_m", "must be >= 0");
   if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
@@ -370,16 +372,22 @@ void WorldMap::finish() {
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
       const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j);
-      // Weaker evidence still raises the hazard, in proportion (a ranking, not a detection).
-      const float ev = sight_w_.at<float>(i, j);
-      const float rw = ev > 0.0f ? sight_h_.at<float>(i, j) / ev * std::min(1.0f, ev / static_cast<float>(p_.rock_min_evidence)) : kNaNf;
-      const float sh = std::isfinite(rw) && !(shadow.at<float>(i, j) >= rw) ? rw : shadow.at<float>(i, j);
       const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
       relief.at<float>(i, j) = r;
-      float hz = std::isfinite(r) ? r : kNaNf;
-      if (std::isfinite(sh) && !(hz >= sh)) hz = sh;  // the taller of the two cues
-      hazard.at<float>(i, j) =
-          std::isfinite(hz) ? static_cast<float>(std::clamp(static_cast<double>(hz) / p_.hazard_height_m, 0.0, 1.0)) : kNaNf;
+      // Hazard = probability of an obstacle of hazard_height_m here: a noisy-OR of the cues, each
+      // an independent chance of one: rocks sighted here (1 - exp(-evidence / scale), times their
+      // mean sighted height over hazard_height_m), a cast shadow's caster height, and the parallax
+      // relief, a weak cue on its own (hazard_relief_weight at full height). NaN where no cue saw it.
+      const float ev = sight_w_.at<float>(i, j), sh = shadow.at<float>(i, j);
+      if (!std::isfinite(r) && !(ev > 0.0f) && !std::isfinite(sh)) {
+        hazard.at<float>(i, j) = kNaNf;
+        continue;
+      }
+      const auto frac = [&](double height) { return std::clamp(height / p_.hazard_height_m, 0.0, 1.0); };
+      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(sight_h_.at<float>(i, j) / ev) : 0.0;
+      const double p_shadow = std::isfinite(sh) ? frac(sh) : 0.0;
+      const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * frac(r) : 0.0;
+      hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
     }
 }
 

@@ -13,8 +13,9 @@
 //   elevation (m), elevation_variance (m^2), confidence (0..1 = 1 - exp(-weight / weight_full)),
 //   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
 //   local ground), shadow_height (heights of objects measured from their cast shadows, spread
-//   over shadow_spread_m around their feet), hazard (0..1: max of relief and shadow height over
-//   hazard_height_m), rock_evidence (summed scores of rock sightings within sighting_radius_m)
+//   over shadow_spread_m around their feet), hazard (0..1: the probability of an obstacle of
+//   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly, the relief),
+//   rock_evidence (summed scores of rock sightings within sighting_radius_m)
 //   and rock_height (their weighted mean height, where the evidence reaches rock_min_evidence).
 // Derived layers (finish()) and rocks (connected relief blobs) are computed on request.
 #include <opencv2/core.hpp>
@@ -41,7 +42,9 @@ struct WorldMapParams {
   double fill_radius_m = 0.0;         ///< m, holes this close to observed cells are interpolated (0 = off)
   double fill_min_weight = 0.05;      ///< smoothed confidence a hole needs to be filled
   double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
-  double hazard_height_m = 0.10;      ///< m, relief at which hazard reaches 1
+  double hazard_height_m = 0.10;      ///< m, obstacle height the hazard is the probability of
+  double hazard_relief_weight = 0.2;  ///< probability the parallax relief alone carries at hazard_height_m (a weak cue)
+  double hazard_evidence_scale = 1.0; ///< summed sighting scores at which p(sighted rock) = 1 - 1/e
   double shadow_spread_m = 0.08;      ///< m, a caster's height covers cells this close to its foot
   double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
   double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
