@@ -1,6 +1,7 @@
 // `regolith assess IMAGE --out DIR`: one image -> SfS height map (TIFF, heat map, hillshade),
-// traversability layers (PNG) and a JSON summary. Algorithms: components/sfs, direct_depth,
-// traversability. Bad input -> InputError / ConfigError (exit code 2) naming the file or option.
+// traversability layers (PNG) and a JSON summary; with a camera model also the ground range per
+// pixel (range.tiff) and the rocks it sees, ranged and sized in metres (rocks.csv). Algorithms:
+// components/sfs, direct_depth, traversability, mapping (RockSightings). Bad input -> InputError / ConfigError (exit code 2) naming the file or option.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -27,6 +28,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/sfs/component.hpp"
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/traversability/traversability.hpp"
@@ -149,6 +151,105 @@ cv::Mat score_legend(const cv::Mat& img, const std::string& title) {
   return out;
 }
 
+// One rock seen in a perspective image: its image box and its size on the ground.
+struct ImageRock {
+  cv::Rect box;              ///< px
+  double range_m = 0.0;      ///< forward ground distance of its centre (camera foot frame)
+  double lateral_m = 0.0;    ///< left of the optical axis's ground track
+  double width_m = 0.0;      ///< across the line of sight, at the ground contact
+  double height_m = 0.0;     ///< top above the ground
+  bool top_cut = false;      ///< the image's top edge cuts it: height is a lower bound
+  double score = 0.0;        ///< 0..1, contrast against the ground
+};
+
+// Rocks in one perspective image: mapping::RockSightings (contrast blobs against the local
+// ground, ranged by direct depth: contact = the blob's lowest row, width = its side columns at
+// that range, height = its top ray over the centre), with its pixel scales grown with the image
+// (the defaults are for 320 px wide frames; blobs of at least 24 px there, twice the map's: one
+// frame has no second look to confirm a small one) and its range window opened to what a single
+// image shows (0.2 m to 10 m, rocks of 5 mm and more).
+std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::DirectDepth& depth) {
+  cv::Mat g8;
+  if (gray.depth() == CV_8U) g8 = gray;
+  else if (gray.depth() == CV_16U) gray.convertTo(g8, CV_8U, 1.0 / 256.0);
+  else cv::normalize(gray, g8, 0, 255, cv::NORM_MINMAX, CV_8U);
+  const double s = g8.cols / 320.0;
+  mapping::RockSightingParams p;
+  p.background_sigma_px = std::clamp(16.0 * s, 4.0, 64.0);
+  p.min_pixels = std::max(4, static_cast<int>(std::lround(24.0 * s * s)));
+  p.max_pixels = std::max(p.min_pixels, g8.cols * g8.rows / 4);
+  p.row_band_px = std::clamp(static_cast<int>(std::lround(8.0 * s)), 1, 256);
+  p.min_range_m = 0.2;
+  p.max_range_m = 10.0;
+  p.min_height_m = 0.005;
+  p.max_height_m = 1.0;
+  p.max_sightings = 256;
+  mapping::RockSightings sightings(depth, p);
+  const int n = sightings.compute(g8);
+  std::vector<ImageRock> out;
+  const cv::Mat& t = sightings.table();
+  for (int k = 0; k < n; ++k) {
+    ImageRock r;
+    const int c0 = static_cast<int>(t.at<float>(mapping::kSightCol0, k)), r0 = static_cast<int>(t.at<float>(mapping::kSightRow0, k));
+    const int c1 = static_cast<int>(t.at<float>(mapping::kSightCol1, k)), r1 = static_cast<int>(t.at<float>(mapping::kSightRow1, k));
+    r.box = cv::Rect(c0, r0, c1 - c0 + 1, r1 - r0 + 1);
+    r.range_m = t.at<float>(mapping::kSightX, k);
+    r.lateral_m = t.at<float>(mapping::kSightY, k);
+    r.width_m = t.at<float>(mapping::kSightWidth, k);
+    r.height_m = t.at<float>(mapping::kSightHeight, k);
+    r.score = t.at<float>(mapping::kSightScore, k);
+    r.top_cut = r0 == 0;
+    out.push_back(r);
+  }
+  // A rock lit from the side shows a bright and a dark half that contrast with the ground on
+  // either side of a mid-tone line: two blobs side by side. Boxes that overlap vertically by half
+  // the smaller one and touch (within `gap` px) are one rock, re-measured from the union box
+  // (direct depth, round footprint).
+  const int gap = std::max(2, static_cast<int>(std::lround(2.0 * s)));
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t a = 0; a < out.size() && !merged; ++a)
+      for (std::size_t b = a + 1; b < out.size() && !merged; ++b) {
+        const cv::Rect &A = out[a].box, &B = out[b].box;
+        const int v = std::min(A.y + A.height, B.y + B.height) - std::max(A.y, B.y);
+        const int h = std::max(A.x, B.x) - std::min(A.x + A.width, B.x + B.width);  // > 0: gap between them
+        if (v < std::min(A.height, B.height) / 2 || h > gap) continue;
+        const cv::Rect u = A | B;
+        const direct_depth::ObjectSize sz = depth.object_size(u, -1.0);
+        const direct_depth::GroundPoint g = depth.ground(u.x + 0.5 * (u.width - 1), u.y + u.height - 0.5);
+        if (!sz.valid || !g.valid || sz.height_m < p.min_height_m) continue;
+        ImageRock r;
+        r.box = u;
+        r.width_m = sz.width_m;
+        r.height_m = sz.height_m;
+        r.range_m = g.range_m + 0.5 * sz.width_m * g.range_m / std::max(1e-9, std::hypot(g.range_m, g.lateral_m));
+        r.lateral_m = g.lateral_m + 0.5 * sz.width_m * g.lateral_m / std::max(1e-9, std::hypot(g.range_m, g.lateral_m));
+        r.top_cut = u.y == 0;
+        r.score = std::max(out[a].score, out[b].score);
+        out[a] = r;
+        out.erase(out.begin() + static_cast<std::ptrdiff_t>(b));
+        merged = true;
+      }
+  }
+  std::sort(out.begin(), out.end(), [](const ImageRock& a, const ImageRock& b) { return a.range_m < b.range_m; });
+  return out;
+}
+
+// Rock boxes drawn on the overlay (above its legend strip): R<n>, width x height in cm.
+void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks) {
+  for (std::size_t k = 0; k < rocks.size(); ++k) {
+    const ImageRock& r = rocks[k];
+    cv::rectangle(img, r.box, cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+    std::ostringstream text;
+    text.setf(std::ios::fixed);
+    text.precision(1);
+    text << "R" << k + 1 << " " << 100.0 * r.width_m << "x" << (r.top_cut ? ">" : "") << 100.0 * r.height_m << " cm";
+    const cv::Point at(r.box.x, r.box.y > 16 ? r.box.y - 4 : r.box.y + r.box.height + 14);
+    cv::putText(img, text.str(), at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(img, text.str(), at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+  }
+}
+
 // The camera image with the traversability grid drawn where it lies on the ground (camera mode):
 // every known cell's footprint projected through the camera model, hazards (traversability 0)
 // red, poor ground (< 0.5) orange, the rest left clear; each hazard labelled with its number and
@@ -191,8 +292,11 @@ cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid,
   }
   cv::Mat out(img.rows + 26, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
   img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
-  cv::putText(out, "hazards (red, H<n>: highest elevation) and poor ground (orange) on the camera image",
-              {6, img.rows + 18}, cv::FONT_HERSHEY_SIMPLEX, 0.42, {0, 0, 0}, 1, cv::LINE_AA);
+  const std::string legend = "hazards (red, H<n>: highest elevation), poor ground (orange), rocks (yellow, R<n>: width x height)";
+  int base = 0;
+  const double width_at_1 = cv::getTextSize(legend, cv::FONT_HERSHEY_SIMPLEX, 1.0, 1, &base).width;
+  const double scale = std::min(0.42, (img.cols - 12) / width_at_1);  // the whole caption on the strip
+  cv::putText(out, legend, {6, img.rows + 18}, cv::FONT_HERSHEY_SIMPLEX, scale, {0, 0, 0}, 1, cv::LINE_AA);
   return out;
 }
 
@@ -476,8 +580,30 @@ void assess(const AssessOptions& o) {
       hazard_text.emplace_back(k, "H" + std::to_string(hazards.size()) + " " + fmt(100.0 * zmax, 1) + " cm");
     }
   }
+  // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
+  nlohmann::json rocks_json = nlohmann::json::array();
+  std::vector<ImageRock> rocks;
   if (depth) {
-    write_png(out / "overlay.png", camera_overlay(gray, grid, *depth, labels, hazard_text));
+    rocks = image_rocks(gray, *depth);
+    std::ofstream csv(out / "rocks.csv");
+    if (!csv) throw InputError("assess: cannot write '" + (out / "rocks.csv").string() + "'");
+    csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n";
+    for (std::size_t k = 0; k < rocks.size(); ++k) {
+      const ImageRock& r = rocks[k];
+      const int x1 = r.box.x + r.box.width - 1, y1 = r.box.y + r.box.height - 1;
+      rocks_json.push_back({{"id", k + 1}, {"range_m", r.range_m}, {"lateral_m", r.lateral_m}, {"width_m", r.width_m},
+                            {"height_m", r.height_m}, {"height_is_lower_bound", r.top_cut}, {"score", r.score},
+                            {"box_px", {r.box.x, r.box.y, x1, y1}}});
+      csv << k + 1 << "," << fmt(r.range_m, 4) << "," << fmt(r.lateral_m, 4) << "," << fmt(r.width_m, 4) << ","
+          << fmt(r.height_m, 4) << "," << (r.top_cut ? 1 : 0) << "," << fmt(r.score, 3) << "," << r.box.x << ","
+          << r.box.y << "," << x1 << "," << y1 << "\n";
+    }
+    if (!cv::imwrite((out / "range.tiff").string(), depth->range_map()))
+      throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
+    cv::Mat overlay = camera_overlay(gray, grid, *depth, labels, hazard_text);
+    cv::Mat view = overlay(cv::Rect(0, 0, gray.cols, gray.rows));
+    draw_rocks(view, rocks);
+    write_png(out / "overlay.png", overlay);
     layers["camera_overlay"] = "overlay.png";
   }
   int known = 0;
@@ -503,6 +629,11 @@ void assess(const AssessOptions& o) {
       {"hazards", hazards},
       {"edge_hazards", edge_hazards},
   };
+  if (depth) {
+    j["outputs"]["range"] = "range.tiff";
+    j["outputs"]["rocks"] = "rocks.csv";
+    j["rocks"] = rocks_json;
+  }
   if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
   std::ofstream f(out / "summary.json");
   if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
@@ -511,7 +642,7 @@ void assess(const AssessOptions& o) {
             << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
             << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards ("
             << edge_hazards.size() << " more at the edge of the view, not counted), "
-            << known << " known cells)\n";
+            << known << " known cells" << (depth ? ", " + std::to_string(rocks.size()) + " rocks" : std::string()) << ")\n";
 }
 
 void add_assess(CLI::App& app) {

@@ -389,6 +389,24 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
       }
     EXPECT_GT(red_near, 100) << "hazard paint around the rock at " << rock_px->x << ", " << rock_px->y;
     EXPECT_GT(red_near, red_far);
+    // The rock itself, ranged and sized from the image (summary.json "rocks", rocks.csv): the
+    // dome is 0.30 m wide, 0.15 m tall, centred 2 m ahead; range.tiff = DirectDepth's range map.
+    const nlohmann::json* dome = nullptr;
+    for (const auto& rk : jc["rocks"]) {
+      std::printf("assess camera mode: rock at %.2f, %.2f m, %.3f m wide, %.3f m tall, box %s\n", rk["range_m"].get<double>(),
+                  rk["lateral_m"].get<double>(), rk["width_m"].get<double>(), rk["height_m"].get<double>(), rk["box_px"].dump().c_str());
+      if (std::abs(rk["range_m"].get<double>() - 2.0) < 0.3 && std::abs(rk["lateral_m"].get<double>()) < 0.2) dome = &rk;
+    }
+    ASSERT_NE(dome, nullptr) << jc["rocks"].dump();
+    EXPECT_NEAR((*dome)["width_m"].get<double>(), 0.30, 0.35 * 0.30);  // measured 0.39 (its side shadow)
+    EXPECT_NEAR((*dome)["height_m"].get<double>(), 0.15, 0.3 * 0.15);  // measured 0.153
+    EXPECT_FALSE((*dome)["height_is_lower_bound"].get<bool>());
+    EXPECT_EQ(jc["outputs"]["rocks"], "rocks.csv");
+    EXPECT_EQ(slurp(dir / "cam" / "rocks.csv").rfind("id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n", 0), 0u);
+    const cv::Mat range = cv::imread((dir / "cam" / jc["outputs"]["range"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(range.type(), CV_32FC1);
+    const direct_depth::DirectDepth dd(direct_depth::CameraModel{300, 300, 159.5, 119.5, 0, 0, 0, 0, 0, 320, 240, 0.6, 0.45, 0});
+    EXPECT_NEAR(range.at<float>(200, 160), dd.ground(160, 200).range_m, 1e-4);
     EXPECT_NE(run_tool(std::string(cargs) + " --sfs-frame sideways", dir / "cam2.txt"), 0);
     EXPECT_NE(slurp(dir / "cam2.txt").find("--sfs-frame"), std::string::npos) << slurp(dir / "cam2.txt");
 
@@ -437,6 +455,62 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
   EXPECT_NEAR(std::stod(v.substr(a2pos + 15)), -0.3, 0.03) << v;
   EXPECT_EQ(run_tool("calibrate vignetting " + (dir / "nope.png").string(), dir / "v2.txt"), 2);
   EXPECT_NE(slurp(dir / "v2.txt").find("nope.png"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Rocks sized from one perspective image on the independent renderer's development scenes
+// (persp_dev_*): each measurable rock (>= 30 visible px, not on the border, < 30 % occluded)
+// matched to the reported box with the largest IoU (> 0.2), its width and height errors as the
+// thesis reports them (|derived - truth| / truth). The sizing does not use the sun; persp_dev_0's
+// sun is ahead of the camera, which assess refuses for SfS (> 90 deg slant), so the sun given
+// here is capped at 80 deg.
+TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
+  const fs::path root = fs::path(REGOLITH_SHARED_DIR) / "data" / "synthetic_dev" / "sfs";
+  if (!fs::exists(root / "persp_dev_0")) GTEST_SKIP() << root << " not present";
+  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_persp_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::vector<double> werr, herr;
+  int measurable = 0;
+  for (const char* name : {"persp_dev_0", "persp_dev_1"}) {
+    const auto in = nlohmann::json::parse(slurp(root / name / "input.json"));
+    const auto truth = nlohmann::json::parse(slurp(root / name / "truth.json"));
+    const auto& c = in["camera"];
+    char args[1024];
+    std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera %.6f,%.6f,%.3f,%.3f --height %.6f --pitch %.6f",
+                  (root / name / "image.png").c_str(), (dir / name).c_str(), std::min(80.0, in["sun_slant_deg_image"].get<double>()),
+                  in["sun_tilt_deg_image"].get<double>(), c["fx"].get<double>(), c["fy"].get<double>(), c["cx"].get<double>(),
+                  c["cy"].get<double>(), c["h_m"].get<double>(), c["pitch_deg"].get<double>());
+    ASSERT_EQ(run_tool(args, dir / (std::string(name) + ".txt")), 0) << slurp(dir / (std::string(name) + ".txt"));
+    const auto summary = nlohmann::json::parse(slurp(dir / name / "summary.json"));
+    for (const auto& t : truth["rocks"]) {
+      if (t["visible_px"].get<int>() < 30 || t["touches_border"].get<bool>() || t["occluded_fraction"].get<double>() >= 0.3) continue;
+      ++measurable;
+      const auto tb = t["bbox_px"];
+      const cv::Rect truth_box(tb[0].get<int>(), tb[1].get<int>(), tb[2].get<int>() - tb[0].get<int>(), tb[3].get<int>() - tb[1].get<int>());
+      double best = 0.2;
+      const nlohmann::json* match = nullptr;
+      for (const auto& rk : summary["rocks"]) {
+        const auto b = rk["box_px"];
+        const cv::Rect box(b[0].get<int>(), b[1].get<int>(), b[2].get<int>() - b[0].get<int>(), b[3].get<int>() - b[1].get<int>());
+        const double inter = (box & truth_box).area(), iou = inter / (box.area() + truth_box.area() - inter);
+        if (iou > best) best = iou, match = &rk;
+      }
+      if (!match) continue;
+      werr.push_back(std::abs((*match)["width_m"].get<double>() / t["width_m"].get<double>() - 1));
+      herr.push_back(std::abs((*match)["height_m"].get<double>() / t["height_above_ground_m"].get<double>() - 1));
+    }
+  }
+  ASSERT_GT(measurable, 10);
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  ASSERT_FALSE(werr.empty());
+  std::printf("persp_dev: %zu of %d measurable rocks boxed; median width error %.0f %%, height error %.0f %%\n", werr.size(),
+              measurable, 100 * median(werr), 100 * median(herr));
+  EXPECT_GE(werr.size() * 10, static_cast<std::size_t>(measurable) * 9);  // measured 19 of 19
+  EXPECT_LT(median(werr), 0.15);  // measured 9 % (goal 15 %)
+  EXPECT_LT(median(herr), 0.25);  // measured 17 % (goal 25 %; the thesis' box formula ~138 %)
   fs::remove_all(dir);
 }
 #endif

@@ -241,6 +241,10 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
       const double angle = std::hypot(1.0 / cam.fy, p_.tilt_sigma_rad);
       sr_.at<float>(0, k) = static_cast<float>((h * h + cr * cr) / h * angle + 0.25 * width);
       sl_.at<float>(0, k) = static_cast<float>(cr / cam.fx + 0.25 * width);
+      table_.at<float>(kSightCol0, k) = static_cast<float>(cmin);
+      table_.at<float>(kSightRow0, k) = static_cast<float>(rmin);
+      table_.at<float>(kSightCol1, k) = static_cast<float>(cmax);
+      table_.at<float>(kSightRow1, k) = static_cast<float>(rmax);
     }
   return count_;
 }

@@ -21,10 +21,10 @@
 //     `min_height_m` are dropped.
 // Output: up to `max_sightings` per frame, one column each of a CV_32F table (rows below; NaN
 // after count()), the layout WorldMap::fuse_sightings takes: centre x, y in the camera foot frame,
-// height, width, score (mean contrast over the threshold - 1, 0.05..1) and the centre's standard
-// deviation along the viewing ray and across it: a row of error plus a tilt error of
-// `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle. Everything is allocated in
-// the constructor.
+// height, width, score (mean contrast over the threshold - 1, 0.05..1), the centre's standard
+// deviation along the viewing ray and across it (a row of error plus a tilt error of
+// `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle), and the blob's image box
+// (for overlays and single-image reports). Everything is allocated in the constructor.
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -59,6 +59,10 @@ enum SightingRow {
   kSightScore,
   kSightSigmaRange,
   kSightSigmaLateral,
+  kSightCol0,  ///< the blob's image box: first column, first row, last column, last row (px, inclusive;
+  kSightRow0,  ///< first row 0 = cut by the top edge: the height is then a lower bound)
+  kSightCol1,
+  kSightRow1,
   kSightRows
 };
 
@@ -78,6 +82,8 @@ class RockSightings {
   const cv::Mat& height() const { return h_; }
   const cv::Mat& width() const { return w_; }
   const cv::Mat& score() const { return s_; }
+  /// Row `row` (SightingRow) of the table: one value per sighting, NaN after count().
+  cv::Mat row(SightingRow r) const { return table_.row(r); }
   /// The last frame's blob mask (CV_8U, 255 = above the threshold), for overlays.
   const cv::Mat& mask() const { return mask_; }
 
