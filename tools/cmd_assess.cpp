@@ -37,7 +37,8 @@ namespace regolith::cli {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
 
 struct AssessOptions {
   std::string image, config, out, method, flat_field, camera;
@@ -377,11 +378,16 @@ void assess(const AssessOptions& o) {
   if (std::isfinite(o.sun_slant_deg) != std::isfinite(o.sun_tilt_deg))
     throw ConfigError("--sun-slant and --sun-tilt must be given together");
   if (std::isfinite(o.sun_slant_deg)) light = sfs::LightDirection{o.sun_slant_deg * kDeg, o.sun_tilt_deg * kDeg};
+  // A sun behind the image plane (slant >= 90 deg: ahead of a forward camera) leaves no
+  // image-frame shading to solve, but the ground-frame path (camera mode) still maps the ground
+  // and the rocks need no sun: accepted there (checked once the camera is known), refused else.
+  std::string sun_error;
   if (light) {
     try {
       light->validate("sun");
     } catch (const std::invalid_argument& e) {
-      throw ConfigError(std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)");
+      sun_error = std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)";
+      if (!std::isfinite(light->slant_rad) || !(light->slant_rad < kPi) || light->slant_rad < 0) throw ConfigError(sun_error);
     }
   } else {
     sp.estimate_light = true;
@@ -410,9 +416,8 @@ void assess(const AssessOptions& o) {
     if (!light && rd.sun) {
       const common::CameraLight cl = common::camera_light(*rd.sun, *rc);
       if (!cl.in_view)
-        throw ConfigError(o.rover + ": the sun is ahead of camera '" + o.device + "' (image slant " +
-                          std::to_string(cl.light.slant_rad / kDeg) +
-                          " deg): no image-frame shading to solve; run the deployment (ground-frame path) instead");
+        sun_error = o.rover + ": the sun is ahead of camera '" + o.device + "' (image slant " +
+                    std::to_string(cl.light.slant_rad / kDeg) + " deg): no image-frame shading to solve";
       light = cl.light;
       sp.estimate_light = false;
     }
@@ -434,6 +439,9 @@ void assess(const AssessOptions& o) {
     if (std::isfinite(o.height_m)) model->mount_height_m = o.height_m;
     if (std::isfinite(o.pitch_deg)) model->pitch_rad = o.pitch_deg * kDeg;
   }
+  const bool sun_ahead = !sun_error.empty();
+  if (sun_ahead && !(model && o.sfs_frame == "ground"))
+    throw ConfigError(sun_error + (model ? " (--sfs-frame image needs it in front)" : ""));
   std::unique_ptr<direct_depth::DirectDepth> depth;
   try {
     sp.validate();
@@ -449,11 +457,17 @@ void assess(const AssessOptions& o) {
   // ---- SfS ----
   const double t1 = now_ms();
   sfs::SfsResult res;
-  try {
-    sfs::ShapeFromShading solver(sp);
-    solver.compute(gray, light, res);
-  } catch (const std::invalid_argument& e) {
-    throw InputError("assess: " + o.image + ": " + e.what());
+  if (sun_ahead) {  // no image-frame SfS: height.tiff is all NaN, the ground path maps the grid
+    res.light = *light;
+    res.height = cv::Mat(gray.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    res.valid = cv::Mat::zeros(gray.size(), CV_8U);
+  } else {
+    try {
+      sfs::ShapeFromShading solver(sp);
+      solver.compute(gray, light, res);
+    } catch (const std::invalid_argument& e) {
+      throw InputError("assess: " + o.image + ": " + e.what());
+    }
   }
   if (res.status == sfs::SfsStatus::kUnreliableLight)
     throw InputError("assess: " + o.image + ": " + sfs::unreliable_light_message(res, sp) +
@@ -635,6 +649,11 @@ void assess(const AssessOptions& o) {
     j["rocks"] = rocks_json;
   }
   if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
+  if (sun_ahead) {
+    j["image_sfs"] = "skipped: sun ahead of the camera (image slant " + fmt(light->slant_rad / kDeg, 1) +
+                     " deg): height.tiff is NaN; the grid comes from the ground-frame path";
+    j["warning"] = j.contains("warning") ? j["warning"].get<std::string>() + "; sun ahead of the camera" : "sun ahead of the camera: no image-frame SfS";
+  }
   std::ofstream f(out / "summary.json");
   if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
   f << j.dump(2) << "\n";
