@@ -299,7 +299,8 @@ TEST(TerrainStereo, RockSizesSfsDirectDepthVsStereo) {
               e_pe / n, e_st_w / n, e_st_h / n);
   std::printf("median SfS height est/true: tsai_shah %.2f, pentland %.2f (%zu rocks)\n", med_ts, med_pe, rows.size());
   // Measured (17 rocks): mean |error| DD width 3 %, DD box height 8 %, stereo width 4 %, stereo
-  // height 10 %, SfS Tsai-Shah height 35 % (median ratio 1.14), Pentland 55 % (median 0.41).
+  // height 10 %, SfS Tsai-Shah height 35 % (median ratio 1.14), Pentland 29 % (median 0.76; 55 %
+  // and 0.41 before its Tikhonov term went 0.05 -> 0.02 and masked pixels kept their brightness).
   EXPECT_LT(e_dd_w / n, 6.0);
   EXPECT_LT(e_dd_h / n, 14.0);
   EXPECT_LT(e_st_w / n, 8.0);
@@ -307,9 +308,9 @@ TEST(TerrainStereo, RockSizesSfsDirectDepthVsStereo) {
   EXPECT_LT(e_ts / n, 50.0);
   EXPECT_GT(med_ts, 0.6);
   EXPECT_LT(med_ts, 1.8);
-  EXPECT_LT(e_pe / n, 70.0);
-  EXPECT_GT(med_pe, 0.2);
-  EXPECT_LT(med_pe, 0.7);
+  EXPECT_LT(e_pe / n, 45.0);
+  EXPECT_GT(med_pe, 0.5);
+  EXPECT_LT(med_pe, 1.3);
 }
 
 }  // namespace

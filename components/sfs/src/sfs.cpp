@@ -657,7 +657,8 @@ void ShapeFromShading::pentland(const LightDirection& l, SfsResult& out) {
     last_tilt_ = l.tilt_rad;
     last_slant_ = l.slant_rad;
   }
-  // Zero-mean E (masked pixels get the mean) into a zero-padded real buffer.
+  // Zero-mean E (the mean over valid pixels; masked pixels keep their brightness unless
+  // pentland_fill_masked, then they get the mean) into a zero-padded real buffer.
   const double mean = cv::mean(e_, mask_)[0];
   tmp_.create(R, C, CV_32F);
   fill(tmp_, 0.0f);
@@ -666,7 +667,7 @@ void ShapeFromShading::pentland(const LightDirection& l, SfsResult& out) {
     const uchar* pm = mask_.ptr<uchar>(r);
     float* pt = tmp_.ptr<float>(r);
     for (int c = 0; c < sz.width; ++c)
-      pt[c] = pm[c] ? static_cast<float>(static_cast<double>(pe[c]) - mean) : 0.0f;
+      pt[c] = (pm[c] || !params_.pentland_fill_masked) ? static_cast<float>(static_cast<double>(pe[c]) - mean) : 0.0f;
   }
   cv::dft(tmp_, spectrum_, cv::DFT_COMPLEX_OUTPUT);
   cv::mulSpectrums(spectrum_, filt_re_, complex_, 0);

@@ -31,6 +31,10 @@ struct SfsHeightParams {
     sfs::SfsParams p;
     p.estimate_light = true; // used only when both slant and tilt are estimated
     p.min_light_confidence = 0.0; // never refuse a frame
+    // The structure channel's Pentland as SAMS's thresholds and the trained ranking's
+    // features (the shipped model) were chosen with; the library default differs since.
+    p.pentland_min_denominator = 0.05;
+    p.pentland_fill_masked = true;
     return p;
   }();
   void validate() const {
