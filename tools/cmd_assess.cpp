@@ -167,8 +167,9 @@ struct ImageRock {
 // ground, ranged by direct depth: contact = the blob's lowest row, width = its side columns at
 // that range, height = its top ray over the centre), with its pixel scales grown with the image
 // (the defaults are for 320 px wide frames; blobs of at least 24 px there, twice the map's: one
-// frame has no second look to confirm a small one) and its range window opened to what a single
-// image shows (0.2 m to 10 m, rocks of 5 mm and more).
+// frame has no second look to confirm a small one), its range window opened to what a single
+// image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
+// halves merged into one (merge_halves).
 std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::DirectDepth& depth) {
   cv::Mat g8;
   if (gray.depth() == CV_8U) g8 = gray;
@@ -185,6 +186,8 @@ std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::Dire
   p.min_height_m = 0.005;
   p.max_height_m = 1.0;
   p.max_sightings = 256;
+  p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
+  p.merge_gap_px = std::max(2, static_cast<int>(std::lround(2.0 * s)));
   mapping::RockSightings sightings(depth, p);
   const int n = sightings.compute(g8);
   std::vector<ImageRock> out;
@@ -201,36 +204,6 @@ std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::Dire
     r.score = t.at<float>(mapping::kSightScore, k);
     r.top_cut = r0 == 0;
     out.push_back(r);
-  }
-  // A rock lit from the side shows a bright and a dark half that contrast with the ground on
-  // either side of a mid-tone line: two blobs side by side. Boxes that overlap vertically by half
-  // the smaller one and touch (within `gap` px) are one rock, re-measured from the union box
-  // (direct depth, round footprint).
-  const int gap = std::max(2, static_cast<int>(std::lround(2.0 * s)));
-  for (bool merged = true; merged;) {
-    merged = false;
-    for (std::size_t a = 0; a < out.size() && !merged; ++a)
-      for (std::size_t b = a + 1; b < out.size() && !merged; ++b) {
-        const cv::Rect &A = out[a].box, &B = out[b].box;
-        const int v = std::min(A.y + A.height, B.y + B.height) - std::max(A.y, B.y);
-        const int h = std::max(A.x, B.x) - std::min(A.x + A.width, B.x + B.width);  // > 0: gap between them
-        if (v < std::min(A.height, B.height) / 2 || h > gap) continue;
-        const cv::Rect u = A | B;
-        const direct_depth::ObjectSize sz = depth.object_size(u, -1.0);
-        const direct_depth::GroundPoint g = depth.ground(u.x + 0.5 * (u.width - 1), u.y + u.height - 0.5);
-        if (!sz.valid || !g.valid || sz.height_m < p.min_height_m) continue;
-        ImageRock r;
-        r.box = u;
-        r.width_m = sz.width_m;
-        r.height_m = sz.height_m;
-        r.range_m = g.range_m + 0.5 * sz.width_m * g.range_m / std::max(1e-9, std::hypot(g.range_m, g.lateral_m));
-        r.lateral_m = g.lateral_m + 0.5 * sz.width_m * g.lateral_m / std::max(1e-9, std::hypot(g.range_m, g.lateral_m));
-        r.top_cut = u.y == 0;
-        r.score = std::max(out[a].score, out[b].score);
-        out[a] = r;
-        out.erase(out.begin() + static_cast<std::ptrdiff_t>(b));
-        merged = true;
-      }
   }
   std::sort(out.begin(), out.end(), [](const ImageRock& a, const ImageRock& b) { return a.range_m < b.range_m; });
   return out;

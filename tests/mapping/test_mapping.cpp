@@ -335,6 +335,39 @@ TEST(RockSightings, ARockCutByTheTopEdgeIsSightedWithItsContact) {
   EXPECT_EQ(refused.compute(f), 0);
 }
 
+TEST(RockSightings, ASideLitRocksTwoHalvesMergeIntoOne) {
+  // A rock lit from one side: its bright half is brighter than the ground, its shaded half
+  // darker, and the mid-tone line between them contrasts with nothing: two blobs side by side.
+  // merge_halves makes them one sighting as wide as both; off (the map's default) they stay two.
+  Rig rig(11, 0);
+  const direct_depth::DirectDepth dd(rig.model);
+  cv::Mat f(240, 320, CV_8U);
+  cv::RNG rng(9);
+  rng.fill(f, cv::RNG::NORMAL, 120, 5);
+  f(cv::Rect(140, 40, 16, 20)).setTo(220);  // lit half, ~2 m ahead
+  f(cv::Rect(158, 40, 16, 20)).setTo(30);   // shaded half, a 2 px mid-tone seam between
+  f(cv::Rect(156, 40, 2, 20)).setTo(120);
+  RockSightingParams apart;
+  RockSightings two(dd, apart);
+  ASSERT_EQ(two.compute(f), 2);
+  RockSightingParams joined;
+  joined.merge_halves = true;
+  RockSightings one(dd, joined);
+  ASSERT_EQ(one.compute(f), 1);
+  const double w = one.width().at<float>(0, 0), w0 = two.width().at<float>(0, 0), w1 = two.width().at<float>(0, 1);
+  std::printf("halves %.3f + %.3f m wide, merged %.3f m\n", w0, w1, w);
+  EXPECT_NEAR(w, w0 + w1, 0.25 * (w0 + w1));
+  EXPECT_EQ(one.row(kSightCol0).at<float>(0, 0), 140.0f);
+  EXPECT_EQ(one.row(kSightCol1).at<float>(0, 0), 173.0f);
+  EXPECT_TRUE(std::isnan(one.height().at<float>(0, 1)));
+  // Two rocks one above the other (no vertical overlap) are not merged.
+  cv::Mat g(240, 320, CV_8U);
+  rng.fill(g, cv::RNG::NORMAL, 120, 5);
+  g(cv::Rect(140, 20, 16, 16)).setTo(220);
+  g(cv::Rect(140, 70, 16, 16)).setTo(220);
+  EXPECT_EQ(one.compute(g), 2);
+}
+
 TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
   WorldMapParams p;
   p.resolution_m = 0.1;

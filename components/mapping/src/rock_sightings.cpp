@@ -38,6 +38,7 @@ void RockSightingParams::validate() const {
   if (!std::isfinite(min_height_m) || min_height_m < 0) fail("min_height_m", "must be >= 0");
   if (!std::isfinite(max_height_m) || max_height_m <= min_height_m) fail("max_height_m", "must be > min_height_m");
   if (max_sightings < 1 || max_sightings > 4096) fail("max_sightings", "must be 1..4096");
+  if (merge_gap_px < 0 || merge_gap_px > 64) fail("merge_gap_px", "must be 0..64");
   if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0) fail("tilt_sigma_rad", "must be >= 0");
   if (!std::isfinite(footprint_per_height) || footprint_per_height < 0 || footprint_per_height > 5)
     fail("footprint_per_height", "must be in [0, 5]");
@@ -54,7 +55,7 @@ RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockS
   acc_.create(1, m.width, CV_64F);
   values_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
   stack_.resize(values_.size());
-  table_.create(kSightRows, p_.max_sightings, CV_32F);
+  table_.create(kSightRows, p_.max_sightings + 1, CV_32F);  // + a spare column for merge_halves
   fill(table_, kNaNf);
   x_ = table_.row(kSightX), y_ = table_.row(kSightY), h_ = table_.row(kSightHeight), w_ = table_.row(kSightWidth);
   s_ = table_.row(kSightScore), sr_ = table_.row(kSightSigmaRange), sl_ = table_.row(kSightSigmaLateral);
@@ -168,7 +169,6 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
   }
   fill(label_, 0);
   // Blobs by flood fill with a preallocated stack.
-  const double h = cam.mount_height_m;
   int next = 0;
   for (int i0 = 0; i0 < H && count_ < p_.max_sightings; ++i0)
     for (int j0 = 0; j0 < W && count_ < p_.max_sightings; ++j0) {
@@ -203,50 +203,93 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
       for (int j = cmin; j <= cmax; ++j)
         if (label_.at<int>(rmax, j) == next) csum += j, ++cn;
       const double cb = cn > 0 ? csum / cn : 0.5 * (cmin + cmax);
-      const cv::Vec3d d = ray(cb, rmax + 0.5);
-      if (!(d[2] < -1e-6)) continue;
-      const double t = h / -d[2];
-      const cv::Vec2d g(t * d[0], t * d[1]);
-      const double range_m = std::hypot(g[0], g[1]);
-      if (range_m < p_.min_range_m || range_m > p_.max_range_m) continue;
-      // Width: ground distance between the blob's side columns at the contact's depth.
-      const cv::Vec3d dl = ray(cmin - 0.5, rmax + 0.5), dr = ray(cmax + 0.5, rmax + 0.5);
-      if (!(dl[2] < -1e-6) || !(dr[2] < -1e-6)) continue;
-      const double tl = h / -dl[2], tr = h / -dr[2];
-      const double width = std::hypot(tl * dl[0] - tr * dr[0], tl * dl[1] - tr * dr[1]);
-      const cv::Vec2d u = g / range_m;
-      // Height: the top ray (through the blob's top, at the contact column) at the centre's
-      // distance; centre = contact + the footprint radius, which the blob underestimates (a
-      // dome's low flanks barely differ from the ground): at least footprint_per_height x the
-      // height (two passes: the height depends on the centre's distance).
-      const cv::Vec3d dt = ray(cb, rmin - 0.5);
-      const double horiz = std::hypot(dt[0], dt[1]);
-      if (!(horiz > 1e-9)) continue;
-      double radius = 0.5 * width, height = 0.0;
-      cv::Vec2d c = g + radius * u;
-      for (int pass = 0; pass < 2; ++pass) {
-        height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
-        radius = std::max(0.5 * width, p_.footprint_per_height * std::max(height, 0.0));
-        c = g + radius * u;
-      }
-      height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
-      if (height < p_.min_height_m || height > p_.max_height_m) continue;
-      const int k = count_++;
-      x_.at<float>(0, k) = static_cast<float>(c[0]);
-      y_.at<float>(0, k) = static_cast<float>(c[1]);
-      h_.at<float>(0, k) = static_cast<float>(height);
-      w_.at<float>(0, k) = static_cast<float>(width);
-      s_.at<float>(0, k) = static_cast<float>(std::clamp(contrast / pixels - 1.0, 0.05, 1.0));
-      const double cr = std::hypot(c[0], c[1]);
-      const double angle = std::hypot(1.0 / cam.fy, p_.tilt_sigma_rad);
-      sr_.at<float>(0, k) = static_cast<float>((h * h + cr * cr) / h * angle + 0.25 * width);
-      sl_.at<float>(0, k) = static_cast<float>(cr / cam.fx + 0.25 * width);
-      table_.at<float>(kSightCol0, k) = static_cast<float>(cmin);
-      table_.at<float>(kSightRow0, k) = static_cast<float>(rmin);
-      table_.at<float>(kSightCol1, k) = static_cast<float>(cmax);
-      table_.at<float>(kSightRow1, k) = static_cast<float>(rmax);
+      if (measure(count_, cb, rmin, rmax, cmin, cmax, std::clamp(contrast / pixels - 1.0, 0.05, 1.0))) ++count_;
     }
+  if (p_.merge_halves) merge_halves();
   return count_;
+}
+
+bool RockSightings::measure(int k, double cb, int rmin, int rmax, int cmin, int cmax, double score) {
+  const auto& cam = depth_.model();
+  const double h = cam.mount_height_m;
+  const cv::Vec3d d = ray(cb, rmax + 0.5);
+  if (!(d[2] < -1e-6)) return false;
+  const double t = h / -d[2];
+  const cv::Vec2d g(t * d[0], t * d[1]);
+  const double range_m = std::hypot(g[0], g[1]);
+  if (range_m < p_.min_range_m || range_m > p_.max_range_m) return false;
+  // Width: ground distance between the blob's side columns at the contact's depth.
+  const cv::Vec3d dl = ray(cmin - 0.5, rmax + 0.5), dr = ray(cmax + 0.5, rmax + 0.5);
+  if (!(dl[2] < -1e-6) || !(dr[2] < -1e-6)) return false;
+  const double tl = h / -dl[2], tr = h / -dr[2];
+  const double width = std::hypot(tl * dl[0] - tr * dr[0], tl * dl[1] - tr * dr[1]);
+  const cv::Vec2d u = g / range_m;
+  // Height: the top ray (through the blob's top, at the contact column) at the centre's
+  // distance; centre = contact + the footprint radius, which the blob underestimates (a
+  // dome's low flanks barely differ from the ground): at least footprint_per_height x the
+  // height (two passes: the height depends on the centre's distance).
+  const cv::Vec3d dt = ray(cb, rmin - 0.5);
+  const double horiz = std::hypot(dt[0], dt[1]);
+  if (!(horiz > 1e-9)) return false;
+  double radius = 0.5 * width, height = 0.0;
+  cv::Vec2d c = g + radius * u;
+  for (int pass = 0; pass < 2; ++pass) {
+    height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+    radius = std::max(0.5 * width, p_.footprint_per_height * std::max(height, 0.0));
+    c = g + radius * u;
+  }
+  height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+  if (height < p_.min_height_m || height > p_.max_height_m) return false;
+  x_.at<float>(0, k) = static_cast<float>(c[0]);
+  y_.at<float>(0, k) = static_cast<float>(c[1]);
+  h_.at<float>(0, k) = static_cast<float>(height);
+  w_.at<float>(0, k) = static_cast<float>(width);
+  s_.at<float>(0, k) = static_cast<float>(score);
+  const double cr = std::hypot(c[0], c[1]);
+  const double angle = std::hypot(1.0 / cam.fy, p_.tilt_sigma_rad);
+  sr_.at<float>(0, k) = static_cast<float>((h * h + cr * cr) / h * angle + 0.25 * width);
+  sl_.at<float>(0, k) = static_cast<float>(cr / cam.fx + 0.25 * width);
+  table_.at<float>(kSightCol0, k) = static_cast<float>(cmin);
+  table_.at<float>(kSightRow0, k) = static_cast<float>(rmin);
+  table_.at<float>(kSightCol1, k) = static_cast<float>(cmax);
+  table_.at<float>(kSightRow1, k) = static_cast<float>(rmax);
+  return true;
+}
+
+void RockSightings::merge_halves() {
+  // A rock lit from the side shows a bright and a dark half, each contrasting with the ground
+  // on either side of a mid-tone line: two blobs side by side. Two sightings whose boxes overlap
+  // vertically by at least half the shorter and whose columns touch (a gap of at most
+  // merge_gap_px) are one rock, measured again from the union box (contact at its middle
+  // column). The merged sighting takes the first one's column; the last column fills the hole.
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (int a = 0; a < count_ && !merged; ++a)
+      for (int b = a + 1; b < count_ && !merged; ++b) {
+        const auto box = [&](int k, SightingRow r) { return static_cast<int>(table_.at<float>(r, k)); };
+        const int ar0 = box(a, kSightRow0), ar1 = box(a, kSightRow1), ac0 = box(a, kSightCol0),
+                  ac1 = box(a, kSightCol1);
+        const int br0 = box(b, kSightRow0), br1 = box(b, kSightRow1), bc0 = box(b, kSightCol0),
+                  bc1 = box(b, kSightCol1);
+        const int overlap = std::min(ar1, br1) - std::max(ar0, br0) + 1;
+        const int gap = std::max(ac0, bc0) - std::min(ac1, bc1) - 1;
+        if (overlap < (std::min(ar1 - ar0, br1 - br0) + 1) / 2 || gap > p_.merge_gap_px) continue;
+        const int r0 = std::min(ar0, br0), r1 = std::max(ar1, br1), c0 = std::min(ac0, bc0), c1 = std::max(ac1, bc1);
+        const double score = std::max(s_.at<float>(0, a), s_.at<float>(0, b));
+        // Measure into the spare column after the last sighting, then move it into a's place.
+        if (count_ >= table_.cols) continue;
+        for (int r = 0; r < kSightRows; ++r) table_.at<float>(r, count_) = kNaNf;
+        if (!measure(count_, 0.5 * (c0 + c1), r0, r1, c0, c1, score)) continue;
+        for (int r = 0; r < kSightRows; ++r) {
+          table_.at<float>(r, a) = table_.at<float>(r, count_);
+          table_.at<float>(r, b) = table_.at<float>(r, count_ - 1);
+          table_.at<float>(r, count_) = kNaNf;
+        }
+        --count_;
+        for (int r = 0; r < kSightRows; ++r) table_.at<float>(r, count_) = kNaNf;
+        merged = true;
+      }
+  }
 }
 
 }  // namespace regolith::mapping

@@ -45,6 +45,8 @@ struct RockSightingParams {
   double max_height_m = 0.6;          ///< m, taller ones are not rocks (a far wall, a crater's far rim)
   int max_sightings = 64;             ///< per frame
   double footprint_per_height = 1.0;  ///< footprint radius at least this x the height (the blob misses a dome's flanks)
+  bool merge_halves = false;          ///< side-by-side blobs (a side-lit rock's bright and dark halves) are one rock
+  int merge_gap_px = 2;               ///< px, column gap two halves may leave between them
   bool keep_top_cut = true;           ///< blobs cut by the image's top edge are kept (their height is a lower bound)
   double tilt_sigma_rad = 0.01;       ///< rad, error of the camera's tilt against the far ground (ranging)
   void validate() const;              ///< FieldError("mapping.sightings", ...)
@@ -89,6 +91,10 @@ class RockSightings {
 
  private:
   void blur(cv::Mat& m, double sigma);
+  /// Ranges the blob (contact column cb on its lowest row rmax, top row rmin, side columns) into
+  /// table column k; false (column untouched) when it is out of range or height.
+  bool measure(int k, double cb, int rmin, int rmax, int cmin, int cmax, double score);
+  void merge_halves();
   cv::Vec3d ray(double col, double row) const;
   RockSightingParams p_;
   const direct_depth::DirectDepth& depth_;
