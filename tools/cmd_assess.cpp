@@ -315,6 +315,7 @@ void assess(const AssessOptions& o) {
   std::optional<sfs::LightDirection> light;
   std::optional<direct_depth::CameraModel> model;
   double pixel_size = o.pixel_size_m;
+  bool grid_given = false;  // grid geometry from the config; else (camera mode) fitted to the view
   if (!o.config.empty()) {
     Params p = Params::load_file(o.config);
     sp.method = sfs::method_from_string(p.get<std::string>("method", sfs::to_string(sp.method),
@@ -333,6 +334,7 @@ void assess(const AssessOptions& o) {
     // The same camera_model reader as the rover description's tools (sfs component header).
     if (p.has("camera_model")) model = sfs::read_camera_model(p.child("camera_model"), gray.cols, gray.rows);
     Params g = p.child("grid");
+    for (const char* k : {"resolution_m", "length_x_m", "length_y_m", "center_x_m", "center_y_m"}) grid_given = grid_given || g.has(k);
     tp.set_grid(common::read_grid_geometry(g, tp.grid(), "grid map"));
     tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
     tp.critical_step_m = g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
@@ -422,6 +424,35 @@ void assess(const AssessOptions& o) {
     if (model) depth = std::make_unique<direct_depth::DirectDepth>(*model);
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("assess: ") + e.what());
+  }
+  // Camera mode without a configured grid: the grid covers the ground the camera sees (from the
+  // bottom row's range to the top row's, at most 5 m; the lateral extent there, at most +-2 m), in
+  // cells of 1/60 of its length (0.01-0.05 m), so a camera close to the ground (0.3-1.4 m of view)
+  // is mapped as fully as a rover's navigation camera (the default 1-5 m grid).
+  if (depth && !grid_given) {
+    const double cxm = 0.5 * (gray.cols - 1);
+    const direct_depth::GroundPoint bottom = depth->ground(cxm, gray.rows - 0.5), top = depth->ground(cxm, -0.5);
+    if (bottom.valid) {
+      const double near = bottom.range_m, far = std::min(5.0, top.valid ? top.range_m : 5.0);
+      if (far > near + 0.1) {
+        // Lateral extent of the view where the grid ends: the left image edge at range `far`.
+        double half = 2.0;
+        for (int r = gray.rows - 1; r >= 0; --r) {
+          const direct_depth::GroundPoint e = depth->ground(-0.5, r + 0.5);
+          if (!e.valid) break;
+          half = std::abs(e.lateral_m);
+          if (e.range_m >= far) break;
+        }
+        half = std::clamp(half, 0.1, 2.0);
+        common::GridGeometry g = tp.grid();
+        g.resolution_m = std::clamp((far - near) / 60.0, 0.01, 0.05);
+        g.center_x_m = 0.5 * (near + far);
+        g.length_x_m = far - near;
+        g.center_y_m = 0.0;
+        g.length_y_m = 2.0 * half;
+        tp.set_grid(g);
+      }
+    }
   }
   std::error_code ec;
   fs::create_directories(o.out, ec);
@@ -608,7 +639,8 @@ void assess(const AssessOptions& o) {
       {"mode", depth ? "camera" : "orthographic"},
       {"grid_sfs_frame", depth ? o.sfs_frame : "orthographic"},
       {"timings_ms", {{"load", t1 - t0}, {"sfs", t2 - t1}, {"traversability", t3 - t2}}},
-      {"grid", {{"resolution_m", grid.resolution_m}, {"length_x_m", grid.length_x_m}, {"length_y_m", grid.length_y_m},
+      {"grid", {{"source", grid_given || !depth ? "configured" : "fitted to the view"},
+                {"resolution_m", grid.resolution_m}, {"length_x_m", grid.length_x_m}, {"length_y_m", grid.length_y_m},
                 {"center_x_m", grid.center_x_m}, {"center_y_m", grid.center_y_m}, {"known_cells", known},
                 {"cells", static_cast<int>(trav.total())}}},
       {"outputs", {{"height", "height.tiff"}, {"heatmap", "height_heatmap.png"}, {"hillshade", "hillshade.png"},
