@@ -224,6 +224,58 @@ void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks) {
   }
 }
 
+// Without a configured grid (camera mode), the grid covers the ground the camera sees: from the
+// bottom row's range to the top row's (at most 5 m), the lateral extent of the view there (at
+// most +-2 m), in cells of 1/60 of its length (0.01-0.05 m), so a camera close to the ground
+// (0.3-1.4 m of view) is mapped as fully as a rover's navigation camera (the default 1-5 m grid).
+// A camera that sees no ground keeps the configured default.
+void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image, traversability::TraversabilityParams& tp) {
+  const double cxm = 0.5 * (image.width - 1);
+  const direct_depth::GroundPoint bottom = depth.ground(cxm, image.height - 0.5), top = depth.ground(cxm, -0.5);
+  if (!bottom.valid) return;
+  const double near = bottom.range_m, far = std::min(5.0, top.valid ? top.range_m : 5.0);
+  if (!(far > near + 0.1)) return;
+  // Lateral extent of the view where the grid ends: the left image edge at range `far`.
+  double half = 2.0;
+  for (int r = image.height - 1; r >= 0; --r) {
+    const direct_depth::GroundPoint e = depth.ground(-0.5, r + 0.5);
+    if (!e.valid) break;
+    half = std::abs(e.lateral_m);
+    if (e.range_m >= far) break;
+  }
+  common::GridGeometry g = tp.grid();
+  g.resolution_m = std::clamp((far - near) / 60.0, 0.01, 0.05);
+  g.center_x_m = 0.5 * (near + far);
+  g.length_x_m = far - near;
+  g.center_y_m = 0.0;
+  g.length_y_m = 2.0 * std::clamp(half, 0.1, 2.0);
+  tp.set_grid(g);
+}
+
+// rocks.csv: one line per rock (id from 1, nearest first), the columns of summary.json's rocks.
+void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
+  std::ofstream csv(out / "rocks.csv");
+  if (!csv) throw InputError("assess: cannot write '" + (out / "rocks.csv").string() + "'");
+  csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n";
+  for (std::size_t k = 0; k < rocks.size(); ++k) {
+    const ImageRock& r = rocks[k];
+    csv << k + 1 << "," << fmt(r.range_m, 4) << "," << fmt(r.lateral_m, 4) << "," << fmt(r.width_m, 4) << ","
+        << fmt(r.height_m, 4) << "," << (r.top_cut ? 1 : 0) << "," << fmt(r.score, 3) << "," << r.box.x << ","
+        << r.box.y << "," << r.box.x + r.box.width - 1 << "," << r.box.y + r.box.height - 1 << "\n";
+  }
+}
+
+nlohmann::json rocks_json(const std::vector<ImageRock>& rocks) {
+  nlohmann::json a = nlohmann::json::array();
+  for (std::size_t k = 0; k < rocks.size(); ++k) {
+    const ImageRock& r = rocks[k];
+    a.push_back({{"id", k + 1}, {"range_m", r.range_m}, {"lateral_m", r.lateral_m}, {"width_m", r.width_m},
+                 {"height_m", r.height_m}, {"height_is_lower_bound", r.top_cut}, {"score", r.score},
+                 {"box_px", {r.box.x, r.box.y, r.box.x + r.box.width - 1, r.box.y + r.box.height - 1}}});
+  }
+  return a;
+}
+
 // The camera image with the traversability grid drawn where it lies on the ground (camera mode):
 // every known cell's footprint projected through the camera model, hazards (traversability 0)
 // red, poor ground (< 0.5) orange, the rest left clear; each hazard labelled with its number and
@@ -425,35 +477,7 @@ void assess(const AssessOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("assess: ") + e.what());
   }
-  // Camera mode without a configured grid: the grid covers the ground the camera sees (from the
-  // bottom row's range to the top row's, at most 5 m; the lateral extent there, at most +-2 m), in
-  // cells of 1/60 of its length (0.01-0.05 m), so a camera close to the ground (0.3-1.4 m of view)
-  // is mapped as fully as a rover's navigation camera (the default 1-5 m grid).
-  if (depth && !grid_given) {
-    const double cxm = 0.5 * (gray.cols - 1);
-    const direct_depth::GroundPoint bottom = depth->ground(cxm, gray.rows - 0.5), top = depth->ground(cxm, -0.5);
-    if (bottom.valid) {
-      const double near = bottom.range_m, far = std::min(5.0, top.valid ? top.range_m : 5.0);
-      if (far > near + 0.1) {
-        // Lateral extent of the view where the grid ends: the left image edge at range `far`.
-        double half = 2.0;
-        for (int r = gray.rows - 1; r >= 0; --r) {
-          const direct_depth::GroundPoint e = depth->ground(-0.5, r + 0.5);
-          if (!e.valid) break;
-          half = std::abs(e.lateral_m);
-          if (e.range_m >= far) break;
-        }
-        half = std::clamp(half, 0.1, 2.0);
-        common::GridGeometry g = tp.grid();
-        g.resolution_m = std::clamp((far - near) / 60.0, 0.01, 0.05);
-        g.center_x_m = 0.5 * (near + far);
-        g.length_x_m = far - near;
-        g.center_y_m = 0.0;
-        g.length_y_m = 2.0 * half;
-        tp.set_grid(g);
-      }
-    }
-  }
+  if (depth && !grid_given) fit_grid_to_view(*depth, gray.size(), tp);
   std::error_code ec;
   fs::create_directories(o.out, ec);
   if (ec || !fs::is_directory(o.out)) throw InputError("assess: cannot create output directory '" + o.out + "'");
@@ -599,23 +623,10 @@ void assess(const AssessOptions& o) {
     }
   }
   // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
-  nlohmann::json rocks_json = nlohmann::json::array();
   std::vector<ImageRock> rocks;
   if (depth) {
     rocks = image_rocks(gray, *depth);
-    std::ofstream csv(out / "rocks.csv");
-    if (!csv) throw InputError("assess: cannot write '" + (out / "rocks.csv").string() + "'");
-    csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n";
-    for (std::size_t k = 0; k < rocks.size(); ++k) {
-      const ImageRock& r = rocks[k];
-      const int x1 = r.box.x + r.box.width - 1, y1 = r.box.y + r.box.height - 1;
-      rocks_json.push_back({{"id", k + 1}, {"range_m", r.range_m}, {"lateral_m", r.lateral_m}, {"width_m", r.width_m},
-                            {"height_m", r.height_m}, {"height_is_lower_bound", r.top_cut}, {"score", r.score},
-                            {"box_px", {r.box.x, r.box.y, x1, y1}}});
-      csv << k + 1 << "," << fmt(r.range_m, 4) << "," << fmt(r.lateral_m, 4) << "," << fmt(r.width_m, 4) << ","
-          << fmt(r.height_m, 4) << "," << (r.top_cut ? 1 : 0) << "," << fmt(r.score, 3) << "," << r.box.x << ","
-          << r.box.y << "," << x1 << "," << y1 << "\n";
-    }
+    write_rocks(out, rocks);
     if (!cv::imwrite((out / "range.tiff").string(), depth->range_map()))
       throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
     cv::Mat overlay = camera_overlay(gray, grid, *depth, labels, hazard_text);
@@ -651,7 +662,7 @@ void assess(const AssessOptions& o) {
   if (depth) {
     j["outputs"]["range"] = "range.tiff";
     j["outputs"]["rocks"] = "rocks.csv";
-    j["rocks"] = rocks_json;
+    j["rocks"] = rocks_json(rocks);
   }
   if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
   if (sun_ahead) {
