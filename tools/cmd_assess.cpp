@@ -386,7 +386,7 @@ void assess(const AssessOptions& o) {
     // The same camera_model reader as the rover description's tools (sfs component header).
     if (p.has("camera_model")) model = sfs::read_camera_model(p.child("camera_model"), gray.cols, gray.rows);
     Params g = p.child("grid");
-    for (const char* k : {"resolution_m", "length_x_m", "length_y_m", "center_x_m", "center_y_m"}) grid_given = grid_given || g.has(k);
+    grid_given = common::has_grid_geometry(g);
     tp.set_grid(common::read_grid_geometry(g, tp.grid(), "grid map"));
     tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
     tp.critical_step_m = g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});

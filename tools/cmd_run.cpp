@@ -300,7 +300,7 @@ void run(const RunOptions& o) {
                  relay->server().port(), lo.address, relay->server().port());
   }
 #else
-  if (!o.live.empty() || app->live_config().enabled) 
+  if (!o.live.empty() || app->live_config().enabled)
     throw InputError("run: live view (--live / live.enabled): this build has no live server (websocketpp not found)");
 #endif
   app->start();

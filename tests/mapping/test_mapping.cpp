@@ -304,6 +304,14 @@ TEST(RockSightings, RangesRocksSeenInOneFrame) {
   EXPECT_THROW(RockSightings(dd, bad), FieldError);
 }
 
+// Featureless textured ground for synthetic sightings: 320x240 grey 120 +- sigma (normal noise).
+cv::Mat noisy_ground(int seed, double sigma) {
+  cv::Mat f(240, 320, CV_8U);
+  cv::RNG rng(static_cast<std::uint64_t>(seed));
+  rng.fill(f, cv::RNG::NORMAL, 120, sigma);
+  return f;
+}
+
 TEST(RockSightings, ARockCutByTheTopEdgeIsSightedWithItsContact) {
   // Far rocks enter a pitched camera's view through the top edge: their ground contact is in the
   // frame, their top is not. Textured grey ground with one dark object over rows 0..14: it is
@@ -311,9 +319,7 @@ TEST(RockSightings, ARockCutByTheTopEdgeIsSightedWithItsContact) {
   // visible part); with keep_top_cut false it is refused like any blob touching the border.
   Rig rig(11, 0);
   const direct_depth::DirectDepth dd(rig.model);
-  cv::Mat f(240, 320, CV_8U);
-  cv::RNG rng(5);
-  rng.fill(f, cv::RNG::NORMAL, 120, 6);
+  cv::Mat f = noisy_ground(5, 6);
   f(cv::Rect(150, 0, 24, 15)).setTo(25);
   RockSightings kept(dd, RockSightingParams{});
   ASSERT_EQ(kept.compute(f), 1);
@@ -341,9 +347,7 @@ TEST(RockSightings, ASideLitRocksTwoHalvesMergeIntoOne) {
   // merge_halves makes them one sighting as wide as both; off (the map's default) they stay two.
   Rig rig(11, 0);
   const direct_depth::DirectDepth dd(rig.model);
-  cv::Mat f(240, 320, CV_8U);
-  cv::RNG rng(9);
-  rng.fill(f, cv::RNG::NORMAL, 120, 5);
+  cv::Mat f = noisy_ground(9, 5);
   f(cv::Rect(140, 40, 16, 20)).setTo(220);  // lit half, ~2 m ahead
   f(cv::Rect(158, 40, 16, 20)).setTo(30);   // shaded half, a 2 px mid-tone seam between
   f(cv::Rect(156, 40, 2, 20)).setTo(120);
@@ -361,8 +365,7 @@ TEST(RockSightings, ASideLitRocksTwoHalvesMergeIntoOne) {
   EXPECT_EQ(one.row(kSightCol1).at<float>(0, 0), 173.0f);
   EXPECT_TRUE(std::isnan(one.height().at<float>(0, 1)));
   // Two rocks one above the other (no vertical overlap) are not merged.
-  cv::Mat g(240, 320, CV_8U);
-  rng.fill(g, cv::RNG::NORMAL, 120, 5);
+  cv::Mat g = noisy_ground(10, 5);
   g(cv::Rect(140, 20, 16, 16)).setTo(220);
   g(cv::Rect(140, 70, 16, 16)).setTo(220);
   EXPECT_EQ(one.compute(g), 2);

@@ -276,17 +276,15 @@ void RockSightings::merge_halves() {
         if (overlap < (std::min(ar1 - ar0, br1 - br0) + 1) / 2 || gap > p_.merge_gap_px) continue;
         const int r0 = std::min(ar0, br0), r1 = std::max(ar1, br1), c0 = std::min(ac0, bc0), c1 = std::max(ac1, bc1);
         const double score = std::max(s_.at<float>(0, a), s_.at<float>(0, b));
-        // Measure into the spare column after the last sighting, then move it into a's place.
-        if (count_ >= table_.cols) continue;
-        for (int r = 0; r < kSightRows; ++r) table_.at<float>(r, count_) = kNaNf;
-        if (!measure(count_, 0.5 * (c0 + c1), r0, r1, c0, c1, score)) continue;
+        // Measure into the spare column after the last sighting (NaN, as every column from
+        // count_ on), move it into a's place and the last sighting into b's, then clear both.
+        if (count_ >= table_.cols || !measure(count_, 0.5 * (c0 + c1), r0, r1, c0, c1, score)) continue;
         for (int r = 0; r < kSightRows; ++r) {
           table_.at<float>(r, a) = table_.at<float>(r, count_);
           table_.at<float>(r, b) = table_.at<float>(r, count_ - 1);
-          table_.at<float>(r, count_) = kNaNf;
+          table_.at<float>(r, count_) = table_.at<float>(r, count_ - 1) = kNaNf;
         }
         --count_;
-        for (int r = 0; r < kSightRows; ++r) table_.at<float>(r, count_) = kNaNf;
         merged = true;
       }
   }

@@ -13,4 +13,7 @@ namespace regolith::common {
 /// located ConfigErrors. `role` completes each key's documentation ("rock_probability grid").
 GridGeometry read_grid_geometry(Params& p, const GridGeometry& defaults, std::string_view role);
 
+/// Whether `p` sets any of those keys (else a caller may choose the geometry itself).
+bool has_grid_geometry(const Params& p);
+
 }  // namespace regolith::common
