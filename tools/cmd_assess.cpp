@@ -414,7 +414,8 @@ void assess(const AssessOptions& o) {
       light->validate("sun");
     } catch (const std::invalid_argument& e) {
       sun_error = std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)";
-      if (!std::isfinite(light->slant_rad) || !(light->slant_rad < kPi) || light->slant_rad < 0) throw ConfigError(sun_error);
+      const bool behind_image_plane = light->slant_rad >= kPi / 2 && light->slant_rad < kPi && std::isfinite(light->tilt_rad);
+      if (!behind_image_plane) throw ConfigError(sun_error);
     }
   } else {
     sp.estimate_light = true;
