@@ -20,6 +20,7 @@
 #include "regolith/mapping/parallax.hpp"
 #include "regolith/mapping/plane_sweep.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
+#include "regolith/mapping/rock_tracker.hpp"
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 
@@ -436,49 +437,170 @@ DriveRun run_rendered_drive(std::uint64_t seed, bool vision, int black_frame = -
   return r;
 }
 
-TEST(WorldMap, SightingsAgreeingAcrossFramesMakeOneRock) {
+// One sighting as RockSightings reports it: a rock whose near contact is at `contact` (world,
+// z above the ground plane the camera stands over) and whose top is `top_z` above that plane,
+// seen by a camera `h` high at `foot` (world pose, x forward): the contact ray is met with the
+// plane z = 0, as one frame has to.
+void sight(cv::Mat& t, int k, const Pose2& foot, double h, const cv::Vec3d& contact, double top_z, double width,
+           double radius, double score = 1.0) {
+  const Eigen::Vector2d b = inverse(foot).apply(contact[0], contact[1]);  // body frame
+  const double r = b.norm(), s = h / (h - contact[2]);                    // the ray meets z = 0 at s x the body point
+  const Eigen::Vector2d g = s * b, u = b / r;
+  const Eigen::Vector2d c = g + radius * u;
+  // Top ray: towards the point top_z high at the true centre's distance.
+  const double slope = (top_z - h) / (r + radius);
+  const double single_h = h + c.norm() * slope;
+  for (auto [row, v] : {std::pair{kSightX, c.x()}, {kSightY, c.y()}, {kSightHeight, single_h}, {kSightWidth, width},
+                        {kSightScore, score}, {kSightSigmaRange, 0.1}, {kSightSigmaLateral, 0.03}, {kSightContactX, g.x()},
+                        {kSightContactY, g.y()}, {kSightTopSlope, slope}})
+    t.at<float>(row, k) = static_cast<float>(v);
+}
+
+TEST(RockTracker, TriangulatesAContactOffTheGroundPlaneAcrossFrames) {
+  // A rock 0.15 m tall on ground 5 cm above the plane under the rover, 4 m ahead and 0.5 m
+  // aside: one frame puts it 0.3 m too far; 16 exact frames approaching over 1.5 m put it
+  // right (rays as sharp as exact data; with the default ray sigmas the ground prior holds it
+  // back: half way).
+  const double h = 0.6, radius = 0.1;
+  const cv::Vec3d contact(4.0, 0.5, 0.05);
+  RockTrackerParams sharp;
+  sharp.ray_sigma_m = 0.002;
+  sharp.ray_sigma_per_m = 0.001;
+  RockTracker tracker(sharp, 8), loose(RockTrackerParams{}, 8);
+  cv::Mat t(kSightRows, 8, CV_32F);
+  double first_error = 0.0;
+  for (int f = 0; f <= 15; ++f) {
+    t.setTo(std::numeric_limits<float>::quiet_NaN());
+    const Pose2 foot{0.1 * f, 0.0, 0.0};
+    sight(t, 0, foot, h, contact, 0.05 + 0.15, 0.2, radius);
+    ASSERT_EQ(tracker.update(t, foot, h), 1) << f;
+    ASSERT_EQ(loose.update(t, foot, h), 1) << f;
+    ASSERT_EQ(tracker.count(), 1) << "frame " << f << ": one rock is one track";
+    ASSERT_EQ(loose.count(), 1) << f;
+    const double ex = tracker.table().at<float>(kTrackX, 0) - (contact[0] + radius);
+    if (f == 0) first_error = ex;
+  }
+  const cv::Mat& r = tracker.table();
+  EXPECT_GT(first_error, 0.25);
+  EXPECT_NEAR(r.at<float>(kTrackX, 0), contact[0] + radius, 0.03);
+  EXPECT_NEAR(r.at<float>(kTrackY, 0), contact[1], 0.03);
+  EXPECT_NEAR(r.at<float>(kTrackHeight, 0), 0.15, 0.015);
+  EXPECT_NEAR(r.at<float>(kTrackWidth, 0), 0.2, 1e-5);
+  EXPECT_NEAR(r.at<float>(kTrackScore, 0), 16.0, 1e-4);
+  EXPECT_EQ(r.at<float>(kTrackFrames, 0), 16.0f);
+  EXPECT_LT(r.at<float>(kTrackSxx, 0), 0.005f);
+  EXPECT_GT(loose.table().at<float>(kTrackSxx, 0), r.at<float>(kTrackSxx, 0));
+  EXPECT_EQ(tracker.closed_count(), 0);
+  const double loose_error = loose.table().at<float>(kTrackX, 0) - (contact[0] + radius);
+  EXPECT_GT(loose_error, 0.02);
+  EXPECT_LT(loose_error, 0.7 * first_error);
+}
+
+TEST(RockTracker, KeepsRocksApartClosesStaleTracksAndRefusesBadParameters) {
+  const double h = 0.6;
+  RockTrackerParams p;
+  p.max_age_frames = 3;
+  RockTracker tracker(p, 8);
+  cv::Mat t(kSightRows, 8, CV_32F);
+  // Two rocks side by side, 0.5 m apart, for 5 frames; then nothing.
+  for (int f = 0; f < 5; ++f) {
+    t.setTo(std::numeric_limits<float>::quiet_NaN());
+    const Pose2 foot{0.1 * f, 0.0, 0.0};
+    sight(t, 0, foot, h, {3.0, -0.25, 0.0}, 0.12, 0.15, 0.07);
+    sight(t, 1, foot, h, {3.0, 0.25, 0.0}, 0.12, 0.15, 0.07);
+    EXPECT_EQ(tracker.update(t, foot, h), 2);
+    EXPECT_EQ(tracker.count(), 2) << f;
+  }
+  t.setTo(std::numeric_limits<float>::quiet_NaN());
+  for (int f = 0; f < 2; ++f) EXPECT_EQ(tracker.update(t, {0.5, 0.0, 0.0}, h), 0);
+  EXPECT_EQ(tracker.count(), 2);
+  EXPECT_EQ(tracker.closed_count(), 0);
+  tracker.update(t, {0.5, 0.0, 0.0}, h);  // third frame unseen: both close, handed over once
+  EXPECT_EQ(tracker.count(), 0);
+  ASSERT_EQ(tracker.closed_count(), 2);
+  const float y0 = tracker.closed().at<float>(kTrackY, 0), y1 = tracker.closed().at<float>(kTrackY, 1);
+  EXPECT_NEAR(std::min(y0, y1), -0.25, 0.02);
+  EXPECT_NEAR(std::max(y0, y1), 0.25, 0.02);
+  EXPECT_EQ(tracker.closed().at<float>(kTrackFrames, 0), 5.0f);
+  tracker.update(t, {0.5, 0.0, 0.0}, h);
+  EXPECT_EQ(tracker.closed_count(), 0);
+  // A NaN pose uses nothing; tracking off closes every sighting at once (one-frame tracks).
+  sight(t, 0, {}, h, {3.0, 0.0, 0.0}, 0.12, 0.15, 0.07);
+  EXPECT_EQ(tracker.update(t, Pose2{std::nan(""), 0, 0}, h), 0);
+  RockTrackerParams off;
+  off.enabled = false;
+  RockTracker single(off, 8);
+  EXPECT_EQ(single.update(t, {}, h), 1);
+  EXPECT_EQ(single.count(), 0);
+  EXPECT_EQ(single.closed_count(), 1);
+  // When every slot is taken the track unseen longest closes for the newcomer.
+  RockTrackerParams two;
+  two.max_tracks = 2;
+  RockTracker small(two, 8);
+  for (double y : {-1.0, 0.0, 1.0}) {
+    t.setTo(std::numeric_limits<float>::quiet_NaN());
+    sight(t, 0, {}, h, {3.0, y, 0.0}, 0.12, 0.15, 0.07);
+    small.update(t, {}, h);
+  }
+  EXPECT_EQ(small.count(), 2);
+  ASSERT_EQ(small.closed_count(), 1);
+  EXPECT_NEAR(small.closed().at<float>(kTrackY, 0), -1.0, 0.03);
+  for (int bad = 0; bad < 4; ++bad) {
+    RockTrackerParams q;
+    (bad == 0 ? q.max_tracks : q.max_age_frames) = 0;
+    if (bad == 2) q.ground_sigma_m = 0, q.max_age_frames = 1;
+    if (bad == 3) q.gate = -1, q.max_age_frames = 1;
+    EXPECT_THROW(RockTracker(q, 8), FieldError) << bad;
+  }
+}
+
+TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   WorldMapParams p;
   p.resolution_m = 0.04;
   p.length_x_m = 8;
   p.length_y_m = 8;
   WorldMap map(p, 0, 0);
-  cv::Mat t(kSightRows, 4, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  auto set = [&](int k, double x, double y, double h, double w, double score, double sr, double sl) {
-    for (auto [row, v] : {std::pair{kSightX, x}, {kSightY, y}, {kSightHeight, h}, {kSightWidth, w}, {kSightScore, score},
-                          {kSightSigmaRange, sr}, {kSightSigmaLateral, sl}})
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat live(kTrackRows, 4, CV_32F, cv::Scalar(nan)), closed(kTrackRows, 4, CV_32F, cv::Scalar(nan));
+  auto set = [](cv::Mat& t, int k, double x, double y, double h, double w, double score, double sd, int frames) {
+    for (auto [row, v] : {std::pair{kTrackX, x}, {kTrackY, y}, {kTrackHeight, h}, {kTrackWidth, w}, {kTrackScore, score},
+                          {kTrackSxx, sd * sd}, {kTrackSxy, 0.0}, {kTrackSyy, sd * sd}, {kTrackFrames, double(frames)}})
       t.at<float>(row, k) = static_cast<float>(v);
   };
-  // Three frames see a 12 cm rock 2 m ahead of the foot (facing +y: body x = world y), sharply.
-  const Pose2 foot{0.0, 0.0, 1.5707963267948966};
-  for (double h : {0.11, 0.12, 0.13}) {
-    set(0, 2.0, 0.0, h, 0.2, 1.0, 0.05, 0.05);
-    EXPECT_EQ(map.fuse_sightings(t, foot), 1);
-  }
-  // One vague sighting far away: spread thin, not a rock.
-  set(0, 3.0, 1.0, 0.3, 0.3, 1.0, 0.4, 0.1);
-  map.fuse_sightings(t, foot);
+  // A closed track (kept for good), a live one, a live one seen in too few frames.
+  set(closed, 0, 1.0, 1.0, 0.2, 0.25, 4.0, 0.03, 6);
+  set(live, 0, 0.0, 2.0, 0.12, 0.2, 3.0, 0.03, 4);
+  set(live, 1, -2.0, 2.0, 0.3, 0.2, 3.0, 0.03, 2);
+  map.fuse_rock_tracks(closed, 1, live, 2);
   map.finish();
-  const std::vector<MapRock> rocks = map.rocks();
-  ASSERT_EQ(rocks.size(), 1u);
-  EXPECT_NEAR(rocks[0].x_m, 0.0, 0.041);
-  EXPECT_NEAR(rocks[0].y_m, 2.0, 0.041);
-  EXPECT_NEAR(rocks[0].height_m, 0.12, 0.005);
-  EXPECT_NEAR(rocks[0].width_m, 0.2, 0.005);
-  // The hazard there is the probability the sightings give a rock of at least hazard_height_m:
-  // 1 - exp(-evidence / hazard_evidence_scale) for a sighted height above it (no relief fused).
-  // The vague sighting's centre gets a small one; a NaN pose fuses nothing.
+  auto sorted = [&] {
+    std::vector<MapRock> r = map.rocks();
+    std::sort(r.begin(), r.end(), [](const MapRock& a, const MapRock& b) { return a.x_m < b.x_m; });
+    return r;
+  };
+  std::vector<MapRock> rocks = sorted();
+  ASSERT_EQ(rocks.size(), 2u);
+  EXPECT_NEAR(rocks[0].x_m, 0.0, 1e-6);
+  EXPECT_NEAR(rocks[0].y_m, 2.0, 1e-6);
+  EXPECT_NEAR(rocks[0].height_m, 0.12, 1e-6);
+  EXPECT_NEAR(rocks[1].width_m, 0.25, 1e-6);
   auto cell = [&](double x, double y) {
     return cv::Point(static_cast<int>(std::lround((x - map.origin_x()) / map.resolution())),
                      static_cast<int>(std::lround((y - map.origin_y()) / map.resolution())));
   };
+  // Hazard = 1 - exp(-evidence / hazard_evidence_scale) where the rocks are taller than
+  // hazard_height_m; the evidence of a live track goes when the next frame replaces it.
   const float ev = map.layer("rock_evidence").at<float>(cell(0.0, 2.0));
-  EXPECT_GT(ev, 2.5f);
+  EXPECT_GT(ev, 1.0f);
   EXPECT_NEAR(map.layer("hazard").at<float>(cell(0.0, 2.0)), 1.0 - std::exp(-ev / p.hazard_evidence_scale), 1e-5);
-  const float vague = map.layer("hazard").at<float>(cell(-1.0, 3.0));  // body (3, 1) facing +y
-  EXPECT_GT(vague, 0.0f);
-  EXPECT_LT(vague, 0.15f);
   EXPECT_TRUE(std::isnan(map.layer("hazard").at<float>(cell(3.0, -3.0))));
-  EXPECT_EQ(map.fuse_sightings(t, Pose2{std::nan(""), 0, 0}), 0);
+  map.fuse_rock_tracks(closed, 0, live, 0);
+  map.finish();
+  rocks = sorted();
+  ASSERT_EQ(rocks.size(), 1u);
+  EXPECT_NEAR(rocks[0].x_m, 1.0, 1e-6);
+  EXPECT_TRUE(std::isnan(map.layer("rock_evidence").at<float>(cell(0.0, 2.0))));
+  EXPECT_GT(map.layer("hazard").at<float>(cell(1.0, 1.0)), 0.9f);
 }
 
 TEST(DriveMapper, VisionCorrectsWheelDriftOnARenderedDrive) {
@@ -521,12 +643,18 @@ TEST(DriveMapper, AGapInTheFramesIsNotAnOdometryJump) {
 TEST(DriveMapper, AStandingRoverHasNoParallaxButStillSightsRocks) {
   // The same view five times: no baseline, so no parallax search runs (not a division by zero);
   // the per-frame rock sightings still do.
-  Rig rig(14, 30);
+  Rig rig(14, 15);
   DriveMapper dm(rig.model, CameraMount{}, rig.sun.vector(), DriveMapperParams{}, {1.5, 0});
   const cv::Mat f = rig.frame(Pose2{});
-  for (int k = 0; k < 5; ++k) dm.add_frame(f, Pose2{}, static_cast<double>(k));
+  for (int k = 0; k < 5; ++k) {
+    const FrameReport& r = dm.add_frame(f, Pose2{}, static_cast<double>(k));
+    EXPECT_EQ(r.vo, k == 0 ? VoStatus::kNoKeyframe : VoStatus::kOk) << k;
+    EXPECT_GT(r.rock_sightings, 0) << k;
+  }
   EXPECT_EQ(dm.counters().parallax_frames, 0);
   EXPECT_GT(dm.counters().rock_sightings, 0);
+  // The same rocks in every frame: each continues its track (one track per rock).
+  EXPECT_EQ(5 * dm.counters().rock_tracks, dm.counters().rock_sightings);
   EXPECT_TRUE(dm.pose().finite());
   EXPECT_NEAR(dm.pose().x, 0.0, 0.01);
 }
@@ -597,6 +725,9 @@ TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   ASSERT_TRUE(mj.contains("cues")) << mj.dump();
   EXPECT_EQ(mj["cues"]["parallax"]["frames"].get<long>(), s.counters.parallax_frames);
   EXPECT_EQ(mj["cues"]["rock_sightings"]["sightings"].get<long>(), s.counters.rock_sightings);
+  EXPECT_EQ(mj["cues"]["rock_sightings"]["tracks"].get<long>(), s.counters.rock_tracks);
+  EXPECT_GT(s.counters.rock_tracks, 0);
+  EXPECT_LT(s.counters.rock_tracks, s.counters.rock_sightings);
   EXPECT_FALSE(mj["cues"]["shadows"]["enabled"].get<bool>());
 }
 

@@ -145,7 +145,20 @@ class TerrainMapComponent final : public runtime::Component {
     mp.fuse_shadows = p.get<bool>("fuse_shadows", mp.fuse_shadows, {.doc = "object heights from cast shadows"});
     mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
     mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
-                                    {.doc = "rocks sighted in each frame and ranged on the ground (far rocks)"});
+                                    {.doc = "rocks sighted in each frame, followed across frames (far rocks)"});
+    mp.tracks.enabled = p.get<bool>(
+        "track_rocks", mp.tracks.enabled,
+        {.doc = "follow sighted rocks across frames and triangulate their ground contact (false: each sighting alone, "
+                "ranged on the ground plane)"});
+    mp.tracks.ground_sigma_m = p.get<double>(
+        "rock_ground_sigma_m", mp.tracks.ground_sigma_m,
+        {.unit = "m", .min = 0.0, .max = 1.0, .min_exclusive = true,
+         .doc = "std of a rock contact's height about the ground plane under the camera (the triangulation's prior)"});
+    mp.map.rock_min_frames = p.get<int>("rock_min_frames", mp.map.rock_min_frames,
+                                        {.min = 1, .max = 1000, .doc = "frames a tracked rock must be sighted in to be reported"});
+    mp.sighting_tilt_window = p.get<int>(
+        "sighting_tilt_window", mp.sighting_tilt_window,
+        {.min = 1, .max = 64, .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
     mp.parallax_spacing_m = p.get<double>(
         "parallax_spacing_m", 0.15,
         {.unit = "m", .min = 0.0, .max = 5.0,

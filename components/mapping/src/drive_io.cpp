@@ -259,7 +259,10 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
                                  : params.parallax_mode == ParallaxMode::kRectified ? "rectified"
                                                                                     : "both"},
                         {"frames", sum.counters.parallax_frames}};
-    cues["rock_sightings"] = {{"enabled", params.fuse_terrain && params.fuse_sightings}, {"sightings", sum.counters.rock_sightings}};
+    cues["rock_sightings"] = {{"enabled", params.fuse_terrain && params.fuse_sightings},
+                              {"sightings", sum.counters.rock_sightings},
+                              {"tracked", params.tracks.enabled},
+                              {"tracks", sum.counters.rock_tracks}};
     cues["shadows"] = {{"enabled", params.fuse_terrain && params.fuse_parallax && params.fuse_shadows},
                        {"available", sun_ok},
                        {"frames", sum.counters.shadow_frames}};

@@ -62,7 +62,10 @@ void DriveMapperParams::validate() const {
   parallax.validate();
   sweep.validate();
   sightings.validate();
+  tracks.validate();
   shadow.validate();
+  if (sighting_tilt_window < 1 || sighting_tilt_window > 64) fail("mapping", "sighting_tilt_window", "must be 1..64");
+  if (!std::isfinite(sighting_tilt_noise_rad) || sighting_tilt_noise_rad < 0) fail("mapping", "sighting_tilt_noise_rad", "must be >= 0");
   if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
   if (!std::isfinite(parallax_spacing_m) || parallax_spacing_m < 0) fail("mapping", "parallax_spacing_m", "must be >= 0");
@@ -81,11 +84,32 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
       parallax_(depth_, p_.parallax),
       sweep_(depth_, p_.sweep),
       sightings_(depth_, p_.sightings),
+      tracker_(p_.tracks, p_.sightings.max_sightings),
       shadow_(parallax_.grid(), p_.shadow),
       map_(p_.map, map_center.x, map_center.y) {
   if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
     fail("mapping", "mount", "must be finite");
   if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world))) fail("mapping", "sun", "must be a finite non-zero vector");
+}
+
+cv::Vec2d DriveMapper::sighting_tilt() const {
+  // Median of the last VO tilts (each axis), shrunk towards the mount's attitude: one fit's tilt
+  // is poorly observed and pulled by rocks; the rover's tilt against the ground changes slowly.
+  const int n = std::min(n_tilts_, p_.sighting_tilt_window);
+  if (n == 0) return {};
+  const double prior2 = p_.vo.attitude_prior_rad * p_.vo.attitude_prior_rad;
+  const double noise2 = p_.sighting_tilt_noise_rad * p_.sighting_tilt_noise_rad;
+  const double k = prior2 + noise2 > 0 ? prior2 / (prior2 + noise2) : 1.0;
+  cv::Vec2d out;
+  std::array<double, kMaxTiltWindow> v{};
+  for (int axis = 0; axis < 2; ++axis) {
+    for (int i = 0; i < n; ++i) v[static_cast<std::size_t>(i)] = tilts_[static_cast<std::size_t>((n_tilts_ - 1 - i) % kMaxTiltWindow)][axis];
+    std::nth_element(v.begin(), v.begin() + n / 2, v.begin() + n);
+    double med = v[static_cast<std::size_t>(n / 2)];
+    if (n % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), v.begin() + n / 2));
+    out[axis] = k * med;
+  }
+  return out;
 }
 
 const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& wheel, double t_s) {
@@ -99,6 +123,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   report_.parallax = false;
   report_.shadow_casters = 0;
   report_.rock_sightings = 0;
+  report_.rock_tracks = 0;
   ++counters_.frames;
   Pose2 foot;
   Cov3 foot_cov;
@@ -155,6 +180,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     report_.vo = m.status;
     report_.vo_inliers = m.inliers;
     tilt_ = m.ok() ? cv::Vec2d(m.pitch_rad, m.roll_rad) : cv::Vec2d();
+    if (m.ok()) tilts_[static_cast<std::size_t>(n_tilts_++ % kMaxTiltWindow)] = tilt_;
     Pose2 rel = pred;
     Cov3 rel_cov = pred_cov;
     if (m.ok() && p_.use_vision) {
@@ -220,9 +246,10 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
   }
   if (p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
-    report_.rock_sightings = sightings_.compute(gray, tilt_);
-    if (report_.rock_sightings > 0)
-      map_.fuse_sightings(sightings_.table(), foot);
+    report_.rock_sightings = sightings_.compute(gray, sighting_tilt());
+    tracker_.update(sightings_.table(), foot, depth_.model().mount_height_m);
+    map_.fuse_rock_tracks(tracker_.closed(), tracker_.closed_count(), tracker_.table(), tracker_.count());
+    report_.rock_tracks = tracker_.count();
   }
   if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
     terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);
@@ -232,6 +259,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   counters_.parallax_frames += report_.parallax ? 1 : 0;
   counters_.shadow_frames += report_.shadow_casters > 0 ? 1 : 0;
   counters_.rock_sightings += report_.rock_sightings;
+  counters_.rock_tracks = tracker_.opened();
   map_.recenter(report_.pose.x, report_.pose.y, p_.map.max_range_m + 1.0);
   return report_;
 }

@@ -253,6 +253,9 @@ bool RockSightings::measure(int k, double cb, int rmin, int rmax, int cmin, int 
   table_.at<float>(kSightRow0, k) = static_cast<float>(rmin);
   table_.at<float>(kSightCol1, k) = static_cast<float>(cmax);
   table_.at<float>(kSightRow1, k) = static_cast<float>(rmax);
+  table_.at<float>(kSightContactX, k) = static_cast<float>(g[0]);
+  table_.at<float>(kSightContactY, k) = static_cast<float>(g[1]);
+  table_.at<float>(kSightTopSlope, k) = static_cast<float>(dt[2] / horiz);
   return true;
 }
 

@@ -9,7 +9,7 @@
 
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
-#include "regolith/mapping/rock_sightings.hpp"
+#include "regolith/mapping/rock_tracker.hpp"
 
 namespace regolith::mapping {
 namespace {
@@ -47,6 +47,8 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
   if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
   if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
+  if (rock_min_frames < 1) fail("rock_min_frames", "must be >= 1");
+  if (max_rocks < 1 || max_rocks > 1 << 20) fail("max_rocks", "must be 1..1048576");
   if (length_x_m / resolution_m > 4096 || length_y_m / resolution_m > 4096)
     fail("resolution_m", "more than 4096 cells per side");
   if (length_x_m < 2 * resolution_m || length_y_m < 2 * resolution_m) fail("length_x_m", "below two cells");
@@ -77,7 +79,10 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) m->create(rows_, cols_, CV_64F), fill(*m, 0.0);
   count_.create(rows_, cols_, CV_32F);
   fill(count_, 0.0f);
-  for (cv::Mat* m : {&shadow_w_, &shadow_h_, &sight_w_, &sight_h_, &sight_d_}) m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
+  for (cv::Mat* m : {&shadow_w_, &shadow_h_, &sight_w_, &sight_h_, &sight_d_, &live_w_, &live_h_, &live_d_})
+    m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
+  tracks_.create(kTrackRows, p_.max_rocks, CV_32F);
+  fill(tracks_, kNaNf);
   layers_.resize(kLayers);
   for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
   for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_}) m->create(rows_, cols_, CV_32F);
@@ -126,6 +131,9 @@ void WorldMap::recenter(double x, double y, double margin_m) {
   shift(sight_w_, 0.0f);
   shift(sight_h_, 0.0f);
   shift(sight_d_, 0.0f);
+  shift(live_w_, 0.0f);
+  shift(live_h_, 0.0f);
+  shift(live_d_, 0.0f);
   for (auto& m : layers_) shift(m, kNaNf);
   ox_ += dj * p_.resolution_m;
   oy_ += di * p_.resolution_m;
@@ -243,41 +251,66 @@ int WorldMap::fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h,
   return updated;
 }
 
-int WorldMap::fuse_sightings(const cv::Mat& t, const Pose2& foot) {
-  if (!foot.finite() || t.rows < kSightRows || t.type() != CV_32F) return 0;
-  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw), inv_res = 1.0 / p_.resolution_m;
-  const double s0 = p_.sighting_radius_m;
-  int fused = 0;
-  for (int k = 0; k < t.cols; ++k) {
-    const float hk = t.at<float>(kSightHeight, k), wk = t.at<float>(kSightWidth, k), sk = t.at<float>(kSightScore, k);
-    if (!std::isfinite(hk)) break;
-    const double sr = std::max<double>(t.at<float>(kSightSigmaRange, k), s0 * 0.5);
-    const double sl = std::max<double>(t.at<float>(kSightSigmaLateral, k), s0 * 0.5);
-    if (!(sk > 0.0f) || !std::isfinite(wk) || !std::isfinite(sr) || !std::isfinite(sl)) continue;
-    const double bx = t.at<float>(kSightX, k), by = t.at<float>(kSightY, k);
-    const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
-    // Unit vector along the viewing ray (world), and the Gaussian's reach (3 sigma).
-    const double rn = std::hypot(bx, by);
-    if (!(rn > 0)) continue;
-    const double ux = (c * bx - s * by) / rn, uy = (s * bx + c * by) / rn;
-    const double reach = 3.0 * std::max(sr, sl);
-    const double peak = sk * std::min(1.0, s0 * s0 / (sr * sl));
-    const int j0 = static_cast<int>(std::floor((wx - reach - ox_) * inv_res)), j1 = static_cast<int>(std::ceil((wx + reach - ox_) * inv_res));
-    const int i0 = static_cast<int>(std::floor((wy - reach - oy_) * inv_res)), i1 = static_cast<int>(std::ceil((wy + reach - oy_) * inv_res));
-    for (int i = std::max(0, i0); i <= std::min(rows_ - 1, i1); ++i)
-      for (int j = std::max(0, j0); j <= std::min(cols_ - 1, j1); ++j) {
-        const double dx = ox_ + j * p_.resolution_m - wx, dy = oy_ + i * p_.resolution_m - wy;
-        const double a = dx * ux + dy * uy, b = -dx * uy + dy * ux;
-        const double q = 0.5 * (a * a / (sr * sr) + b * b / (sl * sl));
+void WorldMap::fuse_rock_tracks(const cv::Mat& closed, int n_closed, const cv::Mat& live, int n_live) {
+  if (closed.rows < kTrackRows || live.rows < kTrackRows || closed.type() != CV_32F || live.type() != CV_32F) return;
+  n_closed = std::clamp(n_closed, 0, closed.cols);
+  n_live = std::clamp(n_live, 0, live.cols);
+  paint_tracks(closed, n_closed, sight_w_, sight_h_, sight_d_);
+  fill(live_w_, 0.0f);
+  fill(live_h_, 0.0f);
+  fill(live_d_, 0.0f);
+  paint_tracks(live, n_live, live_w_, live_h_, live_d_);
+  // Closed tracks are kept (when full, a new one replaces the weakest kept if it is stronger);
+  // the live ones follow them.
+  const int cap = tracks_.cols;
+  for (int k = 0; k < n_closed; ++k) {
+    int slot = n_closed_;
+    if (n_closed_ >= cap) {
+      slot = 0;
+      for (int c = 1; c < cap; ++c)
+        if (tracks_.at<float>(kTrackScore, c) < tracks_.at<float>(kTrackScore, slot)) slot = c;
+      if (!(closed.at<float>(kTrackScore, k) > tracks_.at<float>(kTrackScore, slot))) continue;
+    } else {
+      ++n_closed_;
+    }
+    for (int r = 0; r < kTrackRows; ++r) tracks_.at<float>(r, slot) = closed.at<float>(r, k);
+  }
+  n_live_ = std::min(n_live, cap - n_closed_);
+  for (int k = 0; k < n_live_; ++k)
+    for (int r = 0; r < kTrackRows; ++r) tracks_.at<float>(r, n_closed_ + k) = live.at<float>(r, k);
+  for (int c = n_closed_ + n_live_; c < cap && !std::isnan(tracks_.at<float>(kTrackX, c)); ++c)
+    for (int r = 0; r < kTrackRows; ++r) tracks_.at<float>(r, c) = kNaNf;
+}
+
+void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh, cv::Mat& ed) {
+  if (t.empty() || t.rows < kTrackRows || t.type() != CV_32F) return;
+  const double inv_res = 1.0 / p_.resolution_m, s0 = p_.sighting_radius_m, floor2 = 0.25 * s0 * s0;
+  for (int k = 0; k < std::min(n, t.cols); ++k) {
+    const auto v = [&](TrackRow r) { return static_cast<double>(t.at<float>(r, k)); };
+    const double x = v(kTrackX), y = v(kTrackY), h = v(kTrackHeight), w = v(kTrackWidth), score = v(kTrackScore);
+    const double spread2 = std::max(floor2, 0.0625 * w * w);
+    const double sxx = v(kTrackSxx) + spread2, sxy = v(kTrackSxy), syy = v(kTrackSyy) + spread2;
+    const double det = sxx * syy - sxy * sxy;
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(h) || !std::isfinite(w) || !(score > 0) || !(det > 0)) continue;
+    // Gaussian of the covariance, peak = score x min(1, s0^2 / sqrt(det)); reach 3 sigma.
+    const double ixx = syy / det, ixy = -sxy / det, iyy = sxx / det;
+    const double peak = score * std::min(1.0, s0 * s0 / std::sqrt(det));
+    const double rx = 3.0 * std::sqrt(sxx), ry = 3.0 * std::sqrt(syy);
+    const int j0 = std::max(0, static_cast<int>(std::floor((x - rx - ox_) * inv_res)));
+    const int j1 = std::min(cols_ - 1, static_cast<int>(std::ceil((x + rx - ox_) * inv_res)));
+    const int i0 = std::max(0, static_cast<int>(std::floor((y - ry - oy_) * inv_res)));
+    const int i1 = std::min(rows_ - 1, static_cast<int>(std::ceil((y + ry - oy_) * inv_res)));
+    for (int i = i0; i <= i1; ++i)
+      for (int j = j0; j <= j1; ++j) {
+        const double dx = ox_ + j * p_.resolution_m - x, dy = oy_ + i * p_.resolution_m - y;
+        const double q = 0.5 * (ixx * dx * dx + 2.0 * ixy * dx * dy + iyy * dy * dy);
         if (q > 4.5) continue;
         const float e = static_cast<float>(peak * std::exp(-q));
-        sight_w_.at<float>(i, j) += e;
-        sight_h_.at<float>(i, j) += e * hk;
-        sight_d_.at<float>(i, j) += e * wk;
+        ew.at<float>(i, j) += e;
+        eh.at<float>(i, j) += e * static_cast<float>(h);
+        ed.at<float>(i, j) += e * static_cast<float>(w);
       }
-    ++fused;
   }
-  return fused;
 }
 
 // Normalised-convolution Gaussian (three box passes) of `src` with weights `w` (0 = unknown).
@@ -361,13 +394,13 @@ void WorldMap::finish() {
             best = shadow_h_.at<float>(a, b);
       shadow.at<float>(i, j) = best;
     }
-  cv::Mat& evidence = layers_[kEvidence];
+  cv::Mat& ev_layer = layers_[kEvidence];
   cv::Mat& rock_h = layers_[kRockHeight];
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
-      const float e = sight_w_.at<float>(i, j);
-      evidence.at<float>(i, j) = e > 0.0f ? e : kNaNf;
-      rock_h.at<float>(i, j) = e >= p_.rock_min_evidence ? sight_h_.at<float>(i, j) / e : kNaNf;
+      const float e = evidence(i, j);
+      ev_layer.at<float>(i, j) = e > 0.0f ? e : kNaNf;
+      rock_h.at<float>(i, j) = e >= p_.rock_min_evidence ? (sight_h_.at<float>(i, j) + live_h_.at<float>(i, j)) / e : kNaNf;
     }
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
@@ -378,13 +411,13 @@ void WorldMap::finish() {
       // an independent chance of one: rocks sighted here (1 - exp(-evidence / scale), times their
       // mean sighted height over hazard_height_m), a cast shadow's caster height, and the parallax
       // relief, a weak cue on its own (hazard_relief_weight at full height). NaN where no cue saw it.
-      const float ev = sight_w_.at<float>(i, j), sh = shadow.at<float>(i, j);
+      const float ev = evidence(i, j), sh = shadow.at<float>(i, j);
       if (!std::isfinite(r) && !(ev > 0.0f) && !std::isfinite(sh)) {
         hazard.at<float>(i, j) = kNaNf;
         continue;
       }
       const auto frac = [&](double height) { return std::clamp(height / p_.hazard_height_m, 0.0, 1.0); };
-      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(sight_h_.at<float>(i, j) / ev) : 0.0;
+      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac((sight_h_.at<float>(i, j) + live_h_.at<float>(i, j)) / ev) : 0.0;
       const double p_shadow = std::isfinite(sh) ? frac(sh) : 0.0;
       const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
@@ -438,27 +471,22 @@ std::vector<MapRock> WorldMap::relief_rocks() const {
 std::vector<MapRock> WorldMap::rocks() const {
   std::vector<MapRock> out;
   if (p_.rocks_from_relief) out = relief_rocks();
-  // Rocks sighted in several frames: local maxima of the evidence (3 x 3) that reach
-  // rock_min_evidence, with the sightings' mean height and width there.
-  for (int i = 1; i + 1 < rows_; ++i)
-    for (int j = 1; j + 1 < cols_; ++j) {
-      const float e = sight_w_.at<float>(i, j);
-      if (e < p_.rock_min_evidence) continue;
-      bool peak = true;
-      for (int a = -1; a <= 1 && peak; ++a)
-        for (int b = -1; b <= 1 && peak; ++b)
-          if ((a || b) && (sight_w_.at<float>(i + a, j + b) > e || (sight_w_.at<float>(i + a, j + b) == e && (a < 0 || (a == 0 && b < 0)))))
-            peak = false;
-      if (!peak) continue;
-      MapRock r;
-      const cv::Point2d c = cell_center(i, j);
-      r.x_m = c.x;
-      r.y_m = c.y;
-      r.height_m = sight_h_.at<float>(i, j) / e;
-      r.width_m = sight_d_.at<float>(i, j) / e;
-      r.score = std::clamp(r.height_m / p_.hazard_height_m, 0.0, 1.0) * std::min(1.0, e / (2.0 * p_.rock_min_evidence));
-      if (r.height_m >= p_.rock_min_height_m) out.push_back(r);
-    }
+  // Rocks tracked across frames: enough frames, evidence and height, inside the window.
+  const double x0 = ox_ - 0.5 * p_.resolution_m, y0 = oy_ - 0.5 * p_.resolution_m;
+  for (int k = 0; k < n_closed_ + n_live_; ++k) {
+    const auto v = [&](TrackRow r) { return static_cast<double>(tracks_.at<float>(r, k)); };
+    MapRock r;
+    r.x_m = v(kTrackX);
+    r.y_m = v(kTrackY);
+    r.height_m = v(kTrackHeight);
+    r.width_m = v(kTrackWidth);
+    const double e = v(kTrackScore);
+    if (!(v(kTrackFrames) >= p_.rock_min_frames) || !(e >= p_.rock_min_evidence) || !(r.height_m >= p_.rock_min_height_m) ||
+        !(r.x_m >= x0 && r.x_m < x0 + cols_ * p_.resolution_m && r.y_m >= y0 && r.y_m < y0 + rows_ * p_.resolution_m))
+      continue;
+    r.score = std::clamp(r.height_m / p_.hazard_height_m, 0.0, 1.0) * std::min(1.0, e / (2.0 * p_.rock_min_evidence));
+    out.push_back(r);
+  }
   // One rock per place: the strongest of those closer than rock_merge_m.
   std::sort(out.begin(), out.end(), [](const MapRock& a, const MapRock& b) { return a.score > b.score; });
   std::vector<MapRock> kept;

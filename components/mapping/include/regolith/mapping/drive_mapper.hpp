@@ -10,6 +10,7 @@
 // Framework-free: the `terrain_map` component and `regolith map` both drive this class.
 #include <opencv2/core.hpp>
 
+#include <array>
 #include <limits>
 #include <optional>
 
@@ -18,6 +19,7 @@
 #include "regolith/mapping/parallax.hpp"
 #include "regolith/mapping/plane_sweep.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
+#include "regolith/mapping/rock_tracker.hpp"
 #include "regolith/mapping/shadow.hpp"
 #include "regolith/mapping/pose2.hpp"
 #include "regolith/mapping/world_map.hpp"
@@ -52,8 +54,12 @@ struct DriveMapperParams {
   ParallaxParams parallax;
   PlaneSweepParams sweep;
   RockSightingParams sightings;
+  RockTrackerParams tracks;
   ShadowParams shadow;
   traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
+  int sighting_tilt_window = 9;       ///< frames: rocks are ranged with the median of the last this many VO tilts ...
+  double sighting_tilt_noise_rad = 0.015;  ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
+                                      ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
   double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
   double keyframe_yaw_rad = 0.12;     ///< rad
   double keyframe_min_inlier_fraction = 0.5;  ///< a fit with fewer inliers also makes a new keyframe
@@ -64,7 +70,7 @@ struct DriveMapperParams {
   double parallax_spacing_m = 0.0;    ///< m, a parallax search runs when the baseline grew this much since the last one
                                       ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
   bool fuse_shadows = false;          ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: more false rocks than found on the dev drives
-  bool fuse_sightings = true;         ///< rocks sighted in each frame, ranged on the ground (far rocks)
+  bool fuse_sightings = true;         ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
   bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
   double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
   static traversability::TraversabilityParams default_terrain() {
@@ -94,6 +100,7 @@ struct FrameReport {
   bool parallax = false;  ///< heights from parallax were fused
   int shadow_casters = 0; ///< objects measured from their shadows in this frame
   int rock_sightings = 0; ///< rocks sighted and ranged in this frame
+  int rock_tracks = 0;    ///< rocks followed across frames (live tracks) after this frame
   Pose2 pose;        ///< corrected rover pose (world)
   Cov3 covariance;   ///< of `pose`
   Pose2 wheel_pose;  ///< wheel odometry as given
@@ -104,6 +111,7 @@ struct DriveCounters {
   long parallax_frames = 0;  ///< frames whose parallax heights were fused (none while the rover stands still)
   long shadow_frames = 0;    ///< frames with cast-shadow casters fused
   long rock_sightings = 0;   ///< rocks sighted and fused, over all frames
+  long rock_tracks = 0;      ///< rock tracks opened (one per rock when tracking holds), over all frames
 };
 
 class DriveMapper {
@@ -141,6 +149,7 @@ class DriveMapper {
   GroundParallax parallax_;
   PlaneSweep sweep_;
   RockSightings sightings_;
+  RockTracker tracker_;
   ShadowCue shadow_;
   traversability::GridMap terrain_;
   WorldMap map_;
@@ -151,6 +160,10 @@ class DriveMapper {
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
   double last_parallax_base_ = 0.0;  // baseline of the last parallax search against this keyframe
   cv::Vec2d tilt_;                   // this frame's camera tilt against the ground (VO; 0 without)
+  cv::Vec2d sighting_tilt() const;         // the filtered tilt rocks are ranged with
+  static constexpr int kMaxTiltWindow = 64;
+  std::array<cv::Vec2d, kMaxTiltWindow> tilts_{};  // the last VO tilts (ring)
+  int n_tilts_ = 0;
   Pose2 key_foot_;                   // keyframe camera foot in the world
   Cov3 key_cov_ = Cov3::Zero();      // its covariance
   Pose2 wheel_since_key_;            // wheel-predicted camera foot in the keyframe frame

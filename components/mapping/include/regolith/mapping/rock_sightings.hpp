@@ -23,8 +23,9 @@
 // after count()), the layout WorldMap::fuse_sightings takes: centre x, y in the camera foot frame,
 // height, width, score (mean contrast over the threshold - 1, 0.05..1), the centre's standard
 // deviation along the viewing ray and across it (a row of error plus a tilt error of
-// `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle), and the blob's image box
-// (for overlays and single-image reports). Everything is allocated in the constructor.
+// `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle), the blob's image box
+// (for overlays and single-image reports), the contact's ground point and the top ray's slope
+// (for RockTracker, which triangulates the contact across frames). Everything is allocated in the constructor.
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -65,6 +66,9 @@ enum SightingRow {
   kSightRow0,  ///< first row 0 = cut by the top edge: the height is then a lower bound)
   kSightCol1,
   kSightRow1,
+  kSightContactX,  ///< the contact's ground point (camera foot frame, on the ground plane): the ray
+  kSightContactY,  ///< through it is what RockTracker triangulates across frames
+  kSightTopSlope,  ///< tan of the top ray's angle above the horizontal (negative below it)
   kSightRows
 };
 

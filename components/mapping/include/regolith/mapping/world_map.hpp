@@ -15,9 +15,12 @@
 //   local ground), shadow_height (heights of objects measured from their cast shadows, spread
 //   over shadow_spread_m around their feet), hazard (0..1: the probability of an obstacle of
 //   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly, the relief),
-//   rock_evidence (summed scores of rock sightings within sighting_radius_m)
+//   rock_evidence (summed scores of the rocks tracked across frames, spread over their position's uncertainty)
 //   and rock_height (their weighted mean height, where the evidence reaches rock_min_evidence).
-// Derived layers (finish()) and rocks (connected relief blobs) are computed on request.
+// Rocks: the tracks handed over by fuse_rock_tracks (closed ones kept, at most max_rocks, live
+// ones replaced each frame) with enough frames, evidence and height, one per rock_merge_m; with
+// rocks_from_relief also connected relief blobs. Derived layers (finish()) and rocks are computed
+// on request.
 #include <opencv2/core.hpp>
 
 #include <string>
@@ -50,6 +53,8 @@ struct WorldMapParams {
   double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
   double sighting_radius_m = 0.06;    ///< m, standard deviation at which a sighting adds its full score at its centre
   double rock_min_evidence = 1.0;     ///< summed sighting scores a rock needs (several frames agreeing)
+  int rock_min_frames = 3;            ///< frames a tracked rock must have been sighted in
+  int max_rocks = 4096;               ///< rock tracks the map keeps (the weakest go first)
   double rock_merge_m = 0.25;         ///< m, rocks closer than this are one rock (the stronger kept)
   bool rocks_from_relief = false;     ///< also report connected relief blobs as rocks (off: more false than true rocks on the dev drives)
   double rock_min_confidence = 0.3;   ///< confidence a rock's top cell needs (0 = any; a shadow-only top has none)
@@ -101,13 +106,14 @@ class WorldMap {
   /// what stands there, not of the ground). No heap allocation.
   int fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h, const cv::Mat& w, const Pose2& camera_foot);
 
-  /// Fuses rocks sighted in one frame: `table` is RockSightings::table() (rows SightingRow,
-  /// columns up to the first NaN height), centres in the frame `camera_foot` places in the world.
-  /// Each sighting adds its score x a Gaussian of its ray/lateral standard deviations (scaled so a
-  /// sighting as sharp as sighting_radius_m adds its full score at its centre, a vaguer one
-  /// proportionally less) to the evidence, and its height and width to their weighted means.
-  /// No heap allocation.
-  int fuse_sightings(const cv::Mat& table, const Pose2& camera_foot);
+  /// Rocks followed across frames (RockTracker): `closed` tracks (RockTracker::closed(), TrackRow
+  /// columns up to `n`) are added to the rock evidence for good; `live` ones (RockTracker::table())
+  /// replace the previous call's live evidence (their estimates still move). Each track adds its
+  /// summed score x a Gaussian of its centre's covariance (+ a quarter of its width, at least
+  /// sighting_radius_m / 2 per axis; scaled so a track as sharp as sighting_radius_m adds its full
+  /// score at its centre, a vaguer one proportionally less), and its height and width to their
+  /// weighted means. No heap allocation.
+  void fuse_rock_tracks(const cv::Mat& closed, int n_closed, const cv::Mat& live, int n_live);
 
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
   /// accumulators. No heap allocation after the first call.
@@ -124,7 +130,12 @@ class WorldMap {
   double ox_ = 0.0, oy_ = 0.0;
   cv::Mat wsum_, mean_, m2_, count_;  // accumulators (CV_64F weight/mean/m2, CV_32F count)
   cv::Mat shadow_w_, shadow_h_;       // caster heights from shadows: weight, weighted mean (CV_32F)
-  cv::Mat sight_w_, sight_h_, sight_d_;  // rock sightings: evidence, weighted sums of height and width (CV_32F)
+  void paint_tracks(const cv::Mat& t, int n, cv::Mat& w, cv::Mat& h, cv::Mat& d);
+  float evidence(int i, int j) const { return sight_w_.at<float>(i, j) + live_w_.at<float>(i, j); }
+  cv::Mat sight_w_, sight_h_, sight_d_;  // closed rock tracks: evidence, weighted sums of height and width (CV_32F)
+  cv::Mat live_w_, live_h_, live_d_;     // the same for the live tracks (repainted every frame)
+  cv::Mat tracks_;                       // TrackRow columns: closed tracks [0, n_closed_), then the live ones
+  int n_closed_ = 0, n_live_ = 0;
   std::vector<cv::Mat> layers_;
   traversability::GridMap trav_;      // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
