@@ -3,6 +3,7 @@
 // process, until Ctrl-C.
 #include <csignal>
 #include <iostream>
+#include <memory>
 #include <thread>
 
 #include "cli.hpp"
@@ -24,6 +25,7 @@ struct LiveArgs {
   int domain = dds::default_domain_id();
   std::string ns = "rover1";
   double duration_s = 0.0;
+  std::string token_file;
 };
 
 const bool registered = add_command([](CLI::App& app) {
@@ -33,6 +35,9 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("listen", a->listen, "[ADDR:]PORT to listen on (default 127.0.0.1:8765)");
   cmd->add_option("--domain", a->domain, "DDS domain id (default: $ROS_DOMAIN_ID, else 0)")->check(CLI::Range(0, 232));
   cmd->add_option("--namespace", a->ns, "robot namespace of relative topic names");
+  cmd->add_option("--token-file", a->token_file,
+                  "file (mode 0600) holding the access token clients must present (`?token=`, a bearer header or "
+                  "the cookie the page gets); needed to listen on an address other than loopback");
   cmd->add_option("--duration", a->duration_s, "stop after this many seconds (default: until Ctrl-C)")
       ->check(regolith::cli::non_negative());
   cmd->callback([a] {
@@ -44,13 +49,21 @@ const bool registered = add_command([](CLI::App& app) {
     }
     opt.web_root = live::default_web_root();  // the built-in page on GET /
     dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
-    live::DdsRelay relay(participant, opt);  // throws (exit 1) when the port cannot be bound
+    std::unique_ptr<live::DdsRelay> relay_ptr;
+    try {
+      if (!a->token_file.empty()) opt.token = live::read_token_file(a->token_file);
+      relay_ptr = std::make_unique<live::DdsRelay>(participant, opt);  // std::runtime_error when the port cannot be bound
+    } catch (const std::invalid_argument& e) {  // a bad token file, or not loopback without one
+      throw InputError(std::string("live: ") + e.what());
+    }
+    live::DdsRelay& relay = *relay_ptr;
     std::signal(SIGINT, on_live_interrupt);
     std::signal(SIGTERM, on_live_interrupt);
     relay.start();
     std::cout << "regolith live: ws://" << opt.address << ":" << relay.server().port() << " ("
               << relay.server().channels().size() << " channels, domain " << a->domain << ", namespace '" << a->ns
-              << "'); page http://" << opt.address << ":" << relay.server().port() << "/; Ctrl-C stops" << std::endl;
+              << "'); page http://" << opt.address << ":" << relay.server().port() << "/"
+              << (opt.token.empty() ? "" : "?token=<the token>") << "; Ctrl-C stops" << std::endl;
     const auto start = std::chrono::steady_clock::now();
     while (!g_interrupted.load()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -63,7 +76,7 @@ const bool registered = add_command([](CLI::App& app) {
     const auto st = relay.server().stats();
     std::cout << "regolith live: " << relay.samples() << " samples taken, " << st.messages_sent << " messages sent, "
               << st.accepted << " clients, " << st.dropped_slow << " dropped (slow), " << st.refused << " refused, "
-              << st.bad_requests << " bad requests" << std::endl;
+              << st.bad_requests << " bad requests, " << st.unauthorized << " without the token" << std::endl;
   });
 });
 

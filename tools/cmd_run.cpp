@@ -56,6 +56,7 @@ struct RunOptions {
   double wait_timeout_s = 30.0;
   std::string record;  ///< --record FILE (overrides record.file)
   std::string live;    ///< --live [ADDR:]PORT: Foxglove WebSocket server of the DDS topics
+  std::string live_token_file;  ///< --live-token-file FILE (overrides live.token_file)
 };
 
 #ifdef REGOLITH_HAVE_DDS_RECORD
@@ -294,7 +295,20 @@ void run(const RunOptions& o) {
     lo.max_clients = static_cast<std::size_t>(lc.max_clients);
     lo.max_queue_bytes = static_cast<std::size_t>(lc.max_queue_mb * 1024 * 1024);
     lo.web_root = live::default_web_root();  // the built-in page on GET /
-    relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
+    const bool token_from_cli = !o.live_token_file.empty();
+    const std::string token_file = token_from_cli ? o.live_token_file : lc.token_file;
+    try {
+      if (!token_file.empty()) lo.token = live::read_token_file(token_file);
+    } catch (const std::invalid_argument& e) {
+      if (token_from_cli) throw InputError(std::string("run: --live-token-file: ") + e.what());
+      throw ConfigError(lc.token_where + ": live.token_file: " + e.what());
+    }
+    try {
+      relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
+    } catch (const std::invalid_argument& e) {  // not loopback and no token
+      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
+      throw InputError(std::string("run: --live: ") + e.what());
+    }
     relay->start();
     spdlog::info("live: Foxglove WebSocket server on ws://{}:{}, page http://{}:{}/", lo.address,
                  relay->server().port(), lo.address, relay->server().port());
@@ -330,9 +344,10 @@ void run(const RunOptions& o) {
   if (relay) {
     relay->stop();
     const auto st = relay->server().stats();
-    std::printf("live: %llu messages sent, %llu clients, %llu dropped (slow), %llu refused\n",
+    std::printf("live: %llu messages sent, %llu clients, %llu dropped (slow), %llu refused, %llu without the token\n",
                 static_cast<unsigned long long>(st.messages_sent), static_cast<unsigned long long>(st.accepted),
-                static_cast<unsigned long long>(st.dropped_slow), static_cast<unsigned long long>(st.refused));
+                static_cast<unsigned long long>(st.dropped_slow), static_cast<unsigned long long>(st.refused),
+                static_cast<unsigned long long>(st.unauthorized));
   }
 #endif
 #ifdef REGOLITH_HAVE_DDS_RECORD
@@ -376,6 +391,9 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--live", opts->live,
                   "serve the DDS topics to Foxglove Studio over the Foxglove WebSocket protocol on [ADDR:]PORT "
                   "(e.g. 8765 = 127.0.0.1:8765)");
+  cmd->add_option("--live-token-file", opts->live_token_file,
+                  "access token file (mode 0600) the live view's clients must present (`?token=`); needed to listen "
+                  "on an address other than loopback (overrides live.token_file)");
   cmd->callback([opts] { run(*opts); });
 
 
@@ -398,6 +416,8 @@ const bool registered = add_command([](CLI::App& app) {
                    "compare every published topic of the replay with the recording, sample by sample (needs "
                    "--record; exit status 1 when any differs)");
   replay->add_option("--live", ropts->live, "serve the replay to Foxglove Studio on [ADDR:]PORT");
+  replay->add_option("--live-token-file", ropts->live_token_file,
+                     "access token file (mode 0600) for the live view; needed off loopback");
   replay->callback([ropts, rfile, rconfig, realtime, compare] {
     RunOptions o = *ropts;
     if (*compare && o.record.empty()) throw InputError("replay: --compare needs --record FILE (the replay's recording)");

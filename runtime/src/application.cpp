@@ -84,6 +84,13 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   app->live_.max_queue_mb = live.get<double>(
       "max_queue_mb", 8.0, {.unit = "MiB", .min = 0.0, .max = 4096.0, .min_exclusive = true,
                             .doc = "per-client send queue; a client whose queue would exceed it is dropped"});
+  app->live_.token_file = live.get<std::string>(
+      "token_file", "",
+      {.doc = "file (mode 0600) holding the access token clients must present (`?token=`); needed to listen on an "
+              "address other than loopback (relative paths: from the config's directory)"});
+  if (!app->live_.token_file.empty() && std::filesystem::path(app->live_.token_file).is_relative())
+    app->live_.token_file = (std::filesystem::path(config_dir) / app->live_.token_file).string();
+  app->live_.token_where = live.where(live.has("token_file") ? "token_file" : std::string_view{});
   app->live_.where = live.where(live.has("listen") ? "listen" : std::string_view{});
   if (opts.enable_dds && !app->dds_ && app->live_.enabled)
     live.fail("enabled", "the live view needs DDS: set dds.enabled: true (it serves the DDS topics)");

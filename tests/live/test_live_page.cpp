@@ -59,6 +59,7 @@ struct HttpReply {
   int status = 0;
   std::string content_type;
   std::string body;
+  std::string head;  ///< status line and headers
 };
 
 /// The value of header `name` (lower case) in an HTTP head; "" when absent. Names are
@@ -73,7 +74,8 @@ std::string header(const std::string& head, const std::string& name) {
 }
 
 /// One HTTP/1.1 request over a plain socket, the target sent byte for byte (no normalisation).
-HttpReply http(std::uint16_t port, const std::string& target, const std::string& method = "GET") {
+HttpReply http(std::uint16_t port, const std::string& target, const std::string& method = "GET",
+              const std::string& extra_headers = "") {
   HttpReply r;
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};
@@ -84,7 +86,8 @@ HttpReply http(std::uint16_t port, const std::string& target, const std::string&
     close(fd);
     return r;
   }
-  const std::string req = method + " " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+  const std::string req =
+      method + " " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n" + extra_headers + "\r\n";
   if (send(fd, req.data(), req.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(req.size())) {
     close(fd);
     return r;
@@ -111,6 +114,7 @@ HttpReply http(std::uint16_t port, const std::string& target, const std::string&
   r.status = std::stoi(resp.substr(9, 3));
   r.content_type = header(resp.substr(0, head_end), "content-type");
   r.body = resp.substr(head_end + 4);
+  r.head = resp.substr(0, head_end + 2);
   return r;
 }
 
@@ -551,6 +555,85 @@ TEST(LivePage, WithoutAWebRootAnswers404AndTheProtocolStillWorks) {
   ASSERT_EQ(f->payload.size(), 1u + 4 + 8 + sizeof payload);
   EXPECT_EQ(f->payload[1], 9);
   EXPECT_EQ(f->payload.back(), 42);
+}
+
+TEST(LivePage, ATokenGuardsThePageAndTheProtocolOffLoopback) {
+  const fs::path dir = scratch_dir("token");
+  const fs::path file = dir / "live.token";
+  auto write = [&](const std::string& text, fs::perms perms) {
+    std::ofstream(file, std::ios::trunc) << text;
+    fs::permissions(file, perms, fs::perm_options::replace);
+  };
+  const fs::perms owner = fs::perms::owner_read | fs::perms::owner_write;
+  write("s3cret-Token_42\n", owner);
+  const std::string token = rl::read_token_file(file.string());
+  EXPECT_EQ(token, "s3cret-Token_42");
+  // A token file anyone else can read, an empty one, two words, none at all: refused, named.
+  auto refused = [&](const std::string& containing) {
+    try {
+      rl::read_token_file(file.string());
+      ADD_FAILURE() << "accepted; expected: " << containing;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(containing), std::string::npos) << e.what();
+    }
+  };
+  write("s3cret", owner | fs::perms::group_read | fs::perms::others_read);
+  refused("chmod 600");
+  write(" \n", owner);
+  refused("empty");
+  write("two words", owner);
+  refused("one word");
+  fs::remove(file);
+  refused("cannot read");
+
+  // Every interface without a token: refused before anything listens.
+  rl::FoxgloveServerOptions open = options(REGOLITH_LIVE_WEB_DIR);
+  open.address = "0.0.0.0";
+  try {
+    rl::FoxgloveServer s(one_channel(), open);
+    ADD_FAILURE() << "a non-loopback server without a token started";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("needs an access token"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(rl::is_loopback_address("127.0.0.1"));
+  EXPECT_TRUE(rl::is_loopback_address("::1"));
+  EXPECT_FALSE(rl::is_loopback_address("0.0.0.0"));
+  EXPECT_FALSE(rl::is_loopback_address("192.168.1.20"));
+
+  // With a token every request needs it: in the URL, as a bearer header, or as the cookie the
+  // first good request sets (the page's files and its WebSocket then follow on their own).
+  rl::FoxgloveServerOptions guarded = options(REGOLITH_LIVE_WEB_DIR);
+  guarded.token = token;
+  rl::FoxgloveServer server(one_channel(), guarded);
+  server.start();
+  const std::uint16_t port = server.port();
+  const HttpReply none = http(port, "/");
+  EXPECT_EQ(none.status, 401);
+  EXPECT_NE(none.body.find("token"), std::string::npos) << none.body;
+  EXPECT_EQ(none.body.find("<title>"), std::string::npos);
+  EXPECT_EQ(http(port, "/?token=s3cret-Token_41").status, 401);
+  EXPECT_EQ(http(port, "/app.js", "GET", "Authorization: Bearer nope\r\n").status, 401);
+  const HttpReply good = http(port, "/?token=s3cret-Token_42");
+  EXPECT_EQ(good.status, 200);
+  EXPECT_NE(good.body.find("<title>regolith live</title>"), std::string::npos);
+  const std::string cookie = header(good.head, "set-cookie");
+  EXPECT_EQ(cookie.rfind("regolith_token=s3cret-Token_42;", 0), 0u) << cookie;
+  EXPECT_NE(cookie.find("HttpOnly"), std::string::npos) << cookie;
+  EXPECT_EQ(http(port, "/app.js", "GET", "Cookie: theme=dark; regolith_token=s3cret-Token_42\r\n").status, 200);
+  EXPECT_EQ(http(port, "/app.js", "GET", "Authorization: Bearer s3cret-Token_42\r\n").status, 200);
+  EXPECT_EQ(http(port, "/app.js?token=s3cret%2DToken_42").status, 200);  // percent-encoded, as the page sends it
+  {
+    WsClient anonymous(port, rl::kSubprotocol);
+    EXPECT_FALSE(anonymous.ok());
+    EXPECT_EQ(anonymous.response().rfind("HTTP/1.1 401", 0), 0u) << anonymous.response();
+  }
+  WsClient c(port, rl::kSubprotocol, 0, "/?token=s3cret-Token_42");
+  ASSERT_TRUE(c.ok()) << c.response();
+  EXPECT_EQ(read_json(c).value("op", ""), "serverInfo");
+  const auto st = server.stats();
+  EXPECT_EQ(st.unauthorized, 4u);
+  EXPECT_EQ(st.accepted, 1u);
 }
 
 TEST(LivePage, DefaultWebRootHasThePage) {

@@ -275,6 +275,32 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://127\.0\.0\.1:[1-9]\d*, page http://)")))
       << r.out;
+  // Every interface needs a token: without one the error is located at live.listen (config) or
+  // names --live (command line); a token file others can read is located at live.token_file.
+  const fs::path open_live = write_config("open_live.yaml", "\nlive: {enabled: true, listen: '0.0.0.0:0'}\n");
+  r = run("run --sim-time --duration 1 --quiet --config " + open_live.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("open_live.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("live.listen: listening on 0.0.0.0 (not a loopback address) needs an access token"),
+            std::string::npos) << r.out;
+  r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string() + " --live 0.0.0.0:0");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--live: listening on 0.0.0.0"), std::string::npos) << r.out;
+  {
+    std::ofstream(dir_ / "live.token") << "abc123\n";
+    fs::permissions(dir_ / "live.token", fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_read,
+                    fs::perm_options::replace);
+  }
+  const fs::path leaky = write_config("leaky.yaml", "\nlive: {enabled: true, listen: '0.0.0.0:0', token_file: live.token}\n");
+  r = run("run --sim-time --duration 1 --quiet --config " + leaky.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("leaky.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("live.token_file: token file '" + (dir_ / "live.token").string() + "': mode 0604"), std::string::npos)
+      << r.out;
+  fs::permissions(dir_ / "live.token", fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  r = run("run --sim-time --duration 1 --quiet --config " + leaky.string());
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://0\.0\.0\.0:[1-9]\d*)"))) << r.out;
 #endif
 }
 

@@ -1,8 +1,12 @@
 #include "regolith/live/foxglove_server.hpp"
 
 #include <sys/socket.h>
+#include <sys/stat.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -56,7 +60,75 @@ bool plain_file_name(const std::string& name) {
   return true;
 }
 
+/// Equal without an early exit (the time taken does not tell how much of a guess was right).
+bool same_secret(const std::string& a, const std::string& b) {
+  unsigned diff = a.size() == b.size() ? 0u : 1u;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : 0));
+  return diff == 0;
+}
+
+/// %XX escapes decoded (a token in a URL arrives encodeURIComponent-ed); a broken escape stays.
+std::string percent_decoded(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const auto hex = [](char c) { return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1; };
+    if (s[i] == '%' && i + 2 < s.size() && hex(s[i + 1]) >= 0 && hex(s[i + 2]) >= 0) {
+      out.push_back(static_cast<char>(hex(s[i + 1]) * 16 + hex(s[i + 2])));
+      i += 2;
+    } else {
+      out.push_back(s[i]);
+    }
+  }
+  return out;
+}
+
+/// The value of `key` in a query string ("a=1&token=x") or cookie header ("a=1; token=x"); the
+/// separator is '&' or ';'. Empty when absent.
+std::string find_value(const std::string& text, const std::string& key, char sep) {
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    std::size_t end = text.find(sep, pos);
+    if (end == std::string::npos) end = text.size();
+    std::string item = text.substr(pos, end - pos);
+    const std::size_t first = item.find_first_not_of(' ');
+    item = first == std::string::npos ? std::string() : item.substr(first);
+    if (item.size() > key.size() && item.compare(0, key.size(), key) == 0 && item[key.size()] == '=')
+      return item.substr(key.size() + 1);
+    pos = end + 1;
+  }
+  return {};
+}
+
 }  // namespace
+
+bool is_loopback_address(const std::string& a) {
+  return a == "localhost" || a == "::1" || a.rfind("127.", 0) == 0;
+}
+
+std::string read_token_file(const std::string& path) {
+  const auto bad = [&](const std::string& why) { return std::invalid_argument("token file '" + path + "': " + why); };
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw bad("cannot read it (" + std::string(std::strerror(errno)) + ")");
+  if (!S_ISREG(st.st_mode)) throw bad("not a regular file");
+  if ((st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    throw bad(std::string("mode ") + mode + " lets its group or others read or write it; `chmod 600 " + path + "`");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw bad("cannot read it");
+  std::ostringstream text;
+  text << in.rdbuf();
+  std::string t = text.str();
+  const std::size_t b = t.find_first_not_of(" \t\r\n"), e = t.find_last_not_of(" \t\r\n");
+  t = b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
+  if (t.empty()) throw bad("empty: put the token in it (e.g. `openssl rand -hex 24 > " + path + "`)");
+  if (t.size() > 4096) throw bad("longer than 4096 characters");
+  for (char ch : t)
+    if (ch < 0x21 || ch > 0x7e) throw bad("the token must be one word of printable ASCII (no spaces or line breaks)");
+  return t;
+}
 
 void parse_listen_address(const std::string& text, FoxgloveServerOptions& options) {
   const auto colon = text.rfind(':');
@@ -95,7 +167,7 @@ struct FoxgloveServer::Impl {
 
   std::atomic<std::size_t> pending_bytes{0};  // posted to the server thread, not yet handled
   std::atomic<std::uint64_t> connected{0}, accepted{0}, refused{0}, dropped_slow{0}, bad_requests{0}, messages_sent{0},
-      samples_dropped{0};
+      samples_dropped{0}, unauthorized{0};
 
   std::string info_text, advertise_text;
   // Last message of each latched channel (server thread only), by channel index.
@@ -133,11 +205,42 @@ struct FoxgloveServer::Impl {
     send_text(h, json{{"op", "status"}, {"level", kStatusError}, {"message", message}}.dump());
   }
 
+  /// Whether a request carries the token (always, without one): `?token=`, a bearer header or
+  /// the cookie. `from_query` tells the caller to set the cookie.
+  template <class Con>
+  bool authorized(const Con& con, bool* from_query = nullptr) const {
+    if (opts.token.empty()) return true;
+    const std::string resource = con->get_resource();
+    const std::size_t q = resource.find('?');
+    const std::string query = q == std::string::npos ? std::string() : resource.substr(q + 1, resource.find('#', q) - q - 1);
+    const std::string in_query = percent_decoded(find_value(query, "token", '&'));
+    if (!in_query.empty() && same_secret(in_query, opts.token)) {
+      if (from_query) *from_query = true;
+      return true;
+    }
+    const std::string auth = con->get_request_header("Authorization");
+    if (auth.rfind("Bearer ", 0) == 0 && same_secret(auth.substr(7), opts.token)) return true;
+    const std::string cookie = find_value(con->get_request_header("Cookie"), "regolith_token", ';');
+    return !cookie.empty() && same_secret(cookie, opts.token);
+  }
+
   /// A plain HTTP request (no WebSocket upgrade): the built-in page's files from opts.web_root.
   void on_http(const Hdl& h) {
     websocketpp::lib::error_code ec;
     auto con = ws.get_con_from_hdl(h, ec);
     if (ec) return;
+    bool from_query = false;
+    if (!authorized(con, &from_query)) {
+      unauthorized.fetch_add(1);
+      con->set_status(websocketpp::http::status_code::unauthorized);
+      con->replace_header("Content-Type", "text/plain; charset=utf-8");
+      con->replace_header("WWW-Authenticate", "Bearer realm=\"regolith live\"");
+      con->set_body("regolith live: this server needs its access token: open /?token=<the token file's contents>\n");
+      return;
+    }
+    // The page's own files and its WebSocket then carry the token as a cookie (same origin only).
+    if (from_query)
+      con->replace_header("Set-Cookie", "regolith_token=" + opts.token + "; Path=/; HttpOnly; SameSite=Strict");
     auto reply = [&](websocketpp::http::status_code::value status, const std::string& type, std::string body) {
       con->set_status(status);
       con->replace_header("Content-Type", type);
@@ -271,6 +374,9 @@ FoxgloveServer::FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOpti
   Impl& s = *impl_;
   s.channels = std::move(channels);
   s.opts = std::move(options);
+  if (s.opts.token.empty() && !is_loopback_address(s.opts.address))
+    throw std::invalid_argument("listening on " + s.opts.address + " (not a loopback address) needs an access token: "
+                                "give a token file (`--token-file FILE` / live.token_file, mode 0600)");
   s.subscribers = std::make_unique<std::atomic<std::uint32_t>[]>(s.channels.size());
   s.last.resize(s.channels.size());
   s.last_ns.resize(s.channels.size(), 0);
@@ -311,6 +417,11 @@ FoxgloveServer::FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOpti
   s.ws.set_validate_handler([this](Hdl h) {
     Impl& m = *impl_;
     auto con = m.ws.get_con_from_hdl(h);
+    if (!m.authorized(con)) {
+      m.unauthorized.fetch_add(1);
+      con->set_status(websocketpp::http::status_code::unauthorized);
+      return false;
+    }
     if (m.clients.size() >= m.opts.max_clients) {
       m.refused.fetch_add(1);
       con->set_status(websocketpp::http::status_code::service_unavailable);
@@ -456,6 +567,7 @@ FoxgloveServerStats FoxgloveServer::stats() const {
   st.bad_requests = s.bad_requests.load();
   st.messages_sent = s.messages_sent.load();
   st.samples_dropped = s.samples_dropped.load();
+  st.unauthorized = s.unauthorized.load();
   return st;
 }
 

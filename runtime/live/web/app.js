@@ -369,7 +369,12 @@ function advertised(channels, ws) {
 }
 
 function connect() {
-  const url = new URLSearchParams(location.search).get("ws") ?? `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/`;
+  // The page's own server by default; `?ws=URL` names another. A `?token=` of the page goes along
+  // (the server also sets it as a same-origin cookie, which the WebSocket upgrade carries).
+  const params = new URLSearchParams(location.search);
+  const token = params.get("token");
+  const url = params.get("ws") ??
+    `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/${token ? `?token=${encodeURIComponent(token)}` : ""}`;
   const ws = new WebSocket(url, ["foxglove.websocket.v1"]);
   ws.binaryType = "arraybuffer";
   let subs = new Map();

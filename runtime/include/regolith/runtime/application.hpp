@@ -60,7 +60,9 @@ struct LiveConfig {
   std::string listen = "127.0.0.1:8765";///< [ADDR:]PORT
   int max_clients = 8;                  ///< connections beyond this are refused
   double max_queue_mb = 8.0;            ///< per-client send queue limit; a client above it is dropped
+  std::string token_file;               ///< access token file (mode 0600; relative to the config); required off loopback
   std::string where;                    ///< file:line:col of live.listen (or of the block), for errors
+  std::string token_where;              ///< file:line:col of live.token_file
 };
 
 /// Everything the health monitor and the live summary read.

@@ -47,6 +47,11 @@ struct FoxgloveServerOptions {
   /// Directory of the built-in page (index.html and its assets) answered to plain HTTP GETs on
   /// the same port; empty = no page (HTTP 404). See default_web_root() (web_root.hpp).
   std::string web_root;
+  /// Access token (read_token_file()); empty = none, allowed only on a loopback address. When
+  /// set, every request (WebSocket upgrade or page file) must carry it: `?token=` in the URL,
+  /// `Authorization: Bearer <token>`, or the `regolith_token` cookie the server sets on the first
+  /// request that carried it (so the page's own files and WebSocket follow). Others get HTTP 401.
+  std::string token;
 };
 
 struct FoxgloveServerStats {
@@ -57,15 +62,26 @@ struct FoxgloveServerStats {
   std::uint64_t bad_requests = 0;     ///< client messages answered with an error status
   std::uint64_t messages_sent = 0;    ///< messageData frames queued to clients
   std::uint64_t samples_dropped = 0;  ///< samples not relayed because the server thread lagged
+  std::uint64_t unauthorized = 0;     ///< requests refused for a missing or wrong token (HTTP 401)
 };
 
 /// "[ADDR:]PORT" (e.g. "8765", "0.0.0.0:8765") into options.address / options.port. Throws
 /// std::invalid_argument naming the text when the port is not 0..65535 or the address is empty.
 void parse_listen_address(const std::string& text, FoxgloveServerOptions& options);
 
+/// True for an address only this machine can reach: 127.0.0.0/8, ::1, "localhost".
+bool is_loopback_address(const std::string& address);
+
+/// The access token in `path`: the file's text without surrounding white space. Throws
+/// std::invalid_argument naming the file when it cannot be read, is not a regular file, can be
+/// read or written by its group or others (it must be mode 0600 or stricter), or holds no token
+/// (empty, more than one line, or characters outside printable ASCII).
+std::string read_token_file(const std::string& path);
+
 class FoxgloveServer {
  public:
-  /// Binds and listens (throws std::runtime_error naming the address when it cannot); no client
+  /// Binds and listens (throws std::runtime_error naming the address when it cannot; throws
+  /// std::invalid_argument when the address is not loopback and there is no token); no client
   /// is served before start(). Channel ids must be unique.
   FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOptions options);
   ~FoxgloveServer();
