@@ -16,6 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include <spdlog/spdlog.h>
+
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/dds/participant.hpp"
@@ -68,6 +70,7 @@ void run_record(const RecordArgs& a) {
 #else
   ro.library = "regolith record";
 #endif
+  ro.on_error = [](const std::string& why) { spdlog::error("record: {}: recording stopped", why); };
   dds::DdsRecorder recorder(participant, a.out, ro);  // throws when the file cannot be created
 
   using Clock = std::chrono::steady_clock;
@@ -78,7 +81,7 @@ void run_record(const RecordArgs& a) {
   const TimeNs duration_ns = from_seconds(a.duration_s);
   std::fprintf(stderr, "recording %zu topic(s) to %s (Ctrl-C stops)\n", recorder.topic_count(), a.out.c_str());
   recorder.start();
-  while (!g_stop.load() && !recorder.done()) {
+  while (!g_stop.load() && !recorder.done() && recorder.error().empty()) {
     TimeNs slice = 20 * kNsPerMs;
     if (duration_ns > 0) {
       const TimeNs left = duration_ns - elapsed_ns();
@@ -100,6 +103,8 @@ void run_record(const RecordArgs& a) {
                 static_cast<unsigned long long>(c.count));
   }
   std::fflush(stdout);
+  if (const std::string err = recorder.error(); !err.empty())  // disk full, file too large, I/O error
+    throw std::runtime_error("record: " + err + " (the file keeps every chunk written before)");
 }
 
 const bool registered = add_command([](CLI::App& app) {

@@ -110,7 +110,16 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
   const std::string version = "unknown";
 #endif
   ro.library = "regolith run " + version;
-  auto rec = std::make_unique<dds::DdsRecorder>(*app.dds(), file, ro);
+  // A full disk (or any write error) stops the recording, never the rover: said once, at once.
+  ro.on_error = [](const std::string& why) {
+    spdlog::error("record: {}: recording stopped; the deployment keeps running", why);
+  };
+  std::unique_ptr<dds::DdsRecorder> rec;
+  try {
+    rec = std::make_unique<dds::DdsRecorder>(*app.dds(), file, ro);
+  } catch (const std::runtime_error& e) {  // cannot create the file, or not even its header fits
+    throw InputError(std::string("run: --record: ") + e.what());
+  }
   const auto [name, text] = config_text(o);
   rec->add_attachment(name, "application/yaml", text);
   rec->add_metadata("regolith", {{"deployment", app.name()},
@@ -122,6 +131,8 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
   for (const auto& c : rec->counts()) topics.push_back(c.ros_name);
   if (!app.dds()->wait_for_readers(topics, 10 * kNsPerSec))
     spdlog::warn("record: not every writer matched the recorder within 10 s");
+  // Nothing runs yet: a file that cannot even take its header is refused before the start.
+  if (const std::string err = rec->error(); !err.empty()) throw InputError("run: --record: " + err);
   spdlog::info("recording {} topic(s) to {}", rec->topic_count(), file);
   return rec;
 }
@@ -369,6 +380,10 @@ void run(const RunOptions& o) {
                     static_cast<unsigned long long>(d.recorded), static_cast<unsigned long long>(d.dropped));
     }
     std::fflush(stdout);
+    // The run went on to its end; the recording did not: say so and fail the command.
+    if (const std::string err = recorder->error(); !err.empty())
+      throw std::runtime_error("run: the recording stopped early: " + err + "; " + std::to_string(recorder->lost()) +
+                               " later samples not recorded (the file keeps every chunk written before)");
   }
 #endif
 }

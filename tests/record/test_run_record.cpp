@@ -30,10 +30,11 @@ struct Result {
   std::string out;
 };
 
-Result run(const std::string& args) {
+/// `regolith ARGS` through /bin/sh, after the shell commands `shell_prefix` (e.g. limits).
+Result run(const std::string& args, const std::string& shell_prefix = "") {
   Result r;
-  const std::string cmd =
-      std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") + REGOLITH_EXE + " " + args + " 2>&1";
+  const std::string cmd = shell_prefix + std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") +
+                          REGOLITH_EXE + " " + args + " 2>&1";
   FILE* p = ::popen(cmd.c_str(), "r");
   if (p == nullptr) return r;
   char buf[4096];
@@ -302,6 +303,30 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://0\.0\.0\.0:[1-9]\d*)"))) << r.out;
 #endif
+}
+
+TEST_F(RunRecord, AFullDiskStopsTheRecordingNotTheRover) {
+  const fs::path cfg = write_config("rover.yaml", "");
+  // The file may not grow past 300 KiB (EFBIG, as a full disk's ENOSPC): the recording stops
+  // with one error naming the file, the rover runs its 20 s to the end (every device keeps
+  // delivering), the summary is printed, and the command fails at the end, saying what was lost.
+  const fs::path file = dir_ / "full.mcap";
+  Result r = run("run --sim-time --duration 20 --quiet --config " + cfg.string() + " --record " + file.string(),
+                 "trap '' XFSZ; ulimit -f 300; ");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("record: " + file.string() + ": write failed at byte "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("recording stopped; the deployment keeps running"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("run: the recording stopped early: " + file.string()), std::string::npos) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(; [1-9]\d* later samples not recorded)"))) << r.out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(recorded device encoders wheels +(\d+) messages)"))) << r.out;
+  EXPECT_GT(std::stol(m[1]), 15000) << "the rover stopped early: " << r.out;  // 20 s of wheel samples
+  EXPECT_LE(fs::file_size(file), 300u * 1024u);
+  // A file that cannot take even its header: refused before anything starts, named.
+  r = run("run --sim-time --duration 1 --quiet --config " + cfg.string() + " --record /dev/full");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("run: --record: /dev/full: write failed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("No space left on device"), std::string::npos) << r.out;
 }
 
 TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {

@@ -88,11 +88,28 @@ DdsRecorder::~DdsRecorder() {
   }
 }
 
+void DdsRecorder::fail(const std::exception& e) {
+  if (!error_.empty()) return;
+  error_ = e.what();
+  writer_closed_ = true;
+  if (opts_.on_error) opts_.on_error(error_);
+}
+
+std::string DdsRecorder::error() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return error_;
+}
+
 void DdsRecorder::add_attachment(const std::string& name, const std::string& media_type, const std::string& data) {
   std::lock_guard<std::mutex> lock(mutex_);
-  writer_->add_attachment(
-      name, media_type, realtime_ns(), realtime_ns(),
-      std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
+  if (writer_closed_) return;
+  try {
+    writer_->add_attachment(
+        name, media_type, realtime_ns(), realtime_ns(),
+        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
+  } catch (const std::runtime_error& e) {
+    fail(e);
+  }
 }
 
 std::uint16_t DdsRecorder::schema_for(const std::string& ros_type) {
@@ -105,18 +122,39 @@ std::uint16_t DdsRecorder::schema_for(const std::string& ros_type) {
 std::uint16_t DdsRecorder::add_cdr_channel(const std::string& topic, const std::string& ros_type,
                                            const std::map<std::string, std::string>& metadata) {
   std::lock_guard<std::mutex> lock(mutex_);
-  return writer_->add_channel(schema_for(ros_type), topic, "cdr", metadata);
+  if (writer_closed_) return 0;  // its messages are then counted as lost
+  try {
+    return writer_->add_channel(schema_for(ros_type), topic, "cdr", metadata);
+  } catch (const std::runtime_error& e) {
+    fail(e);
+    return 0;
+  }
 }
 
 void DdsRecorder::write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
                         std::uint64_t publish_time, std::span<const std::uint8_t> data) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!writer_closed_) writer_->write(channel, sequence, log_time, publish_time, data);
+  if (!error_.empty()) {
+    lost_.fetch_add(1);
+    return;
+  }
+  if (writer_closed_) return;  // a late write after stop(): not part of the recording
+  try {
+    writer_->write(channel, sequence, log_time, publish_time, data);
+  } catch (const std::runtime_error& e) {
+    fail(e);
+    lost_.fetch_add(1);
+  }
 }
 
 void DdsRecorder::add_metadata(const std::string& name, const std::map<std::string, std::string>& values) {
   std::lock_guard<std::mutex> lock(mutex_);
-  writer_->add_metadata(name, values);
+  if (writer_closed_) return;
+  try {
+    writer_->add_metadata(name, values);
+  } catch (const std::runtime_error& e) {
+    fail(e);
+  }
 }
 
 bool DdsRecorder::done() const {
@@ -130,16 +168,27 @@ void DdsRecorder::take_all() {
     const std::uint64_t total = total_.load();
     const std::size_t max = opts_.max_samples > 0 ? static_cast<std::size_t>(opts_.max_samples - total) : 256;
     if (max == 0) break;
-    const std::size_t n = take_serialized(
+    std::size_t written = 0;
+    take_serialized(
         r.sub->reader(),
         [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
+          if (!error_.empty()) {  // the file failed: drain the reader, count what is lost
+            lost_.fetch_add(1);
+            return;
+          }
           const std::uint64_t now = realtime_ns();
           const std::uint64_t pub = info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : now;
-          writer_->write(r.channel, r.sequence++, now, pub, bytes);
+          try {
+            writer_->write(r.channel, r.sequence++, now, pub, bytes);
+            ++written;
+          } catch (const std::runtime_error& e) {
+            fail(e);
+            lost_.fetch_add(1);
+          }
         },
         scratch_, max);
-    r.count.fetch_add(n);
-    total_.fetch_add(n);
+    r.count.fetch_add(written);
+    total_.fetch_add(written);
   }
 }
 
@@ -170,8 +219,13 @@ void DdsRecorder::stop() {
     } while (total_.load() != before && !done());
   }
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!error_.empty()) return;  // the writer closed the file where it failed
   writer_closed_ = true;
-  writer_->close();
+  try {
+    writer_->close();
+  } catch (const std::runtime_error& e) {
+    fail(e);
+  }
 }
 
 std::vector<DdsRecorder::TopicCount> DdsRecorder::counts() const {

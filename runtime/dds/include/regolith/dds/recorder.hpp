@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -35,6 +36,10 @@ struct DdsRecorderOptions {
   /// (keep-last, as `regolith echo`).
   bool keep_all = false;
   std::uint64_t max_samples = 0;  ///< stop taking after this many samples in total (0 = no limit)
+  /// Called once, from the thread that hit it, when writing the file fails (disk full, file too
+  /// large, I/O error): the message names the file and the byte. The recording then stops; samples
+  /// keep being taken (the readers are drained) and are counted as lost(). May be empty.
+  std::function<void(const std::string&)> on_error;
 };
 
 /// The rosbag2 (Humble) `offered_qos_profiles` YAML of regolith's writers of a topic.
@@ -68,8 +73,13 @@ class DdsRecorder final : public record::MessageSink {
   /// Starts the recording thread (idempotent).
   void start();
   /// Stops the thread, takes what the readers still hold (unless max_samples was reached), writes
-  /// the last chunk, the summary and the footer (idempotent). Throws on a write error.
+  /// the last chunk, the summary and the footer (idempotent). Never throws for a write error: it
+  /// is kept in error() (the file then ends where the writing failed: every chunk before is whole).
   void stop();
+  /// Why the recording stopped early ("" while it is fine): the first write error, naming the file.
+  std::string error() const;
+  /// Samples (DDS and other recorders' messages) not written because the recording had failed.
+  std::uint64_t lost() const { return lost_.load(); }
   /// True once max_samples samples were recorded.
   bool done() const;
 
@@ -85,6 +95,7 @@ class DdsRecorder final : public record::MessageSink {
   struct Recorded;
   void take_all();
   void loop();
+  void fail(const std::exception& e);  // mutex_ held: keeps the first error, stops writing
 
   std::filesystem::path path_;
   DdsRecorderOptions opts_;
@@ -95,7 +106,8 @@ class DdsRecorder final : public record::MessageSink {
   std::vector<std::uint8_t> scratch_;
   std::map<std::string, std::uint16_t> schemas_;  // ROS type -> schema id (guarded by mutex_)
   std::uint16_t schema_for(const std::string& ros_type);
-  std::atomic<std::uint64_t> total_{0};
+  std::atomic<std::uint64_t> total_{0}, lost_{0};
+  std::string error_;  // guarded by mutex_
   std::atomic<bool> stop_{false};
   std::atomic<TimeNs> cpu_ns_{0};
   std::thread thread_;
