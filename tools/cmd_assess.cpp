@@ -347,8 +347,9 @@ void assess(const AssessOptions& o) {
   const double t0 = now_ms();
   // ---- the image ----
   if (!fs::exists(o.image)) throw InputError("assess: image '" + o.image + "' does not exist");
-  const cv::Mat raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED);
-  if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "' (not an image or unsupported format)");
+  std::string why;
+  const cv::Mat raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED, &why);
+  if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "': " + why);
   if (raw.depth() != CV_8U)
     throw InputError("assess: image '" + o.image + "' has " + (raw.depth() == CV_16U ? "16-bit" : "non-8-bit") +
                      " samples; convert it to 8-bit grey or colour");

@@ -1,4 +1,5 @@
 #include "regolith/core/params.hpp"
+#include "regolith/core/text_file.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -79,11 +80,13 @@ bool parse_double(const std::string& s, double& out) {
 }  // namespace
 
 Params Params::load_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open configuration file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return load_string(ss.str(), path);
+  std::string text;
+  try {
+    text = read_text_file(path, "configuration file");
+  } catch (const InputError& e) {
+    throw ConfigError(e.what());
+  }
+  return load_string(text, path);
 }
 
 Params Params::load_string(const std::string& text, const std::string& name) {

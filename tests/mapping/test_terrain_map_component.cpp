@@ -14,6 +14,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/mapping/component.hpp"
+#include "regolith/mapping/config.hpp"
 #include "regolith/mapping/wheel_odometry.hpp"
 #include "regolith/mocks/synthetic_drive.hpp"
 #include "regolith/runtime/application.hpp"
@@ -185,3 +186,42 @@ TEST(TerrainMapComponent, BadConfigurationNamesTheField) {
   e = load_error(edited("map_publish_every: 2", "map_publish_evry: 2"));
   EXPECT_NE(e.find("map_publish_evry"), std::string::npos) << e;
 }
+
+namespace {
+
+TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
+  // The keys of the terrain_map component, read from YAML over given defaults: the same reader
+  // serves `regolith map --config FILE --set key=value`.
+  using regolith::mapping::DriveMapperParams;
+  DriveMapperParams defaults;
+  defaults.parallax_spacing_m = 0.15;
+  regolith::Params p = regolith::Params::load_string(
+      "track_rocks: false\nrock_min_frames: 5\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
+  const DriveMapperParams got = regolith::mapping::read_drive_mapper_params(p, defaults);
+  p.finish();
+  EXPECT_FALSE(got.tracks.enabled);
+  EXPECT_EQ(got.map.rock_min_frames, 5);
+  EXPECT_EQ(got.sighting_tilt_window, 3);
+  EXPECT_DOUBLE_EQ(got.map.resolution_m, 0.02);
+  EXPECT_DOUBLE_EQ(got.parallax_spacing_m, 0.15);  // not given: the caller's default
+  EXPECT_DOUBLE_EQ(got.tracks.ground_sigma_m, DriveMapperParams{}.tracks.ground_sigma_m);
+  // A bad value and an unknown key are located errors naming the key.
+  regolith::Params bad = regolith::Params::load_string("rock_min_frames: 0\n", "--set");
+  try {
+    regolith::mapping::read_drive_mapper_params(bad);
+    ADD_FAILURE() << "rock_min_frames 0 accepted";
+  } catch (const regolith::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set:1:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rock_min_frames"), std::string::npos) << e.what();
+  }
+  regolith::Params typo = regolith::Params::load_string("rock_min_frame: 4\n", "--set");
+  regolith::mapping::read_drive_mapper_params(typo);
+  try {
+    typo.finish();
+    ADD_FAILURE() << "unknown key accepted";
+  } catch (const regolith::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("rock_min_frames"), std::string::npos) << e.what();  // the suggestion
+  }
+}
+
+}  // namespace

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdio>
+#include <fstream>
 
 #include "regolith/core/error.hpp"
 #include "regolith/hal/registry.hpp"
@@ -165,8 +167,33 @@ TEST(ConfigErrors, MissingFile) {
     Params::load_file("/nonexistent/rover.yaml");
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/rover.yaml: cannot open configuration file");
+    EXPECT_STREQ(e.what(), "/nonexistent/rover.yaml: cannot open configuration file (No such file or directory)");
   }
+}
+
+TEST(ConfigErrors, DevicesDirectoriesAndHugeFilesAreNotRead) {
+  // `--config /dev/zero` used to be read until memory ran out.
+  for (const char* path : {"/dev/zero", "/tmp"}) {
+    try {
+      Params::load_file(path);
+      ADD_FAILURE() << path;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()), std::string(path) + ": not a regular file (a device, FIFO or directory), not a configuration file");
+    }
+  }
+  const std::string big = ::testing::TempDir() + "regolith_big.yaml";
+  {
+    std::ofstream out(big, std::ios::binary);
+    const std::string line(1023, '#');
+    for (int i = 0; i < 17 * 1024; ++i) out << line << '\n';
+  }
+  try {
+    Params::load_file(big);
+    ADD_FAILURE() << big;
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), big + ": 17825792 bytes, more than the 16777216 a configuration file may have");
+  }
+  std::remove(big.c_str());
 }
 
 TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {

@@ -143,7 +143,18 @@ TEST(SoilCli, BadInputNamesTheFileOrField) {
             "InputError: " + (tmp.path / "missing.png").string() + ": no such image file");
   const std::string not_image = write_text(tmp.path / "fake.png", "not a png");
   EXPECT_EQ(error_of(not_image, kExample, tmp.path / "o"),
-            "InputError: " + not_image + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
+            "InputError: " + not_image +
+                ": cannot decode the image: not an image regolith reads (PNG, JPEG, TIFF, BMP, PNM, WebP)");
+  // A PNG cut short (libpng would decode it with a warning and missing rows): refused, named.
+  {
+    std::ifstream in(image, std::ios::binary);
+    std::ostringstream all;
+    all << in.rdbuf();
+    const std::string bytes = all.str();
+    const std::string cut = write_text(tmp.path / "cut.png", bytes.substr(0, bytes.size() / 2));
+    EXPECT_EQ(error_of(cut, kExample, tmp.path / "o"),
+              "InputError: " + cut + ": cannot decode the image: truncated PNG (the data ends before its IEND chunk)");
+  }
   EXPECT_EQ(error_of(image, tmp.path / "nope.yaml", tmp.path / "o"),
             "ConfigError: " + (tmp.path / "nope.yaml").string() + ": no such configuration file");
   // The example file with one thing wrong at a time: located errors naming the field.

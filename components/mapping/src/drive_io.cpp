@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/text_file.hpp"
 
 namespace regolith::mapping {
 namespace fs = std::filesystem;
@@ -73,11 +74,10 @@ RecordedDrive read_drive(const fs::path& dir) {
   d.dir = dir;
   if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a directory (a recorded drive)");
   const fs::path input = dir / "input.json";
-  std::ifstream in(input);
-  if (!in) throw InputError(input.string() + ": cannot open (the drive's camera, sun and wheel description)");
+  const std::string text = read_text_file(input.string(), "drive description (input.json: camera, sun, wheels)");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(input.string() + ": not valid JSON: " + e.what());
   }
@@ -173,9 +173,10 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
       ++sum.skipped;
       continue;
     }
-    cv::Mat gray = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    std::string why;
+    cv::Mat gray = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
     if (gray.empty()) {
-      sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': skipped");
+      sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': " + why + ": skipped");
       ++sum.skipped;
       continue;
     }

@@ -67,38 +67,10 @@ DatasetListing list_dataset(const std::string &images_dir,
   return out;
 }
 
-namespace {
-// libjpeg decodes a JPEG cut short with only a warning ("Premature end of JPEG file") and grey
-// rows where the data ended: a file whose last marker is not End Of Image is refused instead.
-bool truncated_jpeg(const std::string &path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char head[3] = {0, 0, 0};
-  if (!in.read(reinterpret_cast<char *>(head), 3) || head[0] != 0xFF ||
-      head[1] != 0xD8 || head[2] != 0xFF)
-    return false;  // not a JPEG: the decoder decides
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  // the EOI marker (FF D9), possibly followed by a few padding bytes
-  const std::streamoff tail = std::min<std::streamoff>(size, 64);
-  std::string end(static_cast<std::size_t>(tail), '\0');
-  in.seekg(size - tail);
-  in.read(end.data(), tail);
-  return end.find("\xFF\xD9") == std::string::npos;
-}
-}  // namespace
-
 cv::Mat read_image(const std::string &path) {
-  if (truncated_jpeg(path))
-    throw DataError(path + ": truncated JPEG (the file ends before its end-of-image marker)");
-  cv::Mat img;
-  try {
-    img = regolith::read_image_file(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception &e) {
-    throw DataError(path + ": cannot read image (" + e.what() + ")");
-  }
-  if (img.empty())
-    throw DataError(
-        path + ": cannot read image (missing, unreadable or not an image)");
+  std::string why;
+  cv::Mat img = regolith::read_image_file(path, cv::IMREAD_UNCHANGED, &why);
+  if (img.empty()) throw DataError(path + ": " + why);
   if (img.cols < kMinImageSide || img.rows < kMinImageSide)
     throw DataError(path + ": image is " + std::to_string(img.cols) + "x" +
                     std::to_string(img.rows) + " px, too small (at least " +

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 
 namespace regolith::soil {
@@ -38,11 +39,10 @@ double scene_number(const nlohmann::json& j, const std::filesystem::path& file, 
 }  // namespace
 
 SoilSetup read_soil_scene(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) throw InputError(file.string() + ": cannot open (the scene description, input.json)");
+  const std::string text = read_text_file(file.string(), "scene description (input.json)");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(file.string() + ": not valid JSON: " + e.what());
   }
@@ -136,8 +136,9 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
                                  const std::filesystem::path& out_dir) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(image_path, ec)) throw InputError(image_path.string() + ": no such image file");
-  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE);
-  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image (not a PNG/JPEG/TIFF/... file?)");
+  std::string why;
+  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
+  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
   const SoilSetup cfg = read_soil_scene(input_json);
   if (image.cols != cfg.camera.width || image.rows != cfg.camera.height)
     throw InputError(image_path.string() + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +

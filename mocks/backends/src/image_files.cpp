@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/core/image_file.hpp"
 #include "backends_internal.hpp"
 #include "common.hpp"
 
@@ -78,13 +79,9 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
   images.reserve(files.size());
   const int flags = fmt.format == hal::PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR;
   for (const auto& f : files) {
-    cv::Mat img;
-    try {
-      img = cv::imread(f, flags);
-    } catch (const cv::Exception& e) {
-      p.fail("path", "cannot read image '" + f + "': " + e.what());
-    }
-    if (img.empty()) p.fail("path", "cannot read image '" + f + "' (missing, unreadable or not an image)");
+    std::string why;
+    cv::Mat img = regolith::read_image_file(f, flags, &why);
+    if (img.empty()) p.fail("path", "cannot read image '" + f + "': " + why);
     if (width > 0) {
       if (img.cols != width || img.rows != height) {
         cv::Mat resized;

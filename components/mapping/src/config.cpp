@@ -1,0 +1,92 @@
+#include "regolith/mapping/config.hpp"
+
+#include <string>
+
+namespace regolith::mapping {
+
+DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
+  mp.use_vision = p.get<bool>("use_vision", mp.use_vision, {.doc = "false: wheel odometry only (comparison)"});
+  mp.fuse_terrain = p.get<bool>("fuse_terrain", mp.fuse_terrain, {.doc = "false: odometry only, no map"});
+  mp.fuse_parallax = p.get<bool>("fuse_parallax", mp.fuse_parallax, {.doc = "heights from motion parallax"});
+  mp.fuse_shadows = p.get<bool>("fuse_shadows", mp.fuse_shadows, {.doc = "object heights from cast shadows"});
+  mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
+  mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
+                                  {.doc = "rocks sighted in each frame, followed across frames (far rocks)"});
+  mp.tracks.enabled = p.get<bool>(
+      "track_rocks", mp.tracks.enabled,
+      {.doc = "follow sighted rocks across frames and triangulate their ground contact (false: each sighting alone, "
+              "ranged on the ground plane)"});
+  mp.tracks.ground_sigma_m = p.get<double>(
+      "rock_ground_sigma_m", mp.tracks.ground_sigma_m,
+      {.unit = "m", .min = 0.0, .max = 1.0, .min_exclusive = true,
+       .doc = "std of a rock contact's height about the ground plane under the camera (the triangulation's prior)"});
+  mp.map.rock_min_frames = p.get<int>("rock_min_frames", mp.map.rock_min_frames,
+                                      {.min = 1, .max = 1000, .doc = "frames a tracked rock must be sighted in to be reported"});
+  mp.sighting_tilt_window = p.get<int>(
+      "sighting_tilt_window", mp.sighting_tilt_window,
+      {.min = 1, .max = 64, .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
+  mp.parallax_spacing_m = p.get<double>(
+      "parallax_spacing_m", mp.parallax_spacing_m,
+      {.unit = "m", .min = 0.0, .max = 5.0,
+       .doc = "a parallax search runs when the baseline grew this much since the last (0 = every frame: denser map, ~3x the time)"});
+  {
+    const std::string mode = p.get<std::string>(
+        "parallax", "both",
+        {.choices = {"sweep", "rectified", "both"},
+         .doc = "parallax heights: plane sweep in the image, search in the ground-rectified frame, or both"});
+    mp.parallax_mode = mode == "sweep" ? ParallaxMode::kSweep : mode == "rectified" ? ParallaxMode::kRectified : ParallaxMode::kBoth;
+  }
+  mp.keyframe_distance_m = p.get<double>("keyframe_distance_m", mp.keyframe_distance_m,
+                                         {.unit = "m",
+                                          .min = 0.0,
+                                          .max = 10.0,
+                                          .min_exclusive = true,
+                                          .doc = "camera motion after which the frame becomes the keyframe"});
+  mp.keyframe_yaw_rad = p.get<double>("keyframe_yaw_rad", mp.keyframe_yaw_rad,
+                                      {.unit = "rad",
+                                       .min = 0.0,
+                                       .max = 3.14,
+                                       .min_exclusive = true,
+                                       .doc = "turn after which the frame becomes the keyframe"});
+  mp.map.resolution_m = p.get<double>("map_resolution_m", mp.map.resolution_m,
+                                      {.unit = "m", .min = 0.005, .max = 1.0, .doc = "map cell size"});
+  const double length = p.get<double>(
+      "map_length_m", mp.map.length_x_m,
+      {.unit = "m", .min = 2.0, .max = 200.0, .doc = "side of the square map window that follows the rover"});
+  mp.map.length_x_m = mp.map.length_y_m = length;
+  mp.map.max_range_m =
+      p.get<double>("max_range_m", mp.map.max_range_m,
+                    {.unit = "m", .min = 0.5, .max = 50.0, .doc = "terrain farther than this is not fused"});
+  mp.map.hazard_height_m = p.get<double>("hazard_height_m", mp.map.hazard_height_m,
+                                         {.unit = "m",
+                                          .min = 0.0,
+                                          .max = 5.0,
+                                          .min_exclusive = true,
+                                          .doc = "obstacle height the hazard layer is the probability of"});
+  mp.map.hazard_relief_weight = p.get<double>(
+      "hazard_relief_weight", mp.map.hazard_relief_weight,
+      {.min = 0.0, .max = 1.0, .doc = "probability the parallax relief alone gives a cell at full height"});
+  mp.map.hazard_evidence_scale = p.get<double>(
+      "hazard_evidence_scale", mp.map.hazard_evidence_scale,
+      {.min = 0.0, .max = 100.0, .min_exclusive = true,
+       .doc = "summed sighting scores at which a sighted rock's probability is 1 - 1/e"});
+  mp.wheel.along_fraction =
+      p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
+                    {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});
+  mp.wheel.lateral_fraction =
+      p.get<double>("wheel_lateral_fraction", mp.wheel.lateral_fraction,
+                    {.min = 0.0, .max = 1.0, .doc = "std across the heading, fraction of the step"});
+  mp.wheel.yaw_per_m_rad =
+      p.get<double>("wheel_yaw_per_m_rad", mp.wheel.yaw_per_m_rad,
+                    {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
+  mp.wheel.max_speed_mps =
+      p.get<double>("wheel_max_speed_mps", mp.wheel.max_speed_mps,
+                    {.unit = "m/s",
+                     .min = 0.0,
+                     .max = 20.0,
+                     .min_exclusive = true,
+                     .doc = "faster wheel steps between frames are odometry jumps (ignored, counted)"});
+  return mp;
+}
+
+}  // namespace regolith::mapping

@@ -1,0 +1,43 @@
+#pragma once
+// Reading a whole text file from outside (deployments, scene descriptions, recorded drives)
+// with a bound: a path naming a device, FIFO or directory (`--config /dev/zero`) or a file larger
+// than any sane input is refused with its name instead of being read until memory runs out.
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <system_error>
+
+#include <sys/stat.h>
+
+#include "regolith/core/error.hpp"
+
+namespace regolith {
+
+/// Default bound of read_text_file (configuration and scene files are kilobytes).
+inline constexpr std::uintmax_t kMaxTextFileBytes = 16u << 20;
+
+/// The contents of the regular file `path`, at most `max_bytes`. Throws InputError naming the
+/// file ("PATH: cannot open ...", "PATH: not a regular file (a device, FIFO or directory)",
+/// "PATH: N bytes, more than the M a WHAT may have").
+inline std::string read_text_file(const std::string& path, const char* what = "file",
+                                  std::uintmax_t max_bytes = kMaxTextFileBytes) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
+  if (!S_ISREG(st.st_mode)) throw InputError(path + ": not a regular file (a device, FIFO or directory), not a " + what);
+  if (static_cast<std::uintmax_t>(st.st_size) > max_bytes)
+    throw InputError(path + ": " + std::to_string(st.st_size) + " bytes, more than the " + std::to_string(max_bytes) +
+                     " a " + what + " may have");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open " + what);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  if (text.size() > max_bytes) throw InputError(path + ": grew past " + std::to_string(max_bytes) + " bytes while read");
+  return text;
+}
+
+}  // namespace regolith
