@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
+#include <vector>
 
 #include "mock_test_util.hpp"
 
@@ -123,6 +125,16 @@ TEST(ImageFiles, BadInputErrors) {
   std::string msg = config_error([&] { fx.camera("backend: image_files\npath: frames\n"); });
   EXPECT_NE(msg.find("cannot read image"), std::string::npos) << msg;
   EXPECT_NE(msg.find("img_001.png"), std::string::npos) << msg;
+  // A JPEG cut short (`head -c 2000`): libjpeg would decode it with grey rows; refused, named.
+  {
+    std::vector<unsigned char> jpg;
+    cv::Mat noise(64, 64, CV_8UC1);
+    cv::randu(noise, 0, 255);
+    ASSERT_TRUE(cv::imencode(".jpg", noise, jpg));
+    fx.dir.write("cut/img_000.jpg", std::string(jpg.begin(), jpg.begin() + static_cast<std::ptrdiff_t>(jpg.size() / 2)));
+    msg = config_error([&] { fx.camera("backend: image_files\npath: cut\n"); });
+    EXPECT_NE(msg.find("img_000.jpg': truncated JPEG"), std::string::npos) << msg;
+  }
   std::filesystem::create_directories(fx.dir.file("empty"));
   msg = config_error([&] { fx.camera("backend: image_files\npath: empty\n"); });
   EXPECT_NE(msg.find("contains no image"), std::string::npos) << msg;

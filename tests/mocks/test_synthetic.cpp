@@ -47,6 +47,16 @@ TEST(SyntheticTerrain, LeavingTheTerrainIsAConfigError) {
   });
   EXPECT_NE(msg.find("leaves the terrain at frame 12"), std::string::npos) << msg;
 }
+
+TEST(SyntheticTerrain, TooManyFramesToHoldAreAConfigErrorNotAnEndlessRender) {
+  Fixture fx;
+  const std::string msg = config_error([&] {
+    fx.camera("backend: synthetic_terrain\nwidth: 4096\nheight: 4096\nformat: bgr8\nframes: 10000\n");
+  });
+  EXPECT_NE(msg.find("frames: 10000 frames of 4096x4096 x 3 B are 468.8 GiB, more than the 1 GiB a mock camera may hold"),
+            std::string::npos)
+      << msg;
+}
 #endif
 
 #ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
@@ -57,6 +67,8 @@ TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
   auto cam = fx.camera("backend: synthetic_wheel\n" + body);
   auto enc = fx.encoders("backend: synthetic_wheel\n" + body);
   ASSERT_EQ(enc->wheel_names().at(0), "wheel");
+  const std::string too_many = config_error([&] { fx.camera("backend: synthetic_wheel\nframes: 10000\n"); });
+  EXPECT_NE(too_many.find("frames: 10000 frames of 640x480 x 3 B are 8.6 GiB"), std::string::npos) << too_many;
   cam->start();
   enc->start();
   const TimeNs t0 = fx.clock.now();

@@ -1,6 +1,7 @@
 #include "common.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -31,6 +32,18 @@ SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
         p.fail({}, "the synthetic renderer is a pinhole: rover.cameras." + ctx.id + ".camera_info.d must be zero");
   }
   return d;
+}
+
+void check_preload(Params& p, const char* key, std::uint64_t frames, cv::Size size, int bytes_per_pixel) {
+  const std::uint64_t frame_bytes = static_cast<std::uint64_t>(size.area()) * static_cast<std::uint64_t>(bytes_per_pixel);
+  if (frames * frame_bytes <= kMaxPreloadBytes) return;
+  char text[256];
+  std::snprintf(text, sizeof text, "%llu frames of %dx%d x %d B are %.1f GiB, more than the %.0f GiB a mock camera may hold; "
+                "use fewer frames (they repeat with loop: true)",
+                static_cast<unsigned long long>(frames), size.width, size.height, bytes_per_pixel,
+                static_cast<double>(frames * frame_bytes) / static_cast<double>(1ull << 30),
+                static_cast<double>(kMaxPreloadBytes) / static_cast<double>(1ull << 30));
+  p.fail(key, text);
 }
 
 cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallback) {

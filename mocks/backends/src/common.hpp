@@ -57,6 +57,12 @@ SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
 /// calibration is an error at the key.
 cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallback);
 
+/// Most bytes a mock camera may render or load at configure time (all its frames together).
+inline constexpr std::uint64_t kMaxPreloadBytes = 1ull << 30;
+/// A located error at `key` when `frames` frames of `size` with `bytes_per_pixel` would exceed
+/// kMaxPreloadBytes (`frames: 10000` of 640x480 BGR is 8.6 GiB: refused, not swapped to death).
+void check_preload(Params& p, const char* key, std::uint64_t frames, cv::Size size, int bytes_per_pixel);
+
 // ---- a regular time grid: sample k is at k / rate after the start ------------------------------
 
 class TimeGrid {

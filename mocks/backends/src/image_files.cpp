@@ -94,6 +94,8 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
                          std::to_string(images.front().rows) + " (set width/height to resize all images)");
     }
     if (!img.isContinuous()) img = img.clone();
+    // Every image of the list stays in memory: bounded as the rendered cameras are.
+    if (images.empty()) detail::check_preload(p, "max_frames", files.size(), img.size(), static_cast<int>(img.elemSize()));
     images.push_back(img);
   }
   fmt.width = images.front().cols;

@@ -23,6 +23,7 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
   fmt.width = size.width;
   fmt.height = size.height;
   const int frames = p.get<int>("frames", 20, {.min = 1, .max = 10000, .doc = "frames rendered at configure"});
+  detail::check_preload(p, "frames", static_cast<std::uint64_t>(frames), size, fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
   const bool loop = p.get<bool>("loop", true, {.doc = "repeat the rendered frames (else the last one stays)"});
 
   ts::SceneParams scene;

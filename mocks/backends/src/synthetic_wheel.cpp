@@ -42,6 +42,8 @@ WheelSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   s.fmt.width = p.get<int>("width", 640, {.unit = "px", .min = 64, .max = 4096, .doc = "image width"});
   s.fmt.height = p.get<int>("height", 480, {.unit = "px", .min = 64, .max = 4096, .doc = "image height"});
   s.frames = p.get<int>("frames", 50, {.min = 1, .max = 10000, .doc = "frames rendered at configure"});
+  detail::check_preload(p, "frames", static_cast<std::uint64_t>(s.frames), {s.fmt.width, s.fmt.height},
+                        s.fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
   s.loop = p.get<bool>("loop", true, {.doc = "repeat the frames (angles repeat too); else the last one stays"});
   s.sample_rate_hz = p.get<double>("sample_rate_hz", 100.0, {.unit = "Hz", .min = 0.0, .max = 100000.0,
                                                              .min_exclusive = true, .doc = "encoder report rate"});
