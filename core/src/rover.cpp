@@ -282,6 +282,10 @@ RoverDescription read_rover_description(Params& root, const std::string& config_
     wh.width_m = w.require<double>("width_m", {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "wheel width"});
     wh.encoders =
         w.get<std::string>("encoders", "", {.doc = "encoder device reporting this wheel (devices.encoders.<name>)"});
+    wh.max_rate_rad_s = w.get<double>(
+        "max_rate_rad_s", wh.max_rate_rad_s,
+        {.unit = "rad/s", .min = 0.0, .max = 1e4, .min_exclusive = true,
+         .doc = "fastest the wheel can turn: an encoder sample implying a faster turn is rejected as corrupt (counted)"});
     w.finish();
     d.wheels.push_back(std::move(wh));
   }

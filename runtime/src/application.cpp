@@ -8,7 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <type_traits>
 
+#include "regolith/hal/plausible_encoders.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/dds_hooks.hpp"
 #include "regolith/runtime/event_log.hpp"
@@ -111,6 +113,19 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
       hal::DeviceContext dc{name, index++, &ctx.clock(), config_dir, opts.open_devices, &ctx.rover()};
       std::unique_ptr<hal::Device> d = reg.make<Kind>(p, dc);
       p.finish();
+      // Encoder samples are checked for plausibility (finite, no faster turn than the wheel can)
+      // before anything reads them: one check for every backend.
+      if constexpr (std::is_same_v<Kind, hal::WheelEncoders>) {
+        auto enc = std::unique_ptr<hal::WheelEncoders>(static_cast<hal::WheelEncoders*>(d.release()));
+        std::vector<double> rates;
+        for (const std::string& wheel : enc->wheel_names()) {
+          double r = hal::PlausibleEncoders::kDefaultMaxRateRadS;
+          for (const Wheel& w : ctx.rover().wheels)
+            if (w.name == wheel && (w.encoders.empty() || w.encoders == name)) r = w.max_rate_rad_s;
+          rates.push_back(r);
+        }
+        d = std::make_unique<hal::PlausibleEncoders>(std::move(enc), std::move(rates));
+      }
       if (opts.wrap_device && opts.open_devices) d = opts.wrap_device(std::move(d));
       ctx.add_device(name, std::move(d));
     }

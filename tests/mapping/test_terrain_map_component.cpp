@@ -80,6 +80,16 @@ TEST(SkidSteerOdometry, ArcFromWheelAnglesAndHeadingFromTheImu) {
   const double bad[2] = {std::nan(""), 1.0};
   EXPECT_FALSE(imu.update(bad));
   EXPECT_NEAR(imu.pose().yaw, 0.1, 1e-12);
+  // Started from a corrupt reading (5274 rad), the first true angles imply a 791 m roll: the
+  // odometry re-anchors on them without moving, and follows the wheels from there.
+  mapping::SkidSteerOdometry jump({{0.4, 0.15}, {-0.4, 0.15}});
+  const double garbage[2] = {5274.8, 0.0};
+  jump.reset(garbage);
+  const double truth1[2] = {0.0, 0.0}, truth2[2] = {1.0, 1.0};
+  EXPECT_FALSE(jump.update(truth1, std::nan(""), 0.5));
+  EXPECT_EQ(jump.pose().x, 0.0);
+  ASSERT_TRUE(jump.update(truth2, std::nan(""), 0.5));
+  EXPECT_NEAR(jump.pose().x, 0.15, 1e-12);
   // Wheels on one side only: the field is named.
   try {
     mapping::SkidSteerOdometry one({{0.4, 0.15}, {0.3, 0.15}});

@@ -3,6 +3,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mock_test_util.hpp"
+#include "regolith/hal/plausible_encoders.hpp"
 
 namespace regolith::mocks::test {
 namespace {
@@ -266,6 +267,50 @@ TEST(FaultEncoders, DelayFreezeAndCorruption) {
     garbage += std::abs(s.angle - to_seconds(s.stamp - t0)) > 1e-6;
   }
   EXPECT_NEAR(static_cast<double>(garbage) / n, 0.1, 0.015);
+}
+
+TEST(PlausibleEncoders, CorruptSamplesNeverReachTheReaderAndAreCounted) {
+  // What the application puts between every encoder device and its readers, over a 1 rad/s wheel
+  // whose samples are 20 % garbage (+-1e4 rad): latest() and angle_at() give true angles only
+  // (an older sample when the newest is garbage), every garbage sample met is counted once.
+  Fixture fx;
+  hal::PlausibleEncoders enc(fx.encoders(encoder_yaml("corrupt_rate: 0.2\nseed: 5\n")), {2.0});
+  enc.start();
+  const TimeNs t0 = fx.clock.now();
+  const int n = 3000;
+  int served = 0, older = 0;
+  for (int k = 0; k < n; ++k) {
+    const TimeNs now = t0 + k * kSample;
+    fx.clock.set(now);
+    hal::AngleSample s;
+    if (!enc.latest(0, now, s)) continue;
+    ++served;
+    ASSERT_NEAR(s.angle, to_seconds(s.stamp - t0), 1e-9) << k;
+    older += s.stamp < now;
+    double a = 0.0;
+    for (const TimeNs t : {now - kSample / 2, now, now + kSample / 3})  // inside the history and past its end
+      if (k > 2 && enc.angle_at(0, t, a)) {
+        ASSERT_NEAR(a, to_seconds(t - t0), 1e-6) << k << " at +" << (t - now);
+      }
+  }
+  EXPECT_GT(served, n - 10);
+  EXPECT_NEAR(static_cast<double>(older) / n, 0.2, 0.03);  // the newest was garbage: the one before
+  const auto st = enc.stats();
+  EXPECT_NEAR(static_cast<double>(st.rejected) / n, 0.2, 0.03) << st.rejected;
+  EXPECT_EQ(enc.counters().rejected, st.rejected);
+
+  // A clean wheel loses nothing: every sample served as it is, none rejected.
+  Fixture fx2;
+  hal::PlausibleEncoders clean(fx2.encoders(encoder_yaml("")), {2.0});
+  clean.start();
+  const TimeNs u0 = fx2.clock.now();
+  for (int k = 0; k < 1000; ++k) {
+    fx2.clock.set(u0 + k * kSample);
+    hal::AngleSample s;
+    ASSERT_TRUE(clean.latest(0, u0 + k * kSample, s)) << k;
+    EXPECT_EQ(s.stamp, u0 + k * kSample);
+  }
+  EXPECT_EQ(clean.stats().rejected, 0u);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "regolith/core/error.hpp"
+#include "regolith/hal/plausible_encoders.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
@@ -199,6 +200,8 @@ TEST(ConfigErrors, DevicesDirectoriesAndHugeFilesAreNotRead) {
 TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
   register_test_backends();
   auto app = Application::load(Params::load_string(kGood, "rover.yaml"), {.sim_time = true});
+  // Every encoder device is read through the plausibility check (one for every backend).
+  EXPECT_NE(dynamic_cast<const hal::PlausibleEncoders*>(app->context().find<hal::WheelEncoders>("wheels")), nullptr);
   auto& joints = app->context().channel<JointStateSample>("joint_states");
   auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
   std::atomic<bool> stop{false};

@@ -334,7 +334,10 @@ class TerrainMapComponent final : public runtime::Component {
     for (std::size_t k = 1; k <= n; ++k) {
       const TimeNs tk =
           from + static_cast<TimeNs>(static_cast<double>(span) * static_cast<double>(k) / static_cast<double>(n));
-      if (!read_at(tk, yaw) || !odo_->update(angles_, yaw)) return false;
+      // A wheel cannot roll farther than max_speed x dt (+ 5 cm): more is a corrupt reading the
+      // odometry started from; it re-anchors instead of jumping.
+      const double max_step = wheel_noise_.max_speed_mps * to_seconds(tk - odo_time_) + 0.05;
+      if (!read_at(tk, yaw) || !odo_->update(angles_, yaw, max_step)) return false;
       odo_time_ = tk;
     }
     return true;

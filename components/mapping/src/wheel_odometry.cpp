@@ -33,7 +33,7 @@ void SkidSteerOdometry::reset(std::span<const double> angles, const Pose2& pose,
   started_ = true;
 }
 
-bool SkidSteerOdometry::update(std::span<const double> angles, double yaw) {
+bool SkidSteerOdometry::update(std::span<const double> angles, double yaw, double max_step_m) {
   if (angles.size() < wheels_.size()) return false;
   for (std::size_t i = 0; i < wheels_.size(); ++i)
     if (!std::isfinite(angles[i])) return false;
@@ -41,6 +41,11 @@ bool SkidSteerOdometry::update(std::span<const double> angles, double yaw) {
     reset(angles, pose_, yaw);
     return true;
   }
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+    if (std::abs(wheels_[i].radius_m * (angles[i] - last_[i])) > max_step_m) {
+      reset(angles, pose_, yaw);  // re-anchor where the rover is
+      return false;
+    }
   double sl = 0.0, sr = 0.0;
   int nl = 0, nr = 0;
   for (std::size_t i = 0; i < wheels_.size(); ++i) {

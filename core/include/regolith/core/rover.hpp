@@ -81,6 +81,7 @@ struct Wheel {
   double x_m = 0.0, y_m = 0.0;  ///< contact point in the body frame
   double radius_m = 0.0, width_m = 0.0;
   std::string encoders;  ///< encoder device that reports it (devices.encoders.<name>)
+  double max_rate_rad_s = 50.0;  ///< fastest it can turn: encoder samples implying more are rejected
 };
 
 /// Direction towards the sun in the local-level frame: compass azimuth (clockwise from the heading

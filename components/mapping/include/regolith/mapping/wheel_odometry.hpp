@@ -34,8 +34,11 @@ class SkidSteerOdometry {
              double yaw = std::numeric_limits<double>::quiet_NaN());
   /// Advances to the wheel angles `angles`; with a finite `yaw` the heading change is the IMU's
   /// (yaw - the previous yaw), else the wheels'. A non-finite angle leaves the pose unchanged
-  /// and returns false (the next good reading spans the gap). Not started: reset() is done.
-  bool update(std::span<const double> angles, double yaw = std::numeric_limits<double>::quiet_NaN());
+  /// and returns false (the next good reading spans the gap). A wheel rolling farther than
+  /// `max_step_m` in this step (an impossible jump: a corrupt reading the odometry started from)
+  /// re-anchors on these angles without moving and returns false. Not started: reset() is done.
+  bool update(std::span<const double> angles, double yaw = std::numeric_limits<double>::quiet_NaN(),
+              double max_step_m = std::numeric_limits<double>::infinity());
   const Pose2& pose() const { return pose_; }
   /// Distance driven (m, sum of |forward steps|).
   double distance() const { return distance_; }
