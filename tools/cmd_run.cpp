@@ -13,6 +13,7 @@
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
@@ -65,10 +66,8 @@ std::pair<std::string, std::string> config_text(const RunOptions& o) {
   const std::string& path = o.config;
   if (!o.config_yaml.empty()) return {std::filesystem::path(path).filename().string(), o.config_yaml};
   if (path.empty()) return {"mock_rover.yaml", embedded_mock_rover()};
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return {std::filesystem::path(path).filename().string(), s.str()};
+  // Already loaded (and so checked) as the deployment: read again, the same way, for the attachment.
+  return {std::filesystem::path(path).filename().string(), read_text_file(path, "configuration file")};
 }
 
 std::string utc_now_iso() {
@@ -146,11 +145,11 @@ std::string replay_deployment(const std::string& file, const std::string& config
   const std::string abs = std::filesystem::absolute(file).string();
   std::string text;
   if (!config_override.empty()) {
-    std::ifstream in(config_override, std::ios::binary);
-    if (!in) throw InputError("replay: --config: cannot read " + config_override);
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
+    try {
+      text = read_text_file(config_override, "configuration file");
+    } catch (const InputError& e) {
+      throw InputError(std::string("replay: --config: ") + e.what());
+    }
     name = config_override;
   } else {
     record::McapReader reader(abs);

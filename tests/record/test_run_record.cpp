@@ -334,6 +334,10 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   const fs::path a = dir_ / "a.mcap", b = dir_ / "b.mcap";
   Result r = run("run --sim-time --duration 3 --quiet --config " + cfg.string() + " --record " + a.string());
   ASSERT_EQ(r.status, 0) << r.out;
+  // A device as the deployment to replay with is refused, not read forever.
+  r = run("replay " + a.string() + " --quiet --config /dev/zero");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("replay: --config: /dev/zero: not a regular file"), std::string::npos) << r.out;
   // The recorded deployment with replay devices, as long as the recording, on simulated time;
   // every published sample of every topic equal byte for byte (stamps included).
   r = run("replay " + a.string() + " --quiet --record " + b.string() + " --compare");
