@@ -113,8 +113,7 @@ bool PlausibleEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) con
   // against the reference itself.
   AngleSample a;
   if (!latest(wheel, t, a) && !read(ref_[wheel], a)) return false;  // nothing plausible to check it against yet
-  const double dt = to_seconds(t > a.stamp ? t - a.stamp : a.stamp - t);
-  if (std::abs(v - a.angle) <= rate(wheel) * dt + kToleranceRad) {
+  if (agree(wheel, AngleSample{t, v}, a)) {
     angle = v;
     return true;
   }

@@ -122,6 +122,7 @@ int RockTracker::update(const cv::Mat& st, const Pose2& foot, double mount_m) {
       r.sigma = p_.ray_sigma_m + p_.ray_sigma_per_m * r.range;
       r.spread = 0.25 * st.at<float>(kSightWidth, n);
       r.sigma_along = std::max<double>(st.at<float>(kSightSigmaRange, n), r.sigma);
+      r.ok = std::isfinite(r.sigma) && r.d.allFinite();
       matched_[static_cast<std::size_t>(n)] = -1;
     }
     // Candidate (sighting, track) pairs within the gate, cheapest first.
@@ -130,7 +131,7 @@ int RockTracker::update(const cv::Mat& st, const Pose2& foot, double mount_m) {
     if (p_.enabled)
       for (int k = 0; k < n; ++k) {
         const Ray& r = rays_[static_cast<std::size_t>(k)];
-        if (!std::isfinite(r.sigma) || !r.d.allFinite()) continue;
+        if (!r.ok) continue;
         for (int s = 0; s < p_.max_tracks; ++s) {
           const Track& t = tracks_[static_cast<std::size_t>(s)];
           if (t.frames == 0 || t.last == frame_) continue;
@@ -151,7 +152,7 @@ int RockTracker::update(const cv::Mat& st, const Pose2& foot, double mount_m) {
     }
     for (int k = 0; k < n; ++k) {
       const Ray& r = rays_[static_cast<std::size_t>(k)];
-      if (!std::isfinite(r.sigma) || !r.d.allFinite()) continue;
+      if (!r.ok) continue;
       int s = matched_[static_cast<std::size_t>(k)];
       if (s < 0) s = free_slot();
       add(tracks_[static_cast<std::size_t>(s)], r, st, k);

@@ -79,7 +79,7 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) m->create(rows_, cols_, CV_64F), fill(*m, 0.0);
   count_.create(rows_, cols_, CV_32F);
   fill(count_, 0.0f);
-  for (cv::Mat* m : {&shadow_w_, &shadow_h_, &sight_w_, &sight_h_, &sight_d_, &live_w_, &live_h_, &live_d_})
+  for (cv::Mat* m : {&shadow_w_, &shadow_h_, &sight_w_, &sight_h_, &live_w_, &live_h_})
     m->create(rows_, cols_, CV_32F), fill(*m, 0.0f);
   tracks_.create(kTrackRows, p_.max_rocks, CV_32F);
   fill(tracks_, kNaNf);
@@ -130,10 +130,8 @@ void WorldMap::recenter(double x, double y, double margin_m) {
   shift(shadow_h_, 0.0f);
   shift(sight_w_, 0.0f);
   shift(sight_h_, 0.0f);
-  shift(sight_d_, 0.0f);
   shift(live_w_, 0.0f);
   shift(live_h_, 0.0f);
-  shift(live_d_, 0.0f);
   for (auto& m : layers_) shift(m, kNaNf);
   ox_ += dj * p_.resolution_m;
   oy_ += di * p_.resolution_m;
@@ -255,11 +253,10 @@ void WorldMap::fuse_rock_tracks(const cv::Mat& closed, int n_closed, const cv::M
   if (closed.rows < kTrackRows || live.rows < kTrackRows || closed.type() != CV_32F || live.type() != CV_32F) return;
   n_closed = std::clamp(n_closed, 0, closed.cols);
   n_live = std::clamp(n_live, 0, live.cols);
-  paint_tracks(closed, n_closed, sight_w_, sight_h_, sight_d_);
+  paint_tracks(closed, n_closed, sight_w_, sight_h_);
   fill(live_w_, 0.0f);
   fill(live_h_, 0.0f);
-  fill(live_d_, 0.0f);
-  paint_tracks(live, n_live, live_w_, live_h_, live_d_);
+  paint_tracks(live, n_live, live_w_, live_h_);
   // Closed tracks are kept (when full, a new one replaces the weakest kept if it is stronger);
   // the live ones follow them.
   const int cap = tracks_.cols;
@@ -282,7 +279,7 @@ void WorldMap::fuse_rock_tracks(const cv::Mat& closed, int n_closed, const cv::M
     for (int r = 0; r < kTrackRows; ++r) tracks_.at<float>(r, c) = kNaNf;
 }
 
-void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh, cv::Mat& ed) {
+void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh) {
   if (t.empty() || t.rows < kTrackRows || t.type() != CV_32F) return;
   const double inv_res = 1.0 / p_.resolution_m, s0 = p_.sighting_radius_m, floor2 = 0.25 * s0 * s0;
   for (int k = 0; k < std::min(n, t.cols); ++k) {
@@ -308,7 +305,6 @@ void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh, c
         const float e = static_cast<float>(peak * std::exp(-q));
         ew.at<float>(i, j) += e;
         eh.at<float>(i, j) += e * static_cast<float>(h);
-        ed.at<float>(i, j) += e * static_cast<float>(w);
       }
   }
 }
@@ -400,7 +396,7 @@ void WorldMap::finish() {
     for (int j = 0; j < cols_; ++j) {
       const float e = evidence(i, j);
       ev_layer.at<float>(i, j) = e > 0.0f ? e : kNaNf;
-      rock_h.at<float>(i, j) = e >= p_.rock_min_evidence ? (sight_h_.at<float>(i, j) + live_h_.at<float>(i, j)) / e : kNaNf;
+      rock_h.at<float>(i, j) = e >= p_.rock_min_evidence ? evidence_height(i, j) / e : kNaNf;
     }
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
@@ -417,7 +413,7 @@ void WorldMap::finish() {
         continue;
       }
       const auto frac = [&](double height) { return std::clamp(height / p_.hazard_height_m, 0.0, 1.0); };
-      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac((sight_h_.at<float>(i, j) + live_h_.at<float>(i, j)) / ev) : 0.0;
+      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(evidence_height(i, j) / ev) : 0.0;
       const double p_shadow = std::isfinite(sh) ? frac(sh) : 0.0;
       const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));

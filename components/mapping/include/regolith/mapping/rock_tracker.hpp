@@ -102,6 +102,7 @@ class RockTracker {
     Eigen::Vector3d o, d;  // camera centre, unit ray to the contact (world)
     double ground = 0;     // distance from o to the ray's ground point
     double sigma = 0, sigma_along = 0, spread = 0, range = 0, radius = 0;
+    bool ok = false;       // finite: usable
   };
   void write(const Track& t, cv::Mat& table, int column) const;
   void close(int slot);

@@ -111,8 +111,8 @@ class WorldMap {
   /// replace the previous call's live evidence (their estimates still move). Each track adds its
   /// summed score x a Gaussian of its centre's covariance (+ a quarter of its width, at least
   /// sighting_radius_m / 2 per axis; scaled so a track as sharp as sighting_radius_m adds its full
-  /// score at its centre, a vaguer one proportionally less), and its height and width to their
-  /// weighted means. No heap allocation.
+  /// score at its centre, a vaguer one proportionally less), and its height to the
+  /// weighted mean of rock_height (widths come with rocks()). No heap allocation.
   void fuse_rock_tracks(const cv::Mat& closed, int n_closed, const cv::Mat& live, int n_live);
 
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
@@ -130,10 +130,11 @@ class WorldMap {
   double ox_ = 0.0, oy_ = 0.0;
   cv::Mat wsum_, mean_, m2_, count_;  // accumulators (CV_64F weight/mean/m2, CV_32F count)
   cv::Mat shadow_w_, shadow_h_;       // caster heights from shadows: weight, weighted mean (CV_32F)
-  void paint_tracks(const cv::Mat& t, int n, cv::Mat& w, cv::Mat& h, cv::Mat& d);
+  void paint_tracks(const cv::Mat& t, int n, cv::Mat& w, cv::Mat& h);
   float evidence(int i, int j) const { return sight_w_.at<float>(i, j) + live_w_.at<float>(i, j); }
-  cv::Mat sight_w_, sight_h_, sight_d_;  // closed rock tracks: evidence, weighted sums of height and width (CV_32F)
-  cv::Mat live_w_, live_h_, live_d_;     // the same for the live tracks (repainted every frame)
+  float evidence_height(int i, int j) const { return sight_h_.at<float>(i, j) + live_h_.at<float>(i, j); }
+  cv::Mat sight_w_, sight_h_;  // closed rock tracks: evidence and its weighted sum of heights (CV_32F)
+  cv::Mat live_w_, live_h_;    // the same for the live tracks (repainted every frame)
   cv::Mat tracks_;                       // TrackRow columns: closed tracks [0, n_closed_), then the live ones
   int n_closed_ = 0, n_live_ = 0;
   std::vector<cv::Mat> layers_;
