@@ -48,6 +48,14 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                                        .max = 3.14,
                                        .min_exclusive = true,
                                        .doc = "turn after which the frame becomes the keyframe"});
+  mp.vo.attitude_prior_rad = p.get<double>(
+      "vo_attitude_prior_rad", mp.vo.attitude_prior_rad,
+      {.unit = "rad", .min = 0.0, .max = 0.5, .min_exclusive = true,
+       .doc = "std of the camera's tilt against the ground ahead, around the mount (visual odometry prior)"});
+  mp.vo.height_change_prior = p.get<double>(
+      "vo_height_change_prior", mp.vo.height_change_prior,
+      {.min = 0.0, .max = 0.5, .min_exclusive = true,
+       .doc = "std of the change of the camera's height above the ground between keyframe and frame, as a fraction"});
   mp.map.resolution_m = p.get<double>("map_resolution_m", mp.map.resolution_m,
                                       {.unit = "m", .min = 0.005, .max = 1.0, .doc = "map cell size"});
   const double length = p.get<double>(

@@ -205,12 +205,12 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     const bool search = m.ok() && base - last_parallax_base_ >= p_.parallax_spacing_m;
     if (search) last_parallax_base_ = base;
     if (use_sweep() && search &&
-        sweep_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
+        sweep_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio)) {
       report_.cells_fused += map_.fuse_points(sweep_.x(), sweep_.y(), sweep_.height(), sweep_.confidence(), key_foot_);
       report_.parallax = true;
     }
     if (use_parallax() && p_.parallax_mode != ParallaxMode::kSweep && search &&
-        parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad})) {
+        parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio)) {
       report_.cells_fused += map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
       report_.parallax = true;
     }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "regolith/core/error.hpp"
@@ -46,6 +47,7 @@ void GroundVoParams::validate() const {
   pos(max_correction_rad, "max_correction_rad");
   pos(covariance_inflation, "covariance_inflation");
   pos(attitude_prior_rad, "attitude_prior_rad");
+  pos(height_change_prior, "height_change_prior");
   if (!std::isfinite(scale_uncertainty) || scale_uncertainty < 0) fail("scale_uncertainty", "must be >= 0");
   if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m)
     fail("min_range_m", "must be >= 0 and below max_range_m");
@@ -188,6 +190,12 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
   // the ground at (x, y) + D(x, y) * e.
   auto dp = [&](double x, double y) { return std::pair<double, double>{-(h + x * x * ih), -x * y * ih}; };
   auto dr = [&](double x, double y) { return std::pair<double, double>{x * y * ih, h + y * y * ih}; };
+  // Steps are accepted only if they lower the robust cost, in which a template point that leaves
+  // the usable view costs as much as an outlier: otherwise a fit can "improve" by warping its
+  // far ground out of view (large tilts), leaving a few near cells that agree with anything.
+  Params best = th;
+  double best_cost = std::numeric_limits<double>::infinity(), cut_ref = 0.0, lam_ref = 0.0, lamh_ref = 0.0;
+  int halvings = 0;
   for (int it = 0; it < p_.iterations; ++it) {
     const double c = std::cos(th[kYaw]), s = std::sin(th[kYaw]);
     int n = 0;
@@ -199,7 +207,9 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
       const auto [kpx, kpy] = dp(pt.x, pt.y);
       const auto [krx, kry] = dr(pt.x, pt.y);
       const double px = pt.x + kpx * th[kKeyPitch] + krx * th[kKeyRoll], py = pt.y + kpy * th[kKeyPitch] + kry * th[kKeyRoll];
-      const double tx = c * px - s * py + th[kX], ty = s * px + c * py + th[kY];
+      const double sc = 1.0 + th[kScale];
+      const double rx = c * px - s * py, ry = s * px + c * py;
+      const double tx = sc * rx + th[kX], ty = sc * ry + th[kY];
       const auto [dpx, dpy] = dp(tx, ty);
       const auto [drx, dry] = dr(tx, ty);
       const double qx = tx - dpx * th[kPitch] - drx * th[kRoll], qy = ty - dpy * th[kPitch] - dry * th[kRoll];
@@ -220,17 +230,18 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
       };
       const double v = bil(lv.img), gx = bil(lv.gx), gy = bil(lv.gy);
       const double r = v - (1.0 + th[kGain]) * pt.value - th[kBias];
-      const double dqx = -s * px - c * py, dqy = c * px - s * py;  // d(rotated point) / d yaw
+      const double dqx = sc * (-s * px - c * py), dqy = sc * (c * px - s * py);  // d(rotated point) / d yaw
       residuals_[k] = static_cast<float>(r);
       jacobians_[k] = {static_cast<float>(gx),
                        static_cast<float>(gy),
                        static_cast<float>(gx * dqx + gy * dqy),
-                       static_cast<float>(gx * (c * kpx - s * kpy) + gy * (s * kpx + c * kpy)),
-                       static_cast<float>(gx * (c * krx - s * kry) + gy * (s * krx + c * kry)),
+                       static_cast<float>(sc * (gx * (c * kpx - s * kpy) + gy * (s * kpx + c * kpy))),
+                       static_cast<float>(sc * (gx * (c * krx - s * kry) + gy * (s * krx + c * kry))),
                        static_cast<float>(-(gx * dpx + gy * dpy)),
                        static_cast<float>(-(gx * drx + gy * dry)),
                        -pt.value,
-                       -1.0f};
+                       -1.0f,
+                       static_cast<float>(gx * rx + gy * ry)};
       ++histogram_[static_cast<std::size_t>(std::min(511.0, std::abs(r) * 4.0))];
       ++n;
     }
@@ -242,6 +253,35 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
     for (int acc = 0; median_bin < 511 && (acc += histogram_[static_cast<std::size_t>(median_bin)]) * 2 < n;) ++median_bin;
     const double sigma = std::max(0.5, 1.4826 * (median_bin + 0.5) / 4.0);
     const double cut = p_.tukey_c * sigma;
+    if (it == 0) {
+      cut_ref = cut;
+      lam_ref = sigma * sigma / (p_.attitude_prior_rad * p_.attitude_prior_rad);
+      lamh_ref = sigma * sigma / (p_.height_change_prior * p_.height_change_prior);
+    }
+    double cost = 0.0;
+    const double cap = cut_ref * cut_ref / 6.0;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      const float r = residuals_[k];
+      double rho = cap;
+      if (std::isfinite(r) && std::abs(r) < cut_ref) {
+        const double v = 1.0 - (r / cut_ref) * (r / cut_ref);
+        rho = cap * (1.0 - v * v * v);
+      }
+      cost += pts[k].weight * rho;
+    }
+    for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll}) cost += 0.5 * lam_ref * th[static_cast<std::size_t>(q)] * th[static_cast<std::size_t>(q)];
+    cost += 0.5 * lamh_ref * th[kScale] * th[kScale];
+    if (cost > best_cost) {  // the last step went uphill: halve it
+      if (++halvings > 6) {
+        th = best;
+        break;
+      }
+      for (int q = 0; q < kParams; ++q) th[static_cast<std::size_t>(q)] = best[static_cast<std::size_t>(q)] + 0.5 * (th[static_cast<std::size_t>(q)] - best[static_cast<std::size_t>(q)]);
+      continue;
+    }
+    best = th;
+    best_cost = cost;
+    halvings = 0;
     H.setZero();
     g.setZero();
     double wr2 = 0.0, wsum = 0.0;
@@ -268,6 +308,9 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
       H(q, q) += lam;
       g[q] += lam * th[static_cast<std::size_t>(q)];
     }
+    const double lam_h = s2 / (p_.height_change_prior * p_.height_change_prior);
+    H(kScale, kScale) += lam_h;
+    g[kScale] += lam_h * th[kScale];
     const Eigen::LDLT<Eigen::Matrix<double, kParams, kParams>> ldlt(H);
     if (ldlt.info() != Eigen::Success || !(H.diagonal().minCoeff() > 0)) return false;
     const Eigen::Matrix<double, kParams, 1> d = ldlt.solve(-g);
@@ -304,6 +347,7 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   last_.roll_rad = th[kRoll];
   last_.key_pitch_rad = th[kKeyPitch];
   last_.key_roll_rad = th[kKeyRoll];
+  last_.height_ratio = 1.0 + th[kScale];
   last_.gain = 1.0 + th[kGain];
   last_.bias_dn = th[kBias];
   last_.residual_dn = std::sqrt(sigma2_);
@@ -311,7 +355,8 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
     last_.status = used_ < p_.min_points ? VoStatus::kTooFewPoints : VoStatus::kNoTexture;
     return last_;
   }
-  const Pose2 a{th[kX], th[kY], wrap_angle(th[kYaw])};
+  // The translation is in the current camera's ground units; the keyframe's are the metric ones.
+  const Pose2 a{th[kX] / last_.height_ratio, th[kY] / last_.height_ratio, wrap_angle(th[kYaw])};
   const Pose2 m = inverse(a);
   // Covariance of (x, y, yaw) of the motion: marginal of the fit, through the inverse.
   const Eigen::Matrix<double, kParams, kParams> cov = sigma2_ * info_.inverse() * p_.covariance_inflation;

@@ -84,12 +84,13 @@ void GroundParallax::promote() {
   has_key_ = true;
 }
 
-bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct) {
+bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct,
+                             double height_ratio) {
   const cv::Mat &key = key_, &key_ok = key_ok_, &cur = cur_, &cur_ok = cur_ok_;
   const double base = std::hypot(m.x, m.y);
   for (cv::Mat* q : {&z_, &x_, &y_}) fill(*q, kNaNf);
   fill(conf_, 0.0f);
-  if (!has_key_ || !(base >= p_.min_baseline_m) || !m.finite()) return false;
+  if (!has_key_ || !(base >= p_.min_baseline_m) || !m.finite() || !(height_ratio > 0.5 && height_ratio < 2.0)) return false;
   const double bx = m.x / base, by = m.y / base;
   const Pose2 a = inverse(m);  // keyframe ground coordinates -> current
   const double ca = std::cos(a.yaw), sa = std::sin(a.yaw);
@@ -123,7 +124,8 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
         }
         const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
         const double px = pc.x + d * bx, py = pc.y + d * by;
-        const cv::Point2d q = nominal(ca * px - sa * py + a.x, sa * px + ca * py + a.y, ct);
+        // The current camera's rectification scales metres by height_ratio (its height differs).
+        const cv::Point2d q = nominal(height_ratio * (ca * px - sa * py + a.x), height_ratio * (sa * px + ca * py + a.y), ct);
         const cv::Point2d cell = grid_.cell(q.x, q.y);
         const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
         if (i0 < 0 || j0 < 0 || i0 + 1 >= R || j0 + 1 >= C || !cur_ok.at<uchar>(i0, j0) || !cur_ok.at<uchar>(i0 + 1, j0) ||

@@ -122,14 +122,15 @@ void PlaneSweep::promote() {
   has_key_ = true;
 }
 
-bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct) {
+bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct, double height_ratio) {
   fill(z_, kNaNf);
   fill(x_, kNaNf);
   fill(y_, kNaNf);
   fill(conf_, 0.0f);
   samples_ = 0;
   const double base = std::hypot(m.x, m.y);
-  if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias))
+  if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias) ||
+      !(height_ratio > 0.5 && height_ratio < 2.0))
     return false;
   const int H = key_.rows, W = key_.cols;
   const double h = h_;
@@ -139,10 +140,10 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   const double cy = std::cos(m.yaw), sy = std::sin(m.yaw);
   auto to_cur = [&](double x, double y) { return cv::Vec2d(cy * x + sy * y, -sy * x + cy * y); };  // R(-yaw)
   // A keyframe point P(w) = (w g, h (1 - w)) (g = the pixel's ground point, z = h (1 - w)) is seen
-  // by the current camera at o(w) = o0 + w o1 (camera coordinates): o0 = Rc^T (R(-yaw)(-t), 0),
-  // o1 = Rc^T (R(-yaw) g, -h).
+  // by the current camera (height h / height_ratio) at o(w) = o0 + w o1 (camera coordinates):
+  // o0 = Rc^T (R(-yaw)(-t), h - h / height_ratio), o1 = Rc^T (R(-yaw) g, -h).
   const cv::Vec2d t0 = to_cur(-m.x, -m.y);
-  const cv::Vec3d o0 = rc_t * cv::Vec3d(t0[0], t0[1], 0.0);
+  const cv::Vec3d o0 = rc_t * cv::Vec3d(t0[0], t0[1], h - h / height_ratio);
   const double w_lo = 1.0 - p_.max_height_m / h, w_hi = 1.0 - p_.min_height_m / h;
   const double fx = fx_, fy = fy_, cx = cx_, ccy = cy_;
   const double r2min = p_.min_range_m * p_.min_range_m, r2max = p_.max_range_m * p_.max_range_m;

@@ -44,6 +44,7 @@ struct GroundVoParams {
   double covariance_inflation = 8.0;  ///< x the Gauss-Newton covariance (neighbouring cells are correlated)
   double scale_uncertainty = 0.05;    ///< std of the motion's scale beyond the fit (height / tilt model error)
   double attitude_prior_rad = 0.015;  ///< rad, std of a camera's tilt against the ground around the mount
+  double height_change_prior = 0.01;  ///< std of the ratio of the two cameras' heights above the ground, minus 1
   /// Throws FieldError("mapping.vo", field, ...) naming the bad field.
   void validate() const;
 };
@@ -62,6 +63,7 @@ struct VoMeasurement {
   double residual_dn = 0.0;            ///< robust residual standard deviation (grey levels)
   double gain = 1.0, bias_dn = 0.0;    ///< brightness change current = gain * keyframe + bias
   double pitch_rad = 0.0, roll_rad = 0.0;  ///< the current camera's tilt against the ground, beyond the mount
+  double height_ratio = 1.0;  ///< keyframe camera's height above the ground / the current camera's
   double key_pitch_rad = 0.0, key_roll_rad = 0.0;  ///< the keyframe camera's, estimated in the same fit
 };
 
@@ -107,7 +109,7 @@ class GroundVisualOdometry {
   // One level of Gauss-Newton; returns false when the normal equations are singular.
     // Unknowns: the planar transform taking keyframe ground points into the current frame, both
   // cameras' tilts against the ground (pitch, roll beyond the mount) and the brightness change.
-  enum Param { kX, kY, kYaw, kKeyPitch, kKeyRoll, kPitch, kRoll, kGain, kBias, kParams };
+  enum Param { kX, kY, kYaw, kKeyPitch, kKeyRoll, kPitch, kRoll, kGain, kBias, kScale, kParams };
   using Params = std::array<double, kParams>;
   bool align_level(int level, Params& theta, bool final_level);
 

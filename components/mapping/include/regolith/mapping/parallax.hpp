@@ -55,10 +55,11 @@ class GroundParallax {
   /// in the keyframe's foot frame (the VO pose);
   /// gain, bias: current = gain * key + bias; key_tilt / cur_tilt: (pitch, roll) of each camera
   /// against the ground beyond the mount (rad; the VO fit's), whose distortion of the
-  /// rectification is undone. Returns false (nothing computed) when the baseline is shorter than
-  /// min_baseline_m.
+  /// rectification is undone; height_ratio: the keyframe camera's height above the ground / the
+  /// current camera's (the VO fit's). Returns false (nothing computed) when the baseline is
+  /// shorter than min_baseline_m.
   bool compute(const Pose2& cur_in_key, double gain, double bias, const cv::Vec2d& key_tilt = {},
-               const cv::Vec2d& cur_tilt = {});
+               const cv::Vec2d& cur_tilt = {}, double height_ratio = 1.0);
   const direct_depth::RectifiedGrid& grid() const { return grid_; }
   /// The current frame's rectified image (CV_32F) and the cells the camera sees (CV_8U).
   const cv::Mat& current() const { return cur_; }

@@ -58,10 +58,12 @@ class PlaneSweep {
 
   /// Heights of the keyframe's pixels from the current frame. cur_in_key: the current camera
   /// foot in the keyframe's foot frame; gain, bias: current = gain * key + bias; key_tilt,
-  /// cur_tilt: (pitch, roll) of each camera against the ground beyond the mount (rad).
-  /// Returns false (nothing computed) when the baseline is shorter than min_baseline_m.
+  /// cur_tilt: (pitch, roll) of each camera against the ground beyond the mount (rad);
+  /// height_ratio: the keyframe camera's height above the ground / the current camera's (the VO
+  /// fit's; the keyframe's is the mount height). Returns false (nothing computed) when the
+  /// baseline is shorter than min_baseline_m.
   bool compute(const Pose2& cur_in_key, double gain, double bias, const cv::Vec2d& key_tilt = {},
-               const cv::Vec2d& cur_tilt = {});
+               const cv::Vec2d& cur_tilt = {}, double height_ratio = 1.0);
 
   /// Per keyframe pixel (CV_32F, working size: camera size / scale()): height above the ground (m, NaN unknown), ground
   /// position in the keyframe's foot frame (m) and confidence (0..1).
