@@ -71,7 +71,9 @@ struct DriveMapperParams {
                                       ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
   bool fuse_shadows = false;          ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: more false rocks than found on the dev drives
   bool fuse_sightings = true;         ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
-  bool fuse_shading = false;          ///< heights from ground-rectified SfS (weak from a grazing view)
+  bool fuse_shading = true;           ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
+                                      ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
+                                      ///< leaves it off for its time budget)
   double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
   static traversability::TraversabilityParams default_terrain() {
     traversability::TraversabilityParams t;
