@@ -689,15 +689,19 @@ TEST(DriveMapper, AStandingRoverHasNoParallaxButStillSightsRocks) {
   Rig rig(14, 15);
   DriveMapper dm(rig.model, CameraMount{}, rig.sun.vector(), DriveMapperParams{}, {1.5, 0});
   const cv::Mat f = rig.frame(Pose2{});
+  int most = 0;
   for (int k = 0; k < 5; ++k) {
     const FrameReport& r = dm.add_frame(f, Pose2{}, static_cast<double>(k));
     EXPECT_EQ(r.vo, k == 0 ? VoStatus::kNoKeyframe : VoStatus::kOk) << k;
     EXPECT_GT(r.rock_sightings, 0) << k;
+    most = std::max(most, r.rock_sightings);
   }
   EXPECT_EQ(dm.counters().parallax_frames, 0);
-  EXPECT_GT(dm.counters().rock_sightings, 0);
-  // The same rocks in every frame: each continues its track (one track per rock).
-  EXPECT_EQ(5 * dm.counters().rock_tracks, dm.counters().rock_sightings);
+  // The same rocks in every frame: each continues its track (one track per rock), and a rock is
+  // missed in at most one frame (a rock at the edge of the height threshold may drop out when
+  // the filtered tilt moves by rounding: on arm64 one of ten sightings did).
+  EXPECT_EQ(dm.counters().rock_tracks, most);
+  EXPECT_GE(dm.counters().rock_sightings, 4 * most);
   EXPECT_TRUE(dm.pose().finite());
   EXPECT_NEAR(dm.pose().x, 0.0, 0.01);
 }
