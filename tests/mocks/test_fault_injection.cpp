@@ -110,6 +110,14 @@ TEST(FaultCamera, DisconnectReconnectCountersAndStates) {
     }
   }
   EXPECT_EQ(cam->stats().frames, 25u);
+  // Stopped, the device keeps what happened while it ran (the final summary reads it after the
+  // stop): an hour later the counters are those of its stop.
+  cam->stop();
+  fx.clock.set(fx.clock.now() + 3600 * kNsPerSec);
+  EXPECT_EQ(cam->stats().state, hal::DeviceState::kStopped);
+  EXPECT_EQ(cam->stats().faults, 1u);
+  EXPECT_EQ(cam->stats().recoveries, 1u);
+  EXPECT_EQ(cam->stats().frames, 25u);
   // Repeating outages: up 10, down 5, ... -> after 4 full cycles + 12 frames: 5 faults, 4 recoveries.
   auto rep = fx.camera(camera_yaml(fx, "disconnect_after: 10\nreconnect_after: 5\nrepeat: true\n"));
   rep->start();
@@ -240,6 +248,15 @@ TEST(FaultEncoders, DisconnectReconnect) {
   double a = 0;
   ASSERT_TRUE(enc->angle_at(0, t0 + 95 * kSample, a));
   EXPECT_NEAR(a, 0.95, 1e-9);
+  // Stopped: the samples delivered and the outage stay counted (they read 0 before).
+  const auto running = enc->stats();
+  EXPECT_GE(running.samples, 99u);
+  enc->stop();
+  fx.clock.set(fx.clock.now() + 3600 * kNsPerSec);
+  const auto stopped = enc->stats();
+  EXPECT_EQ(stopped.state, hal::DeviceState::kStopped);
+  EXPECT_EQ(stopped.samples, running.samples);
+  EXPECT_EQ(stopped.faults, 1u);
 }
 
 TEST(FaultEncoders, DelayFreezeAndCorruption) {

@@ -91,16 +91,15 @@ std::int64_t PreloadedCamera::frame_index(TimeNs rel) const {
 
 void PreloadedCamera::start() {
   published_.store(-1, std::memory_order_release);
-  start_.store(clock_->now(), std::memory_order_release);
-  started_.store(true, std::memory_order_release);
+  run_.begin(clock_->now());
 }
 
-void PreloadedCamera::stop() { started_.store(false, std::memory_order_release); }
+void PreloadedCamera::stop() { run_.end(clock_->now()); }
 
 bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
   out.reset();
-  if (!started_.load(std::memory_order_acquire)) return false;
-  const TimeNs start = start_.load(std::memory_order_acquire);
+  if (!run_.running()) return false;
+  const TimeNs start = run_.start();
   const std::int64_t k = frame_index(now - start);
   if (k < 0) return false;
   const auto n = static_cast<std::int64_t>(images_.size());
@@ -132,7 +131,7 @@ hal::CameraStats PreloadedCamera::stats() const {
   const std::int64_t k = published_.load(std::memory_order_acquire);
   s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
   s.dropped = write_failures_.load(std::memory_order_relaxed);
-  s.state = started_.load(std::memory_order_acquire) ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+  s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
   s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
   return s;
 }
@@ -143,14 +142,13 @@ LazyEncoders::LazyEncoders(const hal::DeviceContext& ctx, std::vector<std::strin
     : id_(ctx.id), wheels_(std::move(wheels)), clock_(clock_of(ctx)), max_extrapolation_(max_extrapolation) {}
 
 void LazyEncoders::start() {
-  start_.store(clock_->now(), std::memory_order_release);
-  started_.store(true, std::memory_order_release);
+  run_.begin(clock_->now());
 }
 
-void LazyEncoders::stop() { started_.store(false, std::memory_order_release); }
+void LazyEncoders::stop() { run_.end(clock_->now()); }
 
 bool LazyEncoders::latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const {
-  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size()) return false;
+  if (!run_.running() || wheel >= wheels_.size()) return false;
   const TimeNs start = start_time();
   const std::int64_t g = index_at(wheel, now - start);
   if (g < 0) return false;
@@ -160,7 +158,7 @@ bool LazyEncoders::latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) 
 }
 
 bool LazyEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) const {
-  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size()) return false;
+  if (!run_.running() || wheel >= wheels_.size()) return false;
   const TimeNs start = start_time();
   const TimeNs rel = t - start;
   const std::int64_t newest = index_at(wheel, clock_->now() - start);
@@ -189,7 +187,7 @@ bool LazyEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) const {
 
 std::size_t LazyEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
                                         std::span<hal::AngleSample> out) const {
-  if (!started_.load(std::memory_order_acquire) || wheel >= wheels_.size() || out.empty()) return 0;
+  if (!run_.running() || wheel >= wheels_.size() || out.empty()) return 0;
   const TimeNs start = start_time();
   const std::int64_t last = index_at(wheel, now - start);
   if (last < 0) return 0;
@@ -208,9 +206,9 @@ std::size_t LazyEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs 
 hal::EncoderStats LazyEncoders::stats() const {
   hal::EncoderStats s;
   s.rejected = rejected_;
-  if (!started_.load(std::memory_order_acquire)) return s;
-  s.state = hal::DeviceState::kStreaming;
-  const TimeNs rel = clock_->now() - start_time();
+  TimeNs rel = 0;
+  if (!run_.counted(clock_->now(), rel)) return s;
+  s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
   for (std::size_t w = 0; w < wheels_.size(); ++w) s.samples += static_cast<std::uint64_t>(index_at(w, rel) + 1);
   return s;
 }

@@ -18,6 +18,39 @@
 
 namespace regolith::mocks::detail {
 
+/// When a mock device ran, on its clock: begin() at start(), end() at stop(). A scripted device's
+/// counters are what it delivered up to now while it runs and up to its stop afterwards, so a
+/// stopped device keeps its totals (frames, samples, faults and recoveries), as a hardware
+/// backend's counters do; the final summary reads them after every device stopped.
+class RunSpan {
+ public:
+  void begin(TimeNs now) {
+    start_.store(now, std::memory_order_release);
+    stop_.store(now, std::memory_order_release);
+    ran_.store(true, std::memory_order_release);
+    running_.store(true, std::memory_order_release);
+  }
+  void end(TimeNs now) {  // from the thread that starts and stops the device
+    if (!running()) return;
+    stop_.store(now, std::memory_order_release);  // before running_: counted() never sees a stale stop
+    running_.store(false, std::memory_order_release);
+  }
+  bool running() const { return running_.load(std::memory_order_acquire); }
+  TimeNs start() const { return start_.load(std::memory_order_acquire); }
+  /// Time since the start up to which the counters count: `now` while running, the stop after
+  /// it; false before the first start.
+  bool counted(TimeNs now, TimeNs& rel) const {
+    if (!ran_.load(std::memory_order_acquire)) return false;
+    rel = (running() ? now : stop_.load(std::memory_order_acquire)) - start();
+    return true;
+  }
+
+ private:
+  std::atomic<bool> running_{false}, ran_{false};
+  std::atomic<TimeNs> start_{0}, stop_{0};
+};
+
+
 // ---- deterministic pseudo-randomness (stateless: a pure function of its inputs) ---------------
 
 /// SplitMix64 finaliser: a good 64-bit mixing function.
@@ -122,8 +155,7 @@ class PreloadedCamera : public hal::Camera {
   bool loop_ = true;
   TimeGrid grid_;
   std::unique_ptr<hal::FramePool> pool_;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
   std::atomic<std::int64_t> published_{-1};
   std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
   std::atomic<std::uint64_t> write_failures_{0};
@@ -154,7 +186,7 @@ class LazyEncoders : public hal::WheelEncoders {
   /// Sample number g of `wheel` (stamp relative to the start).
   virtual hal::AngleSample sample(std::size_t wheel, std::int64_t g) const = 0;
 
-  TimeNs start_time() const { return start_.load(std::memory_order_acquire); }
+  TimeNs start_time() const { return run_.start(); }
   std::uint64_t rejected_ = 0;  ///< set at construction (lines / frames that could not be decoded)
 
  private:
@@ -162,8 +194,7 @@ class LazyEncoders : public hal::WheelEncoders {
   std::vector<std::string> wheels_;
   Clock* clock_ = nullptr;
   TimeNs max_extrapolation_ = 0;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
 };
 
 /// Read `max_extrapolation_ms` (shared by the encoder backends).

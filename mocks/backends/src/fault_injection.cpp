@@ -110,18 +110,17 @@ class FaultCamera final : public hal::Camera {
     corrupt_.store(0);
     published_epoch_.store(-1);
     frozen_valid_ = false;
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
   void stop() override {
-    started_.store(false, std::memory_order_release);
+    run_.end(clock_->now());
     inner_->stop();
   }
 
   bool latest(TimeNs now, hal::FrameLease& out) override {
     out.reset();
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs start = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs start = run_.start();
     const FaultSchedule::At st = sched_.at(now - start);
     if (st.down) return false;
     hal::FrameLease in;
@@ -151,11 +150,12 @@ class FaultCamera final : public hal::Camera {
     s.faults = in.faults;
     s.recoveries = in.recoveries;
     s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
-    if (!started_.load(std::memory_order_acquire)) return s;
-    const FaultSchedule::At st = sched_.at(clock_->now() - start_.load(std::memory_order_acquire));
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return s;
+    const FaultSchedule::At st = sched_.at(rel);
     s.faults += st.faults;
     s.recoveries += st.recoveries;
-    s.state = st.down ? hal::DeviceState::kFaulted : in.state;
+    s.state = run_.running() && st.down ? hal::DeviceState::kFaulted : in.state;
     return s;
   }
 
@@ -225,8 +225,7 @@ class FaultCamera final : public hal::Camera {
   std::unique_ptr<hal::FramePool> pool_;
   cv::Mat frozen_;
   bool frozen_valid_ = false;  // written under writing_
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
   std::atomic<std::int64_t> last_seen_{-1};
   std::atomic<std::int64_t> published_epoch_{-1};  // outage count when the served frame was made
   std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
@@ -251,16 +250,15 @@ class FaultEncoders final : public hal::WheelEncoders {
   const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
   void start() override {
     inner_->start();
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
   void stop() override {
-    started_.store(false, std::memory_order_release);
+    run_.end(clock_->now());
     inner_->stop();
   }
 
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
+    if (!run_.running()) return false;
     if (sched_.at(now - start_time()).down) return false;
     return visible(wheel, now - cfg_.delay, out);
   }
@@ -287,15 +285,16 @@ class FaultEncoders final : public hal::WheelEncoders {
 
   hal::EncoderStats stats() const override {
     hal::EncoderStats s = inner_->stats();
-    if (!started_.load(std::memory_order_acquire)) return s;
-    const FaultSchedule::At st = sched_.at(clock_->now() - start_time());
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return s;
+    const FaultSchedule::At st = sched_.at(rel);
     s.faults += st.faults;
-    if (st.down) s.state = hal::DeviceState::kFaulted;
+    if (run_.running() && st.down) s.state = hal::DeviceState::kFaulted;
     return s;
   }
 
  private:
-  TimeNs start_time() const { return start_.load(std::memory_order_acquire); }
+  TimeNs start_time() const { return run_.start(); }
   bool frozen(TimeNs stamp) const {
     return cfg_.freeze_after > 0 && stamp - start_time() >= sched_.grid().offset(cfg_.freeze_after);
   }
@@ -338,8 +337,7 @@ class FaultEncoders final : public hal::WheelEncoders {
   FaultConfig cfg_;
   FaultSchedule sched_;
   TimeNs max_extrapolation_ = 0;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
 };
 
 }  // namespace

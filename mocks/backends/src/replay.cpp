@@ -292,22 +292,21 @@ class ReplayImu final : public hal::Imu {
 
   const std::string& id() const override { return id_; }
   void start() override {
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
-  void stop() override { started_.store(false, std::memory_order_release); }
+  void stop() override { run_.end(clock_->now()); }
 
   bool latest(TimeNs now, hal::ImuSample& out) const override {
     const std::int64_t k = newest(now);
     if (k < 0) return false;
     out = imu_.samples[static_cast<std::size_t>(k)];
-    out.stamp += start_.load(std::memory_order_acquire);
+    out.stamp += run_.start();
     return true;
   }
 
   bool attitude_at(TimeNs t, Attitude& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs rel = t - start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs rel = t - run_.start();
     const auto& q = imu_.queries;
     const auto it = std::lower_bound(q.begin(), q.end(), rel, [](const auto& a, TimeNs v) { return a.first < v; });
     if (it != q.end() && it->first == rel) {
@@ -334,7 +333,7 @@ class ReplayImu final : public hal::Imu {
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
     const std::int64_t last = newest(now);
     std::size_t n = 0;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    const TimeNs t0 = run_.start();
     for (std::int64_t k = 0; k <= last && n < out.size(); ++k) {
       hal::ImuSample s = imu_.samples[static_cast<std::size_t>(k)];
       s.stamp += t0;
@@ -345,16 +344,16 @@ class ReplayImu final : public hal::Imu {
 
   hal::DeviceCounters counters() const override {
     hal::DeviceCounters c;
-    if (!started_.load(std::memory_order_acquire)) return c;
-    c.state = hal::DeviceState::kStreaming;
-    c.delivered = static_cast<std::uint64_t>(newest(clock_->now()) + 1);
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return c;
+    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    c.delivered = static_cast<std::uint64_t>(newest_at(rel) + 1);
     return c;
   }
 
  private:
-  std::int64_t newest(TimeNs now) const {
-    if (!started_.load(std::memory_order_acquire)) return -1;
-    const TimeNs rel = now - start_.load(std::memory_order_acquire);
+  std::int64_t newest(TimeNs now) const { return run_.running() ? newest_at(now - run_.start()) : -1; }
+  std::int64_t newest_at(TimeNs rel) const {
     const auto& s = imu_.samples;
     const auto it = std::upper_bound(s.begin(), s.end(), rel, [](TimeNs v, const auto& a) { return v < a.stamp; });
     return static_cast<std::int64_t>(it - s.begin()) - 1;
@@ -363,8 +362,7 @@ class ReplayImu final : public hal::Imu {
   Clock* clock_;
   std::shared_ptr<const Recording> rec_;
   const RecordedImu& imu_;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
 };
 
 }  // namespace

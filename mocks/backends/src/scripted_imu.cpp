@@ -39,14 +39,13 @@ class ScriptedImu final : public hal::Imu {
 
   const std::string& id() const override { return id_; }
   void start() override {
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
-  void stop() override { started_.store(false, std::memory_order_release); }
+  void stop() override { run_.end(clock_->now()); }
 
   bool latest(TimeNs now, hal::ImuSample& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs t0 = run_.start();
     const std::int64_t k = grid_.index(now - t0);
     if (k < 0) return false;
     const TimeNs rel = grid_.offset(k);
@@ -61,8 +60,8 @@ class ScriptedImu final : public hal::Imu {
   }
 
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    if (!started_.load(std::memory_order_acquire) || out.empty()) return 0;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running() || out.empty()) return 0;
+    const TimeNs t0 = run_.start();
     const std::int64_t last = grid_.index(now - t0);
     const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
     const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
@@ -73,8 +72,8 @@ class ScriptedImu final : public hal::Imu {
     return n;
   }
   bool attitude_at(TimeNs t, Attitude& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs t0 = run_.start();
     if (t < t0) return false;
     out = script_.at(to_seconds(t - t0));
     return true;
@@ -82,9 +81,10 @@ class ScriptedImu final : public hal::Imu {
 
   hal::DeviceCounters counters() const override {
     hal::DeviceCounters c;
-    if (!started_.load(std::memory_order_acquire)) return c;
-    c.state = hal::DeviceState::kStreaming;
-    const std::int64_t k = grid_.index(clock_->now() - start_.load(std::memory_order_acquire));
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return c;
+    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    const std::int64_t k = grid_.index(rel);
     c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
     return c;
   }
@@ -94,8 +94,7 @@ class ScriptedImu final : public hal::Imu {
   Clock* clock_;
   AttitudeScript script_;
   detail::TimeGrid grid_;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  detail::RunSpan run_;
 };
 
 }  // namespace

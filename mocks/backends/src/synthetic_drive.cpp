@@ -193,14 +193,13 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   hal::CameraFormat format() const override { return spec_.fmt; }
   void start() override {
     published_.store(-1, std::memory_order_release);
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
-  void stop() override { started_.store(false, std::memory_order_release); }
+  void stop() override { run_.end(clock_->now()); }
   bool latest(TimeNs now, hal::FrameLease& out) override {
     out.reset();
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs start = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs start = run_.start();
     std::int64_t k = grid_.index(now - start);
     if (k < 0) return false;
     k = std::min<std::int64_t>(k, spec_.frames - 1);  // after the drive the last view stays
@@ -235,7 +234,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
     const std::int64_t k = published_.load(std::memory_order_acquire);
     s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
     s.dropped = write_failures_.load(std::memory_order_relaxed);
-    s.state = started_.load(std::memory_order_acquire) ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
     s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
     return s;
   }
@@ -243,7 +242,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   // DriveTruth
   const ts::DrivePath& drive_path() const override { return spec_.path; }
   const ts::Terrain* drive_terrain() const override { return terrain_.get(); }
-  TimeNs drive_start_time() const override { return start_.load(std::memory_order_acquire); }
+  TimeNs drive_start_time() const override { return run_.start(); }
 
   int frames_rendered() const { return rendered_.load(std::memory_order_acquire); }
   std::uint64_t late_polls() const { return late_.load(std::memory_order_relaxed); }
@@ -302,8 +301,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   std::atomic<int> rendered_{0};
   std::atomic<bool> quit_{false};
   std::thread worker_;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
   std::atomic<std::int64_t> published_{-1};
   std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
   std::atomic<std::uint64_t> write_failures_{0};
@@ -358,13 +356,12 @@ class DriveImu final : public hal::Imu, public DriveTruth {
 
   const std::string& id() const override { return id_; }
   void start() override {
-    start_.store(clock_->now(), std::memory_order_release);
-    started_.store(true, std::memory_order_release);
+    run_.begin(clock_->now());
   }
-  void stop() override { started_.store(false, std::memory_order_release); }
+  void stop() override { run_.end(clock_->now()); }
   bool latest(TimeNs now, hal::ImuSample& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs t0 = run_.start();
     const std::int64_t k = grid_.index(now - t0);
     if (k < 0) return false;
     const TimeNs rel = grid_.offset(k);
@@ -378,8 +375,8 @@ class DriveImu final : public hal::Imu, public DriveTruth {
     return true;
   }
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    if (!started_.load(std::memory_order_acquire) || out.empty()) return 0;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running() || out.empty()) return 0;
+    const TimeNs t0 = run_.start();
     const std::int64_t last = grid_.index(now - t0);
     const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
     const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
@@ -390,24 +387,25 @@ class DriveImu final : public hal::Imu, public DriveTruth {
     return n;
   }
   bool attitude_at(TimeNs t, Attitude& out) const override {
-    if (!started_.load(std::memory_order_acquire)) return false;
-    const TimeNs t0 = start_.load(std::memory_order_acquire);
+    if (!run_.running()) return false;
+    const TimeNs t0 = run_.start();
     if (t < t0) return false;
     out = attitude(to_seconds(t - t0));
     return true;
   }
   hal::DeviceCounters counters() const override {
     hal::DeviceCounters c;
-    if (!started_.load(std::memory_order_acquire)) return c;
-    c.state = hal::DeviceState::kStreaming;
-    const std::int64_t k = grid_.index(clock_->now() - start_.load(std::memory_order_acquire));
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return c;
+    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    const std::int64_t k = grid_.index(rel);
     c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
     return c;
   }
 
   const ts::DrivePath& drive_path() const override { return spec_.path; }
   const ts::Terrain* drive_terrain() const override { return nullptr; }
-  TimeNs drive_start_time() const override { return start_.load(std::memory_order_acquire); }
+  TimeNs drive_start_time() const override { return run_.start(); }
 
  private:
   // A level body; heading in the local-level frame (x = the heading at start).
@@ -416,8 +414,7 @@ class DriveImu final : public hal::Imu, public DriveTruth {
   Clock* clock_;
   DriveSpec spec_;
   TimeGrid grid_;
-  std::atomic<bool> started_{false};
-  std::atomic<TimeNs> start_{0};
+  RunSpan run_;
 };
 
 }  // namespace
