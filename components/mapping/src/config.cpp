@@ -12,6 +12,10 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
   mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
                                   {.doc = "rocks sighted in each frame, followed across frames (far rocks)"});
+  mp.shading_weight = p.get<double>(
+      "shading_weight", mp.shading_weight,
+      {.min = 0.0, .max = 10.0,
+       .doc = "weight of the ground-rectified SfS heights against parallax (x the SfS grid's confidence)"});
   mp.tracks.enabled = p.get<bool>(
       "track_rocks", mp.tracks.enabled,
       {.doc = "follow sighted rocks across frames and triangulate their ground contact (false: each sighting alone, "

@@ -74,7 +74,7 @@ struct DriveMapperParams {
   bool fuse_shading = true;           ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
                                       ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
                                       ///< leaves it off for its time budget)
-  double shading_weight = 0.2;        ///< x the SfS grid's confidence when fused
+  double shading_weight = 0.1;        ///< x the SfS grid's confidence when fused (components/mapping/README.md: the sweep)
   static traversability::TraversabilityParams default_terrain() {
     traversability::TraversabilityParams t;
     t.center_x_m = 2.75;
