@@ -196,6 +196,12 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
   Params best = th;
   double best_cost = std::numeric_limits<double>::infinity(), cut_ref = 0.0, lam_ref = 0.0, lamh_ref = 0.0;
   int halvings = 0;
+  // Back to half way between the best point and the rejected step; false after 6 halvings.
+  auto halve = [&] {
+    if (++halvings > 6) return false;
+    for (std::size_t q = 0; q < th.size(); ++q) th[q] = best[q] + 0.5 * (th[q] - best[q]);
+    return true;
+  };
   for (int it = 0; it < p_.iterations; ++it) {
     const double c = std::cos(th[kYaw]), s = std::sin(th[kYaw]);
     int n = 0;
@@ -246,6 +252,11 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
       ++n;
     }
     if (n < p_.min_points / (1 << (2 * level)) + 5) {
+      if (it > 0) {  // the last step moved the ground out of view: back towards the best point
+        if (halve()) continue;
+        th = best;
+        break;
+      }
       if (final_level) used_ = n, inl_ = 0;
       return false;
     }
@@ -271,13 +282,10 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
     }
     for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll}) cost += 0.5 * lam_ref * th[static_cast<std::size_t>(q)] * th[static_cast<std::size_t>(q)];
     cost += 0.5 * lamh_ref * th[kScale] * th[kScale];
-    if (cost > best_cost) {  // the last step went uphill: halve it
-      if (++halvings > 6) {
-        th = best;
-        break;
-      }
-      for (int q = 0; q < kParams; ++q) th[static_cast<std::size_t>(q)] = best[static_cast<std::size_t>(q)] + 0.5 * (th[static_cast<std::size_t>(q)] - best[static_cast<std::size_t>(q)]);
-      continue;
+    if (cost > best_cost) {  // the last step went uphill
+      if (halve()) continue;
+      th = best;
+      break;
     }
     best = th;
     best_cost = cost;
