@@ -131,7 +131,7 @@ hal::CameraStats PreloadedCamera::stats() const {
   const std::int64_t k = published_.load(std::memory_order_acquire);
   s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
   s.dropped = write_failures_.load(std::memory_order_relaxed);
-  s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+  s.state = run_.state();
   s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
   return s;
 }
@@ -208,7 +208,7 @@ hal::EncoderStats LazyEncoders::stats() const {
   s.rejected = rejected_;
   TimeNs rel = 0;
   if (!run_.counted(clock_->now(), rel)) return s;
-  s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+  s.state = run_.state();
   for (std::size_t w = 0; w < wheels_.size(); ++w) s.samples += static_cast<std::uint64_t>(index_at(w, rel) + 1);
   return s;
 }

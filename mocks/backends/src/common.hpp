@@ -36,6 +36,8 @@ class RunSpan {
     running_.store(false, std::memory_order_release);
   }
   bool running() const { return running_.load(std::memory_order_acquire); }
+  /// Streaming while it runs, stopped otherwise (what a scripted device reports).
+  hal::DeviceState state() const { return running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped; }
   TimeNs start() const { return start_.load(std::memory_order_acquire); }
   /// Time since the start up to which the counters count: `now` while running, the stop after
   /// it; false before the first start.

@@ -346,7 +346,7 @@ class ReplayImu final : public hal::Imu {
     hal::DeviceCounters c;
     TimeNs rel = 0;
     if (!run_.counted(clock_->now(), rel)) return c;
-    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    c.state = run_.state();
     c.delivered = static_cast<std::uint64_t>(newest_at(rel) + 1);
     return c;
   }

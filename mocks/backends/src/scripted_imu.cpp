@@ -83,7 +83,7 @@ class ScriptedImu final : public hal::Imu {
     hal::DeviceCounters c;
     TimeNs rel = 0;
     if (!run_.counted(clock_->now(), rel)) return c;
-    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    c.state = run_.state();
     const std::int64_t k = grid_.index(rel);
     c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
     return c;

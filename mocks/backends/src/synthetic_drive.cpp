@@ -234,7 +234,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
     const std::int64_t k = published_.load(std::memory_order_acquire);
     s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
     s.dropped = write_failures_.load(std::memory_order_relaxed);
-    s.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    s.state = run_.state();
     s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
     return s;
   }
@@ -397,7 +397,7 @@ class DriveImu final : public hal::Imu, public DriveTruth {
     hal::DeviceCounters c;
     TimeNs rel = 0;
     if (!run_.counted(clock_->now(), rel)) return c;
-    c.state = run_.running() ? hal::DeviceState::kStreaming : hal::DeviceState::kStopped;
+    c.state = run_.state();
     const std::int64_t k = grid_.index(rel);
     c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
     return c;
