@@ -135,6 +135,7 @@ class RecordingCamera final : public hal::Camera {
   const std::string& id() const override { return inner_->id(); }
   void start() override { inner_->start(); }
   void stop() override { inner_->stop(); }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
   hal::CameraFormat format() const override { return inner_->format(); }
   hal::CameraStats stats() const override { return inner_->stats(); }
 
@@ -171,6 +172,7 @@ class RecordingEncoders final : public hal::WheelEncoders {
   const std::string& id() const override { return inner_->id(); }
   void start() override { inner_->start(); }
   void stop() override { inner_->stop(); }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
   hal::EncoderStats stats() const override { return inner_->stats(); }
   const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override {
@@ -199,6 +201,7 @@ class RecordingImu final : public hal::Imu {
   const std::string& id() const override { return inner_->id(); }
   void start() override { inner_->start(); }
   void stop() override { inner_->stop(); }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
   hal::DeviceCounters counters() const override { return inner_->counters(); }
   bool latest(TimeNs now, hal::ImuSample& out) const override { return inner_->latest(now, out); }
   bool attitude_at(TimeNs t, Attitude& out) const override {

@@ -7,7 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <set>
+#include <thread>
+#include <vector>
 #include <type_traits>
 
 #include "regolith/hal/plausible_encoders.hpp"
@@ -281,6 +284,30 @@ void Application::start() {
     }
   }
   if (opts_.sim_time && !dds_) executor_->set_after_cycle([this] { poll_events(); });
+  if (opts_.sim_time) {
+    // Lockstep runs as fast as the CPU allows; a device that produces its output on a thread of
+    // its own (the synthetic_drive camera renders) may not keep up. Time waits for it, as a ROS
+    // node under use_sim_time waits for the simulator's /clock, for at most 10 s of wall time
+    // per step (then it moves on and says so, once per device).
+    std::vector<hal::Device*> devices = context_->all_devices();
+    auto warned = std::make_shared<std::vector<bool>>(devices.size(), false);
+    executor_->set_before_advance([devices, warned](TimeNs t) {
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+      for (std::size_t i = 0; i < devices.size(); ++i) {
+        while (!devices[i]->ready_for(t)) {
+          if (std::chrono::steady_clock::now() > give_up) {
+            if (!(*warned)[i])
+              spdlog::warn("simulated time: device {} has not produced its output for t = {:.3f} s after 10 s of waiting; time "
+                           "moves on without it",
+                           devices[i]->id(), static_cast<double>(t) * 1e-9);
+            (*warned)[i] = true;
+            break;
+          }
+          std::this_thread::sleep_for(std::chrono::microseconds(200));
+        }
+      }
+    });
+  }
   executor_->start(view_.groups);
   started_ = true;
 }

@@ -121,6 +121,7 @@ class SimExecutor final : public Executor {
         if (next == nullptr || g->next_release() < next->next_release()) next = g;
       }
       if (next == nullptr || next->next_release() > end) break;
+      if (before_advance_) before_advance_(next->next_release());
       clock_.sleep_until(next->next_release());
       next->run_cycle(clock_);
       if (after_cycle_) after_cycle_();
@@ -130,9 +131,11 @@ class SimExecutor final : public Executor {
 
   Clock& clock() override { return clock_; }
   void set_after_cycle(std::function<void()> f) override { after_cycle_ = std::move(f); }
+  void set_before_advance(std::function<void(TimeNs)> f) override { before_advance_ = std::move(f); }
 
  private:
   std::function<void()> after_cycle_;
+  std::function<void(TimeNs)> before_advance_;
   SimClock& clock_;
   std::vector<RateGroup*> groups_;
 };

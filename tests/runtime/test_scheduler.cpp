@@ -234,3 +234,23 @@ TEST(Scheduler, RealtimeExecutorRunsAndStops) {
   EXPECT_GT(g.counters().cycles, 0u);
   EXPECT_EQ(g.counters().cycles, m.heartbeat());
 }
+
+TEST(Scheduler, SimulatedTimeAsksBeforeEveryAdvance) {
+  // The application's gate (wait for devices that lag the lockstep clock) is called with every
+  // release before the clock reaches it, in order, and never for a time already passed.
+  Rig r;
+  auto& a = r.member("a");
+  auto& s = r.member("s");
+  r.group("fast", 10 * kMs, {&a});
+  r.group("slow", 25 * kMs, {&s});
+  std::vector<TimeNs> asked;
+  bool in_order = true;
+  r.exec->set_before_advance([&](TimeNs t) {
+    in_order = in_order && r.clock.now() <= t && (asked.empty() || asked.back() <= t);
+    asked.push_back(t);
+  });
+  r.run_for(50 * kMs);
+  EXPECT_TRUE(in_order);
+  ASSERT_EQ(asked.size(), r.trace.steps.size()) << "one question per cycle";
+  for (std::size_t i = 0; i < asked.size(); ++i) EXPECT_EQ(asked[i], r.trace.steps[i].second) << i;
+}

@@ -116,6 +116,7 @@ class FaultCamera final : public hal::Camera {
     run_.end(clock_->now());
     inner_->stop();
   }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
 
   bool latest(TimeNs now, hal::FrameLease& out) override {
     out.reset();
@@ -256,6 +257,7 @@ class FaultEncoders final : public hal::WheelEncoders {
     run_.end(clock_->now());
     inner_->stop();
   }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
 
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override {
     if (!run_.running()) return false;

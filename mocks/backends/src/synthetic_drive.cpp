@@ -196,6 +196,13 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
     run_.begin(clock_->now());
   }
   void stop() override { run_.end(clock_->now()); }
+  bool ready_for(TimeNs t) const override {
+    if (!run_.running()) return true;
+    std::int64_t k = grid_.index(t - run_.start());
+    if (k < 0) return true;
+    k = std::min<std::int64_t>(k, spec_.frames - 1);
+    return rendered_.load(std::memory_order_acquire) > k;  // frames [0, rendered_) exist
+  }
   bool latest(TimeNs now, hal::FrameLease& out) override {
     out.reset();
     if (!run_.running()) return false;

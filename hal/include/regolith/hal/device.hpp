@@ -43,6 +43,15 @@ class Device {
   virtual void stop() = 0;
   /// Read from any thread.
   virtual DeviceCounters counters() const = 0;
+  /// Simulated time only: whether the device has produced what it delivers by time `t`. A mock
+  /// that renders its output on a thread of its own can fall behind a lockstep clock that runs
+  /// faster than real time; the simulated-time executor does not advance its clock to `t` before
+  /// every device is ready (Application, bounded wait). Hardware and lazy mocks: always ready.
+  /// Decorators forward it to the device they wrap.
+  virtual bool ready_for(TimeNs t) const {
+    (void)t;
+    return true;
+  }
 };
 
 /// A problem found while opening or configuring a device. `field` is the YAML key it concerns

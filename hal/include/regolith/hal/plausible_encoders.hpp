@@ -48,6 +48,7 @@ class PlausibleEncoders final : public WheelEncoders {
   const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
   void start() override { inner_->start(); }
   void stop() override { inner_->stop(); }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
   bool latest(std::size_t wheel, TimeNs now, AngleSample& out) const override;
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const override;

@@ -104,6 +104,10 @@ class Executor {
   /// Called on the executing thread after every cycle (simulated-time executor only): lets the
   /// application synchronise off-loop work, e.g. DDS delivery, with simulated time.
   virtual void set_after_cycle(std::function<void()> f) { (void)f; }
+  /// Called on the executing thread before the clock advances to the next release `t`
+  /// (simulated-time executor only): lets the application wait until the devices have produced
+  /// what they deliver by `t` (hal::Device::ready_for).
+  virtual void set_before_advance(std::function<void(TimeNs)> f) { (void)f; }
 };
 
 struct RealtimeOptions {
