@@ -113,12 +113,14 @@ namespace {
 
 // All development scenes (another renderer: berms, cast shadows, low sun): an estimate on every
 // one; per-track mean profile bias against the true profile; k and the pressure-sinkage curve of
-// the reported (k, n) over the true sinkage range. Measured 2026-11-25 with the rut template:
-// p-z 10 % mean (5-13 %), |k| 29 % mean, |n| error <= 0.24, |bias| 1.5 mm mean (0.2-2.4 mm);
-// before it (photoclinometry + shadow widths) 54 %, 107 %, -, 5.2 mm.
+// the reported (k, n) over the true sinkage range. Measured 2026-11-27 with the rut template and
+// the effective berm height 0.16 z: p-z 5.1 % mean (1-18 %), |k| 23 % mean, |n| error <= 0.26,
+// |bias| 0.50 mm mean (0.0-1.6 mm, signed mean -0.1); with berm 0.25 z (the scenes' geometric
+// berm) 12 %, 22 %, 1.5 mm (one-signed); before the template (photoclinometry + shadow widths)
+// 54 %, 107 %, -, 5.2 mm.
 TEST(SoilScene, EveryDevelopmentSceneGivesAnEstimateAndThePzCurveImproves) {
   if (!fs::exists(kTracks)) GTEST_SKIP() << kTracks << " not present";
-  double sum = 0, ksum = 0, bias_sum = 0;
+  double sum = 0, ksum = 0, bias_sum = 0, signed_bias_sum = 0;
   int n = 0, tracks = 0;
   for (const auto& entry : fs::directory_iterator(kTracks)) {
     const fs::path scene = entry.path();
@@ -161,8 +163,9 @@ TEST(SoilScene, EveryDevelopmentSceneGivesAnEstimateAndThePzCurveImproves) {
         ++m;
       }
       ASSERT_GT(m, 50) << scene;
-      EXPECT_LT(std::abs(d / m), 0.004) << scene << " track at x " << tr["x_m"];
+      EXPECT_LT(std::abs(d / m), 0.0025) << scene << " track at x " << tr["x_m"];
       bias_sum += std::abs(d / m);
+      signed_bias_sum += d / m;
       ++tracks;
     }
     std::printf("%s: p-z %.0f %%, k %+.0f %%, n %.2f (true %.2f)\n", scene.filename().c_str(), 100 * err,
@@ -172,9 +175,10 @@ TEST(SoilScene, EveryDevelopmentSceneGivesAnEstimateAndThePzCurveImproves) {
     ++n;
   }
   ASSERT_GT(n, 0);
-  EXPECT_LT(sum / n, 0.14) << "mean p-z curve error " << sum / n;
+  EXPECT_LT(sum / n, 0.08) << "mean p-z curve error " << sum / n;
   EXPECT_LT(ksum / n, 0.25) << "mean |k| error " << ksum / n;
-  EXPECT_LT(bias_sum / tracks, 0.0025) << "mean |profile bias| " << bias_sum / tracks;
+  EXPECT_LT(bias_sum / tracks, 0.0009) << "mean |profile bias| " << bias_sum / tracks;
+  EXPECT_LT(std::abs(signed_bias_sum) / tracks, 0.0006) << "mean signed profile bias " << signed_bias_sum / tracks;
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ namespace regolith::soil {
 /// The cross-section of a rut (in units of its depth z and the wheel width b).
 struct RutShape {
   double wall_slope_rad = 0.70;  ///< wall slope (~ angle of repose, 40 deg) [rad]
-  double berm_ratio = 0.25;      ///< berm crest height above the ground / z [-]
+  double berm_ratio = 0.16;      ///< berm crest height above the ground / z (effective, see README) [-]
   double berm_offset = 0.15;     ///< berm crest beyond the wall's top edge / b [-]
   double berm_half_width = 0.3;  ///< half-width of the (raised-cosine) berm / b [-]
   /// Throws std::invalid_argument naming the field.

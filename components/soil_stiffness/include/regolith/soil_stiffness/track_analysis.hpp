@@ -83,7 +83,10 @@ struct TrackAnalysisParams {
   double min_lateral_sun = 0.2;   ///< |lateral component of the sun vector| needed (cos el sin az) [-]
   bool use_shadows = true;        ///< rows whose rut holds a measurable cast shadow take its depth [-]
   double shadow_fraction = 0.35;  ///< shadow = darker than this x the flat-ground brightness [-]
-  double berm_ratio = 0.25;       ///< berm crest height above the surface / sinkage (the crest casts the shadow) [-]
+  /// Berm crest height above the surface / sinkage (the crest casts the shadow) [-]. 0.16: the
+  /// value the template fit needs to read unbiased depths on the development scenes (leave-one-
+  /// scene-out choice; their berms are 0.25 z high, which reads 1.5 mm shallow: README "Rut template").
+  double berm_ratio = 0.16;
   double wall_slope_rad = 0.70;   ///< rut wall slope (~ angle of repose, 40 deg): shadows are used only for a lower sun [rad]
   // fit
   double n_fixed = 1.0;           ///< sinkage exponent for the fixed-n fit [-]
