@@ -300,7 +300,7 @@ TEST(DdsTopics, TableLookupAndList) {
   EXPECT_EQ(rd::find_topic("tf_static")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("/clock")->ros_type, "rosgraph_msgs/msg/Clock");
   EXPECT_EQ(rd::find_topic("/rosout")->ros_type, "rcl_interfaces/msg/Log");
-  EXPECT_EQ(rd::known_topics().size(), 14u);
+  EXPECT_EQ(rd::known_topics().size(), 16u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
   for (const auto &t : rd::known_topics()) {
@@ -322,6 +322,25 @@ TEST(DdsTopics, TableLookupAndList) {
 
 // ---- JSON
 // -----------------------------------------------------------------------------------
+TEST(DdsJson, CompressedImageShowsItsFormatAndSizeNotItsBytes) {
+  EXPECT_EQ(rd::find_topic("preview/rocks/compressed")->ros_type, "sensor_msgs/msg/CompressedImage");
+  EXPECT_EQ(rd::find_topic("preview/sinkage/compressed")->cls, rd::TopicClass::kStream);
+  m::sensor_msgs::CompressedImage im{};
+  rd::reserve(im, 1000, 16, 32);
+  EXPECT_EQ(im.data._maximum, 1000u);
+  rd::copy_string(im.format, 16, "jpeg");
+  rd::copy_string(im.header.frame_id, 32, "front_optical_frame");
+  im.header.stamp = {12, 500};
+  EXPECT_TRUE(rd::set_length(im.data, 3));
+  im.data._buffer[0] = 0xFF;
+  EXPECT_FALSE(rd::set_length(im.data, 1001));  // clamped to the reserved capacity
+  const auto j = rd::to_json(im);
+  EXPECT_EQ(j["format"], "jpeg");
+  EXPECT_EQ(j["header"]["frame_id"], "front_optical_frame");
+  EXPECT_EQ(j["data"]["bytes"], 1000);
+  rd::free_contents(rd::MsgTraits<m::sensor_msgs::CompressedImage>::descriptor(), &im);
+}
+
 TEST(DdsJson, TransformsClockAndLog) {
   m::tf2_msgs::TFMessage tf{};
   rd::reserve(tf, 2, 16);

@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -209,6 +210,15 @@ class FakeRover {
       rd::reserve(s, rd::RockArrayCapacity{3, 1, 32, 32});
     });
     odom_ = make<m::nav_msgs::Odometry>(p, "odom", [](auto& s) { rd::reserve(s, 32); });
+    // a camera preview as camera_preview publishes it: a 160x120 JPEG with a red box
+    cv::Mat img(120, 160, CV_8UC3, cv::Scalar(90, 90, 90));
+    cv::rectangle(img, {60, 40}, {100, 80}, cv::Scalar(0, 0, 255), 2);
+    cv::imencode(".jpg", img, jpeg_);
+    const auto cap = static_cast<std::uint32_t>(jpeg_.size());
+    preview_ = make<m::sensor_msgs::CompressedImage>(p, "preview/rocks/compressed",
+                                                     [cap](auto& s) { rd::reserve(s, cap, 16, 32); });
+    wheel_preview_ = make<m::sensor_msgs::CompressedImage>(p, "preview/sinkage/compressed",
+                                                           [cap](auto& s) { rd::reserve(s, cap, 16, 32); });
   }
 
   void publish(int i) {
@@ -327,6 +337,16 @@ class FakeRover {
       s->twist.twist.angular.z = 0.05;
       done(odom_, "odom", s);
     }
+    for (auto* box : {&preview_, &wheel_preview_}) {
+      if (auto* s = (*box)->begin()) {
+        rd::set_time(s->header.stamp, stamp);
+        rd::copy_string(s->header.frame_id, 32, "front_optical_frame");
+        rd::copy_string(s->format, 16, "jpeg");
+        rd::set_length(s->data, jpeg_.size());
+        std::copy(jpeg_.begin(), jpeg_.end(), s->data._buffer);
+        done(*box, box == &preview_ ? "rocks_preview" : "sinkage_preview", s);
+      }
+    }
   }
 
   std::map<std::string, json> last;  // key -> to_json of its last sample
@@ -362,6 +382,8 @@ class FakeRover {
   std::shared_ptr<rd::Outbox<m::grid_map_msgs::GridMap>> map_;
   std::shared_ptr<rd::Outbox<m::regolith_msgs::RockArray>> rocks_;
   std::shared_ptr<rd::Outbox<m::nav_msgs::Odometry>> odom_;
+  std::shared_ptr<rd::Outbox<m::sensor_msgs::CompressedImage>> preview_, wheel_preview_;
+  std::vector<std::uint8_t> jpeg_;
 };
 
 /// The fake rover publishing in one participant and a DdsRelay serving the page from another.
@@ -655,7 +677,8 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
                                                      {"soil", "/" + rig.ns + "/terrain/soil"},
                                                      {"world_map", "/" + rig.ns + "/terrain/world_map"},
                                                      {"rocks", "/" + rig.ns + "/terrain/rocks"},
-                                                     {"odom", "/" + rig.ns + "/odom"}};
+                                                     {"odom", "/" + rig.ns + "/odom"},
+                                                     {"rocks_preview", "/" + rig.ns + "/preview/rocks/compressed"}};
 
   WsClient c(rig.relay.server().port(), rl::kSubprotocol);
   ASSERT_TRUE(c.ok()) << c.response();
@@ -746,6 +769,19 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   EXPECT_NE(html.find(R"(<tr class="error"><td>rock_3</td>)"), std::string::npos);
   EXPECT_NE(html.find(">front_left</td>"), std::string::npos);
   EXPECT_NE(html.find("40×30 cells of 0.10 m"), std::string::npos);
+  // both camera previews decoded and shown (the image's own size, from the JPEG; decoding is
+  // asynchronous, after the message arrived)
+  const bool shown = until(
+      [&] {
+        return browser.evaluate("['rocksPreview', 'sinkagePreview'].every((k) => "
+                                "Number(document.getElementById(k + '-image').dataset.frames ?? 0) > 0)") == true;
+      },
+      std::chrono::seconds(30));
+  EXPECT_TRUE(shown);
+  EXPECT_EQ(browser.evaluate("document.getElementById('rocksPreview-image').naturalWidth"), 160);
+  EXPECT_EQ(browser.evaluate("document.getElementById('sinkagePreview-image').hidden"), false);
+  const json info = browser.evaluate("document.getElementById('rocksPreview-info').textContent");
+  EXPECT_NE(info.dump().find("160×120 · "), std::string::npos) << info;
   EXPECT_NE(html.find(R"(<div id="problem" class="problem"></div>)"), std::string::npos) << "a decoding problem shown";
 
   // Let the sinkage plot gather a few points, then the screenshot must not be blank.

@@ -392,6 +392,7 @@ class WheelSinkageComponent final : public runtime::Component {
       s->encoder = problem;
       s->transducer_mm = truth_mm;
       s->result = r;
+      s->geometry = algo_.geometry;
       out_->commit();
     }
     if (dds_) {

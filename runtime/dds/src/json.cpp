@@ -123,6 +123,11 @@ json to_json(const msgs::sensor_msgs::Imu &m) {
           {"linear_acceleration", to_json(m.linear_acceleration)},
           {"linear_acceleration_covariance", cov(m.linear_acceleration_covariance)}};
 }
+json to_json(const msgs::sensor_msgs::CompressedImage &m) {
+  return {{"header", to_json(m.header)},
+          {"format", str(m.format)},
+          {"data", {{"bytes", m.data._length}}}};
+}
 json to_json(const msgs::sensor_msgs::JointState &m) {
   return {{"header", to_json(m.header)},
           {"name", strings(m.name)},

@@ -32,6 +32,15 @@ void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
 }
 
+void reserve(msgs::sensor_msgs::CompressedImage &m, std::uint32_t max_bytes,
+             std::size_t format_capacity, std::size_t frame_id_capacity) {
+  reserve_header(m.header, frame_id_capacity);
+  if (m.format != nullptr)
+    dds_free(m.format);
+  m.format = alloc_string(format_capacity);
+  reserve_sequence(m.data, max_bytes);
+}
+
 void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
   if (m.child_frame_id != nullptr)

@@ -21,8 +21,8 @@ template <class Msg> TopicInfo entry(std::string_view name, TopicClass cls) {
                    MsgTraits<Msg>::descriptor(), &render<Msg>};
 }
 
-const std::array<TopicInfo, 14> &table() {
-  static const std::array<TopicInfo, 14> t = {
+const std::array<TopicInfo, 16> &table() {
+  static const std::array<TopicInfo, 16> t = {
       entry<msgs::sensor_msgs::JointState>("joint_states", TopicClass::kStream),
       entry<msgs::sensor_msgs::Imu>("imu", TopicClass::kStream),
       entry<msgs::diagnostic_msgs::DiagnosticArray>("/diagnostics",
@@ -43,6 +43,10 @@ const std::array<TopicInfo, 14> &table() {
       entry<msgs::tf2_msgs::TFMessage>("/tf_static", TopicClass::kState),
       entry<msgs::rosgraph_msgs::Clock>("/clock", TopicClass::kStream),
       entry<msgs::rcl_interfaces::Log>("/rosout", TopicClass::kStream),
+      entry<msgs::sensor_msgs::CompressedImage>("preview/rocks/compressed",
+                                                TopicClass::kStream),
+      entry<msgs::sensor_msgs::CompressedImage>("preview/sinkage/compressed",
+                                                TopicClass::kStream),
   };
   return t;
 }

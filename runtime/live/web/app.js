@@ -17,6 +17,8 @@ const TOPICS = {
   rocks: { suffix: "/terrain/rocks", schema: "regolith_msgs/msg/RockArray" },
   odom: { suffix: "/odom", schema: "nav_msgs/msg/Odometry" },
   tf: { suffix: "/tf", schema: "tf2_msgs/msg/TFMessage" },
+  rocksPreview: { suffix: "/preview/rocks/compressed", schema: "sensor_msgs/msg/CompressedImage" },
+  sinkagePreview: { suffix: "/preview/sinkage/compressed", schema: "sensor_msgs/msg/CompressedImage" },
 };
 
 const $ = (id) => document.getElementById(id);
@@ -322,6 +324,24 @@ function onRocks(msg) {
   });
 }
 
+// ---- (f) camera previews: JPEGs with the overlays drawn by the rover (camera_preview) -------------
+const previewUrls = {};
+function onPreview(which, msg) {
+  arrived(which);
+  const img = $(`${which}-image`);
+  const url = URL.createObjectURL(new Blob([msg.data], { type: `image/${msg.format === "png" ? "png" : "jpeg"}` }));
+  img.onload = () => {
+    img.hidden = false;
+    $(`${which}-info`).textContent =
+      `${img.naturalWidth}×${img.naturalHeight} · ${(msg.data.byteLength / 1024).toFixed(1)} KiB · ` +
+      `${msg.header.frame_id} · t = ${stampSeconds(msg.header).toFixed(2)} s`;
+    img.dataset.frames = String(Number(img.dataset.frames ?? 0) + 1);
+  };
+  img.src = url;
+  if (previewUrls[which]) URL.revokeObjectURL(previewUrls[which]);
+  previewUrls[which] = url;
+}
+
 // ---- connection -------------------------------------------------------------------------------
 const HANDLERS = {
   diagnostics: onDiagnostics,
@@ -330,6 +350,8 @@ const HANDLERS = {
   gridMap: (m) => onMap("gridMap", m),
   worldMap: (m) => onMap("worldMap", m),
   rocks: onRocks,
+  rocksPreview: (m) => onPreview("rocksPreview", m),
+  sinkagePreview: (m) => onPreview("sinkagePreview", m),
   odom: (m) => {
     baseFrame = m.child_frame_id || baseFrame;
     addPose(m.header.frame_id, m.pose.pose.position, m.pose.pose.orientation, true);
@@ -355,7 +377,7 @@ function advertised(channels, ws) {
     subscriptions.push({ id: subscriptions.length + 1, channelId: ch.id });
   }
   const panels = { diagnostics: ["diagnostics"], sinkage: ["sinkage"], soil: ["soil"], rocks: ["rocks"],
-    map: ["worldMap", "gridMap"] };
+    map: ["worldMap", "gridMap"], rocksPreview: ["rocksPreview"], sinkagePreview: ["sinkagePreview"] };
   for (const [panel, keys] of Object.entries(panels)) {
     const names = keys.map((k) => TOPICS[k].topic);
     const missing = !channels.some((c) => names.includes(c.topic));

@@ -61,6 +61,14 @@ export class CdrReader {
     return out;
   }
   float64Sequence() { return this.sequence((r) => r.float64(), 8); }
+  /** uint8[]: a view on the payload's bytes (no copy). */
+  uint8Sequence() {
+    const n = this.uint32();
+    if (this.off + n > this.bytes.byteLength) throw new Error(`CDR: uint8[${n}] past the end`);
+    const out = this.bytes.subarray(this.off, this.off + n);
+    this.off += n;
+    return out;
+  }
   float64Array(n) {
     const out = new Array(n);
     for (let i = 0; i < n; ++i) out[i] = this.float64();
@@ -165,6 +173,7 @@ export const decoders = {
     twist: twistWithCovariance(r),
   }),
   "tf2_msgs/msg/TFMessage": (r) => ({ transforms: r.sequence(transformStamped, 4) }),
+  "sensor_msgs/msg/CompressedImage": (r) => ({ header: header(r), format: r.string(), data: r.uint8Sequence() }),
 };
 
 /** Decodes one CDR payload of `schemaName`; throws on unknown types and malformed bytes. */

@@ -19,6 +19,11 @@ const { decode, parseMessageData } = await import(pathToFileURL(modulePath).href
 
 const mismatches = [];
 function compare(path, got, want) {
+  // uint8[] payloads (CompressedImage.data) render in to_json as {bytes: N} only
+  if (ArrayBuffer.isView(got) && want !== null && typeof want === "object" && !Array.isArray(want) && "bytes" in want) {
+    if (got.byteLength !== want.bytes) mismatches.push(`${path}: ${got.byteLength} bytes, expected ${want.bytes}`);
+    return;
+  }
   if (ArrayBuffer.isView(got)) got = Array.from(got);
   if (typeof got === "number" && Number.isNaN(got)) got = null;
   if (Array.isArray(want)) {

@@ -27,6 +27,7 @@
 #include "rosgraph_msgs/msg/Clock.h"
 #include "regolith_msgs/msg/SoilStiffness.h"
 #include "regolith_msgs/msg/WheelSinkage.h"
+#include "sensor_msgs/msg/CompressedImage.h"
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/JointState.h"
 #include "std_msgs/msg/Float32MultiArray.h"
@@ -70,6 +71,7 @@ REGOLITH_MSGS_ALIAS(rcl_interfaces, Log)
 REGOLITH_MSGS_ALIAS(nav_msgs, Odometry)
 REGOLITH_MSGS_ALIAS(sensor_msgs, JointState)
 REGOLITH_MSGS_ALIAS(sensor_msgs, Imu)
+REGOLITH_MSGS_ALIAS(sensor_msgs, CompressedImage)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Vector3)
 REGOLITH_MSGS_ALIAS(diagnostic_msgs, KeyValue)
 REGOLITH_MSGS_ALIAS(diagnostic_msgs, DiagnosticStatus)

@@ -36,6 +36,7 @@ struct WheelSinkageSample {
   EncoderProblem encoder = EncoderProblem::kNone;
   double transducer_mm = std::numeric_limits<double>::quiet_NaN();  ///< bench rig: truth at capture time
   SinkageResult result;             ///< valid / sinkage_mm / confidence / per-leg details
+  WheelGeometry geometry;           ///< the wheel in the image the result refers to (configured)
 };
 
 /// The algorithm part of a `wheel_sinkage` mapping: the `geometry` block (mandatory; hub_center_px,

@@ -19,6 +19,8 @@ json to_json(const msgs::geometry_msgs::Point &m);
 json to_json(const msgs::geometry_msgs::Quaternion &m);
 json to_json(const msgs::geometry_msgs::Vector3 &m);
 json to_json(const msgs::sensor_msgs::Imu &m);
+/// The encoded bytes are not printed: `data` renders as {"bytes": N}.
+json to_json(const msgs::sensor_msgs::CompressedImage &m);
 json to_json(const msgs::geometry_msgs::Pose &m);
 json to_json(const msgs::geometry_msgs::Pose2D &m);
 json to_json(const msgs::geometry_msgs::PoseWithCovariance &m);

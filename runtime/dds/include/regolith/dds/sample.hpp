@@ -164,6 +164,11 @@ void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c);
 /// sensor_msgs/Imu: only header.frame_id is variable-size (fixed-size vectors and covariances).
 void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity = 32);
 
+/// sensor_msgs/CompressedImage: `format` with `format_capacity` characters and up to
+/// `max_bytes` bytes of data (length starts at 0).
+void reserve(msgs::sensor_msgs::CompressedImage &m, std::uint32_t max_bytes,
+             std::size_t format_capacity = 32, std::size_t frame_id_capacity = 32);
+
 /// nav_msgs/Odometry: header.frame_id and child_frame_id (fixed-size pose, twist, covariances).
 void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity = 32);
 
