@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
+#include <limits>
+#include <utility>
 #include <stdexcept>
 #include <vector>
 
@@ -120,4 +123,64 @@ TEST(PreviewJpeg, DecodesToThePreviewAndKeepsTheColours) {
   EXPECT_NEAR(inside[0], 100, 8);
   EXPECT_FALSE(preview::encode_jpeg(cv::Mat(), 80, bytes));
   EXPECT_FALSE(preview::encode_jpeg(grey, 80, bytes));  // not BGR
+}
+
+namespace {
+direct_depth::CameraModel front_camera() {
+  direct_depth::CameraModel m;  // the mocked rover's front camera: 320x240, 0.5 m up, 0.35 rad down
+  m.fx = m.fy = 200.0988;
+  m.cx = 159.5;
+  m.cy = 119.5;
+  m.width = 320;
+  m.height = 240;
+  m.mount_height_m = 0.5;
+  m.pitch_rad = 0.35;
+  return m;
+}
+}  // namespace
+
+TEST(PreviewHazard, EveryPixelFindsTheCellItSeesAndOnlyThoseAreTinted) {
+  const direct_depth::DirectDepth depth(front_camera());
+  const common::GridGeometry grid{0.05, 3.0, 3.0, 2.5, 0.0};  // 1..4 m ahead, 3 m wide (the mock's)
+  const cv::Mat cells = preview::grid_cell_lookup(depth, grid, {160, 120});
+  ASSERT_EQ(cells.size(), cv::Size(160, 120));
+  ASSERT_EQ(cells.type(), CV_32S);
+  // a cell's centre projects to a preview pixel whose cell lies within that pixel's ground
+  // footprint (2 camera pixels, up to 0.25 m along the range at 3.5 m) of it
+  const int ny = grid.size_y();
+  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{10, 30}, {40, 20}, {50, 45}}) {
+    const cv::Point2d c = grid.cell_center(i, j);
+    const auto px = depth.project(c.x, c.y);
+    ASSERT_TRUE(px.has_value());
+    const int pr = static_cast<int>(px->y / 2), pc = static_cast<int>(px->x / 2);
+    const int k = cells.at<int>(pr, pc);
+    ASSERT_GE(k, 0) << i << "," << j;
+    const cv::Point2d got = grid.cell_center(k / ny, k % ny);
+    const double fr = depth.footprint_range_map().at<float>(2 * pr, 2 * pc);
+    const double fl = depth.footprint_lateral_map().at<float>(2 * pr, 2 * pc);
+    EXPECT_LE(std::abs(got.x - c.x), 2 * fr + grid.resolution_m) << i << "," << j;
+    EXPECT_LE(std::abs(got.y - c.y), 2 * fl + grid.resolution_m) << i << "," << j;
+  }
+  EXPECT_EQ(cells.at<int>(0, 80), -1);  // above the horizon / beyond 4 m: no cell
+
+  // one impassable block of cells (traversability 0), NaN elsewhere except a free block
+  cv::Mat t(grid.size_x(), grid.size_y(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  t(cv::Rect(20, 30, 20, 20)).setTo(0.0f);    // cells i 30..49, j 20..39: ~ 1.5-2.5 m ahead, centre
+  t(cv::Rect(0, 30, 10, 20)).setTo(1.0f);     // free, on the left
+  const cv::Mat grey(240, 320, CV_8UC1, cv::Scalar(100));
+  cv::Mat out;
+  preview::draw_rocks(grey, {}, 160, out, preview::HazardOverlay{&cells, &t});
+  int tinted = 0, wrong = 0;
+  for (int r = 30; r < out.rows; ++r)  // below the caption band
+    for (int c = 0; c < out.cols; ++c) {
+      const int k = cells.at<int>(r, c);
+      const bool blocked = k >= 0 && t.at<float>(k / ny, k % ny) == 0.0f;
+      const cv::Vec3b p = out.at<cv::Vec3b>(r, c);
+      const bool red = p[2] > 150 && p[0] < 60;
+      tinted += red ? 1 : 0;
+      wrong += red != blocked ? 1 : 0;
+    }
+  EXPECT_GT(tinted, 100);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_THROW(preview::draw_rocks(grey, {}, 320, out, preview::HazardOverlay{&cells, &t}), std::invalid_argument);
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <thread>
 
+#include "regolith/common/camera.hpp"
 #include "regolith/common/payloads.hpp"
 #include "regolith/dds/outbox.hpp"
 #include "regolith/dds/participant.hpp"
@@ -20,6 +21,7 @@
 #include "regolith/runtime/context.hpp"
 #include "regolith/saliency/component.hpp"
 #include "regolith/sinkage/component.hpp"
+#include "regolith/traversability/component.hpp"
 
 namespace regolith::preview {
 namespace {
@@ -73,10 +75,26 @@ class PreviewComponent final : public runtime::Component {
 
     const cv::Size out = preview_size(size_, width_);
     capacity_ = static_cast<std::uint32_t>(out.area()) * 3u + 4096u;  // a JPEG never needs more in practice
+    const bool hazard = p.get<bool>("hazard_map", false,
+                                     {.doc = "source rocks: tint what the camera sees of the traversability grid "
+                                             "(channel terrain/grid_map) red by 1 - traversability"});
     if (source_ == Source::kRocks) {
       dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
       rocks_ = &ctx.consume<saliency::RockFrame>(saliency::kRocksChannel);
+      if (hazard) {
+        grid_ = &ctx.consume<traversability::GridMapFrame>(traversability::kGridMapChannel);
+        try {
+          depth_ = std::make_unique<direct_depth::DirectDepth>(common::camera_model_of(ctx.rover_camera(p, "camera")));
+        } catch (const std::invalid_argument& e) {
+          p.fail("camera", e.what());
+        }
+        if (depth_->range_map().size() != size_)
+          p.fail("camera", "rover.cameras." + cam.id() + " describes a " + std::to_string(depth_->range_map().cols) + "x" +
+                               std::to_string(depth_->range_map().rows) + " image but the device delivers " +
+                               std::to_string(size_.width) + "x" + std::to_string(size_.height));
+      }
     } else {
+      if (hazard) p.fail("hazard_map", "only for source: rocks (the front camera and the traversability grid)");
       cam_ = &cam;
       sinkage_ = &ctx.consume<sinkage::WheelSinkageSample>(sinkage::kSinkageChannel);
     }
@@ -121,6 +139,7 @@ class PreviewComponent final : public runtime::Component {
     kv.emplace_back("unmatched_frames", std::to_string(unmatched_.load()));
     kv.emplace_back("encode_failures", std::to_string(encode_failures_.load()));
     kv.emplace_back("last_jpeg_bytes", std::to_string(last_bytes_.load()));
+    if (grid_ != nullptr) kv.emplace_back("hazard_overlays", std::to_string(hazard_overlays_.load()));
   }
 
   std::string result() const override {
@@ -188,7 +207,8 @@ class PreviewComponent final : public runtime::Component {
 
   // ---- worker thread (not real time): draw, encode, publish ----
   void worker_loop() {
-    cv::Mat scaled, out;
+    cv::Mat scaled, out, cells;            // cells: the hazard overlay's pixel -> grid cell lookup
+    common::GridGeometry cells_grid{};     // the grid `cells` was made for
     std::vector<std::uint8_t> jpeg;
     jpeg.reserve(capacity_);
     for (;;) {
@@ -201,11 +221,26 @@ class PreviewComponent final : public runtime::Component {
       const Slot& s = slots_[static_cast<std::size_t>(idx)];
       bool ok = false;
       try {
-        if (s.source == Source::kRocks)
-          draw_rocks(s.frame, std::span(s.rocks.rocks.data(), std::min<std::size_t>(s.rocks.count, saliency::kMaxRocks)),
-                     width_, out);
-        else
+        if (s.source == Source::kRocks) {
+          const std::span rocks(s.rocks.rocks.data(), std::min<std::size_t>(s.rocks.count, saliency::kMaxRocks));
+          // the traversability grid of the same frame (traversability runs in the rocks' rate group)
+          const auto grid = grid_ != nullptr ? grid_->acquire() : decltype(grid_->acquire()){};
+          const traversability::GridMap* map = grid && grid->sequence == s.sequence ? &grid->map : nullptr;
+          if (map != nullptr && !map->layers.empty()) {
+            const cv::Size size = preview_size(size_, width_);
+            if (cells.size() != size || !cells_grid.same_as(*map)) {
+              cells = grid_cell_lookup(*depth_, *map, size);
+              cells_grid = *map;
+            }
+            const cv::Mat& t = map->layer("traversability");
+            draw_rocks(s.frame, rocks, width_, out, HazardOverlay{&cells, &t});
+            hazard_overlays_.fetch_add(1, std::memory_order_relaxed);
+          } else {
+            draw_rocks(s.frame, rocks, width_, out);
+          }
+        } else {
           draw_sinkage(s.frame, s.sinkage.geometry, s.sinkage.result, width_, scaled, out);
+        }
         ok = encode_jpeg(out, quality_, jpeg) && jpeg.size() <= capacity_;
       } catch (const std::exception&) {
         ok = false;  // counted below; a bad frame must not stop the previews
@@ -257,13 +292,16 @@ class PreviewComponent final : public runtime::Component {
   const runtime::Input<common::DtmFrame>* dtm_ = nullptr;
   const runtime::Input<saliency::RockFrame>* rocks_ = nullptr;
   const runtime::Input<sinkage::WheelSinkageSample>* sinkage_ = nullptr;
+  const runtime::Input<traversability::GridMapFrame>* grid_ = nullptr;
+  std::unique_ptr<direct_depth::DirectDepth> depth_;  // the front camera, for the hazard overlay
   hal::Camera* cam_ = nullptr;
   NewValue new_input_;
   LatestPool<PreviewImage>* out_ = nullptr;
   std::shared_ptr<dds::Outbox<CompressedImageMsg>> msg_;
   std::thread worker_;
   std::atomic<bool> stop_{false};
-  std::atomic<std::uint64_t> published_{0}, busy_{0}, unmatched_{0}, encode_failures_{0}, last_bytes_{0};
+  std::atomic<std::uint64_t> published_{0}, busy_{0}, unmatched_{0}, encode_failures_{0}, last_bytes_{0},
+      hazard_overlays_{0};
 };
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "regolith/preview/preview.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -38,11 +39,50 @@ void caption(cv::Mat& out, const char* text) {
 
 }  // namespace
 
-void draw_rocks(const cv::Mat& frame, std::span<const saliency::RangedRock> rocks, int width, cv::Mat& out) {
+cv::Mat grid_cell_lookup(const direct_depth::DirectDepth& depth, const common::GridGeometry& grid, cv::Size preview) {
+  const cv::Size cam = depth.range_map().size();
+  cv::Mat cell(preview, CV_32S, cv::Scalar(-1));
+  if (cam.width <= 0 || preview.width <= 0) return cell;
+  const double s = static_cast<double>(cam.width) / preview.width;  // camera px per preview px
+  const int ny = grid.size_y();
+  for (int r = 0; r < preview.height; ++r)
+    for (int c = 0; c < preview.width; ++c) {
+      // the camera pixel at this preview pixel's centre (pixel centres at integers in direct_depth)
+      const direct_depth::GroundPoint g = depth.ground((c + 0.5) * s - 0.5, (r + 0.5) * s - 0.5);
+      int i = 0, j = 0;
+      if (g.valid && grid.cell_of(g.range_m, g.lateral_m, i, j)) cell.at<int>(r, c) = i * ny + j;
+    }
+  return cell;
+}
+
+void draw_rocks(const cv::Mat& frame, std::span<const saliency::RangedRock> rocks, int width, cv::Mat& out,
+                const HazardOverlay& hazard) {
   if (frame.empty() || (frame.type() != CV_8UC1 && frame.type() != CV_8UC3))
     throw std::invalid_argument("draw_rocks: frame: expected a non-empty CV_8UC1 or CV_8UC3 image");
   cv::Mat grey_scaled;
   scaled_bgr(frame, width, out, grey_scaled);
+  if (hazard.cell != nullptr && hazard.traversability != nullptr) {
+    const cv::Mat& cell = *hazard.cell;
+    const cv::Mat& t = *hazard.traversability;
+    if (cell.size() != out.size() || cell.type() != CV_32S || t.type() != CV_32F || !t.isContinuous())
+      throw std::invalid_argument("draw_rocks: hazard overlay: the cell lookup must be CV_32S of the preview's size "
+                                  "and the layer a continuous CV_32F matrix");
+    const int n = static_cast<int>(t.total());
+    const float* tv = t.ptr<float>(0);  // continuous (a grid layer)
+    for (int r = 0; r < out.rows; ++r) {
+      const int* cr = cell.ptr<int>(r);
+      cv::Vec3b* o = out.ptr<cv::Vec3b>(r);
+      for (int c = 0; c < out.cols; ++c) {
+        if (cr[c] < 0 || cr[c] >= n) continue;
+        const float v = tv[cr[c]];
+        if (!(v < 1.0f)) continue;  // free, or NaN (unknown)
+        const float a = 0.6f * std::clamp(1.0f - v, 0.0f, 1.0f);
+        o[c][0] = cv::saturate_cast<uchar>((1.0f - a) * o[c][0]);
+        o[c][1] = cv::saturate_cast<uchar>((1.0f - a) * o[c][1]);
+        o[c][2] = cv::saturate_cast<uchar>((1.0f - a) * o[c][2] + a * 255.0f);
+      }
+    }
+  }
   const double s = static_cast<double>(out.cols) / frame.cols;
   const cv::Scalar red(0, 0, 255), yellow(0, 220, 255);
   double nearest = -1.0;
