@@ -4,6 +4,9 @@
 #include <spdlog/spdlog.h>
 
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "regolith/runtime/dds_hooks.hpp"
 
@@ -59,6 +62,17 @@ void Summary::print(std::ostream& os, bool final) {
   for (const auto* c : v.components) {
     const std::string r = c->result();
     if (!r.empty()) out << fmt::format("  {:<14} {}\n", c->name(), r);
+  }
+  if (final) {  // each component's own counters (Component::diagnostics), once at the end
+    out << "component details\n";
+    for (const auto* c : v.components) {
+      std::vector<std::pair<std::string, std::string>> kv;
+      c->diagnostics(kv);
+      if (kv.empty()) continue;
+      std::string line;
+      for (const auto& [key, value] : kv) line += fmt::format(" {}={}", key, value);
+      out << fmt::format("  {:<14}{}\n", c->name(), line);
+    }
   }
   for (const auto& [name, cam] : app_.context().devices_of<hal::Camera>()) {
     const auto s = cam->stats();
