@@ -665,6 +665,36 @@ TEST(LivePage, DefaultWebRootHasThePage) {
     EXPECT_TRUE(fs::exists(fs::path(root) / f)) << f;
 }
 
+// The relay reports its own counters on /diagnostics once a second, beside the rover's health
+// component: what a rover team sees in the page's health table or `regolith echo /diagnostics`.
+TEST(LivePage, TheServerReportsItsClientsOnDiagnostics) {
+  LiveRig rig("");
+  WsClient c(rig.relay.server().port(), rl::kSubprotocol);
+  ASSERT_TRUE(c.ok()) << c.response();
+  json found;
+  std::ostringstream out;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (found.is_null() && std::chrono::steady_clock::now() < end) {
+    out.str("");
+    rd::echo(rig.pub, "/diagnostics", {.count = 1, .timeout_ns = 3 * regolith::kNsPerSec}, out);
+    std::istringstream lines(out.str());
+    for (std::string line; std::getline(lines, line);) {
+      const json j = json::parse(line, nullptr, false);
+      if (!j.is_object()) continue;
+      for (const json& s : j.value("status", json::array()))
+        if (s.value("name", "") == "live: foxglove server") found = s;
+    }
+  }
+  ASSERT_FALSE(found.is_null()) << out.str();
+  std::map<std::string, std::string> kv;
+  for (const json& v : found.at("values")) kv[v.at("key")] = v.at("value");
+  EXPECT_EQ(kv.at("connected"), "1");
+  EXPECT_EQ(kv.at("accepted"), "1");
+  EXPECT_EQ(kv.at("dropped_slow"), "0");
+  EXPECT_EQ(found.at("level"), 0);
+  EXPECT_EQ(found.at("hardware_id"), "ws://127.0.0.1:" + std::to_string(rig.relay.server().port()));
+}
+
 #ifdef REGOLITH_NODE
 // cdr.js decodes what Cyclone DDS serialized: each topic's relayed messageData frame is written
 // to a file with the sample as the runtime renders it (dds::to_json); node decodes the frame with
@@ -713,7 +743,9 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
       for (int b = 3; b >= 0; --b)
         sub = (sub << 8) | static_cast<unsigned char>(f->payload[1 + static_cast<std::size_t>(b)]);
       const auto it = by_channel.find(sub - 100);
-      if (it != by_channel.end()) frames.emplace(it->second.first, f->payload);
+      // /diagnostics also carries the relay's own status (its own publisher): not the fake rover's
+      if (it != by_channel.end() && f->payload.find("live: foxglove server") == std::string::npos)
+        frames.emplace(it->second.first, f->payload);
     }
   }
   ASSERT_EQ(frames.size(), topics.size());

@@ -2,9 +2,12 @@
 
 #include <time.h>
 
+#include <chrono>
 #include <string>
 
+#include "regolith/dds/outbox.hpp"
 #include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
 #include "regolith/dds/reader.hpp"
 #include "regolith/dds/serialized.hpp"
 #include "regolith/dds/topics.hpp"
@@ -15,6 +18,10 @@ namespace {
 
 std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(realtime_now()); }
 
+using DiagnosticArray = msgs::diagnostic_msgs::DiagnosticArray;
+constexpr std::uint32_t kStatusValues = 9;
+constexpr std::size_t kStatusString = 64;
+
 }  // namespace
 
 struct DdsRelay::Topic {
@@ -22,7 +29,12 @@ struct DdsRelay::Topic {
   std::unique_ptr<dds::Subscription> sub;
 };
 
-DdsRelay::DdsRelay(dds::Participant& p, FoxgloveServerOptions options) {
+DdsRelay::DdsRelay(dds::Participant& p, FoxgloveServerOptions options) : participant_(p) {
+  const dds::TopicInfo* diag = dds::find_topic("/diagnostics");
+  status_ = p.make_outbox<DiagnosticArray>("/diagnostics", diag->writer_qos(), {.mode = dds::OutboxMode::kLatest, .slots = 2},
+                                           [](DiagnosticArray& m) {
+                                             dds::reserve(m, dds::DiagnosticArrayCapacity{1, kStatusValues, kStatusString, 32});
+                                           });
   waitset_ = std::make_unique<dds::ReaderWaitSet>(p.handle());
   std::vector<Channel> channels;
   std::uint32_t id = 1;
@@ -42,7 +54,9 @@ DdsRelay::DdsRelay(dds::Participant& p, FoxgloveServerOptions options) {
     topics_.push_back(std::move(topic));
     channels.push_back(std::move(c));
   }
+  const std::string address = options.address;
   server_ = std::make_unique<FoxgloveServer>(std::move(channels), std::move(options));
+  where_ = "ws://" + address + ":" + std::to_string(server_->port());
 }
 
 DdsRelay::~DdsRelay() {
@@ -62,9 +76,43 @@ void DdsRelay::stop() {
   server_->stop();
 }
 
+void DdsRelay::publish_status() {
+  auto& box = static_cast<dds::Outbox<DiagnosticArray>&>(*status_);
+  DiagnosticArray* m = box.begin();
+  if (m == nullptr) return;
+  const FoxgloveServerStats s = server_->stats();
+  const bool grew = s.dropped_slow > last_.dropped_slow || s.samples_dropped > last_.samples_dropped ||
+                    s.refused > last_.refused || s.unauthorized > last_.unauthorized;
+  last_ = s;
+  dds::set_time(m->header.stamp, realtime_now());
+  dds::set_length(m->status, 1);
+  auto& st = m->status._buffer[0];
+  st.level = grew ? 1 : 0;  // WARN while clients are being dropped or refused
+  dds::copy_string(st.name, kStatusString, "live: foxglove server");
+  dds::copy_string(st.message, kStatusString,
+                   grew ? "clients dropped or refused" : std::to_string(s.connected) + " client(s) connected");
+  dds::copy_string(st.hardware_id, kStatusString, where_);
+  const std::pair<const char*, std::uint64_t> values[kStatusValues] = {
+      {"connected", s.connected},       {"accepted", s.accepted},         {"refused", s.refused},
+      {"dropped_slow", s.dropped_slow}, {"samples_dropped", s.samples_dropped}, {"unauthorized", s.unauthorized},
+      {"bad_requests", s.bad_requests}, {"messages_sent", s.messages_sent}, {"samples_taken", samples_.load()}};
+  dds::set_length(st.values, kStatusValues);
+  for (std::uint32_t k = 0; k < kStatusValues; ++k) {
+    dds::copy_string(st.values._buffer[k].key, kStatusString, values[k].first);
+    dds::copy_string(st.values._buffer[k].value, kStatusString, std::to_string(values[k].second));
+  }
+  box.commit();
+  if (!participant_.running()) box.flush();  // `regolith live`'s own participant has no publisher thread
+}
+
 void DdsRelay::loop() {
   std::vector<std::uint8_t> scratch;
+  auto next_status = std::chrono::steady_clock::now();
   while (!stop_.load()) {
+    if (std::chrono::steady_clock::now() >= next_status) {
+      publish_status();
+      next_status += std::chrono::seconds(1);
+    }
     if (!waitset_->wait(100 * kNsPerMs)) continue;
     for (auto& t : topics_) {
       try {

@@ -45,14 +45,20 @@ function arrived(panel) {
 // ---- (a) health -------------------------------------------------------------------------------
 const slipsSeen = new Map(); // status name -> {slips, rising_until}
 
+// /diagnostics has several publishers (the rover's health component, the live server itself):
+// the newest status of each name is kept, and dropped when not refreshed for 10 s.
+const statusSeen = new Map(); // status name -> {status, at}
 function onDiagnostics(msg) {
   arrived("diagnostics");
   $("health-table").hidden = false;
   const body = $("health-table").tBodies[0];
   body.replaceChildren();
   const now = performance.now();
+  for (const s of msg.status) statusSeen.set(s.name, { status: s, at: now });
+  for (const [name, e] of statusSeen) if (now - e.at > 10000) statusSeen.delete(name);
   const order = (name) => (name.startsWith("rate_group:") ? 0 : name.startsWith("component:") ? 1 : 2);
-  const statuses = [...msg.status].sort((a, b) => order(a.name) - order(b.name) || a.name.localeCompare(b.name));
+  const statuses = [...statusSeen.values()].map((e) => e.status)
+    .sort((a, b) => order(a.name) - order(b.name) || a.name.localeCompare(b.name));
   for (const s of statuses) {
     const kv = Object.fromEntries(s.values.map((v) => [v.key, v.value]));
     const slips = Number(kv.cycle_slips ?? 0);

@@ -3,7 +3,11 @@
 // regolith topic (topic = ROS name with its leading slash, encoding "cdr", schema = the type's full
 // ros2msg definition); a thread of its own waits on the readers and takes each sample as the
 // serialized CDR bytes on the wire (take_serialized, encapsulation header included). It only
-// reads DDS, so it never blocks a rate group.
+// reads DDS, so it never blocks a rate group. Once a second the same thread publishes the server's
+// own counters on /diagnostics (one DiagnosticStatus "live: foxglove server", beside whatever
+// else publishes there): clients connected, accepted, refused, dropped as too slow, samples
+// dropped, unauthorized requests; WARN while any of the drop / refusal counters grew in the last
+// second.
 #include <atomic>
 #include <memory>
 #include <thread>
@@ -12,6 +16,7 @@
 #include "regolith/live/foxglove_server.hpp"
 
 namespace regolith::dds {
+class OutboxBase;
 class Participant;
 class ReaderWaitSet;
 class Subscription;
@@ -37,7 +42,12 @@ class DdsRelay {
  private:
   struct Topic;
   void loop();
+  void publish_status();
 
+  dds::Participant& participant_;
+  std::shared_ptr<dds::OutboxBase> status_;  ///< /diagnostics (DiagnosticArray)
+  FoxgloveServerStats last_{};               ///< counters at the previous status
+  std::string where_;                        ///< ws://ADDR:PORT
   std::unique_ptr<dds::ReaderWaitSet> waitset_;
   std::vector<std::unique_ptr<Topic>> topics_;
   std::unique_ptr<FoxgloveServer> server_;
