@@ -9,7 +9,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <map>
+#include <memory>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -19,7 +22,10 @@
 #include <thread>
 #include <vector>
 
+#include "cli.hpp"
 #include "dds_test_util.hpp"
+#include "regolith/dds/reader.hpp"
+#include "regolith/runtime/application.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -174,4 +180,153 @@ TEST(LiveNode, FoxgloveClientDecodesRelayedJointStates) {
   EXPECT_EQ(messages, kMessages);
   EXPECT_GE(relay.server().stats().messages_sent, static_cast<std::uint64_t>(kMessages));
   EXPECT_EQ(relay.server().stats().dropped_slow, 0u);
+}
+
+namespace {
+
+/// `got` (the independent decoder's message) equals `want` (dds::to_json of a sample of the same
+/// topic): every field, numbers by value; a CompressedImage's bytes (rendered by to_json as
+/// {"bytes": N}) by count.
+bool same(const json& got, const json& want) {
+  if (want.is_object() && want.size() == 1 && want.contains("bytes") && got.is_array())
+    return got.size() == want["bytes"].get<std::size_t>();
+  if (want.is_object()) {
+    if (!got.is_object() || got.size() != want.size()) return false;
+    for (auto it = want.begin(); it != want.end(); ++it)
+      if (!got.contains(it.key()) || !same(got[it.key()], it.value())) return false;
+    return true;
+  }
+  if (want.is_array()) {
+    if (!got.is_array() || got.size() != want.size()) return false;
+    for (std::size_t i = 0; i < want.size(); ++i)
+      if (!same(got[i], want[i])) return false;
+    return true;
+  }
+  if (want.is_number() && got.is_string()) return got.get<std::string>() == want.dump();  // 64-bit ints
+  return got == want;
+}
+
+}  // namespace
+
+// Every channel of the mocked rover under simulated time, decoded by Foxglove's own client and
+// ROS 2 CDR reader from the ros2msg schemas the server advertises, equals a sample of the same
+// topic as `regolith echo` renders it (dds::to_json, taken by a second participant): the values
+// are right and so is the ROS 2 wire layout of every message.
+TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
+  const fs::path js_dir = REGOLITH_LIVE_JS_DIR;
+  if (!fs::exists(js_dir / "node_modules" / "@foxglove" / "ws-protocol"))
+    GTEST_SKIP() << "tests/live/js/node_modules missing: run `npm ci` there (deploy/setup.sh does)";
+  rd::testing::use_loopback_config();
+  const std::uint32_t domain = rd::testing::test_domain();
+  const std::string ns = rd::testing::unique_ns();
+  const fs::path dir = fs::temp_directory_path() / ("regolith_live_all_" + ns);
+  fs::create_directories(dir);
+  const fs::path log = dir / "client.log";
+
+  regolith::cli::register_everything();
+  std::string yaml = regolith::cli::embedded_mock_rover();  // on this test's own domain and namespace
+  const auto swap = [&yaml](const std::string& from, const std::string& to) {
+    const auto at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+  };
+  swap("  domain: 0\n", "  domain: " + std::to_string(domain) + "\n");
+  swap("  namespace: rover1", "  namespace: " + ns);
+  auto app = regolith::runtime::Application::load(regolith::Params::load_string(yaml, "<embedded mock_rover>"),
+                                                  {.sim_time = true, .enable_dds = true});
+
+  // The reference: every sample of every topic rendered as `regolith echo` prints it.
+  rd::Participant ref({domain, ns});
+  std::vector<std::unique_ptr<rd::Subscription>> subs;
+  for (const auto& t : rd::known_topics()) {
+    rd::QosProfile q = t.reader_qos();
+    q.keep_all = true;
+    subs.push_back(std::make_unique<rd::Subscription>(ref, t.name, t.descriptor, q));
+  }
+  std::map<std::string, std::vector<json>> rendered;  // ROS name -> samples
+  std::atomic<bool> stop_ref{false};
+  std::thread taker([&] {
+    while (!stop_ref.load()) {
+      bool any = false;
+      for (std::size_t k = 0; k < subs.size(); ++k) {
+        const auto& t = rd::known_topics()[k];
+        any |= subs[k]->take([&](const void* s, const dds_sample_info_t&) {
+                 rendered[ref.ros_name(t.name)].push_back(t.to_json(s));
+               }) > 0;
+      }
+      if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+
+  rl::FoxgloveServerOptions opt;
+  opt.port = 0;
+  rl::DdsRelay relay(*app->dds(), opt);
+  relay.start();
+  const std::string url = "ws://127.0.0.1:" + std::to_string(relay.server().port());
+  const pid_t pid = spawn({REGOLITH_NODE, (js_dir / "client.js").string(), url, "*", "3"}, log);
+  ASSERT_GT(pid, 0);
+  // The client subscribes to every channel before the rover starts.
+  const bool subscribed = rd::testing::eventually(
+      [&] {
+        for (std::uint32_t id = 1; id <= rd::known_topics().size(); ++id)
+          if (!relay.server().has_subscribers(id)) return false;
+        return true;
+      },
+      std::chrono::seconds(60));
+  ASSERT_TRUE(subscribed) << slurp(log) << slurp(log.string() + ".err");
+
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(6 * regolith::kNsPerSec, stop);
+  app->stop();
+  // Let the relay and the reference take what is still in flight, then close the server: the
+  // client prints what it has and exits.
+  const std::uint64_t before = relay.samples();
+  rd::testing::eventually([&] { return relay.samples() > before; }, std::chrono::seconds(2));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  relay.stop();
+  int status = 0;
+  bool exited = false;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < end && !(exited = waitpid(pid, &status, WNOHANG) == pid))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  if (!exited) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+  }
+  stop_ref = true;
+  taker.join();
+  const std::string out = slurp(log), err = slurp(log.string() + ".err");
+  ASSERT_TRUE(exited && WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+
+  std::map<std::string, int> decoded, matched;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    const json j = json::parse(line, nullptr, false);
+    if (!j.is_object() || !j.contains("message")) continue;
+    const std::string topic = j["topic"];
+    ++decoded[topic];
+    const auto it = rendered.find(topic);
+    if (it == rendered.end()) continue;
+    for (const json& want : it->second)
+      if (same(j["message"], want)) {
+        ++matched[topic];
+        break;
+      }
+  }
+  for (const auto& [topic, n] : decoded) {
+    EXPECT_EQ(matched[topic], n) << topic << ": " << n << " decoded, " << matched[topic]
+                                 << " equal to a sample echo rendered";
+    std::printf("%-40s %d decoded, %d equal to echo\n", topic.c_str(), n, matched[topic]);
+  }
+  // What the mocked rover publishes in 6 s: every topic but /rosout (no event) and the latched ones
+  // a late subscriber may have missed.
+  for (const char* t : {"joint_states", "imu", "terrain/grid_map", "terrain/rocks", "terrain/wheel_sinkage",
+                        "terrain/soil", "odom", "odom/wheel", "terrain/world_map", "preview/rocks/compressed",
+                        "preview/sinkage/compressed"})
+    EXPECT_GT(decoded["/" + ns + "/" + t], 0) << t;
+  EXPECT_GT(decoded["/diagnostics"], 0);
+  EXPECT_GT(decoded["/tf"], 0);
+  EXPECT_GT(decoded["/clock"], 0);
+  fs::remove_all(dir);
 }

@@ -6,6 +6,7 @@
 // package-lock.json).
 //
 //   node client.js ws://127.0.0.1:8765 /rover1/joint_states COUNT
+//   node client.js ws://127.0.0.1:8765 '*' COUNT     (every channel, until the server closes)
 //
 // Prints JSON lines: {"serverInfo": ...}, {"channels": [{id, topic, encoding, schemaName,
 // schemaEncoding}]} (every advertised channel), then COUNT lines {"topic", "timestamp" (ns as a
@@ -31,16 +32,36 @@ function fail(message) {
 const [url, topic, countText] = process.argv.slice(2);
 const count = Number(countText ?? "1");
 const client = new FoxgloveClient({ ws: new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
-const timer = setTimeout(() => fail(`timeout: fewer than ${count} messages of ${topic}`), 30000);
+const timer = setTimeout(() => fail(`timeout: fewer than ${count} messages of ${topic}`), topic === "*" ? 120000 : 30000);
+// topic "*": every advertised channel, at most COUNT messages each, printed until the server
+// closes the connection (then exit 0): {"subscribed": N} once subscribed, then message lines.
+const all = topic === "*";
+const readers = new Map(); // channel id -> {topic, reader, received}
 let reader = undefined;
 let received = 0;
 
 client.on("error", (e) => fail(`websocket error: ${e.message ?? e}`));
+client.on("close", () => {
+  if (!all) return;
+  clearTimeout(timer);
+  process.exit(0);
+});
 client.on("serverInfo", (info) => process.stdout.write(JSON.stringify({ serverInfo: info }) + "\n"));
 client.on("status", (s) => process.stdout.write(JSON.stringify({ status: s }) + "\n"));
 client.on("advertise", (channels) => {
   process.stdout.write(JSON.stringify({ channels: channels.map((c) => ({ id: c.id, topic: c.topic,
     encoding: c.encoding, schemaName: c.schemaName, schemaEncoding: c.schemaEncoding })) }) + "\n");
+  if (all) {
+    for (const c of channels) {
+      if (c.encoding !== "cdr" || c.schemaEncoding !== "ros2msg") {
+        fail(`${c.topic}: encoding ${c.encoding}, schema encoding ${c.schemaEncoding}`);
+      }
+      const id = client.subscribe(c.id);
+      readers.set(id, { topic: c.topic, reader: new MessageReader(parse(c.schema, { ros2: true })), received: 0 });
+    }
+    process.stdout.write(JSON.stringify({ subscribed: channels.length }) + "\n");
+    return;
+  }
   const ch = channels.find((c) => c.topic === topic);
   if (ch == undefined) fail(`topic ${topic} not advertised`);
   if (ch.encoding !== "cdr" || ch.schemaEncoding !== "ros2msg") {
@@ -49,11 +70,25 @@ client.on("advertise", (channels) => {
   reader = new MessageReader(parse(ch.schema, { ros2: true }));
   client.subscribe(ch.id);
 });
-client.on("message", ({ timestamp, data }) => {
+client.on("message", ({ subscriptionId, timestamp, data }) => {
+  const bytes = new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
+  if (all) {
+    const r = readers.get(subscriptionId);
+    if (r === undefined || r.received >= count) return;
+    let message;
+    try {
+      message = r.reader.readMessage(bytes);
+    } catch (e) {
+      fail(`${r.topic} message ${r.received}: ${e.message}`);
+    }
+    ++r.received;
+    process.stdout.write(JSON.stringify({ topic: r.topic, timestamp, message }, replacer) + "\n");
+    return;
+  }
   if (received >= count) return;
   let message;
   try {
-    message = reader.readMessage(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+    message = reader.readMessage(bytes);
   } catch (e) {
     fail(`${topic} message ${received}: ${e.message}`);
   }
