@@ -318,5 +318,10 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   ASSERT_NE(js_comp, nullptr);
   EXPECT_EQ(js_comp->at("level"), 0) << js_comp->dump();
   EXPECT_NE(find_status(last, "component: wheel_sinkage"), nullptr) << "wheel_sinkage (vivid consumer) missing";
+  // the shipped wheel camera preview runs on the real V4L2 path too
+  const auto* preview = find_status(last, "component: wheel_preview");
+  ASSERT_NE(preview, nullptr) << "wheel_preview missing";
+  EXPECT_EQ(preview->at("level"), 0) << preview->dump();
+  EXPECT_EQ(value_of(*preview, "errors"), 0) << preview->dump();
   if (!HasFailure()) fs::remove_all(dir);
 }
