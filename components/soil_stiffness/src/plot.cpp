@@ -122,9 +122,9 @@ cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
     rot(cv::Rect(0, 0, rot.cols, h)).copyTo(img(cv::Rect(8, y0, rot.cols, h)));
   }
   if (empty) put_text(img, "no data", {area.x + area.width / 2 - 30, area.y + area.height / 2}, 0.7, 2);
-  // series
-  cv::Mat plot_roi = img(area);
-  int legend_y = area.y + 20;
+  // series, then the legend on a box of its own (drawn last: no line crosses it), in the corner
+  // of the plot that hides the fewest data points
+  std::vector<cv::Point> drawn;
   for (const auto& s : series) {
     const std::size_t m = std::min(s.x.size(), s.y.size());
     std::vector<cv::Point> pts;
@@ -145,16 +145,41 @@ cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
         continue;
       }
       pts.emplace_back(px(s.x[i]), py(s.y[i]));
+      drawn.push_back(pts.back());
     }
     flush();
-    if (!s.label.empty()) {
-      const int lx = area.x + area.width - 260;
+  }
+  const int labelled = static_cast<int>(std::count_if(series.begin(), series.end(), [](const auto& s) { return !s.label.empty(); }));
+  if (labelled > 0) {
+    int text_w = 0;
+    for (const auto& s : series)
+      if (!s.label.empty()) text_w = std::max(text_w, text_size(s.label).width);
+    const cv::Size box(std::min(area.width - 8, text_w + 56), 12 + 20 * labelled);
+    cv::Rect best;
+    std::size_t hidden_best = 0;
+    for (const cv::Point corner : {cv::Point(area.x + area.width - 4 - box.width, area.y + 4),
+                                   cv::Point(area.x + 4, area.y + 4),
+                                   cv::Point(area.x + area.width - 4 - box.width, area.y + area.height - 4 - box.height),
+                                   cv::Point(area.x + 4, area.y + area.height - 4 - box.height)}) {
+      const cv::Rect r(corner, box);
+      const auto hidden = static_cast<std::size_t>(
+          std::count_if(drawn.begin(), drawn.end(), [&r](const cv::Point& p) { return r.contains(p); }));
+      if (best.area() == 0 || hidden < hidden_best) {
+        best = r;
+        hidden_best = hidden;
+      }
+    }
+    cv::rectangle(img, best, cv::Scalar(255, 255, 255), cv::FILLED);
+    cv::rectangle(img, best, cv::Scalar(200, 200, 200), 1);
+    const int lx = best.x + 8;
+    int legend_y = best.y + 16;
+    for (const auto& s : series) {
+      if (s.label.empty()) continue;
       cv::line(img, {lx, legend_y - 5}, {lx + 30, legend_y - 5}, s.colour, 3);
       put_text(img, s.label, {lx + 38, legend_y});
       legend_y += 20;
     }
   }
-  (void)plot_roi;
   return img;
 }
 
