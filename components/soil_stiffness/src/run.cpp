@@ -211,9 +211,13 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
       }
       add("image, n fixed " + std::to_string(e.n_fixed).substr(0, 4), e.k_fixed, e.n_fixed, {0, 0, 0}, false);
     }
-    int ci = 2;
-    for (const auto& m : mission_table())
-      add(m.mission + " (Sourcebook)", m.k_traditional(), m.n, kColours[ci++ % 6], true);
+    // The three missions share the Sourcebook soil and differ only in wheel width (k = k_c / b +
+    // k_phi moves by 0.4 %): one curve, not three on top of each other.
+    const std::vector<MissionEntry> missions = mission_table();
+    double k_sum = 0.0;
+    for (const auto& m : missions) k_sum += m.k_traditional();
+    add("Lunar Sourcebook soil (Luna 17, Apollo 15, Chang'E-3)", k_sum / static_cast<double>(missions.size()),
+        missions.front().n, kColours[2], true);
     PlotSpec spec{"Pressure-sinkage p = k z^n", "sinkage z [mm]", "pressure p [kPa]"};
     f.pz_png = out_dir / "pz_curves.png";
     write_png(f.pz_png, render_plot(spec, s));
