@@ -8,6 +8,7 @@
 // every message of the chosen channels decoded from its CDR bytes by Cyclone DDS's own
 // deserializer into the regolith C struct and written as one JSON line (or CSV row) per message.
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -72,8 +73,10 @@ class CdrDecoder {
   CdrDecoder(const CdrDecoder&) = delete;
   CdrDecoder& operator=(const CdrDecoder&) = delete;
 
-  /// The message as JSON; nullopt when Cyclone refuses the bytes (malformed CDR).
-  std::optional<json> decode(std::span<const std::uint8_t> bytes) const {
+  /// The message as JSON; nullopt when Cyclone refuses the bytes (malformed CDR). `with_sample`,
+  /// when given, also sees the decoded C struct.
+  std::optional<json> decode(std::span<const std::uint8_t> bytes,
+                             const std::function<void(const void*)>& with_sample = nullptr) const {
     ddsrt_iovec_t iov;
     iov.iov_base = const_cast<std::uint8_t*>(bytes.data());
     iov.iov_len = static_cast<ddsrt_iov_len_t>(bytes.size());
@@ -83,7 +86,10 @@ class CdrDecoder {
     const bool ok = ddsi_serdata_to_sample(sd, sample, nullptr, nullptr);
     ddsi_serdata_unref(sd);
     std::optional<json> out;
-    if (ok) out = info_.to_json(sample);
+    if (ok) {
+      out = info_.to_json(sample);
+      if (with_sample) with_sample(sample);
+    }
     dds_sample_free(sample, info_.descriptor, DDS_FREE_ALL);
     return out;
   }
@@ -148,6 +154,7 @@ struct ExportChannel {
   std::ofstream out;
   std::vector<std::string> columns;  // csv: from the first message
   std::uint64_t written = 0, undecodable = 0;
+  fs::path images;                   // sensor_msgs/CompressedImage: each image's bytes as a file here
 };
 
 void run_export(const LogExportArgs& a) {
@@ -197,6 +204,11 @@ void run_export(const LogExportArgs& a) {
     for (char& ch : stem)
       if (ch == '/') ch = '_';
     e.path = fs::path(a.out) / (stem + "." + a.format);
+    if (schema == "sensor_msgs/msg/CompressedImage") {  // the camera previews: viewable files too
+      e.images = fs::path(a.out) / stem;
+      fs::create_directories(e.images, ec);
+      if (ec) throw InputError("log export: cannot create " + e.images.string() + ": " + ec.message());
+    }
     e.out.open(e.path, std::ios::binary | std::ios::trunc);
     if (!e.out) throw InputError("log export: cannot write " + e.path.string());
   }
@@ -206,14 +218,29 @@ void run_export(const LogExportArgs& a) {
     auto it = chans.find(m.channel.id);
     if (it == chans.end()) return;
     ExportChannel& e = it->second;
-    auto msg = e.decoder->decode(m.data);
+    std::string image_file;
+    const auto save_image = [&](const void* sample) {
+      const auto& im = *static_cast<const msgs::sensor_msgs::CompressedImage*>(sample);
+      const std::string fmt = im.format != nullptr ? im.format : "";
+      char name[48];
+      std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(e.written),
+                    fmt.find("png") != std::string::npos ? "png" : "jpg");
+      std::ofstream f(e.images / name, std::ios::binary | std::ios::trunc);
+      f.write(reinterpret_cast<const char*>(im.data._buffer), static_cast<std::streamsize>(im.data._length));
+      if (!f) throw InputError("log export: cannot write " + (e.images / name).string());
+      image_file = (e.images.filename() / name).string();
+    };
+    auto msg = e.images.empty() ? e.decoder->decode(m.data) : e.decoder->decode(m.data, save_image);
     if (!msg) {
       ++e.undecodable;
       return;
     }
+    // the bytes are in the file (data: their count): beside the message (jsonl), a column (csv)
+    if (!image_file.empty() && csv) (*msg)["file"] = image_file;
     if (!csv) {
       json line = {{"log_time_ns", m.log_time}, {"publish_time_ns", m.publish_time}, {"sequence", m.sequence},
                    {"message", std::move(*msg)}};
+      if (!image_file.empty()) line["file"] = image_file;
       e.out << line.dump() << '\n';
     } else {
       flat.clear();
@@ -241,6 +268,7 @@ void run_export(const LogExportArgs& a) {
     if (!e.out) throw InputError("log export: write error on " + e.path.string());
     std::printf("%s: %llu messages -> %s", e.channel->topic.c_str(), static_cast<unsigned long long>(e.written),
                 e.path.string().c_str());
+    if (!e.images.empty()) std::printf(" (images in %s/)", e.images.string().c_str());
     if (e.undecodable > 0)
       std::printf(" (%llu undecodable CDR payloads skipped)", static_cast<unsigned long long>(e.undecodable));
     std::printf("\n");

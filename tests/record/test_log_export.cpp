@@ -3,6 +3,8 @@
 // dds::take_serialized = what `regolith record` stores), put into an MCAP file with McapWriter,
 // exported by the `regolith` binary, and the JSON lines / CSV rows compared field by field with
 // what was written. Also: topic name spellings, unknown topic (exit 2), a file cut mid-chunk.
+#include <algorithm>
+#include <iterator>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -270,3 +272,52 @@ TEST_F(LogExport, DamagedChunkIsReportedTheRestExported) {
 }
 
 }  // namespace
+
+// The camera previews (sensor_msgs/CompressedImage): each image's bytes become a file beside the
+// JSON lines, named in the line's "file"; the message's data renders as its byte count.
+TEST_F(LogExport, CompressedImagesBecomeFiles) {
+  const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  ASSERT_GT(pp, 0);
+  std::vector<std::vector<std::uint8_t>> payloads = {{0xFF, 0xD8, 1, 2, 3, 0xFF, 0xD9}, {0xFF, 0xD8, 9, 8, 0xFF, 0xD9}};
+  std::vector<m::sensor_msgs::CompressedImage*> images;
+  for (std::size_t i = 0; i < payloads.size(); ++i) {
+    auto* s = static_cast<m::sensor_msgs::CompressedImage*>(dds_alloc(sizeof(m::sensor_msgs::CompressedImage)));
+    rd::reserve(*s, 64, 16, 32);
+    rd::set_time(s->header.stamp, (i + 1) * regolith::kNsPerSec);
+    rd::copy_string(s->header.frame_id, 32, "front_optical_frame");
+    rd::copy_string(s->format, 16, "jpeg");
+    rd::set_length(s->data, payloads[i].size());
+    std::copy(payloads[i].begin(), payloads[i].end(), s->data._buffer);
+    images.push_back(s);
+  }
+  const auto bytes = serialize(pp, "export_test_images", images);
+  for (auto* s : images) dds_sample_free(s, rd::MsgTraits<m::sensor_msgs::CompressedImage>::descriptor(), DDS_FREE_ALL);
+  dds_delete(pp);
+  ASSERT_EQ(bytes.size(), payloads.size());
+  const fs::path file = dir_ / "previews.mcap";
+  {
+    regolith::record::McapWriter w(file, {.compression = regolith::record::Compression::kNone, .chunk_size = 1024});
+    const auto s = w.add_schema("sensor_msgs/msg/CompressedImage", "ros2msg", std::string());
+    const auto c = w.add_channel(s, "/rover7/preview/rocks/compressed", "cdr", {});
+    for (std::size_t i = 0; i < bytes.size(); ++i)
+      w.write(c, static_cast<std::uint32_t>(i), 2000 + 10 * i, 1900 + 10 * i, bytes[i]);
+    w.close();
+  }
+  const fs::path out = dir_ / "img";
+  const ExportRun r = run(file.string() + " --topic /rover7/preview/rocks/compressed --out " + out.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("(images in " + (out / "rover7_preview_rocks_compressed").string() + "/)"), std::string::npos)
+      << r.out;
+  const auto ls = lines(out / "rover7_preview_rocks_compressed.jsonl");
+  ASSERT_EQ(ls.size(), payloads.size());
+  for (std::size_t i = 0; i < ls.size(); ++i) {
+    const json j = json::parse(ls[i]);
+    EXPECT_EQ(j["message"]["format"], "jpeg");
+    EXPECT_EQ(j["message"]["data"]["bytes"], payloads[i].size());
+    const std::string name = j.at("file").get<std::string>();
+    EXPECT_EQ(name, "rover7_preview_rocks_compressed/00000" + std::to_string(i) + ".jpg");
+    std::ifstream in(out / name, std::ios::binary);
+    const std::vector<std::uint8_t> got((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(got, payloads[i]) << name;
+  }
+}
