@@ -33,7 +33,6 @@ enum class Source : std::uint8_t { kRocks, kSinkage };
 /// A frame and what was found in it, handed from step() to the worker.
 struct Slot {
   cv::Mat frame;  ///< the camera's size and type, allocated at configure
-  Source source = Source::kRocks;
   saliency::RockFrame rocks;
   sinkage::WheelSinkageSample sinkage;
   TimeNs stamp = 0;
@@ -65,10 +64,7 @@ class PreviewComponent final : public runtime::Component {
 
     size_ = {fmt.width, fmt.height};
     const int type = source_ == Source::kSinkage ? CV_8UC3 : CV_8UC1;  // wheel_sinkage needs bgr8; the DTM is grey
-    for (auto& s : slots_) {
-      s.frame.create(size_, type);
-      s.source = source_;
-    }
+    for (auto& s : slots_) s.frame.create(size_, type);
     free_ = std::make_unique<BoundedQueue<int>>(kSlots, DropPolicy::kDropNewest);
     ready_ = std::make_unique<BoundedQueue<int>>(kSlots, DropPolicy::kDropNewest);
     for (int i = 0; i < kSlots; ++i) free_->push(i);
@@ -152,12 +148,22 @@ class PreviewComponent final : public runtime::Component {
   static constexpr int kSlots = 3;
 
   // ---- step side (real time): copy into a free slot, no allocation ----
-  Slot* begin_slot(int& idx) {
+  /// Copies `image` (the slots' size and type: no reallocation) and, through fill(slot), the
+  /// result into a free slot and hands it to the worker; false when the worker holds every slot.
+  template <class Fill>
+  bool hand_over(const cv::Mat& image, TimeNs stamp, std::uint64_t sequence, Fill&& fill) {
+    int idx = 0;
     if (!free_->pop(idx)) {
       busy_.fetch_add(1, std::memory_order_relaxed);  // the worker is behind: skip this one
-      return nullptr;
+      return false;
     }
-    return &slots_[static_cast<std::size_t>(idx)];
+    Slot& s = slots_[static_cast<std::size_t>(idx)];
+    image.copyTo(s.frame);
+    fill(s);
+    s.stamp = stamp;
+    s.sequence = sequence;
+    ready_->push(idx);
+    return true;
   }
 
   bool take_rocks() {
@@ -171,15 +177,7 @@ class PreviewComponent final : public runtime::Component {
       unmatched_.fetch_add(1, std::memory_order_relaxed);
       return false;
     }
-    int idx = 0;
-    Slot* s = begin_slot(idx);
-    if (s == nullptr) return false;
-    dtm->gray.copyTo(s->frame);  // same size and type: no reallocation
-    s->rocks = *rocks;
-    s->stamp = rocks->stamp;
-    s->sequence = rocks->sequence;
-    ready_->push(idx);
-    return true;
+    return hand_over(dtm->gray, rocks->stamp, rocks->sequence, [&](Slot& s) { s.rocks = *rocks; });
   }
 
   bool take_sinkage() {
@@ -194,15 +192,7 @@ class PreviewComponent final : public runtime::Component {
       unmatched_.fetch_add(1, std::memory_order_relaxed);
       return false;
     }
-    int idx = 0;
-    Slot* s = begin_slot(idx);
-    if (s == nullptr) return false;
-    frame->image.copyTo(s->frame);
-    s->sinkage = *sample;
-    s->stamp = sample->stamp;
-    s->sequence = sample->sequence;
-    ready_->push(idx);
-    return true;
+    return hand_over(frame->image, sample->stamp, sample->sequence, [&](Slot& s) { s.sinkage = *sample; });
   }
 
   // ---- worker thread (not real time): draw, encode, publish ----
@@ -221,7 +211,7 @@ class PreviewComponent final : public runtime::Component {
       const Slot& s = slots_[static_cast<std::size_t>(idx)];
       bool ok = false;
       try {
-        if (s.source == Source::kRocks) {
+        if (source_ == Source::kRocks) {
           const std::span rocks(s.rocks.rocks.data(), std::min<std::size_t>(s.rocks.count, saliency::kMaxRocks));
           // the traversability grid of the same frame (traversability runs in the rocks' rate group)
           const auto grid = grid_ != nullptr ? grid_->acquire() : decltype(grid_->acquire()){};
