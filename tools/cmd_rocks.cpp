@@ -299,7 +299,7 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
         if (trained) {
           extractor->extract(img, cand_set);
           const std::vector<float> scores = model->score(cand_set);
-          sal::TrainedModel::score_map(cand_set, scores, model->nms_iou, map);
+          sal::TrainedModel::score_map(cand_set, scores, map);
           dets = sal::TrainedModel::select(cand_set, scores,
                                            model->score_threshold,
                                            model->nms_iou);

@@ -189,6 +189,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   out.candidates.clear();
   out.source_masks.create(I.size(), CV_8U);
   out.source_masks.setTo(0);
+  out.sources = static_cast<int>(detectors_.size());
   const size_t n_coarse = params_.coarse_scales.size();
   for (size_t k = 0; k < detectors_.size(); ++k) {
     const bool is_coarse = k < n_coarse;
@@ -211,13 +212,17 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
           ++c.stability;
           ++near_same;
         }
-        dup = dup || c.box == d.box;
+        if (c.box == d.box) {
+          dup = true;
+          c.source_bits |= 1u << k;
+        }
       }
       if (dup) continue;
       RockCandidate c;
       c.box = d.box;
       c.area = d.area;
       c.source = static_cast<int>(k);
+      c.source_bits = 1u << k;
       c.stability = 1 + near_same;
       const cv::Rect& b = d.box;
       const int margin = std::max(3, static_cast<int>(std::lround(0.25 * std::max(b.width, b.height))));
@@ -413,25 +418,24 @@ std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::
   return out;
 }
 
-void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, double nms, cv::Mat& map) {
+void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map) {
   map.create(set.size, CV_32F);
   map.setTo(0);
-  std::vector<size_t> order(set.candidates.size());
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a] > scores[b]; });
-  std::vector<cv::Rect> kept;
-  for (size_t i : order) {
+  if (set.sources <= 0) return;
+  const float per_source = 1.0f / static_cast<float>(set.sources);
+  for (size_t i = 0; i < set.candidates.size(); ++i) {
     const RockCandidate& c = set.candidates[i];
-    if (std::any_of(kept.begin(), kept.end(), [&](const cv::Rect& r) { return iou(r, c.box) > nms; })) continue;
-    kept.push_back(c.box);
-    const uchar bit = static_cast<uchar>(1u << c.source);
+    const float w = scores[i] * per_source;
     for (int y = c.box.y; y < c.box.y + c.box.height; ++y) {
       const uchar* sp = set.source_masks.ptr<uchar>(y);
       float* mp = map.ptr<float>(y);
-      for (int x = c.box.x; x < c.box.x + c.box.width; ++x)
-        if ((sp[x] & bit) && mp[x] < scores[i]) mp[x] = scores[i];
+      for (int x = c.box.x; x < c.box.x + c.box.width; ++x) {
+        const unsigned hit = sp[x] & c.source_bits;
+        if (hit != 0u) mp[x] += w * static_cast<float>(__builtin_popcount(hit));
+      }
     }
   }
+  cv::min(map, 1.0, map);
 }
 
 std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
@@ -643,7 +647,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
     r.nms_ious.push_back(m.nms_iou);
     for (size_t i : test) {
       const std::vector<float> s = m.score(frames[i].set);
-      TrainedModel::score_map(frames[i].set, s, m.nms_iou, map);
+      TrainedModel::score_map(frames[i].set, s, map);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, TrainedModel::select(frames[i].set, s, m.score_threshold, m.nms_iou),
                                    frames[i].truth, map8);
