@@ -65,7 +65,7 @@ SYSROOT_PACKAGES=(
   libc6-dev libstdc++-12-dev
   libopencv-dev libopencv-contrib-dev libeigen3-dev libyaml-cpp-dev
   cyclonedds-dev libcamera-dev libv4l-dev
-  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev libzstd-dev
+  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev libzstd-dev libfftw3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 stamp="$REGOLITH_ARM64_SYSROOT/.regolith-sysroot"

@@ -638,41 +638,52 @@ void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& ou
 void ShapeFromShading::pentland(const LightDirection& l, SfsResult& out) {
   const cv::Size sz = e_.size();
   const int R = cv::getOptimalDFTSize(sz.height), C = cv::getOptimalDFTSize(sz.width);
-  const bool new_filter = filt_re_.rows != R || filt_re_.cols != C || last_tilt_ != l.tilt_rad ||
-                          last_slant_ != l.slant_rad;
-  if (new_filter) {
-    filt_re_.create(R, C, CV_32FC2);
+  const int Ch = C / 2 + 1;  // the half spectrum of a real array
+  const bool new_size = fft_.rows() != R || fft_.cols() != C;
+  fft_.resize(R, C);  // plans and buffers: first frame of a size only
+  if (new_size || last_tilt_ != l.tilt_rad || last_slant_ != l.slant_rad) {
+    // conj(D) / (|D|^2 + eps^2) = -i d / (d^2 + eps^2), D = i d: purely imaginary, stored as its
+    // imaginary part over the half spectrum (w1 = 2 pi c / C >= 0 there).
+    filt_re_.create(R, Ch, CV_32F);
     const double ct = std::cos(l.tilt_rad), st = std::sin(l.tilt_rad), ss = std::sin(l.slant_rad);
     const double eps2 = params_.pentland_min_denominator * params_.pentland_min_denominator;
     for (int r = 0; r < R; ++r) {
       const double w2 = 2 * kPi * (r <= R / 2 ? r : r - R) / R;
-      cv::Vec2f* pf = filt_re_.ptr<cv::Vec2f>(r);
-      for (int c = 0; c < C; ++c) {
-        const double w1 = 2 * kPi * (c <= C / 2 ? c : c - C) / C;
-        const double d = ss * (w1 * ct + w2 * st);  // D = i d
-        // conj(D) / (|D|^2 + eps^2) = -i d / (d^2 + eps^2)
-        pf[c] = cv::Vec2f(0.0f, static_cast<float>(-d / (d * d + eps2)));
+      float* pf = filt_re_.ptr<float>(r);
+      for (int c = 0; c < Ch; ++c) {
+        const double w1 = 2 * kPi * c / C;
+        const double d = ss * (w1 * ct + w2 * st);
+        pf[c] = static_cast<float>(-d / (d * d + eps2));
       }
     }
     last_tilt_ = l.tilt_rad;
     last_slant_ = l.slant_rad;
   }
   // Zero-mean E (the mean over valid pixels; masked pixels keep their brightness unless
-  // pentland_fill_masked, then they get the mean) into a zero-padded real buffer.
+  // pentland_fill_masked, then they get the mean) into the zero-padded real buffer.
   const double mean = cv::mean(e_, mask_)[0];
-  tmp_.create(R, C, CV_32F);
-  fill(tmp_, 0.0f);
+  cv::Mat real = fft_.real();
+  fill(real, 0.0f);
   for (int r = 0; r < sz.height; ++r) {
     const float* pe = e_.ptr<float>(r);
     const uchar* pm = mask_.ptr<uchar>(r);
-    float* pt = tmp_.ptr<float>(r);
+    float* pt = real.ptr<float>(r);
     for (int c = 0; c < sz.width; ++c)
       pt[c] = (pm[c] || !params_.pentland_fill_masked) ? static_cast<float>(static_cast<double>(pe[c]) - mean) : 0.0f;
   }
-  cv::dft(tmp_, spectrum_, cv::DFT_COMPLEX_OUTPUT);
-  cv::mulSpectrums(spectrum_, filt_re_, complex_, 0);
-  cv::dft(complex_, tmp_, cv::DFT_INVERSE | cv::DFT_REAL_OUTPUT | cv::DFT_SCALE);
-  tmp_(cv::Rect(0, 0, sz.width, sz.height)).convertTo(out.height, CV_32F, -1.0);
+  fft_.forward();
+  // F_Z = (i f) F_E: (a + i b) i f = -b f + i a f.
+  cv::Mat spec = fft_.spectrum();
+  for (int r = 0; r < R; ++r) {
+    cv::Vec2f* ps = spec.ptr<cv::Vec2f>(r);
+    const float* pf = filt_re_.ptr<float>(r);
+    for (int c = 0; c < Ch; ++c) {
+      const float a = ps[c][0], b = ps[c][1];
+      ps[c] = cv::Vec2f(-b * pf[c], a * pf[c]);
+    }
+  }
+  fft_.inverse();
+  real(cv::Rect(0, 0, sz.width, sz.height)).convertTo(out.height, CV_32F, -1.0 / (static_cast<double>(R) * C));
   out.iterations = 1;
   out.final_mean_update = 0.0;
   mask_.copyTo(out.valid);

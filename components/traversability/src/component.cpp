@@ -57,7 +57,7 @@ class TraversabilityComponent final : public runtime::Component {
                                               {.unit = "m", .min = 0.0, .doc = "ground SfS drift removed (0 = off; sfs_frame ground)"});
     const std::string gmethod = p.get<std::string>(
         "ground_method", "tsai_shah",
-        {.choices = {"tsai_shah", "pentland"}, .doc = "ground SfS solver (pentland allocates per frame)"});
+        {.choices = {"tsai_shah", "pentland"}, .doc = "ground SfS solver (tsai_shah: the more accurate on the rectified grid)"});
     tp.ground_sfs.method = sfs::method_from_string(gmethod);
     tp.ground_sfs.tsai_shah_leak_px = p.get<double>("ground_leak_px", tp.ground_sfs.tsai_shah_leak_px,
                                                     {.unit = "px", .min = 0.0, .doc = "Tsai-Shah integration memory on the rectified grid"});

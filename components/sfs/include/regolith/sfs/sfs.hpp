@@ -15,6 +15,8 @@
 //    the viewer); SfsResult::height is its negative.
 #include <opencv2/core.hpp>
 
+#include "regolith/sfs/real_fft.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -188,8 +190,8 @@ class ShapeFromShading {
   cv::Mat z_, z_new_, s_;   // Tsai-Shah state (oriented frame)
   cv::Mat mask_;    // CV_8U valid mask (image frame)
   cv::Mat work_mask_;  // oriented copy of the mask for Tsai-Shah
-  cv::Mat complex_, spectrum_, filt_re_, filt_im_;  // Pentland buffers
-  cv::Mat tmp_;
+  RealFft2d fft_;     // Pentland: FFTW plans and buffers (allocation-free after the first frame)
+  cv::Mat filt_re_;   // Pentland: imaginary part of the inverse filter over the half spectrum
   cv::Size last_size_;
   double last_tilt_ = 1e9, last_slant_ = 1e9;
 };
