@@ -1,12 +1,26 @@
-// Heap allocations per rate-group cycle of the mocked rover after warm-up (goal and expectation:
-// 0). Every operator new is counted; those made on a thread inside a rate-group cycle are counted
-// separately. The peer in the same run is the configure + warm-up phase of the same deployment.
-#include <benchmark/benchmark.h>
+// The allocation probe: heap allocations per rate-group cycle of a deployment under the
+// simulated clock, after warm-up (goal and expectation: 0), named by the component whose step()
+// made them. The peer in the same run is the warm-up phase of the same deployment (first frames
+// size every buffer there).
+//
+//   steady_state_allocations [--config FILE] [--warmup S] [--steady S] [--trace N]
+//
+// Default: the embedded mocked rover. Exit status 0 when the steady state allocated nothing, 1
+// when it did (CTest runs it on every shipped deployment whose devices are all mocks), 2 on a
+// usage or deployment error. --trace N prints the call stacks of the first N steady-state
+// allocations (addr2line or gdb turn the addresses into lines).
+#include <execinfo.h>
+#include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <map>
 #include <new>
+#include <string>
 
 #include "cli.hpp"
 #include "regolith/runtime/application.hpp"
@@ -14,16 +28,60 @@
 namespace {
 std::atomic<std::uint64_t> g_all{0};
 std::atomic<std::uint64_t> g_in_cycle{0};
+std::atomic<bool> g_attribute{false};  // steady state: count per component
+std::atomic<int> g_trace_left{0};
+// Per-member counts without allocating: a fixed table of (component pointer, count).
+constexpr int kMaxMembers = 64;
+std::array<std::atomic<const void*>, kMaxMembers> g_member_key{};
+std::array<std::atomic<std::uint64_t>, kMaxMembers> g_member_count{};
+std::atomic<std::uint64_t> g_unattributed{0};
+
+void attribute(const void* member) {
+  if (member == nullptr) {
+    g_unattributed.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  for (int i = 0; i < kMaxMembers; ++i) {
+    const void* k = g_member_key[static_cast<size_t>(i)].load(std::memory_order_acquire);
+    if (k == nullptr) {
+      const void* expected = nullptr;
+      if (g_member_key[static_cast<size_t>(i)].compare_exchange_strong(expected, member) || expected == member) {
+        g_member_count[static_cast<size_t>(i)].fetch_add(1, std::memory_order_relaxed);
+        return;
+      }
+      continue;
+    }
+    if (k == member) {
+      g_member_count[static_cast<size_t>(i)].fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+  }
+  g_unattributed.fetch_add(1, std::memory_order_relaxed);
+}
 }  // namespace
 
 void* operator new(std::size_t n) {
   g_all.fetch_add(1, std::memory_order_relaxed);
-  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+  if (regolith::runtime::in_rate_group_cycle()) {
+    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
+    if (g_attribute.load(std::memory_order_relaxed)) {
+      attribute(regolith::runtime::current_cycle_member());
+      if (g_trace_left.load(std::memory_order_relaxed) > 0 && g_trace_left.fetch_sub(1) > 0) {
+        void* frames[24];
+        const int depth = backtrace(frames, 24);
+        backtrace_symbols_fd(frames, depth, STDERR_FILENO);
+        (void)!write(STDERR_FILENO, "----\n", 5);
+      }
+    }
+  }
   if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
+void* operator new[](std::size_t n) { return operator new(n); }
 void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 using namespace regolith;
 
@@ -35,36 +93,93 @@ std::uint64_t total_cycles(const runtime::Application& app) {
   return n;
 }
 
-void BM_MockRoverSteadyState(benchmark::State& state) {
-  cli::register_everything();
-  for (auto _ : state) {
-    const std::uint64_t before_load = g_in_cycle.load();
-    auto app = runtime::Application::load(
-        Params::load_string(cli::embedded_mock_rover(), "<embedded>/config/mock_rover.yaml"),
-        {.sim_time = true, .enable_dds = true});
-    std::atomic<bool> stop{false};
-    app->start();
-    app->run(5 * kNsPerSec, stop);  // warm-up: first frames size every buffer
-    const std::uint64_t warm_cycles = total_cycles(*app);
-    const std::uint64_t warm_allocs = g_in_cycle.load() - before_load;
-    const std::uint64_t a0 = g_in_cycle.load();
-    app->run(30 * kNsPerSec, stop);
-    const std::uint64_t steady_allocs = g_in_cycle.load() - a0;
-    const std::uint64_t steady_cycles = total_cycles(*app) - warm_cycles;
-    app->stop();
-    state.counters["warmup_allocs_per_cycle"] =
-        warm_cycles ? static_cast<double>(warm_allocs) / static_cast<double>(warm_cycles) : 0.0;
-    state.counters["steady_allocs_per_cycle"] =
-        steady_cycles ? static_cast<double>(steady_allocs) / static_cast<double>(steady_cycles) : 0.0;
-    std::printf("\nmocked rover, simulated time: warm-up %llu allocations in %llu cycles; "
-                "steady state %llu allocations in %llu cycles (%.4f per cycle, goal 0)\n",
-                static_cast<unsigned long long>(warm_allocs), static_cast<unsigned long long>(warm_cycles),
-                static_cast<unsigned long long>(steady_allocs), static_cast<unsigned long long>(steady_cycles),
-                steady_cycles ? static_cast<double>(steady_allocs) / static_cast<double>(steady_cycles) : 0.0);
-  }
+int usage(const char* why) {
+  std::fprintf(stderr,
+               "steady_state_allocations: %s\n"
+               "usage: steady_state_allocations [--config FILE] [--warmup S] [--steady S] [--trace N]\n",
+               why);
+  return 2;
 }
-BENCHMARK(BM_MockRoverSteadyState)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+bool parse_seconds(const char* text, double& out) {
+  char* end = nullptr;
+  out = std::strtod(text, &end);
+  return end != text && *end == '\0' && out > 0.0 && out <= 86400.0;
+}
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  std::string config;  // empty: the embedded mocked rover
+  double warmup_s = 5.0, steady_s = 30.0;
+  int trace = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (a == "--config" && has_value) {
+      config = argv[++i];
+    } else if (a == "--warmup" && has_value) {
+      if (!parse_seconds(argv[++i], warmup_s)) return usage("--warmup: seconds in (0, 86400]");
+    } else if (a == "--steady" && has_value) {
+      if (!parse_seconds(argv[++i], steady_s)) return usage("--steady: seconds in (0, 86400]");
+    } else if (a == "--trace" && has_value) {
+      trace = std::atoi(argv[++i]);
+    } else if (a == "-h" || a == "--help") {
+      usage("allocation probe");
+      return 0;
+    } else {
+      return usage(("unknown or incomplete argument '" + a + "'").c_str());
+    }
+  }
+
+  cli::register_everything();
+  std::unique_ptr<runtime::Application> app;
+  const std::string name = config.empty() ? "<embedded>/config/mock_rover.yaml" : config;
+  try {
+    const Params p = config.empty() ? Params::load_string(cli::embedded_mock_rover(), name) : Params::load_file(config);
+    app = runtime::Application::load(p, {.sim_time = true, .enable_dds = true});
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "steady_state_allocations: %s\n", e.what());
+    return 2;
+  }
+  const std::uint64_t before_load = g_in_cycle.load();
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(static_cast<TimeNs>(warmup_s * static_cast<double>(kNsPerSec)), stop);
+  const std::uint64_t warm_cycles = total_cycles(*app);
+  const std::uint64_t warm_allocs = g_in_cycle.load() - before_load;
+
+  g_trace_left = trace;
+  g_attribute = true;
+  const std::uint64_t a0 = g_in_cycle.load();
+  app->run(static_cast<TimeNs>(steady_s * static_cast<double>(kNsPerSec)), stop);
+  const std::uint64_t steady_allocs = g_in_cycle.load() - a0;
+  g_attribute = false;
+  const std::uint64_t steady_cycles = total_cycles(*app) - warm_cycles;
+
+  auto per_cycle = [](std::uint64_t a, std::uint64_t c) { return c ? static_cast<double>(a) / static_cast<double>(c) : 0.0; };
+  std::printf("%s, simulated time: %zu components in %zu rate groups\n", name.c_str(), app->view().components.size(),
+              app->view().groups.size());
+  std::printf("  warm-up %.0f s (peer): %llu allocations in %llu cycles (%.2f per cycle)\n", warmup_s,
+              static_cast<unsigned long long>(warm_allocs), static_cast<unsigned long long>(warm_cycles),
+              per_cycle(warm_allocs, warm_cycles));
+  std::printf("  steady  %.0f s: %llu allocations in %llu cycles (%.4f per cycle, goal 0)\n", steady_s,
+              static_cast<unsigned long long>(steady_allocs), static_cast<unsigned long long>(steady_cycles),
+              per_cycle(steady_allocs, steady_cycles));
+  for (const auto* c : app->view().components) {
+    for (int i = 0; i < kMaxMembers; ++i) {
+      if (g_member_key[static_cast<size_t>(i)].load() == static_cast<const void*>(c))
+        std::printf("    %-20s %llu allocations in steady state\n", c->name().c_str(),
+                    static_cast<unsigned long long>(g_member_count[static_cast<size_t>(i)].load()));
+    }
+  }
+  if (g_unattributed.load() > 0)
+    std::printf("    (between members)    %llu allocations in steady state\n",
+                static_cast<unsigned long long>(g_unattributed.load()));
+  app->stop();
+  if (steady_cycles == 0) {
+    std::fprintf(stderr, "steady_state_allocations: %s: no rate-group cycle ran in the steady window\n", name.c_str());
+    return 1;
+  }
+  return steady_allocs == 0 ? 0 : 1;
+}

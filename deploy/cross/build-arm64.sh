@@ -98,6 +98,7 @@ fi
 
 # ---- 3. configure and build -----------------------------------------------------------------------
 step "configuring $build"
+mkdir -p "$(dirname "$build")"
 cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_TOOLCHAIN_FILE="$src/deploy/cross/aarch64-linux-gnu.cmake" \
   -DREGOLITH_ARM64_SYSROOT="$REGOLITH_ARM64_SYSROOT" -DREGOLITH_BUILD_BENCH=OFF >"$build.configure.log" 2>&1 ||

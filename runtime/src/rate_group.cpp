@@ -9,13 +9,18 @@ namespace regolith::runtime {
 
 namespace {
 thread_local bool t_in_cycle = false;
+thread_local const Component* t_member = nullptr;
 struct CycleFlag {
   CycleFlag() { t_in_cycle = true; }
-  ~CycleFlag() { t_in_cycle = false; }
+  ~CycleFlag() {
+    t_in_cycle = false;
+    t_member = nullptr;
+  }
 };
 }  // namespace
 
 bool in_rate_group_cycle() { return t_in_cycle; }
+const Component* current_cycle_member() { return t_member; }
 
 RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
     : cfg_(std::move(cfg)), members_(std::move(members)) {
@@ -51,7 +56,9 @@ void RateGroup::run_cycle(Clock& clock) {
     const TimeNs w0 = sim ? monotonic_now() : t0;
     const TimeNs c0 = thread_cpu_now();
     info.now = t0;
+    t_member = m;
     m->step(info);
+    t_member = nullptr;
     const TimeNs t1 = clock.now();
     m->cpu_.record(thread_cpu_now() - c0);
     m->exec_.record(t1 - t0);

@@ -21,6 +21,7 @@ class CostMember final : public Component {
   CostMember(std::string n, SimClock& clock, Trace& trace) : label_(std::move(n)), clock_(clock), trace_(trace) {}
   void configure(Params&, Context&) override {}
   void step(const CycleInfo& c) override {
+    seen_self_ = seen_self_ && in_rate_group_cycle() && current_cycle_member() == this;
     trace_.steps.emplace_back(label_, c.release);
     TimeNs cost = cost_;
     if (!costs_.empty()) cost = costs_[std::min(calls_, costs_.size() - 1)];
@@ -30,6 +31,7 @@ class CostMember final : public Component {
   TimeNs cost_ = 0;
   std::vector<TimeNs> costs_;  // per call; last one repeats
   std::size_t calls_ = 0;
+  bool seen_self_ = true;  // every step saw itself as the current member, inside a cycle
 
  private:
   std::string label_;
@@ -100,6 +102,10 @@ TEST(Scheduler, RunsEachGroupAtItsPeriodAndMembersInOrder) {
   }
   EXPECT_EQ(r.groups[0]->counters().slips, 0u);
   EXPECT_EQ(r.groups[0]->counters().cycles, 11u);
+  // What the allocation probes read: inside each step the member itself, outside nothing.
+  for (const auto& m : r.members) EXPECT_TRUE(m->seen_self_);
+  EXPECT_FALSE(in_rate_group_cycle());
+  EXPECT_EQ(current_cycle_member(), nullptr);
 }
 
 class SlipTest : public ::testing::TestWithParam<int> {};

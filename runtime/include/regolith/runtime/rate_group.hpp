@@ -19,6 +19,9 @@ namespace regolith::runtime {
 /// True on a thread while it executes a rate-group cycle: lets allocation probes (tests, the
 /// steady_state_allocations benchmark) count only what happens inside cycles.
 bool in_rate_group_cycle();
+/// The member whose step() the calling thread is executing inside a cycle, else nullptr: lets
+/// the probes say which component allocated.
+const Component* current_cycle_member();
 
 enum class OverrunPolicy : std::uint8_t {
   kSkip,     ///< after an overrun, wait for the next release in the future (missed ones are dropped)
