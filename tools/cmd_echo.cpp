@@ -21,6 +21,7 @@ struct EchoArgs {
   int domain = dds::default_domain_id();
   std::string ns = "rover1";
   bool best_effort = false;
+  bool delay = false;
   bool list = false;
 };
 
@@ -35,6 +36,8 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--namespace", a->ns, "robot namespace of relative topic names");
   cmd->add_flag("--best-effort", a->best_effort, "best-effort reader (also matches sensor-data publishers)");
   cmd->add_flag("--list", a->list, "list the known topics and their types");
+  cmd->add_flag("--delay", a->delay,
+                "add \"received\" (ROS time at receipt) and \"delay_ms\" (received - header.stamp) to each sample");
   cmd->callback([a] {
     dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
     if (a->list || a->topic.empty()) {
@@ -50,6 +53,7 @@ const bool registered = add_command([](CLI::App& app) {
     opt.count = a->count;
     opt.timeout_ns = from_seconds(a->timeout_s);
     opt.best_effort = a->best_effort;
+    opt.receipt_time = a->delay;
     opt.keep_going = [] { return !g_interrupted.load(); };
     const std::size_t n = dds::echo(participant, a->topic, opt, std::cout);
     if (a->count > 0 && n < a->count && !g_interrupted.load()) throw CLI::RuntimeError(1);

@@ -1,4 +1,5 @@
 #include "regolith/runtime/component.hpp"
+#include "regolith/runtime/worker_pool.hpp"
 
 #include "regolith/runtime/context.hpp"
 
@@ -14,6 +15,8 @@ const char* to_string(Lifecycle s) {
   }
   return "unknown";
 }
+
+TimeNs Component::worker_cpu_ns() const { return workers_ != nullptr ? workers_->worker_cpu_ns() : 0; }
 
 InputWatch& Component::watch_input(const std::string& name, TimeNs timeout) {
   auto w = std::make_unique<InputWatch>();

@@ -22,6 +22,16 @@ struct CycleFlag {
 bool in_rate_group_cycle() { return t_in_cycle; }
 const Component* current_cycle_member() { return t_member; }
 
+CycleScope::CycleScope(bool in_cycle, const Component* member) : prev_in_cycle_(t_in_cycle), prev_member_(t_member) {
+  t_in_cycle = in_cycle;
+  t_member = member;
+}
+
+CycleScope::~CycleScope() {
+  t_in_cycle = prev_in_cycle_;
+  t_member = prev_member_;
+}
+
 RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
     : cfg_(std::move(cfg)), members_(std::move(members)) {
   if (cfg_.period <= 0) throw std::invalid_argument("rate group '" + cfg_.name + "': period must be > 0");
@@ -54,13 +64,13 @@ void RateGroup::run_cycle(Clock& clock) {
   for (Component* m : members_) {
     const TimeNs t0 = clock.now();
     const TimeNs w0 = sim ? monotonic_now() : t0;
-    const TimeNs c0 = thread_cpu_now();
+    const TimeNs c0 = thread_cpu_now() + m->worker_cpu_ns();
     info.now = t0;
     t_member = m;
     m->step(info);
     t_member = nullptr;
     const TimeNs t1 = clock.now();
-    m->cpu_.record(thread_cpu_now() - c0);
+    m->cpu_.record(thread_cpu_now() + m->worker_cpu_ns() - c0);
     m->exec_.record(t1 - t0);
     m->wall_.record(sim ? monotonic_now() - w0 : t1 - t0);
     m->heartbeat_.fetch_add(1, std::memory_order_relaxed);

@@ -554,3 +554,17 @@ TEST(DdsUnit, HeaderStampsAreRosTime) {
   rd::set_stamp(t, 5 * regolith::kNsPerSec);
   EXPECT_EQ(t.sec, 5);
 }
+
+TEST(DdsEcho, ReceiptTimeAndDelayFromTheHeaderStamp) {
+  // `regolith echo --delay`: received (ROS time) and received - header.stamp in ms.
+  nlohmann::json s = {{"header", {{"stamp", {{"sec", 100}, {"nanosec", 900'000'000}}}, {"frame_id", "odom"}}}};
+  regolith::dds::add_receipt_time(s, 101 * regolith::kNsPerSec + 12'500'000);
+  EXPECT_EQ(s["received"]["sec"], 101);
+  EXPECT_EQ(s["received"]["nanosec"], 12'500'000);
+  EXPECT_DOUBLE_EQ(s["delay_ms"].get<double>(), 112.5);
+  // no header (e.g. /clock): the receipt time only
+  nlohmann::json c = {{"clock", {{"sec", 1}, {"nanosec", 0}}}};
+  regolith::dds::add_receipt_time(c, 5 * regolith::kNsPerSec);
+  EXPECT_EQ(c["received"]["sec"], 5);
+  EXPECT_FALSE(c.contains("delay_ms"));
+}

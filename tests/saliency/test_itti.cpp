@@ -4,7 +4,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include <random>
+#include <thread>
+#include <vector>
 
+#include "regolith/core/parallel.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/evaluate.hpp"
 #include "regolith/saliency/itti.hpp"
@@ -212,4 +215,53 @@ TEST(Itti, BadInputAndParametersGiveClearMessages) {
   EXPECT_THROW(rs::IttiSaliency{p}, std::invalid_argument);
   EXPECT_THROW(rs::method_from_string("gbvs"), std::invalid_argument);
   EXPECT_EQ(rs::method_from_string("fine_grained"), rs::Method::kFineGrained);
+}
+
+namespace {
+// Every job on a thread of its own, started last job first: the channels must not share any
+// buffer or depend on each other's order.
+class ThreadPerJob final : public regolith::ParallelFor {
+public:
+  void run(int n, void (*fn)(void *, int), void *ctx) override {
+    std::vector<std::thread> t;
+    for (int i = n - 1; i >= 0; --i)
+      t.emplace_back([=] { fn(ctx, i); });
+    for (auto &x : t)
+      x.join();
+  }
+  int threads() const override { return 8; }
+};
+} // namespace
+
+TEST(Sams, ChannelsRunInParallelGiveTheSameMapsBitForBit) {
+  const cv::Size size(320, 256);  // the default 9-level pyramid needs >= 256 px
+  cv::Mat img = noise_texture(size, 0.45, 0.06, 3);
+  cv::Mat bgr;
+  cv::merge(std::vector<cv::Mat>{img, img * 0.9, img * 1.1}, bgr);
+  cv::Mat height = noise_texture(size, 0.0, 1.0, 4);
+  for (const bool colour : {false, true}) {
+    for (const auto norm : {rs::Normalisation::kLocalMax, rs::Normalisation::kIterative}) {
+      rs::IttiParams p;
+      p.use_colour = colour;
+      p.normalisation = norm;
+      p.weights = {0.2, 0.4, colour ? 0.2 : 0.0, 0.2};
+      rs::IttiSaliency serial(p), parallel(p);
+      ThreadPerJob par;
+      parallel.set_parallel(&par);
+      cv::Mat a, b;
+      for (int frame = 0; frame < 2; ++frame) { // the second frame reuses every buffer
+        serial.compute(colour ? bgr : img, height, a);
+        parallel.compute(colour ? bgr : img, height, b);
+        EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "colour " << colour << " frame " << frame;
+      }
+      const rs::Conspicuity &cs = serial.conspicuity(colour ? bgr : img, height);
+      const rs::Conspicuity &cp = parallel.conspicuity(colour ? bgr : img, height);
+      EXPECT_EQ(cv::norm(cs.orientation, cp.orientation, cv::NORM_INF), 0.0);
+      EXPECT_EQ(cv::norm(cs.structure, cp.structure, cv::NORM_INF), 0.0);
+      EXPECT_EQ(cv::norm(cs.intensity, cp.intensity, cv::NORM_INF), 0.0);
+      if (colour) {
+        EXPECT_EQ(cv::norm(cs.colour, cp.colour, cv::NORM_INF), 0.0);
+      }
+    }
+  }
 }

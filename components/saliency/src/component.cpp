@@ -17,6 +17,7 @@
 #include "regolith/dds/topics.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/runtime/application.hpp"
+#include "regolith/runtime/worker_pool.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
@@ -112,9 +113,13 @@ class SamsComponent final : public runtime::Component {
     const int nx = grid_.size_x(), ny = grid_.size_y();
     if (static_cast<long>(nx) * ny > 4'000'000L) p.fail("resolution_m", "grid has more than 4e6 cells");
 
+    // SAMS / Itti: the channels (intensity, 4 orientations, structure) as parallel jobs
+    workers_ = runtime::workers_from(p, name().empty() ? std::string("sams") : name());
+    use_workers(workers_.get());
     try {
       depth_ = std::make_unique<direct_depth::DirectDepth>(model);
       itti_ = std::make_unique<IttiSaliency>(ip);
+      itti_->set_parallel(workers_.get());
       detector_ = std::make_unique<BoxDetector>(pp);
       if (method_ == Method::kSpectralResidual || method_ == Method::kFineGrained)
         peer_ = std::make_unique<OpenCvSaliency>(method_);
@@ -338,6 +343,7 @@ class SamsComponent final : public runtime::Component {
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;
+  std::unique_ptr<runtime::WorkerPool> workers_;  // `threads` > 1; outlives itti_, which uses it
   std::unique_ptr<IttiSaliency> itti_;
   std::unique_ptr<OpenCvSaliency> peer_;
   std::unique_ptr<BoxDetector> detector_;

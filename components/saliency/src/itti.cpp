@@ -308,24 +308,35 @@ void IttiSaliency::prepare(cv::Size size) {
   };
   alloc(intensity_pyr_);
   alloc(struct_pyr_);
-  alloc(down_tmp_);
-  // Per-level scratch of the Gabor filtering (padded level, two accumulator rows) and the
-  // resampling tables level -> map level (INTER_AREA below it, INTER_LINEAR above it), so
-  // that no buffer changes size from one call to the next.
+  // Per-job scratch: pyramid temporaries, the Gabor filtering's padded level and two
+  // accumulator rows per level (orientation jobs), the map-level buffers; and the resampling
+  // tables level -> map level (INTER_AREA below it, INTER_LINEAR above it, read-only while
+  // the jobs run), so that no buffer changes size from one call to the next.
   const int r = params_.gabor_size / 2;
-  gabor_pad_.assign(static_cast<size_t>(levels), cv::Mat());
-  gabor_rows_.assign(static_cast<size_t>(levels), cv::Mat());
-  to_map_.assign(static_cast<size_t>(levels), ResizeTable());
-  for (int l = 0; l < levels; ++l) {
-    const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
-    if (l >= params_.centre_min) {
-      gabor_pad_[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
-      gabor_rows_[static_cast<size_t>(l)].create(2, ls.width, CV_32F);
+  scratch_.assign(static_cast<size_t>(params_.num_orientations + 2), Scratch());
+  for (size_t j = 0; j < scratch_.size(); ++j) {
+    Scratch &sc = scratch_[j];
+    alloc(sc.down_tmp);
+    const bool orientation = j >= 1 && j <= static_cast<size_t>(params_.num_orientations);
+    sc.gabor_pad.assign(static_cast<size_t>(levels), cv::Mat());
+    sc.gabor_rows.assign(static_cast<size_t>(levels), cv::Mat());
+    for (int l = params_.centre_min; orientation && l < levels; ++l) {
+      const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
+      sc.gabor_pad[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
+      sc.gabor_rows[static_cast<size_t>(l)].create(2, ls.width, CV_32F);
     }
-    if (l != params_.map_level)
-      to_map_[static_cast<size_t>(l)].build(
-          ls, map_size_,
-          l < params_.map_level ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
+    for (cv::Mat *m : {&sc.centre, &sc.surround, &sc.diff, &sc.acc, &sc.excit, &sc.inhib})
+      m->create(map_size_, CV_32F);
+  }
+  for (Scratch &sc : scratch_) {  // built per job: a copy would share the tables' row buffers
+    sc.to_map.assign(static_cast<size_t>(levels), ResizeTable());
+    for (int l = 0; l < levels; ++l) {
+      const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
+      if (l != params_.map_level)
+        sc.to_map[static_cast<size_t>(l)].build(
+            ls, map_size_,
+            l < params_.map_level ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
+    }
   }
   to_input_.build(map_size_, size, ResizeTable::Mode::kLinear);
   combined_.create(map_size_, CV_32F);
@@ -341,10 +352,6 @@ void IttiSaliency::prepare(cv::Size size) {
   orient_pyr_.assign(static_cast<size_t>(params_.num_orientations), {});
   for (auto &p : orient_pyr_)
     alloc(p);
-  for (cv::Mat *m :
-       {&centre_, &surround_, &diff_, &acc_, &acc2_, &excit_, &inhib_}) {
-    m->create(map_size_, CV_32F);
-  }
   consp_.intensity.create(map_size_, CV_32F);
   consp_.orientation.create(map_size_, CV_32F);
   // Border attenuation ramp.
@@ -361,22 +368,23 @@ void IttiSaliency::prepare(cv::Size size) {
   }
 }
 
-void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr) {
+void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s) {
   for (size_t l = 1; l < pyr.size(); ++l) {
-    downsample_stb(pyr[l - 1], pyr[l], down_tmp_[l]);
+    downsample_stb(pyr[l - 1], pyr[l], s.down_tmp[l]);
   }
 }
 
-void IttiSaliency::normalise(cv::Mat &map) {
+void IttiSaliency::normalise(cv::Mat &map, Scratch &s) {
   if (params_.normalisation == Normalisation::kLocalMax) {
     normalise_local_max(map);
   } else {
-    iterate_dog(map, params_, kernels_for(params_, map.size()), excit_, inhib_);
+    // kernels_for: one cache per thread (a worker builds its own on its first frame)
+    iterate_dog(map, params_, kernels_for(params_, map.size()), s.excit, s.inhib);
   }
 }
 
 void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat> &pyr,
-                                           cv::Mat &out) {
+                                           cv::Mat &out, Scratch &sc) {
   fill_value(out, 0.f);
   const int ml = params_.map_level;
   for (int c = params_.centre_min; c <= params_.centre_max; ++c) {
@@ -386,19 +394,92 @@ void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat> &pyr,
       const cv::Mat &ps = pyr[static_cast<size_t>(s)];
       // = cv::resize INTER_AREA (c < ml) / INTER_LINEAR, through precomputed tables.
       if (c == ml)
-        pc.copyTo(centre_);
+        pc.copyTo(sc.centre);
       else
-        to_map_[static_cast<size_t>(c)].apply(pc, centre_);
+        sc.to_map[static_cast<size_t>(c)].apply(pc, sc.centre);
       if (s == ml)
-        ps.copyTo(surround_);
+        ps.copyTo(sc.surround);
       else
-        to_map_[static_cast<size_t>(s)].apply(ps, surround_);
-      cv::absdiff(centre_, surround_, diff_);
-      cv::multiply(diff_, border_, diff_);
-      normalise(diff_);
-      out += diff_;
+        sc.to_map[static_cast<size_t>(s)].apply(ps, sc.surround);
+      cv::absdiff(sc.centre, sc.surround, sc.diff);
+      cv::multiply(sc.diff, border_, sc.diff);
+      normalise(sc.diff, sc);
+      out += sc.diff;
     }
   }
+}
+
+void IttiSaliency::intensity_job(bool colour) {
+  Scratch &sc = scratch_[0];
+  centre_surround_channel(intensity_pyr_, consp_.intensity, sc);
+  normalise(consp_.intensity, sc);
+  if (colour) {
+    build_pyramid(rg_pyr_, sc);
+    build_pyramid(by_pyr_, sc);
+    centre_surround_channel(rg_pyr_, consp_.colour, sc);
+    centre_surround_channel(by_pyr_, sc.acc, sc);
+    consp_.colour += sc.acc;
+    normalise(consp_.colour, sc);
+  }
+}
+
+// Orientation t: Gabor energy of every needed intensity level, then its centre-surround map
+// (normalised) in its scratch's acc.
+void IttiSaliency::orientation_job(int t) {
+  Scratch &sc = scratch_[static_cast<size_t>(1 + t)];
+  auto &op = orient_pyr_[static_cast<size_t>(t)];
+  for (int l = params_.centre_min; l <= params_.max_level(); ++l) {
+    const size_t li = static_cast<size_t>(l);
+    // |even| + |odd| with the filter2D correlation and BORDER_REPLICATE (own direct
+    // convolution: cv::filter2D builds a filter engine on the heap at every call).
+    gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)],
+                 op[li], sc.gabor_pad[li], sc.gabor_rows[li]);
+  }
+  centre_surround_channel(op, sc.acc, sc);
+  normalise(sc.acc, sc);
+}
+
+void IttiSaliency::structure_job(const cv::Mat &height) {
+  Scratch &sc = scratch_[static_cast<size_t>(1 + params_.num_orientations)];
+  cv::Mat &z0 = struct_pyr_[0];
+  height.convertTo(z0, CV_32F);
+  // NaN / inf -> the mean of the finite values, then min-max to [0,1].
+  double sum = 0.0, mn = std::numeric_limits<double>::max(), mx = -mn;
+  long n = 0;
+  for (int y = 0; y < z0.rows; ++y) {
+    const float *p = z0.ptr<float>(y);
+    for (int x = 0; x < z0.cols; ++x) {
+      if (std::isfinite(p[x])) {
+        sum += p[x];
+        mn = std::min(mn, static_cast<double>(p[x]));
+        mx = std::max(mx, static_cast<double>(p[x]));
+        ++n;
+      }
+    }
+  }
+  const float fill =
+      n > 0 ? static_cast<float>(sum / static_cast<double>(n)) : 0.f;
+  for (int y = 0; y < z0.rows; ++y) {
+    float *p = z0.ptr<float>(y);
+    for (int x = 0; x < z0.cols; ++x) {
+      if (!std::isfinite(p[x]))
+        p[x] = fill;
+    }
+  }
+  if (params_.structure_feature == StructureFeature::kSlope) {
+    // = cv::Sobel(z0, ., CV_32F, 1, 0 / 0, 1, 3, 1/8, 0, BORDER_REPLICATE).
+    correlate_replicate(z0, sobel_x_, tmp2_, sobel_pad_);
+    correlate_replicate(z0, sobel_y_, tmp_, sobel_pad_);
+    cv::magnitude(tmp2_, tmp_, z0);
+    cv::minMaxLoc(z0, &mn, &mx);
+  }
+  if (mx - mn > 1e-12)
+    z0.convertTo(z0, CV_32F, 1.0 / (mx - mn), -mn / (mx - mn));
+  else
+    fill_value(z0, 0.f);
+  build_pyramid(struct_pyr_, sc);
+  centre_surround_channel(struct_pyr_, consp_.structure, sc);
+  normalise(consp_.structure, sc);
 }
 
 const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
@@ -458,83 +539,33 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
     }
   }
 
-  build_pyramid(intensity_pyr_);
-  centre_surround_channel(intensity_pyr_, consp_.intensity);
-  normalise(consp_.intensity);
-
-  // Orientation: Gabor energy of every needed intensity level.
-  fill_value(consp_.orientation, 0.f);
-  for (size_t t = 0; t < orient_pyr_.size(); ++t) {
-    auto &op = orient_pyr_[t];
-    for (int l = params_.centre_min; l <= params_.max_level(); ++l) {
-      const size_t li = static_cast<size_t>(l);
-      // |even| + |odd| with the filter2D correlation and BORDER_REPLICATE (own direct
-      // convolution: cv::filter2D builds a filter engine on the heap at every call).
-      gabor_energy(intensity_pyr_[li], gabor_even_[t], gabor_odd_[t], op[li],
-                   gabor_pad_[li], gabor_rows_[li]);
-    }
-    centre_surround_channel(op, acc2_);
-    normalise(acc2_);
-    consp_.orientation += acc2_;
-  }
-  normalise(consp_.orientation);
-
-  if (colour) {
-    build_pyramid(rg_pyr_);
-    build_pyramid(by_pyr_);
+  // The intensity pyramid feeds the orientation jobs: built first. Then every channel is an
+  // independent job with its own scratch (run on par_ when given); the orientation maps are
+  // summed in angle order afterwards, so the result does not depend on the thread count.
+  build_pyramid(intensity_pyr_, scratch_[0]);
+  const int n_orient = params_.num_orientations;
+  const bool with_height = !height.empty();
+  if (colour)
     consp_.colour.create(map_size_, CV_32F);
-    centre_surround_channel(rg_pyr_, consp_.colour);
-    centre_surround_channel(by_pyr_, acc2_);
-    consp_.colour += acc2_;
-    normalise(consp_.colour);
-  } else {
+  else
     consp_.colour.release();
-  }
-
-  if (!height.empty()) {
-    cv::Mat &z0 = struct_pyr_[0];
-    height.convertTo(z0, CV_32F);
-    // NaN / inf -> the mean of the finite values, then min-max to [0,1].
-    double sum = 0.0, mn = std::numeric_limits<double>::max(), mx = -mn;
-    long n = 0;
-    for (int y = 0; y < z0.rows; ++y) {
-      const float *p = z0.ptr<float>(y);
-      for (int x = 0; x < z0.cols; ++x) {
-        if (std::isfinite(p[x])) {
-          sum += p[x];
-          mn = std::min(mn, static_cast<double>(p[x]));
-          mx = std::max(mx, static_cast<double>(p[x]));
-          ++n;
-        }
-      }
-    }
-    const float fill =
-        n > 0 ? static_cast<float>(sum / static_cast<double>(n)) : 0.f;
-    for (int y = 0; y < z0.rows; ++y) {
-      float *p = z0.ptr<float>(y);
-      for (int x = 0; x < z0.cols; ++x) {
-        if (!std::isfinite(p[x]))
-          p[x] = fill;
-      }
-    }
-    if (params_.structure_feature == StructureFeature::kSlope) {
-      // = cv::Sobel(z0, ., CV_32F, 1, 0 / 0, 1, 3, 1/8, 0, BORDER_REPLICATE).
-      correlate_replicate(z0, sobel_x_, tmp2_, sobel_pad_);
-      correlate_replicate(z0, sobel_y_, tmp_, sobel_pad_);
-      cv::magnitude(tmp2_, tmp_, z0);
-      cv::minMaxLoc(z0, &mn, &mx);
-    }
-    if (mx - mn > 1e-12)
-      z0.convertTo(z0, CV_32F, 1.0 / (mx - mn), -mn / (mx - mn));
-    else
-      fill_value(z0, 0.f);
-    build_pyramid(struct_pyr_);
+  if (with_height)
     consp_.structure.create(map_size_, CV_32F);
-    centre_surround_channel(struct_pyr_, consp_.structure);
-    normalise(consp_.structure);
-  } else {
+  else
     consp_.structure.release();
-  }
+  const int jobs = 1 + n_orient + (with_height ? 1 : 0);
+  parallel_for(par_, jobs, [&](int job) {
+    if (job == 0)
+      intensity_job(colour);
+    else if (job <= n_orient)
+      orientation_job(job - 1);
+    else
+      structure_job(height);
+  });
+  fill_value(consp_.orientation, 0.f);
+  for (int t = 0; t < n_orient; ++t)
+    consp_.orientation += scratch_[static_cast<size_t>(1 + t)].acc;
+  normalise(consp_.orientation, scratch_[0]);
   return consp_;
 }
 

@@ -120,6 +120,21 @@ std::string list_topics(const Participant *p) {
   return os.str();
 }
 
+void add_receipt_time(json &sample, TimeNs received_ns) {
+  sample["received"] = {{"sec", received_ns / kNsPerSec},
+                        {"nanosec", received_ns % kNsPerSec}};
+  const auto h = sample.find("header");
+  if (h == sample.end() || !h->is_object())
+    return;
+  const auto st = h->find("stamp");
+  if (st == h->end() || !st->is_object() || !st->contains("sec") ||
+      !st->contains("nanosec"))
+    return;
+  const TimeNs stamp = (*st)["sec"].get<std::int64_t>() * kNsPerSec +
+                       (*st)["nanosec"].get<std::int64_t>();
+  sample["delay_ms"] = static_cast<double>(received_ns - stamp) / 1e6;
+}
+
 std::size_t echo(Participant &p, std::string_view topic, const EchoOptions &opt,
                  std::ostream &out) {
   const TopicInfo *t = find_topic(topic);
@@ -157,8 +172,10 @@ std::size_t echo(Participant &p, std::string_view topic, const EchoOptions &opt,
     const std::size_t max = opt.count > 0 ? opt.count - printed : 64;
     printed += sub.take(
         [&](const void *s, const dds_sample_info_t &) {
-          out << t->to_json(s).dump(-1, ' ', false,
-                                    json::error_handler_t::replace)
+          json j = t->to_json(s);
+          if (opt.receipt_time)
+            add_receipt_time(j, realtime_now());
+          out << j.dump(-1, ' ', false, json::error_handler_t::replace)
               << '\n';
         },
         max);

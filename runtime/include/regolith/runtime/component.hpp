@@ -17,6 +17,7 @@
 namespace regolith::runtime {
 
 class Context;
+class WorkerPool;  // worker_pool.hpp
 
 /// What a rate group tells each member every cycle.
 struct CycleInfo {
@@ -67,9 +68,12 @@ class Component {
   std::uint64_t heartbeat() const { return heartbeat_.load(std::memory_order_relaxed); }
   const ExecHistogram& exec() const { return exec_; }
   const ExecHistogram& wall() const { return wall_; }
-  /// CPU time of step() on its thread (CLOCK_THREAD_CPUTIME_ID): what the component cost, without
-  /// preemption or sleeps; exec() / wall() are elapsed times.
+  /// CPU time of step() on its thread (CLOCK_THREAD_CPUTIME_ID) plus what its worker pool's
+  /// threads spent in that step (use_workers): what the component cost, without preemption or
+  /// sleeps; exec() / wall() are elapsed times.
   const ExecHistogram& cpu() const { return cpu_; }
+  /// CPU time of the component's worker threads so far (0 without a pool), ns.
+  TimeNs worker_cpu_ns() const;
   const std::vector<std::unique_ptr<InputWatch>>& inputs() const { return inputs_; }
   /// Errors counted by the component (bad frames, failed devices...), published in diagnostics.
   std::uint64_t errors() const { return errors_.load(std::memory_order_relaxed); }
@@ -85,6 +89,9 @@ class Component {
     w.updates.fetch_add(1, std::memory_order_relaxed);
   }
   void count_error() { errors_.fetch_add(1, std::memory_order_relaxed); }
+  /// In configure: the pool this component runs data-parallel work on (it owns it); its workers'
+  /// CPU time is added to cpu().
+  void use_workers(const WorkerPool* pool) { workers_ = pool; }
   /// `msg` must be a string literal or otherwise outlive the component (no formatting in step).
   void set_status(const char* msg) { status_.store(msg, std::memory_order_relaxed); }
 
@@ -97,6 +104,7 @@ class Component {
   std::atomic<std::uint64_t> heartbeat_{0};
   std::atomic<std::uint64_t> errors_{0};
   std::atomic<const char*> status_{"ok"};
+  const WorkerPool* workers_ = nullptr;
   ExecHistogram exec_;
   ExecHistogram wall_;
   ExecHistogram cpu_;

@@ -23,6 +23,21 @@ bool in_rate_group_cycle();
 /// the probes say which component allocated.
 const Component* current_cycle_member();
 
+/// Makes the calling thread count as working inside a cycle for `member` (the two above) until
+/// destroyed: a worker pool's threads run their jobs under the caller's scope, so what a job
+/// does is attributed to the member that handed it out. Restores the previous state.
+class CycleScope {
+ public:
+  CycleScope(bool in_cycle, const Component* member);
+  ~CycleScope();
+  CycleScope(const CycleScope&) = delete;
+  CycleScope& operator=(const CycleScope&) = delete;
+
+ private:
+  bool prev_in_cycle_;
+  const Component* prev_member_;
+};
+
 enum class OverrunPolicy : std::uint8_t {
   kSkip,     ///< after an overrun, wait for the next release in the future (missed ones are dropped)
   kCatchUp,  ///< run the missed releases back to back until on schedule again

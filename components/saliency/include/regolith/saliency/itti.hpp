@@ -19,6 +19,8 @@
 //   resized to the input.
 #include <opencv2/core.hpp>
 
+#include "regolith/core/parallel.hpp"
+
 #include "regolith/saliency/image_ops.hpp"
 
 #include <array>
@@ -125,11 +127,27 @@ public:
 
   const IttiParams &params() const { return params_; }
 
+  /// Runs the channels (intensity + colour, each orientation, structure) as independent jobs on
+  /// `par` (nullptr = one after the other on the calling thread, the default). The maps are the
+  /// same bit for bit with or without it. `par` must outlive this object or be reset.
+  void set_parallel(ParallelFor *par) { par_ = par; }
+
 private:
+  /// Scratch of one channel job: every buffer a job writes is its own, so jobs can run at once.
+  struct Scratch {
+    cv::Mat centre, surround, diff, excit, inhib, acc;
+    std::vector<cv::Mat> down_tmp, gabor_pad, gabor_rows;  // per level
+    // level -> map level resampling (INTER_AREA below it, INTER_LINEAR above it); a table
+    // keeps its own row buffer, so every job has its own copy
+    std::vector<ResizeTable> to_map;
+  };
   void prepare(cv::Size size);
-  void build_pyramid(std::vector<cv::Mat> &pyr);
-  void centre_surround_channel(const std::vector<cv::Mat> &pyr, cv::Mat &out);
-  void normalise(cv::Mat &map);
+  void build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s);
+  void centre_surround_channel(const std::vector<cv::Mat> &pyr, cv::Mat &out, Scratch &s);
+  void normalise(cv::Mat &map, Scratch &s);
+  void intensity_job(bool colour);
+  void orientation_job(int t);
+  void structure_job(const cv::Mat &height);
 
   IttiParams params_;
   cv::Size input_size_;
@@ -139,14 +157,13 @@ private:
   std::vector<cv::Mat> intensity_pyr_, rg_pyr_, by_pyr_, struct_pyr_;
   std::vector<std::vector<cv::Mat>> orient_pyr_; // [theta][level]
   std::vector<cv::Mat> gabor_even_, gabor_odd_;
-  cv::Mat centre_, surround_, diff_, acc_, acc2_, tmp_, tmp2_, border_;
-  cv::Mat excit_, inhib_, ones_norm_excit_, ones_norm_inhib_;
-  cv::Mat kex_, kin_;
+  cv::Mat tmp_, tmp2_, border_;
   Conspicuity consp_;
   cv::Mat combined_;
-  // Allocation-free per-frame path: per-level scratch and resampling tables (prepare()).
-  std::vector<cv::Mat> down_tmp_, gabor_pad_, gabor_rows_;
-  std::vector<ResizeTable> to_map_; // level -> map level (unused at the map level)
+  // Allocation-free per-frame path: per-job scratch ([0] intensity and colour, [1 + t]
+  // orientation t, [1 + num_orientations] structure) and resampling tables (prepare()).
+  std::vector<Scratch> scratch_;
+  ParallelFor *par_ = nullptr;
   ResizeTable to_input_;            // map level -> input size
   cv::Mat sobel_x_, sobel_y_, sobel_pad_;
 };

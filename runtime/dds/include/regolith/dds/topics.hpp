@@ -49,6 +49,9 @@ struct EchoOptions {
       false; ///< best-effort reader (matches ROS sensor-data publishers too)
   std::function<bool()> keep_going =
       nullptr; ///< polled every 100 ms; return false to stop (Ctrl-C)
+  /// Add "received" (ROS time, CLOCK_REALTIME, when the sample was taken) and, for a sample with a
+  /// header, "delay_ms" = received - header.stamp (as `ros2 topic delay`).
+  bool receipt_time = false;
 };
 
 /// Subscribes to `topic` (from known_topics()), prints every sample as one JSON
@@ -57,5 +60,9 @@ struct EchoOptions {
 /// known ones.
 std::size_t echo(Participant &p, std::string_view topic, const EchoOptions &opt,
                  std::ostream &out);
+
+/// Adds "received" {sec, nanosec} and, when the sample has header.stamp, "delay_ms" (received -
+/// stamp, both ROS time) to an echoed sample.
+void add_receipt_time(nlohmann::json &sample, TimeNs received_ns);
 
 } // namespace regolith::dds

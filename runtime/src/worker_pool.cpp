@@ -1,0 +1,106 @@
+#include "regolith/runtime/worker_pool.hpp"
+
+#include "regolith/runtime/rate_group.hpp"
+
+#include <pthread.h>
+
+#include <ctime>
+#include <stdexcept>
+#include <string>
+
+namespace regolith::runtime {
+namespace {
+
+TimeNs thread_cpu_ns() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+
+}  // namespace
+
+WorkerPool::WorkerPool(int threads, const char* name) {
+  if (threads < 1 || threads > 64)
+    throw std::invalid_argument("worker pool: threads must be in [1, 64] (got " + std::to_string(threads) + ")");
+  workers_.reserve(static_cast<std::size_t>(threads - 1));
+  for (int i = 1; i < threads; ++i) {
+    workers_.emplace_back([this, i] { worker_main(i); });
+    const std::string tname = std::string(name).substr(0, 11) + "/w" + std::to_string(i);
+    ::pthread_setname_np(workers_.back().native_handle(), tname.substr(0, 15).c_str());
+  }
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    const std::lock_guard<std::mutex> lock(m_);
+    stop_ = true;
+  }
+  start_cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+void WorkerPool::take_jobs(bool worker) {
+  std::uint64_t done = 0;
+  for (int i = next_.fetch_add(1, std::memory_order_relaxed); i < n_; i = next_.fetch_add(1, std::memory_order_relaxed)) {
+    fn_(ctx_, i);
+    ++done;
+  }
+  if (worker && done > 0) worker_jobs_.fetch_add(done, std::memory_order_relaxed);
+}
+
+void WorkerPool::worker_main(int /*index*/) {
+  std::uint64_t seen = 0;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(m_);
+      start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+    }
+    const TimeNs c0 = thread_cpu_ns();
+    {
+      const CycleScope scope(caller_in_cycle_, caller_member_);  // the allocation probes see the member
+      take_jobs(true);
+    }
+    worker_cpu_.fetch_add(thread_cpu_ns() - c0, std::memory_order_relaxed);
+    {
+      const std::lock_guard<std::mutex> lock(m_);
+      if (--busy_ == 0) done_cv_.notify_one();
+    }
+  }
+}
+
+void WorkerPool::run(int n, void (*fn)(void*, int), void* ctx) {
+  if (n <= 0) return;
+  const std::lock_guard<std::mutex> one_at_a_time(run_mutex_);
+  if (workers_.empty() || n == 1) {
+    for (int i = 0; i < n; ++i) fn(ctx, i);
+    return;
+  }
+  {
+    const std::lock_guard<std::mutex> lock(m_);
+    fn_ = fn;
+    ctx_ = ctx;
+    n_ = n;
+    caller_in_cycle_ = in_rate_group_cycle();
+    caller_member_ = current_cycle_member();
+    next_.store(0, std::memory_order_relaxed);
+    busy_ = static_cast<int>(workers_.size());
+    ++generation_;
+  }
+  start_cv_.notify_all();
+  take_jobs(false);
+  std::unique_lock<std::mutex> lock(m_);
+  done_cv_.wait(lock, [&] { return busy_ == 0; });
+}
+
+std::unique_ptr<WorkerPool> workers_from(Params& p, const std::string& name) {
+  const int threads = p.get<int>("threads", 1,
+                                 {.min = 1, .max = 16,
+                                  .doc = "threads for the data-parallel work of one step, the rate group's own included "
+                                         "(workers made at configure; their CPU counts in this member's cpu)"});
+  if (threads <= 1) return nullptr;
+  return std::make_unique<WorkerPool>(threads, name.c_str());
+}
+
+}  // namespace regolith::runtime
