@@ -132,17 +132,18 @@ double cpu_per_frame(int w, int h, double sim_s) {
   const std::uint64_t frames = group_cycles(*app) - n0;
   app->stop();
   double sum = 0;
-  std::printf("  simulated clock, %llu frames at %.0f Hz, per frame:   CPU (all its threads)   elapsed\n",
+  std::printf("  simulated clock, %llu frames at %.0f Hz, per frame:   CPU (all its threads)   elapsed   CPU ms/Mpx\n",
               static_cast<unsigned long long>(frames), kRateHz);
+  const double mpx = static_cast<double>(w) * static_cast<double>(h) * 1e-6;
   const double nf = static_cast<double>(std::max<std::uint64_t>(1, frames));
   double wall = 0;
   for (std::size_t i = 0; i < c1.size(); ++i) {
     const double ms = (c1[i].total_ms - c0[i].total_ms) / nf, wms = (c1[i].wall_ms - c0[i].wall_ms) / nf;
     sum += ms;
     wall += wms;
-    std::printf("    %-16s %8.2f ms %8.2f ms\n", c1[i].name.c_str(), ms, wms);
+    std::printf("    %-16s %8.2f ms %8.2f ms %8.1f\n", c1[i].name.c_str(), ms, wms, ms / mpx);
   }
-  std::printf("    %-16s %8.2f ms %8.2f ms\n", "total", sum, wall);
+  std::printf("    %-16s %8.2f ms %8.2f ms %8.1f\n", "total", sum, wall, sum / mpx);
   return sum;
 }
 
