@@ -42,6 +42,7 @@ struct RecordArgs {
   bool all = false;
   bool zstd = false;
   bool no_compression = false;
+  double split_mb = 0.0, split_s = 0.0;
 };
 
 void run_record(const RecordArgs& a) {
@@ -65,6 +66,8 @@ void run_record(const RecordArgs& a) {
   ro.topics = wanted;
   ro.compression = a.no_compression ? record::Compression::kNone : record::Compression::kZstd;
   ro.max_samples = a.count;
+  ro.split_bytes = static_cast<std::uint64_t>(a.split_mb * 1024.0 * 1024.0);
+  ro.split_duration_ns = static_cast<std::uint64_t>(a.split_s * 1e9);
 #ifdef REGOLITH_VERSION
   ro.library = std::string("regolith record ") + REGOLITH_VERSION;
 #else
@@ -98,6 +101,11 @@ void run_record(const RecordArgs& a) {
   std::printf("recorded %llu samples in %.3f s (%.0f samples/s) to %s (%llu bytes)\n",
               static_cast<unsigned long long>(total), secs, secs > 0 ? static_cast<double>(total) / secs : 0.0,
               a.out.c_str(), static_cast<unsigned long long>(recorder.file_bytes()));
+  if (const auto files = recorder.files(); files.size() > 1) {
+    std::printf("  split into %zu files:", files.size());
+    for (const auto& f : files) std::printf(" %s", f.filename().c_str());
+    std::printf("\n");
+  }
   for (const auto& c : recorder.counts()) {
     std::printf("  %-32s %-36s %llu\n", c.ros_name.c_str(), c.ros_type.c_str(),
                 static_cast<unsigned long long>(c.count));
@@ -121,6 +129,10 @@ const bool registered = add_command([](CLI::App& app) {
   auto* z = cmd->add_flag("--zstd", a->zstd, "zstd-compressed chunks (the default)");
   auto* nc = cmd->add_flag("--no-compression", a->no_compression, "uncompressed chunks");
   z->excludes(nc);
+  cmd->add_option("--split-size", a->split_mb, "start a new file (<stem>_001.mcap, ...) after about this many MiB")
+      ->check(CLI::Range(0.01, 1e6));
+  cmd->add_option("--split-duration", a->split_s, "start a new file after this many seconds of messages")
+      ->check(regolith::cli::positive());
   cmd->callback([a] { run_record(*a); });
 });
 

@@ -101,6 +101,8 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
   }
   ro.compression = rc.compression == "none" ? record::Compression::kNone : record::Compression::kZstd;
   ro.keep_all = o.sim_time;  // simulated time: every sample, however fast the rover runs
+  ro.split_bytes = static_cast<std::uint64_t>(rc.split_mb * 1024.0 * 1024.0);
+  ro.split_duration_ns = static_cast<std::uint64_t>(rc.split_s * 1e9);
 #ifdef REGOLITH_VERSION
   const std::string version = REGOLITH_VERSION;
 #else
@@ -369,6 +371,11 @@ void run(const RunOptions& o) {
                 static_cast<unsigned long long>(recorder->total()), recorder->topic_count(),
                 recorder->path().c_str(), static_cast<unsigned long long>(recorder->file_bytes()),
                 static_cast<double>(recorder->thread_cpu_ns()) * 1e-9);
+    if (const auto files = recorder->files(); files.size() > 1) {
+      std::printf("  split into %zu files:", files.size());
+      for (const auto& f : files) std::printf(" %s", f.filename().c_str());
+      std::printf("\n");
+    }
     for (const auto& t : recorder->counts())
       std::printf("  recorded %-32s %llu\n", t.ros_name.c_str(), static_cast<unsigned long long>(t.count));
     if (record_hal) {

@@ -58,29 +58,79 @@ const char* compression_name(Compression c) {
   return c == Compression::kZstd ? "zstd" : "";
 }
 
+namespace {
+
+void append_schema(std::vector<std::uint8_t>& b, const Schema& sc) {
+  const std::size_t at = begin_record(b, static_cast<std::uint8_t>(Opcode::kSchema));
+  put_u16(b, sc.id);
+  put_string(b, sc.name);
+  put_string(b, sc.encoding);
+  put_u32(b, static_cast<std::uint32_t>(sc.data.size()));
+  put_bytes(b, sc.data.data(), sc.data.size());
+  end_record(b, at);
+}
+
+void append_channel(std::vector<std::uint8_t>& b, const Channel& c) {
+  const std::size_t at = begin_record(b, static_cast<std::uint8_t>(Opcode::kChannel));
+  put_u16(b, c.id);
+  put_u16(b, c.schema_id);
+  put_string(b, c.topic);
+  put_string(b, c.message_encoding);
+  put_string_map(b, c.metadata);
+  end_record(b, at);
+}
+
+}  // namespace
+
 void McapWriterOptions::validate() const {
   if (zstd_level < 1 || zstd_level > ZSTD_maxCLevel())
     throw FieldError(
         "McapWriterOptions", "zstd_level",
         "must be in [1, " + std::to_string(ZSTD_maxCLevel()) + "] (got " + std::to_string(zstd_level) + ")");
   if (chunk_size < 1) throw FieldError("McapWriterOptions", "chunk_size", "must be >= 1 byte");
+  if (split_bytes > 0 && split_bytes < 4096)
+    throw FieldError("McapWriterOptions", "split_bytes",
+                     "must be 0 (never) or >= 4096 bytes (got " + std::to_string(split_bytes) + ")");
+}
+
+std::filesystem::path mcap_split_path(const std::filesystem::path& path, std::size_t index) {
+  if (index == 0) return path;
+  char n[24];
+  std::snprintf(n, sizeof n, "_%03zu", index);
+  return path.parent_path() / (path.stem().string() + n + path.extension().string());
 }
 
 McapWriter::McapWriter(const std::filesystem::path& path, McapWriterOptions options)
-    : path_(path), options_(std::move(options)) {
+    : base_path_(path), path_(path), options_(std::move(options)) {
   options_.validate();
+  if (options_.compression == Compression::kZstd) {
+    zstd_ctx_ = ZSTD_createCCtx();
+    if (zstd_ctx_ == nullptr) throw std::runtime_error("cannot create a zstd context for " + path_.string());
+  }
+  chunk_.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(options_.chunk_size + (1U << 16), 64U << 20)));
+  try {
+    open_file();
+  } catch (...) {
+    ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd_ctx_));
+    zstd_ctx_ = nullptr;
+    throw;
+  }
+}
+
+void McapWriter::open_file() {
   file_ = std::fopen(path_.c_str(), "wb");
   if (file_ == nullptr) throw std::runtime_error("cannot create " + path_.string() + ": " + std::strerror(errno));
   std::setvbuf(file_, nullptr, _IOFBF, 1U << 16);
-  if (options_.compression == Compression::kZstd) {
-    zstd_ctx_ = ZSTD_createCCtx();
-    if (zstd_ctx_ == nullptr) {
-      std::fclose(file_);
-      file_ = nullptr;
-      throw std::runtime_error("cannot create a zstd context for " + path_.string());
-    }
-  }
-  chunk_.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(options_.chunk_size + (1U << 16), 64U << 20)));
+  files_.push_back(path_);
+  offset_ = 0;
+  data_crc_ = 0;
+  in_data_section_ = true;
+  channel_counts_.clear();
+  file_messages_ = 0;
+  message_start_ = message_end_ = 0;
+  chunk_indexes_.clear();
+  attachment_indexes_.clear();
+  metadata_indexes_.clear();
   write_out(kMcapMagic.data(), kMcapMagic.size());
   scratch_.clear();
   const std::size_t at = begin_record(scratch_, static_cast<std::uint8_t>(Opcode::kHeader));
@@ -88,6 +138,27 @@ McapWriter::McapWriter(const std::filesystem::path& path, McapWriterOptions opti
   put_string(scratch_, options_.library);
   end_record(scratch_, at);
   write_record(scratch_);
+}
+
+void McapWriter::start_next_file() {
+  finish_file();
+  path_ = mcap_split_path(base_path_, files_.size());
+  open_file();
+  // The same schemas and channels under the same ids, the metadata and the attachments: every
+  // file of the recording opens on its own.
+  for (const Schema& sc : schemas_) {
+    scratch_.clear();
+    append_schema(scratch_, sc);
+    write_record(scratch_);
+  }
+  for (const Channel& c : channels_) {
+    scratch_.clear();
+    append_channel(scratch_, c);
+    write_record(scratch_);
+  }
+  for (const KeptMetadata& m : kept_metadata_) write_metadata_record(m.name, m.values);
+  for (const KeptAttachment& a : kept_attachments_)
+    write_attachment_record(a.name, a.media_type, a.log_time, a.create_time, a.data);
 }
 
 McapWriter::~McapWriter() {
@@ -122,7 +193,7 @@ void McapWriter::write_out(const void* data, std::size_t size, bool update_crc) 
   }
   if (update_crc && in_data_section_ && options_.data_section_crc) data_crc_ = crc32_update(data_crc_, data, size);
   offset_ += size;
-  stats_.file_bytes = offset_;
+  stats_.file_bytes = bytes_before_ + offset_;
 }
 
 void McapWriter::write_record(const std::vector<std::uint8_t>& record) {
@@ -140,13 +211,7 @@ std::uint16_t McapWriter::add_schema(const std::string& name, const std::string&
   s.encoding = encoding;
   s.data.assign(data.begin(), data.end());
   scratch_.clear();
-  const std::size_t at = begin_record(scratch_, static_cast<std::uint8_t>(Opcode::kSchema));
-  put_u16(scratch_, s.id);
-  put_string(scratch_, s.name);
-  put_string(scratch_, s.encoding);
-  put_u32(scratch_, static_cast<std::uint32_t>(s.data.size()));
-  put_bytes(scratch_, s.data.data(), s.data.size());
-  end_record(scratch_, at);
+  append_schema(scratch_, s);
   write_record(scratch_);
   schemas_.push_back(std::move(s));
   return schemas_.back().id;
@@ -175,13 +240,7 @@ std::uint16_t McapWriter::add_channel(std::uint16_t schema_id, const std::string
   // The ros2 profile requires the key (the publisher's QoS as YAML); "" when the caller has none.
   if (options_.profile == "ros2") c.metadata.try_emplace("offered_qos_profiles", "");
   scratch_.clear();
-  const std::size_t at = begin_record(scratch_, static_cast<std::uint8_t>(Opcode::kChannel));
-  put_u16(scratch_, c.id);
-  put_u16(scratch_, c.schema_id);
-  put_string(scratch_, c.topic);
-  put_string(scratch_, c.message_encoding);
-  put_string_map(scratch_, c.metadata);
-  end_record(scratch_, at);
+  append_channel(scratch_, c);
   write_record(scratch_);
   channels_.push_back(std::move(c));
   chunk_index_.resize(channels_.size() + 1);
@@ -193,6 +252,10 @@ void McapWriter::write(std::uint16_t channel_id, std::uint32_t sequence, std::ui
   check_open("write");
   if (channel_id == 0 || channel_id > channels_.size())
     throw std::invalid_argument("McapWriter::write: unknown channel id " + std::to_string(channel_id));
+  if (file_messages_ > 0 &&
+      ((options_.split_bytes > 0 && offset_ + chunk_.size() >= options_.split_bytes) ||
+       (options_.split_duration_ns > 0 && log_time_ns >= message_start_ + options_.split_duration_ns)))
+    start_next_file();
   auto& index = chunk_index_[channel_id];
   if (index.empty()) chunk_channels_.push_back(channel_id);
   index.push_back(log_time_ns);
@@ -207,9 +270,10 @@ void McapWriter::write(std::uint16_t channel_id, std::uint32_t sequence, std::ui
 
   if (chunk_messages_ == 0 || log_time_ns < chunk_start_) chunk_start_ = log_time_ns;
   if (chunk_messages_ == 0 || log_time_ns > chunk_end_) chunk_end_ = log_time_ns;
-  if (stats_.messages == 0 || log_time_ns < message_start_) message_start_ = log_time_ns;
-  if (stats_.messages == 0 || log_time_ns > message_end_) message_end_ = log_time_ns;
+  if (file_messages_ == 0 || log_time_ns < message_start_) message_start_ = log_time_ns;
+  if (file_messages_ == 0 || log_time_ns > message_end_) message_end_ = log_time_ns;
   ++chunk_messages_;
+  ++file_messages_;
   ++stats_.messages;
   stats_.message_bytes += data.size();
   ++channel_counts_[channel_id];
@@ -298,6 +362,18 @@ void McapWriter::write_chunk() {
 
 void McapWriter::add_metadata(const std::string& name, const std::map<std::string, std::string>& values) {
   check_open("add_metadata");
+  write_metadata_record(name, values);
+  kept_metadata_.push_back({name, values});
+}
+
+void McapWriter::add_attachment(const std::string& name, const std::string& media_type, std::uint64_t log_time_ns,
+                                std::uint64_t create_time_ns, std::span<const std::uint8_t> data) {
+  check_open("add_attachment");
+  write_attachment_record(name, media_type, log_time_ns, create_time_ns, data);
+  kept_attachments_.push_back({name, media_type, log_time_ns, create_time_ns, {data.begin(), data.end()}});
+}
+
+void McapWriter::write_metadata_record(const std::string& name, const std::map<std::string, std::string>& values) {
   MetadataIndexEntry e;
   e.offset = offset_;
   e.name = name;
@@ -311,9 +387,9 @@ void McapWriter::add_metadata(const std::string& name, const std::map<std::strin
   metadata_indexes_.push_back(std::move(e));
 }
 
-void McapWriter::add_attachment(const std::string& name, const std::string& media_type, std::uint64_t log_time_ns,
-                                std::uint64_t create_time_ns, std::span<const std::uint8_t> data) {
-  check_open("add_attachment");
+void McapWriter::write_attachment_record(const std::string& name, const std::string& media_type,
+                                         std::uint64_t log_time_ns, std::uint64_t create_time_ns,
+                                         std::span<const std::uint8_t> data) {
   AttachmentIndexEntry e;
   e.info.offset = offset_;
   e.info.log_time = log_time_ns;
@@ -345,6 +421,10 @@ void McapWriter::flush() {
 
 void McapWriter::close() {
   if (file_ == nullptr) return;
+  finish_file();
+}
+
+void McapWriter::finish_file() {
   write_chunk();
 
   // DataEnd: CRC of every byte before it.
@@ -369,37 +449,21 @@ void McapWriter::close() {
     if (s.size() > begin) groups.push_back({static_cast<std::uint8_t>(op), summary_start + begin, s.size() - begin});
   };
   group(Opcode::kSchema, [&] {
-    for (const auto& sc : schemas_) {
-      at = begin_record(s, static_cast<std::uint8_t>(Opcode::kSchema));
-      put_u16(s, sc.id);
-      put_string(s, sc.name);
-      put_string(s, sc.encoding);
-      put_u32(s, static_cast<std::uint32_t>(sc.data.size()));
-      put_bytes(s, sc.data.data(), sc.data.size());
-      end_record(s, at);
-    }
+    for (const auto& sc : schemas_) append_schema(s, sc);
   });
   group(Opcode::kChannel, [&] {
-    for (const auto& c : channels_) {
-      at = begin_record(s, static_cast<std::uint8_t>(Opcode::kChannel));
-      put_u16(s, c.id);
-      put_u16(s, c.schema_id);
-      put_string(s, c.topic);
-      put_string(s, c.message_encoding);
-      put_string_map(s, c.metadata);
-      end_record(s, at);
-    }
+    for (const auto& c : channels_) append_channel(s, c);
   });
   group(Opcode::kStatistics, [&] {
     at = begin_record(s, static_cast<std::uint8_t>(Opcode::kStatistics));
-    put_u64(s, stats_.messages);
+    put_u64(s, file_messages_);
     put_u16(s, static_cast<std::uint16_t>(schemas_.size()));
     put_u32(s, static_cast<std::uint32_t>(channels_.size()));
     put_u32(s, static_cast<std::uint32_t>(attachment_indexes_.size()));
     put_u32(s, static_cast<std::uint32_t>(metadata_indexes_.size()));
     put_u32(s, static_cast<std::uint32_t>(chunk_indexes_.size()));
-    put_u64(s, stats_.messages > 0 ? message_start_ : 0);
-    put_u64(s, stats_.messages > 0 ? message_end_ : 0);
+    put_u64(s, file_messages_ > 0 ? message_start_ : 0);
+    put_u64(s, file_messages_ > 0 ? message_end_ : 0);
     put_u32(s, static_cast<std::uint32_t>(channel_counts_.size() * 10));
     for (const auto& [id, n] : channel_counts_) {
       put_u16(s, id);
@@ -466,6 +530,7 @@ void McapWriter::close() {
   write_out(s.data(), s.size());
   std::FILE* f = file_;
   file_ = nullptr;
+  bytes_before_ += offset_;
   if (std::fclose(f) != 0) io_error("close failed");
 }
 

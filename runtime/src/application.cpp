@@ -71,6 +71,14 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   app->record_.hal = rec.get<bool>(
       "hal", true, {.doc = "also record what the devices delivered (camera frames, encoder and IMU samples) so "
                            "`regolith replay` can run the deployment again on them"});
+  app->record_.split_mb = rec.get<double>(
+      "split_mb", 0.0, {.unit = "MiB", .min = 0.0, .max = 1e6,
+                        .doc = "start a new file (<stem>_001.mcap, ...) after about this many MiB (0 = never)"});
+  if (app->record_.split_mb > 0.0 && app->record_.split_mb < 0.01)
+    rec.fail("split_mb", "must be 0 (never) or >= 0.01 MiB");
+  app->record_.split_s = rec.get<double>(
+      "split_s", 0.0, {.unit = "s", .min = 0.0, .max = 1e7,
+                       .doc = "start a new file after this many seconds of messages (0 = never)"});
   app->record_.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
   if (opts.enable_dds && !app->dds_ && !app->record_.file.empty())
     rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "

@@ -617,3 +617,75 @@ TEST(LogInfo, DescribesChannelsCountsChunksAndTruncation) {
   EXPECT_NE(out.find(png.string() + ": byte 0: not an MCAP file: wrong magic"), std::string::npos) << out;
 #endif
 }
+
+// Split recordings: every file a complete MCAP file with the same schemas, channels (ids),
+// metadata and attachment; the messages spread over the files in time order, none lost or doubled.
+TEST(McapSplit, BySizeAndByDurationEveryFileStandsAlone) {
+  for (const bool by_size : {true, false}) {
+    const fs::path path = temp_file(by_size ? "split_size.mcap" : "split_time.mcap");
+    McapWriterOptions o;
+    o.chunk_size = 64 * 1024;
+    o.compression = Compression::kNone;  // the test payloads compress to almost nothing
+    if (by_size)
+      o.split_bytes = 150 * 1024;
+    else
+      o.split_duration_ns = 500'000'000ULL;  // 0.5 s of 2 s
+    McapWriter w(path, o);
+    const auto js = w.add_schema("sensor_msgs/msg/JointState", "ros2msg", std::string(kJointStateMsg));
+    const auto joints = w.add_channel(js, "/rover1/joint_states", "cdr");
+    const auto cam = w.add_channel(js, "/rover1/camera/front", "cdr");
+    w.add_metadata("regolith", {{"deployment", "mock_rover"}});
+    const std::string yaml = "rate_groups: []\n";
+    w.add_attachment("deployment.yaml", "application/yaml", 5, 4,
+                     std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(yaml.data()), yaml.size()));
+    std::uint64_t written = 0;
+    for (std::uint32_t t = 0; t < 2000; ++t) {  // 2 s in 1 ms steps
+      const std::uint64_t ns = 1'000'000'000ULL + t * 1'000'000ULL;
+      if (t % 10 == 0) w.write(joints, t, ns, ns, payload(joints, t, 120)), ++written;
+      if (t % 100 == 0) w.write(cam, t, ns, ns, payload(cam, t, 20000)), ++written;
+    }
+    w.close();
+    const auto files = w.files();
+    ASSERT_GE(files.size(), 3U) << "by_size " << by_size;
+    EXPECT_EQ(files[0], path);
+    EXPECT_EQ(files[1].filename().string(), path.stem().string() + "_001.mcap");
+    EXPECT_EQ(mcap_split_path(path, 12).filename().string(), path.stem().string() + "_012.mcap");
+    std::uint64_t total = 0, bytes = 0, last_end = 0;
+    for (std::size_t k = 0; k < files.size(); ++k) {
+      McapReader r(files[k]);
+      const McapFileInfo& info = r.info();
+      EXPECT_TRUE(info.from_summary) << files[k];
+      EXPECT_FALSE(info.truncated) << files[k];
+      EXPECT_TRUE(info.problems.empty()) << files[k];
+      ASSERT_EQ(info.channels.size(), 2U) << files[k];
+      EXPECT_EQ(info.channels.at(joints).topic, "/rover1/joint_states");
+      EXPECT_EQ(info.channels.at(cam).topic, "/rover1/camera/front");
+      ASSERT_EQ(info.attachments.size(), 1U) << files[k];
+      EXPECT_EQ(info.attachments[0].name, "deployment.yaml");
+      ASSERT_EQ(info.metadata.size(), 1U);
+      EXPECT_GT(info.message_count, 0U);
+      if (k > 0) {
+        EXPECT_GT(info.message_start_time, last_end) << "file " << k << " overlaps the one before";
+      }
+      last_end = info.message_end_time;
+      if (by_size && k + 1 < files.size()) {
+        // closed at the first message that found it at the limit: at most a chunk beyond it
+        EXPECT_GE(info.file_size, o.split_bytes - o.chunk_size - 30000) << files[k];
+        EXPECT_LE(info.file_size, o.split_bytes + o.chunk_size + 30000) << files[k];
+      }
+      if (!by_size) {
+        EXPECT_LT(info.message_end_time - info.message_start_time, o.split_duration_ns) << files[k];
+      }
+      const auto msgs = read_messages(r);
+      EXPECT_EQ(msgs.size(), info.message_count);
+      total += info.message_count;
+      bytes += info.file_size;
+    }
+    EXPECT_EQ(total, written);
+    EXPECT_EQ(w.stats().messages, written);
+    EXPECT_EQ(w.stats().file_bytes, bytes);
+  }
+  McapWriterOptions bad;
+  bad.split_bytes = 100;
+  EXPECT_THROW(McapWriter(temp_file("bad_split.mcap"), bad), regolith::FieldError);
+}

@@ -80,10 +80,13 @@ std::vector<std::uint8_t> bytes_of(std::size_t n, std::uint32_t seed) {
 }
 
 /// Three topics, a metadata record, the deployment as attachment. Returns messages per topic.
-std::map<std::string, std::uint64_t> write_file(const fs::path& path, Compression c, std::uint64_t chunk_size) {
+std::map<std::string, std::uint64_t> write_file(const fs::path& path, Compression c, std::uint64_t chunk_size,
+                                                std::uint64_t split_bytes = 0,
+                                                std::vector<fs::path>* files = nullptr) {
   McapWriterOptions o;
   o.compression = c;
   o.chunk_size = chunk_size;
+  o.split_bytes = split_bytes;
   McapWriter w(path, o);
   const auto js = w.add_schema("sensor_msgs/msg/JointState", "ros2msg", std::string("float64[] position\n"));
   const auto img = w.add_schema("sensor_msgs/msg/Image", "ros2msg", std::string("uint8[] data\n"));
@@ -109,6 +112,7 @@ std::map<std::string, std::uint64_t> write_file(const fs::path& path, Compressio
     }
   }
   w.close();
+  if (files != nullptr) *files = w.files();
   return n;
 }
 
@@ -165,6 +169,23 @@ TEST_P(McapJs, TruncatedFileReadByStreamReaderUpToTheLastCompleteChunk) {
   EXPECT_LT(expected.at("/rover1/joint_states"), topics.at("/rover1/joint_states"));
   std::string out;
   EXPECT_EQ(validate(cut, false, expected, {}, out), 0) << out;
+}
+
+TEST_P(McapJs, EveryFileOfASplitRecordingIsReadOnItsOwn) {
+  check_node_modules();
+  const fs::path path = temp_file(std::string("split_") + compression_name(GetParam()) + "x.mcap");
+  std::vector<fs::path> files;
+  const auto topics = write_file(path, GetParam(), 64 * 1024, GetParam() == Compression::kNone ? 300 * 1024 : 48 * 1024,
+                                 &files);
+  ASSERT_GE(files.size(), 2U);
+  std::map<std::string, std::uint64_t> sum;
+  for (const auto& f : files) {
+    const auto counts = cpp_counts(McapReader(f).info());
+    for (const auto& [t, n] : counts) sum[t] += n;
+    std::string out;
+    EXPECT_EQ(validate(f, true, counts, {"deployment.yaml"}, out), 0) << f << "\n" << out;
+  }
+  EXPECT_EQ(sum, topics);
 }
 
 INSTANTIATE_TEST_SUITE_P(Compression, McapJs, ::testing::Values(Compression::kZstd, Compression::kNone),

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/mcap_writer.hpp"
 
 namespace fs = std::filesystem;
 using regolith::record::McapReader;
@@ -232,6 +233,31 @@ TEST_F(RunRecord, RecordBlockFromYamlWithTopicSubset) {
   for (const auto& c : reader.info().chunks) EXPECT_EQ(c.compression, "");
 }
 
+TEST_F(RunRecord, RecordBlockSplitsTheRecordingBySize) {
+  const fs::path out = dir_ / "split.mcap";
+  const fs::path cfg = write_config(
+      "split.yaml", "\nrecord:\n  file: " + out.string() + "\n  topics: [joint_states]\n  hal: false\n  split_mb: 0.01\n");
+  const Result r = run("run --sim-time --duration 3.5 --quiet --config " + cfg.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::size_t at = r.out.find("split into ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const int files = std::atoi(r.out.c_str() + at + 11);
+  ASSERT_GE(files, 2) << r.out;  // ~22 kB of joint states in files of ~10 KiB
+  EXPECT_NE(r.out.find(" files: split.mcap split_001.mcap"), std::string::npos) << r.out;
+  std::uint64_t joint_states = 0;
+  for (int k = 0; k < files; ++k) {
+    const fs::path f = regolith::record::mcap_split_path(out, static_cast<std::size_t>(k));
+    McapReader reader(f);
+    EXPECT_TRUE(reader.info().from_summary) << f;
+    EXPECT_FALSE(reader.info().attachments.empty()) << f << ": the deployment in every file";
+    for (const auto& [id, ch] : reader.info().channels)
+      if (ch.topic == "/" + ns_ + "/joint_states")
+        joint_states += reader.info().message_counts.count(id) ? reader.info().message_counts.at(id) : 0;
+  }
+  EXPECT_FALSE(fs::exists(regolith::record::mcap_split_path(out, static_cast<std::size_t>(files))));
+  EXPECT_EQ(joint_states, 176u);  // 3.5 s at 50 Hz, both ends included: none lost or doubled
+}
+
 TEST_F(RunRecord, ConfigErrors) {
   // record: with DDS disabled: a located error naming record.file.
   const fs::path no_dds = write_config("no_dds.yaml", "\nrecord: {file: x.mcap}\n", /*dds_enabled=*/false);
@@ -256,12 +282,19 @@ TEST_F(RunRecord, ConfigErrors) {
   r = run("run --sim-time --duration 1 --quiet --config " + bad_topic.string());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("record.topics: unknown topic 'joint_state'"), std::string::npos) << r.out;
+  // a split size below 0.01 MiB names record.split_mb
+  const fs::path tiny = write_config("tiny_split.yaml", "\nrecord: {file: x.mcap, split_mb: 0.001}\n");
+  r = run("config check " + tiny.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("record.split_mb: must be 0 (never) or >= 0.01 MiB"), std::string::npos) << r.out;
   // config check lists the blocks with their defaults.
   r = run("config check " + write_config("ok.yaml", "").string());
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("record.file"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("record.compression"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("record.hal"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.split_mb"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.split_s"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("live.listen"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("127.0.0.1:8765"), std::string::npos) << r.out;
 #ifndef REGOLITH_NO_LIVE

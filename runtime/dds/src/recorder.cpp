@@ -62,6 +62,8 @@ DdsRecorder::DdsRecorder(Participant& p, const std::filesystem::path& file, DdsR
   record::McapWriterOptions wo;
   wo.compression = opts_.compression;
   wo.library = opts_.library;
+  wo.split_bytes = opts_.split_bytes;
+  wo.split_duration_ns = opts_.split_duration_ns;
   writer_ = std::make_unique<record::McapWriter>(path_, wo);  // throws when the file cannot be created
   waitset_ = std::make_unique<ReaderWaitSet>(p.handle());
   std::vector<const TopicInfo*> seen;
@@ -237,6 +239,11 @@ std::vector<DdsRecorder::TopicCount> DdsRecorder::counts() const {
 std::uint64_t DdsRecorder::file_bytes() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return writer_->stats().file_bytes;
+}
+
+std::vector<std::filesystem::path> DdsRecorder::files() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return writer_ ? writer_->files() : std::vector<std::filesystem::path>{path_};
 }
 
 }  // namespace regolith::dds

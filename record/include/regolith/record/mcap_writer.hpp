@@ -33,15 +33,27 @@ struct McapWriterOptions {
   bool chunk_crc = true;                ///< Chunk.uncompressed_crc (0 = not computed)
   bool data_section_crc = true;         ///< DataEnd.data_section_crc
   bool summary_crc = true;              ///< Footer.summary_crc
+  /// Split the recording into files: a new file starts before a message that would go into a
+  /// file already holding split_bytes bytes, or whose log time is split_duration_ns or more after
+  /// the file's first message (0 = never). Every file is a complete MCAP file with all schemas,
+  /// channels (same ids), metadata and attachments: each opens on its own. Names: the given path,
+  /// then <stem>_001<ext>, <stem>_002<ext>, ... (mcap_split_path).
+  std::uint64_t split_bytes = 0;
+  std::uint64_t split_duration_ns = 0;
   void validate() const;                ///< throws FieldError (McapWriterOptions.<field>)
 };
 
-/// Totals so far (also what the Statistics record holds after close()).
+/// The name of file `index` of a split recording: `path` itself for 0, else <stem>_NNN<ext>
+/// beside it (drive.mcap -> drive_001.mcap).
+std::filesystem::path mcap_split_path(const std::filesystem::path& path, std::size_t index);
+
+/// Totals so far over every file of the recording (a split recording's Statistics records hold
+/// each file's own counts).
 struct McapWriterStats {
   std::uint64_t messages = 0;
   std::uint64_t chunks = 0;         ///< chunks written (the open one not included)
   std::uint64_t message_bytes = 0;  ///< payload bytes passed to write()
-  std::uint64_t file_bytes = 0;     ///< bytes written to the file
+  std::uint64_t file_bytes = 0;     ///< bytes written to the files
 };
 
 class McapWriter {
@@ -85,7 +97,10 @@ class McapWriter {
 
   bool is_open() const { return file_ != nullptr; }
   const McapWriterStats& stats() const { return stats_; }
+  /// The file being written (the last one once closed).
   const std::filesystem::path& path() const { return path_; }
+  /// Every file written so far, in order (one unless the options split the recording).
+  const std::vector<std::filesystem::path>& files() const { return files_; }
 
  private:
   struct ChunkIndexEntry {
@@ -107,10 +122,17 @@ class McapWriter {
   void write_out(const void* data, std::size_t size, bool update_crc = true);
   void write_record(const std::vector<std::uint8_t>& record);
   void write_chunk();
+  void open_file();    // creates path_, writes the magic and the Header; resets the per-file state
+  void finish_file();  // the open chunk, DataEnd, summary, offsets, Footer; closes the file
+  void start_next_file();  // finish this file, open the next, repeat schemas/channels/metadata/attachments
+  void write_metadata_record(const std::string& name, const std::map<std::string, std::string>& values);
+  void write_attachment_record(const std::string& name, const std::string& media_type, std::uint64_t log_time_ns,
+                               std::uint64_t create_time_ns, std::span<const std::uint8_t> data);
   void check_open(const char* what) const;
   [[noreturn]] void io_error(const char* what) const;
 
-  std::filesystem::path path_;
+  std::filesystem::path base_path_, path_;
+  std::vector<std::filesystem::path> files_;
   McapWriterOptions options_;
   std::FILE* file_ = nullptr;
   void* zstd_ctx_ = nullptr;    // ZSTD_CCtx*, reused for every chunk
@@ -120,8 +142,23 @@ class McapWriter {
 
   std::vector<Schema> schemas_;
   std::vector<Channel> channels_;
+  // repeated at the start of every file of a split recording
+  struct KeptMetadata {
+    std::string name;
+    std::map<std::string, std::string> values;
+  };
+  struct KeptAttachment {
+    std::string name, media_type;
+    std::uint64_t log_time = 0, create_time = 0;
+    std::vector<std::uint8_t> data;
+  };
+  std::vector<KeptMetadata> kept_metadata_;
+  std::vector<KeptAttachment> kept_attachments_;
+  // per file
   std::map<std::uint16_t, std::uint64_t> channel_counts_;
+  std::uint64_t file_messages_ = 0;
   std::uint64_t message_start_ = 0, message_end_ = 0;
+  std::uint64_t bytes_before_ = 0;  // bytes of the files already closed
 
   // open chunk
   std::vector<std::uint8_t> chunk_;                      // uncompressed records

@@ -50,6 +50,8 @@ struct RecordConfig {
   std::vector<std::string> topics;   ///< topic names (`regolith echo --list`); empty = every known one
   std::string compression = "zstd";  ///< zstd | none
   bool hal = true;                   ///< also the devices' inputs (record::HalRecorder), for `regolith replay`
+  double split_mb = 0.0;             ///< start a new file after about this many MiB (0 = never)
+  double split_s = 0.0;              ///< ... or after this many seconds of recording (0 = never)
   std::string where_topics;          ///< file:line:col of record.topics (or of the block), for errors
 };
 

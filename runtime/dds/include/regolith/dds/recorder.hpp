@@ -36,6 +36,9 @@ struct DdsRecorderOptions {
   /// (keep-last, as `regolith echo`).
   bool keep_all = false;
   std::uint64_t max_samples = 0;  ///< stop taking after this many samples in total (0 = no limit)
+  /// Split into files of about this many bytes / this long (0 = never; record::McapWriterOptions).
+  std::uint64_t split_bytes = 0;
+  std::uint64_t split_duration_ns = 0;
   /// Called once, from the thread that hit it, when writing the file fails (disk full, file too
   /// large, I/O error): the message names the file and the byte. The recording then stops; samples
   /// keep being taken (the readers are drained) and are counted as lost(). May be empty.
@@ -90,6 +93,8 @@ class DdsRecorder final : public record::MessageSink {
   /// CPU time used by the recording thread so far (CLOCK_THREAD_CPUTIME_ID; updated every wake-up).
   TimeNs thread_cpu_ns() const { return cpu_ns_.load(); }
   const std::filesystem::path& path() const { return path_; }
+  /// The files written so far (more than one when split).
+  std::vector<std::filesystem::path> files() const;
 
  private:
   struct Recorded;
