@@ -341,6 +341,8 @@ function onPreview(which, msg) {
     $(`${which}-info`).textContent =
       `${img.naturalWidth}×${img.naturalHeight} · ${(msg.data.byteLength / 1024).toFixed(1)} KiB · ` +
       `${msg.header.frame_id} · t = ${stampSeconds(msg.header).toFixed(2)} s`;
+    // the size of the last decoded frame (naturalWidth reads 0 again while the next one loads)
+    img.dataset.width = String(img.naturalWidth);
     img.dataset.frames = String(Number(img.dataset.frames ?? 0) + 1);
   };
   img.src = url;
