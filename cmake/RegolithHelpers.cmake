@@ -47,6 +47,7 @@ function(regolith_add_gtest name)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests/common)  # alloc_counter.hpp
   target_compile_definitions(${name} PRIVATE
     REGOLITH_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     REGOLITH_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared"
@@ -67,6 +68,7 @@ function(regolith_add_bench name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} benchmark::benchmark)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests/common)  # alloc_counter.hpp
   target_compile_definitions(${name} PRIVATE REGOLITH_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   regolith_target_defaults(${name})
 endfunction()

@@ -31,17 +31,8 @@
 #include "regolith/runtime/application.hpp"
 #include "ws_test_client.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_in_cycle{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 using namespace regolith;
 using nlohmann::json;
@@ -160,7 +151,7 @@ RunResult run_rover(int clients, Latencies& lat) {
   };
   const double cpu0 = members_cpu_ns(*app), p0 = process_cpu_s();
   const auto [c0, s0] = cycles();
-  const std::uint64_t a0 = g_in_cycle.load();
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
   {
     std::lock_guard<std::mutex> lock(lat.m);
     lat.ms.clear();  // latencies of the measured window only
@@ -172,7 +163,7 @@ RunResult run_rover(int clients, Latencies& lat) {
   const auto [c1, s1] = cycles();
   r.cycles = c1 - c0;
   r.slips = s1 - s0;
-  r.allocs = g_in_cycle.load() - a0;
+  r.allocs = regolith::testing::cycle_allocations() - a0;
   stop_clients = true;
   for (auto& t : threads) t.join();
   r.bytes = bytes.load();

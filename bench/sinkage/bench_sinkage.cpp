@@ -15,24 +15,7 @@
 #include "regolith/sinkage/sinkage.hpp"
 #include "regolith/wheel_scene/wheel_scene.hpp"
 
-namespace {
-std::atomic<long> g_news{0};
-}  // namespace
-
-// The replacement operators below pair malloc/free consistently; GCC 12 cannot see that once it
-// inlines them into static initialisers and warns (false positive).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-void* operator new(std::size_t n) {
-  g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rs = regolith::sinkage;
 namespace ws = regolith::wheel_scene;
@@ -83,7 +66,7 @@ void run(benchmark::State& state, bool masked, bool poor) {
   rs::SinkageResult r;
   std::size_t i = 0;
   for (const auto& f : d.frames) est.process(f.bgr, f.truth.encoder_angle_rad, r);  // warm-up
-  const long news0 = g_news.load();
+  const long news0 = static_cast<long>(regolith::testing::allocations());
   double err = 0;
   for (auto _ : state) {
     const auto& f = d.frames[i];
@@ -93,7 +76,7 @@ void run(benchmark::State& state, bool masked, bool poor) {
     err += std::abs(z - f.truth.sinkage_mm);
     i = (i + 1) % d.frames.size();
   }
-  const long news = g_news.load() - news0;
+  const long news = static_cast<long>(regolith::testing::allocations()) - news0;
   state.SetItemsProcessed(state.iterations());
   state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()),
                                              benchmark::Counter::kIsRate);

@@ -16,21 +16,8 @@
 #include "regolith/dds/reader.hpp"
 #include "regolith/dds/topics.hpp"
 
-// ---- allocation counter: every operator new on this thread
-// ----------------------------------- (GCC flags malloc/free inside replacement
-// operators as mismatched; they are the replacement.)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-namespace {
-thread_local std::size_t t_news = 0;
-}
-void *operator new(std::size_t n) {
-  ++t_news;
-  if (void *p = std::malloc(n == 0 ? 1 : n))
-    return p;
-  throw std::bad_alloc();
-}
-void operator delete(void *p) noexcept { std::free(p); }
-void operator delete(void *p, std::size_t) noexcept { std::free(p); }
+// allocation counter: regolith::testing::thread_allocations() (every operator new on this thread)
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rd = regolith::dds;
 namespace m = regolith::msgs;
@@ -475,16 +462,16 @@ TEST_F(DdsPubSub, OutboxRtPathDoesNotAllocate) {
   pp_->start();
   ASSERT_TRUE(tst::eventually([&] { return box->matched_readers() == 1; }));
   { // the counter is live: one new, one count
-    const std::size_t b = t_news;
+    const std::size_t b = regolith::testing::thread_allocations();
     auto *probe = new int(1);
-    EXPECT_EQ(t_news - b, 1u);
+    EXPECT_EQ(regolith::testing::thread_allocations() - b, 1u);
     delete probe;
   }
   constexpr int kSamples = 200;
   std::size_t news = 0;
   int committed = 0;
   for (int i = 0; i < kSamples; ++i) {
-    const std::size_t before = t_news;
+    const std::size_t before = regolith::testing::thread_allocations();
     auto *js = box->begin(); // the RT side: begin, fill, commit
     if (js != nullptr) {
       fill_joint_state(*js, i * 10 * kNsPerMs, 0.01 * i);
@@ -493,7 +480,7 @@ TEST_F(DdsPubSub, OutboxRtPathDoesNotAllocate) {
       box->commit();
       ++committed;
     }
-    news += t_news - before;
+    news += regolith::testing::thread_allocations() - before;
     if (i % 8 == 7) {
       ASSERT_TRUE(
           pp_->drain(5 * kNsPerSec)); // not RT: lets the publisher keep up

@@ -14,21 +14,8 @@
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/rate_group.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_in_cycle{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 using namespace regolith;
 
@@ -50,7 +37,7 @@ TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   std::atomic<bool> stop{false};
   app->start();
   app->run(3 * kNsPerSec, stop);  // warm-up: the mapper's first frames and keyframe size its buffers
-  const std::uint64_t before = g_in_cycle.load();
+  const std::uint64_t before = regolith::testing::cycle_allocations();
   const auto frames_before = state.acquire()->counters.frames;
   app->run(12 * kNsPerSec, stop);
   const auto l = state.acquire();
@@ -58,5 +45,5 @@ TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   EXPECT_GE(l->counters.frames - frames_before, 20);  // frames mapped while counting
   EXPECT_GE(l->map_updates, 10);                      // map layers derived and published
   EXPECT_GT(l->counters.keyframes, 1);
-  EXPECT_EQ(g_in_cycle.load() - before, 0u) << "heap allocations inside terrain_map cycles";
+  EXPECT_EQ(regolith::testing::cycle_allocations() - before, 0u) << "heap allocations inside terrain_map cycles";
 }

@@ -18,20 +18,7 @@
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
 
-namespace {
-thread_local bool g_count = false;
-thread_local unsigned long g_allocs = 0;
-} // namespace
-
-void *operator new(std::size_t n) {
-  if (g_count)
-    ++g_allocs;
-  if (void *p = std::malloc(n == 0 ? 1 : n))
-    return p;
-  throw std::bad_alloc();
-}
-void operator delete(void *p) noexcept { std::free(p); }
-void operator delete(void *p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rs = regolith::saliency;
 
@@ -238,14 +225,12 @@ TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {
     out.reserve(4096);
     itti.compute(gray, height, sal);
     det.detect(sal, out);
-    g_allocs = 0;
-    g_count = true;
+    const std::uint64_t a0 = regolith::testing::thread_allocations();
     for (int k = 0; k < 3; ++k) {
       itti.compute(gray, height, sal);
       det.detect(sal, out);
     }
-    g_count = false;
-    EXPECT_EQ(g_allocs, 0u) << c.size << " map level " << c.map_level;
+    EXPECT_EQ(regolith::testing::thread_allocations() - a0, 0u) << c.size << " map level " << c.map_level;
     EXPECT_FALSE(out.empty());
   }
 }

@@ -29,29 +29,8 @@
 #include "regolith/sfs/component.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_in_cycle{0};
-// Debugging aid: with REGOLITH_TRACE_ALLOC=N in the environment, the stacks of the first N
-// allocations inside cycles after the warm-up are printed to stderr (resolve with addr2line).
-std::atomic<int> g_trace_left{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (regolith::runtime::in_rate_group_cycle()) {
-    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-    if (g_trace_left.load(std::memory_order_relaxed) > 0 && g_trace_left.fetch_sub(1) > 0) {
-      void* bt[24];
-      const int nb = backtrace(bt, 24);
-      backtrace_symbols_fd(bt, nb, 2);
-      static const char sep[] = "----\n";
-      (void)!write(2, sep, sizeof sep - 1);
-    }
-  }
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace {
 using namespace regolith;
@@ -166,12 +145,12 @@ RunResult run(int seed, const std::string& extra = "") {
   auto& ch = app->context().channel<saliency::RockFrame>(saliency::kRocksChannel);
   std::uint64_t seq0 = 0;
   if (auto l = ch.acquire()) seq0 = l->sequence;
-  const std::uint64_t a0 = g_in_cycle.load();
-  if (const char* t = std::getenv("REGOLITH_TRACE_ALLOC")) g_trace_left = std::atoi(t);
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
+  if (const char* t = std::getenv("REGOLITH_TRACE_ALLOC")) regolith::testing::trace_cycle_allocations(std::atoi(t));
   app->run(4 * kNsPerSec, stop);
-  g_trace_left = 0;
+  regolith::testing::trace_cycle_allocations(0);
   RunResult r;
-  r.cycle_allocs = g_in_cycle.load() - a0;
+  r.cycle_allocs = regolith::testing::cycle_allocations() - a0;
   auto lease = ch.acquire();
   EXPECT_TRUE(lease);
   if (lease) {

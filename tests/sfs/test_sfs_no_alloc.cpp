@@ -2,29 +2,11 @@
 // new is counted in this binary. Tsai-Shah (the marching default) is held to the same.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
 #include <opencv2/core.hpp>
 
 #include "regolith/sfs/sfs.hpp"
 
-namespace {
-std::atomic<long> g_news{0};
-std::atomic<bool> g_counting{false};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rs = regolith::sfs;
 
@@ -43,11 +25,9 @@ TEST(SfsNoAlloc, WarmPentlandAndTsaiShahSolvesDoNotAllocate) {
       rs::SfsResult out;
       solver.compute(e, light, out);  // first frame of the size: plans and buffers
       light.tilt_rad = 1.3;           // a new sun direction re-makes the filter in place
-      g_news = 0;
-      g_counting = true;
+      const std::uint64_t a0 = regolith::testing::allocations();
       for (int i = 0; i < 3; ++i) solver.compute(e, light, out);
-      g_counting = false;
-      EXPECT_EQ(g_news.load(), 0) << rs::to_string(m) << " " << sz;
+      EXPECT_EQ(regolith::testing::allocations() - a0, 0u) << rs::to_string(m) << " " << sz;
       EXPECT_EQ(out.status, rs::SfsStatus::kSolved);
       EXPECT_EQ(out.height.size(), sz);
     }

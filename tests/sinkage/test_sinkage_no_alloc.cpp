@@ -7,21 +7,7 @@
 
 #include "scene_helpers.hpp"
 
-namespace {
-std::atomic<long> g_news{0};
-std::atomic<bool> g_counting{false};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rs = regolith::sinkage;
 namespace ws = regolith::wheel_scene;
@@ -31,12 +17,10 @@ namespace {
 long allocations_during(rs::SinkageEstimator& est, const std::vector<ws::SequenceFrame>& seq) {
   rs::SinkageResult r;
   est.process(seq.front().bgr, seq.front().truth.encoder_angle_rad, r);  // warm-up
-  g_news = 0;
-  g_counting = true;
+  const std::uint64_t a0 = regolith::testing::allocations();
   for (const auto& f : seq) est.process(f.bgr, f.truth.encoder_angle_rad, r);
   est.process(seq.front().bgr, std::numeric_limits<double>::quiet_NaN(), r);  // invalid path
-  g_counting = false;
-  return g_news.load();
+  return static_cast<long>(regolith::testing::allocations() - a0);
 }
 
 }  // namespace
@@ -63,10 +47,9 @@ TEST(SinkageNoAlloc, ProcessDoesNotAllocate) {
     }
   }
   // the counter itself works
-  g_news = 0;
-  g_counting = true;
+  const std::uint64_t a0 = regolith::testing::allocations();
   auto* v = new std::vector<int>(100);
-  g_counting = false;
+  const std::uint64_t a1 = regolith::testing::allocations();
   delete v;
-  EXPECT_GE(g_news.load(), 1);
+  EXPECT_GE(a1 - a0, 1u);
 }

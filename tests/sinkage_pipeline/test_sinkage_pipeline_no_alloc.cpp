@@ -11,24 +11,8 @@
 #include "pipeline_util.hpp"
 #include "regolith/runtime/rate_group.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_cycle_allocs{0};
-std::atomic<bool> g_counting{false};
-}  // namespace
-
-// The replacement operators pair malloc/free consistently; GCC 12 cannot see that once it inlines
-// them and warns (false positive, same as bench/sinkage).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-void* operator new(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed) && regolith::runtime::in_rate_group_cycle()) {
-    g_cycle_allocs.fetch_add(1, std::memory_order_relaxed);
-  }
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 using namespace regolith;
 using namespace regolith::sinkage::testing;
@@ -49,11 +33,11 @@ TEST(SinkagePipelineNoAlloc, StepDoesNotAllocateOnceWarm) {
   std::atomic<bool> stop{false};
   app->start();
   app->run(from_seconds(0.5), stop);  // warm-up
-  g_counting.store(true);
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
   app->run(from_seconds(2.4), stop);
-  g_counting.store(false);
+  const std::uint64_t allocs = regolith::testing::cycle_allocations() - a0;
   app->stop();
-  EXPECT_EQ(g_cycle_allocs.load(), 0u);
+  EXPECT_EQ(allocs, 0u);
   EXPECT_EQ(probe_samples().size(), 30u);
   std::size_t valid = 0;
   for (const auto& s : probe_samples()) valid += s.result.valid ? 1 : 0;
@@ -68,10 +52,9 @@ TEST(SinkagePipelineNoAlloc, ProbeSeesAllocationsInsideCycles) {
                           "{type: test_sinkage_probe}", "{type: test_sinkage_probe, allocate_each_cycle: true}"));
   std::atomic<bool> stop{false};
   app->start();
-  g_cycle_allocs.store(0);
-  g_counting.store(true);
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
   app->run(from_seconds(1.0), stop);  // 20 cycles of the 20 Hz group
-  g_counting.store(false);
+  const std::uint64_t allocs = regolith::testing::cycle_allocations() - a0;
   app->stop();
-  EXPECT_GE(g_cycle_allocs.load(), 20u);
+  EXPECT_GE(allocs, 20u);
 }

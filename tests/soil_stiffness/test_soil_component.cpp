@@ -21,21 +21,8 @@
 #include "regolith/soil_stiffness/component.hpp"
 #include "regolith/track_scene/track_scene.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_all{0};
-std::atomic<std::uint64_t> g_in_cycle{0};
-}  // namespace
-
-// Every operator new of this test binary is counted, and separately when made inside a
-// rate-group cycle.
-void* operator new(std::size_t n) {
-  g_all.fetch_add(1, std::memory_order_relaxed);
-  if (regolith::runtime::in_rate_group_cycle()) g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 using namespace regolith;
 
@@ -127,11 +114,11 @@ TEST(SoilComponent, EstimatesKOfTheSyntheticTracksUnderSimulatedTime) {
   std::atomic<bool> stop{false};
   app->start();
   app->run(4 * kNsPerSec, stop);  // warm-up: the first estimates
-  const std::uint64_t a0 = g_in_cycle.load();
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
   std::uint64_t cycles0 = 0;
   for (const auto* g : app->view().groups) cycles0 += g->counters().cycles;
   app->run(16 * kNsPerSec, stop);
-  const std::uint64_t steady_allocs = g_in_cycle.load() - a0;
+  const std::uint64_t steady_allocs = regolith::testing::cycle_allocations() - a0;
   std::uint64_t cycles1 = 0;
   for (const auto* g : app->view().groups) cycles1 += g->counters().cycles;
   app->stop();
@@ -212,9 +199,9 @@ TEST(SoilComponent, WarmTemplateEstimateDoesNotAllocate) {
   est.estimate(image, sun, out);
   est.estimate(image, sun, out);
   ASSERT_TRUE(out.ok) << out.reason;
-  const std::uint64_t a0 = g_all.load();
+  const std::uint64_t a0 = regolith::testing::allocations();
   est.estimate(image, sun, out);
-  const std::uint64_t allocs = g_all.load() - a0;
+  const std::uint64_t allocs = regolith::testing::allocations() - a0;
   ASSERT_TRUE(out.ok) << out.reason;
   EXPECT_EQ(out.tracks.size(), 2u);
   EXPECT_EQ(allocs, 0u);

@@ -31,27 +31,8 @@
 #include "regolith/terrain_scene/terrain_scene.hpp"
 #include "regolith/traversability/component.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_in_cycle{0};
-std::atomic<bool> g_tracing{false};  // debugging aid: print one allocation's stack when armed
-}  // namespace
-
-// Counting replacement of the global allocator (malloc/free underneath on purpose).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t n) {
-  if (regolith::runtime::in_rate_group_cycle()) {
-    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-    if (std::getenv("REGOLITH_TRACE_ALLOC") != nullptr && g_tracing.exchange(false)) {
-      void* bt[24];
-      const int nb = backtrace(bt, 24);
-      backtrace_symbols_fd(bt, nb, 2);
-    }
-  }
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace {
 using namespace regolith;
@@ -109,10 +90,10 @@ TEST_P(Pipeline, GridMapMatchesLibraryAndSceneGeometry) {
   std::atomic<bool> stop{false};
   app->start();
   app->run(3 * kNsPerSec, stop);  // warm-up
-  const std::uint64_t a0 = g_in_cycle.load();
-  g_tracing = true;
+  const std::uint64_t a0 = regolith::testing::cycle_allocations();
+  if (std::getenv("REGOLITH_TRACE_ALLOC") != nullptr) regolith::testing::trace_cycle_allocations(1);
   app->run(5 * kNsPerSec, stop);
-  const std::uint64_t allocs = g_in_cycle.load() - a0;
+  const std::uint64_t allocs = regolith::testing::cycle_allocations() - a0;
   auto& ch = app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel);
   auto lease = ch.acquire();
   ASSERT_TRUE(lease);

@@ -1,0 +1,68 @@
+#pragma once
+// Heap allocations counted in a test or bench binary: the one replacement of the global operator
+// new / delete (malloc / free underneath) that the allocation tests share.
+//
+// Include it in exactly ONE source file of a binary (it defines the replacement operators for the
+// whole program). Define REGOLITH_ALLOC_COUNT_CYCLES before including it in a binary that links
+// regolith::runtime to also count the allocations made inside rate-group cycles (on the group's
+// thread, or on a worker pool's thread for the member; runtime::in_rate_group_cycle()).
+//
+//   regolith::testing::allocations()         every operator new so far, all threads
+//   regolith::testing::thread_allocations()  those of the calling thread
+//   regolith::testing::cycle_allocations()   those inside rate-group cycles (REGOLITH_ALLOC_COUNT_CYCLES)
+//   regolith::testing::trace_cycle_allocations(n)  print the call stacks of the next n of those on
+//                                                  stderr (addr2line / gdb turn them into lines)
+//
+// A window is the difference of two readings around the code under test.
+#include <atomic>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+
+#ifdef REGOLITH_ALLOC_COUNT_CYCLES
+#include <execinfo.h>
+#include <unistd.h>
+
+#include "regolith/runtime/rate_group.hpp"
+#endif
+
+// GCC pairs inlined library deletes with the malloc inside these replacements and warns.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
+namespace regolith::testing {
+namespace detail {
+inline std::atomic<std::uint64_t> all{0};
+inline std::atomic<std::uint64_t> in_cycle{0};
+inline std::atomic<int> trace_left{0};
+inline thread_local std::uint64_t this_thread = 0;
+}  // namespace detail
+
+inline std::uint64_t allocations() { return detail::all.load(std::memory_order_relaxed); }
+inline std::uint64_t thread_allocations() { return detail::this_thread; }
+inline std::uint64_t cycle_allocations() { return detail::in_cycle.load(std::memory_order_relaxed); }
+inline void trace_cycle_allocations(int n) { detail::trace_left.store(n, std::memory_order_relaxed); }
+}  // namespace regolith::testing
+
+void* operator new(std::size_t n) {
+  namespace d = regolith::testing::detail;
+  d::all.fetch_add(1, std::memory_order_relaxed);
+  ++d::this_thread;
+#ifdef REGOLITH_ALLOC_COUNT_CYCLES
+  if (regolith::runtime::in_rate_group_cycle()) {
+    d::in_cycle.fetch_add(1, std::memory_order_relaxed);
+    if (d::trace_left.load(std::memory_order_relaxed) > 0 && d::trace_left.fetch_sub(1) > 0) {
+      void* frames[24];
+      const int depth = backtrace(frames, 24);
+      backtrace_symbols_fd(frames, depth, STDERR_FILENO);
+      (void)!write(STDERR_FILENO, "----\n", 5);
+    }
+  }
+#endif
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
