@@ -80,11 +80,7 @@ components:
   return buf;
 }
 
-double thread_cpu_ms() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
+double thread_cpu_ms() { return static_cast<double>(thread_cpu_now()) * 1e-6; }
 
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return std::nan("");

@@ -42,14 +42,6 @@ void RateGroup::reset(TimeNs start) {
   slip_horizon_ = next_release_;
 }
 
-namespace {
-/// CPU time consumed by the calling thread (vDSO-free but allocation-free clock_gettime).
-TimeNs thread_cpu_now() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
-}
-}  // namespace
 
 void RateGroup::run_cycle(Clock& clock) {
   const CycleFlag flag;

@@ -4,20 +4,10 @@
 
 #include <pthread.h>
 
-#include <ctime>
 #include <stdexcept>
 #include <string>
 
 namespace regolith::runtime {
-namespace {
-
-TimeNs thread_cpu_ns() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
-}
-
-}  // namespace
 
 WorkerPool::WorkerPool(int threads, const char* name) {
   if (threads < 1 || threads > 64)
@@ -57,12 +47,12 @@ void WorkerPool::worker_main(int /*index*/) {
       if (stop_) return;
       seen = generation_;
     }
-    const TimeNs c0 = thread_cpu_ns();
+    const TimeNs c0 = thread_cpu_now();
     {
       const CycleScope scope(caller_in_cycle_, caller_member_);  // the allocation probes see the member
       take_jobs(true);
     }
-    worker_cpu_.fetch_add(thread_cpu_ns() - c0, std::memory_order_relaxed);
+    worker_cpu_.fetch_add(thread_cpu_now() - c0, std::memory_order_relaxed);
     {
       const std::lock_guard<std::mutex> lock(m_);
       if (--busy_ == 0) done_cv_.notify_one();

@@ -21,12 +21,8 @@ using namespace regolith::runtime;
 namespace {
 
 void spin_cpu(TimeNs ns) {
-  timespec a{};
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
-  const TimeNs end = static_cast<TimeNs>(a.tv_sec) * kNsPerSec + a.tv_nsec + ns;
-  for (;;) {
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
-    if (static_cast<TimeNs>(a.tv_sec) * kNsPerSec + a.tv_nsec >= end) return;
+  const TimeNs end = thread_cpu_now() + ns;
+  while (thread_cpu_now() < end) {
   }
 }
 

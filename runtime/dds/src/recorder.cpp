@@ -14,12 +14,6 @@ namespace {
 
 std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(realtime_now()); }
 
-TimeNs thread_cpu_now() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
-}
-
 /// A QoS duration in rosbag2's YAML ({sec, nsec}); 0 = infinite, written as ROS 2 Humble writes
 /// RMW_DURATION_INFINITE.
 std::string yaml_duration(const char* key, TimeNs ns) {

@@ -30,6 +30,14 @@ inline TimeNs realtime_now() {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
 }
 
+/// CPU time consumed by the calling thread (CLOCK_THREAD_CPUTIME_ID), ns: what a step or a job
+/// cost without preemption or sleeps. Allocation-free.
+inline TimeNs thread_cpu_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSec + ts.tv_nsec;
+}
+
 inline timespec to_timespec(TimeNs t) {
   return timespec{static_cast<time_t>(t / kNsPerSec), static_cast<long>(t % kNsPerSec)};
 }
