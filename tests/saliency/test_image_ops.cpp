@@ -17,6 +17,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/trained.hpp"
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
@@ -232,5 +233,86 @@ TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {
     }
     EXPECT_EQ(regolith::testing::thread_allocations() - a0, 0u) << c.size << " map level " << c.map_level;
     EXPECT_FALSE(out.empty());
+  }
+}
+
+TEST(ImageOps, GaussianBlur32fEqualsCvGaussianBlur) {
+  rs::GaussianBlur32f blur;
+  int seed = 40;
+  for (const cv::Size &s : kSizes)
+    for (double sigma : {0.8, 2.0, 4.0, 9.5}) {
+      const cv::Mat src = random_float(s, ++seed);
+      cv::Mat ours, ref;
+      blur.apply(src, ours, sigma);
+      cv::GaussianBlur(src, ref, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT_101);
+      EXPECT_LT(rel_diff(ours, ref), 1e-5) << s << " sigma " << sigma;
+      cv::Mat alias = src.clone();
+      blur.apply(alias, alias, sigma);  // in place
+      EXPECT_LT(rel_diff(alias, ref), 1e-5) << s << " sigma " << sigma << " in place";
+    }
+  cv::Mat dst;
+  EXPECT_THROW(blur.apply(cv::Mat(4, 4, CV_32F), dst, 0.0), std::invalid_argument);
+  EXPECT_THROW(blur.apply(cv::Mat(4, 4, CV_8U), dst, 1.0), std::invalid_argument);
+}
+
+TEST(ImageOps, Sobel3EqualsCvSobel) {
+  int seed = 90;
+  for (const cv::Size &s : kSizes) {
+    const cv::Mat src = random_float(s, ++seed);
+    cv::Mat gx, gy, rx, ry;
+    rs::sobel3_32f(src, gx, gy, 0.125f);
+    cv::Sobel(src, rx, CV_32F, 1, 0, 3, 0.125);
+    cv::Sobel(src, ry, CV_32F, 0, 1, 3, 0.125);
+    EXPECT_LT(rel_diff(gx, rx), 1e-6) << s;
+    EXPECT_LT(rel_diff(gy, ry), 1e-6) << s;
+  }
+}
+
+TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
+  // What the `sams` component runs per frame with method trained: candidates and features, the
+  // forest's scores, NMS, the pixel score map; the second image of a size (other content)
+  // allocates nothing.
+  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  for (const cv::Size s : {cv::Size(320, 240), cv::Size(640, 480)}) {
+    rs::CandidateExtractor ex(model.candidates);
+    rs::CandidateSet set;
+    std::vector<float> scores;
+    std::vector<rs::Detection> dets;
+    std::vector<std::uint32_t> order;
+    cv::Mat map;
+    const std::size_t most = ex.max_candidates(s);
+    scores.reserve(most);
+    dets.reserve(most);
+    order.reserve(most);
+    auto frame = [&](int seed) {
+      cv::Mat gray(s, CV_8U, cv::Scalar(100));
+      std::mt19937 rng(static_cast<unsigned>(seed));
+      std::uniform_int_distribution<int> ux(0, s.width - 1), uy(0, s.height - 1), ur(4, s.width / 12), ug(20, 235);
+      for (int k = 0; k < 30; ++k)
+        cv::ellipse(gray, {ux(rng), uy(rng)}, {ur(rng), ur(rng)}, 13.0 * k, 0, 360, ug(rng), -1);
+      cv::Mat noise(s, CV_8U);
+      cv::randu(noise, 0, 12);
+      gray += noise;
+      return gray;
+    };
+    auto run = [&](const cv::Mat &gray) {
+      ex.extract(gray, set);
+      model.score(set, scores);
+      rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou, dets, order);
+      rs::TrainedModel::score_map(set, scores, map);
+    };
+    const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
+    run(frames[0]);
+    const std::uint64_t a0 = regolith::testing::thread_allocations();
+    std::size_t candidates = 0, kept = 0;
+    for (int k = 1; k < 4; ++k) {
+      run(frames[k]);
+      candidates += set.candidates.size();
+      kept += dets.size();
+    }
+    EXPECT_EQ(regolith::testing::thread_allocations() - a0, 0u) << s;
+    EXPECT_GT(candidates, 10u) << s;
+    EXPECT_GT(kept, 0u) << s;
+    EXPECT_EQ(scores.size(), set.candidates.size());
   }
 }

@@ -230,6 +230,31 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   fs::remove_all(dir);
 }
 
+TEST(Trained, ForestScoresEqualOpenCvPredictOnTheDevImages) {
+  // score() walks the model's own copy of the trees; cv::ml::RTrees::predict is the reference.
+  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  rs::CandidateExtractor ex(model.candidates);
+  std::size_t compared = 0;
+  auto check = [&](const cv::Mat& image, const std::string& name) {
+    rs::CandidateSet set;
+    ex.extract(image, set);
+    const std::vector<float> ours = model.score(set), ref = model.score_by_opencv(set);
+    ASSERT_EQ(ours.size(), ref.size()) << name;
+    for (std::size_t i = 0; i < ours.size(); ++i) EXPECT_NEAR(ours[i], ref[i], 1e-6) << name << " candidate " << i;
+    compared += ours.size();
+  };
+  for (int seed = 1; seed <= 3; ++seed) {
+    cv::Mat mask;
+    check(rock_scene(static_cast<uint64_t>(seed), mask), "scene " + std::to_string(seed));
+  }
+  if (fs::is_directory(kDev)) {
+    const auto listing = rs::list_dataset((kDev / "images").string(), (kDev / "masks").string());
+    for (std::size_t k = 0; k < listing.items.size(); k += 6)
+      check(cv::imread(listing.items[k].image_path, cv::IMREAD_COLOR), listing.items[k].image_path);
+  }
+  EXPECT_GT(compared, 100u);
+}
+
 TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   if (!fs::is_directory(kDev)) GTEST_SKIP() << "no " << kDev << " (shared data absent)";
 #if !defined(__x86_64__)

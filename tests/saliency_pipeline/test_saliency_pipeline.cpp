@@ -311,6 +311,63 @@ std::string config_error(const std::string& yaml) {
   return "no error";
 }
 
+TEST(SceneRocks, TrainedMethodRunsInTheComponentWithoutAllocating) {
+  // method trained (the shipped Mars model) on the rendered scenes: the same outputs as every
+  // method, found rocks, and no heap allocation inside the cycles once running.
+  int n_gt = 0, centre_hits = 0, detections = 0, matched = 0;
+  std::uint64_t allocs = 0, frames = 0;
+  double prob_on = 0.0, prob_all = 0.0;
+  for (const int seed : {7, 8, 9}) {
+    const Truth truth = render_truth(seed);
+    const RunResult r = run(seed, "    method: trained\n");
+    EXPECT_EQ(r.errors, 0u) << seed;
+    EXPECT_EQ(r.rocks.image_width, kW);
+    allocs += r.cycle_allocs;
+    frames += r.frames_in_window;
+    detections += static_cast<int>(r.rocks.count);
+    std::vector<cv::Rect> boxes;
+    for (std::uint32_t i = 0; i < r.rocks.count; ++i) boxes.push_back(r.rocks.rocks[i].detection.box);
+    matched += saliency::match_frame(boxes, truth.frame, 0.2).matched;
+    for (std::uint32_t i = 1; i < r.rocks.count; ++i)
+      EXPECT_LE(r.rocks.rocks[i].detection.score, r.rocks.rocks[i - 1].detection.score);  // best first
+    for (const saliency::GtObject& o : truth.frame.objects) {
+      if (o.ignored) continue;
+      ++n_gt;
+      const cv::Point c(o.box.x + o.box.width / 2, o.box.y + o.box.height / 2);
+      for (std::uint32_t i = 0; i < r.rocks.count; ++i)
+        if (r.rocks.rocks[i].detection.box.contains(c)) {
+          ++centre_hits;
+          break;
+        }
+    }
+    ASSERT_TRUE(r.have_grid);
+    const cv::Mat& p = r.grid.probability;
+    for (int i = 0; i < p.rows; ++i)
+      for (int j = 0; j < p.cols; ++j) {
+        const float v = p.at<float>(i, j);
+        if (std::isnan(v)) continue;
+        EXPECT_GE(v, 0.0f);
+        EXPECT_LE(v, 1.0f);
+        prob_all += v;
+        prob_on += v > 0.0f ? 1.0 : 0.0;
+      }
+  }
+  EXPECT_GT(frames, 0u);
+  EXPECT_EQ(allocs, 0u) << "heap allocations inside the cycles (REGOLITH_TRACE_ALLOC=N prints their stacks)";
+  std::printf("trained in the component: %d detections, %d matched (IoU 0.2), %d of %d rocks' centres inside a box, "
+              "%.0f grid cells > 0\n", detections, matched, centre_hits, n_gt, prob_on);
+  EXPECT_GT(detections, 0);
+  EXPECT_GE(matched, 1);
+  EXPECT_GE(centre_hits, n_gt / 4);
+  EXPECT_GT(prob_all, 0.0);
+}
+
+TEST(SamsConfig, TrainedModelErrorsNameTheField) {
+  const std::string e = config_error(deployment(7, "    method: trained\n    model: /nonexistent/rocks.yml\n"));
+  EXPECT_NE(e.find("model"), std::string::npos) << e;
+  EXPECT_NE(e.find("/nonexistent/rocks.yml"), std::string::npos) << e;
+}
+
 TEST(SamsConfig, ErrorsNameTheField) {
   const std::string y = deployment(1);
   auto with = [&](const std::string& from, const std::string& to) {

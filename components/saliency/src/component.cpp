@@ -21,6 +21,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
+#include "regolith/saliency/trained.hpp"
 #include "regolith/common/grid_params.hpp"
 #include "regolith/common/payloads.hpp"
 
@@ -34,10 +35,12 @@ constexpr std::size_t kStringCapacity = 32;
 class SamsComponent final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
-    const std::string method = p.get<std::string>(
-        "method", "sams", {.choices = {"sams", "itti", "spectral_residual", "fine_grained"},
-                           .doc = "saliency method (sams = Itti + SfS structure channel)"});
-    method_ = method_from_string(method);
+    method_name_ = p.get<std::string>(
+        "method", "sams", {.choices = {"sams", "itti", "spectral_residual", "fine_grained", "trained"},
+                           .doc = "saliency method (sams = Itti + SfS structure channel; trained = contrast "
+                                  "candidates ranked by the trained rock model, `model`)"});
+    trained_ = method_name_ == "trained";
+    method_ = trained_ ? Method::kContrast : method_from_string(method_name_);
 
     // ---- saliency model (Itti / SAMS) ----
     IttiParams ip;
@@ -77,6 +80,7 @@ class SamsComponent final : public runtime::Component {
     pp.min_area = p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
     pp.max_detections = p.get<int>("max_detections", 32, {.min = 1, .max = static_cast<double>(kMaxRocks),
                                                           .doc = "rocks kept per frame (highest scores)"});
+    max_detections_ = pp.max_detections;
     try {
       pp.validate();
     } catch (const std::invalid_argument& e) {
@@ -94,6 +98,26 @@ class SamsComponent final : public runtime::Component {
     const direct_depth::CameraModel model = common::camera_model_of(rover_camera);
     const int w = model.width, h = model.height;
     size_ = cv::Size(w, h);
+    if (trained_) {
+      const std::string path = p.get<std::string>(
+          "model", default_trained_model_path(),
+          {.doc = "rock model file of method trained (`regolith train rocks`; default the shipped model)"});
+      try {
+        model_ = TrainedModel::load(path);
+      } catch (const ModelError& e) {
+        p.fail("model", e.what());
+      }
+      score_threshold_ = p.get<double>("score_threshold", model_.score_threshold,
+                                       {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
+      nms_iou_ = p.get<double>("nms_iou", model_.nms_iou,
+                               {.min = 0.0, .max = 1.0, .min_exclusive = true,
+                                .doc = "method trained: a box overlapping a better one by more than this IoU is dropped (default the model's)"});
+      extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
+      const std::size_t most = extractor_->max_candidates(cv::Size(w, h));
+      candidates_.candidates.reserve(most);
+      scores_.reserve(most);
+      order_.reserve(most);
+    }
     if (method_ == Method::kSams || method_ == Method::kItti) {
       const int need = ip.min_input_side();
       if (w < need || h < need)
@@ -165,7 +189,9 @@ class SamsComponent final : public runtime::Component {
         gray.at<uchar>(r, c) = static_cast<uchar>(110 + (d < 0.1 * w ? 80 : 0) + 20 * std::sin(0.11 * c));
         height.at<float>(r, c) = static_cast<float>(d < 0.1 * w ? 3.0 : 0.0);
       }
-    dets_.reserve(kMaxRocks + 1024);  // BoxDetector appends every component before truncating
+    // BoxDetector appends every component before truncating; the trained method keeps every
+    // candidate that survives NMS
+    dets_.reserve(std::max<std::size_t>(kMaxRocks + 1024, candidates_.candidates.capacity()));
     saliency_.create(size_, CV_32F);
     for (int k = 0; k < 2; ++k) process(gray, height);
 
@@ -218,7 +244,7 @@ class SamsComponent final : public runtime::Component {
   }
 
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
-    kv.emplace_back("method", to_string(method_));
+    kv.emplace_back("method", method_name_);
     kv.emplace_back("rocks_last_frame", std::to_string(last_.count));
     kv.emplace_back("hazards_last_frame", std::to_string(last_.hazards));
   }
@@ -253,6 +279,17 @@ class SamsComponent final : public runtime::Component {
   void process(const cv::Mat& gray, const cv::Mat& height) {
     gray.copyTo(work_gray_);
     fill_outside(work_gray_, cv::saturate_cast<uchar>(cv::mean(gray, roi_)[0]));
+    if (trained_) {
+      // Candidates -> forest scores -> NMS; the pixel score map is the saliency layer.
+      extractor_->extract(work_gray_, candidates_);
+      model_.score(candidates_, scores_);
+      TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
+      TrainedModel::score_map(candidates_, scores_, saliency_);
+      fill_outside(saliency_, 0.f);
+      if (dets_.size() > static_cast<std::size_t>(max_detections_)) dets_.resize(static_cast<std::size_t>(max_detections_));
+      rank_and_range();
+      return;
+    }
     if (peer_) {
       peer_->compute(work_gray_, saliency_);
     } else if (method_ == Method::kSams) {
@@ -265,6 +302,11 @@ class SamsComponent final : public runtime::Component {
     }
     fill_outside(saliency_, 0.f);
     detector_->detect(saliency_, dets_);
+    rank_and_range();
+  }
+
+  /// dets_ (best first) -> last_: ranged rocks, hazards.
+  void rank_and_range() {
     last_.count = 0;
     last_.hazards = 0;
     for (const Detection& det : dets_) {
@@ -340,6 +382,16 @@ class SamsComponent final : public runtime::Component {
   }
 
   Method method_ = Method::kSams;
+  std::string method_name_ = "sams";
+  bool trained_ = false;
+  int max_detections_ = 32;
+  // method trained
+  TrainedModel model_;
+  std::unique_ptr<CandidateExtractor> extractor_;
+  CandidateSet candidates_;
+  std::vector<float> scores_;
+  std::vector<std::uint32_t> order_;
+  double score_threshold_ = 0.5, nms_iou_ = 0.3;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

@@ -1,5 +1,6 @@
 #include "regolith/saliency/contrast.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -33,22 +34,30 @@ PostProcessParams contrast_post_processing() {
   return p;
 }
 
-void gaussian_blur_decimated(const cv::Mat& src, cv::Mat& dst, double sigma, cv::Mat& small, cv::Mat& small_blur) {
+void DecimatedGaussian::apply(const cv::Mat& src, cv::Mat& dst, double sigma) {
   if (src.empty() || src.type() != CV_32FC1)
-    throw std::invalid_argument("gaussian_blur_decimated: src must be a non-empty CV_32FC1 image");
-  if (!std::isfinite(sigma) || sigma <= 0.0) throw std::invalid_argument("gaussian_blur_decimated: sigma must be > 0");
-  int f = 1;
-  while (sigma / (2 * f) >= 4.0 && src.cols >= 2 * f * 4 && src.rows >= 2 * f * 4) f *= 2;
-  if (f == 1) {
-    cv::GaussianBlur(src, dst, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT_101);
+    throw std::invalid_argument("DecimatedGaussian: src must be a non-empty CV_32FC1 image");
+  if (!std::isfinite(sigma) || sigma <= 0.0) throw std::invalid_argument("DecimatedGaussian: sigma must be > 0");
+  if (src.size() != size_ || sigma != sigma_) {
+    int f = 1;
+    while (sigma / (2 * f) >= 4.0 && src.cols >= 2 * f * 4 && src.rows >= 2 * f * 4) f *= 2;
+    factor_ = f;
+    if (f > 1) {
+      const cv::Size reduced((src.cols + f - 1) / f, (src.rows + f - 1) / f);
+      down_.build(src.size(), reduced, ResizeTable::Mode::kArea);
+      up_.build(reduced, src.size(), ResizeTable::Mode::kLinear);
+    }
+    size_ = src.size();
+    sigma_ = sigma;
+  }
+  if (factor_ == 1) {
+    blur_.apply(src, dst, sigma);
     return;
   }
-  const cv::Size reduced((src.cols + f - 1) / f, (src.rows + f - 1) / f);
-  cv::resize(src, small, reduced, 0, 0, cv::INTER_AREA);
-  const double fd = static_cast<double>(f);
-  const double s_small = std::sqrt(sigma * sigma - fd * fd / 4.0) / fd;
-  cv::GaussianBlur(small, small_blur, cv::Size(0, 0), s_small, s_small, cv::BORDER_REFLECT_101);
-  cv::resize(small_blur, dst, src.size(), 0, 0, cv::INTER_LINEAR);
+  const double fd = static_cast<double>(factor_);
+  down_.apply(src, small_);
+  blur_.apply(small_, small_blur_, std::sqrt(sigma * sigma - fd * fd / 4.0) / fd);
+  up_.apply(small_blur_, dst);
 }
 
 ContrastSaliency::ContrastSaliency(ContrastParams params) : params_(params) {
@@ -69,10 +78,10 @@ void ContrastSaliency::compute(const cv::Mat& image, cv::Mat& saliency) {
 void ContrastSaliency::compute_from_intensity(const cv::Mat& intensity, cv::Mat& saliency) {
   if (intensity.empty() || intensity.type() != CV_32FC1)
     throw std::invalid_argument("intensity: must be a non-empty CV_32FC1 image");
-  gaussian_blur_decimated(intensity, surround_, params_.sigma_px, small_, small_blur_);
+  surround_blur_.apply(intensity, surround_, params_.sigma_px);
   if (params_.smooth_sigma_px > 0.0) {
     cv::absdiff(intensity, surround_, diff_);
-    gaussian_blur_decimated(diff_, saliency, params_.smooth_sigma_px, small_, small_blur_);
+    smooth_blur_.apply(diff_, saliency, params_.smooth_sigma_px);
   } else {
     cv::absdiff(intensity, surround_, saliency);
   }
@@ -81,7 +90,8 @@ void ContrastSaliency::compute_from_intensity(const cv::Mat& intensity, cv::Mat&
   if (mx > kNoContrast)
     saliency.convertTo(saliency, CV_32F, 1.0 / mx);
   else
-    saliency.setTo(0.0);
+    for (int r = 0; r < saliency.rows; ++r)  // Mat::setTo(scalar) allocates
+      std::fill(saliency.ptr<float>(r), saliency.ptr<float>(r) + saliency.cols, 0.0f);
 }
 
 }  // namespace regolith::saliency

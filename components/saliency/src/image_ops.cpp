@@ -326,6 +326,87 @@ void ResizeTable::apply(const cv::Mat &src, cv::Mat &dst) {
   }
 }
 
+// ---- GaussianBlur32f, sobel3_32f ----
+
+void GaussianBlur32f::apply(const cv::Mat &src, cv::Mat &dst, double sigma) {
+  if (!std::isfinite(sigma) || sigma <= 0.0)
+    throw std::invalid_argument("GaussianBlur32f: sigma must be > 0");
+  if (src.empty() || src.type() != CV_32FC1)
+    throw std::invalid_argument("GaussianBlur32f: src must be a non-empty CV_32FC1 image");
+  if (sigma != sigma_ || kernel_.empty()) {
+    const int ksize = cvRound(sigma * 4 * 2 + 1) | 1;  // OpenCV's size for non-8U images
+    const cv::Mat k = cv::getGaussianKernel(ksize, sigma, CV_32F);
+    kernel_.assign(k.ptr<float>(0), k.ptr<float>(0) + ksize);  // symmetric: k[t] = k[ksize - 1 - t]
+    sigma_ = sigma;
+  }
+  const int W = src.cols, H = src.rows;
+  const int r = static_cast<int>(kernel_.size() / 2);
+  const int taps = 2 * r + 1;
+  line_.resize(static_cast<std::size_t>(W + 2 * r));  // no-op once sized
+  rows_.create(H, W, CV_32F);
+  const float *k = kernel_.data();
+  for (int y = 0; y < H; ++y) {
+    const float *s = src.ptr<float>(y);
+    float *l = line_.data();
+    for (int x = -r; x < W + r; ++x)
+      l[x + r] = s[cv::borderInterpolate(x, W, cv::BORDER_REFLECT_101)];
+    float *o = rows_.ptr<float>(y);
+    // tap by tap over the whole row (the inner loop vectorises), the symmetric taps paired
+    const float *lc = l + r;
+    for (int x = 0; x < W; ++x)
+      o[x] = k[r] * lc[x];
+    for (int t = 0; t < r; ++t) {
+      const float kt = k[t];
+      const float *la = l + t, *lb = l + (taps - 1 - t);
+      for (int x = 0; x < W; ++x)
+        o[x] += kt * (la[x] + lb[x]);
+    }
+  }
+  if (row_index_.size() != static_cast<std::size_t>(H) * taps) {
+    row_index_.resize(static_cast<std::size_t>(H) * taps);
+    for (int y = 0; y < H; ++y)
+      for (int t = 0; t < taps; ++t)
+        row_index_[static_cast<std::size_t>(y) * taps + t] =
+            cv::borderInterpolate(y + t - r, H, cv::BORDER_REFLECT_101);
+  }
+  dst.create(H, W, CV_32F);
+  for (int y = 0; y < H; ++y) {
+    float *o = dst.ptr<float>(y);
+    const int *ri = row_index_.data() + static_cast<std::size_t>(y) * taps;
+    const float *rc = rows_.ptr<float>(ri[r]);
+    for (int x = 0; x < W; ++x)
+      o[x] = k[r] * rc[x];
+    for (int t = 0; t < r; ++t) {
+      const float kt = k[t];
+      const float *ra = rows_.ptr<float>(ri[t]), *rb = rows_.ptr<float>(ri[taps - 1 - t]);
+      for (int x = 0; x < W; ++x)
+        o[x] += kt * (ra[x] + rb[x]);
+    }
+  }
+}
+
+void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale) {
+  if (src.empty() || src.type() != CV_32FC1)
+    throw std::invalid_argument("sobel3_32f: src must be a non-empty CV_32FC1 image");
+  const int W = src.cols, H = src.rows;
+  gx.create(H, W, CV_32F);
+  gy.create(H, W, CV_32F);
+  for (int y = 0; y < H; ++y) {
+    const float *a = src.ptr<float>(cv::borderInterpolate(y - 1, H, cv::BORDER_REFLECT_101));
+    const float *b = src.ptr<float>(y);
+    const float *c = src.ptr<float>(cv::borderInterpolate(y + 1, H, cv::BORDER_REFLECT_101));
+    float *ox = gx.ptr<float>(y);
+    float *oy = gy.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      const int l = x > 0 ? x - 1 : cv::borderInterpolate(-1, W, cv::BORDER_REFLECT_101);
+      const int rr = x < W - 1 ? x + 1 : cv::borderInterpolate(W, W, cv::BORDER_REFLECT_101);
+      // [-1 0 1] across, [1 2 1] along; and the transpose.
+      ox[x] = scale * ((a[rr] - a[l]) + 2.f * (b[rr] - b[l]) + (c[rr] - c[l]));
+      oy[x] = scale * ((c[l] - a[l]) + 2.f * (c[x] - a[x]) + (c[rr] - a[rr]));
+    }
+  }
+}
+
 // ---- ConnectedComponents ----
 
 int ConnectedComponents::find(int a) {

@@ -34,10 +34,6 @@ double rect_sum(const cv::Mat& ii, const cv::Rect& r) {
   return b[r.x + r.width] - b[r.x] - a[r.x + r.width] + a[r.x];
 }
 
-struct Integrals {
-  cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb;
-};
-
 std::string trim(std::string s) {
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   return s;
@@ -135,50 +131,78 @@ CandidateExtractor::CandidateExtractor(CandidateParams params)
   for (double s : params_.fine_scales) add(s);
 }
 
+std::size_t CandidateExtractor::max_candidates(cv::Size size) const {
+  const std::size_t per_source =
+      static_cast<std::size_t>(size.width) * static_cast<std::size_t>(size.height) /
+          static_cast<std::size_t>(params_.min_area) + 1;
+  return per_source * detectors_.size();
+}
+
 void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   if (image.empty()) throw std::invalid_argument("empty image");
   to_unit_float(image, unit_);
   intensity_of(unit_, intensity_);
   const cv::Mat& I = intensity_;
+  const int W = I.cols, H = I.rows;
+  if (I.size() != sized_) {
+    // Each source's components are disjoint and at least min_area px: a bound on what one image
+    // can give, reserved once so that later images of this size allocate nothing.
+    dets_.reserve(max_candidates(I.size()) / std::max<std::size_t>(1, detectors_.size()) + 1);
+    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_, &chroma_r_, &chroma_b_}) m->create(I.size(), CV_32F);
+    sized_ = I.size();
+  }
+  out.candidates.reserve(max_candidates(I.size()));
   coarse_.compute_from_intensity(I, s_coarse_);
   fine_.compute_from_intensity(I, s_fine_);
-  gaussian_blur_decimated(I, surround_, params_.coarse.sigma_px, small_, small_blur_);
-  cv::Sobel(I, gx_, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(I, gy_, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::Mat grad, edge, dark, bright, diff, i2;
-  cv::magnitude(gx_, gy_, grad);
-  diff = I - surround_;
-  cv::compare(grad, static_cast<double>(kEdgeMagnitude), edge, cv::CMP_GT);
-  cv::compare(diff, static_cast<double>(-kDarkOffset), dark, cv::CMP_LT);
-  cv::compare(diff, static_cast<double>(kBrightOffset), bright, cv::CMP_GT);
-  Integrals ii;
-  integral_of(I, ii.i);
-  cv::multiply(I, I, i2);
-  integral_of(i2, ii.i2);
-  integral_of(s_coarse_, ii.sc);
-  integral_of(s_fine_, ii.sf);
-  integral_of(grad, ii.g);
-  integral_of(edge / 255, ii.edge);
-  integral_of(dark / 255, ii.dark);
-  integral_of(bright / 255, ii.bright);
+  surround_blur_.apply(I, surround_, params_.coarse.sigma_px);
+  sobel3_32f(I, gx_, gy_, 1.0f / 8.0f);
+  cv::magnitude(gx_, gy_, grad_);
+  // Per pixel: intensity squared, and the edge / dark / bright indicators (0 or 1).
+  for (int y = 0; y < H; ++y) {
+    const float* ip = I.ptr<float>(y);
+    const float* sp = surround_.ptr<float>(y);
+    const float* gp = grad_.ptr<float>(y);
+    float* q = i2_.ptr<float>(y);
+    float* e = edge_.ptr<float>(y);
+    float* d = dark_.ptr<float>(y);
+    float* b = bright_.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      const float diff = ip[x] - sp[x];
+      q[x] = ip[x] * ip[x];
+      e[x] = gp[x] > kEdgeMagnitude ? 1.0f : 0.0f;
+      d[x] = diff < -kDarkOffset ? 1.0f : 0.0f;
+      b[x] = diff > kBrightOffset ? 1.0f : 0.0f;
+    }
+  }
   // chromaticity r = R / (R + G + B), b = B / (R + G + B): rock against dust; 1/3 for grey images
   if (image.channels() == 3) {
-    cv::Mat f, sum;
-    image.convertTo(f, CV_32F);
-    std::vector<cv::Mat> ch;
-    cv::split(f, ch);  // B, G, R
-    sum = ch[0] + ch[1] + ch[2] + 1e-3f;
-    cv::Mat r, bl;
-    cv::divide(ch[2], sum, r);
-    cv::divide(ch[0], sum, bl);
-    integral_of(r, ii.cr);
-    integral_of(bl, ii.cb);
+    image.convertTo(colour_, CV_32FC3);
+    const int ch = 3;
+    for (int y = 0; y < H; ++y) {
+      const float* c = colour_.ptr<float>(y);  // B, G, R
+      float* r = chroma_r_.ptr<float>(y);
+      float* bl = chroma_b_.ptr<float>(y);
+      for (int x = 0; x < W; ++x, c += ch) {
+        const float sum = c[0] + c[1] + c[2] + 1e-3f;
+        r[x] = c[2] / sum;
+        bl[x] = c[0] / sum;
+      }
+    }
   } else {
-    const cv::Mat third(I.size(), CV_32F, cv::Scalar(1.0 / 3.0));
-    integral_of(third, ii.cr);
-    integral_of(third, ii.cb);
+    for (cv::Mat* m : {&chroma_r_, &chroma_b_})
+      for (int y = 0; y < H; ++y) std::fill(m->ptr<float>(y), m->ptr<float>(y) + W, 1.0f / 3.0f);
   }
-  const int W = I.cols, H = I.rows;
+  Integrals& ii = ii_;
+  integral_of(I, ii.i);
+  integral_of(i2_, ii.i2);
+  integral_of(s_coarse_, ii.sc);
+  integral_of(s_fine_, ii.sf);
+  integral_of(grad_, ii.g);
+  integral_of(edge_, ii.edge);
+  integral_of(dark_, ii.dark);
+  integral_of(bright_, ii.bright);
+  integral_of(chroma_r_, ii.cr);
+  integral_of(chroma_b_, ii.cb);
   const cv::Rect frame(0, 0, W, H);
   const double n_img = static_cast<double>(W) * H;
   const double img_mean = rect_sum(ii.i, frame) / n_img;
@@ -188,7 +212,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   out.size = I.size();
   out.candidates.clear();
   out.source_masks.create(I.size(), CV_8U);
-  out.source_masks.setTo(0);
+  for (int y = 0; y < H; ++y) std::fill(out.source_masks.ptr<uchar>(y), out.source_masks.ptr<uchar>(y) + W, uchar{0});
   out.sources = static_cast<int>(detectors_.size());
   const size_t n_coarse = params_.coarse_scales.size();
   for (size_t k = 0; k < detectors_.size(); ++k) {
@@ -318,6 +342,57 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
 // ---------------------------------------------------------------------------------------------
 struct TrainedModel::Forest {
   cv::Ptr<cv::ml::RTrees> rtrees;
+  // The trees again, flat, for an allocation-free evaluation (cv::ml::StatModel::predict makes
+  // matrices at every call). Leaves have var < 0.
+  struct Node {
+    int var = -1;
+    float threshold = 0.0f;
+    int left = -1, right = -1;
+    double value = 0.0;
+  };
+  std::vector<Node> nodes;
+  std::vector<int> roots;
+
+  void flatten() {
+    nodes.clear();
+    roots.clear();
+    const auto& src = rtrees->getNodes();
+    const auto& splits = rtrees->getSplits();
+    nodes.resize(src.size());
+    for (std::size_t i = 0; i < src.size(); ++i) {
+      const auto& n = src[i];
+      Node& o = nodes[i];
+      o.value = n.value;
+      if (n.split < 0) continue;
+      const auto& sp = splits.at(static_cast<std::size_t>(n.split));
+      // every feature is an ordered variable (fit_forest's var_type): no categorical subsets
+      o.var = sp.varIdx;
+      o.threshold = sp.c;
+      // value <= c goes left; an inversed split swaps the children
+      o.left = sp.inversed ? n.right : n.left;
+      o.right = sp.inversed ? n.left : n.right;
+      if (o.var < 0 || o.var >= kFeatureCount || o.left < 0 || o.right < 0 ||
+          static_cast<std::size_t>(o.left) >= src.size() || static_cast<std::size_t>(o.right) >= src.size())
+        throw std::runtime_error("rock model: a tree node points outside the forest");
+    }
+    roots = rtrees->getRoots();
+    for (int r : roots)
+      if (r < 0 || static_cast<std::size_t>(r) >= nodes.size()) throw std::runtime_error("rock model: bad tree root");
+  }
+
+  float predict(const float* x) const {
+    double sum = 0.0;
+    for (int r : roots) {
+      int k = r;
+      // depth <= max_depth (<= 30): the bound only stops a malformed file's cycle
+      for (int step = 0; nodes[static_cast<std::size_t>(k)].var >= 0 && step < 64; ++step) {
+        const Node& n = nodes[static_cast<std::size_t>(k)];
+        k = x[n.var] <= n.threshold ? n.left : n.right;
+      }
+      sum += nodes[static_cast<std::size_t>(k)].value;
+    }
+    return roots.empty() ? 0.0f : static_cast<float>(sum / static_cast<double>(roots.size()));
+  }
 };
 
 TrainedModel::TrainedModel() = default;
@@ -336,16 +411,6 @@ cv::Mat feature_matrix(const std::vector<RockCandidate>& cands) {
   for (size_t i = 0; i < cands.size(); ++i)
     std::copy(cands[i].features.begin(), cands[i].features.end(), m.ptr<float>(static_cast<int>(i)));
   return m;
-}
-
-std::vector<float> predict(const cv::ml::RTrees& rt, const std::vector<RockCandidate>& cands) {
-  std::vector<float> out(cands.size(), 0.0f);
-  if (cands.empty()) return out;
-  const cv::Mat x = feature_matrix(cands);
-  cv::Mat y;
-  rt.predict(x, y);
-  for (int i = 0; i < x.rows; ++i) out[static_cast<size_t>(i)] = std::clamp(y.at<float>(i), 0.0f, 1.0f);
-  return out;
 }
 
 cv::Ptr<cv::ml::RTrees> fit_forest(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp, int* samples,
@@ -397,17 +462,49 @@ double objective(const Summary& s) {
 }  // namespace
 
 std::vector<float> TrainedModel::score(const CandidateSet& set) const {
+  std::vector<float> out;
+  score(set, out);
+  return out;
+}
+
+void TrainedModel::score(const CandidateSet& set, std::vector<float>& scores) const {
   if (!trained()) throw std::logic_error("TrainedModel::score: no trained forest");
-  return predict(*forest_->rtrees, set.candidates);
+  scores.resize(set.candidates.size());
+  for (std::size_t i = 0; i < set.candidates.size(); ++i)
+    scores[i] = std::clamp(forest_->predict(set.candidates[i].features.data()), 0.0f, 1.0f);
+}
+
+std::vector<float> TrainedModel::score_by_opencv(const CandidateSet& set) const {
+  if (!trained()) throw std::logic_error("TrainedModel::score_by_opencv: no trained forest");
+  std::vector<float> out(set.candidates.size(), 0.0f);
+  if (out.empty()) return out;
+  const cv::Mat x = feature_matrix(set.candidates);
+  cv::Mat y;
+  forest_->rtrees->predict(x, y);
+  for (int i = 0; i < x.rows; ++i) out[static_cast<size_t>(i)] = std::clamp(y.at<float>(i), 0.0f, 1.0f);
+  return out;
 }
 
 std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
                                             double nms) {
-  std::vector<size_t> order(set.candidates.size());
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a] > scores[b]; });
   std::vector<Detection> out;
-  for (size_t i : order) {
+  std::vector<std::uint32_t> order;
+  out.reserve(set.candidates.size());
+  order.reserve(set.candidates.size());
+  select(set, scores, threshold, nms, out, order);
+  return out;
+}
+
+void TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
+                          std::vector<Detection>& out, std::vector<std::uint32_t>& order) {
+  out.clear();
+  order.resize(set.candidates.size());
+  std::iota(order.begin(), order.end(), std::uint32_t{0});
+  // Descending score, ties in candidate order (std::sort does not allocate; stable_sort would).
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return scores[a] != scores[b] ? scores[a] > scores[b] : a < b;
+  });
+  for (std::uint32_t i : order) {
     if (scores[i] < threshold) break;
     const cv::Rect& b = set.candidates[i].box;
     const bool suppressed =
@@ -415,12 +512,11 @@ std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::
     if (suppressed) continue;
     out.push_back(Detection{b, scores[i], set.candidates[i].area});
   }
-  return out;
 }
 
 void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map) {
   map.create(set.size, CV_32F);
-  map.setTo(0);
+  for (int y = 0; y < map.rows; ++y) std::fill(map.ptr<float>(y), map.ptr<float>(y) + map.cols, 0.0f);
   if (set.sources <= 0) return;
   const float per_source = 1.0f / static_cast<float>(set.sources);
   for (size_t i = 0; i < set.candidates.size(); ++i) {
@@ -435,7 +531,8 @@ void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& 
       }
     }
   }
-  cv::min(map, 1.0, map);
+  for (int y = 0; y < map.rows; ++y)
+    for (float* p = map.ptr<float>(y); p != map.ptr<float>(y) + map.cols; ++p) *p = std::min(*p, 1.0f);
 }
 
 std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
@@ -523,6 +620,11 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.forest_->rtrees->read(f);
     if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
       throw ModelError(path + ": rock model: the forest is empty or has the wrong input size");
+    m.forest_->flatten();
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // Forest::flatten
+    throw ModelError(path + ": " + e.what());
   } catch (const cv::Exception& e) {
     throw ModelError(path + ": corrupt rock model file (" + trim(e.msg) + ")");
   }
@@ -582,9 +684,12 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
       std::vector<const LabelledFrame*> train;
       for (size_t i = 0; i < frames.size(); ++i)
         if (fold[i] != f) train.push_back(frames[i]);
-      const auto rt = fit_forest(train, tp, nullptr, nullptr);
+      TrainedModel inner;
+      inner.forest_ = std::make_shared<TrainedModel::Forest>();
+      inner.forest_->rtrees = fit_forest(train, tp, nullptr, nullptr);
+      inner.forest_->flatten();
       for (size_t i = 0; i < frames.size(); ++i)
-        if (fold[i] == f) scores[i] = predict(*rt, frames[i]->set.candidates);
+        if (fold[i] == f) inner.score(frames[i]->set, scores[i]);
     }
   } else {
     return Choice{};
@@ -621,6 +726,7 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
   m.nms_iou = c.nms;
   m.forest_ = std::make_shared<TrainedModel::Forest>();
   m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
+  m.forest_->flatten();
   m.training_images = static_cast<int>(frames.size());
   return m;
 }

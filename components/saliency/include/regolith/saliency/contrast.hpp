@@ -5,7 +5,7 @@
 //   C' = G_smooth * C                       (optional smoothing, smooth_sigma_px > 0)
 //   S  = C' / max(C')                       (CV_32F in [0,1] at the input size; a map with
 //                                            max(C') <= 1e-6, i.e. a flat image, is all zero)
-// Both Gaussians are computed by gaussian_blur_decimated() (at a reduced resolution when sigma
+// Both Gaussians are computed by DecimatedGaussian (at a reduced resolution when sigma
 // is large), so the cost does not grow with sigma.
 // Bright and dark objects both stand out against their surround. The boxes come from the
 // post-processing shared by every method (BoxDetector: Otsu x threshold_scale, opening /
@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "regolith/saliency/detect.hpp"
+#include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
 
@@ -30,11 +31,25 @@ struct ContrastParams {
 
 /// Gaussian blur of a CV_32FC1 image with a cost independent of sigma (px): with f the largest
 /// power of two such that sigma / f >= 4 and the image is >= 4f px on each side (f = 1 for
-/// sigma < 8), the image is reduced by f (cv::INTER_AREA), blurred with sigma_f = sqrt(sigma^2 - f^2 / 4) / f
-/// (cv::GaussianBlur, BORDER_REFLECT_101; f^2/4 is the variance the area reduction, f^2/12, and the bilinear
-/// enlargement, f^2/6, add) and enlarged back (cv::INTER_LINEAR). f = 1 is cv::GaussianBlur
-/// itself. `small` and `small_blur` are scratch; `dst` must not alias `src`.
-void gaussian_blur_decimated(const cv::Mat& src, cv::Mat& dst, double sigma, cv::Mat& small, cv::Mat& small_blur);
+/// sigma < 8), the image is reduced by f (area resampling, as cv::INTER_AREA), blurred with
+/// sigma_f = sqrt(sigma^2 - f^2 / 4) / f (as cv::GaussianBlur, BORDER_REFLECT_101; f^2/4 is the
+/// variance the area reduction, f^2/12, and the bilinear enlargement, f^2/6, add) and enlarged
+/// back (bilinear, as cv::INTER_LINEAR). f = 1 is the plain Gaussian. The resampling tables and
+/// buffers are made on the first image of a size and sigma: later calls do not allocate.
+/// `dst` must not alias `src`.
+class DecimatedGaussian {
+ public:
+  /// Throws std::invalid_argument on an empty / non-CV_32FC1 src or sigma not > 0.
+  void apply(const cv::Mat& src, cv::Mat& dst, double sigma);
+
+ private:
+  cv::Size size_;
+  double sigma_ = 0.0;
+  int factor_ = 1;
+  ResizeTable down_, up_;
+  GaussianBlur32f blur_;
+  cv::Mat small_, small_blur_;
+};
 
 /// Post-processing defaults of the contrast method (the shared opening / closing radii, its
 /// own Otsu scale and minimum area), chosen by the same cross-validation as ContrastParams.
@@ -56,7 +71,8 @@ class ContrastSaliency {
 
  private:
   ContrastParams params_;
-  cv::Mat unit_, intensity_, surround_, diff_, small_, small_blur_;
+  cv::Mat unit_, intensity_, surround_, diff_;
+  DecimatedGaussian surround_blur_, smooth_blur_;
 };
 
 }  // namespace regolith::saliency

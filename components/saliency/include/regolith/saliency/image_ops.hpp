@@ -69,6 +69,26 @@ private:
   cv::Mat rows_; // src rows resampled horizontally: src.rows x dst.cols
 };
 
+/// cv::GaussianBlur(src, dst, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT_101) of a CV_32FC1
+/// image: the kernel of OpenCV's size for float images (round(8 sigma + 1) | 1 taps) made once
+/// per sigma, separable passes through a row buffer kept between calls. `dst` may alias `src`.
+class GaussianBlur32f {
+public:
+  /// Throws std::invalid_argument when sigma is not finite and > 0.
+  void apply(const cv::Mat &src, cv::Mat &dst, double sigma);
+
+private:
+  double sigma_ = 0.0;
+  std::vector<float> kernel_;   // 2 r + 1 taps
+  std::vector<float> line_;     // one padded row
+  cv::Mat rows_;                // horizontal pass
+  std::vector<int> row_index_;  // reflected row of each vertical tap, per output row
+};
+
+/// cv::Sobel(src, gx, CV_32F, 1, 0, 3, scale) and (0, 1) with the default border
+/// (BORDER_REFLECT_101), in one pass, of a CV_32FC1 image. `gx`, `gy` must not alias `src`.
+void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale);
+
 /// Two-pass union-find labelling of the 8-connected components of the nonzero pixels of a
 /// CV_8UC1 image, with the labels and statistics of cv::connectedComponentsWithStats(...,
 /// 8, CV_32S): label 0 = background, components numbered in the order OpenCV's block-based

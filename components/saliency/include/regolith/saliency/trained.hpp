@@ -92,14 +92,25 @@ class CandidateExtractor {
  public:
   explicit CandidateExtractor(CandidateParams params = {});
   /// `image`: as ContrastSaliency::compute. Throws std::invalid_argument on bad input.
+  /// Allocation-free from the second image of a size on (and the first of the same size into
+  /// `out`): every buffer is kept, and `out.candidates` is reserved for the most candidates an
+  /// image can give (each source's components are disjoint and >= min_area px).
   void extract(const cv::Mat& image, CandidateSet& out);
+  /// Most candidates one image of `size` can give.
+  std::size_t max_candidates(cv::Size size) const;
   const CandidateParams& params() const { return params_; }
 
  private:
   CandidateParams params_;
   ContrastSaliency coarse_, fine_;
+  DecimatedGaussian surround_blur_;
   std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales
-  cv::Mat unit_, intensity_, surround_, small_, small_blur_, s_coarse_, s_fine_, gx_, gy_;
+  cv::Mat unit_, intensity_, surround_, s_coarse_, s_fine_, gx_, gy_, grad_, i2_, edge_, dark_, bright_;
+  cv::Mat colour_, chroma_r_, chroma_b_;
+  struct Integrals {
+    cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb;
+  } ii_;
+  cv::Size sized_;  // image size the buffers and reservations were made for
   std::vector<Detection> dets_;
 };
 
@@ -117,17 +128,28 @@ class TrainedModel {
   int training_images = 0, training_samples = 0, training_positives = 0;
 
   bool trained() const;
-  /// Score in [0,1] of every candidate (same order).
+  /// Score in [0,1] of every candidate (same order): the mean output of the forest's trees,
+  /// evaluated on the model's own copy of the trees (equal to cv::ml::RTrees::predict, checked
+  /// in tests/saliency/test_trained.cpp), which allocates nothing.
   std::vector<float> score(const CandidateSet& set) const;
+  /// The same into `scores` (resized; no allocation within its capacity).
+  void score(const CandidateSet& set, std::vector<float>& scores) const;
+  /// The same scores by cv::ml::RTrees::predict (allocates): the reference the tests hold score() to.
+  std::vector<float> score_by_opencv(const CandidateSet& set) const;
   /// Scored boxes after NMS and the threshold, best first. `threshold` / `nms` < 0: the model's.
   std::vector<Detection> detect(const CandidateSet& set, double threshold = -1.0, double nms = -1.0) const;
   /// Same, from precomputed scores.
   static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
                                        double nms);
+  /// The same into `out`, with `order` as scratch (no allocation within their capacities). Ties
+  /// in score keep the candidates' order.
+  static void select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
+                     std::vector<Detection>& out, std::vector<std::uint32_t>& order);
   /// Pixel score map (CV_32F [0,1]): at each pixel, the mean over the sources of the score of the
   /// candidate whose blob in that source covers the pixel (0 where none does). A rock's core, found
   /// at every threshold, scores near its box score; the fringe only the loosest threshold takes in
   /// scores a fraction of it (grouped CV max F 0.730 against 0.695 for the max over NMS-kept blobs).
+  /// No allocation once `map` has the set's size.
   static void score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map);
 
   /// Writes the YAML file; throws ModelError naming the file.
