@@ -285,6 +285,8 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("keyframes", std::to_string(l->counters.keyframes));
     kv.emplace_back("odometry_jumps", std::to_string(l->counters.odometry_jumps));
     kv.emplace_back("frames_rejected", std::to_string(l->frames_rejected));
+    kv.emplace_back("odometry_unavailable", std::to_string(l->odometry_unavailable));
+    kv.emplace_back("odometry_reanchored", std::to_string(l->odometry_reanchored));
     kv.emplace_back("cells_known", std::to_string(l->cells_known));
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
@@ -335,10 +337,12 @@ class TerrainMapComponent final : public runtime::Component {
     for (std::size_t k = 1; k <= n; ++k) {
       const TimeNs tk =
           from + static_cast<TimeNs>(static_cast<double>(span) * static_cast<double>(k) / static_cast<double>(n));
-      // A wheel cannot roll farther than max_speed x dt (+ 5 cm): more is a corrupt reading the
-      // odometry started from; it re-anchors instead of jumping.
+      // A wheel cannot roll farther than max_speed x dt (+ 5 cm): more is a corrupt reading (this
+      // one or the one before); the odometry re-anchors there instead of jumping, loses that
+      // sub-step's distance, and goes on with the next.
       const double max_step = wheel_noise_.max_speed_mps * to_seconds(tk - odo_time_) + 0.05;
-      if (!read_at(tk, yaw) || !odo_->update(angles_, yaw, max_step)) return false;
+      if (!read_at(tk, yaw)) return false;
+      if (!odo_->update(angles_, yaw, max_step)) ++odometry_reanchored_;
       odo_time_ = tk;
     }
     return true;
@@ -375,6 +379,7 @@ class TerrainMapComponent final : public runtime::Component {
       s->counters = mapper_->counters();
       s->frames_rejected = rejected_;
       s->odometry_unavailable = odometry_unavailable_;
+      s->odometry_reanchored = odometry_reanchored_;
       s->cells_known = cells_known_;
       s->map_updates = map_updates_;
       s->distance_m = odo_->distance();
@@ -444,7 +449,7 @@ class TerrainMapComponent final : public runtime::Component {
   std::vector<const cv::Mat*> layers_;
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
-  long rejected_ = 0, odometry_unavailable_ = 0, cells_known_ = 0, map_updates_ = 0;
+  long rejected_ = 0, odometry_unavailable_ = 0, odometry_reanchored_ = 0, cells_known_ = 0, map_updates_ = 0;
   bool have_prev_ = false;
   Pose2 prev_pose_, prev_wheel_;
   Cov3 wheel_cov_ = Cov3::Zero();

@@ -213,8 +213,12 @@ class WheelSinkageComponent final : public runtime::Component {
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of terrain/wheel_sinkage"});
 
     out_ = &ctx.produce<WheelSinkageSample>(kSinkageChannel, 4);
-    cam_watch_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec / 2);
-    enc_watch_ = &watch_input("encoders", enc_timeout_);
+    const TimeNs frame_timeout = from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec / 2;
+    cam_watch_ = &watch_input("camera", frame_timeout);
+    // The encoder input is refreshed once per processed frame (when the frame found its angle):
+    // stale only when no frame has for as long as the camera may be silent. A single late
+    // sample is counted per frame (stale_encoder) instead.
+    enc_watch_ = &watch_input("encoders", std::max(enc_timeout_, frame_timeout));
 
     if (dds::Participant* part = ctx.dds()) {
       const dds::TopicInfo* info = dds::find_topic(kSinkageChannel);

@@ -1,0 +1,182 @@
+// The simulated soak (issue 20): the mocked rover of tests/soak/soak_rover.yaml (every component
+// type of config/mock_rover.yaml; every camera and encoder set behind fault injection: drops,
+// corrupt frames, garbage wheel angles, a disconnect every 20 min to 1 h, forever) runs 24 h of
+// simulated time in lockstep. After the first hour (warm-up) the process must hold still: resident
+// memory within 1 MiB, the same file descriptors and threads; and every counter must add up: the
+// frames a component took in are the frames its camera delivered, split into results and rejects;
+// every outage is counted as a fault and a recovery and flagged as a stale input; no cycle slips
+// (nothing overruns under the simulated clock).
+//
+// REGOLITH_SOAK_HOURS=N runs N simulated hours instead of 24 (a quick look; the counts scale).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "regolith/hal/camera.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/context.hpp"
+#include "regolith/runtime/rate_group.hpp"
+
+namespace regolith {
+namespace {
+
+namespace fs = std::filesystem;
+
+long resident_bytes() {
+  std::ifstream f("/proc/self/statm");
+  long size = 0, resident = 0;
+  f >> size >> resident;
+  return resident * sysconf(_SC_PAGESIZE);
+}
+
+long open_fds() {
+  long n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator("/proc/self/fd")) ++n;
+  return n;
+}
+
+long threads() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("Threads:", 0) == 0) return std::stol(line.substr(8));
+  return -1;
+}
+
+std::map<std::string, std::string> details(const runtime::Component& c) {
+  std::vector<std::pair<std::string, std::string>> kv;
+  c.diagnostics(kv);
+  return {kv.begin(), kv.end()};
+}
+
+std::uint64_t num(const std::map<std::string, std::string>& kv, const std::string& key) {
+  const auto it = kv.find(key);
+  EXPECT_NE(it, kv.end()) << "no diagnostic key " << key;
+  return it == kv.end() ? 0 : std::stoull(it->second);
+}
+
+const runtime::Component& component(const runtime::Application& app, const std::string& name) {
+  for (const runtime::Component* c : app.view().components)
+    if (c->name() == name) return *c;
+  throw std::runtime_error("no component " + name);
+}
+
+hal::CameraStats camera_stats(runtime::Application& app, const std::string& id) {
+  for (hal::Device* d : app.context().all_devices())
+    if (d->id() == id)
+      if (auto* cam = dynamic_cast<hal::Camera*>(d)) return cam->stats();
+  ADD_FAILURE() << "no camera " << id;
+  return {};
+}
+
+hal::DeviceCounters device_counters(runtime::Application& app, const std::string& id) {
+  for (hal::Device* d : app.context().all_devices())
+    if (d->id() == id) return d->counters();
+  ADD_FAILURE() << "no device " << id;
+  return {};
+}
+
+TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersConsistent) {
+  cli::register_everything();
+  const double hours = std::getenv("REGOLITH_SOAK_HOURS") ? std::atof(std::getenv("REGOLITH_SOAK_HOURS")) : 24.0;
+  ASSERT_GE(hours, 2.0);
+  const std::string path = std::string(REGOLITH_SOURCE_DIR) + "/tests/soak/soak_rover.yaml";
+  auto app = runtime::Application::load(Params::load_file(path), {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  constexpr TimeNs kHour = 3600 * kNsPerSec;
+  app->start();
+  app->run(kHour, stop);  // warm-up: every device has faulted and recovered at least once
+  const long rss0 = resident_bytes(), fds0 = open_fds(), threads0 = threads();
+  long rss_max = rss0;
+  const int total_hours = static_cast<int>(std::lround(hours));
+  for (int h = 1; h < total_hours; ++h) {
+    app->run(kHour, stop);
+    rss_max = std::max(rss_max, resident_bytes());
+    EXPECT_EQ(open_fds(), fds0) << "hour " << h + 1;
+    EXPECT_EQ(threads(), threads0) << "hour " << h + 1;
+  }
+  const double seconds = 3600.0 * total_hours;
+
+  // ---- the process holds still ----
+  std::printf("soak: %d simulated hours; resident %.1f MiB after the first hour, at most %.1f MiB after "
+              "(+%.0f KiB); %ld fds, %ld threads\n",
+              total_hours, static_cast<double>(rss0) / 1048576.0, static_cast<double>(rss_max) / 1048576.0,
+              static_cast<double>(rss_max - rss0) / 1024.0, fds0, threads0);
+  EXPECT_LT(rss_max - rss0, 1L << 20) << "resident memory grew after the warm-up hour";
+
+  // ---- rate groups: every release ran, none slipped ----
+  for (const runtime::RateGroup* g : app->view().groups) {
+    const auto& cfg = g->config();
+    const double expected = seconds * 1e9 / static_cast<double>(cfg.period);
+    EXPECT_NEAR(static_cast<double>(g->counters().cycles), expected, 2.0) << cfg.name;
+    EXPECT_EQ(g->counters().slips, 0u) << cfg.name;
+  }
+
+  // ---- the hub camera and the sinkage component ----
+  const hal::CameraStats wheel_cam = camera_stats(*app, "wheel_cam");
+  // up 600 frames' worth (20 min at 0.5 Hz), down 30 (1 min): one outage per 21 min
+  const double outages = seconds / 1260.0;
+  EXPECT_NEAR(static_cast<double>(wheel_cam.faults), outages, 1.5);
+  EXPECT_GE(wheel_cam.recoveries + 1, wheel_cam.faults);
+  EXPECT_GT(wheel_cam.dropped, 0u);
+  EXPECT_GT(wheel_cam.corrupt, 0u);
+  const runtime::Component& sinkage = component(*app, "wheel_sinkage");
+  const auto sk = details(sinkage);
+  std::uint64_t outcomes = num(sk, "valid") + num(sk, "bad_frames");
+  for (const auto& [k, v] : sk)
+    if (k.rfind("invalid_", 0) == 0) outcomes += std::stoull(v);
+  EXPECT_EQ(num(sk, "frames"), outcomes) << "frames in = valid + rejected + invalid";
+  EXPECT_NEAR(static_cast<double>(num(sk, "frames")), static_cast<double>(wheel_cam.frames), 1.0)
+      << "every frame the camera delivered reached the component once";
+  EXPECT_NEAR(static_cast<double>(num(sk, "bad_frames")), static_cast<double>(wheel_cam.corrupt), 1.0)
+      << "every corrupt frame was rejected, and nothing else";
+  EXPECT_GT(num(sk, "valid"), wheel_cam.frames * 8 / 10);
+  // Each 60 s outage leaves the camera input stale for ~55 s (its timeout is 2 periods + 0.5 s):
+  // the 1 Hz health check flags it in ~55 of its cycles.
+  std::uint64_t cam_stale = 0;
+  for (const auto& in : sinkage.inputs())
+    if (in->name == "camera") cam_stale = in->stale_cycles.load();
+  EXPECT_GE(static_cast<double>(cam_stale), 0.8 * 55.0 * (static_cast<double>(wheel_cam.faults) - 1.0));
+  EXPECT_LE(static_cast<double>(cam_stale), 1.2 * 60.0 * static_cast<double>(wheel_cam.faults) + 60.0);
+
+  // ---- the front camera, SfS and the drive-long map ----
+  const hal::CameraStats front = camera_stats(*app, "front");
+  EXPECT_NEAR(static_cast<double>(front.faults), seconds / 3900.0, 1.5);  // 180 + 15 frames at 0.05 Hz
+  EXPECT_NEAR(static_cast<double>(component(*app, "sfs").errors()), static_cast<double>(front.corrupt), 1.0)
+      << "sfs rejects exactly the corrupt frames";
+  const auto tm = details(component(*app, "terrain_map"));
+  EXPECT_GT(num(tm, "cells_known"), 1000u) << "the map keeps mapping through the outages";
+  EXPECT_GT(num(tm, "vo_ok"), num(tm, "frames_mapped") / 3);
+  EXPECT_GT(num(tm, "odometry_reanchored"), 0u) << "garbage wheel angles were met and re-anchored";
+  double x = 0, y = 0, yaw = 0;
+  std::istringstream(tm.at("pose_x_y_yawdeg")) >> x >> y >> yaw;
+  EXPECT_TRUE(std::isfinite(x) && std::isfinite(y) && std::isfinite(yaw)) << tm.at("pose_x_y_yawdeg");
+
+  // ---- the rear camera and the soil estimate ----
+  const hal::CameraStats rear = camera_stats(*app, "rear");
+  EXPECT_NEAR(static_cast<double>(component(*app, "soil").errors()), static_cast<double>(rear.corrupt), 1.0);
+  EXPECT_GT(num(details(component(*app, "soil")), "estimates"), 0u);
+
+  // ---- encoders: garbage counted, outages counted ----
+  for (const char* id : {"wheels", "wheel_leg"}) {
+    const hal::DeviceCounters c = device_counters(*app, id);
+    EXPECT_GT(c.rejected, 0u) << id;
+    EXPECT_GT(c.faults, 0u) << id;
+    EXPECT_GT(c.delivered, 0u) << id;
+  }
+  app->stop();
+}
+
+}  // namespace
+}  // namespace regolith
