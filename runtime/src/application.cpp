@@ -277,6 +277,7 @@ void Application::start() {
   if (dds_) {
     start_participant(*dds_);
     tf_static_ = publish_static_transforms(*dds_, context_->rover(), clock().now());
+    announce_node(*dds_, name_);
     if (!opts_.wait_for.empty()) wait_for_readers(*dds_, opts_.wait_for, opts_.wait_timeout);
     // Simulated time has no deadline to protect: deliver every sample before time moves on, so
     // a subscriber sees exactly what a real-time run would have published. /clock carries the

@@ -74,6 +74,15 @@ std::shared_ptr<void> publish_static_transforms(dds::Participant& p, const Rover
   return out;
 }
 
+void announce_node(dds::Participant& p, const std::string& deployment_name) {
+  try {
+    const std::string node = p.announce_node(deployment_name);
+    spdlog::info("ROS 2 graph: node {} ({} publishers) on ros_discovery_info", node, p.stats().size());
+  } catch (const std::exception& e) {  // the graph entry is a convenience: never stop the rover for it
+    spdlog::warn("cannot announce the ROS 2 node on ros_discovery_info: {}", e.what());
+  }
+}
+
 std::function<void(TimeNs)> make_clock_publisher(dds::Participant& p) {
   using Clock = msgs::rosgraph_msgs::Clock;
   auto out = p.make_outbox<Clock>("/clock", dds::find_topic("/clock")->writer_qos(),

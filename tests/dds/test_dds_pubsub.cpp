@@ -598,3 +598,70 @@ TEST(DdsParticipant, BadConfigNamesField) {
   EXPECT_THROW(rd::Participant(rd::ParticipantConfig{0, "rover-1"}),
                std::invalid_argument);
 }
+
+// The ROS 2 graph entry (issue 21): an observer in the same domain, as `ros2 node list` would,
+// reads ros_discovery_info and finds this participant as one node with its publishers.
+TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersOnRosDiscoveryInfo) {
+  using Info = m::rmw_dds_common::ParticipantEntitiesInfo;
+  auto js = pp_->make_outbox<m::sensor_msgs::JointState>(
+      "joint_states", rd::QosProfile::stream(10), {},
+      [](m::sensor_msgs::JointState &s) { rd::reserve(s, {.joints = 4}); });
+  auto diag = pp_->make_outbox<m::diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", rd::QosProfile::diagnostics(), {}, [](m::diagnostic_msgs::DiagnosticArray &) {});
+  EXPECT_EQ(pp_->announce_node("9 test-node"), "/" + pp_->ns() + "/_9_test_node");  // made a ROS name
+
+  // The observer: another participant, a transient-local reader (the announcement came first).
+  const dds_entity_t obs = dds_create_participant(pp_->domain_id(), nullptr, nullptr);
+  ASSERT_GT(obs, 0);
+  const dds_entity_t tp =
+      dds_create_topic(obs, rd::MsgTraits<Info>::descriptor(), "ros_discovery_info", nullptr, nullptr);
+  ASSERT_GT(tp, 0);
+  dds_qos_t *q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t rd_ = dds_create_reader(obs, tp, q, nullptr);
+  dds_delete_qos(q);
+  ASSERT_GT(rd_, 0);
+
+  const auto own = rd::Participant::gid_of(pp_->handle());
+  std::string ns, name;
+  std::vector<std::array<std::uint8_t, 24>> writers;
+  std::size_t readers = 99;
+  ASSERT_TRUE(tst::eventually([&] {
+    void *buf[4] = {};
+    dds_sample_info_t info[4];
+    const int n = dds_take(rd_, buf, info, 4, 4);
+    bool found = false;
+    for (int i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      const auto *s = static_cast<const Info *>(buf[i]);
+      if (!std::equal(own.begin(), own.end(), s->gid.data)) continue;  // other test processes
+      EXPECT_EQ(s->node_entities_info_seq._length, 1u);
+      if (s->node_entities_info_seq._length < 1) continue;
+      const auto &node = s->node_entities_info_seq._buffer[0];
+      ns = node.node_namespace;
+      name = node.node_name;
+      readers = node.reader_gid_seq._length;
+      for (std::uint32_t k = 0; k < node.writer_gid_seq._length; ++k) {
+        std::array<std::uint8_t, 24> g{};
+        std::copy_n(node.writer_gid_seq._buffer[k].data, 24, g.begin());
+        writers.push_back(g);
+      }
+      found = true;
+    }
+    if (n > 0) dds_return_loan(rd_, buf, n);
+    return found;
+  }));
+  EXPECT_EQ(ns, "/" + pp_->ns());
+  EXPECT_EQ(name, "_9_test_node");
+  EXPECT_EQ(readers, 0u);
+  ASSERT_EQ(writers.size(), 2u);
+  EXPECT_EQ(writers[0], rd::Participant::gid_of(js->writer()));
+  EXPECT_EQ(writers[1], rd::Participant::gid_of(diag->writer()));
+  // the gid is the GUID (16 bytes: prefix + entity id), zero-padded; the participant's prefix is
+  // every writer's prefix
+  EXPECT_TRUE(std::all_of(own.begin() + 16, own.end(), [](std::uint8_t b) { return b == 0; }));
+  EXPECT_TRUE(std::equal(own.begin(), own.begin() + 12, writers[0].begin()));
+  dds_delete(obs);
+}

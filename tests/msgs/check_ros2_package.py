@@ -28,6 +28,9 @@ def idl_type(t):
         return f"{m.group(1)}/{m.group(2)}"
     if t in IDL_TYPES:
         return IDL_TYPES[t]
+    m = re.fullmatch(r"string\s*<\s*(\d+)\s*>", t)
+    if m:  # bounded string: string<256> -> string<=256
+        return f"string<={m.group(1)}"
     raise ValueError(f"unknown IDL type {t!r}")
 
 
@@ -63,7 +66,7 @@ def msg_fields(path, pkg=None):
         if "=" in name or (len(line.split()) > 2 and line.split()[2].startswith("=")):
             continue  # constant
         base = re.sub(r"\[\d*\]$", "", t)
-        if pkg and "/" not in base and base not in PRIMITIVES:
+        if pkg and "/" not in base and base not in PRIMITIVES and not re.fullmatch(r"w?string<=\d+", base):
             t = f"{pkg}/{t}"
         fields.append((t, name))
     return fields

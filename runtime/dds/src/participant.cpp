@@ -1,6 +1,7 @@
 #include <algorithm>
 #include "regolith/dds/participant.hpp"
 
+#include <cctype>
 #include <cstdlib>
 
 #include <chrono>
@@ -60,6 +61,68 @@ dds_entity_t Participant::topic(std::string_view name,
   check(tp, "dds_create_topic " + wire + " (" + desc->m_typename + ")");
   topics_.emplace(wire, std::make_pair(tp, desc));
   return tp;
+}
+
+std::array<std::uint8_t, 24> Participant::gid_of(dds_entity_t entity) {
+  dds_guid_t guid;
+  check(dds_get_guid(entity, &guid), "dds_get_guid");
+  std::array<std::uint8_t, 24> gid{};
+  static_assert(sizeof guid.v <= 24);
+  std::copy(std::begin(guid.v), std::end(guid.v), gid.begin());
+  return gid;
+}
+
+std::string Participant::announce_node(const std::string &node_name) {
+  // A ROS node name: [A-Za-z_][A-Za-z0-9_]*.
+  std::string name = node_name.empty() ? std::string("regolith") : node_name;
+  for (char &c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) c = '_';
+  if (std::isdigit(static_cast<unsigned char>(name[0]))) name.insert(name.begin(), '_');
+  const std::string ns = cfg_.ns.empty() ? std::string("/") : "/" + cfg_.ns;
+
+  using Info = msgs::rmw_dds_common::ParticipantEntitiesInfo;
+  using Node = msgs::rmw_dds_common::NodeEntitiesInfo;
+  using Gid = msgs::rmw_dds_common::Gid;
+  std::lock_guard lock(mutex_);
+  if (discovery_writer_ == 0) {
+    const dds_entity_t tp =
+        dds_create_topic(participant_, MsgTraits<Info>::descriptor(), "ros_discovery_info", nullptr, nullptr);
+    check(tp, "dds_create_topic ros_discovery_info");
+    dds_qos_t *q = dds_create_qos();
+    dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+    dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+    discovery_writer_ = dds_create_writer(participant_, tp, q, nullptr);
+    dds_delete_qos(q);
+    check(discovery_writer_, "dds_create_writer ros_discovery_info");
+  }
+  std::vector<Gid> writers;
+  for (const auto &box : outboxes_) {
+    Gid g{};
+    const auto a = gid_of(box->writer());
+    std::copy(a.begin(), a.end(), g.data);
+    writers.push_back(g);
+  }
+  Node node{};
+  const auto put = [](char *dst, std::size_t cap, const std::string &v) {
+    const std::size_t n = std::min(v.size(), cap - 1);
+    std::copy_n(v.data(), n, dst);
+    dst[n] = '\0';
+  };
+  put(node.node_namespace, sizeof node.node_namespace, ns);
+  put(node.node_name, sizeof node.node_name, name);
+  node.reader_gid_seq = {0, 0, nullptr, false};
+  node.writer_gid_seq._maximum = node.writer_gid_seq._length = static_cast<std::uint32_t>(writers.size());
+  node.writer_gid_seq._buffer = writers.data();
+  node.writer_gid_seq._release = false;
+  Info info{};
+  const auto pg = gid_of(participant_);
+  std::copy(pg.begin(), pg.end(), info.gid.data);
+  info.node_entities_info_seq._maximum = info.node_entities_info_seq._length = 1;
+  info.node_entities_info_seq._buffer = &node;
+  info.node_entities_info_seq._release = false;
+  check(dds_write(discovery_writer_, &info), "dds_write ros_discovery_info");
+  return ns == "/" ? "/" + name : ns + "/" + name;
 }
 
 void Participant::attach(std::shared_ptr<OutboxBase> box) {

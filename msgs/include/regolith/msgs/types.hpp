@@ -23,6 +23,9 @@
 #include "grid_map_msgs/msg/GridMapInfo.h"
 #include "nav_msgs/msg/Odometry.h"
 #include "rcl_interfaces/msg/Log.h"
+#include "rmw_dds_common/msg/Gid.h"
+#include "rmw_dds_common/msg/NodeEntitiesInfo.h"
+#include "rmw_dds_common/msg/ParticipantEntitiesInfo.h"
 #include "regolith_msgs/msg/RockArray.h"
 #include "rosgraph_msgs/msg/Clock.h"
 #include "regolith_msgs/msg/SoilStiffness.h"
@@ -66,6 +69,9 @@ REGOLITH_MSGS_ALIAS(geometry_msgs, TwistWithCovariance)
 REGOLITH_MSGS_ALIAS(geometry_msgs, Transform)
 REGOLITH_MSGS_ALIAS(geometry_msgs, TransformStamped)
 REGOLITH_MSGS_ALIAS(tf2_msgs, TFMessage)
+REGOLITH_MSGS_ALIAS(rmw_dds_common, Gid)
+REGOLITH_MSGS_ALIAS(rmw_dds_common, NodeEntitiesInfo)
+REGOLITH_MSGS_ALIAS(rmw_dds_common, ParticipantEntitiesInfo)
 REGOLITH_MSGS_ALIAS(rosgraph_msgs, Clock)
 REGOLITH_MSGS_ALIAS(rcl_interfaces, Log)
 REGOLITH_MSGS_ALIAS(nav_msgs, Odometry)

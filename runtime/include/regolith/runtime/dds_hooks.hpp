@@ -30,6 +30,9 @@ void sync_participant(dds::Participant& p);
 /// writer, which must outlive the run (late subscribers get the transforms from it); nullptr
 /// when the rover describes no frame.
 std::shared_ptr<void> publish_static_transforms(dds::Participant& p, const RoverDescription& rover, TimeNs stamp);
+/// Announces the process as one ROS 2 node named after the deployment on ros_discovery_info
+/// (dds::Participant::announce_node) after every writer exists; logs the node's name.
+void announce_node(dds::Participant& p, const std::string& deployment_name);
 /// /clock (rosgraph_msgs/Clock) for simulated time: the returned function publishes the time it
 /// is given (no allocation); call it after each simulated cycle.
 std::function<void(TimeNs)> make_clock_publisher(dds::Participant& p);

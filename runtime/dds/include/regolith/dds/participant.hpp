@@ -1,6 +1,7 @@
 #pragma once
 // One DDS domain participant per process, with the robot namespace, the topic
 // cache and the publisher thread that drains every Outbox created through it.
+#include <array>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -77,6 +78,19 @@ public:
     return box;
   }
 
+  /// Announces this participant as one ROS 2 node, `/<ns>/<node_name>` (namespace "/" without a
+  /// robot namespace), the way rmw_cyclonedds does: an rmw_dds_common/ParticipantEntitiesInfo
+  /// sample on the DDS topic "ros_discovery_info" (no rt/ prefix; reliable, transient-local,
+  /// keep-last 1) holding the participant's gid and the node with every outbox's writer gid
+  /// (gid = the entity's 16-byte DDS GUID, zero-padded to 24 bytes, as in ROS 2 Humble). Then
+  /// `ros2 node list` lists the node and `ros2 topic info -v` names it as the publisher. Call
+  /// after the outboxes are made; a later call publishes the current set again. A name that is
+  /// not a valid ROS node name is made one (other characters -> '_', a leading digit gets '_').
+  /// Non-RT. Returns the node's full name. Throws DdsError when Cyclone refuses.
+  std::string announce_node(const std::string &node_name);
+  /// The 24-byte ROS gid of a DDS entity (its GUID, zero-padded).
+  static std::array<std::uint8_t, 24> gid_of(dds_entity_t entity);
+
   /// Lossless mode (simulated time): stream writers created from now on keep all history, so a
   /// reliable reader receives every sample however fast the producer runs. Call before creating
   /// outboxes.
@@ -116,6 +130,7 @@ private:
   ParticipantConfig cfg_;
   bool lossless_ = false;
   dds_entity_t participant_ = 0;
+  dds_entity_t discovery_writer_ = 0;  // ros_discovery_info (announce_node)
   std::shared_ptr<Waker> waker_ = std::make_shared<Waker>();
 
   mutable std::mutex mutex_; // outboxes_, topics_ (never taken on the RT side)
