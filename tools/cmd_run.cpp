@@ -22,6 +22,7 @@
 #include "regolith/dds/recorder.hpp"
 #include "regolith/record/hal_recorder.hpp"
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/mcap_writer.hpp"
 #include <yaml-cpp/yaml.h>
 #endif
 #ifdef REGOLITH_HAVE_LIVE
@@ -192,23 +193,34 @@ struct RecordedTimes {
   TimeNs origin = -1, end = -1, ros_offset = 0;
 };
 RecordedTimes recorded_times(const std::string& file) {
-  record::McapReader reader(file);
   RecordedTimes t;
-  for (const auto& m : reader.info().metadata) {
-    auto get = [&](const char* key, TimeNs& out) {
-      auto it = m.values.find(key);
-      if (it == m.values.end()) return;
-      try {
-        out = std::stoll(it->second);
-      } catch (const std::exception&) {
-        throw InputError(file + ": metadata " + m.name + "." + key + ": not an integer: '" + it->second + "'");
+  // Over the files of a split recording (the end is in the last one).
+  bool first = true;
+  for (const std::filesystem::path& path : record::mcap_recording_files(file)) {
+    record::McapReader reader(path);
+    RecordedTimes f;
+    for (const auto& m : reader.info().metadata) {
+      auto get = [&](const char* key, TimeNs& out) {
+        auto it = m.values.find(key);
+        if (it == m.values.end()) return;
+        try {
+          out = std::stoll(it->second);
+        } catch (const std::exception&) {
+          throw InputError(path.string() + ": metadata " + m.name + "." + key + ": not an integer: '" + it->second + "'");
+        }
+      };
+      if (m.name == "regolith_hal") {
+        get("time_origin_ns", f.origin);
+        get("ros_time_offset_ns", f.ros_offset);
       }
-    };
-    if (m.name == "regolith_hal") {
-      get("time_origin_ns", t.origin);
-      get("ros_time_offset_ns", t.ros_offset);
+      if (m.name == "regolith_hal_end") get("time_end_ns", f.end);
     }
-    if (m.name == "regolith_hal_end") get("time_end_ns", t.end);
+    if (first) {
+      t = f;
+      first = false;
+    } else {
+      t.end = std::max(t.end, f.end);
+    }
   }
   return t;
 }
@@ -217,19 +229,22 @@ RecordedTimes recorded_times(const std::string& file) {
 /// carry measured times or logs - /diagnostics, /rosout, /clock - are left out). Prints one line
 /// per topic; returns the number of topics that differ.
 int compare_recordings(const std::string& a, const std::string& b) {
-  auto load = [](const std::string& f) {
+  auto load = [](const std::string& first) {
+    // Every file of a split recording, in order (no message is in two files).
     std::map<std::string, std::vector<std::vector<std::uint8_t>>> by_topic;
-    record::McapReader r(f);
-    for (const auto& [id, ch] : r.info().channels) {
-      const std::string& t = ch.topic;
-      const bool skip = t.rfind("/hal/", 0) == 0 || t.find("diagnostics") != std::string::npos ||
-                        t.find("rosout") != std::string::npos || t == "/clock";
-      if (!skip) by_topic[t];
+    for (const std::filesystem::path& f : record::mcap_recording_files(first)) {
+      record::McapReader r(f);
+      for (const auto& [id, ch] : r.info().channels) {
+        const std::string& t = ch.topic;
+        const bool skip = t.rfind("/hal/", 0) == 0 || t.find("diagnostics") != std::string::npos ||
+                          t.find("rosout") != std::string::npos || t == "/clock";
+        if (!skip) by_topic[t];
+      }
+      (void)r.for_each_message([&](const record::MessageView& m) {
+        auto it = by_topic.find(m.channel.topic);
+        if (it != by_topic.end()) it->second.emplace_back(m.data.begin(), m.data.end());
+      });
     }
-    (void)r.for_each_message([&](const record::MessageView& m) {
-      auto it = by_topic.find(m.channel.topic);
-      if (it != by_topic.end()) it->second.emplace_back(m.data.begin(), m.data.end());
-    });
     return by_topic;
   };
   const auto ta = load(a), tb = load(b);

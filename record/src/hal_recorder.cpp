@@ -5,7 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <cstdio>
 #include <map>
+#include <random>
 
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/imu.hpp"
@@ -289,9 +291,15 @@ void HalRecorder::start(MessageSink& sink, Clock& clock) {
   }
   // Measured here: the application measures its own when it starts, after this.
   ros_offset_ = clock.simulated() ? 0 : measure_realtime_offset();
+  // recording_id tells the files of this recording from another's (under simulated time two runs
+  // share their time origin): mcap_recording_files() keeps the split files that match.
+  std::random_device rd;
+  char id[40];
+  std::snprintf(id, sizeof id, "%08x%08x%08x%08x", rd(), rd(), rd(), rd());
   sink.add_metadata("regolith_hal", {{"time_origin_ns", std::to_string(clock.now())},
                                      {"ros_time_offset_ns", std::to_string(ros_offset_)},
-                                     {"simulated", clock.simulated() ? "true" : "false"}});
+                                     {"simulated", clock.simulated() ? "true" : "false"},
+                                     {"recording_id", id}});
   for (const auto& t : taps_) t->active.store(true, std::memory_order_release);
   stop_.store(false);
   thread_ = std::thread([this] { loop(); });

@@ -1,5 +1,6 @@
 // McapReader: see mcap_reader.hpp; record layouts from the MCAP specification (mcap.dev/spec).
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/mcap_writer.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -731,6 +732,29 @@ std::vector<std::uint8_t> McapReader::read_attachment(const AttachmentInfo& a) {
   } catch (const Malformed& e) {
     fail(a.offset, std::string("bad Attachment record: ") + e.what());
   }
+}
+
+std::vector<std::filesystem::path> mcap_recording_files(const std::filesystem::path& first) {
+  // The recording's identity: its HAL time origin and recording id (files written before the id
+  // existed: the origin alone).
+  const auto origin_of = [](const std::filesystem::path& f) {
+    McapReader reader(f);
+    std::string key;
+    for (const auto& m : reader.info().metadata) {
+      if (m.name != "regolith_hal") continue;
+      for (const char* k : {"time_origin_ns", "recording_id"}) {
+        auto it = m.values.find(k);
+        key += (it != m.values.end() ? it->second : std::string()) + "/";
+      }
+    }
+    return key;
+  };
+  const std::vector<std::filesystem::path> all = mcap_split_files(first);
+  std::vector<std::filesystem::path> files{first};
+  if (all.size() == 1) return files;
+  const std::string origin = origin_of(first);
+  for (std::size_t k = 1; k < all.size() && origin_of(all[k]) == origin; ++k) files.push_back(all[k]);
+  return files;
 }
 
 }  // namespace regolith::record

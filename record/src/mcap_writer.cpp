@@ -100,6 +100,14 @@ std::filesystem::path mcap_split_path(const std::filesystem::path& path, std::si
   return path.parent_path() / (path.stem().string() + n + path.extension().string());
 }
 
+std::vector<std::filesystem::path> mcap_split_files(const std::filesystem::path& first) {
+  std::vector<std::filesystem::path> files{first};
+  std::error_code ec;
+  for (std::size_t k = 1; std::filesystem::is_regular_file(mcap_split_path(first, k), ec); ++k)
+    files.push_back(mcap_split_path(first, k));
+  return files;
+}
+
 McapWriter::McapWriter(const std::filesystem::path& path, McapWriterOptions options)
     : base_path_(path), path_(path), options_(std::move(options)) {
   options_.validate();

@@ -406,6 +406,41 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   EXPECT_TRUE(std::regex_search(r.out, std::regex(n + R"(terrain/rocks\s+\d+\s+\d+\s+\d+\s+sample \d+)"))) << r.out;
 }
 
+TEST_F(RunRecord, ReplayPlaysEveryFileOfASplitRecording) {
+  // 3 s of the mocked rover in files of 8 MiB (~23 MiB of frames: 3 files). `replay` of the first
+  // file plays the whole recording: every output sample of every file again, byte for byte.
+  const fs::path cfg = write_config("rover.yaml", "\nrecord:\n  split_mb: 8\n");
+  const fs::path a = dir_ / "a.mcap", b = dir_ / "b.mcap";
+  Result r = run("run --sim-time --duration 3 --quiet --config " + cfg.string() + " --record " + a.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::vector<fs::path> files = regolith::record::mcap_split_files(a);
+  ASSERT_GE(files.size(), 2u) << r.out;
+  std::uint64_t recorded_rocks = 0;
+  for (const fs::path& f : files) {
+    McapReader reader(f);
+    for (const auto& [id, ch] : reader.info().channels)
+      if (ch.topic == "/" + ns_ + "/terrain/rocks")
+        recorded_rocks += reader.info().message_counts.count(id) ? reader.info().message_counts.at(id) : 0;
+  }
+  r = run("replay " + a.string() + " --quiet --record " + b.string() + " --compare");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("replay identical to the recording"), std::string::npos) << r.out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex("/" + ns_ + R"(/terrain/rocks\s+(\d+)\s+(\d+)\s+(\d+)\s+-)")))
+      << r.out;
+  EXPECT_EQ(std::stoull(m[1].str()), recorded_rocks) << "the comparison reads every file of the recording";
+  EXPECT_EQ(m[1].str(), m[3].str());
+  // A stray sibling from another recording (another time origin) is not part of it.
+  const fs::path c = dir_ / "c.mcap";
+  r = run("run --sim-time --duration 1 --quiet --config " + write_config("small.yaml", "").string() + " --record " +
+          c.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  fs::copy_file(b, regolith::record::mcap_split_path(c, 1));
+  r = run("replay " + c.string() + " --quiet --record " + (dir_ / "d.mcap").string() + " --compare");
+  EXPECT_NE(r.out.find("is not part of the recording"), std::string::npos) << r.out;
+  EXPECT_EQ(r.status, 0) << r.out;
+}
+
 TEST_F(RunRecord, ReplayErrorsNameTheFile) {
   // A recording without the devices' inputs (record.hal: false): the replay devices say so.
   const fs::path a = dir_ / "no_hal.mcap";

@@ -5,6 +5,7 @@
 // answers (angle_at, attitude_at) are given back bit for bit.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <mutex>
 
@@ -16,6 +17,7 @@
 #include "regolith/record/hal_messages.hpp"
 #include "regolith/record/hal_recorder.hpp"
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/mcap_writer.hpp"
 
 namespace regolith::mocks {
 namespace detail {
@@ -48,6 +50,7 @@ struct RecordedImu {
 /// One HAL recording, read once and shared by every replay device of a deployment.
 struct Recording {
   std::string file;
+  std::size_t files = 1;  // files of a split recording read
   TimeNs origin = 0;
   std::map<std::string, RecordedCamera> cameras;
   std::map<std::string, RecordedEncoders> encoders;
@@ -77,36 +80,17 @@ bool split_topic(const std::string& topic, std::string& kind, std::string& id, s
   return true;
 }
 
-std::shared_ptr<const Recording> Recording::load(const std::string& path) {
-  static std::mutex mutex;
-  static std::map<std::string, std::weak_ptr<const Recording>> cache;
-  std::lock_guard<std::mutex> lock(mutex);
-  if (auto r = cache[path].lock()) return r;
-
-  record::McapReader reader(path);  // InputError naming the file when it is not MCAP
-  auto rec = std::make_shared<Recording>();
-  rec->file = path;
-  bool has_origin = false;
-  for (const auto& m : reader.info().metadata) {
-    if (m.name != "regolith_hal") continue;
-    auto it = m.values.find("time_origin_ns");
-    if (it != m.values.end()) {
-      rec->origin = std::stoll(it->second);
-      has_origin = true;
-    }
-  }
-  if (!has_origin)
-    throw InputError(path + ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
-                     "--record`, which records the devices' inputs)");
+/// The HAL messages of one file of a recording into `rec` (series sorted afterwards).
+void read_file(record::McapReader& reader, const std::string& file, Recording& rec) {
   for (const auto& [cid, ch] : reader.info().channels) {
     std::string kind, id, leaf;
     if (!split_topic(ch.topic, kind, id, leaf)) continue;
     if (kind == "cameras") {
       auto r = ch.metadata.find("rate_hz");
-      if (r != ch.metadata.end()) rec->cameras[id].rate_hz = std::stod(r->second);
+      if (r != ch.metadata.end()) rec.cameras[id].rate_hz = std::stod(r->second);
     } else if (kind == "encoders") {
       auto w = ch.metadata.find("wheels");
-      RecordedEncoders& e = rec->encoders[id];
+      RecordedEncoders& e = rec.encoders[id];
       if (w != ch.metadata.end() && e.wheels.empty()) {
         std::size_t at = 0;
         while (at <= w->second.size()) {
@@ -124,14 +108,14 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
     try {
       if (kind == "cameras") {
         record::DecodedImage d = record::decode_image(m.data);
-        RecordedCamera& c = rec->cameras[id];
+        RecordedCamera& c = rec.cameras[id];
         c.images.push_back(std::move(d.image));
-        c.rel.push_back(d.stamp - rec->origin);
+        c.rel.push_back(d.stamp - rec.origin);
         c.sequence.push_back(m.sequence);
         c.corrupt.push_back(leaf == "image_corrupt" ? 1 : 0);
       } else if (kind == "encoders") {
         const record::DecodedWheelAngle d = record::decode_wheel_angle(m.data);
-        RecordedEncoders& e = rec->encoders[id];
+        RecordedEncoders& e = rec.encoders[id];
         auto w = std::find(e.wheels.begin(), e.wheels.end(), d.wheel);
         if (w == e.wheels.end()) {
           e.wheels.push_back(d.wheel);
@@ -140,28 +124,63 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
         }
         RecordedWheel& rw = e.per_wheel[static_cast<std::size_t>(w - e.wheels.begin())];
         if (leaf == "queries") {
-          rw.queries.emplace_back(d.stamp - rec->origin, d.angle);
+          rw.queries.emplace_back(d.stamp - rec.origin, d.angle);
         } else {
-          rw.samples.push_back({d.stamp - rec->origin, d.angle});
+          rw.samples.push_back({d.stamp - rec.origin, d.angle});
         }
       } else if (kind == "imus") {
-        RecordedImu& u = rec->imus[id];
+        RecordedImu& u = rec.imus[id];
         if (leaf == "queries" || leaf == "attitude") {
           const record::DecodedAttitude d = record::decode_attitude(m.data);
-          (leaf == "queries" ? u.queries : u.exact).emplace_back(d.stamp - rec->origin, d.a);
+          (leaf == "queries" ? u.queries : u.exact).emplace_back(d.stamp - rec.origin, d.a);
         } else {
           hal::ImuSample s = record::decode_imu(m.data);
-          s.stamp -= rec->origin;
+          s.stamp -= rec.origin;
           s.sequence = m.sequence;
           u.samples.push_back(s);
         }
       }
     } catch (const std::exception& e) {
-      throw InputError(path + ": " + m.channel.topic + " message at log time " + std::to_string(m.log_time) + ": " +
+      throw InputError(file + ": " + m.channel.topic + " message at log time " + std::to_string(m.log_time) + ": " +
                        e.what());
     }
   });
   for (const auto& p : problems) spdlog::warn("replay: {} (skipped)", reader.describe(p));
+}
+
+std::shared_ptr<const Recording> Recording::load(const std::string& path) {
+  static std::mutex mutex;
+  static std::map<std::string, std::weak_ptr<const Recording>> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (auto r = cache[path].lock()) return r;
+
+  auto rec = std::make_shared<Recording>();
+  rec->file = path;
+  // A split recording (drive.mcap, drive_001.mcap, ...) is one recording: every file of it (same
+  // HAL time origin) is read; a sibling of another recording is not.
+  const std::vector<std::filesystem::path> files = record::mcap_recording_files(path);
+  if (const std::size_t split = record::mcap_split_files(path).size(); split > files.size())
+    spdlog::warn("replay: {} is not part of the recording {} (another recording id or time origin): not replayed",
+                 record::mcap_split_path(path, files.size()).string(), path);
+  for (std::size_t f = 0; f < files.size(); ++f) {
+    const std::string file = files[f].string();
+    record::McapReader reader(file);  // InputError naming the file when it is not MCAP
+    bool has_origin = false;
+    for (const auto& m : reader.info().metadata) {
+      if (m.name != "regolith_hal") continue;
+      auto it = m.values.find("time_origin_ns");
+      if (it != m.values.end()) {
+        rec->origin = std::stoll(it->second);
+        has_origin = true;
+      }
+    }
+    if (!has_origin)
+      throw InputError(file + ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
+                       "--record`, which records the devices' inputs)");
+    read_file(reader, file, *rec);
+    rec->files = f + 1;
+  }
+  if (rec->files > 1) spdlog::info("replay: {} and the {} later file(s) of its split recording", path, rec->files - 1);
   // Chunks arrive in file order, each sorted by log time: sort the series by their own stamps.
   for (auto& [id, c] : rec->cameras) {
     std::vector<std::size_t> order(c.rel.size());

@@ -108,4 +108,10 @@ class McapReader {
   std::vector<std::uint8_t> chunk_buffer_;  // reused decompression buffer
 };
 
+/// The files of the recording that starts at `first` (mcap_split_files), keeping only the
+/// siblings that carry the same `regolith_hal` time origin and recording id as `first` (the same
+/// recording; files without HAL metadata match each other): a stray `<stem>_001.mcap` from another run is left out.
+/// Each file is opened to read its metadata (InputError naming a file that is not MCAP).
+std::vector<std::filesystem::path> mcap_recording_files(const std::filesystem::path& first);
+
 }  // namespace regolith::record

@@ -47,6 +47,12 @@ struct McapWriterOptions {
 /// beside it (drive.mcap -> drive_001.mcap).
 std::filesystem::path mcap_split_path(const std::filesystem::path& path, std::size_t index);
 
+/// The files of the recording that starts at `first`: `first`, then mcap_split_path(first, 1),
+/// (first, 2), ... for as long as they exist (a recording that was not split: `first` alone).
+/// Whether a sibling belongs to the same recording is the reader's to check (e.g. the HAL time
+/// origin in its metadata).
+std::vector<std::filesystem::path> mcap_split_files(const std::filesystem::path& first);
+
 /// Totals so far over every file of the recording (a split recording's Statistics records hold
 /// each file's own counts).
 struct McapWriterStats {
