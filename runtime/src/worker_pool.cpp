@@ -40,12 +40,25 @@ void WorkerPool::take_jobs(bool worker) {
 
 void WorkerPool::worker_main(int /*index*/) {
   std::uint64_t seen = 0;
+  std::uint64_t applied_policy_ = 0, want_policy = 0;  // policy_generation_ applied / wanted
+  int policy = SCHED_OTHER;
+  sched_param sp{};
   for (;;) {
     {
       std::unique_lock<std::mutex> lock(m_);
       start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
+      want_policy = policy_generation_;
+      policy = policy_;
+      sp = sched_;
+    }
+    if (applied_policy_ != want_policy) {
+      // The scheduling of the thread that runs the jobs (the rate group's: SCHED_FIFO and its
+      // priority when configured), taken over once: a worker must not be preempted by what the
+      // group itself outranks. A failure (no permission) was already reported for the group.
+      (void)::pthread_setschedparam(::pthread_self(), policy, &sp);
+      applied_policy_ = want_policy;
     }
     const TimeNs c0 = thread_cpu_now();
     {
@@ -66,6 +79,18 @@ void WorkerPool::run(int n, void (*fn)(void*, int), void* ctx) {
   if (workers_.empty() || n == 1) {
     for (int i = 0; i < n; ++i) fn(ctx, i);
     return;
+  }
+  if (policy_generation_ == 0) {
+    // The first run comes from the thread that will run every job (the rate group's, after its
+    // scheduling was applied): its policy and priority are the workers' from now on.
+    int policy = SCHED_OTHER;
+    sched_param sp{};
+    if (::pthread_getschedparam(::pthread_self(), &policy, &sp) == 0) {
+      const std::lock_guard<std::mutex> lock(m_);
+      policy_ = policy;
+      sched_ = sp;
+      policy_generation_ = 1;
+    }
   }
   {
     const std::lock_guard<std::mutex> lock(m_);

@@ -2,6 +2,8 @@
 // when all are done, the workers' CPU is counted and reaches the member's cpu() through the rate
 // group, and the pool shuts down cleanly. Labelled `concurrency` (TSan runs it).
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <atomic>
 #include <chrono>
@@ -116,4 +118,33 @@ TEST(WorkerPool, TheRateGroupCountsTheWorkersCpuInTheMembersCpu) {
   EXPECT_GE(s.mean, 6 * kNsPerMs - kNsPerMs / 10) << "mean CPU per step " << s.mean << " ns";
   EXPECT_GT(member.worker_cpu_ns(), 0);
   EXPECT_FALSE(member.scope_lost_.load());
+}
+
+TEST(WorkerPool, WorkersTakeTheSchedulingOfTheThreadThatRunsTheJobs) {
+  // The rate group's thread runs with SCHED_FIFO and a priority on a rover; its workers must too.
+  // SCHED_BATCH stands in for it here (no privilege needed): the caller switches to it before the
+  // first run, and every job - the caller's and the workers' - sees it.
+  WorkerPool pool(3, "sched");
+  std::vector<int> policies;
+  std::set<std::thread::id> ids;
+  std::thread group([&] {
+    sched_param sp{};
+    ASSERT_EQ(pthread_setschedparam(pthread_self(), SCHED_BATCH, &sp), 0);
+    for (int round = 0; round < 3; ++round) {
+      std::atomic<int> started{0};
+      std::mutex m;
+      parallel_for(&pool, 3, [&](int) {
+        started.fetch_add(1);
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        while (started.load() < 3 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+        const std::lock_guard<std::mutex> lock(m);
+        policies.push_back(sched_getscheduler(0));
+        ids.insert(std::this_thread::get_id());
+      });
+    }
+  });
+  group.join();
+  EXPECT_EQ(ids.size(), 3u);  // the caller and both workers ran jobs
+  ASSERT_EQ(policies.size(), 9u);
+  for (int p : policies) EXPECT_EQ(p, SCHED_BATCH);
 }

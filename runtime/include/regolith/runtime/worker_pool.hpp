@@ -4,6 +4,9 @@
 // libraries take it without depending on the runtime. A job is handed over under one mutex and
 // condition variable; nothing is allocated per job. The workers' CPU time is counted and the rate
 // group adds it to the member's CPU, so the summary shows what a member costs across its workers.
+#include <pthread.h>
+#include <sched.h>
+
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -24,6 +27,9 @@ class Component;
 class WorkerPool final : public ParallelFor {
  public:
   /// `threads` >= 1 threads run jobs: the caller of run() and threads - 1 workers started here.
+  /// The workers take the scheduling policy and priority of the thread of the first run() (the
+  /// rate group's: SCHED_FIFO with its priority when the group has one); CPU affinity is not
+  /// copied (a group pinned to one CPU would put its workers on that CPU too).
   /// `name` (<= 15 characters are kept) names the workers for top / ps ("sams/w1", ...).
   /// Throws std::invalid_argument for threads < 1 or > 64.
   explicit WorkerPool(int threads, const char* name = "worker");
@@ -54,6 +60,11 @@ class WorkerPool final : public ParallelFor {
   void* ctx_ = nullptr;
   int n_ = 0;
   bool caller_in_cycle_ = false;          // the caller's cycle scope, taken over by the workers
+  // Scheduling of the first run()'s caller (the rate group's thread), taken over by the workers
+  // before their first job (guarded by m_; read by a worker after it wakes under m_).
+  int policy_ = 0;
+  sched_param sched_{};
+  std::uint64_t policy_generation_ = 0;
   const Component* caller_member_ = nullptr;
   std::atomic<int> next_{0};
   std::atomic<TimeNs> worker_cpu_{0};
