@@ -40,7 +40,7 @@ void WorkerPool::take_jobs(bool worker) {
 
 void WorkerPool::worker_main(int /*index*/) {
   std::uint64_t seen = 0;
-  std::uint64_t applied_policy_ = 0, want_policy = 0;  // policy_generation_ applied / wanted
+  bool applied = false, have_policy = false;  // the caller's scheduling: taken over / known
   int policy = SCHED_OTHER;
   sched_param sp{};
   for (;;) {
@@ -49,16 +49,16 @@ void WorkerPool::worker_main(int /*index*/) {
       start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
-      want_policy = policy_generation_;
+      have_policy = have_policy_;
       policy = policy_;
       sp = sched_;
     }
-    if (applied_policy_ != want_policy) {
+    if (have_policy && !applied) {
       // The scheduling of the thread that runs the jobs (the rate group's: SCHED_FIFO and its
       // priority when configured), taken over once: a worker must not be preempted by what the
       // group itself outranks. A failure (no permission) was already reported for the group.
       (void)::pthread_setschedparam(::pthread_self(), policy, &sp);
-      applied_policy_ = want_policy;
+      applied = true;
     }
     const TimeNs c0 = thread_cpu_now();
     {
@@ -80,7 +80,7 @@ void WorkerPool::run(int n, void (*fn)(void*, int), void* ctx) {
     for (int i = 0; i < n; ++i) fn(ctx, i);
     return;
   }
-  if (policy_generation_ == 0) {
+  if (!have_policy_) {  // only run() writes it, under run_mutex_
     // The first run comes from the thread that will run every job (the rate group's, after its
     // scheduling was applied): its policy and priority are the workers' from now on.
     int policy = SCHED_OTHER;
@@ -89,7 +89,7 @@ void WorkerPool::run(int n, void (*fn)(void*, int), void* ctx) {
       const std::lock_guard<std::mutex> lock(m_);
       policy_ = policy;
       sched_ = sp;
-      policy_generation_ = 1;
+      have_policy_ = true;
     }
   }
   {

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include "regolith/dds/participant.hpp"
+#include "regolith/dds/sample.hpp"
 
 #include <cctype>
 #include <cstdlib>
@@ -104,13 +105,9 @@ std::string Participant::announce_node(const std::string &node_name) {
     writers.push_back(g);
   }
   Node node{};
-  const auto put = [](char *dst, std::size_t cap, const std::string &v) {
-    const std::size_t n = std::min(v.size(), cap - 1);
-    std::copy_n(v.data(), n, dst);
-    dst[n] = '\0';
-  };
-  put(node.node_namespace, sizeof node.node_namespace, ns);
-  put(node.node_name, sizeof node.node_name, name);
+  // bounded strings: char[257] for string<256> (capacity excludes the terminator)
+  copy_string(node.node_namespace, sizeof node.node_namespace - 1, ns);
+  copy_string(node.node_name, sizeof node.node_name - 1, name);
   node.reader_gid_seq = {0, 0, nullptr, false};
   node.writer_gid_seq._maximum = node.writer_gid_seq._length = static_cast<std::uint32_t>(writers.size());
   node.writer_gid_seq._buffer = writers.data();

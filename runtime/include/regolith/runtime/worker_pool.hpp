@@ -64,7 +64,7 @@ class WorkerPool final : public ParallelFor {
   // before their first job (guarded by m_; read by a worker after it wakes under m_).
   int policy_ = 0;
   sched_param sched_{};
-  std::uint64_t policy_generation_ = 0;
+  bool have_policy_ = false;
   const Component* caller_member_ = nullptr;
   std::atomic<int> next_{0};
   std::atomic<TimeNs> worker_cpu_{0};
