@@ -50,7 +50,6 @@ struct RecordedImu {
 /// One HAL recording, read once and shared by every replay device of a deployment.
 struct Recording {
   std::string file;
-  std::size_t files = 1;  // files of a split recording read
   TimeNs origin = 0;
   std::map<std::string, RecordedCamera> cameras;
   std::map<std::string, RecordedEncoders> encoders;
@@ -178,9 +177,8 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
       throw InputError(file + ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
                        "--record`, which records the devices' inputs)");
     read_file(reader, file, *rec);
-    rec->files = f + 1;
   }
-  if (rec->files > 1) spdlog::info("replay: {} and the {} later file(s) of its split recording", path, rec->files - 1);
+  if (files.size() > 1) spdlog::info("replay: {} and the {} later file(s) of its split recording", path, files.size() - 1);
   // Chunks arrive in file order, each sorted by log time: sort the series by their own stamps.
   for (auto& [id, c] : rec->cameras) {
     std::vector<std::size_t> order(c.rel.size());
