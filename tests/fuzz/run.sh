@@ -4,7 +4,8 @@
 # (merge the useful ones into the repository's corpus by hand); a crash writes its input to
 # tests/fuzz/crashes/<target>-<hash> and fails the run: add it to corpus/<target>/ once fixed, so
 # that FuzzCorpus.<target> replays it in every test build.
-# Prints executions per second and total executions per target.
+# Prints executions per second and total executions per target. Targets run concurrently, one per
+# core (REGOLITH_FUZZ_JOBS=N to change).
 #   tests/fuzz/run.sh [SECONDS] [TARGET...]   time-bound, a new random seed each run (long runs)
 #   tests/fuzz/run.sh --ci [TARGET...]         what CI runs: seed 1 and a fixed number of executions
 #                                              per target (about 60 s each on a 2-core CI machine),
@@ -35,26 +36,50 @@ if [[ ! -f "$build/CMakeCache.txt" ]]; then
 fi
 cmake --build "$build" --target "${targets[@]/#/fuzz_}"
 mkdir -p tests/fuzz/crashes
-status=0
-printf '%-16s %10s %12s %s\n' target "exec/s" executions result
-for t in "${targets[@]}"; do
-  work="$build/corpus/$t"
+# One fuzzer per core at a time (each is single-threaded): on a 2-core CI machine the eight targets
+# take four minutes of wall time, each still getting its full budget. REGOLITH_FUZZ_JOBS overrides.
+jobs=${REGOLITH_FUZZ_JOBS:-$(nproc)}
+((jobs >= 1)) || jobs=1
+
+# Runs one target and writes its table row to $build/fuzz_<target>.row; returns libFuzzer's status.
+run_target() {
+  local t="$1" work="$build/corpus/$1" log="$build/fuzz_$1.log" budget rc execs rate result
   mkdir -p "$work"
-  log="$build/fuzz_$t.log"
-  set +e
   if ((ci)); then
     rm -rf "$work" && mkdir -p "$work"  # the same start every time
     budget=(-seed=1 -runs="${ci_runs[$t]}")
   else
     budget=(-max_total_time="$seconds")
   fi
+  set +e
   "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" "${budget[@]}" -print_final_stats=1 \
     -artifact_prefix="tests/fuzz/crashes/$t-" -rss_limit_mb=2048 -timeout=10 >"$log" 2>&1
   rc=$?
   set -e
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
   rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
-  if ((rc == 0)); then result=ok; else result="FAILED (see $log)"; status=1; fi
-  printf '%-16s %10s %12s %s\n' "$t" "$rate" "$execs" "$result"
+  if ((rc == 0)); then result=ok; else result="FAILED (see $log)"; fi
+  printf '%-16s %10s %12s %s\n' "$t" "$rate" "$execs" "$result" >"$build/fuzz_$t.row"
+  return "$rc"
+}
+
+status=0
+running=0
+for t in "${targets[@]}"; do
+  rm -f "$build/fuzz_$t.row"
+  if ((running >= jobs)); then
+    wait -n || status=1
+    running=$((running - 1))
+  fi
+  run_target "$t" &
+  running=$((running + 1))
+done
+while ((running > 0)); do
+  wait -n || status=1
+  running=$((running - 1))
+done
+printf '%-16s %10s %12s %s\n' target "exec/s" executions result
+for t in "${targets[@]}"; do
+  cat "$build/fuzz_$t.row" 2>/dev/null || { printf '%-16s %10s %12s %s\n' "$t" 0 0 "FAILED (no result)"; status=1; }
 done
 exit $status
