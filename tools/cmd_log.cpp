@@ -7,6 +7,10 @@
 // regolith log export FILE.mcap --topic T... --out DIR [--format jsonl|csv] (builds with DDS only):
 // every message of the chosen channels decoded from its CDR bytes by Cyclone DDS's own
 // deserializer into the regolith C struct and written as one JSON line (or CSV row) per message.
+// Raw CAN frames (/hal/encoders/<id>/can, /can_fd) become a can-utils `candump -l` log instead
+// (<topic>.log, interface name = the encoder set's id, time = the receive stamp in ROS time: unix
+// time live, the simulated clock under --sim-time), which canplayer and the `candump` encoder
+// backend replay.
 #include <cstdio>
 #include <functional>
 #include <memory>
@@ -24,6 +28,8 @@
 #include <span>
 
 #include "regolith/dds/topics.hpp"
+#include "regolith/hal/can.hpp"
+#include "regolith/record/hal_messages.hpp"
 #endif
 
 #include "cli.hpp"
@@ -155,6 +161,8 @@ struct ExportChannel {
   std::vector<std::string> columns;  // csv: from the first message
   std::uint64_t written = 0, undecodable = 0;
   fs::path images;                   // sensor_msgs/CompressedImage: each image's bytes as a file here
+  int can = 0;                       // raw CAN frames (1 classic, 2 FD): written as a candump -l log
+  std::string can_interface;         // the interface name in that log: the encoder set's id
 };
 
 void run_export(const LogExportArgs& a) {
@@ -162,6 +170,7 @@ void run_export(const LogExportArgs& a) {
     throw InputError("log export: --format must be jsonl or csv, not '" + a.format + "'");
   record::McapReader reader(a.file);
   const auto& info = reader.info();
+  const record::HalRecordingInfo hal = record::hal_recording_info(info, a.file);
   // Declared before the decoders: they (their sertype references) go first, then the participant.
   dds_entity_t pp = 0;
   struct ParticipantGuard {
@@ -192,6 +201,23 @@ void run_export(const LogExportArgs& a) {
   for (auto& [id, e] : chans) {
     const auto s = info.schemas.find(e.channel->schema_id);
     const std::string schema = s != info.schemas.end() ? s->second.name : "";
+    std::string stem = e.channel->topic;
+    if (stem.starts_with('/')) stem.erase(0, 1);
+    for (char& ch : stem)
+      if (ch == '/') ch = '_';
+    if (e.channel->message_encoding == "cdr" &&
+        (schema == "can_msgs/msg/Frame" || schema == "ros2_socketcan_msgs/msg/FdFrame")) {
+      // Raw CAN frames: the log every CAN tool reads (and the `candump` encoder backend replays).
+      e.can = schema == "can_msgs/msg/Frame" ? 1 : 2;
+      const std::string& topic = e.channel->topic;  // /hal/encoders/<id>/can
+      const auto end = topic.rfind('/');
+      const auto begin = end == std::string::npos || end == 0 ? std::string::npos : topic.rfind('/', end - 1);
+      e.can_interface = begin == std::string::npos ? "can" : topic.substr(begin + 1, end - begin - 1);
+      e.path = fs::path(a.out) / (stem + ".log");
+      e.out.open(e.path, std::ios::binary | std::ios::trunc);
+      if (!e.out) throw InputError("log export: cannot write " + e.path.string());
+      continue;
+    }
     const dds::TopicInfo* ti = nullptr;
     for (const auto& k : dds::known_topics())
       if (k.ros_type == schema) ti = &k;
@@ -199,10 +225,6 @@ void run_export(const LogExportArgs& a) {
       throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
                        ") is not a regolith CDR type");
     e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
-    std::string stem = e.channel->topic;
-    if (stem.starts_with('/')) stem.erase(0, 1);
-    for (char& ch : stem)
-      if (ch == '/') ch = '_';
     e.path = fs::path(a.out) / (stem + "." + a.format);
     if (schema == "sensor_msgs/msg/CompressedImage") {  // the camera previews: viewable files too
       e.images = fs::path(a.out) / stem;
@@ -218,6 +240,16 @@ void run_export(const LogExportArgs& a) {
     auto it = chans.find(m.channel.id);
     if (it == chans.end()) return;
     ExportChannel& e = it->second;
+    if (e.can != 0) {
+      try {
+        const hal::CanFrame f = record::decode_can_frame(m.data, e.can == 2);
+        e.out << hal::format_candump_line(f, e.can_interface, f.stamp + hal.ros_offset_ns) << '\n';
+        ++e.written;
+      } catch (const std::exception&) {
+        ++e.undecodable;
+      }
+      return;
+    }
     std::string image_file;
     const auto save_image = [&](const void* sample) {
       const auto& im = *static_cast<const msgs::sensor_msgs::CompressedImage*>(sample);

@@ -198,28 +198,12 @@ RecordedTimes recorded_times(const std::string& file) {
   bool first = true;
   for (const std::filesystem::path& path : record::mcap_recording_files(file)) {
     record::McapReader reader(path);
-    RecordedTimes f;
-    for (const auto& m : reader.info().metadata) {
-      auto get = [&](const char* key, TimeNs& out) {
-        auto it = m.values.find(key);
-        if (it == m.values.end()) return;
-        try {
-          out = std::stoll(it->second);
-        } catch (const std::exception&) {
-          throw InputError(path.string() + ": metadata " + m.name + "." + key + ": not an integer: '" + it->second + "'");
-        }
-      };
-      if (m.name == "regolith_hal") {
-        get("time_origin_ns", f.origin);
-        get("ros_time_offset_ns", f.ros_offset);
-      }
-      if (m.name == "regolith_hal_end") get("time_end_ns", f.end);
-    }
+    const record::HalRecordingInfo h = record::hal_recording_info(reader.info(), path.string());
     if (first) {
-      t = f;
+      t = {h.origin_ns, h.end_ns, h.ros_offset_ns};
       first = false;
     } else {
-      t.end = std::max(t.end, f.end);
+      t.end = std::max(t.end, h.end_ns);
     }
   }
   return t;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cmath>
+#include <cstdio>
 
 namespace regolith::hal {
 
@@ -196,6 +197,67 @@ bool parse_candump_line(std::string_view line, CanFrame& frame, std::string& ifa
   }
   frame.len = static_cast<std::uint8_t>(data.size() / 2);
   return true;
+}
+
+}  // namespace regolith::hal
+
+namespace regolith::hal {
+
+CanFrameHistory::CanFrameHistory(std::size_t capacity) : ring_(std::max<std::size_t>(capacity, 1)) {}
+
+void CanFrameHistory::push(const CanFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ring_[next_ % ring_.size()] = frame;
+  ++next_;
+}
+
+std::size_t CanFrameHistory::since(std::uint64_t& cursor, std::span<CanFrame> out, std::uint64_t& missed) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::uint64_t oldest = next_ > ring_.size() ? next_ - ring_.size() : 0;
+  if (cursor < oldest) {
+    missed += oldest - cursor;
+    cursor = oldest;
+  }
+  std::size_t n = 0;
+  for (; cursor < next_ && n < out.size(); ++cursor, ++n) out[n] = ring_[cursor % ring_.size()];
+  return n;
+}
+
+std::uint64_t CanFrameHistory::pushed() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return next_;
+}
+
+std::string format_candump_line(const CanFrame& f, const std::string& interface_name, std::int64_t unix_time_ns) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  const std::int64_t us = unix_time_ns >= 0 ? unix_time_ns / 1000 : -((-unix_time_ns + 999) / 1000);
+  const std::int64_t sec = us >= 0 ? us / 1000000 : (us - 999999) / 1000000;
+  char head[48];
+  std::snprintf(head, sizeof head, "(%lld.%06lld) ", static_cast<long long>(sec), static_cast<long long>(us - sec * 1000000));
+  std::string line = head;
+  line += interface_name;
+  line += ' ';
+  char id[12];
+  if (f.error) {
+    std::snprintf(id, sizeof id, "%08X", static_cast<unsigned>((f.id & 0x1FFFFFFFU) | 0x20000000U));
+  } else if (f.extended) {
+    std::snprintf(id, sizeof id, "%08X", static_cast<unsigned>(f.id & 0x1FFFFFFFU));
+  } else {
+    std::snprintf(id, sizeof id, "%03X", static_cast<unsigned>(f.id & 0x7FFU));
+  }
+  line += id;
+  line += '#';
+  if (f.remote && !f.fd) {
+    line += 'R';
+    return line;
+  }
+  if (f.fd) line += "#0";  // flags nibble: not kept by CanFrame
+  const std::size_t len = std::min<std::size_t>(f.len, f.fd ? 64 : 8);
+  for (std::size_t i = 0; i < len; ++i) {
+    line += kHex[f.data[i] >> 4];
+    line += kHex[f.data[i] & 0xF];
+  }
+  return line;
 }
 
 }  // namespace regolith::hal

@@ -23,6 +23,11 @@ std::size_t WheelEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs
   return 1;
 }
 
+std::size_t WheelEncoders::can_frames(std::uint64_t& /*cursor*/, TimeNs /*now*/, std::span<CanFrame> /*out*/,
+                                     std::uint64_t& /*missed*/) const {
+  return 0;
+}
+
 bool WheelEncoders::stale(std::size_t wheel, TimeNs now, TimeNs timeout) const {
   AngleSample s;
   if (!latest(wheel, now, s)) return true;

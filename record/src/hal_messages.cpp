@@ -1,5 +1,6 @@
 #include "regolith/record/hal_messages.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -52,6 +53,54 @@ void encode_attitude(std::vector<std::uint8_t>& out, TimeNs stamp, const Attitud
   w.f64(a.roll_rad);
   w.f64(a.pitch_rad);
   w.f64(a.yaw_rad);
+}
+
+void encode_can_frame(std::vector<std::uint8_t>& out, const hal::CanFrame& f, const std::string& frame_id) {
+  CdrWriter w(out);
+  w.header(f.stamp, frame_id);
+  w.u32(f.id);
+  if (f.fd) {
+    w.u8(f.extended ? 1 : 0);
+    w.u8(f.error ? 1 : 0);
+    const std::uint8_t len = std::min<std::uint8_t>(f.len, 64);
+    w.u8(len);
+    w.bytes(f.data.data(), len);
+  } else {
+    w.u8(f.remote ? 1 : 0);
+    w.u8(f.extended ? 1 : 0);
+    w.u8(f.error ? 1 : 0);
+    w.u8(std::min<std::uint8_t>(f.len, 8));
+    for (int i = 0; i < 8; ++i) w.u8(f.data[static_cast<std::size_t>(i)]);  // uint8[8]: no length
+  }
+}
+
+hal::CanFrame decode_can_frame(std::span<const std::uint8_t> cdr, bool fd) {
+  CdrReader r(cdr);
+  hal::CanFrame f;
+  f.stamp = r.header();
+  f.id = r.u32();
+  f.fd = fd;
+  if (fd) {
+    f.extended = r.u8() != 0;
+    f.error = r.u8() != 0;
+    const std::uint8_t len = r.u8();
+    const std::span<const std::uint8_t> data = r.bytes();
+    if (len > 64 || data.size() > 64 || data.size() < len)
+      throw std::invalid_argument("CAN FD frame: len " + std::to_string(len) + " with " + std::to_string(data.size()) +
+                                  " data bytes (at most 64)");
+    f.len = len;
+    std::copy_n(data.data(), len, f.data.data());
+  } else {
+    f.remote = r.u8() != 0;
+    f.extended = r.u8() != 0;
+    f.error = r.u8() != 0;
+    f.len = r.u8();
+    if (f.len > 8) throw std::invalid_argument("CAN frame: dlc " + std::to_string(f.len) + " (at most 8)");
+    for (int i = 0; i < 8; ++i) f.data[static_cast<std::size_t>(i)] = r.u8();
+  }
+  if (f.id > (f.extended || f.error ? 0x1FFFFFFFU : 0x7FFU))
+    throw std::invalid_argument("CAN frame: identifier " + std::to_string(f.id) + " out of range");
+  return f;
 }
 
 DecodedImage decode_image(std::span<const std::uint8_t> cdr) {

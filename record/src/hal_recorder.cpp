@@ -20,6 +20,9 @@ namespace regolith::record {
 std::string hal_camera_topic(const std::string& id, bool corrupt) {
   return "/hal/cameras/" + id + (corrupt ? "/image_corrupt" : "/image");
 }
+std::string hal_can_topic(const std::string& id, bool fd) {
+  return "/hal/encoders/" + id + (fd ? "/can_fd" : "/can");
+}
 std::string hal_samples_topic(const std::string& kind, const std::string& id) {
   return "/hal/" + kind + "/" + id + "/samples";
 }
@@ -101,6 +104,10 @@ struct HalRecorder::Tap {
   const hal::WheelEncoders* encoders = nullptr;
   const hal::Imu* imu = nullptr;
   std::vector<TimeNs> last_stamp;  // per wheel (or [0] for the IMU): newest sample written
+  // raw CAN frames of an encoder backend that reads a bus
+  bool reads_can = false;
+  std::uint16_t ch_can = 0, ch_can_fd = 0;
+  std::uint64_t can_cursor = 0, can_missed = 0;
   std::uint32_t seq_samples = 0, seq_queries = 0;
 
   /// Producer: claim the ring (waiting in lossless mode), fill a slot with `fill`, publish.
@@ -190,6 +197,11 @@ class RecordingEncoders final : public hal::WheelEncoders {
                             std::span<hal::AngleSample> out) const override {
     return inner_->samples_since(wheel, after, now, out);
   }
+  bool reads_can() const override { return inner_->reads_can(); }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<hal::CanFrame> out,
+                         std::uint64_t& missed) const override {
+    return inner_->can_frames(cursor, now, out, missed);
+  }
 
  private:
   std::unique_ptr<hal::WheelEncoders> inner_;
@@ -250,6 +262,7 @@ std::unique_ptr<hal::Device> HalRecorder::wrap(std::unique_ptr<hal::Device> devi
     tap->enc_queries = std::make_unique<Ring<EncoderQuery>>(opts_.queries_per_device);
     tap->encoders = enc;
     tap->last_stamp.assign(enc->wheel_count(), std::numeric_limits<TimeNs>::min());
+    tap->reads_can = enc->reads_can();
     std::unique_ptr<hal::WheelEncoders> inner(static_cast<hal::WheelEncoders*>(device.release()));
     taps_.push_back(tap);
     return std::make_unique<RecordingEncoders>(std::move(inner), tap);
@@ -283,6 +296,10 @@ void HalRecorder::start(MessageSink& sink, Clock& clock) {
       const std::map<std::string, std::string> meta = {{"wheels", wheels}};
       t.ch_samples = sink.add_cdr_channel(hal_samples_topic("encoders", t.id), "sensor_msgs/msg/JointState", meta);
       t.ch_queries = sink.add_cdr_channel(hal_queries_topic("encoders", t.id), "sensor_msgs/msg/JointState", meta);
+      if (t.reads_can) {
+        t.ch_can = sink.add_cdr_channel(hal_can_topic(t.id), "can_msgs/msg/Frame", {});
+        t.ch_can_fd = sink.add_cdr_channel(hal_can_topic(t.id, true), "ros2_socketcan_msgs/msg/FdFrame", {});
+      }
     } else if (t.imu != nullptr) {
       t.ch_samples = sink.add_cdr_channel(hal_samples_topic("imus", t.id), "sensor_msgs/msg/Imu", {});
       t.ch_queries = sink.add_cdr_channel(hal_queries_topic("imus", t.id), "geometry_msgs/msg/Vector3Stamped", {});
@@ -363,6 +380,24 @@ void HalRecorder::drain_all() {
           }
           tap.recorded.fetch_add(n, std::memory_order_relaxed);
         } while (n == samples.size());
+      }
+      if (tap.reads_can) {
+        // MCAP sequence = the frame's number in the backend: a gap is frames it no longer held.
+        std::array<hal::CanFrame, 64> frames;
+        std::size_t n = 0;
+        do {
+          const std::uint64_t first = tap.can_cursor, missed = tap.can_missed;
+          n = tap.encoders->can_frames(tap.can_cursor, now, frames, tap.can_missed);
+          const std::uint64_t number = first + (tap.can_missed - missed);
+          for (std::size_t i = 0; i < n; ++i) {
+            const hal::CanFrame& f = frames[i];
+            encode_can_frame(buf, f, tap.id);
+            sink_->write(f.fd ? tap.ch_can_fd : tap.ch_can, static_cast<std::uint32_t>(number + i), log_time(f.stamp),
+                         log_time(f.stamp), buf);
+          }
+          tap.recorded.fetch_add(n, std::memory_order_relaxed);
+          tap.dropped.fetch_add(tap.can_missed - missed, std::memory_order_relaxed);
+        } while (n == frames.size());
       }
       tap.enc_queries->drain([&](const EncoderQuery& q) {
         encode_wheel_angle(buf, q.t, q.wheel < names.size() ? names[q.wheel] : std::string(), q.angle);

@@ -734,26 +734,49 @@ std::vector<std::uint8_t> McapReader::read_attachment(const AttachmentInfo& a) {
   }
 }
 
+HalRecordingInfo hal_recording_info(const McapFileInfo& info, const std::string& file) {
+  HalRecordingInfo h;
+  for (const auto& m : info.metadata) {
+    if (m.name != "regolith_hal" && m.name != "regolith_hal_end") continue;
+    auto number = [&](const char* key, std::int64_t& out) {
+      const auto it = m.values.find(key);
+      if (it == m.values.end()) return;
+      try {
+        std::size_t used = 0;
+        out = std::stoll(it->second, &used);
+        if (used != it->second.size()) throw std::invalid_argument("trailing characters");
+      } catch (const std::exception&) {
+        throw InputError(file + ": metadata " + m.name + "." + key + ": not an integer: '" + it->second + "'");
+      }
+    };
+    if (m.name == "regolith_hal") {
+      h.found = true;
+      number("time_origin_ns", h.origin_ns);
+      number("ros_time_offset_ns", h.ros_offset_ns);
+      const auto sim = m.values.find("simulated");
+      h.simulated = sim != m.values.end() && sim->second == "true";
+      const auto id = m.values.find("recording_id");
+      if (id != m.values.end()) h.recording_id = id->second;
+    } else {
+      number("time_end_ns", h.end_ns);
+    }
+  }
+  return h;
+}
+
 std::vector<std::filesystem::path> mcap_recording_files(const std::filesystem::path& first) {
   // The recording's identity: its HAL time origin and recording id (files written before the id
   // existed: the origin alone).
-  const auto origin_of = [](const std::filesystem::path& f) {
+  const auto identity = [](const std::filesystem::path& f) {
     McapReader reader(f);
-    std::string key;
-    for (const auto& m : reader.info().metadata) {
-      if (m.name != "regolith_hal") continue;
-      for (const char* k : {"time_origin_ns", "recording_id"}) {
-        auto it = m.values.find(k);
-        key += (it != m.values.end() ? it->second : std::string()) + "/";
-      }
-    }
-    return key;
+    const HalRecordingInfo h = hal_recording_info(reader.info(), f.string());
+    return std::to_string(h.origin_ns) + "/" + h.recording_id;
   };
   const std::vector<std::filesystem::path> all = mcap_split_files(first);
   std::vector<std::filesystem::path> files{first};
   if (all.size() == 1) return files;
-  const std::string origin = origin_of(first);
-  for (std::size_t k = 1; k < all.size() && origin_of(all[k]) == origin; ++k) files.push_back(all[k]);
+  const std::string id = identity(first);
+  for (std::size_t k = 1; k < all.size() && identity(all[k]) == id; ++k) files.push_back(all[k]);
   return files;
 }
 

@@ -1,6 +1,7 @@
 // The shared CAN decoder and the candump log parser, table-driven.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -172,3 +173,58 @@ TEST(CanSignalParams, ValidatedFromYaml) {
   auto bad2 = Params::load_string("id: 1\nlength: 9\n", "enc.yaml");
   EXPECT_THROW(can_signal_from_params(bad2, "w"), ConfigError);
 }
+
+namespace {
+
+TEST(CanFrameHistory, GivesFramesInOrderAndCountsTheOnesItNoLongerHolds) {
+  CanFrameHistory h(4);
+  std::array<CanFrame, 3> out{};
+  std::uint64_t cursor = 0, missed = 0;
+  EXPECT_EQ(h.since(cursor, out, missed), 0u);
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    CanFrame f;
+    f.id = 0x100 + i;
+    h.push(f);
+  }
+  ASSERT_EQ(h.since(cursor, out, missed), 3u);
+  EXPECT_EQ(out[0].id, 0x100u);
+  EXPECT_EQ(out[2].id, 0x102u);
+  EXPECT_EQ(cursor, 3u);
+  EXPECT_EQ(h.since(cursor, out, missed), 0u);
+  for (std::uint32_t i = 3; i < 10; ++i) {  // 7 more into 4 slots: frames 3..5 are overwritten
+    CanFrame f;
+    f.id = 0x100 + i;
+    h.push(f);
+  }
+  ASSERT_EQ(h.since(cursor, out, missed), 3u);  // at most out.size()
+  EXPECT_EQ(missed, 3u);
+  EXPECT_EQ(out[0].id, 0x106u);
+  ASSERT_EQ(h.since(cursor, out, missed), 1u);
+  EXPECT_EQ(out[0].id, 0x109u);
+  EXPECT_EQ(cursor, 10u);
+  EXPECT_EQ(h.pushed(), 10u);
+}
+
+TEST(Candump, FormattedLinesParseBackToTheSameFrame) {
+  const std::vector<std::string> lines = {
+      "(1700000000.000100) can0 0CF#1A2B",         "(1700000000.250000) can0 18FF0010#0102030405060708",
+      "(1700000001.000000) wheels 123#R",          "(1700000001.000001) can0 7FF#",
+      "(1700000002.123456) can1 456##0" + std::string(128, 'E'),  // FD, 64 bytes
+      "(1700000003.000000) can0 20000004#0000080000000000",           // error frame (controller)
+  };
+  for (const auto& line : lines) {
+    CanFrame f;
+    std::string iface, error;
+    double t = 0;
+    ASSERT_TRUE(parse_candump_line(line, f, iface, t, error)) << line << ": " << error;
+    const std::int64_t ns = static_cast<std::int64_t>(std::llround(t * 1e6)) * 1000;
+    EXPECT_EQ(format_candump_line(f, iface, ns), line);
+  }
+  CanFrame f;
+  f.id = 0x55;
+  f.len = 1;
+  f.data[0] = 0xAB;
+  EXPECT_EQ(format_candump_line(f, "can0", -1), "(-1.999999) can0 055#AB") << "times before 1970 still format";
+}
+
+}  // namespace

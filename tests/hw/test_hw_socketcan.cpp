@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <cstring>
 
 #include "hw_util.hpp"
@@ -123,6 +124,36 @@ TEST(HwSocketCan, KernelFiltersDropOtherIdsAndShortFramesAreCounted) {
   AngleSample s;
   ASSERT_TRUE(sample(*enc, 1, s));
   EXPECT_DOUBLE_EQ(s.angle, -0.010) << "the short frame must not change the angles";
+  enc->stop();
+}
+
+TEST(HwSocketCan, RawFramesAreKeptForRecordersInOrderWithTheirStamps) {
+  REQUIRE_VCAN0();
+  auto enc = make("frame_history: 4\n");
+  ASSERT_TRUE(enc->reads_can());
+  enc->start();
+  const TimeNs before = monotonic_now();
+  for (const char* f : {"101#E803000030F8FFFF", "18FF0102#F07F", "200#3930"}) ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->bus_stats().frames >= 3; }, 5.0));
+  std::array<CanFrame, 8> out{};
+  std::uint64_t cursor = 0, missed = 0;
+  ASSERT_EQ(enc->can_frames(cursor, monotonic_now(), out, missed), 3u);
+  EXPECT_EQ(out[0].id, 0x101u);
+  EXPECT_EQ(out[0].len, 8);
+  EXPECT_EQ(out[0].data[1], 0x03);
+  EXPECT_EQ(out[1].id, 0x18FF0102u);
+  EXPECT_TRUE(out[1].extended);
+  EXPECT_EQ(out[2].id, 0x200u);
+  EXPECT_GE(out[0].stamp, before);
+  EXPECT_LE(out[0].stamp, out[1].stamp);
+  EXPECT_LE(out[2].stamp, monotonic_now());
+  // Six more into a history of 4: the two oldest of them are missed.
+  for (int i = 0; i < 6; ++i) ASSERT_EQ(sh("cansend vcan0 200#0" + std::to_string(i) + "00"), 0);
+  ASSERT_TRUE(wait_until([&] { return enc->bus_stats().frames >= 9; }, 5.0));
+  ASSERT_EQ(enc->can_frames(cursor, monotonic_now(), out, missed), 4u);
+  EXPECT_EQ(missed, 2u);
+  EXPECT_EQ(out[0].data[0], 0x02);
+  EXPECT_EQ(cursor, 9u);
   enc->stop();
 }
 

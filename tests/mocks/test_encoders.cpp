@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <array>
+#include <limits>
+
 #include <cmath>
 #include <cstdio>
 
@@ -214,6 +217,46 @@ TEST(CandumpEncoders, RateScaleAndLoop) {
   EXPECT_EQ(s.stamp, t0 + 2 * period + 20 * kNsPerMs);
   EXPECT_NEAR(s.angle, 62.0 + 8.0, kTol);
   EXPECT_EQ(loop->stats().samples, 1u) << "clock at start: only fl's first frame is due";
+}
+
+TEST(CandumpEncoders, GivesTheLogsRawFramesAtTheirReplayTimes) {
+  Fixture fx;
+  fx.dir.write("run.log", make_log(3));
+  auto once = fx.encoders("backend: candump\nfile: run.log\ninterface: can0\n" + kWheels);
+  auto loop = fx.encoders("backend: candump\nfile: run.log\ninterface: can0\nloop: true\n" + kWheels);
+  EXPECT_TRUE(once->reads_can());
+  std::array<hal::CanFrame, 16> out{};
+  std::uint64_t cursor = 0, missed = 0;
+  EXPECT_EQ(once->can_frames(cursor, fx.clock.now(), out, missed), 0u) << "nothing before start";
+  once->start();
+  loop->start();
+  const TimeNs t0 = fx.clock.now();
+  // Frames of can0 at 0, 2, 10, 12, 20, 22 ms: by 11 ms the first three.
+  ASSERT_EQ(once->can_frames(cursor, t0 + 11 * kNsPerMs, out, missed), 3u);
+  EXPECT_EQ(cursor, 3u);
+  EXPECT_EQ(out[0].id, 0x0CFu);
+  EXPECT_EQ(out[0].stamp, t0);
+  EXPECT_EQ(out[0].len, 2);
+  EXPECT_EQ(out[0].data[0], (60000u & 0xFF));
+  EXPECT_EQ(out[1].id, 0x18FF0010u);
+  EXPECT_TRUE(out[1].extended);
+  EXPECT_EQ(out[1].stamp, t0 + 2 * kNsPerMs);
+  EXPECT_EQ(out[2].stamp, t0 + 10 * kNsPerMs);
+  // The rest, and nothing more once the log has ended (no loop).
+  EXPECT_EQ(once->can_frames(cursor, t0 + kNsPerSec, out, missed), 3u);
+  EXPECT_EQ(once->can_frames(cursor, t0 + 2 * kNsPerSec, out, missed), 0u);
+  EXPECT_EQ(missed, 0u);
+  // The decoded samples of the same frames (what a recorder writes beside them).
+  std::array<hal::AngleSample, 8> samples{};
+  EXPECT_EQ(once->samples_since(0, std::numeric_limits<TimeNs>::min(), t0 + 11 * kNsPerMs, samples), 2u);
+  EXPECT_EQ(samples[1].stamp, t0 + 10 * kNsPerMs);
+  // Looped: the second pass's frames come one period later, numbered on.
+  std::uint64_t lc = 0;
+  const TimeNs period = 22 * kNsPerMs + 22 * kNsPerMs / 5;
+  ASSERT_EQ(loop->can_frames(lc, t0 + period + 5 * kNsPerMs, out, missed), 8u);
+  EXPECT_EQ(out[6].stamp, t0 + period);
+  EXPECT_EQ(out[7].stamp, t0 + period + 2 * kNsPerMs);
+  EXPECT_EQ(lc, 8u);
 }
 
 TEST(CandumpEncoders, MalformedLineNamesFileAndLine) {

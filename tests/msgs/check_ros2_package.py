@@ -20,6 +20,9 @@ IDL_TYPES = {"double": "float64", "float": "float32", "boolean": "bool", "octet"
 
 def idl_type(t):
     t = t.strip()
+    m = re.fullmatch(r"sequence<(.+),\s*(\d+)\s*>", t)
+    if m:  # bounded sequence: sequence<uint8, 64> -> uint8[<=64]
+        return idl_type(m.group(1)) + f"[<={m.group(2)}]"
     m = re.fullmatch(r"sequence<(.+)>", t)
     if m:
         return idl_type(m.group(1)) + "[]"
@@ -65,7 +68,7 @@ def msg_fields(path, pkg=None):
         t, name = line.split()[:2]
         if "=" in name or (len(line.split()) > 2 and line.split()[2].startswith("=")):
             continue  # constant
-        base = re.sub(r"\[\d*\]$", "", t)
+        base = re.sub(r"\[(<=)?\d*\]$", "", t)
         if pkg and "/" not in base and base not in PRIMITIVES and not re.fullmatch(r"w?string<=\d+", base):
             t = f"{pkg}/{t}"
         fields.append((t, name))

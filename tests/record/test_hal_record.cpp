@@ -311,4 +311,101 @@ TEST(HalRecorder, AFullRingDropsAndCountsInRealTimeMode) {
   EXPECT_EQ(sink.messages_["/hal/cameras/front/image"].size(), c[0].recorded);
 }
 
+TEST(HalMessages, CanFramesComeBackExactlyAndDamagedOnesAreErrors) {
+  std::vector<std::uint8_t> buf;
+  hal::CanFrame c;
+  c.id = 0x18FF0010;
+  c.extended = true;
+  c.len = 5;
+  for (int i = 0; i < 5; ++i) c.data[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(0xA0 + i);
+  c.stamp = 12 * kNsPerSec + 345;
+  record::encode_can_frame(buf, c, "wheels");
+  // can_msgs/Frame: 4 encapsulation + header (8 + 4 + "wheels\0" 7 -> 19, padded to 20) + id 4 +
+  // 4 x uint8 + uint8[8] (no length).
+  EXPECT_EQ(buf.size(), 4u + 20u + 4u + 4u + 8u);
+  hal::CanFrame d = record::decode_can_frame(buf, false);
+  EXPECT_EQ(d.id, c.id);
+  EXPECT_TRUE(d.extended);
+  EXPECT_FALSE(d.remote || d.error || d.fd);
+  EXPECT_EQ(d.len, 5);
+  EXPECT_EQ(d.data, c.data);
+  EXPECT_EQ(d.stamp, c.stamp);
+
+  hal::CanFrame fd;
+  fd.fd = true;
+  fd.id = 0x123;
+  fd.len = 64;
+  for (int i = 0; i < 64; ++i) fd.data[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(i);
+  record::encode_can_frame(buf, fd, "wheels");
+  d = record::decode_can_frame(buf, true);
+  EXPECT_TRUE(d.fd);
+  EXPECT_EQ(d.len, 64);
+  EXPECT_EQ(d.data, fd.data);
+  EXPECT_THROW(record::decode_can_frame(std::span<const std::uint8_t>(buf).first(30), true), std::out_of_range);
+
+  record::encode_can_frame(buf, c, "");
+  buf[buf.size() - 9] = 9;  // dlc 9
+  EXPECT_THROW(record::decode_can_frame(buf, false), std::invalid_argument);
+}
+
+/// An encoder set on a CAN bus: no samples, only a history of raw frames.
+class BusEncoders final : public hal::WheelEncoders {
+ public:
+  const std::string& id() const override { return id_; }
+  void start() override {}
+  void stop() override {}
+  hal::EncoderStats stats() const override { return {}; }
+  const std::vector<std::string>& wheel_names() const override { return names_; }
+  bool latest(std::size_t, TimeNs, hal::AngleSample&) const override { return false; }
+  bool angle_at(std::size_t, TimeNs, double&) const override { return false; }
+  bool reads_can() const override { return true; }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs, std::span<hal::CanFrame> out,
+                         std::uint64_t& missed) const override {
+    return history.since(cursor, out, missed);
+  }
+  hal::CanFrameHistory history{8};
+
+ private:
+  std::string id_ = "bus";
+  std::vector<std::string> names_ = {"w"};
+};
+
+TEST(HalRecorder, RecordsTheRawCanFramesAndCountsTheOnesTheBackendNoLongerHeld) {
+  ManualClock clock;
+  MemorySink sink;
+  auto bus = std::make_unique<BusEncoders>();
+  BusEncoders* raw = bus.get();
+  // 12 frames into a history of 8 before the first drain: frames 0..3 are gone (dropped), 4..11
+  // are recorded with their numbers as MCAP sequence; frame 7 is CAN FD.
+  for (std::uint32_t i = 0; i < 12; ++i) {
+    hal::CanFrame f;
+    f.id = 0x100 + i;
+    f.fd = i == 7;
+    f.len = 1;
+    f.data[0] = static_cast<std::uint8_t>(i);
+    f.stamp = static_cast<TimeNs>(i) * kNsPerMs;
+    raw->history.push(f);
+  }
+  record::HalRecorder rec({.poll_period = 3600 * kNsPerSec});
+  auto dev = rec.wrap(std::move(bus));
+  rec.start(sink, clock);
+  rec.stop();
+  EXPECT_EQ(sink.types_["/hal/encoders/bus/can"], "can_msgs/msg/Frame");
+  EXPECT_EQ(sink.types_["/hal/encoders/bus/can_fd"], "ros2_socketcan_msgs/msg/FdFrame");
+  const auto& classic = sink.messages_["/hal/encoders/bus/can"];
+  ASSERT_EQ(classic.size(), 7u);
+  EXPECT_EQ(classic.front().sequence, 4u);
+  EXPECT_EQ(classic.back().sequence, 11u);
+  EXPECT_EQ(record::decode_can_frame(classic.back().data, false).id, 0x10Bu);
+  EXPECT_EQ(record::decode_can_frame(classic.back().data, false).stamp, 11 * kNsPerMs);
+  const auto& fd = sink.messages_["/hal/encoders/bus/can_fd"];
+  ASSERT_EQ(fd.size(), 1u);
+  EXPECT_EQ(fd[0].sequence, 7u);
+  EXPECT_EQ(record::decode_can_frame(fd[0].data, true).data[0], 7);
+  const auto c = rec.counts();
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].recorded, 8u);
+  EXPECT_EQ(c[0].dropped, 4u);
+}
+
 }  // namespace

@@ -406,6 +406,6 @@ TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
   std::size_t channels = 0;
   while (std::getline(in, line)) channels += json::parse(line).contains("channel") ? 1 : 0;
   EXPECT_EQ(channels, types.size());
-  EXPECT_EQ(types.size(), 42u);
+  EXPECT_EQ(types.size(), 44u);
   fs::remove_all(dir);
 }

@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +18,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
@@ -31,20 +33,30 @@ struct Result {
   std::string out;
 };
 
-/// `regolith ARGS` through /bin/sh, after the shell commands `shell_prefix` (e.g. limits).
-Result run(const std::string& args, const std::string& shell_prefix = "") {
+/// A shell command's exit status and output (stdout and stderr).
+Result shell(const std::string& cmd) {
   Result r;
-  const std::string cmd = shell_prefix + std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") +
-                          REGOLITH_EXE + " " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
   if (p == nullptr) return r;
-  char buf[4096];
+  char buf[65536];
   std::size_t n = 0;
   while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
   const int st = ::pclose(p);
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   return r;
 }
+
+/// `regolith ARGS` through /bin/sh, after the shell commands `shell_prefix` (e.g. limits).
+Result run(const std::string& args, const std::string& shell_prefix = "") {
+  return shell(shell_prefix + std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") + REGOLITH_EXE + " " + args);
+}
+
+#ifdef REGOLITH_NODE
+/// tests/record/mcap_js/decode.js on `file`: one JSON line per channel, then per message.
+Result decode_js(const fs::path& file) {
+  return shell(std::string(REGOLITH_NODE) + " " REGOLITH_MCAP_JS_DIR "/decode.js " + file.string());
+}
+#endif
 
 std::string read_text(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -191,15 +203,9 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   // An independent reader and decoder (@mcap/core + @foxglove/rosmsg2-serialization) decodes every
   // message of the file.
   {
-    FILE* p = ::popen(
-        (std::string(REGOLITH_NODE) + " " REGOLITH_MCAP_JS_DIR "/decode.js " + out.string() + " 2>&1").c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    std::string js;
-    char buf[65536];
-    std::size_t got = 0;
-    while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) js.append(buf, got);
-    const int st = ::pclose(p);
-    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << js.substr(0, 2000);
+    const Result d = decode_js(out);
+    const std::string& js = d.out;
+    EXPECT_EQ(d.status, 0) << js.substr(0, 2000);
     std::uint64_t decoded = 0;
     for (std::size_t at = js.find("{\"topic\":"); at != std::string::npos; at = js.find("{\"topic\":", at + 1))
       ++decoded;
@@ -212,6 +218,81 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   EXPECT_NE(li.out.find("attachment:  rover_rec.yaml (application/yaml"), std::string::npos) << li.out;
   EXPECT_NE(li.out.find("metadata:    regolith: "), std::string::npos) << li.out;
   EXPECT_NE(li.out.find(n + "joint_states"), std::string::npos) << li.out;
+}
+
+TEST_F(RunRecord, RawCanFramesAreRecordedAndExportAsACandumpLog) {
+  // A candump log of 100 Hz wheel frames with an error frame and a CAN FD frame in between,
+  // replayed by the `candump` encoder backend: every frame of the first 0.5 s is recorded as
+  // can_msgs/Frame (or FdFrame), and `log export` gives the same lines back (times shifted to the
+  // simulated clock, interface = the encoder set's id).
+  std::string log;
+  std::vector<std::string> bodies;  // "ID#DATA" of each frame due by 0.5 s
+  for (int i = 0; i < 80; ++i) {
+    char line[96], body[64];
+    const unsigned v = (60000u + 100u * static_cast<unsigned>(i)) & 0xFFFFu;
+    std::snprintf(body, sizeof body, "0CF#%02X%02X", v & 0xFF, v >> 8);
+    std::snprintf(line, sizeof line, "(1700000000.%06d) can0 %s\n", i * 10000, body);
+    log += line;
+    if (i <= 50) bodies.push_back(body);
+    if (i == 7 || i == 23) {
+      const char* extra = i == 7 ? "20000004#0000080000000000" : "1A0##0112233445566778899AABB";
+      std::snprintf(line, sizeof line, "(1700000000.%06d) can0 %s\n", i * 10000 + 3000, extra);
+      log += line;
+      bodies.push_back(i == 7 ? extra : "1A0##0112233445566778899AABB");
+    }
+  }
+  std::ofstream(dir_ / "bus.log") << log;
+  const fs::path cfg = dir_ / "can.yaml";
+  std::ofstream(cfg) << "name: can_rec\n"
+                        "dds: {enabled: true, domain: "
+                     << 100 + getpid() % 100 << ", namespace: " << ns_
+                     << "}\n"
+                        "rover:\n  wheels:\n    - {name: fl, x_m: 0.0, y_m: 0.2, radius_m: 0.1, width_m: 0.05, encoders: bus}\n"
+                        "devices:\n  encoders:\n    bus:\n      backend: candump\n      file: bus.log\n      interface: can0\n"
+                        "      wheels:\n        fl: {id: 0x0CF, length: 2, signed: false, scale: 0.001}\n"
+                        "rate_groups:\n  - {name: io, rate_hz: 100, members: [joint_states]}\n"
+                        "components:\n  joint_states: {type: joint_state_publisher, encoders: bus}\n";
+  const fs::path out = dir_ / "can.mcap";
+  const Result r = run("run --sim-time --duration 0.5 --quiet --config " + cfg.string() + " --record " + out.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  McapReader reader(out);
+  std::map<std::string, std::uint64_t> recorded;
+  for (const auto& [id, ch] : reader.info().channels)
+    recorded[ch.topic] = reader.info().message_counts.count(id) ? reader.info().message_counts.at(id) : 0;
+  EXPECT_EQ(recorded["/hal/encoders/bus/can"], bodies.size() - 1);  // 51 wheel frames + the error frame
+  EXPECT_EQ(recorded["/hal/encoders/bus/can_fd"], 1u);
+  EXPECT_EQ(recorded["/hal/encoders/bus/samples"], 51u);  // every decoded sample, up to the end of the run
+
+  const Result ex = run("log export " + out.string() + " --topic /hal/encoders/bus/can --topic can_fd --out " +
+                        (dir_ / "export").string());
+  ASSERT_EQ(ex.status, 0) << ex.out;
+  std::vector<std::string> lines;
+  for (const char* f : {"hal_encoders_bus_can.log", "hal_encoders_bus_can_fd.log"}) {
+    std::istringstream in(read_text(dir_ / "export" / f));
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), bodies.size());
+  // Sorted by time: the FD frame's line is in the second file.
+  std::sort(lines.begin(), lines.end());
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string t = lines[i].substr(1, lines[i].find(')') - 1);
+    const std::string body = lines[i].substr(lines[i].rfind(' ') + 1);
+    EXPECT_EQ(lines[i].substr(lines[i].find(')') + 2, 4), "bus ") << lines[i];
+    EXPECT_EQ(body, bodies[i]) << lines[i];
+  }
+  EXPECT_EQ(lines.front().substr(0, 10), "(1.000000)") << "the simulated clock starts at 1 s";
+#ifdef REGOLITH_NODE
+  // The independent decoder (Foxglove's, from the official .msg text) reads the frames field for field.
+  const Result d = decode_js(out);
+  const std::string& js = d.out;
+  ASSERT_EQ(d.status, 0) << js.substr(0, 2000);
+  EXPECT_NE(js.find("\"id\":416,\"is_extended\":false,\"is_error\":false,\"len\":11,\"data\":[17,34,51,68,85,102,119,136,153,170,187]"),
+            std::string::npos)
+      << js.substr(0, 3000);
+  EXPECT_NE(js.find("\"id\":4,\"is_rtr\":false,\"is_extended\":true,\"is_error\":true,\"dlc\":8,\"data\":[0,0,8,0,0,0,0,0]"),
+            std::string::npos)
+      << js.substr(0, 3000);
+#endif
 }
 
 TEST_F(RunRecord, RecordBlockFromYamlWithTopicSubset) {

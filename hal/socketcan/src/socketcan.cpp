@@ -82,6 +82,7 @@ void Config::validate() const {
   positive(retry_min_s, "retry_min");
   positive(retry_max_s, "retry_max");
   if (retry_max_s < retry_min_s) throw FieldError("", "retry_max", "must be >= retry_min");
+  if (frame_history < 1 || frame_history > 1 << 20) throw FieldError("", "frame_history", "must be 1..1048576");
   if (tx_enabled && tx_id > (tx_extended ? CAN_EFF_MASK : CAN_SFF_MASK)) {
     throw FieldError("", "command.id", "out of range for a " + std::string(tx_extended ? "29" : "11") +
                                 "-bit identifier");
@@ -106,6 +107,8 @@ Config config_from_params(Params& p) {
   c.max_extrapolation_s = p.get<double>("max_extrapolation", c.max_extrapolation_s,
                                         {.unit = "s", .min = 0.0, .max = 1.0, .doc = "angle_at may extrapolate this far past the newest sample"});
   c.retry_min_s = p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first re-open delay after the interface vanished"});
+  c.frame_history = p.get<int>("frame_history", c.frame_history,
+                               {.unit = "frames", .min = 1, .max = 1 << 20, .doc = "raw frames kept for recorders"});
   c.retry_max_s = p.get<double>("retry_max", c.retry_max_s, {.unit = "s", .min = 0.001, .max = 600.0, .doc = "re-open back-off ceiling"});
   c.error_frames = p.get<bool>("error_frames", c.error_frames, {.doc = "receive and decode CAN error frames"});
   c.kernel_timestamps = p.get<bool>("kernel_timestamps", c.kernel_timestamps, {.doc = "use kernel receive timestamps (SO_TIMESTAMPING)"});
@@ -202,6 +205,7 @@ SocketCanEncoders::SocketCanEncoders(Config cfg, const DeviceContext& ctx)
   for (const auto& s : all) names_.push_back(s.name);
   decoder_ = CanDecoder(std::move(all));
   for (std::size_t i = 0; i < names_.size(); ++i) history_.push_back(std::make_unique<AngleHistory>());
+  frames_ = std::make_unique<CanFrameHistory>(static_cast<std::size_t>(cfg_.frame_history));
   stale_ = std::make_unique<std::atomic<bool>[]>(names_.size());
   last_stamp_ = std::make_unique<std::atomic<TimeNs>[]>(names_.size());
   wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
@@ -348,6 +352,7 @@ void SocketCanEncoders::check_stale(TimeNs now) {
 
 void SocketCanEncoders::handle_frame(const CanFrame& f) {
   c_->frames.fetch_add(1, std::memory_order_relaxed);
+  frames_->push(f);
   if (f.error) {
     const CanErrorInfo e = decode_error_frame(f);
     // State first, counters after: a reader that sees a counter move (bus_off, restarts) also sees
@@ -515,6 +520,11 @@ std::size_t SocketCanEncoders::samples_since(std::size_t wheel, TimeNs after, Ti
                                             std::span<AngleSample> out) const {
   if (wheel >= history_.size()) return 0;
   return history_[wheel]->since(after, out);
+}
+
+std::size_t SocketCanEncoders::can_frames(std::uint64_t& cursor, TimeNs /*now*/, std::span<CanFrame> out,
+                                         std::uint64_t& missed) const {
+  return frames_->since(cursor, out, missed);
 }
 
 bool SocketCanEncoders::stale_flag(std::size_t wheel) const {

@@ -44,14 +44,35 @@ TimeNs exact_stamp(const std::string& line, double approx_s) {
 class CandumpEncoders final : public LazyEncoders {
  public:
   CandumpEncoders(const hal::DeviceContext& ctx, std::vector<std::string> wheels,
-                  std::vector<std::vector<hal::AngleSample>> samples, TimeNs period, bool loop, std::uint64_t rejected,
-                  TimeNs max_extrapolation)
+                  std::vector<std::vector<hal::AngleSample>> samples, std::vector<hal::CanFrame> frames, TimeNs period,
+                  bool loop, std::uint64_t rejected, TimeNs max_extrapolation)
       : LazyEncoders(ctx, std::move(wheels), max_extrapolation),
         samples_(std::move(samples)),
+        frames_(std::move(frames)),
         period_(period),
         loop_(loop) {
     rejected_ = rejected;
     for (const auto& s : samples_) loop_gain_.push_back(s.empty() ? 0.0 : s.back().angle - s.front().angle);
+  }
+
+  /// The log's frames (every id of the replayed interface), at the times they are replayed.
+  bool reads_can() const override { return true; }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<hal::CanFrame> out,
+                         std::uint64_t& /*missed*/) const override {
+    TimeNs rel = 0;
+    if (frames_.empty() || !delivered(now, rel)) return 0;
+    const std::uint64_t n = frames_.size();
+    std::size_t k = 0;
+    for (; k < out.size(); ++cursor, ++k) {
+      const std::uint64_t pass = cursor / n;
+      if (pass > 0 && !loop_) break;
+      hal::CanFrame f = frames_[cursor % n];
+      f.stamp += static_cast<TimeNs>(pass) * period_;
+      if (f.stamp > rel) break;
+      f.stamp += start_time();
+      out[k] = f;
+    }
+    return k;
   }
 
  protected:
@@ -80,6 +101,7 @@ class CandumpEncoders final : public LazyEncoders {
 
  private:
   std::vector<std::vector<hal::AngleSample>> samples_;  // per wheel, stamps relative to the first frame
+  std::vector<hal::CanFrame> frames_;                   // every frame replayed, stamps likewise
   std::vector<double> loop_gain_;
   TimeNs period_ = 1;
   bool loop_ = false;
@@ -144,8 +166,12 @@ std::unique_ptr<hal::WheelEncoders> make_candump_encoders(Params& p, const hal::
   auto scaled = [&](TimeNs t) {
     return rate_scale == 1.0 ? t - t0 : static_cast<TimeNs>(std::llround(static_cast<double>(t - t0) / rate_scale));
   };
+  std::vector<hal::CanFrame> raw;
+  raw.reserve(frames.size());
   for (const auto& lf : frames) {
     const TimeNs stamp = scaled(lf.time);
+    raw.push_back(lf.frame);
+    raw.back().stamp = stamp;
     decoder.decode(lf.frame, [&](std::size_t i, double v) {
       auto& s = samples[i];
       if (!s.empty() && s.back().stamp == stamp) {
@@ -168,7 +194,8 @@ std::unique_ptr<hal::WheelEncoders> make_candump_encoders(Params& p, const hal::
   const TimeNs span = scaled(frames.back().time);
   const TimeNs gap =
       frames.size() > 1 ? std::max<TimeNs>(1, span / static_cast<TimeNs>(frames.size() - 1)) : 10 * kNsPerMs;
-  return std::make_unique<detail::CandumpEncoders>(ctx, names, std::move(samples), span + gap, loop, rejected, max_ex);
+  return std::make_unique<detail::CandumpEncoders>(ctx, names, std::move(samples), std::move(raw), span + gap, loop,
+                                                   rejected, max_ex);
 }
 
 }  // namespace regolith::mocks

@@ -187,9 +187,12 @@ bool LazyEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) const {
 
 std::size_t LazyEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
                                         std::span<hal::AngleSample> out) const {
-  if (!run_.running() || wheel >= wheels_.size() || out.empty()) return 0;
+  // Up to the stop once stopped: a recorder's last poll, after the devices stopped, still gets
+  // the samples of the run's end.
+  TimeNs delivered = 0;
+  if (!run_.counted(now, delivered) || wheel >= wheels_.size() || out.empty()) return 0;
   const TimeNs start = start_time();
-  const std::int64_t last = index_at(wheel, now - start);
+  const std::int64_t last = index_at(wheel, delivered);
   if (last < 0) return 0;
   // The first sample after `after` (index_at gives the newest at or before a time).
   const std::int64_t first = after < start ? 0 : index_at(wheel, after - start) + 1;

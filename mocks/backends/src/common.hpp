@@ -189,6 +189,9 @@ class LazyEncoders : public hal::WheelEncoders {
   virtual hal::AngleSample sample(std::size_t wheel, std::int64_t g) const = 0;
 
   TimeNs start_time() const { return run_.start(); }
+  /// Time since the start that has been delivered by `now` (up to the stop once stopped); false
+  /// before the first start.
+  bool delivered(TimeNs now, TimeNs& rel) const { return run_.counted(now, rel); }
   std::uint64_t rejected_ = 0;  ///< set at construction (lines / frames that could not be decoded)
 
  private:

@@ -285,6 +285,13 @@ class FaultEncoders final : public hal::WheelEncoders {
     return true;
   }
 
+  /// The inner backend's raw frames (faults are injected on the decoded samples).
+  bool reads_can() const override { return inner_->reads_can(); }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<hal::CanFrame> out,
+                         std::uint64_t& missed) const override {
+    return inner_->can_frames(cursor, now, out, missed);
+  }
+
   hal::EncoderStats stats() const override {
     hal::EncoderStats s = inner_->stats();
     TimeNs rel = 0;

@@ -164,16 +164,9 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
   for (std::size_t f = 0; f < files.size(); ++f) {
     const std::string file = files[f].string();
     record::McapReader reader(file);  // InputError naming the file when it is not MCAP
-    bool has_origin = false;
-    for (const auto& m : reader.info().metadata) {
-      if (m.name != "regolith_hal") continue;
-      auto it = m.values.find("time_origin_ns");
-      if (it != m.values.end()) {
-        rec->origin = std::stoll(it->second);
-        has_origin = true;
-      }
-    }
-    if (!has_origin)
+    const record::HalRecordingInfo hal = record::hal_recording_info(reader.info(), file);
+    if (hal.found && hal.origin_ns >= 0) rec->origin = hal.origin_ns;
+    if (!hal.found || hal.origin_ns < 0)
       throw InputError(file + ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
                        "--record`, which records the devices' inputs)");
     read_file(reader, file, *rec);

@@ -45,9 +45,14 @@ class ScriptedImu final : public hal::Imu {
 
   bool latest(TimeNs now, hal::ImuSample& out) const override {
     if (!run_.running()) return false;
-    const TimeNs t0 = run_.start();
-    const std::int64_t k = grid_.index(now - t0);
+    const std::int64_t k = grid_.index(now - run_.start());
     if (k < 0) return false;
+    sample(k, out);
+    return true;
+  }
+  /// Sample k of the run (stamp: the start + k periods).
+  void sample(std::int64_t k, hal::ImuSample& out) const {
+    const TimeNs t0 = run_.start();
     const TimeNs rel = grid_.offset(k);
     const double t = to_seconds(rel);
     out.stamp = t0 + rel;
@@ -56,18 +61,21 @@ class ScriptedImu final : public hal::Imu {
     out.angular_velocity = script_.rates(t);
     // Specific force at rest: the reaction to gravity, (0, 0, g) in the local level, in the body.
     out.linear_acceleration = out.attitude.rotation().transposed() * Vec3{0.0, 0.0, script_.gravity_mps2};
-    return true;
   }
 
+  /// Every sample delivered by `now` after `after` (up to the stop once stopped: a recorder's last
+  /// poll after the devices stopped still gets the samples of the run's end).
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    if (!run_.running() || out.empty()) return 0;
+    TimeNs delivered = 0;
+    if (!run_.counted(now, delivered) || out.empty()) return 0;
     const TimeNs t0 = run_.start();
-    const std::int64_t last = grid_.index(now - t0);
+    const std::int64_t last = grid_.index(delivered);
     const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
     const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
     std::size_t n = 0;
-    for (std::int64_t k = first; k < end; ++k) {
-      if (latest(t0 + grid_.offset(k), out[n]) && out[n].stamp > after) ++n;
+    for (std::int64_t k = std::max<std::int64_t>(first, 0); k < end; ++k) {
+      sample(k, out[n]);
+      if (out[n].stamp > after) ++n;
     }
     return n;
   }

@@ -3,6 +3,8 @@
 // candump replay, bench transducers), and the can-utils `candump -l` log-line parser.
 #include <array>
 #include <cstdint>
+#include <mutex>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -80,6 +82,29 @@ class CanDecoder {
   std::vector<bool> seen_;
   std::uint64_t short_frames_ = 0;
 };
+
+/// The raw frames a backend received, kept for recorders: a ring of `capacity` frames made at
+/// construction. The backend's receive thread appends (push: a copy under a short lock, no
+/// allocation); a recorder's thread reads them by number (since). Frames are numbered from 0 in
+/// the order they were pushed.
+class CanFrameHistory {
+ public:
+  explicit CanFrameHistory(std::size_t capacity = 1024);
+  void push(const CanFrame& frame);
+  /// Frames numbered `cursor` on, at most out.size(); advances `cursor` past them. Frames already
+  /// overwritten are skipped (cursor jumps to the oldest held) and added to `missed`.
+  std::size_t since(std::uint64_t& cursor, std::span<CanFrame> out, std::uint64_t& missed) const;
+  std::uint64_t pushed() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<CanFrame> ring_;
+  std::uint64_t next_ = 0;  // number of the next frame pushed
+};
+
+/// One `candump -l` line for `frame` on `interface_name` at `unix_time_ns` (no newline): the
+/// inverse of parse_candump_line ("(1700000000.123456) can0 0CF#1A2B3C4D", "123#R", "123##1AABB").
+std::string format_candump_line(const CanFrame& frame, const std::string& interface_name, std::int64_t unix_time_ns);
 
 /// Parse one `candump -l` line: "(1700000000.123456) can0 0CF#1A2B3C4D". Also accepts remote
 /// frames ("123#R"), CAN FD ("123##1AABB"), and 8-digit (extended) ids. On failure returns false

@@ -53,6 +53,12 @@ class PlausibleEncoders final : public WheelEncoders {
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const override;
   EncoderStats stats() const override;
+  /// The raw frames as the inner backend received them (plausibility applies to decoded angles).
+  bool reads_can() const override { return inner_->reads_can(); }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out,
+                         std::uint64_t& missed) const override {
+    return inner_->can_frames(cursor, now, out, missed);
+  }
 
   const WheelEncoders& inner() const { return *inner_; }
 

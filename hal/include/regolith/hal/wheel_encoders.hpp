@@ -9,6 +9,7 @@
 #include "regolith/core/channels.hpp"
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/can.hpp"
 
 namespace regolith::hal {
 
@@ -51,6 +52,14 @@ class WheelEncoders : public Device {
   /// recorders, outside the rate groups. Backends that keep a history give every sample they still
   /// hold; the default gives only the newest one.
   virtual std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const;
+
+  /// True for backends that read a CAN bus: can_frames() gives the raw frames they received.
+  virtual bool reads_can() const { return false; }
+  /// The raw CAN frames received (for recorders, outside the rate groups): those numbered `cursor`
+  /// on (each backend numbers its frames from 0) that arrived by `now`, oldest first, at most
+  /// out.size(); advances `cursor` past them. Frames the backend no longer holds are skipped and
+  /// added to `missed`. Backends without a bus (reads_can() false) return 0.
+  virtual std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out, std::uint64_t& missed) const;
 
   /// A wheel is stale when its newest sample is older than `timeout` at `now`.
   bool stale(std::size_t wheel, TimeNs now, TimeNs timeout) const;

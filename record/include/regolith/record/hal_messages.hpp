@@ -11,6 +11,7 @@
 
 #include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"
+#include "regolith/hal/can.hpp"
 #include "regolith/hal/imu.hpp"
 
 namespace regolith::record {
@@ -24,6 +25,12 @@ void encode_wheel_angle(std::vector<std::uint8_t>& out, TimeNs stamp, const std:
 void encode_imu(std::vector<std::uint8_t>& out, const hal::ImuSample& s, const std::string& frame_id);
 /// geometry_msgs/Vector3Stamped (x, y, z) = (roll, pitch, yaw) [rad] at `stamp`.
 void encode_attitude(std::vector<std::uint8_t>& out, TimeNs stamp, const Attitude& a);
+
+/// A raw CAN frame: can_msgs/Frame for a classic frame, ros2_socketcan_msgs/FdFrame for a CAN FD
+/// one (frame.fd), stamped with its receive time (process clock).
+void encode_can_frame(std::vector<std::uint8_t>& out, const hal::CanFrame& frame, const std::string& frame_id);
+/// The frame back from either message (`fd`: the payload is an FdFrame); stamp = the header's.
+hal::CanFrame decode_can_frame(std::span<const std::uint8_t> cdr, bool fd);
 
 struct DecodedImage {
   TimeNs stamp = 0;

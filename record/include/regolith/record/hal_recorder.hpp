@@ -15,7 +15,9 @@
 // Topics (ros2msg schemas, cdr): /hal/cameras/<id>/image (sensor_msgs/Image, MCAP sequence =
 // frame sequence; corrupt frames on /hal/cameras/<id>/image_corrupt), /hal/encoders/<id>/samples
 // and /hal/encoders/<id>/queries (sensor_msgs/JointState, one wheel per message; a failed query
-// has position NaN), /hal/imus/<id>/samples (sensor_msgs/Imu), /hal/imus/<id>/attitude (each
+// has position NaN), /hal/encoders/<id>/can and /can_fd (every raw frame of a backend that reads a
+// CAN bus, WheelEncoders::can_frames: can_msgs/Frame, ros2_socketcan_msgs/FdFrame; MCAP sequence =
+// the frame's number, a gap = frames the backend's history no longer held, counted as dropped), /hal/imus/<id>/samples (sensor_msgs/Imu), /hal/imus/<id>/attitude (each
 // sample's roll, pitch, yaw exactly, as geometry_msgs/Vector3Stamped x, y, z in rad) and
 // /hal/imus/<id>/queries (the same type; NaN = the query failed). Header stamps are the
 // process clock (TimeNs); MCAP log times are ROS time (process clock + the offset measured at
@@ -98,6 +100,8 @@ class HalRecorder {
 
 /// Topic names of the HAL recording.
 std::string hal_camera_topic(const std::string& id, bool corrupt = false);
+/// Raw CAN frames of encoder set `id` (can_msgs/Frame; `fd`: the CAN FD ones, ros2_socketcan_msgs/FdFrame).
+std::string hal_can_topic(const std::string& id, bool fd = false);
 std::string hal_samples_topic(const std::string& kind, const std::string& id);  ///< kind: encoders / imus
 std::string hal_queries_topic(const std::string& kind, const std::string& id);
 

@@ -108,6 +108,19 @@ class McapReader {
   std::vector<std::uint8_t> chunk_buffer_;  // reused decompression buffer
 };
 
+/// A HAL recording's identity and time frame, from a file's `regolith_hal` and `regolith_hal_end`
+/// metadata (hal_recorder.hpp). The one reader of those records.
+struct HalRecordingInfo {
+  bool found = false;             ///< the file has `regolith_hal` metadata (a HAL recording)
+  std::int64_t origin_ns = -1;    ///< process clock at the recording's start
+  std::int64_t end_ns = -1;       ///< ... at its end (-1: not in this file: a cut-off or not-last split file)
+  std::int64_t ros_offset_ns = 0; ///< ROS time = process clock + this (0 under simulated time)
+  bool simulated = false;
+  std::string recording_id;       ///< empty in files written before it existed
+};
+/// Throws InputError naming `file`, the record and the key when a number does not parse.
+HalRecordingInfo hal_recording_info(const McapFileInfo& info, const std::string& file);
+
 /// The files of the recording that starts at `first` (mcap_split_files), keeping only the
 /// siblings that carry the same `regolith_hal` time origin and recording id as `first` (the same
 /// recording; files without HAL metadata match each other): a stray `<stem>_001.mcap` from another run is left out.

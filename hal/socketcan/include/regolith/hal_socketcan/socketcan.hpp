@@ -26,6 +26,7 @@ struct Config {
   double max_extrapolation_s = 0.05;         ///< [max_extrapolation] s, angle_at beyond newest sample
   double retry_min_s = 0.05;                 ///< [retry_min] s, first retry after a bus/socket fault
   double retry_max_s = 2.0;                  ///< [retry_max] s, retry back-off ceiling
+  int frame_history = 1024;                  ///< [frame_history] raw frames kept for recorders (can_frames)
   bool error_frames = true;                  ///< [error_frames] subscribe to and decode error frames
   bool kernel_timestamps = true;             ///< [kernel_timestamps] SO_TIMESTAMPING receive stamps
   bool tx_enabled = false;                   ///< [command.enabled] allow send()
@@ -100,6 +101,10 @@ class SocketCanEncoders final : public WheelEncoders {
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
   /// Every sample of the receive history (64 per wheel) after `after`.
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<AngleSample> out) const override;
+  /// Every frame the socket received (the configured ids and error frames), from a history of
+  /// Config::frame_history frames.
+  bool reads_can() const override { return true; }
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out, std::uint64_t& missed) const override;
   EncoderStats stats() const override;
 
   BusStats bus_stats() const;
@@ -126,6 +131,7 @@ class SocketCanEncoders final : public WheelEncoders {
   std::vector<std::string> names_;
   CanDecoder decoder_;
   std::vector<std::unique_ptr<AngleHistory>> history_;
+  std::unique_ptr<CanFrameHistory> frames_;
   std::unique_ptr<std::atomic<bool>[]> stale_;
   std::unique_ptr<std::atomic<TimeNs>[]> last_stamp_;
   int fd_ = -1;
