@@ -56,8 +56,13 @@ function(regolith_add_gtest name)
   # gtest_discover_tests() passes properties as a flat list, so a test gets one ctest label: the
   # first (unit / integration / hw). `concurrency` selects suites for the tsan preset instead: it
   # adds the target to `concurrency_tests` (tests/CMakeLists.txt).
+  # `serial` runs its tests alone (RUN_SERIAL: real-time tests that measure slips).
   list(GET ARG_LABELS 0 _label)
-  gtest_discover_tests(${name} PROPERTIES LABELS ${_label} DISCOVERY_TIMEOUT 60)
+  if("serial" IN_LIST ARG_LABELS)
+    gtest_discover_tests(${name} PROPERTIES LABELS ${_label} RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+  else()
+    gtest_discover_tests(${name} PROPERTIES LABELS ${_label} DISCOVERY_TIMEOUT 60)
+  endif()
   if("concurrency" IN_LIST ARG_LABELS)
     set_property(GLOBAL APPEND PROPERTY REGOLITH_CONCURRENCY_TESTS ${name})
   endif()

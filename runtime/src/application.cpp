@@ -208,6 +208,8 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     auto c = ComponentRegistry::instance().make(p, type);
     c->name_ = name;
     c->type_ = type;
+    c->configured_critical_ =
+        p.get<bool>("critical", false, {.doc = "its health gates the systemd watchdog (stalled or failed: not fed)"});
     if (!member_of.count(name)) p.fail({}, "component '" + name + "' is not a member of any rate group");
     ctx.begin_component(name, comps.where(name));
     c->configure(p, ctx);

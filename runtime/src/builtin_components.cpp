@@ -2,7 +2,10 @@
 // `joint_state_publisher` (wheel encoder angles -> sensor_msgs/JointState).
 #include <cstdio>
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstring>
+#include <thread>
 
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
@@ -136,6 +139,11 @@ class HealthComponent final : public Component {
     last_heartbeat_.assign(v.components.size(), 0);
     unchanged_.assign(v.components.size(), 0);
     last_slips_.assign(v.groups.size(), 0);
+    slipped_.assign(v.groups.size(), 0);
+    last_wall_count_.assign(v.components.size(), 0);
+    last_wall_total_.assign(v.components.size(), 0.0);
+    interval_wall_.assign(v.components.size(), 0.0);
+    entry_of_.assign(v.components.size(), static_cast<std::uint32_t>(kMaxHealthEntries));
   }
 
   void step(const CycleInfo& cycle) override {
@@ -164,13 +172,15 @@ class HealthComponent final : public Component {
       e->period = g.config().period;
       e->exec = g.cycle_exec().summary();
       e->wall = g.wakeup_latency().summary();
-      if (c.slips > last_slips_[gi]) {
+      slipped_[gi] = c.slips > last_slips_[gi];
+      if (slipped_[gi]) {
         e->level = Level::kWarn;
         e->message = "cycle slips since last report";
       }
       last_slips_[gi] = c.slips;
     }
 
+    std::fill(entry_of_.begin(), entry_of_.end(), static_cast<std::uint32_t>(kMaxHealthEntries));
     for (std::size_t ci = 0; ci < v.components.size(); ++ci) {
       const Component& comp = *v.components[ci];
       HealthEntry* e = add();
@@ -216,8 +226,34 @@ class HealthComponent final : public Component {
         e->level = Level::kWarn;
         e->message = "stale input";
       }
-      if (e->critical && e->level != Level::kOk) s->all_critical_ok = false;
+      // This report's wall time of the component (the histogram is cumulative).
+      const auto total = static_cast<double>(e->wall.mean) * static_cast<double>(e->wall.count);
+      interval_wall_[ci] = e->wall.count > last_wall_count_[ci] ? total - last_wall_total_[ci] : 0.0;
+      last_wall_count_[ci] = e->wall.count;
+      last_wall_total_[ci] = total;
+      entry_of_[ci] = s->count - 1;
     }
+    // The culprit of each group that slipped since the last report: the member that took the most
+    // time in it (a warning; only a stalled or failed critical component stops the watchdog).
+    for (std::size_t gi = 0; gi < v.groups.size(); ++gi) {
+      if (!slipped_[gi]) continue;
+      std::size_t worst = v.components.size();
+      for (const Component* m : v.groups[gi]->members()) {
+        const auto it = std::find(v.components.begin(), v.components.end(), m);
+        if (it == v.components.end()) continue;
+        const auto ci = static_cast<std::size_t>(it - v.components.begin());
+        if (entry_of_[ci] < s->count && (worst == v.components.size() || interval_wall_[ci] > interval_wall_[worst]))
+          worst = ci;
+      }
+      if (worst == v.components.size()) continue;
+      HealthEntry& e = s->entries[entry_of_[worst]];
+      if (e.level == Level::kOk) {
+        e.level = Level::kWarn;
+        e.message = "overruns its rate group's period";
+      }
+    }
+    for (std::uint32_t i = 0; i < s->count; ++i)
+      if (gates_watchdog(s->entries[i])) s->all_critical_ok = false;
 
     for (const auto& [name, cam] : cameras_) {
       HealthEntry* e = add();
@@ -283,6 +319,11 @@ class HealthComponent final : public Component {
   std::vector<std::uint64_t> last_heartbeat_;
   std::vector<std::uint64_t> unchanged_;
   std::vector<std::uint64_t> last_slips_;
+  std::vector<unsigned char> slipped_;          // per group: slipped since the last report
+  std::vector<std::uint64_t> last_wall_count_;  // per component: its wall histogram at the last report
+  std::vector<double> last_wall_total_;
+  std::vector<double> interval_wall_;           // ... and its wall time since then (ns)
+  std::vector<std::uint32_t> entry_of_;         // its entry in this snapshot (kMaxHealthEntries: none)
 };
 
 class JointStatePublisher final : public Component {
@@ -409,6 +450,43 @@ class ImuPublisher final : public Component {
   std::shared_ptr<dds::Outbox<ImuMsg>> msg_;
 };
 
+/// Load for fault drills (tests/storm, a bench's watchdog check): spins its thread's CPU for
+/// `busy_ms` every cycle (more than the group's period: a component that overruns every cycle) and,
+/// with `stall_after_s`, once stops returning from step for `stall_s` (a component that is really
+/// stuck). Both on the real clocks (thread CPU time, CLOCK_MONOTONIC): drills run in real time.
+/// The one component allowed to block in step: that is its purpose.
+class CpuLoad final : public Component {
+ public:
+  void configure(Params& p, Context&) override {
+    busy_ = static_cast<TimeNs>(std::llround(
+        p.get<double>("busy_ms", 1.0, {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "CPU time spent every cycle"}) * 1e6));
+    stall_after_ = static_cast<TimeNs>(std::llround(
+        p.get<double>("stall_after_s", 0.0, {.unit = "s", .min = 0.0, .max = 86400.0,
+                                             .doc = "time after the first step at which it stalls once (0 = never)"}) *
+        1e9));
+    stall_ = static_cast<TimeNs>(std::llround(
+        p.get<double>("stall_s", 5.0, {.unit = "s", .min = 0.0, .max = 3600.0, .doc = "how long the stall lasts"}) * 1e9));
+  }
+  void step(const CycleInfo&) override {
+    const TimeNs now = monotonic_now();
+    if (first_ == 0) first_ = now;
+    if (stall_after_ > 0 && !stalled_ && now - first_ >= stall_after_) {
+      stalled_ = true;
+      set_status("stalled (drill)");
+      while (monotonic_now() < now + stall_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      set_status("ok");
+    }
+    const TimeNs c0 = thread_cpu_now();
+    while (thread_cpu_now() - c0 < busy_) {
+    }
+  }
+  std::string result() const override { return stalled_ ? "stalled once" : std::string(); }
+
+ private:
+  TimeNs busy_ = 0, stall_after_ = 0, stall_ = 0, first_ = 0;
+  std::atomic<bool> stalled_{false};
+};
+
 }  // namespace
 
 void register_builtin_components() {
@@ -417,6 +495,8 @@ void register_builtin_components() {
         [] { return std::make_unique<HealthComponent>(); });
   r.add("imu_publisher", "IMU attitude, rates and specific force -> channel imu + imu (sensor_msgs/Imu)",
         [] { return std::make_unique<ImuPublisher>(); });
+  r.add("cpu_load", "fault drills: spins busy_ms of CPU every cycle (overruns), stalls once for stall_s after stall_after_s",
+        [] { return std::make_unique<CpuLoad>(); });
   r.add("joint_state_publisher", "wheel encoder angles and velocities -> joint_states (sensor_msgs/JointState)",
         [] { return std::make_unique<JointStatePublisher>(); });
 }

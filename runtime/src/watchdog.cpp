@@ -144,7 +144,7 @@ std::string SystemdNotifier::describe(const HealthSnapshot &s) {
       s.count, static_cast<std::uint32_t>(kMaxHealthEntries));
   for (std::uint32_t i = 0; i < n; ++i) {
     const HealthEntry &e = s.entries[i];
-    if (!e.critical || e.level == Level::kOk)
+    if (!gates_watchdog(e))
       continue;
     if (!out.empty())
       out += "; ";

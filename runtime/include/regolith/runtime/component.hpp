@@ -54,8 +54,9 @@ class Component {
   virtual void deactivate() {}
   /// Extra key/values for diagnostics (called from the health thread, not real time).
   virtual void diagnostics(std::vector<std::pair<std::string, std::string>>& /*kv*/) const {}
-  /// A critical component's health gates the systemd watchdog.
-  virtual bool critical() const { return false; }
+  /// A critical component's health gates the systemd watchdog: the deployment's `critical: true`
+  /// on the component (any type), or the type's own choice (the health monitor always is).
+  virtual bool critical() const { return configured_critical_; }
   /// The latest output in one line for the live summary ("sinkage 19.8 mm (conf 0.93)"), empty
   /// before the first. Called off the real-time threads (may allocate); a component reads its own
   /// output through a channel lease, so this never races with step().
@@ -104,6 +105,7 @@ class Component {
   std::atomic<std::uint64_t> heartbeat_{0};
   std::atomic<std::uint64_t> errors_{0};
   std::atomic<const char*> status_{"ok"};
+  bool configured_critical_ = false;
   const WorkerPool* workers_ = nullptr;
   ExecHistogram exec_;
   ExecHistogram wall_;

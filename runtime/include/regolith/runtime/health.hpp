@@ -36,11 +36,17 @@ struct HealthEntry {
   bool critical = false;
 };
 
+/// Whether `e` stops the systemd watchdog: a critical component that is stuck (no heartbeat) or
+/// in error. A warning (stale input, overruns) does not: restarting would not cure it.
+inline bool gates_watchdog(const HealthEntry& e) {
+  return e.critical && (e.level == Level::kError || e.level == Level::kStale);
+}
+
 struct HealthSnapshot {
   TimeNs stamp = 0;
   std::uint32_t count = 0;
   std::array<HealthEntry, kMaxHealthEntries> entries{};
-  bool all_critical_ok = true;  ///< gate for the systemd watchdog
+  bool all_critical_ok = true;  ///< no entry gates_watchdog(): the systemd watchdog is fed
 };
 
 }  // namespace regolith::runtime

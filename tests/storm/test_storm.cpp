@@ -1,0 +1,135 @@
+// Fault storm in real time (issue 20): the deployment of tests/storm/storm_rover.yaml runs for 8 s
+// of wall time on the real clock, with the systemd watchdog logic of `regolith run` driven the
+// same way (SystemdNotifier::update after every slice of the run loop, its datagrams captured):
+//   - the hub camera disconnects about every second (6 outages in 8 s), the wheel encoders give
+//     50 % garbage angles and drop 20 % of their samples, and `burner` (cpu_load, critical) spins
+//     80 ms of CPU in its 50 ms period from the first cycle, then stalls for 2.5 s at 4 s;
+//   - every other rate group keeps its rate: 0 slips in io (100 Hz), sinkage, terrain and health;
+//   - the health snapshot names the culprit of the burn group's slips (the `burner` entry:
+//     "overruns its rate group's period") and the camera outages;
+//   - the watchdog is fed throughout the overruns, outages and garbage, withheld while the
+//     critical component is really stuck (naming it), and fed again once it steps again.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli.hpp"
+#include "regolith/core/params.hpp"
+#include "regolith/hal/camera.hpp"
+#include "regolith/hal/wheel_encoders.hpp"
+#include "regolith/runtime/application.hpp"
+#include "regolith/runtime/context.hpp"
+#include "regolith/runtime/health.hpp"
+#include "regolith/runtime/rate_group.hpp"
+#include "regolith/runtime/watchdog.hpp"
+
+namespace regolith {
+namespace {
+
+struct Notification {
+  TimeNs t = 0;  // since the start
+  std::string text;
+};
+
+const runtime::HealthEntry* entry(const runtime::HealthSnapshot& s, const char* name, runtime::HealthEntry::Kind kind) {
+  for (std::uint32_t i = 0; i < s.count; ++i)
+    if (s.entries[i].kind == kind && std::strcmp(s.entries[i].name.data(), name) == 0) return &s.entries[i];
+  return nullptr;
+}
+
+TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForTheStall) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs 2 CPUs (one is burnt)";
+  cli::register_everything();
+  const std::string path = std::string(REGOLITH_SOURCE_DIR) + "/tests/storm/storm_rover.yaml";
+  auto app = runtime::Application::load(Params::load_file(path), {.enable_dds = false});
+  auto& health = app->context().channel<runtime::HealthSnapshot>("health/snapshot");
+
+  TimeNs t0 = 0;
+  std::vector<Notification> sent;
+  runtime::SystemdNotifier notifier(
+      [&](const std::string& text) {
+        sent.push_back({monotonic_now() - t0, text});
+        return true;
+      },
+      2 * kNsPerSec);
+  bool named_culprit = false, camera_error = false;
+  std::atomic<bool> stop{false};
+  t0 = monotonic_now();
+  app->start();
+  while (monotonic_now() - t0 < 8 * kNsPerSec) {
+    app->run(50 * kNsPerMs, stop);  // the slices of `regolith run`'s loop
+    const auto snapshot = health.acquire();
+    notifier.update(app->view(), snapshot ? &*snapshot : nullptr, app->clock().now());
+    if (!snapshot) continue;
+    const auto* burner = entry(*snapshot, "burner", runtime::HealthEntry::Kind::kComponent);
+    if (burner != nullptr && burner->level == runtime::Level::kWarn &&
+        std::strcmp(burner->message, "overruns its rate group's period") == 0)
+      named_culprit = true;
+    const auto* cam = entry(*snapshot, "wheel_cam", runtime::HealthEntry::Kind::kCamera);
+    if (cam != nullptr && cam->level == runtime::Level::kError) camera_error = true;
+  }
+  app->stop();
+
+  // ---- rate groups: only the burnt one slips ----
+  for (const runtime::RateGroup* g : app->view().groups) {
+    const auto& c = g->counters();
+    if (g->config().name == "burn") {
+      EXPECT_GT(c.slips, 20u) << "burn: 80 ms of CPU in every 50 ms period";
+    } else {
+      EXPECT_EQ(c.slips, 0u) << g->config().name;
+      const double expected = 8e9 / static_cast<double>(g->config().period);
+      EXPECT_GT(static_cast<double>(c.cycles), 0.95 * expected) << g->config().name << " kept its rate";
+    }
+  }
+  EXPECT_TRUE(named_culprit) << "no health snapshot named `burner` as the overrunning member";
+
+  // ---- devices: outages counted and reported, garbage rejected ----
+  for (hal::Device* d : app->context().all_devices()) {
+    if (d->id() == "wheel_cam") {
+      const auto st = dynamic_cast<hal::Camera*>(d)->stats();
+      EXPECT_GE(st.faults, 5u);
+      EXPECT_GE(st.recoveries + 1, st.faults);
+    }
+    if (d->id() == "wheels") {
+      EXPECT_GT(dynamic_cast<hal::WheelEncoders*>(d)->stats().rejected, 500u);
+    }
+  }
+  EXPECT_TRUE(camera_error) << "the health snapshot never showed the camera outage";
+
+  // ---- the watchdog: fed through the storm, withheld only while the critical component is stuck ----
+  // In notification order: the first "withheld" STATUS, then (update() feeds a healthy snapshot
+  // before it says so) the feed of the first healthy snapshot and "STATUS=running ...".
+  std::size_t withheld = sent.size(), resumed = sent.size();
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    if (sent[i].text.rfind("STATUS=watchdog withheld", 0) == 0) {
+      if (withheld == sent.size()) withheld = i;
+      EXPECT_NE(sent[i].text.find("component 'burner': no heartbeat: component stalled"), std::string::npos)
+          << sent[i].text;
+    } else if (withheld < sent.size() && resumed == sent.size() && sent[i].text.rfind("STATUS=running", 0) == 0) {
+      resumed = i;
+    }
+  }
+  ASSERT_LT(withheld, sent.size()) << "the watchdog was never withheld during the 2.5 s stall";
+  ASSERT_LT(resumed, sent.size()) << "the watchdog never resumed after the stall";
+  int fed_before = 0, fed_during = 0, fed_after = 0;
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    if (sent[i].text != "WATCHDOG=1") continue;
+    if (i < withheld) ++fed_before;
+    else if (i + 1 < resumed) ++fed_during;
+    else ++fed_after;
+  }
+  EXPECT_GE(sent[withheld].t, 4 * kNsPerSec) << "withheld before the stall: overruns, outages or garbage stopped it";
+  EXPECT_LE(sent[withheld].t, 5500 * kNsPerMs) << "the stall (at 4 s) took too long to be noticed";
+  EXPECT_GE(sent[resumed].t, 6500 * kNsPerMs) << "resumed before the 2.5 s stall ended";
+  EXPECT_GE(fed_before, 10) << "4 Hz health for 4 s, overruns and all";
+  EXPECT_EQ(fed_during, 0);
+  EXPECT_GE(fed_after, 1);
+}
+
+}  // namespace
+}  // namespace regolith
