@@ -82,6 +82,7 @@ void Config::validate() const {
   positive(retry_min_s, "retry_min");
   positive(retry_max_s, "retry_max");
   if (retry_max_s < retry_min_s) throw FieldError("", "retry_max", "must be >= retry_min");
+  if (receive_buffer_kb < 16 || receive_buffer_kb > 1 << 16) throw FieldError("", "receive_buffer_kb", "must be 16..65536");
   if (frame_history < 1 || frame_history > 1 << 20) throw FieldError("", "frame_history", "must be 1..1048576");
   if (tx_enabled && tx_id > (tx_extended ? CAN_EFF_MASK : CAN_SFF_MASK)) {
     throw FieldError("", "command.id", "out of range for a " + std::string(tx_extended ? "29" : "11") +
@@ -107,6 +108,9 @@ Config config_from_params(Params& p) {
   c.max_extrapolation_s = p.get<double>("max_extrapolation", c.max_extrapolation_s,
                                         {.unit = "s", .min = 0.0, .max = 1.0, .doc = "angle_at may extrapolate this far past the newest sample"});
   c.retry_min_s = p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first re-open delay after the interface vanished"});
+  c.receive_buffer_kb = p.get<int>("receive_buffer_kb", c.receive_buffer_kb,
+                                   {.unit = "KiB", .min = 16, .max = 1 << 16,
+                                    .doc = "socket receive queue for bursts (beyond net.core.rmem_max needs CAP_NET_ADMIN)"});
   c.frame_history = p.get<int>("frame_history", c.frame_history,
                                {.unit = "frames", .min = 1, .max = 1 << 20, .doc = "raw frames kept for recorders"});
   c.retry_max_s = p.get<double>("retry_max", c.retry_max_s, {.unit = "s", .min = 0.001, .max = 600.0, .doc = "re-open back-off ceiling"});
@@ -189,6 +193,7 @@ struct SocketCanEncoders::Counters {
       error_passive{0}, error_warning{0}, lost_arb{0}, controller{0}, protocol{0}, transceiver{0}, no_ack{0},
       restarts{0}, rx_overflows{0}, iface_down{0}, tx_frames{0}, tx_errors{0};
   std::atomic<bool> kernel_ts{false};
+  std::atomic<int> rcvbuf{0};
   mutable std::mutex text_mutex;
   std::string last_error;
 };
@@ -283,6 +288,15 @@ void SocketCanEncoders::open_socket() {
   const int on = 1;
   (void)::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on);  // accept FD frames if any
   (void)::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on);         // socket-queue drop counter
+  // A receive queue for bursts at full bus load: SO_RCVBUFFORCE past net.core.rmem_max when
+  // permitted (CAP_NET_ADMIN), else SO_RCVBUF (capped by rmem_max); the size the kernel granted is
+  // in BusStats::receive_buffer_bytes.
+  const int want = cfg_.receive_buffer_kb * 1024;
+  if (::setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &want, sizeof want) < 0)
+    (void)::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
+  int granted = 0;
+  socklen_t granted_len = sizeof granted;
+  if (::getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &granted, &granted_len) == 0) c_->rcvbuf.store(granted);
   bool kts = false;
   if (cfg_.kernel_timestamps) {
     const int flags = SOF_TIMESTAMPING_RX_SOFTWARE | SOF_TIMESTAMPING_SOFTWARE;
@@ -561,6 +575,7 @@ BusStats SocketCanEncoders::bus_stats() const {
   b.tx_frames = c_->tx_frames.load();
   b.tx_errors = c_->tx_errors.load();
   b.kernel_timestamps = c_->kernel_ts.load();
+  b.receive_buffer_bytes = static_cast<std::uint64_t>(std::max(0, c_->rcvbuf.load()));
   std::lock_guard<std::mutex> lock(c_->text_mutex);
   b.last_error = c_->last_error;
   return b;

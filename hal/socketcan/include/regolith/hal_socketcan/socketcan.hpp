@@ -26,6 +26,7 @@ struct Config {
   double max_extrapolation_s = 0.05;         ///< [max_extrapolation] s, angle_at beyond newest sample
   double retry_min_s = 0.05;                 ///< [retry_min] s, first retry after a bus/socket fault
   double retry_max_s = 2.0;                  ///< [retry_max] s, retry back-off ceiling
+  int receive_buffer_kb = 1024;              ///< [receive_buffer_kb] socket receive queue (SO_RCVBUF[FORCE])
   int frame_history = 1024;                  ///< [frame_history] raw frames kept for recorders (can_frames)
   bool error_frames = true;                  ///< [error_frames] subscribe to and decode error frames
   bool kernel_timestamps = true;             ///< [kernel_timestamps] SO_TIMESTAMPING receive stamps
@@ -82,6 +83,7 @@ struct BusStats {
   std::uint64_t tx_frames = 0;
   std::uint64_t tx_errors = 0;
   bool kernel_timestamps = false;        ///< receive stamps come from the kernel
+  std::uint64_t receive_buffer_bytes = 0; ///< socket receive queue the kernel granted (SO_RCVBUF)
   std::string last_error;                ///< human-readable last fault (diagnostics)
 };
 
