@@ -2,10 +2,12 @@
 // Internal building blocks shared by the mock backends: deterministic hashing "randomness", the
 // lazy frame camera (preloaded images served on a time grid) and the lazy encoder base (samples
 // computed on demand from a script or a log). Not installed.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -119,6 +121,26 @@ class TimeGrid {
  private:
   double period_ns_ = 1e9;
 };
+
+/// The samples on `grid` of a device that ran over `run`, delivered by `now` and stamped after
+/// `after`, at most out.size() (sample(k, item) fills sample k, stamp included). Up to the stop
+/// once stopped: a recorder's last poll after the devices stopped still gets the run's end.
+template <class T, class SampleFn>
+std::size_t grid_samples_since(const RunSpan& run, const TimeGrid& grid, TimeNs after, TimeNs now, std::span<T> out,
+                               SampleFn&& sample) {
+  TimeNs delivered = 0;
+  if (!run.counted(now, delivered) || out.empty()) return 0;
+  const TimeNs t0 = run.start();
+  const std::int64_t last = grid.index(delivered);
+  const std::int64_t first = after < t0 ? 0 : grid.index(after - t0) + 1;
+  const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
+  std::size_t n = 0;
+  for (std::int64_t k = std::max<std::int64_t>(first, 0); k < end; ++k) {
+    sample(k, out[n]);
+    if (out[n].stamp > after) ++n;
+  }
+  return n;
+}
 
 // ---- camera serving preloaded images lazily ----------------------------------------------------
 

@@ -63,21 +63,8 @@ class ScriptedImu final : public hal::Imu {
     out.linear_acceleration = out.attitude.rotation().transposed() * Vec3{0.0, 0.0, script_.gravity_mps2};
   }
 
-  /// Every sample delivered by `now` after `after` (up to the stop once stopped: a recorder's last
-  /// poll after the devices stopped still gets the samples of the run's end).
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    TimeNs delivered = 0;
-    if (!run_.counted(now, delivered) || out.empty()) return 0;
-    const TimeNs t0 = run_.start();
-    const std::int64_t last = grid_.index(delivered);
-    const std::int64_t first = after < t0 ? 0 : grid_.index(after - t0) + 1;
-    const std::int64_t end = std::min(last + 1, first + static_cast<std::int64_t>(out.size()));
-    std::size_t n = 0;
-    for (std::int64_t k = std::max<std::int64_t>(first, 0); k < end; ++k) {
-      sample(k, out[n]);
-      if (out[n].stamp > after) ++n;
-    }
-    return n;
+    return grid_samples_since(run_, grid_, after, now, out, [this](std::int64_t k, hal::ImuSample& s) { sample(k, s); });
   }
   bool attitude_at(TimeNs t, Attitude& out) const override {
     if (!run_.running()) return false;
