@@ -21,6 +21,9 @@
 #include <vector>
 
 #include "cli.hpp"
+#ifdef REGOLITH_HAVE_HAL_RECORD
+#include "regolith/record/recording.hpp"
+#endif
 #include "regolith/core/image_file.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
@@ -47,6 +50,7 @@ struct AssessOptions {
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
   double pixel_size_m = 0.02;
+  int frame = 0;  ///< IMAGE is a recording (.mcap): this frame of the camera --device
 };
 
 double now_ms() {
@@ -347,9 +351,31 @@ void assess(const AssessOptions& o) {
   const double t0 = now_ms();
   // ---- the image ----
   if (!fs::exists(o.image)) throw InputError("assess: image '" + o.image + "' does not exist");
-  std::string why;
-  const cv::Mat raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED, &why);
-  if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "': " + why);
+  cv::Mat raw;
+  // A recording (`regolith run --record`): one frame of one camera, and the deployment it ran
+  // gives that camera's calibration, mount and the sun unless the command line says otherwise.
+  std::string device = o.device, rover_file = o.rover, rover_text;
+  if (fs::path(o.image).extension() == ".mcap") {
+#ifdef REGOLITH_HAVE_HAL_RECORD
+    if (o.frame < 0) throw ConfigError("--frame: must be >= 0");
+    const record::RecordedFrame f = record::recorded_camera_frame(o.image, o.device, static_cast<std::size_t>(o.frame));
+    raw = f.image;
+    device = f.device;
+    std::printf("%s: camera %s, frame %d of %zu (sequence %u)\n", o.image.c_str(), f.device.c_str(), o.frame, f.count,
+                f.sequence);
+    if (rover_file.empty() && o.camera.empty() && !std::isfinite(o.height_m)) {
+      const record::RecordedDeployment d = record::recorded_deployment(o.image);
+      rover_file = d.name;
+      rover_text = d.text;
+    }
+#else
+    throw ConfigError("assess: this build reads no recordings (built without the HAL recording)");
+#endif
+  } else {
+    std::string why;
+    raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED, &why);
+    if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "': " + why);
+  }
   if (raw.depth() != CV_8U)
     throw InputError("assess: image '" + o.image + "' has " + (raw.depth() == CV_16U ? "16-bit" : "non-8-bit") +
                      " samples; convert it to 8-bit grey or colour");
@@ -421,31 +447,32 @@ void assess(const AssessOptions& o) {
   } else {
     sp.estimate_light = true;
   }
-  if (!o.rover.empty() || !o.device.empty()) {
+  if (!rover_file.empty() || !device.empty()) {
     // The camera as the rover describes it (calibration + mount) and, unless given, the one sun
     // converted into its image frame (level rover).
-    if (o.rover.empty() || o.device.empty()) throw ConfigError("--rover FILE and --device NAME go together");
+    if (rover_file.empty() || device.empty()) throw ConfigError("--rover FILE and --device NAME go together");
     if (!o.camera.empty() || std::isfinite(o.height_m) || std::isfinite(o.pitch_deg))
-      throw ConfigError("--rover gives the camera (rover.cameras." + o.device + "): drop --camera/--height/--pitch");
-    if (!fs::is_regular_file(o.rover)) throw ConfigError("--rover: '" + o.rover + "' does not exist");
-    Params root = Params::load_file(o.rover);
-    const fs::path rp(o.rover);
+      throw ConfigError("--rover gives the camera (rover.cameras." + device + "): drop --camera/--height/--pitch");
+    if (rover_text.empty() && !fs::is_regular_file(rover_file))
+      throw ConfigError("--rover: '" + rover_file + "' does not exist");
+    Params root = rover_text.empty() ? Params::load_file(rover_file) : Params::load_string(rover_text, rover_file);
+    const fs::path rp(rover_file);
     const RoverDescription rd = read_rover_description(root, rp.has_parent_path() ? rp.parent_path().string() : ".");
-    const RoverCamera* rc = rd.camera(o.device);
+    const RoverCamera* rc = rd.camera(device);
     if (rc == nullptr) {
       std::string names;
       for (const auto& [n, c] : rd.cameras) names += (names.empty() ? "" : ", ") + n;
-      throw ConfigError(o.rover + ": no rover.cameras." + o.device + " (described: " + (names.empty() ? "none" : names) + ")");
+      throw ConfigError(rover_file + ": no rover.cameras." + device + " (described: " + (names.empty() ? "none" : names) + ")");
     }
     if (rc->info.width != gray.cols || rc->info.height != gray.rows)
       throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                       " px but rover.cameras." + o.device + " is " + std::to_string(rc->info.width) + "x" +
+                       " px but rover.cameras." + device + " is " + std::to_string(rc->info.width) + "x" +
                        std::to_string(rc->info.height) + " px (" + rc->where + ")");
     model = common::camera_model_of(*rc);
     if (!light && rd.sun) {
       const common::CameraLight cl = common::camera_light(*rd.sun, *rc);
       if (!cl.in_view)
-        sun_error = o.rover + ": the sun is ahead of camera '" + o.device + "' (image slant " +
+        sun_error = rover_file + ": the sun is ahead of camera '" + device + "' (image slant " +
                     std::to_string(cl.light.slant_rad / kDeg) + " deg): no image-frame shading to solve";
       light = cl.light;
       sp.estimate_light = false;
@@ -685,7 +712,7 @@ void assess(const AssessOptions& o) {
 void add_assess(CLI::App& app) {
   auto o = std::make_shared<AssessOptions>();
   CLI::App* cmd = app.add_subcommand("assess", "one image -> SfS height map, traversability layers, JSON summary");
-  cmd->add_option("image", o->image, "input image (8-bit grey or colour)")->required();
+  cmd->add_option("image", o->image, "input image (8-bit grey or colour), or a recording (.mcap, with --frame)")->required();
   cmd->add_option("--out,-o", o->out, "output directory")->required();
   cmd->add_option("--config,-c", o->config, "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
   cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)");
@@ -698,7 +725,10 @@ void add_assess(CLI::App& app) {
                   "camera mode: SfS for the grid on the ground-rectified image (default) or in the image frame")
       ->check(CLI::IsMember({"ground", "image"}));
   cmd->add_option("--rover", o->rover, "deployment (or any YAML with rover: and sun:) giving the camera and the sun");
-  cmd->add_option("--device", o->device, "with --rover: the camera device (rover.cameras.NAME) that took the image");
+  cmd->add_option("--device", o->device, "with --rover: the camera device (rover.cameras.NAME) that took the image; "
+                                         "with a recording: the camera whose frame is read");
+  cmd->add_option("--frame", o->frame, "IMAGE is a recording (.mcap of `regolith run --record`): its frame N (0 = first) of "
+                                       "the camera --device (or the only one); the recorded deployment gives the camera and the sun");
   cmd->add_option("--height", o->height_m, "m, camera height above the ground");
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")

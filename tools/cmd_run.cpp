@@ -22,6 +22,7 @@
 #include "regolith/dds/recorder.hpp"
 #include "regolith/record/hal_recorder.hpp"
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
 #include <yaml-cpp/yaml.h>
 #endif
@@ -153,14 +154,9 @@ std::string replay_deployment(const std::string& file, const std::string& config
     }
     name = config_override;
   } else {
-    record::McapReader reader(abs);
-    for (const auto& a : reader.info().attachments) {
-      if (a.media_type != "application/yaml") continue;
-      const std::vector<std::uint8_t> bytes = reader.read_attachment(a);
-      text.assign(bytes.begin(), bytes.end());
-      name = (std::filesystem::path(abs).parent_path() / a.name).string();
-      break;
-    }
+    const record::RecordedDeployment d = record::recorded_deployment(abs);
+    text = d.text;
+    name = d.name;
     if (text.empty())
       throw InputError(file + ": no deployment attached (files of `regolith run --record` carry it; give --config)");
   }

@@ -472,6 +472,21 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   for (const auto& [id, ch] : rb.info().channels) has_hal = has_hal || ch.topic == "/hal/cameras/front/image";
   EXPECT_TRUE(has_hal);
 
+  // `assess` reads one recorded frame, with the recorded deployment's camera and sun.
+  r = run("assess " + a.string() + " --device front --frame 1 --out " + (dir_ / "assess").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("camera front, frame 1 of "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("light given slant 35."), std::string::npos) << "the recorded deployment's sun\n" << r.out;
+  EXPECT_TRUE(fs::exists(dir_ / "assess" / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir_ / "assess" / "range.tiff"));
+  r = run("assess " + a.string() + " --frame 1 --out " + (dir_ / "assess2").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("3 cameras recorded (wheel_cam, front, rear): choose one with --device"), std::string::npos) << r.out;
+  r = run("assess " + a.string() + " --device front --frame 999 --out " + (dir_ / "assess2").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("/hal/cameras/front/image has "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frame 999 is past the end"), std::string::npos) << r.out;
+
   // Another deployment on the same inputs (a different rock threshold): the rocks differ and the
   // comparison says where, with exit status 1.
   std::string yaml = read_text(cfg);
@@ -535,6 +550,9 @@ TEST_F(RunRecord, ReplayErrorsNameTheFile) {
   r = run("replay " + a.string() + " --quiet --duration 1");
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find(a.string() + ": no HAL recording in this file"), std::string::npos) << r.out;
+  r = run("assess " + a.string() + " --out " + (dir_ / "assess").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find(a.string() + ": no camera frames recorded"), std::string::npos) << r.out;
   // --compare without --record; a missing file; a file that is not MCAP.
   r = run("replay " + a.string() + " --compare");
   EXPECT_EQ(r.status, 2) << r.out;

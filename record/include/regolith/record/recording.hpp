@@ -1,0 +1,37 @@
+#pragma once
+// What a `regolith run --record` file holds for tools that read it without replaying it: the
+// deployment it ran (its YAML attachment) and single camera frames of the HAL recording
+// (`regolith assess REC.mcap --frame N`). Errors are InputError naming the file, the channel and
+// the frame.
+#include <opencv2/core/mat.hpp>
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+#include "regolith/core/time.hpp"
+
+namespace regolith::record {
+
+/// The deployment recorded in `file`: its YAML attachment's text, and a name for messages (the
+/// attachment's name beside the file). Empty text when the file carries none.
+struct RecordedDeployment {
+  std::string text;
+  std::string name;
+};
+RecordedDeployment recorded_deployment(const std::filesystem::path& file);
+
+struct RecordedFrame {
+  std::string device;   ///< camera device id
+  std::size_t index = 0;
+  std::size_t count = 0;  ///< frames of that camera in the file
+  std::uint32_t sequence = 0;  ///< the camera's frame sequence number
+  TimeNs stamp = 0;     ///< capture time (process clock of the recording)
+  cv::Mat image;        ///< CV_8UC1 or CV_8UC3
+};
+/// Frame `index` (0 = first, in file order) of camera `device` (/hal/cameras/<device>/image); an
+/// empty `device` picks the only camera recorded. InputError when the file has no such camera
+/// (listing the ones it has), more than one and none chosen, or fewer frames.
+RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std::string& device, std::size_t index);
+
+}  // namespace regolith::record
