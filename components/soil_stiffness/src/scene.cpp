@@ -49,8 +49,15 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   SoilSetup cfg;
   CameraModel& c = cfg.camera;
-  c.width = static_cast<int>(scene_number(j, file, "camera.width"));
-  c.height = static_cast<int>(scene_number(j, file, "camera.height"));
+  // Image sizes: whole pixels in int range before the cast (a huge value is an error, not UB).
+  const auto pixels = [&](const char* path) {
+    const double v = scene_number(j, file, path);
+    if (!(v >= 1.0 && v <= 65535.0) || v != std::floor(v))
+      throw InputError(file.string() + ": " + path + ": must be a whole number of pixels, 1..65535");
+    return static_cast<int>(v);
+  };
+  c.width = pixels("camera.width");
+  c.height = pixels("camera.height");
   c.fx = scene_number(j, file, "camera.fx");
   c.fy = scene_number(j, file, "camera.fy");
   c.cx = scene_number(j, file, "camera.cx");
