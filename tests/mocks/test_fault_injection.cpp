@@ -2,6 +2,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <array>
+#include <limits>
+#include <vector>
+
 #include "mock_test_util.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
 
@@ -284,6 +288,41 @@ TEST(FaultEncoders, DelayFreezeAndCorruption) {
     garbage += std::abs(s.angle - to_seconds(s.stamp - t0)) > 1e-6;
   }
   EXPECT_NEAR(static_cast<double>(garbage) / n, 0.1, 0.015);
+}
+
+TEST(FaultEncoders, RecordersGetExactlyTheSamplesTheConsumerReceived) {
+  // samples_since (what a HAL recorder reads between polls) against latest() polled at every
+  // sample: the same stamps, no dropped sample and nothing from the outage, the same corrupted
+  // angles. Before, the decorator served only the newest sample per recorder poll.
+  Fixture fx;
+  auto enc = fx.encoders(encoder_yaml("drop_rate: 0.2\ncorrupt_rate: 0.1\nseed: 4\ndisconnect_after: 300\nreconnect_after: 50\n"));
+  enc->start();
+  const TimeNs t0 = fx.clock.now();
+  std::vector<hal::AngleSample> polled;
+  for (int k = 0; k < 600; ++k) {
+    const TimeNs now = t0 + k * kSample;
+    fx.clock.set(now);
+    hal::AngleSample s;
+    if (enc->latest(0, now, s) && (polled.empty() || s.stamp > polled.back().stamp)) polled.push_back(s);
+  }
+  std::vector<hal::AngleSample> recorded;
+  std::array<hal::AngleSample, 50> buf{};
+  TimeNs after = std::numeric_limits<TimeNs>::min();
+  for (std::size_t got; (got = enc->samples_since(0, after, t0 + 599 * kSample, buf)) > 0;) {
+    recorded.insert(recorded.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(got));
+    after = buf[got - 1].stamp;
+  }
+  ASSERT_EQ(recorded.size(), polled.size());
+  int corrupt = 0;
+  for (std::size_t i = 0; i < polled.size(); ++i) {
+    EXPECT_EQ(recorded[i].stamp, polled[i].stamp) << i;
+    EXPECT_EQ(recorded[i].angle, polled[i].angle) << i;
+    const double k = to_seconds(recorded[i].stamp - t0) / to_seconds(kSample);
+    EXPECT_FALSE(k >= 300 && k < 350) << "a sample from the outage was recorded: " << k;
+    corrupt += std::abs(recorded[i].angle - to_seconds(recorded[i].stamp - t0)) > 1e-6;
+  }
+  EXPECT_NEAR(static_cast<double>(polled.size()), 550 * 0.8, 30) << "drops";
+  EXPECT_GT(corrupt, 20);
 }
 
 TEST(PlausibleEncoders, CorruptSamplesNeverReachTheReaderAndAreCounted) {

@@ -1,6 +1,7 @@
 // Cameras and encoders "fault_injection": wrap another backend (`inner:`) and withhold, freeze,
 // corrupt, delay or disconnect its data, deterministically for a seed and a clock sequence.
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "backends_internal.hpp"
@@ -292,6 +293,27 @@ class FaultEncoders final : public hal::WheelEncoders {
     return inner_->can_frames(cursor, now, out, missed);
   }
 
+  /// What the consumer received (for recorders): the inner device's samples up to `now` - delay,
+  /// without those dropped or inside outages, frozen and corrupted as latest() serves them.
+  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override {
+    if (!run_.running() || out.empty()) return 0;
+    std::array<hal::AngleSample, 64> batch{};
+    std::size_t n = 0;
+    for (;;) {
+      const TimeNs from = after;
+      const std::size_t got = inner_->samples_since(wheel, after, now - cfg_.delay, batch);
+      for (std::size_t i = 0; i < got; ++i) {
+        after = batch[i].stamp;
+        TimeNs older = 0;
+        if (!received(wheel, batch[i].stamp, older)) continue;
+        out[n] = batch[i];
+        damage(wheel, out[n]);
+        if (++n == out.size()) return n;
+      }
+      if (got < batch.size() || after == from) return n;
+    }
+  }
+
   hal::EncoderStats stats() const override {
     hal::EncoderStats s = inner_->stats();
     TimeNs rel = 0;
@@ -315,26 +337,36 @@ class FaultEncoders final : public hal::WheelEncoders {
     return true;
   }
 
+  /// False when the consumer never receives the sample stamped `stamp` (it falls in an outage,
+  /// or is dropped); `older` is then the latest stamp an earlier received sample can have.
+  bool received(std::size_t wheel, TimeNs stamp, TimeNs& older) const {
+    const FaultSchedule::At st = sched_.at(stamp - start_time());
+    if (st.down) {
+      older = start_time() + st.outage_begin - 1;
+      return false;
+    }
+    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, wheel, static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
+      older = stamp - 1;
+      return false;
+    }
+    return true;
+  }
+  /// A received sample as the consumer sees it: frozen and corrupted.
+  void damage(std::size_t wheel, hal::AngleSample& s) const {
+    if (frozen(s.stamp)) frozen_angle(wheel, s.angle);
+    const auto key = static_cast<std::uint64_t>(s.stamp);
+    if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kCorrupt)) < cfg_.corrupt_rate)
+      s.angle = (2.0 * unit(hash(cfg_.seed, wheel, key, kGarbage)) - 1.0) * 1e4;
+  }
+
   /// Newest sample the consumer can have received with stamp <= q: walks back over withheld
   /// samples (drops, outages), then applies freeze and corruption.
   bool visible(std::size_t wheel, TimeNs q, hal::AngleSample& out) const {
     constexpr int kMaxWalk = 256;
-    const TimeNs start = start_time();
     for (int i = 0; i < kMaxWalk; ++i) {
       if (!inner_->latest(wheel, q, out)) return false;
-      const FaultSchedule::At st = sched_.at(out.stamp - start);
-      if (st.down) {
-        q = start + st.outage_begin - 1;
-        continue;
-      }
-      const auto key = static_cast<std::uint64_t>(out.stamp);
-      if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kDrop)) < cfg_.drop_rate) {
-        q = out.stamp - 1;
-        continue;
-      }
-      if (frozen(out.stamp)) frozen_angle(wheel, out.angle);
-      if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kCorrupt)) < cfg_.corrupt_rate)
-        out.angle = (2.0 * unit(hash(cfg_.seed, wheel, key, kGarbage)) - 1.0) * 1e4;
+      if (!received(wheel, out.stamp, q)) continue;
+      damage(wheel, out);
       return true;
     }
     return false;
