@@ -364,9 +364,8 @@ void assess(const AssessOptions& o) {
     std::printf("%s: camera %s, frame %d of %zu (sequence %u)\n", o.image.c_str(), f.device.c_str(), o.frame, f.count,
                 f.sequence);
     if (rover_file.empty() && o.camera.empty() && !std::isfinite(o.height_m)) {
-      const record::RecordedDeployment d = record::recorded_deployment(o.image);
-      rover_file = d.name;
-      rover_text = d.text;
+      rover_file = f.deployment.name;
+      rover_text = f.deployment.text;
     }
 #else
     throw ConfigError("assess: this build reads no recordings (built without the HAL recording)");

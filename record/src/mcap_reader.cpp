@@ -425,7 +425,7 @@ void McapReader::scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProb
     if (source_->read(0, data_start_, content.data())) data_crc = crc32(content.data(), content.size());
   }
   bool ended = false;
-  while (true) {
+  while (!stop_) {
     if (pos == size) {  // clean end of a record, but no DataEnd / Footer
       info.truncated = true;
       info.readable_end = pos;
@@ -653,6 +653,7 @@ bool McapReader::process_chunk(std::uint64_t offset, const std::vector<std::uint
                    [](const Entry& a, const Entry& b) { return a.log_time < b.log_time; });
   std::uint64_t unknown = 0;
   for (const Entry& m : messages) {
+    if (stop_) break;
     const std::uint8_t* p = data + m.at;
     const std::uint16_t id = get_u16(p);
     const auto ch = info.channels.find(id);
@@ -679,6 +680,7 @@ bool McapReader::process_chunk(std::uint64_t offset, const std::vector<std::uint
 // ---- messages and attachments -------------------------------------------------------------------
 std::vector<ReadProblem> McapReader::for_each_message(const std::function<void(const MessageView&)>& fn) {
   std::vector<ReadProblem> problems;
+  stop_ = false;
   if (!info_.from_summary) {
     McapFileInfo scratch = info_;  // channels from the scan; nothing is counted again
     scan(scratch, &fn, problems);
@@ -686,6 +688,7 @@ std::vector<ReadProblem> McapReader::for_each_message(const std::function<void(c
   }
   std::vector<std::uint8_t> content;
   for (const ChunkInfo& ci : info_.chunks) {
+    if (stop_) break;
     std::uint8_t prefix[kRecordPrefix];
     if (ci.length < kRecordPrefix || !source_->read(ci.offset, kRecordPrefix, prefix) ||
         prefix[0] != static_cast<std::uint8_t>(Opcode::kChunk) || get_u64(prefix + 1) != ci.length - kRecordPrefix) {

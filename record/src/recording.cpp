@@ -10,8 +10,9 @@
 
 namespace regolith::record {
 
-RecordedDeployment recorded_deployment(const std::filesystem::path& file) {
-  McapReader reader(file);
+namespace {
+
+RecordedDeployment deployment_of(McapReader& reader, const std::filesystem::path& file) {
   RecordedDeployment d;
   for (const auto& a : reader.info().attachments) {
     if (a.media_type != "application/yaml") continue;
@@ -21,6 +22,13 @@ RecordedDeployment recorded_deployment(const std::filesystem::path& file) {
     break;
   }
   return d;
+}
+
+}  // namespace
+
+RecordedDeployment recorded_deployment(const std::filesystem::path& file) {
+  McapReader reader(file);
+  return deployment_of(reader, file);
 }
 
 RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std::string& device, std::size_t index) {
@@ -47,11 +55,17 @@ RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std
     throw InputError(file.string() + ": no camera '" + device + "' recorded (recorded: " + list + ")");
   }
   const std::string topic = hal_camera_topic(out.device);
+  for (const auto& [id, ch] : reader.info().channels) {
+    if (ch.topic != topic) continue;
+    const auto n = reader.info().message_counts.find(id);
+    if (n != reader.info().message_counts.end()) out.count += static_cast<std::size_t>(n->second);
+  }
   bool found = false;
   std::size_t seen = 0;
   const auto problems = reader.for_each_message([&](const MessageView& m) {
     if (m.channel.topic != topic) return;
     if (seen++ != index) return;
+    reader.stop();  // the chunks after this one are not decompressed
     try {
       DecodedImage d = decode_image(m.data);
       out.image = std::move(d.image);
@@ -63,13 +77,13 @@ RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std
     }
   });
   out.index = index;
-  out.count = seen;
   if (!found) {
     std::string why = file.string() + ": " + topic + " has " + std::to_string(seen) + " frame(s); frame " +
                       std::to_string(index) + " is past the end";
     if (!problems.empty()) why += " (" + reader.describe(problems.front()) + ")";
     throw InputError(why);
   }
+  out.deployment = deployment_of(reader, file);
   return out;
 }
 

@@ -203,6 +203,29 @@ TEST_P(McapRoundTrip, EverythingWrittenIsReadBack) {
 INSTANTIATE_TEST_SUITE_P(Compression, McapRoundTrip, ::testing::Values(Compression::kZstd, Compression::kNone),
                          [](const auto& i) { return i.param == Compression::kZstd ? "zstd" : "none"; });
 
+TEST(McapRecord, StopEndsTheIterationOnTheSummaryAndTheScanPath) {
+  // A reader looking for one message (`assess REC.mcap --frame N`) stops after it: later chunks are
+  // not decompressed. Both paths: the summary (complete file) and the scan (file cut off).
+  const fs::path path = temp_file("stop.mcap");
+  write_rover_like(path, Compression::kZstd, 4096);
+  const std::vector<std::uint8_t> bytes = read_all(path);
+  const fs::path cut = temp_file("stop_cut.mcap");
+  write_all(cut, bytes, bytes.size() - 100);
+  for (const fs::path& p : {path, cut}) {
+    McapReader r(p);
+    ASSERT_GT(r.info().chunks.size(), 3u) << p;
+    std::size_t calls = 0;
+    const auto problems = r.for_each_message([&](const MessageView&) {
+      if (++calls == 5) r.stop();
+    });
+    EXPECT_TRUE(problems.empty()) << p;
+    EXPECT_EQ(calls, 5u) << p;
+    std::size_t all = 0;  // the next iteration reads everything again
+    (void)r.for_each_message([&](const MessageView&) { ++all; });
+    EXPECT_EQ(all, r.info().message_count) << p;
+  }
+}
+
 TEST(McapRecord, ManyChannelsAndOutOfOrderTimes) {
   const fs::path path = temp_file("many.mcap");
   {

@@ -85,6 +85,9 @@ class McapReader {
   /// log-time order (messages outside chunks in file order). Returns the damage met on the way
   /// (chunks skipped, with offsets); exceptions thrown by `fn` propagate.
   [[nodiscard]] std::vector<ReadProblem> for_each_message(const std::function<void(const MessageView&)>& fn);
+  /// Called from for_each_message's `fn`: no message after this one is read (a reader that found
+  /// what it looked for leaves the remaining chunks undecompressed).
+  void stop() { stop_ = true; }
 
   /// The data of an attachment from info().attachments. Throws InputError (file, offset) if unreadable.
   std::vector<std::uint8_t> read_attachment(const AttachmentInfo& a);
@@ -106,6 +109,7 @@ class McapReader {
   McapFileInfo info_;
   std::uint64_t data_start_ = 0;            // first record after the Header
   std::vector<std::uint8_t> chunk_buffer_;  // reused decompression buffer
+  bool stop_ = false;                       // stop() was called during for_each_message
 };
 
 /// A HAL recording's identity and time frame, from a file's `regolith_hal` and `regolith_hal_end`

@@ -28,6 +28,7 @@ struct RecordedFrame {
   std::uint32_t sequence = 0;  ///< the camera's frame sequence number
   TimeNs stamp = 0;     ///< capture time (process clock of the recording)
   cv::Mat image;        ///< CV_8UC1 or CV_8UC3
+  RecordedDeployment deployment;  ///< the deployment the recording ran (read from the same file)
 };
 /// Frame `index` (0 = first, in file order) of camera `device` (/hal/cameras/<device>/image); an
 /// empty `device` picks the only camera recorded. InputError when the file has no such camera
