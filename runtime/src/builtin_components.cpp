@@ -144,6 +144,12 @@ class HealthComponent final : public Component {
     last_wall_total_.assign(v.components.size(), 0.0);
     interval_wall_.assign(v.components.size(), 0.0);
     entry_of_.assign(v.components.size(), static_cast<std::uint32_t>(kMaxHealthEntries));
+    group_of_.assign(v.components.size(), v.groups.size());
+    for (std::size_t gi = 0; gi < v.groups.size(); ++gi)
+      for (const Component* m : v.groups[gi]->members()) {
+        const auto it = std::find(v.components.begin(), v.components.end(), m);
+        if (it != v.components.end()) group_of_[static_cast<std::size_t>(it - v.components.begin())] = gi;
+      }
   }
 
   void step(const CycleInfo& cycle) override {
@@ -187,12 +193,11 @@ class HealthComponent final : public Component {
       if (e == nullptr) break;
       e->kind = HealthEntry::Kind::kComponent;
       copy_name(e->name, comp.name());
-      for (const RateGroup* g : v.groups) {
-        if (std::find(g->members().begin(), g->members().end(), &comp) != g->members().end()) {
-          copy_name(e->group, g->config().name);
-          e->slips = g->counters().slips;
-          e->period = g->config().period;
-        }
+      if (group_of_[ci] < v.groups.size()) {
+        const RateGroup& g = *v.groups[group_of_[ci]];
+        copy_name(e->group, g.config().name);
+        e->slips = g.counters().slips;
+        e->period = g.config().period;
       }
       e->heartbeat = comp.heartbeat();
       e->errors = comp.errors();
@@ -238,10 +243,8 @@ class HealthComponent final : public Component {
     for (std::size_t gi = 0; gi < v.groups.size(); ++gi) {
       if (!slipped_[gi]) continue;
       std::size_t worst = v.components.size();
-      for (const Component* m : v.groups[gi]->members()) {
-        const auto it = std::find(v.components.begin(), v.components.end(), m);
-        if (it == v.components.end()) continue;
-        const auto ci = static_cast<std::size_t>(it - v.components.begin());
+      for (std::size_t ci = 0; ci < v.components.size(); ++ci) {
+        if (group_of_[ci] != gi) continue;
         if (entry_of_[ci] < s->count && (worst == v.components.size() || interval_wall_[ci] > interval_wall_[worst]))
           worst = ci;
       }
@@ -324,6 +327,7 @@ class HealthComponent final : public Component {
   std::vector<double> last_wall_total_;
   std::vector<double> interval_wall_;           // ... and its wall time since then (ns)
   std::vector<std::uint32_t> entry_of_;         // its entry in this snapshot (kMaxHealthEntries: none)
+  std::vector<std::size_t> group_of_;           // its rate group's index (groups.size(): none)
 };
 
 class JointStatePublisher final : public Component {
