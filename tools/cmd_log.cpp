@@ -161,7 +161,7 @@ struct ExportChannel {
   std::vector<std::string> columns;  // csv: from the first message
   std::uint64_t written = 0, undecodable = 0;
   fs::path images;                   // sensor_msgs/CompressedImage: each image's bytes as a file here
-  int can = 0;                       // raw CAN frames (1 classic, 2 FD): written as a candump -l log
+  enum class Can { kNone, kClassic, kFd } can = Can::kNone;  // raw CAN frames: written as a candump -l log
   std::string can_interface;         // the interface name in that log: the encoder set's id
 };
 
@@ -208,7 +208,7 @@ void run_export(const LogExportArgs& a) {
     if (e.channel->message_encoding == "cdr" &&
         (schema == "can_msgs/msg/Frame" || schema == "ros2_socketcan_msgs/msg/FdFrame")) {
       // Raw CAN frames: the log every CAN tool reads (and the `candump` encoder backend replays).
-      e.can = schema == "can_msgs/msg/Frame" ? 1 : 2;
+      e.can = schema == "can_msgs/msg/Frame" ? ExportChannel::Can::kClassic : ExportChannel::Can::kFd;
       const std::string& topic = e.channel->topic;  // /hal/encoders/<id>/can
       const auto end = topic.rfind('/');
       const auto begin = end == std::string::npos || end == 0 ? std::string::npos : topic.rfind('/', end - 1);
@@ -240,9 +240,9 @@ void run_export(const LogExportArgs& a) {
     auto it = chans.find(m.channel.id);
     if (it == chans.end()) return;
     ExportChannel& e = it->second;
-    if (e.can != 0) {
+    if (e.can != ExportChannel::Can::kNone) {
       try {
-        const hal::CanFrame f = record::decode_can_frame(m.data, e.can == 2);
+        const hal::CanFrame f = record::decode_can_frame(m.data, e.can == ExportChannel::Can::kFd);
         e.out << hal::format_candump_line(f, e.can_interface, f.stamp + hal.ros_offset_ns) << '\n';
         ++e.written;
       } catch (const std::exception&) {
