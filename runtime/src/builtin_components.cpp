@@ -102,6 +102,7 @@ void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, D
         kv_int(e.kind == HealthEntry::Kind::kCamera ? "dropped" : "rejected", static_cast<std::int64_t>(e.dropped));
         kv_int("faults", static_cast<std::int64_t>(e.errors));
         kv_int("stale_inputs", static_cast<std::int64_t>(e.stale_inputs));
+        if (e.kind == HealthEntry::Kind::kEncoders) kv_int("lost", static_cast<std::int64_t>(e.lost));
         break;
     }
     dds::set_length(st.values, n);
@@ -144,6 +145,7 @@ class HealthComponent final : public Component {
     last_wall_total_.assign(v.components.size(), 0.0);
     interval_wall_.assign(v.components.size(), 0.0);
     entry_of_.assign(v.components.size(), static_cast<std::uint32_t>(kMaxHealthEntries));
+    last_lost_.assign(encoders_.size(), 0);
     group_of_.assign(v.components.size(), v.groups.size());
     for (std::size_t gi = 0; gi < v.groups.size(); ++gi)
       for (const Component* m : v.groups[gi]->members()) {
@@ -270,7 +272,8 @@ class HealthComponent final : public Component {
       e->message = hal::to_string(st.state).data();
       if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) e->level = Level::kError;
     }
-    for (const auto& [name, enc] : encoders_) {
+    for (std::size_t k = 0; k < encoders_.size(); ++k) {
+      const auto& [name, enc] = encoders_[k];
       HealthEntry* e = add();
       if (e == nullptr) break;
       const hal::EncoderStats st = enc->stats();
@@ -279,12 +282,20 @@ class HealthComponent final : public Component {
       e->frames = st.samples;
       e->dropped = st.rejected;
       e->errors = st.faults;
+      e->lost = st.lost;
       e->message = hal::to_string(st.state).data();
       for (std::size_t w = 0; w < enc->wheel_count(); ++w) {
         if (enc->stale(w, cycle.now, stale_timeout_)) ++e->stale_inputs;
       }
-      if (st.state == hal::DeviceState::kFaulted) e->level = Level::kError;
-      else if (e->stale_inputs > 0) e->level = Level::kWarn;
+      if (st.state == hal::DeviceState::kFaulted) {
+        e->level = Level::kError;
+      } else if (e->stale_inputs > 0) {
+        e->level = Level::kWarn;
+      } else if (st.lost > last_lost_[k]) {
+        e->level = Level::kWarn;
+        e->message = "frames lost since last report (receive queue overflowed)";
+      }
+      last_lost_[k] = st.lost;
     }
     for (const auto& [name, imu] : imus_) {
       HealthEntry* e = add();
@@ -328,6 +339,7 @@ class HealthComponent final : public Component {
   std::vector<double> interval_wall_;           // ... and its wall time since then (ns)
   std::vector<std::uint32_t> entry_of_;         // its entry in this snapshot (kMaxHealthEntries: none)
   std::vector<std::size_t> group_of_;           // its rate group's index (groups.size(): none)
+  std::vector<std::uint64_t> last_lost_;        // per encoder set: frames lost at the last report
 };
 
 class JointStatePublisher final : public Component {

@@ -58,7 +58,7 @@ grep -q 'deluser --system' "$work/control/postrm" || fail "postrm does not remov
 # ---- 2. contents ----------------------------------------------------------------------------------
 dpkg-deb -c "$deb" | awk '{print $6}' | sed 's|^\./|/|; s|/$||' | sort >"$work/contents.txt"
 for f in /usr/bin/regolith /etc/regolith/mock_rover.yaml /etc/regolith/smart_rover.yaml \
-         /etc/regolith/wheel_leg_bench.yaml /etc/default/regolith /lib/systemd/system/regolith.service \
+         /etc/regolith/wheel_leg_bench.yaml /etc/default/regolith /lib/systemd/system/regolith.service /usr/lib/sysctl.d/60-regolith-can.conf \
          /usr/share/doc/regolith/copyright /usr/share/doc/regolith/changelog.Debian.gz \
          /usr/share/doc/regolith/README.md /usr/share/doc/regolith/README.deploy.md \
          /usr/share/man/man1/regolith.1.gz; do

@@ -215,6 +215,7 @@ TEST(HwSocketCan, AGarbageFloodIsCountedWhileAnUntouchedWheelKeepsItsValues) {
               checked, kSent);
   EXPECT_GT(during, 2000u) << "the flood did not last through the eight rear_left values";
   EXPECT_GT(enc.stats().rejected, 0u) << "random payloads on 0x101 are implausible wheel angles";
+  EXPECT_EQ(enc.stats().lost, b.rx_overflows) << "lost frames reach the health monitor through the plausibility check";
   EXPECT_FALSE(foreign) << "rear_left showed a value nobody sent";
   EXPECT_TRUE(checked == kSent || b.rx_overflows > 0)
       << "rear_left lost " << kSent - checked << " values and no receive-queue overflow was counted";

@@ -21,8 +21,8 @@ namespace {
 // A minimal encoder backend for these tests: wheels turning at a constant 1 rad/s.
 class ConstantEncoders final : public hal::WheelEncoders {
  public:
-  ConstantEncoders(std::string id, std::vector<std::string> wheels, Clock* clock)
-      : id_(std::move(id)), wheels_(std::move(wheels)), clock_(clock) {}
+  ConstantEncoders(std::string id, std::vector<std::string> wheels, Clock* clock, int lost_per_s = 0)
+      : id_(std::move(id)), wheels_(std::move(wheels)), clock_(clock), lost_per_s_(lost_per_s) {}
   const std::string& id() const override { return id_; }
   const std::vector<std::string>& wheel_names() const override { return wheels_; }
   void start() override { t0_ = clock_->now(); }
@@ -36,12 +36,18 @@ class ConstantEncoders final : public hal::WheelEncoders {
     a = to_seconds(t - t0_);
     return true;
   }
-  hal::EncoderStats stats() const override { return {}; }
+  hal::EncoderStats stats() const override {
+    hal::EncoderStats st;  // a bus whose receive queue loses lost_per_s frames in every second after the first
+    const auto seconds = static_cast<std::uint64_t>((clock_->now() - t0_) / kNsPerSec);
+    st.lost = static_cast<std::uint64_t>(lost_per_s_) * seconds;
+    return st;
+  }
 
  private:
   std::string id_;
   std::vector<std::string> wheels_;
   Clock* clock_;
+  int lost_per_s_ = 0;
   TimeNs t0_ = 0;
 };
 
@@ -53,7 +59,8 @@ void register_test_backends() {
   hal::BackendRegistry::instance().add_encoders(
       "constant", "test wheels at 1 rad/s", [](Params& p, const hal::DeviceContext& ctx) {
         auto wheels = p.require<std::vector<std::string>>("wheels");
-        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock);
+        const int lost = p.get<int>("lost_per_s", 0, {.min = 0, .doc = "frames the bus loses per second"});
+        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock, lost);
       });
 }
 
@@ -229,6 +236,27 @@ TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
   EXPECT_EQ(h->entries[2].level, Level::kOk);
   EXPECT_EQ(h->entries[2].heartbeat, 1001u);
   EXPECT_EQ(h->entries[4].kind, HealthEntry::Kind::kEncoders);
+}
+
+TEST(Application, HealthWarnsWhileABusLosesFramesAndCountsThem) {
+  // An encoder set whose receive queue overflows (EncoderStats::lost, e.g. SocketCAN at full bus
+  // load): its health entry carries the count and warns in every report in which it grew.
+  register_test_backends();
+  auto app = Application::load(
+      Params::load_string(replace(kGood, "wheels: [left, right]}", "wheels: [left, right], lost_per_s: 3}"), "rover.yaml"),
+      {.sim_time = true});
+  auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(10 * kNsPerSec, stop);
+  app->stop();
+  auto h = health.acquire();
+  ASSERT_TRUE(h);
+  ASSERT_EQ(h->entries[4].kind, HealthEntry::Kind::kEncoders);
+  EXPECT_EQ(h->entries[4].lost, 30u);
+  EXPECT_EQ(h->entries[4].level, Level::kWarn);
+  EXPECT_STREQ(h->entries[4].message, "frames lost since last report (receive queue overflowed)");
+  EXPECT_TRUE(h->all_critical_ok) << "lost frames are a warning, not a reason to stop the watchdog";
 }
 
 // ROS time: on the system clock, message stamps are CLOCK_REALTIME (the process clock plus the

@@ -316,6 +316,7 @@ void SocketCanEncoders::open_socket() {
     fail("bind to '" + cfg_.interface + "': " + errno_text(e));
   }
   fd_ = fd;
+  socket_drops_ = 0;  // a new socket counts its drops from 0
 }
 
 void SocketCanEncoders::close_socket() {
@@ -522,7 +523,9 @@ void SocketCanEncoders::run() {
           } else if (c->cmsg_type == SO_RXQ_OVFL) {
             std::uint32_t dropped = 0;
             std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
-            if (dropped > 0) c_->rx_overflows.store(std::max<std::uint64_t>(c_->rx_overflows.load(), dropped));
+            // the socket's running total: add what it dropped since the last frame
+            if (dropped != socket_drops_) c_->rx_overflows.fetch_add(static_cast<std::uint32_t>(dropped - socket_drops_));
+            socket_drops_ = dropped;
           }
         }
         f.stamp = kernel_rt > 0 && !clock_->simulated() ? std::min(kernel_rt + rt_to_proc, proc_now) : proc_now;
@@ -564,6 +567,7 @@ EncoderStats SocketCanEncoders::stats() const {
   s.rejected = c_->rejected.load();
   s.faults = c_->faults.load();
   s.stale_events = c_->stale_events.load();
+  s.lost = c_->rx_overflows.load();
   s.state = c_->state.load();
   return s;
 }

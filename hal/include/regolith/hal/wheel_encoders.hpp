@@ -24,6 +24,7 @@ struct EncoderStats {
   std::uint64_t rejected = 0;      ///< frames / lines that could not be decoded
   std::uint64_t faults = 0;        ///< bus or device faults
   std::uint64_t stale_events = 0;  ///< transitions of a wheel to stale
+  std::uint64_t lost = 0;          ///< frames lost before they were read (receive-queue / controller overflows)
   DeviceState state = DeviceState::kStopped;
 };
 

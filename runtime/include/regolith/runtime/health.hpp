@@ -30,6 +30,7 @@ struct HealthEntry {
   std::uint64_t stale_inputs = 0;      ///< inputs stale right now
   std::uint64_t frames = 0;            ///< devices: frames or samples delivered
   std::uint64_t dropped = 0;           ///< devices: dropped frames / rejected samples
+  std::uint64_t lost = 0;              ///< encoders: frames lost before they were read (bus receive queue)
   TimeNs period = 0;
   StatsSummary exec{};                 ///< execution time on the schedule clock
   StatsSummary wall{};                 ///< execution time on CLOCK_MONOTONIC

@@ -137,6 +137,7 @@ class SocketCanEncoders final : public WheelEncoders {
   std::unique_ptr<std::atomic<bool>[]> stale_;
   std::unique_ptr<std::atomic<TimeNs>[]> last_stamp_;
   int fd_ = -1;
+  std::uint32_t socket_drops_ = 0;  // the socket's own drop count (SO_RXQ_OVFL) last seen: reader thread
   int wake_fd_ = -1;
   std::thread thread_;
   std::atomic<bool> running_{false};
