@@ -196,6 +196,9 @@ class SamsComponent final : public runtime::Component {
     for (int k = 0; k < 2; ++k) process(gray, height);
 
     dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
+    // Only SAMS proper reads the DTM's heights (its terrain-structure channel); the other methods
+    // read the grey image.
+    if (method_ == Method::kSams && !trained_ && !peer_) ctx.want(common::kDtmChannel, common::kDtmHeight);
     rocks_out_ = &ctx.produce<RockFrame>(kRocksChannel, 4);
     const common::GridGeometry grid = grid_;
     prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [grid, nx, ny] {

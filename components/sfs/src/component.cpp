@@ -52,6 +52,7 @@ namespace {
 class SfsComponent final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
+    ctx_ = &ctx;
     cam_ = &ctx.camera(p, "camera");
     const hal::CameraFormat fmt = cam_->format();
     size_ = cv::Size(fmt.width, fmt.height);
@@ -144,6 +145,13 @@ class SfsComponent final : public runtime::Component {
     });
   }
 
+  void activate() override {
+    // Every consumer has declared what it reads by now. Nobody reads the heights (e.g.
+    // traversability on its ground grid, the preview): with the sun given, the full-frame solve is
+    // skipped and the grey image and the sun go out alone. An estimated sun needs the solve.
+    heights_wanted_ = ctx_->wanted(kDtmChannel, common::kDtmHeight);
+  }
+
   void step(const runtime::CycleInfo& c) override {
     hal::FrameLease lease;
     if (!cam_->latest(c.now, lease)) return;
@@ -167,7 +175,7 @@ class SfsComponent final : public runtime::Component {
     // Size and type are checked above and the light at configure: nothing here throws.
     if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
     else fr.image.copyTo(gray_);
-    const bool solve = !light_ || sun_in_view_;
+    const bool solve = !light_ || (sun_in_view_ && heights_wanted_);
     if (solve) {
       sfs_->compute(gray_, light_, res_);
       if (res_.status == SfsStatus::kUnreliableLight) {
@@ -184,7 +192,7 @@ class SfsComponent final : public runtime::Component {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
       d->light = res_.light;
-    } else {  // sun ahead of the camera: no image-frame SfS, the grey image and sun still go out
+    } else {  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
       fill_invalid(*d);
       d->light = *light_;
     }
@@ -196,7 +204,9 @@ class SfsComponent final : public runtime::Component {
     d->sequence = fr.sequence;
     d->camera = model_.get();
     out_->commit();
-    set_status(solve ? "ok" : "sun ahead of the camera: no image-frame SfS (ground-frame consumers only)");
+    set_status(solve            ? "ok"
+               : sun_in_view_ ? "no consumer reads the DTM heights: SfS not run (grey image and sun published)"
+                              : "sun ahead of the camera: no image-frame SfS (ground-frame consumers only)");
   }
 
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
@@ -209,7 +219,9 @@ class SfsComponent final : public runtime::Component {
     if (!l) return {};
     constexpr double kDeg = 180.0 / 3.14159265358979323846;
     char buf[128];
-    if (!l->solved) {
+    if (!l->solved && !heights_wanted_) {
+      std::snprintf(buf, sizeof buf, "no DTM solved: no consumer reads its heights (grey image and sun published)");
+    } else if (!l->solved) {
       std::snprintf(buf, sizeof buf, "no DTM: sun ahead of the camera (slant %.0f deg)", l->light.slant_rad * kDeg);
     } else {
       const double valid = 100.0 * cv::countNonZero(l->valid) / static_cast<double>(l->valid.total());
@@ -238,6 +250,8 @@ class SfsComponent final : public runtime::Component {
   std::unique_ptr<ShapeFromShading> sfs_;
   std::optional<LightDirection> light_;  ///< empty: estimated per frame
   bool sun_in_view_ = true;              ///< false: the sun is ahead of the camera (slant >= 90 deg)
+  bool heights_wanted_ = true;           ///< a consumer reads the DTM heights (activate())
+  runtime::Context* ctx_ = nullptr;
   const RoverCamera* camera_ = nullptr;
   const Sun* sun_ = nullptr;
   const hal::Imu* imu_ = nullptr;  ///< rover.imu: attitude per frame (null: level)

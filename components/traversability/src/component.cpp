@@ -101,6 +101,7 @@ class TraversabilityComponent final : public runtime::Component {
     }
     const GridMap proto = full_;
     dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
+    if (!ground_) ctx.want(common::kDtmChannel, common::kDtmHeight);  // the image path maps the sfs heights
     out_ = &ctx.produce<GridMapFrame>(kGridMapChannel, 4, [proto] {
       GridMapFrame f;
       f.map = proto;

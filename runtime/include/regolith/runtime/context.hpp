@@ -4,6 +4,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <typeindex>
 #include <vector>
@@ -130,6 +131,12 @@ class Context {
     return ref;
   }
 
+  /// Declares that the component being configured reads `part` of channel `name`'s payload (e.g.
+  /// the "height" of terrain/dtm). A producer whose parts cost time asks wanted() in activate()
+  /// (every component is configured by then) and skips the work nobody reads.
+  void want(const std::string& name, const std::string& part) { wanted_.insert(name + '\n' + part); }
+  bool wanted(const std::string& name, const std::string& part) const { return wanted_.count(name + '\n' + part) > 0; }
+
   /// The loader: which component is configuring now (its name and "file:line:col"), so that
   /// produce / consume / camera / encoders record its ports.
   void begin_component(const std::string& name, const std::string& where) {
@@ -190,6 +197,7 @@ class Context {
   hal::Device& lookup(const std::string& kind, Params& p, std::string_view key);
   std::map<std::string, std::map<std::string, std::unique_ptr<hal::Device>>> devices_;  ///< kind -> name
   std::map<std::string, ChannelEntry> channels_;
+  std::set<std::string> wanted_;  // "channel\npart" declared by want()
   dds::Participant* dds_ = nullptr;
   const SystemView* system_ = nullptr;
 };

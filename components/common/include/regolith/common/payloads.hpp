@@ -19,12 +19,18 @@ namespace regolith::common {
 inline constexpr const char* kDtmChannel = "terrain/dtm";
 
 /// One DTM per camera frame.
+/// The part of a DtmFrame that costs a full-frame SfS solve: consumers that read `height` / `valid`
+/// declare it in configure (ctx.want(kDtmChannel, kDtmHeight)); when nobody does, the sfs component
+/// publishes the grey image and the sun only (solved = false), as for a sun ahead of the camera.
+inline constexpr const char* kDtmHeight = "height";
+
 struct DtmFrame {
   cv::Mat gray;    ///< CV_8UC1 grey image as captured (before vignetting correction)
   cv::Mat height;  ///< CV_32FC1 relative height, UP positive, pixel units (sfs.hpp conventions)
   cv::Mat valid;   ///< CV_8UC1, 255 = usable pixel
-  /// false when no image-frame SfS was run (the sun is ahead of the camera, slant >= 90 deg):
-  /// height is NaN and valid 0, gray and light are set (traversability's ground path uses them).
+  /// false when no image-frame SfS was run (the sun is ahead of the camera, slant >= 90 deg, or no
+  /// consumer reads the heights): height is NaN and valid 0, gray and light are set
+  /// (traversability's ground path uses them).
   bool solved = true;
   sfs::LightDirection light;       ///< light used (camera image frame); slant >= pi/2 when !solved
   bool light_estimated = false;    ///< true when estimated from the image
