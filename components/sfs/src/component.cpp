@@ -187,13 +187,14 @@ class SfsComponent final : public runtime::Component {
     DtmFrame* d = out_->begin_write();
     if (d == nullptr) return;
     gray_.copyTo(d->gray);
+    const bool slot_was_solved = d->solved;  // what this slot held from its last write
     d->solved = solve;
     if (solve) {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
       d->light = res_.light;
     } else {  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
-      fill_invalid(*d);
+      if (slot_was_solved) fill_invalid(*d);  // a slot last written unsolved is NaN / 0 already
       d->light = *light_;
     }
     d->light_estimated = res_.light_estimated;
