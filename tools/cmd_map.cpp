@@ -2,28 +2,51 @@
 // (components/mapping): ground visual odometry fused with the wheel odometry of frames.csv, each
 // frame's terrain fused into one world-frame map. Writes map.json, elevation.tiff, hazard.tiff
 // (+ the other layers), rocks.csv, odometry.csv and overview.png.
+// regolith map REC.mcap --out DIR: the same from a HAL recording (`regolith run --record`): the
+// frames of one camera, the wheel odometry integrated from the recorded encoder samples, and the
+// camera, wheels and sun of the recorded deployment.
 // regolith eval map DRIVE_DIR --map DIR: scores such an output against the drive's truth files.
 #include <spdlog/spdlog.h>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/mapping/config.hpp"
 #include "regolith/mapping/drive_io.hpp"
 #include "regolith/mapping/evaluate.hpp"
+#include "regolith/mapping/wheel_odometry.hpp"
+#ifdef REGOLITH_HAVE_HAL_RECORD
+#include "regolith/record/hal_messages.hpp"
+#include "regolith/record/hal_recorder.hpp"
+#include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/recording.hpp"
+#endif
 
 namespace regolith::cli {
 namespace {
+namespace fs = std::filesystem;
 
 struct MapArgs {
   std::string drive;
   std::string out;
+  std::string device;    ///< recordings: the camera (default: the terrain_map component's, else the only one)
+  std::string encoders;  ///< recordings: the encoder set (default: the terrain_map component's, else the wheels')
   bool wheel_only = false;
   double resolution_m = 0.04;
   bool quiet = false;
@@ -56,6 +79,153 @@ mapping::DriveMapperParams mapper_params(const MapArgs& a, bool resolution_given
   return p;
 }
 
+#ifdef REGOLITH_HAVE_HAL_RECORD
+/// `key` of the first terrain_map component of the recorded deployment ("" when there is none).
+std::string terrain_map_key(Params& root, const std::string& key) {
+  if (!root.has("components")) return {};
+  Params comps = root.child("components");
+  for (const std::string& name : comps.keys()) {
+    Params c = comps.child(name);
+    if (c.has("type") && c.get<std::string>("type", "") == "terrain_map" && c.has(key)) return c.get<std::string>(key, "");
+  }
+  return {};
+}
+
+/// A HAL recording as a drive: the frames of one camera written as PNG into `out`/frames (and
+/// `out`/frames.csv) with the skid-steer wheel odometry (rover.wheels of the recorded deployment)
+/// at each frame's capture time, in the odometry frame of the recording's start (x forward, y
+/// left, z up: the frame the terrain_map component publishes in).
+mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs& a) {
+  const std::string name = file.string();
+  const record::RecordedDeployment dep = record::recorded_deployment(file);
+  if (dep.text.empty())
+    throw InputError(name + ": no deployment recorded (a `regolith run --record` file carries its deployment YAML)");
+  Params root = Params::load_string(dep.text, dep.name);
+  const RoverDescription rover = read_rover_description(root, fs::path(dep.name).parent_path().string());
+  if (!rover.sun) throw InputError(dep.name + ": the recorded deployment has no `sun:` (the map needs it for shadows)");
+
+  std::string device = !a.device.empty() ? a.device : terrain_map_key(root, "camera");
+  std::string encoders = !a.encoders.empty() ? a.encoders : terrain_map_key(root, "encoders");
+  if (encoders.empty()) {
+    for (const Wheel& w : rover.wheels) {
+      if (encoders.empty()) encoders = w.encoders;
+      else if (w.encoders != encoders)
+        throw InputError(dep.name + ": rover.wheels report to several encoder sets: choose one with --encoders");
+    }
+  }
+  if (device.empty()) {
+    if (rover.cameras.size() != 1)
+      throw InputError(dep.name + ": " + std::to_string(rover.cameras.size()) +
+                       " cameras described and no terrain_map component names one: choose one with --device");
+    device = rover.cameras.begin()->first;
+  }
+  const RoverCamera* rc = rover.camera(device);
+  if (rc == nullptr) throw InputError(dep.name + ": no rover.cameras." + device + " in the recorded deployment");
+  std::vector<mapping::OdometryWheel> wheels;
+  std::map<std::string, std::size_t> wheel_of;  // joint name -> index in `wheels`
+  double radius = 0;
+  for (const Wheel& w : rover.wheels) {
+    if (w.encoders != encoders) continue;
+    wheel_of[w.name] = wheels.size();
+    wheels.push_back({w.y_m, w.radius_m});
+    radius += w.radius_m;
+  }
+  if (wheels.empty())
+    throw InputError(dep.name + ": no rover.wheels entry reports to encoder set '" + encoders + "' (--encoders)");
+  mapping::SkidSteerOdometry odometry(wheels);  // FieldError naming the wheels when one side is missing
+
+  // The recording: frames to PNG files as they come, samples kept (a few bytes each).
+  const fs::path out(a.out);
+  fs::create_directories(out / "frames");
+  struct Sample {
+    TimeNs stamp;
+    std::size_t wheel;
+    double angle;
+  };
+  std::vector<Sample> samples;
+  std::vector<std::pair<TimeNs, fs::path>> frames;
+  const std::string cam_topic = record::hal_camera_topic(device);
+  const std::string enc_topic = record::hal_samples_topic("encoders", encoders);
+  record::McapReader reader(file);
+  const auto problems = reader.for_each_message([&](const record::MessageView& m) {
+    if (m.channel.topic == cam_topic) {
+      record::DecodedImage d;
+      try {
+        d = record::decode_image(m.data);
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {} frame {}: {}; skipped", name, cam_topic, frames.size(), e.what());
+        return;
+      }
+      cv::Mat gray = d.image;
+      if (gray.channels() == 3) cv::cvtColor(d.image, gray, cv::COLOR_BGR2GRAY);
+      char fn[32];
+      std::snprintf(fn, sizeof fn, "%05zu.png", frames.size());
+      const fs::path p = out / "frames" / fn;
+      if (!cv::imwrite(p.string(), gray)) throw InputError(p.string() + ": cannot write");
+      frames.emplace_back(d.stamp, p);
+    } else if (m.channel.topic == enc_topic) {
+      try {
+        const record::DecodedWheelAngle w = record::decode_wheel_angle(m.data);
+        const auto it = wheel_of.find(w.wheel);
+        if (it != wheel_of.end() && std::isfinite(w.angle)) samples.push_back({w.stamp, it->second, w.angle});
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {}: {}; sample skipped", name, enc_topic, e.what());
+      }
+    }
+  });
+  for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
+  if (frames.empty()) throw InputError(name + ": no frames of camera '" + device + "' (" + cam_topic + ")");
+  if (samples.empty()) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
+  std::stable_sort(frames.begin(), frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::stable_sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) { return x.stamp < y.stamp; });
+
+  // Odometry at each frame: every sample up to the frame's capture time, once each wheel has one.
+  mapping::RecordedDrive drive;
+  drive.dir = out;
+  drive.camera = common::camera_model_of(*rc);
+  drive.mount = {rc->mount.x_m, rc->mount.y_m, rc->mount.yaw_rad};
+  const Vec3 sun = rover.sun->local_level();
+  drive.sun_azimuth_deg = std::atan2(sun.x, sun.y) * 180.0 / 3.14159265358979323846;  // from +y towards +x
+  drive.sun_elevation_deg = std::asin(std::clamp(sun.z, -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
+  drive.wheel_radius_m = radius / static_cast<double>(wheels.size());
+  std::vector<double> angle(wheels.size(), 0.0);
+  std::vector<bool> have(wheels.size(), false);
+  std::size_t seen = 0, next = 0;
+  std::ofstream csv(out / "frames.csv");
+  csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
+  for (const auto& [stamp, path] : frames) {
+    for (; next < samples.size() && samples[next].stamp <= stamp; ++next) {
+      const Sample& sm = samples[next];
+      angle[sm.wheel] = sm.angle;
+      if (!have[sm.wheel]) have[sm.wheel] = true, ++seen;
+      if (seen < wheels.size()) continue;
+      if (!odometry.started()) odometry.reset(angle);
+      else odometry.update(angle);
+    }
+    if (!odometry.started()) {
+      spdlog::warn("{}: frame at {:.3f} s precedes the first sample of every wheel; skipped", name,
+                   static_cast<double>(stamp - frames.front().first) / 1e9);
+      continue;
+    }
+    mapping::DriveFrame f;
+    f.index = static_cast<int>(drive.frames.size());
+    f.file = path;
+    f.t_s = static_cast<double>(stamp - frames.front().first) / 1e9;
+    f.odometry = odometry.pose();
+    f.line = f.index + 2;
+    char row[256];
+    std::snprintf(row, sizeof row, "%d,frames/%s,%.6f,%.6f,%.6f,%.6f\n", f.index, path.filename().c_str(), f.t_s,
+                  f.odometry.x, f.odometry.y, f.odometry.yaw);
+    csv << row;
+    drive.frames.push_back(f);
+  }
+  if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
+  std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), wheel path %.3f m\n", name.c_str(),
+              device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples.size(), odometry.distance());
+  return drive;
+}
+#endif
+
 struct EvalMapArgs {
   std::string drive;
   std::string map;
@@ -65,7 +235,11 @@ const bool registered = add_command([](CLI::App& app) {
   auto a = std::make_shared<MapArgs>();
   CLI::App* cmd = app.add_subcommand(
       "map", "drive-long terrain map of a recorded drive: corrected odometry + world-frame map (TIFF, CSV, PNG)");
-  cmd->add_option("drive", a->drive, "drive directory: input.json, frames.csv, frames/")->required();
+  cmd->add_option("drive", a->drive,
+                  "drive directory (input.json, frames.csv, frames/) or a HAL recording FILE.mcap (`regolith run --record`)")
+      ->required();
+  cmd->add_option("--device", a->device, "recordings: the camera (default: the terrain_map component's)");
+  cmd->add_option("--encoders", a->encoders, "recordings: the encoder set of the wheel odometry (default: the terrain_map component's)");
   cmd->add_option("--out,-o", a->out, "output directory (created)")->required();
   CLI::Option* res_opt = cmd->add_option("--resolution", a->resolution_m, "m per map cell (map_resolution_m)")
                              ->capture_default_str()
@@ -76,7 +250,17 @@ const bool registered = add_command([](CLI::App& app) {
                   "YAML file of mapper parameters: the keys of the terrain_map component (components/mapping/README.md)");
   cmd->add_option("--set", a->sets, "one mapper parameter, key=value (repeatable; after --config), e.g. rock_min_frames=4");
   cmd->callback([a, res_opt] {
-    const mapping::RecordedDrive drive = mapping::read_drive(a->drive);
+    mapping::RecordedDrive drive;
+    if (fs::path(a->drive).extension() == ".mcap") {
+#ifdef REGOLITH_HAVE_HAL_RECORD
+      drive = drive_from_recording(a->drive, *a);
+#else
+      throw ConfigError("map: this build reads no recordings (built without the HAL recording)");
+#endif
+    } else {
+      if (!a->device.empty() || !a->encoders.empty()) throw ConfigError("map: --device and --encoders are for recordings (.mcap)");
+      drive = mapping::read_drive(a->drive);
+    }
     const mapping::DriveMapperParams p = mapper_params(*a, res_opt->count() > 0);
     const auto s = mapping::map_drive(drive, p, a->out, [&](const mapping::DriveFrame& f, const mapping::FrameReport& r) {
       if (a->quiet) return;
