@@ -663,5 +663,32 @@ TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersOnRosDiscoveryInfo) {
   // every writer's prefix
   EXPECT_TRUE(std::all_of(own.begin() + 16, own.end(), [](std::uint8_t b) { return b == 0; }));
   EXPECT_TRUE(std::equal(own.begin(), own.begin() + 12, writers[0].begin()));
+
+  // A writer made after the announcement (a recorder or the live view starting later) is listed
+  // without another call: the node is published again with three writers.
+  auto late = pp_->make_outbox<m::diagnostic_msgs::DiagnosticArray>(
+      "late_diagnostics", rd::QosProfile::diagnostics(), {}, [](m::diagnostic_msgs::DiagnosticArray &) {});
+  writers.clear();
+  ASSERT_TRUE(tst::eventually([&] {
+    void *buf[4] = {};
+    dds_sample_info_t info[4];
+    const int n = dds_take(rd_, buf, info, 4, 4);
+    for (int i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      const auto *s = static_cast<const Info *>(buf[i]);
+      if (!std::equal(own.begin(), own.end(), s->gid.data) || s->node_entities_info_seq._length < 1) continue;
+      const auto &node = s->node_entities_info_seq._buffer[0];
+      EXPECT_STREQ(node.node_name, "_9_test_node");
+      writers.clear();
+      for (std::uint32_t k = 0; k < node.writer_gid_seq._length; ++k) {
+        std::array<std::uint8_t, 24> g{};
+        std::copy_n(node.writer_gid_seq._buffer[k].data, 24, g.begin());
+        writers.push_back(g);
+      }
+    }
+    if (n > 0) dds_return_loan(rd_, buf, n);
+    return writers.size() == 3;
+  }));
+  EXPECT_EQ(writers[2], rd::Participant::gid_of(late->writer()));
   dds_delete(obs);
 }

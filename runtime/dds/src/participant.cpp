@@ -85,6 +85,7 @@ std::string Participant::announce_node(const std::string &node_name) {
   using Node = msgs::rmw_dds_common::NodeEntitiesInfo;
   using Gid = msgs::rmw_dds_common::Gid;
   std::lock_guard lock(mutex_);
+  announced_ = node_name;
   if (discovery_writer_ == 0) {
     const dds_entity_t tp =
         dds_create_topic(participant_, MsgTraits<Info>::descriptor(), "ros_discovery_info", nullptr, nullptr);
@@ -123,8 +124,15 @@ std::string Participant::announce_node(const std::string &node_name) {
 }
 
 void Participant::attach(std::shared_ptr<OutboxBase> box) {
-  std::lock_guard lock(mutex_);
-  outboxes_.push_back(std::move(box));
+  std::string again;
+  bool announced = false;
+  {
+    std::lock_guard lock(mutex_);
+    outboxes_.push_back(std::move(box));
+    announced = discovery_writer_ != 0;
+    if (announced) again = announced_;
+  }
+  if (announced) announce_node(again);  // the node's writer list now includes it
 }
 
 void Participant::start() {

@@ -83,8 +83,9 @@ public:
   /// sample on the DDS topic "ros_discovery_info" (no rt/ prefix; reliable, transient-local,
   /// keep-last 1) holding the participant's gid and the node with every outbox's writer gid
   /// (gid = the entity's 16-byte DDS GUID, zero-padded to 24 bytes, as in ROS 2 Humble). Then
-  /// `ros2 node list` lists the node and `ros2 topic info -v` names it as the publisher. Call
-  /// after the outboxes are made; a later call publishes the current set again. A name that is
+  /// `ros2 node list` lists the node and `ros2 topic info -v` names it as the publisher. Once
+  /// announced, every outbox made later publishes the set again (a writer made after start is
+  /// listed too); a later call renames the node and publishes it. A name that is
   /// not a valid ROS node name is made one (other characters -> '_', a leading digit gets '_').
   /// Non-RT. Returns the node's full name. Throws DdsError when Cyclone refuses.
   std::string announce_node(const std::string &node_name);
@@ -131,6 +132,7 @@ private:
   bool lossless_ = false;
   dds_entity_t participant_ = 0;
   dds_entity_t discovery_writer_ = 0;  // ros_discovery_info (announce_node)
+  std::string announced_;              // the node name given to announce_node (empty: not announced)
   std::shared_ptr<Waker> waker_ = std::make_shared<Waker>();
 
   mutable std::mutex mutex_; // outboxes_, topics_ (never taken on the RT side)
