@@ -219,9 +219,10 @@ TEST(HwSocketCan, AGarbageFloodIsCountedWhileAnUntouchedWheelKeepsItsValues) {
   EXPECT_FALSE(foreign) << "rear_left showed a value nobody sent";
   EXPECT_TRUE(checked == kSent || b.rx_overflows > 0)
       << "rear_left lost " << kSent - checked << " values and no receive-queue overflow was counted";
-  // The bus is read as before once the flood is over.
-  ASSERT_EQ(sh("cansend vcan0 18FF0102#3412"), 0);
-  EXPECT_TRUE(wait_angle(enc, 2, 0x1234 * 0.01, 2.0));
+  // The bus is read as before once the flood is over: the next count (90, a plausible 0.1 rad step
+  // from the last value sent; a far jump would be rejected by the rate check when it comes fast).
+  ASSERT_EQ(sh("cansend vcan0 18FF0102#5A00"), 0);
+  EXPECT_TRUE(wait_angle(enc, 2, 90 * 0.01, 2.0)) << "rear_left did not read 90 counts after the flood";
   EXPECT_EQ(raw->stats().state, DeviceState::kStreaming);
   enc.stop();
 }
