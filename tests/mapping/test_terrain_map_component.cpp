@@ -206,11 +206,12 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
   DriveMapperParams defaults;
   defaults.parallax_spacing_m = 0.15;
   regolith::Params p = regolith::Params::load_string(
-      "track_rocks: false\nrock_min_frames: 5\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
+      "track_rocks: false\nrock_min_frames: 5\nrock_merge_m: 0.4\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
   const DriveMapperParams got = regolith::mapping::read_drive_mapper_params(p, defaults);
   p.finish();
   EXPECT_FALSE(got.tracks.enabled);
   EXPECT_EQ(got.map.rock_min_frames, 5);
+  EXPECT_DOUBLE_EQ(got.map.rock_merge_m, 0.4);
   EXPECT_EQ(got.sighting_tilt_window, 3);
   EXPECT_DOUBLE_EQ(got.map.resolution_m, 0.02);
   EXPECT_DOUBLE_EQ(got.parallax_spacing_m, 0.15);  // not given: the caller's default

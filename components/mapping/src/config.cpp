@@ -26,6 +26,9 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
        .doc = "std of a rock contact's height about the ground plane under the camera (the triangulation's prior)"});
   mp.map.rock_min_frames = p.get<int>("rock_min_frames", mp.map.rock_min_frames,
                                       {.min = 1, .max = 1000, .doc = "frames a tracked rock must be sighted in to be reported"});
+  mp.map.rock_merge_m = p.get<double>(
+      "rock_merge_m", mp.map.rock_merge_m,
+      {.unit = "m", .min = 0.0, .max = 5.0, .doc = "reported rocks closer than this are one rock (the stronger kept)"});
   mp.sighting_tilt_window = p.get<int>(
       "sighting_tilt_window", mp.sighting_tilt_window,
       {.min = 1, .max = 64, .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
