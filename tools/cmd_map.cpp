@@ -97,7 +97,8 @@ std::string terrain_map_key(Params& root, const std::string& key) {
 /// left, z up: the frame the terrain_map component publishes in).
 mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs& a) {
   const std::string name = file.string();
-  const record::RecordedDeployment dep = record::recorded_deployment(file);
+  record::McapReader reader(file);
+  const record::RecordedDeployment dep = record::recorded_deployment(reader, file);
   if (dep.text.empty())
     throw InputError(name + ": no deployment recorded (a `regolith run --record` file carries its deployment YAML)");
   Params root = Params::load_string(dep.text, dep.name);
@@ -146,7 +147,6 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   std::vector<std::pair<TimeNs, fs::path>> frames;
   const std::string cam_topic = record::hal_camera_topic(device);
   const std::string enc_topic = record::hal_samples_topic("encoders", encoders);
-  record::McapReader reader(file);
   const auto problems = reader.for_each_message([&](const record::MessageView& m) {
     if (m.channel.topic == cam_topic) {
       record::DecodedImage d;
@@ -220,6 +220,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     drive.frames.push_back(f);
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
+  mapping::write_drive_description(drive, out / "input.json");  // `out` is now a drive directory too
   std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), wheel path %.3f m\n", name.c_str(),
               device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples.size(), odometry.distance());
   return drive;

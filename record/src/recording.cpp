@@ -10,9 +10,7 @@
 
 namespace regolith::record {
 
-namespace {
-
-RecordedDeployment deployment_of(McapReader& reader, const std::filesystem::path& file) {
+RecordedDeployment recorded_deployment(McapReader& reader, const std::filesystem::path& file) {
   RecordedDeployment d;
   for (const auto& a : reader.info().attachments) {
     if (a.media_type != "application/yaml") continue;
@@ -24,11 +22,9 @@ RecordedDeployment deployment_of(McapReader& reader, const std::filesystem::path
   return d;
 }
 
-}  // namespace
-
 RecordedDeployment recorded_deployment(const std::filesystem::path& file) {
   McapReader reader(file);
-  return deployment_of(reader, file);
+  return recorded_deployment(reader, file);
 }
 
 RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std::string& device, std::size_t index) {
@@ -83,7 +79,7 @@ RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std
     if (!problems.empty()) why += " (" + reader.describe(problems.front()) + ")";
     throw InputError(why);
   }
-  out.deployment = deployment_of(reader, file);
+  out.deployment = recorded_deployment(reader, file);
   return out;
 }
 

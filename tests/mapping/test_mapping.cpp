@@ -736,6 +736,43 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   }
 }
 
+TEST(RecordedDrive, ADescriptionWrittenIsReadBackFieldForField) {
+  const fs::path d = temp_dir("describe");
+  RecordedDrive a;
+  a.camera.fx = 410.5;
+  a.camera.fy = 411.25;
+  a.camera.cx = 319.5;
+  a.camera.cy = 241.0;
+  a.camera.width = 640;
+  a.camera.height = 480;
+  a.camera.mount_height_m = 0.62;
+  a.camera.pitch_rad = 0.41;
+  a.camera.roll_rad = -0.02;
+  a.mount = {0.25, -0.05, 0.1};
+  a.sun_azimuth_deg = 231.5;
+  a.sun_elevation_deg = 17.25;
+  a.wheel_radius_m = 0.11;
+  write_drive_description(a, d / "input.json");
+  std::ofstream(d / "frames.csv") << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/0.png,0,0,0,0\n";
+  const RecordedDrive b = read_drive(d);
+  EXPECT_DOUBLE_EQ(b.camera.fx, 410.5);
+  EXPECT_DOUBLE_EQ(b.camera.fy, 411.25);
+  EXPECT_DOUBLE_EQ(b.camera.cx, 319.5);
+  EXPECT_DOUBLE_EQ(b.camera.cy, 241.0);
+  EXPECT_EQ(b.camera.width, 640);
+  EXPECT_EQ(b.camera.height, 480);
+  EXPECT_DOUBLE_EQ(b.camera.mount_height_m, 0.62);
+  EXPECT_NEAR(b.camera.pitch_rad, 0.41, 1e-12);
+  EXPECT_NEAR(b.camera.roll_rad, -0.02, 1e-12);
+  EXPECT_DOUBLE_EQ(b.mount.x_m, 0.25);
+  EXPECT_DOUBLE_EQ(b.mount.y_m, -0.05);
+  EXPECT_NEAR(b.mount.yaw_rad, 0.1, 1e-12);
+  EXPECT_DOUBLE_EQ(b.sun_azimuth_deg, 231.5);
+  EXPECT_DOUBLE_EQ(b.sun_elevation_deg, 17.25);
+  EXPECT_DOUBLE_EQ(b.wheel_radius_m, 0.11);
+  EXPECT_THROW(write_drive_description(a, d / "absent" / "input.json"), InputError);
+}
+
 TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   const fs::path d = temp_dir("skip");
   Rig rig(6);

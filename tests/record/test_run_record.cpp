@@ -523,6 +523,15 @@ TEST_F(RunRecord, MapReadsARecordingWithItsWheelOdometry) {
   for (const char* f : {"map.json", "elevation.tiff", "hazard.tiff", "rocks.csv", "odometry.csv", "frames.csv",
                         "frames/00000.png", "frames/00012.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
+  // The frames, frames.csv and input.json written beside the map are a drive directory: mapped
+  // again from there, the same 13 frames.
+  const fs::path again = dir_ / "map_again";
+  r = run("map " + out.string() + " --out " + again.string() + " -q");
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream odo(again / "odometry.csv");
+  int rows = -1;
+  for (std::string l; std::getline(odo, l);) rows += !l.empty();
+  EXPECT_EQ(rows, 13) << "poses of the drive directory written from the recording";
   // The last frame's wheel pose: along the arc, heading turned left.
   std::ifstream csv(out / "frames.csv");
   std::string line, last;

@@ -144,6 +144,20 @@ RecordedDrive read_drive(const fs::path& dir) {
   return d;
 }
 
+void write_drive_description(const RecordedDrive& d, const fs::path& file) {
+  const direct_depth::CameraModel& c = d.camera;
+  const nlohmann::json j = {
+      {"camera",
+       {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"width", c.width}, {"height", c.height},
+        {"mount_height_m", c.mount_height_m}, {"pitch_deg", c.pitch_rad / kDeg}, {"roll_deg", c.roll_rad / kDeg},
+        {"mount_x_m", d.mount.x_m}, {"mount_y_m", d.mount.y_m}, {"mount_yaw_deg", d.mount.yaw_rad / kDeg}}},
+      {"sun", {{"azimuth_deg", d.sun_azimuth_deg}, {"elevation_deg", d.sun_elevation_deg}}},
+      {"wheel", {{"radius_m", d.wheel_radius_m}}}};
+  std::ofstream f(file);
+  f << j.dump(2) << "\n";
+  if (!f) throw InputError(file.string() + ": cannot write the drive description");
+}
+
 DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& params, const fs::path& out,
                           const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
   DriveMapSummary sum;

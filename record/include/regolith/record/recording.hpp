@@ -20,6 +20,9 @@ struct RecordedDeployment {
   std::string name;
 };
 RecordedDeployment recorded_deployment(const std::filesystem::path& file);
+class McapReader;
+/// The same from a reader already open on `file` (a tool that also reads its messages opens it once).
+RecordedDeployment recorded_deployment(McapReader& reader, const std::filesystem::path& file);
 
 struct RecordedFrame {
   std::string device;   ///< camera device id

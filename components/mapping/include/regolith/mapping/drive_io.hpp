@@ -44,6 +44,11 @@ struct RecordedDrive {
 /// the field; a bad frames.csv row names its line.
 RecordedDrive read_drive(const std::filesystem::path& dir);
 
+/// Writes `drive`'s description as `file` (input.json: camera, mount, sun, wheel), the inverse of
+/// read_drive: a drive assembled elsewhere (e.g. from a HAL recording) becomes a drive directory
+/// that `regolith map DIR` reads. InputError naming the file when it cannot be written.
+void write_drive_description(const RecordedDrive& drive, const std::filesystem::path& file);
+
 struct DriveMapSummary {
   DriveCounters counters;
   long skipped = 0;                  ///< frames not used (unreadable, wrong size, out of order)
