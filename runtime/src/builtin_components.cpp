@@ -141,9 +141,9 @@ class HealthComponent final : public Component {
     unchanged_.assign(v.components.size(), 0);
     last_slips_.assign(v.groups.size(), 0);
     slipped_.assign(v.groups.size(), 0);
-    last_wall_count_.assign(v.components.size(), 0);
-    last_wall_total_.assign(v.components.size(), 0.0);
-    interval_wall_.assign(v.components.size(), 0.0);
+    last_exec_count_.assign(v.components.size(), 0);
+    last_exec_total_.assign(v.components.size(), 0.0);
+    interval_exec_.assign(v.components.size(), 0.0);
     entry_of_.assign(v.components.size(), static_cast<std::uint32_t>(kMaxHealthEntries));
     last_lost_.assign(encoders_.size(), 0);
     group_of_.assign(v.components.size(), v.groups.size());
@@ -233,11 +233,13 @@ class HealthComponent final : public Component {
         e->level = Level::kWarn;
         e->message = "stale input";
       }
-      // This report's wall time of the component (the histogram is cumulative).
-      const auto total = static_cast<double>(e->wall.mean) * static_cast<double>(e->wall.count);
-      interval_wall_[ci] = e->wall.count > last_wall_count_[ci] ? total - last_wall_total_[ci] : 0.0;
-      last_wall_count_[ci] = e->wall.count;
-      last_wall_total_[ci] = total;
+      // This report's execution time of the component on its group's clock (the histogram is
+      // cumulative): what makes a group slip (in real time its wall time; under the simulated
+      // clock the simulated execution time a member charged, e.g. cpu_load).
+      const auto total = static_cast<double>(e->exec.mean) * static_cast<double>(e->exec.count);
+      interval_exec_[ci] = e->exec.count > last_exec_count_[ci] ? total - last_exec_total_[ci] : 0.0;
+      last_exec_count_[ci] = e->exec.count;
+      last_exec_total_[ci] = total;
       entry_of_[ci] = s->count - 1;
     }
     // The culprit of each group that slipped since the last report: the member that took the most
@@ -247,7 +249,7 @@ class HealthComponent final : public Component {
       std::size_t worst = v.components.size();
       for (std::size_t ci = 0; ci < v.components.size(); ++ci) {
         if (group_of_[ci] != gi) continue;
-        if (entry_of_[ci] < s->count && (worst == v.components.size() || interval_wall_[ci] > interval_wall_[worst]))
+        if (entry_of_[ci] < s->count && (worst == v.components.size() || interval_exec_[ci] > interval_exec_[worst]))
           worst = ci;
       }
       if (worst == v.components.size()) continue;
@@ -334,9 +336,9 @@ class HealthComponent final : public Component {
   std::vector<std::uint64_t> unchanged_;
   std::vector<std::uint64_t> last_slips_;
   std::vector<unsigned char> slipped_;          // per group: slipped since the last report
-  std::vector<std::uint64_t> last_wall_count_;  // per component: its wall histogram at the last report
-  std::vector<double> last_wall_total_;
-  std::vector<double> interval_wall_;           // ... and its wall time since then (ns)
+  std::vector<std::uint64_t> last_exec_count_;  // per component: its exec histogram at the last report
+  std::vector<double> last_exec_total_;
+  std::vector<double> interval_exec_;           // ... and its execution time since then (ns)
   std::vector<std::uint32_t> entry_of_;         // its entry in this snapshot (kMaxHealthEntries: none)
   std::vector<std::size_t> group_of_;           // its rate group's index (groups.size(): none)
   std::vector<std::uint64_t> last_lost_;        // per encoder set: frames lost at the last report
@@ -466,40 +468,64 @@ class ImuPublisher final : public Component {
   std::shared_ptr<dds::Outbox<ImuMsg>> msg_;
 };
 
-/// Load for fault drills (tests/storm, a bench's watchdog check): spins its thread's CPU for
-/// `busy_ms` every cycle (more than the group's period: a component that overruns every cycle) and,
-/// with `stall_after_s`, once stops returning from step for `stall_s` (a component that is really
-/// stuck). Both on the real clocks (thread CPU time, CLOCK_MONOTONIC): drills run in real time.
-/// The one component allowed to block in step: that is its purpose.
+/// Load for fault drills (tests/storm, tests/soak, a bench's watchdog check): spends `busy_ms` in
+/// every `every`-th cycle (more than the group's period: a component that overruns) and, with
+/// `stall_after_s`, once stops returning from step for `stall_s` (a component that is really
+/// stuck). On the real clock both are real: thread CPU time spun, CLOCK_MONOTONIC slept (the one
+/// component allowed to block in step: that is its purpose). On the simulated clock they are
+/// simulated execution time: the step advances the clock by that much, so the cycle ends late
+/// exactly as a slow member would, without spending it (the lockstep executor runs every group on
+/// one thread: the other groups start late by as much, and slip only if that pushes them past
+/// their own period).
 class CpuLoad final : public Component {
  public:
-  void configure(Params& p, Context&) override {
+  void configure(Params& p, Context& ctx) override {
     busy_ = static_cast<TimeNs>(std::llround(
-        p.get<double>("busy_ms", 1.0, {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "CPU time spent every cycle"}) * 1e6));
+        p.get<double>("busy_ms", 1.0, {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "time spent in a busy cycle"}) * 1e6));
+    every_ = p.get<std::int64_t>("every", 1, {.unit = "cycles", .min = 1, .max = std::int64_t{1} << 40,
+                                              .doc = "busy in every N-th cycle (the first, then every N)"});
     stall_after_ = static_cast<TimeNs>(std::llround(
         p.get<double>("stall_after_s", 0.0, {.unit = "s", .min = 0.0, .max = 86400.0,
                                              .doc = "time after the first step at which it stalls once (0 = never)"}) *
         1e9));
     stall_ = static_cast<TimeNs>(std::llround(
         p.get<double>("stall_s", 5.0, {.unit = "s", .min = 0.0, .max = 3600.0, .doc = "how long the stall lasts"}) * 1e9));
+    sim_ = dynamic_cast<SimClock*>(&ctx.clock());
   }
   void step(const CycleInfo&) override {
-    const TimeNs now = monotonic_now();
+    const TimeNs now = sim_ != nullptr ? sim_->now() : monotonic_now();
     if (first_ == 0) first_ = now;
     if (stall_after_ > 0 && !stalled_ && now - first_ >= stall_after_) {
       stalled_ = true;
       set_status("stalled (drill)");
-      while (monotonic_now() < now + stall_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      if (sim_ != nullptr) {
+        sim_->advance(stall_);
+      } else {
+        while (monotonic_now() < now + stall_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
       set_status("ok");
+    }
+    const bool busy = cycle_++ % every_ == 0;
+    if (!busy || busy_ == 0) return;
+    busy_cycles_.fetch_add(1, std::memory_order_relaxed);
+    if (sim_ != nullptr) {
+      sim_->advance(busy_);
+      return;
     }
     const TimeNs c0 = thread_cpu_now();
     while (thread_cpu_now() - c0 < busy_) {
     }
   }
+  void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
+    kv.emplace_back("busy_cycles", std::to_string(busy_cycles_.load(std::memory_order_relaxed)));
+  }
   std::string result() const override { return stalled_ ? "stalled once" : std::string(); }
 
  private:
   TimeNs busy_ = 0, stall_after_ = 0, stall_ = 0, first_ = 0;
+  std::int64_t every_ = 1, cycle_ = 0;
+  SimClock* sim_ = nullptr;
+  std::atomic<std::uint64_t> busy_cycles_{0};
   std::atomic<bool> stalled_{false};
 };
 
@@ -511,7 +537,7 @@ void register_builtin_components() {
         [] { return std::make_unique<HealthComponent>(); });
   r.add("imu_publisher", "IMU attitude, rates and specific force -> channel imu + imu (sensor_msgs/Imu)",
         [] { return std::make_unique<ImuPublisher>(); });
-  r.add("cpu_load", "fault drills: spins busy_ms of CPU every cycle (overruns), stalls once for stall_s after stall_after_s",
+  r.add("cpu_load", "fault drills: busy_ms in every N-th cycle (overruns), stalls once for stall_s after stall_after_s (simulated time under --sim-time)",
         [] { return std::make_unique<CpuLoad>(); });
   r.add("joint_state_publisher", "wheel encoder angles and velocities -> joint_states (sensor_msgs/JointState)",
         [] { return std::make_unique<JointStatePublisher>(); });

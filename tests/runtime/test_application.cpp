@@ -238,6 +238,53 @@ TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
   EXPECT_EQ(h->entries[4].kind, HealthEntry::Kind::kEncoders);
 }
 
+TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
+  // cpu_load under the simulated clock: 15 ms of simulated execution time in every 50th cycle of
+  // the 100 Hz io group. Each such cycle ends 5 ms past the next release: one slip, one skipped
+  // release; the 1 Hz health group starts late by at most 15 ms and never slips.
+  register_test_backends();
+  auto app = Application::load(
+      Params::load_string(replace(replace(kGood, "members: [joints]", "members: [joints, drill]"),
+                                  "  health: {type: health}", "  health: {type: health}\n  drill: {type: cpu_load, busy_ms: 15, every: 50}"),
+                          "rover.yaml"),
+      {.sim_time = true});
+  auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
+  std::atomic<bool> stop{false};
+  app->start();
+  app->run(10 * kNsPerSec, stop);
+  app->stop();
+  const auto& groups = app->view().groups;
+  const auto io = groups[0]->counters(), hl = groups[1]->counters();
+  std::vector<std::pair<std::string, std::string>> kv;
+  for (const Component* c : app->view().components)
+    if (c->name() == "drill") c->diagnostics(kv);
+  ASSERT_EQ(kv.size(), 1u);
+  EXPECT_EQ(kv[0].first, "busy_cycles");
+  const std::uint64_t busy = std::stoull(kv[0].second);
+  EXPECT_EQ(busy, (io.cycles + 49) / 50) << "the first cycle, then every 50th";
+  EXPECT_GE(busy, 19u);
+  EXPECT_EQ(io.slips, busy) << "one missed release per injected overrun";
+  EXPECT_EQ(io.cycles + io.skipped, 1001u) << "every release of 10 s at 100 Hz either ran or was skipped";
+  EXPECT_EQ(io.skipped, busy);
+  EXPECT_EQ(hl.slips, 0u) << "the health group only started late";
+  EXPECT_EQ(hl.cycles, 11u);
+  auto h = health.acquire();
+  ASSERT_TRUE(h);
+  // The last report (slips in every second): the group warns, and the culprit is the drill, by its
+  // simulated execution time (its wall time is nil).
+  bool group_warned = false, drill_named = false, joints_ok = false;
+  for (std::size_t i = 0; i < h->count; ++i) {
+    const HealthEntry& e = h->entries[i];
+    const std::string name = e.name.data();
+    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io") group_warned = e.level == Level::kWarn && e.slips == io.slips;
+    if (name == "drill") drill_named = e.level == Level::kWarn && std::string(e.message) == "overruns its rate group's period";
+    if (name == "joints") joints_ok = e.level == Level::kOk;
+  }
+  EXPECT_TRUE(group_warned);
+  EXPECT_TRUE(drill_named);
+  EXPECT_TRUE(joints_ok) << "the other member of the group is not blamed";
+}
+
 TEST(Application, HealthWarnsWhileABusLosesFramesAndCountsThem) {
   // An encoder set whose receive queue overflows (EncoderStats::lost, e.g. SocketCAN at full bus
   // load): its health entry carries the count and warns in every report in which it grew.

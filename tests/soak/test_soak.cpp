@@ -4,8 +4,8 @@
 // simulated time in lockstep. After the first hour (warm-up) the process must hold still: resident
 // memory within 1 MiB, the same file descriptors and threads; and every counter must add up: the
 // frames a component took in are the frames its camera delivered, split into results and rejects;
-// every outage is counted as a fault and a recovery and flagged as a stale input; no cycle slips
-// (nothing overruns under the simulated clock).
+// every outage is counted as a fault and a recovery and flagged as a stale input; the only cycle
+// slips are the overruns injected in the io group (cpu_load charging simulated execution time).
 //
 // REGOLITH_SOAK_HOURS=N runs N simulated hours instead of 24 (a quick look; the counts scale).
 #include <gtest/gtest.h>
@@ -115,12 +115,19 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
               static_cast<double>(rss_max - rss0) / 1024.0, fds0, threads0);
   EXPECT_LT(rss_max - rss0, 1L << 20) << "resident memory grew after the warm-up hour";
 
-  // ---- rate groups: every release ran, none slipped ----
+  // ---- rate groups: every release ran or was skipped; slips only where overruns were injected ----
+  const std::uint64_t injected = num(details(component(*app, "drill")), "busy_cycles");
+  EXPECT_EQ(injected, static_cast<std::uint64_t>(total_hours)) << "one overrun per simulated hour";
   for (const runtime::RateGroup* g : app->view().groups) {
     const auto& cfg = g->config();
+    const auto c = g->counters();
     const double expected = seconds * 1e9 / static_cast<double>(cfg.period);
-    EXPECT_NEAR(static_cast<double>(g->counters().cycles), expected, 2.0) << cfg.name;
-    EXPECT_EQ(g->counters().slips, 0u) << cfg.name;
+    EXPECT_NEAR(static_cast<double>(c.cycles + c.skipped), expected, 2.0) << cfg.name;
+    // The drill's 150 ms in the 100 ms io period misses one release each time; the other groups
+    // (periods >= 1 s) start up to 150 ms late on the lockstep executor's one thread, never past
+    // their period.
+    EXPECT_EQ(c.slips, cfg.name == "io" ? injected : 0u) << cfg.name;
+    EXPECT_EQ(c.skipped, cfg.name == "io" ? injected : 0u) << cfg.name;
   }
 
   // ---- the hub camera and the sinkage component ----
