@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
 
 #include "regolith/soil_stiffness/scene.hpp"
 
@@ -25,5 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const std::exception&) {
     // InputError naming the field: expected
   }
+  std::error_code ec;
+  std::filesystem::remove(file, ec);  // nothing left in the temp dir when the run ends
   return 0;
 }

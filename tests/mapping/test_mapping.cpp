@@ -1,6 +1,7 @@
 // regolith::mapping: planar poses, ground visual odometry, motion parallax, the world map, the
 // drive mapper and the recorded-drive reader, against exact truth from the project's own
 // renderer (mocks/terrain_scene) and, when present, the independent development drives.
+#include "temp_dir.hpp"
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -171,7 +172,7 @@ TEST(GroundVisualOdometry, NeverConvergesByWarpingTheGroundOutOfView) {
       for (int k = 1; k <= 6; ++k) {
         const Pose2 pose{0.06 * k, 0.0, 0.0};
         const VoMeasurement& m = vo.track(rig.frame(pose, tilt), Pose2{pose.x * 1.02, 0.002, 0.003});
-        SCOPED_TRACE(testing::Message() << "seed " << seed << " tilt " << tilt << " step " << k);
+        SCOPED_TRACE(::testing::Message() << "seed " << seed << " tilt " << tilt << " step " << k);
         ASSERT_TRUE(m.ok()) << to_string(m.status);
         EXPECT_NEAR(m.key_pitch_rad, tilt, 0.045);
         EXPECT_NEAR(m.pitch_rad, tilt, 0.045);
@@ -706,15 +707,9 @@ TEST(DriveMapper, AStandingRoverHasNoParallaxButStillSightsRocks) {
   EXPECT_NEAR(dm.pose().x, 0.0, 0.01);
 }
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("regolith_mapping_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
-  const fs::path d = temp_dir("bad");
+  const regolith::testing::TempDir d_dir("mapping_bad");
+  const fs::path d = d_dir.path();
   EXPECT_THROW(read_drive(d / "absent"), InputError);
   std::ofstream(d / "input.json") << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": 320,
     "height": 240, "mount_height_m": 0.6, "pitch_deg": 30}, "sun": {"azimuth_deg": 100}})";
@@ -737,7 +732,8 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
 }
 
 TEST(RecordedDrive, ADescriptionWrittenIsReadBackFieldForField) {
-  const fs::path d = temp_dir("describe");
+  const regolith::testing::TempDir d_dir("mapping_describe");
+  const fs::path d = d_dir.path();
   RecordedDrive a;
   a.camera.fx = 410.5;
   a.camera.fy = 411.25;
@@ -774,7 +770,8 @@ TEST(RecordedDrive, ADescriptionWrittenIsReadBackFieldForField) {
 }
 
 TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
-  const fs::path d = temp_dir("skip");
+  const regolith::testing::TempDir d_dir("mapping_skip");
+  const fs::path d = d_dir.path();
   Rig rig(6);
   fs::create_directories(d / "frames");
   std::ofstream(d / "input.json") << R"({"camera": {"fx": 220, "fy": 220, "cx": 159.5, "cy": 119.5, "width": 320,
@@ -824,7 +821,8 @@ TEST(DevelopmentDrives, CorrectedPosesBeatWheelOdometry) {
   int n = 0;
   for (const auto& entry : fs::directory_iterator(root)) {
     if (!fs::exists(entry.path() / "truth_poses.csv")) continue;
-    const fs::path out = temp_dir("dev_" + entry.path().filename().string());
+    const regolith::testing::TempDir out_dir("mapping_dev_" + entry.path().filename().string());
+    const fs::path out = out_dir.path();
     map_drive(read_drive(entry.path()), DriveMapperParams{}, out);
     const nlohmann::json j = evaluate_map(entry.path(), out);
     pos += j["poses"]["final_position_error_pct"].get<double>();

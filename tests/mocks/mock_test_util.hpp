@@ -1,5 +1,6 @@
 #pragma once
 // Helpers for the mock-backend tests: a manual clock, temp directories, YAML -> backends.
+#include "temp_dir.hpp"
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -28,30 +29,8 @@ class ManualClock final : public Clock {
   std::atomic<TimeNs> now_;
 };
 
-/// A fresh directory under the system temp dir, removed at destruction.
-class TempDir {
- public:
-  TempDir() {
-    static int counter = 0;
-    path_ = std::filesystem::temp_directory_path() /
-            ("regolith_mocks_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  std::string str() const { return path_.string(); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  void write(const std::string& name, const std::string& text) const {
-    std::filesystem::create_directories((path_ / name).parent_path());
-    std::ofstream(path_ / name) << text;
-  }
-
- private:
-  std::filesystem::path path_;
-};
+/// The test suite's temp directory (tests/common/temp_dir.hpp).
+using TempDir = regolith::testing::TempDir;
 
 /// Owns a registry with the mock backends and builds devices from YAML text.
 struct Fixture {

@@ -1,5 +1,6 @@
 // `regolith soil IMAGE --scene input.json`: the development set's scene description read
 // directly (no YAML), an estimate written in the scene's own keys, and located errors.
+#include "temp_dir.hpp"
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -17,20 +18,14 @@ namespace soil = regolith::soil;
 
 const fs::path kTracks = fs::path(REGOLITH_SHARED_DIR) / "data" / "synthetic_dev" / "tracks";
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("regolith_soil_scene_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 const char* kScene = R"({"camera": {"width": 640, "height": 480, "fx": 637.5, "fy": 637.5, "cx": 319.5, "cy": 239.5,
   "h_m": 0.78, "pitch_deg": 48.1}, "sun_elevation_deg": 20.4, "sun_azimuth_deg": -120.0,
   "wheel_width_b_m": 0.15, "wheel_diameter_D_m": 0.25,
   "tracks": [{"load_N": 26.6, "x_nominal_m": -0.146}, {"load_N": 63.2, "x_nominal_m": 0.196}]})";
 
 TEST(SoilScene, ReadsTheSceneIntoTheEstimatorsTerms) {
-  const fs::path d = temp_dir("read");
+  const regolith::testing::TempDir d_dir("soil_scene_read");
+  const fs::path d = d_dir.path();
   std::ofstream(d / "input.json") << kScene;
   const soil::SoilSetup c = soil::read_soil_scene(d / "input.json");
   EXPECT_EQ(c.camera.width, 640);
@@ -50,7 +45,8 @@ TEST(SoilScene, ReadsTheSceneIntoTheEstimatorsTerms) {
 }
 
 TEST(SoilScene, BadFieldsAreNamed) {
-  const fs::path d = temp_dir("bad");
+  const regolith::testing::TempDir d_dir("soil_scene_bad");
+  const fs::path d = d_dir.path();
   auto expect_error = [&](const std::string& json, const std::string& what) {
     std::ofstream(d / "input.json") << json;
     try {
@@ -83,7 +79,8 @@ TEST(SoilScene, BadFieldsAreNamed) {
 TEST(SoilScene, DevelopmentSceneGivesKAndProfilesInTheScenesKeys) {
   const fs::path scene = kTracks / "tracks_dev_0";
   if (!fs::exists(scene / "input.json")) GTEST_SKIP() << scene << " not present";
-  const fs::path out = temp_dir("dev0");
+  const regolith::testing::TempDir out_dir("soil_scene_dev0");
+  const fs::path out = out_dir.path();
   const soil::SoilAnalysisFiles f = soil::run_soil_scene(scene / "image.png", scene / "input.json", out);
   std::ifstream in(f.json);
   const nlohmann::json j = nlohmann::json::parse(in);
@@ -125,8 +122,8 @@ TEST(SoilScene, EveryDevelopmentSceneGivesAnEstimateAndThePzCurveImproves) {
   for (const auto& entry : fs::directory_iterator(kTracks)) {
     const fs::path scene = entry.path();
     if (!fs::exists(scene / "truth.json")) continue;
-    const soil::SoilAnalysisFiles f =
-        soil::run_soil_scene(scene / "image.png", scene / "input.json", temp_dir(scene.filename().string()));
+    const regolith::testing::TempDir scene_dir("soil_scene_" + scene.filename().string());
+    const soil::SoilAnalysisFiles f = soil::run_soil_scene(scene / "image.png", scene / "input.json", scene_dir.path());
     ASSERT_TRUE(f.estimate.ok) << scene << ": " << f.estimate.reason;
     std::ifstream rin(f.json), tin(scene / "truth.json");
     const nlohmann::json r = nlohmann::json::parse(rin), t = nlohmann::json::parse(tin);

@@ -1,3 +1,4 @@
+#include "temp_dir.hpp"
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -246,8 +247,8 @@ TEST(TrackAnalysis, ParamsRejectBadFieldsNamingThem) {
 TEST(RunSoilAnalysis, WritesPlotsAndJson) {
   track_scene::TrackSceneParams p;
   const auto scene = track_scene::generate_track_scene(p);
-  const auto dir = std::filesystem::temp_directory_path() / "regolith_soil_test_out";
-  std::filesystem::remove_all(dir);
+  const regolith::testing::TempDir tmp("soil_analysis");
+  const std::filesystem::path dir = tmp / "out";
   const auto f = soil::run_soil_analysis(scene.image, to_ground(p.camera), rover_for(p, 60.0), {},
                                          {p.sun.azimuth_rad, p.sun.elevation_rad}, dir);
   ASSERT_TRUE(f.estimate.ok) << f.estimate.reason;
