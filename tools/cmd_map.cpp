@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -120,6 +121,14 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
                        " cameras described and no terrain_map component names one: choose one with --device");
     device = rover.cameras.begin()->first;
   }
+  // Heading as the terrain_map component takes it: heading_source, by default the IMU when the
+  // rover has one (rover.imu), else the wheels.
+  std::string heading = terrain_map_key(root, "heading_source");
+  if (heading.empty()) heading = rover.imu.empty() ? "wheels" : "imu";
+  if (heading != "imu" && heading != "wheels")
+    throw InputError(dep.name + ": terrain_map heading_source '" + heading + "': expected imu or wheels");
+  if (heading == "imu" && rover.imu.empty())
+    throw InputError(dep.name + ": terrain_map heading_source imu, but the rover has no rover.imu");
   const RoverCamera* rc = rover.camera(device);
   if (rc == nullptr) throw InputError(dep.name + ": no rover.cameras." + device + " in the recorded deployment");
   std::vector<mapping::OdometryWheel> wheels;
@@ -144,9 +153,11 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     double angle;
   };
   std::vector<Sample> samples;
+  std::vector<std::pair<TimeNs, double>> yaws;  // IMU heading samples (heading imu)
   std::vector<std::pair<TimeNs, fs::path>> frames;
   const std::string cam_topic = record::hal_camera_topic(device);
   const std::string enc_topic = record::hal_samples_topic("encoders", encoders);
+  const std::string imu_topic = heading == "imu" ? record::hal_samples_topic("imus", rover.imu) : std::string();
   const auto problems = reader.for_each_message([&](const record::MessageView& m) {
     if (m.channel.topic == cam_topic) {
       record::DecodedImage d;
@@ -163,6 +174,13 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
       const fs::path p = out / "frames" / fn;
       if (!cv::imwrite(p.string(), gray)) throw InputError(p.string() + ": cannot write");
       frames.emplace_back(d.stamp, p);
+    } else if (!imu_topic.empty() && m.channel.topic == imu_topic) {
+      try {
+        const hal::ImuSample i = record::decode_imu(m.data);
+        if (std::isfinite(i.attitude.yaw_rad)) yaws.emplace_back(i.stamp, i.attitude.yaw_rad);
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {}: {}; sample skipped", name, imu_topic, e.what());
+      }
     } else if (m.channel.topic == enc_topic) {
       try {
         const record::DecodedWheelAngle w = record::decode_wheel_angle(m.data);
@@ -176,6 +194,21 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
   if (frames.empty()) throw InputError(name + ": no frames of camera '" + device + "' (" + cam_topic + ")");
   if (samples.empty()) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
+  if (heading == "imu" && yaws.empty())
+    throw InputError(name + ": no samples of IMU '" + rover.imu + "' (" + imu_topic +
+                     "), which gives the terrain_map's heading (heading_source: wheels in the deployment to map without it)");
+  std::stable_sort(yaws.begin(), yaws.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  // The IMU heading at `t`: interpolated between the samples around it (the shorter way round),
+  // NaN outside them (the wheels then give that step's heading change).
+  const auto yaw_at = [&yaws](TimeNs t) {
+    const auto it = std::lower_bound(yaws.begin(), yaws.end(), t, [](const auto& y, TimeNs v) { return y.first < v; });
+    if (it == yaws.end()) return std::numeric_limits<double>::quiet_NaN();
+    if (it->first == t) return it->second;
+    if (it == yaws.begin()) return std::numeric_limits<double>::quiet_NaN();
+    const auto& [t0, y0] = *(it - 1);
+    const double f = static_cast<double>(t - t0) / static_cast<double>(it->first - t0);
+    return y0 + f * std::remainder(it->second - y0, 2.0 * 3.14159265358979323846);
+  };
   std::stable_sort(frames.begin(), frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   std::stable_sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) { return x.stamp < y.stamp; });
 
@@ -199,8 +232,10 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
       angle[sm.wheel] = sm.angle;
       if (!have[sm.wheel]) have[sm.wheel] = true, ++seen;
       if (seen < wheels.size()) continue;
-      if (!odometry.started()) odometry.reset(angle);
-      else odometry.update(angle);
+      const double yaw = heading == "imu" ? yaw_at(sm.stamp) : std::numeric_limits<double>::quiet_NaN();
+      if (heading == "imu" && !std::isfinite(yaw) && !odometry.started()) continue;  // wait for the IMU
+      if (!odometry.started()) odometry.reset(angle, mapping::Pose2{}, yaw);
+      else odometry.update(angle, yaw);
     }
     if (!odometry.started()) {
       spdlog::warn("{}: frame at {:.3f} s precedes the first sample of every wheel; skipped", name,
@@ -221,8 +256,10 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
   mapping::write_drive_description(drive, out / "input.json");  // `out` is now a drive directory too
-  std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), wheel path %.3f m\n", name.c_str(),
-              device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples.size(), odometry.distance());
+  std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), heading %s, wheel path %.3f m\n",
+              name.c_str(), device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples.size(),
+              heading == "imu" ? ("imu " + rover.imu + " (" + std::to_string(yaws.size()) + " samples)").c_str() : "wheels",
+              odometry.distance());
   return drive;
 }
 #endif

@@ -505,21 +505,25 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
 
 TEST_F(RunRecord, MapReadsARecordingWithItsWheelOdometry) {
   // `regolith map REC.mcap`: the front camera's frames, the skid-steer odometry of the recorded
-  // encoder samples (rover.wheels of the recorded deployment) and its sun. The mocked rover drives
+  // encoder samples (rover.wheels of the recorded deployment) with the heading of its IMU
+  // (rover.imu, as the terrain_map component takes it), and its sun. The mocked rover drives
   // 0.1 m/s on a left arc of radius 8 m with 5 % wheel slip on both sides: over the 6 s of frames
-  // the wheels roll 0.63 m and turn the body by 0.63 / 8 = 0.079 rad.
+  // the wheels roll 0.63 m (they alone would turn the body by 0.63 / 8 = 0.079 rad), the body
+  // turns by 0.6 / 8 = 0.075 rad, which the IMU reports.
   const fs::path cfg = write_config("map.yaml", "");
   const fs::path rec = dir_ / "drive.mcap", out = dir_ / "map";
   Result r = run("run --sim-time --duration 6 --quiet --config " + cfg.string() + " --record " + rec.string());
   ASSERT_EQ(r.status, 0) << r.out;
   r = run("map " + rec.string() + " --out " + out.string() + " -q");
   ASSERT_EQ(r.status, 0) << r.out;
-  const std::regex head(R"(camera front, (\d+) frames, encoder set wheels \(6 wheels, (\d+) samples\), wheel path ([0-9.]+) m)");
+  const std::regex head(
+      R"(camera front, (\d+) frames, encoder set wheels \(6 wheels, (\d+) samples\), heading imu body_imu \((\d+) samples\), wheel path ([0-9.]+) m)");
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.out, m, head)) << r.out;
   EXPECT_EQ(std::stoi(m[1].str()), 13) << "2 Hz for 6 s, both ends";
   EXPECT_GE(std::stoi(m[2].str()), 6 * 600 - 6) << "100 Hz per wheel";
-  EXPECT_NEAR(std::stod(m[3].str()), 0.63, 0.02);
+  EXPECT_GE(std::stoi(m[3].str()), 6 * 100 - 6) << "the IMU's 100 Hz";
+  EXPECT_NEAR(std::stod(m[4].str()), 0.63, 0.02);
   for (const char* f : {"map.json", "elevation.tiff", "hazard.tiff", "rocks.csv", "odometry.csv", "frames.csv",
                         "frames/00000.png", "frames/00012.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
@@ -532,15 +536,16 @@ TEST_F(RunRecord, MapReadsARecordingWithItsWheelOdometry) {
   int rows = -1;
   for (std::string l; std::getline(odo, l);) rows += !l.empty();
   EXPECT_EQ(rows, 13) << "poses of the drive directory written from the recording";
-  // The last frame's wheel pose: along the arc, heading turned left.
+  // The last frame's odometry pose: the IMU's heading (the true one), the wheels' 0.63 m along an
+  // arc of that turn (radius 0.63 / 0.075 = 8.4 m).
   std::ifstream csv(out / "frames.csv");
   std::string line, last;
   while (std::getline(csv, line)) last = line;
   double x = 0, y = 0, yaw = 0;
   ASSERT_EQ(std::sscanf(last.c_str(), "%*d,%*[^,],%*f,%lf,%lf,%lf", &x, &y, &yaw), 3) << last;
-  EXPECT_NEAR(yaw, 0.63 / 8, 0.004);
-  EXPECT_NEAR(x, 8 * std::sin(0.63 / 8), 0.02);
-  EXPECT_NEAR(y, 8 * (1 - std::cos(0.63 / 8)), 0.01);
+  EXPECT_NEAR(yaw, 0.6 / 8, 0.0005) << "the IMU's heading, not the slipping wheels' 0.079 rad";
+  EXPECT_NEAR(x, 8.4 * std::sin(0.075), 0.005);
+  EXPECT_NEAR(y, 8.4 * (1 - std::cos(0.075)), 0.002);
   // Errors name the file and what is missing.
   r = run("map " + rec.string() + " --device nope --out " + (dir_ / "map2").string());
   EXPECT_EQ(r.status, 2) << r.out;
