@@ -204,17 +204,23 @@ TEST(ConfigErrors, DevicesDirectoriesAndHugeFilesAreNotRead) {
   std::remove(big.c_str());
 }
 
-TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
+/// Loads `yaml` on the simulated clock and runs it for 10 s (start to stop).
+auto run_ten_seconds(const std::string& yaml) {
   register_test_backends();
-  auto app = Application::load(Params::load_string(kGood, "rover.yaml"), {.sim_time = true});
-  // Every encoder device is read through the plausibility check (one for every backend).
-  EXPECT_NE(dynamic_cast<const hal::PlausibleEncoders*>(app->context().find<hal::WheelEncoders>("wheels")), nullptr);
-  auto& joints = app->context().channel<JointStateSample>("joint_states");
-  auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
+  auto app = Application::load(Params::load_string(yaml, "rover.yaml"), {.sim_time = true});
   std::atomic<bool> stop{false};
   app->start();
   app->run(10 * kNsPerSec, stop);
   app->stop();
+  return app;
+}
+
+TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
+  auto app = run_ten_seconds(kGood);
+  // Every encoder device is read through the plausibility check (one for every backend).
+  EXPECT_NE(dynamic_cast<const hal::PlausibleEncoders*>(app->context().find<hal::WheelEncoders>("wheels")), nullptr);
+  auto& joints = app->context().channel<JointStateSample>("joint_states");
+  auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
 
   const auto& groups = app->view().groups;
   EXPECT_EQ(groups[0]->counters().cycles, 1001u);  // 100 Hz for 10 s, both ends inclusive
@@ -242,17 +248,9 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   // cpu_load under the simulated clock: 15 ms of simulated execution time in every 50th cycle of
   // the 100 Hz io group. Each such cycle ends 5 ms past the next release: one slip, one skipped
   // release; the 1 Hz health group starts late by at most 15 ms and never slips.
-  register_test_backends();
-  auto app = Application::load(
-      Params::load_string(replace(replace(kGood, "members: [joints]", "members: [joints, drill]"),
-                                  "  health: {type: health}", "  health: {type: health}\n  drill: {type: cpu_load, busy_ms: 15, every: 50}"),
-                          "rover.yaml"),
-      {.sim_time = true});
+  auto app = run_ten_seconds(replace(replace(kGood, "members: [joints]", "members: [joints, drill]"), "  health: {type: health}",
+                                     "  health: {type: health}\n  drill: {type: cpu_load, busy_ms: 15, every: 50}"));
   auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
-  std::atomic<bool> stop{false};
-  app->start();
-  app->run(10 * kNsPerSec, stop);
-  app->stop();
   const auto& groups = app->view().groups;
   const auto io = groups[0]->counters(), hl = groups[1]->counters();
   std::vector<std::pair<std::string, std::string>> kv;
@@ -288,15 +286,8 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
 TEST(Application, HealthWarnsWhileABusLosesFramesAndCountsThem) {
   // An encoder set whose receive queue overflows (EncoderStats::lost, e.g. SocketCAN at full bus
   // load): its health entry carries the count and warns in every report in which it grew.
-  register_test_backends();
-  auto app = Application::load(
-      Params::load_string(replace(kGood, "wheels: [left, right]}", "wheels: [left, right], lost_per_s: 3}"), "rover.yaml"),
-      {.sim_time = true});
+  auto app = run_ten_seconds(replace(kGood, "wheels: [left, right]}", "wheels: [left, right], lost_per_s: 3}"));
   auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
-  std::atomic<bool> stop{false};
-  app->start();
-  app->run(10 * kNsPerSec, stop);
-  app->stop();
   auto h = health.acquire();
   ASSERT_TRUE(h);
   ASSERT_EQ(h->entries[4].kind, HealthEntry::Kind::kEncoders);
