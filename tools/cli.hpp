@@ -31,6 +31,10 @@ inline constexpr int kExitDeviceUnavailable = 3;
 CLI::Validator non_negative();
 CLI::Validator positive();
 
+/// The ROS node a tool process announces in the ROS 2 graph (`ros2 node list`):
+/// "regolith_<command>_<pid>", so that two echoes at once are two nodes.
+std::string tool_node_name(const std::string& command);
+
 /// Exit code and message for a command-line usage error: 2, one line naming the offending word
 /// (an unknown command gets a suggestion and the list of commands). Help and --version: 0.
 int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv);

@@ -55,6 +55,7 @@ const bool registered = add_command([](CLI::App& app) {
     opt.best_effort = a->best_effort;
     opt.receipt_time = a->delay;
     opt.keep_going = [] { return !g_interrupted.load(); };
+    participant.announce_node(tool_node_name("echo"));  // its subscription is listed once made
     const std::size_t n = dds::echo(participant, a->topic, opt, std::cout);
     if (a->count > 0 && n < a->count && !g_interrupted.load()) throw CLI::RuntimeError(1);
   });

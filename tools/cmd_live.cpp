@@ -49,6 +49,7 @@ const bool registered = add_command([](CLI::App& app) {
     }
     opt.web_root = live::default_web_root();  // the built-in page on GET /
     dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
+    participant.announce_node(tool_node_name("live"));  // a node with the relay's subscriptions
     std::unique_ptr<live::DdsRelay> relay_ptr;
     try {
       if (!a->token_file.empty()) opt.token = live::read_token_file(a->token_file);

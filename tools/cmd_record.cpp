@@ -74,7 +74,8 @@ void run_record(const RecordArgs& a) {
   ro.library = "regolith record";
 #endif
   ro.on_error = [](const std::string& why) { spdlog::error("record: {}: recording stopped", why); };
-  dds::DdsRecorder recorder(participant, a.out, ro);  // throws when the file cannot be created
+  participant.announce_node(tool_node_name("record"));  // a node with one subscription per recorded topic
+  dds::DdsRecorder recorder(participant, a.out, ro);    // throws when the file cannot be created
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();

@@ -2,6 +2,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -55,6 +57,10 @@ CLI::Validator number_check(bool strict) {
 
 CLI::Validator non_negative() { return number_check(false); }
 CLI::Validator positive() { return number_check(true); }
+
+std::string tool_node_name(const std::string& command) {
+  return "regolith_" + command + "_" + std::to_string(::getpid());
+}
 
 int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
   if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version

@@ -601,7 +601,7 @@ TEST(DdsParticipant, BadConfigNamesField) {
 
 // The ROS 2 graph entry (issue 21): an observer in the same domain, as `ros2 node list` would,
 // reads ros_discovery_info and finds this participant as one node with its publishers.
-TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersOnRosDiscoveryInfo) {
+TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersAndReadersOnRosDiscoveryInfo) {
   using Info = m::rmw_dds_common::ParticipantEntitiesInfo;
   auto js = pp_->make_outbox<m::sensor_msgs::JointState>(
       "joint_states", rd::QosProfile::stream(10), {},
@@ -690,5 +690,40 @@ TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersOnRosDiscoveryInfo) {
     return writers.size() == 3;
   }));
   EXPECT_EQ(writers[2], rd::Participant::gid_of(late->writer()));
+
+  // Subscriptions are the node's readers (as `ros2 node info` lists them): one made now is
+  // announced with its gid, and dropped from the node again when it goes.
+  const auto node_readers = [&](std::size_t want) {
+    std::vector<std::array<std::uint8_t, 24>> got;
+    const bool ok = tst::eventually([&] {
+      void *buf[4] = {};
+      dds_sample_info_t info[4];
+      const int n = dds_take(rd_, buf, info, 4, 4);
+      for (int i = 0; i < n; ++i) {
+        if (!info[i].valid_data) continue;
+        const auto *s = static_cast<const Info *>(buf[i]);
+        if (!std::equal(own.begin(), own.end(), s->gid.data) || s->node_entities_info_seq._length < 1) continue;
+        const auto &node = s->node_entities_info_seq._buffer[0];
+        EXPECT_EQ(node.writer_gid_seq._length, 3u) << "the writers stay listed";
+        got.clear();
+        for (std::uint32_t k = 0; k < node.reader_gid_seq._length; ++k) {
+          std::array<std::uint8_t, 24> g{};
+          std::copy_n(node.reader_gid_seq._buffer[k].data, 24, g.begin());
+          got.push_back(g);
+        }
+      }
+      if (n > 0) dds_return_loan(rd_, buf, n);
+      return got.size() == want;
+    });
+    EXPECT_TRUE(ok) << "expected " << want << " readers, last announcement had " << got.size();
+    return got;
+  };
+  {
+    rd::Reader<m::sensor_msgs::JointState> sub(*pp_, "joint_states", rd::QosProfile::stream(10));
+    const auto listed = node_readers(1);
+    ASSERT_EQ(listed.size(), 1u);
+    EXPECT_EQ(listed[0], rd::Participant::gid_of(sub.subscription().reader()));
+  }
+  node_readers(0);
   dds_delete(obs);
 }

@@ -98,18 +98,22 @@ std::string Participant::announce_node(const std::string &node_name) {
     dds_delete_qos(q);
     check(discovery_writer_, "dds_create_writer ros_discovery_info");
   }
-  std::vector<Gid> writers;
-  for (const auto &box : outboxes_) {
+  const auto gid = [](dds_entity_t e) {
     Gid g{};
-    const auto a = gid_of(box->writer());
+    const auto a = gid_of(e);
     std::copy(a.begin(), a.end(), g.data);
-    writers.push_back(g);
-  }
+    return g;
+  };
+  std::vector<Gid> writers, readers;
+  for (const auto &box : outboxes_) writers.push_back(gid(box->writer()));
+  for (const dds_entity_t r : readers_) readers.push_back(gid(r));
   Node node{};
   // bounded strings: char[257] for string<256> (capacity excludes the terminator)
   copy_string(node.node_namespace, sizeof node.node_namespace - 1, ns);
   copy_string(node.node_name, sizeof node.node_name - 1, name);
-  node.reader_gid_seq = {0, 0, nullptr, false};
+  node.reader_gid_seq._maximum = node.reader_gid_seq._length = static_cast<std::uint32_t>(readers.size());
+  node.reader_gid_seq._buffer = readers.empty() ? nullptr : readers.data();
+  node.reader_gid_seq._release = false;
   node.writer_gid_seq._maximum = node.writer_gid_seq._length = static_cast<std::uint32_t>(writers.size());
   node.writer_gid_seq._buffer = writers.data();
   node.writer_gid_seq._release = false;
@@ -133,6 +137,35 @@ void Participant::attach(std::shared_ptr<OutboxBase> box) {
     if (announced) again = announced_;
   }
   if (announced) announce_node(again);  // the node's writer list now includes it
+}
+
+void Participant::add_reader(dds_entity_t reader) {
+  std::string again;
+  {
+    std::lock_guard lock(mutex_);
+    readers_.push_back(reader);
+    if (discovery_writer_ == 0) return;
+    again = announced_;
+  }
+  announce_node(again);  // the node's reader list now includes it
+}
+
+void Participant::remove_reader(dds_entity_t reader) {
+  std::string again;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = std::find(readers_.begin(), readers_.end(), reader);
+    if (it == readers_.end()) return;
+    readers_.erase(it);
+    if (discovery_writer_ == 0) return;
+    again = announced_;
+  }
+  try {
+    announce_node(again);
+  } catch (const std::exception &) {
+    // a reader removed while the participant shuts down: nobody left to tell (never throws:
+    // called from ~Subscription)
+  }
 }
 
 void Participant::start() {

@@ -5,7 +5,7 @@ namespace regolith::dds {
 Subscription::Subscription(Participant &p, std::string_view topic,
                            const dds_topic_descriptor_t *desc,
                            const QosProfile &qos)
-    : topic_(p.ros_name(topic)) {
+    : participant_(&p), topic_(p.ros_name(topic)) {
   const dds_entity_t tp = p.topic(topic, desc);
   const Qos q(qos, Qos::For::kReader);
   reader_ = dds_create_reader(p.handle(), tp, q.get(), nullptr);
@@ -21,9 +21,19 @@ Subscription::Subscription(Participant &p, std::string_view topic,
     throw DdsError("waitset for " + topic_ + ": " +
                    dds_strretcode(readcond_ < 0 ? readcond_ : waitset_));
   }
+  try {
+    p.add_reader(reader_);  // one of the node's subscriptions in the ROS graph
+  } catch (...) {
+    p.remove_reader(reader_);
+    (void)dds_delete(waitset_);
+    (void)dds_delete(reader_);
+    throw;
+  }
 }
 
 Subscription::~Subscription() {
+  if (reader_ > 0)
+    participant_->remove_reader(reader_);
   if (waitset_ > 0)
     (void)dds_delete(waitset_);
   if (reader_ > 0)

@@ -89,6 +89,11 @@ public:
   /// not a valid ROS node name is made one (other characters -> '_', a leading digit gets '_').
   /// Non-RT. Returns the node's full name. Throws DdsError when Cyclone refuses.
   std::string announce_node(const std::string &node_name);
+  /// Non-RT: a reader of this participant, listed with the node's subscriptions (its reader gids)
+  /// by announce_node; when the node is already announced it is announced again with it.
+  /// dds::Subscription registers and unregisters its own reader.
+  void add_reader(dds_entity_t reader);
+  void remove_reader(dds_entity_t reader);
   /// The 24-byte ROS gid of a DDS entity (its GUID, zero-padded).
   static std::array<std::uint8_t, 24> gid_of(dds_entity_t entity);
 
@@ -135,8 +140,9 @@ private:
   std::string announced_;              // the node name given to announce_node (empty: not announced)
   std::shared_ptr<Waker> waker_ = std::make_shared<Waker>();
 
-  mutable std::mutex mutex_; // outboxes_, topics_ (never taken on the RT side)
+  mutable std::mutex mutex_; // outboxes_, readers_, topics_ (never taken on the RT side)
   std::vector<std::shared_ptr<OutboxBase>> outboxes_;
+  std::vector<dds_entity_t> readers_;  // subscriptions' readers (add_reader)
   std::map<std::string, std::pair<dds_entity_t, const dds_topic_descriptor_t *>,
            std::less<>>
       topics_;

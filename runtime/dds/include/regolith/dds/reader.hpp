@@ -61,6 +61,7 @@ public:
   dds_entity_t reader() const { return reader_; }
 
 private:
+  Participant *participant_ = nullptr;
   std::string topic_;
   dds_entity_t reader_ = 0;
   dds_entity_t waitset_ = 0;
