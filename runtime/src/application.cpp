@@ -14,6 +14,7 @@
 #include <type_traits>
 
 #include "regolith/hal/plausible_encoders.hpp"
+#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/dds_hooks.hpp"
 #include "regolith/runtime/event_log.hpp"
@@ -137,6 +138,11 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
         }
         d = std::make_unique<hal::PlausibleEncoders>(std::move(enc), std::move(rates));
       }
+      // Frames stamped after they are read (a device clock off the process clock) are withheld
+      // and counted: one check for every camera backend.
+      if constexpr (std::is_same_v<Kind, hal::Camera>)
+        d = std::make_unique<hal::StampCheckedCamera>(std::unique_ptr<hal::Camera>(static_cast<hal::Camera*>(d.release())),
+                                                      ctx.clock());
       if (opts.wrap_device && opts.open_devices) d = opts.wrap_device(std::move(d));
       ctx.add_device(name, std::move(d));
     }

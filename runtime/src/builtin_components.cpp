@@ -103,6 +103,7 @@ void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, D
         kv_int("faults", static_cast<std::int64_t>(e.errors));
         kv_int("stale_inputs", static_cast<std::int64_t>(e.stale_inputs));
         if (e.kind == HealthEntry::Kind::kEncoders) kv_int("lost", static_cast<std::int64_t>(e.lost));
+        if (e.kind == HealthEntry::Kind::kCamera) kv_int("bad_stamps", static_cast<std::int64_t>(e.bad_stamps));
         break;
     }
     dds::set_length(st.values, n);
@@ -146,6 +147,7 @@ class HealthComponent final : public Component {
     interval_exec_.assign(v.components.size(), 0.0);
     entry_of_.assign(v.components.size(), static_cast<std::uint32_t>(kMaxHealthEntries));
     last_lost_.assign(encoders_.size(), 0);
+    last_bad_stamps_.assign(cameras_.size(), 0);
     group_of_.assign(v.components.size(), v.groups.size());
     for (std::size_t gi = 0; gi < v.groups.size(); ++gi)
       for (const Component* m : v.groups[gi]->members()) {
@@ -262,7 +264,8 @@ class HealthComponent final : public Component {
     for (std::uint32_t i = 0; i < s->count; ++i)
       if (gates_watchdog(s->entries[i])) s->all_critical_ok = false;
 
-    for (const auto& [name, cam] : cameras_) {
+    for (std::size_t k = 0; k < cameras_.size(); ++k) {
+      const auto& [name, cam] = cameras_[k];
       HealthEntry* e = add();
       if (e == nullptr) break;
       const hal::CameraStats st = cam->stats();
@@ -271,8 +274,15 @@ class HealthComponent final : public Component {
       e->frames = st.frames;
       e->dropped = st.dropped;
       e->errors = st.faults + st.corrupt;
+      e->bad_stamps = st.bad_stamps;
       e->message = hal::to_string(st.state).data();
-      if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) e->level = Level::kError;
+      if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) {
+        e->level = Level::kError;
+      } else if (st.bad_stamps > last_bad_stamps_[k]) {
+        e->level = Level::kWarn;
+        e->message = "frames stamped in the future withheld since last report (device clock)";
+      }
+      last_bad_stamps_[k] = st.bad_stamps;
     }
     for (std::size_t k = 0; k < encoders_.size(); ++k) {
       const auto& [name, enc] = encoders_[k];
@@ -342,6 +352,7 @@ class HealthComponent final : public Component {
   std::vector<std::uint32_t> entry_of_;         // its entry in this snapshot (kMaxHealthEntries: none)
   std::vector<std::size_t> group_of_;           // its rate group's index (groups.size(): none)
   std::vector<std::uint64_t> last_lost_;        // per encoder set: frames lost at the last report
+  std::vector<std::uint64_t> last_bad_stamps_;  // per camera: frames withheld for their stamp at the last report
 };
 
 class JointStatePublisher final : public Component {

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "cli.hpp"
+#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/mapping/component.hpp"
@@ -106,7 +107,9 @@ TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {
                                         {.sim_time = true, .enable_dds = false});
   auto* cam = app->context().find<hal::Camera>("front");
   ASSERT_NE(cam, nullptr);
-  const auto* truth = dynamic_cast<const mocks::DriveTruth*>(cam);
+  const auto* checked = dynamic_cast<const hal::StampCheckedCamera*>(cam);  // every camera is read through the stamp check
+  ASSERT_NE(checked, nullptr);
+  const auto* truth = dynamic_cast<const mocks::DriveTruth*>(&checked->inner());
   ASSERT_NE(truth, nullptr);
   ASSERT_NE(truth->drive_terrain(), nullptr);
   EXPECT_GT(truth->drive_terrain()->rocks().size(), 10u);

@@ -8,6 +8,7 @@
 
 #include "mock_test_util.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
+#include "regolith/hal/stamp_checked_camera.hpp"
 
 namespace regolith::mocks::test {
 namespace {
@@ -150,6 +151,50 @@ TEST(FaultCamera, DelayDeliversWhatTheInnerHadEarlier) {
   EXPECT_EQ(f->sequence, 7u);  // captured at 700 ms <= 1000 - 250
   EXPECT_EQ(f->capture_time, t0 + 700 * kNsPerMs);
   EXPECT_EQ(f->image.at<std::uint8_t>(0, 0), expected_pixel(7));
+}
+
+TEST(FaultCamera, ClockStepsAreCaughtByTheStampCheckEveryCameraIsReadThrough) {
+  // Frames 5..9 stamped 10 s ahead (a device clock stepped forward, then back): the check every
+  // deployment reads cameras through (hal::StampCheckedCamera) withholds exactly those five, each
+  // counted once however often it is polled, and the camera reads on from frame 10 (stamps back
+  // on the process clock; that step back is counted).
+  Fixture fx;
+  hal::StampCheckedCamera cam(fx.camera(camera_yaml(fx, "stamp_step_after: 5\nstamp_step_for: 5\nstamp_step_ms: 10000\n")),
+                              fx.clock);
+  cam.start();
+  const TimeNs t0 = fx.clock.now();
+  std::vector<std::int64_t> seen;
+  hal::FrameLease f;
+  for (int k = 0; k < 15; ++k)
+    for (int again = 0; again < 3; ++again) {  // three readers per frame period
+      fx.clock.set(t0 + k * kFrame + again * kNsPerMs);  // read a little after the cycle's start
+      const bool got = cam.latest(t0 + k * kFrame, f);
+      if (again == 0) seen.push_back(got ? static_cast<std::int64_t>(f->sequence) : -1);
+      if (got) {
+        EXPECT_LE(f->capture_time, t0 + k * kFrame) << "never a frame from the future";
+      }
+    }
+  EXPECT_EQ(seen, (std::vector<std::int64_t>{0, 1, 2, 3, 4, -1, -1, -1, -1, -1, 10, 11, 12, 13, 14}));
+  const hal::CameraStats st = cam.stats();
+  EXPECT_EQ(st.bad_stamps, 5u);
+  EXPECT_EQ(st.frames, 10u) << "delivered: 15 from the device less the 5 withheld";
+  EXPECT_EQ(st.stamp_steps, 0u) << "frame 10 is stamped after frame 4, the last one delivered";
+  EXPECT_EQ(cam.counters().rejected, 5u);
+
+  // A step back (frames 5.. stamped 2 s early, for good): delivered, their age is what it is, and
+  // the step is counted once.
+  Fixture fx2;
+  hal::StampCheckedCamera back(fx2.camera(camera_yaml(fx2, "stamp_step_after: 5\nstamp_step_ms: -2000\n")), fx2.clock);
+  back.start();
+  const TimeNs t1 = fx2.clock.now();
+  for (int k = 0; k < 10; ++k) {
+    fx2.clock.set(t1 + k * kFrame);
+    ASSERT_TRUE(back.latest(t1 + k * kFrame, f));
+    EXPECT_EQ(f->sequence, static_cast<std::uint64_t>(k));
+    EXPECT_EQ(f->capture_time, t1 + k * kFrame - (k >= 5 ? 2 * kNsPerSec : 0));
+  }
+  EXPECT_EQ(back.stats().stamp_steps, 1u);
+  EXPECT_EQ(back.stats().bad_stamps, 0u);
 }
 
 TEST(FaultCamera, CorruptFramesAreFlaggedAndDamaged) {

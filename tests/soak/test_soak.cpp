@@ -160,6 +160,10 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
   // ---- the front camera, SfS and the drive-long map ----
   const hal::CameraStats front = camera_stats(*app, "front");
   EXPECT_NEAR(static_cast<double>(front.faults), seconds / 3900.0, 1.5);  // 180 + 15 frames at 0.05 Hz
+  if (total_hours >= 12) {
+    EXPECT_EQ(front.stamp_steps, 1u) << "the device clock's step back at frame 2000 (11.1 h) was counted";
+  }
+  EXPECT_EQ(front.bad_stamps, 0u) << "no frame was stamped in the future";
   EXPECT_NEAR(static_cast<double>(component(*app, "sfs").errors()), static_cast<double>(front.corrupt), 1.0)
       << "sfs rejects exactly the corrupt frames";
   const auto tm = details(component(*app, "terrain_map"));

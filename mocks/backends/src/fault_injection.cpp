@@ -1,5 +1,6 @@
 // Cameras and encoders "fault_injection": wrap another backend (`inner:`) and withhold, freeze,
-// corrupt, delay or disconnect its data, deterministically for a seed and a clock sequence.
+// corrupt, delay or disconnect its data, or (cameras) step its clock, deterministically for a seed
+// and a clock sequence.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -22,6 +23,9 @@ struct FaultConfig {
   bool repeat = false;
   TimeNs delay = 0;
   std::uint64_t seed = 1;
+  std::int64_t stamp_step_after = 0;  // frames; 0 = never (cameras)
+  std::int64_t stamp_step_for = 0;    // frames the step lasts; 0 = for good
+  TimeNs stamp_step = 0;              // added to the capture stamps while it lasts
 };
 
 FaultConfig read_fault_config(Params& p, std::string_view unit) {
@@ -43,6 +47,18 @@ FaultConfig read_fault_config(Params& p, std::string_view unit) {
     p.fail("repeat", "needs disconnect_after > 0 and reconnect_after > 0");
   c.seed = static_cast<std::uint64_t>(p.get<std::int64_t>("seed", 1, {.min = 0, .doc = "fault random seed"}));
   return c;
+}
+
+/// Cameras only: a step of the device's clock (its capture stamps jump by stamp_step_ms from frame
+/// stamp_step_after on, for stamp_step_for frames or for good).
+void read_stamp_step(Params& p, FaultConfig& c) {
+  c.stamp_step_after = p.get<std::int64_t>(
+      "stamp_step_after", 0, {.unit = "frames", .min = 0, .doc = "capture stamps step from frame N on (0 = never)"});
+  c.stamp_step_for = p.get<std::int64_t>(
+      "stamp_step_for", 0, {.unit = "frames", .min = 0, .doc = "frames the stamp step lasts (0 = for good)"});
+  const double ms = p.get<double>("stamp_step_ms", 0.0, {.unit = "ms", .min = -86400000.0, .max = 86400000.0,
+                                                         .doc = "size of the stamp step (+ forward, - back)"});
+  c.stamp_step = static_cast<TimeNs>(std::llround(ms * 1e6));
 }
 
 /// Disconnect / reconnect as a function of the time since start(), on the device's item grid.
@@ -192,13 +208,21 @@ class FaultCamera final : public hal::Camera {
       f->corrupt = true;
       corrupt_.fetch_add(1, std::memory_order_relaxed);
     }
-    f->capture_time = in.capture_time;
+    f->capture_time = in.capture_time + stamp_offset(seq);
     f->sequence = in.sequence;
     f->camera_index = index_;
     pool_->commit();
     frames_.fetch_add(1, std::memory_order_relaxed);
     last_frame_time_.store(in.capture_time, std::memory_order_relaxed);
     published_epoch_.store(static_cast<std::int64_t>(epoch), std::memory_order_release);
+  }
+
+  /// The device clock's step at frame `seq` (0 outside it).
+  TimeNs stamp_offset(std::uint64_t seq) const {
+    const auto k = static_cast<std::int64_t>(seq);
+    if (cfg_.stamp_step_after == 0 || k < cfg_.stamp_step_after) return 0;
+    if (cfg_.stamp_step_for > 0 && k >= cfg_.stamp_step_after + cfg_.stamp_step_for) return 0;
+    return cfg_.stamp_step;
   }
 
   /// Overwrite a band of rows (1/16 of the image at a random height) with random bytes.
@@ -389,7 +413,8 @@ std::unique_ptr<hal::Camera> make_fault_camera(Params& p, const hal::DeviceConte
   Params inner_p = p.require_child("inner");
   auto inner = registry.make_camera(inner_p, ctx);
   inner_p.finish();
-  const detail::FaultConfig cfg = detail::read_fault_config(p, "frames");
+  detail::FaultConfig cfg = detail::read_fault_config(p, "frames");
+  detail::read_stamp_step(p, cfg);
   return std::make_unique<detail::FaultCamera>(ctx, std::move(inner), cfg);
 }
 

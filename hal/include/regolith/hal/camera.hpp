@@ -23,6 +23,8 @@ struct CameraStats {
   std::uint64_t corrupt = 0;         ///< frames with damaged payload
   std::uint64_t faults = 0;          ///< device errors (ENODEV, timeouts, ...)
   std::uint64_t recoveries = 0;      ///< successful restarts after a fault
+  std::uint64_t bad_stamps = 0;      ///< frames withheld: stamped after they were read (StampCheckedCamera)
+  std::uint64_t stamp_steps = 0;     ///< new frames stamped before the previous one (device clock stepped back)
   DeviceState state = DeviceState::kStopped;
   TimeNs last_frame_time = 0;
 };
@@ -35,7 +37,7 @@ class Camera : public Device {
   const char* kind() const final { return kKind; }
   DeviceCounters counters() const final {
     const CameraStats s = stats();
-    return {s.frames, s.dropped + s.corrupt, s.faults, s.recoveries, s.state};
+    return {s.frames, s.dropped + s.corrupt + s.bad_stamps, s.faults, s.recoveries, s.state};
   }
   /// The negotiated format (valid after construction; backends negotiate when configured).
   virtual CameraFormat format() const = 0;

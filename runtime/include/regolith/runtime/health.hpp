@@ -31,6 +31,7 @@ struct HealthEntry {
   std::uint64_t frames = 0;            ///< devices: frames or samples delivered
   std::uint64_t dropped = 0;           ///< devices: dropped frames / rejected samples
   std::uint64_t lost = 0;              ///< encoders: frames lost before they were read (bus receive queue)
+  std::uint64_t bad_stamps = 0;        ///< cameras: frames withheld, stamped after they were read (device clock)
   TimeNs period = 0;
   StatsSummary exec{};                 ///< execution time on the schedule clock
   StatsSummary wall{};                 ///< execution time on CLOCK_MONOTONIC

@@ -1,7 +1,8 @@
 #pragma once
 // The exact truth of the `synthetic_drive` mock devices (camera, wheel encoders, IMU): every
 // device built by these backends implements DriveTruth, so a test can ask the device store for
-// it (`dynamic_cast<const mocks::DriveTruth*>(ctx.find<hal::Camera>("front"))`).
+// it (`dynamic_cast<const mocks::DriveTruth*>(ctx.find<hal::Camera>("front"))`; a deployment's
+// cameras are read through hal::StampCheckedCamera: cast its `inner()`).
 #include <cmath>
 
 #include "regolith/core/time.hpp"
