@@ -4,7 +4,9 @@
 // latched state for late readers and `echo`.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <new>
 #include <sstream>
@@ -625,76 +627,23 @@ TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersAndReadersOnRosDiscoveryInfo)
   ASSERT_GT(rd_, 0);
 
   const auto own = rd::Participant::gid_of(pp_->handle());
-  std::string ns, name;
-  std::vector<std::array<std::uint8_t, 24>> writers;
-  std::size_t readers = 99;
-  ASSERT_TRUE(tst::eventually([&] {
-    void *buf[4] = {};
-    dds_sample_info_t info[4];
-    const int n = dds_take(rd_, buf, info, 4, 4);
-    bool found = false;
-    for (int i = 0; i < n; ++i) {
-      if (!info[i].valid_data) continue;
-      const auto *s = static_cast<const Info *>(buf[i]);
-      if (!std::equal(own.begin(), own.end(), s->gid.data)) continue;  // other test processes
-      EXPECT_EQ(s->node_entities_info_seq._length, 1u);
-      if (s->node_entities_info_seq._length < 1) continue;
-      const auto &node = s->node_entities_info_seq._buffer[0];
-      ns = node.node_namespace;
-      name = node.node_name;
-      readers = node.reader_gid_seq._length;
-      for (std::uint32_t k = 0; k < node.writer_gid_seq._length; ++k) {
-        std::array<std::uint8_t, 24> g{};
-        std::copy_n(node.writer_gid_seq._buffer[k].data, 24, g.begin());
-        writers.push_back(g);
-      }
-      found = true;
+  // The node as this participant announced it last, once `done` holds for it.
+  struct Node {
+    std::string ns, name;
+    std::vector<std::array<std::uint8_t, 24>> writers, readers;
+  };
+  const auto gids = [](const auto &seq) {
+    std::vector<std::array<std::uint8_t, 24>> out;
+    for (std::uint32_t k = 0; k < seq._length; ++k) {
+      std::array<std::uint8_t, 24> g{};
+      std::copy_n(seq._buffer[k].data, 24, g.begin());
+      out.push_back(g);
     }
-    if (n > 0) dds_return_loan(rd_, buf, n);
-    return found;
-  }));
-  EXPECT_EQ(ns, "/" + pp_->ns());
-  EXPECT_EQ(name, "_9_test_node");
-  EXPECT_EQ(readers, 0u);
-  ASSERT_EQ(writers.size(), 2u);
-  EXPECT_EQ(writers[0], rd::Participant::gid_of(js->writer()));
-  EXPECT_EQ(writers[1], rd::Participant::gid_of(diag->writer()));
-  // the gid is the GUID (16 bytes: prefix + entity id), zero-padded; the participant's prefix is
-  // every writer's prefix
-  EXPECT_TRUE(std::all_of(own.begin() + 16, own.end(), [](std::uint8_t b) { return b == 0; }));
-  EXPECT_TRUE(std::equal(own.begin(), own.begin() + 12, writers[0].begin()));
-
-  // A writer made after the announcement (a recorder or the live view starting later) is listed
-  // without another call: the node is published again with three writers.
-  auto late = pp_->make_outbox<m::diagnostic_msgs::DiagnosticArray>(
-      "late_diagnostics", rd::QosProfile::diagnostics(), {}, [](m::diagnostic_msgs::DiagnosticArray &) {});
-  writers.clear();
-  ASSERT_TRUE(tst::eventually([&] {
-    void *buf[4] = {};
-    dds_sample_info_t info[4];
-    const int n = dds_take(rd_, buf, info, 4, 4);
-    for (int i = 0; i < n; ++i) {
-      if (!info[i].valid_data) continue;
-      const auto *s = static_cast<const Info *>(buf[i]);
-      if (!std::equal(own.begin(), own.end(), s->gid.data) || s->node_entities_info_seq._length < 1) continue;
-      const auto &node = s->node_entities_info_seq._buffer[0];
-      EXPECT_STREQ(node.node_name, "_9_test_node");
-      writers.clear();
-      for (std::uint32_t k = 0; k < node.writer_gid_seq._length; ++k) {
-        std::array<std::uint8_t, 24> g{};
-        std::copy_n(node.writer_gid_seq._buffer[k].data, 24, g.begin());
-        writers.push_back(g);
-      }
-    }
-    if (n > 0) dds_return_loan(rd_, buf, n);
-    return writers.size() == 3;
-  }));
-  EXPECT_EQ(writers[2], rd::Participant::gid_of(late->writer()));
-
-  // Subscriptions are the node's readers (as `ros2 node info` lists them): one made now is
-  // announced with its gid, and dropped from the node again when it goes.
-  const auto node_readers = [&](std::size_t want) {
-    std::vector<std::array<std::uint8_t, 24>> got;
+    return out;
+  };
+  const auto announced = [&](const std::function<bool(const Node &)> &done) {
+    Node last;
+    bool seen = false;
     const bool ok = tst::eventually([&] {
       void *buf[4] = {};
       dds_sample_info_t info[4];
@@ -702,28 +651,51 @@ TEST_F(DdsPubSub, AnnouncesOneRosNodeWithItsWritersAndReadersOnRosDiscoveryInfo)
       for (int i = 0; i < n; ++i) {
         if (!info[i].valid_data) continue;
         const auto *s = static_cast<const Info *>(buf[i]);
-        if (!std::equal(own.begin(), own.end(), s->gid.data) || s->node_entities_info_seq._length < 1) continue;
+        if (!std::equal(own.begin(), own.end(), s->gid.data)) continue;  // other test processes
+        EXPECT_EQ(s->node_entities_info_seq._length, 1u);
+        if (s->node_entities_info_seq._length < 1) continue;
         const auto &node = s->node_entities_info_seq._buffer[0];
-        EXPECT_EQ(node.writer_gid_seq._length, 3u) << "the writers stay listed";
-        got.clear();
-        for (std::uint32_t k = 0; k < node.reader_gid_seq._length; ++k) {
-          std::array<std::uint8_t, 24> g{};
-          std::copy_n(node.reader_gid_seq._buffer[k].data, 24, g.begin());
-          got.push_back(g);
-        }
+        last = {node.node_namespace, node.node_name, gids(node.writer_gid_seq), gids(node.reader_gid_seq)};
+        seen = true;
       }
       if (n > 0) dds_return_loan(rd_, buf, n);
-      return got.size() == want;
+      return seen && done(last);
     });
-    EXPECT_TRUE(ok) << "expected " << want << " readers, last announcement had " << got.size();
-    return got;
+    EXPECT_TRUE(ok) << "last announcement: " << last.writers.size() << " writers, " << last.readers.size() << " readers";
+    return last;
   };
+
+  Node node = announced([](const Node &) { return true; });
+  EXPECT_EQ(node.ns, "/" + pp_->ns());
+  EXPECT_EQ(node.name, "_9_test_node");
+  EXPECT_EQ(node.readers.size(), 0u);
+  ASSERT_EQ(node.writers.size(), 2u);
+  EXPECT_EQ(node.writers[0], rd::Participant::gid_of(js->writer()));
+  EXPECT_EQ(node.writers[1], rd::Participant::gid_of(diag->writer()));
+  // the gid is the GUID (16 bytes: prefix + entity id), zero-padded; the participant's prefix is
+  // every writer's prefix
+  EXPECT_TRUE(std::all_of(own.begin() + 16, own.end(), [](std::uint8_t b) { return b == 0; }));
+  EXPECT_TRUE(std::equal(own.begin(), own.begin() + 12, node.writers[0].begin()));
+
+  // A writer made after the announcement (a recorder or the live view starting later) is listed
+  // without another call: the node is published again with three writers.
+  auto late = pp_->make_outbox<m::diagnostic_msgs::DiagnosticArray>(
+      "late_diagnostics", rd::QosProfile::diagnostics(), {}, [](m::diagnostic_msgs::DiagnosticArray &) {});
+  node = announced([](const Node &n) { return n.writers.size() == 3; });
+  ASSERT_EQ(node.writers.size(), 3u);
+  EXPECT_EQ(node.name, "_9_test_node");
+  EXPECT_EQ(node.writers[2], rd::Participant::gid_of(late->writer()));
+
+  // Subscriptions are the node's readers (as `ros2 node info` lists them): one made now is
+  // announced with its gid, and dropped from the node again when it goes.
   {
     rd::Reader<m::sensor_msgs::JointState> sub(*pp_, "joint_states", rd::QosProfile::stream(10));
-    const auto listed = node_readers(1);
-    ASSERT_EQ(listed.size(), 1u);
-    EXPECT_EQ(listed[0], rd::Participant::gid_of(sub.subscription().reader()));
+    node = announced([](const Node &n) { return n.readers.size() == 1; });
+    ASSERT_EQ(node.readers.size(), 1u);
+    EXPECT_EQ(node.readers[0], rd::Participant::gid_of(sub.subscription().reader()));
+    EXPECT_EQ(node.writers.size(), 3u) << "the writers stay listed";
   }
-  node_readers(0);
+  node = announced([](const Node &n) { return n.readers.empty(); });
+  EXPECT_EQ(node.writers.size(), 3u);
   dds_delete(obs);
 }
