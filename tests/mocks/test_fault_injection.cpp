@@ -187,11 +187,12 @@ TEST(FaultCamera, ClockStepsAreCaughtByTheStampCheckEveryCameraIsReadThrough) {
   hal::StampCheckedCamera back(fx2.camera(camera_yaml(fx2, "stamp_step_after: 5\nstamp_step_ms: -2000\n")), fx2.clock);
   back.start();
   const TimeNs t1 = fx2.clock.now();
+  hal::FrameLease g;  // released before `back` (a lease must not outlive its camera's pool)
   for (int k = 0; k < 10; ++k) {
     fx2.clock.set(t1 + k * kFrame);
-    ASSERT_TRUE(back.latest(t1 + k * kFrame, f));
-    EXPECT_EQ(f->sequence, static_cast<std::uint64_t>(k));
-    EXPECT_EQ(f->capture_time, t1 + k * kFrame - (k >= 5 ? 2 * kNsPerSec : 0));
+    ASSERT_TRUE(back.latest(t1 + k * kFrame, g));
+    EXPECT_EQ(g->sequence, static_cast<std::uint64_t>(k));
+    EXPECT_EQ(g->capture_time, t1 + k * kFrame - (k >= 5 ? 2 * kNsPerSec : 0));
   }
   EXPECT_EQ(back.stats().stamp_steps, 1u);
   EXPECT_EQ(back.stats().bad_stamps, 0u);
