@@ -15,6 +15,14 @@ function(regolith_target_defaults target)
   endif()
 endfunction()
 
+# regolith_glue_code(<target>): test, CLI and other glue code is compiled at -O2 in Release builds
+# (after CMake's -O3, so it wins): -O3's extra inlining and unrolling buy it nothing and cost about
+# a quarter of its compile time (measured: cmd_map.cpp 33 -> 23 s, test_mapping.cpp 23 -> 17 s).
+# The libraries that do the work (algorithms, runtime, HAL) keep -O3.
+function(regolith_glue_code target)
+  target_compile_options(${target} PRIVATE $<$<AND:$<CONFIG:Release>,$<COMPILE_LANGUAGE:CXX>>:-O2>)
+endfunction()
+
 # regolith_add_library(<name> SOURCES ... [PUBLIC_LIBS ...] [PRIVATE_LIBS ...])
 # Creates target regolith_<name> (alias regolith::<name>), public headers in ./include,
 # installed and exported in the regolith CMake package.
@@ -53,6 +61,7 @@ function(regolith_add_gtest name)
     REGOLITH_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared"
     REGOLITH_BINARY_DIR="${PROJECT_BINARY_DIR}")
   regolith_target_defaults(${name})
+  regolith_glue_code(${name})
   # gtest_discover_tests() passes properties as a flat list, so a test gets one ctest label: the
   # first (unit / integration / hw). `concurrency` selects suites for the tsan preset instead: it
   # adds the target to `concurrency_tests` (tests/CMakeLists.txt).

@@ -5,11 +5,14 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace regolith::cli {
 
 using Setup = std::function<void(CLI::App& app)>;
 bool add_command(Setup setup);
+// Every registered command, in registration order.
+const std::vector<Setup>& commands();
 
 /// The sub-command group `name` (e.g. "config", "calibrate", "eval"), created on first use.
 CLI::App* group(CLI::App& app, const std::string& name, const std::string& description);

@@ -257,6 +257,7 @@ TEST_F(DdsPubSub, SinkageSoilAndRocksRoundTrip) {
       });
 
   auto *s = sink->begin();
+  ASSERT_NE(s, nullptr);
   rd::set_length(s->wheel_names, 2);
   rd::copy_string(s->wheel_names._buffer[0], 32, "wheel_fl");
   rd::copy_string(s->wheel_names._buffer[1], 32, "wheel_fr");
@@ -269,6 +270,7 @@ TEST_F(DdsPubSub, SinkageSoilAndRocksRoundTrip) {
   sink->commit();
 
   auto *k = soil->begin();
+  ASSERT_NE(k, nullptr);
   k->k = 8.2e5;
   k->n = 1.1;
   k->k_sigma = 2e4;
@@ -279,6 +281,7 @@ TEST_F(DdsPubSub, SinkageSoilAndRocksRoundTrip) {
   soil->commit();
 
   auto *a = rocks->begin();
+  ASSERT_NE(a, nullptr);
   rd::copy_string(a->header.frame_id, 32, "base_link");
   rd::set_length(a->detections, 1);
   auto &d = a->detections._buffer[0];
