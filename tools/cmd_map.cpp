@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -81,16 +82,44 @@ mapping::DriveMapperParams mapper_params(const MapArgs& a, bool resolution_given
 }
 
 #ifdef REGOLITH_HAVE_HAL_RECORD
-/// `key` of the first terrain_map component of the recorded deployment ("" when there is none).
-std::string terrain_map_key(Params& root, const std::string& key) {
-  if (!root.has("components")) return {};
-  Params comps = root.child("components");
-  for (const std::string& name : comps.keys()) {
-    Params c = comps.child(name);
-    if (c.has("type") && c.get<std::string>("type", "") == "terrain_map" && c.has(key)) return c.get<std::string>(key, "");
+/// The block of the first terrain_map component of the recorded deployment (an empty block named
+/// after the file when there is none: every key then takes the component's default).
+Params terrain_map_params(Params& root, const std::string& file) {
+  if (root.has("components")) {
+    Params comps = root.child("components");
+    for (const std::string& name : comps.keys()) {
+      Params c = comps.child(name);
+      if (c.has("type") && c.get<std::string>("type", "") == "terrain_map") return c;
+    }
   }
-  return {};
+  return Params::load_string("{}", file);
 }
+
+/// Time-ordered samples of one recorded signal, read as the HAL devices read theirs: linear
+/// interpolation between the samples around t (for a heading, the shorter way round), at most
+/// `max_extrapolation` past the newest; false before the oldest.
+struct SampleTrack {
+  std::vector<std::pair<TimeNs, double>> samples;
+  bool angle = false;  ///< a heading: interpolated modulo 2 pi
+  void sort() {
+    std::stable_sort(samples.begin(), samples.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  }
+  bool at(TimeNs t, TimeNs max_extrapolation, double& v) const {
+    const auto it = std::lower_bound(samples.begin(), samples.end(), t, [](const auto& s, TimeNs u) { return s.first < u; });
+    if (it == samples.end()) {
+      if (samples.empty() || t - samples.back().first > max_extrapolation) return false;
+      v = samples.back().second;
+      return true;
+    }
+    if (it->first == t) return v = it->second, true;
+    if (it == samples.begin()) return false;
+    const auto& [t0, v0] = *(it - 1);
+    const double f = static_cast<double>(t - t0) / static_cast<double>(it->first - t0);
+    const double d = it->second - v0;
+    v = v0 + f * (angle ? std::remainder(d, 2.0 * 3.14159265358979323846) : d);
+    return true;
+  }
+};
 
 /// A HAL recording as a drive: the frames of one camera written as PNG into `out`/frames (and
 /// `out`/frames.csv) with the skid-steer wheel odometry (rover.wheels of the recorded deployment)
@@ -106,8 +135,10 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   const RoverDescription rover = read_rover_description(root, fs::path(dep.name).parent_path().string());
   if (!rover.sun) throw InputError(dep.name + ": the recorded deployment has no `sun:` (the map needs it for shadows)");
 
-  std::string device = !a.device.empty() ? a.device : terrain_map_key(root, "camera");
-  std::string encoders = !a.encoders.empty() ? a.encoders : terrain_map_key(root, "encoders");
+  // The terrain_map component's settings, read with the component's own readers.
+  Params tm = terrain_map_params(root, dep.name);
+  std::string device = !a.device.empty() ? a.device : tm.get<std::string>("camera", "");
+  std::string encoders = !a.encoders.empty() ? a.encoders : tm.get<std::string>("encoders", "");
   if (encoders.empty()) {
     for (const Wheel& w : rover.wheels) {
       if (encoders.empty()) encoders = w.encoders;
@@ -121,14 +152,8 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
                        " cameras described and no terrain_map component names one: choose one with --device");
     device = rover.cameras.begin()->first;
   }
-  // Heading as the terrain_map component takes it: heading_source, by default the IMU when the
-  // rover has one (rover.imu), else the wheels.
-  std::string heading = terrain_map_key(root, "heading_source");
-  if (heading.empty()) heading = rover.imu.empty() ? "wheels" : "imu";
-  if (heading != "imu" && heading != "wheels")
-    throw InputError(dep.name + ": terrain_map heading_source '" + heading + "': expected imu or wheels");
-  if (heading == "imu" && rover.imu.empty())
-    throw InputError(dep.name + ": terrain_map heading_source imu, but the rover has no rover.imu");
+  const mapping::OdometrySettings settings = mapping::read_odometry_settings(tm, rover);
+  const double max_speed = mapping::read_drive_mapper_params(tm).wheel.max_speed_mps;
   const RoverCamera* rc = rover.camera(device);
   if (rc == nullptr) throw InputError(dep.name + ": no rover.cameras." + device + " in the recorded deployment");
   std::vector<mapping::OdometryWheel> wheels;
@@ -142,22 +167,19 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   }
   if (wheels.empty())
     throw InputError(dep.name + ": no rover.wheels entry reports to encoder set '" + encoders + "' (--encoders)");
-  mapping::SkidSteerOdometry odometry(wheels);  // FieldError naming the wheels when one side is missing
+  // The terrain_map component's integration (FieldError naming the wheels when one side is missing).
+  mapping::SteppedOdometry odometry(wheels, settings.step, max_speed);
 
   // The recording: frames to PNG files as they come, samples kept (a few bytes each).
   const fs::path out(a.out);
   fs::create_directories(out / "frames");
-  struct Sample {
-    TimeNs stamp;
-    std::size_t wheel;
-    double angle;
-  };
-  std::vector<Sample> samples;
-  std::vector<std::pair<TimeNs, double>> yaws;  // IMU heading samples (heading imu)
+  std::vector<SampleTrack> angles(wheels.size());  // per wheel
+  SampleTrack yaws{.samples = {}, .angle = true};   // IMU heading (heading_source imu)
+  std::size_t samples = 0;
   std::vector<std::pair<TimeNs, fs::path>> frames;
   const std::string cam_topic = record::hal_camera_topic(device);
   const std::string enc_topic = record::hal_samples_topic("encoders", encoders);
-  const std::string imu_topic = heading == "imu" ? record::hal_samples_topic("imus", rover.imu) : std::string();
+  const std::string imu_topic = settings.imu_heading ? record::hal_samples_topic("imus", rover.imu) : std::string();
   const auto problems = reader.for_each_message([&](const record::MessageView& m) {
     if (m.channel.topic == cam_topic) {
       record::DecodedImage d;
@@ -177,7 +199,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     } else if (!imu_topic.empty() && m.channel.topic == imu_topic) {
       try {
         const hal::ImuSample i = record::decode_imu(m.data);
-        if (std::isfinite(i.attitude.yaw_rad)) yaws.emplace_back(i.stamp, i.attitude.yaw_rad);
+        if (std::isfinite(i.attitude.yaw_rad)) yaws.samples.emplace_back(i.stamp, i.attitude.yaw_rad);
       } catch (const std::exception& e) {
         spdlog::warn("{}: {}: {}; sample skipped", name, imu_topic, e.what());
       }
@@ -185,7 +207,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
       try {
         const record::DecodedWheelAngle w = record::decode_wheel_angle(m.data);
         const auto it = wheel_of.find(w.wheel);
-        if (it != wheel_of.end() && std::isfinite(w.angle)) samples.push_back({w.stamp, it->second, w.angle});
+        if (it != wheel_of.end() && std::isfinite(w.angle)) angles[it->second].samples.emplace_back(w.stamp, w.angle), ++samples;
       } catch (const std::exception& e) {
         spdlog::warn("{}: {}: {}; sample skipped", name, enc_topic, e.what());
       }
@@ -193,24 +215,21 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   });
   for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
   if (frames.empty()) throw InputError(name + ": no frames of camera '" + device + "' (" + cam_topic + ")");
-  if (samples.empty()) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
-  if (heading == "imu" && yaws.empty())
+  if (samples == 0) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
+  if (settings.imu_heading && yaws.samples.empty())
     throw InputError(name + ": no samples of IMU '" + rover.imu + "' (" + imu_topic +
                      "), which gives the terrain_map's heading (heading_source: wheels in the deployment to map without it)");
-  std::stable_sort(yaws.begin(), yaws.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  // The IMU heading at `t`: interpolated between the samples around it (the shorter way round),
-  // NaN outside them (the wheels then give that step's heading change).
-  const auto yaw_at = [&yaws](TimeNs t) {
-    const auto it = std::lower_bound(yaws.begin(), yaws.end(), t, [](const auto& y, TimeNs v) { return y.first < v; });
-    if (it == yaws.end()) return std::numeric_limits<double>::quiet_NaN();
-    if (it->first == t) return it->second;
-    if (it == yaws.begin()) return std::numeric_limits<double>::quiet_NaN();
-    const auto& [t0, y0] = *(it - 1);
-    const double f = static_cast<double>(t - t0) / static_cast<double>(it->first - t0);
-    return y0 + f * std::remainder(it->second - y0, 2.0 * 3.14159265358979323846);
-  };
+  for (SampleTrack& w : angles) w.sort();
+  yaws.sort();
   std::stable_sort(frames.begin(), frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  std::stable_sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) { return x.stamp < y.stamp; });
+  // The recorded inputs read at t as the component reads its devices (one odometry sub-step of
+  // extrapolation past the newest sample).
+  const auto read = [&](TimeNs t, std::span<double> wheel_angles, double& yaw) {
+    for (std::size_t i = 0; i < angles.size(); ++i)
+      if (!angles[i].at(t, settings.step, wheel_angles[i])) return false;
+    yaw = std::numeric_limits<double>::quiet_NaN();
+    return !settings.imu_heading || yaws.at(t, settings.step, yaw);
+  };
 
   // Odometry at each frame: every sample up to the frame's capture time, once each wheel has one.
   mapping::RecordedDrive drive;
@@ -221,26 +240,17 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   drive.sun_azimuth_deg = std::atan2(sun.x, sun.y) * 180.0 / 3.14159265358979323846;  // from +y towards +x
   drive.sun_elevation_deg = std::asin(std::clamp(sun.z, -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
   drive.wheel_radius_m = radius / static_cast<double>(wheels.size());
-  std::vector<double> angle(wheels.size(), 0.0);
-  std::vector<bool> have(wheels.size(), false);
-  std::size_t seen = 0, next = 0;
   std::ofstream csv(out / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
+  long unavailable = 0;
   for (const auto& [stamp, path] : frames) {
-    for (; next < samples.size() && samples[next].stamp <= stamp; ++next) {
-      const Sample& sm = samples[next];
-      angle[sm.wheel] = sm.angle;
-      if (!have[sm.wheel]) have[sm.wheel] = true, ++seen;
-      if (seen < wheels.size()) continue;
-      const double yaw = heading == "imu" ? yaw_at(sm.stamp) : std::numeric_limits<double>::quiet_NaN();
-      if (heading == "imu" && !std::isfinite(yaw) && !odometry.started()) continue;  // wait for the IMU
-      if (!odometry.started()) odometry.reset(angle, mapping::Pose2{}, yaw);
-      else odometry.update(angle, yaw);
-    }
-    if (!odometry.started()) {
-      spdlog::warn("{}: frame at {:.3f} s precedes the first sample of every wheel; skipped", name,
-                   static_cast<double>(stamp - frames.front().first) / 1e9);
-      continue;
+    if (!odometry.advance_to(stamp, read)) {
+      if (!odometry.started()) {
+        spdlog::warn("{}: frame at {:.3f} s precedes the wheel odometry (the first sample of every wheel{}); skipped",
+                     name, static_cast<double>(stamp - frames.front().first) / 1e9, settings.imu_heading ? " and the IMU" : "");
+        continue;
+      }
+      ++unavailable;  // no odometry at its capture time (after the last samples): the last pose
     }
     mapping::DriveFrame f;
     f.index = static_cast<int>(drive.frames.size());
@@ -256,9 +266,16 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
   mapping::write_drive_description(drive, out / "input.json");  // `out` is now a drive directory too
+  if (unavailable > 0)
+    spdlog::warn("{}: {} frames have no wheel{} samples around their capture time and keep the last odometry pose",
+                 name, unavailable, settings.imu_heading ? " or IMU" : "");
+  if (odometry.reanchored() > 0)
+    spdlog::warn("{}: {} implausible wheel steps (faster than wheel_max_speed_mps) re-anchored the odometry", name,
+                 odometry.reanchored());
   std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), heading %s, wheel path %.3f m\n",
-              name.c_str(), device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples.size(),
-              heading == "imu" ? ("imu " + rover.imu + " (" + std::to_string(yaws.size()) + " samples)").c_str() : "wheels",
+              name.c_str(), device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples,
+              settings.imu_heading ? ("imu " + rover.imu + " (" + std::to_string(yaws.samples.size()) + " samples)").c_str()
+                                   : "wheels",
               odometry.distance());
   return drive;
 }

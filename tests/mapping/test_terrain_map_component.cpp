@@ -8,7 +8,9 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "cli.hpp"
 #include "regolith/hal/stamp_checked_camera.hpp"
@@ -98,6 +100,67 @@ TEST(SkidSteerOdometry, ArcFromWheelAnglesAndHeadingFromTheImu) {
   } catch (const FieldError& e) {
     EXPECT_EQ(e.field(), "wheels");
     EXPECT_NE(std::string(e.what()).find("2 left, 0 right"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SteppedOdometry, SubStepsReadFailuresAndCorruptReadings) {
+  // 0.1 m/s on both wheels (r 0.15 m): 1 s is 0.1 m straight ahead, read in 50 ms sub-steps.
+  const double w = 0.1 / 0.15;
+  mapping::SteppedOdometry odo({{0.4, 0.15}, {-0.4, 0.15}}, from_seconds(0.05), 0.3);
+  std::vector<TimeNs> reads;
+  TimeNs fail_at = -1, garbage_at = -1;
+  auto read = [&](TimeNs t, std::span<double> a, double& yaw) {
+    reads.push_back(t);
+    if (t == fail_at) return false;
+    a[0] = a[1] = t == garbage_at ? 1e4 : w * to_seconds(t);
+    yaw = std::nan("");
+    return true;
+  };
+  ASSERT_TRUE(odo.advance_to(0, read));
+  ASSERT_TRUE(odo.started());
+  ASSERT_TRUE(odo.advance_to(from_seconds(1.0), read));
+  EXPECT_EQ(reads.size(), 1u + 20u) << "the start, then 20 sub-steps of 50 ms";
+  EXPECT_EQ(reads.back(), from_seconds(1.0));
+  EXPECT_NEAR(odo.pose().x, 0.1, 1e-9);
+  EXPECT_NEAR(odo.pose().y, 0.0, 1e-12);
+  EXPECT_TRUE(odo.advance_to(from_seconds(1.0), read)) << "the same time again: nothing to do";
+  EXPECT_FALSE(odo.advance_to(from_seconds(0.5), read)) << "a time before the last: nothing done";
+  EXPECT_EQ(reads.size(), 21u);
+  // No data at 1.1 s: false, the pose stays at the last good reading (1.05 s), the next advance
+  // spans the gap.
+  fail_at = from_seconds(1.1);
+  EXPECT_FALSE(odo.advance_to(from_seconds(1.2), read));
+  EXPECT_EQ(odo.time_ns(), from_seconds(1.05));
+  EXPECT_NEAR(odo.pose().x, 0.105, 1e-9);
+  fail_at = -1;
+  ASSERT_TRUE(odo.advance_to(from_seconds(2.0), read));
+  EXPECT_NEAR(odo.pose().x, 0.2, 1e-9);
+  // One garbage reading (1e4 rad at 2.5 s): the odometry re-anchors on it and again on the next
+  // true reading, losing those two sub-steps' 1 cm, and counts both.
+  garbage_at = from_seconds(2.5);
+  ASSERT_TRUE(odo.advance_to(from_seconds(3.0), read));
+  EXPECT_EQ(odo.reanchored(), 2);
+  EXPECT_NEAR(odo.pose().x, 0.29, 1e-9);
+  // A long gap is crossed in at most kMaxSubsteps reads.
+  reads.clear();
+  ASSERT_TRUE(odo.advance_to(from_seconds(3.0 + 60.0), read));
+  EXPECT_EQ(static_cast<std::int64_t>(reads.size()), mapping::SteppedOdometry::kMaxSubsteps);
+  // Heading from the IMU: equal wheels, the heading read from `yaw`.
+  mapping::SteppedOdometry imu({{0.4, 0.15}, {-0.4, 0.15}}, from_seconds(0.05), 0.3);
+  auto turning = [&](TimeNs t, std::span<double> a, double& yaw) {
+    a[0] = a[1] = w * to_seconds(t);
+    yaw = 0.05 * to_seconds(t);
+    return true;
+  };
+  ASSERT_TRUE(imu.advance_to(0, turning));
+  ASSERT_TRUE(imu.advance_to(from_seconds(2.0), turning));
+  EXPECT_NEAR(imu.pose().yaw, 0.1, 1e-12);
+  EXPECT_NEAR(imu.pose().x, 2.0 * std::sin(0.1), 1e-9) << "an arc of radius 0.1 / 0.05 = 2 m";
+  try {
+    mapping::SteppedOdometry bad({{0.4, 0.15}, {-0.4, 0.15}}, 0, 0.3);
+    FAIL();
+  } catch (const FieldError& e) {
+    EXPECT_EQ(e.field(), "step");
   }
 }
 

@@ -8,7 +8,9 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <opencv2/imgproc.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -30,7 +32,6 @@ using OdometryMsg = msgs::nav_msgs::Odometry;
 using TfMsg = msgs::tf2_msgs::TFMessage;
 using GridMapMsg = msgs::grid_map_msgs::GridMap;
 constexpr double kUnobserved = 1e6;  // variance of what a planar odometry does not estimate (z, roll, pitch)
-constexpr std::size_t kMaxSubsteps = 64;
 constexpr const char* kOdomTopic = "odom";
 constexpr const char* kWheelOdomTopic = "odom/wheel";
 constexpr const char* kMapTopic = "terrain/world_map";
@@ -115,28 +116,11 @@ class TerrainMapComponent final : public runtime::Component {
     if (wheels.empty())
       p.fail("encoders", "no rover.wheels entry is reported by encoder device '" + enc_->id() +
                              "' (rover.wheels[].encoders): the odometry needs the wheels' positions and radii");
-    try {
-      odo_ = std::make_unique<SkidSteerOdometry>(wheels);
-    } catch (const FieldError& e) {
-      p.fail("encoders", std::string("rover.wheels reported by '") + enc_->id() + "': " + e.problem());
-    }
-    angles_.assign(wheels.size(), 0.0);
-
-    const std::string heading = p.get<std::string>(
-        "heading_source", ctx.rover().imu.empty() ? "wheels" : "imu",
-        {.choices = {"imu", "wheels"},
-         .doc = "heading change from the IMU (rover.imu; default when the rover has one) or from the wheel speeds"});
-    if (heading == "imu") {
+    const OdometrySettings odometry = read_odometry_settings(p, ctx.rover());
+    if (odometry.imu_heading) {
       imu_ = ctx.attitude_imu();
-      if (imu_ == nullptr)
-        p.fail("heading_source", "`imu` needs an IMU in the rover description (rover.imu: <device>)");
+      if (imu_ == nullptr) p.fail("heading_source", "`imu`: the rover's IMU (rover.imu) is not open");
     }
-    odometry_step_ =
-        from_seconds(p.get<double>("odometry_step_s", 0.05,
-                                   {.unit = "s",
-                                    .min = 0.001,
-                                    .max = 10.0,
-                                    .doc = "wheel odometry is integrated in steps of at most this between frames"}));
 
     // ---- the mapper (DriveMapperParams read by name, shared with `regolith map --set`) ----
     DriveMapperParams defaults;
@@ -179,6 +163,11 @@ class TerrainMapComponent final : public runtime::Component {
       p.fail(key_of(e), e.problem());
     }
     wheel_noise_ = mp.wheel;
+    try {
+      odo_.emplace(wheels, odometry.step, mp.wheel.max_speed_mps);
+    } catch (const FieldError& e) {
+      p.fail("encoders", std::string("rover.wheels reported by '") + enc_->id() + "': " + e.problem());
+    }
     gray_.create(fmt.height, fmt.width, CV_8U);
     for (const auto& name : want) layers_.push_back(&mapper_->map().layer(name));
 
@@ -308,44 +297,21 @@ class TerrainMapComponent final : public runtime::Component {
   }
 
  private:
-  // Wheel (+ IMU heading) odometry up to `t`, in steps of at most odometry_step_. False when the
-  // encoders (or the IMU) have nothing at `t`; the pose then stays where the last good reading left it.
-  bool read_at(TimeNs t, double& yaw) {
-    for (std::size_t i = 0; i < wheel_index_.size(); ++i)
-      if (!enc_->angle_at(wheel_index_[i], t, angles_[i])) return false;
-    yaw = std::numeric_limits<double>::quiet_NaN();
-    if (imu_ != nullptr) {
-      Attitude a;
-      if (!imu_->attitude_at(t, a)) return false;
-      yaw = a.yaw_rad;
-    }
-    return true;
-  }
+  // Wheel (+ IMU heading) odometry up to `t` (SteppedOdometry: sub-steps of odometry_step_s). False
+  // when the encoders (or the IMU) have nothing at `t`; the pose then stays where the last good
+  // reading left it.
   bool advance_odometry(TimeNs t) {
-    double yaw = 0.0;
-    if (!odo_->started()) {
-      if (!read_at(t, yaw)) return false;
-      odo_->reset(angles_, Pose2{}, yaw);
-      odo_time_ = t;
+    return odo_->advance_to(t, [this](TimeNs tk, std::span<double> angles, double& yaw) {
+      for (std::size_t i = 0; i < wheel_index_.size(); ++i)
+        if (!enc_->angle_at(wheel_index_[i], tk, angles[i])) return false;
+      yaw = std::numeric_limits<double>::quiet_NaN();
+      if (imu_ != nullptr) {
+        Attitude a;
+        if (!imu_->attitude_at(tk, a)) return false;
+        yaw = a.yaw_rad;
+      }
       return true;
-    }
-    if (t <= odo_time_) return t == odo_time_;
-    const TimeNs span = t - odo_time_;
-    const auto n = static_cast<std::size_t>(
-        std::clamp<TimeNs>((span + odometry_step_ - 1) / odometry_step_, 1, static_cast<TimeNs>(kMaxSubsteps)));
-    const TimeNs from = odo_time_;
-    for (std::size_t k = 1; k <= n; ++k) {
-      const TimeNs tk =
-          from + static_cast<TimeNs>(static_cast<double>(span) * static_cast<double>(k) / static_cast<double>(n));
-      // A wheel cannot roll farther than max_speed x dt (+ 5 cm): more is a corrupt reading (this
-      // one or the one before); the odometry re-anchors there instead of jumping, loses that
-      // sub-step's distance, and goes on with the next.
-      const double max_step = wheel_noise_.max_speed_mps * to_seconds(tk - odo_time_) + 0.05;
-      if (!read_at(tk, yaw)) return false;
-      if (!odo_->update(angles_, yaw, max_step)) ++odometry_reanchored_;
-      odo_time_ = tk;
-    }
-    return true;
+    });
   }
 
   void update_map(TimeNs /*stamp*/) {
@@ -379,7 +345,7 @@ class TerrainMapComponent final : public runtime::Component {
       s->counters = mapper_->counters();
       s->frames_rejected = rejected_;
       s->odometry_unavailable = odometry_unavailable_;
-      s->odometry_reanchored = odometry_reanchored_;
+      s->odometry_reanchored = odo_->reanchored();
       s->cells_known = cells_known_;
       s->map_updates = map_updates_;
       s->distance_m = odo_->distance();
@@ -439,17 +405,14 @@ class TerrainMapComponent final : public runtime::Component {
   hal::WheelEncoders* enc_ = nullptr;
   const hal::Imu* imu_ = nullptr;
   std::vector<std::size_t> wheel_index_;  // rover wheel k -> encoder wheel index
-  std::vector<double> angles_;
-  std::unique_ptr<SkidSteerOdometry> odo_;
-  TimeNs odo_time_ = 0;
-  TimeNs odometry_step_ = 0;
+  std::optional<SteppedOdometry> odo_;
   std::unique_ptr<DriveMapper> mapper_;
   WheelNoise wheel_noise_;
   cv::Mat gray_;
   std::vector<const cv::Mat*> layers_;
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
-  long rejected_ = 0, odometry_unavailable_ = 0, odometry_reanchored_ = 0, cells_known_ = 0, map_updates_ = 0;
+  long rejected_ = 0, odometry_unavailable_ = 0, cells_known_ = 0, map_updates_ = 0;
   bool have_prev_ = false;
   Pose2 prev_pose_, prev_wheel_;
   Cov3 wheel_cov_ = Cov3::Zero();

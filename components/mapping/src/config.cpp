@@ -104,4 +104,19 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   return mp;
 }
 
+OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover) {
+  OdometrySettings o;
+  const std::string heading = p.get<std::string>(
+      "heading_source", rover.imu.empty() ? "wheels" : "imu",
+      {.choices = {"imu", "wheels"},
+       .doc = "heading change from the IMU (rover.imu; default when the rover has one) or from the wheel speeds"});
+  o.imu_heading = heading == "imu";
+  if (o.imu_heading && rover.imu.empty())
+    p.fail("heading_source", "`imu` needs an IMU in the rover description (rover.imu: <device>)");
+  o.step = from_seconds(p.get<double>(
+      "odometry_step_s", 0.05,
+      {.unit = "s", .min = 0.001, .max = 10.0, .doc = "wheel odometry is integrated in steps of at most this between frames"}));
+  return o;
+}
+
 }  // namespace regolith::mapping

@@ -74,4 +74,10 @@ bool SkidSteerOdometry::update(std::span<const double> angles, double yaw, doubl
   return true;
 }
 
+SteppedOdometry::SteppedOdometry(const std::vector<OdometryWheel>& wheels, std::int64_t step_ns, double max_speed_mps)
+    : odo_(wheels), angles_(wheels.size(), 0.0), step_(step_ns), max_speed_(max_speed_mps) {
+  if (step_ns <= 0) throw FieldError("mapping.odometry", "step", "must be > 0 ns");
+  if (!(max_speed_mps > 0.0)) throw FieldError("mapping.odometry", "max_speed_mps", "must be > 0");
+}
+
 }  // namespace regolith::mapping

@@ -3,7 +3,9 @@
 // component (its `params:` block) and `regolith map` (`--config FILE`, `--set key=value`), so a
 // key means the same in both. Keys, units and defaults: components/mapping/README.md
 // ("Parameters"); `regolith config check` lists them for a deployment.
+#include "regolith/core/time.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/mapping/drive_mapper.hpp"
 
 namespace regolith::mapping {
@@ -11,5 +13,15 @@ namespace regolith::mapping {
 /// The DriveMapperParams keys of `p`, each defaulting to `defaults`' value (located ConfigError
 /// on a bad value; unknown keys are the caller's p.finish()).
 DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams defaults = {});
+
+/// How the terrain_map integrates its wheel odometry between frames (SteppedOdometry), read from
+/// the component's `params:` by the component and by `regolith map REC.mcap` alike.
+struct OdometrySettings {
+  bool imu_heading = false;  ///< heading_source imu: heading changes from rover.imu, else the wheels
+  TimeNs step = 0;           ///< odometry_step_s: the longest integration sub-step
+};
+/// heading_source (default imu when the rover has one) and odometry_step_s; located ConfigError
+/// when heading_source is imu and the rover has none.
+OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover);
 
 }  // namespace regolith::mapping

@@ -5,6 +5,8 @@
 // change = (right - left) / track width (track width = mean left y - mean right y), or the change
 // of an absolute heading given by an IMU. Each step is integrated along a circular arc (exact for
 // constant curvature). Framework-free; nothing allocates after construction.
+#include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <vector>
@@ -52,5 +54,66 @@ class SkidSteerOdometry {
   Pose2 pose_;
   double distance_ = 0.0;
 };
+
+/// SkidSteerOdometry advanced to a time in sub-steps of at most `step_ns`, each reading the wheel
+/// angles (and the IMU heading) at the sub-step's time: one integration for the terrain_map
+/// component (HAL devices) and `regolith map REC.mcap` (recorded samples), so both place a frame
+/// at the same pose. A wheel rolling faster than `max_speed_mps` (+ 5 cm) in a sub-step is a
+/// corrupt reading: the odometry re-anchors there (SkidSteerOdometry::update) and counts it.
+/// Nothing allocates after construction.
+class SteppedOdometry {
+ public:
+  static constexpr std::int64_t kMaxSubsteps = 64;  ///< per advance_to() (a long gap: longer steps)
+
+  /// FieldError as SkidSteerOdometry's on bad wheels; step_ns > 0, max_speed_mps > 0.
+  SteppedOdometry(const std::vector<OdometryWheel>& wheels, std::int64_t step_ns, double max_speed_mps);
+
+  /// Advances to `t_ns`. `read(t_ns, angles, yaw)` fills `angles` (std::span<double>, one per
+  /// wheel in construction order) and `yaw` (rad; NaN: the wheels give the heading change) at that
+  /// time, and returns false when the inputs have nothing there: the pose then stays where the
+  /// last good reading left it and advance_to() returns false. The first successful read starts
+  /// the odometry at the origin. A time before the last one reached changes nothing (true only
+  /// when equal).
+  template <class Read>
+  bool advance_to(std::int64_t t_ns, Read&& read);
+
+  bool started() const { return odo_.started(); }
+  const Pose2& pose() const { return odo_.pose(); }
+  double distance() const { return odo_.distance(); }          ///< m driven
+  std::int64_t time_ns() const { return time_; }               ///< the last time reached
+  long reanchored() const { return reanchored_; }              ///< implausible sub-steps met
+  std::size_t wheel_count() const { return odo_.wheel_count(); }
+
+ private:
+  SkidSteerOdometry odo_;
+  std::vector<double> angles_;
+  std::int64_t step_ = 0, time_ = 0;
+  double max_speed_ = 0.0;
+  long reanchored_ = 0;
+};
+
+template <class Read>
+bool SteppedOdometry::advance_to(std::int64_t t, Read&& read) {
+  double yaw = std::numeric_limits<double>::quiet_NaN();
+  if (!odo_.started()) {
+    if (!read(t, std::span<double>(angles_), yaw)) return false;
+    odo_.reset(angles_, Pose2{}, yaw);
+    time_ = t;
+    return true;
+  }
+  if (t <= time_) return t == time_;
+  const std::int64_t span = t - time_;
+  const std::int64_t n = std::clamp<std::int64_t>((span + step_ - 1) / step_, 1, kMaxSubsteps);
+  const std::int64_t from = time_;
+  for (std::int64_t k = 1; k <= n; ++k) {
+    const auto tk = from + static_cast<std::int64_t>(static_cast<double>(span) * static_cast<double>(k) /
+                                                     static_cast<double>(n));
+    if (!read(tk, std::span<double>(angles_), yaw)) return false;
+    const double max_step = max_speed_ * static_cast<double>(tk - time_) * 1e-9 + 0.05;
+    if (!odo_.update(angles_, yaw, max_step)) ++reanchored_;
+    time_ = tk;
+  }
+  return true;
+}
 
 }  // namespace regolith::mapping
