@@ -93,6 +93,34 @@ TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
     EXPECT_EQ(cv::norm(f->image, ref[static_cast<std::size_t>(k % 4)], cv::NORM_INF), 0.0) << "frame " << k << " is the scene at the encoder angle";
   }
 }
+
+TEST(SyntheticWheel, ALoopOfWholeLegSpacingsKeepsTheEncodersCounting) {
+  // 4 frames at 10 Hz and pi rad/s: a loop turns the wheel 0.4 pi, one leg spacing (2 pi / 5), so the
+  // looped frames are seamless and the encoders report the angle a real wheel would: pi t.
+  Fixture fx;
+  const double pi = 3.14159265358979323846;
+  const std::string body = "frames: 4\nrate_hz: 10\nsample_rate_hz: 100\nspeed_rad_s: 3.141592653589793\n";
+  auto cam = fx.camera("backend: synthetic_wheel\n" + body);
+  auto enc = fx.encoders("backend: synthetic_wheel\n" + body);
+  cam->start();
+  enc->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::AngleSample s;
+  hal::FrameLease f, first;
+  ASSERT_TRUE(cam->latest(t0, first));
+  const cv::Mat frame0 = first->image.clone();
+  first.reset();
+  for (int k = 0; k <= 13; ++k) {  // 3 loops and a bit
+    const TimeNs t = t0 + k * 100 * kNsPerMs;
+    ASSERT_TRUE(enc->latest(0, t, s));
+    ASSERT_TRUE(cam->latest(t, f));
+    EXPECT_NEAR(s.angle, pi * 0.1 * k, 1e-9) << "frame " << k << ": no jump back at a loop";
+    if (k % 4 == 0) {
+      EXPECT_EQ(cv::norm(f->image, frame0, cv::NORM_INF), 0.0) << "frame " << k << " shows frame 0 again";
+    }
+  }
+  // Any other loop repeats the angle with the frames (the first test's 0.5 rad/s loops back).
+}
 #endif
 
 }  // namespace

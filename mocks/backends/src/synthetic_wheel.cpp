@@ -23,6 +23,10 @@ struct WheelSpec {
   ScriptedMotion motion;
   double sinkage_mm = 0.0;
   wheel_scene::SceneParams scene;
+  /// rad the wheel turns per loop of the frames when that is a whole number of leg spacings (the
+  /// first frame then shows the wheel exactly as one frame after the last would): the encoders
+  /// keep counting across loops. 0 otherwise: the angle repeats with the frames (a jump back).
+  double turn_per_loop = 0.0;
 
   /// Scene time (s) shown at `t` seconds after start: frames repeat (loop) or the last one stays.
   double scene_time(double t) const {
@@ -74,6 +78,11 @@ WheelSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   } catch (const std::invalid_argument& e) {
     p.fail({}, std::string("invalid wheel scene: ") + e.what());
   }
+  if (s.loop) {
+    const double turn = s.motion.angle(0, s.frames / s.fmt.rate_hz) - s.motion.angle(0, 0.0);
+    const double spacing = 2.0 * 3.14159265358979323846 / s.scene.wheel.leg_count;
+    if (turn != 0.0 && std::abs(turn / spacing - std::round(turn / spacing)) < 1e-6) s.turn_per_loop = turn;
+  }
   return s;
 }
 
@@ -86,7 +95,9 @@ class SyntheticWheelEncoders final : public LazyEncoders {
   std::int64_t index_at(std::size_t, TimeNs rel) const override { return grid_.index(rel); }
   hal::AngleSample sample(std::size_t, std::int64_t g) const override {
     const TimeNs stamp = grid_.offset(g);
-    return {stamp, spec_.motion.angle(0, spec_.scene_time(to_seconds(stamp)))};
+    const double t = to_seconds(stamp);
+    const double loops = spec_.loop ? std::floor(t * spec_.fmt.rate_hz / spec_.frames) : 0.0;
+    return {stamp, spec_.motion.angle(0, spec_.scene_time(t)) + loops * spec_.turn_per_loop};
   }
 
  private:
