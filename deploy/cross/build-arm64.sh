@@ -16,13 +16,12 @@
 #      for arm64 are not co-installable with their amd64 versions (apt removes the amd64 ones);
 #   3. configure with the `cross-arm64` preset (deploy/cross/aarch64-linux-gnu.cmake), build;
 #   4. by default only the `regolith` binary and the `arm64_tests` suites are built (tests/CMakeLists.txt:
-#      every library's own unit tests that are cheap under emulation), and ctest -L unit runs them
-#      under qemu-aarch64, less the dataset-level runs in $heavy below (the Mars cross-validation,
-#      the sinkage misalignment sweeps: 90 s of emulated CPU). The scene-level
-#      accuracy suites (whole drives, track and wheel scenes, the sinkage and soil pipelines) cost
-#      half the cross compile and 20 minutes of emulated CPU: the host run scores them on the same
-#      code. With --all-tests everything is built and every test runs except the `hw`, `deploy`
-#      and `arm64` labels; --tests REGEX: the built unit tests matching REGEX. Cyclone DDS cannot
+#      the suites where the architecture can change the result: memory ordering, byte order, FFT
+#      and SfS numerics, the parsers' fuzz corpora), and ctest -L unit runs them under
+#      qemu-aarch64. The algorithm and pipeline suites cost most of the cross compile and many
+#      minutes of emulated CPU: the host run scores them on the same code. With --all-tests
+#      everything is built and every test runs except the `hw`, `deploy` and `arm64` labels
+#      ($heavy below, the dataset-level runs, is then included); --tests REGEX: the built unit tests matching REGEX. Cyclone DDS cannot
 #      create a participant under qemu-user 7.2 (setsockopt IP_MULTICAST_IF is not emulated), so
 #      DDS tests only pass natively.
 # Environment: REGOLITH_ARM64_SYSROOT, REGOLITH_ARM64_BUILD_DIR (default build/cross-arm64).
