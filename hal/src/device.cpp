@@ -16,6 +16,19 @@ std::string_view to_string(DeviceState s) {
   return "unknown";
 }
 
+bool plausible(const Attitude& a) {
+  constexpr double kPi = 3.14159265358979323846;
+  return std::isfinite(a.yaw_rad) && std::abs(a.roll_rad) <= kPi && std::abs(a.pitch_rad) <= 0.5 * kPi;
+}
+
+bool plausible(const ImuSample& s) {
+  const auto within = [](const Vec3& v, double limit) {
+    return std::abs(v.x) <= limit && std::abs(v.y) <= limit && std::abs(v.z) <= limit;  // false for NaN
+  };
+  return plausible(s.attitude) && within(s.angular_velocity, kImuMaxRateRadS) &&
+         within(s.linear_acceleration, kImuMaxAccelerationMps2);
+}
+
 Quaternion to_quaternion(const Attitude& a) {
   const auto q = quaternion(a.rotation());
   return {q[0], q[1], q[2], q[3]};

@@ -14,6 +14,7 @@
 #include <type_traits>
 
 #include "regolith/hal/plausible_encoders.hpp"
+#include "regolith/hal/plausible_imu.hpp"
 #include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/dds_hooks.hpp"
@@ -143,6 +144,10 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
       if constexpr (std::is_same_v<Kind, hal::Camera>)
         d = std::make_unique<hal::StampCheckedCamera>(std::unique_ptr<hal::Camera>(static_cast<hal::Camera*>(d.release())),
                                                       ctx.clock());
+      // IMU samples beyond what an IMU can report (a damaged packet) are skipped and counted.
+      if constexpr (std::is_same_v<Kind, hal::Imu>)
+        d = std::make_unique<hal::PlausibleImu>(std::unique_ptr<hal::Imu>(static_cast<hal::Imu*>(d.release())),
+                                                ctx.clock());
       if (opts.wrap_device && opts.open_devices) d = opts.wrap_device(std::move(d));
       ctx.add_device(name, std::move(d));
     }

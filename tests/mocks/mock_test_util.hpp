@@ -9,6 +9,7 @@
 #include <string>
 
 #include "regolith/core/params.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/mocks/backends.hpp"
 
@@ -45,6 +46,12 @@ struct Fixture {
     auto cam = registry.make_camera(p, ctx(index));
     p.finish();
     return cam;
+  }
+  std::unique_ptr<hal::Imu> imu(const std::string& yaml) {
+    Params p = Params::load_string(yaml, dir.file("test.yaml"));
+    auto imu = registry.make<hal::Imu>(p, ctx());
+    p.finish();
+    return imu;
   }
   std::unique_ptr<hal::WheelEncoders> encoders(const std::string& yaml) {
     Params p = Params::load_string(yaml, dir.file("test.yaml"));

@@ -8,6 +8,7 @@
 
 #include "mock_test_util.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
+#include "regolith/hal/plausible_imu.hpp"
 #include "regolith/hal/stamp_checked_camera.hpp"
 
 namespace regolith::mocks::test {
@@ -413,6 +414,138 @@ TEST(PlausibleEncoders, CorruptSamplesNeverReachTheReaderAndAreCounted) {
     EXPECT_EQ(s.stamp, u0 + k * kSample);
   }
   EXPECT_EQ(clean.stats().rejected, 0u);
+}
+
+// ---- IMU -----------------------------------------------------------------------------------------
+
+// A scripted IMU turning at 10 deg/s (yaw = 0.1745 t rad), 100 Hz, level.
+std::string imu_yaml(const std::string& faults) {
+  return "backend: fault_injection\ninner: {backend: scripted, rate_hz: 100, yaw_rate_deg_s: 10}\nsample_rate_hz: 100\n" +
+         faults;
+}
+constexpr double kYawRate = 10.0 * 3.14159265358979323846 / 180.0;
+
+TEST(FaultImu, DropsServeTheSampleBeforeDeterministically) {
+  Fixture fx;
+  auto imu = fx.imu(imu_yaml("drop_rate: 0.25\nseed: 3\n"));
+  auto same = fx.imu(imu_yaml("drop_rate: 0.25\nseed: 3\n"));
+  imu->start();
+  same->start();
+  const TimeNs t0 = fx.clock.now();
+  const int n = 4000;
+  int fresh = 0;
+  for (int k = 0; k < n; ++k) {
+    const TimeNs now = t0 + k * kSample;
+    hal::ImuSample s, s2;
+    if (!imu->latest(now, s)) {
+      EXPECT_LT(k, 5);
+      continue;
+    }
+    ASSERT_TRUE(same->latest(now, s2));
+    ASSERT_EQ(s.stamp, s2.stamp);
+    EXPECT_LE(s.stamp, now);
+    EXPECT_NEAR(s.attitude.yaw_rad, kYawRate * to_seconds(s.stamp - t0), 1e-9);  // older, but true
+    fresh += s.stamp == now;
+  }
+  EXPECT_NEAR(1.0 - static_cast<double>(fresh) / n, 0.25, 0.02);
+}
+
+TEST(FaultImu, OutagesFreezeDelayAndCounters) {
+  Fixture fx;
+  auto imu = fx.imu(imu_yaml("disconnect_after: 100\nreconnect_after: 50\nrepeat: true\n"));
+  auto frozen = fx.imu(imu_yaml("freeze_after: 20\n"));
+  auto delayed = fx.imu(imu_yaml("delay_ms: 200\n"));
+  for (auto* d : {imu.get(), frozen.get(), delayed.get()}) d->start();
+  const TimeNs t0 = fx.clock.now();
+  hal::ImuSample s;
+  Attitude a;
+  // up for 100 samples, down for 50, up again
+  fx.clock.set(t0 + 120 * kSample);
+  EXPECT_FALSE(imu->latest(fx.clock.now(), s));
+  EXPECT_FALSE(imu->attitude_at(t0 + 50 * kSample, a)) << "a faulted device answers nothing";
+  EXPECT_EQ(imu->counters().state, hal::DeviceState::kFaulted);
+  EXPECT_EQ(imu->counters().faults, 1u);
+  fx.clock.set(t0 + 170 * kSample);
+  ASSERT_TRUE(imu->latest(fx.clock.now(), s));
+  EXPECT_EQ(s.stamp, t0 + 170 * kSample);
+  EXPECT_EQ(imu->counters().recoveries, 1u);
+  EXPECT_EQ(imu->counters().state, hal::DeviceState::kStreaming);
+  // Inside the outage the history has no samples: the attitude there is interpolated across it
+  // from the last sample before and the first after.
+  ASSERT_TRUE(imu->attitude_at(t0 + 125 * kSample, a));
+  EXPECT_NEAR(a.yaw_rad, kYawRate * to_seconds(125 * kSample), 1e-9);  // linear yaw: exact
+
+  ASSERT_TRUE(frozen->latest(fx.clock.now(), s));
+  EXPECT_EQ(s.stamp, t0 + 170 * kSample) << "stamps advance";
+  EXPECT_NEAR(s.attitude.yaw_rad, kYawRate * to_seconds(19 * kSample), 1e-9) << "content frozen";
+  ASSERT_TRUE(frozen->attitude_at(t0 + 100 * kSample, a));
+  EXPECT_NEAR(a.yaw_rad, kYawRate * to_seconds(19 * kSample), 1e-9);
+
+  ASSERT_TRUE(delayed->latest(fx.clock.now(), s));
+  EXPECT_EQ(s.stamp, t0 + 150 * kSample);
+  EXPECT_FALSE(delayed->attitude_at(fx.clock.now(), a)) << "200 ms past the newest sample: beyond max_extrapolation_ms";
+  ASSERT_TRUE(delayed->attitude_at(t0 + 150 * kSample + 20 * kNsPerMs, a));
+  EXPECT_NEAR(a.yaw_rad, kYawRate * to_seconds(150 * kSample), 1e-9) << "held, not extrapolated";
+}
+
+TEST(PlausibleImu, DamagedSamplesNeverReachTheReaderAndAreCountedOnce) {
+  // What the application puts between every IMU and its readers, over an IMU whose samples are
+  // 20 % garbage (+-1e4): latest(), attitude_at() and samples_since() give true values only.
+  Fixture fx;
+  hal::PlausibleImu imu(fx.imu(imu_yaml("corrupt_rate: 0.2\nseed: 8\n")), fx.clock);
+  imu.start();
+  const TimeNs t0 = fx.clock.now();
+  const int n = 3000;
+  int served = 0, older = 0, attitudes = 0, exact = 0;
+  for (int k = 0; k < n; ++k) {
+    const TimeNs now = t0 + k * kSample;
+    fx.clock.set(now);
+    hal::ImuSample s;
+    if (!imu.latest(now, s)) continue;
+    ++served;
+    ASSERT_NEAR(s.attitude.yaw_rad, kYawRate * to_seconds(s.stamp - t0), 1e-9) << k;
+    ASSERT_TRUE(hal::plausible(s));
+    older += s.stamp < now;
+    Attitude a;
+    const TimeNs t = now - kSample / 2;
+    if (k > 2 && imu.attitude_at(t, a)) {
+      ++attitudes;
+      // exact between plausible samples; held (at most kMaxHold) when none after t exists yet
+      const double err = std::abs(a.yaw_rad - kYawRate * to_seconds(t - t0));
+      ASSERT_LE(err, kYawRate * to_seconds(hal::PlausibleImu::kMaxHold)) << k;
+      exact += err < 1e-6;
+    }
+  }
+  EXPECT_GT(served, n - 10);
+  EXPECT_NEAR(static_cast<double>(older) / n, 0.2, 0.03);
+  // served everywhere: between the plausible samples around t when the device's own interpolation
+  // went through a damaged one (1 - 0.8^2 of the intervals)
+  EXPECT_EQ(attitudes, n - 3);
+  EXPECT_NEAR(static_cast<double>(exact) / n, 0.8, 0.03) << "held only when the newest sample is damaged";
+  const std::uint64_t rejected = imu.counters().rejected;
+  EXPECT_NEAR(static_cast<double>(rejected) / n, 0.2, 0.03) << rejected;
+  // The recorder's view: plausible samples only, and reading them counts nothing twice.
+  std::vector<hal::ImuSample> all(static_cast<std::size_t>(n));
+  const std::size_t got = imu.samples_since(t0 - 1, t0 + (n - 1) * kSample, all);
+  EXPECT_EQ(got + rejected, static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < got; ++i) ASSERT_TRUE(hal::plausible(all[i]));
+  EXPECT_EQ(imu.counters().rejected, rejected);
+
+  // Sanity of the limits themselves.
+  hal::ImuSample ok;
+  ok.attitude = {0.1, -0.2, 123.0};  // yaw is continuous: any finite value
+  ok.angular_velocity = {0.5, 0, 0};
+  ok.linear_acceleration = {0, 0, 9.81};
+  EXPECT_TRUE(hal::plausible(ok));
+  hal::ImuSample bad = ok;
+  bad.attitude.pitch_rad = 1.6;
+  EXPECT_FALSE(hal::plausible(bad));
+  bad = ok;
+  bad.angular_velocity.z = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(hal::plausible(bad));
+  bad = ok;
+  bad.linear_acceleration.x = 200.0;
+  EXPECT_FALSE(hal::plausible(bad));
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 
 #include "cli.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/context.hpp"
 #include "regolith/runtime/rate_group.hpp"
@@ -186,6 +187,14 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
     EXPECT_GT(c.faults, 0u) << id;
     EXPECT_GT(c.delivered, 0u) << id;
   }
+  // ---- the IMU: garbage skipped and counted (hal::PlausibleImu), outages counted ----
+  const hal::DeviceCounters imu = device_counters(*app, "body_imu");
+  EXPECT_NEAR(static_cast<double>(imu.faults), seconds / 3010.0, 1.5);
+  EXPECT_GE(imu.recoveries + 1, imu.faults);
+  EXPECT_GT(imu.rejected, 0u);
+  const auto last_imu = app->context().channel<hal::ImuSample>("imu").acquire();
+  ASSERT_TRUE(last_imu);
+  EXPECT_TRUE(hal::plausible(*last_imu));
   app->stop();
 }
 

@@ -1,6 +1,6 @@
-// Cameras and encoders "fault_injection": wrap another backend (`inner:`) and withhold, freeze,
-// corrupt, delay or disconnect its data, or (cameras) step its clock, deterministically for a seed
-// and a clock sequence.
+// Cameras, encoders and IMUs "fault_injection": wrap another backend (`inner:`) and withhold,
+// freeze, corrupt, delay or disconnect its data, or (cameras) step its clock, deterministically for
+// a seed and a clock sequence.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -405,6 +405,168 @@ class FaultEncoders final : public hal::WheelEncoders {
   RunSpan run_;
 };
 
+// ---- IMU ---------------------------------------------------------------------------------------
+
+/// The same faults on an IMU's samples: drops and outages withhold them, a freeze repeats the last
+/// sample before it (stamps and sequence advance), a corrupt sample carries garbage attitude, rates
+/// and acceleration (uniform in +-1e4: beyond hal::plausible, as a damaged packet is).
+class FaultImu final : public hal::Imu {
+ public:
+  FaultImu(const hal::DeviceContext& ctx, std::unique_ptr<hal::Imu> inner, const FaultConfig& cfg, double rate_hz,
+           TimeNs max_extrapolation)
+      : id_(ctx.id),
+        clock_(clock_of(ctx)),
+        inner_(std::move(inner)),
+        cfg_(cfg),
+        sched_(cfg, rate_hz),
+        max_extrapolation_(max_extrapolation) {}
+
+  const std::string& id() const override { return id_; }
+  void start() override {
+    inner_->start();
+    run_.begin(clock_->now());
+  }
+  void stop() override {
+    run_.end(clock_->now());
+    inner_->stop();
+  }
+  bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
+
+  bool latest(TimeNs now, hal::ImuSample& out) const override {
+    if (!run_.running() || sched_.at(now - run_.start()).down) return false;
+    return visible(now - cfg_.delay, out);
+  }
+
+  /// Between the two received samples around `t` (angles linear, yaw along the shorter way); past
+  /// the newest one its attitude is held for at most max_extrapolation_ms.
+  bool attitude_at(TimeNs t, Attitude& out) const override {
+    const TimeNs now = clock_->now();
+    hal::ImuSample a;
+    if (!latest(now, a)) return false;
+    if (t >= a.stamp) {
+      if (t - a.stamp > max_extrapolation_) return false;
+      out = a.attitude;
+      return true;
+    }
+    if (!visible(t, a)) return false;
+    hal::ImuSample b;
+    if (!next_received(a.stamp, now - cfg_.delay, b)) return false;
+    const double f = static_cast<double>(t - a.stamp) / static_cast<double>(b.stamp - a.stamp);
+    constexpr double kPi = 3.14159265358979323846;
+    const auto lerp = [f](double x, double y) { return x + f * (y - x); };
+    double dyaw = b.attitude.yaw_rad - a.attitude.yaw_rad;
+    if (std::isfinite(dyaw)) dyaw -= 2.0 * kPi * std::round(dyaw / (2.0 * kPi));
+    out.roll_rad = lerp(a.attitude.roll_rad, b.attitude.roll_rad);
+    out.pitch_rad = lerp(a.attitude.pitch_rad, b.attitude.pitch_rad);
+    out.yaw_rad = a.attitude.yaw_rad + f * dyaw;
+    return true;
+  }
+
+  /// What the consumer received (for recorders): as latest() serves them.
+  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
+    if (!run_.running() || out.empty()) return 0;
+    std::array<hal::ImuSample, 64> batch{};
+    std::size_t n = 0;
+    for (;;) {
+      const TimeNs from = after;
+      const std::size_t got = inner_->samples_since(after, now - cfg_.delay, batch);
+      for (std::size_t i = 0; i < got; ++i) {
+        after = batch[i].stamp;
+        TimeNs older = 0;
+        if (!received(batch[i].stamp, older)) continue;
+        out[n] = batch[i];
+        damage(out[n]);
+        if (++n == out.size()) return n;
+      }
+      if (got < batch.size() || after == from) return n;
+    }
+  }
+
+  hal::DeviceCounters counters() const override {
+    hal::DeviceCounters c = inner_->counters();
+    TimeNs rel = 0;
+    if (!run_.counted(clock_->now(), rel)) return c;
+    const FaultSchedule::At st = sched_.at(rel);
+    c.faults += st.faults;
+    c.recoveries += st.recoveries;
+    if (run_.running() && st.down) c.state = hal::DeviceState::kFaulted;
+    return c;
+  }
+
+ private:
+  bool frozen(TimeNs stamp) const {
+    return cfg_.freeze_after > 0 && stamp - run_.start() >= sched_.grid().offset(cfg_.freeze_after);
+  }
+  bool received(TimeNs stamp, TimeNs& older) const {
+    const FaultSchedule::At st = sched_.at(stamp - run_.start());
+    if (st.down) {
+      older = run_.start() + st.outage_begin - 1;
+      return false;
+    }
+    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
+      older = stamp - 1;
+      return false;
+    }
+    return true;
+  }
+  /// A received sample as the consumer sees it: frozen (the content of the last sample before the
+  /// freeze, its own stamp and sequence) and corrupted.
+  void damage(hal::ImuSample& s) const {
+    if (frozen(s.stamp)) {
+      hal::ImuSample f;
+      if (inner_->latest(run_.start() + sched_.grid().offset(cfg_.freeze_after) - 1, f)) {
+        s.attitude = f.attitude;
+        s.angular_velocity = f.angular_velocity;
+        s.linear_acceleration = f.linear_acceleration;
+      }
+    }
+    const auto key = static_cast<std::uint64_t>(s.stamp);
+    if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, key, kCorrupt)) < cfg_.corrupt_rate) {
+      std::uint64_t k = 0;
+      const auto garbage = [&] { return (2.0 * unit(hash(cfg_.seed, key, kGarbage, ++k)) - 1.0) * 1e4; };
+      s.attitude = {garbage(), garbage(), garbage()};
+      s.angular_velocity = {garbage(), garbage(), garbage()};
+      s.linear_acceleration = {garbage(), garbage(), garbage()};
+    }
+  }
+  /// Newest received sample with stamp <= q, damaged as served.
+  bool visible(TimeNs q, hal::ImuSample& out) const {
+    constexpr int kMaxWalk = 256;
+    for (int i = 0; i < kMaxWalk; ++i) {
+      if (!inner_->latest(q, out)) return false;
+      if (!received(out.stamp, q)) continue;
+      damage(out);
+      return true;
+    }
+    return false;
+  }
+  /// Oldest received sample with after < stamp <= until.
+  bool next_received(TimeNs after, TimeNs until, hal::ImuSample& out) const {
+    std::array<hal::ImuSample, 16> batch{};
+    for (int round = 0; round < 16; ++round) {
+      const std::size_t got = inner_->samples_since(after, until, batch);
+      for (std::size_t i = 0; i < got; ++i) {
+        TimeNs older = 0;
+        if (!received(batch[i].stamp, older)) continue;
+        out = batch[i];
+        damage(out);
+        return true;
+      }
+      if (got == 0) return false;
+      after = batch[got - 1].stamp;
+    }
+    return false;
+  }
+
+  std::string id_;
+  Clock* clock_ = nullptr;
+  std::unique_ptr<hal::Imu> inner_;
+  FaultConfig cfg_;
+  FaultSchedule sched_;
+  TimeNs max_extrapolation_ = 0;
+  RunSpan run_;
+};
+
 }  // namespace
 }  // namespace detail
 
@@ -429,6 +591,18 @@ std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::De
                                      .doc = "inner report rate: converts the sample counts above into time"});
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::FaultEncoders>(ctx, std::move(inner), cfg, rate, max_ex);
+}
+
+std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ctx, const hal::BackendRegistry& registry) {
+  Params inner_p = p.require_child("inner");
+  auto inner = registry.make<hal::Imu>(inner_p, ctx);
+  inner_p.finish();
+  const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
+  const double rate = p.get<double>("sample_rate_hz", 100.0,
+                                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                     .doc = "inner report rate: converts the sample counts above into time"});
+  const TimeNs max_ex = detail::read_max_extrapolation(p);
+  return std::make_unique<detail::FaultImu>(ctx, std::move(inner), cfg, rate, max_ex);
 }
 
 }  // namespace regolith::mocks

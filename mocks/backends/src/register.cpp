@@ -47,6 +47,8 @@ void register_mock_backends(hal::BackendRegistry& registry) {
                          make_scripted_imu);
   registry.add_encoders("fault_injection", "wraps `inner:` encoders: drop, freeze, corrupt, delay, disconnect",
                         [reg](Params& p, const hal::DeviceContext& ctx) { return make_fault_encoders(p, ctx, *reg); });
+  registry.add<hal::Imu>("fault_injection", "wraps `inner:` IMU: drop, freeze, corrupt, delay, disconnect",
+                         [reg](Params& p, const hal::DeviceContext& ctx) { return make_fault_imu(p, ctx, *reg); });
 }
 
 std::vector<std::string> mock_camera_backends() {

@@ -28,6 +28,15 @@ struct Quaternion {
 };
 Quaternion to_quaternion(const Attitude& a);
 
+/// Physical limits of what an IMU can report; beyond them a sample is damaged (a corrupt packet,
+/// a sensor fault), not a motion, and consumers skip it.
+inline constexpr double kImuMaxRateRadS = 35.0;       ///< ~2000 deg/s, the largest common gyro range
+inline constexpr double kImuMaxAccelerationMps2 = 160.0;  ///< 16 g
+/// Finite angles, roll within +-pi, pitch within +-pi/2 (yaw is continuous, any finite value).
+bool plausible(const Attitude& a);
+/// A plausible attitude, and every rate / acceleration component finite and within the limits.
+bool plausible(const ImuSample& s);
+
 /// An inertial measurement unit. Query functions are real-time safe (no lock, no allocation, no
 /// exception).
 class Imu : public Device {
