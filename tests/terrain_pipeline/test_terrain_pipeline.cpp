@@ -226,6 +226,90 @@ TEST_P(Pipeline, AHeightReaderGetsTheSolvedDtmWithoutAllocating) {
   EXPECT_GT(cv::countNonZero(elev == elev), 1000);
 }
 
+/// A DTM reader that needs the heights at a quarter of the resolution only (as SAMS's structure
+/// channel does); `full: true` makes it a full-resolution reader as well.
+class QuarterReader final : public runtime::Component {
+ public:
+  void configure(Params& p, runtime::Context& ctx) override {
+    ctx.consume<common::DtmFrame>(common::kDtmChannel);
+    ctx.want(common::kDtmChannel, common::kDtmHeightQuarter);
+    if (p.get<bool>("full", false)) ctx.want(common::kDtmChannel, common::kDtmHeight);
+  }
+  void step(const runtime::CycleInfo&) override {}
+};
+
+std::string diagnostic(const runtime::Component& c, const std::string& key) {
+  std::vector<std::pair<std::string, std::string>> kv;
+  c.diagnostics(kv);
+  for (const auto& [k, v] : kv)
+    if (k == key) return v;
+  return "<none>";
+}
+
+TEST_P(Pipeline, QuarterResolutionReadersGetAReducedSolveResampledToTheFrame) {
+  // Readers that declare only kDtmHeightQuarter (SAMS): the sfs component solves the frame reduced
+  // 4x, 16x fewer pixels, and publishes it on the frame's grid (height_level 2), allocation-free;
+  // one full-resolution reader among them brings the full-frame solve back.
+  register_once();
+  static const bool registered = [] {
+    runtime::ComponentRegistry::instance().add("quarter_reader", "test DTM reader (quarter resolution)",
+                                               [] { return std::make_unique<QuarterReader>(); });
+    return true;
+  }();
+  (void)registered;
+  std::string y = std::regex_replace(deployment(GetParam(), "image"), std::regex("members: \\[sfs, traversability\\]"),
+                                     "members: [sfs, reader]");
+  y = std::regex_replace(y, std::regex("  traversability:\n(    .*\n)*"), "  reader: {type: quarter_reader}\n");
+  cv::Mat quarter_height;
+  for (const bool full : {false, true}) {
+    const std::string yy = full ? std::regex_replace(y, std::regex("type: quarter_reader"), "type: quarter_reader, full: true") : y;
+    auto app = runtime::Application::load(Params::load_string(yy, "<test>"), {.sim_time = true, .enable_dds = false});
+    std::atomic<bool> stop{false};
+    app->start();
+    app->run(3 * kNsPerSec, stop);  // warm-up
+    const std::uint64_t a0 = regolith::testing::cycle_allocations();
+    app->run(5 * kNsPerSec, stop);
+    EXPECT_EQ(regolith::testing::cycle_allocations() - a0, 0u) << (full ? "full" : "quarter");
+    app->stop();
+    for (const auto* c : app->view().components) {
+      EXPECT_EQ(c->errors(), 0u) << c->name();
+      if (c->name() == "sfs") {
+        EXPECT_EQ(diagnostic(*c, "solve_resolution"), full ? "full" : "quarter");
+      }
+    }
+    auto dtm = app->context().channel<common::DtmFrame>(common::kDtmChannel).acquire();
+    ASSERT_TRUE(dtm);
+    ASSERT_TRUE(dtm->solved);
+    EXPECT_EQ(dtm->height_level, full ? 0 : 2);
+    ASSERT_EQ(dtm->height.size(), cv::Size(320, 240));
+    EXPECT_GT(cv::countNonZero(dtm->valid), 320 * 240 / 2);
+    if (!full) {
+      dtm->height.copyTo(quarter_height);
+      continue;
+    }
+    // The reduced solve is the full one seen at a quarter of the resolution: the same relief
+    // (heights in the frame's pixel units) once both are smoothed to that scale.
+    cv::Mat a, b, mask = dtm->valid.clone();
+    cv::Mat qa = quarter_height.clone(), fb = dtm->height.clone();
+    cv::patchNaNs(qa, 0.0);
+    cv::patchNaNs(fb, 0.0);
+    cv::GaussianBlur(qa, a, cv::Size(0, 0), 4.0);
+    cv::GaussianBlur(fb, b, cv::Size(0, 0), 4.0);
+    cv::Scalar ma, sa, mb, sb;
+    cv::meanStdDev(a, ma, sa, mask);
+    cv::meanStdDev(b, mb, sb, mask);
+    cv::Mat prod;
+    cv::multiply(a - ma[0], b - mb[0], prod);
+    const double r = cv::mean(prod, mask)[0] / (sa[0] * sb[0]);
+    std::printf("%s: quarter vs full solve, Pearson r (smoothed 4 px) %.3f, sd %.3f vs %.3f px\n", GetParam().c_str(), r,
+                sa[0], sb[0]);
+    EXPECT_GT(r, 0.8);
+    // Amplitudes differ by method (Pentland's low-frequency response depends on the image size in
+    // pixels: ~4x the full solve's sd here, Tsai-Shah ~1.3x); SAMS normalises each channel.
+    EXPECT_GT(sa[0], 0.5 * sb[0]);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Methods, Pipeline, ::testing::Values("tsai_shah", "pentland"));
 
 TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {

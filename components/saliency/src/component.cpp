@@ -198,7 +198,8 @@ class SamsComponent final : public runtime::Component {
     dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
     // Only SAMS proper reads the DTM's heights (its terrain-structure channel); the other methods
     // read the grey image.
-    if (method_ == Method::kSams && !trained_ && !peer_) ctx.want(common::kDtmChannel, common::kDtmHeight);
+    // The structure channel reads the heights from pyramid level 2 on: a quarter-resolution solve serves.
+    if (method_ == Method::kSams && !trained_ && !peer_) ctx.want(common::kDtmChannel, common::kDtmHeightQuarter);
     rocks_out_ = &ctx.produce<RockFrame>(kRocksChannel, 4);
     const common::GridGeometry grid = grid_;
     prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [grid, nx, ny] {

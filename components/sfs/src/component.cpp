@@ -7,12 +7,14 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "regolith/common/camera.hpp"
 #include "regolith/hal/camera.hpp"
@@ -122,9 +124,12 @@ class SfsComponent final : public runtime::Component {
                             sp.vignetting.a6 != 0.0;
     try {
       sfs_ = std::make_unique<ShapeFromShading>(sp);
+      quarter_sfs_ = std::make_unique<ShapeFromShading>(sp);  // same model on the frame reduced 4x
     } catch (const FieldError& e) {
       p.fail(e);
     }
+    if (size_.width < 4 * kMinQuarterSide || size_.height < 4 * kMinQuarterSide)
+      quarter_sfs_.reset();  // too small to reduce: quarter-resolution readers get the full solve
     input_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec);
 
     // Allocate every buffer now: a warm-up solve on a shaded synthetic frame of the right size.
@@ -132,7 +137,15 @@ class SfsComponent final : public runtime::Component {
     for (int r = 0; r < size_.height; ++r)
       for (int c = 0; c < size_.width; ++c)
         gray_.at<uchar>(r, c) = static_cast<uchar>(120 + 40 * std::sin(0.05 * c) * std::cos(0.07 * r));
-    sfs_->compute(gray_, light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5}), res_);
+    const std::optional<LightDirection> warm = light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5});
+    sfs_->compute(gray_, warm, res_);
+    if (quarter_sfs_) {
+      quarter_gray_.create(size_.height / 4, size_.width / 4, CV_8U);
+      reduce4(gray_, quarter_gray_);
+      quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
+      rows_.make(size_.height, quarter_gray_.rows);
+      cols_.make(size_.width, quarter_gray_.cols);
+    }
     const cv::Size sz = size_;
     const direct_depth::CameraModel* model = model_.get();
     out_ = &ctx.produce<DtmFrame>(kDtmChannel, 4, [sz, model] {
@@ -149,7 +162,10 @@ class SfsComponent final : public runtime::Component {
     // Every consumer has declared what it reads by now. Nobody reads the heights (e.g.
     // traversability on its ground grid, the preview): with the sun given, the full-frame solve is
     // skipped and the grey image and the sun go out alone. An estimated sun needs the solve.
-    heights_wanted_ = ctx_->wanted(kDtmChannel, common::kDtmHeight);
+    const bool full = ctx_->wanted(kDtmChannel, common::kDtmHeight);
+    const bool quarter = ctx_->wanted(kDtmChannel, common::kDtmHeightQuarter);
+    heights_wanted_ = full || quarter;
+    level_ = !full && quarter && quarter_sfs_ ? 2 : 0;
   }
 
   void step(const runtime::CycleInfo& c) override {
@@ -176,20 +192,33 @@ class SfsComponent final : public runtime::Component {
     if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
     else fr.image.copyTo(gray_);
     const bool solve = !light_ || (sun_in_view_ && heights_wanted_);
-    if (solve) {
+    if (solve && level_ == 2) {
+      reduce4(gray_, quarter_gray_);
+      quarter_sfs_->compute(quarter_gray_, light_, quarter_res_);
+      res_.status = quarter_res_.status;
+      res_.light = quarter_res_.light;
+      res_.light_estimated = quarter_res_.light_estimated;
+      res_.light_confidence = quarter_res_.light_confidence;
+      res_.iterations = quarter_res_.iterations;
+      res_.final_mean_update = 4.0 * quarter_res_.final_mean_update;
+    } else if (solve) {
       sfs_->compute(gray_, light_, res_);
-      if (res_.status == SfsStatus::kUnreliableLight) {
-        count_error();
-        set_status("light estimate unreliable: frame skipped");
-        return;
-      }
+    }
+    if (solve && res_.status == SfsStatus::kUnreliableLight) {
+      count_error();
+      set_status("light estimate unreliable: frame skipped");
+      return;
     }
     DtmFrame* d = out_->begin_write();
     if (d == nullptr) return;
     gray_.copyTo(d->gray);
     const bool slot_was_solved = d->solved;  // what this slot held from its last write
     d->solved = solve;
-    if (solve) {
+    d->height_level = solve ? level_ : 0;
+    if (solve && level_ == 2) {
+      expand4(quarter_res_.height, quarter_res_.valid, d->height, d->valid);
+      d->light = res_.light;
+    } else if (solve) {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
       d->light = res_.light;
@@ -213,6 +242,7 @@ class SfsComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("method", to_string(sfs_->params().method));
     kv.emplace_back("light_source", light_ ? "sun" : "estimate");
+    kv.emplace_back("solve_resolution", !heights_wanted_ ? "none (no reader of heights)" : level_ == 2 ? "quarter" : "full");
   }
 
   std::string result() const override {
@@ -234,6 +264,64 @@ class SfsComponent final : public runtime::Component {
   }
 
  private:
+  static constexpr int kMinQuarterSide = 16;  ///< px, smallest side of a reduced frame worth solving
+
+  /// dst (CV_8U, src / 4 in each direction, allocated) = the mean of each 4x4 block of src.
+  static void reduce4(const cv::Mat& src, cv::Mat& dst) {
+    for (int r = 0; r < dst.rows; ++r) {
+      uchar* q = dst.ptr<uchar>(r);
+      for (int c = 0; c < dst.cols; ++c) {
+        int sum = 0;
+        for (int i = 0; i < 4; ++i) {
+          const uchar* p = src.ptr<uchar>(4 * r + i) + 4 * c;
+          sum += p[0] + p[1] + p[2] + p[3];
+        }
+        q[c] = static_cast<uchar>((sum + 8) / 16);
+      }
+    }
+  }
+
+  /// Column and row taps of the bilinear resampling from the reduced grid (n4 samples) to the
+  /// frame's (n): sample i sits at (i + 0.5) / 4 - 0.5, clamped to the reduced grid.
+  struct Taps {
+    std::vector<int> i0, i1;
+    std::vector<float> w;
+    void make(int n, int n4) {
+      i0.resize(static_cast<std::size_t>(n));
+      i1.resize(static_cast<std::size_t>(n));
+      w.resize(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) {
+        const double f = std::clamp((i + 0.5) / 4.0 - 0.5, 0.0, n4 - 1.0);
+        const int a = std::min(static_cast<int>(f), n4 - 1);
+        i0[static_cast<std::size_t>(i)] = a;
+        i1[static_cast<std::size_t>(i)] = std::min(a + 1, n4 - 1);
+        w[static_cast<std::size_t>(i)] = static_cast<float>(f - a);
+      }
+    }
+  };
+
+  /// The quarter-resolution solution on the frame's grid (both allocated at the frame's size):
+  /// heights bilinear and x 4 (pixel units of the frame), valid where all four samples used are.
+  void expand4(const cv::Mat& h4, const cv::Mat& v4, cv::Mat& h, cv::Mat& v) const {
+    for (int r = 0; r < h.rows; ++r) {
+      const auto ur = static_cast<std::size_t>(r);
+      const int y0 = rows_.i0[ur], y1 = rows_.i1[ur];
+      const float wy = rows_.w[ur];
+      const float *a0 = h4.ptr<float>(y0), *a1 = h4.ptr<float>(y1);
+      const uchar *m0 = v4.ptr<uchar>(y0), *m1 = v4.ptr<uchar>(y1);
+      float* out = h.ptr<float>(r);
+      uchar* vo = v.ptr<uchar>(r);
+      for (int c = 0; c < h.cols; ++c) {
+        const auto uc = static_cast<std::size_t>(c);
+        const int x0 = cols_.i0[uc], x1 = cols_.i1[uc];
+        const float wx = cols_.w[uc];
+        const float top = a0[x0] + wx * (a0[x1] - a0[x0]), bottom = a1[x0] + wx * (a1[x1] - a1[x0]);
+        out[c] = 4.0f * (top + wy * (bottom - top));
+        vo[c] = (m0[x0] & m0[x1] & m1[x0] & m1[x1]) ? 255 : 0;
+      }
+    }
+  }
+
   // NaN height, no valid pixel, by loop (Mat::setTo with a scalar allocates).
   static void fill_invalid(DtmFrame& d) {
     for (int r = 0; r < d.height.rows; ++r) {
@@ -249,6 +337,11 @@ class SfsComponent final : public runtime::Component {
   hal::Camera* cam_ = nullptr;
   cv::Size size_;
   std::unique_ptr<ShapeFromShading> sfs_;
+  std::unique_ptr<ShapeFromShading> quarter_sfs_;  ///< the same model on the frame reduced 4x (null: frame too small)
+  cv::Mat quarter_gray_;
+  SfsResult quarter_res_;
+  int level_ = 0;  ///< 2: only quarter-resolution readers (activate()): solve on the reduced frame
+  Taps rows_, cols_;  ///< resampling of the reduced solution to the frame (made in configure)
   std::optional<LightDirection> light_;  ///< empty: estimated per frame
   bool sun_in_view_ = true;              ///< false: the sun is ahead of the camera (slant >= 90 deg)
   bool heights_wanted_ = true;           ///< a consumer reads the DTM heights (activate())

@@ -23,6 +23,11 @@ inline constexpr const char* kDtmChannel = "terrain/dtm";
 /// declare it in configure (ctx.want(kDtmChannel, kDtmHeight)); when nobody does, the sfs component
 /// publishes the grey image and the sun only (solved = false), as for a sun ahead of the camera.
 inline constexpr const char* kDtmHeight = "height";
+/// The heights at a quarter of the frame's resolution are enough (SAMS's structure channel uses
+/// pyramid levels >= 2 only): when no consumer wants kDtmHeight, the sfs component solves on the
+/// frame reduced 4x (16x fewer pixels) and publishes that solution resampled to the frame
+/// (DtmFrame::height_level 2).
+inline constexpr const char* kDtmHeightQuarter = "height/4";
 
 struct DtmFrame {
   cv::Mat gray;    ///< CV_8UC1 grey image as captured (before vignetting correction)
@@ -32,6 +37,9 @@ struct DtmFrame {
   /// consumer reads the heights): height is NaN and valid 0, gray and light are set
   /// (traversability's ground path uses them).
   bool solved = true;
+  /// 0: solved on the full frame; 2: solved on the frame reduced 4x (only quarter-resolution
+  /// readers, kDtmHeightQuarter) and resampled to the frame, heights in the frame's pixel units.
+  int height_level = 0;
   sfs::LightDirection light;       ///< light used (camera image frame); slant >= pi/2 when !solved
   bool light_estimated = false;    ///< true when estimated from the image
   double light_confidence = 1.0;   ///< 1 when given, estimator confidence otherwise
