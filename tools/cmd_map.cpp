@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
@@ -199,7 +200,8 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     } else if (!imu_topic.empty() && m.channel.topic == imu_topic) {
       try {
         const hal::ImuSample i = record::decode_imu(m.data);
-        if (std::isfinite(i.attitude.yaw_rad)) yaws.samples.emplace_back(i.stamp, i.attitude.yaw_rad);
+        // the live system's check (hal::PlausibleImu): a recording made without it may hold damaged samples
+        if (hal::plausible(i)) yaws.samples.emplace_back(i.stamp, i.attitude.yaw_rad);
       } catch (const std::exception& e) {
         spdlog::warn("{}: {}: {}; sample skipped", name, imu_topic, e.what());
       }
