@@ -1,5 +1,7 @@
 #include "regolith/hal/plausible_encoders.hpp"
 
+#include "regolith/hal/sample_filter.hpp"
+
 #include <cmath>
 #include <limits>
 
@@ -130,11 +132,10 @@ bool PlausibleEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) con
 
 std::size_t PlausibleEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
                                              std::span<AngleSample> out) const {
-  const std::size_t n = inner_->samples_since(wheel, after, now, out);
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (check(wheel, out[i])) out[kept++] = out[i];
-  return kept;
+  // Read on past rejected samples: a batch that was all garbage is not the end of the history.
+  return filter_samples(
+      after, out, [&](TimeNs a, std::span<AngleSample> b) { return inner_->samples_since(wheel, a, now, b); },
+      [&](const AngleSample& s) { return check(wheel, s); });
 }
 
 EncoderStats PlausibleEncoders::stats() const {

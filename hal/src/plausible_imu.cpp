@@ -1,5 +1,7 @@
 #include "regolith/hal/plausible_imu.hpp"
 
+#include "regolith/hal/sample_filter.hpp"
+
 #include <array>
 #include <cmath>
 
@@ -62,23 +64,13 @@ bool PlausibleImu::attitude_at(TimeNs t, Attitude& out) const {
 }
 
 std::size_t PlausibleImu::samples_since(TimeNs after, TimeNs now, std::span<ImuSample> out) const {
-  if (out.empty()) return 0;
-  std::array<ImuSample, 64> batch{};
-  std::size_t n = 0;
-  for (;;) {
-    const TimeNs from = after;
-    const std::size_t got = inner_->samples_since(after, now, batch);
-    for (std::size_t i = 0; i < got; ++i) {
-      after = batch[i].stamp;
-      if (!plausible(batch[i])) {
-        reject(batch[i]);
-        continue;
-      }
-      out[n] = batch[i];
-      if (++n == out.size()) return n;
-    }
-    if (got < batch.size() || after == from) return n;
-  }
+  return filter_samples(
+      after, out, [&](TimeNs a, std::span<ImuSample> b) { return inner_->samples_since(a, now, b); },
+      [&](const ImuSample& s) {
+        if (plausible(s)) return true;
+        reject(s);
+        return false;
+      });
 }
 
 DeviceCounters PlausibleImu::counters() const {

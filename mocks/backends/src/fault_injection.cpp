@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "backends_internal.hpp"
+#include "regolith/hal/sample_filter.hpp"
 #include "common.hpp"
 
 namespace regolith::mocks {
@@ -320,22 +321,15 @@ class FaultEncoders final : public hal::WheelEncoders {
   /// What the consumer received (for recorders): the inner device's samples up to `now` - delay,
   /// without those dropped or inside outages, frozen and corrupted as latest() serves them.
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override {
-    if (!run_.running() || out.empty()) return 0;
-    std::array<hal::AngleSample, 64> batch{};
-    std::size_t n = 0;
-    for (;;) {
-      const TimeNs from = after;
-      const std::size_t got = inner_->samples_since(wheel, after, now - cfg_.delay, batch);
-      for (std::size_t i = 0; i < got; ++i) {
-        after = batch[i].stamp;
-        TimeNs older = 0;
-        if (!received(wheel, batch[i].stamp, older)) continue;
-        out[n] = batch[i];
-        damage(wheel, out[n]);
-        if (++n == out.size()) return n;
-      }
-      if (got < batch.size() || after == from) return n;
-    }
+    if (!run_.running()) return 0;
+    return hal::filter_samples(
+        after, out, [&](TimeNs a, std::span<hal::AngleSample> b) { return inner_->samples_since(wheel, a, now - cfg_.delay, b); },
+        [&](hal::AngleSample& s) {
+          TimeNs older = 0;
+          if (!received(wheel, s.stamp, older)) return false;
+          damage(wheel, s);
+          return true;
+        });
   }
 
   hal::EncoderStats stats() const override {
@@ -464,22 +458,15 @@ class FaultImu final : public hal::Imu {
 
   /// What the consumer received (for recorders): as latest() serves them.
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    if (!run_.running() || out.empty()) return 0;
-    std::array<hal::ImuSample, 64> batch{};
-    std::size_t n = 0;
-    for (;;) {
-      const TimeNs from = after;
-      const std::size_t got = inner_->samples_since(after, now - cfg_.delay, batch);
-      for (std::size_t i = 0; i < got; ++i) {
-        after = batch[i].stamp;
-        TimeNs older = 0;
-        if (!received(batch[i].stamp, older)) continue;
-        out[n] = batch[i];
-        damage(out[n]);
-        if (++n == out.size()) return n;
-      }
-      if (got < batch.size() || after == from) return n;
-    }
+    if (!run_.running()) return 0;
+    return hal::filter_samples(
+        after, out, [&](TimeNs a, std::span<hal::ImuSample> b) { return inner_->samples_since(a, now - cfg_.delay, b); },
+        [&](hal::ImuSample& s) {
+          TimeNs older = 0;
+          if (!received(s.stamp, older)) return false;
+          damage(s);
+          return true;
+        });
   }
 
   hal::DeviceCounters counters() const override {
