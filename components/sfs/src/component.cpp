@@ -192,19 +192,15 @@ class SfsComponent final : public runtime::Component {
     if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
     else fr.image.copyTo(gray_);
     const bool solve = !light_ || (sun_in_view_ && heights_wanted_);
+    // The solve of this level: the full frame's, or the reduced frame's (level 2).
+    const SfsResult& res = level_ == 2 ? quarter_res_ : res_;
     if (solve && level_ == 2) {
       reduce4(gray_, quarter_gray_);
       quarter_sfs_->compute(quarter_gray_, light_, quarter_res_);
-      res_.status = quarter_res_.status;
-      res_.light = quarter_res_.light;
-      res_.light_estimated = quarter_res_.light_estimated;
-      res_.light_confidence = quarter_res_.light_confidence;
-      res_.iterations = quarter_res_.iterations;
-      res_.final_mean_update = 4.0 * quarter_res_.final_mean_update;
     } else if (solve) {
       sfs_->compute(gray_, light_, res_);
     }
-    if (solve && res_.status == SfsStatus::kUnreliableLight) {
+    if (solve && res.status == SfsStatus::kUnreliableLight) {
       count_error();
       set_status("light estimate unreliable: frame skipped");
       return;
@@ -217,19 +213,19 @@ class SfsComponent final : public runtime::Component {
     d->height_level = solve ? level_ : 0;
     if (solve && level_ == 2) {
       expand4(quarter_res_.height, quarter_res_.valid, d->height, d->valid);
-      d->light = res_.light;
+      d->light = res.light;
     } else if (solve) {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
-      d->light = res_.light;
+      d->light = res.light;
     } else {  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
       if (slot_was_solved) fill_invalid(*d);  // a slot last written unsolved is NaN / 0 already
       d->light = *light_;
     }
-    d->light_estimated = res_.light_estimated;
-    d->light_confidence = res_.light_confidence;
-    d->iterations = res_.iterations;
-    d->final_mean_update = res_.final_mean_update;
+    d->light_estimated = res.light_estimated;
+    d->light_confidence = res.light_confidence;
+    d->iterations = res.iterations;
+    d->final_mean_update = res.final_mean_update * (1 << level_);  // px of the frame
     d->stamp = fr.capture_time;
     d->sequence = fr.sequence;
     d->camera = model_.get();
