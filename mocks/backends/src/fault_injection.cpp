@@ -260,35 +260,102 @@ class FaultCamera final : public hal::Camera {
   std::atomic<TimeNs> last_frame_time_{0};
 };
 
+// ---- sampled devices (encoders, IMU) -----------------------------------------------------------
+
+/// The faults of a sampled device (encoders, IMU), shared by both decorators: the run and the
+/// disconnect schedule, which samples the consumer receives (drops and outages withhold them), the
+/// freeze, the corruption decision and the walk back to the newest received sample. `key...`
+/// tells apart the streams of one device in the fault hashes (the encoders' wheel; none for an IMU).
+/// What a damaged sample contains is the device's own business.
+class SampleFaults {
+ public:
+  SampleFaults(const FaultConfig& c, double rate_hz) : cfg_(c), sched_(c, rate_hz) {}
+
+  void begin(TimeNs now) { run_.begin(now); }
+  void end(TimeNs now) { run_.end(now); }
+  bool running() const { return run_.running(); }
+  /// Running and not inside an outage at `now`.
+  bool serving(TimeNs now) const { return run_.running() && !sched_.at(now - run_.start()).down; }
+  /// The newest inner-device time the consumer can see at `now` (the configured delay).
+  TimeNs horizon(TimeNs now) const { return now - cfg_.delay; }
+
+  bool frozen(TimeNs stamp) const {
+    return cfg_.freeze_after > 0 && stamp - run_.start() >= sched_.grid().offset(cfg_.freeze_after);
+  }
+  /// The last inner time before the freeze (its sample's content is what a frozen device repeats).
+  TimeNs before_freeze() const { return run_.start() + sched_.grid().offset(cfg_.freeze_after) - 1; }
+
+  /// False when the consumer never receives the sample stamped `stamp` (it falls in an outage, or
+  /// is dropped); `older` is then the latest stamp an earlier received sample can have.
+  template <class... Key>
+  bool received(TimeNs stamp, TimeNs& older, Key... key) const {
+    const FaultSchedule::At st = sched_.at(stamp - run_.start());
+    if (st.down) {
+      older = run_.start() + st.outage_begin - 1;
+      return false;
+    }
+    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
+      older = stamp - 1;
+      return false;
+    }
+    return true;
+  }
+  template <class... Key>
+  bool corrupt(TimeNs stamp, Key... key) const {
+    return cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kCorrupt)) < cfg_.corrupt_rate;
+  }
+  std::uint64_t seed() const { return cfg_.seed; }
+
+  /// Newest received sample with stamp <= q, read with `inner_latest(q, out)` (walks back over
+  /// withheld samples; the caller damages it).
+  template <class Sample, class InnerLatest, class... Key>
+  bool newest_received(TimeNs q, Sample& out, InnerLatest&& inner_latest, Key... key) const {
+    constexpr int kMaxWalk = 256;
+    for (int i = 0; i < kMaxWalk; ++i) {
+      if (!inner_latest(q, out)) return false;
+      if (received(out.stamp, q, key...)) return true;
+    }
+    return false;
+  }
+
+  /// The schedule for the device's counters at `now` (false before the first start); `down` only
+  /// while running.
+  bool counted(TimeNs now, FaultSchedule::At& at) const {
+    TimeNs rel = 0;
+    if (!run_.counted(now, rel)) return false;
+    at = sched_.at(rel);
+    at.down = at.down && run_.running();
+    return true;
+  }
+
+ private:
+  FaultConfig cfg_;
+  FaultSchedule sched_;
+  RunSpan run_;
+};
+
 // ---- encoders ----------------------------------------------------------------------------------
 
 class FaultEncoders final : public hal::WheelEncoders {
  public:
   FaultEncoders(const hal::DeviceContext& ctx, std::unique_ptr<hal::WheelEncoders> inner, const FaultConfig& cfg,
                 double rate_hz, TimeNs max_extrapolation)
-      : id_(ctx.id),
-        clock_(clock_of(ctx)),
-        inner_(std::move(inner)),
-        cfg_(cfg),
-        sched_(cfg, rate_hz),
-        max_extrapolation_(max_extrapolation) {}
+      : id_(ctx.id), clock_(clock_of(ctx)), inner_(std::move(inner)), faults_(cfg, rate_hz), max_extrapolation_(max_extrapolation) {}
 
   const std::string& id() const override { return id_; }
   const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
   void start() override {
     inner_->start();
-    run_.begin(clock_->now());
+    faults_.begin(clock_->now());
   }
   void stop() override {
-    run_.end(clock_->now());
+    faults_.end(clock_->now());
     inner_->stop();
   }
   bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
 
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override {
-    if (!run_.running()) return false;
-    if (sched_.at(now - start_time()).down) return false;
-    return visible(wheel, now - cfg_.delay, out);
+    return faults_.serving(now) && visible(wheel, faults_.horizon(now), out);
   }
 
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override {
@@ -307,7 +374,7 @@ class FaultEncoders final : public hal::WheelEncoders {
     }
     // Inside the history: the inner device's interpolation, frozen like the samples.
     if (!inner_->angle_at(wheel, t, angle)) return false;
-    if (frozen(t)) return frozen_angle(wheel, angle);
+    if (faults_.frozen(t)) return frozen_angle(wheel, angle);
     return true;
   }
 
@@ -321,12 +388,13 @@ class FaultEncoders final : public hal::WheelEncoders {
   /// What the consumer received (for recorders): the inner device's samples up to `now` - delay,
   /// without those dropped or inside outages, frozen and corrupted as latest() serves them.
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override {
-    if (!run_.running()) return 0;
+    if (!faults_.running()) return 0;
     return hal::filter_samples(
-        after, out, [&](TimeNs a, std::span<hal::AngleSample> b) { return inner_->samples_since(wheel, a, now - cfg_.delay, b); },
+        after, out,
+        [&](TimeNs a, std::span<hal::AngleSample> b) { return inner_->samples_since(wheel, a, faults_.horizon(now), b); },
         [&](hal::AngleSample& s) {
           TimeNs older = 0;
-          if (!received(wheel, s.stamp, older)) return false;
+          if (!faults_.received(s.stamp, older, wheel)) return false;
           damage(wheel, s);
           return true;
         });
@@ -334,69 +402,40 @@ class FaultEncoders final : public hal::WheelEncoders {
 
   hal::EncoderStats stats() const override {
     hal::EncoderStats s = inner_->stats();
-    TimeNs rel = 0;
-    if (!run_.counted(clock_->now(), rel)) return s;
-    const FaultSchedule::At st = sched_.at(rel);
+    FaultSchedule::At st;
+    if (!faults_.counted(clock_->now(), st)) return s;
     s.faults += st.faults;
-    if (run_.running() && st.down) s.state = hal::DeviceState::kFaulted;
+    if (st.down) s.state = hal::DeviceState::kFaulted;
     return s;
   }
 
  private:
-  TimeNs start_time() const { return run_.start(); }
-  bool frozen(TimeNs stamp) const {
-    return cfg_.freeze_after > 0 && stamp - start_time() >= sched_.grid().offset(cfg_.freeze_after);
-  }
   /// Angle of the last inner sample before the freeze (false: there was none).
   bool frozen_angle(std::size_t wheel, double& angle) const {
     hal::AngleSample f;
-    if (!inner_->latest(wheel, start_time() + sched_.grid().offset(cfg_.freeze_after) - 1, f)) return false;
+    if (!inner_->latest(wheel, faults_.before_freeze(), f)) return false;
     angle = f.angle;
     return true;
   }
-
-  /// False when the consumer never receives the sample stamped `stamp` (it falls in an outage,
-  /// or is dropped); `older` is then the latest stamp an earlier received sample can have.
-  bool received(std::size_t wheel, TimeNs stamp, TimeNs& older) const {
-    const FaultSchedule::At st = sched_.at(stamp - start_time());
-    if (st.down) {
-      older = start_time() + st.outage_begin - 1;
-      return false;
-    }
-    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, wheel, static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
-      older = stamp - 1;
-      return false;
-    }
-    return true;
-  }
-  /// A received sample as the consumer sees it: frozen and corrupted.
+  /// A received sample as the consumer sees it: frozen and corrupted (a garbage angle).
   void damage(std::size_t wheel, hal::AngleSample& s) const {
-    if (frozen(s.stamp)) frozen_angle(wheel, s.angle);
-    const auto key = static_cast<std::uint64_t>(s.stamp);
-    if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, wheel, key, kCorrupt)) < cfg_.corrupt_rate)
-      s.angle = (2.0 * unit(hash(cfg_.seed, wheel, key, kGarbage)) - 1.0) * 1e4;
+    if (faults_.frozen(s.stamp)) frozen_angle(wheel, s.angle);
+    if (faults_.corrupt(s.stamp, wheel))
+      s.angle = (2.0 * unit(hash(faults_.seed(), wheel, static_cast<std::uint64_t>(s.stamp), kGarbage)) - 1.0) * 1e4;
   }
-
-  /// Newest sample the consumer can have received with stamp <= q: walks back over withheld
-  /// samples (drops, outages), then applies freeze and corruption.
+  /// Newest sample the consumer can have received with stamp <= q, damaged as served.
   bool visible(std::size_t wheel, TimeNs q, hal::AngleSample& out) const {
-    constexpr int kMaxWalk = 256;
-    for (int i = 0; i < kMaxWalk; ++i) {
-      if (!inner_->latest(wheel, q, out)) return false;
-      if (!received(wheel, out.stamp, q)) continue;
-      damage(wheel, out);
-      return true;
-    }
-    return false;
+    const auto inner_latest = [&](TimeNs at, hal::AngleSample& o) { return inner_->latest(wheel, at, o); };
+    if (!faults_.newest_received(q, out, inner_latest, wheel)) return false;
+    damage(wheel, out);
+    return true;
   }
 
   std::string id_;
   Clock* clock_ = nullptr;
   std::unique_ptr<hal::WheelEncoders> inner_;
-  FaultConfig cfg_;
-  FaultSchedule sched_;
+  SampleFaults faults_;
   TimeNs max_extrapolation_ = 0;
-  RunSpan run_;
 };
 
 // ---- IMU ---------------------------------------------------------------------------------------
@@ -408,27 +447,21 @@ class FaultImu final : public hal::Imu {
  public:
   FaultImu(const hal::DeviceContext& ctx, std::unique_ptr<hal::Imu> inner, const FaultConfig& cfg, double rate_hz,
            TimeNs max_extrapolation)
-      : id_(ctx.id),
-        clock_(clock_of(ctx)),
-        inner_(std::move(inner)),
-        cfg_(cfg),
-        sched_(cfg, rate_hz),
-        max_extrapolation_(max_extrapolation) {}
+      : id_(ctx.id), clock_(clock_of(ctx)), inner_(std::move(inner)), faults_(cfg, rate_hz), max_extrapolation_(max_extrapolation) {}
 
   const std::string& id() const override { return id_; }
   void start() override {
     inner_->start();
-    run_.begin(clock_->now());
+    faults_.begin(clock_->now());
   }
   void stop() override {
-    run_.end(clock_->now());
+    faults_.end(clock_->now());
     inner_->stop();
   }
   bool ready_for(TimeNs t) const override { return inner_->ready_for(t); }
 
   bool latest(TimeNs now, hal::ImuSample& out) const override {
-    if (!run_.running() || sched_.at(now - run_.start()).down) return false;
-    return visible(now - cfg_.delay, out);
+    return faults_.serving(now) && visible(faults_.horizon(now), out);
   }
 
   /// Between the two received samples around `t` (angles linear, yaw along the shorter way); past
@@ -444,7 +477,7 @@ class FaultImu final : public hal::Imu {
     }
     if (!visible(t, a)) return false;
     hal::ImuSample b;
-    if (!next_received(a.stamp, now - cfg_.delay, b)) return false;
+    if (!next_received(a.stamp, faults_.horizon(now), b)) return false;
     const double f = static_cast<double>(t - a.stamp) / static_cast<double>(b.stamp - a.stamp);
     constexpr double kPi = 3.14159265358979323846;
     const auto lerp = [f](double x, double y) { return x + f * (y - x); };
@@ -458,12 +491,12 @@ class FaultImu final : public hal::Imu {
 
   /// What the consumer received (for recorders): as latest() serves them.
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    if (!run_.running()) return 0;
+    if (!faults_.running()) return 0;
     return hal::filter_samples(
-        after, out, [&](TimeNs a, std::span<hal::ImuSample> b) { return inner_->samples_since(a, now - cfg_.delay, b); },
+        after, out, [&](TimeNs a, std::span<hal::ImuSample> b) { return inner_->samples_since(a, faults_.horizon(now), b); },
         [&](hal::ImuSample& s) {
           TimeNs older = 0;
-          if (!received(s.stamp, older)) return false;
+          if (!faults_.received(s.stamp, older)) return false;
           damage(s);
           return true;
         });
@@ -471,46 +504,30 @@ class FaultImu final : public hal::Imu {
 
   hal::DeviceCounters counters() const override {
     hal::DeviceCounters c = inner_->counters();
-    TimeNs rel = 0;
-    if (!run_.counted(clock_->now(), rel)) return c;
-    const FaultSchedule::At st = sched_.at(rel);
+    FaultSchedule::At st;
+    if (!faults_.counted(clock_->now(), st)) return c;
     c.faults += st.faults;
     c.recoveries += st.recoveries;
-    if (run_.running() && st.down) c.state = hal::DeviceState::kFaulted;
+    if (st.down) c.state = hal::DeviceState::kFaulted;
     return c;
   }
 
  private:
-  bool frozen(TimeNs stamp) const {
-    return cfg_.freeze_after > 0 && stamp - run_.start() >= sched_.grid().offset(cfg_.freeze_after);
-  }
-  bool received(TimeNs stamp, TimeNs& older) const {
-    const FaultSchedule::At st = sched_.at(stamp - run_.start());
-    if (st.down) {
-      older = run_.start() + st.outage_begin - 1;
-      return false;
-    }
-    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
-      older = stamp - 1;
-      return false;
-    }
-    return true;
-  }
   /// A received sample as the consumer sees it: frozen (the content of the last sample before the
   /// freeze, its own stamp and sequence) and corrupted.
   void damage(hal::ImuSample& s) const {
-    if (frozen(s.stamp)) {
+    if (faults_.frozen(s.stamp)) {
       hal::ImuSample f;
-      if (inner_->latest(run_.start() + sched_.grid().offset(cfg_.freeze_after) - 1, f)) {
+      if (inner_->latest(faults_.before_freeze(), f)) {
         s.attitude = f.attitude;
         s.angular_velocity = f.angular_velocity;
         s.linear_acceleration = f.linear_acceleration;
       }
     }
-    const auto key = static_cast<std::uint64_t>(s.stamp);
-    if (cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, key, kCorrupt)) < cfg_.corrupt_rate) {
+    if (faults_.corrupt(s.stamp)) {
+      const auto key = static_cast<std::uint64_t>(s.stamp);
       std::uint64_t k = 0;
-      const auto garbage = [&] { return (2.0 * unit(hash(cfg_.seed, key, kGarbage, ++k)) - 1.0) * 1e4; };
+      const auto garbage = [&] { return (2.0 * unit(hash(faults_.seed(), key, kGarbage, ++k)) - 1.0) * 1e4; };
       s.attitude = {garbage(), garbage(), garbage()};
       s.angular_velocity = {garbage(), garbage(), garbage()};
       s.linear_acceleration = {garbage(), garbage(), garbage()};
@@ -518,23 +535,19 @@ class FaultImu final : public hal::Imu {
   }
   /// Newest received sample with stamp <= q, damaged as served.
   bool visible(TimeNs q, hal::ImuSample& out) const {
-    constexpr int kMaxWalk = 256;
-    for (int i = 0; i < kMaxWalk; ++i) {
-      if (!inner_->latest(q, out)) return false;
-      if (!received(out.stamp, q)) continue;
-      damage(out);
-      return true;
-    }
-    return false;
+    const auto inner_latest = [&](TimeNs at, hal::ImuSample& o) { return inner_->latest(at, o); };
+    if (!faults_.newest_received(q, out, inner_latest)) return false;
+    damage(out);
+    return true;
   }
-  /// Oldest received sample with after < stamp <= until.
+  /// Oldest received sample with after < stamp <= until, damaged as served.
   bool next_received(TimeNs after, TimeNs until, hal::ImuSample& out) const {
     std::array<hal::ImuSample, 16> batch{};
     for (int round = 0; round < 16; ++round) {
       const std::size_t got = inner_->samples_since(after, until, batch);
       for (std::size_t i = 0; i < got; ++i) {
         TimeNs older = 0;
-        if (!received(batch[i].stamp, older)) continue;
+        if (!faults_.received(batch[i].stamp, older)) continue;
         out = batch[i];
         damage(out);
         return true;
@@ -548,10 +561,8 @@ class FaultImu final : public hal::Imu {
   std::string id_;
   Clock* clock_ = nullptr;
   std::unique_ptr<hal::Imu> inner_;
-  FaultConfig cfg_;
-  FaultSchedule sched_;
+  SampleFaults faults_;
   TimeNs max_extrapolation_ = 0;
-  RunSpan run_;
 };
 
 }  // namespace
