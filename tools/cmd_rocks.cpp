@@ -233,9 +233,32 @@ cv::Mat to_bgr8(const cv::Mat &img) {
   return out;
 }
 
-void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
+void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
                const std::string &csv_path, const std::string &overlay_dir,
                const std::string &saliency_dir, const std::string &masks_dir) {
+  // A directory stands for the images in it (sorted by name, not recursing); one without any is
+  // a failed input like an unreadable image, and the others are still processed.
+  std::vector<std::string> images;
+  int bad_dirs = 0;
+  std::string first_error;
+  for (const std::string &a : args) {
+    std::error_code ec;
+    if (!fs::is_directory(a, ec)) {
+      images.push_back(a);
+      continue;
+    }
+    try {
+      const std::vector<std::string> in_dir = sal::list_images(a);
+      if (in_dir.empty())
+        throw sal::DataError(a + ": a directory without an image regolith reads (PNG, JPEG, TIFF, BMP, PNM, WebP)");
+      images.insert(images.end(), in_dir.begin(), in_dir.end());
+    } catch (const sal::DataError &e) {
+      ++bad_dirs;
+      if (first_error.empty())
+        first_error = e.what();
+      std::cerr << "error: " << e.what() << " (skipped)\n";
+    }
+  }
   const bool trained = o.method == "trained";
   std::optional<sal::TrainedModel> model;
   std::unique_ptr<sal::CandidateExtractor> extractor;
@@ -287,7 +310,6 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
   cv::Mat map, map8, h;
   std::vector<sal::Detection> dets;
   int failed = 0;
-  std::string first_error;
   size_t total_boxes = 0;
   double detect_s = 0.0; // wall time of map / candidates + boxes, decoding excluded
   int detected = 0;
@@ -393,10 +415,10 @@ void run_rocks(const std::vector<std::string> &images, const RockOptions &o,
             << " (" << o.method << ": "
             << (detected ? 1e3 * detect_s / detected : 0.0)
             << " ms per image, decoding excluded)\n";
-  if (failed > 0) {
-    throw InputError(std::to_string(failed) + " of " +
-                     std::to_string(images.size()) +
-                     " image(s) failed; first: " + first_error);
+  if (failed + bad_dirs > 0) {
+    throw InputError(std::to_string(failed + bad_dirs) + " of " +
+                     std::to_string(images.size() + static_cast<size_t>(bad_dirs)) +
+                     " input(s) failed; first: " + first_error);
   }
 }
 
@@ -821,7 +843,7 @@ void add_rocks_commands(CLI::App &app) {
   auto overlay = std::make_shared<std::string>();
   auto saliency_dir = std::make_shared<std::string>();
   auto masks_dir = std::make_shared<std::string>();
-  rocks->add_option("images", *images, "input images")->required();
+  rocks->add_option("images", *images, "input images, or directories of them (sorted by name)")->required();
   ro->add_to(rocks);
   rocks
       ->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")

@@ -277,6 +277,43 @@ TEST(Cli, RocksCsvContractOverlaysSaliencyAndBadImage) {
   fs::remove_all(d);
 }
 
+TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {
+  const fs::path d = temp_dir("cli_dir");
+  const cv::Size size(320, 288);
+  fs::create_directories(d / "imgs" / "sub");
+  fs::create_directories(d / "empty");
+  cv::imwrite((d / "imgs" / "b.png").string(), scene(size, {220, 180}, 30, 2));
+  cv::imwrite((d / "imgs" / "a.JPG").string(), scene(size, {100, 120}, 25, 1));
+  cv::imwrite((d / "imgs" / "sub" / "c.png").string(), scene(size, {100, 120}, 25, 3));  // not recursed into
+  std::ofstream(d / "imgs" / "notes.txt") << "not an image";                          // not an image name
+  std::ofstream(d / "empty" / "readme.md") << "nothing";
+  const fs::path extra = d / "z.png";
+  cv::imwrite(extra.string(), scene(size, {160, 140}, 28, 4));
+  const fs::path csv = d / "out.csv";
+  try {
+    run_cli({"rocks", (d / "imgs").string(), (d / "empty").string(), extra.string(), "--method", "contrast",
+             "--csv", csv.string()});
+    FAIL() << "expected an InputError for the directory without images";
+  } catch (const regolith::InputError &e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find((d / "empty").string() + ": a directory without an image"), std::string::npos) << w;
+    EXPECT_NE(w.find("1 of 4 input(s)"), std::string::npos) << w;
+  }
+  // The directory's two images in name order, then the file given after it; nothing else.
+  std::vector<std::string> names;
+  for (const std::string &l : read_lines(csv)) {
+    const std::string name = l.substr(0, l.find(','));
+    if (name != "image" && (names.empty() || names.back() != name)) names.push_back(name);
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"a.JPG", "b.png", "z.png"}));
+  // The listing the dataset reader shares.
+  const auto listed = rs::list_images((d / "imgs").string());
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(fs::path(listed[0]).filename(), "a.JPG");
+  EXPECT_THROW(rs::list_images((d / "nowhere").string()), rs::DataError);
+  fs::remove_all(d);
+}
+
 TEST(Cli, EvalRocksTableAndMaskMismatch) {
   const fs::path d = temp_dir("eval");
   fs::create_directories(d / "img");

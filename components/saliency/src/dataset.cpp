@@ -27,13 +27,28 @@ std::string lower(std::string s) {
   return s;
 }
 bool is_image_ext(const std::string &ext) {
-  static const char *exts[] = {".jpg", ".jpeg", ".png", ".bmp",
-                               ".tif", ".tiff", ".pgm", ".ppm"};
+  static const char *exts[] = {".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff",
+                               ".pgm", ".ppm", ".pbm", ".pnm", ".webp"};
   const std::string e = lower(ext);
   return std::any_of(std::begin(exts), std::end(exts),
                      [&](const char *x) { return e == x; });
 }
 } // namespace
+
+std::vector<std::string> list_images(const std::string &dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw DataError(dir + ": not a directory");
+  std::vector<std::string> out;
+  for (const auto &e : fs::directory_iterator(dir, ec)) {
+    if (e.is_regular_file() && is_image_ext(e.path().extension().string()))
+      out.push_back(e.path().string());
+  }
+  if (ec)
+    throw DataError(dir + ": " + ec.message());
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 DatasetListing list_dataset(const std::string &images_dir,
                             const std::string &masks_dir) {
@@ -43,27 +58,24 @@ DatasetListing list_dataset(const std::string &images_dir,
   if (!fs::is_directory(masks_dir, ec))
     throw DataError(masks_dir + ": not a directory (--masks)");
   DatasetListing out;
-  for (const auto &e : fs::directory_iterator(images_dir, ec)) {
-    if (!e.is_regular_file() || !is_image_ext(e.path().extension().string()))
-      continue;
+  std::vector<std::string> images;
+  try {
+    images = list_images(images_dir);
+  } catch (const DataError &e) {
+    out.errors.push_back(e.what());
+  }
+  for (const std::string &path : images) {  // sorted by path = by name (one directory)
+    const fs::path image(path);
     DatasetItem it;
-    it.name = e.path().filename().string();
-    it.image_path = e.path().string();
-    it.mask_path =
-        (fs::path(masks_dir) / (e.path().stem().string() + ".png")).string();
+    it.name = image.filename().string();
+    it.image_path = path;
+    it.mask_path = (fs::path(masks_dir) / (image.stem().string() + ".png")).string();
     if (!fs::exists(it.mask_path, ec)) {
-      out.errors.push_back(it.mask_path + ": no mask for image " +
-                           it.image_path);
+      out.errors.push_back(it.mask_path + ": no mask for image " + it.image_path);
       continue;
     }
     out.items.push_back(std::move(it));
   }
-  if (ec)
-    out.errors.push_back(images_dir + ": " + ec.message());
-  std::sort(out.items.begin(), out.items.end(),
-            [](const DatasetItem &a, const DatasetItem &b) {
-              return a.name < b.name;
-            });
   return out;
 }
 

@@ -39,8 +39,13 @@ struct DatasetListing {
       errors; ///< images without a mask, unreadable directories
 };
 
-/// Images (.jpg .jpeg .png .bmp .tif .tiff .pgm .ppm) in `images_dir` paired
-/// with `masks_dir/<stem>.png`. Throws DataError if a directory does not exist.
+/// The image files (.jpg .jpeg .png .bmp .tif .tiff .pgm .ppm .pbm .pnm .webp, any case) of a
+/// directory, not recursing, sorted by path. Throws DataError naming the directory when it is
+/// not one or cannot be read.
+std::vector<std::string> list_images(const std::string &dir);
+
+/// The images of `images_dir` (list_images) paired with `masks_dir/<stem>.png`, sorted by name.
+/// Throws DataError if a directory does not exist.
 DatasetListing list_dataset(const std::string &images_dir,
                             const std::string &masks_dir);
 
