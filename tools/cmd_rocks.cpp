@@ -321,7 +321,8 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
         if (trained) {
           extractor->extract(img, cand_set);
           const std::vector<float> scores = model->score(cand_set);
-          sal::TrainedModel::score_map(cand_set, scores, map);
+          if (!saliency_dir.empty()) // the map is for people; detection needs only the scores
+            sal::TrainedModel::score_map(cand_set, scores, map);
           dets = sal::TrainedModel::select(cand_set, scores,
                                            model->score_threshold,
                                            model->nms_iou);

@@ -129,6 +129,23 @@ TEST(ImageOps, ErodeDilateEqualOpenCvDefaultBorder) {
   EXPECT_EQ(cv::norm(out, ref, cv::NORM_INF), 0.0);
   rs::erode_8u(g, g, k, pad); // in place
   EXPECT_EQ(cv::norm(g, ref, cv::NORM_INF), 0.0);
+  // Kernels whose rows are not single runs (gaps, an empty row; the per-member path), runs that
+  // are not nested (a slanted bar) and an asymmetric run set, grey and in place.
+  const cv::Mat gappy = (cv::Mat_<uchar>(3, 5) << 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1);
+  const cv::Mat slanted = (cv::Mat_<uchar>(3, 5) << 1, 1, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 1, 1);
+  const cv::Mat lopsided = (cv::Mat_<uchar>(5, 3) << 0, 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1);
+  for (const cv::Mat &kk : {gappy, slanted, lopsided}) {
+    cv::Mat grey(29, 37, CV_8U), r_e, r_d, o_e, o_d;
+    cv::randu(grey, 0, 256);
+    cv::erode(grey, r_e, kk);
+    cv::dilate(grey, r_d, kk);
+    rs::erode_8u(grey, o_e, kk, pad);
+    rs::dilate_8u(grey, o_d, kk, pad);
+    EXPECT_EQ(cv::norm(o_e, r_e, cv::NORM_INF), 0.0) << kk;
+    EXPECT_EQ(cv::norm(o_d, r_d, cv::NORM_INF), 0.0) << kk;
+    rs::dilate_8u(grey, grey, kk, pad);
+    EXPECT_EQ(cv::norm(grey, r_d, cv::NORM_INF), 0.0) << kk;
+  }
 }
 
 TEST(ImageOps, ResizeTableEqualsCvResize) {

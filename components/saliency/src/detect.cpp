@@ -74,15 +74,32 @@ int otsu_threshold(const cv::Mat &image8u, const cv::Mat &mask) {
     throw std::invalid_argument(
         "otsu_threshold: mask must be CV_8UC1 of the image's size");
   }
-  std::array<double, 256> h{};
+  // Integer counts in four interleaved histograms (no store-to-load chain on runs of one value),
+  // summed exactly into the double histogram.
+  std::array<std::array<std::uint32_t, 256>, 4> c{};
   for (int y = 0; y < image8u.rows; ++y) {
     const uchar *p = image8u.ptr<uchar>(y);
-    const uchar *m = mask.empty() ? nullptr : mask.ptr<uchar>(y);
-    for (int x = 0; x < image8u.cols; ++x) {
-      if (m == nullptr || m[x] != 0)
-        h[p[x]] += 1.0;
+    const int n = image8u.cols;
+    if (mask.empty()) {
+      int x = 0;
+      for (; x + 4 <= n; x += 4) {
+        ++c[0][p[x]];
+        ++c[1][p[x + 1]];
+        ++c[2][p[x + 2]];
+        ++c[3][p[x + 3]];
+      }
+      for (; x < n; ++x)
+        ++c[0][p[x]];
+    } else {
+      const uchar *m = mask.ptr<uchar>(y);
+      for (int x = 0; x < n; ++x)
+        c[0][p[x]] += m[x] != 0 ? 1u : 0u;
     }
   }
+  std::array<double, 256> h{};
+  for (std::size_t v = 0; v < 256; ++v)
+    h[v] = static_cast<double>(c[0][v]) + static_cast<double>(c[1][v]) + static_cast<double>(c[2][v]) +
+           static_cast<double>(c[3][v]);
   return otsu_threshold(h);
 }
 
@@ -113,12 +130,17 @@ BoxDetector::BoxDetector(PostProcessParams params) : params_(params) {
 }
 
 int BoxDetector::detect(const cv::Mat &saliency, std::vector<Detection> &out) {
-  out.clear();
   to_8bit(saliency, map8_);
-  const int otsu = otsu_threshold(map8_);
+  return detect_8u(map8_, otsu_threshold(map8_), out);
+}
+
+int BoxDetector::detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection> &out) {
+  out.clear();
+  if (map8.empty() || map8.type() != CV_8UC1)
+    throw std::invalid_argument("BoxDetector::detect_8u: map must be non-empty CV_8UC1");
   const int thr = std::clamp(
       static_cast<int>(std::lround(params_.threshold_scale * otsu)), 0, 254);
-  cv::threshold(map8_, mask_, thr, 255, cv::THRESH_BINARY); // > thr -> 255
+  cv::threshold(map8, mask_, thr, 255, cv::THRESH_BINARY); // > thr -> 255
   // Opening / closing = cv::morphologyEx MORPH_OPEN / MORPH_CLOSE with the default border,
   // and 8-connected labelling = cv::connectedComponentsWithStats, by own code into buffers
   // kept between calls (the OpenCV calls allocate engines and tables at every call).
@@ -133,7 +155,7 @@ int BoxDetector::detect(const cv::Mat &saliency, std::vector<Detection> &out) {
   const int n = components_.run(mask_);
   if (n <= 1)
     return thr;
-  cv::integral(map8_, integral_, CV_64F);
+  cv::integral(map8, integral_, CV_64F);
   for (int i = 1; i < n; ++i) {
     const std::array<int, 5> &st = components_.stats(i);
     const int area = st[cv::CC_STAT_AREA];

@@ -47,6 +47,9 @@ public:
   /// nothing: `out` is cleared and filled, sorted by descending score. Returns
   /// the binary threshold used (0..255).
   int detect(const cv::Mat &saliency, std::vector<Detection> &out);
+  /// The same from the 8-bit map (to_8bit) and its Otsu threshold, which detectors at several
+  /// threshold scales over one map compute once (CandidateExtractor).
+  int detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection> &out);
 
   /// The binary mask of the last call (CV_8U 0/255) after morphology.
   const cv::Mat &mask() const { return mask_; }

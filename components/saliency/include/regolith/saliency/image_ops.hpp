@@ -111,7 +111,8 @@ private:
   void unite(int a, int b);
   cv::Mat labels_;
   std::vector<int> parent_;  // provisional label -> parent (root = smallest label of the set)
-  std::vector<int> final_;   // root provisional label -> final label (0 = not yet numbered)
+  std::vector<int> final_;   // root provisional label -> its first 2x2 block, then its final label
+  std::vector<int> order_;   // roots sorted by their first block
   std::vector<std::array<int, 5>> stats_;
 };
 
