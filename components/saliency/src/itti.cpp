@@ -164,21 +164,28 @@ void downsample_stb(const cv::Mat &src, cv::Mat &dst, cv::Mat &tmp) {
                                  10.f / 32, 5.f / 32, 1.f / 32};
   const int sw = src.cols, sh = src.rows;
   const int dw = (sw + 1) / 2, dh = (sh + 1) / 2;
-  tmp.create(sh, dw, CV_32F);
+  // Rows 0..sh-1: the horizontal pass; rows sh, sh+1: one source row split into its even and odd
+  // pixels (edge-clamped, one pixel of margin each side), so that the six taps of output i read
+  // e[i-1] o[i-1] e[i] o[i] e[i+1] o[i+1] contiguously (the loop vectorises) and add in the
+  // same order as a tap loop over s[2i-2 .. 2i+3].
+  tmp.create(sh + 2, std::max(dw + 2, 1), CV_32F);
   dst.create(dh, dw, CV_32F);
+  float *e = tmp.ptr<float>(sh) + 1, *o = tmp.ptr<float>(sh + 1) + 1;
   for (int y = 0; y < sh; ++y) {
     const float *s = src.ptr<float>(y);
+    for (int j = -1; j <= dw; ++j) {
+      e[j] = s[std::clamp(2 * j, 0, sw - 1)];
+      o[j] = s[std::clamp(2 * j + 1, 0, sw - 1)];
+    }
     float *t = tmp.ptr<float>(y);
     for (int i = 0; i < dw; ++i) {
-      const int x0 = 2 * i - 2;
       float acc = 0.f;
-      if (x0 >= 0 && x0 + 5 < sw) {
-        for (int k = 0; k < 6; ++k)
-          acc += w[k] * s[x0 + k];
-      } else {
-        for (int k = 0; k < 6; ++k)
-          acc += w[k] * s[std::clamp(x0 + k, 0, sw - 1)];
-      }
+      acc += w[0] * e[i - 1];
+      acc += w[1] * o[i - 1];
+      acc += w[2] * e[i];
+      acc += w[3] * o[i];
+      acc += w[4] * e[i + 1];
+      acc += w[5] * o[i + 1];
       t[i] = acc;
     }
   }
