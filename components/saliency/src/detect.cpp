@@ -129,15 +129,24 @@ BoxDetector::BoxDetector(PostProcessParams params) : params_(params) {
   }
 }
 
-int BoxDetector::detect(const cv::Mat &saliency, std::vector<Detection> &out) {
-  to_8bit(saliency, map8_);
-  return detect_8u(map8_, otsu_threshold(map8_), out);
+void PreparedMap::prepare(const cv::Mat &saliency) {
+  to_8bit(saliency, map8);
+  otsu = otsu_threshold(map8);
+  cv::integral(map8, integral, CV_64F);
 }
 
-int BoxDetector::detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection> &out) {
+int BoxDetector::detect(const cv::Mat &saliency, std::vector<Detection> &out) {
+  prepared_.prepare(saliency);
+  return detect(prepared_, out);
+}
+
+int BoxDetector::detect(const PreparedMap &map, std::vector<Detection> &out) {
   out.clear();
-  if (map8.empty() || map8.type() != CV_8UC1)
-    throw std::invalid_argument("BoxDetector::detect_8u: map must be non-empty CV_8UC1");
+  const cv::Mat &map8 = map.map8;
+  const int otsu = map.otsu;
+  if (map8.empty() || map8.type() != CV_8UC1 || map.integral.rows != map8.rows + 1 ||
+      map.integral.cols != map8.cols + 1 || map.integral.type() != CV_64F)
+    throw std::invalid_argument("BoxDetector::detect: the map is not prepared (PreparedMap::prepare)");
   const int thr = std::clamp(
       static_cast<int>(std::lround(params_.threshold_scale * otsu)), 0, 254);
   cv::threshold(map8, mask_, thr, 255, cv::THRESH_BINARY); // > thr -> 255
@@ -155,7 +164,6 @@ int BoxDetector::detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection>
   const int n = components_.run(mask_);
   if (n <= 1)
     return thr;
-  cv::integral(map8, integral_, CV_64F);
   for (int i = 1; i < n; ++i) {
     const std::array<int, 5> &st = components_.stats(i);
     const int area = st[cv::CC_STAT_AREA];
@@ -166,10 +174,11 @@ int BoxDetector::detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection>
                      st[cv::CC_STAT_WIDTH], st[cv::CC_STAT_HEIGHT]);
     d.area = area;
     const auto &b = d.box;
-    const double s = integral_.at<double>(b.y + b.height, b.x + b.width) -
-                     integral_.at<double>(b.y, b.x + b.width) -
-                     integral_.at<double>(b.y + b.height, b.x) +
-                     integral_.at<double>(b.y, b.x);
+    const cv::Mat &ii = map.integral;
+    const double s = ii.at<double>(b.y + b.height, b.x + b.width) -
+                     ii.at<double>(b.y, b.x + b.width) -
+                     ii.at<double>(b.y + b.height, b.x) +
+                     ii.at<double>(b.y, b.x);
     d.score = s / (255.0 * b.area());
     out.push_back(d);
   }

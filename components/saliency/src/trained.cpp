@@ -215,13 +215,12 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   for (int y = 0; y < H; ++y) std::fill(out.source_masks.ptr<uchar>(y), out.source_masks.ptr<uchar>(y) + W, uchar{0});
   out.sources = static_cast<int>(detectors_.size());
   const size_t n_coarse = params_.coarse_scales.size();
-  // Each map's 8-bit form and Otsu threshold once, for all its threshold scales.
-  to_8bit(s_coarse_, coarse8_);
-  to_8bit(s_fine_, fine8_);
-  const int otsu_coarse = otsu_threshold(coarse8_), otsu_fine = otsu_threshold(fine8_);
+  // Each map prepared once (8 bits, Otsu threshold, integral) for all its threshold scales.
+  coarse_map_.prepare(s_coarse_);
+  fine_map_.prepare(s_fine_);
   for (size_t k = 0; k < detectors_.size(); ++k) {
     const bool is_coarse = k < n_coarse;
-    detectors_[k].detect_8u(is_coarse ? coarse8_ : fine8_, is_coarse ? otsu_coarse : otsu_fine, dets_);
+    detectors_[k].detect(is_coarse ? coarse_map_ : fine_map_, dets_);
     const cv::Mat& m = detectors_[k].mask();
     const uchar bit = static_cast<uchar>(1u << k);
     for (int y = 0; y < H; ++y) {

@@ -38,6 +38,16 @@ int otsu_threshold(const std::array<double, 256> &histogram);
 /// Otsu threshold of a CV_8U single-channel image (optional CV_8U mask).
 int otsu_threshold(const cv::Mat &image8u, const cv::Mat &mask = cv::Mat());
 
+/// A saliency map prepared for detection: its 8-bit form, Otsu threshold and integral image (for
+/// the box scores). Detectors at several threshold scales over one map share one preparation
+/// (CandidateExtractor). Buffers are allocated on the first map of a given size.
+struct PreparedMap {
+  cv::Mat map8;      ///< CV_8U 0..255 (to_8bit)
+  int otsu = 0;      ///< otsu_threshold(map8)
+  cv::Mat integral;  ///< CV_64F, (rows + 1) x (cols + 1) sums of map8
+  void prepare(const cv::Mat &saliency);
+};
+
 /// Reusable detector; buffers are allocated on the first frame of a given size.
 class BoxDetector {
 public:
@@ -47,9 +57,8 @@ public:
   /// nothing: `out` is cleared and filled, sorted by descending score. Returns
   /// the binary threshold used (0..255).
   int detect(const cv::Mat &saliency, std::vector<Detection> &out);
-  /// The same from the 8-bit map (to_8bit) and its Otsu threshold, which detectors at several
-  /// threshold scales over one map compute once (CandidateExtractor).
-  int detect_8u(const cv::Mat &map8, int otsu, std::vector<Detection> &out);
+  /// The same on a prepared map.
+  int detect(const PreparedMap &map, std::vector<Detection> &out);
 
   /// The binary mask of the last call (CV_8U 0/255) after morphology.
   const cv::Mat &mask() const { return mask_; }
@@ -57,7 +66,8 @@ public:
 
 private:
   PostProcessParams params_;
-  cv::Mat map8_, mask_, integral_, open_k_, close_k_;
+  PreparedMap prepared_;
+  cv::Mat mask_, open_k_, close_k_;
   cv::Mat morph_tmp_, morph_pad_;
   ConnectedComponents components_;
 };

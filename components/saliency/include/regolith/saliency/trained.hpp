@@ -106,7 +106,7 @@ class CandidateExtractor {
   DecimatedGaussian surround_blur_;
   std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales
   cv::Mat unit_, intensity_, surround_, s_coarse_, s_fine_, gx_, gy_, grad_, i2_, edge_, dark_, bright_;
-  cv::Mat coarse8_, fine8_;  // the two maps in 8 bits, shared by their detectors
+  PreparedMap coarse_map_, fine_map_;  // the two maps prepared once for their detectors
   cv::Mat colour_, chroma_r_, chroma_b_;
   struct Integrals {
     cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb;
