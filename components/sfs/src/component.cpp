@@ -132,20 +132,7 @@ class SfsComponent final : public runtime::Component {
       quarter_sfs_.reset();  // too small to reduce: quarter-resolution readers get the full solve
     input_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec);
 
-    // Allocate every buffer now: a warm-up solve on a shaded synthetic frame of the right size.
     gray_.create(size_, CV_8U);
-    for (int r = 0; r < size_.height; ++r)
-      for (int c = 0; c < size_.width; ++c)
-        gray_.at<uchar>(r, c) = static_cast<uchar>(120 + 40 * std::sin(0.05 * c) * std::cos(0.07 * r));
-    const std::optional<LightDirection> warm = light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5});
-    sfs_->compute(gray_, warm, res_);
-    if (quarter_sfs_) {
-      quarter_gray_.create(size_.height / 4, size_.width / 4, CV_8U);
-      reduce4(gray_, quarter_gray_);
-      quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
-      rows_.make(size_.height, quarter_gray_.rows);
-      cols_.make(size_.width, quarter_gray_.cols);
-    }
     const cv::Size sz = size_;
     const direct_depth::CameraModel* model = model_.get();
     out_ = &ctx.produce<DtmFrame>(kDtmChannel, 4, [sz, model] {
@@ -166,6 +153,25 @@ class SfsComponent final : public runtime::Component {
     const bool quarter = ctx_->wanted(kDtmChannel, common::kDtmHeightQuarter);
     heights_wanted_ = full || quarter;
     level_ = !full && quarter && quarter_sfs_ ? 2 : 0;
+    // Allocate the buffers of the one solve this deployment runs (none when nothing reads heights
+    // and the sun is given) before the first cycle: a warm-up solve on a shaded synthetic frame
+    // of the right size. The other level's solver is dropped.
+    for (int r = 0; r < size_.height; ++r)
+      for (int c = 0; c < size_.width; ++c)
+        gray_.at<uchar>(r, c) = static_cast<uchar>(120 + 40 * std::sin(0.05 * c) * std::cos(0.07 * r));
+    const std::optional<LightDirection> warm =
+        light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5});
+    const bool solves = heights_wanted_ || !light_;
+    if (level_ == 2) {
+      quarter_gray_.create(size_.height / 4, size_.width / 4, CV_8U);
+      reduce4(gray_, quarter_gray_);
+      if (solves) quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
+      rows_.make(size_.height, quarter_gray_.rows);
+      cols_.make(size_.width, quarter_gray_.cols);
+    } else {
+      quarter_sfs_.reset();
+      if (solves) sfs_->compute(gray_, warm, res_);
+    }
   }
 
   void step(const runtime::CycleInfo& c) override {
