@@ -50,11 +50,13 @@ function(regolith_add_library name)
   endif()
 endfunction()
 
-# regolith_add_gtest(<name> SOURCES ... LIBS ... [LABELS ...])
+# regolith_add_gtest(<name> SOURCES ... LIBS ... [LABELS ...] [COST seconds])
 # One GoogleTest executable; every TEST() becomes its own CTest test, labelled `unit` unless
 # LABELS says otherwise. Test data paths: REGOLITH_SOURCE_DIR / REGOLITH_SHARED_DIR macros.
+# COST: the expected run time of its tests; ctest -j starts costly tests first even without a
+# timing history (a fresh clone, CI), so a long test does not run alone at the end.
 function(regolith_add_gtest name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "COST" "SOURCES;LIBS;LABELS" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
@@ -72,11 +74,14 @@ function(regolith_add_gtest name)
   # adds the target to `concurrency_tests` (tests/CMakeLists.txt).
   # `serial` runs its tests alone (RUN_SERIAL: real-time tests that measure slips).
   list(GET ARG_LABELS 0 _label)
+  set(_props LABELS ${_label})
   if("serial" IN_LIST ARG_LABELS)
-    gtest_discover_tests(${name} PROPERTIES LABELS ${_label} RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
-  else()
-    gtest_discover_tests(${name} PROPERTIES LABELS ${_label} DISCOVERY_TIMEOUT 60)
+    list(APPEND _props RUN_SERIAL TRUE)
   endif()
+  if(ARG_COST)
+    list(APPEND _props COST ${ARG_COST})
+  endif()
+  gtest_discover_tests(${name} PROPERTIES ${_props} DISCOVERY_TIMEOUT 60)
   if("concurrency" IN_LIST ARG_LABELS)
     set_property(GLOBAL APPEND PROPERTY REGOLITH_CONCURRENCY_TESTS ${name})
   endif()
