@@ -161,16 +161,15 @@ class SfsComponent final : public runtime::Component {
         gray_.at<uchar>(r, c) = static_cast<uchar>(120 + 40 * std::sin(0.05 * c) * std::cos(0.07 * r));
     const std::optional<LightDirection> warm =
         light_ && sun_in_view_ ? light_ : std::optional<LightDirection>(LightDirection{0.5, 0.5});
-    const bool solves = heights_wanted_ || !light_;
-    if (level_ == 2) {
+    if (level_ == 2) {  // a quarter-resolution reader: always solved
       quarter_gray_.create(size_.height / 4, size_.width / 4, CV_8U);
       reduce4(gray_, quarter_gray_);
-      if (solves) quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
+      quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
       rows_.make(size_.height, quarter_gray_.rows);
       cols_.make(size_.width, quarter_gray_.cols);
     } else {
       quarter_sfs_.reset();
-      if (solves) sfs_->compute(gray_, warm, res_);
+      if (heights_wanted_ || !light_) sfs_->compute(gray_, warm, res_);
     }
   }
 
