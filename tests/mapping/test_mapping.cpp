@@ -199,6 +199,56 @@ TEST(GroundVisualOdometry, SolvesTheCameraRisingBetweenKeyframeAndFrame) {
   EXPECT_NEAR(m.key_pitch_rad, 0.0, 0.01);
 }
 
+TEST(GroundVisualOdometry, ExcludingTheRocksTakesTheirPullOffTheTilt) {
+  // Rock-strewn ground, both cameras at the mount's tilt (0): the rocks' images (each smeared over
+  // the rectified ground behind its foot) move faster than the ground and pull the joint fit's
+  // pitch nose-down. Excluding their pixels (+3 px) from the keyframe refits the tilt nearer 0.
+  double motion = 0.0, ground = 0.0;
+  int fits = 0;
+  for (std::uint64_t seed : {1, 2, 3, 4}) {
+    Rig rig(seed, 80);
+    const direct_depth::DirectDepth dd(rig.model);
+    GroundVisualOdometry vo(dd, GroundVoParams{});
+    rig.cam.x_m = rig.cam.y_m = rig.cam.yaw_rad = 0.0;
+    const terrain_scene::CameraImage key = terrain_scene::render_camera(rig.terrain, rig.cam, rig.sun, {});
+    cv::Mat objects(key.rock_id.size(), CV_8U, cv::Scalar(0));
+    for (int i = 0; i < objects.rows; ++i)
+      for (int j = 0; j < objects.cols; ++j)
+        if (key.rock_id.at<int>(i, j) >= 0) objects(cv::Rect(j - 3, i - 3, 7, 7) & cv::Rect({}, objects.size())).setTo(255);
+    vo.track(rig.frame({}), {});
+    vo.exclude(objects);
+    vo.promote_last();
+    for (double d : {0.3, 0.5}) {
+      const VoMeasurement& m = vo.track(rig.frame({d, 0.0, 0.0}), Pose2{d * 1.02, 0.0, 0.0});
+      SCOPED_TRACE(::testing::Message() << "seed " << seed << " baseline " << d);
+      ASSERT_TRUE(m.ok()) << to_string(m.status);
+      ASSERT_TRUE(m.ground_tilt);
+      motion += std::abs(m.pitch_rad);
+      ground += std::abs(m.ground_pitch_rad);
+      ++fits;
+    }
+  }
+  // Measured: mean |pitch| 0.0105 rad for the joint fit, 0.0071 for the refit.
+  EXPECT_LT(ground, 0.8 * motion);
+  EXPECT_LT(ground / fits, 0.009);
+  // Without marks there is no refit; a mask of another size is refused naming it.
+  Rig rig(1);
+  const direct_depth::DirectDepth dd(rig.model);
+  GroundVisualOdometry vo(dd, GroundVoParams{});
+  vo.track(rig.frame({}), {});
+  EXPECT_THROW(
+      try { vo.exclude(cv::Mat(120, 160, CV_8U, cv::Scalar(0))); } catch (const FieldError& e) {
+        EXPECT_NE(std::string(e.what()).find("objects"), std::string::npos) << e.what();
+        throw;
+      },
+      FieldError);
+  vo.promote_last();
+  const VoMeasurement& m = vo.track(rig.frame({0.3, 0.0, 0.0}), Pose2{0.3, 0.0, 0.0});
+  ASSERT_TRUE(m.ok());
+  EXPECT_FALSE(m.ground_tilt);
+  EXPECT_EQ(m.ground_pitch_rad, m.pitch_rad);
+}
+
 TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   Rig rig(5, 25);
   const direct_depth::DirectDepth dd(rig.model);

@@ -66,6 +66,7 @@ void DriveMapperParams::validate() const {
   shadow.validate();
   if (sighting_tilt_window < 1 || sighting_tilt_window > 64) fail("mapping", "sighting_tilt_window", "must be 1..64");
   if (!std::isfinite(sighting_tilt_noise_rad) || sighting_tilt_noise_rad < 0) fail("mapping", "sighting_tilt_noise_rad", "must be >= 0");
+  if (object_margin_px < 0 || object_margin_px > 64) fail("mapping", "object_margin_px", "must be 0..64");
   if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
   if (!std::isfinite(parallax_spacing_m) || parallax_spacing_m < 0) fail("mapping", "parallax_spacing_m", "must be >= 0");
@@ -87,6 +88,7 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
       tracker_(p_.tracks, p_.sightings.max_sightings),
       shadow_(parallax_.grid(), p_.shadow),
       map_(p_.map, map_center.x, map_center.y) {
+  objects_.create(camera.height, camera.width, CV_8U);
   if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
     fail("mapping", "mount", "must be finite");
   if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world))) fail("mapping", "sun", "must be a finite non-zero vector");
@@ -127,6 +129,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   ++counters_.frames;
   Pose2 foot;
   Cov3 foot_cov;
+  bool promote = false;  // this frame becomes the keyframe
   if (!started_) {
     report_.odometry_jump = !wheel.finite();
     report_.pose = wheel.finite() ? wheel : Pose2{};
@@ -138,16 +141,9 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     report_.vo = m.status;
     report_.vo_inliers = 0;
     tilt_ = cv::Vec2d();
-    last_parallax_base_ = 0.0;
-    vo_.promote_last();
-    if (use_parallax()) parallax_.set_frame(gray), parallax_.promote();
-    if (use_sweep()) sweep_.set_frame(gray), sweep_.promote();
-    key_foot_ = foot;
-    key_cov_ = Cov3::Zero();
-    wheel_since_key_ = Pose2{};
-    wheel_since_key_cov_ = Cov3::Zero();
-    report_.keyframe = true;
-    ++counters_.keyframes;
+    if (use_parallax()) parallax_.set_frame(gray);
+    if (use_sweep()) sweep_.set_frame(gray);
+    promote = true;
     started_ = true;
   } else {
     // Wheel step in the body frame; an implausible one is ignored (and counted).
@@ -179,7 +175,8 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (use_sweep()) sweep_.set_frame(gray);
     report_.vo = m.status;
     report_.vo_inliers = m.inliers;
-    tilt_ = m.ok() ? cv::Vec2d(m.pitch_rad, m.roll_rad) : cv::Vec2d();
+    // Rocks are ranged with the tilt fitted without the keyframe's objects when there is one.
+    tilt_ = !m.ok() ? cv::Vec2d() : m.ground_tilt ? cv::Vec2d(m.ground_pitch_rad, m.ground_roll_rad) : cv::Vec2d(m.pitch_rad, m.roll_rad);
     if (m.ok()) tilts_[static_cast<std::size_t>(n_tilts_++ % kMaxTiltWindow)] = tilt_;
     Pose2 rel = pred;
     Cov3 rel_cov = pred_cov;
@@ -224,18 +221,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     const bool moved = std::hypot(rel.x, rel.y) > p_.keyframe_distance_m || std::abs(rel.yaw) > p_.keyframe_yaw_rad;
     const bool thin = m.ok() && m.points > 0 &&
                       static_cast<double>(m.inliers) < p_.keyframe_min_inlier_fraction * static_cast<double>(m.points);
-    if (frame_good && (moved || thin || !m.ok())) {
-      vo_.promote_last();
-      if (use_parallax()) parallax_.promote();
-      if (use_sweep()) sweep_.promote();
-      last_parallax_base_ = 0.0;
-      key_foot_ = foot;
-      key_cov_ = foot_cov;
-      wheel_since_key_ = Pose2{};
-      wheel_since_key_cov_ = Cov3::Zero();
-      report_.keyframe = true;
-      ++counters_.keyframes;
-    }
+    promote = frame_good && (moved || thin || !m.ok());
   }
   // Terrain of this frame, placed with the corrected pose (never with a frame vision rejects as
   // unusable: black or saturated frames carry no shading).
@@ -245,8 +231,29 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     report_.shadow_casters = shadow_.compute(parallax_.current(), parallax_.seen(), sb);
     if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
   }
-  if (p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
+  // Rocks sighted in this frame, before it can become the keyframe: what they cover is left out
+  // of the VO's tilt refit against it (GroundVisualOdometry::exclude).
+  const bool sight = p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints;
+  if (sight) {
     report_.rock_sightings = sightings_.compute(gray, sighting_tilt());
+    if (p_.ground_tilt) {
+      sightings_.object_mask(objects_, p_.object_margin_px);
+      vo_.exclude(objects_);
+    }
+  }
+  if (promote) {
+    vo_.promote_last();
+    if (use_parallax()) parallax_.promote();
+    if (use_sweep()) sweep_.promote();
+    last_parallax_base_ = 0.0;
+    key_foot_ = foot;
+    key_cov_ = foot_cov;
+    wheel_since_key_ = Pose2{};
+    wheel_since_key_cov_ = Cov3::Zero();
+    report_.keyframe = true;
+    ++counters_.keyframes;
+  }
+  if (sight) {
     tracker_.update(sightings_.table(), foot, depth_.model().mount_height_m);
     map_.fuse_rock_tracks(tracker_.closed(), tracker_.closed_count(), tracker_.table(), tracker_.count());
     report_.rock_tracks = tracker_.count();

@@ -56,6 +56,7 @@ void GroundVoParams::validate() const {
   if (stride < 1 || stride > 8) fail("stride", "must be 1..8");
   if (!(min_support >= 0 && min_support <= 1)) fail("min_support", "must be in [0, 1]");
   if (min_points < 10) fail("min_points", "must be >= 10");
+  if (min_ground_points < 10) fail("min_ground_points", "must be >= 10");
   if ((max_range_m - min_range_m) / resolution_m > 2048 || 2 * half_width_m / resolution_m > 2048)
     fail("resolution_m", "more than 2048 cells per side of the VO window");
 }
@@ -91,6 +92,9 @@ GroundVisualOdometry::GroundVisualOdometry(const direct_depth::DirectDepth& dept
     }
   }
   for (auto& t : templates_) t.reserve(most);
+  ground_template_.reserve(most);
+  excluded_cur_.create(g0.rows, g0.cols, CV_8U);
+  excluded_key_.create(g0.rows, g0.cols, CV_8U);
   residuals_.resize(most);
   jacobians_.resize(most);
   raw_.create(g0.rows, g0.cols, CV_32F);
@@ -178,9 +182,8 @@ void GroundVisualOdometry::build_frame(const cv::Mat& gray, Frame& f) {
   }
 }
 
-bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) {
+bool GroundVisualOdometry::align_level(int level, const std::vector<Point>& pts, Params& th, bool record) {
   const Level& lv = cur_.levels[static_cast<std::size_t>(level)];
-  const std::vector<Point>& pts = templates_[static_cast<std::size_t>(level)];
   const int rows = lv.img.rows, cols = lv.img.cols;
   Eigen::Matrix<double, kParams, kParams> H;
   Eigen::Matrix<double, kParams, 1> g;
@@ -257,7 +260,7 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
         th = best;
         break;
       }
-      if (final_level) used_ = n, inl_ = 0;
+      if (record) used_ = n, inl_ = 0;
       return false;
     }
     int median_bin = 0;
@@ -324,7 +327,7 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
     const Eigen::Matrix<double, kParams, 1> d = ldlt.solve(-g);
     if (!d.allFinite()) return false;
     for (int q = 0; q < kParams; ++q) th[static_cast<std::size_t>(q)] += d[q];
-    if (final_level) {
+    if (record) {
       info_ = H;
       sigma2_ = s2;
       used_ = n;
@@ -337,6 +340,7 @@ bool GroundVisualOdometry::align_level(int level, Params& th, bool final_level) 
 
 const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose2& prior) {
   build_frame(gray, cur_);
+  cur_excluded_ = false;
   last_ = VoMeasurement{};
   last_.pose = prior;
   last_.frame_cells = frame_cells_;
@@ -348,7 +352,7 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   th[kX] = a0.x, th[kY] = a0.y, th[kYaw] = a0.yaw;
   used_ = inl_ = 0;
   bool ok = true;
-  for (int l = p_.levels - 1; l >= 0 && ok; --l) ok = align_level(l, th, l == 0);
+  for (int l = p_.levels - 1; l >= 0 && ok; --l) ok = align_level(l, templates_[static_cast<std::size_t>(l)], th, l == 0);
   last_.points = used_;
   last_.inliers = inl_;
   last_.pitch_rad = th[kPitch];
@@ -359,6 +363,8 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   last_.gain = 1.0 + th[kGain];
   last_.bias_dn = th[kBias];
   last_.residual_dn = std::sqrt(sigma2_);
+  last_theta_ = th;
+  if (ok) refit_ground_tilt();
   if (!ok || inl_ < p_.min_points) {
     last_.status = used_ < p_.min_points ? VoStatus::kTooFewPoints : VoStatus::kNoTexture;
     return last_;
@@ -398,8 +404,30 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   return last_;
 }
 
+void GroundVisualOdometry::refit_ground_tilt() {
+  last_.ground_tilt = false;
+  last_.ground_pitch_rad = last_theta_[kPitch];
+  last_.ground_roll_rad = last_theta_[kRoll];
+  if (static_cast<int>(ground_template_.size()) < p_.min_ground_points) return;
+  // The tilt again, from the motion fit's solution, over the ground the objects leave free.
+  Params tg = last_theta_;
+  if (align_level(0, ground_template_, tg, false)) {
+    last_.ground_tilt = true;
+    last_.ground_pitch_rad = tg[kPitch];
+    last_.ground_roll_rad = tg[kRoll];
+  }
+}
+
+void GroundVisualOdometry::exclude(const cv::Mat& objects) {
+  rectifier_.resample(objects, excluded_cur_, 0.0, "objects");  // checks the type and size
+  cur_excluded_ = true;
+}
+
 void GroundVisualOdometry::promote_last() {
   std::swap(key_, cur_);
+  std::swap(excluded_key_, excluded_cur_);
+  key_excluded_ = cur_excluded_;
+  cur_excluded_ = false;
   has_keyframe_ = true;
   for (std::size_t l = 0; l < key_.levels.size(); ++l) {
     const Level& lv = key_.levels[l];
@@ -417,6 +445,17 @@ void GroundVisualOdometry::promote_last() {
         t.push_back({static_cast<float>(q.x), static_cast<float>(q.y), v[j], s[j]});
       }
     }
+  }
+  // The finest template without the cells that show objects (a cell any of whose source pixels
+  // is marked: bilinear resampling of the 0 / 255 mask).
+  ground_template_.clear();
+  if (!key_excluded_) return;
+  const Level& l0 = key_.levels[0];
+  for (const Point& pt : templates_[0]) {
+    const cv::Point2d c = l0.grid.cell(pt.x, pt.y);
+    const int i = static_cast<int>(std::lround(c.x)), j = static_cast<int>(std::lround(c.y));
+    if (i >= 0 && j >= 0 && i < excluded_key_.rows && j < excluded_key_.cols && excluded_key_.at<uchar>(i, j) == 0)
+      ground_template_.push_back(pt);
   }
 }
 

@@ -259,6 +259,19 @@ bool RockSightings::measure(int k, double cb, int rmin, int rmax, int cmin, int 
   return true;
 }
 
+void RockSightings::object_mask(cv::Mat& out, int margin_px) const {
+  if (out.type() != CV_8UC1 || out.size() != mask_.size())
+    fail("objects", "expected an 8-bit image of " + std::to_string(mask_.cols) + "x" + std::to_string(mask_.rows));
+  mask_.copyTo(out);
+  const cv::Rect frame(0, 0, out.cols, out.rows);
+  for (int k = 0; k < count_; ++k) {
+    const auto at = [&](SightingRow r) { return static_cast<int>(table_.at<float>(r, k)); };
+    const cv::Rect box(at(kSightCol0) - margin_px, at(kSightRow0) - margin_px, at(kSightCol1) - at(kSightCol0) + 1 + 2 * margin_px,
+                       at(kSightRow1) - at(kSightRow0) + 1 + 2 * margin_px);
+    out(box & frame).setTo(255);
+  }
+}
+
 void RockSightings::merge_halves() {
   // A rock lit from the side shows a bright and a dark half, each contrasting with the ground
   // on either side of a mid-tone line: two blobs side by side. Two sightings whose boxes overlap

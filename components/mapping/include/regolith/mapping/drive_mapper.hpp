@@ -60,6 +60,8 @@ struct DriveMapperParams {
   int sighting_tilt_window = 9;       ///< frames: rocks are ranged with the median of the last this many VO tilts ...
   double sighting_tilt_noise_rad = 0.015;  ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
                                       ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
+  bool ground_tilt = true;            ///< rocks are ranged with the VO tilt refitted without the keyframe's sighted objects
+  int object_margin_px = 3;           ///< px around each sighted rock's image box left out of that refit
   double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
   double keyframe_yaw_rad = 0.12;     ///< rad
   double keyframe_min_inlier_fraction = 0.5;  ///< a fit with fewer inliers also makes a new keyframe
@@ -162,6 +164,7 @@ class DriveMapper {
   double last_t_ = std::numeric_limits<double>::quiet_NaN();
   double last_parallax_base_ = 0.0;  // baseline of the last parallax search against this keyframe
   cv::Vec2d tilt_;                   // this frame's camera tilt against the ground (VO; 0 without)
+  cv::Mat objects_;                  // CV_8U camera-size: this frame's sighted objects (VO exclusion)
   cv::Vec2d sighting_tilt() const;         // the filtered tilt rocks are ranged with
   static constexpr int kMaxTiltWindow = 64;
   std::array<cv::Vec2d, kMaxTiltWindow> tilts_{};  // the last VO tilts (ring)

@@ -45,6 +45,7 @@ struct GroundVoParams {
   double scale_uncertainty = 0.05;    ///< std of the motion's scale beyond the fit (height / tilt model error)
   double attitude_prior_rad = 0.015;  ///< rad, std of a camera's tilt against the ground around the mount
   double height_change_prior = 0.01;  ///< std of the ratio of the two cameras' heights above the ground, minus 1
+  int min_ground_points = 300;        ///< object-free keyframe cells needed to refit the tilt without objects
   /// Throws FieldError("mapping.vo", field, ...) naming the bad field.
   void validate() const;
 };
@@ -65,6 +66,12 @@ struct VoMeasurement {
   double pitch_rad = 0.0, roll_rad = 0.0;  ///< the current camera's tilt against the ground, beyond the mount
   double height_ratio = 1.0;  ///< keyframe camera's height above the ground / the current camera's
   double key_pitch_rad = 0.0, key_roll_rad = 0.0;  ///< the keyframe camera's, estimated in the same fit
+  /// The current camera's tilt fitted again from the same solution without the keyframe cells
+  /// marked by exclude() (objects standing on the ground): `ground_tilt` says whether that refit
+  /// ran (the keyframe had an exclusion mask and min_ground_points cells outside it); otherwise
+  /// these equal pitch_rad / roll_rad.
+  bool ground_tilt = false;
+  double ground_pitch_rad = 0.0, ground_roll_rad = 0.0;
 };
 
 class GroundVisualOdometry {
@@ -81,6 +88,15 @@ class GroundVisualOdometry {
   /// from `prior` (this frame's camera foot in the keyframe's frame, e.g. from wheel odometry).
   /// Without a keyframe: status kNoKeyframe. No heap allocation.
   const VoMeasurement& track(const cv::Mat& gray, const Pose2& prior);
+  /// Marks what stands on the ground in the last tracked frame: `objects` is an 8-bit image of
+  /// the camera's size (else FieldError naming "objects"), non-zero = an object's pixel (a rock,
+  /// its shadow). Once that frame is the keyframe, track() fits the tilt a second time without
+  /// the cells that show them (VoMeasurement::ground_pitch_rad). Why: a rock's image covers the
+  /// rectified ground from its foot to well beyond it (its top is seen where its ray would meet
+  /// the ground), and that smear moves faster than the ground as the camera advances; the joint
+  /// fit explains part of it with a nose-down tilt. Marks are forgotten when the next frame is
+  /// tracked. No heap allocation.
+  void exclude(const cv::Mat& objects);
   /// The last tracked frame becomes the keyframe (buffers are swapped, not copied).
   void promote_last();
   /// The last tracked frame's rectified image at the finest level (CV_32F grey, 0 unseen) and
@@ -111,7 +127,9 @@ class GroundVisualOdometry {
   // cameras' tilts against the ground (pitch, roll beyond the mount) and the brightness change.
   enum Param { kX, kY, kYaw, kKeyPitch, kKeyRoll, kPitch, kRoll, kGain, kBias, kScale, kParams };
   using Params = std::array<double, kParams>;
-  bool align_level(int level, Params& theta, bool final_level);
+  // One level over the template `pts`; `record` keeps the fit's statistics (the finest level of
+  // the motion fit).
+  bool align_level(int level, const std::vector<Point>& pts, Params& theta, bool record);
 
   GroundVoParams p_;
   direct_depth::GroundRectifier rectifier_;
@@ -119,6 +137,11 @@ class GroundVisualOdometry {
   bool has_keyframe_ = false;
   cv::Mat raw_, tmp_;
   std::vector<std::vector<Point>> templates_;  // per level, from the keyframe (capacity fixed)
+  std::vector<Point> ground_template_;          // finest level without the excluded cells (empty: no refit)
+  cv::Mat excluded_cur_, excluded_key_;          // CV_8U on the finest grid, non-zero = excluded
+  Params last_theta_{};                          // the last motion fit's solution
+  void refit_ground_tilt();
+  bool cur_excluded_ = false, key_excluded_ = false;
   std::vector<float> residuals_;
   std::vector<std::array<float, kParams>> jacobians_;
   std::array<int, 512> histogram_{};

@@ -92,6 +92,11 @@ class RockSightings {
   cv::Mat row(SightingRow r) const { return table_.row(r); }
   /// The last frame's blob mask (CV_8U, 255 = above the threshold), for overlays.
   const cv::Mat& mask() const { return mask_; }
+  /// What stands on the ground in the last frame, for GroundVisualOdometry::exclude: the blob
+  /// mask plus each sighting's image box grown by `margin_px` (a rock's inside can match the
+  /// ground's brightness; its far side and top are seen over the ground behind it). `out` must be CV_8U of the camera's size (else FieldError naming
+  /// "objects"); no allocation.
+  void object_mask(cv::Mat& out, int margin_px) const;
 
  private:
   void blur(cv::Mat& m, double sigma);
