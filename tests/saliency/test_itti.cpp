@@ -146,6 +146,46 @@ TEST(Sams, StructureChannelFindsARelieflessRockInTheHeightMap) {
   EXPECT_GT(cv::norm(argmax(sal) - c), 30.0);
 }
 
+TEST(Sams, HeightsEnterThePyramidAtTheLevelOfTheirSize) {
+  // The sfs component's quarter-resolution solve goes in at pyramid level 2: the structure
+  // channel then matches the one built from the full-size heights (the levels it uses are
+  // smoothed copies of the same relief), and still finds the relief-only rock. Other sizes are
+  // refused, naming both.
+  const cv::Size size(512, 384);
+  cv::Mat img = noise_texture(size, 0.45, 0.06, 9);
+  cv::Mat height(size, CV_32F);
+  const cv::Point c(140, 260);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      height.at<float>(y, x) = static_cast<float>(12.0 * std::exp(-((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y)) / 450.0));
+  cv::Mat h4;
+  cv::resize(height, h4, rs::IttiSaliency::level_size(size, 2), 0, 0, cv::INTER_AREA);
+  rs::IttiParams p;
+  p.weights = {0.2, 0.2, 0.0, 0.6};
+  rs::IttiSaliency sams(p);
+  const cv::Mat full = sams.conspicuity(img, height).structure.clone();
+  const cv::Mat quarter = sams.conspicuity(img, h4).structure.clone();
+  ASSERT_EQ(full.size(), quarter.size());
+  cv::Mat prod;
+  cv::Scalar mf, sf, mq, sq;
+  cv::meanStdDev(full, mf, sf);
+  cv::meanStdDev(quarter, mq, sq);
+  cv::multiply(full - mf[0], quarter - mq[0], prod);
+  EXPECT_GT(cv::mean(prod)[0] / (sf[0] * sq[0]), 0.95);
+  cv::Mat sal;
+  sams.compute(img, h4, sal);
+  EXPECT_EQ(sal.size(), size);
+  EXPECT_LT(cv::norm(argmax(sal) - c), 30.0);
+  EXPECT_EQ(rs::IttiSaliency::level_size({641, 481}, 2), cv::Size(161, 121));
+  try {
+    sams.compute(img, cv::Mat(100, 100, CV_32F, cv::Scalar(0)), sal);
+    ADD_FAILURE() << "a 100x100 height for a 512x384 image was accepted";
+  } catch (const std::invalid_argument &e) {
+    EXPECT_NE(std::string(e.what()).find("100x100"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("128x96"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Itti, AcceptsGreyAndColourOfAnyDepth) {
   cv::Mat g = noise_texture({300, 260}, 0.5, 0.1, 1);
   cv::circle(g, {150, 130}, 15, cv::Scalar(0.95), cv::FILLED);

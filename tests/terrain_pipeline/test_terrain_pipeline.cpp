@@ -246,9 +246,9 @@ std::string diagnostic(const runtime::Component& c, const std::string& key) {
   return "<none>";
 }
 
-TEST_P(Pipeline, QuarterResolutionReadersGetAReducedSolveResampledToTheFrame) {
+TEST_P(Pipeline, QuarterResolutionReadersGetTheReducedSolve) {
   // Readers that declare only kDtmHeightQuarter (SAMS): the sfs component solves the frame reduced
-  // 4x, 16x fewer pixels, and publishes it on the frame's grid (height_level 2), allocation-free;
+  // 4x, 16x fewer pixels, and publishes that solve as it is (height_level 2, height4), allocation-free;
   // one full-resolution reader among them brings the full-frame solve back.
   register_once();
   static const bool registered = [] {
@@ -281,12 +281,17 @@ TEST_P(Pipeline, QuarterResolutionReadersGetAReducedSolveResampledToTheFrame) {
     ASSERT_TRUE(dtm);
     ASSERT_TRUE(dtm->solved);
     EXPECT_EQ(dtm->height_level, full ? 0 : 2);
-    ASSERT_EQ(dtm->height.size(), cv::Size(320, 240));
-    EXPECT_GT(cv::countNonZero(dtm->valid), 320 * 240 / 2);
     if (!full) {
-      dtm->height.copyTo(quarter_height);
+      // The reduced solve as it is (80x60, heights in the frame's pixel units); the frame-size
+      // layers are not written.
+      ASSERT_EQ(dtm->height4.size(), cv::Size(80, 60));
+      EXPECT_GT(cv::countNonZero(dtm->valid4), 80 * 60 / 2);
+      EXPECT_EQ(cv::countNonZero(dtm->valid), 0);
+      cv::resize(dtm->height4, quarter_height, cv::Size(320, 240), 0, 0, cv::INTER_LINEAR);
       continue;
     }
+    ASSERT_EQ(dtm->height.size(), cv::Size(320, 240));
+    EXPECT_GT(cv::countNonZero(dtm->valid), 320 * 240 / 2);
     // The reduced solve is the full one seen at a quarter of the resolution: the same relief
     // (heights in the frame's pixel units) once both are smoothed to that scale.
     cv::Mat a, b, mask = dtm->valid.clone();

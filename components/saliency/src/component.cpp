@@ -164,6 +164,15 @@ class SamsComponent final : public runtime::Component {
     if (cv::countNonZero(roi_) == 0) p.fail("max_range_m", "no pixel of the image sees the ground within max_range_m");
     work_gray_.create(size_, CV_8U);
     work_height_.create(size_, CV_32F);
+    // The sfs component's quarter-resolution solve (DtmFrame::height4, floor(frame / 4) a side)
+    // enters the structure pyramid at level 2 (ceil-halved twice: one more row / column when a
+    // side is not a multiple of 4, copied from the edge); its searched region: the block centres'.
+    const cv::Size s4 = IttiSaliency::level_size(size_, 2);
+    work_height4_.create(s4, CV_32F);
+    roi4_.create(s4, CV_8U);
+    for (int r = 0; r < s4.height; ++r)
+      for (int c = 0; c < s4.width; ++c)
+        roi4_.at<uchar>(r, c) = roi_.at<uchar>(std::min(4 * r + 2, h - 1), std::min(4 * c + 2, w - 1));
 
     // Cell -> pixel lookup (flat ground), -1 = not visible.
     cell_pixel_.create(nx, ny, CV_32S);
@@ -193,13 +202,21 @@ class SamsComponent final : public runtime::Component {
     // candidate that survives NMS
     dets_.reserve(std::max<std::size_t>(kMaxRocks + 1024, candidates_.candidates.capacity()));
     saliency_.create(size_, CV_32F);
-    for (int k = 0; k < 2; ++k) process(gray, height);
+    cv::Mat height4(size_.height / 4, size_.width / 4, CV_32F);
+    for (int r = 0; r < height4.rows; ++r)
+      for (int c = 0; c < height4.cols; ++c) height4.at<float>(r, c) = height.at<float>(4 * r + 2, 4 * c + 2);
+    quarter_ok_ = itti_ && itti_->params().centre_min >= 2;  // level 2 feeds no centre below it
+    for (int k = 0; k < 2; ++k) {
+      process(gray, height, 0);
+      if (quarter_ok_) process(gray, height4, 2);
+    }
 
     dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
     // Only SAMS proper reads the DTM's heights (its terrain-structure channel); the other methods
     // read the grey image.
     // The structure channel reads the heights from pyramid level 2 on: a quarter-resolution solve serves.
-    if (method_ == Method::kSams && !trained_ && !peer_) ctx.want(common::kDtmChannel, common::kDtmHeightQuarter);
+    if (method_ == Method::kSams && !trained_ && !peer_)
+      ctx.want(common::kDtmChannel, quarter_ok_ ? common::kDtmHeightQuarter : common::kDtmHeight);
     rocks_out_ = &ctx.produce<RockFrame>(kRocksChannel, 4);
     const common::GridGeometry grid = grid_;
     prob_out_ = &ctx.produce<RockProbabilityFrame>(kRockProbabilityChannel, 4, [grid, nx, ny] {
@@ -236,13 +253,16 @@ class SamsComponent final : public runtime::Component {
     const common::DtmFrame& d = *lease;
     if (!new_dtm_(lease.generation())) return;
     input_updated(*input_, c.now);
-    if (d.gray.size() != size_ || d.gray.type() != CV_8UC1 || d.height.size() != size_) {
+    const bool quarter = d.height_level == 2;
+    const cv::Mat& height = quarter ? d.height4 : d.height;
+    if (d.gray.size() != size_ || d.gray.type() != CV_8UC1 ||
+        height.size() != (quarter ? cv::Size(size_.width / 4, size_.height / 4) : size_)) {
       count_error();
       set_status("DTM size differs from the camera calibration (rover.cameras)");
       return;
     }
     // Size and type are checked above: the saliency pipeline neither throws nor allocates here.
-    process(d.gray, d.height);
+    process(d.gray, height, quarter ? 2 : 0);
     publish(d.stamp, d.sequence);
     set_status("ok");
   }
@@ -269,18 +289,34 @@ class SamsComponent final : public runtime::Component {
   }
 
  private:
-  /// `m` outside the searched region := v, by loop (Mat::setTo with a scalar allocates).
+  /// `m` outside the searched region `roi` := v, by loop (Mat::setTo with a scalar allocates).
   template <typename T>
-  void fill_outside(cv::Mat& m, T v) const {
+  static void fill_outside(cv::Mat& m, T v, const cv::Mat& roi) {
     for (int r = 0; r < m.rows; ++r) {
       T* p = m.ptr<T>(r);
-      const uchar* in = roi_.ptr<uchar>(r);
+      const uchar* in = roi.ptr<uchar>(r);
       for (int c = 0; c < m.cols; ++c)
         if (in[c] == 0) p[c] = v;
     }
   }
+  template <typename T>
+  void fill_outside(cv::Mat& m, T v) const {
+    fill_outside(m, v, roi_);
+  }
 
-  void process(const cv::Mat& gray, const cv::Mat& height) {
+  /// work_height4_ := h4 (floor(frame / 4) a side), its last column / row repeated to fill the
+  /// pyramid level's size.
+  void pad_quarter(const cv::Mat& h4) {
+    cv::Mat& o = work_height4_;
+    for (int r = 0; r < o.rows; ++r) {
+      const float* a = h4.ptr<float>(std::min(r, h4.rows - 1));
+      float* b = o.ptr<float>(r);
+      for (int c = 0; c < o.cols; ++c) b[c] = a[std::min(c, h4.cols - 1)];
+    }
+  }
+
+  /// `height`: the frame's size (level 0) or the quarter solve's (level 2, DtmFrame::height4).
+  void process(const cv::Mat& gray, const cv::Mat& height, int level) {
     gray.copyTo(work_gray_);
     fill_outside(work_gray_, cv::saturate_cast<uchar>(cv::mean(gray, roi_)[0]));
     if (trained_) {
@@ -296,6 +332,11 @@ class SamsComponent final : public runtime::Component {
     }
     if (peer_) {
       peer_->compute(work_gray_, saliency_);
+    } else if (method_ == Method::kSams && level == 2) {
+      pad_quarter(height);
+      cv::patchNaNs(work_height4_, 0.0);
+      fill_outside(work_height4_, static_cast<float>(cv::mean(work_height4_, roi4_)[0]), roi4_);
+      itti_->compute(work_gray_, work_height4_, saliency_);
     } else if (method_ == Method::kSams) {
       height.copyTo(work_height_);
       cv::patchNaNs(work_height_, 0.0);
@@ -408,6 +449,8 @@ class SamsComponent final : public runtime::Component {
   double max_range_m_ = 10.0;
   cv::Mat roi_;                      // CV_8U 255 = searched, 0 = not searched
   cv::Mat work_gray_, work_height_;  // the DTM's images with the unsearched region filled
+  cv::Mat work_height4_, roi4_;       // the quarter solve at pyramid level 2, its searched region
+  bool quarter_ok_ = false;            // the structure pyramid can start at level 2 (centre_min >= 2)
   cv::Mat cell_pixel_;  // CV_32S, per grid cell the pixel index r * w + c or -1
   cv::Mat saliency_;
   std::vector<Detection> dets_;

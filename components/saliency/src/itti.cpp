@@ -301,11 +301,8 @@ void IttiSaliency::prepare(cv::Size size) {
   const int levels = params_.max_level() + 1;
   level_sizes_.assign(static_cast<size_t>(levels), cv::Size());
   level_sizes_[0] = size;
-  for (int l = 1; l < levels; ++l) {
-    const cv::Size p = level_sizes_[static_cast<size_t>(l - 1)];
-    level_sizes_[static_cast<size_t>(l)] =
-        cv::Size((p.width + 1) / 2, (p.height + 1) / 2);
-  }
+  for (int l = 1; l < levels; ++l)
+    level_sizes_[static_cast<size_t>(l)] = level_size(level_sizes_[static_cast<size_t>(l - 1)], 1);
   map_size_ = level_sizes_[static_cast<size_t>(params_.map_level)];
   auto alloc = [&](std::vector<cv::Mat> &pyr) {
     pyr.assign(static_cast<size_t>(levels), cv::Mat());
@@ -375,8 +372,8 @@ void IttiSaliency::prepare(cv::Size size) {
   }
 }
 
-void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s) {
-  for (size_t l = 1; l < pyr.size(); ++l) {
+void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s, int from) {
+  for (size_t l = static_cast<size_t>(from) + 1; l < pyr.size(); ++l) {
     downsample_stb(pyr[l - 1], pyr[l], s.down_tmp[l]);
   }
 }
@@ -446,9 +443,9 @@ void IttiSaliency::orientation_job(int t) {
   normalise(sc.acc, sc);
 }
 
-void IttiSaliency::structure_job(const cv::Mat &height) {
+void IttiSaliency::structure_job(const cv::Mat &height, int level) {
   Scratch &sc = scratch_[static_cast<size_t>(1 + params_.num_orientations)];
-  cv::Mat &z0 = struct_pyr_[0];
+  cv::Mat &z0 = struct_pyr_[static_cast<size_t>(level)];
   height.convertTo(z0, CV_32F);
   // NaN / inf -> the mean of the finite values, then min-max to [0,1].
   double sum = 0.0, mn = std::numeric_limits<double>::max(), mx = -mn;
@@ -484,7 +481,7 @@ void IttiSaliency::structure_job(const cv::Mat &height) {
     z0.convertTo(z0, CV_32F, 1.0 / (mx - mn), -mn / (mx - mn));
   else
     fill_value(z0, 0.f);
-  build_pyramid(struct_pyr_, sc);
+  build_pyramid(struct_pyr_, sc, level);
   centre_surround_channel(struct_pyr_, consp_.structure, sc);
   normalise(consp_.structure, sc);
 }
@@ -507,17 +504,26 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
         std::to_string(min_side) + " px for " +
         std::to_string(params_.max_level() + 1) + " levels)");
   }
+  prepare(image.size());
+  // The heights enter the structure pyramid at the level of their size: the image's (0) or a
+  // reduced one up to the first centre level (levels below it only build the ones above).
+  int height_level = -1;
   if (!height.empty()) {
-    if (height.size() != image.size()) {
+    for (int l = 0; l <= params_.centre_min && height_level < 0; ++l)
+      if (height.size() == level_sizes_[static_cast<size_t>(l)])
+        height_level = l;
+    if (height_level < 0) {
+      const cv::Size q = level_sizes_[static_cast<size_t>(params_.centre_min)];
       throw std::invalid_argument(
           "height: size " + std::to_string(height.cols) + "x" +
-          std::to_string(height.rows) + " differs from the image's " +
-          std::to_string(image.cols) + "x" + std::to_string(image.rows));
+          std::to_string(height.rows) + " is neither the image's " +
+          std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+          " nor a pyramid level's down to level " + std::to_string(params_.centre_min) +
+          " (" + std::to_string(q.width) + "x" + std::to_string(q.height) + ")");
     }
     if (height.channels() != 1)
       throw std::invalid_argument("height: must have one channel");
   }
-  prepare(image.size());
   to_unit_float(image, bgr_);
 
   // Intensity (and colour opponency) at level 0.
@@ -567,7 +573,7 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
     else if (job <= n_orient)
       orientation_job(job - 1);
     else
-      structure_job(height);
+      structure_job(height, height_level);
   });
   fill_value(consp_.orientation, 0.f);
   for (int t = 0; t < n_orient; ++t)

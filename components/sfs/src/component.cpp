@@ -140,6 +140,10 @@ class SfsComponent final : public runtime::Component {
       f.gray.create(sz, CV_8U);
       f.height.create(sz, CV_32F);
       f.valid.create(sz, CV_8U);
+      f.height4.create(sz.height / 4, sz.width / 4, CV_32F);
+      f.valid4.create(sz.height / 4, sz.width / 4, CV_8U);
+      fill_invalid(f.height, f.valid);
+      fill_invalid(f.height4, f.valid4);
       f.camera = model;
       return f;
     });
@@ -165,8 +169,6 @@ class SfsComponent final : public runtime::Component {
       quarter_gray_.create(size_.height / 4, size_.width / 4, CV_8U);
       reduce4(gray_, quarter_gray_);
       quarter_sfs_->compute(quarter_gray_, warm, quarter_res_);
-      rows_.make(size_.height, quarter_gray_.rows);
-      cols_.make(size_.width, quarter_gray_.cols);
     } else {
       quarter_sfs_.reset();
       if (heights_wanted_ || !light_) sfs_->compute(gray_, warm, res_);
@@ -217,14 +219,18 @@ class SfsComponent final : public runtime::Component {
     d->solved = solve;
     d->height_level = solve ? level_ : 0;
     if (solve && level_ == 2) {
-      expand4(quarter_res_.height, quarter_res_.valid, d->height, d->valid);
+      scale_into(quarter_res_.height, 4.0f, d->height4);  // heights in the frame's pixel units
+      quarter_res_.valid.copyTo(d->valid4);
       d->light = res.light;
     } else if (solve) {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
       d->light = res.light;
     } else {  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
-      if (slot_was_solved) fill_invalid(*d);  // a slot last written unsolved is NaN / 0 already
+      if (slot_was_solved) {  // a slot last written unsolved is NaN / 0 already
+        fill_invalid(d->height, d->valid);
+        fill_invalid(d->height4, d->valid4);
+      }
       d->light = *light_;
     }
     d->light_estimated = res.light_estimated;
@@ -282,53 +288,21 @@ class SfsComponent final : public runtime::Component {
     }
   }
 
-  /// Column and row taps of the bilinear resampling from the reduced grid (n4 samples) to the
-  /// frame's (n): sample i sits at (i + 0.5) / 4 - 0.5, clamped to the reduced grid.
-  struct Taps {
-    std::vector<int> i0, i1;
-    std::vector<float> w;
-    void make(int n, int n4) {
-      i0.resize(static_cast<std::size_t>(n));
-      i1.resize(static_cast<std::size_t>(n));
-      w.resize(static_cast<std::size_t>(n));
-      for (int i = 0; i < n; ++i) {
-        const double f = std::clamp((i + 0.5) / 4.0 - 0.5, 0.0, n4 - 1.0);
-        const int a = std::min(static_cast<int>(f), n4 - 1);
-        i0[static_cast<std::size_t>(i)] = a;
-        i1[static_cast<std::size_t>(i)] = std::min(a + 1, n4 - 1);
-        w[static_cast<std::size_t>(i)] = static_cast<float>(f - a);
-      }
-    }
-  };
-
-  /// The quarter-resolution solution on the frame's grid (both allocated at the frame's size):
-  /// heights bilinear and x 4 (pixel units of the frame), valid where all four samples used are.
-  void expand4(const cv::Mat& h4, const cv::Mat& v4, cv::Mat& h, cv::Mat& v) const {
-    for (int r = 0; r < h.rows; ++r) {
-      const auto ur = static_cast<std::size_t>(r);
-      const int y0 = rows_.i0[ur], y1 = rows_.i1[ur];
-      const float wy = rows_.w[ur];
-      const float *a0 = h4.ptr<float>(y0), *a1 = h4.ptr<float>(y1);
-      const uchar *m0 = v4.ptr<uchar>(y0), *m1 = v4.ptr<uchar>(y1);
-      float* out = h.ptr<float>(r);
-      uchar* vo = v.ptr<uchar>(r);
-      for (int c = 0; c < h.cols; ++c) {
-        const auto uc = static_cast<std::size_t>(c);
-        const int x0 = cols_.i0[uc], x1 = cols_.i1[uc];
-        const float wx = cols_.w[uc];
-        const float top = a0[x0] + wx * (a0[x1] - a0[x0]), bottom = a1[x0] + wx * (a1[x1] - a1[x0]);
-        out[c] = 4.0f * (top + wy * (bottom - top));
-        vo[c] = (m0[x0] & m0[x1] & m1[x0] & m1[x1]) ? 255 : 0;
-      }
+  /// dst (allocated, same size) = k x src.
+  static void scale_into(const cv::Mat& src, float k, cv::Mat& dst) {
+    for (int r = 0; r < src.rows; ++r) {
+      const float* a = src.ptr<float>(r);
+      float* b = dst.ptr<float>(r);
+      for (int c = 0; c < src.cols; ++c) b[c] = k * a[c];
     }
   }
 
   // NaN height, no valid pixel, by loop (Mat::setTo with a scalar allocates).
-  static void fill_invalid(DtmFrame& d) {
-    for (int r = 0; r < d.height.rows; ++r) {
-      float* h = d.height.ptr<float>(r);
-      uchar* v = d.valid.ptr<uchar>(r);
-      for (int c = 0; c < d.height.cols; ++c) {
+  static void fill_invalid(cv::Mat& height, cv::Mat& valid) {
+    for (int r = 0; r < height.rows; ++r) {
+      float* h = height.ptr<float>(r);
+      uchar* v = valid.ptr<uchar>(r);
+      for (int c = 0; c < height.cols; ++c) {
         h[c] = std::numeric_limits<float>::quiet_NaN();
         v[c] = 0;
       }
@@ -342,7 +316,6 @@ class SfsComponent final : public runtime::Component {
   cv::Mat quarter_gray_;
   SfsResult quarter_res_;
   int level_ = 0;  ///< 2: only quarter-resolution readers (activate()): solve on the reduced frame
-  Taps rows_, cols_;  ///< resampling of the reduced solution to the frame (made in configure)
   std::optional<LightDirection> light_;  ///< empty: estimated per frame
   bool sun_in_view_ = true;              ///< false: the sun is ahead of the camera (slant >= 90 deg)
   bool heights_wanted_ = true;           ///< a consumer reads the DTM heights (activate())

@@ -25,20 +25,24 @@ inline constexpr const char* kDtmChannel = "terrain/dtm";
 inline constexpr const char* kDtmHeight = "height";
 /// The heights at a quarter of the frame's resolution are enough (SAMS's structure channel uses
 /// pyramid levels >= 2 only): when no consumer wants kDtmHeight, the sfs component solves on the
-/// frame reduced 4x (16x fewer pixels) and publishes that solution resampled to the frame
-/// (DtmFrame::height_level 2).
+/// frame reduced 4x (16x fewer pixels) and publishes that solution as it is, in height4 / valid4
+/// (DtmFrame::height_level 2): no full-frame copy is made for a reader that would shrink it again.
 inline constexpr const char* kDtmHeightQuarter = "height/4";
 
 struct DtmFrame {
   cv::Mat gray;    ///< CV_8UC1 grey image as captured (before vignetting correction)
   cv::Mat height;  ///< CV_32FC1 relative height, UP positive, pixel units (sfs.hpp conventions)
   cv::Mat valid;   ///< CV_8UC1, 255 = usable pixel
+  /// height_level 2: the solve on the frame reduced 4x (each side floor(frame / 4), block k
+  /// covering frame pixels 4k..4k+3), heights in the frame's pixel units; height / valid are then
+  /// not written (NaN / 0).
+  cv::Mat height4, valid4;
   /// false when no image-frame SfS was run (the sun is ahead of the camera, slant >= 90 deg, or no
   /// consumer reads the heights): height is NaN and valid 0, gray and light are set
   /// (traversability's ground path uses them).
   bool solved = true;
-  /// 0: solved on the full frame; 2: solved on the frame reduced 4x (only quarter-resolution
-  /// readers, kDtmHeightQuarter) and resampled to the frame, heights in the frame's pixel units.
+  /// 0: solved on the full frame (height / valid); 2: solved on the frame reduced 4x (only
+  /// quarter-resolution readers, kDtmHeightQuarter: height4 / valid4).
   int height_level = 0;
   sfs::LightDirection light;       ///< light used (camera image frame); slant >= pi/2 when !solved
   bool light_estimated = false;    ///< true when estimated from the image

@@ -110,8 +110,10 @@ public:
 
   /// Conspicuity maps of one frame. `image`: 1 or 3 (BGR) or 4 (BGRA) channels,
   /// CV_8U, CV_16U or CV_32F (floats are taken as [0,1]). `height`: optional
-  /// height map (any single-channel depth, same size as the image; NaN =
-  /// unknown) for the SAMS structure channel; empty = none. Throws
+  /// height map (any single-channel depth, NaN = unknown) for the SAMS
+  /// structure channel, the image's size or a pyramid level's down to
+  /// params().centre_min (each level halves the previous, rounding up:
+  /// level_size()), where it then enters the pyramid; empty = none. Throws
   /// std::invalid_argument on empty / wrong-type / too-small input or a size
   /// mismatch. The returned maps alias internal buffers and stay valid until
   /// the next call.
@@ -126,6 +128,14 @@ public:
   }
 
   const IttiParams &params() const { return params_; }
+
+  /// Size of pyramid level `level` for an image of `image` size (each level halves the one
+  /// below, rounding up).
+  static cv::Size level_size(cv::Size image, int level) {
+    for (int l = 0; l < level; ++l)
+      image = cv::Size((image.width + 1) / 2, (image.height + 1) / 2);
+    return image;
+  }
 
   /// Runs the channels (intensity + colour, each orientation, structure) as independent jobs on
   /// `par` (nullptr = one after the other on the calling thread, the default). The maps are the
@@ -142,12 +152,12 @@ private:
     std::vector<ResizeTable> to_map;
   };
   void prepare(cv::Size size);
-  void build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s);
+  void build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s, int from = 0);
   void centre_surround_channel(const std::vector<cv::Mat> &pyr, cv::Mat &out, Scratch &s);
   void normalise(cv::Mat &map, Scratch &s);
   void intensity_job(bool colour);
   void orientation_job(int t);
-  void structure_job(const cv::Mat &height);
+  void structure_job(const cv::Mat &height, int level);
 
   IttiParams params_;
   cv::Size input_size_;
