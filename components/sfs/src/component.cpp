@@ -219,7 +219,7 @@ class SfsComponent final : public runtime::Component {
     d->solved = solve;
     d->height_level = solve ? level_ : 0;
     if (solve && level_ == 2) {
-      scale_into(quarter_res_.height, 4.0f, d->height4);  // heights in the frame's pixel units
+      quarter_res_.height.convertTo(d->height4, CV_32F, 4.0);  // heights in the frame's pixel units
       quarter_res_.valid.copyTo(d->valid4);
       d->light = res.light;
     } else if (solve) {
@@ -285,15 +285,6 @@ class SfsComponent final : public runtime::Component {
         }
         q[c] = static_cast<uchar>((sum + 8) / 16);
       }
-    }
-  }
-
-  /// dst (allocated, same size) = k x src.
-  static void scale_into(const cv::Mat& src, float k, cv::Mat& dst) {
-    for (int r = 0; r < src.rows; ++r) {
-      const float* a = src.ptr<float>(r);
-      float* b = dst.ptr<float>(r);
-      for (int c = 0; c < src.cols; ++c) b[c] = k * a[c];
     }
   }
 
