@@ -496,6 +496,53 @@ TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
   EXPECT_NEAR(at("elevation", 0.5, 1.5), 0.175, 1e-6);
 }
 
+TEST(WorldMap, RecenteringKeepsEveryCellAtItsWorldPositionInAnyDirection) {
+  // A distinct height in every cell, then shifts with both signs on both axes (and one larger than
+  // the window): each cell still inside keeps its value, every cell that came in is unknown.
+  WorldMapParams p;
+  p.resolution_m = 0.1;
+  p.length_x_m = 3;
+  p.length_y_m = 2;
+  WorldMap map(p, 0, 0);
+  const int n = 30 * 20;
+  cv::Mat x(1, n, CV_32F), y(1, n, CV_32F), z(1, n, CV_32F), w(1, n, CV_32F, cv::Scalar(1));
+  for (int k = 0; k < n; ++k) {
+    x.at<float>(k) = static_cast<float>(map.origin_x() + (k % 30) * 0.1);
+    y.at<float>(k) = static_cast<float>(map.origin_y() + (k / 30) * 0.1);
+    z.at<float>(k) = 0.001f * static_cast<float>(k);
+  }
+  map.fuse_points(x, y, z, w, Pose2{});
+  map.finish();
+  cv::Mat before = map.layer("elevation").clone();
+  double ox = map.origin_x(), oy = map.origin_y();
+  for (const cv::Point2d to : {cv::Point2d{0.73, -0.48}, {-1.21, 0.35}, {0.3, 0.9}, {9.0, -9.0}}) {
+    map.recenter(to.x, to.y, 0.9);
+    map.finish();
+    const cv::Mat& after = map.layer("elevation");
+    const int dj = static_cast<int>(std::lround((map.origin_x() - ox) / 0.1)), di = static_cast<int>(std::lround((map.origin_y() - oy) / 0.1));
+    SCOPED_TRACE(::testing::Message() << "shift " << di << ", " << dj);
+    EXPECT_TRUE(di != 0 || dj != 0);
+    int kept = 0;
+    for (int i = 0; i < after.rows; ++i)
+      for (int j = 0; j < after.cols; ++j) {
+        const int si = i + di, sj = j + dj;
+        const bool inside = si >= 0 && sj >= 0 && si < before.rows && sj < before.cols;
+        const float v = after.at<float>(i, j), u = inside ? before.at<float>(si, sj) : std::nanf("");
+        if (std::isnan(u)) {
+          EXPECT_TRUE(std::isnan(v)) << i << " " << j;
+          continue;
+        }
+        EXPECT_FLOAT_EQ(v, u) << i << " " << j;
+        ++kept;
+      }
+    if (std::abs(di) < before.rows && std::abs(dj) < before.cols) {
+      EXPECT_GT(kept, 0);
+    }
+    after.copyTo(before);
+    ox = map.origin_x(), oy = map.origin_y();
+  }
+}
+
 // A rendered drive with drifting wheel odometry and a body that wobbles (pitch, roll).
 struct DriveRun {
   Pose2 truth, wheel, est;

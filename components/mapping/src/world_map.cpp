@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -113,16 +114,23 @@ void WorldMap::recenter(double x, double y, double margin_m) {
   if (std::abs(x - cx) > 0.5 * p_.length_x_m - margin_m) dj = static_cast<int>(std::lround((x - cx) / p_.resolution_m));
   if (std::abs(y - cy) > 0.5 * p_.length_y_m - margin_m) di = static_cast<int>(std::lround((y - cy) / p_.resolution_m));
   if (di == 0 && dj == 0) return;
-  // New cell (i, j) = old cell (i + di, j + dj); a shift in place, iterating away from the source.
+  // New cell (i, j) = old cell (i + di, j + dj), `zero` where that is outside: in place, rows
+  // visited away from their source row, each row's kept run moved with memmove (overlap-safe).
+  const int keep_lo = std::max(0, -dj), keep_hi = std::min(cols_, cols_ - dj);  // new columns with a source
   auto shift = [&](cv::Mat& m, auto zero) {
     using T = decltype(zero);
     const int r0 = di >= 0 ? 0 : rows_ - 1, r1 = di >= 0 ? rows_ : -1, rs = di >= 0 ? 1 : -1;
-    const int c0 = dj >= 0 ? 0 : cols_ - 1, c1 = dj >= 0 ? cols_ : -1, cs = dj >= 0 ? 1 : -1;
-    for (int i = r0; i != r1; i += rs)
-      for (int j = c0; j != c1; j += cs) {
-        const int si = i + di, sj = j + dj;
-        m.at<T>(i, j) = (si >= 0 && si < rows_ && sj >= 0 && sj < cols_) ? m.at<T>(si, sj) : zero;
+    for (int i = r0; i != r1; i += rs) {
+      T* d = m.ptr<T>(i);
+      const int si = i + di;
+      if (si < 0 || si >= rows_ || keep_lo >= keep_hi) {
+        std::fill(d, d + cols_, zero);
+        continue;
       }
+      std::memmove(d + keep_lo, m.ptr<T>(si) + keep_lo + dj, static_cast<std::size_t>(keep_hi - keep_lo) * sizeof(T));
+      std::fill(d, d + keep_lo, zero);
+      std::fill(d + keep_hi, d + cols_, zero);
+    }
   };
   for (cv::Mat* m : {&wsum_, &mean_, &m2_}) shift(*m, 0.0);
   shift(count_, 0.0f);
