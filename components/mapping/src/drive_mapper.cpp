@@ -175,8 +175,9 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     if (use_sweep()) sweep_.set_frame(gray);
     report_.vo = m.status;
     report_.vo_inliers = m.inliers;
-    // Rocks are ranged with the tilt fitted without the keyframe's objects when there is one.
-    tilt_ = !m.ok() ? cv::Vec2d() : m.ground_tilt ? cv::Vec2d(m.ground_pitch_rad, m.ground_roll_rad) : cv::Vec2d(m.pitch_rad, m.roll_rad);
+    // Rocks are ranged with the tilt fitted without the keyframe's objects (the motion fit's
+    // where there was no refit).
+    tilt_ = m.ok() ? cv::Vec2d(m.ground_pitch_rad, m.ground_roll_rad) : cv::Vec2d();
     if (m.ok()) tilts_[static_cast<std::size_t>(n_tilts_++ % kMaxTiltWindow)] = tilt_;
     Pose2 rel = pred;
     Cov3 rel_cov = pred_cov;

@@ -363,8 +363,9 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   last_.gain = 1.0 + th[kGain];
   last_.bias_dn = th[kBias];
   last_.residual_dn = std::sqrt(sigma2_);
-  last_theta_ = th;
-  if (ok) refit_ground_tilt();
+  last_.ground_pitch_rad = th[kPitch];
+  last_.ground_roll_rad = th[kRoll];
+  if (ok) refit_ground_tilt(th);
   if (!ok || inl_ < p_.min_points) {
     last_.status = used_ < p_.min_points ? VoStatus::kTooFewPoints : VoStatus::kNoTexture;
     return last_;
@@ -404,13 +405,10 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   return last_;
 }
 
-void GroundVisualOdometry::refit_ground_tilt() {
-  last_.ground_tilt = false;
-  last_.ground_pitch_rad = last_theta_[kPitch];
-  last_.ground_roll_rad = last_theta_[kRoll];
+void GroundVisualOdometry::refit_ground_tilt(const Params& th) {
   if (static_cast<int>(ground_template_.size()) < p_.min_ground_points) return;
   // The tilt again, from the motion fit's solution, over the ground the objects leave free.
-  Params tg = last_theta_;
+  Params tg = th;
   if (align_level(0, ground_template_, tg, false)) {
     last_.ground_tilt = true;
     last_.ground_pitch_rad = tg[kPitch];
@@ -429,33 +427,28 @@ void GroundVisualOdometry::promote_last() {
   key_excluded_ = cur_excluded_;
   cur_excluded_ = false;
   has_keyframe_ = true;
+  // The finest level's cells that show no object (none of its source pixels marked: bilinear
+  // resampling of the 0 / 255 mask) also make the ground template; without marks it stays empty.
+  ground_template_.clear();
   for (std::size_t l = 0; l < key_.levels.size(); ++l) {
     const Level& lv = key_.levels[l];
     std::vector<Point>& t = templates_[l];
     t.clear();
+    const bool ground = l == 0 && key_excluded_;
     const int step = l == 0 ? p_.stride : 1;
     for (int i = 0; i < lv.img.rows; i += step) {
       const uchar* u = lv.usable.ptr<uchar>(i);
       const float* v = lv.img.ptr<float>(i);
       const float* s = lv.support.ptr<float>(i);
+      const uchar* x = ground ? excluded_key_.ptr<uchar>(i) : nullptr;
       for (int j = 0; j < lv.img.cols; j += step) {
         if (u[j] != kGradient || s[j] < p_.min_support) continue;
         const cv::Point2d q = lv.grid.center(i, j);
         if (q.x < p_.min_range_m) continue;
         t.push_back({static_cast<float>(q.x), static_cast<float>(q.y), v[j], s[j]});
+        if (ground && x[j] == 0) ground_template_.push_back(t.back());
       }
     }
-  }
-  // The finest template without the cells that show objects (a cell any of whose source pixels
-  // is marked: bilinear resampling of the 0 / 255 mask).
-  ground_template_.clear();
-  if (!key_excluded_) return;
-  const Level& l0 = key_.levels[0];
-  for (const Point& pt : templates_[0]) {
-    const cv::Point2d c = l0.grid.cell(pt.x, pt.y);
-    const int i = static_cast<int>(std::lround(c.x)), j = static_cast<int>(std::lround(c.y));
-    if (i >= 0 && j >= 0 && i < excluded_key_.rows && j < excluded_key_.cols && excluded_key_.at<uchar>(i, j) == 0)
-      ground_template_.push_back(pt);
   }
 }
 

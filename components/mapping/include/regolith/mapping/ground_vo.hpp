@@ -139,8 +139,8 @@ class GroundVisualOdometry {
   std::vector<std::vector<Point>> templates_;  // per level, from the keyframe (capacity fixed)
   std::vector<Point> ground_template_;          // finest level without the excluded cells (empty: no refit)
   cv::Mat excluded_cur_, excluded_key_;          // CV_8U on the finest grid, non-zero = excluded
-  Params last_theta_{};                          // the last motion fit's solution
-  void refit_ground_tilt();
+  // last_.ground_*: the tilt refitted from the motion fit's solution `th` over ground_template_.
+  void refit_ground_tilt(const Params& th);
   bool cur_excluded_ = false, key_excluded_ = false;
   std::vector<float> residuals_;
   std::vector<std::array<float, kParams>> jacobians_;
