@@ -22,6 +22,7 @@ namespace regolith::saliency {
 
 namespace {
 
+constexpr int kBoxFeatures = kFeatureCount - 8;  // per-box features; then 5 context and 3 shadow-side features
 constexpr float kDarkOffset = 0.05f;     // I - G_64 * I below -this: dark pixel
 constexpr float kBrightOffset = 0.05f;   // above +this: bright pixel
 constexpr float kEdgeMagnitude = 0.08f;  // |grad I| (Sobel / 8) above this: edge pixel
@@ -84,7 +85,10 @@ const std::vector<std::string>& feature_names() {
                                               "log_largest_parent_area_ratio",
                                               "children",
                                               "parents",
-                                              "max_iou_other_candidate"};
+                                              "max_iou_other_candidate",
+                                              "dark_on_shadow_side",
+                                              "dark_on_sun_side",
+                                              "shading_towards_sun"};
   return names;
 }
 
@@ -268,16 +272,25 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
           cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
       double dmax = 0.0, dsum = 0.0, dmin = 1.0;
       int nsides = 0;
-      for (const cv::Rect& s : sides) {
+      for (int si = 0; si < 4; ++si) {
+        const cv::Rect& s = sides[si];
+        c.side_dark[static_cast<std::size_t>(si)] = -1.0f;
         if (s.area() <= 0) continue;
         const double f = rect_sum(ii.dark, s) / s.area();
+        c.side_dark[static_cast<std::size_t>(si)] = static_cast<float>(f);
         dmax = std::max(dmax, f);
         dmin = std::min(dmin, f);
         dsum += f;
         ++nsides;
       }
       if (nsides == 0) dmin = 0.0;
-      const double v[kFeatureCount - 5] = {std::log(n_in),
+      {
+        const int hw = std::max(1, b.width / 2), hh = std::max(1, b.height / 2);
+        const cv::Rect halves[4] = {cv::Rect(b.x, b.y, hw, b.height), cv::Rect(b.x + b.width - hw, b.y, hw, b.height),
+                                    cv::Rect(b.x, b.y, b.width, hh), cv::Rect(b.x, b.y + b.height - hh, b.width, hh)};
+        for (int si = 0; si < 4; ++si) c.half_mean[static_cast<std::size_t>(si)] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
+      }
+      const double v[kBoxFeatures] = {std::log(n_in),
                                            std::log(static_cast<double>(b.width) / b.height),
                                            static_cast<double>(b.width) / W,
                                            static_cast<double>(b.height) / H,
@@ -311,7 +324,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
                                            in(ii.cb) - ring(ii.cb),
                                            in(ii.cr) - img_cr,
                                            in(ii.cb) - img_cb};
-      for (int f = 0; f < kFeatureCount - 5; ++f) c.features[f] = static_cast<float>(v[f]);
+      for (int f = 0; f < kBoxFeatures; ++f) c.features[f] = static_cast<float>(v[f]);
       out.candidates.push_back(c);
     }
   }
@@ -334,11 +347,34 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
         parent_area = std::max(parent_area, static_cast<double>(q.area()));
       }
     }
-    c.features[kFeatureCount - 5] = static_cast<float>(c.stability);
-    c.features[kFeatureCount - 4] = static_cast<float>(std::log(parent_area / std::max(1, b.area())));
-    c.features[kFeatureCount - 3] = static_cast<float>(children);
-    c.features[kFeatureCount - 2] = static_cast<float>(parents);
-    c.features[kFeatureCount - 1] = static_cast<float>(max_iou);
+    c.features[kBoxFeatures] = static_cast<float>(c.stability);
+    c.features[kBoxFeatures + 1] = static_cast<float>(std::log(parent_area / std::max(1, b.area())));
+    c.features[kBoxFeatures + 2] = static_cast<float>(children);
+    c.features[kBoxFeatures + 3] = static_cast<float>(parents);
+    c.features[kBoxFeatures + 4] = static_cast<float>(max_iou);
+  }
+  // The image's shadow side: rocks cast their shadows to the same side in one image (the sun's
+  // opposite), ground texture to every side. The side whose ring strips are darker than the
+  // candidate's other strips, summed over the candidates (each weighted by its contrast), is the
+  // shadow side; each candidate's strip there and on the opposite (sun) side, and how much
+  // brighter its half towards the sun is, are features.
+  std::array<double, 4> excess{};
+  for (const RockCandidate& c : out.candidates) {
+    double m = 0.0;
+    int n = 0;
+    for (float f : c.side_dark)
+      if (f >= 0) m += f, ++n;
+    if (n == 0) continue;
+    m /= n;
+    for (int si = 0; si < 4; ++si)
+      if (c.side_dark[static_cast<std::size_t>(si)] >= 0) excess[static_cast<std::size_t>(si)] += c.features[8] * (c.side_dark[static_cast<std::size_t>(si)] - m);
+  }
+  const int shadow = static_cast<int>(std::max_element(excess.begin(), excess.end()) - excess.begin());
+  const int sun = shadow ^ 1;  // left <-> right, top <-> bottom
+  for (RockCandidate& c : out.candidates) {
+    c.features[kBoxFeatures + 5] = std::max(0.0f, c.side_dark[static_cast<std::size_t>(shadow)]);
+    c.features[kBoxFeatures + 6] = std::max(0.0f, c.side_dark[static_cast<std::size_t>(sun)]);
+    c.features[kBoxFeatures + 7] = c.half_mean[static_cast<std::size_t>(sun)] - c.half_mean[static_cast<std::size_t>(shadow)];
   }
 }
 

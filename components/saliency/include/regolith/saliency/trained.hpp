@@ -9,7 +9,9 @@
 //     ring's four side strips: max / mean / min), fill ratio of the thresholded blob, ...;
 //     context among the candidates (stability: how many maps / thresholds found the same box;
 //     nesting: parents, children, the largest parent's area, the best overlap with another
-//     candidate), chromaticity inside vs ring and image (0 for grey images);
+//     candidate), chromaticity inside vs ring and image (0 for grey images); the image's shadow
+//     side (the ring side darker than the others over all candidates): each candidate's dark
+//     fraction there and on the sun side, and its half towards the sun minus the other half;
 //  3. a random forest (cv::ml::RTrees, regression on the soft label min(1, IoU / 0.5) with the
 //     best-matching non-ignored ground-truth component; fixed RNG, no randomness elsewhere)
 //     whose mean tree output is the box score in [0,1];
@@ -37,8 +39,8 @@ class ModelError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-inline constexpr int kFeatureCount = 39;
-inline constexpr int kTrainedModelVersion = 2;  ///< 2: 39 features (context, chroma), soft labels
+inline constexpr int kFeatureCount = 42;
+inline constexpr int kTrainedModelVersion = 3;  ///< 3: 42 features (+ the image's shadow side), soft labels
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -77,6 +79,8 @@ struct RockCandidate {
   unsigned source_bits = 0;  ///< bit k set for every source k that found exactly this box (source's bit included)
   int stability = 0;  ///< how many (map, scale) sources found (nearly) this box, itself included
   std::array<float, kFeatureCount> features{};
+  std::array<float, 4> side_dark{};  ///< dark fraction of the ring's left / right / top / bottom strips (-1: outside the image)
+  std::array<float, 4> half_mean{};  ///< mean intensity of the box's left / right / top / bottom half
 };
 
 struct CandidateSet {
