@@ -23,6 +23,7 @@ namespace regolith::saliency {
 namespace {
 
 constexpr int kBoxFeatures = kFeatureCount - 8;  // per-box features; then 5 context and 3 shadow-side features
+constexpr int kCoarseMeanIn = 8;                 // index of "coarse_mean_in" in feature_names()
 constexpr float kDarkOffset = 0.05f;     // I - G_64 * I below -this: dark pixel
 constexpr float kBrightOffset = 0.05f;   // above +this: bright pixel
 constexpr float kEdgeMagnitude = 0.08f;  // |grad I| (Sobel / 8) above this: edge pixel
@@ -272,12 +273,12 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
           cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
       double dmax = 0.0, dsum = 0.0, dmin = 1.0;
       int nsides = 0;
-      for (int si = 0; si < 4; ++si) {
+      for (std::size_t si = 0; si < 4; ++si) {
         const cv::Rect& s = sides[si];
-        c.side_dark[static_cast<std::size_t>(si)] = -1.0f;
+        c.side_dark[si] = -1.0f;
         if (s.area() <= 0) continue;
         const double f = rect_sum(ii.dark, s) / s.area();
-        c.side_dark[static_cast<std::size_t>(si)] = static_cast<float>(f);
+        c.side_dark[si] = static_cast<float>(f);
         dmax = std::max(dmax, f);
         dmin = std::min(dmin, f);
         dsum += f;
@@ -288,7 +289,8 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
         const int hw = std::max(1, b.width / 2), hh = std::max(1, b.height / 2);
         const cv::Rect halves[4] = {cv::Rect(b.x, b.y, hw, b.height), cv::Rect(b.x + b.width - hw, b.y, hw, b.height),
                                     cv::Rect(b.x, b.y, b.width, hh), cv::Rect(b.x, b.y + b.height - hh, b.width, hh)};
-        for (int si = 0; si < 4; ++si) c.half_mean[static_cast<std::size_t>(si)] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
+        for (std::size_t si = 0; si < 4; ++si)
+          c.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
       }
       const double v[kBoxFeatures] = {std::log(n_in),
                                            std::log(static_cast<double>(b.width) / b.height),
@@ -366,15 +368,15 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
       if (f >= 0) m += f, ++n;
     if (n == 0) continue;
     m /= n;
-    for (int si = 0; si < 4; ++si)
-      if (c.side_dark[static_cast<std::size_t>(si)] >= 0) excess[static_cast<std::size_t>(si)] += c.features[8] * (c.side_dark[static_cast<std::size_t>(si)] - m);
+    for (std::size_t si = 0; si < 4; ++si)
+      if (c.side_dark[si] >= 0) excess[si] += c.features[kCoarseMeanIn] * (c.side_dark[si] - m);
   }
-  const int shadow = static_cast<int>(std::max_element(excess.begin(), excess.end()) - excess.begin());
-  const int sun = shadow ^ 1;  // left <-> right, top <-> bottom
+  const auto sh = static_cast<std::size_t>(std::max_element(excess.begin(), excess.end()) - excess.begin());
+  const std::size_t su = sh ^ 1u;  // the sun side: left <-> right, top <-> bottom
   for (RockCandidate& c : out.candidates) {
-    c.features[kBoxFeatures + 5] = std::max(0.0f, c.side_dark[static_cast<std::size_t>(shadow)]);
-    c.features[kBoxFeatures + 6] = std::max(0.0f, c.side_dark[static_cast<std::size_t>(sun)]);
-    c.features[kBoxFeatures + 7] = c.half_mean[static_cast<std::size_t>(sun)] - c.half_mean[static_cast<std::size_t>(shadow)];
+    c.features[kBoxFeatures + 5] = std::max(0.0f, c.side_dark[sh]);
+    c.features[kBoxFeatures + 6] = std::max(0.0f, c.side_dark[su]);
+    c.features[kBoxFeatures + 7] = c.half_mean[su] - c.half_mean[sh];
   }
 }
 
