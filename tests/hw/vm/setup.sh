@@ -64,14 +64,38 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 PKGS=("$KPKG" "linux-headers-$KREL" "linux-headers-$KABI-common" "linux-kbuild-$KMM" "linux-source-$KMM" busybox-static)
+# The first five must be one kernel: the same upstream version (the package names already carry
+# the ABI). Their Debian revisions can differ: the signed image is built by another source
+# package and can lag (Debian security once had linux-image-6.1.0-56-amd64 6.1.192-2 beside
+# linux-kbuild-6.1 and linux-source-6.1 6.1.192-3, and -2 of those was gone). Each is fetched at
+# the newest revision of the image's upstream version that the archive has (`apt-cache madison`);
+# a cached .deb of another upstream version is replaced.
+KVER=$(apt-cache policy "$KPKG" 2>/dev/null | awk '/Candidate:/{print $2; exit}')
+[ -n "$KVER" ] && [ "$KVER" != "(none)" ] || { echo "hw-setup: no candidate version of $KPKG (apt-get update first)" >&2; exit 1; }
+upstream() { echo "${1%-*}"; }  # 6.1.192-2 -> 6.1.192
 mkdir -p "$VMDIR/debs"
 cd "$VMDIR/debs"
-for p in "${PKGS[@]}"; do
-  compgen -G "${p}_*.deb" > /dev/null || apt-get download "$p" 2>&1 | grep -v -e unsandboxed -e '^Get:' >&2 || true
+download() { apt-get download "$1" 2>&1 | grep -v -e unsandboxed -e '^Get:' >&2 || true; }
+for i in "${!PKGS[@]}"; do
+  p=${PKGS[$i]}
+  if [ "$i" -lt 5 ]; then
+    for f in "${p}"_*.deb; do
+      if [ -e "$f" ] && [ "$(upstream "$(dpkg-deb -f "$f" Version)")" != "$(upstream "$KVER")" ]; then rm -f "$f"; fi
+    done
+    if ! compgen -G "${p}_*.deb" > /dev/null; then
+      v=$(apt-cache madison "$p" 2>/dev/null | awk -F'|' -v u="$(upstream "$KVER")" '{gsub(/ /, "", $2); if (index($2, u "-") == 1) {print $2; exit}}')
+      [ -n "$v" ] && download "$p=$v"
+    fi
+  fi
+  compgen -G "${p}_*.deb" > /dev/null || download "$p"
   compgen -G "${p}_*.deb" > /dev/null || { echo "hw-setup: apt-get download $p failed" >&2; exit 1; }
 done
-nver=$(for p in "${PKGS[@]:0:5}"; do dpkg-deb -f "${p}"_*.deb Version; done | sort -u | wc -l)
-[ "$nver" = 1 ] || { echo "hw-setup: the kernel packages come from different versions" >&2; exit 1; }
+nver=$(for p in "${PKGS[@]:0:5}"; do upstream "$(dpkg-deb -f "${p}"_*.deb Version)"; done | sort -u | wc -l)
+[ "$nver" = 1 ] || {
+  echo "hw-setup: the kernel packages come from different upstream versions:" >&2
+  for p in "${PKGS[@]:0:5}"; do echo "  ${p} $(dpkg-deb -f "${p}"_*.deb Version)" >&2; done
+  exit 1
+}
 say "kernel $KREL: packages present"
 cd "$VMDIR"
 
