@@ -157,6 +157,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
     sized_ = I.size();
   }
   out.candidates.reserve(max_candidates(I.size()));
+  sides_.reserve(max_candidates(I.size()));
   coarse_.compute_from_intensity(I, s_coarse_);
   fine_.compute_from_intensity(I, s_fine_);
   surround_blur_.apply(I, surround_, params_.coarse.sigma_px);
@@ -216,6 +217,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
 
   out.size = I.size();
   out.candidates.clear();
+  sides_.clear();
   out.source_masks.create(I.size(), CV_8U);
   for (int y = 0; y < H; ++y) std::fill(out.source_masks.ptr<uchar>(y), out.source_masks.ptr<uchar>(y) + W, uchar{0});
   out.sources = static_cast<int>(detectors_.size());
@@ -273,12 +275,13 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
           cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
       double dmax = 0.0, dsum = 0.0, dmin = 1.0;
       int nsides = 0;
+      Sides& cs = sides_.emplace_back();
       for (std::size_t si = 0; si < 4; ++si) {
         const cv::Rect& s = sides[si];
-        c.side_dark[si] = -1.0f;
+        cs.dark[si] = -1.0f;
         if (s.area() <= 0) continue;
         const double f = rect_sum(ii.dark, s) / s.area();
-        c.side_dark[si] = static_cast<float>(f);
+        cs.dark[si] = static_cast<float>(f);
         dmax = std::max(dmax, f);
         dmin = std::min(dmin, f);
         dsum += f;
@@ -290,7 +293,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
         const cv::Rect halves[4] = {cv::Rect(b.x, b.y, hw, b.height), cv::Rect(b.x + b.width - hw, b.y, hw, b.height),
                                     cv::Rect(b.x, b.y, b.width, hh), cv::Rect(b.x, b.y + b.height - hh, b.width, hh)};
         for (std::size_t si = 0; si < 4; ++si)
-          c.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
+          cs.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
       }
       const double v[kBoxFeatures] = {std::log(n_in),
                                            std::log(static_cast<double>(b.width) / b.height),
@@ -361,22 +364,25 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   // shadow side; each candidate's strip there and on the opposite (sun) side, and how much
   // brighter its half towards the sun is, are features.
   std::array<double, 4> excess{};
-  for (const RockCandidate& c : out.candidates) {
+  for (std::size_t k = 0; k < nc; ++k) {
+    const std::array<float, 4>& dark = sides_[k].dark;
     double m = 0.0;
     int n = 0;
-    for (float f : c.side_dark)
+    for (float f : dark)
       if (f >= 0) m += f, ++n;
     if (n == 0) continue;
     m /= n;
     for (std::size_t si = 0; si < 4; ++si)
-      if (c.side_dark[si] >= 0) excess[si] += c.features[kCoarseMeanIn] * (c.side_dark[si] - m);
+      if (dark[si] >= 0) excess[si] += out.candidates[k].features[kCoarseMeanIn] * (dark[si] - m);
   }
   const auto sh = static_cast<std::size_t>(std::max_element(excess.begin(), excess.end()) - excess.begin());
   const std::size_t su = sh ^ 1u;  // the sun side: left <-> right, top <-> bottom
-  for (RockCandidate& c : out.candidates) {
-    c.features[kBoxFeatures + 5] = std::max(0.0f, c.side_dark[sh]);
-    c.features[kBoxFeatures + 6] = std::max(0.0f, c.side_dark[su]);
-    c.features[kBoxFeatures + 7] = c.half_mean[su] - c.half_mean[sh];
+  for (std::size_t k = 0; k < nc; ++k) {
+    const Sides& cs = sides_[k];
+    float* f = out.candidates[k].features.data();
+    f[kBoxFeatures + 5] = std::max(0.0f, cs.dark[sh]);
+    f[kBoxFeatures + 6] = std::max(0.0f, cs.dark[su]);
+    f[kBoxFeatures + 7] = cs.half_mean[su] - cs.half_mean[sh];
   }
 }
 

@@ -79,8 +79,6 @@ struct RockCandidate {
   unsigned source_bits = 0;  ///< bit k set for every source k that found exactly this box (source's bit included)
   int stability = 0;  ///< how many (map, scale) sources found (nearly) this box, itself included
   std::array<float, kFeatureCount> features{};
-  std::array<float, 4> side_dark{};  ///< dark fraction of the ring's left / right / top / bottom strips (-1: outside the image)
-  std::array<float, 4> half_mean{};  ///< mean intensity of the box's left / right / top / bottom half
 };
 
 struct CandidateSet {
@@ -117,6 +115,13 @@ class CandidateExtractor {
   } ii_;
   cv::Size sized_;  // image size the buffers and reservations were made for
   std::vector<Detection> dets_;
+  /// Per candidate (same order), until the image's shadow side is known: the dark fraction of
+  /// the ring's left / right / top / bottom strips (-1: outside the image) and the mean
+  /// intensity of the box's left / right / top / bottom half.
+  struct Sides {
+    std::array<float, 4> dark{}, half_mean{};
+  };
+  std::vector<Sides> sides_;
 };
 
 /// A trained model: candidate parameters, chosen thresholds and the forest.
