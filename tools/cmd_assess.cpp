@@ -170,8 +170,8 @@ struct ImageRock {
 // Rocks in one perspective image: mapping::RockSightings (contrast blobs against the local
 // ground, ranged by direct depth: contact = the blob's lowest row, width = its side columns at
 // that range, height = its top ray over the centre), with its pixel scales grown with the image
-// (the defaults are for 320 px wide frames; blobs of at least 24 px there, twice the map's: one
-// frame has no second look to confirm a small one), its range window opened to what a single
+// (RockSightingParams::scaled_to_width; blobs of at least 24 px at the 320 px reference, twice the
+// map's: one frame has no second look to confirm a small one), its range window opened to what a single
 // image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
 // halves merged into one (merge_halves).
 std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::DirectDepth& depth) {
@@ -179,19 +179,16 @@ std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::Dire
   if (gray.depth() == CV_8U) g8 = gray;
   else if (gray.depth() == CV_16U) gray.convertTo(g8, CV_8U, 1.0 / 256.0);
   else cv::normalize(gray, g8, 0, 255, cv::NORM_MINMAX, CV_8U);
-  const double s = g8.cols / 320.0;
   mapping::RockSightingParams p;
-  p.background_sigma_px = std::clamp(16.0 * s, 4.0, 64.0);
-  p.min_pixels = std::max(4, static_cast<int>(std::lround(24.0 * s * s)));
+  p.min_pixels = 24;  // at the reference width: twice the map's (one frame, no second look)
+  p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
+  p = p.scaled_to_width(g8.cols);
   p.max_pixels = std::max(p.min_pixels, g8.cols * g8.rows / 4);
-  p.row_band_px = std::clamp(static_cast<int>(std::lround(8.0 * s)), 1, 256);
   p.min_range_m = 0.2;
   p.max_range_m = 10.0;
   p.min_height_m = 0.005;
   p.max_height_m = 1.0;
   p.max_sightings = 256;
-  p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
-  p.merge_gap_px = std::max(2, static_cast<int>(std::lround(2.0 * s)));
   mapping::RockSightings sightings(depth, p);
   const int n = sightings.compute(g8);
   std::vector<ImageRock> out;

@@ -74,9 +74,22 @@ void DriveMapperParams::validate() const {
     fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
 }
 
+namespace {
+// The pixel parameters are given for a 320 px wide frame (RockSightingParams::kReferenceWidthPx):
+// the camera's own are these grown with its width, so that another resolution sees the same rocks.
+DriveMapperParams for_camera(const DriveMapperParams& params, const direct_depth::CameraModel& camera) {
+  params.validate();
+  DriveMapperParams p = params;
+  p.sightings = params.sightings.scaled_to_width(camera.width);
+  const double s = static_cast<double>(camera.width) / RockSightingParams::kReferenceWidthPx;
+  p.object_margin_px = std::clamp(static_cast<int>(std::lround(params.object_margin_px * s)), 0, 64);
+  return p;
+}
+}  // namespace
+
 DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMount& mount, const cv::Vec3d& sun_world,
                          const DriveMapperParams& params, const cv::Point2d& map_center)
-    : p_((params.validate(), params)),
+    : p_(for_camera(params, camera)),
       depth_(camera),
       mount_(mount),
       sun_world_(sun_world),

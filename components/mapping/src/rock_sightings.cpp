@@ -23,6 +23,19 @@ using common::fill;
 
 }  // namespace
 
+RockSightingParams RockSightingParams::scaled_to_width(int width_px) const {
+  if (width_px <= 0) fail("width", "must be > 0 px");
+  const double s = static_cast<double>(width_px) / kReferenceWidthPx;
+  RockSightingParams p = *this;
+  p.background_sigma_px = std::clamp(background_sigma_px * s, std::min(background_sigma_px, 4.0), 64.0);
+  p.smooth_sigma_px = std::clamp(smooth_sigma_px * s, 0.0, 16.0);
+  p.row_band_px = std::clamp(static_cast<int>(std::lround(row_band_px * s)), std::min(row_band_px, 1), 256);
+  p.min_pixels = std::max(std::min(min_pixels, 4), static_cast<int>(std::lround(min_pixels * s * s)));
+  p.max_pixels = std::max(p.min_pixels, static_cast<int>(std::min(1e9, std::round(max_pixels * s * s))));
+  p.merge_gap_px = std::min(64, static_cast<int>(std::lround(merge_gap_px * std::max(1.0, s))));
+  return p;
+}
+
 void RockSightingParams::validate() const {
   if (!std::isfinite(background_sigma_px) || background_sigma_px < 1 || background_sigma_px > 64)
     fail("background_sigma_px", "must be in [1, 64]");

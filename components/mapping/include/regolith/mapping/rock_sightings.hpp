@@ -51,6 +51,14 @@ struct RockSightingParams {
   bool keep_top_cut = true;           ///< blobs cut by the image's top edge are kept (their height is a lower bound)
   double tilt_sigma_rad = 0.01;       ///< rad, error of the camera's tilt against the far ground (ranging)
   void validate() const;              ///< FieldError("mapping.sightings", ...)
+
+  /// The image widths the pixel parameters above are given for: 320 px.
+  static constexpr int kReferenceWidthPx = 320;
+  /// The same parameters for frames `width_px` wide: lengths (background and smoothing scales, row
+  /// band) grow by s = width / kReferenceWidthPx, areas (min / max pixels) by s^2, the merge gap by
+  /// max(1, s); clamped to what validate() accepts. A rock then makes the same blob whatever the
+  /// camera's resolution (a 640 px camera with the 320 px scales takes its texture for rocks).
+  RockSightingParams scaled_to_width(int width_px) const;
 };
 
 /// Rows of RockSightings::table().
