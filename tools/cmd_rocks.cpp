@@ -441,16 +441,20 @@ struct EvalOptions {
   uint64_t train_seed = sal::TrainParams{}.seed;
 };
 
-// Reads every image / mask pair and extracts + labels the trained method's candidates.
+// Reads every image / mask pair and extracts + labels the trained method's candidates. The
+// working width (`cp.working_width_px`, when 0) becomes the images' median width: the model's
+// pixel scales and box-size features then mean the same on images of another size.
 std::vector<sal::LabelledFrame>
 load_labelled(const std::string &images, const std::string &masks,
-              int min_gt_area, const sal::CandidateParams &cp,
+              int min_gt_area, sal::CandidateParams &cp,
               const sal::TrainParams &tp, int &failed,
               std::vector<sal::DatasetItem> *items_out = nullptr) {
   sal::DatasetListing listing = sal::list_dataset(images, masks);
   failed = static_cast<int>(listing.errors.size());
   for (const auto &err : listing.errors)
     std::cerr << "error: " << err << " (skipped)\n";
+  if (cp.working_width_px == 0)
+    cp.working_width_px = sal::median_image_width(listing.items);
   sal::CandidateExtractor extractor(cp);
   std::vector<sal::LabelledFrame> frames;
   for (const auto &item : listing.items) {
@@ -471,7 +475,7 @@ load_labelled(const std::string &images, const std::string &masks,
 
 void run_train(const std::string &images, const std::string &masks,
                const std::string &out, int min_gt_area) {
-  const sal::CandidateParams cp;
+  sal::CandidateParams cp;
   const sal::TrainParams tp;
   int failed = 0;
   const auto frames = load_labelled(images, masks, min_gt_area, cp, tp, failed);
@@ -532,7 +536,7 @@ std::map<std::string, std::string> read_subsets(const std::filesystem::path &man
 // `eval rocks --trained-cv`: the trained method scored by grouped k-fold CV (models trained
 // only on the other folds), next to the contrast method with its defaults on the same folds.
 void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
-  const sal::CandidateParams cp;
+  sal::CandidateParams cp;
   sal::TrainParams tp;
   tp.seed = e.train_seed;
   int failed = 0;

@@ -114,6 +114,23 @@ FrameTruth read_truth(const std::string &mask_path, cv::Size image_size,
   }
 }
 
+int median_image_width(const std::vector<DatasetItem> &items) {
+  std::vector<int> widths;
+  for (const auto &item : items) {
+    try {
+      widths.push_back(read_image(item.image_path).cols);
+    } catch (const DataError &) {
+      // left out: whoever reads the set names the file
+    }
+  }
+  if (widths.empty())
+    return 0;
+  std::nth_element(widths.begin(),
+                   widths.begin() + static_cast<long>(widths.size() / 2),
+                   widths.end());
+  return widths[widths.size() / 2];
+}
+
 std::string sol_group(const std::string &name) {
   size_t begin = 0;
   while (begin <= name.size()) {

@@ -107,6 +107,8 @@ void CandidateParams::validate() const {
   if (min_area < 1) throw std::invalid_argument("CandidateParams.min_area: must be >= 1 px");
   if (open_radius < 0) throw std::invalid_argument("CandidateParams.open_radius: must be >= 0");
   if (close_radius < 0) throw std::invalid_argument("CandidateParams.close_radius: must be >= 0");
+  if (working_width_px < 0 || working_width_px > 8192)
+    throw std::invalid_argument("CandidateParams.working_width_px: must be in [0, 8192] px (0: each image's own)");
 }
 
 void TrainParams::validate() const {
@@ -136,24 +138,102 @@ CandidateExtractor::CandidateExtractor(CandidateParams params)
   for (double s : params_.fine_scales) add(s);
 }
 
+cv::Size CandidateExtractor::working_size(cv::Size size) const {
+  const int w = params_.working_width_px;
+  if (w <= 0 || w == size.width || size.width <= 0) return size;
+  const double s = static_cast<double>(w) / size.width;
+  return {w, std::max(1, static_cast<int>(std::lround(size.height * s)))};
+}
+
 std::size_t CandidateExtractor::max_candidates(cv::Size size) const {
+  const cv::Size ws = working_size(size);
   const std::size_t per_source =
-      static_cast<std::size_t>(size.width) * static_cast<std::size_t>(size.height) /
+      static_cast<std::size_t>(ws.width) * static_cast<std::size_t>(ws.height) /
           static_cast<std::size_t>(params_.min_area) + 1;
   return per_source * detectors_.size();
 }
 
 void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   if (image.empty()) throw std::invalid_argument("empty image");
+  const cv::Size size = image.size(), ws = working_size(size);
+  const bool resample = ws != size;
+  // Intensity and chromaticity at the image's size; then, for an image of another width than
+  // the model's, resampled to the working size (tables made once per size: no allocation after).
   to_unit_float(image, unit_);
-  intensity_of(unit_, intensity_);
+  cv::Mat& i0 = resample ? full_intensity_ : intensity_;
+  cv::Mat& r0 = resample ? full_chroma_r_ : chroma_r_;
+  cv::Mat& b0 = resample ? full_chroma_b_ : chroma_b_;
+  intensity_of(unit_, i0);
+  chromaticity(image, r0, b0);
+  if (!resample) {
+    extract_at_working_size(out, out.source_masks);
+    return;
+  }
+  if (to_working_.src_size() != size || to_working_.dst_size() != ws) {
+    to_working_.build(size, ws, ws.width < size.width ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
+    // nearest working pixel of every image pixel (as cv::resize INTER_NEAREST), for the masks
+    back_x_.resize(static_cast<std::size_t>(size.width));
+    back_y_.resize(static_cast<std::size_t>(size.height));
+    for (int x = 0; x < size.width; ++x)
+      back_x_[static_cast<std::size_t>(x)] = std::min(ws.width - 1, x * ws.width / size.width);
+    for (int y = 0; y < size.height; ++y)
+      back_y_[static_cast<std::size_t>(y)] = std::min(ws.height - 1, y * ws.height / size.height);
+  }
+  to_working_.apply(i0, intensity_);
+  to_working_.apply(r0, chroma_r_);
+  to_working_.apply(b0, chroma_b_);
+  extract_at_working_size(out, working_masks_);
+  // The model's pixel scales and box-size features hold at its working width; the boxes (outwards,
+  // so a box still covers its blob) and the sources' masks go back to the image's pixels.
+  const double sx = static_cast<double>(size.width) / ws.width, sy = static_cast<double>(size.height) / ws.height;
+  for (RockCandidate& c : out.candidates) {
+    const cv::Rect& b = c.box;
+    const int x0 = static_cast<int>(std::floor(b.x * sx)), y0 = static_cast<int>(std::floor(b.y * sy));
+    const int x1 = std::min(size.width, static_cast<int>(std::ceil((b.x + b.width) * sx)));
+    const int y1 = std::min(size.height, static_cast<int>(std::ceil((b.y + b.height) * sy)));
+    c.box = cv::Rect(x0, y0, std::max(1, x1 - x0), std::max(1, y1 - y0));
+    c.area = static_cast<int>(std::lround(c.area * sx * sy));
+  }
+  out.source_masks.create(size, CV_8U);
+  for (int y = 0; y < size.height; ++y) {
+    const uchar* m = working_masks_.ptr<uchar>(back_y_[static_cast<std::size_t>(y)]);
+    uchar* o = out.source_masks.ptr<uchar>(y);
+    for (int x = 0; x < size.width; ++x) o[x] = m[back_x_[static_cast<std::size_t>(x)]];
+  }
+  out.size = size;
+}
+
+void CandidateExtractor::chromaticity(const cv::Mat& image, cv::Mat& r, cv::Mat& b) {
+  // r = R / (R + G + B), b = B / (R + G + B): rock against dust; 1/3 for grey images
+  r.create(image.size(), CV_32F);
+  b.create(image.size(), CV_32F);
+  const int W = image.cols, H = image.rows;
+  if (image.channels() == 3) {
+    image.convertTo(colour_, CV_32FC3);
+    for (int y = 0; y < H; ++y) {
+      const float* c = colour_.ptr<float>(y);  // B, G, R
+      float* rp = r.ptr<float>(y);
+      float* bp = b.ptr<float>(y);
+      for (int x = 0; x < W; ++x, c += 3) {
+        const float sum = c[0] + c[1] + c[2] + 1e-3f;
+        rp[x] = c[2] / sum;
+        bp[x] = c[0] / sum;
+      }
+    }
+  } else {
+    for (cv::Mat* m : {&r, &b})
+      for (int y = 0; y < H; ++y) std::fill(m->ptr<float>(y), m->ptr<float>(y) + W, 1.0f / 3.0f);
+  }
+}
+
+void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& masks) {
   const cv::Mat& I = intensity_;
   const int W = I.cols, H = I.rows;
   if (I.size() != sized_) {
     // Each source's components are disjoint and at least min_area px: a bound on what one image
     // can give, reserved once so that later images of this size allocate nothing.
     dets_.reserve(max_candidates(I.size()) / std::max<std::size_t>(1, detectors_.size()) + 1);
-    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_, &chroma_r_, &chroma_b_}) m->create(I.size(), CV_32F);
+    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_}) m->create(I.size(), CV_32F);
     sized_ = I.size();
   }
   out.candidates.reserve(max_candidates(I.size()));
@@ -180,24 +260,6 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
       b[x] = diff > kBrightOffset ? 1.0f : 0.0f;
     }
   }
-  // chromaticity r = R / (R + G + B), b = B / (R + G + B): rock against dust; 1/3 for grey images
-  if (image.channels() == 3) {
-    image.convertTo(colour_, CV_32FC3);
-    const int ch = 3;
-    for (int y = 0; y < H; ++y) {
-      const float* c = colour_.ptr<float>(y);  // B, G, R
-      float* r = chroma_r_.ptr<float>(y);
-      float* bl = chroma_b_.ptr<float>(y);
-      for (int x = 0; x < W; ++x, c += ch) {
-        const float sum = c[0] + c[1] + c[2] + 1e-3f;
-        r[x] = c[2] / sum;
-        bl[x] = c[0] / sum;
-      }
-    }
-  } else {
-    for (cv::Mat* m : {&chroma_r_, &chroma_b_})
-      for (int y = 0; y < H; ++y) std::fill(m->ptr<float>(y), m->ptr<float>(y) + W, 1.0f / 3.0f);
-  }
   Integrals& ii = ii_;
   integral_of(I, ii.i);
   integral_of(i2_, ii.i2);
@@ -218,8 +280,8 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   out.size = I.size();
   out.candidates.clear();
   sides_.clear();
-  out.source_masks.create(I.size(), CV_8U);
-  for (int y = 0; y < H; ++y) std::fill(out.source_masks.ptr<uchar>(y), out.source_masks.ptr<uchar>(y) + W, uchar{0});
+  masks.create(I.size(), CV_8U);
+  for (int y = 0; y < H; ++y) std::fill(masks.ptr<uchar>(y), masks.ptr<uchar>(y) + W, uchar{0});
   out.sources = static_cast<int>(detectors_.size());
   const size_t n_coarse = params_.coarse_scales.size();
   // Each map prepared once (8 bits, Otsu threshold, integral) for all its threshold scales.
@@ -232,7 +294,7 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
     const uchar bit = static_cast<uchar>(1u << k);
     for (int y = 0; y < H; ++y) {
       const uchar* mp = m.ptr<uchar>(y);
-      uchar* sp = out.source_masks.ptr<uchar>(y);
+      uchar* sp = masks.ptr<uchar>(y);
       for (int x = 0; x < W; ++x)
         if (mp[x]) sp[x] = static_cast<uchar>(sp[x] | bit);
     }
@@ -605,6 +667,7 @@ void TrainedModel::save(const std::string& path) const {
     fs << "coarse_scales" << candidates.coarse_scales << "fine_scales" << candidates.fine_scales;
     fs << "min_area_px" << candidates.min_area << "open_radius_px" << candidates.open_radius << "close_radius_px"
        << candidates.close_radius;
+    fs << "working_width_px" << candidates.working_width_px;
     fs << "}";
     fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou;
     fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
@@ -648,6 +711,8 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.candidates.min_area = static_cast<int>(c["min_area_px"]);
     m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
     m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);
+    // absent in models written before 2026-11-28: each image at its own size, as they were trained
+    m.candidates.working_width_px = c["working_width_px"].isInt() ? static_cast<int>(c["working_width_px"]) : 0;
     try {
       m.candidates.validate();
     } catch (const std::invalid_argument& e) {

@@ -69,6 +69,10 @@ FrameTruth read_truth(const std::string &mask_path, cv::Size image_size,
 /// (the whole name).
 std::string sol_group(const std::string &name);
 
+/// Median width of the items' images (0 when none can be read; unreadable ones are left out):
+/// the trained method's working width (CandidateParams::working_width_px) for a training set.
+int median_image_width(const std::vector<DatasetItem> &items);
+
 /// Fold (0 .. k-1) of each item for k-fold cross-validation with the items of one group
 /// always in the same fold: groups taken largest first (ties: smaller group key first, keys
 /// compared as numbers when both are numbers) and each put in the fold with the fewest items

@@ -30,6 +30,7 @@
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/evaluate.hpp"
+#include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
 
@@ -54,6 +55,11 @@ struct CandidateParams {
   int min_area = 200;                                     ///< px, smallest candidate component (contrast method: 1600)
   int open_radius = 2;                                    ///< px
   int close_radius = 2;                                   ///< px
+  /// px: every image is resampled to this width (aspect kept) before its candidates and features
+  /// are computed, and the boxes are mapped back; the pixel scales above and the box-size features
+  /// hold at this width. `regolith train rocks` sets it to the training images' median width;
+  /// 0: each image at its own size (a model file without the key).
+  int working_width_px = 0;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
   bool operator==(const CandidateParams&) const = default;
@@ -100,10 +106,23 @@ class CandidateExtractor {
   void extract(const cv::Mat& image, CandidateSet& out);
   /// Most candidates one image of `size` can give.
   std::size_t max_candidates(cv::Size size) const;
+  /// The size an image of `size` is processed at (params().working_width_px; `size` when 0).
+  cv::Size working_size(cv::Size size) const;
   const CandidateParams& params() const { return params_; }
 
  private:
+  /// extract() from intensity_, chroma_r_ and chroma_b_ (at the working size); the sources'
+  /// masks go to `masks`.
+  void extract_at_working_size(CandidateSet& out, cv::Mat& masks);
+  /// r = R / (R + G + B) and b = B / (R + G + B) of `image` (1/3 for a grey image), CV_32F.
+  void chromaticity(const cv::Mat& image, cv::Mat& r, cv::Mat& b);
+
   CandidateParams params_;
+  // An image of another width than the working one: its intensity and chromaticity at its size,
+  // the resampling to the working size, the sources' masks there and the way back (nearest).
+  cv::Mat full_intensity_, full_chroma_r_, full_chroma_b_, working_masks_;
+  ResizeTable to_working_;
+  std::vector<int> back_x_, back_y_;
   ContrastSaliency coarse_, fine_;
   DecimatedGaussian surround_blur_;
   std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales
