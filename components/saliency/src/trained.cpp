@@ -159,12 +159,14 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   const bool resample = ws != size;
   // Intensity and chromaticity at the image's size; then, for an image of another width than
   // the model's, resampled to the working size (tables made once per size: no allocation after).
+  // A grey image's chromaticity is a constant, made at the working size (nothing to resample).
   to_unit_float(image, unit_);
+  const bool colour = image.channels() == 3;
   cv::Mat& i0 = resample ? full_intensity_ : intensity_;
-  cv::Mat& r0 = resample ? full_chroma_r_ : chroma_r_;
-  cv::Mat& b0 = resample ? full_chroma_b_ : chroma_b_;
+  cv::Mat& r0 = resample && colour ? full_chroma_r_ : chroma_r_;
+  cv::Mat& b0 = resample && colour ? full_chroma_b_ : chroma_b_;
   intensity_of(unit_, i0);
-  chromaticity(image, r0, b0);
+  chromaticity(image, colour ? size : ws, r0, b0);
   if (!resample) {
     extract_at_working_size(out, out.source_masks);
     return;
@@ -180,8 +182,10 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
       back_y_[static_cast<std::size_t>(y)] = std::min(ws.height - 1, y * ws.height / size.height);
   }
   to_working_.apply(i0, intensity_);
-  to_working_.apply(r0, chroma_r_);
-  to_working_.apply(b0, chroma_b_);
+  if (colour) {
+    to_working_.apply(r0, chroma_r_);
+    to_working_.apply(b0, chroma_b_);
+  }
   extract_at_working_size(out, working_masks_);
   // The model's pixel scales and box-size features hold at its working width; the boxes (outwards,
   // so a box still covers its blob) and the sources' masks go back to the image's pixels.
@@ -203,11 +207,11 @@ void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   out.size = size;
 }
 
-void CandidateExtractor::chromaticity(const cv::Mat& image, cv::Mat& r, cv::Mat& b) {
+void CandidateExtractor::chromaticity(const cv::Mat& image, cv::Size size, cv::Mat& r, cv::Mat& b) {
   // r = R / (R + G + B), b = B / (R + G + B): rock against dust; 1/3 for grey images
-  r.create(image.size(), CV_32F);
-  b.create(image.size(), CV_32F);
-  const int W = image.cols, H = image.rows;
+  r.create(size, CV_32F);
+  b.create(size, CV_32F);
+  const int W = size.width, H = size.height;
   if (image.channels() == 3) {
     image.convertTo(colour_, CV_32FC3);
     for (int y = 0; y < H; ++y) {

@@ -114,11 +114,12 @@ class CandidateExtractor {
   /// extract() from intensity_, chroma_r_ and chroma_b_ (at the working size); the sources'
   /// masks go to `masks`.
   void extract_at_working_size(CandidateSet& out, cv::Mat& masks);
-  /// r = R / (R + G + B) and b = B / (R + G + B) of `image` (1/3 for a grey image), CV_32F.
-  void chromaticity(const cv::Mat& image, cv::Mat& r, cv::Mat& b);
+  /// r = R / (R + G + B) and b = B / (R + G + B) of a colour `image` (its size), CV_32F; of a
+  /// grey one the constant 1/3, made at `size` (for a colour image `size` must be its own).
+  void chromaticity(const cv::Mat& image, cv::Size size, cv::Mat& r, cv::Mat& b);
 
   CandidateParams params_;
-  // An image of another width than the working one: its intensity and chromaticity at its size,
+  // An image of another width than the working one: its intensity and (colour) chromaticity at its size,
   // the resampling to the working size, the sources' masks there and the way back (nearest).
   cv::Mat full_intensity_, full_chroma_r_, full_chroma_b_, working_masks_;
   ResizeTable to_working_;
