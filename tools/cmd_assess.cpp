@@ -27,6 +27,7 @@
 #include "regolith/core/image_file.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
+#include "regolith/common/plot.hpp"
 #include "regolith/core/rover.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
@@ -57,49 +58,6 @@ double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// Robust 2..98 % range of the finite values of a CV_32F image (optionally masked).
-void robust_range(const cv::Mat& m, const cv::Mat& mask, double& lo, double& hi) {
-  std::vector<float> v;
-  v.reserve(m.total());
-  for (int r = 0; r < m.rows; ++r)
-    for (int c = 0; c < m.cols; ++c) {
-      const float x = m.at<float>(r, c);
-      if (std::isfinite(x) && (mask.empty() || mask.at<uchar>(r, c))) v.push_back(x);
-    }
-  if (v.empty()) {
-    lo = 0;
-    hi = 1;
-    return;
-  }
-  std::sort(v.begin(), v.end());
-  lo = v[v.size() * 2 / 100];
-  hi = v[std::min(v.size() - 1, v.size() * 98 / 100)];
-  if (!(hi > lo)) hi = lo + 1e-6;
-}
-
-// Colour bar with min / max labels appended below an image.
-cv::Mat with_legend(const cv::Mat& bgr, const std::string& title, const std::string& lo_txt,
-                    const std::string& hi_txt, int colormap, bool reverse = false) {
-  const int bar_h = 18, text_h = 22;
-  cv::Mat out(bgr.rows + bar_h + 2 * text_h, std::max(bgr.cols, 320), CV_8UC3, cv::Scalar(255, 255, 255));
-  bgr.copyTo(out(cv::Rect(0, 0, bgr.cols, bgr.rows)));
-  cv::Mat ramp(1, 256, CV_8U);
-  for (int i = 0; i < 256; ++i) ramp.at<uchar>(0, i) = static_cast<uchar>(reverse ? 255 - i : i);
-  cv::Mat rc;
-  cv::applyColorMap(ramp, rc, colormap);
-  cv::Mat bar;
-  cv::resize(rc, bar, cv::Size(out.cols - 20, bar_h), 0, 0, cv::INTER_LINEAR);
-  bar.copyTo(out(cv::Rect(10, bgr.rows + text_h, bar.cols, bar_h)));
-  const double fs_ = 0.45;
-  cv::putText(out, title, {10, bgr.rows + 16}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1, cv::LINE_AA);
-  cv::putText(out, lo_txt, {10, out.rows - 6}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1, cv::LINE_AA);
-  int base = 0;
-  const cv::Size ts = cv::getTextSize(hi_txt, cv::FONT_HERSHEY_SIMPLEX, fs_, 1, &base);
-  cv::putText(out, hi_txt, {out.cols - 10 - ts.width, out.rows - 6}, cv::FONT_HERSHEY_SIMPLEX, fs_, {0, 0, 0}, 1,
-              cv::LINE_AA);
-  return out;
-}
-
 std::string fmt(double v, int prec = 3) {
   std::ostringstream s;
   s.setf(std::ios::fixed);
@@ -109,52 +67,50 @@ std::string fmt(double v, int prec = 3) {
 }
 
 void write_png(const fs::path& p, const cv::Mat& img) {
-  if (!cv::imwrite(p.string(), img)) throw InputError("assess: cannot write '" + p.string() + "'");
+  try {
+    plot::write_png(p, img);
+  } catch (const std::runtime_error& e) {
+    throw InputError(std::string("assess: ") + e.what());
+  }
 }
 
-// A grid layer as a colour image (0..1 scores: red 0 -> green 1; elevation: turbo), unknown
-// cells grey, scaled up so that each cell is a few pixels.
-cv::Mat layer_image(const cv::Mat& layer, bool score, double& lo, double& hi) {
-  if (score) {
-    lo = 0;
-    hi = 1;
-  } else {
-    robust_range(layer, cv::Mat(), lo, hi);
-  }
-  cv::Mat u8(layer.size(), CV_8U), unknown(layer.size(), CV_8U);
-  for (int r = 0; r < layer.rows; ++r)
-    for (int c = 0; c < layer.cols; ++c) {
-      const float v = layer.at<float>(r, c);
-      unknown.at<uchar>(r, c) = std::isfinite(v) ? 0 : 255;
-      const double t = std::isfinite(v) ? std::clamp((v - lo) / (hi - lo), 0.0, 1.0) : 0.0;
-      u8.at<uchar>(r, c) = static_cast<uchar>(std::lround(255 * t));
-    }
-  cv::Mat bgr;
-  if (score) {
-    bgr.create(layer.size(), CV_8UC3);
-    for (int r = 0; r < layer.rows; ++r)
-      for (int c = 0; c < layer.cols; ++c) {
-        const double t = u8.at<uchar>(r, c) / 255.0;
-        bgr.at<cv::Vec3b>(r, c) = cv::Vec3b(40, static_cast<uchar>(std::lround(220 * t)),
-                                            static_cast<uchar>(std::lround(220 * (1 - t))));
+// Metric axes of a grid picture (grid_map convention: row 0 = the far edge, column 0 = the left
+// edge), x forward and y left in metres, as summary.json gives positions.
+plot::MapAxes grid_axes(const common::GridGeometry& g) {
+  plot::MapAxes a;
+  a.top = g.center_x_m + 0.5 * g.length_x_m;
+  a.bottom = g.center_x_m - 0.5 * g.length_x_m;
+  a.left = g.center_y_m + 0.5 * g.length_y_m;
+  a.right = g.center_y_m - 0.5 * g.length_y_m;
+  a.x_label = "y, left (m)";
+  a.y_label = "x, forward (m)";
+  return a;
+}
+
+// Text labels on a picture that never overlap: a label whose box would cover one already
+// placed is left out (crowded hazards far away would otherwise print over each other).
+class LabelPlacer {
+ public:
+  bool put(cv::Mat& img, const std::string& text, cv::Point at, double scale, cv::Scalar colour) {
+    int base = 0;
+    const cv::Size ts = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &base);
+    const cv::Rect box(at.x - 2, at.y - ts.height - 2, ts.width + 4, ts.height + base + 4);
+    for (const cv::Rect& r : placed_)
+      if ((r & box).area() > 0) {
+        ++skipped_;
+        return false;
       }
-  } else {
-    cv::applyColorMap(u8, bgr, cv::COLORMAP_TURBO);
+    placed_.push_back(box);
+    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
+    return true;
   }
-  bgr.setTo(cv::Scalar(128, 128, 128), unknown);
-  const int scale = std::max(1, 400 / std::max(1, std::max(layer.rows, layer.cols)));
-  cv::Mat big;
-  cv::resize(bgr, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
-  return big;
-}
+  int skipped() const { return skipped_; }
 
-cv::Mat score_legend(const cv::Mat& img, const std::string& title) {
-  cv::Mat out(img.rows + 26, std::max(img.cols, 320), CV_8UC3, cv::Scalar(255, 255, 255));
-  img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
-  cv::putText(out, title + ": red 0 (hazard) .. green 1 (good), grey unknown", {6, img.rows + 18},
-              cv::FONT_HERSHEY_SIMPLEX, 0.42, {0, 0, 0}, 1, cv::LINE_AA);
-  return out;
-}
+ private:
+  std::vector<cv::Rect> placed_;
+  int skipped_ = 0;
+};
 
 // One rock seen in a perspective image: its image box and its size on the ground.
 struct ImageRock {
@@ -211,7 +167,7 @@ std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::Dire
 }
 
 // Rock boxes drawn on the overlay (above its legend strip): R<n>, width x height in cm.
-void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks) {
+void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks, LabelPlacer& labels) {
   for (std::size_t k = 0; k < rocks.size(); ++k) {
     const ImageRock& r = rocks[k];
     cv::rectangle(img, r.box, cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
@@ -220,8 +176,7 @@ void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks) {
     text.precision(1);
     text << "R" << k + 1 << " " << 100.0 * r.width_m << "x" << (r.top_cut ? ">" : "") << 100.0 * r.height_m << " cm";
     const cv::Point at(r.box.x, r.box.y > 16 ? r.box.y - 4 : r.box.y + r.box.height + 14);
-    cv::putText(img, text.str(), at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-    cv::putText(img, text.str(), at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+    labels.put(img, text.str(), at, 0.4, cv::Scalar(0, 220, 255));
   }
 }
 
@@ -251,7 +206,12 @@ void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image, tr
   g.center_y_m = 0.0;
   g.length_y_m = 2.0 * std::clamp(half, 0.1, 2.0);
   tp.set_grid(g);
+  // The ground solve's rectified cells at most half a grid cell: with coarser ones (a close
+  // camera's 1-2 cm grid against the default 2 cm rectification) rows and columns of grid cells
+  // receive no rectified sample, and the holes read as hazards.
+  tp.rectify_resolution_m = std::min(tp.rectify_resolution_m, 0.5 * g.resolution_m);
 }
+
 
 // rocks.csv: one line per rock (id from 1, nearest first), the columns of summary.json's rocks.
 void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
@@ -282,7 +242,8 @@ nlohmann::json rocks_json(const std::vector<ImageRock>& rocks) {
 // red, poor ground (< 0.5) orange, the rest left clear; each hazard labelled with its number and
 // its highest elevation. What a person compares with: the rocks they can see.
 cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid, const direct_depth::DirectDepth& depth,
-                       const cv::Mat& hazard_labels, const std::vector<std::pair<int, std::string>>& hazard_text) {
+                       const cv::Mat& hazard_labels, const std::vector<std::pair<int, std::string>>& hazard_text,
+                       const std::vector<ImageRock>& rocks) {
   cv::Mat img;
   cv::cvtColor(gray, img, cv::COLOR_GRAY2BGR);
   cv::Mat paint = img.clone();
@@ -307,23 +268,21 @@ cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid,
       if (k > 0 && k < static_cast<int>(outlines.size())) outlines[k].insert(outlines[k].end(), quad.begin(), quad.end());
     }
   cv::addWeighted(paint, 0.45, img, 0.55, 0.0, img);
+  LabelPlacer labels;
   for (const auto& [k, text] : hazard_text) {
     if (k <= 0 || k >= static_cast<int>(outlines.size()) || outlines[k].empty()) continue;
     std::vector<cv::Point> hull;
     cv::convexHull(outlines[k], hull);
     cv::polylines(img, hull, true, cv::Scalar(0, 0, 255), 2, cv::LINE_AA);
     const cv::Rect b = cv::boundingRect(hull);
-    const cv::Point at(b.x, std::max(14, b.y - 4));
-    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    labels.put(img, text, cv::Point(b.x, std::max(14, b.y - 4)), 0.5, cv::Scalar(255, 255, 255));
   }
+  draw_rocks(img, rocks, labels);
   cv::Mat out(img.rows + 26, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
   img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
-  const std::string legend = "hazards (red, H<n>: highest elevation), poor ground (orange), rocks (yellow, R<n>: width x height)";
-  int base = 0;
-  const double width_at_1 = cv::getTextSize(legend, cv::FONT_HERSHEY_SIMPLEX, 1.0, 1, &base).width;
-  const double scale = std::min(0.42, (img.cols - 12) / width_at_1);  // the whole caption on the strip
-  cv::putText(out, legend, {6, img.rows + 18}, cv::FONT_HERSHEY_SIMPLEX, scale, {0, 0, 0}, 1, cv::LINE_AA);
+  std::string legend = "hazards (red, H<n>: highest elevation), poor ground (orange), rocks (yellow, R<n>: width x height)";
+  if (labels.skipped() > 0) legend += "; " + std::to_string(labels.skipped()) + " crowded labels left out (summary.json)";
+  plot::put_fitted_text(out, legend, {6, img.rows + 18}, img.cols - 12, 0.42);
   return out;
 }
 
@@ -574,19 +533,40 @@ void assess(const AssessOptions& o) {
   cv::Mat h_up = res.height.clone();  // pixel units, up positive
   if (!cv::imwrite((out / "height.tiff").string(), h_up))
     throw InputError("assess: cannot write '" + (out / "height.tiff").string() + "'");
-  double lo, hi;
-  robust_range(h_up, res.valid, lo, hi);
-  cv::Mat u8;
-  h_up.convertTo(u8, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));
-  cv::Mat heat;
-  cv::applyColorMap(u8, heat, cv::COLORMAP_TURBO);
-  heat.setTo(cv::Scalar(128, 128, 128), res.valid == 0);
-  write_png(out / "height_heatmap.png",
-            with_legend(heat, "SfS relative height (pixel units, up = red), grey = masked", fmt(lo, 2), fmt(hi, 2),
-                        cv::COLORMAP_TURBO));
+  // The height picture: in camera mode the grid's elevation painted on the camera image (each
+  // pixel coloured by the cell its ground point falls in: what a person compares with the rocks
+  // they see); in orthographic mode the SfS heights of the patch in metres on metric axes.
+  const int elev_layer = static_cast<int>(std::find(grid.layers.begin(), grid.layers.end(), "elevation") - grid.layers.begin());
+  plot::MapStyle elev_style;
+  elev_style.unit_label = "cm";
+  elev_style.scale = 100.0;
+  elev_style.palette = plot::Palette::turbo;
+  if (depth && elev_layer < static_cast<int>(grid.data.size())) {
+    const cv::Mat& elev = grid.data[static_cast<std::size_t>(elev_layer)];
+    cv::Mat on_image(gray.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    for (int r = 0; r < gray.rows; ++r)
+      for (int c = 0; c < gray.cols; ++c) {
+        const direct_depth::GroundPoint g = depth->ground(c, r);
+        int i = 0, j = 0;
+        if (g.valid && grid.cell_of(g.range_m, g.lateral_m, i, j)) on_image.at<float>(r, c) = elev.at<float>(i, j);
+      }
+    elev_style.title = "elevation above the fitted ground (cm) on the camera image";
+    elev_style.unknown_note = "uncoloured: no ground cell (sky, beyond the grid, unknown)";
+    cv::Mat g8;
+    gray.convertTo(g8, CV_8U, gray.depth() == CV_16U ? 1.0 / 256.0 : 1.0);
+    write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, g8));
+  } else {
+    cv::Mat metric = height_m.clone();
+    metric.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
+    elev_style.title = "SfS height of the patch (cm; the solve's pixel units x pixel size)";
+    elev_style.unknown_note = "grey: masked (shadow, no shading)";
+    elev_style.axes = grid_axes(grid);
+    write_png(out / "height_heatmap.png", plot::render_map(metric, elev_style));
+  }
   // Hillshade of the recovered surface (light from the upper left, 45 deg) - independent of the
   // input shading, so it shows what SfS recovered.
   cv::Mat shade = sfs::render_lambertian(h_up, sfs::LightDirection{45 * kDeg, -135 * kDeg});
+  cv::Mat u8;
   shade.convertTo(u8, CV_8U, 255.0);
   write_png(out / "hillshade.png", u8);
   nlohmann::json layers = nlohmann::json::object();
@@ -596,27 +576,42 @@ void assess(const AssessOptions& o) {
   }
   for (std::size_t k = 0; k < grid.layers.size(); ++k) {
     const std::string& name = grid.layers[k];
-    const bool score = name != "elevation";
-    cv::Mat img = layer_image(grid.data[k], score, lo, hi);
-    cv::Mat labelled = score ? score_legend(img, name)
-                             : with_legend(img, "elevation (m), grey unknown", fmt(lo, 3) + " m", fmt(hi, 3) + " m",
-                                           cv::COLORMAP_TURBO);
-    write_png(out / (name + ".png"), labelled);
+    plot::MapStyle style;
+    style.axes = grid_axes(grid);
+    if (name == "elevation") {
+      style.title = "elevation above the fitted ground (cm), " + fmt(100.0 * grid.resolution_m, 1) + " cm cells";
+      style.unit_label = "cm";
+      style.scale = 100.0;
+    } else {
+      style.title = name + ": 0 hazard .. 1 good";
+      style.unit_label = "score";
+      style.palette = plot::Palette::score;
+      style.range = cv::Vec2d(0.0, 1.0);
+    }
+    write_png(out / (name + ".png"), plot::render_map(grid.data[k], style));
     layers[name] = name + ".png";
   }
-  // Hazards: 8-connected groups of cells with traversability 0. A group touching the edge of the
-  // view (the grid border, or a cell whose centre the camera does not see at all) is where the
-  // solve ran out of image, not an obstacle seen whole: reported apart as `edge_hazards`, not
-  // counted. Unknown cells inside the view (ground hidden behind a rock) do not make an edge.
+  // Hazards: 8-connected groups of cells with traversability 0. A group lying wholly in the band
+  // along the edge of the view (within kEdgeBandCells of the grid border or of a cell whose centre
+  // the camera does not see) is where the solve ran out of image, not an obstacle: reported apart
+  // as `edge_hazards`, not counted. A group reaching further in is counted even where it also
+  // touches the edge (a rock in front of the rover whose red ground runs on out of view). Unknown
+  // cells inside the view (ground hidden behind a rock) do not make an edge.
+  constexpr int kEdgeBandCells = 2;
   const cv::Mat& trav = grid.layer("traversability");
-  cv::Mat in_view(trav.size(), CV_8U, cv::Scalar(1));
-  if (depth)
-    for (int i = 0; i < trav.rows; ++i)
-      for (int j = 0; j < trav.cols; ++j) {
+  cv::Mat in_view(trav.rows + 2, trav.cols + 2, CV_8U, cv::Scalar(0));  // one out-of-view cell all round
+  for (int i = 0; i < trav.rows; ++i)
+    for (int j = 0; j < trav.cols; ++j) {
+      bool seen = true;
+      if (depth) {
         const cv::Point2d c = grid.cell_center(i, j);
         const auto p = depth->project(c.x, c.y);
-        in_view.at<uchar>(i, j) = p && p->x >= 0 && p->y >= 0 && p->x <= gray.cols - 1 && p->y <= gray.rows - 1;
+        seen = p && p->x >= 0 && p->y >= 0 && p->x <= gray.cols - 1 && p->y <= gray.rows - 1;
       }
+      in_view.at<uchar>(i + 1, j + 1) = seen ? 1 : 0;
+    }
+  cv::Mat edge_distance;  // cells (chessboard) to the nearest unseen cell
+  cv::distanceTransform(in_view, edge_distance, cv::DIST_C, 3, CV_32F);
   cv::Mat haz = (trav == 0.0f);
   cv::Mat labels, stats, cents;
   const int n = cv::connectedComponentsWithStats(haz, labels, stats, cents, 8, CV_32S);
@@ -626,15 +621,12 @@ void assess(const AssessOptions& o) {
   for (int k = 1; k < n; ++k) {
     const int area = stats.at<int>(k, cv::CC_STAT_AREA);
     double zmax = -1e9;
-    bool edge = false;
+    bool edge = true;
     for (int i = 0; i < labels.rows; ++i)
       for (int j = 0; j < labels.cols; ++j) {
         if (labels.at<int>(i, j) != k) continue;
         if (std::isfinite(elev.at<float>(i, j))) zmax = std::max(zmax, static_cast<double>(elev.at<float>(i, j)));
-        for (const auto& [di, dj] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
-          const int a = i + di, b = j + dj;
-          edge = edge || a < 0 || b < 0 || a >= trav.rows || b >= trav.cols || !in_view.at<uchar>(a, b);
-        }
+        edge = edge && edge_distance.at<float>(i + 1, j + 1) <= kEdgeBandCells;
       }
     const cv::Point2d c = grid.cell_center(static_cast<int>(std::lround(cents.at<double>(k, 1))),
                                            static_cast<int>(std::lround(cents.at<double>(k, 0))));
@@ -654,9 +646,7 @@ void assess(const AssessOptions& o) {
     write_rocks(out, rocks);
     if (!cv::imwrite((out / "range.tiff").string(), depth->range_map()))
       throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
-    cv::Mat overlay = camera_overlay(gray, grid, *depth, labels, hazard_text);
-    cv::Mat view = overlay(cv::Rect(0, 0, gray.cols, gray.rows));
-    draw_rocks(view, rocks);
+    const cv::Mat overlay = camera_overlay(gray, grid, *depth, labels, hazard_text, rocks);
     write_png(out / "overlay.png", overlay);
     layers["camera_overlay"] = "overlay.png";
   }

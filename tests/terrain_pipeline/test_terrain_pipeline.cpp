@@ -382,6 +382,26 @@ std::string slurp(const fs::path& p) {
   return all;
 }
 
+// A 320x240 frame (f = 300 px) of the terrain `rp` with one dome of `radius_m` and `height_m`
+// at (x_m, 0), seen from a camera `cam_height_m` up, pitched `pitch_rad` down; the sun at
+// azimuth 2.2 rad, elevation 0.6 rad.
+terrain_scene::CameraImage render_dome(const terrain_scene::SceneParams& rp, double x_m, double radius_m,
+                                       double height_m, double cam_height_m, double pitch_rad) {
+  const terrain_scene::Terrain flat(rp);
+  cv::Mat hf = flat.height().clone();
+  for (int r = 0; r < hf.rows; ++r)
+    for (int c = 0; c < hf.cols; ++c) {
+      const double x = flat.x_max() - r * flat.resolution(), y = flat.y_max() - c * flat.resolution();
+      const double q = 1 - (std::pow((x - x_m) / radius_m, 2) + std::pow(y / radius_m, 2));
+      if (q > 0) hf.at<float>(r, c) += static_cast<float>(height_m * std::sqrt(q));
+    }
+  const terrain_scene::Terrain rock(hf, flat.resolution(), flat.x_max(), flat.y_max());
+  terrain_scene::CameraPose pose;
+  pose.width = 320; pose.height = 240; pose.fx = pose.fy = 300; pose.cx = 159.5; pose.cy = 119.5;
+  pose.height_m = cam_height_m; pose.pitch_rad = pitch_rad;
+  return terrain_scene::render_camera(rock, pose, terrain_scene::Sun{2.2, 0.6});
+}
+
 TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   const fs::path dir = fs::temp_directory_path() / ("regolith_assess_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -450,20 +470,8 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     terrain_scene::SceneParams rp;
     rp.seed = 5; rp.fractal_rms_m = 0.003; rp.num_craters = 0; rp.num_rocks = 0;
     rp.x_min_m = -1; rp.x_max_m = 8; rp.y_min_m = -4; rp.y_max_m = 4;
-    terrain_scene::Terrain flat(rp);
-    cv::Mat hf = flat.height().clone();
     // One 0.30 m x 0.30 m, 0.15 m tall dome at x = 2 m, y = 0.
-    for (int rr = 0; rr < hf.rows; ++rr)
-      for (int cc = 0; cc < hf.cols; ++cc) {
-        const double x = flat.x_max() - rr * flat.resolution(), y = flat.y_max() - cc * flat.resolution();
-        const double q = 1 - (std::pow((x - 2.0) / 0.15, 2) + std::pow(y / 0.15, 2));
-        if (q > 0) hf.at<float>(rr, cc) += static_cast<float>(0.15 * std::sqrt(q));
-      }
-    const terrain_scene::Terrain rock(hf, flat.resolution(), flat.x_max(), flat.y_max());
-    terrain_scene::CameraPose pose;
-    pose.width = 320; pose.height = 240; pose.fx = pose.fy = 300; pose.cx = 159.5; pose.cy = 119.5;
-    pose.height_m = 0.6; pose.pitch_rad = 0.45;
-    const auto cimg = terrain_scene::render_camera(rock, pose, terrain_scene::Sun{2.2, 0.6});
+    const auto cimg = render_dome(rp, 2.0, 0.15, 0.15, 0.6, 0.45);
     ASSERT_TRUE(cv::imwrite((dir / "rover.png").string(), terrain_scene::to_u8(cimg.image)));
     char cargs[768];
     std::snprintf(cargs, sizeof cargs,
@@ -569,6 +577,62 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
   EXPECT_NE(slurp(dir / "v2.txt").find("nope.png"), std::string::npos);
   fs::remove_all(dir);
 }
+
+// A camera close to the ground (0.3 m up, 52 deg down: 0.1-0.5 m of view) gets a 1 cm grid.
+// Every cell the camera sees is known (the ground solve's rectified cells are at most half a
+// grid cell: with the default 2 cm ones, rows and columns of the 1 cm grid had no sample and the
+// holes read as hazards); the 8 cm dome 0.33 m ahead is one counted hazard even where its red
+// ground runs on to the edge of the view; the height picture paints its elevation on the image.
+TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
+  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_close_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  terrain_scene::SceneParams rp;
+  rp.seed = 7; rp.fractal_rms_m = 0.001; rp.num_craters = 0; rp.num_rocks = 0;
+  rp.x_min_m = -0.5; rp.x_max_m = 2; rp.y_min_m = -1; rp.y_max_m = 1; rp.resolution_m = 0.002;
+  const double rx = 0.33;
+  const auto img = render_dome(rp, rx, 0.06, 0.08, 0.3, 0.9);
+  ASSERT_TRUE(cv::imwrite((dir / "close.png").string(), terrain_scene::to_u8(img.image)));
+  char args[768];
+  std::snprintf(args, sizeof args,
+                "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera 300,300,159.5,119.5 --height 0.3 --pitch %.4f",
+                (dir / "close.png").c_str(), (dir / "out").c_str(), img.light_slant_rad * 180 / CV_PI,
+                img.light_tilt_rad * 180 / CV_PI, 0.9 * 180 / CV_PI);
+  ASSERT_EQ(run_tool(args, dir / "out.txt"), 0) << slurp(dir / "out.txt");
+  const auto j = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
+  const auto& g = j["grid"];
+  const double res = g["resolution_m"].get<double>();
+  EXPECT_LE(res, 0.012);
+  // Cells whose centre the camera sees, against the known ones.
+  const direct_depth::DirectDepth dd(direct_depth::CameraModel{300, 300, 159.5, 119.5, 0, 0, 0, 0, 0, 320, 240, 0.3, 0.9, 0});
+  const int nx = static_cast<int>(std::lround(g["length_x_m"].get<double>() / res));
+  const int ny = static_cast<int>(std::lround(g["length_y_m"].get<double>() / res));
+  int seen = 0;
+  for (int i = 0; i < nx; ++i)
+    for (int k = 0; k < ny; ++k) {
+      const double x = g["center_x_m"].get<double>() + 0.5 * nx * res - (i + 0.5) * res;
+      const double y = g["center_y_m"].get<double>() + 0.5 * ny * res - (k + 0.5) * res;
+      const auto p = dd.project(x, y);
+      seen += (p && p->x >= 0 && p->y >= 0 && p->x <= 319 && p->y <= 239) ? 1 : 0;
+    }
+  const int known = g["known_cells"].get<int>();
+  std::printf("close camera: %d of %d seen cells known (%.1f cm cells)\n", known, seen, 100 * res);
+  EXPECT_GE(known, 0.97 * seen);
+  int at_rock = 0;
+  for (const auto& hz : j["hazards"])
+    if (std::hypot(hz["x_m"].get<double>() - rx, hz["y_m"].get<double>()) < 0.1) ++at_rock;
+  EXPECT_EQ(at_rock, 1) << j["hazards"].dump() << " edge: " << j["edge_hazards"].dump();
+  // height_heatmap.png: the camera image with the elevation painted on it, warm at the dome.
+  const cv::Mat heat = cv::imread((dir / "out" / "height_heatmap.png").string());
+  ASSERT_FALSE(heat.empty());
+  const auto px = dd.project(rx, 0.0);
+  ASSERT_TRUE(px);
+  // The picture is the 320 x 240 image scaled to 400 rows, 12 px in, below 58 px of title.
+  const double f = 400.0 / 240;
+  const cv::Vec3b at = heat.at<cv::Vec3b>(58 + static_cast<int>(px->y * f), 12 + static_cast<int>(px->x * f));
+  EXPECT_GT(at[2], at[0] + 40) << "not warm at the dome: " << at;
+  fs::remove_all(dir);
+}
+
 
 // Rocks sized from one perspective image on the independent renderer's development scenes
 // (persp_dev_*): each measurable rock (>= 30 visible px, not on the border, < 30 % occluded)

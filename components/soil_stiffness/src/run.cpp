@@ -12,15 +12,43 @@
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/soil_stiffness/mission_table.hpp"
-#include "regolith/soil_stiffness/plot.hpp"
+#include "regolith/common/plot.hpp"
 
 namespace regolith::soil {
 namespace {
+
+using plot::PlotSeries;
+using plot::PlotSpec;
+using plot::render_plot;
+using plot::write_png;
 
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 const cv::Scalar kColours[] = {{200, 60, 20}, {30, 30, 220}, {40, 160, 40}, {160, 40, 160},
                                {0, 140, 220}, {120, 120, 0}};
+
+// The track DTM on metric axes (range behind the camera, lateral), heights in mm.
+cv::Mat render_dtm(const SoilStiffnessEstimator& est) {
+  const cv::Mat& dtm = est.dtm_m();
+  plot::MapStyle style;
+  style.title = "SfS DTM of the track region (mm)";
+  style.unit_label = "mm";
+  style.scale = 1000.0;
+  style.palette = plot::Palette::jet;
+  style.image_height_px = 480;
+  if (dtm.rows > 1 && dtm.cols > 1) {
+    const auto edge = [](double first, double second) { return first - 0.5 * (second - first); };
+    plot::MapAxes a;
+    a.top = edge(est.row_range_m(0), est.row_range_m(1));
+    a.bottom = edge(est.row_range_m(dtm.rows - 1), est.row_range_m(dtm.rows - 2));
+    a.left = edge(est.col_lateral_m(0), est.col_lateral_m(1));
+    a.right = edge(est.col_lateral_m(dtm.cols - 1), est.col_lateral_m(dtm.cols - 2));
+    a.y_label = "range behind the camera (m)";
+    a.x_label = "lateral, + left (m)";
+    style.axes = a;
+  }
+  return plot::render_map(dtm, style);
+}
 
 }  // namespace
 
@@ -154,8 +182,7 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
 
   if (e.ok) {
     f.dtm_png = out_dir / "track_dtm.png";
-    write_png(f.dtm_png, render_height_map(est.dtm_m(), "SfS DTM of the track region (rows: range far->near)",
-                                           "mm", 1000.0));
+    write_png(f.dtm_png, render_dtm(est));
   }
   // sinkage profiles
   {

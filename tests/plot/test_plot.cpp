@@ -1,0 +1,106 @@
+// regolith::plot: the pictures the tools write. Colours land where the values are, unknown
+// values are grey (or show the image beneath), the colour bar and metric axes are drawn, and
+// titles are fitted to the picture.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "regolith/common/plot.hpp"
+
+namespace {
+
+using namespace regolith;
+
+// Pixels of `img` inside `r` that are neither white nor black (drawn colour or grey).
+int non_white(const cv::Mat& img, cv::Rect r) {
+  int n = 0;
+  r &= cv::Rect(0, 0, img.cols, img.rows);
+  for (int y = r.y; y < r.y + r.height; ++y)
+    for (int x = r.x; x < r.x + r.width; ++x) {
+      const cv::Vec3b v = img.at<cv::Vec3b>(y, x);
+      n += (v[0] < 250 || v[1] < 250 || v[2] < 250) ? 1 : 0;
+    }
+  return n;
+}
+
+TEST(Plot, NiceTicksCoverTheRangeInRoundSteps) {
+  const auto t = plot::nice_ticks(-0.083, 0.124, 6);
+  ASSERT_GE(t.size(), 4u);
+  EXPECT_NEAR(t[1] - t[0], 0.02, 1e-12);  // 0.207 / 6 = 0.035 -> 2 x 10^-2
+  EXPECT_GE(t.front(), -0.083);
+  EXPECT_LE(t.back(), 0.124);
+  EXPECT_TRUE(plot::nice_ticks(1.0, 1.0).empty());
+}
+
+TEST(Plot, ScoreMapIsRedAtZeroGreenAtOneAndGreyWhereUnknown) {
+  // 10 x 20 cells: left half 0 (hazard), right half 1 (good), one unknown cell in each half.
+  cv::Mat v(10, 20, CV_32F, cv::Scalar(0.0f));
+  v(cv::Rect(10, 0, 10, 10)).setTo(1.0f);
+  v.at<float>(5, 2) = v.at<float>(5, 15) = std::numeric_limits<float>::quiet_NaN();
+  plot::MapStyle s;
+  s.title = "traversability: 0 hazard .. 1 good";
+  s.palette = plot::Palette::score;
+  s.range = cv::Vec2d(0, 1);
+  s.image_height_px = 200;  // 20 px per cell
+  const cv::Mat img = plot::render_map(v, s);
+  ASSERT_EQ(img.type(), CV_8UC3);
+  // Without axes the picture starts 12 px in, below a title and the unknown note (58 px).
+  const auto cell = [&](int i, int j) { return img.at<cv::Vec3b>(58 + 20 * i + 10, 12 + 20 * j + 10); };
+  const cv::Vec3b red = cell(1, 1), green = cell(1, 18), grey = cell(5, 2), grey2 = cell(5, 15);
+  EXPECT_GT(red[2], 200);
+  EXPECT_LT(red[1], 20);
+  EXPECT_GT(green[1], 200);
+  EXPECT_LT(green[2], 20);
+  EXPECT_EQ(grey, cv::Vec3b(128, 128, 128));
+  EXPECT_EQ(grey2, cv::Vec3b(128, 128, 128));
+  // The colour bar right of the picture: green at its top, red at its bottom.
+  const int bx = 12 + 400 + 16 + 9;
+  EXPECT_GT(img.at<cv::Vec3b>(58 + 3, bx)[1], 200);
+  EXPECT_GT(img.at<cv::Vec3b>(58 + 196, bx)[2], 200);
+}
+
+TEST(Plot, UnknownValuesShowTheUnderlayAndKnownOnesAreTintedOverIt) {
+  cv::Mat under(40, 60, CV_8UC1, cv::Scalar(90));
+  cv::Mat v(40, 60, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  v(cv::Rect(30, 0, 30, 40)).setTo(0.1f);  // right half known
+  plot::MapStyle s;
+  s.title = "elevation on the camera image";
+  s.range = cv::Vec2d(0.0, 0.1);  // 0.1 = the top of turbo: dark red
+  s.image_height_px = 40;         // 1:1
+  const cv::Mat img = plot::render_map(v, s, under);
+  const cv::Vec3b left = img.at<cv::Vec3b>(58 + 20, 12 + 10), right = img.at<cv::Vec3b>(58 + 20, 12 + 50);
+  EXPECT_EQ(left, cv::Vec3b(90, 90, 90));
+  EXPECT_GT(right[2], right[0] + 30);  // reddish
+  EXPECT_THROW(plot::render_map(v, s, cv::Mat(10, 10, CV_8UC1)), std::invalid_argument);
+  EXPECT_THROW(plot::render_map(cv::Mat(4, 4, CV_8U), s), std::invalid_argument);
+}
+
+TEST(Plot, MetricAxesGetTicksAndLabelsLeftAndBelow) {
+  cv::Mat v(60, 80, CV_32F);
+  cv::randu(v, 0.0, 1.0);
+  plot::MapStyle s;
+  s.title = "with axes";
+  s.image_height_px = 240;
+  plot::MapStyle a = s;
+  a.axes = plot::MapAxes{1.0, -1.0, 5.0, 1.0, "y, left (m)", "x, forward (m)"};
+  const cv::Mat plain = plot::render_map(v, s), axed = plot::render_map(v, a);
+  EXPECT_GT(axed.cols, plain.cols);  // room for the y ticks and label
+  EXPECT_GT(axed.rows, plain.rows);  // and the x ones
+  // Tick labels and the axis names are drawn in the margins.
+  EXPECT_GT(non_white(axed, cv::Rect(0, 42, 74, 240)), 100);
+  EXPECT_GT(non_white(axed, cv::Rect(78, 42 + 240 + 2, 320, 50)), 100);
+  EXPECT_LT(non_white(plain, cv::Rect(0, 42, 10, 240)), 5);
+}
+
+TEST(Plot, ATitleLongerThanThePictureIsShrunkToFit) {
+  cv::Mat img(40, 200, CV_8UC3, cv::Scalar(255, 255, 255));
+  plot::put_fitted_text(img, "a title far too long to fit on a picture only two hundred pixels wide", {4, 24}, 192,
+                        0.6);
+  EXPECT_GT(non_white(img, cv::Rect(0, 0, 200, 40)), 50);
+  EXPECT_EQ(non_white(img, cv::Rect(197, 0, 3, 40)), 0);  // nothing spills past the right edge
+}
+
+}  // namespace
