@@ -483,7 +483,8 @@ void assess(const AssessOptions& o) {
   }
   if (res.status == sfs::SfsStatus::kUnreliableLight)
     throw InputError("assess: " + o.image + ": " + sfs::unreliable_light_message(res, sp) +
-                     " (give --sun-slant DEG --sun-tilt DEG)");
+                     ": give --sun-slant DEG --sun-tilt DEG (the sun in the image frame), or --rover DEPLOYMENT.yaml "
+                     "--device CAMERA (the camera and the sun of a rover description)");
   const double t2 = now_ms();
 
   // ---- traversability ----

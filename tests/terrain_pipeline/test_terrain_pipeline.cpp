@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <atomic>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -558,6 +559,11 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
   // Terrain without a sun: the estimator is not trusted -> clear error, exit 2.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o4").string(), dir / "e6.txt"), 2);
   EXPECT_NE(slurp(dir / "e6.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e6.txt");
+  // One line: what to pass, and why (the shading cannot be solved without the sun).
+  EXPECT_NE(slurp(dir / "e6.txt").find("--rover DEPLOYMENT.yaml"), std::string::npos) << slurp(dir / "e6.txt");
+  EXPECT_NE(slurp(dir / "e6.txt").find("shape from shading needs it"), std::string::npos) << slurp(dir / "e6.txt");
+  const std::string e6 = slurp(dir / "e6.txt");
+  EXPECT_EQ(std::count(e6.begin(), e6.end(), '\n'), 1) << e6;
 
   // calibrate vignetting on a synthetic flat field with known coefficients.
   cv::Mat ff(240, 320, CV_8U);

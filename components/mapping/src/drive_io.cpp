@@ -379,6 +379,17 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   cv::arrowedLine(img, cv::Point(img.cols - 25, 50), cv::Point(img.cols - 25, 15), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, 0, 0.3);
   cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  // The hazard tint's scale (on mid-grey ground): probability of an obstacle 0 .. 1.
+  const cv::Rect hb(img.cols - 150, img.rows - 26, 120, 8);
+  for (int x = 0; x < hb.width; ++x) {
+    const double a = 0.8 * x / (hb.width - 1.0), g = 150;
+    cv::line(img, hb.tl() + cv::Point(x, 0), hb.tl() + cv::Point(x, hb.height - 1),
+             cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
+  }
+  cv::putText(img, "hazard 0", hb.tl() + cv::Point(-72, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+  cv::putText(img, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
   // Legend, in the colours it explains.
   int lx = 10;
   for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"corrected path", {0, 220, 0}},

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -796,9 +797,12 @@ SfsResult shape_from_shading(const cv::Mat& gray, const std::optional<LightDirec
 }
 
 std::string unreliable_light_message(const SfsResult& r, const SfsParams& params) {
-  return "sfs: estimated light direction is unreliable (confidence " + std::to_string(r.light_confidence) +
-         " < min_light_confidence " + std::to_string(params.min_light_confidence) + ", slant " +
-         std::to_string(r.light.slant_rad * 180 / kPi) + " deg); supply the sun direction";
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "sfs: the sun's direction could not be told from the image (estimate's confidence %.2f, "
+                "min_light_confidence %.2f) and shape from shading needs it; supply the sun direction",
+                r.light_confidence, params.min_light_confidence);
+  return buf;
 }
 
 cv::Mat render_lambertian(const cv::Mat& height, const LightDirection& light) {
