@@ -569,10 +569,19 @@ void assess(const AssessOptions& o) {
   cv::Mat shade = sfs::render_lambertian(h_up, sfs::LightDirection{45 * kDeg, -135 * kDeg});
   cv::Mat u8;
   shade.convertTo(u8, CV_8U, 255.0);
-  write_png(out / "hillshade.png", u8);
+  u8.setTo(0, res.valid == 0);
+  const cv::Mat none(u8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  plot::MapStyle pic;  // a picture with a title, no values: no colour bar
+  pic.colour_bar = false;
+  pic.unknown_note.clear();
+  pic.title = "hillshade of the image-frame SfS heights (lit from the upper left; black: not solved)";
+  write_png(out / "hillshade.png", plot::render_map(none, pic, u8));
   nlohmann::json layers = nlohmann::json::object();
   if (!rectified.empty()) {  // what the ground solve saw: far = top, rover = bottom, left = left
-    write_png(out / "rectified.png", rectified);
+    pic.title = "the camera image rectified onto the ground (what the ground SfS solves)";
+    pic.axes = grid_axes(grid);
+    const cv::Mat none_r(rectified.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    write_png(out / "rectified.png", plot::render_map(none_r, pic, rectified));
     layers["rectified_input"] = "rectified.png";
   }
   for (std::size_t k = 0; k < grid.layers.size(); ++k) {

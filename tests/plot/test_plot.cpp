@@ -69,11 +69,14 @@ TEST(Plot, UnknownValuesShowTheUnderlayAndKnownOnesAreTintedOverIt) {
   plot::MapStyle s;
   s.title = "elevation on the camera image";
   s.range = cv::Vec2d(0.0, 0.1);  // 0.1 = the top of turbo: dark red
-  s.image_height_px = 40;         // 1:1
+  s.image_height_px = 40;         // pictures are drawn at least 50 px tall: x 1.25
   const cv::Mat img = plot::render_map(v, s, under);
   const cv::Vec3b left = img.at<cv::Vec3b>(58 + 20, 12 + 10), right = img.at<cv::Vec3b>(58 + 20, 12 + 50);
   EXPECT_EQ(left, cv::Vec3b(90, 90, 90));
   EXPECT_GT(right[2], right[0] + 30);  // reddish
+  // A picture without a scale (hillshade, rectified image): no colour bar beside it.
+  s.colour_bar = false;
+  EXPECT_EQ(plot::render_map(v, s, under).cols, 12 + 75 + 12);  // drawn at least 50 px tall: 60 x 1.25
   EXPECT_THROW(plot::render_map(v, s, cv::Mat(10, 10, CV_8UC1)), std::invalid_argument);
   EXPECT_THROW(plot::render_map(cv::Mat(4, 4, CV_8U), s), std::invalid_argument);
 }

@@ -272,7 +272,7 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
              0, 0, f < 1.0 ? cv::INTER_AREA : cv::INTER_NEAREST);
   const bool axes = style.axes.has_value();
   const bool note = any_unknown && !style.unknown_note.empty();
-  const int left = axes ? 78 : 12, top = note ? 58 : 42, bottom = axes ? 56 : 14, bar_w = 18, right = 100;
+  const int left = axes ? 78 : 12, top = note ? 58 : 42, bottom = axes ? 56 : 14, bar_w = 18, right = style.colour_bar ? 100 : 12;
   cv::Mat out(top + big.rows + bottom, left + big.cols + right, CV_8UC3, cv::Scalar(255, 255, 255));
   const cv::Rect area(left, top, big.cols, big.rows);
   big.copyTo(out(area));
@@ -300,6 +300,7 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
     }
     put_vertical_text(out, a.y_label, 4, area.y + area.height / 2, 0.45);
   }
+  if (!style.colour_bar) return out;
   // Colour bar beside the picture, value ticks in the style's unit.
   const int bx = area.x + area.width + 16;
   for (int i = 0; i < area.height; ++i) {

@@ -303,7 +303,9 @@ void LibcameraCamera::Impl::build_controls() {
   std::vector<std::string> names;
   for (const auto& [cid, ci] : info) names.push_back(cid->name());
   std::sort(names.begin(), names.end());
-  for (const auto& [name, text] : cfg.controls) {
+  for (const auto& control : cfg.controls) {
+    const std::string& name = control.first;  // named, not bound: lambdas capture them (clang 14)
+    const std::string& text = control.second;
     auto it = std::find_if(info.begin(), info.end(), [&](const auto& kv) { return kv.first->name() == name; });
     if (it == info.end()) {
       std::string msg = who() + ": has no control '" + name + "'";

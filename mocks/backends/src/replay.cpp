@@ -173,7 +173,8 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
   }
   if (files.size() > 1) spdlog::info("replay: {} and the {} later file(s) of its split recording", path, files.size() - 1);
   // Chunks arrive in file order, each sorted by log time: sort the series by their own stamps.
-  for (auto& [id, c] : rec->cameras) {
+  for (auto& camera : rec->cameras) {
+    auto& c = camera.second;  // a reference, not a binding: the comparator captures it (clang 14)
     std::vector<std::size_t> order(c.rel.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return c.rel[a] < c.rel[b]; });

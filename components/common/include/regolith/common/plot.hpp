@@ -61,6 +61,7 @@ struct MapStyle {
   std::optional<MapAxes> axes;                 ///< metric axes; none for an image in pixels
   int image_height_px = 400;                   ///< the value image is scaled (nearest) to about this height
   std::string unknown_note = "grey: unknown";  ///< said under the title when any value is NaN
+  bool colour_bar = true;                      ///< false: a picture (the underlay) with a title, no scale
 };
 
 /// A CV_32F value image as a picture. With `underlay` (CV_8UC1 or CV_8UC3 of the same size) the
