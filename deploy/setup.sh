@@ -3,7 +3,7 @@
 # skipped, and `apt-get update` runs only when something is missing. Profiles:
 #   run    build and run `regolith` (toolchain + libraries): README command 1, the lean first run
 #   test   run + tests, benchmarks, the driver-test VM (QEMU, vcan / vivid / vimc), the Debian
-#          package checks, the fuzzers (clang), the npm-pinned MCAP cross-check, chromium
+#          package checks, clang (the asan preset, the fuzzers), the npm-pinned MCAP cross-check, chromium
 #   cross  the arm64 cross toolchain and emulator (deploy/cross/build-arm64.sh)
 #   all    test + cross (the default; README command 2 and .ci/run)
 # Usage: bash deploy/setup.sh [run|test|cross|all]
@@ -27,7 +27,7 @@ TEST_PACKAGES=(
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
-  clang libclang-rt-14-dev   # libFuzzer + ASan/UBSan runtimes for tests/fuzz/run.sh
+  clang libclang-rt-14-dev   # the asan preset's compiler; libFuzzer + ASan/UBSan runtimes (tests/fuzz/run.sh)
   # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
   # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3
