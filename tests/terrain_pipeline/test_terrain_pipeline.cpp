@@ -403,6 +403,18 @@ terrain_scene::CameraImage render_dome(const terrain_scene::SceneParams& rp, dou
   return terrain_scene::render_camera(rock, pose, terrain_scene::Sun{2.2, 0.6});
 }
 
+// `regolith assess IMAGE --out OUT` for a frame of render_dome: its camera (f = 300 px,
+// 320x240), its height and pitch, and the light the renderer reports.
+std::string assess_dome_args(const fs::path& image, const fs::path& out, const terrain_scene::CameraImage& img,
+                             double cam_height_m, double pitch_rad) {
+  char args[768];
+  std::snprintf(args, sizeof args,
+                "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera 300,300,159.5,119.5 --height %g --pitch %.4f",
+                image.c_str(), out.c_str(), img.light_slant_rad * 180 / CV_PI, img.light_tilt_rad * 180 / CV_PI,
+                cam_height_m, pitch_rad * 180 / CV_PI);
+  return args;
+}
+
 TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   const fs::path dir = fs::temp_directory_path() / ("regolith_assess_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -474,11 +486,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     // One 0.30 m x 0.30 m, 0.15 m tall dome at x = 2 m, y = 0.
     const auto cimg = render_dome(rp, 2.0, 0.15, 0.15, 0.6, 0.45);
     ASSERT_TRUE(cv::imwrite((dir / "rover.png").string(), terrain_scene::to_u8(cimg.image)));
-    char cargs[768];
-    std::snprintf(cargs, sizeof cargs,
-                  "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera 300,300,159.5,119.5 --height 0.6 --pitch %.4f",
-                  (dir / "rover.png").c_str(), (dir / "cam").c_str(), cimg.light_slant_rad * 180 / CV_PI,
-                  cimg.light_tilt_rad * 180 / CV_PI, 0.45 * 180 / CV_PI);
+    const std::string cargs = assess_dome_args(dir / "rover.png", dir / "cam", cimg, 0.6, 0.45);
     ASSERT_EQ(run_tool(cargs, dir / "cam.txt"), 0) << slurp(dir / "cam.txt");
     const auto jc = nlohmann::json::parse(slurp(dir / "cam" / "summary.json"));
     EXPECT_EQ(jc["grid_sfs_frame"], "ground");
@@ -598,11 +606,7 @@ TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
   const double rx = 0.33;
   const auto img = render_dome(rp, rx, 0.06, 0.08, 0.3, 0.9);
   ASSERT_TRUE(cv::imwrite((dir / "close.png").string(), terrain_scene::to_u8(img.image)));
-  char args[768];
-  std::snprintf(args, sizeof args,
-                "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera 300,300,159.5,119.5 --height 0.3 --pitch %.4f",
-                (dir / "close.png").c_str(), (dir / "out").c_str(), img.light_slant_rad * 180 / CV_PI,
-                img.light_tilt_rad * 180 / CV_PI, 0.9 * 180 / CV_PI);
+  const std::string args = assess_dome_args(dir / "close.png", dir / "out", img, 0.3, 0.9);
   ASSERT_EQ(run_tool(args, dir / "out.txt"), 0) << slurp(dir / "out.txt");
   const auto j = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
   const auto& g = j["grid"];

@@ -215,13 +215,22 @@ cv::Vec2d robust_range(const cv::Mat& values) {
   return {v[v.size() * 2 / 100], v[std::min(v.size() - 1, v.size() * 98 / 100)]};
 }
 
-cv::Vec3b palette_colour(Palette p, double t) {  // t in 0..1
-  if (p == Palette::score)
-    return {40, static_cast<uchar>(std::lround(220 * t)), static_cast<uchar>(std::lround(220 * (1 - t)))};
-  cv::Mat v(1, 1, CV_8U, cv::Scalar(std::round(255 * t)));
-  cv::Mat c;
-  cv::applyColorMap(v, c, p == Palette::jet ? cv::COLORMAP_JET : cv::COLORMAP_TURBO);
-  return c.at<cv::Vec3b>(0, 0);
+// The palette's 256 colours, entry i for the value fraction i / 255 (one applyColorMap on a ramp).
+std::array<cv::Vec3b, 256> palette_table(Palette p) {
+  std::array<cv::Vec3b, 256> lut;
+  if (p == Palette::score) {
+    for (int i = 0; i < 256; ++i) {
+      const double t = i / 255.0;
+      lut[static_cast<std::size_t>(i)] = {40, static_cast<uchar>(std::lround(220 * t)),
+                                          static_cast<uchar>(std::lround(220 * (1 - t)))};
+    }
+    return lut;
+  }
+  cv::Mat ramp(1, 256, CV_8U), colours;
+  for (int i = 0; i < 256; ++i) ramp.at<uchar>(0, i) = static_cast<uchar>(i);
+  cv::applyColorMap(ramp, colours, p == Palette::jet ? cv::COLORMAP_JET : cv::COLORMAP_TURBO);
+  for (int i = 0; i < 256; ++i) lut[static_cast<std::size_t>(i)] = colours.at<cv::Vec3b>(0, i);
+  return lut;
 }
 
 }  // namespace
@@ -234,9 +243,8 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
     throw std::invalid_argument("render_map: the underlay must be an 8-bit grey or BGR image of the values' size");
   cv::Vec2d range = style.range ? *style.range : robust_range(values);
   if (!(range[1] > range[0])) range[1] = range[0] + 1e-6;
-  // Colours at the values' own size: 256 palette entries looked up once.
-  std::array<cv::Vec3b, 256> lut;
-  for (int i = 0; i < 256; ++i) lut[static_cast<std::size_t>(i)] = palette_colour(style.palette, i / 255.0);
+  // Colours at the values' own size, from the palette's 256 entries.
+  const std::array<cv::Vec3b, 256> lut = palette_table(style.palette);
   cv::Mat base;
   if (underlay.empty())
     base = cv::Mat(values.size(), CV_8UC3, cv::Scalar(128, 128, 128));
@@ -272,7 +280,8 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
              0, 0, f < 1.0 ? cv::INTER_AREA : cv::INTER_NEAREST);
   const bool axes = style.axes.has_value();
   const bool note = any_unknown && !style.unknown_note.empty();
-  const int left = axes ? 78 : 12, top = note ? 58 : 42, bottom = axes ? 56 : 14, bar_w = 18, right = style.colour_bar ? 100 : 12;
+  const int left = axes ? 78 : 12, top = note ? 58 : 42, bottom = axes ? 56 : 14, bar_w = 18,
+            right = style.colour_bar ? 100 : 12;
   cv::Mat out(top + big.rows + bottom, left + big.cols + right, CV_8UC3, cv::Scalar(255, 255, 255));
   const cv::Rect area(left, top, big.cols, big.rows);
   big.copyTo(out(area));
@@ -305,7 +314,7 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
   const int bx = area.x + area.width + 16;
   for (int i = 0; i < area.height; ++i) {
     const double t = 1.0 - static_cast<double>(i) / std::max(1, area.height - 1);
-    cv::line(out, {bx, area.y + i}, {bx + bar_w, area.y + i}, palette_colour(style.palette, t), 1);
+    cv::line(out, {bx, area.y + i}, {bx + bar_w, area.y + i}, lut[static_cast<std::size_t>(std::lround(255 * t))], 1);
   }
   cv::rectangle(out, cv::Rect(bx, area.y, bar_w, area.height), {0, 0, 0}, 1);
   const auto ticks = nice_ticks(range[0] * style.scale, range[1] * style.scale, 6);
