@@ -203,6 +203,57 @@ TEST(Trained, ScoreMapIsTheMeanOverSourcesOfTheCoveringCandidatesScore) {
   EXPECT_FLOAT_EQ(map.at<float>(15, 20), 0.0f);         // background
 }
 
+TEST(Trained, AGreyRockOnRedDustAsBrightAsItIsIsACandidateOfTheChromaMap) {
+  // Red dust and a grey rock of the same intensity (mean of B, G, R): the intensity-contrast maps
+  // see nothing, the chroma map (contrast of r - b) sees the rock; a grey image has no chroma
+  // candidates and its chroma-map features are 0.
+  cv::Mat img(240, 320, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(img, cv::RNG::NORMAL, cv::Scalar(90, 120, 150), cv::Scalar(3, 3, 3));  // B, G, R: dust
+  const cv::Rect rock(140, 90, 48, 40);
+  img(rock).setTo(cv::Scalar(120, 120, 120));                                        // grey, same mean
+  rs::CandidateExtractor ex;
+  const auto& P = ex.params();
+  const int first_chroma = static_cast<int>(P.coarse_scales.size() + P.fine_scales.size());
+  ASSERT_EQ(P.chroma_scales.size(), 2u);
+  rs::CandidateSet set;
+  ex.extract(img, set);
+  EXPECT_EQ(set.sources, first_chroma + 2);
+  const rs::RockCandidate* best = nullptr;
+  for (const auto& c : set.candidates)
+    if (c.source >= first_chroma && (!best || rs::iou(c.box, rock) > rs::iou(best->box, rock))) best = &c;
+  ASSERT_NE(best, nullptr) << "no chroma candidate";
+  for (const auto& c : set.candidates) {
+    if (c.source < first_chroma) {
+      EXPECT_LT(rs::iou(c.box, rock), 0.3) << "an intensity map saw the rock: " << c.box;
+    }
+  }
+  EXPECT_GE(rs::iou(best->box, rock), 0.6) << best->box;
+  EXPECT_GE(best->features[feature_index("source_scale")], 20.0f);
+  EXPECT_GT(best->features[feature_index("chroma_map_in_minus_ring")], 0.2f);
+  EXPECT_LT(best->features[feature_index("chroma_r_in_minus_ring")], -0.05f);  // greyer than the dust
+
+  cv::Mat grey;
+  cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
+  rs::CandidateSet gset;
+  ex.extract(grey, gset);
+  for (const auto& c : gset.candidates) {
+    EXPECT_LT(c.source, first_chroma) << c.box;
+    EXPECT_EQ(c.features[feature_index("chroma_map_mean_in")], 0.0f);
+  }
+}
+
+TEST(Trained, ASeedOfZeroIsRefusedItWouldTrainAForestOfOneSample) {
+  rs::TrainParams tp;
+  tp.seed = 0;
+  try {
+    tp.validate();
+    FAIL() << "seed 0 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("TrainParams.seed"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   const auto frames = synthetic_frames(8);
   std::vector<const rs::LabelledFrame*> ptrs;
@@ -392,11 +443,11 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   const rs::Summary s = rs::summarise(r.pooled);
   EXPECT_EQ(s.images, 60);
   EXPECT_EQ(s.gt, 559);
-  // Measured 0.293 / 0.168 / 0.740 with the default seed (components/saliency/README.md; the
+  // Measured 0.308 / 0.168 / 0.754 with the default seed (components/saliency/README.md; the
   // contrast peer scores 0.245 / 0.141 / 0.704): a no-regression floor, max F above the peer's.
-  EXPECT_GT(s.n_moda02, 0.26) << s.n_moda02;
-  EXPECT_GT(s.n_moda05, 0.13) << s.n_moda05;
-  EXPECT_GT(s.max_f, 0.72) << s.max_f;
+  EXPECT_GT(s.n_moda02, 0.28) << s.n_moda02;
+  EXPECT_GT(s.n_moda05, 0.14) << s.n_moda05;
+  EXPECT_GT(s.max_f, 0.74) << s.max_f;
 }
 
 TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {

@@ -82,6 +82,8 @@ const std::vector<std::string>& feature_names() {
                                               "chroma_b_in_minus_ring",
                                               "chroma_r_in_minus_image",
                                               "chroma_b_in_minus_image",
+                                              "chroma_map_mean_in",
+                                              "chroma_map_in_minus_ring",
                                               "stability",
                                               "log_largest_parent_area_ratio",
                                               "children",
@@ -98,12 +100,14 @@ void CandidateParams::validate() const {
   fine.validate();
   if (coarse_scales.empty() && fine_scales.empty())
     throw std::invalid_argument("CandidateParams.coarse_scales: no threshold scale at all");
-  if (coarse_scales.size() + fine_scales.size() > 8)
-    throw std::invalid_argument("CandidateParams.coarse_scales: at most 8 scales in total");
+  if (coarse_scales.size() + fine_scales.size() + chroma_scales.size() > 8)
+    throw std::invalid_argument("CandidateParams.coarse_scales: at most 8 scales in total (coarse, fine and chroma)");
   for (double s : coarse_scales)
     if (!(s > 0.0 && s <= 4.0)) throw std::invalid_argument("CandidateParams.coarse_scales: must be in (0, 4]");
   for (double s : fine_scales)
     if (!(s > 0.0 && s <= 4.0)) throw std::invalid_argument("CandidateParams.fine_scales: must be in (0, 4]");
+  for (double s : chroma_scales)
+    if (!(s > 0.0 && s <= 4.0)) throw std::invalid_argument("CandidateParams.chroma_scales: must be in (0, 4]");
   if (min_area < 1) throw std::invalid_argument("CandidateParams.min_area: must be >= 1 px");
   if (open_radius < 0) throw std::invalid_argument("CandidateParams.open_radius: must be >= 0");
   if (close_radius < 0) throw std::invalid_argument("CandidateParams.close_radius: must be >= 0");
@@ -120,10 +124,13 @@ void TrainParams::validate() const {
   if (inner_folds < 2) throw std::invalid_argument("TrainParams.inner_folds: must be >= 2");
   if (score_thresholds.empty()) throw std::invalid_argument("TrainParams.score_thresholds: empty");
   if (nms_ious.empty()) throw std::invalid_argument("TrainParams.nms_ious: empty");
+  // cv::RNG is multiply-with-carry: from state 0 it draws 0 for ever (every bootstrap sample
+  // the first candidate), and the forest learns nothing
+  if (seed == 0) throw std::invalid_argument("TrainParams.seed: must be non-zero (OpenCV's generator stays at 0)");
 }
 
 CandidateExtractor::CandidateExtractor(CandidateParams params)
-    : params_(std::move(params)), coarse_(params_.coarse), fine_(params_.fine) {
+    : params_(std::move(params)), coarse_(params_.coarse), fine_(params_.fine), chroma_(params_.coarse) {
   params_.validate();
   auto add = [&](double scale) {
     PostProcessParams pp;
@@ -136,6 +143,7 @@ CandidateExtractor::CandidateExtractor(CandidateParams params)
   };
   for (double s : params_.coarse_scales) add(s);
   for (double s : params_.fine_scales) add(s);
+  for (double s : params_.chroma_scales) add(s);
 }
 
 cv::Size CandidateExtractor::working_size(cv::Size size) const {
@@ -237,13 +245,21 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
     // Each source's components are disjoint and at least min_area px: a bound on what one image
     // can give, reserved once so that later images of this size allocate nothing.
     dets_.reserve(max_candidates(I.size()) / std::max<std::size_t>(1, detectors_.size()) + 1);
-    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_}) m->create(I.size(), CV_32F);
+    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_, &redness_}) m->create(I.size(), CV_32F);
     sized_ = I.size();
   }
   out.candidates.reserve(max_candidates(I.size()));
   sides_.reserve(max_candidates(I.size()));
   coarse_.compute_from_intensity(I, s_coarse_);
   fine_.compute_from_intensity(I, s_fine_);
+  // the chroma map: coarse contrast of the redness r - b (0 everywhere for a grey image)
+  for (int y = 0; y < H; ++y) {
+    const float* r = chroma_r_.ptr<float>(y);
+    const float* b = chroma_b_.ptr<float>(y);
+    float* q = redness_.ptr<float>(y);
+    for (int x = 0; x < W; ++x) q[x] = r[x] - b[x];
+  }
+  chroma_.compute_from_intensity(redness_, s_chroma_);
   surround_blur_.apply(I, surround_, params_.coarse.sigma_px);
   sobel3_32f(I, gx_, gy_, 1.0f / 8.0f);
   cv::magnitude(gx_, gy_, grad_);
@@ -275,6 +291,7 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
   integral_of(bright_, ii.bright);
   integral_of(chroma_r_, ii.cr);
   integral_of(chroma_b_, ii.cb);
+  integral_of(s_chroma_, ii.sch);
   const cv::Rect frame(0, 0, W, H);
   const double n_img = static_cast<double>(W) * H;
   const double img_mean = rect_sum(ii.i, frame) / n_img;
@@ -287,13 +304,14 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
   masks.create(I.size(), CV_8U);
   for (int y = 0; y < H; ++y) std::fill(masks.ptr<uchar>(y), masks.ptr<uchar>(y) + W, uchar{0});
   out.sources = static_cast<int>(detectors_.size());
-  const size_t n_coarse = params_.coarse_scales.size();
+  const size_t n_coarse = params_.coarse_scales.size(), n_fine = params_.fine_scales.size();
   // Each map prepared once (8 bits, Otsu threshold, integral) for all its threshold scales.
   coarse_map_.prepare(s_coarse_);
   fine_map_.prepare(s_fine_);
+  if (!params_.chroma_scales.empty()) chroma_map_.prepare(s_chroma_);
   for (size_t k = 0; k < detectors_.size(); ++k) {
-    const bool is_coarse = k < n_coarse;
-    detectors_[k].detect(is_coarse ? coarse_map_ : fine_map_, dets_);
+    const bool is_coarse = k < n_coarse, is_fine = !is_coarse && k < n_coarse + n_fine;
+    detectors_[k].detect(is_coarse ? coarse_map_ : is_fine ? fine_map_ : chroma_map_, dets_);
     const cv::Mat& m = detectors_[k].mask();
     const uchar bit = static_cast<uchar>(1u << k);
     for (int y = 0; y < H; ++y) {
@@ -302,7 +320,10 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
       for (int x = 0; x < W; ++x)
         if (mp[x]) sp[x] = static_cast<uchar>(sp[x] | bit);
     }
-    const double scale = is_coarse ? params_.coarse_scales[k] : params_.fine_scales[k - n_coarse];
+    // the source feature: the threshold scale, + 10 on the fine map, + 20 on the chroma map
+    const double source = is_coarse ? params_.coarse_scales[k]
+                          : is_fine ? params_.fine_scales[k - n_coarse] + 10.0
+                                    : params_.chroma_scales[k - n_coarse - n_fine] + 20.0;
     for (const Detection& d : dets_) {
       // the same blob at several maps / thresholds (IoU > 0.85): kept once, its stability counted
       bool dup = false;
@@ -389,12 +410,14 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
                                            dmax,
                                            nsides ? dsum / nsides : 0.0,
                                            dmin,
-                                           scale + (is_coarse ? 0.0 : 10.0),
+                                           source,
                                            img_std,
                                            in(ii.cr) - ring(ii.cr),
                                            in(ii.cb) - ring(ii.cb),
                                            in(ii.cr) - img_cr,
-                                           in(ii.cb) - img_cb};
+                                           in(ii.cb) - img_cb,
+                                           in(ii.sch),
+                                           in(ii.sch) - ring(ii.sch)};
       for (int f = 0; f < kBoxFeatures; ++f) c.features[f] = static_cast<float>(v[f]);
       out.candidates.push_back(c);
     }
@@ -669,6 +692,7 @@ void TrainedModel::save(const std::string& path) const {
     fs << "coarse_sigma_px" << candidates.coarse.sigma_px << "coarse_smooth_px" << candidates.coarse.smooth_sigma_px;
     fs << "fine_sigma_px" << candidates.fine.sigma_px << "fine_smooth_px" << candidates.fine.smooth_sigma_px;
     fs << "coarse_scales" << candidates.coarse_scales << "fine_scales" << candidates.fine_scales;
+    fs << "chroma_scales" << candidates.chroma_scales;
     fs << "min_area_px" << candidates.min_area << "open_radius_px" << candidates.open_radius << "close_radius_px"
        << candidates.close_radius;
     fs << "working_width_px" << candidates.working_width_px;
@@ -712,6 +736,7 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
     c["coarse_scales"] >> m.candidates.coarse_scales;
     c["fine_scales"] >> m.candidates.fine_scales;
+    c["chroma_scales"] >> m.candidates.chroma_scales;
     m.candidates.min_area = static_cast<int>(c["min_area_px"]);
     m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
     m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);

@@ -1,7 +1,8 @@
 #pragma once
 // Trained ranking stage for rock boxes (issue 15), method "trained":
 //  1. candidates: connected components of two intensity-contrast maps (ContrastSaliency,
-//     sigma 64 / smooth 8 px and sigma 16 / smooth 4 px) thresholded at several Otsu scales
+//     sigma 64 / smooth 8 px and sigma 16 / smooth 4 px) and of a chroma map (the coarse
+//     contrast of the redness r - b: grey rock on red dust) thresholded at several Otsu scales
 //     (BoxDetector, permissive minimum area); identical boxes are kept once;
 //  2. per-candidate features (kFeatureCount, feature_names()): box size / aspect / image row,
 //     contrast saliency inside vs a ring around the box, intensity mean / std inside vs ring,
@@ -9,7 +10,8 @@
 //     ring's four side strips: max / mean / min), fill ratio of the thresholded blob, ...;
 //     context among the candidates (stability: how many maps / thresholds found the same box;
 //     nesting: parents, children, the largest parent's area, the best overlap with another
-//     candidate), chromaticity inside vs ring and image (0 for grey images); the image's shadow
+//     candidate), chromaticity inside vs ring and image and the chroma map inside and inside vs
+//     ring (0 for grey images); the image's shadow
 //     side (the ring side darker than the others over all candidates): each candidate's dark
 //     fraction there and on the sun side, and its half towards the sun minus the other half;
 //  3. a random forest (cv::ml::RTrees, regression on the soft label min(1, IoU / 0.5) with the
@@ -40,8 +42,8 @@ class ModelError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-inline constexpr int kFeatureCount = 42;
-inline constexpr int kTrainedModelVersion = 3;  ///< 3: 42 features (+ the image's shadow side), soft labels
+inline constexpr int kFeatureCount = 44;
+inline constexpr int kTrainedModelVersion = 4;  ///< 4: 44 features (+ the chroma map), chroma candidates; 3: 42 features
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -52,6 +54,10 @@ struct CandidateParams {
   ContrastParams fine{16.0, 4.0};                         ///< px, a second, finer contrast map
   std::vector<double> coarse_scales{0.6, 0.8, 1.0, 1.3};  ///< Otsu scales on the coarse map
   std::vector<double> fine_scales{0.8, 1.2};              ///< Otsu scales on the fine map
+  /// Otsu scales on the chroma map: the coarse contrast of the redness r - b (chromaticities) of a
+  /// colour image, where grey rocks stand out of red dust that is as bright as they are. A grey
+  /// image has no chroma candidates.
+  std::vector<double> chroma_scales{0.8, 1.2};
   int min_area = 200;                                     ///< px, smallest candidate component (contrast method: 1600)
   int open_radius = 2;                                    ///< px
   int close_radius = 2;                                   ///< px
@@ -124,14 +130,14 @@ class CandidateExtractor {
   cv::Mat full_intensity_, full_chroma_r_, full_chroma_b_, working_masks_;
   ResizeTable to_working_;
   std::vector<int> back_x_, back_y_;
-  ContrastSaliency coarse_, fine_;
+  ContrastSaliency coarse_, fine_, chroma_;
   DecimatedGaussian surround_blur_;
-  std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales
+  std::vector<BoxDetector> detectors_;  // coarse scales, then fine scales, then chroma scales
   cv::Mat unit_, intensity_, surround_, s_coarse_, s_fine_, gx_, gy_, grad_, i2_, edge_, dark_, bright_;
-  PreparedMap coarse_map_, fine_map_;  // the two maps prepared once for their detectors
-  cv::Mat colour_, chroma_r_, chroma_b_;
+  PreparedMap coarse_map_, fine_map_, chroma_map_;  // the maps prepared once for their detectors
+  cv::Mat colour_, chroma_r_, chroma_b_, redness_, s_chroma_;
   struct Integrals {
-    cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb;
+    cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb, sch;
   } ii_;
   cv::Size sized_;  // image size the buffers and reservations were made for
   std::vector<Detection> dets_;
