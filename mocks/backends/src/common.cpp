@@ -216,4 +216,51 @@ hal::EncoderStats LazyEncoders::stats() const {
   return s;
 }
 
+// ---- GridImu ---------------------------------------------------------------------------------
+
+GridImu::GridImu(const hal::DeviceContext& ctx, double rate_hz) : id_(ctx.id), clock_(clock_of(ctx)), grid_(rate_hz) {}
+
+void GridImu::start() { run_.begin(clock_->now()); }
+
+void GridImu::stop() { run_.end(clock_->now()); }
+
+bool GridImu::latest(TimeNs now, hal::ImuSample& out) const {
+  if (!run_.running()) return false;
+  const std::int64_t k = grid_.index(now - run_.start());
+  if (k < 0) return false;
+  sample(k, out);
+  return true;
+}
+
+std::size_t GridImu::samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const {
+  return grid_samples_since(run_, grid_, after, now, out, [this](std::int64_t k, hal::ImuSample& s) { sample(k, s); });
+}
+
+bool GridImu::attitude_at(TimeNs t, Attitude& out) const {
+  if (!run_.running()) return false;
+  const TimeNs t0 = run_.start();
+  if (t < t0) return false;
+  out = attitude(to_seconds(t - t0));
+  return true;
+}
+
+hal::DeviceCounters GridImu::counters() const {
+  hal::DeviceCounters c;
+  TimeNs rel = 0;
+  if (!run_.counted(clock_->now(), rel)) return c;
+  c.state = run_.state();
+  const std::int64_t k = grid_.index(rel);
+  c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
+  return c;
+}
+
+void GridImu::sample(std::int64_t k, hal::ImuSample& out) const {
+  const TimeNs rel = grid_.offset(k);
+  const double t = to_seconds(rel);
+  out.stamp = run_.start() + rel;
+  out.sequence = static_cast<std::uint64_t>(k);
+  out.attitude = attitude(t);
+  motion(t, out);
+}
+
 }  // namespace regolith::mocks::detail

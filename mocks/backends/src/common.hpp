@@ -1,7 +1,7 @@
 #pragma once
 // Internal building blocks shared by the mock backends: deterministic hashing "randomness", the
-// lazy frame camera (preloaded images served on a time grid) and the lazy encoder base (samples
-// computed on demand from a script or a log). Not installed.
+// lazy frame camera (preloaded images served on a time grid), the lazy encoder base (samples
+// computed on demand from a script or a log) and the IMU on a time grid. Not installed.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -15,6 +15,7 @@
 #include "regolith/core/time.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/frame.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
 
@@ -226,5 +227,40 @@ class LazyEncoders : public hal::WheelEncoders {
 
 /// Read `max_extrapolation_ms` (shared by the encoder backends).
 TimeNs read_max_extrapolation(Params& p);
+
+// ---- an IMU computed on demand on its rate grid ------------------------------------------------
+
+/// Base of the computed IMUs: sample k of a run is stamped start + k / rate and holds the body
+/// attitude a subclass gives for that time (`attitude`) with its rates and specific force
+/// (`motion`); latest / samples_since / attitude_at / counters follow from it.
+class GridImu : public hal::Imu {
+ public:
+  GridImu(const hal::DeviceContext& ctx, double rate_hz);
+
+  const std::string& id() const override { return id_; }
+  void start() override;
+  void stop() override;
+  bool latest(TimeNs now, hal::ImuSample& out) const override;
+  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override;
+  bool attitude_at(TimeNs t, Attitude& out) const override;
+  hal::DeviceCounters counters() const override;
+
+ protected:
+  /// The body attitude `t` seconds after the start.
+  virtual Attitude attitude(double t) const = 0;
+  /// Angular velocity and linear acceleration (specific force) `t` s after the start; `out.attitude`
+  /// is already set.
+  virtual void motion(double t, hal::ImuSample& out) const = 0;
+  TimeNs start_time() const { return run_.start(); }
+
+ private:
+  /// Sample k of the run (stamp: the start + k periods).
+  void sample(std::int64_t k, hal::ImuSample& out) const;
+
+  std::string id_;
+  Clock* clock_ = nullptr;
+  TimeGrid grid_;
+  RunSpan run_;
+};
 
 }  // namespace regolith::mocks::detail

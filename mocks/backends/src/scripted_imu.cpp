@@ -32,64 +32,20 @@ struct AttitudeScript {
   }
 };
 
-class ScriptedImu final : public hal::Imu {
+class ScriptedImu final : public detail::GridImu {
  public:
   ScriptedImu(const hal::DeviceContext& ctx, AttitudeScript script, double rate_hz)
-      : id_(ctx.id), clock_(detail::clock_of(ctx)), script_(script), grid_(rate_hz) {}
+      : GridImu(ctx, rate_hz), script_(script) {}
 
-  const std::string& id() const override { return id_; }
-  void start() override {
-    run_.begin(clock_->now());
-  }
-  void stop() override { run_.end(clock_->now()); }
-
-  bool latest(TimeNs now, hal::ImuSample& out) const override {
-    if (!run_.running()) return false;
-    const std::int64_t k = grid_.index(now - run_.start());
-    if (k < 0) return false;
-    sample(k, out);
-    return true;
-  }
-  /// Sample k of the run (stamp: the start + k periods).
-  void sample(std::int64_t k, hal::ImuSample& out) const {
-    const TimeNs t0 = run_.start();
-    const TimeNs rel = grid_.offset(k);
-    const double t = to_seconds(rel);
-    out.stamp = t0 + rel;
-    out.sequence = static_cast<std::uint64_t>(k);
-    out.attitude = script_.at(t);
+ private:
+  Attitude attitude(double t) const override { return script_.at(t); }
+  void motion(double t, hal::ImuSample& out) const override {
     out.angular_velocity = script_.rates(t);
     // Specific force at rest: the reaction to gravity, (0, 0, g) in the local level, in the body.
     out.linear_acceleration = out.attitude.rotation().transposed() * Vec3{0.0, 0.0, script_.gravity_mps2};
   }
 
-  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    return grid_samples_since(run_, grid_, after, now, out, [this](std::int64_t k, hal::ImuSample& s) { sample(k, s); });
-  }
-  bool attitude_at(TimeNs t, Attitude& out) const override {
-    if (!run_.running()) return false;
-    const TimeNs t0 = run_.start();
-    if (t < t0) return false;
-    out = script_.at(to_seconds(t - t0));
-    return true;
-  }
-
-  hal::DeviceCounters counters() const override {
-    hal::DeviceCounters c;
-    TimeNs rel = 0;
-    if (!run_.counted(clock_->now(), rel)) return c;
-    c.state = run_.state();
-    const std::int64_t k = grid_.index(rel);
-    c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
-    return c;
-  }
-
- private:
-  std::string id_;
-  Clock* clock_;
   AttitudeScript script_;
-  detail::TimeGrid grid_;
-  detail::RunSpan run_;
 };
 
 }  // namespace

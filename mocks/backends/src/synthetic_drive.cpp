@@ -356,67 +356,26 @@ class DriveEncoders final : public LazyEncoders, public DriveTruth {
 
 // ---- IMU --------------------------------------------------------------------------------------
 
-class DriveImu final : public hal::Imu, public DriveTruth {
+class DriveImu final : public GridImu, public DriveTruth {
  public:
-  DriveImu(const hal::DeviceContext& ctx, DriveSpec spec)
-      : id_(ctx.id), clock_(clock_of(ctx)), spec_(std::move(spec)), grid_(spec_.imu_rate_hz) {}
+  DriveImu(const hal::DeviceContext& ctx, DriveSpec spec) : GridImu(ctx, spec.imu_rate_hz), spec_(std::move(spec)) {}
 
-  const std::string& id() const override { return id_; }
-  void start() override {
-    run_.begin(clock_->now());
+  const ts::DrivePath& drive_path() const override { return spec_.path; }
+  const ts::Terrain* drive_terrain() const override { return nullptr; }
+  TimeNs drive_start_time() const override { return start_time(); }
+
+ private:
+  // A level body; heading in the local-level frame (x = the heading at start).
+  Attitude attitude(double t) const override {
+    return {0.0, 0.0, spec_.path.pose_at(t).yaw_rad - spec_.path.start_yaw_rad};
   }
-  void stop() override { run_.end(clock_->now()); }
-  bool latest(TimeNs now, hal::ImuSample& out) const override {
-    if (!run_.running()) return false;
-    const std::int64_t k = grid_.index(now - run_.start());
-    if (k < 0) return false;
-    sample(k, out);
-    return true;
-  }
-  /// Sample k of the run (stamp: the start + k periods).
-  void sample(std::int64_t k, hal::ImuSample& out) const {
-    const TimeNs t0 = run_.start();
-    const TimeNs rel = grid_.offset(k);
-    out.stamp = t0 + rel;
-    out.sequence = static_cast<std::uint64_t>(k);
-    out.attitude = attitude(to_seconds(rel));
-    const cv::Vec2d v = spec_.path.velocity_at(to_seconds(rel));
+  void motion(double t, hal::ImuSample& out) const override {
+    const cv::Vec2d v = spec_.path.velocity_at(t);
     out.angular_velocity = {0.0, 0.0, v[1]};
     // Specific force on a level body: gravity's reaction plus the centripetal acceleration (left).
     out.linear_acceleration = {0.0, v[0] * v[1], spec_.gravity_mps2};
   }
-  std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
-    return grid_samples_since(run_, grid_, after, now, out, [this](std::int64_t k, hal::ImuSample& s) { sample(k, s); });
-  }
-  bool attitude_at(TimeNs t, Attitude& out) const override {
-    if (!run_.running()) return false;
-    const TimeNs t0 = run_.start();
-    if (t < t0) return false;
-    out = attitude(to_seconds(t - t0));
-    return true;
-  }
-  hal::DeviceCounters counters() const override {
-    hal::DeviceCounters c;
-    TimeNs rel = 0;
-    if (!run_.counted(clock_->now(), rel)) return c;
-    c.state = run_.state();
-    const std::int64_t k = grid_.index(rel);
-    c.delivered = k < 0 ? 0 : static_cast<std::uint64_t>(k + 1);
-    return c;
-  }
-
-  const ts::DrivePath& drive_path() const override { return spec_.path; }
-  const ts::Terrain* drive_terrain() const override { return nullptr; }
-  TimeNs drive_start_time() const override { return run_.start(); }
-
- private:
-  // A level body; heading in the local-level frame (x = the heading at start).
-  Attitude attitude(double t) const { return {0.0, 0.0, spec_.path.pose_at(t).yaw_rad - spec_.path.start_yaw_rad}; }
-  std::string id_;
-  Clock* clock_;
   DriveSpec spec_;
-  TimeGrid grid_;
-  RunSpan run_;
 };
 
 }  // namespace
