@@ -98,6 +98,7 @@ const std::vector<std::string>& feature_names() {
 void CandidateParams::validate() const {
   coarse.validate();
   fine.validate();
+  chroma.validate();
   if (coarse_scales.empty() && fine_scales.empty())
     throw std::invalid_argument("CandidateParams.coarse_scales: no threshold scale at all");
   if (coarse_scales.size() + fine_scales.size() + chroma_scales.size() > 8)
@@ -130,7 +131,7 @@ void TrainParams::validate() const {
 }
 
 CandidateExtractor::CandidateExtractor(CandidateParams params)
-    : params_(std::move(params)), coarse_(params_.coarse), fine_(params_.fine), chroma_(params_.coarse) {
+    : params_(std::move(params)), coarse_(params_.coarse), fine_(params_.fine), chroma_(params_.chroma) {
   params_.validate();
   auto add = [&](double scale) {
     PostProcessParams pp;
@@ -252,7 +253,7 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
   sides_.reserve(max_candidates(I.size()));
   coarse_.compute_from_intensity(I, s_coarse_);
   fine_.compute_from_intensity(I, s_fine_);
-  // the chroma map: coarse contrast of the redness r - b (0 everywhere for a grey image)
+  // the chroma map: the contrast of the redness r - b (0 everywhere for a grey image)
   for (int y = 0; y < H; ++y) {
     const float* r = chroma_r_.ptr<float>(y);
     const float* b = chroma_b_.ptr<float>(y);
@@ -692,6 +693,7 @@ void TrainedModel::save(const std::string& path) const {
     fs << "coarse_sigma_px" << candidates.coarse.sigma_px << "coarse_smooth_px" << candidates.coarse.smooth_sigma_px;
     fs << "fine_sigma_px" << candidates.fine.sigma_px << "fine_smooth_px" << candidates.fine.smooth_sigma_px;
     fs << "coarse_scales" << candidates.coarse_scales << "fine_scales" << candidates.fine_scales;
+    fs << "chroma_sigma_px" << candidates.chroma.sigma_px << "chroma_smooth_px" << candidates.chroma.smooth_sigma_px;
     fs << "chroma_scales" << candidates.chroma_scales;
     fs << "min_area_px" << candidates.min_area << "open_radius_px" << candidates.open_radius << "close_radius_px"
        << candidates.close_radius;
@@ -736,6 +738,8 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
     c["coarse_scales"] >> m.candidates.coarse_scales;
     c["fine_scales"] >> m.candidates.fine_scales;
+    m.candidates.chroma.sigma_px = static_cast<double>(c["chroma_sigma_px"]);
+    m.candidates.chroma.smooth_sigma_px = static_cast<double>(c["chroma_smooth_px"]);
     c["chroma_scales"] >> m.candidates.chroma_scales;
     m.candidates.min_area = static_cast<int>(c["min_area_px"]);
     m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);

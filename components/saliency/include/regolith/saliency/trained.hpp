@@ -52,9 +52,10 @@ const std::vector<std::string>& feature_names();
 struct CandidateParams {
   ContrastParams coarse{64.0, 8.0};                       ///< px, the contrast method's defaults
   ContrastParams fine{16.0, 4.0};                         ///< px, a second, finer contrast map
+  ContrastParams chroma{64.0, 8.0};                       ///< px, the chroma map's contrast (below)
   std::vector<double> coarse_scales{0.6, 0.8, 1.0, 1.3};  ///< Otsu scales on the coarse map
   std::vector<double> fine_scales{0.8, 1.2};              ///< Otsu scales on the fine map
-  /// Otsu scales on the chroma map: the coarse contrast of the redness r - b (chromaticities) of a
+  /// Otsu scales on the chroma map: the contrast (`chroma`) of the redness r - b (chromaticities) of a
   /// colour image, where grey rocks stand out of red dust that is as bright as they are. A grey
   /// image has no chroma candidates.
   std::vector<double> chroma_scales{0.8, 1.2};
