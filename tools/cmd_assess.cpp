@@ -564,18 +564,34 @@ void assess(const AssessOptions& o) {
     elev_style.axes = grid_axes(grid);
     write_png(out / "height_heatmap.png", plot::render_map(metric, elev_style));
   }
-  // Hillshade of the recovered surface (light from the upper left, 45 deg) - independent of the
-  // input shading, so it shows what SfS recovered.
-  cv::Mat shade = sfs::render_lambertian(h_up, sfs::LightDirection{45 * kDeg, -135 * kDeg});
-  cv::Mat u8;
-  shade.convertTo(u8, CV_8U, 255.0);
-  u8.setTo(0, res.valid == 0);
-  const cv::Mat none(u8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // Hillshade (light from the upper left, 45 deg): independent of the input shading, so it shows
+  // the recovered surface. Of the image-frame SfS heights when that solve ran; when it did not
+  // (e.g. the sun ahead of the camera) of the grid's elevation, on its metric axes.
   plot::MapStyle pic;  // a picture with a title, no values: no colour bar
   pic.colour_bar = false;
   pic.unknown_note.clear();
-  pic.title = "hillshade of the image-frame SfS heights (lit from the upper left; black: not solved)";
+  cv::Mat u8;
+  const bool image_solved = cv::countNonZero(res.valid) > 0;
+  if (image_solved || elev_layer >= static_cast<int>(grid.data.size())) {
+    cv::Mat shade = sfs::render_lambertian(h_up, sfs::LightDirection{45 * kDeg, -135 * kDeg});
+    shade.convertTo(u8, CV_8U, 255.0);
+    u8.setTo(0, res.valid == 0);
+    pic.title = "hillshade of the image-frame SfS heights (lit from the upper left; black: not solved)";
+  } else {
+    const cv::Mat shade = plot::hillshade(grid.data[static_cast<std::size_t>(elev_layer)], grid.resolution_m);
+    u8.create(shade.size(), CV_8UC3);
+    for (int r = 0; r < shade.rows; ++r)
+      for (int c = 0; c < shade.cols; ++c) {
+        const float v = shade.at<float>(r, c);
+        const auto g = cv::saturate_cast<uchar>(255.0f * v);
+        u8.at<cv::Vec3b>(r, c) = std::isfinite(v) ? cv::Vec3b(g, g, g) : cv::Vec3b(110, 60, 40);  // NaN: unknown
+      }
+    pic.title = "hillshade of the grid elevation (lit from the upper left; blue: unknown)";
+    pic.axes = grid_axes(grid);
+  }
+  const cv::Mat none(u8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   write_png(out / "hillshade.png", plot::render_map(none, pic, u8));
+  pic.axes.reset();
   nlohmann::json layers = nlohmann::json::object();
   if (!rectified.empty()) {  // what the ground solve saw: far = top, rover = bottom, left = left
     pic.title = "the camera image rectified onto the ground (what the ground SfS solves)";

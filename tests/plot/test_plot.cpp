@@ -106,4 +106,22 @@ TEST(Plot, ATitleLongerThanThePictureIsShrunkToFit) {
   EXPECT_EQ(non_white(img, cv::Rect(197, 0, 3, 40)), 0);  // nothing spills past the right edge
 }
 
+TEST(Plot, HillshadeIsLitFromTheUpperLeftAndKeepsUnknownCellsUnknown) {
+  // A ridge along the picture's diagonal: its face towards the upper left is lit brighter than
+  // flat ground, its other face darker; flat ground gets cos 45 deg; NaN stays NaN.
+  cv::Mat h(40, 40, CV_32F, cv::Scalar(0.0f));
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) h.at<float>(i, j) = static_cast<float>(0.02 * std::max(0, 10 - std::abs(i + j - 40)));
+  h.at<float>(2, 2) = std::numeric_limits<float>::quiet_NaN();
+  const cv::Mat s = plot::hillshade(h, 0.02);
+  ASSERT_EQ(s.type(), CV_32F);
+  EXPECT_NEAR(s.at<float>(35, 35), std::sqrt(0.5), 1e-5);  // flat
+  EXPECT_GT(s.at<float>(15, 20), 0.9f);                     // rising towards the lower right: faces the light
+  EXPECT_LT(s.at<float>(25, 20), 0.5f);                     // falling away from it
+  EXPECT_TRUE(std::isnan(s.at<float>(2, 2)));
+  EXPECT_NEAR(s.at<float>(2, 3), std::sqrt(0.5), 1e-5);  // a NaN neighbour counts as flat
+  EXPECT_THROW(plot::hillshade(cv::Mat(4, 4, CV_8U), 0.02), std::invalid_argument);
+  EXPECT_THROW(plot::hillshade(h, 0.0), std::invalid_argument);
+}
+
 }  // namespace

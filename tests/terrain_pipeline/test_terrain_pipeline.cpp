@@ -670,6 +670,14 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
     if (in["sun_slant_deg_image"].get<double>() >= 90.0) {
       EXPECT_NE(summary["image_sfs"].get<std::string>().find("sun ahead of the camera"), std::string::npos);
       EXPECT_GT(summary["grid"]["known_cells"].get<int>(), 0);
+      // No image-frame heights to shade: hillshade.png shades the grid's elevation instead of
+      // being black (grey ground, blue unknown cells).
+      const cv::Mat hs = cv::imread((dir / name / "hillshade.png").string());
+      ASSERT_FALSE(hs.empty());
+      int grey = 0;
+      for (auto it = hs.begin<cv::Vec3b>(); it != hs.end<cv::Vec3b>(); ++it)
+        grey += ((*it)[0] == (*it)[1] && (*it)[1] == (*it)[2] && (*it)[0] > 60 && (*it)[0] < 250) ? 1 : 0;
+      EXPECT_GT(grey, static_cast<int>(hs.total() / 5)) << "hillshade.png mostly black or white";
     }
     for (const auto& t : truth["rocks"]) {
       if (t["visible_px"].get<int>() < 30 || t["touches_border"].get<bool>() || t["occluded_fraction"].get<double>() >= 0.3) continue;

@@ -329,6 +329,29 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
   return out;
 }
 
+cv::Mat hillshade(const cv::Mat& height_m, double cell_m, double exaggeration) {
+  if (height_m.empty() || height_m.type() != CV_32F) throw std::invalid_argument("hillshade: expected a non-empty CV_32F map");
+  if (!(cell_m > 0) || !std::isfinite(exaggeration)) throw std::invalid_argument("hillshade: cell_m must be > 0");
+  const int R = height_m.rows, C = height_m.cols;
+  cv::Mat out(R, C, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // The light in (right, up the picture, out of it): from the upper left, 45 deg above the ground.
+  const double lx = -0.5, ly = 0.5, lz = std::sqrt(0.5);
+  for (int i = 0; i < R; ++i)
+    for (int j = 0; j < C; ++j) {
+      const float z = height_m.at<float>(i, j);
+      if (!std::isfinite(z)) continue;
+      const auto at = [&](int a, int b) {
+        const float v = height_m.at<float>(std::clamp(a, 0, R - 1), std::clamp(b, 0, C - 1));
+        return std::isfinite(v) ? static_cast<double>(v) : static_cast<double>(z);
+      };
+      const double gx = exaggeration * (at(i, j + 1) - at(i, j - 1)) / (2.0 * cell_m);
+      const double gy = exaggeration * (at(i - 1, j) - at(i + 1, j)) / (2.0 * cell_m);  // up the picture
+      const double shade = (-gx * lx - gy * ly + lz) / std::sqrt(gx * gx + gy * gy + 1.0);
+      out.at<float>(i, j) = static_cast<float>(std::clamp(shade, 0.0, 1.0));
+    }
+  return out;
+}
+
 cv::Mat render_height_map(const cv::Mat& height, const std::string& title, const std::string& unit_label,
                           double scale) {
   if (height.empty() || height.type() != CV_32F) throw std::invalid_argument("height: expected a non-empty CV_32F map");

@@ -1,3 +1,4 @@
+#include "regolith/common/plot.hpp"
 #include "regolith/core/image_file.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
@@ -336,22 +337,17 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   const int h = r1 - r0 + 1, w = c1 - c0 + 1;
   const int scale = std::max(1, 700 / std::max(h, w));
   const double res = map.resolution();
-  // Hillshade (sun from the north-west), grey; unknown = dark blue-grey; hazard blended red.
+  // Hillshade (sun from the north-west, heights x4), grey; unknown = dark blue-grey; hazard
+  // blended red. Row 0 of the map is its south edge: flipped, north is up.
+  cv::Mat north_up;
+  cv::flip(el, north_up, 0);
+  const cv::Mat shaded = plot::hillshade(north_up, res, 4.0);
   cv::Mat img(h * scale, w * scale, CV_8UC3, cv::Scalar(60, 45, 40));
   for (int i = 0; i < h; ++i)
     for (int j = 0; j < w; ++j) {
       const int mi = r0 + i, mj = c0 + j;
-      const float z = el.at<float>(mi, mj);
-      if (!std::isfinite(z)) continue;
-      auto at = [&](int a, int b) {
-        a = std::clamp(a, 0, map.rows() - 1), b = std::clamp(b, 0, map.cols() - 1);
-        const float v = el.at<float>(a, b);
-        return std::isfinite(v) ? v : z;
-      };
-      const double dzdx = (at(mi, mj + 1) - at(mi, mj - 1)) / (2 * res), dzdy = (at(mi + 1, mj) - at(mi - 1, mj)) / (2 * res);
-      const cv::Vec3d n(-dzdx * 4, -dzdy * 4, 1.0);  // x4 vertical exaggeration
-      const cv::Vec3d l(-0.5, 0.5, 0.707);
-      const double shade = std::clamp(n.dot(l) / (cv::norm(n) * cv::norm(l)), 0.0, 1.0);
+      const float shade = shaded.at<float>(map.rows() - 1 - mi, mj);
+      if (!std::isfinite(shade)) continue;
       double g = 60 + 180 * shade;
       const float hv = hz.at<float>(mi, mj);
       const double a = std::isfinite(hv) ? std::clamp(static_cast<double>(hv), 0.0, 1.0) * 0.8 : 0.0;

@@ -73,6 +73,12 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
 /// units after multiplying by `scale` (e.g. 1000 for mm), full range, jet.
 cv::Mat render_height_map(const cv::Mat& height, const std::string& title, const std::string& unit_label, double scale);
 
+/// Hillshade of a CV_32F height field in picture orientation (row 0 at the top, columns to the
+/// right; cells `cell_m` apart, heights in m): Lambertian shading lit from the upper left at 45 deg
+/// elevation, heights exaggerated `exaggeration` times; CV_32F in 0..1, NaN where the height is
+/// NaN (a NaN neighbour counts as the cell's own height).
+cv::Mat hillshade(const cv::Mat& height_m, double cell_m, double exaggeration = 1.0);
+
 /// Writes `text` at `org` scaled down (from `scale`) until it fits in `max_width_px`; below a
 /// readable size (0.3) it is cut short and ends in "...".
 void put_fitted_text(cv::Mat& img, const std::string& text, cv::Point org, int max_width_px, double scale = 0.5,
