@@ -70,7 +70,7 @@ struct MapSample {
   std::vector<std::string> layers;
   std::string frame;
   double resolution = 0, length_x = 0, length_y = 0, cx = 0, cy = 0;
-  std::size_t cells = 0, known = 0, unknown = 0, bad_hazard = 0, bad_count = 0;
+  std::size_t cells = 0, known = 0, unknown = 0, bad_hazard = 0, bad_count = 0, faint = 0;
   double min_z = 1e9, max_z = -1e9;
 };
 
@@ -162,6 +162,7 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
           if (g.data._length == s.layers.size() && !s.layers.empty()) {
             const auto& el = g.data._buffer[0].data;   // elevation
             const auto& hz = g.data._buffer[2].data;   // hazard
+            const auto& cf = g.data._buffer[3].data;   // confidence
             const auto& cnt = g.data._buffer[4].data;  // observed_count
             s.cells = el._length;
             for (std::uint32_t i = 0; i < el._length && i < hz._length && i < cnt._length; ++i) {
@@ -169,7 +170,12 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
                 ++s.known;
                 s.min_z = std::min(s.min_z, static_cast<double>(el._buffer[i]));
                 s.max_z = std::max(s.max_z, static_cast<double>(el._buffer[i]));
-                if (!(hz._buffer[i] >= 0.0f && hz._buffer[i] <= 1.0f)) ++s.bad_hazard;
+                // A hazard in [0, 1]; NaN (not assessed) only for a cell seen too faintly for its
+                // relief (WorldMapParams::hazard_min_weight 0.05: confidence 1 - e^-0.05 = 0.049).
+                if (std::isnan(hz._buffer[i]) && i < cf._length && cf._buffer[i] < 0.049f)
+                  ++s.faint;
+                else if (!(hz._buffer[i] >= 0.0f && hz._buffer[i] <= 1.0f))
+                  ++s.bad_hazard;
                 if (!(cnt._buffer[i] >= 1.0f)) ++s.bad_count;
               } else {
                 ++s.unknown;
@@ -288,6 +294,7 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   EXPECT_GT(last_map.known, 2000u);     // measured ~7500 cells after 1.5 m
   EXPECT_GT(last_map.unknown, 60000u);  // never seen: NaN
   EXPECT_EQ(last_map.bad_hazard, 0u);
+  EXPECT_LT(last_map.faint, last_map.known / 2) << "most known cells are assessed";
   EXPECT_EQ(last_map.bad_count, 0u);
   EXPECT_GT(last_map.min_z, -0.3);
   EXPECT_LT(last_map.max_z, 0.5);

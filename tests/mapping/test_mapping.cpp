@@ -517,6 +517,37 @@ TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
   EXPECT_NEAR(at("elevation", 0.5, 1.5), 0.175, 1e-6);
 }
 
+TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
+  // One cell seen well, one seen once, faintly (weight between min_weight and
+  // hazard_min_weight): both have an elevation; only the first has a relief and a hazard.
+  WorldMapParams p;
+  p.resolution_m = 0.1;
+  p.length_x_m = 4;
+  p.length_y_m = 4;
+  ASSERT_LT(p.min_weight, p.hazard_min_weight);
+  WorldMap map(p, 0, 0);
+  cv::Mat x(1, 2, CV_32F), y(1, 2, CV_32F), z(1, 2, CV_32F), w(1, 2, CV_32F);
+  x.at<float>(0) = 1.0f, y.at<float>(0) = 0.0f, z.at<float>(0) = 0.20f, w.at<float>(0) = 1.0f;
+  x.at<float>(1) = 1.0f, y.at<float>(1) = 0.5f, z.at<float>(1) = 0.20f, w.at<float>(1) = 0.03f;  // x 1/(1 + (r/2)^2)
+  EXPECT_EQ(map.fuse_points(x, y, z, w, Pose2{0.0, 0.0, 0.0}), 2);
+  map.finish();
+  auto at = [&](const char* layer, double wx, double wy) {
+    const int j = static_cast<int>(std::lround((wx - map.origin_x()) / map.resolution()));
+    const int i = static_cast<int>(std::lround((wy - map.origin_y()) / map.resolution()));
+    return map.layer(layer).at<float>(i, j);
+  };
+  EXPECT_NEAR(at("elevation", 1.0, 0.0), 0.20, 1e-6);
+  EXPECT_TRUE(std::isfinite(at("relief", 1.0, 0.0)));
+  EXPECT_TRUE(std::isfinite(at("hazard", 1.0, 0.0)));
+  EXPECT_NEAR(at("elevation", 1.0, 0.5), 0.20, 1e-6);
+  EXPECT_LT(at("confidence", 1.0, 0.5), 0.05f);
+  EXPECT_TRUE(std::isnan(at("relief", 1.0, 0.5)));
+  EXPECT_TRUE(std::isnan(at("hazard", 1.0, 0.5)));
+  WorldMapParams bad = p;
+  bad.hazard_min_weight = -1;
+  EXPECT_THROW(bad.validate(), std::exception);
+}
+
 TEST(WorldMap, RecenteringKeepsEveryCellAtItsWorldPositionInAnyDirection) {
   // A distinct height in every cell, then shifts with both signs on both axes (and one larger than
   // the window): each cell still inside keeps its value, every cell that came in is unknown.

@@ -222,10 +222,13 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   map.finish();
   sum.rocks = map.rocks();
   const cv::Mat& el = map.layer("elevation");
+  const cv::Mat& hz = map.layer("hazard");
+  // Every known cell: an elevation, or a hazard (a rock sighted beyond the known ground)
   int r0 = map.rows(), r1 = -1, c0 = map.cols(), c1 = -1;
   for (int i = 0; i < map.rows(); ++i)
     for (int j = 0; j < map.cols(); ++j)
-      if (std::isfinite(el.at<float>(i, j))) r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
+      if (std::isfinite(el.at<float>(i, j)) || std::isfinite(hz.at<float>(i, j)))
+        r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
   for (const Pose2& q : corrected) {  // the path is in the map too
     const int j = static_cast<int>(std::lround((q.x - map.origin_x()) / map.resolution()));
     const int i = static_cast<int>(std::lround((q.y - map.origin_y()) / map.resolution()));

@@ -43,6 +43,7 @@ void WorldMapParams::validate() const {
   pos(rock_min_height_m, "rock_min_height_m");
   if (!std::isfinite(shadow_spread_m) || shadow_spread_m < 0) fail("shadow_spread_m", "must be >= 0");
   if (!std::isfinite(min_weight) || min_weight < 0) fail("min_weight", "must be >= 0");
+  if (!std::isfinite(hazard_min_weight) || hazard_min_weight < 0) fail("hazard_min_weight", "must be >= 0");
   if (!std::isfinite(rock_min_area_m2) || rock_min_area_m2 < 0) fail("rock_min_area_m2", "must be >= 0");
   if (!std::isfinite(sighting_radius_m) || sighting_radius_m <= 0) fail("sighting_radius_m", "must be > 0");
   if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
@@ -86,7 +87,7 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   fill(tracks_, kNaNf);
   layers_.resize(kLayers);
   for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
-  for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_}) m->create(rows_, cols_, CV_32F);
+  for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_, &ground_w_}) m->create(rows_, cols_, CV_32F);
   mask_.create(rows_, cols_, CV_8U);
   line_.assign(static_cast<std::size_t>(std::max(rows_, cols_)), 0.0);
   line_w_ = line_;
@@ -381,8 +382,12 @@ void WorldMap::finish() {
       }
   }
   traversability::compute_layers(trav_, p_.traversability);
-  // Relief above the smoothed local ground, and the hazard it makes.
-  smooth_known(el, conf, scratch_, p_.ground_sigma_m / p_.resolution_m);
+  // Relief above the smoothed local ground, and the hazard it makes: both from the cells seen
+  // well enough (hazard_min_weight); a cell seen less has an elevation but no relief.
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j)
+      ground_w_.at<float>(i, j) = wsum_.at<double>(i, j) > p_.hazard_min_weight ? conf.at<float>(i, j) : 0.0f;
+  smooth_known(el, ground_w_, scratch_, p_.ground_sigma_m / p_.resolution_m);
   cv::Mat& relief = layers_[kRelief];
   cv::Mat& hazard = layers_[kHazard];
   cv::Mat& shadow = layers_[kShadow];
@@ -409,7 +414,8 @@ void WorldMap::finish() {
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
       const float z = el.at<float>(i, j), g = scratch_.at<float>(i, j);
-      const float r = (std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
+      const bool seen_enough = ground_w_.at<float>(i, j) > 0.0f;
+      const float r = (seen_enough && std::isfinite(z) && std::isfinite(g)) ? z - g : kNaNf;
       relief.at<float>(i, j) = r;
       // Hazard = probability of an obstacle of hazard_height_m here: a noisy-OR of the cues, each
       // an independent chance of one: rocks sighted here (1 - exp(-evidence / scale), times their

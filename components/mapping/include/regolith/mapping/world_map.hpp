@@ -14,7 +14,8 @@
 //   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
 //   local ground), shadow_height (heights of objects measured from their cast shadows, spread
 //   over shadow_spread_m around their feet), hazard (0..1: the probability of an obstacle of
-//   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly, the relief),
+//   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly, the relief;
+//   NaN where no cue covers the cell: a cell seen with less than hazard_min_weight has no relief),
 //   rock_evidence (summed scores of the rocks tracked across frames, spread over their position's uncertainty)
 //   and rock_height (their weighted mean height, where the evidence reaches rock_min_evidence).
 // Rocks: the tracks handed over by fuse_rock_tracks (closed ones kept, at most max_rocks, live
@@ -39,7 +40,10 @@ struct WorldMapParams {
   double range_scale_m = 2.0;   ///< m, a look from this range weighs half a look from 0 m
   double max_range_m = 5.0;     ///< m, body cells farther than this are not fused
   double weight_full = 1.0;     ///< weight at which confidence reaches 1 - 1/e
-  double min_weight = 0.05;     ///< cells with less total weight stay unknown
+  double min_weight = 0.01;     ///< cells with less total weight stay unknown (elevation)
+  /// Weight a cell's relief needs to shape the local ground and to be a hazard cue: below it a
+  /// cell has an elevation (and its variance) but its relief is unknown (NaN).
+  double hazard_min_weight = 0.05;
   double observation_sigma_m = 0.02;  ///< m, std of one look (floor of elevation_variance)
   double robust_sigma_m = 0.03;       ///< m, looks this far from a well-seen cell's mean weigh half (0 = plain mean)
   double fill_radius_m = 0.0;         ///< m, holes this close to observed cells are interpolated (0 = off)
@@ -140,6 +144,7 @@ class WorldMap {
   std::vector<cv::Mat> layers_;
   traversability::GridMap trav_;      // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
+  cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   std::vector<double> line_, line_w_;
 };
 
