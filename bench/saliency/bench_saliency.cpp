@@ -155,9 +155,10 @@ void BM_FineGrained(benchmark::State &st) {
   peer(st, rs::Method::kFineGrained);
 }
 
-void BM_Trained(benchmark::State &st) {
+void trained(benchmark::State &st, bool grey) {
   cv::setNumThreads(1);
-  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  if (grey) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
   const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
   rs::CandidateExtractor extractor(model.candidates);
   rs::CandidateSet set;
@@ -169,9 +170,14 @@ void BM_Trained(benchmark::State &st) {
   }
   record(st);
 }
+// The colour Mastcam frame (`regolith rocks`), and the same frame grey: what the sams component
+// gives the detector (the DTM's image; no chroma map to compute).
+void BM_Trained(benchmark::State &st) { trained(st, false); }
+void BM_TrainedGrey(benchmark::State &st) { trained(st, true); }
 
 BENCHMARK(BM_Itti)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Trained)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrainedGrey)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SamsSharedDtm)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Contrast)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SpectralResidual)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);

@@ -487,11 +487,24 @@ TEST(RockSightings, ASideLitRocksTwoHalvesMergeIntoOne) {
   EXPECT_EQ(one.compute(g), 2);
 }
 
-TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
+// A 0.1 m world map window of lx by ly metres, and the cell (column, row) at world (wx, wy) in it.
+WorldMapParams small_window(double lx, double ly) {
   WorldMapParams p;
   p.resolution_m = 0.1;
-  p.length_x_m = 4;
-  p.length_y_m = 4;
+  p.length_x_m = lx;
+  p.length_y_m = ly;
+  return p;
+}
+cv::Point cell_of(const WorldMap& map, double wx, double wy) {
+  return cv::Point(static_cast<int>(std::lround((wx - map.origin_x()) / map.resolution())),
+                   static_cast<int>(std::lround((wy - map.origin_y()) / map.resolution())));
+}
+float layer_at(const WorldMap& map, const char* layer, double wx, double wy) {
+  return map.layer(layer).at<float>(cell_of(map, wx, wy));
+}
+
+TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
+  WorldMapParams p = small_window(4, 4);
   WorldMap map(p, 0, 0);
   cv::Mat x(1, 2, CV_32F), y(1, 2, CV_32F), z(1, 2, CV_32F), w(1, 2, CV_32F);
   x.at<float>(0) = 1.0f, y.at<float>(0) = 0.0f, z.at<float>(0) = 0.10f, w.at<float>(0) = 1.0f;
@@ -499,11 +512,7 @@ TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
   // Foot at (0.5, 0.5) facing +y: body (1, 0) is world (0.5, 1.5).
   EXPECT_EQ(map.fuse_points(x, y, z, w, Pose2{0.5, 0.5, 1.5707963267948966}), 2);
   map.finish();
-  auto at = [&](const char* layer, double wx, double wy) {
-    const int j = static_cast<int>(std::lround((wx - map.origin_x()) / map.resolution()));
-    const int i = static_cast<int>(std::lround((wy - map.origin_y()) / map.resolution()));
-    return map.layer(layer).at<float>(i, j);
-  };
+  auto at = [&](const char* layer, double wx, double wy) { return layer_at(map, layer, wx, wy); };
   EXPECT_NEAR(at("elevation", 0.5, 1.5), 0.175, 1e-6);  // (0.1 * 1 + 0.2 * 3) / 4
   EXPECT_EQ(at("observed_count", 0.5, 1.5), 2.0f);
   EXPECT_GT(at("elevation_variance", 0.5, 1.5), 0.0f);
@@ -520,10 +529,7 @@ TEST(WorldMap, FusesWeightedLooksAndRecentersWithoutLosingCells) {
 TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
   // One cell seen well, one seen once, faintly (weight between min_weight and
   // hazard_min_weight): both have an elevation; only the first has a relief and a hazard.
-  WorldMapParams p;
-  p.resolution_m = 0.1;
-  p.length_x_m = 4;
-  p.length_y_m = 4;
+  WorldMapParams p = small_window(4, 4);
   ASSERT_LT(p.min_weight, p.hazard_min_weight);
   WorldMap map(p, 0, 0);
   cv::Mat x(1, 2, CV_32F), y(1, 2, CV_32F), z(1, 2, CV_32F), w(1, 2, CV_32F);
@@ -531,11 +537,7 @@ TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
   x.at<float>(1) = 1.0f, y.at<float>(1) = 0.5f, z.at<float>(1) = 0.20f, w.at<float>(1) = 0.03f;  // x 1/(1 + (r/2)^2)
   EXPECT_EQ(map.fuse_points(x, y, z, w, Pose2{0.0, 0.0, 0.0}), 2);
   map.finish();
-  auto at = [&](const char* layer, double wx, double wy) {
-    const int j = static_cast<int>(std::lround((wx - map.origin_x()) / map.resolution()));
-    const int i = static_cast<int>(std::lround((wy - map.origin_y()) / map.resolution()));
-    return map.layer(layer).at<float>(i, j);
-  };
+  auto at = [&](const char* layer, double wx, double wy) { return layer_at(map, layer, wx, wy); };
   EXPECT_NEAR(at("elevation", 1.0, 0.0), 0.20, 1e-6);
   EXPECT_TRUE(std::isfinite(at("relief", 1.0, 0.0)));
   EXPECT_TRUE(std::isfinite(at("hazard", 1.0, 0.0)));
@@ -551,10 +553,7 @@ TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
 TEST(WorldMap, RecenteringKeepsEveryCellAtItsWorldPositionInAnyDirection) {
   // A distinct height in every cell, then shifts with both signs on both axes (and one larger than
   // the window): each cell still inside keeps its value, every cell that came in is unknown.
-  WorldMapParams p;
-  p.resolution_m = 0.1;
-  p.length_x_m = 3;
-  p.length_y_m = 2;
+  WorldMapParams p = small_window(3, 2);
   WorldMap map(p, 0, 0);
   const int n = 30 * 20;
   cv::Mat x(1, n, CV_32F), y(1, n, CV_32F), z(1, n, CV_32F), w(1, n, CV_32F, cv::Scalar(1));
@@ -777,10 +776,7 @@ TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   EXPECT_NEAR(rocks[0].y_m, 2.0, 1e-6);
   EXPECT_NEAR(rocks[0].height_m, 0.12, 1e-6);
   EXPECT_NEAR(rocks[1].width_m, 0.25, 1e-6);
-  auto cell = [&](double x, double y) {
-    return cv::Point(static_cast<int>(std::lround((x - map.origin_x()) / map.resolution())),
-                     static_cast<int>(std::lround((y - map.origin_y()) / map.resolution())));
-  };
+  auto cell = [&](double x, double y) { return cell_of(map, x, y); };
   // Hazard = 1 - exp(-evidence / hazard_evidence_scale) where the rocks are taller than
   // hazard_height_m; the evidence of a live track goes when the next frame replaces it.
   const float ev = map.layer("rock_evidence").at<float>(cell(0.0, 2.0));

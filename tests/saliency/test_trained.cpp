@@ -241,6 +241,21 @@ TEST(Trained, AGreyRockOnRedDustAsBrightAsItIsIsACandidateOfTheChromaMap) {
     EXPECT_LT(c.source, first_chroma) << c.box;
     EXPECT_EQ(c.features[feature_index("chroma_map_mean_in")], 0.0f);
   }
+  // A one-channel image skips the chroma map's blurs (its redness is 0 everywhere): the same
+  // candidates and features as its three-channel copy, which goes through them.
+  cv::Mat grey3;
+  cv::cvtColor(grey, grey3, cv::COLOR_GRAY2BGR);
+  rs::CandidateSet g3set;
+  ex.extract(grey3, g3set);
+  ASSERT_EQ(g3set.candidates.size(), gset.candidates.size());
+  ASSERT_FALSE(gset.candidates.empty());
+  for (size_t i = 0; i < gset.candidates.size(); ++i) {
+    const auto &a = gset.candidates[i], &b = g3set.candidates[i];
+    EXPECT_EQ(a.box, b.box);
+    EXPECT_EQ(a.source, b.source);
+    for (size_t f = 0; f < a.features.size(); ++f)
+      EXPECT_NEAR(a.features[f], b.features[f], 1e-4f) << rs::feature_names()[f] << " of " << a.box;
+  }
 }
 
 TEST(Trained, ASeedOfZeroIsRefusedItWouldTrainAForestOfOneSample) {

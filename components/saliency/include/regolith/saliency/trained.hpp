@@ -119,8 +119,8 @@ class CandidateExtractor {
 
  private:
   /// extract() from intensity_, chroma_r_ and chroma_b_ (at the working size); the sources'
-  /// masks go to `masks`.
-  void extract_at_working_size(CandidateSet& out, cv::Mat& masks);
+  /// masks go to `masks`. `colour`: the image had three channels (a grey one has no chroma map).
+  void extract_at_working_size(CandidateSet& out, cv::Mat& masks, bool colour);
   /// r = R / (R + G + B) and b = B / (R + G + B) of a colour `image` (its size), CV_32F; of a
   /// grey one the constant 1/3, made at `size` (for a colour image `size` must be its own).
   void chromaticity(const cv::Mat& image, cv::Size size, cv::Mat& r, cv::Mat& b);
