@@ -10,7 +10,10 @@
 // Raw CAN frames (/hal/encoders/<id>/can, /can_fd) become a can-utils `candump -l` log instead
 // (<topic>.log, interface name = the encoder set's id, time = the receive stamp in ROS time: unix
 // time live, the simulated clock under --sim-time), which canplayer and the `candump` encoder
-// backend replay.
+// backend replay. The HAL recording's camera frames (sensor_msgs/Image, mono8 / bgr8) become
+// lossless PNG files beside the lines (<topic>/000000.png, ...; the line names its file and renders
+// the pixels as their byte count) and its attitudes (geometry_msgs/Vector3Stamped: roll, pitch,
+// yaw) lines of their own: both decoded by the replay backends' decoders.
 #include <cstdio>
 #include <functional>
 #include <memory>
@@ -20,6 +23,8 @@
 #include <dds/dds.h>
 #include <dds/ddsi/ddsi_serdata.h>
 #include <dds/ddsi/ddsi_sertype.h>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -163,7 +168,40 @@ struct ExportChannel {
   fs::path images;                   // sensor_msgs/CompressedImage: each image's bytes as a file here
   enum class Can { kNone, kClassic, kFd } can = Can::kNone;  // raw CAN frames: written as a candump -l log
   std::string can_interface;         // the interface name in that log: the encoder set's id
+  enum class Hal { kNone, kImage, kVector3 } hal = Hal::kNone;  // HAL frames (PNG files) and attitudes
 };
+
+json ros_time_json(TimeNs t) {
+  const TimeNs sec = t >= 0 ? t / kNsPerSec : -((-t + kNsPerSec - 1) / kNsPerSec);
+  return {{"sec", sec}, {"nanosec", t - sec * kNsPerSec}};
+}
+
+/// A HAL camera frame: its pixels as a lossless PNG `dir`/NNNNNN.png (NNNNNN = `index`), the
+/// message's other fields as JSON with the pixels as their byte count; `file` = the PNG's name
+/// relative to the output directory. Throws on undecodable bytes (std::exception) and on a file
+/// that cannot be written (InputError).
+json export_hal_image(std::span<const std::uint8_t> cdr, const fs::path& dir, std::uint64_t index, std::string& file) {
+  const record::DecodedImage d = record::decode_image(cdr);
+  char name[32];
+  std::snprintf(name, sizeof name, "%06llu.png", static_cast<unsigned long long>(index));
+  if (!cv::imwrite((dir / name).string(), d.image)) throw InputError("log export: cannot write " + (dir / name).string());
+  file = (dir.filename() / name).string();
+  const int channels = d.image.channels();
+  return {{"header", {{"stamp", ros_time_json(d.stamp)}, {"frame_id", d.frame_id}}},
+          {"height", d.image.rows},
+          {"width", d.image.cols},
+          {"encoding", channels == 1 ? "mono8" : "bgr8"},
+          {"is_bigendian", 0},
+          {"step", d.image.cols * channels},
+          {"data", {{"bytes", d.image.total() * d.image.elemSize()}}}};
+}
+
+/// A HAL attitude (or attitude query): geometry_msgs/Vector3Stamped, vector = (roll, pitch, yaw) rad.
+json export_hal_vector3(std::span<const std::uint8_t> cdr) {
+  const record::DecodedAttitude d = record::decode_attitude(cdr);
+  return {{"header", {{"stamp", ros_time_json(d.stamp)}, {"frame_id", d.frame_id}}},
+          {"vector", {{"x", d.a.roll_rad}, {"y", d.a.pitch_rad}, {"z", d.a.yaw_rad}}}};
+}
 
 void run_export(const LogExportArgs& a) {
   if (a.format != "jsonl" && a.format != "csv")
@@ -218,15 +256,22 @@ void run_export(const LogExportArgs& a) {
       if (!e.out) throw InputError("log export: cannot write " + e.path.string());
       continue;
     }
-    const dds::TopicInfo* ti = nullptr;
-    for (const auto& k : dds::known_topics())
-      if (k.ros_type == schema) ti = &k;
-    if (ti == nullptr || e.channel->message_encoding != "cdr")
-      throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
-                       ") is not a regolith CDR type");
-    e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
+    if (e.channel->message_encoding == "cdr" &&
+        (schema == "sensor_msgs/msg/Image" || schema == "geometry_msgs/msg/Vector3Stamped")) {
+      // The HAL recording's frames and attitudes: not DDS topic types of regolith, decoded as the
+      // replay backends decode them.
+      e.hal = schema == "sensor_msgs/msg/Image" ? ExportChannel::Hal::kImage : ExportChannel::Hal::kVector3;
+    } else {
+      const dds::TopicInfo* ti = nullptr;
+      for (const auto& k : dds::known_topics())
+        if (k.ros_type == schema) ti = &k;
+      if (ti == nullptr || e.channel->message_encoding != "cdr")
+        throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
+                         ") is not a regolith CDR type");
+      e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
+    }
     e.path = fs::path(a.out) / (stem + "." + a.format);
-    if (schema == "sensor_msgs/msg/CompressedImage") {  // the camera previews: viewable files too
+    if (schema == "sensor_msgs/msg/CompressedImage" || e.hal == ExportChannel::Hal::kImage) {  // viewable files too
       e.images = fs::path(a.out) / stem;
       fs::create_directories(e.images, ec);
       if (ec) throw InputError("log export: cannot create " + e.images.string() + ": " + ec.message());
@@ -262,7 +307,18 @@ void run_export(const LogExportArgs& a) {
       if (!f) throw InputError("log export: cannot write " + (e.images / name).string());
       image_file = (e.images.filename() / name).string();
     };
-    auto msg = e.images.empty() ? e.decoder->decode(m.data) : e.decoder->decode(m.data, save_image);
+    std::optional<json> msg;
+    if (e.hal != ExportChannel::Hal::kNone) {
+      try {
+        msg = e.hal == ExportChannel::Hal::kImage ? export_hal_image(m.data, e.images, e.written, image_file)
+                                                  : export_hal_vector3(m.data);
+      } catch (const InputError&) {
+        throw;
+      } catch (const std::exception&) {  // damaged or foreign bytes: counted, the rest exported
+      }
+    } else {
+      msg = e.images.empty() ? e.decoder->decode(m.data) : e.decoder->decode(m.data, save_image);
+    }
     if (!msg) {
       ++e.undecodable;
       return;

@@ -162,7 +162,7 @@ hal::ImuSample decode_imu(std::span<const std::uint8_t> cdr) {
 DecodedAttitude decode_attitude(std::span<const std::uint8_t> cdr) {
   CdrReader r(cdr);
   DecodedAttitude d;
-  d.stamp = r.header();
+  d.stamp = r.header(&d.frame_id);
   d.a.roll_rad = r.f64();
   d.a.pitch_rad = r.f64();
   d.a.yaw_rad = r.f64();

@@ -2,10 +2,13 @@
 // written through Cyclone DDS in this process (same-process reader, serialized bytes taken with
 // dds::take_serialized = what `regolith record` stores), put into an MCAP file with McapWriter,
 // exported by the `regolith` binary, and the JSON lines / CSV rows compared field by field with
-// what was written. Also: topic name spellings, unknown topic (exit 2), a file cut mid-chunk.
+// what was written. Also: topic name spellings, unknown topic (exit 2), a file cut mid-chunk, the
+// HAL recording's camera frames (PNG files) and attitudes.
 #include <algorithm>
 #include <iterator>
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -20,6 +23,7 @@
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/serialized.hpp"
 #include "regolith/dds/types.hpp"
+#include "regolith/record/hal_messages.hpp"
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
 
@@ -321,3 +325,74 @@ TEST_F(LogExport, CompressedImagesBecomeFiles) {
     EXPECT_EQ(got, payloads[i]) << name;
   }
 }
+
+namespace {
+
+// The HAL recording's camera frames (sensor_msgs/Image, as `regolith run --record` writes them)
+// become lossless PNG files named in their lines, pixel for pixel the recorded frames (grey and
+// colour); its attitudes (geometry_msgs/Vector3Stamped) lines with roll, pitch and yaw; a damaged
+// frame is counted and skipped, the others exported.
+TEST_F(LogExport, HalFramesBecomePngFilesAndAttitudesLines) {
+  cv::Mat grey(48, 64, CV_8UC1), colour(30, 40, CV_8UC3);
+  cv::randu(grey, 0, 256);
+  cv::randu(colour, cv::Scalar::all(0), cv::Scalar::all(256));
+  std::vector<std::uint8_t> f0, f1, a0, damaged;
+  regolith::record::encode_image(f0, 5 * regolith::kNsPerSec + 250, "front_optical_frame", grey);
+  regolith::record::encode_image(f1, 6 * regolith::kNsPerSec, "front_optical_frame", colour);
+  damaged.assign(f1.begin(), f1.begin() + 40);  // cut inside the header of the pixels
+  regolith::record::encode_attitude(a0, 7 * regolith::kNsPerSec, regolith::Attitude{0.1, -0.2, 1.5});
+  const fs::path file = dir_ / "hal.mcap";
+  {
+    regolith::record::McapWriter w(file, {.compression = regolith::record::Compression::kZstd, .chunk_size = 4096});
+    const auto si = w.add_schema("sensor_msgs/msg/Image", "ros2msg", std::string());
+    const auto sv = w.add_schema("geometry_msgs/msg/Vector3Stamped", "ros2msg", std::string());
+    const auto ci = w.add_channel(si, "/hal/cameras/front/image", "cdr", {});
+    const auto cv3 = w.add_channel(sv, "/hal/imus/body_imu/attitude", "cdr", {});
+    w.write(ci, 0, 100, 100, f0);
+    w.write(ci, 1, 110, 110, damaged);
+    w.write(ci, 2, 120, 120, f1);
+    w.write(cv3, 0, 130, 130, a0);
+    w.close();
+  }
+  const fs::path out = dir_ / "hal";
+  const ExportRun r = run(file.string() + " --topic /hal/cameras/front/image --topic /hal/imus/body_imu/attitude --out " +
+                          out.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("/hal/cameras/front/image: 2 messages"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(1 undecodable CDR payloads skipped)"), std::string::npos) << r.out;
+  const auto ls = lines(out / "hal_cameras_front_image.jsonl");
+  ASSERT_EQ(ls.size(), 2u);
+  const cv::Mat want[2] = {grey, colour};
+  for (std::size_t i = 0; i < 2; ++i) {
+    const json j = json::parse(ls[i]);
+    const json& msg = j["message"];
+    EXPECT_EQ(msg["width"], want[i].cols);
+    EXPECT_EQ(msg["height"], want[i].rows);
+    EXPECT_EQ(msg["encoding"], i == 0 ? "mono8" : "bgr8");
+    EXPECT_EQ(msg["header"]["frame_id"], "front_optical_frame");
+    EXPECT_EQ(msg["data"]["bytes"], want[i].total() * want[i].elemSize());
+    const std::string name = j.at("file").get<std::string>();
+    EXPECT_EQ(name, "hal_cameras_front_image/00000" + std::to_string(i) + ".png");
+    const cv::Mat png = cv::imread((out / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(png.type(), want[i].type()) << name;
+    ASSERT_EQ(png.size(), want[i].size()) << name;
+    EXPECT_EQ(cv::norm(png, want[i], cv::NORM_INF), 0.0) << name;
+  }
+  EXPECT_EQ(json::parse(ls[0])["message"]["header"]["stamp"], json({{"sec", 5}, {"nanosec", 250}}));
+  const auto al = lines(out / "hal_imus_body_imu_attitude.jsonl");
+  ASSERT_EQ(al.size(), 1u);
+  const json v = json::parse(al[0])["message"];
+  EXPECT_DOUBLE_EQ(v["vector"]["x"].get<double>(), 0.1);
+  EXPECT_DOUBLE_EQ(v["vector"]["y"].get<double>(), -0.2);
+  EXPECT_DOUBLE_EQ(v["vector"]["z"].get<double>(), 1.5);
+  EXPECT_EQ(v["header"]["stamp"]["sec"], 7);
+  // CSV: the same frames, the file in a column.
+  const ExportRun c = run(file.string() + " --topic /hal/cameras/front/image --format csv --out " + (dir_ / "csv").string());
+  ASSERT_EQ(c.status, 0) << c.out;
+  const auto cl = lines(dir_ / "csv" / "hal_cameras_front_image.csv");
+  ASSERT_EQ(cl.size(), 3u);
+  EXPECT_NE(cl[0].find(",file"), std::string::npos) << cl[0];
+  EXPECT_NE(cl[2].find("hal_cameras_front_image/000001.png"), std::string::npos) << cl[2];
+}
+
+}  // namespace

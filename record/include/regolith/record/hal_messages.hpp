@@ -50,6 +50,7 @@ hal::ImuSample decode_imu(std::span<const std::uint8_t> cdr);
 
 struct DecodedAttitude {
   TimeNs stamp = 0;
+  std::string frame_id;  ///< as written (the recorder writes "")
   Attitude a;
 };
 DecodedAttitude decode_attitude(std::span<const std::uint8_t> cdr);
