@@ -18,7 +18,7 @@ struct EchoArgs {
   std::string topic;
   std::size_t count = 0;
   double timeout_s = 0.0;
-  int domain = dds::default_domain_id();
+  int domain = -1;  // -1: $ROS_DOMAIN_ID (read when the command runs: a bad value is a usage error), else 0
   std::string ns = "rover1";
   bool best_effort = false;
   bool delay = false;
@@ -39,7 +39,7 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_flag("--delay", a->delay,
                 "add \"received\" (ROS time at receipt) and \"delay_ms\" (received - header.stamp) to each sample");
   cmd->callback([a] {
-    dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
+    dds::Participant participant(dds::ParticipantConfig{dds::resolve_domain_id(a->domain), a->ns});
     if (a->list || a->topic.empty()) {
       std::cout << dds::list_topics(&participant);
       return;

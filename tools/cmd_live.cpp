@@ -22,7 +22,7 @@ extern "C" void on_live_interrupt(int) {
 
 struct LiveArgs {
   std::string listen = "127.0.0.1:8765";
-  int domain = dds::default_domain_id();
+  int domain = -1;  // -1: $ROS_DOMAIN_ID (read when the command runs: a bad value is a usage error), else 0
   std::string ns = "rover1";
   double duration_s = 0.0;
   std::string token_file;
@@ -48,7 +48,7 @@ const bool registered = add_command([](CLI::App& app) {
       throw InputError(std::string("live: ") + e.what());
     }
     opt.web_root = live::default_web_root();  // the built-in page on GET /
-    dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a->domain), a->ns});
+    dds::Participant participant(dds::ParticipantConfig{dds::resolve_domain_id(a->domain), a->ns});
     participant.announce_node(tool_node_name("live"));  // a node with the relay's subscriptions
     std::unique_ptr<live::DdsRelay> relay_ptr;
     try {
@@ -62,7 +62,7 @@ const bool registered = add_command([](CLI::App& app) {
     std::signal(SIGTERM, on_live_interrupt);
     relay.start();
     std::cout << "regolith live: ws://" << opt.address << ":" << relay.server().port() << " ("
-              << relay.server().channels().size() << " channels, domain " << a->domain << ", namespace '" << a->ns
+              << relay.server().channels().size() << " channels, domain " << participant.domain_id() << ", namespace '" << a->ns
               << "'); page http://" << opt.address << ":" << relay.server().port() << "/"
               << (opt.token.empty() ? "" : "?token=<the token>") << "; Ctrl-C stops" << std::endl;
     const auto start = std::chrono::steady_clock::now();

@@ -37,7 +37,7 @@ struct RecordArgs {
   std::string out;
   double duration_s = 0.0;
   std::size_t count = 0;
-  int domain = dds::default_domain_id();
+  int domain = -1;  // -1: $ROS_DOMAIN_ID (read when the command runs: a bad value is a usage error), else 0
   std::string ns = "rover1";
   bool all = false;
   bool zstd = false;
@@ -61,7 +61,7 @@ void run_record(const RecordArgs& a) {
   // Before any reader exists: a publisher that sees our readers may signal us at once.
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
-  dds::Participant participant(dds::ParticipantConfig{static_cast<std::uint32_t>(a.domain), a.ns});
+  dds::Participant participant(dds::ParticipantConfig{dds::resolve_domain_id(a.domain), a.ns});
   dds::DdsRecorderOptions ro;
   ro.topics = wanted;
   ro.compression = a.no_compression ? record::Compression::kNone : record::Compression::kZstd;

@@ -6,6 +6,8 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <cstdlib>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -108,4 +110,60 @@ TEST(DdsProcess, EchoReceivesFromAnotherProcess) {
   EXPECT_EQ(map[0]["layers"][0], "elevation");
   EXPECT_EQ(map[0]["info"]["resolution"], 0.25);
   EXPECT_EQ(map[0]["data"][0]["data"][3], 1.5);
+}
+
+// ROS_AUTOMATIC_DISCOVERY_RANGE, as ROS 2 nodes read it: LOCALHOST still finds the publisher in
+// another process on this machine (the discovery XML merged before CYCLONEDDS_URI is accepted and
+// works); OFF hides it (a domain tag private to the process), so nothing reaches the reader.
+// Each child inherits the environment it is spawned with.
+namespace {
+struct ScopedEnv {
+  ScopedEnv(const char *name, const char *value) : name_(name) {
+    if (const char *v = std::getenv(name)) saved_ = v, had_ = true;
+    setenv(name, value, 1);
+  }
+  ~ScopedEnv() {
+    if (had_) setenv(name_, saved_.c_str(), 1);
+    else unsetenv(name_);
+  }
+  const char *name_;
+  std::string saved_;
+  bool had_ = false;
+};
+}  // namespace
+
+TEST(DdsProcess, LocalhostDiscoveryFindsAnotherProcess) {
+  tst::use_loopback_config();
+  ScopedEnv range("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST");
+  const auto domain = tst::test_domain();
+  const std::string ns = tst::unique_ns();
+  rd::Participant pp({domain, ns});
+  EXPECT_EQ(pp.discovery().range, rd::DiscoveryRange::kLocalhost);
+  Child child({REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "300", "20"});
+  ASSERT_TRUE(child.ok());
+  std::ostringstream out;
+  EXPECT_EQ(rd::echo(pp, "joint_states", {.count = 3, .timeout_ns = 20 * kNsPerSec}, out), 3u) << out.str();
+}
+
+TEST(DdsProcess, DiscoveryOffHidesTheProcess) {
+  tst::use_loopback_config();
+  const auto domain = tst::test_domain();
+  const std::string ns = tst::unique_ns();
+  std::unique_ptr<Child> child;
+  {
+    ScopedEnv range("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF");
+    child = std::make_unique<Child>(std::vector<std::string>{REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "100", "20"});
+  }
+  ASSERT_TRUE(child->ok());
+  rd::Participant pp({domain, ns});
+  // The publisher writes for 2 s; a reader that could discover it gets samples within the first
+  // (the test above: 3 samples well inside its timeout).
+  std::ostringstream out;
+  EXPECT_EQ(rd::echo(pp, "joint_states", {.count = 1, .timeout_ns = 3 * kNsPerSec}, out), 0u) << out.str();
+  // In one process, a second participant on the same domain with another range is refused.
+  const rd::ParticipantConfig other{domain + 1, ns};
+  const rd::DiscoveryOptions local{rd::DiscoveryRange::kLocalhost, {}}, off{rd::DiscoveryRange::kOff, {}};
+  rd::Participant a(other, local);
+  EXPECT_THROW(rd::Participant b(other, off), rd::DdsError);
+  rd::Participant c(other, local);  // the same range joins
 }

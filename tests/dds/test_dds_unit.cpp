@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "dds_test_util.hpp"
+#include "regolith/core/error.hpp"
+#include "regolith/dds/discovery.hpp"
 #include "regolith/dds/json.hpp"
 #include "regolith/dds/naming.hpp"
 #include "regolith/dds/qos.hpp"
@@ -535,13 +537,75 @@ TEST(DdsUnit, DefaultDomainFollowsRosDomainId) {
   const std::string keep = saved ? saved : "";
   setenv("ROS_DOMAIN_ID", "42", 1);
   EXPECT_EQ(rd::default_domain_id(), 42);
-  setenv("ROS_DOMAIN_ID", "not-a-number", 1);
+  setenv("ROS_DOMAIN_ID", "", 1);
   EXPECT_EQ(rd::default_domain_id(), 0);
-  setenv("ROS_DOMAIN_ID", "500", 1);  // outside ROS 2's 0..232
-  EXPECT_EQ(rd::default_domain_id(), 0);
+  // A value ROS 2 refuses is an error naming the variable, not a silent domain 0 beside other runs.
+  for (const char *bad : {"not-a-number", "500", "-1", "4x"}) {
+    setenv("ROS_DOMAIN_ID", bad, 1);
+    try {
+      (void)rd::default_domain_id();
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const regolith::ConfigError &e) {
+      EXPECT_NE(std::string(e.what()).find("ROS_DOMAIN_ID='" + std::string(bad) + "'"), std::string::npos) << e.what();
+    }
+  }
   unsetenv("ROS_DOMAIN_ID");
   EXPECT_EQ(rd::default_domain_id(), 0);
   if (saved) setenv("ROS_DOMAIN_ID", keep.c_str(), 1);
+}
+
+// The ROS 2 discovery variables, read as ROS 2 reads them (Iron's range and static peers,
+// Humble's ROS_LOCALHOST_ONLY), and the Cyclone XML rmw_cyclonedds makes of them.
+TEST(DdsUnit, DiscoveryRangeFromTheRos2Environment) {
+  const char *names[] = {"ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY"};
+  std::vector<std::pair<std::string, std::string>> saved;
+  for (const char *n : names)
+    if (const char *v = std::getenv(n)) saved.emplace_back(n, v);
+  for (const char *n : names) unsetenv(n);
+  using R = rd::DiscoveryRange;
+  EXPECT_EQ(rd::discovery_from_environment(), rd::DiscoveryOptions{});  // SUBNET, no peers
+  setenv("ROS_LOCALHOST_ONLY", "1", 1);
+  EXPECT_EQ(rd::discovery_from_environment().range, R::kLocalhost);
+  setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF", 1);  // the range wins over Humble's variable
+  EXPECT_EQ(rd::discovery_from_environment().range, R::kOff);
+  unsetenv("ROS_LOCALHOST_ONLY");
+  for (auto [text, range] : {std::pair{"SUBNET", R::kSubnet}, {"LOCALHOST", R::kLocalhost}, {"SYSTEM_DEFAULT", R::kSystemDefault}}) {
+    setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", text, 1);
+    EXPECT_EQ(rd::discovery_from_environment().range, range) << text;
+    EXPECT_STREQ(rd::to_string(range), text);
+  }
+  setenv("ROS_STATIC_PEERS", " 192.168.1.7; rover2.local ;;", 1);
+  EXPECT_EQ(rd::discovery_from_environment().static_peers, (std::vector<std::string>{"192.168.1.7", "rover2.local"}));
+  auto refused = [](const char *name, const char *value, const std::string &says) {
+    setenv(name, value, 1);
+    try {
+      (void)rd::discovery_from_environment();
+      ADD_FAILURE() << name << "=" << value << " accepted";
+    } catch (const regolith::ConfigError &e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+    unsetenv(name);
+  };
+  refused("ROS_AUTOMATIC_DISCOVERY_RANGE", "localhost", "ROS_AUTOMATIC_DISCOVERY_RANGE='localhost': must be SUBNET");
+  refused("ROS_LOCALHOST_ONLY", "yes", "ROS_LOCALHOST_ONLY='yes': must be 0 or 1");
+  refused("ROS_STATIC_PEERS", "a;b\"/><x", "ROS_STATIC_PEERS: 'b\"/><x' is not a host name or address");
+  for (const char *n : names) unsetenv(n);
+  for (const auto &[n, v] : saved) setenv(n.c_str(), v.c_str(), 1);
+
+  // The XML, as rmw_cyclonedds writes it for the same variables.
+  EXPECT_EQ(rd::discovery_config({}, 7), "");
+  EXPECT_EQ(rd::discovery_config({R::kSystemDefault, {"10.0.0.2"}}, 7), "");
+  EXPECT_EQ(rd::discovery_config({R::kLocalhost, {}}, 7),
+            "<CycloneDDS><Domain><General><AllowMulticast>false</AllowMulticast></General><Discovery>"
+            "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
+            "<Peers><Peer address=\"localhost\"/></Peers></Discovery></Domain></CycloneDDS>");
+  EXPECT_EQ(rd::discovery_config({R::kSubnet, {"10.0.0.2"}}, 7),
+            "<CycloneDDS><Domain><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+            "<MaxAutoParticipantIndex>32</MaxAutoParticipantIndex><Peers><Peer address=\"10.0.0.2\"/></Peers>"
+            "</Discovery></Domain></CycloneDDS>");
+  EXPECT_EQ(rd::discovery_config({R::kOff, {"10.0.0.2"}}, 4242),
+            "<CycloneDDS><Domain><General><AllowMulticast>false</AllowMulticast></General><Discovery>"
+            "<ParticipantIndex>none</ParticipantIndex><Tag>ros_discovery_off_4242</Tag></Discovery></Domain></CycloneDDS>");
 }
 
 // Header stamps are ROS time: the process clock plus the measured realtime offset.

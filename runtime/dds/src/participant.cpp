@@ -2,6 +2,8 @@
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 
+#include <unistd.h>
+
 #include <cctype>
 #include <cstdlib>
 
@@ -11,14 +13,65 @@
 
 namespace regolith::dds {
 
-int default_domain_id() {
-  const char *env = std::getenv("ROS_DOMAIN_ID");
-  if (env == nullptr || *env == '\0')
-    return 0;
-  char *end = nullptr;
-  const long v = std::strtol(env, &end, 10);
-  return (*end == '\0' && v >= 0 && v <= 232) ? static_cast<int>(v) : 0;
+int default_domain_id() { return domain_id_from_environment(); }
+
+namespace {
+
+// The DDS domains this process configured (discovery other than Cyclone's default), with the
+// participants that use them: the domain is deleted with the last.
+struct ConfiguredDomain {
+  dds_entity_t handle = 0;
+  int users = 0;
+  DiscoveryOptions options;
+};
+std::mutex &domains_mutex() {
+  static std::mutex m;
+  return m;
 }
+std::map<std::uint32_t, ConfiguredDomain> &configured_domains() {
+  static std::map<std::uint32_t, ConfiguredDomain> d;
+  return d;
+}
+
+// True when the participant about to be made holds a reference to a configured domain.
+bool acquire_domain(std::uint32_t id, const DiscoveryOptions &o) {
+  const std::string xml = discovery_config(o, static_cast<long>(::getpid()));
+  std::lock_guard lock(domains_mutex());
+  auto &domains = configured_domains();
+  const auto it = domains.find(id);
+  if (it != domains.end()) {
+    if (!(it->second.options == o))
+      throw DdsError("DDS domain " + std::to_string(id) + " is configured in this process for discovery range " +
+                     to_string(it->second.options.range) + "; a participant with range " + to_string(o.range) +
+                     " cannot join it");
+    ++it->second.users;
+    return true;
+  }
+  if (xml.empty()) return false;  // Cyclone's own configuration (CYCLONEDDS_URI)
+  // rmw_cyclonedds's order: the discovery fragment, then CYCLONEDDS_URI (empty fragments ignored).
+  const char *uri = std::getenv("CYCLONEDDS_URI");
+  const std::string config = xml + "," + (uri != nullptr ? uri : "");
+  const dds_entity_t h = dds_create_domain(id, config.c_str());
+  if (h == DDS_RETCODE_PRECONDITION_NOT_MET)
+    throw DdsError("DDS domain " + std::to_string(id) +
+                   " already exists in this process with Cyclone's default discovery; discovery range " +
+                   to_string(o.range) + " cannot apply to it");
+  check(h, "dds_create_domain(" + std::to_string(id) + ") for discovery range " + std::string(to_string(o.range)) +
+               " (check CYCLONEDDS_URI)");
+  domains[id] = ConfiguredDomain{h, 1, o};
+  return true;
+}
+
+void release_domain(std::uint32_t id) {
+  std::lock_guard lock(domains_mutex());
+  auto &domains = configured_domains();
+  const auto it = domains.find(id);
+  if (it == domains.end() || --it->second.users > 0) return;
+  (void)dds_delete(it->second.handle);
+  domains.erase(it);
+}
+
+}  // namespace
 
 void ParticipantConfig::validate() const {
   if (domain_id > 232)
@@ -27,10 +80,19 @@ void ParticipantConfig::validate() const {
   (void)normalize_namespace(ns);
 }
 
-Participant::Participant(ParticipantConfig cfg) : cfg_(std::move(cfg)) {
+Participant::Participant(ParticipantConfig cfg)
+    : Participant(std::move(cfg), discovery_from_environment()) {}
+
+Participant::Participant(ParticipantConfig cfg, DiscoveryOptions discovery)
+    : cfg_(std::move(cfg)), discovery_(std::move(discovery)) {
   cfg_.validate();
   cfg_.ns = normalize_namespace(cfg_.ns);
+  holds_domain_ = acquire_domain(cfg_.domain_id, discovery_);
   participant_ = dds_create_participant(cfg_.domain_id, nullptr, nullptr);
+  if (participant_ < 0 && holds_domain_) {
+    release_domain(cfg_.domain_id);
+    holds_domain_ = false;
+  }
   check(participant_, "dds_create_participant(domain " +
                           std::to_string(cfg_.domain_id) +
                           ") (check CYCLONEDDS_URI)");
@@ -44,6 +106,7 @@ Participant::~Participant() {
     topics_.clear();
   }
   (void)dds_delete(participant_); // deletes every remaining child entity
+  if (holds_domain_) release_domain(cfg_.domain_id);
 }
 
 dds_entity_t Participant::topic(std::string_view name,

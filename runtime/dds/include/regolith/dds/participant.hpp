@@ -15,6 +15,7 @@
 
 #include <dds/dds.h>
 
+#include "regolith/dds/discovery.hpp"
 #include "regolith/dds/naming.hpp"
 #include "regolith/dds/outbox.hpp"
 #include "regolith/dds/qos.hpp"
@@ -22,9 +23,13 @@
 
 namespace regolith::dds {
 
-/// The ROS 2 convention: the ROS_DOMAIN_ID environment variable when it holds an integer in
-/// 0..232, else 0.
+/// The ROS 2 convention: the ROS_DOMAIN_ID environment variable, 0 when it is unset or empty;
+/// ConfigError naming it when it is not an integer in 0..232 (domain_id_from_environment()).
 int default_domain_id();
+/// `requested` when it is >= 0 (a --domain option given), else default_domain_id().
+inline std::uint32_t resolve_domain_id(int requested) {
+  return static_cast<std::uint32_t>(requested >= 0 ? requested : default_domain_id());
+}
 
 struct ParticipantConfig {
   std::uint32_t domain_id = 0; ///< DDS domain (= ROS_DOMAIN_ID), 0..232
@@ -34,9 +39,15 @@ struct ParticipantConfig {
 
 class Participant {
 public:
-  /// Creates the DDS participant. Throws std::invalid_argument for a bad config
-  /// and DdsError when Cyclone refuses (e.g. a malformed CYCLONEDDS_URI).
+  /// Creates the DDS participant. Throws std::invalid_argument for a bad config, ConfigError for
+  /// a ROS 2 discovery variable ROS 2 would refuse, and DdsError when Cyclone refuses (e.g. a
+  /// malformed CYCLONEDDS_URI). A discovery range other than Cyclone's default (LOCALHOST, OFF,
+  /// static peers) is the configuration of the process's DDS domain, made by the first
+  /// participant on it (rmw_cyclonedds's XML before CYCLONEDDS_URI's) and kept while any lives;
+  /// another participant on that domain asking for another range is a DdsError.
+  /// The discovery range is that of the ROS 2 environment (discovery_from_environment()).
   explicit Participant(ParticipantConfig cfg);
+  Participant(ParticipantConfig cfg, DiscoveryOptions discovery);
   /// Stops the publisher thread (writing what is pending) and deletes every DDS
   /// entity.
   ~Participant();
@@ -45,6 +56,8 @@ public:
 
   dds_entity_t handle() const { return participant_; }
   std::uint32_t domain_id() const { return cfg_.domain_id; }
+  /// The discovery range in effect (given, or from the environment).
+  const DiscoveryOptions &discovery() const { return discovery_; }
   const std::string &ns() const { return cfg_.ns; }
   /// "joint_states" -> "/rover1/joint_states"; "/diagnostics" ->
   /// "/diagnostics".
@@ -134,6 +147,8 @@ private:
   void run();
 
   ParticipantConfig cfg_;
+  DiscoveryOptions discovery_;
+  bool holds_domain_ = false;  // this participant holds a reference to a configured domain
   bool lossless_ = false;
   dds_entity_t participant_ = 0;
   dds_entity_t discovery_writer_ = 0;  // ros_discovery_info (announce_node)
