@@ -187,6 +187,7 @@ std::string replay_deployment(const std::string& file, const std::string& config
 /// The time frame of the HAL recording of `file` (`regolith_hal` / `regolith_hal_end` metadata).
 struct RecordedTimes {
   TimeNs origin = -1, end = -1, ros_offset = 0;
+  bool cut_short = false;  // no end record: `end` is the last readable device sample
 };
 RecordedTimes recorded_times(const std::string& file) {
   RecordedTimes t;
@@ -201,6 +202,15 @@ RecordedTimes recorded_times(const std::string& file) {
     } else {
       t.end = std::max(t.end, h.end_ns);
     }
+  }
+  if (t.origin >= 0 && t.end <= t.origin) {
+    // Cut off before its end record (power loss, full disk): as long as its last readable device
+    // sample.
+    for (const std::filesystem::path& path : record::mcap_recording_files(file)) {
+      record::McapReader reader(path);
+      t.end = std::max(t.end, record::last_hal_stamp(reader));
+    }
+    t.cut_short = t.end > t.origin;
   }
   return t;
 }
@@ -449,8 +459,12 @@ const bool registered = add_command([](CLI::App& app) {
     }
     if (o.duration_s <= 0) {
       if (times.end <= times.origin)
-        throw InputError(*rfile + ": the recording's length is unknown (no regolith_hal_end); give --duration");
+        throw InputError(*rfile + ": the recording's length is unknown (no regolith_hal_end and no readable device "
+                         "sample); give --duration");
       o.duration_s = to_seconds(times.end - times.origin);
+      if (times.cut_short)
+        spdlog::warn("{}: no end record (the recording was cut short): replaying its readable part, {:.3f} s", *rfile,
+                     o.duration_s);
     }
     run(o);
     if (*compare) {

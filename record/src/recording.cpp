@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "regolith/core/error.hpp"
+#include "regolith/record/cdr.hpp"
 #include "regolith/record/hal_messages.hpp"
 #include "regolith/record/hal_recorder.hpp"
 #include "regolith/record/mcap_reader.hpp"
@@ -81,6 +82,20 @@ RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std
   }
   out.deployment = recorded_deployment(reader, file);
   return out;
+}
+
+TimeNs last_hal_stamp(McapReader& reader) {
+  TimeNs last = -1;
+  // Damaged chunks are skipped (for_each_message reports them; the readable ones count).
+  (void)reader.for_each_message([&](const MessageView& m) {
+    if (m.channel.topic.rfind("/hal/", 0) != 0) return;
+    try {
+      CdrReader r(m.data);
+      last = std::max<TimeNs>(last, r.header());
+    } catch (const std::exception&) {  // a message that does not decode says nothing of the time
+    }
+  });
+  return last;
 }
 
 }  // namespace regolith::record

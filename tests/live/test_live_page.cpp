@@ -673,6 +673,13 @@ TEST(LivePage, TheServerReportsItsClientsOnDiagnostics) {
   ASSERT_TRUE(c.ok()) << c.response();
   json found;
   std::ostringstream out;
+  // The report of a second taken before the client was accepted says 0 clients: wait for the first
+  // report that counts it (once a second).
+  const auto counts_the_client = [](const json& s) {
+    for (const json& v : s.value("values", json::array()))
+      if (v.value("key", "") == "accepted") return v.value("value", "") != "0";
+    return false;
+  };
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (found.is_null() && std::chrono::steady_clock::now() < end) {
     out.str("");
@@ -682,7 +689,7 @@ TEST(LivePage, TheServerReportsItsClientsOnDiagnostics) {
       const json j = json::parse(line, nullptr, false);
       if (!j.is_object()) continue;
       for (const json& s : j.value("status", json::array()))
-        if (s.value("name", "") == "live: foxglove server") found = s;
+        if (s.value("name", "") == "live: foxglove server" && counts_the_client(s)) found = s;
     }
   }
   ASSERT_FALSE(found.is_null()) << out.str();

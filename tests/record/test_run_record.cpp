@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "regolith/record/mcap_reader.hpp"
+#include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
 
 namespace fs = std::filesystem;
@@ -588,6 +589,35 @@ TEST_F(RunRecord, ReplayPlaysEveryFileOfASplitRecording) {
   r = run("replay " + c.string() + " --quiet --record " + (dir_ / "d.mcap").string() + " --compare");
   EXPECT_NE(r.out.find("is not part of the recording"), std::string::npos) << r.out;
   EXPECT_EQ(r.status, 0) << r.out;
+}
+
+// A recording cut off before its end record (power loss: the file stops mid-chunk) replays its
+// readable part without --duration: as long as its last readable device sample.
+TEST_F(RunRecord, ACutRecordingReplaysItsReadablePart) {
+  const fs::path cfg = write_config("cut.yaml", "");
+  const fs::path a = dir_ / "whole.mcap", cut = dir_ / "cut.mcap";
+  Result r = run("run --sim-time --duration 3 --quiet --config " + cfg.string() + " --record " + a.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  {
+    std::ifstream in(a, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 100000u);
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  {
+    McapReader reader(cut);
+    const regolith::TimeNs last = regolith::record::last_hal_stamp(reader);
+    EXPECT_GT(last, regolith::kNsPerSec) << "after the simulated clock's start (1 s)";
+    EXPECT_LT(last, 4 * regolith::kNsPerSec) << "before the whole recording's end (4 s)";
+  }
+  r = run("replay " + cut.string() + " --quiet");
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(no end record \(the recording was cut short\): replaying its readable part, ([0-9.]+) s)")))
+      << r.out;
+  const double played = std::stod(m[1].str());
+  EXPECT_GT(played, 0.2);
+  EXPECT_LT(played, 3.0);
 }
 
 TEST_F(RunRecord, ReplayErrorsNameTheFile) {

@@ -24,6 +24,12 @@ class McapReader;
 /// The same from a reader already open on `file` (a tool that also reads its messages opens it once).
 RecordedDeployment recorded_deployment(McapReader& reader, const std::filesystem::path& file);
 
+/// The latest device-sample stamp (process clock of the recording) among the readable HAL
+/// messages of `reader`'s file (`/hal/...` channels; each message starts with a std_msgs/Header);
+/// -1 when it has none. How long a recording lasted that was cut off before its end record
+/// (`regolith_hal_end`) was written: a power loss, a full disk.
+TimeNs last_hal_stamp(McapReader& reader);
+
 struct RecordedFrame {
   std::string device;   ///< camera device id
   std::size_t index = 0;
