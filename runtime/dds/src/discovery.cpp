@@ -44,10 +44,14 @@ int domain_id_from_environment() {
 
 const char* to_string(DiscoveryRange r) {
   switch (r) {
-    case DiscoveryRange::kSubnet: return "SUBNET";
-    case DiscoveryRange::kLocalhost: return "LOCALHOST";
-    case DiscoveryRange::kOff: return "OFF";
-    case DiscoveryRange::kSystemDefault: return "SYSTEM_DEFAULT";
+    case DiscoveryRange::kSubnet:
+      return "SUBNET";
+    case DiscoveryRange::kLocalhost:
+      return "LOCALHOST";
+    case DiscoveryRange::kOff:
+      return "OFF";
+    case DiscoveryRange::kSystemDefault:
+      return "SYSTEM_DEFAULT";
   }
   return "?";
 }
@@ -90,8 +94,8 @@ DiscoveryOptions discovery_from_environment() {
 std::string discovery_config(const DiscoveryOptions& o, long pid) {
   const bool localhost_peer = o.range == DiscoveryRange::kLocalhost;
   const bool no_multicast = o.range == DiscoveryRange::kLocalhost || o.range == DiscoveryRange::kOff;
-  const bool peers = (o.range == DiscoveryRange::kSubnet || o.range == DiscoveryRange::kLocalhost) &&
-                     !o.static_peers.empty();
+  const bool peers =
+      (o.range == DiscoveryRange::kSubnet || o.range == DiscoveryRange::kLocalhost) && !o.static_peers.empty();
   if (!localhost_peer && !no_multicast && !peers) return {};
   std::string x = "<CycloneDDS><Domain>";
   if (no_multicast) x += "<General><AllowMulticast>false</AllowMulticast></General>";
