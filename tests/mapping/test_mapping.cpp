@@ -550,6 +550,44 @@ TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
   EXPECT_THROW(bad.validate(), std::exception);
 }
 
+TEST(WorldMap, AFilledHoleTakesTheLocalGroundNotTheRockBesideIt) {
+  // Flat ground at 0 seen everywhere on a 2 m patch but one cell, which a 0.3 m rock top borders
+  // on one side. Filled (fill_radius_m): the hole takes the local ground (a neighbour average
+  // would take a third of the rock), with a lowered confidence and no relief or hazard of its
+  // own; a hole far from anything seen stays unknown. Off (the default): the hole stays unknown.
+  for (const double fill : {0.0, 0.12}) {
+    WorldMapParams p = small_window(4, 4);
+    p.fill_radius_m = fill;
+    WorldMap map(p, 0, 0);
+    std::vector<cv::Vec3f> pts;
+    for (int a = 1; a <= 19; ++a)  // ahead of the camera's foot (x > 0), inside the window
+      for (int b = -10; b <= 10; ++b) {
+        const float x = 0.1f * static_cast<float>(a), y = 0.1f * static_cast<float>(b);
+        if (a == 10 && b == 0) continue;  // the hole at (1.0, 0)
+        pts.emplace_back(x, y, a == 11 && std::abs(b) <= 1 ? 0.3f : 0.0f);
+      }
+    const int n = static_cast<int>(pts.size());
+    cv::Mat x(1, n, CV_32F), y(1, n, CV_32F), z(1, n, CV_32F), w(1, n, CV_32F, cv::Scalar(1));
+    for (int k = 0; k < n; ++k) x.at<float>(k) = pts[k][0], y.at<float>(k) = pts[k][1], z.at<float>(k) = pts[k][2];
+    ASSERT_EQ(map.fuse_points(x, y, z, w, Pose2{}), n);
+    map.finish();
+    EXPECT_TRUE(std::isnan(layer_at(map, "elevation", -1.5, -1.5))) << fill;
+    EXPECT_NEAR(layer_at(map, "elevation", 1.1, 0.0), 0.3, 1e-6);
+    if (fill == 0.0) {
+      EXPECT_TRUE(std::isnan(layer_at(map, "elevation", 1.0, 0.0)));
+      continue;
+    }
+    const float hole = layer_at(map, "elevation", 1.0, 0.0);
+    ASSERT_TRUE(std::isfinite(hole));
+    EXPECT_LT(std::abs(hole), 0.03f) << "the local ground, not the rock's top";
+    EXPECT_GT(layer_at(map, "confidence", 1.0, 0.0), 0.0f);
+    EXPECT_LE(layer_at(map, "confidence", 1.0, 0.0), 0.5f);
+    EXPECT_TRUE(std::isnan(layer_at(map, "relief", 1.0, 0.0)));
+    EXPECT_TRUE(std::isnan(layer_at(map, "hazard", 1.0, 0.0)));
+    EXPECT_TRUE(std::isfinite(layer_at(map, "hazard", 1.1, 0.0)));  // the rock itself is assessed
+  }
+}
+
 TEST(WorldMap, RecenteringKeepsEveryCellAtItsWorldPositionInAnyDirection) {
   // A distinct height in every cell, then shifts with both signs on both axes (and one larger than
   // the window): each cell still inside keeps its value, every cell that came in is unknown.

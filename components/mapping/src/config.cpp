@@ -94,6 +94,11 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
       "hazard_evidence_scale", mp.map.hazard_evidence_scale,
       {.min = 0.0, .max = 100.0, .min_exclusive = true,
        .doc = "summed sighting scores at which a sighted rock's probability is 1 - 1/e"});
+  mp.map.fill_radius_m = p.get<double>(
+      "map_fill_radius_m", mp.map.fill_radius_m,
+      {.unit = "m", .min = 0.0, .max = 1.0,
+       .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) are interpolated from their "
+              "neighbours, with a lowered confidence and no relief or hazard of their own (0 = off)"});
   mp.wheel.along_fraction =
       p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
                     {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});

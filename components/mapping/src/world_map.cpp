@@ -87,7 +87,7 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   fill(tracks_, kNaNf);
   layers_.resize(kLayers);
   for (auto& m : layers_) m.create(rows_, cols_, CV_32F), fill(m, kNaNf);
-  for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_, &ground_w_}) m->create(rows_, cols_, CV_32F);
+  for (cv::Mat* m : {&scratch_, &scratch2_, &scratch3_, &ground_w_, &fill_w_}) m->create(rows_, cols_, CV_32F);
   mask_.create(rows_, cols_, CV_8U);
   line_.assign(static_cast<std::size_t>(std::max(rows_, cols_)), 0.0);
   line_w_ = line_;
@@ -367,27 +367,33 @@ void WorldMap::finish() {
       const float n = count_.at<float>(i, j);
       cnt.at<float>(i, j) = n > 0 ? n : kNaNf;
     }
-  // Small holes (cells between observed ones, up to ~fill_radius away) are interpolated from
-  // their neighbours (normalised convolution) with a lowered confidence.
+  // Small holes (cells up to ~fill_radius from seen ones: behind a rock, between two looks): how
+  // near they are to seen cells (the smoothed confidence), for the fill below.
   if (p_.fill_radius_m > 0) {
     smooth_known(el, conf, scratch_, 0.5 * p_.fill_radius_m / p_.resolution_m);
     for (int i = 0; i < rows_; ++i)
-      for (int j = 0; j < cols_; ++j) {
-        if (std::isfinite(el.at<float>(i, j))) continue;
-        const float w = scratch3_.at<float>(i, j), z = scratch_.at<float>(i, j);
-        if (!(w > p_.fill_min_weight) || !std::isfinite(z)) continue;
-        el.at<float>(i, j) = z;
-        var.at<float>(i, j) = static_cast<float>(s0 / p_.fill_min_weight);
-        conf.at<float>(i, j) = std::min(0.5f * w, 0.5f);
-      }
+      for (int j = 0; j < cols_; ++j)
+        fill_w_.at<float>(i, j) = std::isfinite(el.at<float>(i, j)) ? 0.0f : scratch3_.at<float>(i, j);
   }
-  traversability::compute_layers(trav_, p_.traversability);
   // Relief above the smoothed local ground, and the hazard it makes: both from the cells seen
   // well enough (hazard_min_weight); a cell seen less has an elevation but no relief.
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j)
       ground_w_.at<float>(i, j) = wsum_.at<double>(i, j) > p_.hazard_min_weight ? conf.at<float>(i, j) : 0.0f;
   smooth_known(el, ground_w_, scratch_, p_.ground_sigma_m / p_.resolution_m);
+  // A hole near seen cells takes the local ground there (not its neighbours' heights: the cells
+  // hidden behind a rock would take the rock's top), with a lowered confidence; no relief or
+  // hazard of its own (its ground weight stays 0).
+  if (p_.fill_radius_m > 0)
+    for (int i = 0; i < rows_; ++i)
+      for (int j = 0; j < cols_; ++j) {
+        const float w = fill_w_.at<float>(i, j), z = scratch_.at<float>(i, j);
+        if (!(w > p_.fill_min_weight) || !std::isfinite(z)) continue;
+        el.at<float>(i, j) = z;
+        var.at<float>(i, j) = static_cast<float>(s0 / p_.fill_min_weight);
+        conf.at<float>(i, j) = std::min(0.5f * w, 0.5f);
+      }
+  traversability::compute_layers(trav_, p_.traversability);
   cv::Mat& relief = layers_[kRelief];
   cv::Mat& hazard = layers_[kHazard];
   cv::Mat& shadow = layers_[kShadow];

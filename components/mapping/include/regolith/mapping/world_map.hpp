@@ -145,6 +145,7 @@ class WorldMap {
   traversability::GridMap trav_;      // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
+  cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)
   std::vector<double> line_, line_w_;
 };
 
