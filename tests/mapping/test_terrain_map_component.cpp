@@ -272,11 +272,22 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
   DriveMapperParams defaults;
   defaults.parallax_spacing_m = 0.15;
   regolith::Params p = regolith::Params::load_string(
-      "track_rocks: false\nrock_min_frames: 5\nrock_merge_m: 0.4\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
+      "track_rocks: false\nrock_merge_m: 0.4\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
   const DriveMapperParams got = regolith::mapping::read_drive_mapper_params(p, defaults);
   p.finish();
   EXPECT_FALSE(got.tracks.enabled);
-  EXPECT_EQ(got.map.rock_min_frames, 5);
+  EXPECT_EQ(got.map.rock_min_frames, 1);  // untracked: every sighting is one frame
+  regolith::Params tracked = regolith::Params::load_string("rock_min_frames: 5\n", "m.yaml");
+  EXPECT_EQ(regolith::mapping::read_drive_mapper_params(tracked).map.rock_min_frames, 5);
+  // Untracked with a minimum above 1 would report no rock at all: refused, located.
+  regolith::Params none = regolith::Params::load_string("track_rocks: false\nrock_min_frames: 3\n", "--set");
+  try {
+    regolith::mapping::read_drive_mapper_params(none);
+    ADD_FAILURE() << "track_rocks false with rock_min_frames 3 accepted";
+  } catch (const regolith::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set:2:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rock_min_frames: must be 1 with track_rocks: false"), std::string::npos) << e.what();
+  }
   EXPECT_DOUBLE_EQ(got.map.rock_merge_m, 0.4);
   EXPECT_EQ(got.sighting_tilt_window, 3);
   EXPECT_DOUBLE_EQ(got.map.resolution_m, 0.02);

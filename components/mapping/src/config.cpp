@@ -24,8 +24,19 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
       "rock_ground_sigma_m", mp.tracks.ground_sigma_m,
       {.unit = "m", .min = 0.0, .max = 1.0, .min_exclusive = true,
        .doc = "std of a rock contact's height about the ground plane under the camera (the triangulation's prior)"});
-  mp.map.rock_min_frames = p.get<int>("rock_min_frames", mp.map.rock_min_frames,
-                                      {.min = 1, .max = 1000, .doc = "frames a tracked rock must be sighted in to be reported"});
+  const bool min_frames_given = p.has("rock_min_frames");
+  mp.map.rock_min_frames = p.get<int>(
+      "rock_min_frames", mp.map.rock_min_frames,
+      {.min = 1, .max = 1000,
+       .doc = "frames a tracked rock must be sighted in to be reported (1 with track_rocks: false, where every sighting is "
+              "a track of one frame)"});
+  if (!mp.tracks.enabled) {
+    // Untracked, no rock is ever seen in more than one frame: a larger minimum reports nothing.
+    if (min_frames_given && mp.map.rock_min_frames > 1)
+      p.fail("rock_min_frames",
+             "must be 1 with track_rocks: false (every sighting is then a track of one frame, so no rock would be reported)");
+    mp.map.rock_min_frames = 1;
+  }
   mp.map.rock_merge_m = p.get<double>(
       "rock_merge_m", mp.map.rock_merge_m,
       {.unit = "m", .min = 0.0, .max = 5.0, .doc = "reported rocks closer than this are one rock (the stronger kept)"});
