@@ -32,6 +32,8 @@
 #include <optional>
 #include <span>
 
+#include "regolith/dds/json.hpp"
+#include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/hal/can.hpp"
 #include "regolith/record/hal_messages.hpp"
@@ -171,9 +173,11 @@ struct ExportChannel {
   enum class Hal { kNone, kImage, kVector3 } hal = Hal::kNone;  // HAL frames (PNG files) and attitudes
 };
 
-json ros_time_json(TimeNs t) {
-  const TimeNs sec = t >= 0 ? t / kNsPerSec : -((-t + kNsPerSec - 1) / kNsPerSec);
-  return {{"sec", sec}, {"nanosec", t - sec * kNsPerSec}};
+// A HAL message's stamp as recorded (process clock), rendered as every builtin_interfaces/Time is.
+json stamp_json(TimeNs t) {
+  msgs::builtin_interfaces::Time m{};
+  dds::set_time(m, t);
+  return dds::to_json(m);
 }
 
 /// A HAL camera frame: its pixels as a lossless PNG `dir`/NNNNNN.png (NNNNNN = `index`), the
@@ -187,7 +191,7 @@ json export_hal_image(std::span<const std::uint8_t> cdr, const fs::path& dir, st
   if (!cv::imwrite((dir / name).string(), d.image)) throw InputError("log export: cannot write " + (dir / name).string());
   file = (dir.filename() / name).string();
   const int channels = d.image.channels();
-  return {{"header", {{"stamp", ros_time_json(d.stamp)}, {"frame_id", d.frame_id}}},
+  return {{"header", {{"stamp", stamp_json(d.stamp)}, {"frame_id", d.frame_id}}},
           {"height", d.image.rows},
           {"width", d.image.cols},
           {"encoding", channels == 1 ? "mono8" : "bgr8"},
@@ -199,7 +203,7 @@ json export_hal_image(std::span<const std::uint8_t> cdr, const fs::path& dir, st
 /// A HAL attitude (or attitude query): geometry_msgs/Vector3Stamped, vector = (roll, pitch, yaw) rad.
 json export_hal_vector3(std::span<const std::uint8_t> cdr) {
   const record::DecodedAttitude d = record::decode_attitude(cdr);
-  return {{"header", {{"stamp", ros_time_json(d.stamp)}, {"frame_id", d.frame_id}}},
+  return {{"header", {{"stamp", stamp_json(d.stamp)}, {"frame_id", d.frame_id}}},
           {"vector", {{"x", d.a.roll_rad}, {"y", d.a.pitch_rad}, {"z", d.a.yaw_rad}}}};
 }
 

@@ -108,8 +108,8 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.map.fill_radius_m = p.get<double>(
       "map_fill_radius_m", mp.map.fill_radius_m,
       {.unit = "m", .min = 0.0, .max = 1.0,
-       .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) are interpolated from their "
-              "neighbours, with a lowered confidence and no relief or hazard of their own (0 = off)"});
+       .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) take the smoothed local "
+              "ground there, with a lowered confidence and no relief or hazard of their own (0 = off)"});
   mp.wheel.along_fraction =
       p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
                     {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});
