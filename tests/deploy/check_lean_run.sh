@@ -4,7 +4,9 @@
 # that runs the tests; otherwise it installs the missing ones as root or through sudo), the `run`
 # preset configures and builds only the `regolith` tool, and the embedded mocked rover runs (on the
 # simulated clock: 5 s of rover time, no wall-clock waiting) and publishes its terrain topics.
-# Prints the time of each step: the README's first-run figure is measured with this script.
+# Prints the time of each step: the README's first-run figure is measured with this script, with
+# CCACHE_DISABLE=1 (the build compiles through ccache when it is installed: in command 2 the lean
+# build takes the objects of the release build made just before, 13 s instead of 3.5 min).
 # Usage: check_lean_run.sh SOURCE_DIR          (exit 77 = skipped: SOURCE_DIR is not a git checkout)
 set -euo pipefail
 src=$(cd "$1" && pwd)
