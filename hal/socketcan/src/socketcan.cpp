@@ -380,6 +380,7 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
       c_->recoveries.fetch_add(1);
       c_->state.store(DeviceState::kStreaming);
     }
+    note_error("error frame: " + e.describe());  // the text first: a reader that sees a count grow finds its reason
     c_->error_frames.fetch_add(1);
     if (e.bus_off) c_->bus_off.fetch_add(1);
     if (e.error_passive) c_->error_passive.fetch_add(1);
@@ -391,7 +392,6 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
     if (e.transceiver) c_->transceiver.fetch_add(1);
     if (e.no_ack) c_->no_ack.fetch_add(1);
     if (e.restarted) c_->restarts.fetch_add(1);
-    note_error("error frame: " + e.describe());
     return;
   }
   const std::uint64_t short_before = decoder_.short_frames();
@@ -409,12 +409,13 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
   } else {
     c_->rejected.fetch_add(1);
     if (decoder_.short_frames() != short_before) {
-      c_->short_frames.fetch_add(1);
+      // The text before the count: whoever sees the count grow then finds its reason in last_error.
       note_error("frame 0x" + [&f] {
         char b[16];
         std::snprintf(b, sizeof b, "%X", f.id);
         return std::string(b);
       }() + " has DLC " + std::to_string(f.len) + ", too short for its signals");
+      c_->short_frames.fetch_add(1);
     } else {
       c_->unexpected.fetch_add(1);
     }
@@ -482,16 +483,16 @@ void SocketCanEncoders::run() {
       if (got < 0) {
         const int e = errno;
         if (e == EAGAIN || e == EWOULDBLOCK || e == EINTR) break;
+        note_error(e == ENETDOWN ? "interface '" + cfg_.interface + "' went down"
+                                 : "receive on '" + cfg_.interface + "': " + errno_text(e));
         c_->faults.fetch_add(1);
         if (e == ENETDOWN) {
           c_->iface_down.fetch_add(1);
           c_->state.store(DeviceState::kFaulted);
           iface_down = true;
-          note_error("interface '" + cfg_.interface + "' went down");
         } else {  // ENODEV (interface removed) or anything else: re-create the socket
           if (e == ENODEV) c_->iface_down.fetch_add(1);
           c_->state.store(DeviceState::kRecovering);
-          note_error("receive on '" + cfg_.interface + "': " + errno_text(e));
           close_socket();
           if (wait_wake(wake_fd_, backoff.next())) return;
         }
@@ -608,8 +609,8 @@ bool SocketCanEncoders::send(const std::uint8_t* data, std::size_t len) {
   if (len > 0) std::memcpy(f.data, data, len);
   const int fd = fd_;
   if (fd < 0 || ::write(fd, &f, sizeof f) != static_cast<ssize_t>(sizeof f)) {
-    c_->tx_errors.fetch_add(1);
     note_error("send on '" + cfg_.interface + "': " + (fd < 0 ? std::string("no socket") : errno_text(errno)));
+    c_->tx_errors.fetch_add(1);
     return false;
   }
   c_->tx_frames.fetch_add(1);
