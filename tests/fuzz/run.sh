@@ -7,18 +7,29 @@
 # Prints executions per second and total executions per target. Targets run concurrently, one per
 # core (REGOLITH_FUZZ_JOBS=N to change).
 #   tests/fuzz/run.sh [SECONDS] [TARGET...]   time-bound, a new random seed each run (long runs)
+#   tests/fuzz/run.sh --runs N [TARGET...]     execution-bound long run (bench/fuzz/long_run.sh):
+#                                              N executions per target, a new random seed, the
+#                                              corpus of earlier runs kept in build/fuzz/corpus
 #   tests/fuzz/run.sh --ci [TARGET...]         what CI runs: seed 1 and a fixed number of executions
 #                                              per target (about 60 s each on a 2-core CI machine),
 #                                              so a CI result is reproducible bit for bit
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ci=0
+runs=0
 if [[ "${1:-}" == "--ci" ]]; then
   ci=1
   shift
+elif [[ "${1:-}" == "--runs" ]]; then
+  if ! [[ "${2:-}" =~ ^[1-9][0-9]*$ ]]; then
+    echo "tests/fuzz/run.sh: --runs needs a positive number of executions per target (got '${2:-}')" >&2
+    exit 2
+  fi
+  runs="$2"
+  shift 2
 fi
 seconds=60
-if ((!ci)) && [[ "${1:-}" =~ ^[0-9]+$ ]]; then
+if ((!ci && !runs)) && [[ "${1:-}" =~ ^[0-9]+$ ]]; then
   seconds="$1"
   shift
 fi
@@ -61,6 +72,8 @@ run_target() {
   if ((ci)); then
     rm -rf "$work" && mkdir -p "$work"  # the same start every time
     budget=(-seed=1 -runs="${ci_runs[$t]}")
+  elif ((runs)); then
+    budget=(-runs="$runs")
   else
     budget=(-max_total_time="$seconds")
   fi
