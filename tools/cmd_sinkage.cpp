@@ -26,8 +26,8 @@
 #include "regolith/sinkage/bench_log.hpp"
 #include "regolith/sinkage/sinkage.hpp"
 
-#if __has_include(<regolith/wheel_scene/wheel_scene.hpp>)
-#include "regolith/wheel_scene/wheel_scene.hpp"
+#if __has_include(<regolith/wheel_scene/sinkage_setup.hpp>)
+#include "regolith/wheel_scene/sinkage_setup.hpp"
 #define REGOLITH_SINKAGE_HAVE_SCENE 1
 #else
 #define REGOLITH_SINKAGE_HAVE_SCENE 0
@@ -269,18 +269,8 @@ void eval_synthetic(const EvalOptions& o, const Algorithm& algo, std::vector<Con
       sk::WheelGeometry g = algo.geometry;
       sk::SinkageParams p = algo.params;
       if (!algo.from_file) {  // the scene's exact geometry and scale
-        const auto& w = sp.wheel;
-        g.hub_center_px = w.hub_center_px;
-        g.leg_count = w.leg_count;
-        g.leg_spacing_rad = w.leg_spacing_rad;
-        g.leg_length_px = w.leg_length_px;
-        g.leg_width_px = w.leg_width_px;
-        g.hub_radius_px = w.hub_radius_px;
-        g.foot_width_px = w.foot_width_px;
-        g.foot_thickness_px = w.foot_thickness_px;
-        g.angle_offset_rad = w.angle_offset_rad;
-        g.rotation_direction = w.rotation_direction;
-        p.mm_per_px = w.mm_per_px;
+        g = wheel_scene::sinkage_geometry(sp.wheel);
+        p = wheel_scene::sinkage_params(sp.wheel, p);
       }
       sk::SinkageEstimator est(g, p, sp.size);
       Condition& c = condition(rows, l.name, li.name);

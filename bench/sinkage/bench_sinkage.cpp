@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "regolith/sinkage/sinkage.hpp"
-#include "regolith/wheel_scene/wheel_scene.hpp"
+#include "regolith/wheel_scene/sinkage_setup.hpp"
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
@@ -42,27 +42,11 @@ const Data& data(bool poor) {
   return cache.emplace(poor, std::move(d)).first->second;
 }
 
-rs::WheelGeometry geometry_of(const ws::WheelModel& w) {
-  rs::WheelGeometry g;
-  g.hub_center_px = w.hub_center_px;
-  g.leg_count = w.leg_count;
-  g.leg_spacing_rad = w.leg_spacing_rad;
-  g.leg_length_px = w.leg_length_px;
-  g.leg_width_px = w.leg_width_px;
-  g.hub_radius_px = w.hub_radius_px;
-  g.foot_width_px = w.foot_width_px;
-  g.foot_thickness_px = w.foot_thickness_px;
-  g.angle_offset_rad = w.angle_offset_rad;
-  g.rotation_direction = w.rotation_direction;
-  return g;
-}
-
 void run(benchmark::State& state, bool masked, bool poor) {
   const Data& d = data(poor);
-  rs::SinkageParams p;
-  p.mm_per_px = d.scene.wheel.mm_per_px;
+  rs::SinkageParams p = ws::sinkage_params(d.scene.wheel);
   p.use_dynamic_mask = masked;
-  rs::SinkageEstimator est(geometry_of(d.scene.wheel), p, d.scene.size);
+  rs::SinkageEstimator est(ws::sinkage_geometry(d.scene.wheel), p, d.scene.size);
   rs::SinkageResult r;
   std::size_t i = 0;
   for (const auto& f : d.frames) est.process(f.bgr, f.truth.encoder_angle_rad, r);  // warm-up

@@ -31,8 +31,8 @@ rs::EvalSummary run_sequence(const Case& c, int frames, std::uint32_t seed,
   const auto seq = ws::make_sequence(gen, spec);
   std::vector<rs::SequenceItem> items;
   for (const auto& f : seq) items.push_back({f.bgr, f.truth.encoder_angle_rad, f.truth.sinkage_mm});
-  rs::SinkageParams p = override_params ? *override_params : rs::testing::params_for(sp.wheel);
-  rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), p, sp.size);
+  rs::SinkageParams p = override_params ? *override_params : ws::sinkage_params(sp.wheel);
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), p, sp.size);
   return rs::evaluate_sequence(est, items);
 }
 
@@ -71,7 +71,7 @@ TEST(SinkageKnownDepth, ZeroPartialDeepBothLights) {
     ws::SceneParams sp;
     sp.light = poor ? ws::Illumination::poor() : ws::Illumination::normal();
     ws::WheelSceneGenerator gen(sp);
-    rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel),
+    rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel),
                              sp.size);
     for (double depth : {0.0, 12.0, 45.0}) {
       for (double angle_deg : {0.0, 11.0, 25.0, 33.0}) {
@@ -102,7 +102,7 @@ TEST(SinkageKnownDepth, ZeroPartialDeepBothLights) {
 TEST(SinkageKnownDepth, TiltedLegUsesVerticalDepth) {
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
-  rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel),
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel),
                            sp.size);
   const double angle = 30.0 * kDeg;  // legs at 30 and -42 deg: only leg 0 is in the window
   cv::Mat img;
@@ -122,11 +122,11 @@ TEST(SinkageKnownDepth, TiltedLegUsesVerticalDepth) {
 TEST(SinkageKnownDepth, FullFrameVariantAgrees) {
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
-  rs::SinkageParams pm = rs::testing::params_for(sp.wheel);
+  rs::SinkageParams pm = ws::sinkage_params(sp.wheel);
   rs::SinkageParams pf = pm;
   pf.use_dynamic_mask = false;
-  rs::SinkageEstimator masked(rs::testing::geometry_of(sp.wheel), pm, sp.size);
-  rs::SinkageEstimator full(rs::testing::geometry_of(sp.wheel), pf, sp.size);
+  rs::SinkageEstimator masked(ws::sinkage_geometry(sp.wheel), pm, sp.size);
+  rs::SinkageEstimator full(ws::sinkage_geometry(sp.wheel), pf, sp.size);
   for (double a : {0.05, 0.3, 0.55}) {
     cv::Mat img;
     const ws::FrameTruth t = gen.render_with_sinkage(a, 25.0, img);
@@ -157,7 +157,7 @@ TEST(SinkageMisalignment, ErrorGrowthUpToMaskTolerance) {
 // Without the axis refit, the same misalignment costs accuracy: shows what the refit buys.
 TEST(SinkageMisalignment, AxisRefitReducesError) {
   ws::SceneParams sp;
-  rs::SinkageParams no_refit = rs::testing::params_for(sp.wheel);
+  rs::SinkageParams no_refit = ws::sinkage_params(sp.wheel);
   no_refit.refine_leg_angle = false;
   const rs::EvalSummary with = run_sequence({false, 4}, 24, 7);
   const rs::EvalSummary without = run_sequence({false, 4}, 24, 7, &no_refit);
@@ -173,20 +173,20 @@ TEST(SinkageFilter, MedianAndEma) {
   cv::Mat a, b;
   gen.render_with_sinkage(0.0, 20.0, a);
   gen.render_with_sinkage(0.0, 40.0, b);
-  rs::SinkageParams pm = rs::testing::params_for(sp.wheel);
+  rs::SinkageParams pm = ws::sinkage_params(sp.wheel);
   pm.filter = rs::TemporalFilter::kMedian;
   pm.median_window = 5;
-  rs::SinkageEstimator med(rs::testing::geometry_of(sp.wheel), pm, sp.size);
+  rs::SinkageEstimator med(ws::sinkage_geometry(sp.wheel), pm, sp.size);
   rs::SinkageResult r;
   for (int i = 0; i < 4; ++i) med.process(a, 0.0, r);
   med.process(b, 0.0, r);
   EXPECT_NEAR(r.raw_sinkage_mm, 40.0, 1.5);
   EXPECT_NEAR(r.sinkage_mm, 20.0, 1.5);
 
-  rs::SinkageParams pe = rs::testing::params_for(sp.wheel);
+  rs::SinkageParams pe = ws::sinkage_params(sp.wheel);
   pe.filter = rs::TemporalFilter::kEma;
   pe.ema_alpha = 0.5;
-  rs::SinkageEstimator ema(rs::testing::geometry_of(sp.wheel), pe, sp.size);
+  rs::SinkageEstimator ema(ws::sinkage_geometry(sp.wheel), pe, sp.size);
   ema.process(a, 0.0, r);
   EXPECT_NEAR(r.sinkage_mm, 20.0, 1.5);
   ema.process(b, 0.0, r);

@@ -50,7 +50,7 @@ TEST(SinkageCalibration, RecoversKnownGeometry) {
                 1.0 * kDeg);
 
     // the calibrated geometry measures sinkage as well as the true one
-    rs::SinkageEstimator est(g, rs::testing::params_for(sp.wheel), sp.size);
+    rs::SinkageEstimator est(g, ws::sinkage_params(sp.wheel), sp.size);
     for (double depth : {10.0, 35.0}) {
       cv::Mat f;
       const double a = s.angle + 0.2;

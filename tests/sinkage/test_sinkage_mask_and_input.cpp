@@ -32,8 +32,8 @@ std::uint8_t mask_at(const rs::SinkageEstimator& e, double x, double y) {
 // Mask with no sweep and no margin equals the hand-computed leg polygon (shaft + foot).
 TEST(SinkageMask, MatchesHandComputedLegPolygon) {
   ws::SceneParams sp;
-  rs::WheelGeometry g = rs::testing::geometry_of(sp.wheel);  // hub (320,110), L 300, w 28, foot 48x10
-  rs::SinkageParams p = rs::testing::params_for(sp.wheel);
+  rs::WheelGeometry g = ws::sinkage_geometry(sp.wheel);  // hub (320,110), L 300, w 28, foot 48x10
+  rs::SinkageParams p = ws::sinkage_params(sp.wheel);
   p.angle_tolerance_rad = 0.0;
   p.mask_margin_px = 0.0;
   rs::SinkageEstimator est(g, p, sp.size);
@@ -62,8 +62,8 @@ TEST(SinkageMask, MatchesHandComputedLegPolygon) {
 // With the misalignment sweep, the mask covers the leg rotated by +-tolerance and nothing beyond.
 TEST(SinkageMask, SweepCoversToleranceOnly) {
   ws::SceneParams sp;
-  rs::WheelGeometry g = rs::testing::geometry_of(sp.wheel);
-  rs::SinkageParams p = rs::testing::params_for(sp.wheel);
+  rs::WheelGeometry g = ws::sinkage_geometry(sp.wheel);
+  rs::SinkageParams p = ws::sinkage_params(sp.wheel);
   p.angle_tolerance_rad = 6.0 * kDeg;
   p.mask_margin_px = 4.0;
   rs::SinkageEstimator est(g, p, sp.size);
@@ -83,8 +83,8 @@ TEST(SinkageMask, SweepCoversToleranceOnly) {
 // The mask only covers legs that can touch the soil (within the contact window).
 TEST(SinkageMask, OnlyContactWindowLegs) {
   ws::SceneParams sp;
-  rs::WheelGeometry g = rs::testing::geometry_of(sp.wheel);
-  rs::SinkageParams p = rs::testing::params_for(sp.wheel);
+  rs::WheelGeometry g = ws::sinkage_geometry(sp.wheel);
+  rs::SinkageParams p = ws::sinkage_params(sp.wheel);
   rs::SinkageEstimator est(g, p, sp.size);
   cv::Mat img(sp.size, CV_8UC3, cv::Scalar(110, 150, 185));
   for (double enc_deg : {0.0, 17.0, 36.0, -30.0}) {
@@ -188,7 +188,7 @@ TEST(SinkageBadInput, ImageErrorsAreClear) {
 TEST(SinkageBadInput, NanAngleGivesInvalidResult) {
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
-  rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel), sp.size);
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
   cv::Mat img;
   gen.render_with_sinkage(0.2, 20.0, img);
   rs::SinkageResult r;
@@ -212,7 +212,7 @@ TEST(SinkageBadInput, NoVisibleLegAndWrongColour) {
   ws::WheelSceneGenerator gen(sp);
   for (bool poor : {false, true}) {
     gen.set_illumination(poor ? ws::Illumination::poor() : ws::Illumination::normal());
-    rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel), sp.size);
+    rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
     cv::Mat img;
     gen.render_at_soil_level(0.1, -10.0, img);  // soil covers the whole image
     rs::SinkageResult r;
@@ -222,12 +222,12 @@ TEST(SinkageBadInput, NoVisibleLegAndWrongColour) {
     EXPECT_EQ(r.reason, rs::InvalidReason::kNoLegPixels) << rs::to_string(r.reason);
     EXPECT_EQ(est.diagnostics().frame_reasons[static_cast<std::size_t>(rs::InvalidReason::kNoLegPixels)], 1U);
   }
-  rs::SinkageParams green = rs::testing::params_for(sp.wheel);
+  rs::SinkageParams green = ws::sinkage_params(sp.wheel);
   green.mode = rs::SegmentationMode::kHsv;
   green.hue_min_deg = 90;
   green.hue_max_deg = 150;
   gen.set_illumination(ws::Illumination::normal());
-  rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), green, sp.size);
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), green, sp.size);
   cv::Mat img;
   gen.render_with_sinkage(0.1, 20.0, img);
   rs::SinkageResult r;
@@ -243,9 +243,9 @@ TEST(SinkageBadInput, GeometryOutsideImageAndWrongEncoder) {
   ws::WheelSceneGenerator gen(sp);
   cv::Mat img;
   gen.render_with_sinkage(0.0, 20.0, img);
-  rs::WheelGeometry far = rs::testing::geometry_of(sp.wheel);
+  rs::WheelGeometry far = ws::sinkage_geometry(sp.wheel);
   far.hub_center_px = {-3000.0, -3000.0};
-  rs::SinkageEstimator est(far, rs::testing::params_for(sp.wheel), sp.size);
+  rs::SinkageEstimator est(far, ws::sinkage_params(sp.wheel), sp.size);
   rs::SinkageResult r;
   est.process(img, 0.0, r);
   EXPECT_FALSE(r.valid);
@@ -254,7 +254,7 @@ TEST(SinkageBadInput, GeometryOutsideImageAndWrongEncoder) {
   EXPECT_EQ(est.diagnostics().frame_reasons[static_cast<std::size_t>(rs::InvalidReason::kOutsideImage)], 1U);
 
   // encoder 36 deg away from the true legs: the masks fall between legs
-  rs::SinkageEstimator est2(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel), sp.size);
+  rs::SinkageEstimator est2(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
   est2.process(img, 36.0 * kDeg, r);
   EXPECT_FALSE(r.valid);
   EXPECT_EQ(r.confidence, 0.0);
@@ -264,7 +264,7 @@ TEST(SinkageBadInput, GeometryOutsideImageAndWrongEncoder) {
 TEST(SinkageOverlay, DrawsDistinctColours) {
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
-  rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), rs::testing::params_for(sp.wheel), sp.size);
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
   cv::Mat img, out;
   gen.render_with_sinkage(0.0, 30.0, img);
   rs::SinkageResult r;

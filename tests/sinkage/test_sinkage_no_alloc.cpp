@@ -37,10 +37,10 @@ TEST(SinkageNoAlloc, ProcessDoesNotAllocate) {
     const auto seq = ws::make_sequence(gen, spec);
     for (auto filter : {rs::TemporalFilter::kNone, rs::TemporalFilter::kMedian, rs::TemporalFilter::kEma}) {
       for (bool masked : {true, false}) {
-        rs::SinkageParams p = rs::testing::params_for(sp.wheel);
+        rs::SinkageParams p = ws::sinkage_params(sp.wheel);
         p.filter = filter;
         p.use_dynamic_mask = masked;
-        rs::SinkageEstimator est(rs::testing::geometry_of(sp.wheel), p, sp.size);
+        rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), p, sp.size);
         EXPECT_EQ(allocations_during(est, seq), 0)
             << "poor=" << poor << " filter=" << static_cast<int>(filter) << " masked=" << masked;
       }
