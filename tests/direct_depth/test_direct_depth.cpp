@@ -49,6 +49,34 @@ TEST(DirectDepth, CanonicalFormulas) {
   EXPECT_GT(dd.ground(0, 200).lateral_m, 0.0);
 }
 
+TEST(DirectDepth, WithoutMapsTheClosedFormQueriesAreTheSame) {
+  CameraModel m = model(0.4);
+  m.roll_rad = 0.05;
+  m.k1 = -0.1;
+  const DirectDepth full(m), rays(m, DirectDepth::Maps::kNone);
+  EXPECT_TRUE(rays.range_map().empty());
+  EXPECT_TRUE(rays.valid_map().empty());
+  EXPECT_TRUE(rays.footprint_range_map().empty());
+  EXPECT_EQ(full.range_map().size(), cv::Size(320, 240));
+  for (double r : {0.0, 100.5, 239.0})
+    for (double c : {0.0, 160.25, 319.0}) {
+      const auto a = full.ground(c, r), b = rays.ground(c, r);
+      ASSERT_EQ(a.valid, b.valid) << c << " " << r;
+      if (a.valid) {
+        EXPECT_EQ(a.range_m, b.range_m);
+        EXPECT_EQ(a.lateral_m, b.lateral_m);
+        const auto pa = full.project(a.range_m, a.lateral_m), pb = rays.project(a.range_m, a.lateral_m);
+        ASSERT_TRUE(pa && pb);
+        EXPECT_EQ(pa->x, pb->x);
+        EXPECT_EQ(pa->y, pb->y);
+      }
+    }
+  EXPECT_EQ(full.horizon_row(), rays.horizon_row());
+  // Validation is the same too.
+  m.fx = 0;
+  EXPECT_THROW(DirectDepth(m, DirectDepth::Maps::kNone), std::invalid_argument);
+}
+
 TEST(DirectDepth, HorizonValidity) {
   const CameraModel m = model(0.05);
   const DirectDepth dd(m);

@@ -74,6 +74,34 @@ TEST(SoilScene, BadFieldsAreNamed) {
   k.erase("wheel_width_b_m");
   expect_error(k.dump(), "wheel_width_b_m: missing");
   expect_error("{not json", "not valid JSON");
+  k = j;
+  k["camera"]["width"] = 20000;
+  expect_error(k.dump(), "camera.width: must be a whole number of pixels, 1..16384");
+  k = j;
+  k["camera"]["fx"] = 0;
+  expect_error(k.dump(), "camera: ");
+}
+
+TEST(SoilScene, ALargeDeclaredCameraIsReadWithoutPerPixelMaps) {
+  // Reading checks the view with a few closed-form rays: the declared camera's per-pixel maps
+  // (~8 GB for 16384 x 12288; tests/fuzz timed out at 14 s on 9882 x 778 under ASan) are made
+  // only by the analysis of an image of that size.
+  const regolith::testing::TempDir d_dir("soil_scene_large");
+  const fs::path d = d_dir.path();
+  nlohmann::json k = nlohmann::json::parse(kScene);
+  k["camera"]["width"] = 16384;  // the 640 x 480 camera, 25.6 times finer
+  k["camera"]["height"] = 12288;
+  k["camera"]["cx"] = 8191.5;
+  k["camera"]["cy"] = 6143.5;
+  k["camera"]["fx"] = k["camera"]["fy"] = 637.5 * 25.6;
+  std::ofstream(d / "input.json") << k.dump();
+  const soil::SoilSetup c = soil::read_soil_scene(d / "input.json");
+  EXPECT_EQ(c.camera.width, 16384);
+  EXPECT_EQ(c.camera.height, 12288);
+  // The same view as the 640 x 480 scene scaled up: the same region of interest.
+  std::ofstream(d / "small.json") << kScene;
+  const soil::SoilSetup s = soil::read_soil_scene(d / "small.json");
+  EXPECT_NEAR(c.analysis.range_min_m, s.analysis.range_min_m, 0.01);
 }
 
 TEST(SoilScene, DevelopmentSceneGivesKAndProfilesInTheScenesKeys) {

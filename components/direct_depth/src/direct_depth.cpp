@@ -48,12 +48,13 @@ void CameraModel::validate() const {
     fail("roll_rad", "must be in (-pi/2, pi/2)");
 }
 
-DirectDepth::DirectDepth(const CameraModel& model) : model_(model) {
+DirectDepth::DirectDepth(const CameraModel& model, Maps maps) : model_(model) {
   model_.validate();
   const cv::Matx33d b0(0, 0, 1, -1, 0, 0, 0, -1, 0);  // optical -> body without pitch/roll
   const double ca = std::cos(model_.pitch_rad), sa = std::sin(model_.pitch_rad);
   const cv::Matx33d pitch(ca, 0, sa, 0, 1, 0, -sa, 0, ca);  // nose down for alpha > 0
   r_body_from_optical_ = pitch * b0 * rot_z(model_.roll_rad);
+  if (maps == Maps::kNone) return;
 
   const int W = model_.width, H = model_.height;
   std::vector<cv::Point2f> px;

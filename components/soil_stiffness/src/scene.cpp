@@ -49,11 +49,12 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   SoilSetup cfg;
   CameraModel& c = cfg.camera;
-  // Image sizes: whole pixels in int range before the cast (a huge value is an error, not UB).
+  // Image sizes: whole pixels within the cameras' bound everywhere (rover description, V4L2,
+  // libcamera, direct depth), checked before the cast (a huge value is an error, not UB).
   const auto pixels = [&](const char* path) {
     const double v = scene_number(j, file, path);
-    if (!(v >= 1.0 && v <= 65535.0) || v != std::floor(v))
-      throw InputError(file.string() + ": " + path + ": must be a whole number of pixels, 1..65535");
+    if (!(v >= 1.0 && v <= 16384.0) || v != std::floor(v))
+      throw InputError(file.string() + ": " + path + ": must be a whole number of pixels, 1..16384");
     return static_cast<int>(v);
   };
   c.width = pixels("camera.width");
@@ -108,7 +109,15 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
     throw InputError(file.string() + ": " + e.what());
   }
   // Region of interest: the ground the image sees (bottom row to a far limit), the ruts with margin.
-  const direct_depth::DirectDepth dd(c);
+  // Closed-form rays only: the per-pixel maps of the declared camera are the analysis' business,
+  // once an image of that size exists (tests/fuzz found 14 s for a 9882 x 778 camera here).
+  const direct_depth::DirectDepth dd = [&] {
+    try {
+      return direct_depth::DirectDepth(c, direct_depth::DirectDepth::Maps::kNone);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(file.string() + ": camera: " + e.what());
+    }
+  }();
   const auto near = dd.ground(c.cx, c.height - 1.0), far = dd.ground(c.cx, 0.0);
   if (!near.valid) throw InputError(file.string() + ": camera: the bottom image row does not see the ground (pitch_deg too small?)");
   cfg.analysis.range_min_m = near.range_m + 0.05;

@@ -46,9 +46,14 @@ struct ObjectSize {
 
 class DirectDepth {
  public:
+  /// Whether the per-pixel maps are made: kNone for closed-form queries only (ground, project,
+  /// object_size, ...), e.g. a reader checking a configuration, where a 16384 x 16384 camera's
+  /// maps would be ~10 GB; the map accessors then return empty matrices.
+  enum class Maps { kPrecompute, kNone };
+
   /// Validates the model and precomputes range / lateral / valid maps for the whole image
   /// (the only allocation; per-pixel queries afterwards are lookups or closed-form).
-  explicit DirectDepth(const CameraModel& model);
+  explicit DirectDepth(const CameraModel& model, Maps maps = Maps::kPrecompute);
 
   const CameraModel& model() const { return model_; }
 
@@ -59,7 +64,8 @@ class DirectDepth {
   /// Angle of the optical ray through row r (column cx) below the horizon: alpha + beta (rad).
   double depression(double r) const;
 
-  /// Precomputed maps (CV_32F, NaN where invalid; CV_8U 255 = valid). Size = model width x height.
+  /// Precomputed maps (CV_32F, NaN where invalid; CV_8U 255 = valid). Size = model width x height
+  /// (empty when constructed with Maps::kNone, as are the footprint maps).
   const cv::Mat& range_map() const { return range_; }
   const cv::Mat& lateral_map() const { return lateral_; }
   const cv::Mat& valid_map() const { return valid_; }
