@@ -912,6 +912,46 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("frames.csv:3: odom_y_m: not a number ('abc')"), std::string::npos) << e.what();
   }
+  // Image sizes are whole pixels within 1..16384, checked before any cast.
+  for (const char* w : {"1e30", "320.5", "0"}) {
+    std::ofstream(d / "input.json") << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": )" << w
+                                    << R"(, "height": 240, "mount_height_m": 0.6, "pitch_deg": 30}, "sun": {"azimuth_deg": 100, "elevation_deg": 40}})";
+    try {
+      read_drive(d);
+      ADD_FAILURE() << w;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("input.json: camera.width: must be a whole number of pixels, 1..16384"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+TEST(RecordedDrive, ADescriptionOfAnotherCameraIsRefusedBeforeAnythingIsSized) {
+  // 320 x 240 frames described as a 16384 x 12288 camera: the mapper's tables would follow the
+  // description (gigabytes); the first frame that reads shows the mismatch first.
+  const regolith::testing::TempDir d_dir("mapping_other_camera");
+  const fs::path d = d_dir.path();
+  Rig rig(6);
+  fs::create_directories(d / "frames");
+  std::ofstream(d / "input.json") << R"({"camera": {"fx": 11264, "fy": 11264, "cx": 8191.5, "cy": 6143.5, "width": 16384,
+    "height": 12288, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
+  std::ofstream csv(d / "frames.csv");
+  csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/missing.png,0,0,0,1.5707963\n";
+  for (int k = 1; k < 3; ++k) {
+    const std::string f = "frames/" + std::to_string(k) + ".png";
+    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
+    csv << k << "," << f << "," << k << ",0," << 0.06 * k << ",1.5707963\n";
+  }
+  csv.close();
+  try {
+    map_drive(read_drive(d), DriveMapperParams{}, d / "out");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("input.json: camera is 16384x12288 px, but frame 1 ("), std::string::npos) << w;
+    EXPECT_NE(w.find("1.png) is 320x240"), std::string::npos) << w;
+  }
+  EXPECT_FALSE(fs::exists(d / "out"));
 }
 
 TEST(RecordedDrive, ADescriptionWrittenIsReadBackFieldForField) {

@@ -87,8 +87,16 @@ RecordedDrive read_drive(const fs::path& dir) {
   c.fy = number(j, input, "camera", "fy");
   c.cx = number(j, input, "camera", "cx");
   c.cy = number(j, input, "camera", "cy");
-  c.width = static_cast<int>(number(j, input, "camera", "width"));
-  c.height = static_cast<int>(number(j, input, "camera", "height"));
+  // Image sizes: whole pixels within the cameras' bound, checked before the cast (a huge value is
+  // an error, not undefined behaviour).
+  const auto pixels = [&](const char* key) {
+    const double v = number(j, input, "camera", key);
+    if (!(v >= 1.0 && v <= 16384.0) || v != std::floor(v))
+      throw InputError(input.string() + ": camera." + key + ": must be a whole number of pixels, 1..16384");
+    return static_cast<int>(v);
+  };
+  c.width = pixels("width");
+  c.height = pixels("height");
   c.mount_height_m = number(j, input, "camera", "mount_height_m");
   c.pitch_rad = number(j, input, "camera", "pitch_deg") * kDeg;
   c.roll_rad = number(j, input, "camera", "roll_deg", false) * kDeg;
@@ -162,6 +170,20 @@ void write_drive_description(const RecordedDrive& d, const fs::path& file) {
 DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& params, const fs::path& out,
                           const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
   DriveMapSummary sum;
+  // The description must be the frames' camera before anything is sized by it: the mapper's
+  // per-pixel tables follow the declared size (a 16384 x 12288 camera over 320 x 240 frames asked
+  // for gigabytes and ended in an OpenCV out-of-memory error). The first frame that reads decides;
+  // a later frame of another size is skipped below.
+  for (const DriveFrame& fr : drive.frames) {
+    const cv::Mat first = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    if (first.empty()) continue;
+    if (first.cols != drive.camera.width || first.rows != drive.camera.height)
+      throw InputError((drive.dir / "input.json").string() + ": camera is " + std::to_string(drive.camera.width) + "x" +
+                       std::to_string(drive.camera.height) + " px, but frame " + std::to_string(fr.index) + " (" +
+                       fr.file.string() + ") is " + std::to_string(first.cols) + "x" + std::to_string(first.rows) +
+                       ": the description is not this drive's camera");
+    break;
+  }
   fs::create_directories(out);
   // The window covers the wheel path plus the camera's reach (wheel drift is small against it).
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
