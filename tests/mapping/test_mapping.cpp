@@ -926,6 +926,34 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   }
 }
 
+TEST(RecordedDrive, ACorruptedOdometryLineNeitherSizesTheWindowNorMovesThePose) {
+  // One frames.csv line 1e6 m off: the mapper ignores the jump out and back (counted twice), and
+  // the map window is sized by the path it dead-reckons, not by that line (it asked for 4e7
+  // cells per side: an error naming map_resolution_m, which nobody had set).
+  const regolith::testing::TempDir d_dir("mapping_spike");
+  const fs::path d = d_dir.path();
+  Rig rig(6);
+  fs::create_directories(d / "frames");
+  std::ofstream(d / "input.json") << R"({"camera": {"fx": 220, "fy": 220, "cx": 159.5, "cy": 119.5, "width": 320,
+    "height": 240, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
+  std::ofstream csv(d / "frames.csv");
+  csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
+  for (int k = 0; k < 6; ++k) {
+    const std::string f = "frames/" + std::to_string(k) + ".png";
+    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
+    csv << k << "," << f << "," << k << "," << (k == 3 ? 1e6 : 0.0) << "," << 0.06 * k << ",1.5707963\n";
+  }
+  csv.close();
+  const DriveMapSummary s = map_drive(read_drive(d), DriveMapperParams{}, d / "out");
+  EXPECT_EQ(s.counters.frames, 6);
+  EXPECT_EQ(s.counters.odometry_jumps, 2);
+  const nlohmann::json mj = nlohmann::json::parse(std::ifstream(d / "out" / "map.json"));
+  EXPECT_LT(mj["width"].get<int>() * mj["resolution_m"].get<double>(), 30.0) << mj.dump();
+  // The corrected last pose stays on the 0.3 m path.
+  EXPECT_NEAR(s.reports.back().pose.y, 0.30, 0.05);
+  EXPECT_NEAR(s.reports.back().pose.x, 0.0, 0.05);
+}
+
 TEST(RecordedDrive, ADescriptionOfAnotherCameraIsRefusedBeforeAnythingIsSized) {
   // 320 x 240 frames described as a 16384 x 12288 camera: the mapper's tables would follow the
   // description (gigabytes); the first frame that reads shows the mismatch first.

@@ -185,13 +185,28 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
     break;
   }
   fs::create_directories(out);
-  // The window covers the wheel path plus the camera's reach (wheel drift is small against it).
+  // The window covers the wheel path plus the camera's reach (wheel drift is small against it):
+  // the path the mapper will dead-reckon, its odometry jumps left out as it leaves them out (one
+  // corrupted line of 1e6 m asked for a window of 4e7 cells per side).
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
-  for (const auto& fr : drive.frames)
-    if (fr.odometry.finite()) {
-      xmin = std::min(xmin, fr.odometry.x), xmax = std::max(xmax, fr.odometry.x);
-      ymin = std::min(ymin, fr.odometry.y), ymax = std::max(ymax, fr.odometry.y);
+  {
+    bool started = false;
+    Pose2 pose, last;
+    double last_t = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& fr : drive.frames) {
+      if (!started) {
+        pose = last = fr.odometry.finite() ? fr.odometry : Pose2{};
+        started = true;
+      } else if (fr.odometry.finite()) {
+        const Pose2 step = between(last, fr.odometry);
+        if (params.wheel.plausible(step, fr.t_s - last_t)) pose = compose(pose, step);
+        last = fr.odometry;
+      }
+      last_t = fr.t_s;
+      xmin = std::min(xmin, pose.x), xmax = std::max(xmax, pose.x);
+      ymin = std::min(ymin, pose.y), ymax = std::max(ymax, pose.y);
     }
+  }
   if (xmin > xmax) xmin = xmax = ymin = ymax = 0.0;
   DriveMapperParams p = params;
   const double reach = p.map.max_range_m + 1.5;

@@ -54,6 +54,13 @@ Cov3 WheelNoise::covariance(const Pose2& step) const {
   return q;
 }
 
+bool WheelNoise::plausible(const Pose2& step, double dt_s) const {
+  const bool timed = std::isfinite(dt_s) && dt_s > 0;
+  const double max_m = timed ? std::max(max_step_m, max_speed_mps * dt_s) : max_step_m;
+  const double max_rad = timed ? std::max(max_step_rad, max_yaw_rate_rps * dt_s) : max_step_rad;
+  return step.finite() && std::hypot(step.x, step.y) <= max_m && std::abs(step.yaw) <= max_rad;
+}
+
 void DriveMapperParams::validate() const {
   vo.validate();
   wheel.validate();
@@ -162,11 +169,7 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
     // Wheel step in the body frame; an implausible one is ignored (and counted).
     Pose2 step = wheel.finite() ? between(last_wheel_, wheel) : Pose2{};
     Cov3 q;
-    const double dt = t_s - prev_t;
-    const double max_m = std::isfinite(dt) && dt > 0 ? std::max(p_.wheel.max_step_m, p_.wheel.max_speed_mps * dt) : p_.wheel.max_step_m;
-    const double max_rad =
-        std::isfinite(dt) && dt > 0 ? std::max(p_.wheel.max_step_rad, p_.wheel.max_yaw_rate_rps * dt) : p_.wheel.max_step_rad;
-    if (!wheel.finite() || std::hypot(step.x, step.y) > max_m || std::abs(step.yaw) > max_rad) {
+    if (!wheel.finite() || !p_.wheel.plausible(step, t_s - prev_t)) {
       report_.odometry_jump = true;
       ++counters_.odometry_jumps;
       step = Pose2{};

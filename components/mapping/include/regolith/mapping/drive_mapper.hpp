@@ -41,6 +41,9 @@ struct WheelNoise {
   double max_yaw_rate_rps = 0.3;   ///< rad/s
   void validate() const;           ///< FieldError("mapping.wheel", ...)
   Cov3 covariance(const Pose2& step) const;
+  /// False for an odometry jump: a non-finite step, or one longer or turning more than the limits
+  /// above allow in `dt_s` (NaN or <= 0: no time, the per-step limits alone).
+  bool plausible(const Pose2& step, double dt_s) const;
 };
 
 /// Parallax heights: the plane sweep in the image (accurate near), the search in the
