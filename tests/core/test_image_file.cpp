@@ -62,3 +62,67 @@ TEST(ImageFile, TruncatedJpegAndPngAreRefusedWithTheReason) {
   EXPECT_TRUE(regolith::read_image_file("/nonexistent/x.png", cv::IMREAD_UNCHANGED, &why).empty());
   EXPECT_EQ(why, "cannot open it");
 }
+
+TEST(ImageFile, TheDeclaredSizeIsReadFromEveryFormatsHeader) {
+  cv::Mat img(23, 37, CV_8UC3);
+  cv::randu(img, 0, 255);
+  for (const std::string ext : {".png", ".jpg", ".bmp", ".ppm", ".pgm", ".tiff", ".webp"}) {
+    std::vector<unsigned char> bytes;
+    ASSERT_TRUE(cv::imencode(ext, ext == ".pgm" ? img.col(0).clone().reshape(1, 23) : img, bytes)) << ext;
+    const regolith::ImageExtent e = regolith::declared_image_extent(bytes.data(), bytes.size());
+    EXPECT_EQ(e.width, ext == ".pgm" ? 3u : 37u) << ext;
+    EXPECT_EQ(e.height, 23u) << ext;
+  }
+  // Lossless WebP (VP8L) and an uncompressed-header form too.
+  std::vector<unsigned char> lossless;
+  ASSERT_TRUE(cv::imencode(".webp", img, lossless, {cv::IMWRITE_WEBP_QUALITY, 101}));
+  EXPECT_EQ(std::string(lossless.begin() + 12, lossless.begin() + 16), "VP8L");
+  EXPECT_EQ(regolith::declared_image_extent(lossless.data(), lossless.size()).width, 37u);
+  // Headers cut before the size: unknown, the decoder judges.
+  std::vector<unsigned char> png;
+  ASSERT_TRUE(cv::imencode(".png", img, png));
+  EXPECT_FALSE(regolith::declared_image_extent(png.data(), 20).known());
+}
+
+TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
+  // A few kilobytes that declare 20000 x 20000 (a 389 KB PNG of zeros did: 400 MB of pixels and
+  // gigabytes of working maps in `assess`): refused from the header, with the reason.
+  cv::Mat img(60, 80, CV_8UC1, cv::Scalar(9));
+  std::vector<unsigned char> png, jpg, bmp;
+  ASSERT_TRUE(cv::imencode(".png", img, png));
+  ASSERT_TRUE(cv::imencode(".jpg", img, jpg));
+  ASSERT_TRUE(cv::imencode(".bmp", img, bmp));
+  const auto put_be32 = [](std::vector<unsigned char>& b, std::size_t at, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) b[at + static_cast<std::size_t>(k)] = static_cast<unsigned char>(v >> (24 - 8 * k));
+  };
+  put_be32(png, 16, 20000);  // IHDR width, height (the CRC no longer matches: never reached)
+  put_be32(png, 20, 20000);
+  for (std::size_t i = 2; i + 8 < jpg.size(); ++i)  // SOF0: FF C0 len(2) precision(1) height(2) width(2)
+    if (jpg[i] == 0xFF && jpg[i + 1] == 0xC0) {
+      jpg[i + 5] = jpg[i + 7] = 0xFF;
+      jpg[i + 6] = jpg[i + 8] = 0xFF;
+      break;
+    }
+  bmp[18] = 0x20, bmp[19] = 0x4E, bmp[20] = bmp[21] = 0;  // width 20000
+  bmp[22] = 0xE0, bmp[23] = 0xB1, bmp[24] = bmp[25] = 0xFF;  // height -20000 (top-down)
+  const std::string pnm = "P5\n# a comment\n20000 20000\n255\n" + std::string(64, '\0');
+  const std::vector<unsigned char> pgm(pnm.begin(), pnm.end());
+  const std::vector<unsigned char>* all[] = {&png, &jpg, &bmp, &pgm};
+  for (const auto* b : all) {
+    std::string why;
+    EXPECT_TRUE(regolith::decode_image(b->data(), b->size(), cv::IMREAD_UNCHANGED, &why).empty());
+    EXPECT_NE(why.find("pixels, more than regolith decodes in one image (67108864"), std::string::npos) << why;
+    EXPECT_TRUE(why.find("20000 x 20000") != std::string::npos || why.find("65535 x 65535") != std::string::npos) << why;
+  }
+  // From a file, the same (it is read whole, then decoded from memory).
+  const fs::path f = fs::temp_directory_path() / ("regolith_img_big_" + std::to_string(::getpid()) + ".png");
+  std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  std::string why;
+  EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_GRAYSCALE, &why).empty());
+  EXPECT_NE(why.find("it declares 20000 x 20000 pixels"), std::string::npos) << why;
+  fs::remove(f);
+  // At the bound itself an image is decoded (8192 x 8192 would be; a small one certainly).
+  const regolith::ImageExtent at{8192, 8192}, over{8193, 8192};
+  EXPECT_FALSE(at.exceeds(regolith::kMaxImagePixels));
+  EXPECT_TRUE(over.exceeds(regolith::kMaxImagePixels));
+}

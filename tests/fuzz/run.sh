@@ -42,12 +42,12 @@ if ((!ci)); then
 fi
 # Executions per target under --ci: about 60 s each on this project's 2-core machines (measured
 # 2026-11-27: image 44-57 exec/s, deployment_yaml 840-1666, can_decoder 15-22 k; the earlier budgets
-# of 8000 / 100000 / 2000000 took 140-180 s, 60-120 s and 90-130 s). image: 60000 since its pixel
-# kernels are built without comparison tracing (2026-11-29: 43 s with both cores shared by three
-# fuzzers; it was 3000). With -seed=1 a run is a prefix of any longer one, so a smaller budget never
-# finds what a larger one missed.
+# of 8000 / 100000 / 2000000 took 140-180 s, 60-120 s and 90-130 s). image: 150000 since its pixel
+# kernels are built without comparison tracing and its detector runs on images up to 128 x 128
+# (2026-11-29: 92 s with both cores shared by three fuzzers; it was 3000). With -seed=1 a run is
+# a prefix of any longer one, so a smaller budget never finds what a larger one missed.
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000
-                    [pixel_convert]=5000000 [soil_scene]=100000 [image]=60000 [mcap]=100000
+                    [pixel_convert]=5000000 [soil_scene]=100000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000)
 build=build/fuzz
 targets=("$@")
