@@ -34,6 +34,7 @@
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/sfs/component.hpp"
+#include "regolith/sfs/flat_field.hpp"
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -379,8 +380,9 @@ void assess(const AssessOptions& o) {
   }
   if (!o.method.empty()) sp.method = sfs::method_from_string(o.method);
   if (!o.flat_field.empty()) {
-    const cv::Mat ff = regolith::read_image_file(o.flat_field, cv::IMREAD_GRAYSCALE);
-    if (ff.empty()) throw InputError("assess: cannot read flat-field image '" + o.flat_field + "'");
+    cv::Mat ff;
+    if (const std::string why = sfs::read_flat_field(o.flat_field, ff); !why.empty())
+      throw InputError("assess: --flat-field '" + o.flat_field + "': " + why);
     sp.vignetting.flat_field = ff;
     sp.vignetting.enabled = true;
   }

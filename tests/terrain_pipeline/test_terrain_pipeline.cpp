@@ -341,6 +341,22 @@ TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
               std::string::npos)
         << e.what();
   }
+  // A flat field that is not an image: located at the key, with the file and the reader's reason
+  // (the same reader as `assess --flat-field`).
+  const fs::path dir = fs::temp_directory_path() / ("regolith_ffcfg_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "ff.png") << "not a png";
+  const std::string bad_ff = std::regex_replace(
+      y, std::regex("method: tsai_shah"), "method: tsai_shah, flat_field: " + (dir / "ff.png").string());
+  try {
+    runtime::Application::load(Params::load_string(bad_ff, "<test>"), {.sim_time = true, .enable_dds = false});
+    FAIL() << "unreadable flat field accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("flat_field: '" + (dir / "ff.png").string() + "': not an image regolith reads"),
+              std::string::npos)
+        << e.what();
+  }
+  fs::remove_all(dir);
 }
 
 TEST(PipelineConfig, SunAheadOfTheCameraIsNormalForTheGroundPath) {
@@ -470,6 +486,18 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"), 2);
   EXPECT_NE(slurp(dir / "e4.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e4.txt");
+  // A flat field with a black pixel, and one that is not an image: the option, the file and why.
+  cv::Mat ff_zero(64, 64, CV_8U, cv::Scalar(200));
+  ff_zero.at<uchar>(3, 3) = 0;
+  ASSERT_TRUE(cv::imwrite((dir / "ff_zero.png").string(), ff_zero));
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() +
+                     " --sun-slant 30 --sun-tilt 0 --flat-field " + (dir / "ff_zero.png").string(), dir / "e6.txt"), 2);
+  EXPECT_NE(slurp(dir / "e6.txt").find("--flat-field '" + (dir / "ff_zero.png").string() + "': it has pixels of 0"),
+            std::string::npos) << slurp(dir / "e6.txt");
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() +
+                     " --sun-slant 30 --sun-tilt 0 --flat-field " + (dir / "not_an_image.png").string(), dir / "e7.txt"), 2);
+  EXPECT_NE(slurp(dir / "e7.txt").find("not_an_image.png': not an image regolith reads"), std::string::npos)
+      << slurp(dir / "e7.txt");
   // Camera pointing above the horizon: no crash, an all-unknown map and a warning.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o3").string() +
                      " --sun-slant 40 --sun-tilt 45 --camera 200,200,160,160 --height 0.5 --pitch -60", dir / "e5.txt"), 0)

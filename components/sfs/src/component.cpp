@@ -1,6 +1,6 @@
 // Component "sfs": camera frame -> grey -> vignetting correction -> shape from shading -> shared
 // DTM ("terrain/dtm"). Everything is sized in configure(); step() reuses the buffers.
-#include "regolith/core/image_file.hpp"
+#include "regolith/sfs/flat_field.hpp"
 #include "regolith/sfs/component.hpp"
 
 #include <cstdio>
@@ -116,8 +116,9 @@ class SfsComponent final : public runtime::Component {
     if (!flat.empty()) {
       std::filesystem::path fp(flat);
       if (fp.is_relative() && !ctx.config_dir().empty()) fp = std::filesystem::path(ctx.config_dir()) / fp;
-      cv::Mat ff = regolith::read_image_file(fp.string(), cv::IMREAD_GRAYSCALE);
-      if (ff.empty()) p.fail("flat_field", "cannot read image '" + fp.string() + "'");
+      cv::Mat ff;
+      if (const std::string why = read_flat_field(fp.string(), ff); !why.empty())
+        p.fail("flat_field", "'" + fp.string() + "': " + why);
       sp.vignetting.flat_field = ff;
     }
     sp.vignetting.enabled = !flat.empty() || sp.vignetting.a2 != 0.0 || sp.vignetting.a4 != 0.0 ||
