@@ -121,6 +121,19 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
   EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_GRAYSCALE, &why).empty());
   EXPECT_NE(why.find("it declares 20000 x 20000 pixels"), std::string::npos) << why;
   fs::remove(f);
+  // Garbage between JPEG segments: libjpeg skips it with a warning and reads the frame header
+  // after it, so the header check must too (tests/fuzz: 1328 bytes declaring 12112 x 14895
+  // behind 30 stray bytes made a 541 MB allocation).
+  std::vector<unsigned char> stray = jpg;
+  for (std::size_t i = 2; i + 1 < stray.size(); ++i)
+    if (stray[i] == 0xFF && stray[i + 1] == 0xC0) {
+      stray.insert(stray.begin() + static_cast<std::ptrdiff_t>(i), 30, 0x4A);
+      break;
+    }
+  EXPECT_EQ(regolith::declared_image_extent(stray.data(), stray.size()).width, 65535u);
+  std::string stray_why;
+  EXPECT_TRUE(regolith::decode_image(stray.data(), stray.size(), cv::IMREAD_UNCHANGED, &stray_why).empty());
+  EXPECT_NE(stray_why.find("65535 x 65535 pixels"), std::string::npos) << stray_why;
   // At the bound itself an image is decoded (8192 x 8192 would be; a small one certainly).
   const regolith::ImageExtent at{8192, 8192}, over{8193, 8192};
   EXPECT_FALSE(at.exceeds(regolith::kMaxImagePixels));

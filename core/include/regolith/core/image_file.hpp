@@ -76,12 +76,15 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
   if (starts("\x89PNG\r\n\x1a\n", 8)) {
     if (n >= 24 && std::memcmp(p + 12, "IHDR", 4) == 0) e = {be32(16), be32(20)};
   } else if (starts("\xFF\xD8", 2)) {
+    // As libjpeg's next_marker(): bytes before a marker are skipped (libjpeg only warns about
+    // "extraneous bytes", so a header must not end the search where the decoder goes on), then
+    // FF fill bytes; FF 00 is a stuffed byte, not a marker.
     for (std::size_t i = 2; i + 1 < n;) {
-      if (p[i] != 0xFF) break;
-      while (i < n && p[i] == 0xFF) ++i;  // fill bytes
+      while (i < n && p[i] != 0xFF) ++i;
+      while (i < n && p[i] == 0xFF) ++i;
       if (i >= n) break;
       const unsigned m = p[i++];
-      if (m == 0x01 || (m >= 0xD0 && m <= 0xD8)) continue;  // no length
+      if (m == 0x00 || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) continue;  // no length
       if (m == 0xD9 || m == 0xDA || i + 2 > n) break;       // end of image, scan: no frame header first
       const std::uint64_t len = be16(i);
       const bool sof = m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
