@@ -250,6 +250,9 @@ TEST(SoilComponent, ConfigurationErrorsNameTheField) {
   const std::string loads = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n"));
   EXPECT_NE(loads.find("components.soil.tracks.load_n: needs one load per lateral_m entry (2), got 1"), std::string::npos)
       << loads;
+  const std::string many = load_error(replace(kDeployment, "    camera: rear\n",
+                                              "    camera: rear\n    tracks: {lateral_m: [0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]}\n"));
+  EXPECT_NE(many.find("components.soil.tracks.lateral_m: at most 8 ruts (got 9)"), std::string::npos) << many;
   const std::string region = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    region: {range_min_m: 3.0, range_max_m: 1.0}\n"));
   EXPECT_NE(region.find("range_max_m: must be > range_min_m"), std::string::npos) << region;
   const std::string camera = load_error(replace(kDeployment, "    camera: rear\n", "    camera: front\n"));

@@ -80,6 +80,10 @@ TEST(SoilScene, BadFieldsAreNamed) {
   k = j;
   k["camera"]["fx"] = 0;
   expect_error(k.dump(), "camera: ");
+  k = j;
+  k["tracks"] = nlohmann::json::array();
+  for (int i = 0; i < 9; ++i) k["tracks"].push_back(j["tracks"][0]);
+  expect_error(k.dump(), "tracks: at most 8 ruts (got 9)");
 }
 
 TEST(SoilScene, ALargeDeclaredCameraIsReadWithoutPerPixelMaps) {

@@ -75,12 +75,14 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
     const auto lat = t.get<std::vector<double>>("lateral_m", {}, {.unit = "m", .doc = "configured rut centres (empty = automatic detection)"});
     const auto load = t.get<std::vector<double>>("load_n", {}, {.unit = "N", .min = 0.0,
         .doc = "wheel load per configured rut (empty or 0 = M g / wheel_count)"});
+    if (lat.size() > kMaxTracks)
+      t.fail("lateral_m", "at most " + std::to_string(kMaxTracks) + " ruts (got " + std::to_string(lat.size()) + ")");
     if (!load.empty() && load.size() != lat.size())
       t.fail("load_n", "needs one load per lateral_m entry (" + std::to_string(lat.size()) + "), got " + std::to_string(load.size()));
     a.tracks.clear();
     for (std::size_t i = 0; i < lat.size(); ++i) a.tracks.push_back({lat[i], load.empty() ? 0.0 : load[i]});
     a.track_search_m = t.get<double>("search_m", a.track_search_m, {.unit = "m", .min = 0.0, .doc = "search +- around a configured rut"});
-    a.max_tracks = t.get<int>("max_tracks", a.max_tracks, {.min = 1, .max = 8, .doc = "automatic detection keeps at most this many"});
+    a.max_tracks = t.get<int>("max_tracks", a.max_tracks, {.min = 1, .max = static_cast<int>(kMaxTracks), .doc = "automatic detection keeps at most this many"});
     a.min_sinkage_m = t.get<double>("min_sinkage_m", a.min_sinkage_m, {.unit = "m", .min = 0.0, .doc = "minimum mean rut depth"});
     a.detection_snr = t.get<double>("detection_snr", a.detection_snr, {.min = 0.0, .doc = "mean sinkage / standard error needed"});
     t.finish();

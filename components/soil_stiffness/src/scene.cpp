@@ -82,6 +82,9 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   r.wheel_diameter_m = scene_number(j, file, "wheel_diameter_D_m");
   if (!j.contains("tracks") || !j["tracks"].is_array() || j["tracks"].empty())
     throw InputError(file.string() + ": tracks: missing (a list of {load_N, x_nominal_m})");
+  if (j["tracks"].size() > kMaxTracks)
+    throw InputError(file.string() + ": tracks: at most " + std::to_string(kMaxTracks) + " ruts (got " +
+                     std::to_string(j["tracks"].size()) + ")");
   double max_abs_x = 0.0, load_sum = 0.0;
   for (std::size_t k = 0; k < j["tracks"].size(); ++k) {
     const std::string at = "tracks[" + std::to_string(k) + "]";

@@ -89,13 +89,16 @@ void TrackAnalysisParams::validate() const {
                        grid_res_m;
   need(cells <= 4.0e6, "grid_res_m", "region too large for the grid (> 4e6 cells)", cells);
   need(cells >= 100.0, "grid_res_m", "region too small for the grid (< 100 cells)", cells);
+  static_assert(kMaxTracks == 8, "the messages below say 8");
+  need(tracks.size() <= kMaxTracks, "tracks", "at most 8 ruts", static_cast<double>(tracks.size()));
   for (const auto& t : tracks) {
     need(std::isfinite(t.lateral_m), "tracks[].lateral_m", "must be finite", t.lateral_m);
     need(std::isfinite(t.load_n) && t.load_n >= 0, "tracks[].load_n", "must be >= 0", t.load_n);
   }
   need(std::isfinite(track_search_m) && track_search_m >= 0, "track_search_m", "must be >= 0",
        track_search_m);
-  need(max_tracks >= 1 && max_tracks <= 16, "max_tracks", "must be in [1, 16]", max_tracks);
+  need(max_tracks >= 1 && static_cast<std::size_t>(max_tracks) <= kMaxTracks, "max_tracks", "must be in [1, 8]",
+       max_tracks);
   need(std::isfinite(min_sinkage_m) && min_sinkage_m >= 0, "min_sinkage_m", "must be >= 0",
        min_sinkage_m);
   need(std::isfinite(detection_snr) && detection_snr >= 0, "detection_snr", "must be >= 0",

@@ -48,6 +48,10 @@ enum class ProfileSource {
 
 enum class SfsMethod { kPentland, kTsaiShah };
 
+/// Most ruts one image is analysed for (configured or detected): a rover's wheels. Readers of a
+/// track list refuse more, naming the field (100 000 configured ruts ran for minutes).
+inline constexpr std::size_t kMaxTracks = 8;
+
 /// A track to measure at a known lateral position (and optionally its own wheel load).
 struct TrackSpec {
   double lateral_m = 0.0;  ///< body y of the rut centre [m]
