@@ -24,8 +24,9 @@ struct VigOptions {
 
 void calibrate_vignetting(const VigOptions& o) {
   if (!std::filesystem::exists(o.file)) throw InputError("calibrate vignetting: '" + o.file + "' does not exist");
-  const cv::Mat img = regolith::read_image_file(o.file, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
-  if (img.empty()) throw InputError("calibrate vignetting: cannot read image '" + o.file + "'");
+  std::string why;
+  const cv::Mat img = regolith::read_image_file(o.file, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR, &why);
+  if (img.empty()) throw InputError("calibrate vignetting: cannot read image '" + o.file + "': " + why);
   sfs::VignettingFit fit;
   try {
     fit = sfs::fit_vignetting_polynomial(img, o.cx_frac, o.cy_frac);

@@ -63,8 +63,9 @@ struct CalibrateOptions {
 };
 
 void run_calibrate(const CalibrateOptions& o) {
-  const cv::Mat bgr = regolith::read_image_file(o.frame, cv::IMREAD_COLOR);
-  if (bgr.empty()) throw InputError(o.frame + ": cannot read image");
+  std::string why;
+  const cv::Mat bgr = regolith::read_image_file(o.frame, cv::IMREAD_COLOR, &why);
+  if (bgr.empty()) throw InputError(o.frame + ": cannot read image: " + why);
   sk::CalibrationHints h;
   h.leg_count = o.leg_count;
   h.leg_spacing_rad = o.spacing_rad > 0 ? o.spacing_rad : 2.0 * std::numbers::pi / o.leg_count;
@@ -198,9 +199,10 @@ void eval_sequence(const std::string& arg, const Algorithm& algo, std::vector<Co
   for (const auto& row : seq) {
     fs::path img = row.frame;
     if (img.is_relative()) img = csv.parent_path() / img;
-    const cv::Mat bgr = regolith::read_image_file(img.string(), cv::IMREAD_COLOR);
+    std::string why;
+    const cv::Mat bgr = regolith::read_image_file(img.string(), cv::IMREAD_COLOR, &why);
     const std::string where = csv.string() + ":" + std::to_string(row.line) + ": ";
-    if (bgr.empty()) throw InputError(where + "cannot read image '" + img.string() + "'");
+    if (bgr.empty()) throw InputError(where + "cannot read image '" + img.string() + "': " + why);
     if (!est) {
       est = std::make_unique<sk::SinkageEstimator>(algo.geometry, algo.params, bgr.size());
     } else if (bgr.size() != est->image_size()) {

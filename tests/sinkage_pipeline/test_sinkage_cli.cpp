@@ -118,7 +118,7 @@ TEST(SinkageCli, CalibratePrintsTheGeometryBlockOfTheUnsunkWheel) {
 TEST(SinkageCli, CalibrateBadInputNamesTheFile) {
   const fs::path dir = temp_dir("calbad");
   EXPECT_EQ(error_of<regolith::InputError>({"calibrate", "sinkage", (dir / "missing.png").string(), "--angle", "0"}),
-            (dir / "missing.png").string() + ": cannot read image");
+            (dir / "missing.png").string() + ": cannot read image: cannot open it");
   // A frame without any blue leg.
   const fs::path grey = dir / "grey.png";
   cv::imwrite(grey.string(), cv::Mat(480, 640, CV_8UC3, cv::Scalar(120, 120, 120)));
@@ -210,7 +210,7 @@ TEST(SinkageCli, EvalBadInputNamesFileAndLine) {
   // Good CSV, missing image.
   std::ofstream(csv) << "frame,encoder_angle_rad,truth_mm\n# comment\nf0.png,0.1,12\n";
   EXPECT_EQ(error_of<regolith::InputError>({"eval", "sinkage", "--sequence", csv.string()}),
-            csv.string() + ":3: cannot read image '" + (dir / "f0.png").string() + "'");
+            csv.string() + ":3: cannot read image '" + (dir / "f0.png").string() + "': cannot open it");
   // Bench log with a bad valid flag.
   const fs::path log = dir / "log.csv";
   std::ofstream(log) << regolith::sinkage::bench_log_header() << "\n1.0,0,0.1,12,yes,0.9,none,12,a,b\n";

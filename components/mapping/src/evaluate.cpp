@@ -57,8 +57,10 @@ std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
 }
 
 cv::Mat read_float(const fs::path& p) {
-  cv::Mat m = regolith::read_image_file(p.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty() || m.type() != CV_32FC1) throw InputError(p.string() + ": cannot read as a float32 TIFF");
+  std::string why;
+  cv::Mat m = regolith::read_image_file(p.string(), cv::IMREAD_UNCHANGED, &why);
+  if (m.empty()) throw InputError(p.string() + ": cannot read as a float32 TIFF: " + why);
+  if (m.type() != CV_32FC1) throw InputError(p.string() + ": not a float32 single-channel TIFF");
   return m;
 }
 
