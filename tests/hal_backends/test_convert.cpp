@@ -141,7 +141,7 @@ TEST(Convert, MjpegDecodesWithinJpegError) {
   // wrong geometry is reported, not silently resized
   cv::Mat other(24, 32, CV_8UC3);
   EXPECT_FALSE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 32, 24, 0, PixelFormat::kBgr8, other, err));
-  EXPECT_NE(err.find("decodes to 64x48, expected 32x24"), std::string::npos) << err;
+  EXPECT_NE(err.find("MJPEG frame declares 64x48, expected 32x24"), std::string::npos) << err;
 }
 
 TEST(Convert, DamagedPayloadsAreReportedWithByteCounts) {

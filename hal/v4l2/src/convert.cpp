@@ -119,10 +119,20 @@ bool convert_frame(DeviceFormat f, const std::uint8_t* data, std::size_t bytes, 
     }
     // only OpenCV's JPEG decoder may see it (FF D8 FF): other decoders, tried on bytes no decoder
     // claims, include GDCM, which aborts on some (found by tests/fuzz: corpus/pixel_convert/gdcm_abort)
+    // A frame header of another size is refused before anything is decoded (a corrupt frame may
+    // declare up to regolith's image bound, 2^26 pixels, all of which the decoder would allocate).
+    const regolith::ImageExtent declared = regolith::declared_image_extent(data, bytes);
+    if (declared.known() && (declared.width != static_cast<std::uint64_t>(width) ||
+                             declared.height != static_cast<std::uint64_t>(height))) {
+      error = "MJPEG frame declares " + std::to_string(declared.width) + "x" + std::to_string(declared.height) +
+              ", expected " + std::to_string(width) + "x" + std::to_string(height);
+      return false;
+    }
+    std::string why;
     const cv::Mat decoded =
-        regolith::decode_image(data, bytes, out == PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+        regolith::decode_image(data, bytes, out == PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR, &why);
     if (decoded.empty()) {
-      error = "MJPEG payload of " + std::to_string(bytes) + " bytes could not be decoded";
+      error = "MJPEG payload of " + std::to_string(bytes) + " bytes could not be decoded: " + why;
       return false;
     }
     if (decoded.rows != height || decoded.cols != width) {
