@@ -112,6 +112,17 @@ TEST(TerrainScene, BadParameters) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("resolution_m"), std::string::npos);
   }
+  // Within 20000 cells per side but 1.9e8 cells (~4 GB): refused before anything is allocated.
+  p = small();
+  p.x_min_m = 0, p.x_max_m = 52, p.y_min_m = -46, p.y_max_m = 46, p.resolution_m = 0.005;
+  try {
+    p.validate();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("resolution_m: grid of 191360000 cells, more than a scene may hold (2^26)"),
+              std::string::npos)
+        << e.what();
+  }
   const Terrain t(small());
   CameraPose cam;
   cam.height_m = std::nan("");

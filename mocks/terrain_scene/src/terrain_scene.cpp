@@ -72,6 +72,11 @@ void SceneParams::validate() const {
           "x_min_m/x_max_m/y_min_m/y_max_m", "must be finite with max > min");
   require((x_max_m - x_min_m) / resolution_m < 20000 && (y_max_m - y_min_m) / resolution_m < 20000,
           "resolution_m", "grid larger than 20000 cells per side");
+  // A scene holds ~20 bytes per cell (heights, normals, albedo, rock ids): 2^26 cells is ~1.3 GB.
+  // (A 92 x 52 m drive tile at 5 mm, within the per-side bound, took 4 GB and 24 s to start.)
+  const double cells = std::floor((x_max_m - x_min_m) / resolution_m) * std::floor((y_max_m - y_min_m) / resolution_m);
+  require(cells <= 67108864.0, "resolution_m",
+          "grid of " + std::to_string(static_cast<long long>(cells)) + " cells, more than a scene may hold (2^26)");
   require(std::isfinite(fractal_rms_m) && fractal_rms_m >= 0, "fractal_rms_m", "must be >= 0");
   require(std::isfinite(fractal_beta) && fractal_beta > 0 && fractal_beta < 6, "fractal_beta",
           "must be in (0, 6)");
