@@ -78,6 +78,14 @@ TEST(ImageFile, TheDeclaredSizeIsReadFromEveryFormatsHeader) {
   ASSERT_TRUE(cv::imencode(".webp", img, lossless, {cv::IMWRITE_WEBP_QUALITY, 101}));
   EXPECT_EQ(std::string(lossless.begin() + 12, lossless.begin() + 16), "VP8L");
   EXPECT_EQ(regolith::declared_image_extent(lossless.data(), lossless.size()).width, 37u);
+  // Extended WebP (VP8X): the canvas size, 24 bits each, minus one; 31 bytes are not enough to
+  // hold it (read under ASan: no byte past the end).
+  std::vector<unsigned char> vp8x = {'R', 'I', 'F', 'F', 0, 0, 0, 0, 'W', 'E', 'B', 'P', 'V', 'P', '8', 'X', 10, 0, 0, 0,
+                                     0, 0, 0, 0, 0x1F, 0x4E, 0x00, 0x1F, 0x4E, 0x00, 0, 0};
+  EXPECT_EQ(regolith::declared_image_extent(vp8x.data(), vp8x.size()).width, 20000u);
+  EXPECT_EQ(regolith::declared_image_extent(vp8x.data(), vp8x.size()).height, 20000u);
+  vp8x.resize(31);
+  EXPECT_FALSE(regolith::declared_image_extent(vp8x.data(), vp8x.size()).known());
   // Headers cut before the size: unknown, the decoder judges.
   std::vector<unsigned char> png;
   ASSERT_TRUE(cv::imencode(".png", img, png));

@@ -122,7 +122,7 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
       if (digits > 12) v[k] = std::uint64_t{1} << 40;  // absurd: more than any limit
     }
     e = {v[0], v[1]};
-  } else if (n >= 30 && std::memcmp(p, "RIFF", 4) == 0 && std::memcmp(p + 8, "WEBP", 4) == 0) {
+  } else if (n >= 32 && std::memcmp(p, "RIFF", 4) == 0 && std::memcmp(p + 8, "WEBP", 4) == 0) {  // VP8X reads to byte 30
     if (std::memcmp(p + 12, "VP8 ", 4) == 0) e = {le16(26) & 0x3FFF, le16(28) & 0x3FFF};
     else if (std::memcmp(p + 12, "VP8L", 4) == 0) {
       const std::uint64_t b = le32(21);
