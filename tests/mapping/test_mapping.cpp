@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <functional>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -890,6 +891,23 @@ TEST(DriveMapper, AStandingRoverHasNoParallaxButStillSightsRocks) {
   EXPECT_NEAR(dm.pose().x, 0.0, 0.01);
 }
 
+// The input.json of the rendered drives below (the rig's camera, 320 x 240).
+constexpr const char* kRigDriveJson = R"({"camera": {"fx": 220, "fy": 220, "cx": 159.5, "cy": 119.5, "width": 320,
+    "height": 240, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
+
+// Frames k0..k1-1 of a rendered drive north (world +y, yaw pi/2; the rig renders along its own x)
+// at 6 cm per frame, 1 s apart, into d/frames/<k>.png, with their frames.csv lines (odometry x
+// from `odom_x`, 0 when not given) on `csv`.
+void write_rig_frames(Rig& rig, const fs::path& d, std::ostream& csv, int k0, int k1,
+                      const std::function<double(int)>& odom_x = nullptr) {
+  fs::create_directories(d / "frames");
+  for (int k = k0; k < k1; ++k) {
+    const std::string f = "frames/" + std::to_string(k) + ".png";
+    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
+    csv << k << "," << f << "," << k << "," << (odom_x ? odom_x(k) : 0.0) << "," << 0.06 * k << ",1.5707963\n";
+  }
+}
+
 TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   const regolith::testing::TempDir d_dir("mapping_bad");
   const fs::path d = d_dir.path();
@@ -933,16 +951,10 @@ TEST(RecordedDrive, ACorruptedOdometryLineNeitherSizesTheWindowNorMovesThePose) 
   const regolith::testing::TempDir d_dir("mapping_spike");
   const fs::path d = d_dir.path();
   Rig rig(6);
-  fs::create_directories(d / "frames");
-  std::ofstream(d / "input.json") << R"({"camera": {"fx": 220, "fy": 220, "cx": 159.5, "cy": 119.5, "width": 320,
-    "height": 240, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
+  std::ofstream(d / "input.json") << kRigDriveJson;
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
-  for (int k = 0; k < 6; ++k) {
-    const std::string f = "frames/" + std::to_string(k) + ".png";
-    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
-    csv << k << "," << f << "," << k << "," << (k == 3 ? 1e6 : 0.0) << "," << 0.06 * k << ",1.5707963\n";
-  }
+  write_rig_frames(rig, d, csv, 0, 6, [](int k) { return k == 3 ? 1e6 : 0.0; });
   csv.close();
   const DriveMapSummary s = map_drive(read_drive(d), DriveMapperParams{}, d / "out");
   EXPECT_EQ(s.counters.frames, 6);
@@ -960,16 +972,11 @@ TEST(RecordedDrive, ADescriptionOfAnotherCameraIsRefusedBeforeAnythingIsSized) {
   const regolith::testing::TempDir d_dir("mapping_other_camera");
   const fs::path d = d_dir.path();
   Rig rig(6);
-  fs::create_directories(d / "frames");
   std::ofstream(d / "input.json") << R"({"camera": {"fx": 11264, "fy": 11264, "cx": 8191.5, "cy": 6143.5, "width": 16384,
     "height": 12288, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/missing.png,0,0,0,1.5707963\n";
-  for (int k = 1; k < 3; ++k) {
-    const std::string f = "frames/" + std::to_string(k) + ".png";
-    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
-    csv << k << "," << f << "," << k << ",0," << 0.06 * k << ",1.5707963\n";
-  }
+  write_rig_frames(rig, d, csv, 1, 3);
   csv.close();
   try {
     map_drive(read_drive(d), DriveMapperParams{}, d / "out");
@@ -1024,17 +1031,10 @@ TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   const regolith::testing::TempDir d_dir("mapping_skip");
   const fs::path d = d_dir.path();
   Rig rig(6);
-  fs::create_directories(d / "frames");
-  std::ofstream(d / "input.json") << R"({"camera": {"fx": 220, "fy": 220, "cx": 159.5, "cy": 119.5, "width": 320,
-    "height": 240, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
+  std::ofstream(d / "input.json") << kRigDriveJson;
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
-  for (int k = 0; k < 6; ++k) {
-    const std::string f = "frames/" + std::to_string(k) + ".png";
-    // Drive north (world +y, yaw pi/2) 6 cm per frame: the rig renders along its own x.
-    cv::imwrite((d / f).string(), rig.frame(Pose2{0.06 * k, 0, 0}));
-    csv << k << "," << f << "," << k << ",0," << 0.06 * k << ",1.5707963\n";
-  }
+  write_rig_frames(rig, d, csv, 0, 6);
   csv << "3,frames/3.png,3,0,0.18,1.5707963\n";          // out of order
   csv << "7,frames/missing.png,7,0,0.42,1.5707963\n";   // unreadable
   csv.close();
