@@ -48,11 +48,11 @@ fi
 # a prefix of any longer one, so a smaller budget never finds what a larger one missed.
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000
                     [pixel_convert]=5000000 [soil_scene]=100000 [image]=150000 [mcap]=100000
-                    [hal_messages]=1000000)
+                    [hal_messages]=1000000 [live_messages]=2000000)
 build=build/fuzz
 targets=("$@")
 if ((${#targets[@]} == 0)); then
-  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image mcap hal_messages)
+  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image mcap hal_messages live_messages)
 fi
 if [[ ! -f "$build/CMakeCache.txt" ]]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DREGOLITH_FUZZ=ON \

@@ -1,5 +1,7 @@
 #include "regolith/live/foxglove_server.hpp"
 
+#include "regolith/live/client_message.hpp"
+
 #include <sys/socket.h>
 #include <sys/stat.h>
 
@@ -282,58 +284,19 @@ struct FoxgloveServer::Impl {
   }
 
   void on_text(const Hdl& h, Client& c, const std::string& text) {
-    const json j = json::parse(text, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) return status_error(h, "invalid JSON message");
-    const auto op = j.find("op");
-    if (op == j.end() || !op->is_string()) return status_error(h, "message without a string 'op'");
-    const std::string o = op->get<std::string>();
-    if (o == "subscribe") {
-      const auto subs = j.find("subscriptions");
-      if (subs == j.end() || !subs->is_array()) return status_error(h, "subscribe: 'subscriptions' must be an array");
-      for (const json& s : *subs) {
-        const auto id = s.find("id");
-        const auto ch = s.find("channelId");
-        if (!s.is_object() || id == s.end() || ch == s.end() || !id->is_number_unsigned() ||
-            !ch->is_number_unsigned()) {
-          status_error(h, "subscribe: each subscription needs unsigned 'id' and 'channelId'");
-          continue;
-        }
-        const auto sub_id = id->get<std::uint64_t>();
-        const auto channel_id = ch->get<std::uint64_t>();
-        const auto idx = channel_index.find(static_cast<std::uint32_t>(channel_id));
-        if (channel_id > 0xffffffffu || idx == channel_index.end()) {
-          status_error(h, "subscribe: unknown channel " + std::to_string(channel_id));
-          continue;
-        }
-        if (sub_id > 0xffffffffu || c.subs.count(static_cast<std::uint32_t>(sub_id)) != 0) {
-          status_error(h, "subscribe: subscription id " + std::to_string(sub_id) + " already in use");
-          continue;
-        }
-        c.subs.emplace(static_cast<std::uint32_t>(sub_id), static_cast<std::uint32_t>(channel_id));
-        subscribers[idx->second].fetch_add(1);
-        if (last[idx->second]) {  // a latched channel's last message, at once
-          std::string frame;
-          if (!send_frame(h, c, static_cast<std::uint32_t>(sub_id), last_ns[idx->second], *last[idx->second], frame)) {
-            return;
-          }
-        }
+    const ClientMessageResult r = apply_client_message(
+        text, c.subs, [this](std::uint32_t channel) { return channel_index.count(channel) != 0; });
+    for (const std::string& e : r.errors) status_error(h, e);
+    for (const SubscriptionChange& gone : r.removed) subscribers[channel_index.at(gone.channel)].fetch_sub(1);
+    // Every new subscription is counted before any is answered: a send that drops the client
+    // uncounts all of c.subs (unsubscribe_all).
+    for (const SubscriptionChange& sub : r.added) subscribers[channel_index.at(sub.channel)].fetch_add(1);
+    for (const SubscriptionChange& sub : r.added) {
+      const std::size_t index = channel_index.at(sub.channel);
+      if (last[index]) {  // a latched channel's last message, at once
+        std::string frame;
+        if (!send_frame(h, c, sub.subscription, last_ns[index], *last[index], frame)) return;
       }
-    } else if (o == "unsubscribe") {
-      const auto ids = j.find("subscriptionIds");
-      if (ids == j.end() || !ids->is_array()) return status_error(h, "unsubscribe: 'subscriptionIds' must be an array");
-      for (const json& i : *ids) {
-        const auto it = i.is_number_unsigned() && i.get<std::uint64_t>() <= 0xffffffffu
-                            ? c.subs.find(static_cast<std::uint32_t>(i.get<std::uint64_t>()))
-                            : c.subs.end();
-        if (it == c.subs.end()) {
-          status_error(h, "unsubscribe: unknown subscription " + i.dump());
-          continue;
-        }
-        subscribers[channel_index.at(it->second)].fetch_sub(1);
-        c.subs.erase(it);
-      }
-    } else {
-      status_error(h, "unsupported op '" + o + "'");
     }
   }
 
