@@ -333,7 +333,9 @@ void run_export(const LogExportArgs& a) {
       json line = {{"log_time_ns", m.log_time}, {"publish_time_ns", m.publish_time}, {"sequence", m.sequence},
                    {"message", std::move(*msg)}};
       if (!image_file.empty()) line["file"] = image_file;
-      e.out << line.dump() << '\n';
+      // A recorded string need not be UTF-8 (a frame_id from another process): replaced, as
+      // `regolith echo` does, instead of json throwing and ending the export.
+      e.out << line.dump(-1, ' ', false, json::error_handler_t::replace) << '\n';
     } else {
       flat.clear();
       flatten(*msg, "", flat);

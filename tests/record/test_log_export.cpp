@@ -100,7 +100,9 @@ class LogExport : public ::testing::Test {
       auto* s = static_cast<m::sensor_msgs::JointState*>(dds_alloc(sizeof(m::sensor_msgs::JointState)));
       rd::reserve(*s, {.joints = 3});
       rd::set_time(s->header.stamp, 5 * regolith::kNsPerSec + i * 20 * regolith::kNsPerMs);
-      rd::copy_string(s->header.frame_id, 32, "base_link");
+      // One frame_id that is not UTF-8 (another process may publish anything): exported with
+      // U+FFFD in place of the bad bytes; json would otherwise throw and end the export.
+      rd::copy_string(s->header.frame_id, 32, i == 7 ? "base\xff_link" : "base_link");
       rd::set_length(s->name, 3);
       rd::set_length(s->position, 3);
       rd::set_length(s->velocity, 3);
@@ -180,7 +182,7 @@ TEST_F(LogExport, JsonLinesFieldByField) {
     EXPECT_EQ(j["log_time_ns"], 1000 + 10 * i);
     EXPECT_EQ(j["publish_time_ns"], 900 + 10 * i);
     const json& msg = j["message"];
-    EXPECT_EQ(msg["header"]["frame_id"], "base_link");
+    EXPECT_EQ(msg["header"]["frame_id"], i == 7 ? "base\xEF\xBF\xBD_link" : "base_link");
     EXPECT_EQ(msg["header"]["stamp"]["sec"], 5);
     EXPECT_EQ(msg["header"]["stamp"]["nanosec"], i * 20000000);
     EXPECT_EQ(msg["name"], json({"wheel_0", "wheel_1", "wheel_2"}));
