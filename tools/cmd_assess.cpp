@@ -22,6 +22,7 @@
 
 #include "cli.hpp"
 #ifdef REGOLITH_HAVE_HAL_RECORD
+#include "regolith/core/json_text.hpp"
 #include "regolith/record/recording.hpp"
 #endif
 #include "regolith/core/image_file.hpp"
@@ -715,7 +716,7 @@ void assess(const AssessOptions& o) {
   }
   std::ofstream f(out / "summary.json");
   if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
-  f << j.dump(2) << "\n";
+  f << regolith::json_text(j, 2) << "\n";
   std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(sp.method) << ", light "
             << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
             << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards ("

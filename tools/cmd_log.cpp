@@ -32,6 +32,7 @@
 #include <optional>
 #include <span>
 
+#include "regolith/core/json_text.hpp"
 #include "regolith/dds/json.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -138,7 +139,7 @@ std::string csv_field(const std::string& s) {
 std::string csv_value(const json& v) {
   if (v.is_null()) return "";
   if (v.is_string()) return csv_field(v.get<std::string>());
-  return v.dump();
+  return regolith::json_text(v);
 }
 
 struct LogExportArgs {
@@ -335,7 +336,7 @@ void run_export(const LogExportArgs& a) {
       if (!image_file.empty()) line["file"] = image_file;
       // A recorded string need not be UTF-8 (a frame_id from another process): replaced, as
       // `regolith echo` does, instead of json throwing and ending the export.
-      e.out << line.dump(-1, ' ', false, json::error_handler_t::replace) << '\n';
+      e.out << regolith::json_text(line) << '\n';
     } else {
       flat.clear();
       flatten(*msg, "", flat);

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/hal/imu.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
@@ -338,7 +339,7 @@ const bool registered = add_command([](CLI::App& app) {
   CLI::App* em = eval->add_subcommand("map", "score a `regolith map` output against a drive's truth (JSON on stdout)");
   em->add_option("drive", e->drive, "drive directory with truth_poses.csv, height.tiff, grid.json, truth.json")->required();
   em->add_option("--map", e->map, "output directory of `regolith map`")->required();
-  em->callback([e] { std::cout << mapping::evaluate_map(e->drive, e->map).dump(1) << "\n"; });
+  em->callback([e] { std::cout << regolith::json_text(mapping::evaluate_map(e->drive, e->map), 1) << "\n"; });
 });
 
 }  // namespace

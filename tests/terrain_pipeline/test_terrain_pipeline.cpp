@@ -486,6 +486,14 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"), 2);
   EXPECT_NE(slurp(dir / "e4.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e4.txt");
+  // A file name that is not UTF-8 (Linux names are bytes): summary.json is still written, the
+  // name's bad byte as U+FFFD (json threw on it and the run ended without summary.json).
+  const fs::path latin1 = dir / "caf\xe9.png";
+  fs::copy_file(png, latin1, fs::copy_options::overwrite_existing);
+  EXPECT_EQ(run_tool("assess " + latin1.string() + " --out " + (dir / "o8").string() + " --sun-slant 30 --sun-tilt 0",
+                     dir / "e8.txt"), 0) << slurp(dir / "e8.txt");
+  const auto j8 = nlohmann::json::parse(slurp(dir / "o8" / "summary.json"));
+  EXPECT_NE(j8["image"].get<std::string>().find("caf\xEF\xBF\xBD.png"), std::string::npos) << j8["image"];
   // A flat field with a black pixel, and one that is not an image: the option, the file and why.
   cv::Mat ff_zero(64, 64, CV_8U, cv::Scalar(200));
   ff_zero.at<uchar>(3, 3) = 0;

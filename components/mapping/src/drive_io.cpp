@@ -1,5 +1,6 @@
 #include "regolith/common/plot.hpp"
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
 #include <nlohmann/json.hpp>
@@ -163,7 +164,7 @@ void write_drive_description(const RecordedDrive& d, const fs::path& file) {
       {"sun", {{"azimuth_deg", d.sun_azimuth_deg}, {"elevation_deg", d.sun_elevation_deg}}},
       {"wheel", {{"radius_m", d.wheel_radius_m}}}};
   std::ofstream f(file);
-  f << j.dump(2) << "\n";
+  f << regolith::json_text(j, 2) << "\n";
   if (!f) throw InputError(file.string() + ": cannot write the drive description");
 }
 
@@ -329,7 +330,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   }
   {
     std::ofstream o(out / "map.json");
-    o << mj.dump(1) << "\n";
+    o << regolith::json_text(mj, 1) << "\n";
     if (!o) throw InputError("map: cannot write '" + (out / "map.json").string() + "'");
     sum.written.push_back(out / "map.json");
   }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/mission_table.hpp"
 #include "regolith/common/plot.hpp"
 
@@ -92,7 +93,7 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
     tj["profile_range_sinkage_m"] = std::move(prof);
     j["tracks"].push_back(std::move(tj));
   }
-  return j.dump(indent);
+  return regolith::json_text(j, indent);
 }
 
 cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,

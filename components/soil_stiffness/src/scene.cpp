@@ -1,4 +1,5 @@
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -201,7 +202,7 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
   j["tracks"] = std::move(tracks);
   j["scene"] = input_json.string();
   std::ofstream out(f.json);
-  out << j.dump(2) << "\n";
+  out << regolith::json_text(j, 2) << "\n";
   if (!out) throw InputError(f.json.string() + ": cannot write");
   return f;
 }

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "regolith/core/json_text.hpp"
 #include "regolith/dds/reader.hpp"
 
 namespace regolith::dds {
@@ -175,8 +176,7 @@ std::size_t echo(Participant &p, std::string_view topic, const EchoOptions &opt,
           json j = t->to_json(s);
           if (opt.receipt_time)
             add_receipt_time(j, realtime_now());
-          out << j.dump(-1, ' ', false, json::error_handler_t::replace)
-              << '\n';
+          out << regolith::json_text(j) << '\n';
         },
         max);
     out.flush();
