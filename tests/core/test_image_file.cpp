@@ -2,6 +2,7 @@
 // on bytes nobody claims, aborts the process on some: tests/fuzz/corpus/pixel_convert/gdcm_abort).
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -22,6 +23,14 @@ TEST(ImageFile, KnownSignaturesOnly) {
     const cv::Mat back = regolith::decode_image(bytes.data(), bytes.size(), cv::IMREAD_UNCHANGED);
     EXPECT_EQ(back.size(), cv::Size(8, 8)) << ext;
   }
+  // A known signature with "DICM" at byte 128: OpenCV hands it to GDCM when the named format's
+  // own decoder declines the header (tests/fuzz: a WebP with inconsistent chunk sizes, 2.7 GB).
+  std::vector<unsigned char> webp_dicm;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(40, 40, CV_8UC1, cv::Scalar(3)), webp_dicm));
+  std::memcpy(webp_dicm.data() + 128, "DICM", 4);
+  std::string dicm_why;
+  EXPECT_TRUE(regolith::decode_image(webp_dicm.data(), webp_dicm.size(), cv::IMREAD_UNCHANGED, &dicm_why).empty());
+  EXPECT_EQ(dicm_why, "not an image regolith reads (it carries a DICOM signature at byte 128)");
   // JPEG's SOI without the following marker, a DICOM-ish or random header: never decoded
   const std::vector<unsigned char> bad = {0xFF, 0xD8, 0x17, 0x17, 0x17, 0x17, 0x17, 0x17};
   EXPECT_FALSE(regolith::known_image_signature(bad.data(), bad.size()));

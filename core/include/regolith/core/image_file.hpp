@@ -183,6 +183,12 @@ inline cv::Mat decode_image(const unsigned char* data, std::size_t size, int fla
     return cv::Mat();
   };
   if (!known_image_signature(data, size)) return fail("not an image regolith reads (PNG, JPEG, TIFF, BMP, PNM, WebP)");
+  // A known first signature is not enough: when OpenCV's own decoder for that format declines the
+  // header (a WebP whose chunk sizes disagree), cv::imdecode offers the bytes to the next decoder
+  // that claims them, and GDCM claims anything with "DICM" at byte 128 (tests/fuzz: 136 bytes
+  // starting RIFF....WEBP with DICM at 128 made GDCM allocate 2.7 GB).
+  if (size >= 132 && std::memcmp(data + 128, "DICM", 4) == 0)
+    return fail("not an image regolith reads (it carries a DICOM signature at byte 128)");
   if (size > static_cast<std::size_t>(INT32_MAX)) return fail("larger than 2 GiB");
   const std::size_t n_tail = std::min(size, kImageTailBytes);
   if (const std::string t = truncated_image(data, std::min<std::size_t>(size, 16), data + size - n_tail, n_tail); !t.empty())
