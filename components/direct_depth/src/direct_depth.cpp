@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
 
 namespace regolith::direct_depth {
 namespace {
@@ -39,8 +40,8 @@ void CameraModel::validate() const {
   if (!std::isfinite(cx) || !std::isfinite(cy)) fail("cx/cy", "must be finite");
   for (double k : {k1, k2, p1, p2, k3})
     if (!std::isfinite(k)) fail("k1/k2/p1/p2/k3", "must be finite");
-  if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
-    fail("width/height", "must be in 1..16384 px");
+  if (width <= 0 || height <= 0 || width > kMaxImageSidePx || height > kMaxImageSidePx)
+    fail("width/height", "must be in 1.." + std::to_string(kMaxImageSidePx) + " px");
   if (!std::isfinite(mount_height_m) || mount_height_m <= 0) fail("mount_height_m", "must be > 0 m");
   if (!std::isfinite(pitch_rad) || std::abs(pitch_rad) >= CV_PI / 2)
     fail("pitch_rad", "must be in (-pi/2, pi/2)");

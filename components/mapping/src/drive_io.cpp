@@ -1,5 +1,6 @@
 #include "regolith/common/plot.hpp"
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
@@ -13,6 +14,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "regolith/core/error.hpp"
 #include "regolith/core/text_file.hpp"
@@ -22,24 +24,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-double number(const nlohmann::json& j, const fs::path& file, const std::string& block, const std::string& key,
-              bool required = true, double fallback = 0.0) {
-  const std::string where = file.string() + ": " + block + "." + key;
-  if (!j.contains(block) || !j[block].is_object()) {
-    if (!required) return fallback;
-    throw InputError(file.string() + ": " + block + ": missing (an object with " + key + ")");
-  }
-  const nlohmann::json& b = j[block];
-  if (!b.contains(key)) {
-    if (!required) return fallback;
-    throw InputError(where + ": missing");
-  }
-  if (!b[key].is_number()) throw InputError(where + ": must be a number");
-  const double v = b[key].get<double>();
-  if (!std::isfinite(v)) throw InputError(where + ": must be finite");
-  return v;
-}
 
 std::vector<std::string> split_csv(const std::string& line) {
   std::vector<std::string> out;
@@ -76,44 +60,33 @@ RecordedDrive read_drive(const fs::path& dir) {
   d.dir = dir;
   if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a directory (a recorded drive)");
   const fs::path input = dir / "input.json";
-  const std::string text = read_text_file(input.string(), "drive description (input.json: camera, sun, wheels)");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(input.string() + ": not valid JSON: " + e.what());
-  }
+  const std::string name = input.string();
+  const nlohmann::json j = read_json_file(name, "drive description (input.json: camera, sun, wheels)");
+  const auto number = [&](const char* field) { return json_number(j, name, field); };
+  const auto optional = [&](const char* field) { return json_optional_number(j, name, field).value_or(0.0); };
   direct_depth::CameraModel& c = d.camera;
-  c.fx = number(j, input, "camera", "fx");
-  c.fy = number(j, input, "camera", "fy");
-  c.cx = number(j, input, "camera", "cx");
-  c.cy = number(j, input, "camera", "cy");
-  // Image sizes: whole pixels within the cameras' bound, checked before the cast (a huge value is
-  // an error, not undefined behaviour).
-  const auto pixels = [&](const char* key) {
-    const double v = number(j, input, "camera", key);
-    if (!(v >= 1.0 && v <= 16384.0) || v != std::floor(v))
-      throw InputError(input.string() + ": camera." + key + ": must be a whole number of pixels, 1..16384");
-    return static_cast<int>(v);
-  };
-  c.width = pixels("width");
-  c.height = pixels("height");
-  c.mount_height_m = number(j, input, "camera", "mount_height_m");
-  c.pitch_rad = number(j, input, "camera", "pitch_deg") * kDeg;
-  c.roll_rad = number(j, input, "camera", "roll_deg", false) * kDeg;
-  d.mount.x_m = number(j, input, "camera", "mount_x_m", false);
-  d.mount.y_m = number(j, input, "camera", "mount_y_m", false);
-  d.mount.yaw_rad = number(j, input, "camera", "mount_yaw_deg", false) * kDeg;
+  c.fx = number("camera.fx");
+  c.fy = number("camera.fy");
+  c.cx = number("camera.cx");
+  c.cy = number("camera.cy");
+  c.width = json_pixels(j, name, "camera.width");
+  c.height = json_pixels(j, name, "camera.height");
+  c.mount_height_m = number("camera.mount_height_m");
+  c.pitch_rad = number("camera.pitch_deg") * kDeg;
+  c.roll_rad = optional("camera.roll_deg") * kDeg;
+  d.mount.x_m = optional("camera.mount_x_m");
+  d.mount.y_m = optional("camera.mount_y_m");
+  d.mount.yaw_rad = optional("camera.mount_yaw_deg") * kDeg;
   try {
     c.validate();
   } catch (const FieldError& e) {
-    throw InputError(input.string() + ": camera: " + e.what());
+    throw InputError(name + ": camera: " + e.what());
   }
-  d.sun_azimuth_deg = number(j, input, "sun", "azimuth_deg");
-  d.sun_elevation_deg = number(j, input, "sun", "elevation_deg");
+  d.sun_azimuth_deg = number("sun.azimuth_deg");
+  d.sun_elevation_deg = number("sun.elevation_deg");
   if (d.sun_elevation_deg <= 0 || d.sun_elevation_deg > 90)
-    throw InputError(input.string() + ": sun.elevation_deg: must be in (0, 90] (got " + std::to_string(d.sun_elevation_deg) + ")");
-  d.wheel_radius_m = number(j, input, "wheel", "radius_m", false);
+    throw InputError(name + ": sun.elevation_deg: must be in (0, 90] (got " + std::to_string(d.sun_elevation_deg) + ")");
+  d.wheel_radius_m = optional("wheel.radius_m");
 
   const fs::path csv = dir / "frames.csv";
   std::ifstream f(csv);
@@ -174,10 +147,14 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   // The description must be the frames' camera before anything is sized by it: the mapper's
   // per-pixel tables follow the declared size (a 16384 x 12288 camera over 320 x 240 frames asked
   // for gigabytes and ended in an OpenCV out-of-memory error). The first frame that reads decides;
-  // a later frame of another size is skipped below.
+  // a later frame of another size is skipped below. That frame's image is kept for the loop below
+  // (decoded once).
+  const DriveFrame* first_read = nullptr;
+  cv::Mat first;
   for (const DriveFrame& fr : drive.frames) {
-    const cv::Mat first = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    first = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
     if (first.empty()) continue;
+    first_read = &fr;
     if (first.cols != drive.camera.width || first.rows != drive.camera.height)
       throw InputError((drive.dir / "input.json").string() + ": camera is " + std::to_string(drive.camera.width) + "x" +
                        std::to_string(drive.camera.height) + " px, but frame " + std::to_string(fr.index) + " (" +
@@ -227,7 +204,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
       continue;
     }
     std::string why;
-    cv::Mat gray = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
+    cv::Mat gray = &fr == first_read ? std::move(first) : regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
     if (gray.empty()) {
       sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': " + why + ": skipped");
       ++sum.skipped;

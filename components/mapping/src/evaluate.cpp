@@ -13,21 +13,12 @@
 #include <vector>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/json_file.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
 namespace regolith::mapping {
 namespace fs = std::filesystem;
 namespace {
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream f(p);
-  if (!f) throw InputError(p.string() + ": cannot open");
-  try {
-    return nlohmann::json::parse(f);
-  } catch (const std::exception& e) {
-    throw InputError(p.string() + ": " + e.what());
-  }
-}
 
 // CSV with a header -> rows of named doubles (non-numeric cells are NaN).
 std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
@@ -162,15 +153,16 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir) 
                   {"wheel_mean_position_error_m", mean_err_w / n}};
 
   // --- map vs truth heightfield (averaged onto the map's cells)
-  const nlohmann::json mj = read_json(map_dir / "map.json");
-  const nlohmann::json gj = read_json(drive_dir / "grid.json");
+  const nlohmann::json mj = read_json_file((map_dir / "map.json").string(), "map description (map.json)");
+  const nlohmann::json gj = read_json_file((drive_dir / "grid.json").string(), "truth grid (grid.json)");
   const cv::Mat elev = read_float(map_dir / "elevation.tiff");
   const cv::Mat hazard = read_float(map_dir / "hazard.tiff");
   const cv::Mat th = read_float(drive_dir / "height.tiff");
-  const double mox = mj.at("origin_x_m").get<double>(), moy = mj.at("origin_y_m").get<double>(),
-               mres = mj.at("resolution_m").get<double>();
-  const double gox = gj.at("origin_x_m").get<double>(), goy = gj.at("origin_y_m").get<double>(),
-               gres = gj.at("resolution_m").get<double>();
+  const std::string mname = (map_dir / "map.json").string(), gname = (drive_dir / "grid.json").string();
+  const double mox = json_number(mj, mname, "origin_x_m"), moy = json_number(mj, mname, "origin_y_m"),
+               mres = json_number(mj, mname, "resolution_m");
+  const double gox = json_number(gj, gname, "origin_x_m"), goy = json_number(gj, gname, "origin_y_m"),
+               gres = json_number(gj, gname, "resolution_m");
   const int R = elev.rows, C = elev.cols;
   cv::Mat truth(R, C, CV_32F, cv::Scalar(std::nanf(""))), seen(R, C, CV_8U, cv::Scalar(0));
   const int k = std::max(1, static_cast<int>(std::lround(mres / gres)));
@@ -236,7 +228,7 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir) 
                 {"elevation_detail_r", pearson(de, dt)}};
 
   // --- rocks and hazard
-  const nlohmann::json tj = read_json(drive_dir / "truth.json");
+  const nlohmann::json tj = read_json_file((drive_dir / "truth.json").string(), "truth (truth.json)");
   struct TRock {
     double x, y, h, ext, w, l, yaw;
     bool observed;

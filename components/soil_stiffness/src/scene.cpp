@@ -1,4 +1,5 @@
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
 
@@ -16,71 +17,37 @@
 #include "regolith/direct_depth/direct_depth.hpp"
 
 namespace regolith::soil {
-namespace {
-}  // namespace
-namespace {
-
-double scene_number(const nlohmann::json& j, const std::filesystem::path& file, const std::string& path) {
-  const nlohmann::json* at = &j;
-  std::string::size_type from = 0;
-  while (true) {
-    const auto dot = path.find('.', from);
-    const std::string key = path.substr(from, dot == std::string::npos ? std::string::npos : dot - from);
-    if (!at->is_object() || !at->contains(key)) throw InputError(file.string() + ": " + path + ": missing");
-    at = &(*at)[key];
-    if (dot == std::string::npos) break;
-    from = dot + 1;
-  }
-  if (!at->is_number()) throw InputError(file.string() + ": " + path + ": must be a number");
-  const double v = at->get<double>();
-  if (!std::isfinite(v)) throw InputError(file.string() + ": " + path + ": must be finite");
-  return v;
-}
-
-}  // namespace
 
 SoilSetup read_soil_scene(const std::filesystem::path& file) {
-  const std::string text = read_text_file(file.string(), "scene description (input.json)");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(file.string() + ": not valid JSON: " + e.what());
-  }
+  const nlohmann::json j = read_json_file(file.string(), "scene description (input.json)");
+  const std::string name = file.string();
+  const auto scene_number = [&](const char* field) { return json_number(j, name, field); };
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   SoilSetup cfg;
   CameraModel& c = cfg.camera;
-  // Image sizes: whole pixels within the cameras' bound everywhere (rover description, V4L2,
-  // libcamera, direct depth), checked before the cast (a huge value is an error, not UB).
-  const auto pixels = [&](const char* path) {
-    const double v = scene_number(j, file, path);
-    if (!(v >= 1.0 && v <= 16384.0) || v != std::floor(v))
-      throw InputError(file.string() + ": " + path + ": must be a whole number of pixels, 1..16384");
-    return static_cast<int>(v);
-  };
-  c.width = pixels("camera.width");
-  c.height = pixels("camera.height");
-  c.fx = scene_number(j, file, "camera.fx");
-  c.fy = scene_number(j, file, "camera.fy");
-  c.cx = scene_number(j, file, "camera.cx");
-  c.cy = scene_number(j, file, "camera.cy");
-  c.mount_height_m = scene_number(j, file, "camera.h_m");
-  c.pitch_rad = scene_number(j, file, "camera.pitch_deg") * kDeg;
+  c.width = json_pixels(j, name, "camera.width");
+  c.height = json_pixels(j, name, "camera.height");
+  c.fx = scene_number("camera.fx");
+  c.fy = scene_number("camera.fy");
+  c.cx = scene_number("camera.cx");
+  c.cy = scene_number("camera.cy");
+  c.mount_height_m = scene_number("camera.h_m");
+  c.pitch_rad = scene_number("camera.pitch_deg") * kDeg;
   try {
     c.validate();
   } catch (const FieldError& e) {
     throw InputError(file.string() + ": camera: " + e.what());
   }
-  const double el = scene_number(j, file, "sun_elevation_deg");
+  const double el = scene_number("sun_elevation_deg");
   if (!(el > 0.0 && el <= 90.0))
     throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + std::to_string(el) + ")");
   // Camera ground frame: x = the view (world +Y), y = left (world -X). The scene's azimuth turns
   // from +Y towards +X (clockwise seen from above); GroundSun's from x towards y (anticlockwise).
-  cfg.sun.azimuth_rad = -scene_number(j, file, "sun_azimuth_deg") * kDeg;
+  cfg.sun.azimuth_rad = -scene_number("sun_azimuth_deg") * kDeg;
   cfg.sun.elevation_rad = el * kDeg;
   RoverConfig& r = cfg.rover;
-  r.wheel_width_m = scene_number(j, file, "wheel_width_b_m");
-  r.wheel_diameter_m = scene_number(j, file, "wheel_diameter_D_m");
+  r.wheel_width_m = scene_number("wheel_width_b_m");
+  r.wheel_diameter_m = scene_number("wheel_diameter_D_m");
   if (!j.contains("tracks") || !j["tracks"].is_array() || j["tracks"].empty())
     throw InputError(file.string() + ": tracks: missing (a list of {load_N, x_nominal_m})");
   if (j["tracks"].size() > kMaxTracks)
