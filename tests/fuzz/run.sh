@@ -46,13 +46,15 @@ fi
 # kernels are built without comparison tracing and its detector runs on images up to 128 x 128
 # (2026-11-29: 92 s with both cores shared by three fuzzers; it was 3000). With -seed=1 a run is
 # a prefix of any longer one, so a smaller budget never finds what a larger one missed.
-declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000
+# deployment_check configures a whole deployment per input (every component; ~0.3-1 s for a
+# shipped one under ASan, ~10-15 exec/s on mutants): 1000 took 60-115 s (2026-12-01).
+declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000 [deployment_check]=1000
                     [pixel_convert]=5000000 [soil_scene]=100000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000 [live_messages]=2000000)
 build=build/fuzz
 targets=("$@")
 if ((${#targets[@]} == 0)); then
-  targets=(candump can_decoder deployment_yaml pixel_convert soil_scene image mcap hal_messages live_messages)
+  targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene image mcap hal_messages live_messages)
 fi
 if [[ ! -f "$build/CMakeCache.txt" ]]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DREGOLITH_FUZZ=ON \

@@ -14,7 +14,6 @@
 namespace regolith::sinkage {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 inline double sq(double v) { return v * v; }
 
