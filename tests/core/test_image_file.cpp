@@ -151,6 +151,18 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
   std::string stray_why;
   EXPECT_TRUE(regolith::decode_image(stray.data(), stray.size(), cv::IMREAD_UNCHANGED, &stray_why).empty());
   EXPECT_NE(stray_why.find("65535 x 65535 pixels"), std::string::npos) << stray_why;
+  // PNM numbers as OpenCV reads them: any non-digit ends a number and is consumed (tests/fuzz: 23
+  // bytes, "P6\n2222\xff444444\xff44..." asked for a 2.96 GB allocation); a comment ends at '\r'.
+  for (const std::string& head : {std::string("P6\n2222\xff" "444444\xff" "44ZO:1@\xa0"), std::string("P5 2222Z444444 255\n"),
+                                 std::string("P5\n#c\r2222 444444\n255\n")}) {
+    const std::vector<unsigned char> b(head.begin(), head.end());
+    const regolith::ImageExtent e = regolith::declared_image_extent(b.data(), b.size());
+    EXPECT_EQ(e.width, 2222u) << head;
+    EXPECT_EQ(e.height, 444444u) << head;
+    std::string pnm_why;
+    EXPECT_TRUE(regolith::decode_image(b.data(), b.size(), cv::IMREAD_UNCHANGED, &pnm_why).empty());
+    EXPECT_NE(pnm_why.find("2222 x 444444 pixels"), std::string::npos) << pnm_why;
+  }
   // At the bound itself an image is decoded (8192 x 8192 would be; a small one certainly).
   const regolith::ImageExtent at{8192, 8192}, over{8193, 8192};
   EXPECT_FALSE(at.exceeds(regolith::kMaxImagePixels));

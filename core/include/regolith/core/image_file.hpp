@@ -109,12 +109,18 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
       else if (dib >= 40) e = {abs32(le32(18)), abs32(le32(22))};
     }
   } else if (n >= 3 && p[0] == 'P' && p[1] >= '1' && p[1] <= '6') {
+    // Read as OpenCV's PxM decoder reads it: before a number, whitespace and comments ('#' to the
+    // end of the line, '\n' or '\r'); a number ends at any byte that is not a digit, and that byte
+    // is consumed (so "2222\xff444444" is 2222 x 444444 to OpenCV, though not to the PNM standard).
+    const auto space = [](unsigned char ch) {
+      return ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '\v' || ch == '\f';
+    };
     std::size_t i = 2;
     std::uint64_t v[2] = {0, 0};
     for (int k = 0; k < 2; ++k) {
-      while (i < n && (p[i] == ' ' || p[i] == '\t' || p[i] == '\r' || p[i] == '\n' || p[i] == '#')) {
+      while (i < n && (space(p[i]) || p[i] == '#')) {
         if (p[i] == '#')
-          while (i < n && p[i] != '\n') ++i;
+          while (i < n && p[i] != '\n' && p[i] != '\r') ++i;
         else
           ++i;
       }
@@ -123,6 +129,7 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
         if (++digits <= 12) v[k] = v[k] * 10 + (p[i] - '0');
       if (digits == 0) return {};
       if (digits > 12) v[k] = std::uint64_t{1} << 40;  // absurd: more than any limit
+      ++i;  // the byte that ended the number
     }
     e = {v[0], v[1]};
   } else if (n >= 32 && std::memcmp(p, "RIFF", 4) == 0 && std::memcmp(p + 8, "WEBP", 4) == 0) {  // VP8X reads to byte 30
