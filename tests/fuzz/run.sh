@@ -51,6 +51,10 @@ fi
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000 [deployment_check]=1000
                     [pixel_convert]=5000000 [soil_scene]=100000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000 [live_messages]=2000000)
+# Seconds one input may take before libFuzzer calls it a hang: 10, except deployment_check, which
+# builds a whole rover's configure-time tables per input (0.3-1 s in a release build, several
+# seconds under ASan on a shared core).
+declare -A timeout_s=([deployment_check]=60)
 build=build/fuzz
 targets=("$@")
 if ((${#targets[@]} == 0)); then
@@ -81,7 +85,7 @@ run_target() {
   fi
   set +e
   "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" "${budget[@]}" -print_final_stats=1 \
-    -artifact_prefix="tests/fuzz/crashes/$t-" -rss_limit_mb=2048 -timeout=10 >"$log" 2>&1
+    -artifact_prefix="tests/fuzz/crashes/$t-" -rss_limit_mb=2048 -timeout="${timeout_s[$t]:-10}" >"$log" 2>&1
   rc=$?
   set -e
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)

@@ -41,9 +41,12 @@ struct Fixture {
   Fixture() { register_mock_backends(registry); }
   hal::DeviceContext ctx(std::uint16_t index = 0) { return {"dev", index, &clock, dir.str()}; }
 
-  std::unique_ptr<hal::Camera> camera(const std::string& yaml, std::uint16_t index = 0) {
+  /// `open = false`: as `regolith config check` builds it (parameters validated, device not opened).
+  std::unique_ptr<hal::Camera> camera(const std::string& yaml, std::uint16_t index = 0, bool open = true) {
     Params p = Params::load_string(yaml, dir.file("test.yaml"));
-    auto cam = registry.make_camera(p, ctx(index));
+    hal::DeviceContext c = ctx(index);
+    c.open_devices = open;
+    auto cam = registry.make_camera(p, c);
     p.finish();
     return cam;
   }

@@ -94,6 +94,23 @@ TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
   }
 }
 
+TEST(SyntheticWheel, ConfigCheckValidatesWithoutRendering) {
+  // `regolith config check` (devices not opened) rendered every frame of the wheel scene: seconds
+  // per deployment under ASan (tests/fuzz deployment_check: a timeout). Now one black frame of
+  // the configured format, and bad parameters are still refused.
+  Fixture fx;
+  auto cam = fx.camera("backend: synthetic_wheel\nframes: 50\nwidth: 320\nheight: 240\nformat: mono8\n", 0, false);
+  EXPECT_EQ(cam->format().width, 320);
+  EXPECT_EQ(cam->format().height, 240);
+  cam->start();
+  hal::FrameLease f;
+  ASSERT_TRUE(cam->latest(fx.clock.now(), f));
+  EXPECT_EQ(cv::countNonZero(f->image), 0);
+  const std::string bad =
+      config_error([&] { fx.camera("backend: synthetic_wheel\nsinkage_mm: -1\n", 0, false); });
+  EXPECT_NE(bad.find("sinkage_mm"), std::string::npos) << bad;
+}
+
 TEST(SyntheticWheel, ALoopOfWholeLegSpacingsKeepsTheEncodersCounting) {
   // 4 frames at 10 Hz and pi rad/s: a loop turns the wheel 0.4 pi, one leg spacing (2 pi / 5), so the
   // looped frames are seamless and the encoders report the angle a real wheel would: pi t.

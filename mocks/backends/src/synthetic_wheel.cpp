@@ -113,6 +113,10 @@ std::unique_ptr<hal::Camera> make_synthetic_wheel_camera(Params& p, const hal::D
   std::vector<cv::Mat> images;
   try {
     wheel_scene::WheelSceneGenerator gen(spec.scene);
+    if (!ctx.open_devices) {  // `config check`: parameters validated, nothing rendered
+      images.emplace_back(spec.fmt.height, spec.fmt.width, hal::cv_type(spec.fmt.format), cv::Scalar::all(0));
+      return std::make_unique<detail::PreloadedCamera>(ctx, spec.fmt, std::move(images), spec.loop);
+    }
     for (int k = 0; k < spec.frames; ++k) {
       cv::Mat bgr;
       gen.render_with_sinkage(spec.motion.angle(0, k / spec.fmt.rate_hz), spec.sinkage_mm, bgr);
