@@ -2,6 +2,7 @@
 // that test binaries link the same code as the `regolith` executable).
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -35,9 +36,12 @@ CLI::App* group(CLI::App& app, const std::string& name, const std::string& descr
 }
 
 namespace {
-CLI::Validator number_check(bool strict) {
+enum class Bound { kFinite, kNonNegative, kPositive };
+
+CLI::Validator number_check(Bound bound) {
+  static constexpr const char* kNames[] = {"NUMBER", "NUMBER >= 0", "NUMBER > 0"};
   return CLI::Validator(
-      [strict](std::string& s) -> std::string {
+      [bound](std::string& s) -> std::string {
         double v = 0.0;
         std::size_t used = 0;
         try {
@@ -46,15 +50,18 @@ CLI::Validator number_check(bool strict) {
           return "not a number: '" + s + "'";
         }
         if (used != s.size()) return "not a number: '" + s + "'";
-        if (strict ? !(v > 0.0) : !(v >= 0.0)) return std::string(strict ? "must be > 0" : "must be >= 0") + " (got " + s + ")";
+        if (!std::isfinite(v)) return "must be a finite number (got " + s + ")";
+        if (bound == Bound::kNonNegative && !(v >= 0.0)) return "must be >= 0 (got " + s + ")";
+        if (bound == Bound::kPositive && !(v > 0.0)) return "must be > 0 (got " + s + ")";
         return {};
       },
-      strict ? "NUMBER > 0" : "NUMBER >= 0");
+      kNames[static_cast<int>(bound)]);
 }
 }  // namespace
 
-CLI::Validator non_negative() { return number_check(false); }
-CLI::Validator positive() { return number_check(true); }
+CLI::Validator finite() { return number_check(Bound::kFinite); }
+CLI::Validator non_negative() { return number_check(Bound::kNonNegative); }
+CLI::Validator positive() { return number_check(Bound::kPositive); }
 
 std::string tool_node_name(const std::string& command) {
   return "regolith_" + command + "_" + std::to_string(::getpid());

@@ -30,7 +30,8 @@ inline constexpr int kExitConfig = 2;
 inline constexpr int kExitDeviceUnavailable = 3;
 
 /// Option checks with short messages ("must be >= 0 (got -1)"), where CLI11's own print the
-/// limits of a double.
+/// limits of a double: a finite number; finite and >= 0; finite and > 0 (NaN and inf refused).
+CLI::Validator finite();
 CLI::Validator non_negative();
 CLI::Validator positive();
 

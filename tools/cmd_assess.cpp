@@ -730,8 +730,10 @@ void add_assess(CLI::App& app) {
   cmd->add_option("image", o->image, "input image (8-bit grey or colour), or a recording (.mcap, with --frame)")->required();
   cmd->add_option("--out,-o", o->out, "output directory")->required();
   cmd->add_option("--config,-c", o->config, "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
-  cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)");
-  cmd->add_option("--sun-tilt", o->sun_tilt_deg, "deg, sun direction in the image from +x towards +y (clockwise)");
+  cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)")
+      ->check(finite());
+  cmd->add_option("--sun-tilt", o->sun_tilt_deg, "deg, sun direction in the image from +x towards +y (clockwise)")
+      ->check(finite());
   cmd->add_option("--method", o->method, "tsai_shah|pentland|bichsel_pentland")
       ->check(CLI::IsMember({"tsai_shah", "pentland", "bichsel_pentland"}));
   cmd->add_option("--flat-field", o->flat_field, "flat-field image for vignetting correction");
@@ -744,8 +746,8 @@ void add_assess(CLI::App& app) {
                                          "with a recording: the camera whose frame is read");
   cmd->add_option("--frame", o->frame, "IMAGE is a recording (.mcap of `regolith run --record`): its frame N (0 = first) of "
                                        "the camera --device (or the only one); the recorded deployment gives the camera and the sun");
-  cmd->add_option("--height", o->height_m, "m, camera height above the ground");
-  cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal");
+  cmd->add_option("--height", o->height_m, "m, camera height above the ground")->check(positive());
+  cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal")->check(finite());
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")
       ->check(regolith::cli::positive());
   cmd->callback([o] { assess(*o); });

@@ -486,6 +486,11 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"), 2);
   EXPECT_NE(slurp(dir / "e4.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e4.txt");
+  // NaN was taken for "not given" ("--sun-slant and --sun-tilt must be given together").
+  EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant nan --sun-tilt 0",
+                     dir / "e4n.txt"), 2);
+  EXPECT_NE(slurp(dir / "e4n.txt").find("--sun-slant: must be a finite number (got nan)"), std::string::npos)
+      << slurp(dir / "e4n.txt");
   // A file name that is not UTF-8 (Linux names are bytes): summary.json is still written, the
   // name's bad byte as U+FFFD (json threw on it and the run ended without summary.json).
   const fs::path latin1 = dir / "caf\xe9.png";
