@@ -332,6 +332,11 @@ const bool registered = add_command([](CLI::App& app) {
                 a->drive.c_str(), s.counters.frames, s.skipped, s.counters.vo_ok, s.counters.vo_failed, s.counters.keyframes,
                 s.path_length_m, s.rocks.size());
     for (const auto& w : s.written) std::printf("wrote %s\n", w.string().c_str());
+    // The (empty) outputs stay, but a script must not take a drive of which nothing was read for
+    // a map of flat, unknown ground.
+    if (s.counters.frames == 0)
+      throw InputError(a->drive + ": no frame could be mapped (" + std::to_string(s.skipped) +
+                       " skipped; the warnings above say why)");
   });
 
   auto e = std::make_shared<EvalMapArgs>();

@@ -10,9 +10,11 @@
 #include <cmath>
 #include <functional>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <iterator>
 #include <random>
 
 #include "regolith/core/error.hpp"
@@ -26,6 +28,8 @@
 #include "regolith/mapping/rock_tracker.hpp"
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
+
+#include <sys/wait.h>
 
 namespace {
 
@@ -1026,6 +1030,28 @@ TEST(RecordedDrive, ADescriptionWrittenIsReadBackFieldForField) {
   EXPECT_DOUBLE_EQ(b.wheel_radius_m, 0.11);
   EXPECT_THROW(write_drive_description(a, d / "absent" / "input.json"), InputError);
 }
+
+#ifdef REGOLITH_TOOL
+TEST(RecordedDrive, ADriveOfWhichNoFrameReadsIsAnErrorOfTheCli) {
+  // It wrote an empty map and exited 0 ("0 frames (2 skipped)"): a script took it for a map.
+  const regolith::testing::TempDir d_dir("mapping_none");
+  const fs::path d = d_dir.path();
+  std::ofstream(d / "input.json") << kRigDriveJson;
+  std::ofstream(d / "frames.csv") << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n"
+                                  << "0,frames/missing0.png,0,0,0,1.5707963\n1,frames/missing1.png,1,0,0.05,1.5707963\n";
+  const fs::path log = d / "log.txt";
+  const std::string cmd = std::string(REGOLITH_TOOL) + " map " + d.string() + " --out " + (d / "out").string() + " > " +
+                          log.string() + " 2>&1";
+  const int st = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(st));
+  EXPECT_EQ(WEXITSTATUS(st), 2);
+  std::ifstream f(log);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("missing0.png"), std::string::npos) << text;
+  EXPECT_NE(text.find(": no frame could be mapped (2 skipped; the warnings above say why)"), std::string::npos) << text;
+  EXPECT_TRUE(fs::exists(d / "out" / "map.json"));  // what was written stays
+}
+#endif
 
 TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   const regolith::testing::TempDir d_dir("mapping_skip");
