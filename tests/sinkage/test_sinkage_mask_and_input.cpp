@@ -148,6 +148,11 @@ TEST(SinkageValidation, GeometryErrorsNameTheField) {
   EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.rotation_direction = 0; }).find("WheelGeometry.rotation_direction"), std::string::npos);
   EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.angle_offset_rad = INFINITY; }).find("WheelGeometry.angle_offset_rad"), std::string::npos);
   EXPECT_EQ(bad_geom([](rs::WheelGeometry&) {}), "<no exception>");
+  // A leg of 1e9 px passed and the estimator's tables threw std::bad_alloc at configure (found by
+  // probing every deployment parameter at its bounds).
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = 1e9; }).find("WheelGeometry.leg_length_px: must be <= 32768 px"),
+            std::string::npos);
+  EXPECT_EQ(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = rs::kMaxLegLengthPx; }), "<no exception>");
 }
 
 TEST(SinkageValidation, ParamErrorsNameTheField) {

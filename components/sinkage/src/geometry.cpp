@@ -57,6 +57,10 @@ void WheelGeometry::validate() const {
   if (leg_length_px <= hub_radius_px + 4.0) {
     fail(o, "leg_length_px", "must exceed hub_radius_px by at least 4 px", leg_length_px);
   }
+  if (leg_length_px > kMaxLegLengthPx) {
+    fail(o, "leg_length_px", "must be <= " + std::to_string(static_cast<int>(kMaxLegLengthPx)) +
+                                 " px (twice the largest camera side)", leg_length_px);
+  }
   require_finite(o, "leg_width_px", leg_width_px);
   if (leg_width_px < 2.0 || leg_width_px > leg_length_px) {
     fail(o, "leg_width_px", "must be in [2, leg_length_px]", leg_width_px);

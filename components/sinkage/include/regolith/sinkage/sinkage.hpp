@@ -22,6 +22,9 @@
 namespace regolith::sinkage {
 
 inline constexpr std::size_t kMaxLegs = 16;
+/// Longest leg in pixels: twice the largest camera side (16384 px). The estimator sizes its
+/// tables by the leg (a leg of 1e9 px was a std::bad_alloc at configure, not a located error).
+inline constexpr double kMaxLegLengthPx = 32768.0;
 
 /// Geometry of the wheel-leg as seen in the image (calibrated once, see calibrate_from_unsunk_frame).
 struct WheelGeometry {
