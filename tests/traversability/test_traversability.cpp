@@ -5,7 +5,11 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <string>
 
+#include "regolith/common/grid.hpp"
+#include "regolith/core/error.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
@@ -372,6 +376,25 @@ TEST(Traversability, ColumnMajorExport) {
   float small[3];
   EXPECT_THROW(traversability::export_column_major(g, 0, small, 3), std::invalid_argument);
   EXPECT_THROW(traversability::export_column_major(g, 4), std::invalid_argument);
+}
+
+TEST(Traversability, AnAbsurdGridIsTooManyCellsNotAnOverflow) {
+  // length 1e9 m at 5 cm: 2e10 cells per side overflowed int, came out negative, passed the
+  // 4096-cell check and ended in an OpenCV assertion at configure (sams.length_x_m, found by
+  // probing every deployment parameter at its bounds).
+  for (const double len : {1e9, 1e300}) {
+    regolith::common::GridGeometry g;
+    g.resolution_m = 0.05;
+    g.length_x_m = len;
+    g.length_y_m = 2.0;
+    EXPECT_EQ(g.size_x(), std::numeric_limits<int>::max());
+    try {
+      g.validate();
+      ADD_FAILURE() << len;
+    } catch (const regolith::FieldError& e) {
+      EXPECT_NE(std::string(e.what()).find("length_x_m: more than 4096 cells per side"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Traversability, BadInput) {

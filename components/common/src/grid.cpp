@@ -1,18 +1,26 @@
 #include "regolith/common/grid.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "regolith/core/error.hpp"
 
 namespace regolith::common {
 
-int GridGeometry::size_x() const {
-  return resolution_m > 0.0 ? static_cast<int>(std::lround(length_x_m / resolution_m)) : 0;
+namespace {
+// Cells along a side; saturated at INT_MAX so that an absurd length (1e9 m) is "too many cells"
+// for validate(), not an int overflow that came out negative and passed it.
+int cells(double length_m, double resolution_m) {
+  if (!(resolution_m > 0.0)) return 0;
+  const double n = length_m / resolution_m;
+  if (!(n < static_cast<double>(std::numeric_limits<int>::max()))) return std::numeric_limits<int>::max();
+  return static_cast<int>(std::lround(n));
 }
+}  // namespace
 
-int GridGeometry::size_y() const {
-  return resolution_m > 0.0 ? static_cast<int>(std::lround(length_y_m / resolution_m)) : 0;
-}
+int GridGeometry::size_x() const { return cells(length_x_m, resolution_m); }
+
+int GridGeometry::size_y() const { return cells(length_y_m, resolution_m); }
 
 cv::Point2d GridGeometry::cell_center(int i, int j) const {
   return {center_x_m + 0.5 * length_x_m - (i + 0.5) * resolution_m,
