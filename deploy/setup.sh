@@ -34,6 +34,7 @@ TEST_PACKAGES=(
   # packaging and service checks (tests/deploy): cpack DEB, lintian, systemd-analyze verify
   dpkg-dev lintian systemd
   chromium                   # headless browser: the live page test (tests/live/test_live_page.cpp)
+  python3-yaml               # bench/fuzz/param_bounds.py: every deployment parameter at its bounds
 )
 CROSS_PACKAGES=(
   # arm64 cross-build and emulated unit tests (deploy/cross/build-arm64.sh)
