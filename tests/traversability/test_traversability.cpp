@@ -378,6 +378,37 @@ TEST(Traversability, ColumnMajorExport) {
   EXPECT_THROW(traversability::export_column_major(g, 4), std::invalid_argument);
 }
 
+TEST(Traversability, AHugeDetrendSigmaEndsAndKeepsTheGridFinite) {
+  // detrend_sigma_px 1e9 summed a 2e9-pixel window per line at configure (still running after
+  // 60 s; found by probing every deployment parameter at its bounds). A window wider than the
+  // line is now summed in closed form: about the same cells are known as with an ordinary sigma
+  // (cells move along their rays by their heights, so not exactly the same), every one finite.
+  const direct_depth::DirectDepth dd(cam());
+  cv::Mat h(240, 320, CV_32F);
+  cv::randu(h, -3.0, 3.0);
+  int known[2] = {0, 0};
+  int finite_elevation[2] = {0, 0};
+  const double sigmas[2] = {1e9, 30.0};
+  for (int s = 0; s < 2; ++s) {
+    TraversabilityParams p = params();
+    p.detrend_sigma_px = sigmas[s];
+    TraversabilityMapper m(dd, p);
+    GridMap g;
+    m.compute_from_sfs(h, cv::Mat(), {0.5, 1.0}, g);
+    const cv::Mat& e = g.layer("elevation");
+    const cv::Mat& c = g.layer("confidence");
+    for (int i = 0; i < e.rows; ++i)
+      for (int j = 0; j < e.cols; ++j) {
+        known[s] += c.at<float>(i, j) > 0.f;
+        finite_elevation[s] += std::isfinite(e.at<float>(i, j));
+      }
+  }
+  EXPECT_GT(known[1], 1000);
+  EXPECT_NEAR(known[0], known[1], 0.02 * known[1]);
+  EXPECT_EQ(finite_elevation[0], known[0]);
+  EXPECT_EQ(finite_elevation[1], known[1]);
+}
+
 TEST(Traversability, AnAbsurdGridIsTooManyCellsNotAnOverflow) {
   // length 1e9 m at 5 cm: 2e10 cells per side overflowed int, came out negative, passed the
   // 4096-cell check and ended in an OpenCV assertion at configure (sams.length_x_m, found by

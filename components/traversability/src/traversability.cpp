@@ -183,13 +183,20 @@ ImageLight ground_light(const direct_depth::CameraModel& m, const ImageLight& l)
 // Three passes of a running box filter of half-width k (separable): ~Gaussian of sigma
 // sqrt(3 * ((2k+1)^2 - 1) / 12). Border: clamped. Uses line_ (sized in the constructor).
 void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma_px) {
-  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_px * sigma_px + 1.0) - 1.0) / 2.0)));
+  // Half-width at most 2^24 (a sigma of 1e9 px looped 2e9 times per line at configure: a hang).
+  const double kd = std::round((std::sqrt(4.0 * sigma_px * sigma_px + 1.0) - 1.0) / 2.0);
+  const int k = static_cast<int>(std::clamp(kd, 1.0, static_cast<double>(1 << 24)));
   src.copyTo(dst);
   const int W = dst.cols, H = dst.rows;
   auto pass = [&](float* base, int n, std::ptrdiff_t stride) {
     for (int i = 0; i < n; ++i) line_[static_cast<std::size_t>(i)] = static_cast<double>(base[i * stride]);
     double acc = 0.0;
-    for (int i = -k; i <= k; ++i) acc += line_[static_cast<std::size_t>(std::clamp(i, 0, n - 1))];
+    if (k < n) {
+      for (int i = -k; i <= k; ++i) acc += line_[static_cast<std::size_t>(std::clamp(i, 0, n - 1))];
+    } else {  // a window wider than the line: k clamped copies of each end plus the line, O(n)
+      for (int i = 0; i < n; ++i) acc += line_[static_cast<std::size_t>(i)];
+      acc += k * line_[0] + (k - n + 1) * line_[static_cast<std::size_t>(n - 1)];
+    }
     const double inv = 1.0 / (2 * k + 1);
     for (int i = 0; i < n; ++i) {
       base[i * stride] = static_cast<float>(acc * inv);
