@@ -144,10 +144,41 @@ pid_t spawn(const std::vector<std::string>& args, const fs::path& out) {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&fa, 2, (out.string() + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  // its own process group, so that the helpers it starts (chromium's zygote, network service)
+  // end with it: kill_group()
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attr, 0);
   pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+  const int rc = posix_spawn(&pid, argv[0], &fa, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&fa);
   return rc == 0 ? pid : -1;
+}
+
+/// Ends a spawned process and every process of its group, and reaps the leader.
+void kill_group(pid_t pid, std::chrono::seconds grace) {
+  kill(-pid, SIGTERM);
+  int status = 0;
+  const auto end = std::chrono::steady_clock::now() + grace;
+  while (waitpid(pid, &status, WNOHANG) != pid && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(-pid, SIGKILL);  // helpers that outlived the leader (ESRCH when none is left)
+  waitpid(pid, &status, 0);
+  // a killed helper may still be finishing its exit: wait until the group is empty
+  for (int i = 0; i < 250 && kill(-pid, 0) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+}
+
+/// Removes a scratch directory; a file the browser was still writing is not a test failure.
+void remove_scratch(const fs::path& dir) {
+  std::error_code ec;
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    fs::remove_all(dir, ec);
+    if (!ec) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  std::printf("note: scratch %s not removed: %s\n", dir.c_str(), ec.message().c_str());
 }
 
 /// Waits for `pid` up to `timeout` (then kills it); true when it exited with status 0.
@@ -470,8 +501,7 @@ class Chromium {
   void close() {
     client_.reset();
     if (pid_ > 0) {
-      kill(pid_, SIGTERM);
-      finished_ok(pid_, std::chrono::seconds(10));
+      kill_group(pid_, std::chrono::seconds(10));
       pid_ = -1;
     }
   }
@@ -838,5 +868,5 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   EXPECT_GT(sd[0] + sd[1] + sd[2], 30.0) << "blank screenshot " << shot;
   std::printf("screenshot: %s\n", shot.c_str());
   browser.close();
-  fs::remove_all(dir);  // its profile: tens of MB per run
+  remove_scratch(dir);  // its profile: tens of MB per run
 }
