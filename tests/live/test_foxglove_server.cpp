@@ -184,27 +184,50 @@ TEST(FoxgloveServer, DropsAndCountsAStalledClientWhileOthersKeepReceiving) {
       if (f && f->opcode == 2) good_messages.fetch_add(1);
     }
   });
-  // Both clients subscribe to channel 1; has_subscribers() only tells that one did.
+  // Both clients subscribe to channel 1; has_subscribers() only tells that one did. Messages go
+  // out until the good client has received one: its subscription is then in force, and it
+  // receives every message sent after the stream settles.
   const std::vector<std::uint8_t> payload(16 * 1024, 0x5a);
   std::uint64_t sent = 0;
   ASSERT_TRUE(eventually([&] { return server.has_subscribers(1); }));
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the second subscribe handled too
-  const bool dropped = eventually(
+  ASSERT_TRUE(eventually(
       [&] {
         server.send_message(1, ++sent, payload);
-        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        return eventually([&] { return good_messages.load() > 0; }, std::chrono::milliseconds(200));
+      },
+      std::chrono::seconds(30)));
+  std::uint64_t settled = good_messages.load();
+  do {  // until nothing more arrives for 300 ms
+    settled = good_messages.load();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  } while (good_messages.load() != settled);
+  const std::uint64_t sent_base = sent;
+  // The sender is paced by the good client's reading (at most two messages in flight to it), so
+  // however slowly a loaded machine runs its reader, only the client that reads nothing falls
+  // behind by more than the 64 KB queue.
+  const auto send_paced = [&] {
+    const bool caught_up = eventually([&] { return (sent - sent_base) - (good_messages.load() - settled) <= 2; },
+                                      std::chrono::seconds(30));
+    server.send_message(1, ++sent, payload);
+    return caught_up;
+  };
+  bool paced = true;
+  const bool dropped = eventually(
+      [&] {
+        paced = send_paced() && paced;
         return server.stats().dropped_slow == 1;
       },
-      std::chrono::seconds(30));
+      std::chrono::seconds(60));
   ASSERT_TRUE(dropped) << "sent " << sent;
+  EXPECT_TRUE(paced) << "the good client stopped receiving";
   EXPECT_TRUE(eventually([&] { return server.stats().connected == 1; }));
   // The good client keeps receiving after the drop.
   const std::uint64_t before = good_messages.load();
   EXPECT_TRUE(eventually([&] {
-    server.send_message(1, ++sent, payload);
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    paced = send_paced() && paced;
     return good_messages.load() >= before + 20;
   }));
+  EXPECT_TRUE(paced) << "the good client stopped receiving after the drop";
   done.store(true);
   reader.join();
   EXPECT_EQ(server.stats().dropped_slow, 1u);
