@@ -241,6 +241,12 @@ TEST(TerrainMapComponent, BadConfigurationNamesTheField) {
   // A parameter out of range: located at its key.
   std::string e = load_error(edited("map_length_m: 12", "map_length_m: -3"));
   EXPECT_NE(e.find("components.terrain_map.map_length_m"), std::string::npos) << e;
+  // Each in range, together a map too big for the rover (3000 cells per side: ~2 GB at configure).
+  e = load_error(edited("map_length_m: 12", "map_length_m: 60\n    map_resolution_m: 0.02"));
+  EXPECT_NE(e.find("components.terrain_map.map_resolution_m"), std::string::npos) << e;
+  EXPECT_NE(e.find("map_length_m 60 m at 0.02 m per cell is 3000 cells per side; the live map takes at most 1024"),
+            std::string::npos)
+      << e;
   // A camera without a rover.cameras entry.
   e = load_error(edited("    camera: front\n    encoders", "    camera: nocam\n    encoders"));
   EXPECT_NE(e.find("components.terrain_map.camera"), std::string::npos) << e;

@@ -36,6 +36,10 @@ constexpr const char* kOdomTopic = "odom";
 constexpr const char* kWheelOdomTopic = "odom/wheel";
 constexpr const char* kMapTopic = "terrain/world_map";
 constexpr const char* kTfTopic = "/tf";
+// Cells per side of the live map window. The algorithm takes up to 4096 (offline `regolith map`);
+// on the rover the map is kept twice at configure (warm-up and the mapper, ~130 B per cell each)
+// and published whole: 1024 cells per side is ~130 MB of map and 4 MB per published layer.
+constexpr int kMaxLiveMapCellsPerSide = 1024;
 
 // The key of this component's YAML that sets a DriveMapperParams field (FieldError owner + field).
 std::string key_of(const FieldError& e) {
@@ -127,6 +131,16 @@ class TerrainMapComponent final : public runtime::Component {
     defaults.parallax_spacing_m = 0.15;  // a parallax search per 15 cm of baseline: the component's time budget
     defaults.fuse_shading = false;       // ~50 ms per 320x240 frame: over the component's time budget
     DriveMapperParams mp = read_drive_mapper_params(p, defaults);
+    const double cells_per_side = std::max(mp.map.length_x_m, mp.map.length_y_m) / mp.map.resolution_m;
+    if (cells_per_side > kMaxLiveMapCellsPerSide) {
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "map_length_m %g m at %g m per cell is %.0f cells per side; the live map takes at most %d "
+                    "(a coarser resolution or a shorter window)",
+                    std::max(mp.map.length_x_m, mp.map.length_y_m), mp.map.resolution_m, cells_per_side,
+                    kMaxLiveMapCellsPerSide);
+      p.fail("map_resolution_m", why);
+    }
     map_every_ = p.get<int>(
         "map_publish_every", 2,
         {.min = 1, .max = 10000, .doc = "frames between map updates (derived layers, cells known, DDS map)"});
