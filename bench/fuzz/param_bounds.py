@@ -18,8 +18,10 @@ import argparse
 import copy
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import yaml
 
@@ -91,8 +93,14 @@ def check(path):
 
 bad = 0
 for dep in args.deployments:
-    # Beside the original, so that its relative paths (images, models, token files) still resolve.
-    path = os.path.join(os.path.dirname(os.path.abspath(dep)), '.param_bounds_' + os.path.basename(dep))
+    # In a scratch directory that links every file beside the original, so that its relative paths
+    # (images, models, token files) still resolve and the source tree is never written (a file left
+    # in config/ is globbed by the build's packaging and allocation-probe lists).
+    here = os.path.dirname(os.path.abspath(dep))
+    scratch = tempfile.mkdtemp(prefix='param_bounds_')
+    for entry in os.listdir(here):
+        os.symlink(os.path.join(here, entry), os.path.join(scratch, entry))
+    path = os.path.join(scratch, 'probe_' + os.path.basename(dep))
     try:
         listed = subprocess.run([args.regolith, 'config', 'check', dep], capture_output=True, text=True)
         if listed.returncode != 0:
@@ -119,6 +127,5 @@ for dep in args.deployments:
         print(f'{dep}: {len(cases)} cases: {counts[0]} pass, {counts[2]} refused with a located error, '
               f'{len(cases) - counts[0] - counts[2]} other', flush=True)
     finally:
-        if os.path.exists(path):
-            os.remove(path)
+        shutil.rmtree(scratch)
 sys.exit(1 if bad else 0)

@@ -1,4 +1,5 @@
 #include "regolith/core/rover.hpp"
+#include "regolith/core/image_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -38,8 +39,8 @@ std::array<double, 9> to_k(Params& p, std::string_view key, const std::vector<do
 
 CameraInfo read_inline_info(Params p) {
   CameraInfo c;
-  c.width = p.require<int>("width", {.unit = "px", .min = 8, .max = 16384, .doc = "image width"});
-  c.height = p.require<int>("height", {.unit = "px", .min = 8, .max = 16384, .doc = "image height"});
+  c.width = p.require<int>("width", {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image width"});
+  c.height = p.require<int>("height", {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image height"});
   c.k = to_k(p, "k",
              p.require<std::vector<double>>(
                  "k", {.unit = "px", .doc = "intrinsic matrix, row-major [fx 0 cx; 0 fy cy; 0 0 1]"}));
@@ -223,8 +224,8 @@ CameraInfo read_camera_calibration(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) throw ConfigError(path + ": camera calibration file not found");
   Params p = Params::load_file(path);
   CameraInfo c;
-  c.width = p.require<int>("image_width", {.unit = "px", .min = 8, .max = 16384});
-  c.height = p.require<int>("image_height", {.unit = "px", .min = 8, .max = 16384});
+  c.width = p.require<int>("image_width", {.unit = "px", .min = 8, .max = kMaxImageSidePx});
+  c.height = p.require<int>("image_height", {.unit = "px", .min = 8, .max = kMaxImageSidePx});
   p.get<std::string>("camera_name", "");
   auto matrix = [&](std::string_view key, int rows, int cols, bool required) {
     if (!required && !p.has(key)) {

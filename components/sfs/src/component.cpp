@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "regolith/core/image_limits.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
@@ -24,8 +25,8 @@ namespace regolith::sfs {
 
 direct_depth::CameraModel read_camera_model(Params p, int width, int height) {
   direct_depth::CameraModel m;
-  m.width = p.get<int>("width", width, {.unit = "px", .min = 8, .max = 16384, .doc = "image width (must match the camera)"});
-  m.height = p.get<int>("height", height, {.unit = "px", .min = 8, .max = 16384, .doc = "image height (must match the camera)"});
+  m.width = p.get<int>("width", width, {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image width (must match the camera)"});
+  m.height = p.get<int>("height", height, {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image height (must match the camera)"});
   if (m.width != width || m.height != height)
     p.fail("width", "camera_model is " + std::to_string(m.width) + "x" + std::to_string(m.height) +
                         " px but the image is " + std::to_string(width) + "x" + std::to_string(height) + " px");

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/image_limits.hpp"
 #include "regolith/sinkage/sinkage.hpp"
 
 namespace regolith::sinkage {
@@ -118,9 +119,10 @@ SinkageEstimator::SinkageEstimator(const WheelGeometry& geometry, const SinkageP
     : geometry_(geometry), params_(params), size_(image_size) {
   geometry_.validate();
   params_.validate();
-  if (image_size.width < 8 || image_size.height < 8 || image_size.width > 16384 ||
-      image_size.height > 16384) {
-    throw std::invalid_argument("SinkageEstimator: image_size must be within [8, 16384] px (got " +
+  if (image_size.width < 8 || image_size.height < 8 || image_size.width > kMaxImageSidePx ||
+      image_size.height > kMaxImageSidePx) {
+    throw std::invalid_argument("SinkageEstimator: image_size must be within [8, " + std::to_string(kMaxImageSidePx) +
+                                "] px (got " +
                                 std::to_string(image_size.width) + "x" +
                                 std::to_string(image_size.height) + ")");
   }

@@ -24,6 +24,7 @@
 #include <mutex>
 #include <thread>
 
+#include "regolith/core/image_limits.hpp"
 #include "regolith/hal_v4l2/convert.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
 
@@ -89,8 +90,9 @@ void Config::validate() const {
   if (role != "raw" && role != "still" && role != "video" && role != "viewfinder") {
     throw FieldError("", "role", "must be raw, still, video or viewfinder (got '" + role + "')");
   }
-  if (width <= 0 || width > 16384) throw FieldError("", "width", "must be in [1, 16384] px");
-  if (height <= 0 || height > 16384) throw FieldError("", "height", "must be in [1, 16384] px");
+  const std::string sides = "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px";
+  if (width <= 0 || width > kMaxImageSidePx) throw FieldError("", "width", sides);
+  if (height <= 0 || height > kMaxImageSidePx) throw FieldError("", "height", sides);
   if (buffers < 1 || buffers > 16) throw FieldError("", "buffers", "must be in [1, 16]");
   if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s");
   if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s)) throw FieldError("", "retry_max", "need 0 < retry_min <= retry_max");
@@ -102,8 +104,8 @@ Config config_from_params(Params& p) {
   c.camera = p.get<std::string>("camera", "", {.doc = "libcamera camera id as `cam --list` prints it (empty: use index)"});
   c.index = p.get<int>("index", c.index, {.min = 0, .max = 63, .doc = "camera index when no id is given"});
   c.role = p.get<std::string>("role", c.role, {.choices = {"raw", "still", "video", "viewfinder"}, .doc = "libcamera stream role"});
-  c.width = p.get<int>("width", c.width, {.unit = "px", .min = 1, .max = 16384, .doc = "frame width"});
-  c.height = p.get<int>("height", c.height, {.unit = "px", .min = 1, .max = 16384, .doc = "frame height"});
+  c.width = p.get<int>("width", c.width, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame width"});
+  c.height = p.get<int>("height", c.height, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame height"});
   c.pixel_format = p.get<std::string>("format", c.pixel_format,
                                       {.choices = {"auto", "BGR888", "RGB888", "YUYV", "UYVY", "R8", "MJPEG"},
                                        .doc = "libcamera pixel format (auto: cheapest the camera offers)"});

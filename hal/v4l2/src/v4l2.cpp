@@ -1,4 +1,5 @@
 #include "regolith/hal_v4l2/v4l2.hpp"
+#include "regolith/core/image_limits.hpp"
 #include "regolith/hal/unopened.hpp"
 
 #include <ostream>
@@ -78,8 +79,9 @@ void Config::validate() const {
   if (device.empty() && card.empty() && bus_info.empty()) {
     throw FieldError("", "device", "give device (e.g. /dev/video0), card or bus_info");
   }
-  if (width <= 0 || width > 16384) throw FieldError("", "width", "must be in [1, 16384] px");
-  if (height <= 0 || height > 16384) throw FieldError("", "height", "must be in [1, 16384] px");
+  const std::string sides = "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px";
+  if (width <= 0 || width > kMaxImageSidePx) throw FieldError("", "width", sides);
+  if (height <= 0 || height > kMaxImageSidePx) throw FieldError("", "height", sides);
   if (fourcc != "auto") {
     DeviceFormat f{};
     std::uint32_t code = 0;
@@ -109,8 +111,8 @@ Config config_from_params(Params& p) {
   c.device = p.get<std::string>("device", "", {.doc = "video node, e.g. /dev/video0 (or select by card / bus_info)"});
   c.card = p.get<std::string>("card", "", {.doc = "select the capture node whose card name is exactly this"});
   c.bus_info = p.get<std::string>("bus_info", "", {.doc = "select the capture node with this bus_info"});
-  c.width = p.get<int>("width", c.width, {.unit = "px", .min = 1, .max = 16384, .doc = "frame width"});
-  c.height = p.get<int>("height", c.height, {.unit = "px", .min = 1, .max = 16384, .doc = "frame height"});
+  c.width = p.get<int>("width", c.width, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame width"});
+  c.height = p.get<int>("height", c.height, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame height"});
   c.fourcc = p.get<std::string>("fourcc", c.fourcc,
                                 {.choices = {"auto", "YUYV", "UYVY", "GREY", "RGB3", "BGR3", "MJPG"},
                                  .doc = "device pixel format (auto: cheapest the device offers)"});

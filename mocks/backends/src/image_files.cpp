@@ -61,9 +61,9 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
   const bool loop = p.get<bool>("loop", true, {.doc = "start again after the last image (else the last image stays)"});
   const std::string fmt_name =
       p.get<std::string>("format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"});
-  const int width = p.get<int>("width", 0, {.unit = "px", .min = 0, .max = 16384, .doc = "resize to this width (0 = keep)"});
+  const int width = p.get<int>("width", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this width (0 = keep)"});
   const int height =
-      p.get<int>("height", 0, {.unit = "px", .min = 0, .max = 16384, .doc = "resize to this height (0 = keep)"});
+      p.get<int>("height", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this height (0 = keep)"});
   const int max_frames =
       p.get<int>("max_frames", 1000, {.min = 1, .max = 1000000, .doc = "preload at most this many images"});
   if ((width == 0) != (height == 0)) p.fail(width == 0 ? "width" : "height", "give both width and height, or neither");

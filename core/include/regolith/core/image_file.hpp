@@ -19,6 +19,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "regolith/core/image_limits.hpp"
+
 namespace regolith {
 
 /// True when the first bytes are those of PNG, JPEG (FF D8 FF), TIFF, BMP, PNM (P1-P6) or WebP.
@@ -48,13 +50,6 @@ inline std::string truncated_image(const unsigned char* head, std::size_t n_head
   return {};
 }
 
-/// The largest image side any camera here takes (V4L2, libcamera, rover description, scene files).
-inline constexpr int kMaxImageSidePx = 16384;
-
-/// Most pixels regolith decodes in one image: 2^26 (e.g. 8192 x 8192; every camera regolith drives
-/// is below 21 Mpx). `regolith assess` needs ~65 bytes of working maps per pixel (measured on a
-/// 3000 x 2000 image: 394 MB resident), so this bound keeps one image under ~4.5 GB.
-inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 26;
 /// Largest image file read whole (`read_image_file`).
 inline constexpr std::uint64_t kMaxImageFileBytes = std::uint64_t{512} << 20;
 

@@ -19,12 +19,14 @@
 
 #include <opencv2/core.hpp>
 
+#include "regolith/core/image_limits.hpp"
+
 namespace regolith::sinkage {
 
 inline constexpr std::size_t kMaxLegs = 16;
-/// Longest leg in pixels: twice the largest camera side (16384 px). The estimator sizes its
-/// tables by the leg (a leg of 1e9 px was a std::bad_alloc at configure, not a located error).
-inline constexpr double kMaxLegLengthPx = 32768.0;
+/// Longest leg in pixels: twice the largest camera side. The estimator sizes its tables by the
+/// leg (a leg of 1e9 px was a std::bad_alloc at configure, not a located error).
+inline constexpr double kMaxLegLengthPx = 2.0 * kMaxImageSidePx;
 
 /// Geometry of the wheel-leg as seen in the image (calibrated once, see calibrate_from_unsunk_frame).
 struct WheelGeometry {
