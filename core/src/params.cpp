@@ -6,16 +6,9 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <sstream>
 
 namespace regolith {
 namespace {
-
-std::string fmt_number(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
 
 std::string range_text(const ParamSpec& s) {
   if (!s.choices.empty()) {
@@ -23,9 +16,9 @@ std::string range_text(const ParamSpec& s) {
     for (std::size_t i = 0; i < s.choices.size(); ++i) out += (i ? "|" : "") + s.choices[i];
     return out;
   }
-  if (s.min && s.max) return (s.min_exclusive ? "(" : "[") + fmt_number(*s.min) + ", " + fmt_number(*s.max) + "]";
-  if (s.min) return (s.min_exclusive ? "> " : ">= ") + fmt_number(*s.min);
-  if (s.max) return "<= " + fmt_number(*s.max);
+  if (s.min && s.max) return (s.min_exclusive ? "(" : "[") + number_text(*s.min) + ", " + number_text(*s.max) + "]";
+  if (s.min) return (s.min_exclusive ? "> " : ">= ") + number_text(*s.min);
+  if (s.max) return "<= " + number_text(*s.max);
   return {};
 }
 
@@ -263,16 +256,16 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
   // still report the same way).
   auto check_num = [&](double v, const std::string& what) {
     if (spec.min && (spec.min_exclusive ? !(v > *spec.min) : !(v >= *spec.min)))
-      fail(key, what + " must be " + (spec.min_exclusive ? "> " : ">= ") + fmt_number(*spec.min) + " (got " + fmt_number(v) + ")");
+      fail(key, what + " must be " + (spec.min_exclusive ? "> " : ">= ") + number_text(*spec.min) + " (got " + number_text(v) + ")");
     if (spec.max && !(v <= *spec.max))
-      fail(key, what + " must be <= " + fmt_number(*spec.max) + " (got " + fmt_number(v) + ")");
+      fail(key, what + " must be <= " + number_text(*spec.max) + " (got " + number_text(v) + ")");
   };
   std::string rendered;
   if constexpr (std::is_same_v<T, bool>) {
     rendered = value ? "true" : "false";
   } else if constexpr (std::is_arithmetic_v<T>) {
     check_num(static_cast<double>(value), "value");
-    rendered = fmt_number(static_cast<double>(value));
+    rendered = number_text(static_cast<double>(value));
   } else if constexpr (std::is_same_v<T, std::string>) {
     if (!spec.choices.empty() && std::find(spec.choices.begin(), spec.choices.end(), value) == spec.choices.end()) {
       std::string msg = "'" + value + "' is not " + range_text(spec);
@@ -285,7 +278,7 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
     rendered = "[";
     for (std::size_t i = 0; i < value.size(); ++i) {
       check_num(value[i], "element " + std::to_string(i));
-      rendered += (i ? ", " : "") + fmt_number(value[i]);
+      rendered += (i ? ", " : "") + number_text(value[i]);
     }
     rendered += "]";
   } else {

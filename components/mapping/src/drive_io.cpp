@@ -85,7 +85,7 @@ RecordedDrive read_drive(const fs::path& dir) {
   d.sun_azimuth_deg = number("sun.azimuth_deg");
   d.sun_elevation_deg = number("sun.elevation_deg");
   if (d.sun_elevation_deg <= 0 || d.sun_elevation_deg > 90)
-    throw InputError(name + ": sun.elevation_deg: must be in (0, 90] (got " + std::to_string(d.sun_elevation_deg) + ")");
+    throw InputError(name + ": sun.elevation_deg: must be in (0, 90] (got " + number_text(d.sun_elevation_deg) + ")");
   d.wheel_radius_m = optional("wheel.radius_m");
 
   const fs::path csv = dir / "frames.csv";

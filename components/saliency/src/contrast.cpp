@@ -19,11 +19,11 @@ constexpr double kNoContrast = 1e-6;
 
 void ContrastParams::validate() const {
   if (!std::isfinite(sigma_px) || sigma_px <= 0.0 || sigma_px > 200.0) {
-    throw FieldError("ContrastParams", "sigma_px", "must be in (0, 200] px (got " + std::to_string(sigma_px) + ")");
+    throw FieldError("ContrastParams", "sigma_px", "must be in (0, 200] px (got " + number_text(sigma_px) + ")");
   }
   if (!std::isfinite(smooth_sigma_px) || smooth_sigma_px < 0.0 || smooth_sigma_px > 50.0) {
     throw FieldError("ContrastParams", "smooth_sigma_px",
-                     "must be in [0, 50] px (got " + std::to_string(smooth_sigma_px) + ")");
+                     "must be in [0, 50] px (got " + number_text(smooth_sigma_px) + ")");
   }
 }
 

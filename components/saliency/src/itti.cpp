@@ -115,7 +115,7 @@ void ChannelWeights::validate() const {
   for (const auto &[name, v] : fields) {
     if (!finite_nonneg(v)) {
       throw FieldError("ChannelWeights", name,
-                       "must be finite and >= 0 (got " + std::to_string(v) + ")");
+                       "must be finite and >= 0 (got " + number_text(v) + ")");
     }
   }
 }

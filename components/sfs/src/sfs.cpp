@@ -107,7 +107,7 @@ void LightDirection::validate(const std::string& what) const {
   if (!std::isfinite(slant_rad) || !std::isfinite(tilt_rad))
     fail(what, "slant/tilt must be finite");
   if (slant_rad < 0.0 || slant_rad >= kPi / 2)
-    fail(what + ".slant_rad", "must be in [0, pi/2) (got " + std::to_string(slant_rad) +
+    fail(what + ".slant_rad", "must be in [0, pi/2) (got " + number_text(slant_rad) +
                                   "); a light at or below the image plane cannot shade it");
 }
 

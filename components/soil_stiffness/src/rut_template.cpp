@@ -15,7 +15,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kFineStep = 0.0005;  ///< surface sampling of a template [m]
 
 void need(bool ok, const char* field, const char* what, double got) {
-  if (!ok) throw FieldError("", field, std::string(what) + " (got " + std::to_string(got) + ")");
+  if (!ok) throw FieldError("", field, std::string(what) + " (got " + number_text(got) + ")");
 }
 
 double huber(double r, double k) {

@@ -40,7 +40,7 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   }
   const double el = scene_number("sun_elevation_deg");
   if (!(el > 0.0 && el <= 90.0))
-    throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + std::to_string(el) + ")");
+    throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + number_text(el) + ")");
   // Camera ground frame: x = the view (world +Y), y = left (world -X). The scene's azimuth turns
   // from +Y towards +X (clockwise seen from above); GroundSun's from x towards y (anticlockwise).
   cfg.sun.azimuth_rad = -scene_number("sun_azimuth_deg") * kDeg;
@@ -64,7 +64,7 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
     };
     TrackSpec spec;
     spec.load_n = num("load_N");
-    if (!(spec.load_n > 0)) throw InputError(file.string() + ": " + at + ".load_N: must be > 0 N (got " + std::to_string(spec.load_n) + ")");
+    if (!(spec.load_n > 0)) throw InputError(file.string() + ": " + at + ".load_N: must be > 0 N (got " + number_text(spec.load_n) + ")");
     spec.lateral_m = -num("x_nominal_m");
     max_abs_x = std::max(max_abs_x, std::abs(spec.lateral_m));
     load_sum += spec.load_n;

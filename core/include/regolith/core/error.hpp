@@ -1,11 +1,20 @@
 #pragma once
 // The error types of regolith. Header-only and standard-library-only, so framework-free algorithm
 // libraries can throw them (target regolith::errors) without depending on YAML or the runtime.
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 namespace regolith {
+
+/// A number as messages quote it: six significant digits, exponent form when very large or small
+/// ("-3", "0.005", "1e+308", "1e-09"; std::to_string gave 309 digits or "0.000000").
+inline std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
 
 /// A configuration or input problem found before anything runs. The message is complete and
 /// user-facing, e.g. "config/mock_rover.yaml:12:5: rate_groups[0].period_ms: must be > 0 (got -5)".
