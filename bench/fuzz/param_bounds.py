@@ -119,6 +119,8 @@ for dep in args.deployments:
             with open(path, 'w') as f:
                 yaml.safe_dump(doc, f)
             rc, cpu, rss, last = check(path)
+            if rc in (126, 127):  # e.g. the binary being relinked by a build meanwhile
+                sys.exit(f'{args.regolith}: could not be run ({last}); the probe stopped at {key}={v}')
             if rc in counts:
                 counts[rc] += 1
             if rc not in (0, 2) or cpu > args.max_cpu_s or rss > args.max_rss_mb:
