@@ -3,9 +3,14 @@
 // a DeviceUnavailableError so that `regolith run` can exit with its own, restartable status).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_limits.hpp"
+#include "regolith/hal/camera.hpp"
 #include "regolith/hal/device.hpp"
 
 using namespace regolith;
@@ -27,6 +32,45 @@ TEST(Backoff, CeilingThatIsNotAPowerOfTwoMultipleIsHit) {
   EXPECT_EQ(c.next(), 100 * kNsPerMs);
   EXPECT_EQ(c.next(), 120 * kNsPerMs);
   EXPECT_EQ(c.next(), 120 * kNsPerMs);
+}
+
+// Each backend's Config::validate (V4L2, libcamera, SocketCAN) calls these; the error names the field.
+namespace {
+std::string field_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const FieldError& e) {
+    return e.field();
+  }
+  return "(no error)";
+}
+}  // namespace
+
+TEST(Backoff, FieldsAreCheckedOnceForEveryBackend) {
+  EXPECT_EQ(field_of([] { validate_backoff(0.1, 5.0); }), "(no error)");
+  EXPECT_EQ(field_of([] { validate_backoff(0.1, 0.1); }), "(no error)");
+  EXPECT_EQ(field_of([] { validate_backoff(0.0, 5.0); }), "retry_min");
+  EXPECT_EQ(field_of([] { validate_backoff(std::nan(""), 5.0); }), "retry_min");
+  EXPECT_EQ(field_of([] { validate_backoff(HUGE_VAL, HUGE_VAL); }), "retry_min");
+  EXPECT_EQ(field_of([] { validate_backoff(0.5, 0.2); }), "retry_max");
+  EXPECT_EQ(field_of([] { validate_backoff(0.5, HUGE_VAL); }), "retry_max") << "libcamera let an infinite ceiling through";
+  EXPECT_EQ(field_of([] { validate_backoff(0.5, std::nan("")); }), "retry_max");
+}
+
+TEST(CaptureFields, SizesAndTimeoutAreCheckedOnceForEveryCameraBackend) {
+  EXPECT_EQ(field_of([] { validate_capture(640, 480, 2.0); }), "(no error)");
+  EXPECT_EQ(field_of([] { validate_capture(kMaxImageSidePx, 1, 2.0); }), "(no error)");
+  EXPECT_EQ(field_of([] { validate_capture(0, 480, 2.0); }), "width");
+  EXPECT_EQ(field_of([] { validate_capture(kMaxImageSidePx + 1, 480, 2.0); }), "width");
+  EXPECT_EQ(field_of([] { validate_capture(640, -1, 2.0); }), "height");
+  EXPECT_EQ(field_of([] { validate_capture(640, 480, 0.0); }), "frame_timeout");
+  EXPECT_EQ(field_of([] { validate_capture(640, 480, HUGE_VAL); }), "frame_timeout");
+  try {
+    validate_capture(640, 20000, 2.0);
+    FAIL() << "no error";
+  } catch (const FieldError& e) {
+    EXPECT_NE(std::string(e.what()).find("must be in [1, 16384] px (got 20000)"), std::string::npos) << e.what();
+  }
 }
 
 TEST(DeviceErrors, KindsShareTheFieldCarryingBase) {

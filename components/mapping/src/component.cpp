@@ -131,15 +131,13 @@ class TerrainMapComponent final : public runtime::Component {
     defaults.parallax_spacing_m = 0.15;  // a parallax search per 15 cm of baseline: the component's time budget
     defaults.fuse_shading = false;       // ~50 ms per 320x240 frame: over the component's time budget
     DriveMapperParams mp = read_drive_mapper_params(p, defaults);
-    const double cells_per_side = std::max(mp.map.length_x_m, mp.map.length_y_m) / mp.map.resolution_m;
+    const double window_m = std::max(mp.map.length_x_m, mp.map.length_y_m);
+    const double cells_per_side = window_m / mp.map.resolution_m;
     if (cells_per_side > kMaxLiveMapCellsPerSide) {
-      char why[200];
-      std::snprintf(why, sizeof why,
-                    "map_length_m %g m at %g m per cell is %.0f cells per side; the live map takes at most %d "
-                    "(a coarser resolution or a shorter window)",
-                    std::max(mp.map.length_x_m, mp.map.length_y_m), mp.map.resolution_m, cells_per_side,
-                    kMaxLiveMapCellsPerSide);
-      p.fail("map_resolution_m", why);
+      p.fail("map_resolution_m", "map_length_m " + number_text(window_m) + " m at " + number_text(mp.map.resolution_m) +
+                                     " m per cell is " + number_text(std::ceil(cells_per_side)) +
+                                     " cells per side; the live map takes at most " +
+                                     std::to_string(kMaxLiveMapCellsPerSide) + " (a coarser resolution or a shorter window)");
     }
     map_every_ = p.get<int>(
         "map_publish_every", 2,

@@ -90,12 +90,9 @@ void Config::validate() const {
   if (role != "raw" && role != "still" && role != "video" && role != "viewfinder") {
     throw FieldError("", "role", "must be raw, still, video or viewfinder (got '" + role + "')");
   }
-  const std::string sides = "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px";
-  if (width <= 0 || width > kMaxImageSidePx) throw FieldError("", "width", sides);
-  if (height <= 0 || height > kMaxImageSidePx) throw FieldError("", "height", sides);
+  validate_capture(width, height, frame_timeout_s);
   if (buffers < 1 || buffers > 16) throw FieldError("", "buffers", "must be in [1, 16]");
-  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s");
-  if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s)) throw FieldError("", "retry_max", "need 0 < retry_min <= retry_max");
+  validate_backoff(retry_min_s, retry_max_s);
   if (max_readers < 1 || max_readers > 64) throw FieldError("", "max_readers", "must be in [1, 64]");
 }
 

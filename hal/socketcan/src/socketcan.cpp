@@ -80,9 +80,7 @@ void Config::validate() const {
   if (!(max_extrapolation_s >= 0.0) || !std::isfinite(max_extrapolation_s)) {
     throw FieldError("", "max_extrapolation", "must be >= 0 and finite");
   }
-  positive(retry_min_s, "retry_min");
-  positive(retry_max_s, "retry_max");
-  if (retry_max_s < retry_min_s) throw FieldError("", "retry_max", "must be >= retry_min");
+  validate_backoff(retry_min_s, retry_max_s);
   if (receive_buffer_kb < 16 || receive_buffer_kb > 1 << 16) throw FieldError("", "receive_buffer_kb", "must be 16..65536");
   if (frame_history < 1 || frame_history > 1 << 20) throw FieldError("", "frame_history", "must be 1..1048576");
   if (tx_enabled && tx_id > (tx_extended ? CAN_EFF_MASK : CAN_SFF_MASK)) {

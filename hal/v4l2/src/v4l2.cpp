@@ -79,9 +79,7 @@ void Config::validate() const {
   if (device.empty() && card.empty() && bus_info.empty()) {
     throw FieldError("", "device", "give device (e.g. /dev/video0), card or bus_info");
   }
-  const std::string sides = "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px";
-  if (width <= 0 || width > kMaxImageSidePx) throw FieldError("", "width", sides);
-  if (height <= 0 || height > kMaxImageSidePx) throw FieldError("", "height", sides);
+  validate_capture(width, height, frame_timeout_s);
   if (fourcc != "auto") {
     DeviceFormat f{};
     std::uint32_t code = 0;
@@ -96,10 +94,7 @@ void Config::validate() const {
   }
   if (!(rate_hz > 0.0) || rate_hz > 1000.0) throw FieldError("", "rate", "must be in (0, 1000] Hz");
   if (buffers < 2 || buffers > 32) throw FieldError("", "buffers", "must be in [2, 32]");
-  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s");
-  if (!(retry_min_s > 0.0) || !(retry_max_s >= retry_min_s) || !std::isfinite(retry_max_s)) {
-    throw FieldError("", "retry_max", "need 0 < retry_min <= retry_max");
-  }
+  validate_backoff(retry_min_s, retry_max_s);
   if (max_readers < 1 || max_readers > 64) throw FieldError("", "max_readers", "must be in [1, 64]");
   for (const auto& c : controls) {
     if (c.name.empty()) throw FieldError("", "controls", "empty control name");

@@ -16,6 +16,10 @@ struct CameraFormat {
   double rate_hz = 30.0;
 };
 
+/// The fields every hardware camera backend's Config shares (V4L2, libcamera): width and height
+/// in 1..kMaxImageSidePx px, frame_timeout > 0 s and finite. Throws FieldError at the field.
+void validate_capture(int width, int height, double frame_timeout_s);
+
 /// Counters every camera backend keeps; read from any thread.
 struct CameraStats {
   std::uint64_t frames = 0;          ///< frames delivered

@@ -87,6 +87,10 @@ class DeviceUnavailableError : public DeviceError {
 /// DeviceConfigError becomes a ConfigError, a DeviceUnavailableError stays one.
 [[noreturn]] void rethrow_located(const Params& p, const DeviceError& e);
 
+/// The back-off fields every re-opening backend shares (V4L2, libcamera, SocketCAN):
+/// 0 < retry_min <= retry_max, both finite. Throws FieldError at `retry_min` or `retry_max`.
+void validate_backoff(double retry_min_s, double retry_max_s);
+
 /// Exponential back-off for re-opening a device: `initial`, doubled per failure up to `max`;
 /// reset() after a success.
 class Backoff {
