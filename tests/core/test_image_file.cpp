@@ -151,6 +151,18 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
   std::string stray_why;
   EXPECT_TRUE(regolith::decode_image(stray.data(), stray.size(), cv::IMREAD_UNCHANGED, &stray_why).empty());
   EXPECT_NE(stray_why.find("65535 x 65535 pixels"), std::string::npos) << stray_why;
+  // A segment length below 2 (an APP0 of length 0): libjpeg skips nothing and scans on from after
+  // the length, so the search must not stop there (tests/fuzz: 67 bytes, APP0 length 0 then a
+  // frame header of 65455 x 12496 x 3, a 2.4 GB allocation).
+  for (const unsigned zero_or_one : {0u, 1u}) {
+    std::vector<unsigned char> app = jpg;
+    const unsigned char app0[] = {0xFF, 0xE0, 0x00, static_cast<unsigned char>(zero_or_one), 0x4F, 0x4F};
+    app.insert(app.begin() + 2, std::begin(app0), std::end(app0));
+    EXPECT_EQ(regolith::declared_image_extent(app.data(), app.size()).width, 65535u) << zero_or_one;
+    std::string app_why;
+    EXPECT_TRUE(regolith::decode_image(app.data(), app.size(), cv::IMREAD_UNCHANGED, &app_why).empty());
+    EXPECT_NE(app_why.find("65535 x 65535 pixels"), std::string::npos) << app_why;
+  }
   // PNM numbers as OpenCV reads them: any non-digit ends a number and is consumed (tests/fuzz: 23
   // bytes, "P6\n2222\xff444444\xff44..." asked for a 2.96 GB allocation); a comment ends at '\r'.
   for (const std::string& head : {std::string("P6\n2222\xff" "444444\xff" "44ZO:1@\xa0"), std::string("P5 2222Z444444 255\n"),

@@ -90,8 +90,10 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
         if (i + 7 <= n) e = {be16(i + 5), be16(i + 3)};
         break;
       }
-      if (len < 2) break;
-      i += static_cast<std::size_t>(len);
+      // A length below 2 cannot cover its own two bytes: libjpeg skips nothing and scans on for the
+      // next marker right after the length (tests/fuzz: an APP0 of length 0 before a 65455 x 12496
+      // frame header made the decoder allocate 2.4 GB while this search had stopped at it).
+      i += len < 2 ? 2 : static_cast<std::size_t>(len);
     }
   } else if (starts("BM", 2)) {
     if (n >= 26) {
