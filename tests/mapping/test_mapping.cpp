@@ -934,6 +934,24 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("frames.csv:3: odom_y_m: not a number ('abc')"), std::string::npos) << e.what();
   }
+  // A frame number is a whole number checked before the cast (1e308 as an int is undefined) and a
+  // time is finite (NaN compared as "out of order" and the frame was dropped without a word).
+  for (const auto& [row, want] : std::vector<std::pair<std::string, std::string>>{
+           {"1e308,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '1e308')"},
+           {"2.5,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '2.5')"},
+           {"-1,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '-1')"},
+           {"nan,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number"},
+           {"1,frames/0001.png,nan,0,0,1.57", "frames.csv:3: t_s: must be a finite time (got 'nan')"},
+           {"1,frames/0001.png,inf,0,0,1.57", "frames.csv:3: t_s: must be a finite time (got 'inf')"}}) {
+    std::ofstream(d / "frames.csv") << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/0000.png,0,0,0,1.57\n"
+                                    << row << "\n";
+    try {
+      read_drive(d);
+      ADD_FAILURE() << row;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  }
   // Image sizes are whole pixels within 1..16384, checked before any cast.
   for (const char* w : {"1e30", "320.5", "0"}) {
     std::ofstream(d / "input.json") << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": )" << w
@@ -958,11 +976,20 @@ TEST(RecordedDrive, ACorruptedOdometryLineNeitherSizesTheWindowNorMovesThePose) 
   std::ofstream(d / "input.json") << kRigDriveJson;
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
-  write_rig_frames(rig, d, csv, 0, 6, [](int k) { return k == 3 ? 1e6 : 0.0; });
+  write_rig_frames(rig, d, csv, 0, 6, [](int k) { return k == 3 ? 1e6 : (k == 4 ? 1e300 : 0.0); });
   csv.close();
   const DriveMapSummary s = map_drive(read_drive(d), DriveMapperParams{}, d / "out");
   EXPECT_EQ(s.counters.frames, 6);
-  EXPECT_EQ(s.counters.odometry_jumps, 2);
+  EXPECT_EQ(s.counters.odometry_jumps, 3);
+  // odometry.csv echoes the wheel odometry as read, one whole row per frame (1e300 as %f is 301
+  // digits: it overran the row's buffer and ran into the next row); beyond 1e9 in exponent form.
+  std::ifstream odo(d / "out" / "odometry.csv");
+  std::vector<std::string> rows;
+  for (std::string line; std::getline(odo, line);) rows.push_back(line);
+  ASSERT_EQ(rows.size(), 7u);
+  for (const std::string& r : rows) EXPECT_EQ(std::count(r.begin(), r.end(), ','), 10) << r;
+  EXPECT_NE(rows[4].find(",1000000.000000,"), std::string::npos) << rows[4];
+  EXPECT_NE(rows[5].find(",1e+300,"), std::string::npos) << rows[5];
   const nlohmann::json mj = nlohmann::json::parse(std::ifstream(d / "out" / "map.json"));
   EXPECT_LT(mj["width"].get<int>() * mj["resolution_m"].get<double>(), 30.0) << mj.dump();
   // The corrected last pose stays on the 0.3 m path.

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <cmath>
 #include <fstream>
@@ -42,6 +43,16 @@ double parse_double(const std::string& s, const fs::path& file, int line, const 
   } catch (const std::exception&) {
     throw InputError(file.string() + ":" + std::to_string(line) + ": " + col + ": not a number ('" + s + "')");
   }
+}
+
+/// `decimals` after the point, as the columns have always been written, except for a magnitude
+/// no drive reaches (a corrupted odometry line echoed back: 1e308 as %f is 309 digits), which is
+/// written in exponent form with the same significant digits instead.
+std::string csv_fixed(double v, int decimals) {
+  char buf[64];
+  if (std::abs(v) < 1e9 || !std::isfinite(v)) std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  else std::snprintf(buf, sizeof buf, "%.*g", decimals + 10, v);
+  return buf;
 }
 
 void write_tiff(const fs::path& p, const cv::Mat& m) {
@@ -115,9 +126,17 @@ RecordedDrive read_drive(const fs::path& dir) {
                        std::to_string(header.size()));
     DriveFrame fr;
     fr.line = n;
-    fr.index = static_cast<int>(parse_double(fields[static_cast<std::size_t>(ci[0])], csv, n, "frame"));
+    const std::string& frame_text = fields[static_cast<std::size_t>(ci[0])];
+    const double index = parse_double(frame_text, csv, n, "frame");
+    if (!(index >= 0.0 && index <= std::numeric_limits<int>::max()) || index != std::floor(index))
+      throw InputError(csv.string() + ":" + std::to_string(n) + ": frame: must be a whole number in 0.." +
+                       std::to_string(std::numeric_limits<int>::max()) + " (got '" + frame_text + "')");
+    fr.index = static_cast<int>(index);
     fr.file = dir / fields[static_cast<std::size_t>(ci[1])];
     fr.t_s = parse_double(fields[static_cast<std::size_t>(ci[2])], csv, n, "t_s");
+    if (!std::isfinite(fr.t_s))
+      throw InputError(csv.string() + ":" + std::to_string(n) + ": t_s: must be a finite time (got '" +
+                       fields[static_cast<std::size_t>(ci[2])] + "')");
     fr.odometry = {parse_double(fields[static_cast<std::size_t>(ci[3])], csv, n, "odom_x_m"),
                    parse_double(fields[static_cast<std::size_t>(ci[4])], csv, n, "odom_y_m"),
                    parse_double(fields[static_cast<std::size_t>(ci[5])], csv, n, "odom_yaw_rad")};
@@ -324,14 +343,18 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   {
     std::ofstream o(out / "odometry.csv");
     o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
-    char buf[320];
     for (std::size_t k = 0; k < sum.reports.size(); ++k) {
       const FrameReport& r = sum.reports[k];
-      std::snprintf(buf, sizeof buf, "%d,%.6f,%.6f,%.8f,%.3g,%.3g,%.3g,%s,%.6f,%.6f,%.8f\n", sum.frame_index[k], r.pose.x,
-                    r.pose.y, r.pose.yaw, r.covariance(0, 0), r.covariance(1, 1), r.covariance(2, 2),
-                    r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel"), r.wheel_pose.x, r.wheel_pose.y,
-                    r.wheel_pose.yaw);
-      o << buf;
+      const auto g = [](double v) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.3g", v);
+        return std::string(buf);
+      };
+      o << sum.frame_index[k] << ',' << csv_fixed(r.pose.x, 6) << ',' << csv_fixed(r.pose.y, 6) << ','
+        << csv_fixed(r.pose.yaw, 8) << ',' << g(r.covariance(0, 0)) << ',' << g(r.covariance(1, 1)) << ','
+        << g(r.covariance(2, 2)) << ',' << (r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel")) << ','
+        << csv_fixed(r.wheel_pose.x, 6) << ',' << csv_fixed(r.wheel_pose.y, 6) << ',' << csv_fixed(r.wheel_pose.yaw, 8)
+        << '\n';
     }
     sum.written.push_back(out / "odometry.csv");
   }
