@@ -49,7 +49,7 @@ fi
 # deployment_check configures a whole deployment per input (every component; ~0.3-1 s for a
 # shipped one under ASan, ~10-15 exec/s on mutants): 1000 took 60-115 s (2026-12-01).
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000 [deployment_check]=1000
-                    [pixel_convert]=5000000 [soil_scene]=100000 [drive]=100000 [sfs]=100000 [image]=150000 [mcap]=100000
+                    [pixel_convert]=5000000 [soil_scene]=100000 [drive]=100000 [sfs]=10000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000 [live_messages]=2000000)
 # Seconds one input may take before libFuzzer calls it a hang: 10, except deployment_check, which
 # builds a whole rover's configure-time tables per input (0.3-1 s in a release build, several
