@@ -8,6 +8,7 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
@@ -60,6 +61,71 @@ struct RunOptions {
   std::string live_token_file;  ///< --live-token-file FILE (overrides live.token_file)
 };
 
+/// What `run` owns of a deployment: the `record:` and `live:` blocks with their command-line
+/// overrides. Checked through Application's check_tool_blocks hook, before the rover description,
+/// devices and components (a mock camera renders its frames at configure time): a wrong topic
+/// name, listen address or token file is reported at once. `config check` runs the same checks.
+struct ToolBlocks {
+#ifdef REGOLITH_HAVE_DDS_RECORD
+  std::vector<const dds::TopicInfo*> record_topics;  ///< record.topics (empty: every known topic)
+#endif
+#ifdef REGOLITH_HAVE_LIVE
+  std::optional<live::FoxgloveServerOptions> live;  ///< the live server's options; empty: none
+#endif
+
+  void check(const runtime::RecordConfig& rc, const runtime::LiveConfig& lc, bool dds, const RunOptions& o) {
+#ifdef REGOLITH_HAVE_DDS_RECORD
+    if (!o.record.empty() && !dds)
+      throw InputError("run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
+                       "records the DDS topics the deployment publishes)");
+    record_topics.clear();
+    for (const auto& name : rc.topics) {
+      const dds::TopicInfo* t = dds::find_topic(name);
+      if (t == nullptr)
+        throw ConfigError(rc.where_topics + ": record.topics: unknown topic '" + name + "'; known topics:\n" +
+                          dds::list_topics());
+      record_topics.push_back(t);
+    }
+#else
+    if (!o.record.empty() || !rc.file.empty())
+      throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
+#endif
+#ifdef REGOLITH_HAVE_LIVE
+    live.reset();
+    if (o.live.empty() && !lc.enabled) return;
+    if (!dds) throw InputError("run: --live: needs DDS, but the deployment has dds.enabled: false");
+    live::FoxgloveServerOptions lo;
+    try {
+      live::parse_listen_address(o.live.empty() ? lc.listen : o.live, lo);
+    } catch (const std::invalid_argument& e) {
+      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
+      throw InputError(std::string("run: --live: ") + e.what());
+    }
+    lo.max_clients = static_cast<std::size_t>(lc.max_clients);
+    lo.max_queue_bytes = static_cast<std::size_t>(lc.max_queue_mb * 1024 * 1024);
+    lo.web_root = live::default_web_root();  // the built-in page on GET /
+    const bool token_from_cli = !o.live_token_file.empty();
+    const std::string token_file = token_from_cli ? o.live_token_file : lc.token_file;
+    try {
+      if (!token_file.empty()) lo.token = live::read_token_file(token_file);
+    } catch (const std::invalid_argument& e) {
+      if (token_from_cli) throw InputError(std::string("run: --live-token-file: ") + e.what());
+      throw ConfigError(lc.token_where + ": live.token_file: " + e.what());
+    }
+    try {
+      live::check_access(lo);
+    } catch (const std::invalid_argument& e) {  // not loopback and no token
+      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
+      throw InputError(std::string("run: --live: ") + e.what());
+    }
+    live = std::move(lo);
+#else
+    if (!o.live.empty() || lc.enabled)
+      throw InputError("run: live view (--live / live.enabled): this build has no live server (websocketpp not found)");
+#endif
+  }
+};
+
 #ifdef REGOLITH_HAVE_DDS_RECORD
 /// The deployment file's text (the embedded mocked rover without --config) and its name.
 std::pair<std::string, std::string> config_text(const RunOptions& o) {
@@ -86,21 +152,13 @@ std::string utc_now_iso() {
 /// record.topics) into MCAP by a dds::DdsRecorder on the application's own participant, plus the
 /// deployment file as an Attachment and a `regolith` Metadata record. Created before app->start()
 /// so its readers have matched every writer before the first cycle.
-std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const RunOptions& o) {
+std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const RunOptions& o,
+                                               const ToolBlocks& blocks) {
   const runtime::RecordConfig& rc = app.record_config();
   const std::string file = o.record.empty() ? rc.file : o.record;
   if (file.empty()) return nullptr;
-  if (app.dds() == nullptr)
-    throw InputError("run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
-                     "records the DDS topics the deployment publishes)");
   dds::DdsRecorderOptions ro;
-  for (const auto& name : rc.topics) {
-    const dds::TopicInfo* t = dds::find_topic(name);
-    if (t == nullptr)
-      throw ConfigError(rc.where_topics + ": record.topics: unknown topic '" + name + "'; known topics:\n" +
-                        dds::list_topics());
-    ro.topics.push_back(t);
-  }
+  ro.topics = blocks.record_topics;
   ro.compression = rc.compression == "none" ? record::Compression::kNone : record::Compression::kZstd;
   ro.keep_all = o.sim_time;  // simulated time: every sample, however fast the rover runs
   ro.split_bytes = static_cast<std::uint64_t>(rc.split_mb * 1024.0 * 1024.0);
@@ -274,6 +332,10 @@ void run(const RunOptions& o) {
   record::HalRecorder hal_recorder({.lossless = o.sim_time});
   ao.wrap_device = [&](std::unique_ptr<hal::Device> d) { return hal_recorder.wrap(std::move(d)); };
 #endif
+  ToolBlocks blocks;
+  ao.check_tool_blocks = [&](const runtime::RecordConfig& rc, const runtime::LiveConfig& lc, bool dds) {
+    blocks.check(rc, lc, dds, o);
+  };
   auto app = runtime::Application::load(
       o.config_yaml.empty() ? load_config(o.config) : Params::load_string(o.config_yaml, o.config), ao);
   std::signal(SIGINT, on_signal);
@@ -285,52 +347,22 @@ void run(const RunOptions& o) {
   runtime::SystemdNotifier notifier;
   auto& health = app->context().channel<runtime::HealthSnapshot>("health/snapshot");
 #ifdef REGOLITH_HAVE_DDS_RECORD
-  std::unique_ptr<dds::DdsRecorder> recorder = make_recorder(*app, o);
+  std::unique_ptr<dds::DdsRecorder> recorder = make_recorder(*app, o, blocks);
   if (recorder) recorder->start();
   const bool record_hal = recorder && app->record_config().hal;
   if (record_hal) hal_recorder.start(*recorder, app->clock());
-#else
-  if (!o.record.empty() || !app->record_config().file.empty())
-    throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
 #endif
 #ifdef REGOLITH_HAVE_LIVE
   // `--live`: the same server as `regolith live`, on the application's own participant (its own
   // threads: the relay only reads DDS).
   std::unique_ptr<live::DdsRelay> relay;
-  const runtime::LiveConfig& lc = app->live_config();
-  if (!o.live.empty() || lc.enabled) {
-    if (app->dds() == nullptr) throw InputError("run: --live: needs DDS, but the deployment has dds.enabled: false");
-    live::FoxgloveServerOptions lo;
-    try {
-      live::parse_listen_address(o.live.empty() ? lc.listen : o.live, lo);
-    } catch (const std::invalid_argument& e) {
-      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
-      throw InputError(std::string("run: --live: ") + e.what());
-    }
-    lo.max_clients = static_cast<std::size_t>(lc.max_clients);
-    lo.max_queue_bytes = static_cast<std::size_t>(lc.max_queue_mb * 1024 * 1024);
-    lo.web_root = live::default_web_root();  // the built-in page on GET /
-    const bool token_from_cli = !o.live_token_file.empty();
-    const std::string token_file = token_from_cli ? o.live_token_file : lc.token_file;
-    try {
-      if (!token_file.empty()) lo.token = live::read_token_file(token_file);
-    } catch (const std::invalid_argument& e) {
-      if (token_from_cli) throw InputError(std::string("run: --live-token-file: ") + e.what());
-      throw ConfigError(lc.token_where + ": live.token_file: " + e.what());
-    }
-    try {
-      relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);
-    } catch (const std::invalid_argument& e) {  // not loopback and no token
-      if (o.live.empty()) throw ConfigError(lc.where + ": live.listen: " + e.what());
-      throw InputError(std::string("run: --live: ") + e.what());
-    }
+  if (blocks.live) {
+    const live::FoxgloveServerOptions& lo = *blocks.live;
+    relay = std::make_unique<live::DdsRelay>(*app->dds(), lo);  // std::runtime_error when the port cannot be bound
     relay->start();
     spdlog::info("live: Foxglove WebSocket server on ws://{}:{}, page http://{}:{}/", lo.address,
                  relay->server().port(), lo.address, relay->server().port());
   }
-#else
-  if (!o.live.empty() || app->live_config().enabled)
-    throw InputError("run: live view (--live / live.enabled): this build has no live server (websocketpp not found)");
 #endif
   app->start();
 
@@ -484,7 +516,15 @@ const bool registered = add_command([](CLI::App& app) {
   check->add_option("file", *file, "deployment YAML (default: the embedded mocked rover)");
   check->add_flag("--dot", *dot, "print only the data-flow graph, in Graphviz dot (| dot -Tsvg > flow.svg)");
   check->callback([file, dot] {
-    auto loaded = runtime::Application::load(load_config(*file), {.sim_time = true, .enable_dds = false, .open_devices = false});
+    // The record: and live: blocks as `run` checks them (no command-line overrides here; DDS is
+    // not started by `config check`, so not asked for).
+    ToolBlocks blocks;
+    auto loaded = runtime::Application::load(
+        load_config(*file), {.sim_time = true,
+                             .enable_dds = false,
+                             .open_devices = false,
+                             .check_tool_blocks = [&](const runtime::RecordConfig& rc, const runtime::LiveConfig& lc,
+                                                      bool) { blocks.check(rc, lc, /*dds=*/true, RunOptions{}); }});
     if (*dot) {
       loaded->dataflow().print_dot(std::cout);
       return;

@@ -110,6 +110,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   if (opts.enable_dds && !app->dds_ && app->live_.enabled)
     live.fail("enabled", "the live view needs DDS: set dds.enabled: true (it serves the DDS topics)");
   live.finish();
+  if (opts.check_tool_blocks) opts.check_tool_blocks(app->record_, app->live_, app->dds_ != nullptr);
 
   // ---- rover description: camera calibration and mounts, wheels, the sun ----
   ctx.set_rover(read_rover_description(root, config_dir));

@@ -365,6 +365,12 @@ TEST_F(RunRecord, ConfigErrors) {
   r = run("run --sim-time --duration 1 --quiet --config " + bad_topic.string());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("record.topics: unknown topic 'joint_state'"), std::string::npos) << r.out;
+  // ... said before the deployment is built (no rendering, no device opened), and by `config check`.
+  EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;
+  r = run("config check " + bad_topic.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("bad_topic.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.topics: unknown topic 'joint_state'"), std::string::npos) << r.out;
   // a split size below 0.01 MiB names record.split_mb
   const fs::path tiny = write_config("tiny_split.yaml", "\nrecord: {file: x.mcap, split_mb: 0.001}\n");
   r = run("config check " + tiny.string());
@@ -387,6 +393,14 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("bad_live.yaml:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("live.listen: "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;  // before the deployment is built
+  r = run("config check " + bad_live.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("bad_live.yaml:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("live.listen: expected [ADDR:]PORT"), std::string::npos) << r.out;
+  r = run("run --sim-time --duration 1 --quiet --config " + plain_no_dds.string() + " --live 0");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--live: needs DDS, but the deployment has dds.enabled: false"), std::string::npos) << r.out;
   const fs::path ok_live = write_config("ok_live.yaml", "\nlive: {enabled: true, listen: '127.0.0.1:0', max_clients: 2}\n");
   r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string());
   EXPECT_EQ(r.status, 0) << r.out;
@@ -400,6 +414,7 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_NE(r.out.find("open_live.yaml:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("live.listen: listening on 0.0.0.0 (not a loopback address) needs an access token"),
             std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;
   r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string() + " --live 0.0.0.0:0");
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("--live: listening on 0.0.0.0"), std::string::npos) << r.out;
@@ -414,6 +429,7 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_NE(r.out.find("leaky.yaml:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("live.token_file: token file '" + (dir_ / "live.token").string() + "': mode 0604"), std::string::npos)
       << r.out;
+  EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;
   fs::permissions(dir_ / "live.token", fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
   r = run("run --sim-time --duration 1 --quiet --config " + leaky.string());
   EXPECT_EQ(r.status, 0) << r.out;

@@ -132,6 +132,12 @@ std::string read_token_file(const std::string& path) {
   return t;
 }
 
+void check_access(const FoxgloveServerOptions& options) {
+  if (options.token.empty() && !is_loopback_address(options.address))
+    throw std::invalid_argument("listening on " + options.address + " (not a loopback address) needs an access token: "
+                                "give a token file (`--token-file FILE` / live.token_file, mode 0600)");
+}
+
 void parse_listen_address(const std::string& text, FoxgloveServerOptions& options) {
   const auto colon = text.rfind(':');
   const std::string port = colon == std::string::npos ? text : text.substr(colon + 1);
@@ -337,9 +343,7 @@ FoxgloveServer::FoxgloveServer(std::vector<Channel> channels, FoxgloveServerOpti
   Impl& s = *impl_;
   s.channels = std::move(channels);
   s.opts = std::move(options);
-  if (s.opts.token.empty() && !is_loopback_address(s.opts.address))
-    throw std::invalid_argument("listening on " + s.opts.address + " (not a loopback address) needs an access token: "
-                                "give a token file (`--token-file FILE` / live.token_file, mode 0600)");
+  check_access(s.opts);
   s.subscribers = std::make_unique<std::atomic<std::uint32_t>[]>(s.channels.size());
   s.last.resize(s.channels.size());
   s.last_ns.resize(s.channels.size(), 0);

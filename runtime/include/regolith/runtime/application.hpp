@@ -26,6 +26,8 @@ namespace regolith::runtime {
 
 class RosoutSink;    // event_log.hpp
 class HealthEvents;  // event_log.hpp
+struct RecordConfig;  // below
+struct LiveConfig;    // below
 
 struct AppOptions {
   bool sim_time = false;     ///< run rate groups on the simulated clock, as fast as possible
@@ -41,6 +43,12 @@ struct AppOptions {
   /// Applied to every device right after its backend built it (configure time, devices opened):
   /// a decorator such as the HAL recorder's (record::HalRecorder::wrap). Empty = none.
   std::function<std::unique_ptr<hal::Device>(std::unique_ptr<hal::Device>)> wrap_device{};
+  /// Called once the `record:` and `live:` blocks are read, before the rover description, any
+  /// device or component: the tool that owns those blocks checks what only it knows (topic names,
+  /// the listen address, the token file) so a mistake there is reported before start-up renders
+  /// or opens anything. `dds` is true when the deployment will have a DDS participant. Throw
+  /// ConfigError located with the blocks' `where` fields. Empty = none.
+  std::function<void(const RecordConfig&, const LiveConfig&, bool dds)> check_tool_blocks{};
 };
 
 /// The `record:` block (read here so `config check` lists it; the recording itself is done by the

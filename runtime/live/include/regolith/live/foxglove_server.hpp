@@ -72,6 +72,10 @@ void parse_listen_address(const std::string& text, FoxgloveServerOptions& option
 /// True for an address only this machine can reach: 127.0.0.0/8, ::1, "localhost".
 bool is_loopback_address(const std::string& address);
 
+/// Throws std::invalid_argument when `options` would listen beyond loopback without an access
+/// token. The server's constructor checks it; a tool may check it before it builds anything else.
+void check_access(const FoxgloveServerOptions& options);
+
 /// The access token in `path`: the file's text without surrounding white space. Throws
 /// std::invalid_argument naming the file when it cannot be read, is not a regular file, can be
 /// read or written by its group or others (it must be mode 0600 or stricter), or holds no token
