@@ -133,10 +133,7 @@ struct ImageRock {
 // image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
 // halves merged into one (merge_halves).
 std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::DirectDepth& depth) {
-  cv::Mat g8;
-  if (gray.depth() == CV_8U) g8 = gray;
-  else if (gray.depth() == CV_16U) gray.convertTo(g8, CV_8U, 1.0 / 256.0);
-  else cv::normalize(gray, g8, 0, 255, cv::NORM_MINMAX, CV_8U);
+  const cv::Mat g8 = regolith::to_8bit(gray);
   mapping::RockSightingParams p;
   p.min_pixels = 24;  // at the reference width: twice the map's (one frame, no second look)
   p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
@@ -333,9 +330,15 @@ void assess(const AssessOptions& o) {
     raw = regolith::read_image_file(o.image, cv::IMREAD_UNCHANGED, &why);
     if (raw.empty()) throw InputError("assess: cannot read image '" + o.image + "': " + why);
   }
-  if (raw.depth() != CV_8U)
-    throw InputError("assess: image '" + o.image + "' has " + (raw.depth() == CV_16U ? "16-bit" : "non-8-bit") +
-                     " samples; convert it to 8-bit grey or colour");
+  if (raw.depth() != CV_8U) {
+    // 16-bit (a 12-bit camera's PNG or TIFF) and float images are scaled to 8 bits by the range
+    // they use (regolith::to_8bit); signed samples are refused.
+    const cv::Mat g8 = regolith::to_8bit(raw);
+    if (g8.empty())
+      throw InputError("assess: image '" + o.image + "' has signed samples (depth " + std::to_string(raw.depth()) +
+                       "); give 8- or 16-bit grey or colour");
+    raw = g8;
+  }
   cv::Mat gray;
   if (raw.channels() == 1) gray = raw;
   else if (raw.channels() == 3) cv::cvtColor(raw, gray, cv::COLOR_BGR2GRAY);
@@ -556,9 +559,7 @@ void assess(const AssessOptions& o) {
       }
     elev_style.title = "elevation above the fitted ground (cm) on the camera image";
     elev_style.unknown_note = "uncoloured: no ground cell (sky, beyond the grid, unknown)";
-    cv::Mat g8;
-    gray.convertTo(g8, CV_8U, gray.depth() == CV_16U ? 1.0 / 256.0 : 1.0);
-    write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, g8));
+    write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, regolith::to_8bit(gray)));
   } else {
     cv::Mat metric = height_m.clone();
     metric.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
@@ -727,7 +728,7 @@ void assess(const AssessOptions& o) {
 void add_assess(CLI::App& app) {
   auto o = std::make_shared<AssessOptions>();
   CLI::App* cmd = app.add_subcommand("assess", "one image -> SfS height map, traversability layers, JSON summary");
-  cmd->add_option("image", o->image, "input image (8-bit grey or colour), or a recording (.mcap, with --frame)")->required();
+  cmd->add_option("image", o->image, "input image (8- or 16-bit grey or colour), or a recording (.mcap, with --frame)")->required();
   cmd->add_option("--out,-o", o->out, "output directory")->required();
   cmd->add_option("--config,-c", o->config, "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
   cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)")

@@ -25,6 +25,7 @@
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/detect.hpp"
@@ -213,16 +214,7 @@ void ensure_dir(const std::string &dir, const char *option) {
 }
 
 cv::Mat to_bgr8(const cv::Mat &img) {
-  cv::Mat f;
-  double scale = 1.0;
-  if (img.depth() == CV_16U)
-    scale = 255.0 / 65535.0;
-  else if (img.depth() == CV_32F || img.depth() == CV_64F) {
-    double mx = 0.0;
-    cv::minMaxLoc(img.reshape(1), nullptr, &mx);
-    scale = mx > 1.0 ? 255.0 / mx : 255.0;
-  }
-  img.convertTo(f, CV_8U, scale);
+  const cv::Mat f = regolith::to_8bit(img);
   cv::Mat out;
   if (f.channels() == 1)
     cv::cvtColor(f, out, cv::COLOR_GRAY2BGR);

@@ -64,7 +64,7 @@ struct CalibrateOptions {
 
 void run_calibrate(const CalibrateOptions& o) {
   std::string why;
-  const cv::Mat bgr = regolith::read_image_file(o.frame, cv::IMREAD_COLOR, &why);
+  const cv::Mat bgr = regolith::read_image_8bit(o.frame, cv::IMREAD_COLOR, &why);
   if (bgr.empty()) throw InputError(o.frame + ": cannot read image: " + why);
   sk::CalibrationHints h;
   h.leg_count = o.leg_count;
@@ -200,7 +200,7 @@ void eval_sequence(const std::string& arg, const Algorithm& algo, std::vector<Co
     fs::path img = row.frame;
     if (img.is_relative()) img = csv.parent_path() / img;
     std::string why;
-    const cv::Mat bgr = regolith::read_image_file(img.string(), cv::IMREAD_COLOR, &why);
+    const cv::Mat bgr = regolith::read_image_8bit(img.string(), cv::IMREAD_COLOR, &why);
     const std::string where = csv.string() + ":" + std::to_string(row.line) + ": ";
     if (bgr.empty()) throw InputError(where + "cannot read image '" + img.string() + "': " + why);
     if (!est) {

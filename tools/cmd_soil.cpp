@@ -27,7 +27,7 @@ const bool registered = add_command([](CLI::App& app) {
   auto a = std::make_shared<SoilArgs>();
   CLI::App* cmd = app.add_subcommand(
       "soil", "soil stiffness k (and n) from an image of the rover's wheel tracks -> PNG plots + JSON");
-  cmd->add_option("image", a->image, "rear-camera image of the tracks (8-bit, any OpenCV format)")->required();
+  cmd->add_option("image", a->image, "rear-camera image of the tracks (8- or 16-bit grey or colour: PNG, JPEG, TIFF, BMP, PNM, WebP)")->required();
   CLI::Option* config = cmd->add_option("--config,-c", a->config,
                                         "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
                                         "or a deployment with a soil_stiffness component");

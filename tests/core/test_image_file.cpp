@@ -180,3 +180,49 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
   EXPECT_FALSE(at.exceeds(regolith::kMaxImagePixels));
   EXPECT_TRUE(over.exceeds(regolith::kMaxImagePixels));
 }
+
+TEST(ImageFile, SixteenBitSamplesAreScaledByTheBitsTheImageUses) {
+  // 12-bit data in a 16-bit container: 4095 -> 255, 2048 -> 128 (OpenCV's 8-bit read: 15 and 8).
+  cv::Mat twelve(4, 4, CV_16U, cv::Scalar(2048));
+  twelve.at<std::uint16_t>(0, 0) = 4095;
+  cv::Mat g = regolith::to_8bit(twelve);
+  ASSERT_EQ(g.type(), CV_8UC1);
+  EXPECT_EQ(g.at<std::uint8_t>(0, 0), 255);
+  EXPECT_EQ(g.at<std::uint8_t>(1, 1), 128);
+  // 8-bit values in 16 bits are kept; a full 16-bit range maps 65535 to 255; channels stay.
+  EXPECT_EQ(regolith::to_8bit(cv::Mat(2, 2, CV_16UC3, cv::Scalar(200, 100, 0))).at<cv::Vec3b>(1, 1),
+            cv::Vec3b(200, 100, 0));
+  EXPECT_EQ(regolith::to_8bit(cv::Mat(2, 2, CV_16U, cv::Scalar(65535))).at<std::uint8_t>(0, 0), 255);
+  // 8-bit: the same pixels, not a copy.
+  const cv::Mat eight(3, 3, CV_8U, cv::Scalar(7));
+  EXPECT_EQ(regolith::to_8bit(eight).data, eight.data);
+  // Float: 0..1 to 0..255; NaN, negative and infinite samples give defined pixels.
+  cv::Mat f(1, 4, CV_32F);
+  f.at<float>(0, 0) = 0.5f;
+  f.at<float>(0, 1) = std::numeric_limits<float>::quiet_NaN();
+  f.at<float>(0, 2) = -3.0f;
+  f.at<float>(0, 3) = 1.0f;
+  const cv::Mat f8 = regolith::to_8bit(f);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 0), 128);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 1), 0);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 2), 0);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 3), 255);
+  f.at<float>(0, 3) = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(regolith::to_8bit(f).at<std::uint8_t>(0, 3), 255);
+  // Signed samples: empty (callers refuse them by name).
+  EXPECT_TRUE(regolith::to_8bit(cv::Mat(2, 2, CV_16S, cv::Scalar(5))).empty());
+
+  // read_image_8bit: a 12-bit PNG read as grey and as colour.
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("regolith_twelve_" + std::to_string(::getpid()) + ".png")).string();
+  ASSERT_TRUE(cv::imwrite(path, twelve));
+  std::string why;
+  const cv::Mat grey = regolith::read_image_8bit(path, cv::IMREAD_GRAYSCALE, &why);
+  ASSERT_EQ(grey.type(), CV_8UC1) << why;
+  EXPECT_EQ(grey.at<std::uint8_t>(0, 0), 255);
+  EXPECT_EQ(grey.at<std::uint8_t>(3, 3), 128);
+  const cv::Mat colour = regolith::read_image_8bit(path, cv::IMREAD_COLOR, &why);
+  ASSERT_EQ(colour.type(), CV_8UC3) << why;
+  EXPECT_EQ(colour.at<cv::Vec3b>(0, 0), cv::Vec3b(255, 255, 255));
+  std::filesystem::remove(path);
+}

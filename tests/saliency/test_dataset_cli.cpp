@@ -125,7 +125,9 @@ TEST(Dataset, UnreadableImageAndMaskSizeMismatchNameTheFile) {
              static_cast<std::streamsize>(bytes.size()));
   cv::imwrite(deep.string(), cv::Mat(40, 50, CV_16U, cv::Scalar(40000)));
   EXPECT_EQ(rs::read_image(whole.string()).size(), cv::Size(160, 120));
-  EXPECT_EQ(rs::read_image(deep.string()).depth(), CV_16U);
+  const cv::Mat deep8 = rs::read_image(deep.string());  // 8-bit, by the 16 bits it uses
+  EXPECT_EQ(deep8.depth(), CV_8U);
+  EXPECT_EQ(deep8.at<std::uint8_t>(0, 0), 156);  // 40000 * 255 / 65535 = 155.6
   // Listing: an image without a mask is reported, not fatal.
   fs::create_directories(d / "img");
   fs::create_directories(d / "msk");

@@ -478,11 +478,22 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_NE(slurp(dir / "e1.txt").find("not_an_image.png"), std::string::npos) << slurp(dir / "e1.txt");
   EXPECT_EQ(run_tool("assess " + (dir / "missing.png").string() + " --out " + (dir / "o2").string(), dir / "e2.txt"), 2);
   EXPECT_NE(slurp(dir / "e2.txt").find("missing.png"), std::string::npos);
-  cv::Mat sixteen(64, 64, CV_16U, cv::Scalar(1000));
-  ASSERT_TRUE(cv::imwrite((dir / "deep.png").string(), sixteen));
-  EXPECT_EQ(run_tool("assess " + (dir / "deep.png").string() + " --out " + (dir / "o2").string() +
-                     " --sun-slant 30 --sun-tilt 0", dir / "e3.txt"), 2);
-  EXPECT_NE(slurp(dir / "e3.txt").find("16-bit"), std::string::npos) << slurp(dir / "e3.txt");
+  // The same patch as a 12-bit camera stores it (0..4095 in a 16-bit PNG) is assessed as its 8-bit
+  // copy: the samples are scaled by the bits the image uses, not shifted by 8 (which left 0..15).
+  {
+    cv::Mat twelve;
+    cv::imread(png.string(), cv::IMREAD_UNCHANGED).convertTo(twelve, CV_16U, 4095.0 / 255.0);
+    ASSERT_TRUE(cv::imwrite((dir / "deep.png").string(), twelve));
+    std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --pixel-size 0.02",
+                  (dir / "deep.png").c_str(), (dir / "o12").c_str(), o.light_slant_rad * 180 / CV_PI,
+                  o.light_tilt_rad * 180 / CV_PI);
+    ASSERT_EQ(run_tool(args, dir / "e3.txt"), 0) << slurp(dir / "e3.txt");
+    const cv::Mat h12 = cv::imread((dir / "o12" / "height.tiff").string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(h12.size(), h.size());
+    EXPECT_EQ(cv::norm(h12, h, cv::NORM_INF), 0.0);
+    const auto j12 = nlohmann::json::parse(slurp(dir / "o12" / "summary.json"));
+    EXPECT_EQ(j12["hazards"], j["hazards"]);
+  }
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"), 2);
   EXPECT_NE(slurp(dir / "e4.txt").find("--sun-slant"), std::string::npos) << slurp(dir / "e4.txt");

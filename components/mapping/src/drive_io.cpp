@@ -171,7 +171,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   const DriveFrame* first_read = nullptr;
   cv::Mat first;
   for (const DriveFrame& fr : drive.frames) {
-    first = regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    first = regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE);
     if (first.empty()) continue;
     first_read = &fr;
     if (first.cols != drive.camera.width || first.rows != drive.camera.height)
@@ -223,7 +223,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
       continue;
     }
     std::string why;
-    cv::Mat gray = &fr == first_read ? std::move(first) : regolith::read_image_file(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
+    cv::Mat gray = &fr == first_read ? std::move(first) : regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
     if (gray.empty()) {
       sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': " + why + ": skipped");
       ++sum.skipped;

@@ -79,7 +79,10 @@ DatasetListing list_dataset(const std::string &images_dir,
   return out;
 }
 
-cv::Mat read_image(const std::string &path) {
+namespace {
+
+/// The file's samples as stored (a mask's labels are not rescaled).
+cv::Mat read_stored(const std::string &path) {
   std::string why;
   cv::Mat img = regolith::read_image_file(path, cv::IMREAD_UNCHANGED, &why);
   if (img.empty()) throw DataError(path + ": " + why);
@@ -91,9 +94,20 @@ cv::Mat read_image(const std::string &path) {
   return img;
 }
 
+} // namespace
+
+cv::Mat read_image(const std::string &path) {
+  const cv::Mat img = read_stored(path);
+  cv::Mat out = regolith::to_8bit(img);
+  if (out.empty())
+    throw DataError(path + ": samples of a type regolith does not read (depth " +
+                    std::to_string(img.depth()) + ")");
+  return out;
+}
+
 FrameTruth read_truth(const std::string &mask_path, cv::Size image_size,
                       int min_gt_area) {
-  cv::Mat m = read_image(mask_path);
+  cv::Mat m = read_stored(mask_path);
   if (m.size() != image_size) {
     throw DataError(mask_path + ": mask is " + std::to_string(m.cols) + "x" +
                     std::to_string(m.rows) + " but its image is " +

@@ -154,7 +154,7 @@ SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
   if (!std::filesystem::is_regular_file(image_path, ec))
     throw InputError(image_path.string() + ": no such image file");
   std::string why;
-  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
+  const cv::Mat image = regolith::read_image_8bit(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
   if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
   if (!std::filesystem::is_regular_file(rover_yaml, ec))
     throw ConfigError(rover_yaml.string() + ": no such configuration file");

@@ -124,7 +124,7 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
   std::error_code ec;
   if (!std::filesystem::is_regular_file(image_path, ec)) throw InputError(image_path.string() + ": no such image file");
   std::string why;
-  const cv::Mat image = regolith::read_image_file(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
+  const cv::Mat image = regolith::read_image_8bit(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
   if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
   const SoilSetup cfg = read_soil_scene(input_json);
   if (image.cols != cfg.camera.width || image.rows != cfg.camera.height)

@@ -80,7 +80,7 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
   const int flags = fmt.format == hal::PixelFormat::kMono8 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR;
   for (const auto& f : files) {
     std::string why;
-    cv::Mat img = regolith::read_image_file(f, flags, &why);
+    cv::Mat img = regolith::read_image_8bit(f, flags, &why);
     if (img.empty()) p.fail("path", "cannot read image '" + f + "': " + why);
     if (width > 0) {
       if (img.cols != width || img.rows != height) {

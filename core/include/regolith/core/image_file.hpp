@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -232,6 +233,50 @@ inline cv::Mat read_image_file(const std::string& path, int flags, std::string* 
   in.read(bytes.data(), size);
   if (in.gcount() != size) return fail("cannot read it (it changed while being read?)");
   return decode_image(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), flags, why);
+}
+
+/// The image with 8-bit samples and the same channels (an 8-bit image is returned as it is, not
+/// copied). 16-bit samples are scaled by the bit depth the image uses: the smallest of 8..16 bits
+/// that holds its largest sample. A 12-bit camera's image stored in a 16-bit PNG or TIFF maps 4095
+/// to 255 (OpenCV's 8-bit reads shift right by 8 and make it 0..15, nearly black), a 16-bit file
+/// holding 8-bit values keeps them, a full 16-bit one maps 65535 to 255. Floating-point samples:
+/// 0..1 maps to 0..255, an image whose largest sample is above 1 is scaled by it, NaN and negative
+/// samples become 0. Empty for signed integer samples.
+inline cv::Mat to_8bit(const cv::Mat& image) {
+  if (image.empty() || image.depth() == CV_8U) return image;
+  cv::Mat out;
+  if (image.depth() == CV_16U) {
+    double largest = 0.0;
+    cv::minMaxLoc(image.reshape(1), nullptr, &largest);
+    int bits = 8;
+    while (bits < 16 && largest > static_cast<double>((1 << bits) - 1)) ++bits;
+    image.convertTo(out, CV_8U, 255.0 / static_cast<double>((1 << bits) - 1));
+    return out;
+  }
+  if (image.depth() == CV_32F || image.depth() == CV_64F) {
+    cv::Mat f;
+    image.convertTo(f, CV_32F);
+    cv::patchNaNs(f, 0.0);
+    f = cv::max(f, 0.0);
+    f = cv::min(f, static_cast<double>(std::numeric_limits<float>::max()));  // +inf
+    double largest = 0.0;
+    cv::minMaxLoc(f.reshape(1), nullptr, &largest);
+    f.convertTo(out, CV_8U, largest > 1.0 ? 255.0 / largest : 255.0);
+    return out;
+  }
+  return out;
+}
+
+/// read_image_file into 8-bit samples: `flags` is cv::IMREAD_GRAYSCALE or cv::IMREAD_COLOR (one or
+/// three channels, EXIF orientation applied, as those flags do); a 16-bit image is decoded at full
+/// depth and scaled by to_8bit instead of OpenCV's shift by 8. 8-bit files decode exactly as with
+/// `flags` alone.
+inline cv::Mat read_image_8bit(const std::string& path, int flags, std::string* why = nullptr) {
+  cv::Mat img = read_image_file(path, flags | cv::IMREAD_ANYDEPTH, why);
+  if (img.empty() || img.depth() == CV_8U) return img;
+  cv::Mat out = to_8bit(img);
+  if (out.empty() && why) *why = "samples of a type regolith does not read (depth " + std::to_string(img.depth()) + ")";
+  return out;
 }
 
 }  // namespace regolith

@@ -51,9 +51,10 @@ DatasetListing list_dataset(const std::string &images_dir,
 
 /// Smallest image side read_image accepts (a rock box needs a few pixels and a surround).
 inline constexpr int kMinImageSide = 16;
-/// cv::imread with IMREAD_UNCHANGED (8- and 16-bit, grey or colour; the methods scale by the
-/// depth); throws DataError naming the file when it cannot be read, is a JPEG cut short (no
-/// end-of-image marker: libjpeg would only warn) or is smaller than kMinImageSide.
+/// An image of the dataset, grey or colour as stored, with 8-bit samples (16-bit ones scaled by
+/// the bit depth they use, regolith::to_8bit: a 12-bit image in a 16-bit PNG keeps its contrast);
+/// throws DataError naming the file when it cannot be read, is a JPEG cut short (no end-of-image
+/// marker: libjpeg would only warn), holds signed samples or is smaller than kMinImageSide.
 cv::Mat read_image(const std::string &path);
 
 /// Reads the mask (any depth/channels; nonzero in the first channel = rock) and
