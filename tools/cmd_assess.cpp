@@ -131,9 +131,8 @@ struct ImageRock {
 // (RockSightingParams::scaled_to_width; blobs of at least 24 px at the 320 px reference, twice the
 // map's: one frame has no second look to confirm a small one), its range window opened to what a single
 // image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
-// halves merged into one (merge_halves).
-std::vector<ImageRock> image_rocks(const cv::Mat& gray, const direct_depth::DirectDepth& depth) {
-  const cv::Mat g8 = regolith::to_8bit(gray);
+// halves merged into one (merge_halves). `g8`: the 8-bit grey image (assess converts on reading).
+std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth) {
   mapping::RockSightingParams p;
   p.min_pixels = 24;  // at the reference width: twice the map's (one frame, no second look)
   p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
@@ -559,7 +558,7 @@ void assess(const AssessOptions& o) {
       }
     elev_style.title = "elevation above the fitted ground (cm) on the camera image";
     elev_style.unknown_note = "uncoloured: no ground cell (sky, beyond the grid, unknown)";
-    write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, regolith::to_8bit(gray)));
+    write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, gray));
   } else {
     cv::Mat metric = height_m.clone();
     metric.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
