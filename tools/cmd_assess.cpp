@@ -22,10 +22,10 @@
 
 #include "cli.hpp"
 #ifdef REGOLITH_HAVE_HAL_RECORD
-#include "regolith/core/json_text.hpp"
 #include "regolith/record/recording.hpp"
 #endif
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
 #include "regolith/common/plot.hpp"

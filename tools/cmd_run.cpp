@@ -73,7 +73,8 @@ struct ToolBlocks {
   std::optional<live::FoxgloveServerOptions> live;  ///< the live server's options; empty: none
 #endif
 
-  void check(const runtime::RecordConfig& rc, const runtime::LiveConfig& lc, bool dds, const RunOptions& o) {
+  void check(const runtime::RecordConfig& rc, const runtime::LiveConfig& lc, [[maybe_unused]] bool dds,
+             const RunOptions& o) {
 #ifdef REGOLITH_HAVE_DDS_RECORD
     if (!o.record.empty() && !dds)
       throw InputError("run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
@@ -87,8 +88,9 @@ struct ToolBlocks {
       record_topics.push_back(t);
     }
 #else
-    if (!o.record.empty() || !rc.file.empty())
-      throw InputError("run: --record: this build has no MCAP recording (regolith_dds_record not built)");
+    constexpr const char* kNoRecording = "this build has no MCAP recording (regolith_dds_record not built)";
+    if (!o.record.empty()) throw InputError(std::string("run: --record: ") + kNoRecording);
+    if (!rc.file.empty()) throw ConfigError(rc.where_topics + ": record.file: " + kNoRecording);
 #endif
 #ifdef REGOLITH_HAVE_LIVE
     live.reset();
@@ -120,8 +122,9 @@ struct ToolBlocks {
     }
     live = std::move(lo);
 #else
-    if (!o.live.empty() || lc.enabled)
-      throw InputError("run: live view (--live / live.enabled): this build has no live server (websocketpp not found)");
+    constexpr const char* kNoLive = "this build has no live server (websocketpp not found)";
+    if (!o.live.empty()) throw InputError(std::string("run: --live: ") + kNoLive);
+    if (lc.enabled) throw ConfigError(lc.where + ": live.enabled: " + kNoLive);
 #endif
   }
 };

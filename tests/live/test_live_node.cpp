@@ -30,6 +30,7 @@
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/live/dds_relay.hpp"
+#include "temp_dir.hpp"
 
 extern char** environ;
 
@@ -78,8 +79,8 @@ TEST(LiveNode, FoxgloveClientDecodesRelayedJointStates) {
   rd::testing::use_loopback_config();
   const std::uint32_t domain = rd::testing::test_domain();
   const std::string ns = rd::testing::unique_ns();
-  const fs::path dir = fs::temp_directory_path() / ("regolith_live_" + ns);
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("live_" + ns);  // removed, whatever the test's outcome
+  const fs::path& dir = tmp.path();
   const fs::path log = dir / "client.log";
 
   rd::Participant pub({domain, ns});
@@ -219,8 +220,8 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   rd::testing::use_loopback_config();
   const std::uint32_t domain = rd::testing::test_domain();
   const std::string ns = rd::testing::unique_ns();
-  const fs::path dir = fs::temp_directory_path() / ("regolith_live_all_" + ns);
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("live_all_" + ns);  // removed, whatever the test's outcome
+  const fs::path& dir = tmp.path();
   const fs::path log = dir / "client.log";
 
   regolith::cli::register_everything();
@@ -328,5 +329,4 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   EXPECT_GT(decoded["/diagnostics"], 0);
   EXPECT_GT(decoded["/tf"], 0);
   EXPECT_GT(decoded["/clock"], 0);
-  fs::remove_all(dir);
 }

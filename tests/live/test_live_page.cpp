@@ -803,7 +803,7 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
   const bool ok = finished_ok(pid, std::chrono::seconds(60));
   std::printf("%s", slurp(log).c_str());
   EXPECT_TRUE(ok) << slurp(log.string() + ".err");
-  fs::remove_all(dir);
+  remove_scratch(dir);
 }
 #endif
 

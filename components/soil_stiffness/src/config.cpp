@@ -1,7 +1,5 @@
-#include "regolith/core/image_file.hpp"
 #include "regolith/soil_stiffness/config.hpp"
 
-#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <stdexcept>
@@ -150,12 +148,8 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
 SoilAnalysisFiles run_soil_file(const std::filesystem::path& image_path,
                                 const std::filesystem::path& rover_yaml,
                                 const std::filesystem::path& out_dir) {
+  const cv::Mat image = read_soil_frame(image_path);
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(image_path, ec))
-    throw InputError(image_path.string() + ": no such image file");
-  std::string why;
-  const cv::Mat image = regolith::read_image_8bit(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
-  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
   if (!std::filesystem::is_regular_file(rover_yaml, ec))
     throw ConfigError(rover_yaml.string() + ": no such configuration file");
   Params root = Params::load_file(rover_yaml.string());

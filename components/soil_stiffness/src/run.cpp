@@ -11,11 +11,22 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/mission_table.hpp"
 #include "regolith/common/plot.hpp"
 
 namespace regolith::soil {
+
+cv::Mat read_soil_frame(const std::filesystem::path& image_path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(image_path, ec)) throw InputError(image_path.string() + ": no such image file");
+  std::string why;
+  cv::Mat image = regolith::read_image_8bit(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
+  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
+  return image;
+}
 namespace {
 
 using plot::PlotSeries;

@@ -1,10 +1,8 @@
-#include "regolith/core/image_file.hpp"
 #include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -121,11 +119,7 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
 
 SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const std::filesystem::path& input_json,
                                  const std::filesystem::path& out_dir) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(image_path, ec)) throw InputError(image_path.string() + ": no such image file");
-  std::string why;
-  const cv::Mat image = regolith::read_image_8bit(image_path.string(), cv::IMREAD_GRAYSCALE, &why);
-  if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
+  const cv::Mat image = read_soil_frame(image_path);
   const SoilSetup cfg = read_soil_scene(input_json);
   if (image.cols != cfg.camera.width || image.rows != cfg.camera.height)
     throw InputError(image_path.string() + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +

@@ -19,6 +19,11 @@ struct SoilAnalysisFiles {
   std::filesystem::path overlay_png;   ///< tracks_overlay.png: the image with ruts, shadows, cross-sections (when ok)
 };
 
+/// The frame `regolith soil` analyses, read as 8-bit grey (16-bit samples scaled by the bits they
+/// use: regolith::read_image_8bit). Throws InputError naming the file when it is missing or cannot
+/// be decoded (truncated, not an image, too large).
+cv::Mat read_soil_frame(const std::filesystem::path& image_path);
+
 /// The camera image with each measured rut drawn (floor edges at the floor's depth, wall tops),
 /// the shadowed ground tinted blue and labelled cross-sections every ~0.25 m (CV_8UC3).
 cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
