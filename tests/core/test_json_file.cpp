@@ -1,5 +1,6 @@
 // core/json_file.hpp: the one reader of JSON descriptions (recorded drives, track scenes, truth).
 #include "regolith/core/json_file.hpp"
+#include "temp_dir.hpp"
 
 #include <gtest/gtest.h>
 
@@ -50,8 +51,8 @@ TEST(JsonFile, ErrorsNameTheFileAndTheField) {
 }
 
 TEST(JsonFile, ReadsAFileAndNamesItWhenItIsNotJson) {
-  const auto dir = std::filesystem::temp_directory_path() / ("regolith_json_file_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const regolith::testing::TempDir tmp("json_file");  // removed whatever the outcome
+  const std::filesystem::path& dir = tmp.path();
   const std::string good = (dir / "good.json").string(), bad = (dir / "bad.json").string();
   std::ofstream(good) << R"({"a": {"b": 2}})";
   std::ofstream(bad) << R"({"a": )";
@@ -60,7 +61,6 @@ TEST(JsonFile, ReadsAFileAndNamesItWhenItIsNotJson) {
   EXPECT_EQ(error_of([&] { regolith::read_json_file((dir / "absent.json").string(), "test file"); })
                 .rfind((dir / "absent.json").string() + ": cannot open test file", 0),
             0u);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/terrain_scene/drive.hpp"
+#include "temp_dir.hpp"
 
 extern char** environ;
 namespace fs = std::filesystem;
@@ -102,8 +103,8 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   tst::use_loopback_config();
   const auto domain = tst::test_domain();
   const std::string ns = tst::unique_ns();
-  const fs::path dir = fs::temp_directory_path() / ("regolith_map_dds_" + std::to_string(getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("map_dds");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   std::string yaml = slurp(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
   replace_once(yaml, "domain: 0", "domain: " + std::to_string(domain));
   replace_once(yaml, "namespace: maptest", "namespace: " + ns);
@@ -299,5 +300,4 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   EXPECT_GT(last_map.min_z, -0.3);
   EXPECT_LT(last_map.max_z, 0.5);
   EXPECT_LT(std::abs(last_map.cx), 6.0);
-  fs::remove_all(dir);
 }

@@ -1,4 +1,5 @@
 // End to end: `regolith run --config config/mock_rover.yaml --sim-time --duration 10` in one
+#include "temp_dir.hpp"
 // process, `regolith echo` subscribers in two others; every JointState and DiagnosticArray sample
 // arrives, with increasing stamps. The deployment gets a namespace and domain of its own so
 // parallel runs cannot cross-talk.
@@ -65,8 +66,8 @@ long long stamp_ns(const nlohmann::json& m) {
 }  // namespace
 
 TEST(MockRoverEndToEnd, SubscribersInOtherProcessesReceiveEverySample) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_e2e_" + std::to_string(getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("e2e");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const std::string ns = "e2e" + std::to_string(getpid());
   const std::string domain = std::to_string(1 + getpid() % 200);
   setenv("CYCLONEDDS_URI", ("file://" + std::string(REGOLITH_SOURCE_DIR) + "/runtime/dds/cyclonedds_loopback.xml").c_str(), 0);
@@ -127,5 +128,4 @@ TEST(MockRoverEndToEnd, SubscribersInOtherProcessesReceiveEverySample) {
     }
   }
   EXPECT_TRUE(saw_joint_component);
-  fs::remove_all(dir);
 }

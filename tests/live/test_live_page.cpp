@@ -41,6 +41,7 @@
 #include "regolith/live/dds_relay.hpp"
 #include "regolith/live/web_root.hpp"
 #include "ws_test_client.hpp"
+#include "temp_dir.hpp"
 
 extern char** environ;
 
@@ -610,7 +611,8 @@ TEST(LivePage, WithoutAWebRootAnswers404AndTheProtocolStillWorks) {
 }
 
 TEST(LivePage, ATokenGuardsThePageAndTheProtocolOffLoopback) {
-  const fs::path dir = scratch_dir("token");
+  const regolith::testing::TempDir tmp("live_page_token");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path file = dir / "live.token";
   auto write = [&](const std::string& text, fs::perms perms) {
     std::ofstream(file, std::ios::trunc) << text;

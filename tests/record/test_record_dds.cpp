@@ -29,6 +29,7 @@
 #include "regolith/msgs/ros2msg.hpp"
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "temp_dir.hpp"
 
 extern char** environ;
 
@@ -95,8 +96,8 @@ TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
   rd::testing::use_loopback_config();
   const std::uint32_t domain = rd::testing::test_domain();
   const std::string ns = rd::testing::unique_ns();
-  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + ns);
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("record_" + ns);  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path file = dir / "rec.mcap";
   const fs::path log = dir / "record.log";
 
@@ -314,15 +315,14 @@ TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
   EXPECT_EQ(n_js, kJointStates);
   EXPECT_EQ(n_map, 1);
   EXPECT_EQ(n_rocks, kRockArrays);
-  fs::remove_all(dir);
 }
 
 TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
   rd::testing::use_loopback_config();
   const std::uint32_t domain = rd::testing::test_domain();
   const std::string ns = rd::testing::unique_ns();
-  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + ns);
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("record_" + ns);  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path file = dir / "sigint.mcap";
   const fs::path log = dir / "record.log";
   rd::Participant pp({domain, ns});
@@ -356,12 +356,11 @@ TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
   EXPECT_EQ(reader.info().message_count, 5u) << slurp(log);
   EXPECT_EQ(reader.info().chunks.size(), 1u);
   EXPECT_EQ(reader.info().chunks[0].compression, "");
-  fs::remove_all(dir);
 }
 
 TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + rd::testing::unique_ns());
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("record_" + rd::testing::unique_ns());  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path log = dir / "record.log";
   const std::string exe = REGOLITH_EXE;
   pid_t pid = spawn({exe, "record", "joint_state", "--out", (dir / "x.mcap").string()}, log);
@@ -376,15 +375,14 @@ TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
   EXPECT_NE(slurp(log).find("--out"), std::string::npos) << slurp(log);
   pid = spawn({exe, "record", "joint_states", "--out", (dir / "x.mcap").string(), "--zstd", "--no-compression"}, log);
   EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
-  fs::remove_all(dir);
 }
 
 TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
   // One channel per embedded type (no messages): decode.js builds a MessageReader from each
   // schema with @foxglove/rosmsg's parser, so every definition (constants, defaults, relative
   // names) must parse.
-  const fs::path dir = fs::temp_directory_path() / ("regolith_record_" + rd::testing::unique_ns());
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("record_" + rd::testing::unique_ns());  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path file = dir / "schemas.mcap";
   const auto types = m::ros2msg_types();
   {
@@ -407,5 +405,4 @@ TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
   while (std::getline(in, line)) channels += json::parse(line).contains("channel") ? 1 : 0;
   EXPECT_EQ(channels, types.size());
   EXPECT_EQ(types.size(), 44u);
-  fs::remove_all(dir);
 }

@@ -19,6 +19,7 @@
 #include "regolith/sfs/component.hpp"
 #include "regolith/soil_stiffness/component.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 namespace fs = std::filesystem;
@@ -120,8 +121,8 @@ TEST(Sun, ImageLightMatchesTheIndependentSceneRenderer) {
 }
 
 TEST(CameraCalibration, RosCalibrationFileAndInlineAgree) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_rover_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("rover");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   std::ofstream(dir / "front.yaml") << R"(image_width: 640
 image_height: 480
 camera_name: front
@@ -186,7 +187,6 @@ projection_matrix: {rows: 3, cols: 4, data: [512.5, 0, 320.1, 0, 0, 511.0, 241.7
               std::string::npos)
         << e.what();
   }
-  fs::remove_all(dir);
 }
 
 TEST(OldDeployment, EachRepeatedGeometryIsALocatedErrorSayingWhatToWrite) {

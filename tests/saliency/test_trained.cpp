@@ -17,6 +17,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/trained.hpp"
+#include "temp_dir.hpp"
 
 namespace regolith::cli {
 void add_rocks_commands(CLI::App& app);
@@ -273,8 +274,8 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   const auto frames = synthetic_frames(8);
   std::vector<const rs::LabelledFrame*> ptrs;
   for (const auto& f : frames) ptrs.push_back(&f);
-  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("trained");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const std::string a = (dir / "a.yml").string(), b = (dir / "b.yml").string(), gz = (dir / "c.yml.gz").string();
   const rs::TrainedModel m1 = rs::train_model(ptrs, {}, small_forest());
   m1.save(a);
@@ -300,12 +301,11 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
     gt += r.at05.n_gt;
   }
   EXPECT_GT(matched, gt / 2) << matched << " of " << gt;
-  fs::remove_all(dir);
 }
 
 TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_bad_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("trained_bad");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   auto expect_error = [](const std::string& path, const std::string& what) {
     try {
       rs::TrainedModel::load(path);
@@ -340,7 +340,6 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string trunc = (dir / "truncated.yml").string();
   std::ofstream(trunc) << text.substr(0, text.size() / 2);
   expect_error(trunc, "corrupt");
-  fs::remove_all(dir);
 }
 
 TEST(Trained, ForestScoresEqualOpenCvPredictOnTheDevImages) {

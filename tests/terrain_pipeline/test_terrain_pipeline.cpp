@@ -35,6 +35,7 @@
 
 #define REGOLITH_ALLOC_COUNT_CYCLES
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "temp_dir.hpp"
 
 namespace {
 using namespace regolith;
@@ -343,8 +344,8 @@ TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
   }
   // A flat field that is not an image: located at the key, with the file and the reader's reason
   // (the same reader as `assess --flat-field`).
-  const fs::path dir = fs::temp_directory_path() / ("regolith_ffcfg_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("ffcfg");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   std::ofstream(dir / "ff.png") << "not a png";
   const std::string bad_ff = std::regex_replace(
       y, std::regex("method: tsai_shah"), "method: tsai_shah, flat_field: " + (dir / "ff.png").string());
@@ -356,7 +357,6 @@ TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
               std::string::npos)
         << e.what();
   }
-  fs::remove_all(dir);
 }
 
 TEST(PipelineConfig, SunAheadOfTheCameraIsNormalForTheGroundPath) {
@@ -432,8 +432,8 @@ std::string assess_dome_args(const fs::path& image, const fs::path& out, const t
 }
 
 TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("assess");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   // A rendered orthographic patch with a known sun.
   terrain_scene::SceneParams sp;
   sp.x_min_m = 0; sp.x_max_m = 3.2; sp.y_min_m = -1.6; sp.y_max_m = 1.6;
@@ -641,7 +641,6 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
   EXPECT_NEAR(std::stod(v.substr(a2pos + 15)), -0.3, 0.03) << v;
   EXPECT_EQ(run_tool("calibrate vignetting " + (dir / "nope.png").string(), dir / "v2.txt"), 2);
   EXPECT_NE(slurp(dir / "v2.txt").find("nope.png"), std::string::npos);
-  fs::remove_all(dir);
 }
 
 // A camera close to the ground (0.3 m up, 52 deg down: 0.1-0.5 m of view) gets a 1 cm grid.
@@ -650,8 +649,8 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
 // holes read as hazards); the 8 cm dome 0.33 m ahead is one counted hazard even where its red
 // ground runs on to the edge of the view; the height picture paints its elevation on the image.
 TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_close_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("assess_close");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   terrain_scene::SceneParams rp;
   rp.seed = 7; rp.fractal_rms_m = 0.001; rp.num_craters = 0; rp.num_rocks = 0;
   rp.x_min_m = -0.5; rp.x_max_m = 2; rp.y_min_m = -1; rp.y_max_m = 1; rp.resolution_m = 0.002;
@@ -692,7 +691,6 @@ TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
   const double f = 400.0 / 240;
   const cv::Vec3b at = heat.at<cv::Vec3b>(58 + static_cast<int>(px->y * f), 12 + static_cast<int>(px->x * f));
   EXPECT_GT(at[2], at[0] + 40) << "not warm at the dome: " << at;
-  fs::remove_all(dir);
 }
 
 
@@ -704,8 +702,8 @@ TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
 TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   const fs::path root = fs::path(REGOLITH_SHARED_DIR) / "data" / "synthetic_dev" / "sfs";
   if (!fs::exists(root / "persp_dev_0")) GTEST_SKIP() << root << " not present";
-  const fs::path dir = fs::temp_directory_path() / ("regolith_assess_persp_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("assess_persp");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   std::vector<double> werr, herr;
   int measurable = 0;
   for (const char* name : {"persp_dev_0", "persp_dev_1"}) {
@@ -760,7 +758,6 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   EXPECT_GE(werr.size() * 10, static_cast<std::size_t>(measurable) * 9);  // measured 19 of 19
   EXPECT_LT(median(werr), 0.15);  // measured 9 % (goal 15 %)
   EXPECT_LT(median(herr), 0.25);  // measured 17 % (goal 25 %; the thesis' box formula ~138 %)
-  fs::remove_all(dir);
 }
 #endif
 
