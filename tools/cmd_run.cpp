@@ -122,7 +122,7 @@ struct ToolBlocks {
     }
     live = std::move(lo);
 #else
-    constexpr const char* kNoLive = "this build has no live server (websocketpp not found)";
+    constexpr const char* kNoLive = "this build has no live server (configured with REGOLITH_WITH_LIVE=OFF or without websocketpp)";
     if (!o.live.empty()) throw InputError(std::string("run: --live: ") + kNoLive);
     if (lc.enabled) throw ConfigError(lc.where + ": live.enabled: " + kNoLive);
 #endif
