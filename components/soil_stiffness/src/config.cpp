@@ -1,6 +1,5 @@
 #include "regolith/soil_stiffness/config.hpp"
 
-
 #include <cmath>
 #include <stdexcept>
 #include <vector>

@@ -27,6 +27,7 @@ cv::Mat read_soil_frame(const std::filesystem::path& image_path) {
   if (image.empty()) throw InputError(image_path.string() + ": cannot decode the image: " + why);
   return image;
 }
+
 namespace {
 
 using plot::PlotSeries;
