@@ -90,7 +90,7 @@ struct ToolBlocks {
 #else
     constexpr const char* kNoRecording = "this build has no MCAP recording (regolith_dds_record not built)";
     if (!o.record.empty()) throw InputError(std::string("run: --record: ") + kNoRecording);
-    if (!rc.file.empty()) throw ConfigError(rc.where_topics + ": record.file: " + kNoRecording);
+    if (!rc.file.empty()) throw ConfigError(rc.where_file + ": record.file: " + kNoRecording);
 #endif
 #ifdef REGOLITH_HAVE_LIVE
     live.reset();

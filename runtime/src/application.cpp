@@ -82,6 +82,7 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
       "split_s", 0.0, {.unit = "s", .min = 0.0, .max = 1e7,
                        .doc = "start a new file after this many seconds of messages (0 = never)"});
   app->record_.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
+  app->record_.where_file = rec.where(rec.has("file") ? "file" : std::string_view{});
   if (opts.enable_dds && !app->dds_ && !app->record_.file.empty())
     rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
                      "deployment publishes)");

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
-#include <unistd.h>
 
 #include "regolith/core/image_file.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -35,11 +35,11 @@ TEST(ImageFile, KnownSignaturesOnly) {
   const std::vector<unsigned char> bad = {0xFF, 0xD8, 0x17, 0x17, 0x17, 0x17, 0x17, 0x17};
   EXPECT_FALSE(regolith::known_image_signature(bad.data(), bad.size()));
   EXPECT_TRUE(regolith::decode_image(bad.data(), bad.size(), cv::IMREAD_UNCHANGED).empty());
-  const fs::path f = fs::temp_directory_path() / ("regolith_img_" + std::to_string(::getpid()) + ".dcm");
+  const regolith::testing::TempDir tmp("img");  // removed whatever the outcome
+  const fs::path f = tmp / "img.dcm";
   std::ofstream(f, std::ios::binary) << std::string(128, '\0') << "DICM";
   EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_UNCHANGED).empty());
   EXPECT_TRUE(regolith::read_image_file((f.string() + ".missing"), cv::IMREAD_UNCHANGED).empty());
-  fs::remove(f);
 }
 
 TEST(ImageFile, TruncatedJpegAndPngAreRefusedWithTheReason) {
@@ -59,13 +59,13 @@ TEST(ImageFile, TruncatedJpegAndPngAreRefusedWithTheReason) {
     why.clear();
     EXPECT_EQ(regolith::decode_image(bytes.data(), bytes.size(), cv::IMREAD_UNCHANGED, &why).size(), img.size()) << ext;
     EXPECT_EQ(why, "");
-    const fs::path f = fs::temp_directory_path() / ("regolith_img_cut_" + std::to_string(::getpid()) + ext);
+    const regolith::testing::TempDir tmp("img_cut");  // removed whatever the outcome
+    const fs::path f = tmp / ("img_cut" + ext);
     std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(cut.data()), static_cast<std::streamsize>(cut.size()));
     EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_UNCHANGED, &why).empty()) << ext;
     EXPECT_EQ(why, expect);
     std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     EXPECT_EQ(regolith::read_image_file(f.string(), cv::IMREAD_UNCHANGED, &why).size(), img.size()) << ext;
-    fs::remove(f);
   }
   std::string why;
   EXPECT_TRUE(regolith::read_image_file("/nonexistent/x.png", cv::IMREAD_UNCHANGED, &why).empty());
@@ -132,12 +132,12 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
     EXPECT_TRUE(why.find("20000 x 20000") != std::string::npos || why.find("65535 x 65535") != std::string::npos) << why;
   }
   // From a file, the same (it is read whole, then decoded from memory).
-  const fs::path f = fs::temp_directory_path() / ("regolith_img_big_" + std::to_string(::getpid()) + ".png");
+  const regolith::testing::TempDir tmp("img_big");  // removed whatever the outcome
+  const fs::path f = tmp / "img_big.png";
   std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
   std::string why;
   EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_GRAYSCALE, &why).empty());
   EXPECT_NE(why.find("it declares 20000 x 20000 pixels"), std::string::npos) << why;
-  fs::remove(f);
   // Garbage between JPEG segments: libjpeg skips it with a warning and reads the frame header
   // after it, so the header check must too (tests/fuzz: 1328 bytes declaring 12112 x 14895
   // behind 30 stray bytes made a 541 MB allocation).
@@ -213,8 +213,8 @@ TEST(ImageFile, SixteenBitSamplesAreScaledByTheBitsTheImageUses) {
   EXPECT_TRUE(regolith::to_8bit(cv::Mat(2, 2, CV_16S, cv::Scalar(5))).empty());
 
   // read_image_8bit: a 12-bit PNG read as grey and as colour.
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("regolith_twelve_" + std::to_string(::getpid()) + ".png")).string();
+  const regolith::testing::TempDir tmp("twelve");  // removed whatever the outcome
+  const std::string path = tmp.file("twelve.png");
   ASSERT_TRUE(cv::imwrite(path, twelve));
   std::string why;
   const cv::Mat grey = regolith::read_image_8bit(path, cv::IMREAD_GRAYSCALE, &why);
@@ -224,5 +224,4 @@ TEST(ImageFile, SixteenBitSamplesAreScaledByTheBitsTheImageUses) {
   const cv::Mat colour = regolith::read_image_8bit(path, cv::IMREAD_COLOR, &why);
   ASSERT_EQ(colour.type(), CV_8UC3) << why;
   EXPECT_EQ(colour.at<cv::Vec3b>(0, 0), cv::Vec3b(255, 255, 255));
-  std::filesystem::remove(path);
 }

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "temp_dir.hpp"
+
 extern char** environ;
 namespace fs = std::filesystem;
 
@@ -45,16 +47,6 @@ std::vector<std::string> lines(const std::string& text) {
 
 class StartupExitStatus : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("regolith_exit_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
   /// A minimal deployment (no DDS, a health component) with `devices` as its devices section.
   fs::path deployment(const std::string& devices) {
     const fs::path f = dir_ / "rover.yaml";
@@ -100,7 +92,10 @@ class StartupExitStatus : public ::testing::Test {
     return run({"run", "--config", cfg.string(), "--duration", "1", "--quiet"});
   }
 
-  fs::path dir_;
+  // One directory per test, removed whatever the outcome.
+  const regolith::testing::TempDir tmp_{std::string("exit_") +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name()};
+  const fs::path& dir_ = tmp_.path();
 };
 
 #define EXPECT_CONTAINS(haystack, needle) \

@@ -20,6 +20,7 @@
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
 #include "regolith/runtime/watchdog.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 using namespace regolith::runtime;
@@ -310,10 +311,8 @@ TEST(Watchdog, RealNotifierTalksToNotifySocket) {
   unsetenv("NOTIFY_SOCKET");
   EXPECT_FALSE(SystemdNotifier().active());
 
-  const std::string dir = std::filesystem::temp_directory_path() /
-                          ("regolith_notify_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  const std::string path = dir + "/notify";
+  const regolith::testing::TempDir dir("notify"); // removed whatever the outcome
+  const std::string path = dir.file("notify");
   const int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   ASSERT_GE(fd, 0);
   sockaddr_un addr{};
@@ -351,6 +350,5 @@ TEST(Watchdog, RealNotifierTalksToNotifySocket) {
   setenv("WATCHDOG_PID", "1", 1);
   EXPECT_EQ(SystemdNotifier().watchdog_interval(), 0);
   close(fd);
-  std::filesystem::remove_all(dir);
   unsetenv("NOTIFY_SOCKET");
 }

@@ -26,6 +26,7 @@
 #include "regolith/record/hal_messages.hpp"
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "temp_dir.hpp"
 
 namespace {
 
@@ -88,9 +89,6 @@ std::vector<std::vector<std::uint8_t>> serialize(dds_entity_t pp, const std::str
 class LogExport : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("regolith_log_export_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
     file_ = dir_ / "drive.mcap";
     const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
     ASSERT_GT(pp, 0);
@@ -160,9 +158,10 @@ class LogExport : public ::testing::Test {
     }
     w.close();
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
-  fs::path dir_, file_;
+  const regolith::testing::TempDir tmp_{"log_export"};  // one per test, removed whatever the outcome
+  const fs::path& dir_ = tmp_.path();
+  fs::path file_;
 };
 
 TEST_F(LogExport, JsonLinesFieldByField) {

@@ -14,31 +14,18 @@
 #include "regolith/record/info.hpp"
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace regolith::record;
 
 namespace {
 
-fs::path temp_dir() {
-  return fs::temp_directory_path() / ("regolith_test_record_" + std::to_string(::getpid()));
-}
-
+/// A file in the directory of this run, shared by its tests and removed when the binary exits.
 fs::path temp_file(const std::string& name) {
-  fs::create_directories(temp_dir());
-  return temp_dir() / name;
+  static const regolith::testing::TempDir dir("test_record");
+  return dir / name;
 }
-
-/// Removes the files of this run when every test has finished.
-class RemoveTempFiles : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(temp_dir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kRemoveTempFiles =
-    ::testing::AddGlobalTestEnvironment(new RemoveTempFiles);
 
 std::vector<std::uint8_t> read_all(const fs::path& p) {
   std::vector<std::uint8_t> b(static_cast<std::size_t>(fs::file_size(p)));

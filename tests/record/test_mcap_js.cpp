@@ -15,31 +15,18 @@
 
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace regolith::record;
 
 namespace {
 
-fs::path temp_dir() {
-  return fs::temp_directory_path() / ("regolith_test_mcap_js_" + std::to_string(::getpid()));
-}
-
+/// A file in the directory of this run, shared by its tests and removed when the binary exits.
 fs::path temp_file(const std::string& name) {
-  fs::create_directories(temp_dir());
-  return temp_dir() / name;
+  static const regolith::testing::TempDir dir("test_mcap_js");
+  return dir / name;
 }
-
-/// Removes the files of this run when every test has finished.
-class RemoveTempFiles : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(temp_dir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kRemoveTempFiles =
-    ::testing::AddGlobalTestEnvironment(new RemoveTempFiles);
 
 /// Runs validate.js; returns its exit status, its output in `out`.
 int validate(const fs::path& file, bool complete, const std::map<std::string, std::uint64_t>& topics,

@@ -15,6 +15,7 @@
 
 #include "regolith/core/error.hpp"
 #include "regolith/runtime/application.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 using namespace regolith::runtime;
@@ -165,8 +166,8 @@ TEST(DataFlow, ConfigCheckDotOfTheMockRoverParsesWithGraphviz) {
   namespace fs = std::filesystem;
   if (std::system("command -v dot > /dev/null 2>&1") != 0)
     GTEST_FAIL() << "Graphviz `dot` missing: run deploy/setup.sh";
-  const fs::path dir = fs::temp_directory_path() / ("regolith_flow_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const regolith::testing::TempDir tmp("flow");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const std::string cmd = std::string(REGOLITH_EXE) + " config check --dot > " + (dir / "flow.dot").string() + " 2> " +
                           (dir / "err.txt").string() + " && dot -Tsvg " + (dir / "flow.dot").string() + " -o " +
                           (dir / "flow.svg").string() + " 2>> " + (dir / "err.txt").string();
@@ -180,7 +181,6 @@ TEST(DataFlow, ConfigCheckDotOfTheMockRoverParsesWithGraphviz) {
   // The mocked rover's chain: front camera -> sfs -> terrain/dtm -> sams, traversability.
   for (const char* want : {"terrain/dtm", "rock_probability", "camera front", "rate group terrain", "traversability"})
     EXPECT_NE(s.str().find(want), std::string::npos) << want;
-  fs::remove_all(dir);
 #endif
 }
 
@@ -191,7 +191,8 @@ TEST(Cli, UsageErrorsExitTwoNamingTheWord) {
   GTEST_SKIP() << "the regolith executable is not part of this build";
 #else
   namespace fs = std::filesystem;
-  const fs::path err = fs::temp_directory_path() / ("regolith_usage_" + std::to_string(::getpid()) + ".txt");
+  const regolith::testing::TempDir tmp("usage");  // removed whatever the outcome
+  const fs::path err = tmp / "err.txt";
   auto run = [&](const std::string& args, std::string& text) {
     const int rc = std::system((std::string(REGOLITH_EXE) + " " + args + " > /dev/null 2> " + err.string()).c_str());
     std::ifstream in(err);
@@ -212,6 +213,5 @@ TEST(Cli, UsageErrorsExitTwoNamingTheWord) {
   EXPECT_NE(text.find("nonsense"), std::string::npos) << text;
   EXPECT_EQ(run("--help", text), 0);
   EXPECT_EQ(run("--version", text), 0);
-  fs::remove(err);
 #endif
 }

@@ -14,6 +14,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/evaluate.hpp"
+#include "temp_dir.hpp"
 
 #if __has_include(<regolith/sfs/sfs.hpp>)
 #include "regolith/saliency/sfs_height.hpp"
@@ -30,16 +31,6 @@ namespace rs = regolith::saliency;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path temp_dir(const std::string &name) {
-  const fs::path d =
-      fs::temp_directory_path() /
-      ("regolith_saliency_" + name + "_" +
-       std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 cv::Mat scene(cv::Size size, cv::Point rock, int radius, unsigned seed) {
   cv::Mat img(size, CV_8UC3);
@@ -75,7 +66,8 @@ const fs::path kDev =
 } // namespace
 
 TEST(Dataset, UnreadableImageAndMaskSizeMismatchNameTheFile) {
-  const fs::path d = temp_dir("bad");
+  const regolith::testing::TempDir tmp("saliency_bad");
+  const fs::path &d = tmp.path();
   const fs::path junk = d / "junk.jpg";
   std::ofstream(junk) << "not a jpeg";
   try {
@@ -141,7 +133,6 @@ TEST(Dataset, UnreadableImageAndMaskSizeMismatchNameTheFile) {
   EXPECT_NE(l.errors[0].find("b.png"), std::string::npos);
   EXPECT_THROW(rs::list_dataset((d / "nope").string(), d.string()),
                rs::DataError);
-  fs::remove_all(d);
 }
 
 TEST(Dataset, FewMarsDataImagesGivePlausibleScores) {
@@ -207,7 +198,8 @@ TEST(Dataset, FewMarsDataImagesGivePlausibleScores) {
 }
 
 TEST(Cli, RocksCsvContractOverlaysSaliencyAndBadImage) {
-  const fs::path d = temp_dir("cli");
+  const regolith::testing::TempDir tmp("saliency_cli");
+  const fs::path &d = tmp.path();
   const cv::Size size(320, 288);
   const fs::path a = d / "a.png", b = d / "b.jpg", bad = d / "broken.png";
   cv::imwrite(a.string(), scene(size, {100, 120}, 25, 1));
@@ -276,11 +268,11 @@ TEST(Cli, RocksCsvContractOverlaysSaliencyAndBadImage) {
   EXPECT_THROW(
       run_cli({"rocks", a.string(), "--method", "gbvs", "--csv", csv.string()}),
       CLI::ValidationError);
-  fs::remove_all(d);
 }
 
 TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {
-  const fs::path d = temp_dir("cli_dir");
+  const regolith::testing::TempDir tmp("saliency_cli_dir");
+  const fs::path &d = tmp.path();
   const cv::Size size(320, 288);
   fs::create_directories(d / "imgs" / "sub");
   fs::create_directories(d / "empty");
@@ -313,11 +305,11 @@ TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {
   ASSERT_EQ(listed.size(), 2u);
   EXPECT_EQ(fs::path(listed[0]).filename(), "a.JPG");
   EXPECT_THROW(rs::list_images((d / "nowhere").string()), rs::DataError);
-  fs::remove_all(d);
 }
 
 TEST(Cli, EvalRocksTableAndMaskMismatch) {
-  const fs::path d = temp_dir("eval");
+  const regolith::testing::TempDir tmp("saliency_eval");
+  const fs::path &d = tmp.path();
   fs::create_directories(d / "img");
   fs::create_directories(d / "msk");
   const cv::Size size(320, 288);
@@ -348,11 +340,11 @@ TEST(Cli, EvalRocksTableAndMaskMismatch) {
         << out;
   }
   EXPECT_TRUE(fs::exists(md));
-  fs::remove_all(d);
 }
 
 TEST(Cli, ContrastMethodInRocksAndEval) {
-  const fs::path d = temp_dir("contrast");
+  const regolith::testing::TempDir tmp("saliency_contrast");
+  const fs::path &d = tmp.path();
   const cv::Size size(320, 288);
   // `regolith rocks --method contrast`: listed in the help, same CSV contract.
   {
@@ -419,7 +411,6 @@ TEST(Cli, ContrastMethodInRocksAndEval) {
   EXPECT_NE(out.find("| contrast | 1 | 2 | 2 |"), std::string::npos) << out;
   EXPECT_NE(out.find("chosen in most folds"), std::string::npos) << out;
   EXPECT_NE(out.find("sigma="), std::string::npos) << out;
-  fs::remove_all(d);
 }
 
 TEST(Dataset, ContrastGroupedCrossValidationOnMarsData) {

@@ -2,7 +2,6 @@
 // scene, bit-for-bit deterministic training, model-file errors, the shipped model being a
 // re-training of the dev set, and the grouped cross-validated accuracy on marsdata_rocks_dev.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <cmath>
@@ -439,7 +438,8 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   for (const auto& item : listing.items) frames.push_back(rs::make_labelled_frame(item, ex, 50, 0.5));
   std::vector<const rs::LabelledFrame*> ptrs;
   for (const auto& f : frames) ptrs.push_back(&f);
-  const fs::path out = fs::temp_directory_path() / ("regolith_retrained_" + std::to_string(::getpid()) + ".yml.gz");
+  const regolith::testing::TempDir tmp("retrained");  // removed whatever the outcome
+  const fs::path out = tmp / "retrained.yml.gz";
   rs::train_model(ptrs, cp, {}).save(out.string());
   // Compare the decompressed content through a reload + re-save as plain YAML.
   const fs::path p1 = out.string() + ".a.yml", p2 = out.string() + ".b.yml";
@@ -447,9 +447,6 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   rs::TrainedModel::load(shipped).save(p2.string());
   EXPECT_TRUE(read_all(p1.string()) == read_all(p2.string()))  // no diff of 3 MB texts
       << "re-training differs from " << shipped;
-  fs::remove(out);
-  fs::remove(p1);
-  fs::remove(p2);
 
   // Grouped 5-fold CV: every fold scored by a model trained on the other folds only.
   const rs::TrainedCvResult r = rs::cross_validate_trained(frames, cp, {}, 5);
@@ -465,8 +462,8 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
 }
 
 TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_trained_cli_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const regolith::testing::TempDir tmp("trained_cli");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   fs::create_directories(dir / "images");
   fs::create_directories(dir / "masks");
   std::vector<std::string> images;
@@ -512,5 +509,4 @@ TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {
   } catch (const regolith::InputError& e) {
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
   }
-  fs::remove_all(dir);
 }

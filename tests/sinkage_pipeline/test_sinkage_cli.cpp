@@ -5,7 +5,6 @@
 #include <CLI/CLI.hpp>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -17,6 +16,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/sinkage/bench_log.hpp"
 #include "regolith/wheel_scene/wheel_scene.hpp"
+#include "temp_dir.hpp"
 
 namespace regolith::cli {
 void add_sinkage_commands(CLI::App& app);
@@ -53,13 +53,6 @@ std::string error_of(const std::vector<std::string>& args) {
   return "<no error>";
 }
 
-fs::path temp_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("regolith_sinkage_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 struct TableRow {
   std::string load, light;
   int frames = 0, valid = 0;
@@ -88,7 +81,8 @@ std::vector<TableRow> parse_table(const std::string& out) {
 }  // namespace
 
 TEST(SinkageCli, CalibratePrintsTheGeometryBlockOfTheUnsunkWheel) {
-  const fs::path dir = temp_dir("cal");
+  const regolith::testing::TempDir tmp("sinkage_cli_cal");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
   cv::Mat bgr;
@@ -112,11 +106,11 @@ TEST(SinkageCli, CalibratePrintsTheGeometryBlockOfTheUnsunkWheel) {
   if (off < -spacing / 2) off += spacing;
   EXPECT_NEAR(off, 0.0, 1.0 * 3.14159265 / 180.0);
   EXPECT_TRUE(fs::exists(dir / "cal.png"));
-  fs::remove_all(dir);
 }
 
 TEST(SinkageCli, CalibrateBadInputNamesTheFile) {
-  const fs::path dir = temp_dir("calbad");
+  const regolith::testing::TempDir tmp("sinkage_cli_calbad");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   EXPECT_EQ(error_of<regolith::InputError>({"calibrate", "sinkage", (dir / "missing.png").string(), "--angle", "0"}),
             (dir / "missing.png").string() + ": cannot read image: cannot open it");
   // A frame without any blue leg.
@@ -124,13 +118,13 @@ TEST(SinkageCli, CalibrateBadInputNamesTheFile) {
   cv::imwrite(grey.string(), cv::Mat(480, 640, CV_8UC3, cv::Scalar(120, 120, 120)));
   const std::string e = error_of<regolith::InputError>({"calibrate", "sinkage", grey.string(), "--angle", "0"});
   EXPECT_EQ(e.rfind(grey.string() + ": calibration failed: ", 0), 0u) << e;
-  fs::remove_all(dir);
 }
 
 // The four synthetic conditions; writing them and evaluating the written sequences gives the same
 // table (PNG is lossless), so the recorded-sequence path is checked against the same truth.
 TEST(SinkageCli, EvalSyntheticAndRecordedSequencesGiveTheTable) {
-  const fs::path dir = temp_dir("eval");
+  const regolith::testing::TempDir tmp("sinkage_cli_eval");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const std::string out = run_cli({"eval", "sinkage", "--synthetic", "--frames", "16", "--write", dir.string()});
   const auto rows = parse_table(out);
   ASSERT_EQ(rows.size(), 4u) << out;
@@ -160,11 +154,11 @@ TEST(SinkageCli, EvalSyntheticAndRecordedSequencesGiveTheTable) {
     EXPECT_NEAR(again[i].mean_mm, rows[i].mean_mm, 0.011);
     EXPECT_NEAR(again[i].max_mm, rows[i].max_mm, 0.011);
   }
-  fs::remove_all(dir);
 }
 
 TEST(SinkageCli, EvalBenchLogGroupsConditions) {
-  const fs::path dir = temp_dir("log");
+  const regolith::testing::TempDir tmp("sinkage_cli_log");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path log = dir / "bench.csv";
   {
     std::ofstream os(log);
@@ -195,11 +189,11 @@ TEST(SinkageCli, EvalBenchLogGroupsConditions) {
   EXPECT_NEAR(rows[0].max_pct_max, 5.0, 0.051);    // 2 / 40
   EXPECT_EQ(rows[1].light, "10-15 lux");
   EXPECT_NEAR(rows[1].mean_mm, 0.5, 1e-9);
-  fs::remove_all(dir);
 }
 
 TEST(SinkageCli, EvalBadInputNamesFileAndLine) {
-  const fs::path dir = temp_dir("evalbad");
+  const regolith::testing::TempDir tmp("sinkage_cli_evalbad");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   EXPECT_EQ(error_of<regolith::InputError>({"eval", "sinkage"}),
             "eval sinkage: give --synthetic, --sequence DIR_OR_CSV or --log BENCH_LOG.csv");
   // Malformed sequence CSV.
@@ -224,5 +218,4 @@ TEST(SinkageCli, EvalBadInputNamesFileAndLine) {
   std::ofstream(params) << "geometry:\n  hub_center_px: [320, 110]\n  leg_length_px: 300\n  leg_width_px: -3\n";
   const std::string e = error_of<regolith::ConfigError>({"eval", "sinkage", "--synthetic", "--params", params.string()});
   EXPECT_EQ(e, params.string() + ":4:17: geometry.leg_width_px: value must be > 0 (got -3)");
-  fs::remove_all(dir);
 }

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/wheel_scene/wheel_scene.hpp"
+#include "temp_dir.hpp"
 
 namespace ws = regolith::wheel_scene;
 namespace fs = std::filesystem;
@@ -27,13 +28,6 @@ std::string error_of(F&& f) {
 }
 
 bool is_blue(const cv::Vec3b& p) { return p[0] > p[2] + 60 && p[0] > p[1] + 30; }
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("regolith_wheel_scene_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 }  // namespace
 
@@ -132,7 +126,8 @@ TEST(WheelSceneCsv, RoundTripAndImages) {
   ws::SequenceSpec spec;
   spec.frames = 4;
   const auto seq = ws::make_sequence(gen, spec);
-  const fs::path dir = temp_dir("roundtrip");
+  const regolith::testing::TempDir tmp("wheel_scene_roundtrip");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const fs::path csv = ws::write_sequence(dir, seq);
   const auto rows = ws::read_sequence_csv(csv);
   ASSERT_EQ(rows.size(), 4U);
@@ -143,11 +138,11 @@ TEST(WheelSceneCsv, RoundTripAndImages) {
     ASSERT_FALSE(back.empty()) << rows[i].frame;
     EXPECT_EQ(cv::norm(back, seq[i].bgr, cv::NORM_INF), 0.0);  // PNG is lossless
   }
-  fs::remove_all(dir);
 }
 
 TEST(WheelSceneCsv, MalformedFilesNameFileAndLine) {
-  const fs::path dir = temp_dir("malformed");
+  const regolith::testing::TempDir tmp("wheel_scene_malformed");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   auto write = [&](const std::string& name, const std::string& text) {
     std::ofstream(dir / name) << text;
     return dir / name;
@@ -171,5 +166,4 @@ TEST(WheelSceneCsv, MalformedFilesNameFileAndLine) {
   EXPECT_EQ(rows[0].frame, "a.png");
   EXPECT_DOUBLE_EQ(rows[0].encoder_angle_rad, -0.5);
   EXPECT_DOUBLE_EQ(rows[0].truth_mm, 3.25);
-  fs::remove_all(dir);
 }

@@ -61,6 +61,7 @@ struct RecordConfig {
   double split_mb = 0.0;             ///< start a new file after about this many MiB (0 = never)
   double split_s = 0.0;              ///< ... or after this many seconds of recording (0 = never)
   std::string where_topics;          ///< file:line:col of record.topics (or of the block), for errors
+  std::string where_file;            ///< file:line:col of record.file (or of the block), for errors
 };
 
 /// The `live:` block (read here so `config check` lists it; the server is started by the tool,
