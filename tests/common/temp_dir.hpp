@@ -1,23 +1,33 @@
 #pragma once
 // A fresh directory under the system temp dir for one test, removed with everything in it when
-// the object goes out of scope: tests leave nothing behind in /tmp. The one temp-dir helper of the
+// the object goes out of scope (retried briefly while a child process lets go of it): tests leave
+// nothing behind in /tmp. The one temp-dir helper of the
 // test suite (header-only, on every test target's include path).
 //
 //   regolith::testing::TempDir tmp("mapping_bad");   // /tmp/regolith_mapping_bad_<pid>_<n>
 //   write(tmp / "input.json"); run(tmp.path());
+//
+// `TempDir tmp("e2e", TempDir::kKeepOnFailure)` keeps the directory when the running test has
+// failed (and says where on stderr), for end-to-end tests whose logs are worth reading.
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <string>
 #include <system_error>
+#include <thread>
 
 namespace regolith::testing {
 
 class TempDir {
  public:
-  explicit TempDir(const std::string& name = "test") {
+  enum Keep { kRemoveAlways, kKeepOnFailure };
+
+  explicit TempDir(const std::string& name = "test", Keep keep = kRemoveAlways) : keep_(keep) {
     static std::atomic<int> counter{0};
     path_ = std::filesystem::temp_directory_path() /
             ("regolith_" + name + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
@@ -25,8 +35,19 @@ class TempDir {
     std::filesystem::create_directories(path_);
   }
   ~TempDir() {
+    if (keep_ == kKeepOnFailure && ::testing::Test::HasFailure()) {
+      std::cerr << "test failed: its files are kept in " << path_.string() << "\n";
+      return;
+    }
+    // A child process (a browser, a node script) may still be writing for a moment: retry, then
+    // say what was left rather than throw from a destructor.
     std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
+    for (int attempt = 0; attempt < 5; ++attempt) {
+      std::filesystem::remove_all(path_, ec);
+      if (!ec) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    std::cerr << "note: scratch " << path_.string() << " not removed: " << ec.message() << "\n";
   }
   TempDir(const TempDir&) = delete;
   TempDir& operator=(const TempDir&) = delete;
@@ -43,6 +64,7 @@ class TempDir {
 
  private:
   std::filesystem::path path_;
+  Keep keep_;
 };
 
 }  // namespace regolith::testing

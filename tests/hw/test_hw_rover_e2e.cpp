@@ -38,6 +38,7 @@
 
 #include "hw_util.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
+#include "temp_dir.hpp"
 
 extern char** environ;
 namespace fs = std::filesystem;
@@ -170,8 +171,9 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   if (vivid == nullptr) GTEST_SKIP() << "no vivid capture node (load vivid, or run tests/hw/run.sh BUILD_DIR)";
   if (if_nametoindex(kCan) == 0) GTEST_SKIP() << "no vcan0 (needs the vcan driver: run tests/hw/run.sh BUILD_DIR)";
 
-  const fs::path dir = fs::temp_directory_path() / ("regolith_hw_e2e_" + std::to_string(getpid()));
-  fs::create_directories(dir);
+  // kept when the test fails: the deployment, the run's log and its CSV summaries
+  const regolith::testing::TempDir tmp("hw_e2e", regolith::testing::TempDir::kKeepOnFailure);
+  const fs::path& dir = tmp.path();
   const std::string ns = "hwe2e" + std::to_string(getpid());
   const int domain = 1 + static_cast<int>(getpid() % 200);
   setenv("CYCLONEDDS_URI",
@@ -330,5 +332,4 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   ASSERT_NE(preview, nullptr) << "wheel_preview missing";
   EXPECT_TRUE(ok_or_overrun(*preview)) << preview->dump();
   EXPECT_EQ(value_of(*preview, "errors"), 0) << preview->dump();
-  if (!HasFailure()) fs::remove_all(dir);
 }

@@ -171,17 +171,6 @@ void kill_group(pid_t pid, std::chrono::seconds grace) {
   for (int i = 0; i < 250 && kill(-pid, 0) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 }
 
-/// Removes a scratch directory; a file the browser was still writing is not a test failure.
-void remove_scratch(const fs::path& dir) {
-  std::error_code ec;
-  for (int attempt = 0; attempt < 5; ++attempt) {
-    fs::remove_all(dir, ec);
-    if (!ec) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  std::printf("note: scratch %s not removed: %s\n", dir.c_str(), ec.message().c_str());
-}
-
 /// Waits for `pid` up to `timeout` (then kills it); true when it exited with status 0.
 bool finished_ok(pid_t pid, std::chrono::seconds timeout) {
   int status = 0;
@@ -211,12 +200,6 @@ std::string slurp(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-fs::path scratch_dir(const std::string& ns) {
-  const fs::path dir = fs::temp_directory_path() / ("regolith_live_page_" + ns);
-  fs::create_directories(dir);
-  return dir;
 }
 
 /// A rover that is not there: the topics the page shows, published over DDS with values that are
@@ -740,7 +723,8 @@ TEST(LivePage, TheServerReportsItsClientsOnDiagnostics) {
 // the page's module and compares every field exactly (tests/live/js/cdr_check.mjs).
 TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
   LiveRig rig("");
-  const fs::path dir = scratch_dir(rig.ns);
+  const regolith::testing::TempDir tmp("live_page_" + rig.ns);  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   const std::map<std::string, std::string> topics = {{"diagnostics", "/diagnostics"},
                                                      {"sinkage", "/" + rig.ns + "/terrain/wheel_sinkage"},
                                                      {"soil", "/" + rig.ns + "/terrain/soil"},
@@ -805,7 +789,6 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
   const bool ok = finished_ok(pid, std::chrono::seconds(60));
   std::printf("%s", slurp(log).c_str());
   EXPECT_TRUE(ok) << slurp(log.string() + ".err");
-  remove_scratch(dir);
 }
 #endif
 
@@ -817,7 +800,8 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
     GTEST_SKIP() << "/usr/bin/chromium not installed (apt-get install chromium): page not rendered";
   LiveRig rig(REGOLITH_LIVE_WEB_DIR);
   rig.keep_publishing();
-  const fs::path dir = scratch_dir(rig.ns);
+  const regolith::testing::TempDir tmp("live_page_" + rig.ns);  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
   Chromium browser(chromium, dir, "http://127.0.0.1:" + std::to_string(rig.relay.server().port()) + "/");
   ASSERT_TRUE(browser.ok()) << slurp(dir / "chromium.log.err");
 
@@ -869,6 +853,5 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   cv::meanStdDev(img, mean, sd);
   EXPECT_GT(sd[0] + sd[1] + sd[2], 30.0) << "blank screenshot " << shot;
   std::printf("screenshot: %s\n", shot.c_str());
-  browser.close();
-  remove_scratch(dir);  // its profile: tens of MB per run
+  browser.close();  // before its profile (tens of MB) is removed with `tmp`
 }

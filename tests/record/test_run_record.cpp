@@ -24,6 +24,7 @@
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using regolith::record::McapReader;
@@ -69,15 +70,6 @@ std::string read_text(const fs::path& p) {
 
 class RunRecord : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("regolith_run_record_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    if (!HasFailure()) fs::remove_all(dir_);
-  }
   /// config/mock_rover.yaml on a domain and namespace of this process, plus `extra` at the end.
   fs::path write_config(const std::string& name, const std::string& extra, bool dds_enabled = true) {
     std::string yaml = read_text(fs::path(REGOLITH_SOURCE_DIR) / "config/mock_rover.yaml");
@@ -94,7 +86,11 @@ class RunRecord : public ::testing::Test {
     std::ofstream(p, std::ios::binary) << yaml;
     return p;
   }
-  fs::path dir_;
+  // One directory per test, kept when the test fails (the recordings are worth reading).
+  const regolith::testing::TempDir tmp_{
+      std::string("run_record_") + ::testing::UnitTest::GetInstance()->current_test_info()->name(),
+      regolith::testing::TempDir::kKeepOnFailure};
+  const fs::path& dir_ = tmp_.path();
   std::string ns_ = "rr" + std::to_string(getpid());
 };
 

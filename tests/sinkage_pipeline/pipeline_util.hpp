@@ -3,7 +3,6 @@
 // and the component, a probe component that records every sample of the "terrain/wheel_sinkage"
 // channel (into a pre-reserved vector: it does not allocate in step), and deployment loading.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
@@ -17,6 +16,7 @@
 #include "regolith/mocks/backends.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/sinkage/component.hpp"
+#include "temp_dir.hpp"
 
 namespace regolith::sinkage::testing {
 
@@ -104,14 +104,6 @@ inline std::string replace(std::string s, const std::string& from, const std::st
   EXPECT_NE(pos, std::string::npos) << from;
   if (pos != std::string::npos) s.replace(pos, from.size(), to);
   return s;
-}
-
-inline std::filesystem::path temp_dir(const std::string& name) {
-  const auto d = std::filesystem::temp_directory_path() /
-                 ("regolith_sinkage_pipeline_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
 }
 
 /// A deployment: synthetic wheel camera + paired encoders, the sinkage component and the probe.

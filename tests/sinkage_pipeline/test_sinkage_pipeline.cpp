@@ -156,7 +156,8 @@ TEST(SinkagePipeline, EncoderDisconnectInvalidatesOnlyLaterFrames) {
 // Bench-rig mode: the linear transducer is a second encoder device (here scripted, constant
 // 0.0195 m); the component logs vision vs transducer at every capture time; overlays are saved.
 TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
-  const fs::path dir = temp_dir("bench");
+  const regolith::testing::TempDir tmp("sinkage_pipeline_bench");
+  const fs::path& dir = tmp.path();
   const fs::path log = dir / "bench.csv";
   fs::create_directories(dir / "overlays");
   const std::string comp = "    transducer_encoders: lvdt\n"
@@ -193,7 +194,6 @@ TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
   EXPECT_EQ(written + skipped, 4u);
   EXPECT_GE(written, 2u);
   EXPECT_TRUE(fs::exists(dir / "overlays" / "sinkage_00000000.png"));
-  fs::remove_all(dir);
 }
 
 // ---- configuration errors name the field ----------------------------------------------------

@@ -18,7 +18,8 @@ using namespace regolith;
 using namespace regolith::sinkage::testing;
 
 TEST(SinkagePipelineNoAlloc, StepDoesNotAllocateOnceWarm) {
-  const auto dir = temp_dir("noalloc");
+  const regolith::testing::TempDir tmp("sinkage_pipeline_noalloc");
+  const std::filesystem::path& dir = tmp.path();
   std::filesystem::create_directories(dir / "ov");
   const std::string comp = "    transducer_encoders: lvdt\n"
                            "    transducer: z\n"
@@ -43,7 +44,6 @@ TEST(SinkagePipelineNoAlloc, StepDoesNotAllocateOnceWarm) {
   for (const auto& s : probe_samples()) valid += s.result.valid ? 1 : 0;
   EXPECT_GE(valid, 27u);
   EXPECT_EQ(diag(*app, "sinkage", "log_rows"), "30");
-  std::filesystem::remove_all(dir);
 }
 
 // Positive control: the same probe counts an allocation made by a member inside each cycle.
