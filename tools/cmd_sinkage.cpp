@@ -298,10 +298,15 @@ void eval_synthetic(const EvalOptions& o, const Algorithm& algo, std::vector<Con
 }
 #endif
 
-void run_eval(const EvalOptions& o) {
-  if (!o.synthetic && o.sequences.empty() && o.logs.empty()) {
-    throw InputError("eval sinkage: give --synthetic, --sequence DIR_OR_CSV or --log BENCH_LOG.csv");
-  }
+void run_eval(const EvalOptions& given) {
+  // Bare `regolith eval sinkage`: the synthetic conditions, as with --synthetic.
+  EvalOptions o = given;
+  const bool no_input = !o.synthetic && o.sequences.empty() && o.logs.empty();
+#if REGOLITH_SINKAGE_HAVE_SCENE
+  o.synthetic = o.synthetic || no_input;
+#else
+  if (no_input) throw InputError("eval sinkage: give --sequence DIR_OR_CSV or --log BENCH_LOG.csv");
+#endif
   const Algorithm algo = load_algorithm(o);
   std::vector<Condition> rows;
   if (o.synthetic) {
@@ -322,6 +327,7 @@ void run_eval(const EvalOptions& o) {
   }
   std::cout << "# sinkage error vs ground truth (thesis Table 4.1 analogue): mean / max absolute error over the valid "
                "frames, in mm, in % of the mean ground truth (%GT) and of the maximum ground truth (%max)\n";
+  if (no_input) std::cout << "# no --sequence or --log given: the synthetic conditions (--synthetic)\n";
   if (o.synthetic) {
     std::cout << "# synthetic: " << o.frames << " frames per condition, misalignment " << o.misalignment_deg
               << " deg, seed " << o.seed << (algo.from_file ? ", geometry from " + o.params : ", exact scene geometry")
@@ -362,7 +368,7 @@ void add_sinkage_commands(CLI::App& app) {
                 "sequence folder (with sequence.csv) or CSV 'frame,encoder_angle_rad,truth_mm'; '# load: X' and "
                 "'# illumination: Y' comment lines label the condition (default: the folder name)");
   e->add_option("--log", eo->logs, "bench-rig log written by the wheel_sinkage component (log_csv)");
-  e->add_flag("--synthetic", eo->synthetic, "generate the four conditions (3.5 / 1.0 kg x 300-400 / 10-15 lux)");
+  e->add_flag("--synthetic", eo->synthetic, "generate the four conditions (3.5 / 1.0 kg x 300-400 / 10-15 lux); what runs when no --sequence or --log is given");
   e->add_option("--params", eo->params, "YAML with the geometry block and estimator keys, or a deployment");
   e->add_option("--component", eo->component, "with a deployment in --params: the component name");
   e->add_option("--frames", eo->frames, "synthetic: frames per condition")->check(CLI::Range(4, 100000))->capture_default_str();
