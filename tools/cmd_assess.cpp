@@ -708,11 +708,30 @@ void assess(const AssessOptions& o) {
     j["outputs"]["rocks"] = "rocks.csv";
     j["rocks"] = rocks_json(rocks);
   }
-  if (known == 0) j["warning"] = "no ground cell in the grid (camera looks above the horizon or grid outside the view)";
+  std::vector<std::string> warnings;
+  if (depth) {
+    // A sun below the ground plane (often a tilt given in another convention) shades no ground:
+    // every grid cell stays unknown. Said here, with the elevation, rather than left as 0 cells.
+    const double el = traversability::sun_elevation(depth->model(), {res.light.slant_rad, res.light.tilt_rad});
+    j["light"]["ground_elevation_deg"] = el / kDeg;
+    if (!(el > 0.01))
+      warnings.push_back("the sun is not above the ground plane (elevation " + fmt(el / kDeg, 1) + " deg from slant " +
+                         fmt(res.light.slant_rad / kDeg, 1) + " deg, tilt " + fmt(res.light.tilt_rad / kDeg, 1) +
+                         " deg and the camera's pitch and roll): no ground shading, every grid cell unknown; check "
+                         "--sun-slant / --sun-tilt (tilt: from image +x towards +y, clockwise)");
+  }
+  if (known == 0 && warnings.empty())
+    warnings.push_back("no ground cell in the grid (camera looks above the horizon or grid outside the view)");
   if (sun_ahead) {
     j["image_sfs"] = "skipped: sun ahead of the camera (image slant " + fmt(light->slant_rad / kDeg, 1) +
                      " deg): height.tiff is NaN; the grid comes from the ground-frame path";
-    j["warning"] = j.contains("warning") ? j["warning"].get<std::string>() + "; sun ahead of the camera" : "sun ahead of the camera: no image-frame SfS";
+    warnings.push_back(warnings.empty() ? "sun ahead of the camera: no image-frame SfS" : "sun ahead of the camera");
+  }
+  if (!warnings.empty()) {
+    std::string w = warnings[0];
+    for (std::size_t i = 1; i < warnings.size(); ++i) w += "; " + warnings[i];
+    j["warning"] = w;
+    std::cerr << "assess: " << o.image << ": warning: " << w << "\n";
   }
   std::ofstream f(out / "summary.json");
   if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");

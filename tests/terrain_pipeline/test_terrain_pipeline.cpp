@@ -542,6 +542,22 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     ASSERT_EQ(run_tool(cargs, dir / "cam.txt"), 0) << slurp(dir / "cam.txt");
     const auto jc = nlohmann::json::parse(slurp(dir / "cam" / "summary.json"));
     EXPECT_EQ(jc["grid_sfs_frame"], "ground");
+    // The sun's elevation above the ground, from the image slant / tilt and the camera's pitch:
+    // the renderer's 0.6 rad.
+    EXPECT_NEAR(jc["light"]["ground_elevation_deg"].get<double>(), 0.6 * 180 / CV_PI, 0.05);
+    EXPECT_FALSE(jc.contains("warning")) << jc["warning"];
+    // A sun given below the ground plane (tilt towards the image bottom, past the pitch): the
+    // run still writes its outputs, with every cell unknown and a warning that says why.
+    ASSERT_EQ(run_tool("assess " + (dir / "rover.png").string() + " --out " + (dir / "below").string() +
+                           " --sun-slant 48 --sun-tilt 90 --camera 300,300,159.5,119.5 --height 0.6 --pitch 25.78",
+                       dir / "below.txt"), 0) << slurp(dir / "below.txt");
+    const auto jb = nlohmann::json::parse(slurp(dir / "below" / "summary.json"));
+    EXPECT_LT(jb["light"]["ground_elevation_deg"].get<double>(), 0.0);
+    EXPECT_EQ(jb["grid"]["known_cells"].get<int>(), 0);
+    EXPECT_NE(jb.value("warning", "").find("the sun is not above the ground plane (elevation -"), std::string::npos)
+        << jb.dump();
+    EXPECT_NE(slurp(dir / "below.txt").find("warning: the sun is not above the ground plane"), std::string::npos)
+        << slurp(dir / "below.txt");
     EXPECT_GT(jc["grid"]["known_cells"].get<int>(), 1000);
     EXPECT_FALSE(cv::imread((dir / "cam" / "rectified.png").string()).empty());
     bool rock_hazard = false;
