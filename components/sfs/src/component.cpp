@@ -264,10 +264,14 @@ class SfsComponent final : public runtime::Component {
     } else if (!l->solved) {
       std::snprintf(buf, sizeof buf, "no DTM: sun ahead of the camera (slant %.0f deg)", l->light.slant_rad * kDeg);
     } else {
-      const double valid = 100.0 * cv::countNonZero(l->valid) / static_cast<double>(l->valid.total());
-      std::snprintf(buf, sizeof buf, "DTM %dx%d, %.0f %% valid, sun slant %.0f tilt %.0f deg%s", l->height.cols,
-                    l->height.rows, valid, l->light.slant_rad * kDeg, l->light.tilt_rad * kDeg,
-                    l->light_estimated ? " (estimated)" : "");
+      // The level that was solved: the full frame, or its quarter (height4 / valid4).
+      const bool quarter = l->height_level == 2;
+      const cv::Mat& h = quarter ? l->height4 : l->height;
+      const cv::Mat& v = quarter ? l->valid4 : l->valid;
+      const double valid = 100.0 * cv::countNonZero(v) / static_cast<double>(std::max<std::size_t>(1, v.total()));
+      std::snprintf(buf, sizeof buf, "DTM %dx%d%s, %.0f %% valid, sun slant %.0f tilt %.0f deg%s", h.cols, h.rows,
+                    quarter ? " (quarter resolution)" : "", valid, l->light.slant_rad * kDeg,
+                    l->light.tilt_rad * kDeg, l->light_estimated ? " (estimated)" : "");
     }
     return buf;
   }
