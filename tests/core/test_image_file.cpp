@@ -70,6 +70,10 @@ TEST(ImageFile, TruncatedJpegAndPngAreRefusedWithTheReason) {
   std::string why;
   EXPECT_TRUE(regolith::read_image_file("/nonexistent/x.png", cv::IMREAD_UNCHANGED, &why).empty());
   EXPECT_EQ(why, "cannot open it");
+  // A directory given where an image was meant (`regolith assess DIR`) is called one.
+  const regolith::testing::TempDir dir("img_dir");
+  EXPECT_TRUE(regolith::read_image_file(dir.str(), cv::IMREAD_UNCHANGED, &why).empty());
+  EXPECT_EQ(why, "it is a directory, not an image file");
 }
 
 TEST(ImageFile, TheDeclaredSizeIsReadFromEveryFormatsHeader) {

@@ -13,9 +13,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
+#include <system_error>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -216,6 +218,8 @@ inline cv::Mat read_image_file(const std::string& path, int flags, std::string* 
     if (why) *why = w;
     return cv::Mat();
   };
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return fail("it is a directory, not an image file");
   std::ifstream in(path, std::ios::binary);
   if (!in) return fail("cannot open it");
   unsigned char head[16] = {};
