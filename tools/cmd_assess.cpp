@@ -714,7 +714,7 @@ void assess(const AssessOptions& o) {
     // every grid cell stays unknown. Said here, with the elevation, rather than left as 0 cells.
     const double el = traversability::sun_elevation(depth->model(), {res.light.slant_rad, res.light.tilt_rad});
     j["light"]["ground_elevation_deg"] = el / kDeg;
-    if (!(el > 0.01))
+    if (!(el > traversability::kMinSunElevationRad))
       warnings.push_back("the sun is not above the ground plane (elevation " + fmt(el / kDeg, 1) + " deg from slant " +
                          fmt(res.light.slant_rad / kDeg, 1) + " deg, tilt " + fmt(res.light.tilt_rad / kDeg, 1) +
                          " deg and the camera's pitch and roll): no ground shading, every grid cell unknown; check "

@@ -1,8 +1,8 @@
 #pragma once
 // A fresh directory under the system temp dir for one test, removed with everything in it when
 // the object goes out of scope (retried briefly while a child process lets go of it): tests leave
-// nothing behind in /tmp. The one temp-dir helper of the
-// test suite (header-only, on every test target's include path).
+// nothing behind in /tmp. The one temp-dir helper of the test suite (header-only, on every test
+// target's include path).
 //
 //   regolith::testing::TempDir tmp("mapping_bad");   // /tmp/regolith_mapping_bad_<pid>_<n>
 //   write(tmp / "input.json"); run(tmp.path());

@@ -214,7 +214,7 @@ void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::
                                             const ImageLight& light, GridMap& out) {
   check_image(height_px, valid, "height_px");
   const double el = sun_elevation(depth_.model(), light);
-  if (!std::isfinite(light.slant_rad) || !std::isfinite(light.tilt_rad) || !(el > 0.01) ||
+  if (!std::isfinite(light.slant_rad) || !std::isfinite(light.tilt_rad) || !(el > kMinSunElevationRad) ||
       !(light.slant_rad >= 0.0) || !(light.slant_rad < CV_PI / 2)) {
     fill(metric_, kNaNf);  // no usable shading: unknown everywhere
     compute_from_metric(metric_, valid, out);

@@ -123,6 +123,9 @@ cv::Vec3d sun_in_body(const direct_depth::CameraModel& model, const ImageLight& 
 ImageLight image_light(const direct_depth::CameraModel& model, const cv::Vec3d& sun_body);
 /// Sun elevation above the ground plane (rad) for a light given in the image frame of `model`.
 double sun_elevation(const direct_depth::CameraModel& model, const ImageLight& light);
+/// The lowest sun elevation (rad) whose shading compute_from_sfs converts to metric heights; below
+/// it every cell is unknown.
+inline constexpr double kMinSunElevationRad = 0.01;
 /// The same sun in the frame of the ground-rectified image (columns = body -y, rows = body -x,
 /// third axis up): slant from the vertical, tilt from the columns towards the rows. NaN slant when
 /// the sun is at or below the horizon.
