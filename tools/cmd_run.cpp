@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
@@ -512,30 +514,60 @@ const bool registered = add_command([](CLI::App& app) {
 #endif
 
   CLI::App* config = group(app, "config", "deployment configuration tools");
-  auto file = std::make_shared<std::string>();
+  auto files = std::make_shared<std::vector<std::string>>();
   auto dot = std::make_shared<bool>(false);
   CLI::App* check = config->add_subcommand(
-      "check", "validate a deployment and print the resolved configuration and the data-flow graph");
-  check->add_option("file", *file, "deployment YAML (default: the embedded mocked rover)");
+      "check",
+      "validate deployments; for one, print the resolved configuration and the data-flow graph, for several "
+      "one line each");
+  check->add_option("files", *files, "deployment YAML files (default: the embedded mocked rover)");
   check->add_flag("--dot", *dot, "print only the data-flow graph, in Graphviz dot (| dot -Tsvg > flow.svg)");
-  check->callback([file, dot] {
+  check->callback([files, dot] {
     // The record: and live: blocks as `run` checks them (no command-line overrides here; DDS is
     // not started by `config check`, so not asked for).
-    ToolBlocks blocks;
-    auto loaded = runtime::Application::load(
-        load_config(*file), {.sim_time = true,
-                             .enable_dds = false,
-                             .open_devices = false,
-                             .check_tool_blocks = [&](const runtime::RecordConfig& rc, const runtime::LiveConfig& lc,
-                                                      bool) { blocks.check(rc, lc, /*dds=*/true, RunOptions{}); }});
-    if (*dot) {
-      loaded->dataflow().print_dot(std::cout);
+    auto load = [](const std::string& file) {
+      ToolBlocks blocks;
+      return runtime::Application::load(
+          load_config(file), {.sim_time = true,
+                              .enable_dds = false,
+                              .open_devices = false,
+                              .check_tool_blocks = [&](const runtime::RecordConfig& rc, const runtime::LiveConfig& lc,
+                                                       bool) { blocks.check(rc, lc, /*dds=*/true, RunOptions{}); }});
+    };
+    auto ok_line = [](const std::string& file, const runtime::Application& a) {
+      return "# " + (file.empty() ? std::string("<embedded>/config/mock_rover.yaml") : file) + ": OK (" +
+             std::to_string(a.view().groups.size()) + " rate groups, " + std::to_string(a.view().components.size()) +
+             " components)\n";
+    };
+    if (files->size() <= 1) {  // one deployment: its errors as any command's (exit 2), or everything resolved
+      const std::string file = files->empty() ? std::string() : files->front();
+      auto loaded = load(file);
+      if (*dot) {
+        loaded->dataflow().print_dot(std::cout);
+        return;
+      }
+      std::cout << ok_line(file, *loaded);
+      print_resolved(std::cout, loaded->resolved());
+      loaded->dataflow().print(std::cout);
       return;
     }
-    std::cout << "# " << (file->empty() ? "<embedded>/config/mock_rover.yaml" : *file) << ": OK ("
-              << loaded->view().groups.size() << " rate groups, " << loaded->view().components.size() << " components)\n";
-    print_resolved(std::cout, loaded->resolved());
-    loaded->dataflow().print(std::cout);
+    if (*dot) throw InputError("config check: --dot takes one deployment (" + std::to_string(files->size()) + " given)");
+    // Several (`regolith config check config/*.yaml`): every file is checked, each error said with
+    // its file, exit 2 when any has one.
+    std::size_t failed = 0;
+    for (const std::string& file : *files) {
+      try {
+        std::cout << ok_line(file, *load(file)) << std::flush;
+      } catch (const std::exception& e) {  // ConfigError / InputError / FieldError: each names its file
+        ++failed;
+        const std::string what = e.what();
+        spdlog::error("{}", what.find(file) == std::string::npos ? file + ": " + what : what);
+      }
+    }
+    if (failed > 0) {
+      spdlog::error("config check: {} of {} deployments have errors", failed, files->size());
+      throw CLI::RuntimeError(kExitConfig);
+    }
   });
 });
 

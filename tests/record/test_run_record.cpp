@@ -337,6 +337,33 @@ TEST_F(RunRecord, RecordBlockSplitsTheRecordingBySize) {
   EXPECT_EQ(joint_states, 176u);  // 3.5 s at 50 Hz, both ends included: none lost or doubled
 }
 
+TEST_F(RunRecord, ConfigCheckTakesSeveralDeployments) {
+  // `regolith config check config/*.yaml`: one line per deployment, every error with its file, the
+  // files after a bad one still checked, exit 2 when any has an error.
+  const fs::path good = write_config("good.yaml", "");
+  const fs::path typo = write_config("typo.yaml", "\nrecord: {fille: x.mcap}\n");
+  const fs::path bench = fs::path(REGOLITH_SOURCE_DIR) / "config/wheel_leg_bench.yaml";
+  Result r = run("config check " + good.string() + " " + typo.string() + " " + bench.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("# " + good.string() + ": OK ("), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("# " + bench.string() + ": OK ("), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("typo.yaml"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("record.fille"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("config check: 1 of 3 deployments have errors"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("process.lock_memory"), std::string::npos) << r.out;  // no resolved listing
+  // A file that is not there is one of the errors, named.
+  r = run("config check " + good.string() + " " + (dir_ / "missing.yaml").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("missing.yaml"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1 of 2 deployments have errors"), std::string::npos) << r.out;
+  // All good: exit 0; --dot takes one deployment.
+  r = run("config check " + good.string() + " " + bench.string());
+  EXPECT_EQ(r.status, 0) << r.out;
+  r = run("config check --dot " + good.string() + " " + bench.string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--dot takes one deployment (2 given)"), std::string::npos) << r.out;
+}
+
 TEST_F(RunRecord, ConfigErrors) {
   // record: with DDS disabled: a located error naming record.file.
   const fs::path no_dds = write_config("no_dds.yaml", "\nrecord: {file: x.mcap}\n", /*dds_enabled=*/false);
