@@ -33,11 +33,8 @@
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/trained.hpp"
 
-#if __has_include(<regolith/sfs/sfs.hpp>)
+#ifdef REGOLITH_HAVE_SFS
 #include "regolith/saliency/sfs_height.hpp"
-#define REGOLITH_ROCKS_HAVE_SFS 1
-#else
-#define REGOLITH_ROCKS_HAVE_SFS 0
 #endif
 
 namespace regolith::cli {
@@ -172,7 +169,7 @@ struct RockOptions {
 // Returns an empty function when SfS is not compiled in.
 sal::HeightFn make_height_fn(int downsample, double slant_deg,
                              std::shared_ptr<void> &keep_alive) {
-#if REGOLITH_ROCKS_HAVE_SFS
+#ifdef REGOLITH_HAVE_SFS
   sal::SfsHeightParams hp;
   hp.downsample_levels = downsample;
   if (slant_deg < 0.0)

@@ -26,17 +26,11 @@
 #include "regolith/sinkage/bench_log.hpp"
 #include "regolith/sinkage/sinkage.hpp"
 
-#if __has_include(<regolith/wheel_scene/sinkage_setup.hpp>)
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
 #include "regolith/wheel_scene/sinkage_setup.hpp"
-#define REGOLITH_SINKAGE_HAVE_SCENE 1
-#else
-#define REGOLITH_SINKAGE_HAVE_SCENE 0
 #endif
-#if __has_include(<regolith/sinkage/component.hpp>)
+#ifdef REGOLITH_HAVE_SINKAGE_COMPONENT
 #include "regolith/sinkage/component.hpp"
-#define REGOLITH_SINKAGE_HAVE_COMPONENT 1
-#else
-#define REGOLITH_SINKAGE_HAVE_COMPONENT 0
 #endif
 
 namespace regolith::cli {
@@ -138,7 +132,7 @@ struct Algorithm {
 Algorithm load_algorithm(const EvalOptions& o) {
   Algorithm a;
   if (o.params.empty()) return a;
-#if REGOLITH_SINKAGE_HAVE_COMPONENT
+#ifdef REGOLITH_HAVE_SINKAGE_COMPONENT
   Params root = Params::load_file(o.params);
   if (root.has("components")) {
     Params comps = root.child("components");
@@ -180,7 +174,7 @@ fs::path sequence_csv(const std::string& arg) {
 void eval_sequence(const std::string& arg, const Algorithm& algo, std::vector<Condition>& rows) {
   const fs::path csv = sequence_csv(arg);
   if (!fs::exists(csv)) throw InputError(csv.string() + ": no such file");
-#if REGOLITH_SINKAGE_HAVE_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
   std::vector<wheel_scene::SequenceRow> seq;
   std::string load, light;
   try {
@@ -238,7 +232,7 @@ void eval_log(const std::string& file, std::vector<Condition>& rows) {
   }
 }
 
-#if REGOLITH_SINKAGE_HAVE_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
 void eval_synthetic(const EvalOptions& o, const Algorithm& algo, std::vector<Condition>& rows) {
   struct Load {
     const char* name;
@@ -302,7 +296,7 @@ void run_eval(const EvalOptions& given) {
   // Bare `regolith eval sinkage`: the synthetic conditions, as with --synthetic.
   EvalOptions o = given;
   const bool no_input = !o.synthetic && o.sequences.empty() && o.logs.empty();
-#if REGOLITH_SINKAGE_HAVE_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
   o.synthetic = o.synthetic || no_input;
 #else
   if (no_input) throw InputError("eval sinkage: give --sequence DIR_OR_CSV or --log BENCH_LOG.csv");
@@ -310,7 +304,7 @@ void run_eval(const EvalOptions& given) {
   const Algorithm algo = load_algorithm(o);
   std::vector<Condition> rows;
   if (o.synthetic) {
-#if REGOLITH_SINKAGE_HAVE_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
     eval_synthetic(o, algo, rows);
 #else
     throw InputError("eval sinkage --synthetic needs mocks/wheel_scene in this build");

@@ -2,6 +2,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
 #include <string>
 
 #include "cli.hpp"
@@ -9,6 +10,11 @@
 #include "regolith/hal/device.hpp"
 
 int main(int argc, char** argv) {
+  // libcamera logs its version and pipeline set-up at INFO, in colour, to stderr, from whichever
+  // command opens its camera manager (`devices`, `run`): keep its warnings and errors only, unless
+  // the user asked otherwise. Set here, before any thread exists: libcamera reads the variable
+  // when its first log category is made.
+  setenv("LIBCAMERA_LOG_LEVELS", "*:WARN", /*overwrite=*/0);
   // Logs and errors go to stderr; stdout carries the summary, JSON lines and tables.
   spdlog::set_default_logger(spdlog::stderr_color_mt("regolith"));
   CLI::App app{"regolith: real-time terrain assessment for planetary micro-rovers"};

@@ -20,11 +20,8 @@
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/trained.hpp"
-#if __has_include(<regolith/sfs/sfs.hpp>)
+#ifdef REGOLITH_HAVE_SFS  // bench/saliency/CMakeLists.txt, when regolith::sfs is built
 #include "regolith/saliency/sfs_height.hpp"
-#define BENCH_HAVE_SFS 1
-#else
-#define BENCH_HAVE_SFS 0
 #endif
 
 namespace rs = regolith::saliency;
@@ -97,7 +94,7 @@ void BM_SamsSharedDtm(benchmark::State &st) {
   record(st);
 }
 
-#if BENCH_HAVE_SFS
+#ifdef REGOLITH_HAVE_SFS
 void BM_SamsWithSfs(benchmark::State &st) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));

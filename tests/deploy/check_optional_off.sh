@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # deploy.optional_features_off: the code paths of a build without the optional features still
 # compile. A source that tests a `REGOLITH_HAVE_<FEATURE>` macro (MCAP recording, the live server,
-# systemd, ...) is compiled here exactly as this build compiles it (its command from
+# systemd, the SfS height channel of `rocks`, the rendered scenes behind the mock backends and
+# `eval sinkage`, ...) is compiled here exactly as this build compiles it (its command from
 # compile_commands.json, warnings and -Werror included) but with every -DREGOLITH_HAVE_* removed and
 # -fsyntax-only: what a machine without those libraries, or a build configured with the feature
 # OFF, would compile. Two such breaks (an unused variable, an include inside a guard) were found by

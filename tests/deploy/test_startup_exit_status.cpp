@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -159,4 +160,23 @@ TEST_F(StartupExitStatus, InterfaceThatIsNotCanIsAConfigurationErrorExit2) {
   EXPECT_CONTAINS(r.err,
                   "devices.encoders.wheels.interface: socketcan 'wheels': interface 'lo' is not a CAN interface");
   EXPECT_EQ(r.err.find("retried"), std::string::npos) << r.err;
+}
+
+TEST_F(StartupExitStatus, DevicesListsEveryBackendAndKeepsLibcamerasInfoLinesOut) {
+  // `regolith devices` on a host without cameras or CAN: the three hardware sections, empty, and
+  // the backends of this build. libcamera's own INFO lines (its version, in colour) stay out of
+  // stderr unless LIBCAMERA_LOG_LEVELS asks for them.
+  Result r = run({"devices"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_CONTAINS(r.out, "V4L2 cameras (backend: v4l2)");
+  EXPECT_CONTAINS(r.out, "CAN interfaces (backend: socketcan)");
+  EXPECT_CONTAINS(r.out, "camera backends: ");
+  EXPECT_CONTAINS(r.out, "encoders backends: ");
+  EXPECT_EQ(r.err.find("INFO"), std::string::npos) << r.err;
+  if (r.out.find("(backend: libcamera)") == std::string::npos) return;  // built without libcamera
+  ASSERT_EQ(setenv("LIBCAMERA_LOG_LEVELS", "*:INFO", 1), 0);
+  r = run({"devices"});
+  unsetenv("LIBCAMERA_LOG_LEVELS");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_CONTAINS(r.err, "libcamera v");  // the user's setting wins
 }

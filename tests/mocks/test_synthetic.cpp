@@ -2,14 +2,14 @@
 
 #include "mock_test_util.hpp"
 
-#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
 #include "regolith/wheel_scene/wheel_scene.hpp"
 #endif
 
 namespace regolith::mocks::test {
 namespace {
 
-#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+#ifdef REGOLITH_HAVE_TERRAIN_SCENE
 TEST(SyntheticTerrain, RendersMovingDeterministicFrames) {
   Fixture fx;
   const std::string yaml = "backend: synthetic_terrain\nwidth: 96\nheight: 72\nframes: 3\nrate_hz: 2\n"
@@ -59,7 +59,7 @@ TEST(SyntheticTerrain, TooManyFramesToHoldAreAConfigErrorNotAnEndlessRender) {
 }
 #endif
 
-#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
 TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
   Fixture fx;
   const std::string body = "frames: 4\nrate_hz: 10\nsample_rate_hz: 100\nspeed_rad_s: 0.5\n"

@@ -16,11 +16,8 @@
 #include "regolith/saliency/evaluate.hpp"
 #include "temp_dir.hpp"
 
-#if __has_include(<regolith/sfs/sfs.hpp>)
+#ifdef REGOLITH_HAVE_SFS  // from regolith_cli (tools/CMakeLists.txt) when regolith::sfs is built
 #include "regolith/saliency/sfs_height.hpp"
-#define TEST_HAVE_SFS 1
-#else
-#define TEST_HAVE_SFS 0
 #endif
 
 namespace regolith::cli {
@@ -148,7 +145,7 @@ TEST(Dataset, FewMarsDataImagesGivePlausibleScores) {
   cfg.itti.normalisation = rs::Normalisation::kLocalMax;
   cfg.itti.weights = {0.2, 0.5, 0.0, 0.3};
   rs::HeightFn height;
-#if TEST_HAVE_SFS
+#ifdef REGOLITH_HAVE_SFS
   rs::SfsHeight sfs_height;
   height = sfs_height.function();
 #endif

@@ -3,7 +3,7 @@
 
 namespace regolith::mocks {
 
-#ifdef REGOLITH_MOCKS_HAVE_TRACK_SCENE
+#ifdef REGOLITH_HAVE_TRACK_SCENE
 std::unique_ptr<hal::Camera> make_synthetic_tracks_camera(Params& p, const hal::DeviceContext& ctx);  // synthetic_tracks.cpp
 #endif
 
@@ -21,7 +21,7 @@ void register_mock_backends(hal::BackendRegistry& registry) {
                         make_scripted_encoders);
   registry.add_encoders("candump", "replay of a can-utils `candump -l` log through the CAN decoder",
                         make_candump_encoders);
-#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+#ifdef REGOLITH_HAVE_TERRAIN_SCENE
   registry.add_camera("synthetic_terrain", "rover camera over generated Lambertian terrain (frames rendered at configure)",
                       make_synthetic_terrain_camera);
   registry.add_camera("synthetic_drive",
@@ -33,13 +33,13 @@ void register_mock_backends(hal::BackendRegistry& registry) {
   registry.add<hal::Imu>("synthetic_drive", "heading and yaw rate of the synthetic_drive path (level body)",
                          make_synthetic_drive_imu);
 #endif
-#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
   registry.add_camera("synthetic_wheel", "wheel-leg scene rendered for a scripted wheel angle (pair: synthetic_wheel encoders)",
                       make_synthetic_wheel_camera);
   registry.add_encoders("synthetic_wheel", "the angles the synthetic_wheel camera frames were rendered at",
                         make_synthetic_wheel_encoders);
 #endif
-#ifdef REGOLITH_MOCKS_HAVE_TRACK_SCENE
+#ifdef REGOLITH_HAVE_TRACK_SCENE
   registry.add_camera("synthetic_tracks", "rear camera over the rover's own wheel tracks (rigid-wheel ruts, known soil k, n)",
                       make_synthetic_tracks_camera);
 #endif
@@ -53,24 +53,24 @@ void register_mock_backends(hal::BackendRegistry& registry) {
 
 std::vector<std::string> mock_camera_backends() {
   std::vector<std::string> v{"image_files", "fault_injection"};
-#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+#ifdef REGOLITH_HAVE_TERRAIN_SCENE
   v.emplace_back("synthetic_terrain");
   v.emplace_back("synthetic_drive");
 #endif
-#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
   v.emplace_back("synthetic_wheel");
 #endif
-#ifdef REGOLITH_MOCKS_HAVE_TRACK_SCENE
+#ifdef REGOLITH_HAVE_TRACK_SCENE
   v.emplace_back("synthetic_tracks");
 #endif
   return v;
 }
 std::vector<std::string> mock_encoder_backends() {
   std::vector<std::string> v{"scripted", "candump", "fault_injection"};
-#ifdef REGOLITH_MOCKS_HAVE_TERRAIN_SCENE
+#ifdef REGOLITH_HAVE_TERRAIN_SCENE
   v.emplace_back("synthetic_drive");
 #endif
-#ifdef REGOLITH_MOCKS_HAVE_WHEEL_SCENE
+#ifdef REGOLITH_HAVE_WHEEL_SCENE
   v.emplace_back("synthetic_wheel");
 #endif
   return v;
