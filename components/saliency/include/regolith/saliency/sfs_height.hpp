@@ -1,8 +1,8 @@
 #pragma once
 // Header-only adapter: the SAMS height map from regolith::sfs (shape from
 // shading of the same frame). Include it only in targets that link
-// regolith::sfs (guard with REGOLITH_HAVE_SFS, which tools/CMakeLists.txt
-// defines when that library is built); the regolith::saliency library itself
+// regolith::sfs (guard with REGOLITH_HAVE_SFS, which their CMake file defines
+// when that library is built); the regolith::saliency library itself
 // does not depend on the SfS component.
 #include <opencv2/imgproc.hpp>
 
