@@ -4,8 +4,9 @@
 // that were on the wire (dds_takecdr), one ros2msg Schema per ROS type (the .msg definitions of
 // msgs/ros2, regolith::msgs::ros2msg_definition), one cdr Channel per topic (its ROS name, e.g.
 // /rover1/joint_states); log_time = receive time, publish_time = the DDS source timestamp (both
-// wall-clock ns since 1970). Stops on Ctrl-C / SIGTERM, --duration or --count and always closes
-// the file (summary + footer).
+// wall-clock ns since 1970; with --use-sim-time log_time = the source timestamp too, which a
+// `regolith run --sim-time` sets to its simulated ROS time). Stops on Ctrl-C / SIGTERM,
+// --duration or --count and always closes the file (summary + footer).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -42,6 +43,7 @@ struct RecordArgs {
   bool all = false;
   bool zstd = false;
   bool no_compression = false;
+  bool use_sim_time = false;
   double split_mb = 0.0, split_s = 0.0;
 };
 
@@ -66,6 +68,7 @@ void run_record(const RecordArgs& a) {
   ro.topics = wanted;
   ro.compression = a.no_compression ? record::Compression::kNone : record::Compression::kZstd;
   ro.max_samples = a.count;
+  ro.log_source_time = a.use_sim_time;
   ro.split_bytes = static_cast<std::uint64_t>(a.split_mb * 1024.0 * 1024.0);
   ro.split_duration_ns = static_cast<std::uint64_t>(a.split_s * 1e9);
 #ifdef REGOLITH_VERSION
@@ -130,6 +133,9 @@ const bool registered = add_command([](CLI::App& app) {
   auto* z = cmd->add_flag("--zstd", a->zstd, "zstd-compressed chunks (the default)");
   auto* nc = cmd->add_flag("--no-compression", a->no_compression, "uncompressed chunks");
   z->excludes(nc);
+  cmd->add_flag("--use-sim-time", a->use_sim_time,
+                "log each sample at its DDS source time, the simulated ROS time of a `regolith run --sim-time` "
+                "(default: when it was received, wall clock)");
   cmd->add_option("--split-size", a->split_mb, "start a new file (<stem>_001.mcap, ...) after about this many MiB")
       ->check(CLI::Range(0.01, 1e6));
   cmd->add_option("--split-duration", a->split_s, "start a new file after this many seconds of messages")

@@ -166,6 +166,7 @@ std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const
   ro.topics = blocks.record_topics;
   ro.compression = rc.compression == "none" ? record::Compression::kNone : record::Compression::kZstd;
   ro.keep_all = o.sim_time;  // simulated time: every sample, however fast the rover runs
+  ro.log_source_time = o.sim_time;  // ... on the simulated time line (the writers' source clock)
   ro.split_bytes = static_cast<std::uint64_t>(rc.split_mb * 1024.0 * 1024.0);
   ro.split_duration_ns = static_cast<std::uint64_t>(rc.split_s * 1e9);
 #ifdef REGOLITH_VERSION
@@ -334,7 +335,7 @@ void run(const RunOptions& o) {
 #ifdef REGOLITH_HAVE_DDS_RECORD
   // Every device is wrapped for the HAL recording; the wrappers only forward unless recording.
   // Simulated time: lossless (a full ring waits for the writer) so a replay sees every frame.
-  record::HalRecorder hal_recorder({.lossless = o.sim_time});
+  record::HalRecorder hal_recorder({.lossless = o.sim_time, .sim_ros_offset = o.sim_ros_offset});
   ao.wrap_device = [&](std::unique_ptr<hal::Device> d) { return hal_recorder.wrap(std::move(d)); };
 #endif
   ToolBlocks blocks;

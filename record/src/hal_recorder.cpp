@@ -74,11 +74,13 @@ struct FrameSlot {
 
 struct EncoderQuery {
   std::uint32_t wheel = 0;
-  TimeNs t = 0;
+  TimeNs asked = 0;  // when the component asked (the message's log time)
+  TimeNs t = 0;      // the time it asked about (its header stamp)
   double angle = 0.0;  // NaN: the query failed
 };
 
 struct AttitudeQuery {
+  TimeNs asked = 0;
   TimeNs t = 0;
   Attitude a;  // NaN roll: the query failed
 };
@@ -90,6 +92,7 @@ struct HalRecorder::Tap {
   std::string id, kind;
   bool lossless = false;
   std::atomic<bool> active{false};  // between start() and stop(): wrappers only forward otherwise
+  const Clock* clock = nullptr;     // the deployment's, set by start() before `active`
   std::atomic<std::uint64_t> recorded{0}, dropped{0};
   // camera
   std::unique_ptr<Ring<FrameSlot>> frames;
@@ -190,7 +193,7 @@ class RecordingEncoders final : public hal::WheelEncoders {
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override {
     const bool ok = inner_->angle_at(wheel, t, angle);
     const double value = ok ? angle : std::numeric_limits<double>::quiet_NaN();
-    tap_->push(*tap_->enc_queries, [&](EncoderQuery& q) { q = {static_cast<std::uint32_t>(wheel), t, value}; });
+    tap_->push(*tap_->enc_queries, [&](EncoderQuery& q) { q = {static_cast<std::uint32_t>(wheel), tap_->clock->now(), t, value}; });
     return ok;
   }
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now,
@@ -222,7 +225,7 @@ class RecordingImu final : public hal::Imu {
     const bool ok = inner_->attitude_at(t, out);
     constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
     const Attitude value = ok ? out : Attitude{kNan, kNan, kNan};
-    tap_->push(*tap_->att_queries, [&](AttitudeQuery& q) { q = {t, value}; });
+    tap_->push(*tap_->att_queries, [&](AttitudeQuery& q) { q = {tap_->clock->now(), t, value}; });
     return ok;
   }
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
@@ -307,7 +310,7 @@ void HalRecorder::start(MessageSink& sink, Clock& clock) {
     }
   }
   // Measured here: the application measures its own when it starts, after this.
-  ros_offset_ = clock.simulated() ? 0 : measure_realtime_offset();
+  ros_offset_ = clock.simulated() ? opts_.sim_ros_offset : measure_realtime_offset();
   // recording_id tells the files of this recording from another's (under simulated time two runs
   // share their time origin): mcap_recording_files() keeps the split files that match.
   std::random_device rd;
@@ -317,7 +320,10 @@ void HalRecorder::start(MessageSink& sink, Clock& clock) {
                                      {"ros_time_offset_ns", std::to_string(ros_offset_)},
                                      {"simulated", clock.simulated() ? "true" : "false"},
                                      {"recording_id", id}});
-  for (const auto& t : taps_) t->active.store(true, std::memory_order_release);
+  for (const auto& t : taps_) {
+    t->clock = &clock;
+    t->active.store(true, std::memory_order_release);  // the wrappers read `clock` after this
+  }
   stop_.store(false);
   thread_ = std::thread([this] { loop(); });
 }
@@ -349,12 +355,8 @@ void HalRecorder::loop() {
 
 void HalRecorder::drain_all() {
   std::vector<std::uint8_t>& buf = buffer_;
-  // MCAP log time on the time base of the DDS samples beside them (their receive time, wall
-  // clock): the capture time in ROS time, or under simulated time the time it is written.
-  const bool simulated = clock_->simulated();
-  auto log_time = [&](TimeNs t) {
-    return static_cast<std::uint64_t>(simulated ? realtime_now() : std::max<TimeNs>(0, t + ros_offset_));
-  };
+  // MCAP log time on the time line of the DDS samples beside them: the capture time in ROS time.
+  auto log_time = [&](TimeNs t) { return static_cast<std::uint64_t>(std::max<TimeNs>(0, t + ros_offset_)); };
   const TimeNs now = clock_->now();
   for (const auto& tp : taps_) {
     Tap& tap = *tp;
@@ -401,7 +403,7 @@ void HalRecorder::drain_all() {
       }
       tap.enc_queries->drain([&](const EncoderQuery& q) {
         encode_wheel_angle(buf, q.t, q.wheel < names.size() ? names[q.wheel] : std::string(), q.angle);
-        sink_->write(tap.ch_queries, tap.seq_queries++, log_time(q.t), log_time(q.t), buf);
+        sink_->write(tap.ch_queries, tap.seq_queries++, log_time(q.asked), log_time(q.asked), buf);
         tap.recorded.fetch_add(1, std::memory_order_relaxed);
       });
     }
@@ -425,7 +427,7 @@ void HalRecorder::drain_all() {
       } while (n == samples.size());
       tap.att_queries->drain([&](const AttitudeQuery& q) {
         encode_attitude(buf, q.t, q.a);
-        sink_->write(tap.ch_queries, tap.seq_queries++, log_time(q.t), log_time(q.t), buf);
+        sink_->write(tap.ch_queries, tap.seq_queries++, log_time(q.asked), log_time(q.asked), buf);
         tap.recorded.fetch_add(1, std::memory_order_relaxed);
       });
     }

@@ -290,7 +290,7 @@ void Application::start() {
     c->state_.store(Lifecycle::kActive);
   }
   if (dds_) {
-    start_participant(*dds_);
+    start_participant(*dds_, clock());
     tf_static_ = publish_static_transforms(*dds_, context_->rover(), clock().now());
     announce_node(*dds_, name_);
     if (!opts_.wait_for.empty()) wait_for_readers(*dds_, opts_.wait_for, opts_.wait_timeout);

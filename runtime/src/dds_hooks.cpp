@@ -46,7 +46,10 @@ std::shared_ptr<dds::Participant> make_participant(Params& p, bool lossless) {
   }
 }
 
-void start_participant(dds::Participant& p) { p.start(); }
+void start_participant(dds::Participant& p, const Clock& clock) {
+  if (clock.simulated()) p.set_source_clock([&clock] { return to_ros_time(clock.now()); });
+  p.start();
+}
 
 std::shared_ptr<void> publish_static_transforms(dds::Participant& p, const RoverDescription& rover, TimeNs stamp) {
   using Tf = msgs::tf2_msgs::TFMessage;

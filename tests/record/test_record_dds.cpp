@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -356,6 +357,56 @@ TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
   EXPECT_EQ(reader.info().message_count, 5u) << slurp(log);
   EXPECT_EQ(reader.info().chunks.size(), 1u);
   EXPECT_EQ(reader.info().chunks[0].compression, "");
+}
+
+TEST(RecordDds, UseSimTimeLogsSamplesAtTheWritersSimulatedSourceTime) {
+  // A publisher on simulated time (Participant::set_source_clock, as `regolith run --sim-time`
+  // sets it) stamps each sample with its simulated ROS time as it is written; `regolith record
+  // --use-sim-time` logs it there, so the file plays on the simulated time line.
+  rd::testing::use_loopback_config();
+  const std::uint32_t domain = rd::testing::test_domain();
+  const std::string ns = rd::testing::unique_ns();
+  const regolith::testing::TempDir tmp("record_" + ns);  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
+  const fs::path file = dir / "sim.mcap";
+  const fs::path log = dir / "record.log";
+  std::atomic<regolith::TimeNs> sim_now{regolith::kNsPerSec};
+  rd::Participant pp({domain, ns});
+  pp.set_source_clock([&sim_now] { return sim_now.load(); });
+  auto js = pp.make_outbox<m::sensor_msgs::JointState>(
+      "joint_states", rd::find_topic("joint_states")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 16},
+      [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 1}); });
+  pp.start();
+  constexpr int kSamples = 8;
+  const pid_t pid = spawn({std::string(REGOLITH_EXE), "record", "joint_states", "--out", file.string(), "--domain",
+                           std::to_string(domain), "--namespace", ns, "--use-sim-time", "--count",
+                           std::to_string(kSamples), "--duration", "60"},
+                          log);
+  ASSERT_GT(pid, 0);
+  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  let_reader_match_writers();
+  for (int i = 0; i < kSamples; ++i) {
+    sim_now.store(regolith::kNsPerSec + i * 20 * regolith::kNsPerMs);  // the cycle's simulated time
+    auto* s = js->begin();
+    ASSERT_NE(s, nullptr);
+    rd::set_time(s->header.stamp, sim_now.load());
+    rd::set_length(s->name, 1);
+    rd::copy_string(s->name._buffer[0], 32, "wheel");
+    js->commit();
+    ASSERT_TRUE(pp.drain(5 * regolith::kNsPerSec));  // written before simulated time moves on
+  }
+  ASSERT_TRUE(pp.wait_for_acks(5 * regolith::kNsPerSec));
+  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  pp.stop();
+  regolith::record::McapReader reader(file);
+  EXPECT_EQ(reader.info().message_count, static_cast<std::uint64_t>(kSamples)) << slurp(log);
+  EXPECT_EQ(reader.info().message_start_time, 1'000'000'000u);
+  EXPECT_EQ(reader.info().message_end_time, 1'140'000'000u);
+  const auto problems = reader.for_each_message([&](const regolith::record::MessageView& mv) {
+    EXPECT_EQ(mv.log_time, 1'000'000'000u + 20'000'000ull * mv.sequence) << "sample " << mv.sequence;
+    EXPECT_EQ(mv.publish_time, mv.log_time) << "sample " << mv.sequence;
+  });
+  EXPECT_TRUE(problems.empty());
 }
 
 TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {

@@ -176,8 +176,15 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   EXPECT_EQ(recorded["/hal/cameras/front/image_corrupt"], 0u);
   EXPECT_NE(r.out.find(", 0 dropped"), std::string::npos) << r.out;
 
+  // The file is on the simulated time line (ROS time = simulated time here, from 1 s to 7 s),
+  // not the wall clock's: a player shows the 6 s the rover ran, however fast it ran.
+  EXPECT_GE(info.message_start_time, 900'000'000u);
+  EXPECT_EQ(info.message_end_time, 7'000'000'000u);
+
   // Per channel: log times never go back, sequences count from 0 (the DDS topics; a device's
-  // messages carry its own frame / sample numbers), CDR encapsulation header.
+  // messages carry its own frame / sample numbers), CDR encapsulation header. A DDS sample's log
+  // time is its source time, the simulated time of the cycle that published it (joint_states:
+  // every 20 ms from 1 s); a device's message is logged at its capture time (front: every 0.5 s).
   std::map<std::uint16_t, std::uint64_t> last_time;
   std::map<std::uint16_t, std::uint32_t> next_seq;
   std::uint64_t total = 0, dds_total = 0;
@@ -188,6 +195,13 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
     if (m.channel.topic.rfind("/hal/", 0) != 0) {
       ++dds_total;
       EXPECT_EQ(m.sequence, next_seq[m.channel.id]++) << m.channel.topic;
+      EXPECT_EQ(m.log_time, m.publish_time) << m.channel.topic;
+    }
+    if (m.channel.topic == n + "joint_states") {
+      EXPECT_EQ(m.log_time, 1'000'000'000u + 20'000'000ull * m.sequence) << "joint_states #" << m.sequence;
+    }
+    if (m.channel.topic == "/hal/cameras/front/image") {
+      EXPECT_EQ(m.log_time, 1'000'000'000u + 500'000'000ull * m.sequence) << "front frame #" << m.sequence;
     }
     ASSERT_GE(m.data.size(), 4u);
     EXPECT_EQ(m.data[0], 0x00);

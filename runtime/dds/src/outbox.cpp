@@ -38,8 +38,9 @@ void OutboxBase::on_deadline_missed(dds_entity_t,
                                    std::memory_order_relaxed);
 }
 
-bool OutboxBase::write_sample(const void *sample) {
-  const dds_return_t rc = dds_write(writer_, sample);
+bool OutboxBase::write_sample(const void *sample, const SourceClock &source_clock) {
+  const dds_return_t rc = source_clock ? dds_write_ts(writer_, sample, source_clock())
+                                       : dds_write(writer_, sample);
   if (rc < 0) {
     write_errors_.fetch_add(1, std::memory_order_relaxed);
     return false;

@@ -255,7 +255,7 @@ std::size_t Participant::flush_all() {
   }
   std::size_t n = 0;
   for (auto &b : boxes)
-    n += b->flush();
+    n += b->flush(source_clock_);
   return n;
 }
 
@@ -273,7 +273,7 @@ void Participant::run() {
     }
     std::size_t written = 0;
     for (auto &b : boxes)
-      written += b->flush();
+      written += b->flush(source_clock_);
     {
       std::lock_guard lock(idle_mutex_); // no lost wake-up for drain()
       passes_.fetch_add(1, std::memory_order_release);

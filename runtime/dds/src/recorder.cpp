@@ -175,7 +175,7 @@ void DdsRecorder::take_all() {
           const std::uint64_t now = realtime_ns();
           const std::uint64_t pub = info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : now;
           try {
-            writer_->write(r.channel, r.sequence++, now, pub, bytes);
+            writer_->write(r.channel, r.sequence++, opts_.log_source_time ? pub : now, pub, bytes);
             ++written;
           } catch (const std::runtime_error& e) {
             fail(e);

@@ -102,7 +102,7 @@ void DdsRelay::publish_status() {
     dds::copy_string(st.values._buffer[k].value, kStatusString, std::to_string(values[k].second));
   }
   box.commit();
-  if (!participant_.running()) box.flush();  // `regolith live`'s own participant has no publisher thread
+  if (!participant_.running()) box.flush({});  // `regolith live`'s own participant has no publisher thread
 }
 
 void DdsRelay::loop() {
@@ -119,8 +119,12 @@ void DdsRelay::loop() {
         // Taken even without subscribers: the reader's history must not fill with stale samples.
         const std::size_t n = dds::take_serialized(
             t->sub->reader(),
-            [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t&) {
-              server_->send_message(t->channel, realtime_ns(), bytes);
+            [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
+              // The writer's source time: wall time, or the simulated ROS time of a run under
+              // --sim-time (Participant::set_source_clock), the time line of its header stamps.
+              const std::uint64_t t_ns =
+                  info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : realtime_ns();
+              server_->send_message(t->channel, t_ns, bytes);
             },
             scratch, 256);
         samples_.fetch_add(n);

@@ -20,9 +20,11 @@
 // the frame's number, a gap = frames the backend's history no longer held, counted as dropped), /hal/imus/<id>/samples (sensor_msgs/Imu), /hal/imus/<id>/attitude (each
 // sample's roll, pitch, yaw exactly, as geometry_msgs/Vector3Stamped x, y, z in rad) and
 // /hal/imus/<id>/queries (the same type; NaN = the query failed). Header stamps are the
-// process clock (TimeNs); MCAP log times are ROS time (process clock + the offset measured at
-// start(), kept in the `regolith_hal` metadata record with the time origin; under simulated time
-// the wall-clock time of writing, as the DDS recorder's). stop() adds `regolith_hal_end`
+// process clock (TimeNs); MCAP log times are ROS time: process clock + the offset measured at
+// start() or, under simulated time, HalRecorderOptions::sim_ros_offset (the time line of the DDS
+// samples beside them, whose log time is then their simulated source time), kept in the
+// `regolith_hal` metadata record with the time origin. A query's message is logged when the
+// component asked, its header stamp is the time it asked about. stop() adds `regolith_hal_end`
 // (time_end_ns: the clock at the end), so a replay knows how long the recording runs.
 // Target regolith::hal_record (hal + record + ros2msg).
 #include <atomic>
@@ -46,6 +48,9 @@ struct HalRecorderOptions {
   TimeNs poll_period = 5 * kNsPerMs;     ///< writer thread wake-up (wall time)
   /// A full ring makes the device call wait for the writer instead of dropping (simulated time).
   bool lossless = false;
+  /// Under simulated time: ROS time - simulated time (runtime::AppOptions::sim_ros_offset; 0 but
+  /// for a replay, which keeps its recording's).
+  TimeNs sim_ros_offset = 0;
 };
 
 class HalRecorder {

@@ -21,7 +21,11 @@ namespace regolith::runtime {
 std::shared_ptr<dds::Participant> make_participant(Params& dds, bool lossless);
 /// Declares the same parameters without creating anything (config check).
 void declare_dds_params(Params& dds);
-void start_participant(dds::Participant& p);
+/// Starts the publisher thread. On a simulated `clock` every sample's DDS source timestamp is the
+/// simulated ROS time of its cycle (to_ros_time(clock.now())), as its header stamp and /clock
+/// are: recordings and subscribers then see the run on its own time line, not the wall clock's.
+/// `clock` must outlive the participant's thread.
+void start_participant(dds::Participant& p, const Clock& clock);
 void stop_participant(dds::Participant& p);
 /// Hand everything committed so far to DDS before simulated time moves on.
 void sync_participant(dds::Participant& p);

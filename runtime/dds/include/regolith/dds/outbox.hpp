@@ -59,6 +59,10 @@ struct Waker {
   }
 };
 
+/// The DDS source timestamp of a sample as it is written (ROS time, ns since 1970); empty = the
+/// writer's own clock (dds_write: wall time). Participant::set_source_clock.
+using SourceClock = std::function<TimeNs()>;
+
 struct OutboxStats {
   std::string topic;           ///< ROS name, e.g. "/rover1/joint_states"
   std::string ros_type;        ///< e.g. "sensor_msgs/msg/JointState"
@@ -101,8 +105,11 @@ public:
 
   /// Publisher side (non real time): writes what is pending. Returns the number
   /// of samples written. Called by the participant's publisher thread, or
-  /// directly when no thread runs.
-  virtual std::size_t flush() = 0;
+  /// directly when no thread runs. `source_clock` stamps each sample when it
+  /// is written, after it was taken from the queue: under simulated time the
+  /// clock cannot have moved past the cycle that committed it (time waits
+  /// until every outbox is idle), so the stamp is that cycle's time.
+  virtual std::size_t flush(const SourceClock &source_clock) = 0;
   /// True when nothing committed is waiting to be written.
   virtual bool idle() const = 0;
 
@@ -110,7 +117,7 @@ protected:
   OutboxBase(dds_entity_t participant, dds_entity_t topic,
              std::string ros_topic, std::string_view ros_type,
              const QosProfile &qos, std::shared_ptr<Waker> waker);
-  bool write_sample(const void *sample); // publisher side; counts
+  bool write_sample(const void *sample, const SourceClock &source_clock); // publisher side; counts
 
   std::shared_ptr<Waker> waker_;
   std::atomic<std::uint64_t> committed_{0};
@@ -191,12 +198,12 @@ public:
     writing_ = kNone;
   }
 
-  std::size_t flush() override {
+  std::size_t flush(const SourceClock &source_clock) override {
     std::size_t written = 0;
     std::uint32_t i = 0;
     if (mode_ == OutboxMode::kFifo) {
       while (ready_.pop(i)) {
-        written += write_sample(&samples_[i]) ? 1 : 0;
+        written += write_sample(&samples_[i], source_clock) ? 1 : 0;
         free_.push(i);
         consumed_.fetch_add(1, std::memory_order_release);
       }
@@ -212,7 +219,7 @@ public:
       newest = i;
     }
     if (newest != kNone) {
-      written += write_sample(&samples_[newest]) ? 1 : 0;
+      written += write_sample(&samples_[newest], source_clock) ? 1 : 0;
       free_.push(newest);
       consumed_.fetch_add(1, std::memory_order_release);
     }

@@ -115,6 +115,11 @@ public:
   /// outboxes.
   void set_lossless(bool on) { lossless_ = on; }
   bool lossless() const { return lossless_; }
+  /// The DDS source timestamp of every sample written from now on: `ros_now()` (ROS time, ns
+  /// since 1970) read as each is written, instead of the writers' wall clock. Simulated
+  /// time sets it to the simulated ROS time, so a recorder or subscriber sees samples stamped
+  /// on the time line of their header stamps and /clock. Call before start(); empty = wall clock.
+  void set_source_clock(SourceClock ros_now) { source_clock_ = std::move(ros_now); }
   /// Starts the publisher thread (idempotent).
   void start();
   /// Stops it after writing everything pending (idempotent).
@@ -150,6 +155,7 @@ private:
   DiscoveryOptions discovery_;
   bool holds_domain_ = false;  // this participant holds a reference to a configured domain
   bool lossless_ = false;
+  SourceClock source_clock_;
   dds_entity_t participant_ = 0;
   dds_entity_t discovery_writer_ = 0;  // ros_discovery_info (announce_node)
   std::string announced_;              // the node name given to announce_node (empty: not announced)

@@ -36,6 +36,11 @@ struct DdsRecorderOptions {
   /// (keep-last, as `regolith echo`).
   bool keep_all = false;
   std::uint64_t max_samples = 0;  ///< stop taking after this many samples in total (0 = no limit)
+  /// MCAP log time of a DDS sample: false = when it was received (wall clock, as rosbag2);
+  /// true = its DDS source timestamp, for writers whose source clock is simulated
+  /// (dds::Participant::set_source_clock: `regolith run --sim-time`), so the recording plays
+  /// back on the run's own time line however fast it ran.
+  bool log_source_time = false;
   /// Split into files of about this many bytes / this long (0 = never; record::McapWriterOptions).
   std::uint64_t split_bytes = 0;
   std::uint64_t split_duration_ns = 0;
