@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "cli_support.hpp"
+
 namespace regolith::cli {
 
 using Setup = std::function<void(CLI::App& app)>;
@@ -17,27 +19,11 @@ const std::vector<Setup>& commands();
 /// The sub-command group `name` (e.g. "config", "calibrate", "eval"), created on first use.
 CLI::App* group(CLI::App& app, const std::string& name, const std::string& description);
 
-/// Register every component type and HAL backend compiled into this build.
-void register_everything();
-
-/// The embedded default deployment (config/mock_rover.yaml at build time).
-const char* embedded_mock_rover();
-
-/// Exit codes: 0 ok, 1 runtime failure, 2 bad configuration or input (a restart cannot fix it:
-/// regolith.service's RestartPreventExitStatus), 3 a device unavailable at start-up (missing,
-/// busy, no permission, CAN interface absent or down: regolith.service restarts and retries).
-inline constexpr int kExitConfig = 2;
-inline constexpr int kExitDeviceUnavailable = 3;
-
 /// Option checks with short messages ("must be >= 0 (got -1)"), where CLI11's own print the
 /// limits of a double: a finite number; finite and >= 0; finite and > 0 (NaN and inf refused).
 CLI::Validator finite();
 CLI::Validator non_negative();
 CLI::Validator positive();
-
-/// The ROS node a tool process announces in the ROS 2 graph (`ros2 node list`):
-/// "regolith_<command>_<pid>", so that two echoes at once are two nodes.
-std::string tool_node_name(const std::string& command);
 
 /// Exit code and message for a command-line usage error: 2, one line naming the offending word
 /// (an unknown command gets a suggestion and the list of commands). Help and --version: 0.

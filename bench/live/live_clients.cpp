@@ -25,7 +25,7 @@
 #include <thread>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/live/dds_relay.hpp"
 #include "regolith/live/foxglove_server.hpp"
 #include "regolith/runtime/application.hpp"

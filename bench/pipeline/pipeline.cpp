@@ -38,7 +38,7 @@
 #include <thread>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 

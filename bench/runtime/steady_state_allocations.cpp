@@ -22,7 +22,7 @@
 #include <new>
 #include <string>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 #include <exception>
 #include <string>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/application.hpp"
 

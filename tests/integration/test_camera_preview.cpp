@@ -10,7 +10,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/preview/component.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/saliency/component.hpp"

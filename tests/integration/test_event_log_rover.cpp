@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
 

@@ -8,7 +8,7 @@
 #include <map>
 #include <string>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
 
 using namespace regolith;

@@ -6,7 +6,7 @@
 
 #include <atomic>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
 

@@ -22,7 +22,7 @@
 #include <thread>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "dds_test_util.hpp"
 #include "regolith/dds/reader.hpp"
 #include "regolith/runtime/application.hpp"

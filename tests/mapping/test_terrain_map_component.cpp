@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/hal/camera.hpp"

@@ -9,7 +9,7 @@
 #include <new>
 #include <sstream>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/mapping/component.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/rate_group.hpp"

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/imu.hpp"
 #include "regolith/runtime/application.hpp"

@@ -19,7 +19,7 @@
 #include <thread>
 #include <vector>
 
-#include "cli.hpp"
+#include "cli_support.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
