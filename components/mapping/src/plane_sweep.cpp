@@ -42,6 +42,8 @@ void PlaneSweepParams::validate() const {
   if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
   if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
   if (!std::isfinite(reference_step_m) || reference_step_m <= 0) fail("reference_step_m", "must be > 0");
+  if (!(uniqueness_ratio == 0 || (uniqueness_ratio >= 1 && uniqueness_ratio <= 10)))
+    fail("uniqueness_ratio", "must be 0 (off) or in [1, 10]");
 }
 
 PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepParams& params)
@@ -69,7 +71,7 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
       nrm_.at<cv::Vec3f>(i, j) =
           cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
     }
-  for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_,
+  for (cv::Mat* q : {&key_, &cur_, &ray_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_,
                      &tmp_, &z_, &x_, &y_, &conf_})
     q->create(H, W, CV_32F);
   key_ok_.create(H, W, CV_8U);
@@ -192,6 +194,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   r1 = std::min(H - 1, r1 + p_.window);
   cv::Mat e_rows = e_.rowRange(r0, r1 + 1), tmp_rows = tmp_.rowRange(r0, r1 + 1);
   fill(best_, kBig);
+  fill(second_, kBig);
   fill(bests_, -1.0f);
   const float g = static_cast<float>(gain), b = static_cast<float>(bias);
   // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
@@ -240,7 +243,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
     std::swap(c1_, c2_);
     cv::Mat c2_rows = c2_.rowRange(r0, r1 + 1);
     common::box_sum(e_rows, c2_rows, tmp_rows, p_.window);
-    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, r0, r1);
+    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, r0, r1, &second_);
   }
   // Sub-step minimum, height, position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
@@ -270,6 +273,9 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
       // height; far rows (large steps) fix heights poorly and weigh accordingly.
       const double dz = h * step;
       const double precision = std::min(1.0, (p_.reference_step_m * p_.reference_step_m) / (dz * dz));
+      // Another valley of the cost nearly as deep (a repetitive texture along the epipolar line)
+      // makes the match a guess between heights: dropped (a false obstacle otherwise).
+      if (p_.uniqueness_ratio > 0 && second_.at<float>(i, j) < p_.uniqueness_ratio * bc + cells * noise2) continue;
       const double conf = match * precision;
       if (conf < p_.min_confidence) continue;
       zz[j] = static_cast<float>(z);

@@ -12,9 +12,11 @@
 namespace regolith::mapping {
 
 /// Rows [r0, r1] of CV_32F images: where c1 is a bracketed minimum below best, records it (best,
-/// index t - 1 in `at`, its neighbours in left / right).
+/// index t - 1 in `at`, its neighbours in left / right). `second` (optional, filled with the same
+/// "none" value as best) keeps the lowest of the other bracketed minima: another valley of the
+/// cost, as deep as the best one on a repetitive texture.
 inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const cv::Mat& c2, cv::Mat& best, cv::Mat& at,
-                                   cv::Mat& left, cv::Mat& right, int t, int r0, int r1) {
+                                   cv::Mat& left, cv::Mat& right, int t, int r0, int r1, cv::Mat* second = nullptr) {
   for (int i = r0; i <= r1; ++i) {
     const float* l = c0.ptr<float>(i);
     const float* c = c1.ptr<float>(i);
@@ -23,13 +25,19 @@ inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const c
     float* bs = at.ptr<float>(i);
     float* lf = left.ptr<float>(i);
     float* rt = right.ptr<float>(i);
-    for (int j = 0; j < best.cols; ++j)
-      if (c[j] < b[j] && c[j] <= l[j] && c[j] <= r[j]) {
+    float* sc = second != nullptr ? second->ptr<float>(i) : nullptr;
+    for (int j = 0; j < best.cols; ++j) {
+      if (!(c[j] <= l[j] && c[j] <= r[j])) continue;
+      if (c[j] < b[j]) {
+        if (sc != nullptr) sc[j] = b[j];
         b[j] = c[j];
         bs[j] = static_cast<float>(t - 1);
         lf[j] = l[j];
         rt[j] = r[j];
+      } else if (sc != nullptr && c[j] < sc[j]) {
+        sc[j] = c[j];
       }
+    }
   }
 }
 

@@ -15,7 +15,8 @@
 // Per keyframe pixel: height (m above the keyframe camera's ground plane, NaN unknown), the
 // point's ground position in the keyframe's foot frame (x forward, y left, m) and a confidence
 // (curvature of the cost at its minimum against the image noise, lowered by a poor best match).
-// Flat, textureless, occluded or ambiguous pixels get none.
+// Flat, textureless, occluded or ambiguous pixels (a second cost valley nearly as deep as the
+// best: PlaneSweepParams::uniqueness_ratio) get none.
 //
 // Images with lens distortion are undistorted into pinhole images first (maps built once). A
 // camera wider than `max_width_px` is swept at a working scale of 2x2 (4x4, ...) block means:
@@ -42,6 +43,11 @@ struct PlaneSweepParams {
   double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far
                                    ///< rows, short baselines) scale it by (reference / step)^2
   double min_confidence = 0.001;  ///< pixels below this are unknown
+  /// A pixel whose second-deepest cost valley (another bracketed minimum) is below this times the
+  /// best plus one noise variance per window sample is ambiguous and unknown (Lowe's ratio test:
+  /// best / second > 0.8). 0 = off. Repetitive texture along the epipolar line otherwise lifts a
+  /// flat ground 0.2-0.4 m (the mocked rover's rippled near field: see components/mapping/README.md).
+  double uniqueness_ratio = 1.25;
   void validate() const;          ///< FieldError("mapping.sweep", ...)
 };
 
@@ -89,7 +95,7 @@ class PlaneSweep {
   cv::Mat nrm_;                           // CV_32FC3 nominal ray per pixel (body frame, not normalised)
   cv::Mat key_, key_ok_, cur_, cur_ok_;
   cv::Mat ray_, ox_, oy_, oz_, row_step_;  // per compute: tilted key ray scale, o1 components, step per row
-  cv::Mat e_, c0_, c1_, c2_, best_, left_, right_, bests_, tmp_;
+  cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
 };
 
