@@ -16,6 +16,8 @@
 #include <limits>
 #include <iterator>
 #include <random>
+#include <tuple>
+#include <utility>
 
 #include "regolith/core/error.hpp"
 #include "regolith/mapping/drive_io.hpp"
@@ -39,6 +41,22 @@ using namespace regolith::mapping;
 namespace fs = std::filesystem;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
+// The renderer's camera and the model the algorithms use, for the same 320x240 pinhole camera
+// (principal point at the centre) `height_m` high, pitched `pitch_rad` down.
+std::pair<terrain_scene::CameraPose, direct_depth::CameraModel> camera_320x240(double f_px, double height_m,
+                                                                                double pitch_rad) {
+  terrain_scene::CameraPose cam;
+  direct_depth::CameraModel model;
+  cam.fx = cam.fy = model.fx = model.fy = f_px;
+  cam.cx = model.cx = 159.5;
+  cam.cy = model.cy = 119.5;
+  cam.width = model.width = 320;
+  cam.height = model.height = 240;
+  cam.height_m = model.mount_height_m = height_m;
+  cam.pitch_rad = model.pitch_rad = pitch_rad;
+  return {cam, model};
+}
+
 // A rover camera 0.67 m high, pitched 0.6 rad, 320x240, over rendered rocky terrain.
 struct Rig {
   terrain_scene::Terrain terrain;
@@ -61,20 +79,7 @@ struct Rig {
           return sp;
         }()),
         sun{2.3, 0.8} {
-    cam.fx = cam.fy = 220;
-    cam.cx = 159.5;
-    cam.cy = 119.5;
-    cam.width = 320;
-    cam.height = 240;
-    cam.height_m = 0.67;
-    cam.pitch_rad = 0.6;
-    model.fx = model.fy = 220;
-    model.cx = 159.5;
-    model.cy = 119.5;
-    model.width = 320;
-    model.height = 240;
-    model.mount_height_m = 0.67;
-    model.pitch_rad = 0.6;
+    std::tie(cam, model) = camera_320x240(220, 0.67, 0.6);
   }
   cv::Mat frame(const Pose2& foot, double pitch_offset = 0.0, double roll = 0.0, std::uint64_t noise_seed = 7) {
     cam.x_m = foot.x;
@@ -382,21 +387,8 @@ TEST(PlaneSweep, AmbiguousMatchesOnSmoothGroundAreUnknownNotObstacles) {
   path.duration_s = 10.0;
   const terrain_scene::Terrain tile = terrain_scene::make_drive_tile(path, terrain_scene::DriveTileParams{});
   terrain_scene::CameraPose cam;
-  cam.fx = cam.fy = 200.0988;
-  cam.cx = 159.5;
-  cam.cy = 119.5;
-  cam.width = 320;
-  cam.height = 240;
-  cam.height_m = 0.5;
-  cam.pitch_rad = 0.35;
   direct_depth::CameraModel model;
-  model.fx = model.fy = cam.fx;
-  model.cx = cam.cx;
-  model.cy = cam.cy;
-  model.width = cam.width;
-  model.height = cam.height;
-  model.mount_height_m = cam.height_m;
-  model.pitch_rad = cam.pitch_rad;
+  std::tie(cam, model) = camera_320x240(200.0988, 0.5, 0.35);  // the mocked rover's front camera
   const direct_depth::DirectDepth dd(model);
   const terrain_scene::Sun sun{2.3, 0.6};
   auto frame = [&](double x, std::uint64_t seed) {
