@@ -297,6 +297,14 @@ TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   EXPECT_GT(rocks_hit, 20);              // rock cells measured to 3 cm
   // Too short a baseline: nothing.
   EXPECT_FALSE(plx.compute(Pose2{0.1, 0, 0}, 1.0, 0.0));
+  ParallaxParams bad;
+  bad.uniqueness_ratio = 0.9;  // below 1 would keep nothing
+  try {
+    GroundParallax g(dd, bad);
+    FAIL() << "no error";
+  } catch (const FieldError& e) {
+    EXPECT_NE(std::string(e.what()).find("uniqueness_ratio"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PlaneSweep, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {

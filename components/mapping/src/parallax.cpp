@@ -41,6 +41,7 @@ void ParallaxParams::validate() const {
   if (window < 1 || window > 8) fail("window", "must be 1..8");
   if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
   if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
+  if (!valid_uniqueness_ratio(uniqueness_ratio)) fail("uniqueness_ratio", "must be 0 (off) or in [1, 10]");
 }
 
 direct_depth::RectifiedGrid parallax_grid(const ParallaxParams& p) {
@@ -61,7 +62,7 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
       grid_(rect_.grid()),
       h_(depth.model().mount_height_m) {
   if (!(h_ > p_.max_height_m)) fail("max_height_m", "must be below the camera height");
-  for (cv::Mat* m : {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
+  for (cv::Mat* m : {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
     m->create(grid_.rows, grid_.cols, CV_32F);
   key_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
@@ -101,6 +102,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
   const int n = static_cast<int>(std::floor((d_hi - d_lo) / step)) + 1;
   const float penalty = static_cast<float>(4.0 * 255.0 * 255.0);  // unusable sample
   fill(best_, kBig);
+  fill(second_, kBig);
   fill(bests_, -1.0f);
   const int R = grid_.rows, C = grid_.cols;
   // A camera tilted by (pitch, roll) against the ground shows the ground point X at the nominal
@@ -145,7 +147,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
     common::box_sum(e_, c2_, tmp_, p_.window);
-    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, 0, R - 1);
+    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, 0, R - 1, &second_);
   }
   // Sub-step minimum, height, true position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
@@ -163,6 +165,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const double k = 1.0 - d / base;
       if (!(k > 0)) continue;
       if (conf < p_.min_confidence) continue;
+      if (!unique_minimum(b, second_.at<float>(i, j), p_.uniqueness_ratio, cells, noise2)) continue;
       const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
       z_.at<float>(i, j) = static_cast<float>(h_ * (1.0 - 1.0 / k));
       x_.at<float>(i, j) = static_cast<float>(pc.x / k);

@@ -42,8 +42,7 @@ void PlaneSweepParams::validate() const {
   if (!std::isfinite(noise_dn) || noise_dn <= 0) fail("noise_dn", "must be > 0");
   if (!(min_confidence >= 0 && min_confidence < 1)) fail("min_confidence", "must be in [0, 1)");
   if (!std::isfinite(reference_step_m) || reference_step_m <= 0) fail("reference_step_m", "must be > 0");
-  if (!(uniqueness_ratio == 0 || (uniqueness_ratio >= 1 && uniqueness_ratio <= 10)))
-    fail("uniqueness_ratio", "must be 0 (off) or in [1, 10]");
+  if (!valid_uniqueness_ratio(uniqueness_ratio)) fail("uniqueness_ratio", "must be 0 (off) or in [1, 10]");
 }
 
 PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepParams& params)
@@ -275,7 +274,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
       const double precision = std::min(1.0, (p_.reference_step_m * p_.reference_step_m) / (dz * dz));
       // Another valley of the cost nearly as deep (a repetitive texture along the epipolar line)
       // makes the match a guess between heights: dropped (a false obstacle otherwise).
-      if (p_.uniqueness_ratio > 0 && second_.at<float>(i, j) < p_.uniqueness_ratio * bc + cells * noise2) continue;
+      if (!unique_minimum(bc, second_.at<float>(i, j), p_.uniqueness_ratio, cells, noise2)) continue;
       const double conf = match * precision;
       if (conf < p_.min_confidence) continue;
       zz[j] = static_cast<float>(z);

@@ -41,6 +41,18 @@ inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const c
   }
 }
 
+/// Lowe's ratio test on the cost valleys: false when the second-deepest valley (keep_bracketed_minimum's
+/// `second`) is below `ratio` x the best plus one noise variance per window sample, i.e. another
+/// height fits about as well (repetitive or smooth texture along the search line). ratio 0 = off.
+inline bool unique_minimum(double best, double second, double ratio, double cells, double noise2) {
+  return ratio <= 0 || second >= ratio * best + cells * noise2;
+}
+
+/// The one check of a uniqueness_ratio parameter: 0 (off) or in [1, 10].
+inline bool valid_uniqueness_ratio(double ratio) {
+  return ratio == 0 || (ratio >= 1 && ratio <= 10);
+}
+
 /// Sub-step offset (-0.5..0.5, in steps) of the parabola through (l, best, r) and the match's
 /// confidence (0..1): the curvature per window sample in units of the noise (how sharply the
 /// match is fixed), lowered when the best residual is well above the noise. False when the three

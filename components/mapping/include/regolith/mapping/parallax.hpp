@@ -36,6 +36,9 @@ struct ParallaxParams {
   int window = 2;                ///< half-width of the matching window (cells): 5 x 5
   double noise_dn = 2.0;         ///< grey levels, image noise for the confidence
   double min_confidence = 0.05;  ///< cells below this are unknown
+  /// Ambiguous cells (a second cost valley nearly as deep as the best: unique_minimum) are
+  /// unknown; 0 = off. As PlaneSweepParams::uniqueness_ratio.
+  double uniqueness_ratio = 1.25;
   bool remove_plane = false;     ///< remove each frame's best-fit plane (tilt error); tried: neutral on the dev drives
   void validate() const;  ///< FieldError("mapping.parallax", ...)
 };
@@ -80,7 +83,7 @@ class GroundParallax {
   double h_;
   bool has_key_ = false;
   cv::Mat key_, key_ok_, cur_, cur_ok_;
-  cv::Mat e_, c0_, c1_, c2_, best_, left_, right_, bests_, tmp_;
+  cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
 };
 
