@@ -74,8 +74,8 @@ struct FrameSlot {
 
 struct EncoderQuery {
   std::uint32_t wheel = 0;
-  TimeNs asked = 0;  // when the component asked (the message's log time)
-  TimeNs t = 0;      // the time it asked about (its header stamp)
+  TimeNs asked = 0;    // when the component asked (the message's log time)
+  TimeNs t = 0;        // the time it asked about (its header stamp)
   double angle = 0.0;  // NaN: the query failed
 };
 
@@ -193,7 +193,9 @@ class RecordingEncoders final : public hal::WheelEncoders {
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override {
     const bool ok = inner_->angle_at(wheel, t, angle);
     const double value = ok ? angle : std::numeric_limits<double>::quiet_NaN();
-    tap_->push(*tap_->enc_queries, [&](EncoderQuery& q) { q = {static_cast<std::uint32_t>(wheel), tap_->clock->now(), t, value}; });
+    tap_->push(*tap_->enc_queries, [&](EncoderQuery& q) {
+      q = {static_cast<std::uint32_t>(wheel), tap_->clock->now(), t, value};
+    });
     return ok;
   }
   std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now,
@@ -370,19 +372,28 @@ void HalRecorder::drain_all() {
     }
     if (tap.encoders != nullptr) {
       const auto& names = tap.encoders->wheel_names();
+      // Every wheel's new samples, written in stamp order (one channel: its log times never go
+      // back however many samples of each wheel a pass finds).
       std::array<hal::AngleSample, 256> samples;
+      std::vector<WheelSample>& merged = wheel_samples_;
+      merged.clear();
       for (std::size_t w = 0; w < names.size(); ++w) {
         std::size_t n = 0;
         do {
           n = tap.encoders->samples_since(w, tap.last_stamp[w], now, samples);
           for (std::size_t i = 0; i < n; ++i) {
-            encode_wheel_angle(buf, samples[i].stamp, names[w], samples[i].angle);
-            sink_->write(tap.ch_samples, tap.seq_samples++, log_time(samples[i].stamp), log_time(samples[i].stamp), buf);
+            merged.push_back({samples[i].stamp, static_cast<std::uint32_t>(w), samples[i].angle});
             tap.last_stamp[w] = samples[i].stamp;
           }
-          tap.recorded.fetch_add(n, std::memory_order_relaxed);
         } while (n == samples.size());
       }
+      std::stable_sort(merged.begin(), merged.end(),
+                       [](const WheelSample& a, const WheelSample& b) { return a.stamp < b.stamp; });
+      for (const WheelSample& s : merged) {
+        encode_wheel_angle(buf, s.stamp, names[s.wheel], s.angle);
+        sink_->write(tap.ch_samples, tap.seq_samples++, log_time(s.stamp), log_time(s.stamp), buf);
+      }
+      tap.recorded.fetch_add(merged.size(), std::memory_order_relaxed);
       if (tap.reads_can) {
         // MCAP sequence = the frame's number in the backend: a gap is frames it no longer held.
         std::array<hal::CanFrame, 64> frames;

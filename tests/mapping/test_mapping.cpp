@@ -44,7 +44,7 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 // The renderer's camera and the model the algorithms use, for the same 320x240 pinhole camera
 // (principal point at the centre) `height_m` high, pitched `pitch_rad` down.
 std::pair<terrain_scene::CameraPose, direct_depth::CameraModel> camera_320x240(double f_px, double height_m,
-                                                                                double pitch_rad) {
+                                                                               double pitch_rad) {
   terrain_scene::CameraPose cam;
   direct_depth::CameraModel model;
   cam.fx = cam.fy = model.fx = model.fy = f_px;
@@ -425,8 +425,9 @@ TEST(PlaneSweep, AmbiguousMatchesOnSmoothGroundAreUnknownNotObstacles) {
         raised[k] += z > 0.1f;
       }
   }
-  std::printf("mocked drive corridor: %d of %d known pixels raised > 10 cm without the uniqueness test, %d of %d with it\n",
-              raised[0], known[0], raised[1], known[1]);
+  std::printf(
+      "mocked drive corridor: %d of %d known pixels raised > 10 cm without the uniqueness test, %d of %d with it\n",
+      raised[0], known[0], raised[1], known[1]);
   EXPECT_GT(raised[0], 50);
   EXPECT_LT(raised[1], raised[0] / 5);
   EXPECT_GT(known[1], known[0] / 8);  // measured: 3076 of 13436 pixels keep a height

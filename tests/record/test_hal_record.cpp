@@ -131,10 +131,11 @@ class MemorySink final : public record::MessageSink {
     meta_[topic] = metadata;
     return static_cast<std::uint16_t>(topics_.size() - 1);
   }
-  void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t, std::uint64_t,
+  void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time, std::uint64_t,
              std::span<const std::uint8_t> data) override {
     std::lock_guard<std::mutex> l(m_);
-    messages_[topics_.at(channel)].push_back({sequence, std::vector<std::uint8_t>(data.begin(), data.end())});
+    messages_[topics_.at(channel)].push_back(
+        {sequence, log_time, std::vector<std::uint8_t>(data.begin(), data.end())});
   }
   void add_metadata(const std::string& name, const std::map<std::string, std::string>& values) override {
     std::lock_guard<std::mutex> l(m_);
@@ -142,6 +143,7 @@ class MemorySink final : public record::MessageSink {
   }
   struct Msg {
     std::uint32_t sequence;
+    std::uint64_t log_time;
     std::vector<std::uint8_t> data;
   };
   std::map<std::string, std::vector<Msg>> messages_;
@@ -261,6 +263,7 @@ TEST(HalRecorder, RecordsFramesSamplesAndQueryAnswersOnlyWhileStarted) {
     const record::DecodedImage d = record::decode_image(frames[i].data);
     EXPECT_EQ(frames[i].sequence, 101 + i);
     EXPECT_EQ(d.stamp, static_cast<TimeNs>(101 + i) * 100 * kNsPerMs);
+    EXPECT_EQ(frames[i].log_time, static_cast<std::uint64_t>(d.stamp));  // logged at capture (ROS offset 0 here)
     EXPECT_EQ(d.image.at<std::uint8_t>(2, 3), (101 + i) % 256);
   }
   const auto& queries = sink.messages_["/hal/encoders/wheels/queries"];
@@ -269,10 +272,20 @@ TEST(HalRecorder, RecordsFramesSamplesAndQueryAnswersOnlyWhileStarted) {
   EXPECT_EQ(q0.wheel, "right");
   EXPECT_EQ(q0.stamp, 10 * kNsPerSec + 95 * kNsPerMs);
   EXPECT_EQ(q0.angle, 2.0 * to_seconds(10 * kNsPerSec + 95 * kNsPerMs));
+  EXPECT_EQ(queries[0].log_time, static_cast<std::uint64_t>(10 * kNsPerSec + 100 * kNsPerMs));  // when it was asked
   EXPECT_TRUE(std::isnan(record::decode_wheel_angle(queries[1].data).angle));
   // Every sample of both wheels from 0 to the end: 0..10.5 s every 10 ms.
   const auto& samples = sink.messages_["/hal/encoders/wheels/samples"];
   EXPECT_EQ(samples.size(), 2u * 1051u);
+  // Both wheels' samples in one channel, merged by stamp: its log times never go back, although
+  // the first pass finds 1001 samples of each wheel.
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const record::DecodedWheelAngle s = record::decode_wheel_angle(samples[i].data);
+    EXPECT_EQ(samples[i].log_time, static_cast<std::uint64_t>(s.stamp)) << i;
+    if (i > 0) {
+      EXPECT_GE(samples[i].log_time, samples[i - 1].log_time) << i;
+    }
+  }
   const auto counts = rec.counts();
   ASSERT_EQ(counts.size(), 2u);
   EXPECT_EQ(counts[0].kind, "camera");

@@ -62,7 +62,8 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
       grid_(rect_.grid()),
       h_(depth.model().mount_height_m) {
   if (!(h_ > p_.max_height_m)) fail("max_height_m", "must be below the camera height");
-  for (cv::Mat* m : {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
+  for (cv::Mat* m :
+       {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
     m->create(grid_.rows, grid_.cols, CV_32F);
   key_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);

@@ -17,7 +17,8 @@
 // and /hal/encoders/<id>/queries (sensor_msgs/JointState, one wheel per message; a failed query
 // has position NaN), /hal/encoders/<id>/can and /can_fd (every raw frame of a backend that reads a
 // CAN bus, WheelEncoders::can_frames: can_msgs/Frame, ros2_socketcan_msgs/FdFrame; MCAP sequence =
-// the frame's number, a gap = frames the backend's history no longer held, counted as dropped), /hal/imus/<id>/samples (sensor_msgs/Imu), /hal/imus/<id>/attitude (each
+// the frame's number, a gap = frames the backend's history no longer held, counted as dropped),
+// /hal/imus/<id>/samples (sensor_msgs/Imu), /hal/imus/<id>/attitude (each
 // sample's roll, pitch, yaw exactly, as geometry_msgs/Vector3Stamped x, y, z in rad) and
 // /hal/imus/<id>/queries (the same type; NaN = the query failed). Header stamps are the
 // process clock (TimeNs); MCAP log times are ROS time: process clock + the offset measured at
@@ -96,6 +97,12 @@ class HalRecorder {
   std::vector<std::shared_ptr<Tap>> taps_;
   TimeNs ros_offset_ = 0;
   std::vector<std::uint8_t> buffer_;  // encoded message (writer thread, then stop())
+  struct WheelSample {
+    TimeNs stamp;
+    std::uint32_t wheel;
+    double angle;
+  };
+  std::vector<WheelSample> wheel_samples_;  // one pass's samples of an encoder set, merged by stamp
   std::atomic<bool> stop_{false};
   std::mutex wake_mutex_;
   std::condition_variable wake_;  // stop() wakes the writer at once

@@ -118,7 +118,7 @@ struct HalRecordingInfo {
   bool found = false;             ///< the file has `regolith_hal` metadata (a HAL recording)
   std::int64_t origin_ns = -1;    ///< process clock at the recording's start
   std::int64_t end_ns = -1;       ///< ... at its end (-1: not in this file: a cut-off or not-last split file)
-  std::int64_t ros_offset_ns = 0; ///< ROS time = process clock + this (simulated time: 0 but for a recorded replay)
+  std::int64_t ros_offset_ns = 0;  ///< ROS time = process clock + this (simulated time: 0 but for a recorded replay)
   bool simulated = false;
   std::string recording_id;       ///< empty in files written before it existed
 };
