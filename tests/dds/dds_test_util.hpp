@@ -13,6 +13,8 @@
 #include <thread>
 #include <vector>
 
+#include "test_domain.hpp"
+
 namespace regolith::dds::testing {
 
 /// Pins Cyclone to the loopback interface (unless the caller already set
@@ -21,12 +23,9 @@ inline void use_loopback_config() {
   setenv("CYCLONEDDS_URI", "file://" REGOLITH_DDS_LOOPBACK_XML, 0);
 }
 
-/// A domain id derived from the process id: parallel test processes rarely
-/// share a domain, and the namespace below makes them disjoint even when they
-/// do.
-inline std::uint32_t test_domain() {
-  return 100u + static_cast<std::uint32_t>(getpid()) % 100u;
-}
+/// This process's DDS domain, held by no other running test process
+/// (tests/common/test_domain.hpp).
+inline std::uint32_t test_domain() { return regolith::testing::test_domain(); }
 
 /// A namespace unique to this process and call ("t<pid>_<n>").
 inline std::string unique_ns() {

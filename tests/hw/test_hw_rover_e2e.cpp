@@ -39,6 +39,7 @@
 #include "hw_util.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
 #include "temp_dir.hpp"
+#include "test_domain.hpp"
 
 extern char** environ;
 namespace fs = std::filesystem;
@@ -175,7 +176,7 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   const regolith::testing::TempDir tmp("hw_e2e", regolith::testing::TempDir::kKeepOnFailure);
   const fs::path& dir = tmp.path();
   const std::string ns = "hwe2e" + std::to_string(getpid());
-  const int domain = 1 + static_cast<int>(getpid() % 200);
+  const int domain = static_cast<int>(regolith::testing::test_domain());
   setenv("CYCLONEDDS_URI",
          ("file://" + std::string(REGOLITH_HW_DATA_DIR) + "/cyclonedds_loopback.xml").c_str(), 0);
 

@@ -1,5 +1,6 @@
 // End to end: `regolith run --config config/mock_rover.yaml --sim-time --duration 10` in one
 #include "temp_dir.hpp"
+#include "test_domain.hpp"
 // process, `regolith echo` subscribers in two others; every JointState and DiagnosticArray sample
 // arrives, with increasing stamps. The deployment gets a namespace and domain of its own so
 // parallel runs cannot cross-talk.
@@ -69,7 +70,7 @@ TEST(MockRoverEndToEnd, SubscribersInOtherProcessesReceiveEverySample) {
   const regolith::testing::TempDir tmp("e2e");  // removed whatever the outcome
   const fs::path& dir = tmp.path();
   const std::string ns = "e2e" + std::to_string(getpid());
-  const std::string domain = std::to_string(1 + getpid() % 200);
+  const std::string domain = std::to_string(regolith::testing::test_domain());
   setenv("CYCLONEDDS_URI", ("file://" + std::string(REGOLITH_SOURCE_DIR) + "/runtime/dds/cyclonedds_loopback.xml").c_str(), 0);
 
   // The shipped mock rover, with its own namespace and domain.

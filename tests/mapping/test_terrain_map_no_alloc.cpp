@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "cli_support.hpp"
+#include "test_domain.hpp"
 #include "regolith/mapping/component.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/rate_group.hpp"
@@ -30,7 +31,7 @@ TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   const std::string ns = "namespace: maptest";
   yaml.replace(yaml.find(ns), ns.size(), "namespace: noalloc" + std::to_string(getpid()));
   const std::string dom = "domain: 0";
-  yaml.replace(yaml.find(dom), dom.size(), "domain: " + std::to_string(1 + getpid() % 200));
+  yaml.replace(yaml.find(dom), dom.size(), "domain: " + std::to_string(regolith::testing::test_domain()));
   auto app = runtime::Application::load(Params::load_string(yaml, "terrain_map_test.yaml"), {.sim_time = true});
   ASSERT_NE(app->dds(), nullptr);
   auto& state = app->context().channel<mapping::TerrainMapState>(mapping::kOdometryChannel);

@@ -25,6 +25,7 @@
 #include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
 #include "temp_dir.hpp"
+#include "test_domain.hpp"
 
 namespace fs = std::filesystem;
 using regolith::record::McapReader;
@@ -79,7 +80,7 @@ class RunRecord : public ::testing::Test {
     if (at != std::string::npos) {
       yaml.replace(at, from.size(),
                    std::string("  enabled: ") + (dds_enabled ? "true" : "false") +
-                       "\n  domain: " + std::to_string(100 + getpid() % 100) + "\n  namespace: " + ns_);
+                       "\n  domain: " + std::to_string(regolith::testing::test_domain()) + "\n  namespace: " + ns_);
     }
     yaml += extra;
     const fs::path p = dir_ / name;
@@ -257,7 +258,7 @@ TEST_F(RunRecord, RawCanFramesAreRecordedAndExportAsACandumpLog) {
   const fs::path cfg = dir_ / "can.yaml";
   std::ofstream(cfg) << "name: can_rec\n"
                         "dds: {enabled: true, domain: "
-                     << 100 + getpid() % 100 << ", namespace: " << ns_
+                     << regolith::testing::test_domain() << ", namespace: " << ns_
                      << "}\n"
                         "rover:\n  wheels:\n    - {name: fl, x_m: 0.0, y_m: 0.2, radius_m: 0.1, width_m: 0.05, encoders: bus}\n"
                         "devices:\n  encoders:\n    bus:\n      backend: candump\n      file: bus.log\n      interface: can0\n"

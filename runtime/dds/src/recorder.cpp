@@ -173,7 +173,7 @@ void DdsRecorder::take_all() {
             return;
           }
           const std::uint64_t now = realtime_ns();
-          const std::uint64_t pub = info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : now;
+          const std::uint64_t pub = source_time_or(info, now);
           try {
             writer_->write(r.channel, r.sequence++, opts_.log_source_time ? pub : now, pub, bytes);
             ++written;

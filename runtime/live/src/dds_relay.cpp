@@ -120,11 +120,8 @@ void DdsRelay::loop() {
         const std::size_t n = dds::take_serialized(
             t->sub->reader(),
             [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
-              // The writer's source time: wall time, or the simulated ROS time of a run under
-              // --sim-time (Participant::set_source_clock), the time line of its header stamps.
-              const std::uint64_t t_ns =
-                  info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : realtime_ns();
-              server_->send_message(t->channel, t_ns, bytes);
+              // The time line of the sample's header stamps (wall or simulated time).
+              server_->send_message(t->channel, dds::source_time_or(info, realtime_ns()), bytes);
             },
             scratch, 256);
         samples_.fetch_add(n);

@@ -23,6 +23,13 @@ std::size_t take_serialized(
     const std::function<void(std::span<const std::uint8_t> bytes, const dds_sample_info_t& info)>& f,
     std::vector<std::uint8_t>& scratch, std::size_t max = 64);
 
+/// The sample's DDS source timestamp (the writer's clock: wall time, or the simulated ROS time of
+/// a run under --sim-time, see Participant::set_source_clock), or `receipt_ns` if the writer set
+/// none.
+inline std::uint64_t source_time_or(const dds_sample_info_t& info, std::uint64_t receipt_ns) {
+  return info.source_timestamp > 0 ? static_cast<std::uint64_t>(info.source_timestamp) : receipt_ns;
+}
+
 /// A waitset woken when any attached reader has data.
 class ReaderWaitSet {
  public:
