@@ -74,13 +74,13 @@ PreloadedCamera::PreloadedCamera(const hal::DeviceContext& ctx, hal::CameraForma
       fmt_(fmt),
       images_(std::move(images)),
       loop_(loop),
-      grid_(fmt.rate_hz) {
+      grid_(fmt.rate_hz),
+      outlet_(fmt) {
   if (images_.empty()) throw std::invalid_argument("PreloadedCamera: no images");
   for (const auto& m : images_) {
     if (m.cols != fmt_.width || m.rows != fmt_.height || m.type() != hal::cv_type(fmt_.format) || !m.isContinuous())
       throw std::invalid_argument("PreloadedCamera: image geometry differs from the format");
   }
-  pool_ = hal::make_frame_pool(fmt_.width, fmt_.height, fmt_.format);
 }
 
 std::int64_t PreloadedCamera::frame_index(TimeNs rel) const {
@@ -90,7 +90,7 @@ std::int64_t PreloadedCamera::frame_index(TimeNs rel) const {
 }
 
 void PreloadedCamera::start() {
-  published_.store(-1, std::memory_order_release);
+  outlet_.reset();
   run_.begin(clock_->now());
 }
 
@@ -102,37 +102,20 @@ bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
   const TimeNs start = run_.start();
   const std::int64_t k = frame_index(now - start);
   if (k < 0) return false;
-  const auto n = static_cast<std::int64_t>(images_.size());
-  if (k > published_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
-    if (k > published_.load(std::memory_order_relaxed)) {
-      hal::Frame* f = pool_->begin_write();
-      if (f != nullptr) {
-        images_[static_cast<std::size_t>(k % n)].copyTo(f->image);  // same geometry: no allocation
-        f->capture_time = start + frame_offset(k);
-        f->sequence = frame_sequence(k);
-        f->camera_index = index_;
-        f->corrupt = frame_corrupt(k);
-        pool_->commit();
-        last_frame_time_.store(f->capture_time, std::memory_order_relaxed);
-        published_.store(k, std::memory_order_release);
-      } else {
-        write_failures_.fetch_add(1, std::memory_order_relaxed);
-      }
-    }
-    writing_.clear(std::memory_order_release);
-  }
-  if (published_.load(std::memory_order_acquire) < 0) return false;
-  out = pool_->acquire();
-  return static_cast<bool>(out);
+  return outlet_.serve(k, out, [&](hal::Frame& f) {
+    images_[static_cast<std::size_t>(k % static_cast<std::int64_t>(images_.size()))].copyTo(
+        f.image);  // same geometry: no allocation
+    f.capture_time = start + frame_offset(k);
+    f.sequence = frame_sequence(k);
+    f.camera_index = index_;
+    f.corrupt = frame_corrupt(k);
+  });
 }
 
 hal::CameraStats PreloadedCamera::stats() const {
   hal::CameraStats s;
-  const std::int64_t k = published_.load(std::memory_order_acquire);
-  s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
-  s.dropped = write_failures_.load(std::memory_order_relaxed);
+  outlet_.add_stats(s);
   s.state = run_.state();
-  s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
   return s;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Internal building blocks shared by the mock backends: deterministic hashing "randomness", the
-// lazy frame camera (preloaded images served on a time grid), the lazy encoder base (samples
+// frame outlet of a camera whose frames are made on demand, the lazy frame camera (preloaded
+// images served on a time grid), the lazy encoder base (samples
 // computed on demand from a script or a log) and the IMU on a time grid. Not installed.
 #include <algorithm>
 #include <atomic>
@@ -143,11 +144,65 @@ std::size_t grid_samples_since(const RunSpan& run, const TimeGrid& grid, TimeNs 
   return n;
 }
 
+// ---- the frames a mock camera hands out -------------------------------------------------------
+
+/// The frame pool of a camera whose frame k is made on demand: frame k is written into a pool slot
+/// once, when a caller of latest() first asks for it (or anything newer), and every caller leases
+/// the newest frame written. Of two concurrent callers only one writes (an atomic try-flag); the
+/// other leases the current frame. A full pool (every slot leased) skips the frame and counts it.
+class FrameOutlet {
+ public:
+  explicit FrameOutlet(const hal::CameraFormat& fmt)
+      : pool_(hal::make_frame_pool(fmt.width, fmt.height, fmt.format)) {}
+
+  /// At start(): nothing written yet.
+  void reset() { published_.store(-1, std::memory_order_release); }
+
+  /// Writes frame k with fill(hal::Frame&) (pixels, capture time, sequence, index, corrupt flag)
+  /// unless frame k or a newer one was written, then leases the newest frame into `out`. False
+  /// (and `out` empty) before the first frame.
+  template <class Fill>
+  bool serve(std::int64_t k, hal::FrameLease& out, Fill&& fill) {
+    if (k > published_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
+      if (k > published_.load(std::memory_order_relaxed)) {
+        if (hal::Frame* f = pool_->begin_write()) {
+          fill(*f);
+          pool_->commit();
+          last_frame_time_.store(f->capture_time, std::memory_order_relaxed);
+          published_.store(k, std::memory_order_release);
+        } else {
+          write_failures_.fetch_add(1, std::memory_order_relaxed);
+        }
+      }
+      writing_.clear(std::memory_order_release);
+    }
+    if (published_.load(std::memory_order_acquire) < 0) return false;
+    out = pool_->acquire();
+    return static_cast<bool>(out);
+  }
+
+  /// frames (frame numbers up to the newest written), dropped (skipped: pool full) and the newest
+  /// frame's capture time into `s`.
+  void add_stats(hal::CameraStats& s) const {
+    const std::int64_t k = published_.load(std::memory_order_acquire);
+    s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
+    s.dropped = write_failures_.load(std::memory_order_relaxed);
+    s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
+  }
+
+ private:
+  std::unique_ptr<hal::FramePool> pool_;
+  std::atomic<std::int64_t> published_{-1};
+  std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
+  std::atomic<std::uint64_t> write_failures_{0};
+  std::atomic<TimeNs> last_frame_time_{0};
+};
+
 // ---- camera serving preloaded images lazily ----------------------------------------------------
 
 /// Camera whose frame k (captured at start + k / rate) is `images[k % n]` (or the last one held
-/// when not looping). Pixels are copied into a FramePool slot when a newer frame becomes due; of
-/// two concurrent callers only one (atomic try-flag) writes, the other leases the current frame.
+/// when not looping). Pixels are copied into a pool slot when a newer frame becomes due
+/// (FrameOutlet).
 class PreloadedCamera : public hal::Camera {
  public:
   PreloadedCamera(const hal::DeviceContext& ctx, hal::CameraFormat fmt, std::vector<cv::Mat> images, bool loop);
@@ -179,12 +234,8 @@ class PreloadedCamera : public hal::Camera {
   std::vector<cv::Mat> images_;
   bool loop_ = true;
   TimeGrid grid_;
-  std::unique_ptr<hal::FramePool> pool_;
   RunSpan run_;
-  std::atomic<std::int64_t> published_{-1};
-  std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
-  std::atomic<std::uint64_t> write_failures_{0};
-  std::atomic<TimeNs> last_frame_time_{0};
+  FrameOutlet outlet_;
 };
 
 // ---- encoders computed on demand ---------------------------------------------------------------

@@ -123,8 +123,8 @@ DriveSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
 class DriveCamera final : public hal::Camera, public DriveTruth {
  public:
   DriveCamera(const hal::DeviceContext& ctx, DriveSpec spec, Params& p)
-      : id_(ctx.id), index_(ctx.index), clock_(clock_of(ctx)), spec_(std::move(spec)), grid_(spec_.fmt.rate_hz) {
-    pool_ = hal::make_frame_pool(spec_.fmt.width, spec_.fmt.height, spec_.fmt.format);
+      : id_(ctx.id), index_(ctx.index), clock_(clock_of(ctx)), spec_(std::move(spec)), grid_(spec_.fmt.rate_hz),
+        outlet_(spec_.fmt) {
     images_.resize(static_cast<std::size_t>(spec_.frames));
     if (!ctx.open_devices) {  // `config check`: parameters validated, nothing rendered
       for (auto& m : images_)
@@ -192,7 +192,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   const std::string& id() const override { return id_; }
   hal::CameraFormat format() const override { return spec_.fmt; }
   void start() override {
-    published_.store(-1, std::memory_order_release);
+    outlet_.reset();
     run_.begin(clock_->now());
   }
   void stop() override { run_.end(clock_->now()); }
@@ -215,34 +215,18 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
       k = ready;  // rendering is behind: the newest rendered frame (late, with its own capture time)
       late_.fetch_add(1, std::memory_order_relaxed);
     }
-    if (k >= 0 && k > published_.load(std::memory_order_acquire) && !writing_.test_and_set(std::memory_order_acquire)) {
-      if (k > published_.load(std::memory_order_relaxed)) {
-        if (hal::Frame* f = pool_->begin_write()) {
-          images_[static_cast<std::size_t>(k)].copyTo(f->image);  // same geometry: no allocation
-          f->capture_time = start + grid_.offset(k);
-          f->sequence = static_cast<std::uint64_t>(k);
-          f->camera_index = index_;
-          f->corrupt = false;
-          pool_->commit();
-          last_frame_time_.store(f->capture_time, std::memory_order_relaxed);
-          published_.store(k, std::memory_order_release);
-        } else {
-          write_failures_.fetch_add(1, std::memory_order_relaxed);
-        }
-      }
-      writing_.clear(std::memory_order_release);
-    }
-    if (published_.load(std::memory_order_acquire) < 0) return false;
-    out = pool_->acquire();
-    return static_cast<bool>(out);
+    return outlet_.serve(k, out, [&](hal::Frame& f) {
+      images_[static_cast<std::size_t>(k)].copyTo(f.image);  // same geometry: no allocation
+      f.capture_time = start + grid_.offset(k);
+      f.sequence = static_cast<std::uint64_t>(k);
+      f.camera_index = index_;
+      f.corrupt = false;
+    });
   }
   hal::CameraStats stats() const override {
     hal::CameraStats s;
-    const std::int64_t k = published_.load(std::memory_order_acquire);
-    s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
-    s.dropped = write_failures_.load(std::memory_order_relaxed);
+    outlet_.add_stats(s);
     s.state = run_.state();
-    s.last_frame_time = last_frame_time_.load(std::memory_order_relaxed);
     return s;
   }
 
@@ -304,16 +288,12 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   ts::Sun sun_;
   std::unique_ptr<ts::Terrain> terrain_;
   std::vector<cv::Mat> images_;  // sized once; element k written before rendered_ > k
-  std::unique_ptr<hal::FramePool> pool_;
+  FrameOutlet outlet_;
   std::atomic<int> rendered_{0};
   std::atomic<bool> quit_{false};
   std::thread worker_;
   RunSpan run_;
-  std::atomic<std::int64_t> published_{-1};
-  std::atomic_flag writing_ = ATOMIC_FLAG_INIT;
-  std::atomic<std::uint64_t> write_failures_{0};
   std::atomic<std::uint64_t> late_{0};
-  std::atomic<TimeNs> last_frame_time_{0};
 };
 
 // ---- encoders ---------------------------------------------------------------------------------
