@@ -717,6 +717,24 @@ TEST(LivePage, TheServerReportsItsClientsOnDiagnostics) {
   EXPECT_EQ(found.at("hardware_id"), "ws://127.0.0.1:" + std::to_string(rig.relay.server().port()));
 }
 
+// Under --sim-time the relay shares the run's participant, whose source clock is the simulated
+// ROS time: the server's own report is stamped on that time line too, like every other sample.
+TEST(LivePage, TheServerReportIsStampedWithTheParticipantsRosTime) {
+  const std::string ns = rd::testing::unique_ns();
+  rd::Participant relayed(LiveRig::config(ns)), reader(LiveRig::config(ns));
+  constexpr regolith::TimeNs kSimulated = 1234 * regolith::kNsPerSec + 500 * regolith::kNsPerMs;
+  relayed.set_source_clock([] { return kSimulated; });
+  rl::DdsRelay relay(relayed, options(""));
+  relay.start();
+  std::ostringstream out;
+  rd::echo(reader, "/diagnostics", {.count = 1, .timeout_ns = 5 * regolith::kNsPerSec}, out);
+  relay.stop();
+  const json j = json::parse(out.str().substr(0, out.str().find('\n')), nullptr, false);
+  ASSERT_TRUE(j.is_object()) << out.str();
+  EXPECT_EQ(j["header"]["stamp"]["sec"], 1234) << out.str();
+  EXPECT_EQ(j["header"]["stamp"]["nanosec"], 500000000) << out.str();
+}
+
 #ifdef REGOLITH_NODE
 // cdr.js decodes what Cyclone DDS serialized: each topic's relayed messageData frame is written
 // to a file with the sample as the runtime renders it (dds::to_json); node decodes the frame with

@@ -84,7 +84,7 @@ void DdsRelay::publish_status() {
   const bool grew = s.dropped_slow > last_.dropped_slow || s.samples_dropped > last_.samples_dropped ||
                     s.refused > last_.refused || s.unauthorized > last_.unauthorized;
   last_ = s;
-  dds::set_time(m->header.stamp, realtime_now());
+  dds::set_time(m->header.stamp, participant_.ros_now());  // the run's ROS time (simulated under --sim-time)
   dds::set_length(m->status, 1);
   auto& st = m->status._buffer[0];
   st.level = grew ? 1 : 0;  // WARN while clients are being dropped or refused
@@ -102,7 +102,8 @@ void DdsRelay::publish_status() {
     dds::copy_string(st.values._buffer[k].value, kStatusString, std::to_string(values[k].second));
   }
   box.commit();
-  if (!participant_.running()) box.flush({});  // `regolith live`'s own participant has no publisher thread
+  // `regolith live`'s own participant has no publisher thread
+  if (!participant_.running()) box.flush(participant_.source_clock());
 }
 
 void DdsRelay::loop() {

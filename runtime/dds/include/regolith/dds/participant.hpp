@@ -120,6 +120,10 @@ public:
   /// time sets it to the simulated ROS time, so a recorder or subscriber sees samples stamped
   /// on the time line of their header stamps and /clock. Call before start(); empty = wall clock.
   void set_source_clock(SourceClock ros_now) { source_clock_ = std::move(ros_now); }
+  const SourceClock& source_clock() const { return source_clock_; }
+  /// The ROS time of this participant's samples now: the source clock's, else the wall clock (for
+  /// header stamps of samples made outside a rate group, e.g. the live relay's status).
+  TimeNs ros_now() const { return source_clock_ ? source_clock_() : realtime_now(); }
   /// Starts the publisher thread (idempotent).
   void start();
   /// Stops it after writing everything pending (idempotent).
