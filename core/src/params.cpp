@@ -46,16 +46,6 @@ bool parse_bool(const std::string& s, bool& out) {
   if (s == "false" || s == "False" || s == "FALSE") { out = false; return true; }
   return false;
 }
-bool parse_int(const std::string& s, std::int64_t& out) {
-  if (s.empty()) return false;
-  std::size_t pos = 0;
-  try {
-    out = std::stoll(s, &pos, 0);
-  } catch (...) {
-    return false;
-  }
-  return pos == s.size();
-}
 bool parse_double(const std::string& s, double& out) {
   if (s.empty()) return false;
   if (s == ".nan" || s == ".NaN" || s == "nan") { out = std::numeric_limits<double>::quiet_NaN(); return true; }
@@ -71,6 +61,17 @@ bool parse_double(const std::string& s, double& out) {
 }
 
 }  // namespace
+
+bool parse_integer(const std::string& s, std::int64_t& out) {
+  if (s.empty()) return false;
+  std::size_t pos = 0;
+  try {
+    out = std::stoll(s, &pos, 0);
+  } catch (...) {
+    return false;
+  }
+  return pos == s.size();
+}
 
 Params Params::load_file(const std::string& path) {
   std::string text;
@@ -225,7 +226,7 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
       if (!n.IsScalar() || !parse_bool(n.Scalar(), value)) bad("true or false");
     } else if constexpr (std::is_same_v<T, int> || std::is_same_v<T, std::int64_t>) {
       std::int64_t v = 0;
-      if (!n.IsScalar() || !parse_int(n.Scalar(), v)) bad("an integer");
+      if (!n.IsScalar() || !parse_integer(n.Scalar(), v)) bad("an integer");
       if constexpr (std::is_same_v<T, int>) {
         if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max()) bad("a 32-bit integer");
       }

@@ -53,6 +53,22 @@ TEST(Params, DidYouMean) {
   EXPECT_EQ(did_you_mean("zzzzzz", {"rate_groups", "components"}), "");
 }
 
+TEST(Params, ParseIntegerTakesWholeNumbersOnly) {
+  std::int64_t v = 0;
+  EXPECT_TRUE(parse_integer("42", v));
+  EXPECT_EQ(v, 42);
+  EXPECT_TRUE(parse_integer("-7", v));
+  EXPECT_EQ(v, -7);
+  EXPECT_TRUE(parse_integer("0x1f", v));
+  EXPECT_EQ(v, 31);
+  EXPECT_TRUE(parse_integer("9223372036854775807", v));
+  EXPECT_EQ(v, INT64_MAX);
+  for (const char* bad : {"", "1.5", "12abc", " ", "0x", "true", "9223372036854775808"}) {
+    v = 5;
+    EXPECT_FALSE(parse_integer(bad, v)) << "'" << bad << "'";
+  }
+}
+
 TEST(Params, FieldErrorIsRelocatedAtItsKey) {
   // An algorithm's validate() knows the field, not the file: Params::fail(FieldError) points at
   // the key it was read from, and keeps the dotted sub-field in the path.

@@ -1,5 +1,6 @@
 #include "regolith/hal_v4l2/v4l2.hpp"
 #include "regolith/core/image_limits.hpp"
+#include "regolith/core/params.hpp"
 #include "regolith/hal/unopened.hpp"
 
 #include <ostream>
@@ -54,17 +55,6 @@ std::string describe_capture_devices(const std::vector<DeviceInfo>& devs) {
     s += (s.empty() ? "" : "; ") + d.path + " card '" + d.card + "' bus_info '" + d.bus_info + "'";
   }
   return s.empty() ? "none" : s;
-}
-
-bool parse_int64(const std::string& s, std::int64_t& out) {
-  if (s.empty()) return false;
-  std::size_t pos = 0;
-  try {
-    out = std::stoll(s, &pos, 0);
-  } catch (...) {
-    return false;
-  }
-  return pos == s.size();
 }
 
 int video_number(const std::string& path) {
@@ -458,7 +448,7 @@ void V4l2Camera::apply_controls() {
     const std::string& text = setting.value;
     if (c.type == V4L2_CTRL_TYPE_BOOLEAN && (text == "true" || text == "false")) {
       value = text == "true" ? 1 : 0;
-    } else if (!parse_int64(text, value)) {
+    } else if (!parse_integer(text, value)) {
       bool matched = false;
       if (c.type == V4L2_CTRL_TYPE_MENU) {
         for (std::int64_t i = c.minimum; i <= c.maximum && !matched; ++i) {

@@ -105,6 +105,10 @@ class Params {
   std::shared_ptr<std::vector<std::string>> used_;
 };
 
+/// A whole string as a 64-bit integer (decimal, 0x hexadecimal or 0 octal, as YAML and V4L2
+/// controls write them); false if it is empty, has anything after the number or is out of range.
+bool parse_integer(const std::string& s, std::int64_t& out);
+
 /// Levenshtein-closest candidate, or empty when nothing is reasonably close.
 std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
 
