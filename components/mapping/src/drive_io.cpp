@@ -14,9 +14,9 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <sstream>
 #include <utility>
 
+#include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/text_file.hpp"
 
@@ -25,14 +25,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> out;
-  std::stringstream ss(line);
-  for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
 
 double parse_double(const std::string& s, const fs::path& file, int line, const std::string& col) {
   try {
@@ -111,7 +103,7 @@ RecordedDrive read_drive(const fs::path& dir) {
     ++n;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
-    const auto fields = split_csv(line);
+    const auto fields = split_csv_line(line);
     if (header.empty()) {
       header = fields;
       for (int k = 0; k < 6; ++k) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/json_file.hpp"
 #include "regolith/mapping/drive_io.hpp"
@@ -27,11 +28,8 @@ std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
   std::vector<std::string> header;
   std::vector<std::map<std::string, double>> rows;
   for (std::string line; std::getline(f, line);) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    const std::vector<std::string> cells = split_csv_line(trim_blanks(line));
+    if (cells.empty()) continue;
     if (header.empty()) {
       header = cells;
       continue;

@@ -5,8 +5,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
+
+#include "regolith/core/csv.hpp"
 
 namespace regolith::sinkage {
 namespace {
@@ -16,13 +17,6 @@ constexpr const char* kHeader =
 constexpr int kColumns = 10;
 constexpr const char* kNames[kColumns] = {"time_s", "sequence", "encoder_angle_rad", "vision_mm", "valid",
                                           "confidence", "reason", "transducer_mm", "load", "illumination"};
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
 
 [[noreturn]] void bad(const std::filesystem::path& f, int line, const std::string& what) {
   throw std::runtime_error(f.string() + ":" + std::to_string(line) + ": " + what);
@@ -82,12 +76,9 @@ std::vector<BenchLogRow> read_bench_log(const std::filesystem::path& csv) {
   bool header = false;
   while (std::getline(is, line)) {
     ++n;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty() || t[0] == '#') continue;
-    std::vector<std::string> cols;
-    std::stringstream ss(t);
-    for (std::string c; std::getline(ss, c, ',');) cols.push_back(trim(c));
-    if (t.back() == ',') cols.emplace_back();
+    const std::vector<std::string> cols = split_csv_line(t);
     if (!header) {
       if (t != kHeader) bad(csv, n, std::string("expected header '") + kHeader + "' (got '" + t + "')");
       header = true;

@@ -3,34 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 
 #include "backends_internal.hpp"
+#include "regolith/core/csv.hpp"
 #include "common.hpp"
 #include "script.hpp"
 
 namespace regolith::mocks {
 namespace detail {
-
-namespace {
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
-
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  std::istringstream is(line);
-  while (std::getline(is, cell, ',')) out.push_back(trim(cell));
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
-
-}  // namespace
 
 AngleProfile AngleProfile::load_csv(const std::string& file, const std::vector<std::string>& wanted, bool loop) {
   std::ifstream in(file);
@@ -43,10 +23,10 @@ AngleProfile AngleProfile::load_csv(const std::string& file, const std::vector<s
   std::vector<std::size_t> column_of;  // wheel -> CSV column
   while (std::getline(in, line)) {
     ++line_no;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty() || t.front() == '#') continue;
     const auto where = file + ":" + std::to_string(line_no) + ": ";
-    const auto cells = split_csv(t);
+    const auto cells = split_csv_line(t);
     if (header.empty()) {
       header = cells;
       if (header.size() < 2 || header.front() != "time_s")

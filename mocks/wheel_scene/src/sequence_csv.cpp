@@ -2,27 +2,20 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "regolith/core/csv.hpp"
 #include "regolith/wheel_scene/wheel_scene.hpp"
 
 namespace regolith::wheel_scene {
 namespace {
 
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
-
 double parse_number(const std::string& text, const std::filesystem::path& file, int line,
                     const char* column) {
-  const std::string t = trim(text);
+  const std::string t = trim_blanks(text);
   std::size_t used = 0;
   double v = 0;
   try {
@@ -69,13 +62,9 @@ std::vector<SequenceRow> read_sequence_csv(const std::filesystem::path& csv) {
   bool header = false;
   while (std::getline(is, line)) {
     ++n;
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty() || t[0] == '#') continue;
-    std::vector<std::string> cols;
-    std::stringstream ss(t);
-    std::string c;
-    while (std::getline(ss, c, ',')) cols.push_back(trim(c));
-    if (!t.empty() && t.back() == ',') cols.emplace_back();
+    const std::vector<std::string> cols = split_csv_line(t);
     if (!header) {
       if (cols.size() != 3 || cols[0] != "frame" || cols[1] != "encoder_angle_rad" ||
           cols[2] != "truth_mm") {
@@ -108,11 +97,11 @@ std::string read_sequence_comment(const std::filesystem::path& csv, const std::s
   std::ifstream is(csv);
   if (!is) throw std::runtime_error(csv.string() + ": cannot open");
   for (std::string line; std::getline(is, line);) {
-    const std::string t = trim(line);
+    const std::string t = trim_blanks(line);
     if (t.empty() || t[0] != '#') continue;
-    const std::string body = trim(t.substr(1));
+    const std::string body = trim_blanks(t.substr(1));
     if (body.size() > key.size() && body.compare(0, key.size(), key) == 0 && body[key.size()] == ':') {
-      return trim(body.substr(key.size() + 1));
+      return trim_blanks(body.substr(key.size() + 1));
     }
   }
   return {};
