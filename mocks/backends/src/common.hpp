@@ -1,8 +1,8 @@
 #pragma once
 // Internal building blocks shared by the mock backends: deterministic hashing "randomness", the
 // frame outlet of a camera whose frames are made on demand, the lazy frame camera (preloaded
-// images served on a time grid), the lazy encoder base (samples
-// computed on demand from a script or a log) and the IMU on a time grid. Not installed.
+// images served on a time grid), the lazy encoder base (samples computed on demand from a script
+// or a log) and the IMU on a time grid. Not installed.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
