@@ -25,9 +25,10 @@ inline std::vector<std::string> split_csv_line(std::string_view line) {
   if (line.empty()) return cells;
   for (std::size_t at = 0;;) {
     const std::size_t comma = line.find(',', at);
-    cells.push_back(trim_blanks(line.substr(at, comma == std::string_view::npos ? std::string_view::npos : comma - at)));
-    if (comma == std::string_view::npos) break;
-    at = comma + 1;
+    const std::size_t end = comma == std::string_view::npos ? line.size() : comma;
+    cells.push_back(trim_blanks(line.substr(at, end - at)));
+    if (end == line.size()) break;
+    at = end + 1;
   }
   return cells;
 }
