@@ -102,9 +102,9 @@ bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
   const TimeNs start = run_.start();
   const std::int64_t k = frame_index(now - start);
   if (k < 0) return false;
+  const auto n = static_cast<std::int64_t>(images_.size());
   return outlet_.serve(k, out, [&](hal::Frame& f) {
-    images_[static_cast<std::size_t>(k % static_cast<std::int64_t>(images_.size()))].copyTo(
-        f.image);  // same geometry: no allocation
+    images_[static_cast<std::size_t>(k % n)].copyTo(f.image);  // same geometry: no allocation
     f.capture_time = start + frame_offset(k);
     f.sequence = frame_sequence(k);
     f.camera_index = index_;
