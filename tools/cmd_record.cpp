@@ -5,12 +5,14 @@
 // msgs/ros2, regolith::msgs::ros2msg_definition), one cdr Channel per topic (its ROS name, e.g.
 // /rover1/joint_states); log_time = receive time, publish_time = the DDS source timestamp (both
 // wall-clock ns since 1970; with --use-sim-time log_time = the source timestamp too, which a
-// `regolith run --sim-time` sets to its simulated ROS time). Stops on Ctrl-C / SIGTERM,
+// `regolith run --sim-time` sets to its simulated ROS time, or the newest /clock for a writer on
+// wall time: dds::sim_log_time). Stops on Ctrl-C / SIGTERM,
 // --duration or --count and always closes the file (summary + footer).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -114,6 +116,10 @@ void run_record(const RecordArgs& a) {
     std::printf("  %-32s %-36s %llu\n", c.ros_name.c_str(), c.ros_type.c_str(),
                 static_cast<unsigned long long>(c.count));
   }
+  if (const std::uint64_t n = recorder.logged_at_clock(); n > 0) {
+    std::printf("  %llu sample(s) of writers on wall time logged at the newest /clock\n",
+                static_cast<unsigned long long>(n));
+  }
   std::fflush(stdout);
   if (const std::string err = recorder.error(); !err.empty())  // disk full, file too large, I/O error
     throw std::runtime_error("record: " + err + " (the file keeps every chunk written before)");
@@ -134,8 +140,9 @@ const bool registered = add_command([](CLI::App& app) {
   auto* nc = cmd->add_flag("--no-compression", a->no_compression, "uncompressed chunks");
   z->excludes(nc);
   cmd->add_flag("--use-sim-time", a->use_sim_time,
-                "log each sample at its DDS source time, the simulated ROS time of a `regolith run --sim-time` "
-                "(default: when it was received, wall clock)");
+                "log each sample on the simulated time line: at its DDS source time (the simulated ROS time of a "
+                "`regolith run --sim-time`), or at the newest /clock when its writer stamps wall time (a ROS 2 "
+                "node) (default: when it was received, wall clock)");
   cmd->add_option("--split-size", a->split_mb, "start a new file (<stem>_001.mcap, ...) after about this many MiB")
       ->check(CLI::Range(0.01, 1e6));
   cmd->add_option("--split-duration", a->split_s, "start a new file after this many seconds of messages")

@@ -25,6 +25,7 @@
 
 #include "dds_test_util.hpp"
 #include "regolith/dds/participant.hpp"
+#include "regolith/dds/recorder.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/msgs/ros2msg.hpp"
@@ -408,6 +409,109 @@ TEST(RecordDds, UseSimTimeLogsSamplesAtTheWritersSimulatedSourceTime) {
   });
   EXPECT_TRUE(problems.empty());
 }
+
+TEST(RecordDds, SimLogTimeKeepsSimulatedWritersAndPutsWallWritersOnTheClock) {
+  constexpr std::uint64_t kWall = 1'764'000'000'000'000'000ull;  // receipt: wall time, 2025-11
+  // No /clock yet: the source time, whatever it is.
+  EXPECT_EQ(rd::sim_log_time(5'000, -1, kWall), 5'000u);
+  EXPECT_EQ(rd::sim_log_time(kWall, -1, kWall), kWall);
+  // A simulated writer (source time near the clock, also ahead of it: a fast run) keeps its time.
+  EXPECT_EQ(rd::sim_log_time(3'000'000'000ull, 2'000'000'000, kWall), 3'000'000'000ull);
+  // A wall-time writer is logged at the newest clock.
+  EXPECT_EQ(rd::sim_log_time(kWall - 1'000, 2'000'000'000, kWall), 2'000'000'000ull);
+  // A replay on the time line of a recording made a day ago: the same split.
+  const std::int64_t yesterday = static_cast<std::int64_t>(kWall) - 86'400'000'000'000;
+  EXPECT_EQ(rd::sim_log_time(yesterday + 5, yesterday, kWall), static_cast<std::uint64_t>(yesterday + 5));
+  EXPECT_EQ(rd::sim_log_time(kWall - 2'000'000, yesterday, kWall), static_cast<std::uint64_t>(yesterday));
+}
+
+// A regolith run on simulated time (source clock set, /clock published) and a ROS 2-style node on
+// the wall clock publishing the same topic: `regolith record --use-sim-time` puts both on the
+// simulated time line, with /clock recorded or not.
+void record_sim_and_wall_writers(bool record_clock) {
+  rd::testing::use_loopback_config();
+  const std::uint32_t domain = rd::testing::test_domain();
+  const std::string ns = rd::testing::unique_ns();
+  const regolith::testing::TempDir tmp("record_" + ns);  // removed whatever the outcome
+  const fs::path file = tmp.path() / "mixed.mcap";
+  const fs::path log = tmp.path() / "record.log";
+  std::atomic<regolith::TimeNs> sim_now{regolith::kNsPerSec};
+  rd::Participant sim({domain, ns});
+  sim.set_source_clock([&sim_now] { return sim_now.load(); });
+  rd::Participant wall({domain, ns});
+  const auto joint_states = [](rd::Participant& p) {
+    return p.make_outbox<m::sensor_msgs::JointState>(
+        "joint_states", rd::find_topic("joint_states")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 16},
+        [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 1}); });
+  };
+  auto sim_js = joint_states(sim);
+  auto wall_js = joint_states(wall);
+  auto clock = sim.make_outbox<m::rosgraph_msgs::Clock>("/clock", rd::find_topic("/clock")->writer_qos(),
+                                                         {.mode = rd::OutboxMode::kFifo, .slots = 16},
+                                                         [](m::rosgraph_msgs::Clock&) {});
+  sim.start();
+  wall.start();
+  constexpr int kSteps = 3;
+  const int samples = 2 * kSteps + (record_clock ? kSteps : 0);
+  std::vector<std::string> args = {std::string(REGOLITH_EXE), "record", "joint_states", "--out", file.string(),
+                                   "--domain", std::to_string(domain), "--namespace", ns, "--use-sim-time",
+                                   "--count", std::to_string(samples), "--duration", "60"};
+  if (record_clock) args.insert(args.begin() + 3, "/clock");
+  const pid_t pid = spawn(args, log);
+  ASSERT_GT(pid, 0);
+  ASSERT_TRUE(sim.wait_for_readers({"joint_states", "/clock"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  ASSERT_TRUE(wall.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  let_reader_match_writers();
+  const auto publish = [](auto& out, regolith::TimeNs stamp) {
+    auto* s = out->begin();
+    ASSERT_NE(s, nullptr);
+    rd::set_time(s->header.stamp, stamp);
+    rd::set_length(s->name, 1);
+    rd::copy_string(s->name._buffer[0], 32, "wheel");
+    out->commit();
+  };
+  for (int i = 0; i < kSteps; ++i) {
+    sim_now.store(regolith::kNsPerSec + i * 20 * regolith::kNsPerMs);
+    auto* c = clock->begin();
+    ASSERT_NE(c, nullptr);
+    rd::set_time(c->clock, sim_now.load());
+    clock->commit();
+    ASSERT_TRUE(sim.wait_for_acks(5 * regolith::kNsPerSec));  // in the recorder's cache before the samples
+    publish(sim_js, sim_now.load());
+    ASSERT_TRUE(sim.wait_for_acks(5 * regolith::kNsPerSec));
+    publish(wall_js, sim_now.load());  // a ROS 2 node's header stamp follows /clock; its DDS stamp is wall time
+    ASSERT_TRUE(wall.wait_for_acks(5 * regolith::kNsPerSec));
+  }
+  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  sim.stop();
+  wall.stop();
+  const std::string out = slurp(log);
+  EXPECT_NE(out.find(std::to_string(kSteps) + " sample(s) of writers on wall time logged at the newest /clock"),
+            std::string::npos)
+      << out;
+  regolith::record::McapReader reader(file);
+  EXPECT_EQ(reader.info().message_count, static_cast<std::uint64_t>(samples)) << out;
+  EXPECT_EQ(reader.info().message_start_time, 1'000'000'000u);
+  EXPECT_EQ(reader.info().message_end_time, 1'040'000'000u);
+  int from_sim = 0, from_wall = 0;
+  const std::uint64_t wall_before = static_cast<std::uint64_t>(regolith::realtime_now()) - 600 * regolith::kNsPerSec;
+  const auto problems = reader.for_each_message([&](const regolith::record::MessageView& mv) {
+    if (mv.publish_time > wall_before) {  // the wall-time writer: logged at the clock of its step
+      ++from_wall;
+      EXPECT_EQ(mv.log_time, 1'000'000'000u + 20'000'000ull * (from_wall - 1)) << "wall sample " << from_wall;
+    } else {  // the run on simulated time (and /clock itself): its own source time
+      ++from_sim;
+      EXPECT_EQ(mv.log_time, mv.publish_time);
+    }
+  });
+  EXPECT_TRUE(problems.empty());
+  EXPECT_EQ(from_wall, kSteps);
+  EXPECT_EQ(from_sim, samples - kSteps);
+}
+
+TEST(RecordDds, UseSimTimePutsWallClockWritersOnTheNewestClock) { record_sim_and_wall_writers(false); }
+
+TEST(RecordDds, UseSimTimeWithClockRecordedLogsItOnItsOwnTime) { record_sim_and_wall_writers(true); }
 
 TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
   const regolith::testing::TempDir tmp("record_" + rd::testing::unique_ns());  // removed whatever the outcome

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 
+#include "regolith/core/csv.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/image_ops.hpp"
 
@@ -34,11 +35,6 @@ double rect_sum(const cv::Mat& ii, const cv::Rect& r) {
   const double* a = ii.ptr<double>(r.y);
   const double* b = ii.ptr<double>(r.y + r.height);
   return b[r.x + r.width] - b[r.x] - a[r.x + r.width] + a[r.x];
-}
-
-std::string trim(std::string s) {
-  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
-  return s;
 }
 
 void integral_of(const cv::Mat& src, cv::Mat& ii) {
@@ -715,7 +711,7 @@ void TrainedModel::save(const std::string& path) const {
     fs << "}";
     fs.release();
   } catch (const cv::Exception& e) {
-    throw ModelError(path + ": cannot write model (" + trim(e.msg) + ")");
+    throw ModelError(path + ": cannot write model (" + trim_blanks(e.msg) + ")");
   }
   if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": model file not written");
 }
@@ -778,7 +774,7 @@ TrainedModel TrainedModel::load(const std::string& path) {
   } catch (const std::runtime_error& e) {  // Forest::flatten
     throw ModelError(path + ": " + e.what());
   } catch (const cv::Exception& e) {
-    throw ModelError(path + ": corrupt rock model file (" + trim(e.msg) + ")");
+    throw ModelError(path + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
   }
   return m;
 }

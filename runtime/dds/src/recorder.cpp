@@ -8,11 +8,10 @@
 #include "regolith/dds/reader.hpp"
 #include "regolith/dds/serialized.hpp"
 #include "regolith/msgs/ros2msg.hpp"
+#include "regolith/record/cdr.hpp"
 
 namespace regolith::dds {
 namespace {
-
-std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(realtime_now()); }
 
 /// A QoS duration in rosbag2's YAML ({sec, nsec}); 0 = infinite, written as ROS 2 Humble writes
 /// RMW_DURATION_INFINITE.
@@ -23,6 +22,13 @@ std::string yaml_duration(const char* key, TimeNs ns) {
 }
 
 }  // namespace
+
+std::uint64_t sim_log_time(std::uint64_t source_ns, std::int64_t clock_ns, std::uint64_t receipt_ns) {
+  if (clock_ns < 0) return source_ns;
+  const auto clock = static_cast<std::uint64_t>(clock_ns);
+  const auto distance = [](std::uint64_t a, std::uint64_t b) { return a > b ? a - b : b - a; };
+  return distance(source_ns, clock) <= distance(source_ns, receipt_ns) ? source_ns : clock;
+}
 
 // Enum values of rmw: history 1 keep_last / 2 keep_all; reliability 1 reliable / 2 best_effort;
 // durability 1 transient_local / 2 volatile; liveliness 1 automatic.
@@ -73,7 +79,12 @@ DdsRecorder::DdsRecorder(Participant& p, const std::filesystem::path& file, DdsR
     if (opts_.keep_all) q.keep_all = true;
     r->sub = std::make_unique<Subscription>(p, t->name, t->descriptor, q);
     waitset_->attach(r->sub->reader(), r->ros_name);
+    if (t->name == "/clock") clock_rec_ = r.get();
     rec_.push_back(std::move(r));
+  }
+  if (opts_.log_source_time && clock_rec_ == nullptr) {
+    const TopicInfo* clock = find_topic("/clock");
+    clock_sub_ = std::make_unique<Subscription>(p, clock->name, clock->descriptor, clock->reader_qos());
   }
 }
 
@@ -101,7 +112,7 @@ void DdsRecorder::add_attachment(const std::string& name, const std::string& med
   if (writer_closed_) return;
   try {
     writer_->add_attachment(
-        name, media_type, realtime_ns(), realtime_ns(),
+        name, media_type, receipt_time_ns(), receipt_time_ns(),
         std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(data.data()), data.size()));
   } catch (const std::runtime_error& e) {
     fail(e);
@@ -157,34 +168,65 @@ bool DdsRecorder::done() const {
   return opts_.max_samples > 0 && total_.load() >= opts_.max_samples;
 }
 
+void DdsRecorder::note_clock(std::span<const std::uint8_t> cdr) {
+  try {
+    record::CdrReader in(cdr);
+    const std::int64_t sec = in.i32();
+    const std::int64_t nanosec = in.u32();
+    if (sec >= 0 && nanosec < kNsPerSec) newest_clock_ = sec * kNsPerSec + nanosec;
+  } catch (const std::exception&) {  // not a rosgraph_msgs/Clock we can read: keep the last one
+  }
+}
+
+void DdsRecorder::take(Recorded& r) {
+  const std::uint64_t total = total_.load();
+  const std::size_t max = opts_.max_samples > 0 ? static_cast<std::size_t>(opts_.max_samples - total) : 256;
+  if (max == 0) return;
+  std::size_t written = 0;
+  const bool is_clock = &r == clock_rec_;
+  take_serialized(
+      r.sub->reader(),
+      [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
+        if (is_clock) note_clock(bytes);
+        if (!error_.empty()) {  // the file failed: drain the reader, count what is lost
+          lost_.fetch_add(1);
+          return;
+        }
+        const std::uint64_t now = receipt_time_ns();
+        const std::uint64_t pub = source_time_or(info, now);
+        std::uint64_t log = now;
+        if (opts_.log_source_time) {
+          log = sim_log_time(pub, newest_clock_, now);
+          if (log != pub) at_clock_.fetch_add(1);
+        }
+        try {
+          writer_->write(r.channel, r.sequence++, log, pub, bytes);
+          ++written;
+        } catch (const std::runtime_error& e) {
+          fail(e);
+          lost_.fetch_add(1);
+        }
+      },
+      scratch_, max);
+  r.count.fetch_add(written);
+  total_.fetch_add(written);
+}
+
 void DdsRecorder::take_all() {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (auto& rp : rec_) {
-    Recorded& r = *rp;
-    const std::uint64_t total = total_.load();
-    const std::size_t max = opts_.max_samples > 0 ? static_cast<std::size_t>(opts_.max_samples - total) : 256;
-    if (max == 0) break;
-    std::size_t written = 0;
+  // The clock first: a sample is logged against the newest /clock that reached the recorder
+  // before it was taken.
+  if (clock_sub_) {
     take_serialized(
-        r.sub->reader(),
-        [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
-          if (!error_.empty()) {  // the file failed: drain the reader, count what is lost
-            lost_.fetch_add(1);
-            return;
-          }
-          const std::uint64_t now = realtime_ns();
-          const std::uint64_t pub = source_time_or(info, now);
-          try {
-            writer_->write(r.channel, r.sequence++, opts_.log_source_time ? pub : now, pub, bytes);
-            ++written;
-          } catch (const std::runtime_error& e) {
-            fail(e);
-            lost_.fetch_add(1);
-          }
-        },
-        scratch_, max);
-    r.count.fetch_add(written);
-    total_.fetch_add(written);
+        clock_sub_->reader(),
+        [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t&) { note_clock(bytes); }, scratch_, 256);
+  } else if (clock_rec_ != nullptr) {
+    take(*clock_rec_);
+  }
+  for (auto& rp : rec_) {
+    if (rp.get() == clock_rec_) continue;
+    if (done()) break;
+    take(*rp);
   }
 }
 

@@ -16,8 +16,6 @@
 namespace regolith::live {
 namespace {
 
-std::uint64_t realtime_ns() { return static_cast<std::uint64_t>(realtime_now()); }
-
 using DiagnosticArray = msgs::diagnostic_msgs::DiagnosticArray;
 constexpr std::uint32_t kStatusValues = 9;
 constexpr std::size_t kStatusString = 64;
@@ -122,7 +120,7 @@ void DdsRelay::loop() {
             t->sub->reader(),
             [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t& info) {
               // The time line of the sample's header stamps (wall or simulated time).
-              server_->send_message(t->channel, dds::source_time_or(info, realtime_ns()), bytes);
+              server_->send_message(t->channel, dds::source_time_or(info, dds::receipt_time_ns()), bytes);
             },
             scratch, 256);
         samples_.fetch_add(n);

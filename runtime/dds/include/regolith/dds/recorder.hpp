@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -37,9 +38,12 @@ struct DdsRecorderOptions {
   bool keep_all = false;
   std::uint64_t max_samples = 0;  ///< stop taking after this many samples in total (0 = no limit)
   /// MCAP log time of a DDS sample: false = when it was received (wall clock, as rosbag2);
-  /// true = its DDS source timestamp, for writers whose source clock is simulated
-  /// (dds::Participant::set_source_clock: `regolith run --sim-time`), so the recording plays
-  /// back on the run's own time line however fast it ran.
+  /// true = on the simulated time line (`--use-sim-time`, see sim_log_time()): a writer on
+  /// simulated time (dds::Participant::set_source_clock: `regolith run --sim-time`) is logged at
+  /// its DDS source timestamp, so the recording plays back on the run's own time line however fast
+  /// it ran; a writer on wall time (a ROS 2 node under use_sim_time stamps its headers by /clock but
+  /// its DDS samples by the wall clock) at the newest /clock received, as rosbag2 does. The
+  /// recorder reads /clock for that whether or not it is one of `topics`.
   bool log_source_time = false;
   /// Split into files of about this many bytes / this long (0 = never; record::McapWriterOptions).
   std::uint64_t split_bytes = 0;
@@ -49,6 +53,12 @@ struct DdsRecorderOptions {
   /// keep being taken (the readers are drained) and are counted as lost(). May be empty.
   std::function<void(const std::string&)> on_error;
 };
+
+/// The log time of one sample on the simulated time line (DdsRecorderOptions::log_source_time):
+/// its source timestamp `source_ns` when that is nearer the newest /clock `clock_ns` than the
+/// wall-clock receipt time `receipt_ns` (a writer on simulated time), else `clock_ns` (a writer on
+/// wall time, logged where rosbag2 would). `clock_ns` < 0 (no /clock received yet): `source_ns`.
+std::uint64_t sim_log_time(std::uint64_t source_ns, std::int64_t clock_ns, std::uint64_t receipt_ns);
 
 /// The rosbag2 (Humble) `offered_qos_profiles` YAML of regolith's writers of a topic.
 std::string offered_qos_yaml(const QosProfile& q);
@@ -90,6 +100,9 @@ class DdsRecorder final : public record::MessageSink {
   std::uint64_t lost() const { return lost_.load(); }
   /// True once max_samples samples were recorded.
   bool done() const;
+  /// Samples logged at the newest /clock instead of their source time (log_source_time: writers on
+  /// wall time).
+  std::uint64_t logged_at_clock() const { return at_clock_.load(); }
 
   std::uint64_t total() const { return total_.load(); }
   std::vector<TopicCount> counts() const;
@@ -104,6 +117,8 @@ class DdsRecorder final : public record::MessageSink {
  private:
   struct Recorded;
   void take_all();
+  void take(Recorded& r);
+  void note_clock(std::span<const std::uint8_t> cdr);  // mutex_ held
   void loop();
   void fail(const std::exception& e);  // mutex_ held: keeps the first error, stops writing
 
@@ -113,10 +128,15 @@ class DdsRecorder final : public record::MessageSink {
   std::unique_ptr<record::McapWriter> writer_;
   std::unique_ptr<ReaderWaitSet> waitset_;
   std::vector<std::unique_ptr<Recorded>> rec_;
+  // log_source_time: /clock, taken before the topics on every pass: the recorded one (clock_rec_)
+  // or a reader of its own (clock_sub_, not recorded, not on the waitset).
+  Recorded* clock_rec_ = nullptr;
+  std::unique_ptr<Subscription> clock_sub_;
+  std::int64_t newest_clock_ = -1;  // guarded by mutex_; -1 = none yet
   std::vector<std::uint8_t> scratch_;
   std::map<std::string, std::uint16_t> schemas_;  // ROS type -> schema id (guarded by mutex_)
   std::uint16_t schema_for(const std::string& ros_type);
-  std::atomic<std::uint64_t> total_{0}, lost_{0};
+  std::atomic<std::uint64_t> total_{0}, lost_{0}, at_clock_{0};
   std::string error_;  // guarded by mutex_
   std::atomic<bool> stop_{false};
   std::atomic<TimeNs> cpu_ns_{0};
