@@ -525,9 +525,6 @@ class WheelSinkageComponent final : public runtime::Component {
 }  // namespace
 
 void register_component() {
-  static bool done = false;
-  if (done) return;
-  done = true;
   runtime::ComponentRegistry::instance().add(
       "wheel_sinkage",
       "hub camera frame + wheel angle at capture time -> wheel-leg sinkage (terrain/wheel_sinkage); bench-rig log",

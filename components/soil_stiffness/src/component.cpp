@@ -170,9 +170,6 @@ class SoilStiffnessComponent final : public runtime::Component {
 }  // namespace
 
 void register_component() {
-  static bool done = false;
-  if (done) return;
-  done = true;
   runtime::ComponentRegistry::instance().add(
       "soil_stiffness",
       "rear-camera wheel tracks -> sinkage profiles, Bernstein-Goriatchkin k (and n) -> terrain/soil, "

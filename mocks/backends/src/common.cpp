@@ -114,7 +114,7 @@ bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
 
 hal::CameraStats PreloadedCamera::stats() const {
   hal::CameraStats s;
-  outlet_.add_stats(s);
+  outlet_.fill_stats(s);
   s.state = run_.state();
   return s;
 }

@@ -183,7 +183,7 @@ class FrameOutlet {
 
   /// frames (frame numbers up to the newest written), dropped (skipped: pool full) and the newest
   /// frame's capture time into `s`.
-  void add_stats(hal::CameraStats& s) const {
+  void fill_stats(hal::CameraStats& s) const {
     const std::int64_t k = published_.load(std::memory_order_acquire);
     s.frames = k >= 0 ? static_cast<std::uint64_t>(k + 1) : 0;
     s.dropped = write_failures_.load(std::memory_order_relaxed);

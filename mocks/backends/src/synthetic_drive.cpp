@@ -225,7 +225,7 @@ class DriveCamera final : public hal::Camera, public DriveTruth {
   }
   hal::CameraStats stats() const override {
     hal::CameraStats s;
-    outlet_.add_stats(s);
+    outlet_.fill_stats(s);
     s.state = run_.state();
     return s;
   }
