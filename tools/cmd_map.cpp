@@ -287,6 +287,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
 struct EvalMapArgs {
   std::string drive;
   std::string map;
+  std::string overlay;  // PNG of what was scored ("" = none)
 };
 
 const bool registered = add_command([](CLI::App& app) {
@@ -344,7 +345,13 @@ const bool registered = add_command([](CLI::App& app) {
   CLI::App* em = eval->add_subcommand("map", "score a `regolith map` output against a drive's truth (JSON on stdout)");
   em->add_option("drive", e->drive, "drive directory with truth_poses.csv, height.tiff, grid.json, truth.json")->required();
   em->add_option("--map", e->map, "output directory of `regolith map`")->required();
-  em->callback([e] { std::cout << regolith::json_text(mapping::evaluate_map(e->drive, e->map), 1) << "\n"; });
+  em->add_option("--overlay", e->overlay,
+                 "also draw what was scored into this PNG: true rocks hit / missed, detections matched / false, "
+                 "true, corrected and wheel paths, over the true terrain");
+  em->callback([e] {
+    std::cout << regolith::json_text(mapping::evaluate_map(e->drive, e->map, e->overlay), 1) << "\n";
+    if (!e->overlay.empty()) std::fprintf(stderr, "wrote %s\n", e->overlay.c_str());
+  });
 });
 
 }  // namespace

@@ -1183,6 +1183,83 @@ TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   EXPECT_FALSE(mj["cues"]["shadows"]["enabled"].get<bool>());
 }
 
+// A drive and a map written by hand, so that what the scorer must find is known: two rocks >= 10 cm
+// in view (one detected, one not), one detection far from any rock (a false alarm).
+struct HandScoredDrive {
+  fs::path drive, map;
+  explicit HandScoredDrive(const fs::path& d) : drive(d / "drive"), map(d / "map") {
+    fs::create_directories(drive);
+    fs::create_directories(map);
+    std::ofstream(drive / "input.json") << kRigDriveJson;
+    std::ofstream(drive / "frames.csv") << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n"
+                                        << "0,frames/0.png,0,0,0,1.5707963\n1,frames/1.png,1,0,0.1,1.5707963\n";
+    // Camera 0.67 m up, pitched 0.6 rad down, looking north (+y) from (0, 0) and (0, 0.1).
+    std::ofstream(drive / "truth_poses.csv")
+        << "frame,x_m,y_m,z_m,yaw_rad,pitch_rad,roll_rad,rover_x_m,rover_y_m,rover_z_m,rover_yaw_rad\n"
+        << "0,0,0,0.67,1.5707963,0.6,0,0,0,0,1.5707963\n1,0,0.1,0.67,1.5707963,0.6,0,0,0.1,0,1.5707963\n";
+    std::ofstream(drive / "grid.json") << R"({"origin_x_m": -2.0, "origin_y_m": -1.0, "resolution_m": 0.02})";
+    cv::imwrite((drive / "height.tiff").string(), cv::Mat(200, 200, CV_32F, cv::Scalar(0)));
+    // Rock 1 at (0, 1.5) and rock 2 at (0.5, 1.2), both 0.2 m tall and seen; rock 3 small.
+    std::ofstream(drive / "truth.json") << R"({"rocks": [
+      {"x_m": 0.0, "y_m": 1.5, "height_above_ground_m": 0.2, "width_m": 0.3, "length_m": 0.3, "major_axis_m": 0.3,
+       "minor_axis_m": 0.3, "yaw_deg": 0, "observed": true},
+      {"x_m": 0.5, "y_m": 1.2, "height_above_ground_m": 0.2, "width_m": 0.25, "length_m": 0.2, "major_axis_m": 0.25,
+       "minor_axis_m": 0.2, "yaw_deg": 30, "observed": true},
+      {"x_m": -0.4, "y_m": 1.0, "height_above_ground_m": 0.03, "width_m": 0.05, "length_m": 0.05, "major_axis_m": 0.05,
+       "minor_axis_m": 0.05, "yaw_deg": 0, "observed": true}]})";
+    std::ofstream(map / "map.json") << R"({"origin_x_m": -2.0, "origin_y_m": -1.0, "resolution_m": 0.04})";
+    cv::imwrite((map / "elevation.tiff").string(), cv::Mat(100, 100, CV_32F, cv::Scalar(0)));
+    cv::imwrite((map / "hazard.tiff").string(), cv::Mat(100, 100, CV_32F, cv::Scalar(0.1)));
+    std::ofstream(map / "odometry.csv") << "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
+                                        << "0,0,0,1.5707963,0,0,1.5707963\n1,0,0.1,1.5707963,0,0.11,1.5707963\n";
+  }
+  void detections(const std::string& rows) const { std::ofstream(map / "rocks.csv") << "x_m,y_m,height_m,width_m,score\n" << rows; }
+};
+
+// Pixels of exactly this BGR colour.
+int count_colour(const cv::Mat& img, const cv::Vec3b& c) {
+  int n = 0;
+  for (int i = 0; i < img.rows; ++i)
+    for (int j = 0; j < img.cols; ++j) n += img.at<cv::Vec3b>(i, j) == c;
+  return n;
+}
+
+TEST(EvaluateMap, TheOverlayShowsHitsMissesAndFalseAlarms) {
+  const regolith::testing::TempDir tmp("mapping_overlay");
+  const HandScoredDrive hd(tmp.path());
+  const cv::Vec3b matched(0, 230, 255), missed(0, 0, 255), false_alarm(255, 0, 255);
+  // One hit (rock 1), rock 2 missed, one false alarm 1 m from every rock.
+  hd.detections("0.02,1.52,0.18,0.3,1\n-1.0,2.2,0.1,0.1,1\n");
+  const fs::path png = tmp.path() / "overlay.png";
+  nlohmann::json j = evaluate_map(hd.drive, hd.map, png);
+  EXPECT_EQ(j["rocks"]["truth_rocks_ge10cm_observed"].get<int>(), 2);
+  EXPECT_EQ(j["rocks"]["hits"].get<int>(), 1);
+  EXPECT_EQ(j["rocks"]["false_alarms"].get<int>(), 1);
+  cv::Mat img = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  // Drawn from the legend alone: a few hundred pixels; each marker adds tens more.
+  const int legend_missed = count_colour(img, missed), legend_false = count_colour(img, false_alarm);
+  const int legend_matched = count_colour(img, matched);
+  // Rock 2 found too, and no false alarm: no red ellipse, no magenta cross.
+  hd.detections("0.02,1.52,0.18,0.3,1\n0.48,1.22,0.2,0.2,1\n");
+  j = evaluate_map(hd.drive, hd.map, png);
+  EXPECT_EQ(j["rocks"]["hits"].get<int>(), 2);
+  EXPECT_EQ(j["rocks"]["false_alarms"].get<int>(), 0);
+  const cv::Mat all_hit = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_EQ(all_hit.size(), img.size());
+  EXPECT_GT(legend_missed - count_colour(all_hit, missed), 20) << "the missed rock's red ellipse";
+  EXPECT_GT(legend_false - count_colour(all_hit, false_alarm), 20) << "the false alarm's magenta cross";
+  EXPECT_GT(count_colour(all_hit, matched) - legend_matched, 20) << "the second hit's ellipse and cross";
+  // Without an overlay nothing is drawn; a path that cannot be written is an error naming it.
+  EXPECT_EQ(evaluate_map(hd.drive, hd.map)["rocks"]["hits"].get<int>(), 2);
+  try {
+    evaluate_map(hd.drive, hd.map, tmp.path() / "absent" / "overlay.png");
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("absent/overlay.png"), std::string::npos) << e.what();
+  }
+}
+
 // The independent development drives (../shared/data/synthetic_dev/traverse): the corrected pose
 // must beat the drifting wheel odometry it starts from.
 TEST(DevelopmentDrives, CorrectedPosesBeatWheelOdometry) {

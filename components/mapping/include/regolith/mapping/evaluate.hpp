@@ -18,7 +18,17 @@
 
 namespace regolith::mapping {
 
-/// Throws InputError naming the file when truth or map files are missing or malformed.
-nlohmann::json evaluate_map(const std::filesystem::path& drive_dir, const std::filesystem::path& map_dir);
+//
+// With `overlay` (a .png path) it also draws what was scored, north up over the true terrain
+// (hillshade of height.tiff on the map's cells; what no true camera pose saw within 5 m dimmed):
+// each rock >= 10 cm that was seen as an ellipse of its true footprint, yellow when a detection
+// matched it and red when missed (seen but unmatched; unseen ones thin grey); each detection
+// of rocks.csv as a cross, yellow with a line to the rock it matched, magenta for a false alarm,
+// grey when it matched a smaller or unseen rock (neither); the true path (white), the corrected
+// path (green) and the wheel path (blue); the scores in the title.
+/// Throws InputError naming the file when truth or map files are missing or malformed, or when
+/// the overlay cannot be written.
+nlohmann::json evaluate_map(const std::filesystem::path& drive_dir, const std::filesystem::path& map_dir,
+                            const std::filesystem::path& overlay = {});
 
 }  // namespace regolith::mapping
