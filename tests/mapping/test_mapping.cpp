@@ -1213,7 +1213,9 @@ struct HandScoredDrive {
     std::ofstream(map / "odometry.csv") << "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
                                         << "0,0,0,1.5707963,0,0,1.5707963\n1,0,0.1,1.5707963,0,0.11,1.5707963\n";
   }
-  void detections(const std::string& rows) const { std::ofstream(map / "rocks.csv") << "x_m,y_m,height_m,width_m,score\n" << rows; }
+  void detections(const std::string& rows) const {
+    std::ofstream(map / "rocks.csv") << "x_m,y_m,height_m,width_m,score\n" << rows;
+  }
 };
 
 // Pixels of exactly this BGR colour.

@@ -447,8 +447,8 @@ void record_sim_and_wall_writers(bool record_clock) {
   auto sim_js = joint_states(sim);
   auto wall_js = joint_states(wall);
   auto clock = sim.make_outbox<m::rosgraph_msgs::Clock>("/clock", rd::find_topic("/clock")->writer_qos(),
-                                                         {.mode = rd::OutboxMode::kFifo, .slots = 16},
-                                                         [](m::rosgraph_msgs::Clock&) {});
+                                                        {.mode = rd::OutboxMode::kFifo, .slots = 16},
+                                                        [](m::rosgraph_msgs::Clock&) {});
   sim.start();
   wall.start();
   constexpr int kSteps = 3;

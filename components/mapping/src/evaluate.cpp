@@ -1,8 +1,4 @@
-#include "regolith/core/image_file.hpp"
 #include "regolith/mapping/evaluate.hpp"
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -10,13 +6,16 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "regolith/common/plot.hpp"
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
-#include "regolith/common/plot.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/core/json_file.hpp"
 #include "regolith/mapping/drive_io.hpp"
 
@@ -202,15 +201,18 @@ cv::Mat render_scored(const Scored& s) {
   const int bar = static_cast<int>(std::lround(px_per_m));
   const cv::Point b0(15, img.rows - 20);
   cv::rectangle(img, b0, b0 + cv::Point(bar, 6), cv::Scalar(255, 255, 255), cv::FILLED);
-  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  cv::arrowedLine(img, cv::Point(img.cols - 25, 45), cv::Point(img.cols - 25, 10), cv::Scalar(255, 255, 255), 2, cv::LINE_AA,
-                  0, 0.3);
+  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+  cv::arrowedLine(img, cv::Point(img.cols - 25, 45), cv::Point(img.cols - 25, 10), cv::Scalar(255, 255, 255), 2,
+                  cv::LINE_AA, 0, 0.3);
   cv::putText(img, "N", cv::Point(img.cols - 31, 61), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
   cv::Mat band = out(cv::Rect(0, 0, out.cols, kTitle));
   band.setTo(cv::Scalar(40, 30, 25));
-  cv::putText(band, s.title, cv::Point(10, 17), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  cv::putText(band, s.scores, cv::Point(10, 35), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  cv::putText(band, s.title, cv::Point(10, 17), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+  cv::putText(band, s.scores, cv::Point(10, 35), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
   int lx = 10;
   for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"rock hit", kMatched},
                                      {"rock missed", kMissed},
@@ -413,9 +415,10 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
                   drive_dir.filename().string().c_str(), positives, hits, positives - hits, false_alarms,
                   out["rocks"]["f1"].get<double>());
     sc.title = buf;
-    std::snprintf(buf, sizeof buf, "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
-                  out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
-                  out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
+    std::snprintf(
+        buf, sizeof buf, "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
+        out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
+        out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
     sc.scores = buf;
     bool written = false;
     try {

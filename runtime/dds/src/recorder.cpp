@@ -218,8 +218,8 @@ void DdsRecorder::take_all() {
   // before it was taken.
   if (clock_sub_) {
     take_serialized(
-        clock_sub_->reader(),
-        [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t&) { note_clock(bytes); }, scratch_, 256);
+        clock_sub_->reader(), [&](std::span<const std::uint8_t> bytes, const dds_sample_info_t&) { note_clock(bytes); },
+        scratch_, 256);
   } else if (clock_rec_ != nullptr) {
     take(*clock_rec_);
   }

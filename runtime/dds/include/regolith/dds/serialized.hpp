@@ -25,7 +25,9 @@ std::size_t take_serialized(
 
 /// Now on the wall clock, ns since 1970: the receipt time MCAP log times and Foxglove message
 /// times are given in.
-inline std::uint64_t receipt_time_ns() { return static_cast<std::uint64_t>(realtime_now()); }
+inline std::uint64_t receipt_time_ns() {
+  return static_cast<std::uint64_t>(realtime_now());
+}
 
 /// The sample's DDS source timestamp (the writer's clock: wall time, or the simulated ROS time of
 /// a run under --sim-time, see Participant::set_source_clock), or `receipt_ns` if the writer set
