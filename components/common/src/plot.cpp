@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -370,6 +371,23 @@ cv::Mat render_height_map(const cv::Mat& height, const std::string& title, const
   if (std::isfinite(lo)) style.range = cv::Vec2d(lo, hi);
   style.image_height_px = 480;
   return render_map(height, style);
+}
+
+void put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries) {
+  for (const LegendEntry& e : entries) {
+    cv::putText(img, e.text, org, cv::FONT_HERSHEY_SIMPLEX, 0.42, e.colour, 1, cv::LINE_AA);
+    org.x += static_cast<int>(std::strlen(e.text)) * 8 + 14;
+  }
+}
+
+void put_scale_bar_and_north(cv::Mat& img, double px_per_m) {
+  const cv::Scalar white(255, 255, 255);
+  const int bar = static_cast<int>(std::lround(px_per_m));
+  const cv::Point b0(15, img.rows - 20);
+  cv::rectangle(img, b0, b0 + cv::Point(bar, 6), white, cv::FILLED);
+  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, white, 1, cv::LINE_AA);
+  cv::arrowedLine(img, cv::Point(img.cols - 25, 50), cv::Point(img.cols - 25, 15), white, 2, cv::LINE_AA, 0, 0.3);
+  cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, white, 1, cv::LINE_AA);
 }
 
 void write_png(const std::filesystem::path& path, const cv::Mat& image) {

@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstring>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -402,12 +401,7 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
     cv::circle(img, px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m / res * scale)), cv::Scalar(0, 230, 255), 2,
                cv::LINE_AA);
   // Scale bar (1 m), north arrow, legend.
-  const int bar = static_cast<int>(std::lround(1.0 / res * scale));
-  const cv::Point b0(15, img.rows - 20);
-  cv::rectangle(img, b0, b0 + cv::Point(bar, 6), cv::Scalar(255, 255, 255), cv::FILLED);
-  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  cv::arrowedLine(img, cv::Point(img.cols - 25, 50), cv::Point(img.cols - 25, 15), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, 0, 0.3);
-  cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  plot::put_scale_bar_and_north(img, scale / res);
   // The hazard tint's scale (on mid-grey ground): probability of an obstacle 0 .. 1.
   const cv::Rect hb(img.cols - 150, img.rows - 26, 120, 8);
   for (int x = 0; x < hb.width; ++x) {
@@ -420,14 +414,9 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   cv::putText(img, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
   // Legend, in the colours it explains.
-  int lx = 10;
-  for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"corrected path", {0, 220, 0}},
-                                     {"wheel odometry", {255, 120, 0}},
-                                     {"hazard", {0, 0, 255}},
-                                     {"rocks", {0, 230, 255}}}) {
-    cv::putText(img, text, cv::Point(lx, 18), cv::FONT_HERSHEY_SIMPLEX, 0.42, colour, 1, cv::LINE_AA);
-    lx += static_cast<int>(std::strlen(text)) * 8 + 14;
-  }
+  const plot::LegendEntry legend[] = {
+      {"corrected path", {0, 220, 0}}, {"wheel odometry", {255, 120, 0}}, {"hazard", {0, 0, 255}}, {"rocks", {0, 230, 255}}};
+  plot::put_legend(img, {10, 18}, legend);
   return img;
 }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -198,31 +197,18 @@ cv::Mat render_scored(const Scored& s) {
     cv::line(img, p + cv::Point(-r, r), p + cv::Point(r, -r), colour, 2, cv::LINE_8);
   }
   // Scale bar (1 m), north arrow, title and legend.
-  const int bar = static_cast<int>(std::lround(px_per_m));
-  const cv::Point b0(15, img.rows - 20);
-  cv::rectangle(img, b0, b0 + cv::Point(bar, 6), cv::Scalar(255, 255, 255), cv::FILLED);
-  cv::putText(img, "1 m", b0 + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
-  cv::arrowedLine(img, cv::Point(img.cols - 25, 45), cv::Point(img.cols - 25, 10), cv::Scalar(255, 255, 255), 2,
-                  cv::LINE_AA, 0, 0.3);
-  cv::putText(img, "N", cv::Point(img.cols - 31, 61), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
+  plot::put_scale_bar_and_north(img, px_per_m);
   cv::Mat band = out(cv::Rect(0, 0, out.cols, kTitle));
   band.setTo(cv::Scalar(40, 30, 25));
   cv::putText(band, s.title, cv::Point(10, 17), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
   cv::putText(band, s.scores, cv::Point(10, 35), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
-  int lx = 10;
-  for (const auto& [text, colour] : {std::pair<const char*, cv::Scalar>{"rock hit", kMatched},
-                                     {"rock missed", kMissed},
-                                     {"false alarm", kFalse},
-                                     {"true path", {255, 255, 255}},
-                                     {"corrected", {0, 220, 0}},
-                                     {"wheels", {255, 120, 0}}}) {
-    cv::putText(band, text, cv::Point(lx, 55), cv::FONT_HERSHEY_SIMPLEX, 0.42, colour, 1, cv::LINE_AA);
-    lx += static_cast<int>(std::strlen(text)) * 8 + 14;
-  }
+  const plot::LegendEntry legend[] = {
+      {"rock hit", kMatched},         {"rock missed", kMissed},   {"false alarm", kFalse},
+      {"true path", {255, 255, 255}}, {"corrected", {0, 220, 0}}, {"wheels", {255, 120, 0}},
+  };
+  plot::put_legend(band, {10, 55}, legend);
   return out;
 }
 
@@ -420,13 +406,7 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
         out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
         out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
     sc.scores = buf;
-    bool written = false;
-    try {
-      written = cv::imwrite(overlay.string(), render_scored(sc));
-    } catch (const cv::Exception& e) {  // e.g. a file name OpenCV has no encoder for
-      throw InputError("eval map: cannot write the overlay '" + overlay.string() + "': " + e.err);
-    }
-    if (!written) throw InputError("eval map: cannot write the overlay '" + overlay.string() + "'");
+    plot::write_png(overlay, render_scored(sc));
   }
   return out;
 }

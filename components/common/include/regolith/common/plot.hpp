@@ -84,6 +84,19 @@ cv::Mat hillshade(const cv::Mat& height_m, double cell_m, double exaggeration = 
 void put_fitted_text(cv::Mat& img, const std::string& text, cv::Point org, int max_width_px, double scale = 0.5,
                      int thickness = 1, cv::Scalar colour = {0, 0, 0});
 
+/// One entry of put_legend: a label, written in the colour it explains.
+struct LegendEntry {
+  const char* text;
+  cv::Scalar colour;
+};
+
+/// Writes the entries left to right from `org` (the first one's baseline), each in its colour.
+void put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries);
+
+/// The furniture of a north-up map picture drawn at `px_per_m`: a 1 m scale bar at its bottom
+/// left and a north arrow at its top right, white.
+void put_scale_bar_and_north(cv::Mat& img, double px_per_m);
+
 /// cv::imwrite with a clear std::runtime_error naming the file on failure.
 void write_png(const std::filesystem::path& path, const cv::Mat& image);
 

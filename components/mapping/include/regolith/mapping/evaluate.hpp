@@ -26,8 +26,8 @@ namespace regolith::mapping {
 // of rocks.csv as a cross, yellow with a line to the rock it matched, magenta for a false alarm,
 // grey when it matched a smaller or unseen rock (neither); the true path (white), the corrected
 // path (green) and the wheel path (blue); the scores in the title.
-/// Throws InputError naming the file when truth or map files are missing or malformed, or when
-/// the overlay cannot be written.
+/// Throws InputError naming the file when truth or map files are missing or malformed, and
+/// std::runtime_error naming the overlay when it cannot be written.
 nlohmann::json evaluate_map(const std::filesystem::path& drive_dir, const std::filesystem::path& map_dir,
                             const std::filesystem::path& overlay = {});
 
