@@ -1252,6 +1252,12 @@ TEST(EvaluateMap, TheOverlayShowsHitsMissesAndFalseAlarms) {
   EXPECT_GT(legend_missed - count_colour(all_hit, missed), 20) << "the missed rock's red ellipse";
   EXPECT_GT(legend_false - count_colour(all_hit, false_alarm), 20) << "the false alarm's magenta cross";
   EXPECT_GT(count_colour(all_hit, matched) - legend_matched, 20) << "the second hit's ellipse and cross";
+  // The drive named with a trailing slash is the same drive: the same picture, title included
+  // (the title once read the name of "DIR/" as empty).
+  evaluate_map(hd.drive.string() + "/", hd.map, png);
+  const cv::Mat slash = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_EQ(slash.size(), all_hit.size());
+  EXPECT_EQ(cv::norm(slash, all_hit, cv::NORM_L1), 0.0);
   // Without an overlay nothing is drawn; a path that cannot be written is an error naming it.
   EXPECT_EQ(evaluate_map(hd.drive, hd.map)["rocks"]["hits"].get<int>(), 2);
   try {

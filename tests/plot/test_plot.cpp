@@ -124,4 +124,53 @@ TEST(Plot, HillshadeIsLitFromTheUpperLeftAndKeepsUnknownCellsUnknown) {
   EXPECT_THROW(plot::hillshade(h, 0.0), std::invalid_argument);
 }
 
+TEST(Plot, ANorthUpFrameCropsToTheCellsAndThePathAndPutsNorthUp) {
+  // A 100 x 80 grid of 5 cm cells, cell (0, 0) centred at (-1, 2) m; cells of interest in rows
+  // 40..49, columns 30..39; a path from 1 m south of them.
+  cv::Mat mask(100, 80, CV_8U, cv::Scalar(0));
+  mask(cv::Rect(30, 40, 10, 10)).setTo(255);
+  const cv::Point2d origin(-1.0, 2.0);
+  const double cell = 0.05;
+  const plot::NorthUpFrame only_cells(mask, origin, cell, {}, 5, 100);
+  EXPECT_EQ(only_cells.rows().start, 35);
+  EXPECT_EQ(only_cells.rows().end, 55);
+  EXPECT_EQ(only_cells.cols().start, 25);
+  EXPECT_EQ(only_cells.cols().end, 45);
+  EXPECT_EQ(only_cells.scale(), 5);  // 100 px / 20 cells
+  EXPECT_EQ(only_cells.size(), cv::Size(100, 100));
+  EXPECT_DOUBLE_EQ(only_cells.px_per_m(), 100.0);
+  // North up: the southernmost cell of the crop is the bottom row of squares.
+  EXPECT_EQ(only_cells.cell(35, 25), cv::Rect(0, 95, 5, 5));
+  EXPECT_EQ(only_cells.cell(54, 44), cv::Rect(95, 0, 5, 5));
+  // A cell's centre is its square's centre.
+  const cv::Point c = only_cells.px(origin.x + 30 * cell, origin.y + 40 * cell);
+  EXPECT_TRUE(only_cells.cell(40, 30).contains(c));
+  // The path's first point, 20 cells south of the marked ones, is in the picture.
+  const std::vector<cv::Point2d> path{{origin.x + 35 * cell, origin.y + 20 * cell},
+                                      {origin.x + 35 * cell, origin.y + 45 * cell}};
+  const plot::NorthUpFrame with_path(mask, origin, cell, path, 5, 100);
+  EXPECT_EQ(with_path.rows().start, 15);
+  EXPECT_EQ(with_path.rows().end, 55);
+  const cv::Point start = with_path.px(path[0].x, path[0].y);
+  EXPECT_TRUE(cv::Rect(cv::Point(0, 0), with_path.size()).contains(start));
+  // Points off the grid and a margin past its edge are clamped to the grid; nothing marked = all.
+  const std::vector<cv::Point2d> far{{-50.0, -50.0}};
+  const plot::NorthUpFrame clamped(mask, origin, cell, far, 5, 100);
+  EXPECT_EQ(clamped.rows().start, 0);
+  EXPECT_EQ(clamped.cols().start, 0);
+  const plot::NorthUpFrame whole(cv::Mat(100, 80, CV_8U, cv::Scalar(0)), origin, cell, {}, 5, 700);
+  EXPECT_EQ(whole.rows(), cv::Range(0, 100));
+  EXPECT_EQ(whole.cols(), cv::Range(0, 80));
+  EXPECT_EQ(whole.scale(), 7);
+  // The shade is indexed like the grid: a step up towards the north (higher rows) faces south,
+  // away from the north-west light, so the cells on the step are darker than flat ground.
+  cv::Mat h(100, 80, CV_32F, cv::Scalar(0.0f));
+  h.rowRange(50, 100).setTo(0.2f);
+  const cv::Mat s = whole.shade(h, 1.0);
+  EXPECT_NEAR(s.at<float>(10, 10), std::sqrt(0.5), 1e-5);
+  EXPECT_LT(s.at<float>(50, 40), 0.5f);
+  EXPECT_THROW(plot::NorthUpFrame(cv::Mat(4, 4, CV_32F), origin, cell), std::invalid_argument);
+  EXPECT_THROW(plot::NorthUpFrame(mask, origin, 0.0), std::invalid_argument);
+}
+
 }  // namespace

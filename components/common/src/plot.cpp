@@ -390,6 +390,51 @@ void put_scale_bar_and_north(cv::Mat& img, double px_per_m) {
   cv::putText(img, "N", cv::Point(img.cols - 31, 66), cv::FONT_HERSHEY_SIMPLEX, 0.5, white, 1, cv::LINE_AA);
 }
 
+NorthUpFrame::NorthUpFrame(const cv::Mat& of_interest, cv::Point2d origin_m, double cell_m,
+                           std::span<const cv::Point2d> keep_in_view, int margin_cells, int target_px)
+    : origin_m_(origin_m), cell_m_(cell_m) {
+  if (of_interest.empty() || of_interest.type() != CV_8U)
+    throw std::invalid_argument("NorthUpFrame: expected a non-empty CV_8U mask of the grid");
+  if (!(cell_m > 0)) throw std::invalid_argument("NorthUpFrame: cell_m must be > 0");
+  const int R = of_interest.rows, C = of_interest.cols;
+  int r0 = R, r1 = -1, c0 = C, c1 = -1;
+  const auto take = [&](int i, int j) {
+    r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
+  };
+  for (int i = 0; i < R; ++i) {
+    const uchar* m = of_interest.ptr<uchar>(i);
+    for (int j = 0; j < C; ++j)
+      if (m[j]) take(i, j);
+  }
+  for (const cv::Point2d& p : keep_in_view) {
+    const double i = std::round((p.y - origin_m.y) / cell_m), j = std::round((p.x - origin_m.x) / cell_m);
+    if (std::isfinite(i) && std::isfinite(j))
+      take(static_cast<int>(std::clamp(i, 0.0, R - 1.0)), static_cast<int>(std::clamp(j, 0.0, C - 1.0)));
+  }
+  if (r1 < r0) r0 = c0 = 0, r1 = R - 1, c1 = C - 1;
+  margin_cells = std::max(0, margin_cells);
+  rows_ = {std::max(0, r0 - margin_cells), std::min(R - 1, r1 + margin_cells) + 1};
+  cols_ = {std::max(0, c0 - margin_cells), std::min(C - 1, c1 + margin_cells) + 1};
+  scale_ = std::max(1, target_px / std::max(rows_.size(), cols_.size()));
+}
+
+cv::Rect NorthUpFrame::cell(int row, int col) const {
+  return {(col - cols_.start) * scale_, (rows_.end - 1 - row) * scale_, scale_, scale_};
+}
+
+cv::Point NorthUpFrame::px(double x_m, double y_m) const {
+  const double j = (x_m - origin_m_.x) / cell_m_ - cols_.start, i = (y_m - origin_m_.y) / cell_m_ - rows_.start;
+  return {static_cast<int>(std::lround((j + 0.5) * scale_)),
+          static_cast<int>(std::lround((rows_.size() - 1 - i + 0.5) * scale_))};
+}
+
+cv::Mat NorthUpFrame::shade(const cv::Mat& heights_m, double exaggeration) const {
+  cv::Mat north_up, shaded;
+  cv::flip(heights_m, north_up, 0);
+  cv::flip(hillshade(north_up, cell_m_, exaggeration), shaded, 0);
+  return shaded;
+}
+
 void write_png(const std::filesystem::path& path, const cv::Mat& image) {
   bool ok = false;
   try {

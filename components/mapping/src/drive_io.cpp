@@ -359,49 +359,34 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
                         const std::vector<MapRock>& rocks) {
   const cv::Mat& el = map.layer("elevation");
   const cv::Mat& hz = map.layer("hazard");
-  // Crop to what was seen.
-  int r0 = map.rows(), r1 = -1, c0 = map.cols(), c1 = -1;
-  for (int i = 0; i < map.rows(); ++i)
-    for (int j = 0; j < map.cols(); ++j)
-      if (std::isfinite(el.at<float>(i, j))) r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
-  if (r1 < r0) r0 = c0 = 0, r1 = map.rows() - 1, c1 = map.cols() - 1;
-  r0 = std::max(0, r0 - 10), c0 = std::max(0, c0 - 10), r1 = std::min(map.rows() - 1, r1 + 10), c1 = std::min(map.cols() - 1, c1 + 10);
-  const int h = r1 - r0 + 1, w = c1 - c0 + 1;
-  const int scale = std::max(1, 700 / std::max(h, w));
-  const double res = map.resolution();
-  // Hillshade (sun from the north-west, heights x4), grey; unknown = dark blue-grey; hazard
-  // blended red. Row 0 of the map is its south edge: flipped, north is up.
-  cv::Mat north_up;
-  cv::flip(el, north_up, 0);
-  const cv::Mat shaded = plot::hillshade(north_up, res, 4.0);
-  cv::Mat img(h * scale, w * scale, CV_8UC3, cv::Scalar(60, 45, 40));
-  for (int i = 0; i < h; ++i)
-    for (int j = 0; j < w; ++j) {
-      const int mi = r0 + i, mj = c0 + j;
-      const float shade = shaded.at<float>(map.rows() - 1 - mi, mj);
+  // North up, cropped to the known cells and both paths. Hillshade (heights x4), grey; unknown =
+  // dark blue-grey; hazard blended red.
+  std::vector<cv::Point2d> paths;
+  for (const auto* p : {&corrected, &wheel})
+    for (const Pose2& q : *p) paths.emplace_back(q.x, q.y);
+  const plot::NorthUpFrame frame(el == el, {map.origin_x(), map.origin_y()}, map.resolution(), paths);
+  const cv::Mat shaded = frame.shade(el, 4.0);
+  cv::Mat img(frame.size(), CV_8UC3, cv::Scalar(60, 45, 40));
+  for (int i = frame.rows().start; i < frame.rows().end; ++i)
+    for (int j = frame.cols().start; j < frame.cols().end; ++j) {
+      const float shade = shaded.at<float>(i, j);
       if (!std::isfinite(shade)) continue;
-      double g = 60 + 180 * shade;
-      const float hv = hz.at<float>(mi, mj);
+      const double g = 60 + 180 * shade;
+      const float hv = hz.at<float>(i, j);
       const double a = std::isfinite(hv) ? std::clamp(static_cast<double>(hv), 0.0, 1.0) * 0.8 : 0.0;
-      const cv::Vec3b col(cv::saturate_cast<uchar>(g * (1 - a)), cv::saturate_cast<uchar>(g * (1 - a)),
-                          cv::saturate_cast<uchar>(g * (1 - a) + 255 * a));
-      const int y = (h - 1 - i) * scale, x = j * scale;  // north up
-      img(cv::Rect(x, y, scale, scale)).setTo(col);
+      img(frame.cell(i, j)).setTo(cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
     }
-  auto px = [&](double x, double y) {
-    const double j = (x - map.origin_x()) / res - c0, i = (y - map.origin_y()) / res - r0;
-    return cv::Point(static_cast<int>(std::lround((j + 0.5) * scale)), static_cast<int>(std::lround((h - 1 - i + 0.5) * scale)));
-  };
+  const auto px = [&](double x, double y) { return frame.px(x, y); };
   for (std::size_t k = 1; k < wheel.size(); ++k)
     cv::line(img, px(wheel[k - 1].x, wheel[k - 1].y), px(wheel[k].x, wheel[k].y), cv::Scalar(255, 120, 0), 2, cv::LINE_AA);
   for (std::size_t k = 1; k < corrected.size(); ++k)
     cv::line(img, px(corrected[k - 1].x, corrected[k - 1].y), px(corrected[k].x, corrected[k].y), cv::Scalar(0, 220, 0), 2,
              cv::LINE_AA);
   for (const MapRock& r : rocks)
-    cv::circle(img, px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m / res * scale)), cv::Scalar(0, 230, 255), 2,
-               cv::LINE_AA);
+    cv::circle(img, px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m * frame.px_per_m())),
+               cv::Scalar(0, 230, 255), 2, cv::LINE_AA);
   // Scale bar (1 m), north arrow, legend.
-  plot::put_scale_bar_and_north(img, scale / res);
+  plot::put_scale_bar_and_north(img, frame.px_per_m());
   // The hazard tint's scale (on mid-grey ground): probability of an obstacle 0 .. 1.
   const cv::Rect hb(img.cols - 150, img.rows - 26, 120, 8);
   for (int x = 0; x < hb.width; ++x) {

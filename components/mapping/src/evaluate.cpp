@@ -116,52 +116,39 @@ struct TRock {
   bool observed;
 };
 
-// What evaluate_map scored, for the overlay.
+// What evaluate_map scored, for the overlay (references to its locals, alive while it draws).
 struct Scored {
-  const cv::Mat* truth;  // true heights on the map's cells (NaN where the truth has none)
-  const cv::Mat* seen;   // cells some true camera pose saw within 5 m
-  double ox, oy, res;    // the map's cell (0, 0) centre and cell size
-  const std::vector<TRock>* rocks;
-  const std::vector<std::map<std::string, double>>* detections;
-  const std::vector<int>* rock_of_detection;  // truth index or -1
-  const std::vector<int>* detection_of_rock;  // detection index or -1
+  const cv::Mat& truth;  // true heights on the map's cells (NaN where the truth has none)
+  const cv::Mat& seen;   // cells some true camera pose saw within 5 m
+  cv::Point2d origin;    // the map's cell (0, 0) centre
+  double res;            // cell size
+  const std::vector<TRock>& rocks;
+  const std::vector<std::map<std::string, double>>& detections;
+  const std::vector<int>& rock_of_detection;  // truth index or -1
+  const std::vector<int>& detection_of_rock;  // detection index or -1
   std::vector<cv::Point2d> true_path, corrected_path, wheel_path;
   std::string title, scores;  // two lines above the legend
 };
 
 cv::Mat render_scored(const Scored& s) {
-  const cv::Mat& truth = *s.truth;
-  const cv::Mat& seen = *s.seen;
-  const int R = truth.rows, C = truth.cols;
-  // Crop to the seen cells (the whole window if none), with a margin.
-  int r0 = R, r1 = -1, c0 = C, c1 = -1;
-  for (int i = 0; i < R; ++i)
-    for (int j = 0; j < C; ++j)
-      if (seen.at<uchar>(i, j)) r0 = std::min(r0, i), r1 = std::max(r1, i), c0 = std::min(c0, j), c1 = std::max(c1, j);
-  if (r1 < r0) r0 = c0 = 0, r1 = R - 1, c1 = C - 1;
-  r0 = std::max(0, r0 - 10), c0 = std::max(0, c0 - 10), r1 = std::min(R - 1, r1 + 10), c1 = std::min(C - 1, c1 + 10);
-  const int h = r1 - r0 + 1, w = c1 - c0 + 1;
-  const int scale = std::max(1, 700 / std::max(h, w));
+  // North up, cropped to the seen cells and the paths.
+  std::vector<cv::Point2d> paths = s.true_path;
+  paths.insert(paths.end(), s.corrected_path.begin(), s.corrected_path.end());
+  paths.insert(paths.end(), s.wheel_path.begin(), s.wheel_path.end());
+  const plot::NorthUpFrame frame(s.seen, s.origin, s.res, paths);
   constexpr int kTitle = 62;  // px of the title band above the map
-  cv::Mat north_up;
-  cv::flip(truth, north_up, 0);
-  const cv::Mat shaded = plot::hillshade(north_up, s.res, 4.0);
-  cv::Mat out(h * scale + kTitle, std::max(w * scale, 720), CV_8UC3, cv::Scalar(60, 45, 40));
-  cv::Mat img = out(cv::Rect(0, kTitle, out.cols, h * scale));  // the map; drawing is clipped to it
-  for (int i = 0; i < h; ++i)
-    for (int j = 0; j < w; ++j) {
-      const int mi = r0 + i, mj = c0 + j;
-      const float shade = shaded.at<float>(R - 1 - mi, mj);
+  const cv::Mat shaded = frame.shade(s.truth, 4.0);
+  cv::Mat out(frame.size().height + kTitle, std::max(frame.size().width, 720), CV_8UC3, cv::Scalar(60, 45, 40));
+  cv::Mat img = out(cv::Rect(0, kTitle, out.cols, frame.size().height));  // the map; drawing is clipped to it
+  for (int i = frame.rows().start; i < frame.rows().end; ++i)
+    for (int j = frame.cols().start; j < frame.cols().end; ++j) {
+      const float shade = shaded.at<float>(i, j);
       if (!std::isfinite(shade)) continue;
-      const double g = (60 + 180 * shade) * (seen.at<uchar>(mi, mj) ? 1.0 : 0.45);
-      img(cv::Rect(j * scale, (h - 1 - i) * scale, scale, scale)).setTo(cv::Scalar::all(g));
+      const double g = (60 + 180 * shade) * (s.seen.at<uchar>(i, j) ? 1.0 : 0.45);
+      img(frame.cell(i, j)).setTo(cv::Scalar::all(g));
     }
-  const double px_per_m = scale / s.res;
-  const auto px = [&](double x, double y) {
-    const double j = (x - s.ox) / s.res - c0, i = (y - s.oy) / s.res - r0;
-    return cv::Point(static_cast<int>(std::lround((j + 0.5) * scale)),
-                     static_cast<int>(std::lround((h - 1 - i + 0.5) * scale)));
-  };
+  const double px_per_m = frame.px_per_m();
+  const auto px = [&](double x, double y) { return frame.px(x, y); };
   const auto polyline = [&](const std::vector<cv::Point2d>& path, const cv::Scalar& colour, int thickness) {
     for (std::size_t k = 1; k < path.size(); ++k)
       cv::line(img, px(path[k - 1].x, path[k - 1].y), px(path[k].x, path[k].y), colour, thickness, cv::LINE_AA);
@@ -171,23 +158,23 @@ cv::Mat render_scored(const Scored& s) {
   polyline(s.corrected_path, {0, 220, 0}, 2);
   const cv::Scalar kMatched(0, 230, 255), kMissed(0, 0, 255), kFalse(255, 0, 255), kOther(170, 170, 170);
   // True footprints (north up: the image's y runs south, so the angle turns the other way).
-  for (std::size_t a = 0; a < s.rocks->size(); ++a) {
-    const TRock& t = (*s.rocks)[a];
+  for (std::size_t a = 0; a < s.rocks.size(); ++a) {
+    const TRock& t = s.rocks[a];
     if (t.h < 0.10) continue;
-    const bool scored = t.observed, hit = (*s.detection_of_rock)[a] >= 0;
+    const bool scored = t.observed, hit = s.detection_of_rock[a] >= 0;
     const cv::Scalar colour = !scored ? kOther : (hit ? kMatched : kMissed);
     const cv::Size axes(std::max(2, static_cast<int>(std::lround(0.5 * t.w * px_per_m))),
                         std::max(2, static_cast<int>(std::lround(0.5 * t.l * px_per_m))));
     cv::ellipse(img, px(t.x, t.y), axes, -t.yaw * 180.0 / 3.14159265358979323846, 0, 360, colour, scored ? 2 : 1,
                 cv::LINE_8);
   }
-  for (std::size_t b = 0; b < s.detections->size(); ++b) {
-    const auto& d = (*s.detections)[b];
+  for (std::size_t b = 0; b < s.detections.size(); ++b) {
+    const auto& d = s.detections[b];
     const cv::Point p = px(d.at("x_m"), d.at("y_m"));
-    const int a = (*s.rock_of_detection)[b];
+    const int a = s.rock_of_detection[b];
     cv::Scalar colour = kFalse;
     if (a >= 0) {
-      const TRock& t = (*s.rocks)[static_cast<std::size_t>(a)];
+      const TRock& t = s.rocks[static_cast<std::size_t>(a)];
       const bool scored_hit = t.observed && t.h >= 0.10;
       colour = scored_hit ? kMatched : kOther;
       if (scored_hit) cv::line(img, p, px(t.x, t.y), colour, 1, cv::LINE_8);
@@ -390,15 +377,19 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
     }
   out["hazard"] = {{"cells", scores.size()}, {"auc", auc(scores)}};
   if (!overlay.empty()) {
-    Scored sc{&truth, &seen, mox, moy, mres, &truth_rocks, &det, &t_of, &d_of, {}, {}, {}, {}, {}};
+    Scored sc{truth, seen, {mox, moy}, mres, truth_rocks, det, t_of, d_of, {}, {}, {}, {}, {}};
     for (const auto& [f, t] : tp) sc.true_path.emplace_back(t.at("rover_x_m"), t.at("rover_y_m"));
     for (const auto& e : est) {
       sc.corrected_path.emplace_back(e.at("x_m"), e.at("y_m"));
       sc.wheel_path.emplace_back(e.at("wheel_x_m"), e.at("wheel_y_m"));
     }
+    // The drive's name, also when its path was given with a trailing slash.
+    std::error_code ec;
+    const fs::path whole = fs::absolute(drive_dir / "", ec);
+    const std::string drive_name = (ec ? drive_dir / "" : whole).lexically_normal().parent_path().filename().string();
     char buf[256];
     std::snprintf(buf, sizeof buf, "%s: rocks >= 10 cm seen %d: %d hit, %d missed; %d false alarms; F1 %.2f",
-                  drive_dir.filename().string().c_str(), positives, hits, positives - hits, false_alarms,
+                  drive_name.c_str(), positives, hits, positives - hits, false_alarms,
                   out["rocks"]["f1"].get<double>());
     sc.title = buf;
     std::snprintf(

@@ -97,6 +97,36 @@ void put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entrie
 /// left and a north arrow at its top right, white.
 void put_scale_bar_and_north(cv::Mat& img, double px_per_m);
 
+/// The frame of a north-up picture of a metric grid whose row 0 is its south edge and whose cell
+/// (0, 0) is centred at `origin_m` (a mapping::WorldMap layer, a drive's truth on it): the grid
+/// cropped to the cells marked in `of_interest` (CV_8U, the grid's size; the whole grid when none
+/// is marked) and the world points `keep_in_view` (a path that starts before the first seen cell),
+/// with `margin_cells` around, clamped to the grid; every cell a square of scale() px, so that
+/// the longer side of the picture is about `target_px` (at least 1 px per cell).
+class NorthUpFrame {
+ public:
+  NorthUpFrame(const cv::Mat& of_interest, cv::Point2d origin_m, double cell_m,
+               std::span<const cv::Point2d> keep_in_view = {}, int margin_cells = 10, int target_px = 700);
+  cv::Size size() const { return {cols_.size() * scale_, rows_.size() * scale_}; }  ///< px
+  int scale() const { return scale_; }                                              ///< px per cell
+  double px_per_m() const { return scale_ / cell_m_; }
+  cv::Range rows() const { return rows_; }  ///< the grid rows in the picture
+  cv::Range cols() const { return cols_; }  ///< the grid columns in the picture
+  /// The picture's square of grid cell (row, col), a cell of rows() x cols().
+  cv::Rect cell(int row, int col) const;
+  /// A world point (m) in the picture (a cell's centre is its square's centre).
+  cv::Point px(double x_m, double y_m) const;
+  /// hillshade() of a grid layer (heights in m) lit from the north-west of the picture, indexed
+  /// like the grid (row 0 south).
+  cv::Mat shade(const cv::Mat& heights_m, double exaggeration) const;
+
+ private:
+  cv::Point2d origin_m_;
+  double cell_m_;
+  cv::Range rows_, cols_;
+  int scale_ = 1;
+};
+
 /// cv::imwrite with a clear std::runtime_error naming the file on failure.
 void write_png(const std::filesystem::path& path, const cv::Mat& image);
 
