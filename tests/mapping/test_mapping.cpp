@@ -1268,6 +1268,51 @@ TEST(EvaluateMap, TheOverlayShowsHitsMissesAndFalseAlarms) {
   }
 }
 
+// A scorer fed a broken file says which file and which field, not "map::at".
+TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
+  const regolith::testing::TempDir tmp("mapping_eval_bad");
+  const HandScoredDrive hd(tmp.path());
+  hd.detections("0.02,1.52,0.18,0.3,1\n");
+  ASSERT_EQ(evaluate_map(hd.drive, hd.map)["rocks"]["hits"].get<int>(), 1);
+  const auto expect_error = [&](const std::string& needle) {
+    try {
+      evaluate_map(hd.drive, hd.map);
+      ADD_FAILURE() << "expected an error containing '" << needle << "'";
+    } catch (const regolith::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  const auto write = [](const fs::path& p, const std::string& text) { std::ofstream(p) << text; };
+  const std::string odometry =
+      "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
+      "0,0,0,1.5707963,0,0,1.5707963\n1,0,0.1,1.5707963,0,0.11,1.5707963\n";
+  write(hd.map / "odometry.csv", "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m\n0,0,0,1.57,0,0\n");
+  expect_error("odometry.csv: no column 'wheel_yaw_rad'");
+  write(hd.map / "odometry.csv",
+        "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n0,0,0,1.57,0,0,1.57\n1e12,0,0,0,0,0,0\n");
+  expect_error("odometry.csv:3: frame: must be a whole number");
+  write(hd.map / "odometry.csv", "");
+  expect_error("odometry.csv: empty");
+  write(hd.map / "odometry.csv", odometry);
+  hd.detections("");
+  write(hd.map / "rocks.csv", "x_m,y_m,score\n0,1.5,1\n");
+  expect_error("rocks.csv: no column 'height_m'");
+  hd.detections("0.02,1.52,0.18,0.3,1\n");
+  cv::imwrite((hd.map / "hazard.tiff").string(), cv::Mat(50, 100, CV_32F, cv::Scalar(0.1)));
+  expect_error("hazard.tiff: 100x50 cells, elevation.tiff has 100x100");
+  cv::imwrite((hd.map / "hazard.tiff").string(), cv::Mat(100, 100, CV_32F, cv::Scalar(0.1)));
+  write(hd.drive / "truth.json", R"({"rocks": [{"x_m": 0.0, "y_m": 1.5, "width_m": 0.3}]})");
+  expect_error("truth.json: rocks[0]: observed: must be true or false");
+  write(hd.drive / "truth.json", R"({"rocks": [{"x_m": 0.0, "y_m": 1.5, "width_m": 0.3, "observed": true}]})");
+  expect_error("truth.json: rocks[0]: height_above_ground_m: missing");
+  write(hd.drive / "truth.json", R"({"rocks": 3})");
+  expect_error("truth.json: rocks: must be an array");
+  // A short row reads its missing cells as unknown, not past the end.
+  write(hd.drive / "truth.json", R"({"rocks": []})");
+  write(hd.map / "odometry.csv", odometry + "2,0\n");
+  EXPECT_EQ(evaluate_map(hd.drive, hd.map)["rocks"]["hits"].get<int>(), 0);
+}
+
 // The independent development drives (../shared/data/synthetic_dev/traverse): the corrected pose
 // must beat the drifting wheel odometry it starts from.
 TEST(DevelopmentDrives, CorrectedPosesBeatWheelOdometry) {

@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <initializer_list>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -22,27 +24,43 @@ namespace regolith::mapping {
 namespace fs = std::filesystem;
 namespace {
 
-// CSV with a header -> rows of named doubles (non-numeric cells are NaN).
-std::vector<std::map<std::string, double>> read_csv(const fs::path& p) {
+// A CSV table with a header -> rows of named doubles, every column of the header in every row (a
+// missing or non-numeric cell is NaN). The columns the caller reads (`required`) must be in the
+// header, and a required `frame` must be a whole number 0..2^31-1 on every row: else an InputError
+// naming the file, the column and the line.
+std::vector<std::map<std::string, double>> read_csv(const fs::path& p,
+                                                    std::initializer_list<std::string_view> required) {
   std::ifstream f(p);
   if (!f) throw InputError(p.string() + ": cannot open");
   std::vector<std::string> header;
   std::vector<std::map<std::string, double>> rows;
+  const bool frames = std::find(required.begin(), required.end(), "frame") != required.end();
+  int line_no = 0;
   for (std::string line; std::getline(f, line);) {
+    ++line_no;
     const std::vector<std::string> cells = split_csv_line(trim_blanks(line));
     if (cells.empty()) continue;
     if (header.empty()) {
       header = cells;
+      for (std::string_view c : required)
+        if (std::find(header.begin(), header.end(), c) == header.end())
+          throw InputError(p.string() + ": no column '" + std::string(c) + "' in the header");
       continue;
     }
     std::map<std::string, double> r;
-    for (std::size_t k = 0; k < header.size() && k < cells.size(); ++k) {
+    for (std::size_t k = 0; k < header.size(); ++k) {
       char* end = nullptr;
-      const double v = std::strtod(cells[k].c_str(), &end);
-      r[header[k]] = (end && *end == '\0' && !cells[k].empty()) ? v : std::nan("");
+      const double v = k < cells.size() ? std::strtod(cells[k].c_str(), &end) : std::nan("");
+      r[header[k]] = (k < cells.size() && end && *end == '\0' && !cells[k].empty()) ? v : std::nan("");
+    }
+    if (frames) {
+      const double fr = r.at("frame");
+      if (!(fr >= 0.0 && fr <= 2147483647.0) || fr != std::floor(fr))
+        throw InputError(p.string() + ":" + std::to_string(line_no) + ": frame: must be a whole number 0..2^31-1");
     }
     rows.push_back(std::move(r));
   }
+  if (header.empty()) throw InputError(p.string() + ": empty (no header line)");
   return rows;
 }
 
@@ -204,8 +222,11 @@ cv::Mat render_scored(const Scored& s) {
 nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, const fs::path& overlay) {
   nlohmann::json out;
   const RecordedDrive drive = read_drive(drive_dir);
-  const auto truth_poses = read_csv(drive_dir / "truth_poses.csv");
-  const auto est = read_csv(map_dir / "odometry.csv");
+  const auto truth_poses = read_csv(
+      drive_dir / "truth_poses.csv",
+      {"frame", "rover_x_m", "rover_y_m", "rover_yaw_rad", "x_m", "y_m", "z_m", "yaw_rad", "pitch_rad", "roll_rad"});
+  const auto est =
+      read_csv(map_dir / "odometry.csv", {"frame", "x_m", "y_m", "yaw_rad", "wheel_x_m", "wheel_y_m", "wheel_yaw_rad"});
   // --- poses
   std::map<int, std::map<std::string, double>> tp;
   for (const auto& r : truth_poses) tp[static_cast<int>(r.at("frame"))] = r;
@@ -245,6 +266,10 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
   const cv::Mat elev = read_float(map_dir / "elevation.tiff");
   const cv::Mat hazard = read_float(map_dir / "hazard.tiff");
   const cv::Mat th = read_float(drive_dir / "height.tiff");
+  if (hazard.size() != elev.size())
+    throw InputError((map_dir / "hazard.tiff").string() + ": " + std::to_string(hazard.cols) + "x" +
+                     std::to_string(hazard.rows) + " cells, elevation.tiff has " + std::to_string(elev.cols) + "x" +
+                     std::to_string(elev.rows));
   const std::string mname = (map_dir / "map.json").string(), gname = (drive_dir / "grid.json").string();
   const double mox = json_number(mj, mname, "origin_x_m"), moy = json_number(mj, mname, "origin_y_m"),
                mres = json_number(mj, mname, "resolution_m");
@@ -315,14 +340,22 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
                 {"elevation_detail_r", pearson(de, dt)}};
 
   // --- rocks and hazard
-  const nlohmann::json tj = read_json_file((drive_dir / "truth.json").string(), "truth (truth.json)");
+  const std::string tname = (drive_dir / "truth.json").string();
+  const nlohmann::json tj = read_json_file(tname, "truth (truth.json)");
+  if (!tj.is_object() || !tj.contains("rocks") || !tj["rocks"].is_array())
+    throw InputError(tname + ": rocks: must be an array");
   std::vector<TRock> truth_rocks;
-  for (const auto& r : tj.at("rocks"))
-    truth_rocks.push_back({r.at("x_m").get<double>(), r.at("y_m").get<double>(), r.at("height_above_ground_m").get<double>(),
-                           std::max(r.at("width_m").get<double>(), r.at("length_m").get<double>()),
-                           r.at("major_axis_m").get<double>(), r.at("minor_axis_m").get<double>(),
-                           r.at("yaw_deg").get<double>() * 3.14159265358979323846 / 180, r.at("observed").get<bool>()});
-  const auto det = read_csv(map_dir / "rocks.csv");
+  for (std::size_t q = 0; q < tj["rocks"].size(); ++q) {
+    const nlohmann::json& r = tj["rocks"][q];
+    const std::string at = tname + ": rocks[" + std::to_string(q) + "]";
+    const auto num = [&](const char* key) { return json_number(r, at, key); };
+    if (!r.is_object() || !r.contains("observed") || !r["observed"].is_boolean())
+      throw InputError(at + ": observed: must be true or false");
+    truth_rocks.push_back({num("x_m"), num("y_m"), num("height_above_ground_m"),
+                           std::max(num("width_m"), num("length_m")), num("major_axis_m"), num("minor_axis_m"),
+                           num("yaw_deg") * 3.14159265358979323846 / 180, r["observed"].get<bool>()});
+  }
+  const auto det = read_csv(map_dir / "rocks.csv", {"x_m", "y_m", "height_m"});
   std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
   for (std::size_t a = 0; a < truth_rocks.size(); ++a)
     for (std::size_t b = 0; b < det.size(); ++b) {
