@@ -2,9 +2,7 @@
 // moving mock rover (tests/mapping/terrain_map_test.yaml, simulated clock) in a child process;
 // this process subscribes to odom, odom/wheel (nav_msgs/Odometry) and terrain/world_map
 // (grid_map_msgs/GridMap) and checks the values against the mock's exact path.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "dds_test_util.hpp"
 #include "regolith/dds/reader.hpp"
 #include "regolith/dds/sample.hpp"
@@ -23,8 +22,8 @@
 #include "regolith/terrain_scene/drive.hpp"
 #include "temp_dir.hpp"
 
-extern char** environ;
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 namespace rd = regolith::dds;
 namespace tst = regolith::dds::testing;
 namespace m = regolith::msgs;
@@ -32,13 +31,6 @@ using regolith::kNsPerMs;
 using regolith::kNsPerSec;
 
 namespace {
-
-std::string slurp(const std::string& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 void replace_once(std::string& s, const std::string& find, const std::string& with) {
   const auto at = s.find(find);
@@ -105,7 +97,7 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   const std::string ns = tst::unique_ns();
   const regolith::testing::TempDir tmp("map_dds");  // removed whatever the outcome
   const fs::path& dir = tmp.path();
-  std::string yaml = slurp(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
+  std::string yaml = rt::read_file(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
   replace_once(yaml, "domain: 0", "domain: " + std::to_string(domain));
   replace_once(yaml, "namespace: maptest", "namespace: " + ns);
   const fs::path cfg = dir / "terrain_map_test.yaml";
@@ -125,16 +117,8 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
                                 "--duration", "16",         "--quiet",    "--wait-for",       "odom",
                                 "--wait-for", "odom/wheel", "--wait-for", "terrain/world_map", "--wait-for", "/tf",
                                 "--wait-for", "/clock"};
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, (out + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  ASSERT_EQ(posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ), 0);
-  posix_spawn_file_actions_destroy(&fa);
+  const pid_t pid = rt::spawn(args, out);
+  ASSERT_GT(pid, 0);
 
   std::vector<OdomSample> corrected, wheels;
   std::vector<Tf> dynamic_tf, static_tf;
@@ -188,17 +172,19 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
         100);
   };
   int status = 0;
+  bool exited = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (waitpid(pid, &status, WNOHANG) == 0 && std::chrono::steady_clock::now() < deadline) {
+  while (!(exited = waitpid(pid, &status, WNOHANG) == pid) && std::chrono::steady_clock::now() < deadline) {
     odom.wait(50 * kNsPerMs);
     drain();
   }
+  if (!exited) rt::wait_exit(pid, std::chrono::milliseconds(0));  // killed and reaped, not left running
   for (int k = 0; k < 10; ++k) {  // what is still in flight
     odom.wait(20 * kNsPerMs);
     drain();
   }
-  ASSERT_TRUE(WIFEXITED(status)) << "the rover did not finish";
-  EXPECT_EQ(WEXITSTATUS(status), 0) << slurp(out + ".err");
+  ASSERT_TRUE(exited) << "the rover did not finish in 120 s";
+  EXPECT_EQ(rt::exit_status(status), 0) << rt::read_file(out + ".err");
 
   // 15 s of driving at 2 Hz (frames 0..30), the 16th second standing on the last frame.
   ASSERT_EQ(corrected.size(), 31u);

@@ -3,11 +3,7 @@
 // does not exist) exits 3, which the unit restarts; a device that is there but cannot do what the
 // deployment asks exits 2 (RestartPreventExitStatus=2), like any configuration error. The host
 // kernel needs neither V4L2 nor SocketCAN for this: the devices are absent everywhere.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -16,10 +12,11 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "temp_dir.hpp"
 
-extern char** environ;
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 
 namespace {
 
@@ -28,13 +25,6 @@ struct Result {
   std::string out;
   std::string err;
 };
-
-std::string slurp(const fs::path& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> out;
@@ -64,28 +54,17 @@ class StartupExitStatus : public ::testing::Test {
 
   Result run(const std::vector<std::string>& args) {
     const fs::path out = dir_ / "stdout.txt";
-    const fs::path err = dir_ / "stderr.txt";
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     std::vector<std::string> all{REGOLITH_EXE};
     all.insert(all.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = -1;
     Result r;
-    const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) {
+    const pid_t pid = rt::spawn(all, out);
+    if (pid <= 0) {
       r.err = "posix_spawn failed";
       return r;
     }
-    int status = 0;
-    if (waitpid(pid, &status, 0) == pid) r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.out = slurp(out);
-    r.err = slurp(err);
+    r.status = rt::wait_exit(pid);
+    r.out = rt::read_file(out);
+    r.err = rt::read_file(out.string() + ".err");
     return r;
   }
 

@@ -12,14 +12,11 @@
 //    start-up under TCG costs 5-10 s per process; libcamera is covered by test_hw_libcamera);
 //  * the `rear` V4L2 camera and its consumer `soil` are removed: vivid offers one capture node
 //    and the wheel camera holds it.
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
-#include <spawn.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -36,13 +33,15 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "hw_util.hpp"
+#include "json_lines.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
 #include "temp_dir.hpp"
 #include "test_domain.hpp"
 
-extern char** environ;
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 using namespace regolith;
 
 namespace {
@@ -54,55 +53,6 @@ constexpr double kScale = 1.5339808e-3;    // rad/count in the shipped file
 /// Count sent for wheel `w` in round `r`: distinct per wheel, increasing per round, signed values too.
 std::int32_t count_for(int w, int r) {
   return (w % 2 == 0 ? 1 : -1) * (1000 * (w + 1) + r);
-}
-
-pid_t spawn(const std::vector<std::string>& args, const std::string& out_file) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, (out_file + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-/// Exit code; a child still running after `timeout_s` is killed (bounded: never hangs the suite).
-int wait_exit(pid_t pid, double timeout_s) {
-  int status = 0;
-  pid_t r = 0;
-  hwtest::wait_until([&] { return (r = waitpid(pid, &status, WNOHANG)) != 0; }, timeout_s);
-  if (r == 0) {
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
-    return -2;
-  }
-  if (r != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-std::vector<nlohmann::json> read_json_lines(const std::string& file) {
-  std::vector<nlohmann::json> out;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (!line.empty()) out.push_back(nlohmann::json::parse(line));
-  }
-  return out;
-}
-
-std::string slurp(const std::string& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-long long stamp_ns(const nlohmann::json& m) {
-  return m["header"]["stamp"]["sec"].get<long long>() * 1000000000LL + m["header"]["stamp"]["nanosec"].get<long long>();
 }
 
 /// Drops `name` from a YAML map, failing the test when it is not there.
@@ -237,33 +187,33 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   const std::string run_out = (dir / "run.txt").string();
   constexpr int kJointSamples = 40;  // ~50 fresh samples/s are sent for 6 s
   constexpr int kDiagSamples = 8;    // health runs at 2 Hz for 6 s
-  const pid_t js = spawn({exe, "echo", "joint_states", "--count", std::to_string(kJointSamples), "--timeout", "45",
-                          "--namespace", ns, "--domain", std::to_string(domain)},
-                         js_out);
-  const pid_t diag = spawn({exe, "echo", "/diagnostics", "--count", std::to_string(kDiagSamples), "--timeout", "45",
-                            "--namespace", ns, "--domain", std::to_string(domain)},
-                           diag_out);
+  const pid_t js = rt::spawn({exe, "echo", "joint_states", "--count", std::to_string(kJointSamples), "--timeout", "45",
+                              "--namespace", ns, "--domain", std::to_string(domain)},
+                             js_out);
+  const pid_t diag = rt::spawn({exe, "echo", "/diagnostics", "--count", std::to_string(kDiagSamples), "--timeout", "45",
+                                "--namespace", ns, "--domain", std::to_string(domain)},
+                               diag_out);
   ASSERT_GT(js, 0);
   ASSERT_GT(diag, 0);
   EncoderFeeder feeder(can_fd);
-  const pid_t rover = spawn({exe, "run", "--config", cfg_file.string(), "--duration", "6", "--quiet", "--wait-for",
-                             "joint_states", "--wait-for", "/diagnostics", "--wait-timeout", "30"},
-                            run_out);
+  const pid_t rover = rt::spawn({exe, "run", "--config", cfg_file.string(), "--duration", "6", "--quiet", "--wait-for",
+                                 "joint_states", "--wait-for", "/diagnostics", "--wait-timeout", "30"},
+                                run_out);
   ASSERT_GT(rover, 0);
-  const int rover_rc = wait_exit(rover, 50);
-  const int js_rc = wait_exit(js, 10);
-  const int diag_rc = wait_exit(diag, 10);
+  const int rover_rc = rt::wait_exit(rover, std::chrono::seconds(50));
+  const int js_rc = rt::wait_exit(js, std::chrono::seconds(10));
+  const int diag_rc = rt::wait_exit(diag, std::chrono::seconds(10));
   feeder.stop();
   close(can_fd);
-  EXPECT_EQ(rover_rc, 0) << "regolith run: " << slurp(run_out + ".err");
-  EXPECT_EQ(js_rc, 0) << "echo joint_states: " << slurp(js_out + ".err");
-  EXPECT_EQ(diag_rc, 0) << "echo /diagnostics: " << slurp(diag_out + ".err");
+  EXPECT_EQ(rover_rc, 0) << "regolith run: " << rt::read_file(run_out + ".err");
+  EXPECT_EQ(js_rc, 0) << "echo joint_states: " << rt::read_file(js_out + ".err");
+  EXPECT_EQ(diag_rc, 0) << "echo /diagnostics: " << rt::read_file(diag_out + ".err");
   EXPECT_EQ(feeder.write_errors(), 0);
   const int rounds = feeder.rounds();
   ASSERT_GT(rounds, 0);
 
   // ---- joint_states: the counts sent, in order, with increasing stamps
-  const auto joints = read_json_lines(js_out);
+  const auto joints = rt::read_json_lines(js_out);
   ASSERT_EQ(static_cast<int>(joints.size()), kJointSamples);
   ASSERT_EQ(joints.front()["name"].size(), static_cast<std::size_t>(kWheels));
   EXPECT_EQ(joints.front()["name"][0], "wheel_fl");
@@ -272,7 +222,7 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   std::set<int> rounds_seen;
   for (std::size_t i = 0; i < joints.size(); ++i) {
     if (i > 0) {
-      EXPECT_GT(stamp_ns(joints[i]), stamp_ns(joints[i - 1])) << "joint_states sample " << i;
+      EXPECT_GT(rt::header_stamp_ns(joints[i]), rt::header_stamp_ns(joints[i - 1])) << "joint_states sample " << i;
     }
     ASSERT_EQ(joints[i]["position"].size(), static_cast<std::size_t>(kWheels));
     for (int k = 0; k < kWheels; ++k) {
@@ -296,9 +246,10 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
       << "encoder values did not follow the frames sent";
 
   // ---- diagnostics: the camera and the encoders streaming, no faults
-  const auto diags = read_json_lines(diag_out);
+  const auto diags = rt::read_json_lines(diag_out);
   ASSERT_EQ(static_cast<int>(diags.size()), kDiagSamples);
-  for (std::size_t i = 1; i < diags.size(); ++i) EXPECT_GT(stamp_ns(diags[i]), stamp_ns(diags[i - 1]));
+  for (std::size_t i = 1; i < diags.size(); ++i)
+    EXPECT_GT(rt::header_stamp_ns(diags[i]), rt::header_stamp_ns(diags[i - 1]));
   long long first_frames = -1;
   for (const auto& d : diags) {
     const nlohmann::json* cam = find_status(d, "camera: wheel_cam");

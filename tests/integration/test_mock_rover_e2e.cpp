@@ -1,68 +1,25 @@
 // End to end: `regolith run --config config/mock_rover.yaml --sim-time --duration 10` in one
+#include "child_process.hpp"
+#include "json_lines.hpp"
 #include "temp_dir.hpp"
 #include "test_domain.hpp"
 // process, `regolith echo` subscribers in two others; every JointState and DiagnosticArray sample
 // arrives, with increasing stamps. The deployment gets a namespace and domain of its own so
 // parallel runs cannot cross-talk.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-extern char** environ;
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 
 namespace {
-
-pid_t spawn(const std::vector<std::string>& args, const std::string& out_file) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, (out_file + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-int wait_exit(pid_t pid) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-std::vector<nlohmann::json> read_json_lines(const std::string& file) {
-  std::vector<nlohmann::json> out;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (!line.empty()) out.push_back(nlohmann::json::parse(line));
-  }
-  return out;
-}
-
-std::string slurp(const std::string& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-long long stamp_ns(const nlohmann::json& m) {
-  return m["header"]["stamp"]["sec"].get<long long>() * 1000000000LL + m["header"]["stamp"]["nanosec"].get<long long>();
-}
 
 }  // namespace
 
@@ -97,29 +54,33 @@ TEST(MockRoverEndToEnd, SubscribersInOtherProcessesReceiveEverySample) {
   const std::string exe = REGOLITH_EXE;
   const std::string js_out = (dir / "joint_states.jsonl").string();
   const std::string diag_out = (dir / "diagnostics.jsonl").string();
-  const pid_t js = spawn({exe, "echo", "joint_states", "--count", std::to_string(expect_js), "--timeout", "60",
-                          "--namespace", ns, "--domain", domain}, js_out);
-  const pid_t diag = spawn({exe, "echo", "/diagnostics", "--count", std::to_string(expect_diag), "--timeout", "60",
-                            "--namespace", ns, "--domain", domain}, diag_out);
+  const pid_t js = rt::spawn({exe, "echo", "joint_states", "--count", std::to_string(expect_js), "--timeout", "60",
+                              "--namespace", ns, "--domain", domain},
+                             js_out);
+  const pid_t diag = rt::spawn({exe, "echo", "/diagnostics", "--count", std::to_string(expect_diag), "--timeout", "60",
+                                "--namespace", ns, "--domain", domain},
+                               diag_out);
   ASSERT_GT(js, 0);
   ASSERT_GT(diag, 0);
-  const pid_t rover = spawn({exe, "run", "--config", cfg_file.string(), "--sim-time", "--duration", "10",
-                             "--wait-for", "joint_states", "--wait-for", "/diagnostics", "--quiet"}, (dir / "run.txt").string());
+  const pid_t rover = rt::spawn({exe, "run", "--config", cfg_file.string(), "--sim-time", "--duration", "10",
+                                 "--wait-for", "joint_states", "--wait-for", "/diagnostics", "--quiet"},
+                                (dir / "run.txt").string());
   ASSERT_GT(rover, 0);
-  EXPECT_EQ(wait_exit(rover), 0) << slurp((dir / "run.txt.err").string());
-  EXPECT_EQ(wait_exit(js), 0) << slurp(js_out + ".err");
-  EXPECT_EQ(wait_exit(diag), 0) << slurp(diag_out + ".err");
+  EXPECT_EQ(rt::wait_exit(rover), 0) << rt::read_file((dir / "run.txt.err").string());
+  EXPECT_EQ(rt::wait_exit(js), 0) << rt::read_file(js_out + ".err");
+  EXPECT_EQ(rt::wait_exit(diag), 0) << rt::read_file(diag_out + ".err");
 
-  const auto joints = read_json_lines(js_out);
+  const auto joints = rt::read_json_lines(js_out);
   ASSERT_EQ(static_cast<int>(joints.size()), expect_js);
   EXPECT_EQ(joints.front()["name"].size(), 6u);
   for (std::size_t i = 1; i < joints.size(); ++i) {
-    EXPECT_GT(stamp_ns(joints[i]), stamp_ns(joints[i - 1])) << "sample " << i;
+    EXPECT_GT(rt::header_stamp_ns(joints[i]), rt::header_stamp_ns(joints[i - 1])) << "sample " << i;
     EXPECT_GE(joints[i]["position"][0].get<double>(), joints[i - 1]["position"][0].get<double>());
   }
-  const auto diags = read_json_lines(diag_out);
+  const auto diags = rt::read_json_lines(diag_out);
   ASSERT_EQ(static_cast<int>(diags.size()), expect_diag);
-  for (std::size_t i = 1; i < diags.size(); ++i) EXPECT_GT(stamp_ns(diags[i]), stamp_ns(diags[i - 1]));
+  for (std::size_t i = 1; i < diags.size(); ++i)
+    EXPECT_GT(rt::header_stamp_ns(diags[i]), rt::header_stamp_ns(diags[i - 1]));
   // The last report names every component, each healthy.
   bool saw_joint_component = false;
   for (const auto& st : diags.back()["status"]) {

@@ -3,18 +3,16 @@
 // free port, and tests/live/js/client.js (Foxglove's @foxglove/ws-protocol client, schemas parsed
 // by @foxglove/rosmsg, CDR decoded by @foxglove/rosmsg2-serialization) runs as a child process:
 // serverInfo, every advertised channel (ros2msg / cdr) and the decoded names and positions.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
-#include <map>
-#include <memory>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -22,48 +20,27 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "cli_support.hpp"
 #include "dds_test_util.hpp"
-#include "regolith/dds/reader.hpp"
-#include "regolith/runtime/application.hpp"
 #include "regolith/dds/participant.hpp"
+#include "regolith/dds/reader.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/live/dds_relay.hpp"
+#include "regolith/runtime/application.hpp"
 #include "temp_dir.hpp"
-
-extern char** environ;
 
 namespace {
 
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 namespace rd = regolith::dds;
 namespace rl = regolith::live;
 namespace m = regolith::msgs;
 using nlohmann::json;
 
 constexpr int kMessages = 5;
-
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, 2, (log.string() + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 double joint_position(int i, int j) {
   return 0.01 * i + j;
@@ -96,7 +73,8 @@ TEST(LiveNode, FoxgloveClientDecodesRelayedJointStates) {
   relay.start();
   const std::string url = "ws://127.0.0.1:" + std::to_string(relay.server().port());
   const std::string topic = "/" + ns + "/joint_states";
-  const pid_t pid = spawn({REGOLITH_NODE, (js_dir / "client.js").string(), url, topic, std::to_string(kMessages)}, log);
+  const pid_t pid =
+      rt::spawn({REGOLITH_NODE, (js_dir / "client.js").string(), url, topic, std::to_string(kMessages)}, log);
   ASSERT_GT(pid, 0);
 
   // Publish a steady stream until the client has its messages (it subscribes after advertise).
@@ -129,10 +107,10 @@ TEST(LiveNode, FoxgloveClientDecodesRelayedJointStates) {
   }
   relay.stop();
   pub.stop();
-  const std::string out = slurp(log);
-  const std::string err = slurp(log.string() + ".err");
+  const std::string out = rt::read_file(log);
+  const std::string err = rt::read_file(log.string() + ".err");
   std::printf("%s", out.c_str());
-  ASSERT_TRUE(exited && WIFEXITED(status) && WEXITSTATUS(status) == 0) << out << err;
+  ASSERT_TRUE(exited && rt::exit_status(status) == 0) << out << err;
 
   std::istringstream lines(out);
   std::string line;
@@ -264,7 +242,7 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   rl::DdsRelay relay(*app->dds(), opt);
   relay.start();
   const std::string url = "ws://127.0.0.1:" + std::to_string(relay.server().port());
-  const pid_t pid = spawn({REGOLITH_NODE, (js_dir / "client.js").string(), url, "*", "3"}, log);
+  const pid_t pid = rt::spawn({REGOLITH_NODE, (js_dir / "client.js").string(), url, "*", "3"}, log);
   ASSERT_GT(pid, 0);
   // The client subscribes to every channel before the rover starts.
   const bool subscribed = rd::testing::eventually(
@@ -274,7 +252,7 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
         return true;
       },
       std::chrono::seconds(60));
-  ASSERT_TRUE(subscribed) << slurp(log) << slurp(log.string() + ".err");
+  ASSERT_TRUE(subscribed) << rt::read_file(log) << rt::read_file(log.string() + ".err");
 
   std::atomic<bool> stop{false};
   app->start();
@@ -286,19 +264,11 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   rd::testing::eventually([&] { return relay.samples() > before; }, std::chrono::seconds(2));
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   relay.stop();
-  int status = 0;
-  bool exited = false;
-  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (std::chrono::steady_clock::now() < end && !(exited = waitpid(pid, &status, WNOHANG) == pid))
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  if (!exited) {
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
-  }
+  const int client_status = rt::wait_exit(pid, std::chrono::seconds(60));
   stop_ref = true;
   taker.join();
-  const std::string out = slurp(log), err = slurp(log.string() + ".err");
-  ASSERT_TRUE(exited && WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  const std::string out = rt::read_file(log), err = rt::read_file(log.string() + ".err");
+  ASSERT_EQ(client_status, 0) << err;
 
   std::map<std::string, int> decoded, matched;
   std::istringstream lines(out);

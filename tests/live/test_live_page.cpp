@@ -5,13 +5,10 @@
 // compared with the runtime's own JSON rendering; and, when Debian's chromium is installed, the
 // page rendered headless against a fake rover: panels filled (DOM) and a non-blank screenshot.
 #include <arpa/inet.h>
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
-#include <spawn.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -33,6 +30,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "dds_test_util.hpp"
 #include "regolith/dds/json.hpp"
 #include "regolith/dds/participant.hpp"
@@ -40,14 +38,13 @@
 #include "regolith/dds/topics.hpp"
 #include "regolith/live/dds_relay.hpp"
 #include "regolith/live/web_root.hpp"
-#include "ws_test_client.hpp"
 #include "temp_dir.hpp"
-
-extern char** environ;
+#include "ws_test_client.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 namespace rd = regolith::dds;
 namespace rl = regolith::live;
 namespace m = regolith::msgs;
@@ -137,53 +134,6 @@ json read_json(WsClient& c) {
   return json::parse(f->payload, nullptr, false);
 }
 
-pid_t spawn(const std::vector<std::string>& args, const fs::path& out) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&fa, 2, (out.string() + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  // its own process group, so that the helpers it starts (chromium's zygote, network service)
-  // end with it: kill_group()
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-  posix_spawnattr_setpgroup(&attr, 0);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, &attr, argv.data(), environ);
-  posix_spawnattr_destroy(&attr);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-/// Ends a spawned process and every process of its group, and reaps the leader.
-void kill_group(pid_t pid, std::chrono::seconds grace) {
-  kill(-pid, SIGTERM);
-  int status = 0;
-  const auto end = std::chrono::steady_clock::now() + grace;
-  while (waitpid(pid, &status, WNOHANG) != pid && std::chrono::steady_clock::now() < end)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  kill(-pid, SIGKILL);  // helpers that outlived the leader (ESRCH when none is left)
-  waitpid(pid, &status, 0);
-  // a killed helper may still be finishing its exit: wait until the group is empty
-  for (int i = 0; i < 250 && kill(-pid, 0) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-}
-
-/// Waits for `pid` up to `timeout` (then kills it); true when it exited with status 0.
-bool finished_ok(pid_t pid, std::chrono::seconds timeout) {
-  int status = 0;
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < end) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) && WEXITSTATUS(status) == 0;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return false;
-}
-
 /// Polls `pred` every 50 ms up to `timeout` (the browser is a separate process: no hurry).
 template <class Pred>
 bool until(Pred pred, std::chrono::seconds timeout) {
@@ -193,13 +143,6 @@ bool until(Pred pred, std::chrono::seconds timeout) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return pred();
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 /// A rover that is not there: the topics the page shows, published over DDS with values that are
@@ -446,10 +389,10 @@ class Chromium {
  public:
   Chromium(const fs::path& exe, const fs::path& dir, const std::string& url) {
     const fs::path profile = dir / "profile";
-    pid_ =
-        spawn({exe.string(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-dev-shm-usage",
-               "--user-data-dir=" + profile.string(), "--window-size=1280,900", "--remote-debugging-port=0", url},
-              dir / "chromium.log");
+    pid_ = rt::spawn(
+        {exe.string(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-dev-shm-usage",
+         "--user-data-dir=" + profile.string(), "--window-size=1280,900", "--remote-debugging-port=0", url},
+        dir / "chromium.log", {rt::Stderr::kBeside, /*own_process_group=*/true});
     if (pid_ <= 0) return;
     std::uint16_t port = 0;
     until(
@@ -485,7 +428,7 @@ class Chromium {
   void close() {
     client_.reset();
     if (pid_ > 0) {
-      kill_group(pid_, std::chrono::seconds(10));
+      rt::kill_group(pid_, std::chrono::seconds(10));
       pid_ = -1;
     }
   }
@@ -548,7 +491,7 @@ TEST(LivePage, ServesThePageFilesOnTheWebSocketPort) {
     const HttpReply r = http(port, js);
     EXPECT_EQ(r.status, 200) << js;
     EXPECT_EQ(r.content_type, "text/javascript; charset=utf-8") << js;
-    EXPECT_EQ(r.body, slurp(fs::path(REGOLITH_LIVE_WEB_DIR) / (js + 1))) << js;
+    EXPECT_EQ(r.body, rt::read_file(fs::path(REGOLITH_LIVE_WEB_DIR) / (js + 1))) << js;
   }
   EXPECT_EQ(http(port, "/style.css").content_type, "text/css; charset=utf-8");
 
@@ -800,13 +743,13 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
   }
 
   const fs::path log = dir / "cdr_check.log";
-  const pid_t pid = spawn({REGOLITH_NODE, REGOLITH_LIVE_JS_DIR "/cdr_check.mjs", REGOLITH_LIVE_WEB_DIR "/cdr.js",
-                           dir.string(), std::to_string(topics.size())},
-                          log);
+  const pid_t pid = rt::spawn({REGOLITH_NODE, REGOLITH_LIVE_JS_DIR "/cdr_check.mjs", REGOLITH_LIVE_WEB_DIR "/cdr.js",
+                               dir.string(), std::to_string(topics.size())},
+                              log, {rt::Stderr::kBeside, /*own_process_group=*/true});
   ASSERT_GT(pid, 0);
-  const bool ok = finished_ok(pid, std::chrono::seconds(60));
-  std::printf("%s", slurp(log).c_str());
-  EXPECT_TRUE(ok) << slurp(log.string() + ".err");
+  const bool ok = rt::wait_exit(pid, std::chrono::seconds(60)) == 0;
+  std::printf("%s", rt::read_file(log).c_str());
+  EXPECT_TRUE(ok) << rt::read_file(log.string() + ".err");
 }
 #endif
 
@@ -821,7 +764,7 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   const regolith::testing::TempDir tmp("live_page_" + rig.ns);  // removed whatever the outcome
   const fs::path& dir = tmp.path();
   Chromium browser(chromium, dir, "http://127.0.0.1:" + std::to_string(rig.relay.server().port()) + "/");
-  ASSERT_TRUE(browser.ok()) << slurp(dir / "chromium.log.err");
+  ASSERT_TRUE(browser.ok()) << rt::read_file(dir / "chromium.log.err");
 
   // Every panel filled: the page's waiting lines all hidden (a real-time wait: the data is live).
   const bool filled = until(

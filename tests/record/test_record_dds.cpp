@@ -4,10 +4,7 @@
 // and decoded by an independent decoder (tests/record/mcap_js/decode.js: @mcap/core +
 // @foxglove/rosmsg parse + @foxglove/rosmsg2-serialization MessageReader), whose fields must equal
 // what was published.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -23,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.hpp"
 #include "dds_test_util.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/recorder.hpp"
@@ -33,52 +31,16 @@
 #include "regolith/record/mcap_writer.hpp"
 #include "temp_dir.hpp"
 
-extern char** environ;
-
 namespace {
 
 namespace fs = std::filesystem;
+namespace rt = regolith::testing;
 namespace rd = regolith::dds;
 namespace m = regolith::msgs;
 using nlohmann::json;
 
 constexpr int kJointStates = 40;
 constexpr int kRockArrays = 3;
-
-/// Runs argv as a child process with stdout and stderr into `log`; returns its pid.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-/// Waits for `pid` up to `timeout`; kills it (SIGKILL) after that. Returns the exit status or -1.
-int wait_for(pid_t pid, std::chrono::seconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  int status = 0;
-  while (std::chrono::steady_clock::now() < end) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 /// wait_for_readers() returns when our writers have matched the recorder's readers; the reverse
 /// match (the reader accepting our writer) can come a little later, and a volatile reader drops
@@ -138,13 +100,13 @@ TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
   map->commit();
 
   const std::string exe = REGOLITH_EXE;
-  const pid_t pid = spawn({exe, "record", "joint_states", "terrain/grid_map", "terrain/rocks", "--out", file.string(),
-                           "--domain", std::to_string(domain), "--namespace", ns, "--count",
-                           std::to_string(kJointStates + kRockArrays + 1), "--duration", "60"},
-                          log);
+  const pid_t pid = rt::spawn({exe, "record", "joint_states", "terrain/grid_map", "terrain/rocks", "--out",
+                               file.string(), "--domain", std::to_string(domain), "--namespace", ns, "--count",
+                               std::to_string(kJointStates + kRockArrays + 1), "--duration", "60"},
+                              log, {rt::Stderr::kSame});
   ASSERT_GT(pid, 0);
   ASSERT_TRUE(pp.wait_for_readers({"joint_states", "terrain/grid_map", "terrain/rocks"}, 20 * regolith::kNsPerSec))
-      << slurp(log);
+      << rt::read_file(log);
   let_reader_match_writers();
 
   for (int i = 0; i < kJointStates; ++i) {
@@ -195,9 +157,9 @@ TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
     std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a steady stream, not one burst
   }
   pp.wait_for_acks(5 * regolith::kNsPerSec);
-  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  ASSERT_EQ(rt::wait_exit(pid, std::chrono::seconds(60)), 0) << rt::read_file(log);
   pp.stop();
-  const std::string rec_log = slurp(log);
+  const std::string rec_log = rt::read_file(log);
   std::printf("%s", rec_log.c_str());
 
   // (a) regolith's reader: one channel per topic, one ros2msg schema per type, the counts.
@@ -246,7 +208,7 @@ TEST(RecordDds, RecordsPublishedTopicsThatAnIndependentDecoderReads) {
   const fs::path decoded = dir / "decoded.jsonl";
   const std::string cmd = std::string("cd '") + REGOLITH_MCAP_JS_DIR + "' && '" + REGOLITH_NODE + "' decode.js '" +
                           file.string() + "' > '" + decoded.string() + "' 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(decoded);
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << rt::read_file(decoded);
   std::ifstream in(decoded);
   std::string line;
   int n_js = 0, n_map = 0, n_rocks = 0, n_channels = 0;
@@ -332,11 +294,12 @@ TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
       "joint_states", rd::find_topic("joint_states")->writer_qos(), {.mode = rd::OutboxMode::kFifo, .slots = 16},
       [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 1}); });
   pp.start();
-  const pid_t pid = spawn({std::string(REGOLITH_EXE), "record", "joint_states", "/diagnostics", "--out", file.string(),
-                           "--domain", std::to_string(domain), "--namespace", ns, "--no-compression"},
-                          log);
+  const pid_t pid =
+      rt::spawn({std::string(REGOLITH_EXE), "record", "joint_states", "/diagnostics", "--out", file.string(),
+                 "--domain", std::to_string(domain), "--namespace", ns, "--no-compression"},
+                log, {rt::Stderr::kSame});
   ASSERT_GT(pid, 0);
-  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << rt::read_file(log);
   let_reader_match_writers();
   for (int i = 0; i < 5; ++i) {
     auto* s = js->begin();
@@ -349,13 +312,13 @@ TEST(RecordDds, CtrlCClosesTheFileWithItsSummary) {
   // signal arrives first.
   ASSERT_TRUE(pp.wait_for_acks(5 * regolith::kNsPerSec));
   kill(pid, SIGINT);
-  ASSERT_EQ(wait_for(pid, std::chrono::seconds(20)), 0) << slurp(log);
+  ASSERT_EQ(rt::wait_exit(pid, std::chrono::seconds(20)), 0) << rt::read_file(log);
   pp.stop();
   regolith::record::McapReader reader(file);
   EXPECT_TRUE(reader.info().from_summary);  // footer + summary written on Ctrl-C
   EXPECT_FALSE(reader.info().truncated);
   EXPECT_EQ(reader.info().channels.size(), 2u);
-  EXPECT_EQ(reader.info().message_count, 5u) << slurp(log);
+  EXPECT_EQ(reader.info().message_count, 5u) << rt::read_file(log);
   EXPECT_EQ(reader.info().chunks.size(), 1u);
   EXPECT_EQ(reader.info().chunks[0].compression, "");
 }
@@ -379,12 +342,12 @@ TEST(RecordDds, UseSimTimeLogsSamplesAtTheWritersSimulatedSourceTime) {
       [](m::sensor_msgs::JointState& s) { rd::reserve(s, {.joints = 1}); });
   pp.start();
   constexpr int kSamples = 8;
-  const pid_t pid = spawn({std::string(REGOLITH_EXE), "record", "joint_states", "--out", file.string(), "--domain",
-                           std::to_string(domain), "--namespace", ns, "--use-sim-time", "--count",
-                           std::to_string(kSamples), "--duration", "60"},
-                          log);
+  const pid_t pid = rt::spawn(
+      {std::string(REGOLITH_EXE), "record", "joint_states", "--out", file.string(), "--domain", std::to_string(domain),
+       "--namespace", ns, "--use-sim-time", "--count", std::to_string(kSamples), "--duration", "60"},
+      log, {rt::Stderr::kSame});
   ASSERT_GT(pid, 0);
-  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  ASSERT_TRUE(pp.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << rt::read_file(log);
   let_reader_match_writers();
   for (int i = 0; i < kSamples; ++i) {
     sim_now.store(regolith::kNsPerSec + i * 20 * regolith::kNsPerMs);  // the cycle's simulated time
@@ -397,10 +360,10 @@ TEST(RecordDds, UseSimTimeLogsSamplesAtTheWritersSimulatedSourceTime) {
     ASSERT_TRUE(pp.drain(5 * regolith::kNsPerSec));  // written before simulated time moves on
   }
   ASSERT_TRUE(pp.wait_for_acks(5 * regolith::kNsPerSec));
-  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  ASSERT_EQ(rt::wait_exit(pid, std::chrono::seconds(60)), 0) << rt::read_file(log);
   pp.stop();
   regolith::record::McapReader reader(file);
-  EXPECT_EQ(reader.info().message_count, static_cast<std::uint64_t>(kSamples)) << slurp(log);
+  EXPECT_EQ(reader.info().message_count, static_cast<std::uint64_t>(kSamples)) << rt::read_file(log);
   EXPECT_EQ(reader.info().message_start_time, 1'000'000'000u);
   EXPECT_EQ(reader.info().message_end_time, 1'140'000'000u);
   const auto problems = reader.for_each_message([&](const regolith::record::MessageView& mv) {
@@ -457,10 +420,10 @@ void record_sim_and_wall_writers(bool record_clock) {
                                    "--domain", std::to_string(domain), "--namespace", ns, "--use-sim-time",
                                    "--count", std::to_string(samples), "--duration", "60"};
   if (record_clock) args.insert(args.begin() + 3, "/clock");
-  const pid_t pid = spawn(args, log);
+  const pid_t pid = rt::spawn(args, log, {rt::Stderr::kSame});
   ASSERT_GT(pid, 0);
-  ASSERT_TRUE(sim.wait_for_readers({"joint_states", "/clock"}, 20 * regolith::kNsPerSec)) << slurp(log);
-  ASSERT_TRUE(wall.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << slurp(log);
+  ASSERT_TRUE(sim.wait_for_readers({"joint_states", "/clock"}, 20 * regolith::kNsPerSec)) << rt::read_file(log);
+  ASSERT_TRUE(wall.wait_for_readers({"joint_states"}, 20 * regolith::kNsPerSec)) << rt::read_file(log);
   let_reader_match_writers();
   const auto publish = [](auto& out, regolith::TimeNs stamp) {
     auto* s = out->begin();
@@ -482,10 +445,10 @@ void record_sim_and_wall_writers(bool record_clock) {
     publish(wall_js, sim_now.load());  // a ROS 2 node's header stamp follows /clock; its DDS stamp is wall time
     ASSERT_TRUE(wall.wait_for_acks(5 * regolith::kNsPerSec));
   }
-  ASSERT_EQ(wait_for(pid, std::chrono::seconds(60)), 0) << slurp(log);
+  ASSERT_EQ(rt::wait_exit(pid, std::chrono::seconds(60)), 0) << rt::read_file(log);
   sim.stop();
   wall.stop();
-  const std::string out = slurp(log);
+  const std::string out = rt::read_file(log);
   EXPECT_NE(out.find(std::to_string(kSteps) + " sample(s) of writers on wall time logged at the newest /clock"),
             std::string::npos)
       << out;
@@ -524,18 +487,19 @@ TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
   const fs::path& dir = tmp.path();
   const fs::path log = dir / "record.log";
   const std::string exe = REGOLITH_EXE;
-  pid_t pid = spawn({exe, "record", "joint_state", "--out", (dir / "x.mcap").string()}, log);
-  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
-  EXPECT_NE(slurp(log).find("unknown topic 'joint_state'"), std::string::npos) << slurp(log);
+  pid_t pid = rt::spawn({exe, "record", "joint_state", "--out", (dir / "x.mcap").string()}, log, {rt::Stderr::kSame});
+  EXPECT_EQ(rt::wait_exit(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(rt::read_file(log).find("unknown topic 'joint_state'"), std::string::npos) << rt::read_file(log);
   EXPECT_FALSE(fs::exists(dir / "x.mcap"));
-  pid = spawn({exe, "record", "--out", (dir / "x.mcap").string()}, log);
-  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
-  EXPECT_NE(slurp(log).find("no topic given"), std::string::npos) << slurp(log);
-  pid = spawn({exe, "record", "joint_states"}, log);
-  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
-  EXPECT_NE(slurp(log).find("--out"), std::string::npos) << slurp(log);
-  pid = spawn({exe, "record", "joint_states", "--out", (dir / "x.mcap").string(), "--zstd", "--no-compression"}, log);
-  EXPECT_EQ(wait_for(pid, std::chrono::seconds(20)), 2);
+  pid = rt::spawn({exe, "record", "--out", (dir / "x.mcap").string()}, log, {rt::Stderr::kSame});
+  EXPECT_EQ(rt::wait_exit(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(rt::read_file(log).find("no topic given"), std::string::npos) << rt::read_file(log);
+  pid = rt::spawn({exe, "record", "joint_states"}, log, {rt::Stderr::kSame});
+  EXPECT_EQ(rt::wait_exit(pid, std::chrono::seconds(20)), 2);
+  EXPECT_NE(rt::read_file(log).find("--out"), std::string::npos) << rt::read_file(log);
+  pid = rt::spawn({exe, "record", "joint_states", "--out", (dir / "x.mcap").string(), "--zstd", "--no-compression"},
+                  log, {rt::Stderr::kSame});
+  EXPECT_EQ(rt::wait_exit(pid, std::chrono::seconds(20)), 2);
 }
 
 TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
@@ -559,7 +523,7 @@ TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
   const fs::path decoded = dir / "decoded.jsonl";
   const std::string cmd = std::string("cd '") + REGOLITH_MCAP_JS_DIR + "' && '" + REGOLITH_NODE + "' decode.js '" +
                           file.string() + "' > '" + decoded.string() + "' 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(decoded);
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << rt::read_file(decoded);
   std::ifstream in(decoded);
   std::string line;
   std::size_t channels = 0;
