@@ -7,6 +7,7 @@
 //   const pid_t pid = rt::spawn({REGOLITH_EXE, "run", "--duration", "2"}, dir / "run.txt");
 //   ASSERT_GT(pid, 0);                                      // stderr went to run.txt.err
 //   EXPECT_EQ(rt::wait_exit(pid, std::chrono::seconds(60)), 0) << rt::read_file(dir / "run.txt.err");
+//   (read_file: temp_dir.hpp)
 //
 // Waiting for another program is wall-clock time by nature; the tests keep it to the child's own
 // run and bound it with a timeout, after which the child is killed, never left behind.
@@ -18,8 +19,6 @@
 
 #include <chrono>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -114,14 +113,6 @@ inline void kill_group(pid_t pid, std::chrono::milliseconds grace) {
   kill(-pid, SIGKILL);  // ESRCH when none is left
   waitpid(pid, &status, 0);
   for (int i = 0; i < 250 && kill(-pid, 0) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-}
-
-/// The whole file, bytes as they are ("" when it cannot be read: a child that wrote nothing).
-inline std::string read_file(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 }  // namespace regolith::testing

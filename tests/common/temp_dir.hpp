@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -66,5 +67,13 @@ class TempDir {
   std::filesystem::path path_;
   Keep keep_;
 };
+
+/// The whole file, bytes as they are ("" when it cannot be read: a child that wrote nothing).
+inline std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
 
 }  // namespace regolith::testing

@@ -7,30 +7,28 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <span>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli_support.hpp"
-#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/hal/camera.hpp"
+#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/mapping/component.hpp"
 #include "regolith/mapping/config.hpp"
 #include "regolith/mapping/wheel_odometry.hpp"
 #include "regolith/mocks/synthetic_drive.hpp"
 #include "regolith/runtime/application.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 
 namespace {
 
 std::string test_yaml() {
-  std::ifstream in(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return regolith::testing::read_file(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
 }
 
 // The test deployment with `edit` applied to its text (find -> replace, once).

@@ -10,10 +10,11 @@
 #include <sstream>
 
 #include "cli_support.hpp"
-#include "test_domain.hpp"
 #include "regolith/mapping/component.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/rate_group.hpp"
+#include "temp_dir.hpp"
+#include "test_domain.hpp"
 
 #define REGOLITH_ALLOC_COUNT_CYCLES
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
@@ -23,10 +24,8 @@ using namespace regolith;
 TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   setenv("CYCLONEDDS_URI", "file://" REGOLITH_DDS_LOOPBACK_XML, 1);
   cli::register_everything();
-  std::ifstream in(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string yaml = ss.str();
+  std::string yaml =
+      regolith::testing::read_file(std::string(REGOLITH_SOURCE_DIR) + "/tests/mapping/terrain_map_test.yaml");
   // A namespace and domain of its own.
   const std::string ns = "namespace: maptest";
   yaml.replace(yaml.find(ns), ns.size(), "namespace: noalloc" + std::to_string(getpid()));
