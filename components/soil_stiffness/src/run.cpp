@@ -170,7 +170,11 @@ cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, co
       cv::line(out, *a, *b, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
       char lab[32];
       std::snprintf(lab, sizeof lab, "%.1f mm", z * 1e3);
-      cv::putText(out, lab, *b + cv::Point(4, -3), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+      // right of the line's end, moved left as far as it takes to stay in the picture
+      int base = 0;
+      const cv::Size ts = cv::getTextSize(lab, cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, &base);
+      const cv::Point at(std::clamp(b->x + 4, 2, std::max(2, out.cols - ts.width - 2)), b->y - 3);
+      cv::putText(out, lab, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
     }
   }
   cv::rectangle(out, cv::Rect(0, 0, out.cols, 34), cv::Scalar(0, 0, 0), cv::FILLED);
