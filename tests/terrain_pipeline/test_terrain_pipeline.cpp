@@ -40,6 +40,7 @@
 namespace {
 using namespace regolith;
 namespace fs = std::filesystem;
+using regolith::testing::read_file;
 
 void register_once() {
   static bool done = false;
@@ -439,7 +440,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   char args[512];
   std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --pixel-size 0.02",
                 png.c_str(), (dir / "out").c_str(), o.light_slant_rad * 180 / CV_PI, o.light_tilt_rad * 180 / CV_PI);
-  ASSERT_EQ(run_tool(args, dir / "log.txt"), 0) << regolith::testing::read_file(dir / "log.txt");
+  ASSERT_EQ(run_tool(args, dir / "log.txt"), 0) << read_file(dir / "log.txt");
   const cv::Mat h = cv::imread((dir / "out" / "height.tiff").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(h.type(), CV_32FC1);
   ASSERT_EQ(h.size(), o.image.size());
@@ -457,7 +458,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
                         "traversability_slope.png", "traversability_step.png", "traversability_roughness.png",
                         "confidence.png"})
     EXPECT_FALSE(cv::imread((dir / "out" / f).string()).empty()) << f;
-  const auto j = nlohmann::json::parse(regolith::testing::read_file(dir / "out" / "summary.json"));
+  const auto j = nlohmann::json::parse(read_file(dir / "out" / "summary.json"));
   EXPECT_EQ(j["method"], "pentland");  // library default (most accurate per ms)
   EXPECT_EQ(j["light"]["source"], "given");
   EXPECT_NEAR(j["light"]["slant_deg"].get<double>(), o.light_slant_rad * 180 / CV_PI, 1e-3);
@@ -468,10 +469,9 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   // Bad inputs: exit code 2 and a message naming the file / option.
   std::ofstream(dir / "not_an_image.png") << "hello";
   EXPECT_EQ(run_tool("assess " + (dir / "not_an_image.png").string() + " --out " + (dir / "o2").string(), dir / "e1.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e1.txt").find("not_an_image.png"), std::string::npos)
-      << regolith::testing::read_file(dir / "e1.txt");
+  EXPECT_NE(read_file(dir / "e1.txt").find("not_an_image.png"), std::string::npos) << read_file(dir / "e1.txt");
   EXPECT_EQ(run_tool("assess " + (dir / "missing.png").string() + " --out " + (dir / "o2").string(), dir / "e2.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e2.txt").find("missing.png"), std::string::npos);
+  EXPECT_NE(read_file(dir / "e2.txt").find("missing.png"), std::string::npos);
   // The same patch as a 12-bit camera stores it (0..4095 in a 16-bit PNG) is assessed as its 8-bit
   // copy: the samples are scaled by the bits the image uses, not shifted by 8 (which left 0..15).
   {
@@ -481,23 +481,21 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --pixel-size 0.02",
                   (dir / "deep.png").c_str(), (dir / "o12").c_str(), o.light_slant_rad * 180 / CV_PI,
                   o.light_tilt_rad * 180 / CV_PI);
-    ASSERT_EQ(run_tool(args, dir / "e3.txt"), 0) << regolith::testing::read_file(dir / "e3.txt");
+    ASSERT_EQ(run_tool(args, dir / "e3.txt"), 0) << read_file(dir / "e3.txt");
     const cv::Mat h12 = cv::imread((dir / "o12" / "height.tiff").string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(h12.size(), h.size());
     EXPECT_EQ(cv::norm(h12, h, cv::NORM_INF), 0.0);
-    const auto j12 = nlohmann::json::parse(regolith::testing::read_file(dir / "o12" / "summary.json"));
+    const auto j12 = nlohmann::json::parse(read_file(dir / "o12" / "summary.json"));
     EXPECT_EQ(j12["hazards"], j["hazards"]);
   }
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e4.txt").find("--sun-slant"), std::string::npos)
-      << regolith::testing::read_file(dir / "e4.txt");
+  EXPECT_NE(read_file(dir / "e4.txt").find("--sun-slant"), std::string::npos) << read_file(dir / "e4.txt");
   // NaN was taken for "not given" ("--sun-slant and --sun-tilt must be given together").
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant nan --sun-tilt 0",
                      dir / "e4n.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e4n.txt").find("--sun-slant: must be a finite number (got nan)"),
-            std::string::npos)
-      << regolith::testing::read_file(dir / "e4n.txt");
+  EXPECT_NE(read_file(dir / "e4n.txt").find("--sun-slant: must be a finite number (got nan)"), std::string::npos)
+      << read_file(dir / "e4n.txt");
   // A file name that is not UTF-8 (Linux names are bytes): summary.json is still written, the
   // name's bad byte as U+FFFD (json threw on it and the run ended without summary.json).
   const fs::path latin1 = dir / "caf\xe9.png";
@@ -505,8 +503,8 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_EQ(run_tool("assess " + latin1.string() + " --out " + (dir / "o8").string() + " --sun-slant 30 --sun-tilt 0",
                      dir / "e8.txt"),
             0)
-      << regolith::testing::read_file(dir / "e8.txt");
-  const auto j8 = nlohmann::json::parse(regolith::testing::read_file(dir / "o8" / "summary.json"));
+      << read_file(dir / "e8.txt");
+  const auto j8 = nlohmann::json::parse(read_file(dir / "o8" / "summary.json"));
   EXPECT_NE(j8["image"].get<std::string>().find("caf\xEF\xBF\xBD.png"), std::string::npos) << j8["image"];
   // A flat field with a black pixel, and one that is not an image: the option, the file and why.
   cv::Mat ff_zero(64, 64, CV_8U, cv::Scalar(200));
@@ -514,22 +512,20 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   ASSERT_TRUE(cv::imwrite((dir / "ff_zero.png").string(), ff_zero));
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() +
                      " --sun-slant 30 --sun-tilt 0 --flat-field " + (dir / "ff_zero.png").string(), dir / "e6.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e6.txt")
-                .find("--flat-field '" + (dir / "ff_zero.png").string() + "': it has pixels of 0"),
+  EXPECT_NE(read_file(dir / "e6.txt").find("--flat-field '" + (dir / "ff_zero.png").string() + "': it has pixels of 0"),
             std::string::npos)
-      << regolith::testing::read_file(dir / "e6.txt");
+      << read_file(dir / "e6.txt");
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() +
                      " --sun-slant 30 --sun-tilt 0 --flat-field " + (dir / "not_an_image.png").string(), dir / "e7.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e7.txt").find("not_an_image.png': not an image regolith reads"),
-            std::string::npos)
-      << regolith::testing::read_file(dir / "e7.txt");
+  EXPECT_NE(read_file(dir / "e7.txt").find("not_an_image.png': not an image regolith reads"), std::string::npos)
+      << read_file(dir / "e7.txt");
   // Camera pointing above the horizon: no crash, an all-unknown map and a warning.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o3").string() +
                          " --sun-slant 40 --sun-tilt 45 --camera 200,200,160,160 --height 0.5 --pitch -60",
                      dir / "e5.txt"),
             0)
-      << regolith::testing::read_file(dir / "e5.txt");
-  const auto j3 = nlohmann::json::parse(regolith::testing::read_file(dir / "o3" / "summary.json"));
+      << read_file(dir / "e5.txt");
+  const auto j3 = nlohmann::json::parse(read_file(dir / "o3" / "summary.json"));
   EXPECT_EQ(j3["grid"]["known_cells"].get<int>(), 0);
   EXPECT_TRUE(j3.contains("warning"));
   // Camera mode on a rendered rover frame: the ground-rectified path (default) writes the
@@ -542,8 +538,8 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     const auto cimg = render_dome(rp, 2.0, 0.15, 0.15, 0.6, 0.45);
     ASSERT_TRUE(cv::imwrite((dir / "rover.png").string(), terrain_scene::to_u8(cimg.image)));
     const std::string cargs = assess_dome_args(dir / "rover.png", dir / "cam", cimg, 0.6, 0.45);
-    ASSERT_EQ(run_tool(cargs, dir / "cam.txt"), 0) << regolith::testing::read_file(dir / "cam.txt");
-    const auto jc = nlohmann::json::parse(regolith::testing::read_file(dir / "cam" / "summary.json"));
+    ASSERT_EQ(run_tool(cargs, dir / "cam.txt"), 0) << read_file(dir / "cam.txt");
+    const auto jc = nlohmann::json::parse(read_file(dir / "cam" / "summary.json"));
     EXPECT_EQ(jc["grid_sfs_frame"], "ground");
     // The sun's elevation above the ground, from the image slant / tilt and the camera's pitch:
     // the renderer's 0.6 rad.
@@ -555,15 +551,14 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
                            " --sun-slant 48 --sun-tilt 90 --camera 300,300,159.5,119.5 --height 0.6 --pitch 25.78",
                        dir / "below.txt"),
               0)
-        << regolith::testing::read_file(dir / "below.txt");
-    const auto jb = nlohmann::json::parse(regolith::testing::read_file(dir / "below" / "summary.json"));
+        << read_file(dir / "below.txt");
+    const auto jb = nlohmann::json::parse(read_file(dir / "below" / "summary.json"));
     EXPECT_LT(jb["light"]["ground_elevation_deg"].get<double>(), 0.0);
     EXPECT_EQ(jb["grid"]["known_cells"].get<int>(), 0);
     EXPECT_NE(jb.value("warning", "").find("the sun is not above the ground plane (elevation -"), std::string::npos)
         << jb.dump();
-    EXPECT_NE(regolith::testing::read_file(dir / "below.txt").find("warning: the sun is not above the ground plane"),
-              std::string::npos)
-        << regolith::testing::read_file(dir / "below.txt");
+    EXPECT_NE(read_file(dir / "below.txt").find("warning: the sun is not above the ground plane"), std::string::npos)
+        << read_file(dir / "below.txt");
     EXPECT_GT(jc["grid"]["known_cells"].get<int>(), 1000);
     EXPECT_FALSE(cv::imread((dir / "cam" / "rectified.png").string()).empty());
     bool rock_hazard = false;
@@ -572,7 +567,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
                   hz["y_m"].get<double>(), hz["max_elevation_m"].get<double>());
       if (std::abs(hz["x_m"].get<double>() - 2.0) < 0.5 && std::abs(hz["y_m"].get<double>()) < 0.4) rock_hazard = true;
     }
-    EXPECT_TRUE(rock_hazard) << regolith::testing::read_file(dir / "cam" / "summary.json");
+    EXPECT_TRUE(rock_hazard) << read_file(dir / "cam" / "summary.json");
     EXPECT_TRUE(jc["edge_hazards"].is_array());
     // The hazards drawn on the camera image: overlay.png is the frame (+ a caption strip) with
     // the rock's hazard cells painted red around where the dome stands (2 m ahead, centre).
@@ -605,7 +600,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     EXPECT_NEAR((*dome)["height_m"].get<double>(), 0.15, 0.3 * 0.15);  // measured 0.153
     EXPECT_FALSE((*dome)["height_is_lower_bound"].get<bool>());
     EXPECT_EQ(jc["outputs"]["rocks"], "rocks.csv");
-    EXPECT_EQ(regolith::testing::read_file(dir / "cam" / "rocks.csv")
+    EXPECT_EQ(read_file(dir / "cam" / "rocks.csv")
                   .rfind("id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n", 0),
               0u);
     const cv::Mat range = cv::imread((dir / "cam" / jc["outputs"]["range"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
@@ -613,8 +608,7 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
     const direct_depth::DirectDepth dd(direct_depth::CameraModel{300, 300, 159.5, 119.5, 0, 0, 0, 0, 0, 320, 240, 0.6, 0.45, 0});
     EXPECT_NEAR(range.at<float>(200, 160), dd.ground(160, 200).range_m, 1e-4);
     EXPECT_NE(run_tool(std::string(cargs) + " --sfs-frame sideways", dir / "cam2.txt"), 0);
-    EXPECT_NE(regolith::testing::read_file(dir / "cam2.txt").find("--sfs-frame"), std::string::npos)
-        << regolith::testing::read_file(dir / "cam2.txt");
+    EXPECT_NE(read_file(dir / "cam2.txt").find("--sfs-frame"), std::string::npos) << read_file(dir / "cam2.txt");
 
     // The same frame with the camera and sun taken from a deployment's rover description
     // (--rover FILE --device NAME): the same light (to the 1e-4 deg printed above) and hazards.
@@ -629,8 +623,8 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
     std::ofstream(dir / "deployment.yaml") << dep;
     const std::string rargs = "assess " + (dir / "rover.png").string() + " --out " + (dir / "cam3").string() +
                               " --rover " + (dir / "deployment.yaml").string() + " --device front";
-    ASSERT_EQ(run_tool(rargs, dir / "cam3.txt"), 0) << regolith::testing::read_file(dir / "cam3.txt");
-    const auto jr = nlohmann::json::parse(regolith::testing::read_file(dir / "cam3" / "summary.json"));
+    ASSERT_EQ(run_tool(rargs, dir / "cam3.txt"), 0) << read_file(dir / "cam3.txt");
+    const auto jr = nlohmann::json::parse(read_file(dir / "cam3" / "summary.json"));
     EXPECT_NEAR(jr["light"]["slant_deg"].get<double>(), jc["light"]["slant_deg"].get<double>(), 1e-3);
     EXPECT_NEAR(jr["light"]["tilt_deg"].get<double>(), jc["light"]["tilt_deg"].get<double>(), 1e-3);
     EXPECT_EQ(jr["light"]["source"], "given");
@@ -638,20 +632,17 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
     std::string rear = rargs;
     rear.replace(rear.rfind("front"), 5, "rear");
     EXPECT_EQ(run_tool(rear, dir / "cam4.txt"), 2);
-    EXPECT_NE(regolith::testing::read_file(dir / "cam4.txt").find("no rover.cameras.rear (described: front)"),
-              std::string::npos)
-        << regolith::testing::read_file(dir / "cam4.txt");
+    EXPECT_NE(read_file(dir / "cam4.txt").find("no rover.cameras.rear (described: front)"), std::string::npos)
+        << read_file(dir / "cam4.txt");
   }
   // Terrain without a sun: the estimator is not trusted -> clear error, exit 2.
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o4").string(), dir / "e6.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "e6.txt").find("--sun-slant"), std::string::npos)
-      << regolith::testing::read_file(dir / "e6.txt");
+  EXPECT_NE(read_file(dir / "e6.txt").find("--sun-slant"), std::string::npos) << read_file(dir / "e6.txt");
   // One line: what to pass, and why (the shading cannot be solved without the sun).
-  EXPECT_NE(regolith::testing::read_file(dir / "e6.txt").find("--rover DEPLOYMENT.yaml"), std::string::npos)
-      << regolith::testing::read_file(dir / "e6.txt");
-  EXPECT_NE(regolith::testing::read_file(dir / "e6.txt").find("shape from shading needs it"), std::string::npos)
-      << regolith::testing::read_file(dir / "e6.txt");
-  const std::string e6 = regolith::testing::read_file(dir / "e6.txt");
+  EXPECT_NE(read_file(dir / "e6.txt").find("--rover DEPLOYMENT.yaml"), std::string::npos) << read_file(dir / "e6.txt");
+  EXPECT_NE(read_file(dir / "e6.txt").find("shape from shading needs it"), std::string::npos)
+      << read_file(dir / "e6.txt");
+  const std::string e6 = read_file(dir / "e6.txt");
   EXPECT_EQ(std::count(e6.begin(), e6.end(), '\n'), 1) << e6;
 
   // calibrate vignetting on a synthetic flat field with known coefficients.
@@ -664,13 +655,13 @@ sun: {azimuth_deg: %.9f, elevation_deg: %.9f}
     }
   ASSERT_TRUE(cv::imwrite((dir / "flat.png").string(), ff));
   ASSERT_EQ(run_tool("calibrate vignetting " + (dir / "flat.png").string(), dir / "v.txt"), 0)
-      << regolith::testing::read_file(dir / "v.txt");
-  const std::string v = regolith::testing::read_file(dir / "v.txt");
+      << read_file(dir / "v.txt");
+  const std::string v = read_file(dir / "v.txt");
   const auto a2pos = v.find("vignetting_a2: ");
   ASSERT_NE(a2pos, std::string::npos) << v;
   EXPECT_NEAR(std::stod(v.substr(a2pos + 15)), -0.3, 0.03) << v;
   EXPECT_EQ(run_tool("calibrate vignetting " + (dir / "nope.png").string(), dir / "v2.txt"), 2);
-  EXPECT_NE(regolith::testing::read_file(dir / "v2.txt").find("nope.png"), std::string::npos);
+  EXPECT_NE(read_file(dir / "v2.txt").find("nope.png"), std::string::npos);
 }
 
 // A camera close to the ground (0.3 m up, 52 deg down: 0.1-0.5 m of view) gets a 1 cm grid.
@@ -688,8 +679,8 @@ TEST(AssessCli, ACloseCameraMapsEveryCellItSeesAndDrawsHeightsOnTheImage) {
   const auto img = render_dome(rp, rx, 0.06, 0.08, 0.3, 0.9);
   ASSERT_TRUE(cv::imwrite((dir / "close.png").string(), terrain_scene::to_u8(img.image)));
   const std::string args = assess_dome_args(dir / "close.png", dir / "out", img, 0.3, 0.9);
-  ASSERT_EQ(run_tool(args, dir / "out.txt"), 0) << regolith::testing::read_file(dir / "out.txt");
-  const auto j = nlohmann::json::parse(regolith::testing::read_file(dir / "out" / "summary.json"));
+  ASSERT_EQ(run_tool(args, dir / "out.txt"), 0) << read_file(dir / "out.txt");
+  const auto j = nlohmann::json::parse(read_file(dir / "out" / "summary.json"));
   const auto& g = j["grid"];
   const double res = g["resolution_m"].get<double>();
   EXPECT_LE(res, 0.012);
@@ -737,17 +728,16 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   std::vector<double> werr, herr;
   int measurable = 0;
   for (const char* name : {"persp_dev_0", "persp_dev_1"}) {
-    const auto in = nlohmann::json::parse(regolith::testing::read_file(root / name / "input.json"));
-    const auto truth = nlohmann::json::parse(regolith::testing::read_file(root / name / "truth.json"));
+    const auto in = nlohmann::json::parse(read_file(root / name / "input.json"));
+    const auto truth = nlohmann::json::parse(read_file(root / name / "truth.json"));
     const auto& c = in["camera"];
     char args[1024];
     std::snprintf(args, sizeof args, "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera %.6f,%.6f,%.3f,%.3f --height %.6f --pitch %.6f",
                   (root / name / "image.png").c_str(), (dir / name).c_str(), in["sun_slant_deg_image"].get<double>(),
                   in["sun_tilt_deg_image"].get<double>(), c["fx"].get<double>(), c["fy"].get<double>(), c["cx"].get<double>(),
                   c["cy"].get<double>(), c["h_m"].get<double>(), c["pitch_deg"].get<double>());
-    ASSERT_EQ(run_tool(args, dir / (std::string(name) + ".txt")), 0)
-        << regolith::testing::read_file(dir / (std::string(name) + ".txt"));
-    const auto summary = nlohmann::json::parse(regolith::testing::read_file(dir / name / "summary.json"));
+    ASSERT_EQ(run_tool(args, dir / (std::string(name) + ".txt")), 0) << read_file(dir / (std::string(name) + ".txt"));
+    const auto summary = nlohmann::json::parse(read_file(dir / name / "summary.json"));
     if (in["sun_slant_deg_image"].get<double>() >= 90.0) {
       EXPECT_NE(summary["image_sfs"].get<std::string>().find("sun ahead of the camera"), std::string::npos);
       EXPECT_GT(summary["grid"]["known_cells"].get<int>(), 0);
