@@ -5,9 +5,6 @@
 // channel needs regolith::sfs; when this file is compiled without it (header
 // not on the include path), --method sams fails with a message.
 #include <CLI/CLI.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,11 +12,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -39,7 +38,7 @@
 
 namespace regolith::cli {
 
-void add_rocks_commands(CLI::App &app);
+void add_rocks_commands(CLI::App& app);
 
 namespace {
 
@@ -57,9 +56,8 @@ std::vector<std::string> rock_method_names() {
 
 struct RockOptions {
   std::string method = "sams";
-  std::string model; // --method trained: model file (empty: the shipped one)
-  double w_intensity = 0.2, w_orientation = 0.5, w_colour = 0.0,
-         w_structure = 0.3;
+  std::string model;  // --method trained: model file (empty: the shipped one)
+  double w_intensity = 0.2, w_orientation = 0.5, w_colour = 0.0, w_structure = 0.3;
   bool colour = false;
   // Unset: the method's default (sal::PostProcessParams, or
   // sal::contrast_post_processing() for contrast).
@@ -73,64 +71,39 @@ struct RockOptions {
   std::string structure = "height";
   std::string normalisation = "local_max";
 
-  void add_to(CLI::App *c) {
-    c->add_option("--method", method,
-                  "sams|itti|contrast|spectral_residual|fine_grained|trained")
+  void add_to(CLI::App* c) {
+    c->add_option("--method", method, "sams|itti|contrast|spectral_residual|fine_grained|trained")
         ->check(CLI::IsMember(rock_method_names()))
         ->capture_default_str();
     c->add_option("--model", model,
                   "--method trained: model file from `regolith train rocks` "
                   "(default: the shipped " +
                       sal::default_trained_model_path() + ")");
-    c->add_option("--w-intensity", w_intensity,
-                  "SAMS weight of the intensity channel")
-        ->capture_default_str();
-    c->add_option("--w-orientation", w_orientation,
-                  "SAMS weight of the orientation channel")
-        ->capture_default_str();
-    c->add_option("--w-colour", w_colour,
-                  "SAMS weight of the colour channel (needs --colour)")
-        ->capture_default_str();
-    c->add_option("--w-structure", w_structure,
-                  "SAMS weight of the structure (SfS) channel")
-        ->capture_default_str();
-    c->add_flag("--colour", colour,
-                "use the RG/BY colour-opponency channel (Itti and SAMS)");
-    const sal::PostProcessParams shared,
-        contrast_pp = sal::contrast_post_processing();
+    c->add_option("--w-intensity", w_intensity, "SAMS weight of the intensity channel")->capture_default_str();
+    c->add_option("--w-orientation", w_orientation, "SAMS weight of the orientation channel")->capture_default_str();
+    c->add_option("--w-colour", w_colour, "SAMS weight of the colour channel (needs --colour)")->capture_default_str();
+    c->add_option("--w-structure", w_structure, "SAMS weight of the structure (SfS) channel")->capture_default_str();
+    c->add_flag("--colour", colour, "use the RG/BY colour-opponency channel (Itti and SAMS)");
+    const sal::PostProcessParams shared, contrast_pp = sal::contrast_post_processing();
     char buf[160];
-    std::snprintf(buf, sizeof buf,
-                  "binary threshold = scale x Otsu (default %g; contrast: %g)",
-                  shared.threshold_scale, contrast_pp.threshold_scale);
+    std::snprintf(buf, sizeof buf, "binary threshold = scale x Otsu (default %g; contrast: %g)", shared.threshold_scale,
+                  contrast_pp.threshold_scale);
     c->add_option("--threshold-scale", threshold_scale, buf);
-    std::snprintf(
-        buf, sizeof buf,
-        "px, smallest detected component kept (default %d; contrast: %d)",
-        shared.min_area, contrast_pp.min_area);
+    std::snprintf(buf, sizeof buf, "px, smallest detected component kept (default %d; contrast: %d)", shared.min_area,
+                  contrast_pp.min_area);
     c->add_option("--min-area", min_area, buf);
-    c->add_option("--contrast-sigma", contrast_sigma,
-                  "px, contrast: sigma of the Gaussian surround in |I - G*I|")
+    c->add_option("--contrast-sigma", contrast_sigma, "px, contrast: sigma of the Gaussian surround in |I - G*I|")
         ->capture_default_str();
-    c->add_option("--contrast-smooth", contrast_smooth,
-                  "px, contrast: sigma of the smoothing of |I - G*I| (0 = none)")
+    c->add_option("--contrast-smooth", contrast_smooth, "px, contrast: sigma of the smoothing of |I - G*I| (0 = none)")
         ->capture_default_str();
-    c->add_option("--open-radius", open_radius,
-                  "px, morphological opening radius")
+    c->add_option("--open-radius", open_radius, "px, morphological opening radius")->capture_default_str();
+    c->add_option("--close-radius", close_radius, "px, morphological closing radius")->capture_default_str();
+    c->add_option("--max-detections", max_detections, "keep the best N boxes per image (0 = all)")
         ->capture_default_str();
-    c->add_option("--close-radius", close_radius,
-                  "px, morphological closing radius")
+    c->add_option("--sfs-downsample", sfs_downsample, "SfS runs at 1/2^N of the input size")->capture_default_str();
+    c->add_option("--sfs-slant-deg", sfs_slant_deg, "deg, fixed light slant for the SfS (<0: estimate)")
         ->capture_default_str();
-    c->add_option("--max-detections", max_detections,
-                  "keep the best N boxes per image (0 = all)")
-        ->capture_default_str();
-    c->add_option("--sfs-downsample", sfs_downsample,
-                  "SfS runs at 1/2^N of the input size")
-        ->capture_default_str();
-    c->add_option("--sfs-slant-deg", sfs_slant_deg,
-                  "deg, fixed light slant for the SfS (<0: estimate)")
-        ->capture_default_str();
-    c->add_option("--structure", structure,
-                  "SAMS structure feature: height|slope")
+    c->add_option("--structure", structure, "SAMS structure feature: height|slope")
         ->check(CLI::IsMember({"height", "slope"}))
         ->capture_default_str();
     c->add_option("--normalisation", normalisation, "N(.): iterative|local_max")
@@ -141,22 +114,14 @@ struct RockOptions {
   sal::IttiParams itti() const {
     sal::IttiParams p;
     p.use_colour = colour;
-    p.structure_feature = structure == "slope" ? sal::StructureFeature::kSlope
-                                               : sal::StructureFeature::kHeight;
-    p.normalisation = normalisation == "local_max"
-                          ? sal::Normalisation::kLocalMax
-                          : sal::Normalisation::kIterative;
-    p.weights = {w_intensity, w_orientation, colour ? w_colour : 0.0,
-                 w_structure};
+    p.structure_feature = structure == "slope" ? sal::StructureFeature::kSlope : sal::StructureFeature::kHeight;
+    p.normalisation = normalisation == "local_max" ? sal::Normalisation::kLocalMax : sal::Normalisation::kIterative;
+    p.weights = {w_intensity, w_orientation, colour ? w_colour : 0.0, w_structure};
     return p;
   }
-  sal::ContrastParams contrast() const {
-    return sal::ContrastParams{contrast_sigma, contrast_smooth};
-  }
+  sal::ContrastParams contrast() const { return sal::ContrastParams{contrast_sigma, contrast_smooth}; }
   sal::PostProcessParams post(sal::Method m) const {
-    sal::PostProcessParams p = m == sal::Method::kContrast
-                                   ? sal::contrast_post_processing()
-                                   : sal::PostProcessParams{};
+    sal::PostProcessParams p = m == sal::Method::kContrast ? sal::contrast_post_processing() : sal::PostProcessParams{};
     p.threshold_scale = threshold_scale.value_or(p.threshold_scale);
     p.min_area = min_area.value_or(p.min_area);
     p.open_radius = open_radius;
@@ -167,8 +132,7 @@ struct RockOptions {
 };
 
 // Returns an empty function when SfS is not compiled in.
-sal::HeightFn make_height_fn(int downsample, double slant_deg,
-                             std::shared_ptr<void> &keep_alive) {
+sal::HeightFn make_height_fn(int downsample, double slant_deg, std::shared_ptr<void>& keep_alive) {
 #ifdef REGOLITH_HAVE_SFS
   sal::SfsHeightParams hp;
   hp.downsample_levels = downsample;
@@ -178,7 +142,7 @@ sal::HeightFn make_height_fn(int downsample, double slant_deg,
     hp.slant_rad = slant_deg * 3.14159265358979323846 / 180.0;
   try {
     hp.validate();
-  } catch (const std::invalid_argument &e) {
+  } catch (const std::invalid_argument& e) {
     throw ConfigError(e.what());
   }
   auto h = std::make_shared<sal::SfsHeight>(hp);
@@ -193,24 +157,23 @@ sal::HeightFn make_height_fn(int downsample, double slant_deg,
 }
 
 [[noreturn]] void no_sfs() {
-  throw ConfigError("--method sams needs the shape-from-shading height map, "
-                    "but this build of regolith has no "
-                    "regolith::sfs (the SAMS structure channel); use itti, "
-                    "contrast, spectral_residual or fine_grained");
+  throw ConfigError(
+      "--method sams needs the shape-from-shading height map, "
+      "but this build of regolith has no "
+      "regolith::sfs (the SAMS structure channel); use itti, "
+      "contrast, spectral_residual or fine_grained");
 }
 
-void ensure_dir(const std::string &dir, const char *option) {
-  if (dir.empty())
-    return;
+void ensure_dir(const std::string& dir, const char* option) {
+  if (dir.empty()) return;
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir)) {
-    throw ConfigError(std::string(option) + ": cannot create directory '" +
-                      dir + "' (" + ec.message() + ")");
+    throw ConfigError(std::string(option) + ": cannot create directory '" + dir + "' (" + ec.message() + ")");
   }
 }
 
-cv::Mat to_bgr8(const cv::Mat &img) {
+cv::Mat to_bgr8(const cv::Mat& img) {
   const cv::Mat f = regolith::to_8bit(img);
   cv::Mat out;
   if (f.channels() == 1)
@@ -222,15 +185,14 @@ cv::Mat to_bgr8(const cv::Mat &img) {
   return out;
 }
 
-void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
-               const std::string &csv_path, const std::string &overlay_dir,
-               const std::string &saliency_dir, const std::string &masks_dir) {
+void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const std::string& csv_path,
+               const std::string& overlay_dir, const std::string& saliency_dir, const std::string& masks_dir) {
   // A directory stands for the images in it (sorted by name, not recursing); one without any is
   // a failed input like an unreadable image, and the others are still processed.
   std::vector<std::string> images;
   int bad_dirs = 0;
   std::string first_error;
-  for (const std::string &a : args) {
+  for (const std::string& a : args) {
     std::error_code ec;
     if (!fs::is_directory(a, ec)) {
       images.push_back(a);
@@ -241,10 +203,9 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
       if (in_dir.empty())
         throw sal::DataError(a + ": a directory without an image regolith reads (PNG, JPEG, TIFF, BMP, PNM, WebP)");
       images.insert(images.end(), in_dir.begin(), in_dir.end());
-    } catch (const sal::DataError &e) {
+    } catch (const sal::DataError& e) {
       ++bad_dirs;
-      if (first_error.empty())
-        first_error = e.what();
+      if (first_error.empty()) first_error = e.what();
       std::cerr << "error: " << e.what() << " (skipped)\n";
     }
   }
@@ -253,17 +214,15 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
   std::unique_ptr<sal::CandidateExtractor> extractor;
   sal::CandidateSet cand_set;
   if (trained) {
-    const std::string path =
-        o.model.empty() ? sal::default_trained_model_path() : o.model;
+    const std::string path = o.model.empty() ? sal::default_trained_model_path() : o.model;
     try {
       model = sal::TrainedModel::load(path);
-    } catch (const sal::ModelError &e) {
+    } catch (const sal::ModelError& e) {
       throw InputError(e.what());
     }
     extractor = std::make_unique<sal::CandidateExtractor>(model->candidates);
   }
-  const sal::Method method =
-      trained ? sal::Method::kContrast : sal::method_from_string(o.method);
+  const sal::Method method = trained ? sal::Method::kContrast : sal::method_from_string(o.method);
   const sal::PostProcessParams post = o.post(method);
   const sal::IttiParams ip = o.itti();
   const sal::ContrastParams cp = o.contrast();
@@ -271,28 +230,25 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
     post.validate();
     ip.validate();
     cp.validate();
-  } catch (const std::invalid_argument &e) {
+  } catch (const std::invalid_argument& e) {
     throw ConfigError(e.what());
   }
   std::shared_ptr<void> keep;
   sal::HeightFn height;
   if (method == sal::Method::kSams) {
     height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
-    if (!height)
-      no_sfs();
+    if (!height) no_sfs();
   }
   ensure_dir(overlay_dir, "--overlay-dir");
   ensure_dir(saliency_dir, "--saliency-dir");
   std::ofstream csv(csv_path);
-  if (!csv)
-    throw ConfigError("--csv: cannot write '" + csv_path + "'");
+  if (!csv) throw ConfigError("--csv: cannot write '" + csv_path + "'");
   csv << "image,xmin,ymin,xmax,ymax,score\n";
 
   sal::IttiSaliency itti(ip);
   sal::ContrastSaliency contrast(cp);
   std::unique_ptr<sal::OpenCvSaliency> peer;
-  if (method == sal::Method::kSpectralResidual ||
-      method == sal::Method::kFineGrained) {
+  if (method == sal::Method::kSpectralResidual || method == sal::Method::kFineGrained) {
     peer = std::make_unique<sal::OpenCvSaliency>(method);
   }
   sal::BoxDetector detector(post);
@@ -300,9 +256,9 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
   std::vector<sal::Detection> dets;
   int failed = 0;
   size_t total_boxes = 0;
-  double detect_s = 0.0; // wall time of map / candidates + boxes, decoding excluded
+  double detect_s = 0.0;  // wall time of map / candidates + boxes, decoding excluded
   int detected = 0;
-  for (const std::string &path : images) {
+  for (const std::string& path : images) {
     try {
       const cv::Mat img = sal::read_image(path);
       const auto t0 = std::chrono::steady_clock::now();
@@ -310,11 +266,9 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
         if (trained) {
           extractor->extract(img, cand_set);
           const std::vector<float> scores = model->score(cand_set);
-          if (!saliency_dir.empty()) // the map is for people; detection needs only the scores
+          if (!saliency_dir.empty())  // the map is for people; detection needs only the scores
             sal::TrainedModel::score_map(cand_set, scores, map);
-          dets = sal::TrainedModel::select(cand_set, scores,
-                                           model->score_threshold,
-                                           model->nms_iou);
+          dets = sal::TrainedModel::select(cand_set, scores, model->score_threshold, model->nms_iou);
         } else if (peer) {
           peer->compute(img, map);
         } else if (method == sal::Method::kContrast) {
@@ -325,31 +279,25 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
         } else {
           itti.compute(img, cv::Mat(), map);
         }
-      } catch (const std::exception &e) {
+      } catch (const std::exception& e) {
         throw sal::DataError(path + ": " + e.what());
       }
-      if (!trained)
-        detector.detect(map, dets);
-      detect_s += std::chrono::duration<double>(
-                      std::chrono::steady_clock::now() - t0)
-                      .count();
+      if (!trained) detector.detect(map, dets);
+      detect_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       ++detected;
       const std::string name = fs::path(path).filename().string();
       const std::string stem = fs::path(path).stem().string();
-      for (const auto &d : dets) {
+      for (const auto& d : dets) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "%.6f", d.score);
-        csv << name << ',' << d.box.x << ',' << d.box.y << ','
-            << d.box.x + d.box.width << ',' << d.box.y + d.box.height << ','
-            << buf << '\n';
+        csv << name << ',' << d.box.x << ',' << d.box.y << ',' << d.box.x + d.box.width << ',' << d.box.y + d.box.height
+            << ',' << buf << '\n';
       }
       total_boxes += dets.size();
       if (!saliency_dir.empty()) {
         sal::to_8bit(map, map8);
-        const std::string out =
-            (fs::path(saliency_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, map8))
-          throw sal::DataError(out + ": cannot write saliency map");
+        const std::string out = (fs::path(saliency_dir) / (stem + ".png")).string();
+        if (!cv::imwrite(out, map8)) throw sal::DataError(out + ": cannot write saliency map");
       }
       if (!overlay_dir.empty()) {
         cv::Mat ov = to_bgr8(img).clone();
@@ -359,51 +307,38 @@ void run_rocks(const std::vector<std::string> &args, const RockOptions &o,
           const fs::path mp = fs::path(masks_dir) / (stem + ".png");
           const sal::FrameTruth truth = sal::read_truth(mp.string(), img.size(), 0);
           cv::Mat m = sal::read_image(mp.string()), bin;
-          if (m.channels() > 1)
-            cv::extractChannel(m, m, 0);
+          if (m.channels() > 1) cv::extractChannel(m, m, 0);
           cv::compare(m, 0, bin, cv::CMP_GT);
           std::vector<std::vector<cv::Point>> contours;
-          cv::findContours(bin, contours, cv::RETR_EXTERNAL,
-                           cv::CHAIN_APPROX_SIMPLE);
-          cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1,
-                           cv::LINE_AA);
-          legend += "; ground truth: cyan (" +
-                    std::to_string(truth.objects.size()) + " rocks)";
+          cv::findContours(bin, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+          cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
+          legend += "; ground truth: cyan (" + std::to_string(truth.objects.size()) + " rocks)";
         }
-        for (const auto &d : dets) {
+        for (const auto& d : dets) {
           const double sc = std::clamp(static_cast<double>(d.score), 0.0, 1.0);
           const cv::Scalar colour(0, 255.0 * sc, 255.0 * (1.0 - sc));
           cv::rectangle(ov, d.box, colour, 2);
           char buf[32];
           std::snprintf(buf, sizeof buf, "%.2f", d.score);
-          cv::putText(
-              ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)),
-              cv::FONT_HERSHEY_SIMPLEX, 0.4, colour, 1);
+          cv::putText(ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)), cv::FONT_HERSHEY_SIMPLEX, 0.4, colour,
+                      1);
         }
-        cv::rectangle(ov, cv::Rect(0, ov.rows - 18, ov.cols, 18),
-                      cv::Scalar(0, 0, 0), cv::FILLED);
-        cv::putText(ov, legend, cv::Point(4, ov.rows - 5),
-                    cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255),
-                    1, cv::LINE_AA);
-        const std::string out =
-            (fs::path(overlay_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, ov))
-          throw sal::DataError(out + ": cannot write overlay");
+        cv::rectangle(ov, cv::Rect(0, ov.rows - 18, ov.cols, 18), cv::Scalar(0, 0, 0), cv::FILLED);
+        cv::putText(ov, legend, cv::Point(4, ov.rows - 5), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1,
+                    cv::LINE_AA);
+        const std::string out = (fs::path(overlay_dir) / (stem + ".png")).string();
+        if (!cv::imwrite(out, ov)) throw sal::DataError(out + ": cannot write overlay");
       }
-    } catch (const sal::DataError &e) {
+    } catch (const sal::DataError& e) {
       ++failed;
-      if (first_error.empty())
-        first_error = e.what();
+      if (first_error.empty()) first_error = e.what();
       std::cerr << "error: " << e.what() << " (skipped)\n";
     }
   }
   csv.flush();
-  if (!csv)
-    throw InputError(csv_path + ": write failed");
-  std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed)
-            << " image(s), " << total_boxes << " box(es) -> " << csv_path
-            << " (" << o.method << ": "
-            << (detected ? 1e3 * detect_s / detected : 0.0)
+  if (!csv) throw InputError(csv_path + ": write failed");
+  std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed) << " image(s), " << total_boxes
+            << " box(es) -> " << csv_path << " (" << o.method << ": " << (detected ? 1e3 * detect_s / detected : 0.0)
             << " ms per image, decoding excluded)\n";
   if (failed + bad_dirs > 0) {
     throw InputError(std::to_string(failed + bad_dirs) + " of " +
@@ -433,105 +368,88 @@ struct EvalOptions {
 // Reads every image / mask pair and extracts + labels the trained method's candidates. The
 // working width (`cp.working_width_px`, when 0) becomes the images' median width: the model's
 // pixel scales and box-size features then mean the same on images of another size.
-std::vector<sal::LabelledFrame>
-load_labelled(const std::string &images, const std::string &masks,
-              int min_gt_area, sal::CandidateParams &cp,
-              const sal::TrainParams &tp, int &failed,
-              std::vector<sal::DatasetItem> *items_out = nullptr) {
+std::vector<sal::LabelledFrame> load_labelled(const std::string& images, const std::string& masks, int min_gt_area,
+                                              sal::CandidateParams& cp, const sal::TrainParams& tp, int& failed,
+                                              std::vector<sal::DatasetItem>* items_out = nullptr) {
   sal::DatasetListing listing = sal::list_dataset(images, masks);
   failed = static_cast<int>(listing.errors.size());
-  for (const auto &err : listing.errors)
-    std::cerr << "error: " << err << " (skipped)\n";
-  if (cp.working_width_px == 0)
-    cp.working_width_px = sal::median_image_width(listing.items);
+  for (const auto& err : listing.errors) std::cerr << "error: " << err << " (skipped)\n";
+  if (cp.working_width_px == 0) cp.working_width_px = sal::median_image_width(listing.items);
   sal::CandidateExtractor extractor(cp);
   std::vector<sal::LabelledFrame> frames;
-  for (const auto &item : listing.items) {
+  for (const auto& item : listing.items) {
     try {
-      frames.push_back(sal::make_labelled_frame(item, extractor, min_gt_area,
-                                                tp.positive_iou));
-      if (items_out)
-        items_out->push_back(item);
-    } catch (const sal::DataError &ex) {
+      frames.push_back(sal::make_labelled_frame(item, extractor, min_gt_area, tp.positive_iou));
+      if (items_out) items_out->push_back(item);
+    } catch (const sal::DataError& ex) {
       ++failed;
       std::cerr << "error: " << ex.what() << " (skipped)\n";
     }
   }
-  if (frames.empty())
-    throw InputError(images + ": no usable image/mask pairs");
+  if (frames.empty()) throw InputError(images + ": no usable image/mask pairs");
   return frames;
 }
 
-void run_train(const std::string &images, const std::string &masks,
-               const std::string &out, int min_gt_area) {
+void run_train(const std::string& images, const std::string& masks, const std::string& out, int min_gt_area) {
   sal::CandidateParams cp;
   const sal::TrainParams tp;
   int failed = 0;
   const auto frames = load_labelled(images, masks, min_gt_area, cp, tp, failed);
-  std::vector<const sal::LabelledFrame *> ptrs;
-  for (const auto &f : frames)
-    ptrs.push_back(&f);
+  std::vector<const sal::LabelledFrame*> ptrs;
+  for (const auto& f : frames) ptrs.push_back(&f);
   sal::TrainedModel m;
   try {
     m = sal::train_model(ptrs, cp, tp);
-  } catch (const std::invalid_argument &ex) {
+  } catch (const std::invalid_argument& ex) {
     throw InputError(images + ": " + ex.what());
   }
   try {
     m.save(out);
-  } catch (const sal::ModelError &ex) {
+  } catch (const sal::ModelError& ex) {
     throw InputError(ex.what());
   }
-  std::cerr << "train rocks: " << m.training_images << " image(s), "
-            << m.training_samples << " candidates (" << m.training_positives
-            << " positive), score threshold " << m.score_threshold
-            << ", NMS IoU " << m.nms_iou << " -> " << out << '\n';
-  if (failed > 0)
-    throw InputError(std::to_string(failed) +
-                     " image(s) skipped (see the errors above)");
+  std::cerr << "train rocks: " << m.training_images << " image(s), " << m.training_samples << " candidates ("
+            << m.training_positives << " positive), score threshold " << m.score_threshold << ", NMS IoU " << m.nms_iou
+            << " -> " << out << '\n';
+  if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }
 
 // image file name -> subset from a dataset's manifest.csv (columns `image` and `subset`, the
 // image possibly with a directory); empty when there is no such file or column.
-std::map<std::string, std::string> read_subsets(const std::filesystem::path &manifest) {
+std::map<std::string, std::string> read_subsets(const std::filesystem::path& manifest) {
   std::map<std::string, std::string> out;
   std::ifstream in(manifest);
   std::string line;
-  if (!in || !std::getline(in, line))
-    return out;
-  auto split = [](const std::string &l) {
+  if (!in || !std::getline(in, line)) return out;
+  auto split = [](const std::string& l) {
     std::vector<std::string> f;
     std::stringstream ss(l);
     std::string x;
-    while (std::getline(ss, x, ','))
-      f.push_back(x);
+    while (std::getline(ss, x, ',')) f.push_back(x);
     return f;
   };
   const auto head = split(line);
-  const auto col = [&](const char *n) {
+  const auto col = [&](const char* n) {
     return static_cast<size_t>(std::find(head.begin(), head.end(), n) - head.begin());
   };
   const size_t ci = col("image"), cs = col("subset");
-  if (ci >= head.size() || cs >= head.size())
-    return out;
+  if (ci >= head.size() || cs >= head.size()) return out;
   while (std::getline(in, line)) {
     const auto f = split(line);
-    if (f.size() > std::max(ci, cs))
-      out[std::filesystem::path(f[ci]).filename().string()] = f[cs];
+    if (f.size() > std::max(ci, cs)) out[std::filesystem::path(f[ci]).filename().string()] = f[cs];
   }
   return out;
 }
 
 // `eval rocks --trained-cv`: the trained method scored by grouped k-fold CV (models trained
 // only on the other folds), next to the contrast method with its defaults on the same folds.
-void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
+void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
   sal::CandidateParams cp;
   sal::TrainParams tp;
   tp.seed = e.train_seed;
   int failed = 0;
   std::vector<sal::DatasetItem> items;
-  const auto frames =
-      load_labelled(e.images, e.masks, e.min_gt_area, cp, tp, failed, &items);
+  const auto frames = load_labelled(e.images, e.masks, e.min_gt_area, cp, tp, failed, &items);
   // Contrast with its defaults (every fold of its own grouped CV chose them).
   sal::ContrastSaliency contrast(o.contrast());
   sal::BoxDetector detector(o.post(sal::Method::kContrast));
@@ -542,43 +460,36 @@ void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
     contrast.compute(sal::read_image(items[i].image_path), map);
     detector.detect(map, dets);
     sal::to_8bit(map, map8);
-    crec.push_back(
-        sal::evaluate_frame(frames[i].name, dets, frames[i].truth, map8));
+    crec.push_back(sal::evaluate_frame(frames[i].name, dets, frames[i].truth, map8));
   }
-  const sal::TrainedCvResult r =
-      sal::cross_validate_trained(frames, cp, tp, e.folds);
+  const sal::TrainedCvResult r = sal::cross_validate_trained(frames, cp, tp, e.folds);
   std::ostringstream md;
   md << "### Trained method: " << e.folds
      << "-fold cross-validation grouped by sol (each fold scored by a model "
         "trained on the other folds only)\n\nImages: "
-     << frames.size() << " (" << failed << " skipped), GT components >= "
-     << e.min_gt_area << " px.\n\n"
-     << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)},
-                             {"trained", sal::summarise(r.pooled)}})
+     << frames.size() << " (" << failed << " skipped), GT components >= " << e.min_gt_area << " px.\n\n"
+     << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)}, {"trained", sal::summarise(r.pooled)}})
      << "\n| test fold | images | GT | contrast N-MODA@0.2 / @0.5 / max F | "
         "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen score "
         "threshold, NMS IoU |\n|---:|---:|---:|---|---|---:|---|\n";
   for (int f = 0; f < e.folds; ++f) {
     std::vector<size_t> idx;
     for (size_t i = 0; i < frames.size(); ++i)
-      if (r.fold_of[i] == f)
-        idx.push_back(i);
+      if (r.fold_of[i] == f) idx.push_back(i);
     const sal::Summary c = sal::summarise(crec, idx);
     const sal::Summary t = r.fold_summaries[static_cast<size_t>(f)];
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "| %d | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | "
                   "%d | %.2f, %.2f |\n",
-                  f + 1, t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f,
-                  t.n_moda02, t.n_moda05, t.max_f, t.boxes,
-                  r.thresholds[static_cast<size_t>(f)],
-                  r.nms_ious[static_cast<size_t>(f)]);
+                  f + 1, t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02, t.n_moda05, t.max_f, t.boxes,
+                  r.thresholds[static_cast<size_t>(f)], r.nms_ious[static_cast<size_t>(f)]);
     md << buf;
   }
   // Per subset, when the dataset has a manifest.csv (image,...,subset,...) beside the image
   // directory: the held-out goal is to lead the contrast peer on each subset.
-  const std::map<std::string, std::string> subsets = read_subsets(
-      std::filesystem::path(e.images).parent_path() / "manifest.csv");
+  const std::map<std::string, std::string> subsets =
+      read_subsets(std::filesystem::path(e.images).parent_path() / "manifest.csv");
   if (!subsets.empty()) {
     std::map<std::string, std::vector<size_t>> by;
     for (size_t i = 0; i < frames.size(); ++i) {
@@ -587,70 +498,58 @@ void run_trained_cv(const EvalOptions &e, const RockOptions &o) {
     }
     md << "\n| subset | images | GT | contrast N-MODA@0.2 / @0.5 / max F | trained "
           "N-MODA@0.2 / @0.5 / max F |\n|---|---:|---:|---|---|\n";
-    for (const auto &[name, idx] : by) {
+    for (const auto& [name, idx] : by) {
       const sal::Summary c = sal::summarise(crec, idx), t = sal::summarise(r.pooled, idx);
       char buf[256];
-      std::snprintf(buf, sizeof buf, "| %s | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f |\n",
-                    name.c_str(), t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02,
-                    t.n_moda05, t.max_f);
+      std::snprintf(buf, sizeof buf, "| %s | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f |\n", name.c_str(),
+                    t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02, t.n_moda05, t.max_f);
       md << buf;
     }
   }
   // Upper bound set by the candidates: GT components with a candidate at IoU >= 0.2 / 0.5.
   int n_gt = 0, cover02 = 0, cover05 = 0;
   size_t n_cand = 0;
-  for (const auto &f : frames) {
+  for (const auto& f : frames) {
     n_cand += f.set.candidates.size();
-    for (const auto &g : f.truth.objects) {
-      if (g.ignored)
-        continue;
+    for (const auto& g : f.truth.objects) {
+      if (g.ignored) continue;
       ++n_gt;
       double best = 0.0;
-      for (const auto &c : f.set.candidates)
-        best = std::max(best, sal::iou(c.box, g.box));
+      for (const auto& c : f.set.candidates) best = std::max(best, sal::iou(c.box, g.box));
       cover02 += best >= 0.2;
       cover05 += best >= 0.5;
     }
   }
   md << "\nCandidates: " << n_cand << " (" << n_cand / frames.size()
-     << " per image); GT components with a candidate at IoU >= 0.2: "
-     << cover02 << " of " << n_gt << ", at IoU >= 0.5: " << cover05
-     << " (the recall the ranking stage cannot exceed).\n";
+     << " per image); GT components with a candidate at IoU >= 0.2: " << cover02 << " of " << n_gt
+     << ", at IoU >= 0.5: " << cover05 << " (the recall the ranking stage cannot exceed).\n";
   std::cout << md.str();
   if (!e.markdown.empty()) {
     std::ofstream file(e.markdown);
     file << md.str();
-    if (!file)
-      throw InputError(e.markdown + ": cannot write");
+    if (!file) throw InputError(e.markdown + ": cannot write");
   }
-  if (failed > 0)
-    throw InputError(std::to_string(failed) +
-                     " image(s) skipped (see the errors above)");
+  if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }
 
-std::string mean_std(const std::vector<double> &v) {
-  const double m =
-      std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+std::string mean_std(const std::vector<double>& v) {
+  const double m = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
   double s2 = 0.0;
-  for (double x : v)
-    s2 += (x - m) * (x - m);
-  const double sd =
-      v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
+  for (double x : v) s2 += (x - m) * (x - m);
+  const double sd = v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3f ± %.3f", m, sd);
   return buf;
 }
 
-void run_eval(const EvalOptions &e, const RockOptions &o) {
+void run_eval(const EvalOptions& e, const RockOptions& o) {
   if (e.trained_cv) {
     run_trained_cv(e, o);
     return;
   }
   std::vector<sal::Method> methods;
-  for (const auto &m : e.methods)
-    methods.push_back(sal::method_from_string(m));
-  if (methods.empty())
-    methods.assign(sal::kAllMethods.begin(), sal::kAllMethods.end());
+  for (const auto& m : e.methods) methods.push_back(sal::method_from_string(m));
+  if (methods.empty()) methods.assign(sal::kAllMethods.begin(), sal::kAllMethods.end());
   sal::StudyConfig cfg;
   cfg.itti = o.itti();
   cfg.itti_weights = {1.0, 1.0, o.colour ? 1.0 : 0.0, 0.0};
@@ -667,73 +566,57 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
   cfg.contrast_min_areas = e.contrast_min_areas;
   try {
     cfg.validate();
-  } catch (const std::invalid_argument &ex) {
+  } catch (const std::invalid_argument& ex) {
     throw ConfigError(ex.what());
   }
   std::shared_ptr<void> keep;
-  sal::HeightFn height =
-      make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
-  const bool want_sams = std::find(methods.begin(), methods.end(),
-                                   sal::Method::kSams) != methods.end();
-  if (want_sams && !height)
-    no_sfs();
+  sal::HeightFn height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
+  const bool want_sams = std::find(methods.begin(), methods.end(), sal::Method::kSams) != methods.end();
+  if (want_sams && !height) no_sfs();
   sal::DatasetListing listing = sal::list_dataset(e.images, e.masks);
   int failed = static_cast<int>(listing.errors.size());
-  for (const auto &err : listing.errors)
-    std::cerr << "error: " << err << " (skipped)\n";
+  for (const auto& err : listing.errors) std::cerr << "error: " << err << " (skipped)\n";
   sal::RockStudy study(cfg, height);
-  for (const auto &item : listing.items) {
+  for (const auto& item : listing.items) {
     try {
       study.add(item);
-    } catch (const sal::DataError &ex) {
+    } catch (const sal::DataError& ex) {
       ++failed;
       std::cerr << "error: " << ex.what() << " (skipped)\n";
     }
   }
-  if (study.size() == 0)
-    throw InputError(e.images + ": no usable image/mask pairs");
+  if (study.size() == 0) throw InputError(e.images + ": no usable image/mask pairs");
 
   std::ostringstream md;
-  md << "Images: " << study.size() << " (" << failed
-     << " skipped), ground-truth components >= " << e.min_gt_area
-     << " px, post-processing: Otsu x" << cfg.post.threshold_scale
-     << ", open r=" << cfg.post.open_radius
-     << " px, close r=" << cfg.post.close_radius << " px, min area "
-     << cfg.post.min_area
+  md << "Images: " << study.size() << " (" << failed << " skipped), ground-truth components >= " << e.min_gt_area
+     << " px, post-processing: Otsu x" << cfg.post.threshold_scale << ", open r=" << cfg.post.open_radius
+     << " px, close r=" << cfg.post.close_radius << " px, min area " << cfg.post.min_area
      << " px (contrast: its own Otsu scale and min area, below); Itti/SAMS "
         "colour channel: "
      << (o.colour ? "on" : "off") << ".\n\n";
   std::vector<std::pair<std::string, sal::Summary>> rows;
   for (sal::Method m : methods) {
-    rows.emplace_back(sal::to_string(m),
-                      sal::summarise(study.evaluate_all(
-                          m, study.default_candidate(m), true)));
+    rows.emplace_back(sal::to_string(m), sal::summarise(study.evaluate_all(m, study.default_candidate(m), true)));
   }
-  md << "### Fixed settings (SAMS "
-     << study.default_candidate(sal::Method::kSams).describe(sal::Method::kSams)
-     << "; contrast "
-     << study.default_candidate(sal::Method::kContrast)
-            .describe(sal::Method::kContrast)
-     << ")\n\n"
+  md << "### Fixed settings (SAMS " << study.default_candidate(sal::Method::kSams).describe(sal::Method::kSams)
+     << "; contrast " << study.default_candidate(sal::Method::kContrast).describe(sal::Method::kContrast) << ")\n\n"
      << sal::markdown_table(rows) << '\n';
 
   if (e.sweep) {
     if (want_sams) {
       const auto cands = study.candidates(sal::Method::kSams, true, false);
       const auto sweep = study.sweep(sal::Method::kSams, cands);
-      md << "### SAMS weight sweep on all " << study.size() << " images ("
-         << cands.size() << " weight combinations, step " << e.weight_step
-         << ", fixed post-processing), top 10\n\n"
+      md << "### SAMS weight sweep on all " << study.size() << " images (" << cands.size()
+         << " weight combinations, step " << e.weight_step << ", fixed post-processing), top 10\n\n"
          << "| rank | weights | N-MODA@0.2 | N-MODA@0.5 | P@0.2 | R@0.2 | "
             "boxes |\n"
          << "|---:|---|---:|---:|---:|---:|---:|\n";
       for (size_t k = 0; k < std::min<size_t>(10, sweep.size()); ++k) {
-        const auto &s = sweep[k].summary;
+        const auto& s = sweep[k].summary;
         char buf[256];
-        std::snprintf(buf, sizeof buf,
-                      "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
-                      sweep[k].candidate.describe(sal::Method::kSams).c_str(), s.n_moda02,
-                      s.n_moda05, s.precision02, s.recall02, s.boxes);
+        std::snprintf(buf, sizeof buf, "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
+                      sweep[k].candidate.describe(sal::Method::kSams).c_str(), s.n_moda02, s.n_moda05, s.precision02,
+                      s.recall02, s.boxes);
         md << buf;
       }
       md << "\nBest on the full set (optimistic, selected on the same images): "
@@ -747,51 +630,41 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
       std::vector<std::string> sols;
       size_t count = 0;
       for (size_t i = 0; i < study.size(); ++i) {
-        if (fold_of[i] != f)
-          continue;
+        if (fold_of[i] != f) continue;
         ++count;
-        if (std::find(sols.begin(), sols.end(), study.group(i)) == sols.end())
-          sols.push_back(study.group(i));
+        if (std::find(sols.begin(), sols.end(), study.group(i)) == sols.end()) sols.push_back(study.group(i));
       }
       md << "| " << f + 1 << " | " << count << " | ";
-      for (size_t j = 0; j < sols.size(); ++j)
-        md << (j ? ", " : "") << sols[j];
+      for (size_t j = 0; j < sols.size(); ++j) md << (j ? ", " : "") << sols[j];
       md << " |\n";
     }
     md << '\n';
     // The contrast grid does not depend on tune_scales: cross-validated once.
     std::optional<sal::CvResult> contrast_cv;
     for (bool tune_scales : {false, true}) {
-      if (tune_scales && cfg.threshold_scales.size() < 2)
-        continue;
+      if (tune_scales && cfg.threshold_scales.size() < 2) continue;
       std::vector<std::pair<std::string, sal::Summary>> cv_rows;
       std::ostringstream folds_md, per_fold_md;
       for (sal::Method m : methods) {
-        const bool own_grid =
-            m == sal::Method::kSams || m == sal::Method::kContrast;
+        const bool own_grid = m == sal::Method::kSams || m == sal::Method::kContrast;
         sal::CvResult r;
         if (m == sal::Method::kContrast && contrast_cv) {
           r = *contrast_cv;
         } else {
           r = study.cross_validate(m, study.candidates(m, own_grid, tune_scales));
-          if (m == sal::Method::kContrast)
-            contrast_cv = r;
+          if (m == sal::Method::kContrast) contrast_cv = r;
         }
         cv_rows.emplace_back(sal::to_string(m), sal::summarise(r.pooled));
         std::vector<double> maxf;
-        for (const auto &s : r.fold_summaries)
-          maxf.push_back(s.max_f);
-        folds_md << "| " << sal::to_string(m) << " | "
-                 << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
-                 << " | " << mean_std(maxf) << " | "
-                 << r.most_chosen().describe(m) << " |\n";
+        for (const auto& s : r.fold_summaries) maxf.push_back(s.max_f);
+        folds_md << "| " << sal::to_string(m) << " | " << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
+                 << " | " << mean_std(maxf) << " | " << r.most_chosen().describe(m) << " |\n";
         for (size_t f = 0; f < r.fold_summaries.size(); ++f) {
-          const auto &s = r.fold_summaries[f];
+          const auto& s = r.fold_summaries[f];
           char buf[128];
-          std::snprintf(buf, sizeof buf, "| %d | %d | %.3f | %.3f | %.3f | ",
-                        s.images, s.gt, s.n_moda02, s.n_moda05, s.max_f);
-          per_fold_md << "| " << sal::to_string(m) << " | " << f + 1 << ' '
-                      << buf << r.chosen[f].describe(m) << " |\n";
+          std::snprintf(buf, sizeof buf, "| %d | %d | %.3f | %.3f | %.3f | ", s.images, s.gt, s.n_moda02, s.n_moda05,
+                        s.max_f);
+          per_fold_md << "| " << sal::to_string(m) << " | " << f + 1 << ' ' << buf << r.chosen[f].describe(m) << " |\n";
         }
       }
       md << "### " << cfg.folds << "-fold cross-validation grouped by sol: "
@@ -800,8 +673,7 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
                          : "SAMS weights and the contrast grid (Otsu x1 for "
                            "the others)")
          << " chosen on the train folds; test folds pooled\n\n"
-         << sal::markdown_table(cv_rows)
-         << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
+         << sal::markdown_table(cv_rows) << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
          << "test-fold N-MODA@0.5 (mean ± sd) | test-fold max F (mean ± sd) | "
             "chosen in most folds |\n|---|---|---|---|---|\n"
          << folds_md.str()
@@ -815,22 +687,19 @@ void run_eval(const EvalOptions &e, const RockOptions &o) {
   if (!e.markdown.empty()) {
     std::ofstream f(e.markdown);
     f << md.str();
-    if (!f)
-      throw InputError(e.markdown + ": cannot write");
+    if (!f) throw InputError(e.markdown + ": cannot write");
   }
   if (failed > 0) {
-    throw InputError(std::to_string(failed) +
-                     " image(s) skipped (see the errors above)");
+    throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
   }
 }
 
-} // namespace
+}  // namespace
 
-void add_rocks_commands(CLI::App &app) {
+void add_rocks_commands(CLI::App& app) {
   // regolith rocks IMAGE... --method M --csv OUT.csv [--overlay-dir DIR]
   // [--saliency-dir DIR]
-  auto *rocks = app.add_subcommand(
-      "rocks", "detect rocks (salient objects) in images -> CSV boxes");
+  auto* rocks = app.add_subcommand("rocks", "detect rocks (salient objects) in images -> CSV boxes");
   auto images = std::make_shared<std::vector<std::string>>();
   auto ro = std::make_shared<RockOptions>();
   auto csv = std::make_shared<std::string>();
@@ -839,54 +708,36 @@ void add_rocks_commands(CLI::App &app) {
   auto masks_dir = std::make_shared<std::string>();
   rocks->add_option("images", *images, "input images, or directories of them (sorted by name)")->required();
   ro->add_to(rocks);
-  rocks
-      ->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")
-      ->required();
-  rocks->add_option("--overlay,--overlay-dir", *overlay,
-                    "write <stem>.png with the boxes drawn (coloured by score)");
+  rocks->add_option("--csv", *csv, "output CSV: image,xmin,ymin,xmax,ymax,score")->required();
+  rocks->add_option("--overlay,--overlay-dir", *overlay, "write <stem>.png with the boxes drawn (coloured by score)");
   rocks->add_option("--masks", *masks_dir,
                     "with --overlay: draw the ground-truth outlines of "
                     "<masks>/<stem>.png");
-  rocks->add_option("--saliency-dir", *saliency_dir,
-                    "write <stem>.png 8-bit saliency maps");
-  rocks->callback(
-      [=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir, *masks_dir); });
+  rocks->add_option("--saliency-dir", *saliency_dir, "write <stem>.png 8-bit saliency maps");
+  rocks->callback([=] { run_rocks(*images, *ro, *csv, *overlay, *saliency_dir, *masks_dir); });
 
   // regolith eval rocks --images DIR --masks DIR [--method M]...
   // [--sweep-weights] [--min-gt-area N]
-  CLI::App *eval =
-      group(app, "eval", "evaluate algorithms against ground truth");
-  auto *er = eval->add_subcommand(
-      "rocks", "rock detection scores (N-MODA, N-MODP, P, R, F, MAE)");
+  CLI::App* eval = group(app, "eval", "evaluate algorithms against ground truth");
+  auto* er = eval->add_subcommand("rocks", "rock detection scores (N-MODA, N-MODP, P, R, F, MAE)");
   auto eo = std::make_shared<EvalOptions>();
   auto ro2 = std::make_shared<RockOptions>();
   er->add_option("--images", eo->images, "image directory")->required();
-  er->add_option("--masks", eo->masks,
-                 "mask directory (<stem>.png, nonzero = rock)")
-      ->required();
+  er->add_option("--masks", eo->masks, "mask directory (<stem>.png, nonzero = rock)")->required();
   ro2->add_to(er);
   er->remove_option(er->get_option("--method"));
-  er->remove_option(er->get_option("--model")); // --trained-cv trains its own
-  er->add_option("--method", eo->methods,
-                 "methods to score (repeatable; default: all)")
+  er->remove_option(er->get_option("--model"));  // --trained-cv trains its own
+  er->add_option("--method", eo->methods, "methods to score (repeatable; default: all)")
       ->check(CLI::IsMember(sal::method_names()));
   er->add_flag("--sweep-weights", eo->sweep,
                "SAMS weight grid (Table 5.2 analogue) and k-fold "
                "cross-validation grouped by sol (SAMS weights, contrast grid, "
                "Otsu scales)");
-  er->add_option("--min-gt-area", eo->min_gt_area,
-                 "px, ignore smaller mask components")
-      ->capture_default_str();
-  er->add_option("--folds", eo->folds, "k of the k-fold cross-validation")
-      ->capture_default_str();
-  er->add_option("--weight-step", eo->weight_step,
-                 "grid step of the weight sweep")
-      ->capture_default_str();
-  er->add_option("--threshold-scales", eo->scales,
-                 "Otsu scales tried by the cross-validation")
-      ->capture_default_str();
-  er->add_option("--contrast-sigmas", eo->contrast_sigmas,
-                 "px, contrast surround sigmas tried by the cross-validation")
+  er->add_option("--min-gt-area", eo->min_gt_area, "px, ignore smaller mask components")->capture_default_str();
+  er->add_option("--folds", eo->folds, "k of the k-fold cross-validation")->capture_default_str();
+  er->add_option("--weight-step", eo->weight_step, "grid step of the weight sweep")->capture_default_str();
+  er->add_option("--threshold-scales", eo->scales, "Otsu scales tried by the cross-validation")->capture_default_str();
+  er->add_option("--contrast-sigmas", eo->contrast_sigmas, "px, contrast surround sigmas tried by the cross-validation")
       ->capture_default_str();
   er->add_option("--contrast-smooths", eo->contrast_smooths,
                  "px, contrast smoothing sigmas tried by the cross-validation")
@@ -897,8 +748,7 @@ void add_rocks_commands(CLI::App &app) {
   er->add_option("--contrast-min-areas", eo->contrast_min_areas,
                  "px, contrast minimum box areas tried by the cross-validation")
       ->capture_default_str();
-  er->add_option("--markdown", eo->markdown,
-                 "also write the tables to this file");
+  er->add_option("--markdown", eo->markdown, "also write the tables to this file");
   er->add_flag("--trained-cv", eo->trained_cv,
                "score only the trained method by grouped k-fold CV (models "
                "trained on the other folds) next to contrast");
@@ -909,24 +759,21 @@ void add_rocks_commands(CLI::App &app) {
   er->callback([=] { run_eval(*eo, *ro2); });
 
   // regolith train rocks --images DIR --masks DIR --out MODEL
-  CLI::App *train = group(app, "train", "train models from labelled data");
-  auto *tr = train->add_subcommand(
-      "rocks", "train the rock ranking model of `regolith rocks --method trained`");
+  CLI::App* train = group(app, "train", "train models from labelled data");
+  auto* tr = train->add_subcommand("rocks", "train the rock ranking model of `regolith rocks --method trained`");
   auto ti = std::make_shared<std::string>();
   auto tm = std::make_shared<std::string>();
   auto to = std::make_shared<std::string>();
   auto tmin = std::make_shared<int>(50);
   tr->add_option("--images", *ti, "image directory")->required();
-  tr->add_option("--masks", *tm, "mask directory (<stem>.png, nonzero = rock)")
-      ->required();
+  tr->add_option("--masks", *tm, "mask directory (<stem>.png, nonzero = rock)")->required();
   tr->add_option("--out", *to, "model file to write (YAML)")->required();
-  tr->add_option("--min-gt-area", *tmin, "px, ignore smaller mask components")
-      ->capture_default_str();
+  tr->add_option("--min-gt-area", *tmin, "px, ignore smaller mask components")->capture_default_str();
   tr->callback([=] { run_train(*ti, *tm, *to, *tmin); });
 }
 
 namespace {
 [[maybe_unused]] const bool registered = add_command(add_rocks_commands);
-} // namespace
+}  // namespace
 
-} // namespace regolith::cli
+}  // namespace regolith::cli

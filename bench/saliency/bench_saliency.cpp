@@ -6,13 +6,13 @@
 // forest + selection). Prints each time as a ratio against Itti measured in the same run, and the
 // trained detector's against SAMS and the contrast peer. Single thread (cv::setNumThreads(1)).
 #include <benchmark/benchmark.h>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "regolith/saliency/contrast.hpp"
@@ -30,34 +30,30 @@ namespace {
 
 cv::Mat frame(cv::Size size) {
   const std::string p =
-      std::string(REGOLITH_SHARED_DIR) +
-      "/data/marsdata_rocks_dev/images/1044_1044MR0045730490204497E01_DXXX.jpg";
+      std::string(REGOLITH_SHARED_DIR) + "/data/marsdata_rocks_dev/images/1044_1044MR0045730490204497E01_DXXX.jpg";
   cv::Mat img = cv::imread(p);
-  if (img.empty()) { // shared data absent: a synthetic textured frame with
-                     // bright blobs
+  if (img.empty()) {  // shared data absent: a synthetic textured frame with
+                      // bright blobs
     img.create(size, CV_8UC3);
     cv::randu(img, cv::Scalar::all(60), cv::Scalar::all(160));
     cv::GaussianBlur(img, img, cv::Size(0, 0), 2.0);
     for (int k = 0; k < 12; ++k) {
-      cv::circle(img, {40 + 45 * k, 100 + 25 * (k % 5)}, 10 + k,
-                 cv::Scalar(220, 220, 230), -1);
+      cv::circle(img, {40 + 45 * k, 100 + 25 * (k % 5)}, 10 + k, cv::Scalar(220, 220, 230), -1);
     }
   }
-  if (img.size() != size)
-    cv::resize(img, img, size, 0, 0, cv::INTER_AREA);
+  if (img.size() != size) cv::resize(img, img, size, 0, 0, cv::INTER_AREA);
   return img;
 }
 
-void record(benchmark::State &st) {
-  st.counters["fps"] = benchmark::Counter(static_cast<double>(st.iterations()),
-                                          benchmark::Counter::kIsRate);
+void record(benchmark::State& st) {
+  st.counters["fps"] = benchmark::Counter(static_cast<double>(st.iterations()), benchmark::Counter::kIsRate);
 }
 
 cv::Size size_of(int arg) {
   return arg == 0 ? cv::Size(560, 500) : cv::Size(640, 480);
 }
 
-void BM_Itti(benchmark::State &st) {
+void BM_Itti(benchmark::State& st) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   rs::IttiSaliency itti;
@@ -72,7 +68,7 @@ void BM_Itti(benchmark::State &st) {
   record(st);
 }
 
-void BM_SamsSharedDtm(benchmark::State &st) {
+void BM_SamsSharedDtm(benchmark::State& st) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   // A DTM computed elsewhere (shared with the terrain map): here a smooth
@@ -95,7 +91,7 @@ void BM_SamsSharedDtm(benchmark::State &st) {
 }
 
 #ifdef REGOLITH_HAVE_SFS
-void BM_SamsWithSfs(benchmark::State &st) {
+void BM_SamsWithSfs(benchmark::State& st) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   rs::IttiParams p;
@@ -116,7 +112,7 @@ void BM_SamsWithSfs(benchmark::State &st) {
 BENCHMARK(BM_SamsWithSfs)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 #endif
 
-void BM_Contrast(benchmark::State &st) {
+void BM_Contrast(benchmark::State& st) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   rs::ContrastSaliency contrast;
@@ -131,7 +127,7 @@ void BM_Contrast(benchmark::State &st) {
   record(st);
 }
 
-void peer(benchmark::State &st, rs::Method m) {
+void peer(benchmark::State& st, rs::Method m) {
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   rs::OpenCvSaliency s(m);
@@ -145,14 +141,14 @@ void peer(benchmark::State &st, rs::Method m) {
   }
   record(st);
 }
-void BM_SpectralResidual(benchmark::State &st) {
+void BM_SpectralResidual(benchmark::State& st) {
   peer(st, rs::Method::kSpectralResidual);
 }
-void BM_FineGrained(benchmark::State &st) {
+void BM_FineGrained(benchmark::State& st) {
   peer(st, rs::Method::kFineGrained);
 }
 
-void trained(benchmark::State &st, bool grey) {
+void trained(benchmark::State& st, bool grey) {
   cv::setNumThreads(1);
   cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   if (grey) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
@@ -169,8 +165,12 @@ void trained(benchmark::State &st, bool grey) {
 }
 // The colour Mastcam frame (`regolith rocks`), and the same frame grey: what the sams component
 // gives the detector (the DTM's image; no chroma map to compute).
-void BM_Trained(benchmark::State &st) { trained(st, false); }
-void BM_TrainedGrey(benchmark::State &st) { trained(st, true); }
+void BM_Trained(benchmark::State& st) {
+  trained(st, false);
+}
+void BM_TrainedGrey(benchmark::State& st) {
+  trained(st, true);
+}
 
 BENCHMARK(BM_Itti)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Trained)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
@@ -183,10 +183,10 @@ BENCHMARK(BM_FineGrained)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 // Collects the per-iteration real time of every run and prints ratios against
 // Itti.
 class RatioReporter : public benchmark::ConsoleReporter {
-public:
-  void ReportRuns(const std::vector<Run> &runs) override {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
     ConsoleReporter::ReportRuns(runs);
-    for (const auto &r : runs) {
+    for (const auto& r : runs) {
       if (r.run_type == Run::RT_Iteration) {
         times_[r.benchmark_name()] = r.GetAdjustedCPUTime();
         wall_[r.benchmark_name()] = r.GetAdjustedRealTime();
@@ -195,26 +195,23 @@ public:
   }
   void Finalize() override {
     ConsoleReporter::Finalize();
-    for (const char *size : {"0", "1"}) {
+    for (const char* size : {"0", "1"}) {
       const auto itti = times_.find(std::string("BM_Itti/") + size);
-      if (itti == times_.end())
-        continue;
-      std::printf("\nRatios vs Itti at %s (CPU time / Itti CPU time; Itti = "
-                  "%.2f ms CPU):\n",
-                  size[0] == '0' ? "560x500" : "640x480", itti->second);
-      for (const auto &[name, t] : times_) {
-        if (name.size() > 2 &&
-            name.substr(name.size() - 2) == std::string("/") + size) {
-          std::printf(
-              "  %-24s %8.2f ms CPU  %6.1f fps  x%.2f   (wall %.2f ms)\n",
-              name.c_str(), t, 1000.0 / t, t / itti->second, wall_[name]);
+      if (itti == times_.end()) continue;
+      std::printf(
+          "\nRatios vs Itti at %s (CPU time / Itti CPU time; Itti = "
+          "%.2f ms CPU):\n",
+          size[0] == '0' ? "560x500" : "640x480", itti->second);
+      for (const auto& [name, t] : times_) {
+        if (name.size() > 2 && name.substr(name.size() - 2) == std::string("/") + size) {
+          std::printf("  %-24s %8.2f ms CPU  %6.1f fps  x%.2f   (wall %.2f ms)\n", name.c_str(), t, 1000.0 / t,
+                      t / itti->second, wall_[name]);
         }
       }
       // The trained detector against its goal's peers (issue 15: >= 30 fps at 560x500).
       const auto trained = times_.find(std::string("BM_Trained/") + size);
-      if (trained == times_.end())
-        continue;
-      for (const char *peer_name : {"BM_SamsWithSfs/", "BM_SamsSharedDtm/", "BM_Contrast/"}) {
+      if (trained == times_.end()) continue;
+      for (const char* peer_name : {"BM_SamsWithSfs/", "BM_SamsSharedDtm/", "BM_Contrast/"}) {
         const auto p = times_.find(std::string(peer_name) + size);
         if (p != times_.end())
           std::printf("  trained / %-22s x%.2f\n", (std::string(peer_name) + size).c_str(),
@@ -223,13 +220,13 @@ public:
     }
   }
 
-private:
+ private:
   std::map<std::string, double> times_, wall_;
 };
 
-} // namespace
+}  // namespace
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   RatioReporter rep;
   benchmark::RunSpecifiedBenchmarks(&rep);

@@ -5,21 +5,20 @@
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdlib>
 #include <map>
 #include <new>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <tuple>
 
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/trained.hpp"
-
-#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 namespace rs = regolith::saliency;
 
@@ -33,7 +32,7 @@ cv::Mat random_float(cv::Size s, int seed) {
 }
 
 // Largest |a - b| relative to the largest |b| (1 when b is all zero).
-double rel_diff(const cv::Mat &a, const cv::Mat &b) {
+double rel_diff(const cv::Mat& a, const cv::Mat& b) {
   EXPECT_EQ(a.size(), b.size());
   EXPECT_EQ(a.type(), b.type());
   double mx = 0.0;
@@ -55,20 +54,19 @@ cv::Mat random_binary(cv::Size s, int seed) {
   std::bernoulli_distribution salt(0.04);
   for (int y = 0; y < s.height; ++y)
     for (int x = 0; x < s.width; ++x)
-      if (salt(rng))
-        m.at<uchar>(y, x) = 255;
+      if (salt(rng)) m.at<uchar>(y, x) = 255;
   return m;
 }
 
 const cv::Size kSizes[] = {{1, 1}, {2, 3}, {7, 5}, {9, 9}, {40, 30}, {41, 33}, {80, 61}, {161, 120}};
 
-} // namespace
+}  // namespace
 
 TEST(ImageOps, GaborEnergyEqualsFilter2DReplicate) {
   for (const int ks : {3, 9}) {
     cv::Mat even = cv::getGaborKernel({ks, ks}, 7.0 / 3.0, 0.7, 7.0, 1.0, 0.0, CV_32F);
     cv::Mat odd = cv::getGaborKernel({ks, ks}, 7.0 / 3.0, 0.7, 7.0, 1.0, CV_PI / 2, CV_32F);
-    odd.at<float>(0, 0) += 0.25f; // make it asymmetric: a flipped kernel would be caught
+    odd.at<float>(0, 0) += 0.25f;  // make it asymmetric: a flipped kernel would be caught
     int seed = 1;
     for (const cv::Size s : kSizes) {
       const cv::Mat src = random_float(s, seed++);
@@ -127,14 +125,14 @@ TEST(ImageOps, ErodeDilateEqualOpenCvDefaultBorder) {
   cv::erode(g, ref, k);
   rs::erode_8u(g, out, k, pad);
   EXPECT_EQ(cv::norm(out, ref, cv::NORM_INF), 0.0);
-  rs::erode_8u(g, g, k, pad); // in place
+  rs::erode_8u(g, g, k, pad);  // in place
   EXPECT_EQ(cv::norm(g, ref, cv::NORM_INF), 0.0);
   // Kernels whose rows are not single runs (gaps, an empty row; the per-member path), runs that
   // are not nested (a slanted bar) and an asymmetric run set, grey and in place.
   const cv::Mat gappy = (cv::Mat_<uchar>(3, 5) << 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1);
   const cv::Mat slanted = (cv::Mat_<uchar>(3, 5) << 1, 1, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 1, 1);
   const cv::Mat lopsided = (cv::Mat_<uchar>(5, 3) << 0, 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1);
-  for (const cv::Mat &kk : {gappy, slanted, lopsided}) {
+  for (const cv::Mat& kk : {gappy, slanted, lopsided}) {
     cv::Mat grey(29, 37, CV_8U), r_e, r_d, o_e, o_d;
     cv::randu(grey, 0, 256);
     cv::erode(grey, r_e, kk);
@@ -151,24 +149,32 @@ TEST(ImageOps, ErodeDilateEqualOpenCvDefaultBorder) {
 TEST(ImageOps, ResizeTableEqualsCvResize) {
   // Sizes of the dyadic pyramid (ceil halving) to a map level and back, plus odd ratios.
   const std::tuple<cv::Size, cv::Size, int> cases[] = {
-      {{160, 120}, {40, 30}, cv::INTER_AREA},  {{140, 125}, {35, 32}, cv::INTER_AREA},
-      {{70, 63}, {35, 32}, cv::INTER_AREA},    {{35, 32}, {35, 32}, cv::INTER_AREA},
-      {{101, 77}, {13, 9}, cv::INTER_AREA},    {{5, 4}, {40, 30}, cv::INTER_LINEAR},
-      {{3, 2}, {35, 32}, cv::INTER_LINEAR},    {{80, 60}, {320, 240}, cv::INTER_LINEAR},
-      {{35, 32}, {560, 500}, cv::INTER_LINEAR}, {{1, 1}, {7, 5}, cv::INTER_LINEAR},
-      {{50, 40}, {17, 23}, cv::INTER_LINEAR},  {{20, 15}, {20, 15}, cv::INTER_LINEAR},
+      {{160, 120}, {40, 30}, cv::INTER_AREA},
+      {{140, 125}, {35, 32}, cv::INTER_AREA},
+      {{70, 63}, {35, 32}, cv::INTER_AREA},
+      {{35, 32}, {35, 32}, cv::INTER_AREA},
+      {{101, 77}, {13, 9}, cv::INTER_AREA},
+      {{5, 4}, {40, 30}, cv::INTER_LINEAR},
+      {{3, 2}, {35, 32}, cv::INTER_LINEAR},
+      {{80, 60}, {320, 240}, cv::INTER_LINEAR},
+      {{35, 32}, {560, 500}, cv::INTER_LINEAR},
+      {{1, 1}, {7, 5}, cv::INTER_LINEAR},
+      {{50, 40}, {17, 23}, cv::INTER_LINEAR},
+      {{20, 15}, {20, 15}, cv::INTER_LINEAR},
       // the mock deployment (320x240, map level 2, levels 3..7 -> 80x60, map -> input)
-      {{40, 30}, {80, 60}, cv::INTER_LINEAR},  {{20, 15}, {80, 60}, cv::INTER_LINEAR},
-      {{10, 8}, {80, 60}, cv::INTER_LINEAR},   {{5, 4}, {80, 60}, cv::INTER_LINEAR},
-      {{3, 2}, {80, 60}, cv::INTER_LINEAR},    {{80, 60}, {320, 240}, cv::INTER_LINEAR}};
+      {{40, 30}, {80, 60}, cv::INTER_LINEAR},
+      {{20, 15}, {80, 60}, cv::INTER_LINEAR},
+      {{10, 8}, {80, 60}, cv::INTER_LINEAR},
+      {{5, 4}, {80, 60}, cv::INTER_LINEAR},
+      {{3, 2}, {80, 60}, cv::INTER_LINEAR},
+      {{80, 60}, {320, 240}, cv::INTER_LINEAR}};
   int seed = 100;
-  for (const auto &[from, to, interp] : cases) {
+  for (const auto& [from, to, interp] : cases) {
     const cv::Mat src = random_float(from, seed++);
     cv::Mat ref, dst;
     cv::resize(src, ref, to, 0, 0, interp);
     rs::ResizeTable t;
-    t.build(from, to,
-            interp == cv::INTER_AREA ? rs::ResizeTable::Mode::kArea : rs::ResizeTable::Mode::kLinear);
+    t.build(from, to, interp == cv::INTER_AREA ? rs::ResizeTable::Mode::kArea : rs::ResizeTable::Mode::kLinear);
     t.apply(src, dst);
     EXPECT_LT(rel_diff(dst, ref), 2e-6) << from << " -> " << to << " interp " << interp;
   }
@@ -203,7 +209,7 @@ TEST(ImageOps, ConnectedComponentsEqualOpenCvLabelsAndStats) {
   cv::rectangle(u, cv::Rect(20, 2, 3, 15), 255, -1);
   cv::rectangle(u, cv::Rect(2, 15, 21, 2), 255, -1);
   u.at<uchar>(0, 10) = 255;
-  u.at<uchar>(1, 11) = 255; // diagonal pair: one component with 8-connectivity
+  u.at<uchar>(1, 11) = 255;  // diagonal pair: one component with 8-connectivity
   cv::Mat labels, stats, centroids;
   ASSERT_EQ(cc.run(u), cv::connectedComponentsWithStats(u, labels, stats, centroids, 8, CV_32S));
   EXPECT_EQ(cc.run(u), 3);
@@ -220,9 +226,9 @@ TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {
     int delta_max, map_level;
     rs::StructureFeature feature;
   };
-  for (const Case &c : {Case{{320, 240}, 3, 2, rs::StructureFeature::kHeight},
-                        Case{{320, 240}, 3, 2, rs::StructureFeature::kSlope},
-                        Case{{640, 480}, 4, 4, rs::StructureFeature::kHeight}}) {
+  for (const Case& c :
+       {Case{{320, 240}, 3, 2, rs::StructureFeature::kHeight}, Case{{320, 240}, 3, 2, rs::StructureFeature::kSlope},
+        Case{{640, 480}, 4, 4, rs::StructureFeature::kHeight}}) {
     cv::Mat gray(c.size, CV_8U), height(c.size, CV_32F);
     cv::randu(gray, 0, 256);
     cv::GaussianBlur(gray, gray, {0, 0}, 2.0);
@@ -256,7 +262,7 @@ TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {
 TEST(ImageOps, GaussianBlur32fEqualsCvGaussianBlur) {
   rs::GaussianBlur32f blur;
   int seed = 40;
-  for (const cv::Size &s : kSizes)
+  for (const cv::Size& s : kSizes)
     for (double sigma : {0.8, 2.0, 4.0, 9.5}) {
       const cv::Mat src = random_float(s, ++seed);
       cv::Mat ours, ref;
@@ -274,7 +280,7 @@ TEST(ImageOps, GaussianBlur32fEqualsCvGaussianBlur) {
 
 TEST(ImageOps, Sobel3EqualsCvSobel) {
   int seed = 90;
-  for (const cv::Size &s : kSizes) {
+  for (const cv::Size& s : kSizes) {
     const cv::Mat src = random_float(s, ++seed);
     cv::Mat gx, gy, rx, ry;
     rs::sobel3_32f(src, gx, gy, 0.125f);
@@ -312,7 +318,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       gray += noise;
       return gray;
     };
-    auto run = [&](const cv::Mat &gray) {
+    auto run = [&](const cv::Mat& gray) {
       ex.extract(gray, set);
       model.score(set, scores);
       rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou, dets, order);

@@ -1,8 +1,8 @@
 // Itti-Koch building blocks and SAMS on constructed scenes with known salient
 // objects.
 #include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
 #include <vector>
@@ -25,13 +25,13 @@ cv::Mat noise_texture(cv::Size size, double mean, double sd, unsigned seed) {
   return img;
 }
 
-cv::Point argmax(const cv::Mat &m) {
+cv::Point argmax(const cv::Mat& m) {
   cv::Point p;
   cv::minMaxLoc(m, nullptr, nullptr, nullptr, &p);
   return p;
 }
 
-} // namespace
+}  // namespace
 
 TEST(Pyramid, StbDownsampleSizesConstantAndRamp) {
   cv::Mat c(37, 50, CV_32F, cv::Scalar(0.25));
@@ -45,11 +45,9 @@ TEST(Pyramid, StbDownsampleSizesConstantAndRamp) {
   // A ramp f(x) = x: the symmetric 6-tap kernel puts coarse pixel i at x = 2i +
   // 0.5.
   cv::Mat r(8, 40, CV_32F);
-  for (int x = 0; x < 40; ++x)
-    r.col(x).setTo(static_cast<float>(x));
+  for (int x = 0; x < 40; ++x) r.col(x).setTo(static_cast<float>(x));
   rs::downsample_stb(r, d, tmp);
-  for (int i = 2; i < 18; ++i)
-    EXPECT_NEAR(d.at<float>(3, i), 2 * i + 0.5, 1e-4) << i;
+  for (int i = 2; i < 18; ++i) EXPECT_NEAR(d.at<float>(3, i), 2 * i + 0.5, 1e-4) << i;
 }
 
 TEST(Normalisation, LocalMaxPromotesASinglePeakAndSuppressesTwins) {
@@ -57,12 +55,12 @@ TEST(Normalisation, LocalMaxPromotesASinglePeakAndSuppressesTwins) {
   one.at<float>(10, 10) = 3.f;
   rs::normalise_local_max(one);
   EXPECT_NEAR(one.at<float>(10, 10), 10.f * 100.f,
-              1e-3); // scaled to 10, times (10 - 0)^2
+              1e-3);  // scaled to 10, times (10 - 0)^2
   cv::Mat two = cv::Mat::zeros(20, 20, CV_32F);
   two.at<float>(5, 5) = 3.f;
   two.at<float>(15, 15) = 3.f;
   rs::normalise_local_max(two);
-  EXPECT_NEAR(cv::norm(two, cv::NORM_INF), 0.0, 1e-6); // (10 - 10)^2 = 0
+  EXPECT_NEAR(cv::norm(two, cv::NORM_INF), 0.0, 1e-6);  // (10 - 10)^2 = 0
   // One strong and one 40 % peak: factor (10 - 4)^2 = 36.
   cv::Mat mixed = cv::Mat::zeros(20, 20, CV_32F);
   mixed.at<float>(5, 5) = 5.f;
@@ -102,7 +100,7 @@ TEST(Itti, FindsABrightRockOnTexturedGround) {
   ASSERT_EQ(sal.size(), img.size());
   ASSERT_EQ(sal.type(), CV_32F);
   EXPECT_LT(cv::norm(argmax(sal) - c),
-            22.0 + 16.0); // within the rock, +- one map pixel
+            22.0 + 16.0);  // within the rock, +- one map pixel
   rs::BoxDetector det;
   std::vector<rs::Detection> boxes;
   det.detect(sal, boxes);
@@ -121,8 +119,7 @@ TEST(Sams, StructureChannelFindsARelieflessRockInTheHeightMap) {
   for (int y = 0; y < size.height; ++y) {
     for (int x = 0; x < size.width; ++x) {
       const double r2 = (x - c.x) * (x - c.x) + (y - c.y) * (y - c.y);
-      height.at<float>(y, x) =
-          static_cast<float>(12.0 * std::exp(-r2 / (2.0 * 15.0 * 15.0)));
+      height.at<float>(y, x) = static_cast<float>(12.0 * std::exp(-r2 / (2.0 * 15.0 * 15.0)));
     }
   }
   rs::IttiParams p;
@@ -131,7 +128,7 @@ TEST(Sams, StructureChannelFindsARelieflessRockInTheHeightMap) {
   cv::Mat sal;
   sams.compute(img, height, sal);
   EXPECT_LT(cv::norm(argmax(sal) - c), 30.0);
-  const rs::Conspicuity &k = sams.conspicuity(img, height);
+  const rs::Conspicuity& k = sams.conspicuity(img, height);
   ASSERT_FALSE(k.structure.empty());
   EXPECT_GT(cv::norm(k.structure, cv::NORM_INF), 0.0);
   // Slope feature: a ring around the same centre, still within the rock's
@@ -157,7 +154,8 @@ TEST(Sams, HeightsEnterThePyramidAtTheLevelOfTheirSize) {
   const cv::Point c(140, 260);
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x)
-      height.at<float>(y, x) = static_cast<float>(12.0 * std::exp(-((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y)) / 450.0));
+      height.at<float>(y, x) =
+          static_cast<float>(12.0 * std::exp(-((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y)) / 450.0));
   cv::Mat h4;
   cv::resize(height, h4, rs::IttiSaliency::level_size(size, 2), 0, 0, cv::INTER_AREA);
   rs::IttiParams p;
@@ -180,7 +178,7 @@ TEST(Sams, HeightsEnterThePyramidAtTheLevelOfTheirSize) {
   try {
     sams.compute(img, cv::Mat(100, 100, CV_32F, cv::Scalar(0)), sal);
     ADD_FAILURE() << "a 100x100 height for a 512x384 image was accepted";
-  } catch (const std::invalid_argument &e) {
+  } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("100x100"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("128x96"), std::string::npos) << e.what();
   }
@@ -198,19 +196,17 @@ TEST(Itti, AcceptsGreyAndColourOfAnyDepth) {
   rs::IttiParams p;
   p.use_colour = true;
   rs::IttiSaliency itti(p);
-  for (const cv::Mat &m : {g16, bgr32, bgra8, bgr8}) {
+  for (const cv::Mat& m : {g16, bgr32, bgra8, bgr8}) {
     cv::Mat sal;
     itti.compute(m, sal);
     EXPECT_EQ(sal.size(), m.size());
-    EXPECT_LT(cv::norm(argmax(sal) - cv::Point(150, 130)), 30.0)
-        << "type " << m.type();
+    EXPECT_LT(cv::norm(argmax(sal) - cv::Point(150, 130)), 30.0) << "type " << m.type();
   }
   EXPECT_FALSE(itti.conspicuity(bgr8).colour.empty());
   EXPECT_TRUE(itti.conspicuity(g16).colour.empty());
-  for (rs::Method m :
-       {rs::Method::kSpectralResidual, rs::Method::kFineGrained}) {
+  for (rs::Method m : {rs::Method::kSpectralResidual, rs::Method::kFineGrained}) {
     rs::OpenCvSaliency peer(m);
-    for (const cv::Mat &img : {g16, bgr32, bgra8}) {
+    for (const cv::Mat& img : {g16, bgr32, bgra8}) {
       cv::Mat sal;
       peer.compute(img, sal);
       EXPECT_EQ(sal.size(), img.size());
@@ -222,33 +218,26 @@ TEST(Itti, AcceptsGreyAndColourOfAnyDepth) {
 TEST(Itti, BadInputAndParametersGiveClearMessages) {
   rs::IttiSaliency itti;
   cv::Mat sal;
-  auto message = [&](const cv::Mat &img, const cv::Mat &h) {
+  auto message = [&](const cv::Mat& img, const cv::Mat& h) {
     try {
       itti.compute(img, h, sal);
-    } catch (const std::invalid_argument &e) {
+    } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
     return std::string("no exception");
   };
   EXPECT_NE(message(cv::Mat(), cv::Mat()).find("empty"), std::string::npos);
-  EXPECT_NE(message(cv::Mat::zeros(200, 300, CV_8U), cv::Mat())
-                .find("smaller than the pyramid"),
+  EXPECT_NE(message(cv::Mat::zeros(200, 300, CV_8U), cv::Mat()).find("smaller than the pyramid"), std::string::npos);
+  EXPECT_NE(message(cv::Mat::zeros(300, 300, CV_8UC2), cv::Mat()).find("channels"), std::string::npos);
+  EXPECT_NE(message(cv::Mat::zeros(300, 300, CV_8U), cv::Mat::zeros(100, 100, CV_32F)).find("height: size"),
             std::string::npos);
-  EXPECT_NE(
-      message(cv::Mat::zeros(300, 300, CV_8UC2), cv::Mat()).find("channels"),
-      std::string::npos);
-  EXPECT_NE(
-      message(cv::Mat::zeros(300, 300, CV_8U), cv::Mat::zeros(100, 100, CV_32F))
-          .find("height: size"),
-      std::string::npos);
   rs::IttiParams p;
   p.weights.structure = std::nan("");
   try {
     rs::IttiSaliency bad(p);
     FAIL();
-  } catch (const std::invalid_argument &e) {
-    EXPECT_NE(std::string(e.what()).find("ChannelWeights.structure"),
-              std::string::npos);
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ChannelWeights.structure"), std::string::npos);
   }
   p = {};
   p.map_level = 20;
@@ -261,17 +250,15 @@ namespace {
 // Every job on a thread of its own, started last job first: the channels must not share any
 // buffer or depend on each other's order.
 class ThreadPerJob final : public regolith::ParallelFor {
-public:
-  void run(int n, void (*fn)(void *, int), void *ctx) override {
+ public:
+  void run(int n, void (*fn)(void*, int), void* ctx) override {
     std::vector<std::thread> t;
-    for (int i = n - 1; i >= 0; --i)
-      t.emplace_back([=] { fn(ctx, i); });
-    for (auto &x : t)
-      x.join();
+    for (int i = n - 1; i >= 0; --i) t.emplace_back([=] { fn(ctx, i); });
+    for (auto& x : t) x.join();
   }
   int threads() const override { return 8; }
 };
-} // namespace
+}  // namespace
 
 TEST(Sams, ChannelsRunInParallelGiveTheSameMapsBitForBit) {
   const cv::Size size(320, 256);  // the default 9-level pyramid needs >= 256 px
@@ -289,13 +276,13 @@ TEST(Sams, ChannelsRunInParallelGiveTheSameMapsBitForBit) {
       ThreadPerJob par;
       parallel.set_parallel(&par);
       cv::Mat a, b;
-      for (int frame = 0; frame < 2; ++frame) { // the second frame reuses every buffer
+      for (int frame = 0; frame < 2; ++frame) {  // the second frame reuses every buffer
         serial.compute(colour ? bgr : img, height, a);
         parallel.compute(colour ? bgr : img, height, b);
         EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "colour " << colour << " frame " << frame;
       }
-      const rs::Conspicuity &cs = serial.conspicuity(colour ? bgr : img, height);
-      const rs::Conspicuity &cp = parallel.conspicuity(colour ? bgr : img, height);
+      const rs::Conspicuity& cs = serial.conspicuity(colour ? bgr : img, height);
+      const rs::Conspicuity& cp = parallel.conspicuity(colour ? bgr : img, height);
       EXPECT_EQ(cv::norm(cs.orientation, cp.orientation, cv::NORM_INF), 0.0);
       EXPECT_EQ(cv::norm(cs.structure, cp.structure, cv::NORM_INF), 0.0);
       EXPECT_EQ(cv::norm(cs.intensity, cp.intensity, cv::NORM_INF), 0.0);

@@ -169,7 +169,9 @@ TEST(Trained, ShadowSideFeaturesFollowTheImagesSunWhicheverSideItIs) {
       if (!mirrored) {
         plain.push_back(f);
       } else {
-        for (int q = 0; q < 3; ++q) EXPECT_NEAR(f[static_cast<std::size_t>(q)], plain[k][static_cast<std::size_t>(q)], 1e-4) << r << " feature " << q;
+        for (int q = 0; q < 3; ++q)
+          EXPECT_NEAR(f[static_cast<std::size_t>(q)], plain[k][static_cast<std::size_t>(q)], 1e-4)
+              << r << " feature " << q;
       }
     }
   }
@@ -182,9 +184,9 @@ TEST(Trained, ScoreMapIsTheMeanOverSourcesOfTheCoveringCandidatesScore) {
   set.size = cv::Size(40, 20);
   set.sources = 4;
   set.source_masks = cv::Mat::zeros(set.size, CV_8U);
-  set.source_masks(cv::Rect(2, 2, 12, 12)).setTo(0x1);   // fringe: source 0 only
-  set.source_masks(cv::Rect(5, 5, 6, 6)).setTo(0xF);     // core: every source
-  set.source_masks(cv::Rect(25, 5, 5, 5)).setTo(0x4);    // second blob, source 2
+  set.source_masks(cv::Rect(2, 2, 12, 12)).setTo(0x1);  // fringe: source 0 only
+  set.source_masks(cv::Rect(5, 5, 6, 6)).setTo(0xF);    // core: every source
+  set.source_masks(cv::Rect(25, 5, 5, 5)).setTo(0x4);   // second blob, source 2
   rs::RockCandidate a;
   a.box = cv::Rect(2, 2, 12, 12);
   a.source = 0;
@@ -197,10 +199,10 @@ TEST(Trained, ScoreMapIsTheMeanOverSourcesOfTheCoveringCandidatesScore) {
   cv::Mat map;
   rs::TrainedModel::score_map(set, {0.8f, 0.6f}, map);
   ASSERT_EQ(map.type(), CV_32F);
-  EXPECT_FLOAT_EQ(map.at<float>(7, 7), 0.8f);           // core: 0.8 in all 4 sources
-  EXPECT_FLOAT_EQ(map.at<float>(3, 3), 0.2f);           // fringe: 0.8 in 1 of 4
-  EXPECT_FLOAT_EQ(map.at<float>(7, 27), 0.15f);         // 0.6 in 1 of 4
-  EXPECT_FLOAT_EQ(map.at<float>(15, 20), 0.0f);         // background
+  EXPECT_FLOAT_EQ(map.at<float>(7, 7), 0.8f);    // core: 0.8 in all 4 sources
+  EXPECT_FLOAT_EQ(map.at<float>(3, 3), 0.2f);    // fringe: 0.8 in 1 of 4
+  EXPECT_FLOAT_EQ(map.at<float>(7, 27), 0.15f);  // 0.6 in 1 of 4
+  EXPECT_FLOAT_EQ(map.at<float>(15, 20), 0.0f);  // background
 }
 
 TEST(Trained, AGreyRockOnRedDustAsBrightAsItIsIsACandidateOfTheChromaMap) {
@@ -211,7 +213,7 @@ TEST(Trained, AGreyRockOnRedDustAsBrightAsItIsIsACandidateOfTheChromaMap) {
   cv::RNG rng(5);
   rng.fill(img, cv::RNG::NORMAL, cv::Scalar(90, 120, 150), cv::Scalar(3, 3, 3));  // B, G, R: dust
   const cv::Rect rock(140, 90, 48, 40);
-  img(rock).setTo(cv::Scalar(120, 120, 120));                                        // grey, same mean
+  img(rock).setTo(cv::Scalar(120, 120, 120));  // grey, same mean
   rs::CandidateExtractor ex;
   const auto& P = ex.params();
   const int first_chroma = static_cast<int>(P.coarse_scales.size() + P.fine_scales.size());

@@ -3,15 +3,17 @@
 // ("terrain/rock_probability"). Every buffer is sized in configure() by a warm-up frame.
 #include "regolith/saliency/component.hpp"
 
-#include <cstdio>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/common/grid_params.hpp"
+#include "regolith/common/payloads.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -22,8 +24,6 @@
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/trained.hpp"
-#include "regolith/common/grid_params.hpp"
-#include "regolith/common/payloads.hpp"
 
 namespace regolith::saliency {
 namespace {
@@ -35,10 +35,11 @@ constexpr std::size_t kStringCapacity = 32;
 class SamsComponent final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
-    method_name_ = p.get<std::string>(
-        "method", "sams", {.choices = {"sams", "itti", "spectral_residual", "fine_grained", "trained"},
-                           .doc = "saliency method (sams = Itti + SfS structure channel; trained = contrast "
-                                  "candidates ranked by the trained rock model, `model`)"});
+    method_name_ =
+        p.get<std::string>("method", "sams",
+                           {.choices = {"sams", "itti", "spectral_residual", "fine_grained", "trained"},
+                            .doc = "saliency method (sams = Itti + SfS structure channel; trained = contrast "
+                                   "candidates ranked by the trained rock model, `model`)"});
     trained_ = method_name_ == "trained";
     method_ = trained_ ? Method::kContrast : method_from_string(method_name_);
 
@@ -54,12 +55,17 @@ class SamsComponent final : public runtime::Component {
     ip.structure_feature = feat == "slope" ? StructureFeature::kSlope : StructureFeature::kHeight;
     ip.centre_min = p.get<int>("centre_min", ip.centre_min, {.min = 0, .max = 10, .doc = "finest centre level c"});
     ip.centre_max = p.get<int>("centre_max", ip.centre_max, {.min = 0, .max = 10, .doc = "coarsest centre level c"});
-    ip.delta_min = p.get<int>("delta_min", ip.delta_min, {.min = 1, .max = 10, .doc = "smallest surround offset s - c"});
+    ip.delta_min =
+        p.get<int>("delta_min", ip.delta_min, {.min = 1, .max = 10, .doc = "smallest surround offset s - c"});
     ip.delta_max = p.get<int>("delta_max", ip.delta_max, {.min = 1, .max = 10, .doc = "largest surround offset s - c"});
-    ip.map_level = p.get<int>("map_level", ip.map_level, {.min = 0, .max = 12, .doc = "pyramid level of the maps (4 = 1:16)"});
-    ip.weights.intensity = p.get<double>("w_intensity", 0.2, {.min = 0.0, .doc = "SAMS weight of the intensity channel"});
-    ip.weights.orientation = p.get<double>("w_orientation", 0.5, {.min = 0.0, .doc = "SAMS weight of the orientation channel"});
-    ip.weights.structure = p.get<double>("w_structure", 0.3, {.min = 0.0, .doc = "SAMS weight of the structure (DTM) channel"});
+    ip.map_level =
+        p.get<int>("map_level", ip.map_level, {.min = 0, .max = 12, .doc = "pyramid level of the maps (4 = 1:16)"});
+    ip.weights.intensity =
+        p.get<double>("w_intensity", 0.2, {.min = 0.0, .doc = "SAMS weight of the intensity channel"});
+    ip.weights.orientation =
+        p.get<double>("w_orientation", 0.5, {.min = 0.0, .doc = "SAMS weight of the orientation channel"});
+    ip.weights.structure =
+        p.get<double>("w_structure", 0.3, {.min = 0.0, .doc = "SAMS weight of the structure (DTM) channel"});
     ip.weights.colour = 0.0;  // the DTM carries a grey image
     if (method_ == Method::kItti) ip.weights = {1.0, 1.0, 0.0, 0.0};
     try {
@@ -75,11 +81,15 @@ class SamsComponent final : public runtime::Component {
     PostProcessParams pp;
     pp.threshold_scale = p.get<double>("threshold_scale", pp.threshold_scale,
                                        {.min = 0.0, .min_exclusive = true, .doc = "binary threshold = scale x Otsu"});
-    pp.open_radius = p.get<int>("open_radius_px", pp.open_radius, {.unit = "px", .min = 0, .max = 50, .doc = "morphological opening radius (0 = none)"});
-    pp.close_radius = p.get<int>("close_radius_px", pp.close_radius, {.unit = "px", .min = 0, .max = 50, .doc = "morphological closing radius (0 = none)"});
-    pp.min_area = p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
-    pp.max_detections = p.get<int>("max_detections", 32, {.min = 1, .max = static_cast<double>(kMaxRocks),
-                                                          .doc = "rocks kept per frame (highest scores)"});
+    pp.open_radius = p.get<int>("open_radius_px", pp.open_radius,
+                                {.unit = "px", .min = 0, .max = 50, .doc = "morphological opening radius (0 = none)"});
+    pp.close_radius = p.get<int>("close_radius_px", pp.close_radius,
+                                 {.unit = "px", .min = 0, .max = 50, .doc = "morphological closing radius (0 = none)"});
+    pp.min_area =
+        p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
+    pp.max_detections =
+        p.get<int>("max_detections", 32,
+                   {.min = 1, .max = static_cast<double>(kMaxRocks), .doc = "rocks kept per frame (highest scores)"});
     max_detections_ = pp.max_detections;
     try {
       pp.validate();
@@ -88,12 +98,13 @@ class SamsComponent final : public runtime::Component {
     }
 
     // ---- ranging ----
-    ranging_.hazard_size_m = p.get<double>("hazard_size_m", ranging_.hazard_size_m,
-                                           {.unit = "m", .min = 0.0, .min_exclusive = true,
-                                            .doc = "a rock wider or higher than this is a hazard"});
+    ranging_.hazard_size_m = p.get<double>(
+        "hazard_size_m", ranging_.hazard_size_m,
+        {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "a rock wider or higher than this is a hazard"});
     // The camera whose DTM frames this reads (its calibration and mount: rover.cameras.<camera>).
-    p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
-                                   "write `camera: <device>` here");
+    p.reject_moved("camera_model",
+                   "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
+                   "write `camera: <device>` here");
     const RoverCamera& rover_camera = ctx.rover_camera(p, "camera");
     const direct_depth::CameraModel model = common::camera_model_of(rover_camera);
     const int w = model.width, h = model.height;
@@ -107,11 +118,15 @@ class SamsComponent final : public runtime::Component {
       } catch (const ModelError& e) {
         p.fail("model", e.what());
       }
-      score_threshold_ = p.get<double>("score_threshold", model_.score_threshold,
-                                       {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
+      score_threshold_ =
+          p.get<double>("score_threshold", model_.score_threshold,
+                        {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
       nms_iou_ = p.get<double>("nms_iou", model_.nms_iou,
-                               {.min = 0.0, .max = 1.0, .min_exclusive = true,
-                                .doc = "method trained: a box overlapping a better one by more than this IoU is dropped (default the model's)"});
+                               {.min = 0.0,
+                                .max = 1.0,
+                                .min_exclusive = true,
+                                .doc = "method trained: a box overlapping a better one by more than this IoU is "
+                                       "dropped (default the model's)"});
       extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
       const std::size_t most = extractor_->max_candidates(cv::Size(w, h));
       candidates_.candidates.reserve(most);
@@ -127,13 +142,21 @@ class SamsComponent final : public runtime::Component {
     }
 
     // ---- grid layer (traversability grid geometry) ----
-    grid_ = common::read_grid_geometry(p, {0.05, 4.0, 4.0, 3.0, 0.0}, "rock_probability grid (= the traversability grid)");
-    max_range_m_ = p.get<double>("max_range_m", 10.0, {.unit = "m", .min = 0.0, .min_exclusive = true,
-                                                       .doc = "pixels farther than this flat-ground range (and above the horizon) are not searched"});
-    const std::string frame_id = p.get<std::string>("frame_id", rover_camera.frame_id,
-                                                    {.doc = "header.frame_id of terrain/rocks (image-space boxes; default the camera's optical frame, rover.cameras.<camera>.frame_id)"});
-    const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
-                                                                    .doc = "the DTM input is stale after this long"});
+    grid_ =
+        common::read_grid_geometry(p, {0.05, 4.0, 4.0, 3.0, 0.0}, "rock_probability grid (= the traversability grid)");
+    max_range_m_ =
+        p.get<double>("max_range_m", 10.0,
+                      {.unit = "m",
+                       .min = 0.0,
+                       .min_exclusive = true,
+                       .doc = "pixels farther than this flat-ground range (and above the horizon) are not searched"});
+    const std::string frame_id =
+        p.get<std::string>("frame_id", rover_camera.frame_id,
+                           {.doc = "header.frame_id of terrain/rocks (image-space boxes; default the camera's optical "
+                                   "frame, rover.cameras.<camera>.frame_id)"});
+    const double timeout_s = p.get<double>(
+        "input_timeout_s", 2.0,
+        {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the DTM input is stale after this long"});
     const int nx = grid_.size_x(), ny = grid_.size_y();
     if (static_cast<long>(nx) * ny > 4'000'000L) p.fail("resolution_m", "grid has more than 4e6 cells");
 
@@ -326,7 +349,8 @@ class SamsComponent final : public runtime::Component {
       TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
       TrainedModel::score_map(candidates_, scores_, saliency_);
       fill_outside(saliency_, 0.f);
-      if (dets_.size() > static_cast<std::size_t>(max_detections_)) dets_.resize(static_cast<std::size_t>(max_detections_));
+      if (dets_.size() > static_cast<std::size_t>(max_detections_))
+        dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
       return;
     }
@@ -449,9 +473,9 @@ class SamsComponent final : public runtime::Component {
   double max_range_m_ = 10.0;
   cv::Mat roi_;                      // CV_8U 255 = searched, 0 = not searched
   cv::Mat work_gray_, work_height_;  // the DTM's images with the unsearched region filled
-  cv::Mat work_height4_, roi4_;       // the quarter solve at pyramid level 2, its searched region
-  bool quarter_ok_ = false;            // the structure pyramid can start at level 2 (centre_min >= 2)
-  cv::Mat cell_pixel_;  // CV_32S, per grid cell the pixel index r * w + c or -1
+  cv::Mat work_height4_, roi4_;      // the quarter solve at pyramid level 2, its searched region
+  bool quarter_ok_ = false;          // the structure pyramid can start at level 2 (centre_min >= 2)
+  cv::Mat cell_pixel_;               // CV_32S, per grid cell the pixel index r * w + c or -1
   cv::Mat saliency_;
   std::vector<Detection> dets_;
   RockFrame last_;

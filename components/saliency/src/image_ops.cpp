@@ -1,55 +1,50 @@
 #include "regolith/saliency/image_ops.hpp"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
 namespace regolith::saliency {
 
-void to_unit_float(const cv::Mat &image, cv::Mat &out) {
+void to_unit_float(const cv::Mat& image, cv::Mat& out) {
   double scale = 1.0;
   switch (image.depth()) {
-  case CV_8U:
-    scale = 1.0 / 255.0;
-    break;
-  case CV_16U:
-    scale = 1.0 / 65535.0;
-    break;
-  case CV_16S:
-    scale = 1.0 / 32767.0;
-    break;
-  case CV_32F:
-  case CV_64F: {
-    double mx = 0.0;
-    cv::minMaxLoc(image.reshape(1), nullptr, &mx);
-    if (!std::isfinite(mx))
-      throw std::invalid_argument("image: contains NaN or infinity");
-    scale = mx > 1.0 ? 1.0 / mx : 1.0;
-    break;
-  }
-  default:
-    throw std::invalid_argument(
-        "image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
+    case CV_8U:
+      scale = 1.0 / 255.0;
+      break;
+    case CV_16U:
+      scale = 1.0 / 65535.0;
+      break;
+    case CV_16S:
+      scale = 1.0 / 32767.0;
+      break;
+    case CV_32F:
+    case CV_64F: {
+      double mx = 0.0;
+      cv::minMaxLoc(image.reshape(1), nullptr, &mx);
+      if (!std::isfinite(mx)) throw std::invalid_argument("image: contains NaN or infinity");
+      scale = mx > 1.0 ? 1.0 / mx : 1.0;
+      break;
+    }
+    default:
+      throw std::invalid_argument("image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
   }
   image.convertTo(out, CV_32F, scale);
-  if (image.depth() == CV_16S || image.depth() == CV_32F ||
-      image.depth() == CV_64F) {
+  if (image.depth() == CV_16S || image.depth() == CV_32F || image.depth() == CV_64F) {
     cv::threshold(out, out, 0.0, 0.0, cv::THRESH_TOZERO);
   }
 }
 
-void intensity_of(const cv::Mat &unit, cv::Mat &intensity) {
+void intensity_of(const cv::Mat& unit, cv::Mat& intensity) {
   const int ch = unit.channels();
   if (unit.depth() != CV_32F || (ch != 1 && ch != 3 && ch != 4)) {
-    throw std::invalid_argument(
-        "intensity_of: input must be CV_32F with 1, 3 or 4 channels");
+    throw std::invalid_argument("intensity_of: input must be CV_32F with 1, 3 or 4 channels");
   }
   if (ch == 1) {
     unit.copyTo(intensity);
@@ -66,12 +61,12 @@ namespace {
 
 // Copies `src` into the centre of `pad` (rows + 2 ry, cols + 2 rx) and fills the margin by
 // replicating the nearest image pixel (cv::BORDER_REPLICATE).
-void pad_replicate_32f(const cv::Mat &src, cv::Mat &pad, int rx, int ry) {
+void pad_replicate_32f(const cv::Mat& src, cv::Mat& pad, int rx, int ry) {
   const int w = src.cols, h = src.rows;
   pad.create(h + 2 * ry, w + 2 * rx, CV_32F);
   for (int y = 0; y < h; ++y) {
-    const float *s = src.ptr<float>(y);
-    float *p = pad.ptr<float>(y + ry);
+    const float* s = src.ptr<float>(y);
+    float* p = pad.ptr<float>(y + ry);
     for (int x = 0; x < rx; ++x) {
       p[x] = s[0];
       p[rx + w + x] = s[w - 1];
@@ -79,44 +74,38 @@ void pad_replicate_32f(const cv::Mat &src, cv::Mat &pad, int rx, int ry) {
     std::copy(s, s + w, p + rx);
   }
   for (int y = 0; y < ry; ++y) {
-    const float *top = pad.ptr<float>(ry);
-    const float *bottom = pad.ptr<float>(ry + h - 1);
+    const float* top = pad.ptr<float>(ry);
+    const float* bottom = pad.ptr<float>(ry + h - 1);
     std::copy(top, top + pad.cols, pad.ptr<float>(y));
     std::copy(bottom, bottom + pad.cols, pad.ptr<float>(ry + h + y));
   }
 }
 
-void check_kernel(const cv::Mat &k, const char *what) {
+void check_kernel(const cv::Mat& k, const char* what) {
   if (k.type() != CV_32FC1 || k.rows % 2 == 0 || k.cols % 2 == 0)
     throw std::invalid_argument(std::string(what) + ": kernel must be CV_32FC1 of odd size");
 }
 
 template <bool kDilate>
-inline void op_into(uchar *d, const uchar *q, int w) {
+inline void op_into(uchar* d, const uchar* q, int w) {
   if (kDilate) {
-    for (int x = 0; x < w; ++x)
-      d[x] = std::max(d[x], q[x]);
+    for (int x = 0; x < w; ++x) d[x] = std::max(d[x], q[x]);
   } else {
-    for (int x = 0; x < w; ++x)
-      d[x] = std::min(d[x], q[x]);
+    for (int x = 0; x < w; ++x) d[x] = std::min(d[x], q[x]);
   }
 }
 
 // The members of each kernel row as one run [first, last] (first > last: an empty row); false
 // when a row's members are not contiguous. Ellipses, rectangles and crosses qualify.
-bool row_runs(const cv::Mat &kernel, std::array<std::pair<int, int>, 64> &runs) {
-  if (kernel.rows > static_cast<int>(runs.size()))
-    return false;
+bool row_runs(const cv::Mat& kernel, std::array<std::pair<int, int>, 64>& runs) {
+  if (kernel.rows > static_cast<int>(runs.size())) return false;
   for (int i = 0; i < kernel.rows; ++i) {
-    const uchar *k = kernel.ptr<uchar>(i);
+    const uchar* k = kernel.ptr<uchar>(i);
     int first = -1, last = -2;
     for (int j = 0; j < kernel.cols; ++j) {
-      if (k[j] == 0)
-        continue;
-      if (first >= 0 && j != last + 1)
-        return false;
-      if (first < 0)
-        first = j;
+      if (k[j] == 0) continue;
+      if (first >= 0 && j != last + 1) return false;
+      if (first < 0) first = j;
       last = j;
     }
     runs[static_cast<std::size_t>(i)] = first < 0 ? std::pair{1, 0} : std::pair{first, last};
@@ -128,9 +117,8 @@ bool row_runs(const cv::Mat &kernel, std::array<std::pair<int, int>, 64> &runs) 
 // x + j - ax); pixels outside the image are `border` (the neutral element of op). min / max are
 // exact, so any order of evaluation gives the same result.
 template <bool kDilate>
-void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
-  if (src.type() != CV_8UC1 || src.empty())
-    throw std::invalid_argument("morphology: image must be non-empty CV_8UC1");
+void morph_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad) {
+  if (src.type() != CV_8UC1 || src.empty()) throw std::invalid_argument("morphology: image must be non-empty CV_8UC1");
   if (kernel.type() != CV_8UC1 || kernel.empty())
     throw std::invalid_argument("morphology: kernel must be non-empty CV_8UC1");
   const int w = src.cols, h = src.rows;
@@ -149,27 +137,24 @@ void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &
     for (int i = 0; i < kernel.rows; ++i) {
       const auto r = runs[static_cast<std::size_t>(i)];
       block[static_cast<std::size_t>(i)] = -1;
-      if (r.first > r.second)
-        continue;
+      if (r.first > r.second) continue;
       int b = 0;
-      while (b < n_distinct && distinct[static_cast<std::size_t>(b)] != r)
-        ++b;
-      if (b == n_distinct)
-        distinct[static_cast<std::size_t>(n_distinct++)] = r;
+      while (b < n_distinct && distinct[static_cast<std::size_t>(b)] != r) ++b;
+      if (b == n_distinct) distinct[static_cast<std::size_t>(n_distinct++)] = r;
       block[static_cast<std::size_t>(i)] = b;
     }
   }
   const int pad_rows = h + kernel.rows - 1;
   pad.create(pad_rows * (1 + n_distinct), w + kernel.cols - 1, CV_8U);
   for (int y = 0; y < pad_rows; ++y) {
-    uchar *p = pad.ptr<uchar>(y);
+    uchar* p = pad.ptr<uchar>(y);
     const int sy = y - ay;
     if (sy < 0 || sy >= h) {
       std::fill(p, p + pad.cols, border);
       continue;
     }
     std::fill(p, p + ax, border);
-    const uchar *s = src.ptr<uchar>(sy);
+    const uchar* s = src.ptr<uchar>(sy);
     std::copy(s, s + w, p + ax);
     std::fill(p + ax + w, p + pad.cols, border);
   }
@@ -181,13 +166,14 @@ void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &
       int base = -1;
       for (int c = 0; c < b; ++c) {
         const auto [c0, c1] = distinct[static_cast<std::size_t>(c)];
-        if (c0 >= j0 && c1 <= j1 && (base < 0 || c1 - c0 > distinct[static_cast<std::size_t>(base)].second -
-                                                               distinct[static_cast<std::size_t>(base)].first))
+        if (c0 >= j0 && c1 <= j1 &&
+            (base < 0 || c1 - c0 > distinct[static_cast<std::size_t>(base)].second -
+                                       distinct[static_cast<std::size_t>(base)].first))
           base = c;
       }
       for (int y = 0; y < pad_rows; ++y) {
-        const uchar *p = pad.ptr<uchar>(y);
-        uchar *r = pad.ptr<uchar>((1 + b) * pad_rows + y);
+        const uchar* p = pad.ptr<uchar>(y);
+        uchar* r = pad.ptr<uchar>((1 + b) * pad_rows + y);
         int have0 = j0, have1 = j0;
         if (base >= 0) {
           std::copy_n(pad.ptr<uchar>((1 + base) * pad_rows + y), w, r);
@@ -197,18 +183,16 @@ void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &
           std::copy_n(p + j0, w, r);
         }
         for (int j = j0; j <= j1; ++j)
-          if (j < have0 || j > have1)
-            op_into<kDilate>(r, p + j, w);
+          if (j < have0 || j > have1) op_into<kDilate>(r, p + j, w);
       }
     }
     for (int y = 0; y < h; ++y) {
-      uchar *d = dst.ptr<uchar>(y);
+      uchar* d = dst.ptr<uchar>(y);
       bool first = true;
       for (int i = 0; i < kernel.rows; ++i) {
         const int b = block[static_cast<std::size_t>(i)];
-        if (b < 0)
-          continue;
-        const uchar *r = pad.ptr<uchar>((1 + b) * pad_rows + y + i);
+        if (b < 0) continue;
+        const uchar* r = pad.ptr<uchar>((1 + b) * pad_rows + y + i);
         if (first) {
           std::copy_n(r, w, d);
           first = false;
@@ -216,20 +200,19 @@ void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &
           op_into<kDilate>(d, r, w);
         }
       }
-      if (first) // empty structuring element: OpenCV gives the border value
+      if (first)  // empty structuring element: OpenCV gives the border value
         std::fill(d, d + w, border);
     }
     return;
   }
   for (int y = 0; y < h; ++y) {
-    uchar *d = dst.ptr<uchar>(y);
+    uchar* d = dst.ptr<uchar>(y);
     bool first = true;
     for (int i = 0; i < kernel.rows; ++i) {
-      const uchar *k = kernel.ptr<uchar>(i);
-      const uchar *p = pad.ptr<uchar>(y + i);
+      const uchar* k = kernel.ptr<uchar>(i);
+      const uchar* p = pad.ptr<uchar>(y + i);
       for (int j = 0; j < kernel.cols; ++j) {
-        if (k[j] == 0)
-          continue;
+        if (k[j] == 0) continue;
         if (first) {
           std::copy(p + j, p + j + w, d);
           first = false;
@@ -238,27 +221,26 @@ void morph_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &
         }
       }
     }
-    if (first) // empty structuring element: OpenCV gives the border value
+    if (first)  // empty structuring element: OpenCV gives the border value
       std::fill(d, d + w, border);
   }
 }
 
-} // namespace
+}  // namespace
 
-void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
-                  cv::Mat &dst, cv::Mat &pad, cv::Mat &rows) {
+void gabor_energy(const cv::Mat& src, const cv::Mat& even, const cv::Mat& odd, cv::Mat& dst, cv::Mat& pad,
+                  cv::Mat& rows) {
   if (src.type() != CV_32FC1 || src.empty())
     throw std::invalid_argument("gabor_energy: image must be non-empty CV_32FC1");
   check_kernel(even, "gabor_energy");
   check_kernel(odd, "gabor_energy");
-  if (even.size() != odd.size())
-    throw std::invalid_argument("gabor_energy: even and odd kernels differ in size");
+  if (even.size() != odd.size()) throw std::invalid_argument("gabor_energy: even and odd kernels differ in size");
   const int w = src.cols, h = src.rows, kw = even.cols, kh = even.rows;
   pad_replicate_32f(src, pad, kw / 2, kh / 2);
   rows.create(2, w, CV_32F);
   dst.create(h, w, CV_32F);
-  float *e = rows.ptr<float>(0);
-  float *o = rows.ptr<float>(1);
+  float* e = rows.ptr<float>(0);
+  float* o = rows.ptr<float>(1);
   // Blocks of kBlock output pixels keep their two sums in registers over all taps (one load of
   // the image per tap pair instead of two loads and two stores of the sums); every pixel still
   // adds its taps in row-major order from 0, so the result is the same bit for bit.
@@ -266,13 +248,13 @@ void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
   constexpr int kVecs = 4, kBlock = 4 * kVecs;
   const int wb = w - w % kBlock;
   for (int y = 0; y < h; ++y) {
-    float *d = dst.ptr<float>(y);
+    float* d = dst.ptr<float>(y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
       V4 se[kVecs] = {}, so[kVecs] = {};
       for (int i = 0; i < kh; ++i) {
-        const float *ke = even.ptr<float>(i);
-        const float *ko = odd.ptr<float>(i);
-        const float *p = pad.ptr<float>(y + i) + x0;
+        const float* ke = even.ptr<float>(i);
+        const float* ko = odd.ptr<float>(i);
+        const float* p = pad.ptr<float>(y + i) + x0;
         for (int j = 0; j < kw; ++j) {
           const V4 a = {ke[j], ke[j], ke[j], ke[j]}, b = {ko[j], ko[j], ko[j], ko[j]};
           for (int k = 0; k < kVecs; ++k) {
@@ -284,33 +266,29 @@ void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
         }
       }
       for (int k = 0; k < kVecs; ++k)
-        for (int l = 0; l < 4; ++l)
-          d[x0 + 4 * k + l] = std::abs(se[k][l]) + std::abs(so[k][l]);
+        for (int l = 0; l < 4; ++l) d[x0 + 4 * k + l] = std::abs(se[k][l]) + std::abs(so[k][l]);
     }
-    if (wb == w)
-      continue;
+    if (wb == w) continue;
     std::fill(e + wb, e + w, 0.f);
     std::fill(o + wb, o + w, 0.f);
     for (int i = 0; i < kh; ++i) {
-      const float *ke = even.ptr<float>(i);
-      const float *ko = odd.ptr<float>(i);
-      const float *p = pad.ptr<float>(y + i);
+      const float* ke = even.ptr<float>(i);
+      const float* ko = odd.ptr<float>(i);
+      const float* p = pad.ptr<float>(y + i);
       for (int j = 0; j < kw; ++j) {
         const float a = ke[j], b = ko[j];
-        const float *q = p + j;
+        const float* q = p + j;
         for (int x = wb; x < w; ++x) {
           e[x] += a * q[x];
           o[x] += b * q[x];
         }
       }
     }
-    for (int x = wb; x < w; ++x)
-      d[x] = std::abs(e[x]) + std::abs(o[x]);
+    for (int x = wb; x < w; ++x) d[x] = std::abs(e[x]) + std::abs(o[x]);
   }
 }
 
-void correlate_replicate(const cv::Mat &src, const cv::Mat &kernel, cv::Mat &dst,
-                         cv::Mat &pad) {
+void correlate_replicate(const cv::Mat& src, const cv::Mat& kernel, cv::Mat& dst, cv::Mat& pad) {
   if (src.type() != CV_32FC1 || src.empty())
     throw std::invalid_argument("correlate_replicate: image must be non-empty CV_32FC1");
   check_kernel(kernel, "correlate_replicate");
@@ -318,34 +296,32 @@ void correlate_replicate(const cv::Mat &src, const cv::Mat &kernel, cv::Mat &dst
   pad_replicate_32f(src, pad, kw / 2, kh / 2);
   dst.create(h, w, CV_32F);
   for (int y = 0; y < h; ++y) {
-    float *d = dst.ptr<float>(y);
+    float* d = dst.ptr<float>(y);
     std::fill(d, d + w, 0.f);
     for (int i = 0; i < kh; ++i) {
-      const float *k = kernel.ptr<float>(i);
-      const float *p = pad.ptr<float>(y + i);
+      const float* k = kernel.ptr<float>(i);
+      const float* p = pad.ptr<float>(y + i);
       for (int j = 0; j < kw; ++j) {
-        if (k[j] == 0.f)
-          continue;
+        if (k[j] == 0.f) continue;
         const float a = k[j];
-        const float *q = p + j;
-        for (int x = 0; x < w; ++x)
-          d[x] += a * q[x];
+        const float* q = p + j;
+        for (int x = 0; x < w; ++x) d[x] += a * q[x];
       }
     }
   }
 }
 
-void erode_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
+void erode_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad) {
   morph_8u<false>(src, dst, kernel, pad);
 }
 
-void dilate_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad) {
+void dilate_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad) {
   morph_8u<true>(src, dst, kernel, pad);
 }
 
 // ---- ResizeTable ----
 
-void ResizeTable::build_linear(int src, int dst, Axis &a) {
+void ResizeTable::build_linear(int src, int dst, Axis& a) {
   // cv::resize INTER_LINEAR: source coordinate of output pixel d is (d + 0.5) * scale - 0.5,
   // taps floor(f) and floor(f) + 1 with weights 1 - frac, frac; clamped to the edge pixel
   // (weight 1) outside the image.
@@ -373,7 +349,7 @@ void ResizeTable::build_linear(int src, int dst, Axis &a) {
   }
 }
 
-void ResizeTable::build_area(int src, int dst, Axis &a) {
+void ResizeTable::build_area(int src, int dst, Axis& a) {
   // cv::resize INTER_AREA (downscaling): output pixel d averages the source interval
   // [d * scale, (d + 1) * scale), partial pixels at both ends weighted by their overlap.
   const double scale = static_cast<double>(src) / dst;
@@ -419,50 +395,45 @@ void ResizeTable::build(cv::Size src, cv::Size dst, Mode mode) {
   rows_.create(src.height, dst.width, CV_32F);
 }
 
-void ResizeTable::apply(const cv::Mat &src, cv::Mat &dst) {
+void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst) {
   if (src.type() != CV_32FC1 || src.size() != src_)
     throw std::invalid_argument("ResizeTable::apply: source must be CV_32FC1 of the built size");
   dst.create(dst_, CV_32F);
   const int dw = dst_.width;
-  const int *xb = x_.begin.data();
-  const int *xi = x_.index.data();
-  const float *xw = x_.weight.data();
+  const int* xb = x_.begin.data();
+  const int* xi = x_.index.data();
+  const float* xw = x_.weight.data();
   for (int y = 0; y < src_.height; ++y) {
-    const float *s = src.ptr<float>(y);
-    float *r = rows_.ptr<float>(y);
+    const float* s = src.ptr<float>(y);
+    float* r = rows_.ptr<float>(y);
     for (int d = 0; d < dw; ++d) {
       float acc = 0.f;
-      for (int k = xb[d]; k < xb[d + 1]; ++k)
-        acc += xw[k] * s[xi[k]];
+      for (int k = xb[d]; k < xb[d + 1]; ++k) acc += xw[k] * s[xi[k]];
       r[d] = acc;
     }
   }
   for (int d = 0; d < dst_.height; ++d) {
-    float *o = dst.ptr<float>(d);
+    float* o = dst.ptr<float>(d);
     const int k0 = y_.begin[static_cast<std::size_t>(d)];
     const int k1 = y_.begin[static_cast<std::size_t>(d) + 1];
     {
       const float b = y_.weight[static_cast<std::size_t>(k0)];
-      const float *r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0)]);
-      for (int x = 0; x < dw; ++x)
-        o[x] = b * r[x];
+      const float* r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0)]);
+      for (int x = 0; x < dw; ++x) o[x] = b * r[x];
     }
     for (int k = k0 + 1; k < k1; ++k) {
       const float b = y_.weight[static_cast<std::size_t>(k)];
-      if (b == 0.f)
-        continue;
-      const float *r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k)]);
-      for (int x = 0; x < dw; ++x)
-        o[x] += b * r[x];
+      if (b == 0.f) continue;
+      const float* r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k)]);
+      for (int x = 0; x < dw; ++x) o[x] += b * r[x];
     }
   }
 }
 
 // ---- GaussianBlur32f, sobel3_32f ----
 
-void GaussianBlur32f::apply(const cv::Mat &src, cv::Mat &dst, double sigma) {
-  if (!std::isfinite(sigma) || sigma <= 0.0)
-    throw std::invalid_argument("GaussianBlur32f: sigma must be > 0");
+void GaussianBlur32f::apply(const cv::Mat& src, cv::Mat& dst, double sigma) {
+  if (!std::isfinite(sigma) || sigma <= 0.0) throw std::invalid_argument("GaussianBlur32f: sigma must be > 0");
   if (src.empty() || src.type() != CV_32FC1)
     throw std::invalid_argument("GaussianBlur32f: src must be a non-empty CV_32FC1 image");
   if (sigma != sigma_ || kernel_.empty()) {
@@ -476,25 +447,21 @@ void GaussianBlur32f::apply(const cv::Mat &src, cv::Mat &dst, double sigma) {
   const int taps = 2 * r + 1;
   line_.resize(static_cast<std::size_t>(W + 2 * r));  // no-op once sized
   rows_.create(H, W, CV_32F);
-  const float *k = kernel_.data();
+  const float* k = kernel_.data();
   for (int y = 0; y < H; ++y) {
-    const float *s = src.ptr<float>(y);
-    float *l = line_.data();
+    const float* s = src.ptr<float>(y);
+    float* l = line_.data();
     std::copy(s, s + W, l + r);  // the row, then its reflected margins
-    for (int x = -r; x < 0; ++x)
-      l[x + r] = s[cv::borderInterpolate(x, W, cv::BORDER_REFLECT_101)];
-    for (int x = W; x < W + r; ++x)
-      l[x + r] = s[cv::borderInterpolate(x, W, cv::BORDER_REFLECT_101)];
-    float *o = rows_.ptr<float>(y);
+    for (int x = -r; x < 0; ++x) l[x + r] = s[cv::borderInterpolate(x, W, cv::BORDER_REFLECT_101)];
+    for (int x = W; x < W + r; ++x) l[x + r] = s[cv::borderInterpolate(x, W, cv::BORDER_REFLECT_101)];
+    float* o = rows_.ptr<float>(y);
     // tap by tap over the whole row (the inner loop vectorises), the symmetric taps paired
-    const float *lc = l + r;
-    for (int x = 0; x < W; ++x)
-      o[x] = k[r] * lc[x];
+    const float* lc = l + r;
+    for (int x = 0; x < W; ++x) o[x] = k[r] * lc[x];
     for (int t = 0; t < r; ++t) {
       const float kt = k[t];
       const float *la = l + t, *lb = l + (taps - 1 - t);
-      for (int x = 0; x < W; ++x)
-        o[x] += kt * (la[x] + lb[x]);
+      for (int x = 0; x < W; ++x) o[x] += kt * (la[x] + lb[x]);
     }
   }
   if (row_index_.size() != static_cast<std::size_t>(H) * taps) {
@@ -506,32 +473,30 @@ void GaussianBlur32f::apply(const cv::Mat &src, cv::Mat &dst, double sigma) {
   }
   dst.create(H, W, CV_32F);
   for (int y = 0; y < H; ++y) {
-    float *o = dst.ptr<float>(y);
-    const int *ri = row_index_.data() + static_cast<std::size_t>(y) * taps;
-    const float *rc = rows_.ptr<float>(ri[r]);
-    for (int x = 0; x < W; ++x)
-      o[x] = k[r] * rc[x];
+    float* o = dst.ptr<float>(y);
+    const int* ri = row_index_.data() + static_cast<std::size_t>(y) * taps;
+    const float* rc = rows_.ptr<float>(ri[r]);
+    for (int x = 0; x < W; ++x) o[x] = k[r] * rc[x];
     for (int t = 0; t < r; ++t) {
       const float kt = k[t];
       const float *ra = rows_.ptr<float>(ri[t]), *rb = rows_.ptr<float>(ri[taps - 1 - t]);
-      for (int x = 0; x < W; ++x)
-        o[x] += kt * (ra[x] + rb[x]);
+      for (int x = 0; x < W; ++x) o[x] += kt * (ra[x] + rb[x]);
     }
   }
 }
 
-void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale) {
+void sobel3_32f(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy, float scale) {
   if (src.empty() || src.type() != CV_32FC1)
     throw std::invalid_argument("sobel3_32f: src must be a non-empty CV_32FC1 image");
   const int W = src.cols, H = src.rows;
   gx.create(H, W, CV_32F);
   gy.create(H, W, CV_32F);
   for (int y = 0; y < H; ++y) {
-    const float *a = src.ptr<float>(cv::borderInterpolate(y - 1, H, cv::BORDER_REFLECT_101));
-    const float *b = src.ptr<float>(y);
-    const float *c = src.ptr<float>(cv::borderInterpolate(y + 1, H, cv::BORDER_REFLECT_101));
-    float *ox = gx.ptr<float>(y);
-    float *oy = gy.ptr<float>(y);
+    const float* a = src.ptr<float>(cv::borderInterpolate(y - 1, H, cv::BORDER_REFLECT_101));
+    const float* b = src.ptr<float>(y);
+    const float* c = src.ptr<float>(cv::borderInterpolate(y + 1, H, cv::BORDER_REFLECT_101));
+    float* ox = gx.ptr<float>(y);
+    float* oy = gy.ptr<float>(y);
     for (int x = 0; x < W; ++x) {
       const int l = x > 0 ? x - 1 : cv::borderInterpolate(-1, W, cv::BORDER_REFLECT_101);
       const int rr = x < W - 1 ? x + 1 : cv::borderInterpolate(W, W, cv::BORDER_REFLECT_101);
@@ -547,7 +512,7 @@ void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale) {
 int ConnectedComponents::find(int a) {
   while (parent_[static_cast<std::size_t>(a)] != a) {
     const int up = parent_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(a)])];
-    parent_[static_cast<std::size_t>(a)] = up; // path halving
+    parent_[static_cast<std::size_t>(a)] = up;  // path halving
     a = up;
   }
   return a;
@@ -556,15 +521,14 @@ int ConnectedComponents::find(int a) {
 void ConnectedComponents::unite(int a, int b) {
   a = find(a);
   b = find(b);
-  if (a == b)
-    return;
+  if (a == b) return;
   if (a < b)
     parent_[static_cast<std::size_t>(b)] = a;
   else
     parent_[static_cast<std::size_t>(a)] = b;
 }
 
-int ConnectedComponents::run(const cv::Mat &binary) {
+int ConnectedComponents::run(const cv::Mat& binary) {
   if (binary.type() != CV_8UC1 || binary.empty())
     throw std::invalid_argument("ConnectedComponents: image must be non-empty CV_8UC1");
   const int w = binary.cols, h = binary.rows;
@@ -581,38 +545,35 @@ int ConnectedComponents::run(const cv::Mat &binary) {
   // Pass 1: provisional labels with union-find over the 4 already visited 8-neighbours.
   int next = 1;
   for (int y = 0; y < h; ++y) {
-    const uchar *b = binary.ptr<uchar>(y);
-    int *l = labels_.ptr<int>(y);
-    const int *up = y > 0 ? labels_.ptr<int>(y - 1) : nullptr;
+    const uchar* b = binary.ptr<uchar>(y);
+    int* l = labels_.ptr<int>(y);
+    const int* up = y > 0 ? labels_.ptr<int>(y - 1) : nullptr;
     for (int x = 0; x < w; ++x) {
       if (b[x] == 0) {  // a background run: found eight bytes at a time, labelled 0 at once
         int e = x + 1;
         while (e + 8 <= w) {
           std::uint64_t word;
           std::memcpy(&word, b + e, sizeof word);
-          if (word != 0)
-            break;
+          if (word != 0) break;
           e += 8;
         }
-        while (e < w && b[e] == 0)
-          ++e;
+        while (e < w && b[e] == 0) ++e;
         std::fill(l + x, l + e, 0);
         x = e - 1;
         continue;
       }
       const int n = up != nullptr ? up[x] : 0;
-      if (n != 0) { // N touches NW, NE and W: they are already in N's set
+      if (n != 0) {  // N touches NW, NE and W: they are already in N's set
         l[x] = n;
         continue;
       }
       const int wv = x > 0 ? l[x - 1] : 0;
       const int nw = (up != nullptr && x > 0) ? up[x - 1] : 0;
       const int ne = (up != nullptr && x + 1 < w) ? up[x + 1] : 0;
-      const int left = wv != 0 ? wv : nw; // W and NW touch each other
+      const int left = wv != 0 ? wv : nw;  // W and NW touch each other
       if (left != 0) {
         l[x] = left;
-        if (ne != 0)
-          unite(left, ne);
+        if (ne != 0) unite(left, ne);
       } else if (ne != 0) {
         l[x] = ne;
       } else {
@@ -632,26 +593,22 @@ int ConnectedComponents::run(const cv::Mat &binary) {
     final_[i] = std::numeric_limits<int>::max();  // first block of a root, for now
   }
   for (int y = 0; y < h; ++y) {
-    const int *l = labels_.ptr<int>(y);
+    const int* l = labels_.ptr<int>(y);
     const int row_key = (y / 2) * nbx;
     for (int x = 0; x < w;) {
       const int v = l[x];
       const int x0 = x;
-      while (x < w && l[x] == v)
-        ++x;
-      if (v == 0)
-        continue;
-      int &first = final_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(v)])];
+      while (x < w && l[x] == v) ++x;
+      if (v == 0) continue;
+      int& first = final_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(v)])];
       first = std::min(first, row_key + x0 / 2);
     }
   }
   int roots = 0;
   for (int p = 1; p < next; ++p)
-    if (parent_[static_cast<std::size_t>(p)] == p)
-      order_[static_cast<std::size_t>(roots++)] = p;
-  std::sort(order_.begin(), order_.begin() + roots, [this](int a, int b) {
-    return final_[static_cast<std::size_t>(a)] < final_[static_cast<std::size_t>(b)];
-  });
+    if (parent_[static_cast<std::size_t>(p)] == p) order_[static_cast<std::size_t>(roots++)] = p;
+  std::sort(order_.begin(), order_.begin() + roots,
+            [this](int a, int b) { return final_[static_cast<std::size_t>(a)] < final_[static_cast<std::size_t>(b)]; });
   for (int k = 0; k < roots; ++k) {
     final_[static_cast<std::size_t>(order_[static_cast<std::size_t>(k)])] = k + 1;
     stats_[static_cast<std::size_t>(k) + 1] = {w, h, -1, -1, 0};  // min x, min y, max x, max y, area
@@ -660,13 +617,12 @@ int ConnectedComponents::run(const cv::Mat &binary) {
   // Pass 3: final labels and statistics, run by run.
   int bg_x0 = w, bg_y0 = h, bg_x1 = -1, bg_y1 = -1, bg_area = 0;
   for (int y = 0; y < h; ++y) {
-    int *l = labels_.ptr<int>(y);
+    int* l = labels_.ptr<int>(y);
     for (int x = 0; x < w;) {
       const int v = l[x];
       const int x0 = x;
       if (v == 0) {
-        while (x < w && l[x] == 0)
-          ++x;
+        while (x < w && l[x] == 0) ++x;
         bg_area += x - x0;
         bg_x0 = std::min(bg_x0, x0);
         bg_x1 = std::max(bg_x1, x - 1);
@@ -675,9 +631,8 @@ int ConnectedComponents::run(const cv::Mat &binary) {
         continue;
       }
       const int f = final_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(v)])];
-      while (x < w && l[x] == v)
-        l[x++] = f;
-      auto &st = stats_[static_cast<std::size_t>(f)];
+      while (x < w && l[x] == v) l[x++] = f;
+      auto& st = stats_[static_cast<std::size_t>(f)];
       st[0] = std::min(st[0], x0);
       st[1] = std::min(st[1], y);
       st[2] = std::max(st[2], x - 1);
@@ -686,9 +641,9 @@ int ConnectedComponents::run(const cv::Mat &binary) {
     }
   }
   for (int k = 1; k < count; ++k) {
-    auto &s = stats_[static_cast<std::size_t>(k)];
-    s[2] = s[2] - s[0] + 1; // width
-    s[3] = s[3] - s[1] + 1; // height
+    auto& s = stats_[static_cast<std::size_t>(k)];
+    s[2] = s[2] - s[0] + 1;  // width
+    s[3] = s[3] - s[1] + 1;  // height
   }
   // Background (label 0) like OpenCV: bounding box of the zero pixels (all -1 / w,h when none).
   if (bg_area > 0)
@@ -698,4 +653,4 @@ int ConnectedComponents::run(const cv::Mat &binary) {
   return count;
 }
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

@@ -1,33 +1,32 @@
 #include "regolith/saliency/itti.hpp"
 
-#include "regolith/saliency/image_ops.hpp"
-
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
 #include "regolith/core/error.hpp"
+#include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
 
 namespace {
 
-void require(bool ok, const std::string &field, const std::string &why) {
-  if (!ok)
-    throw FieldError("IttiParams", field, why);
+void require(bool ok, const std::string& field, const std::string& why) {
+  if (!ok) throw FieldError("IttiParams", field, why);
 }
 
-bool finite_nonneg(double v) { return std::isfinite(v) && v >= 0.0; }
+bool finite_nonneg(double v) {
+  return std::isfinite(v) && v >= 0.0;
+}
 
 // Mat::setTo(scalar) allocates in OpenCV 4.6; this does not.
-void fill_value(cv::Mat &m, float v) {
+void fill_value(cv::Mat& m, float v) {
   for (int y = 0; y < m.rows; ++y) {
-    float *p = m.ptr<float>(y);
+    float* p = m.ptr<float>(y);
     std::fill(p, p + m.cols, v);
   }
 }
@@ -37,8 +36,7 @@ cv::Mat gaussian_kernel(double sigma, int hw) {
   cv::Mat k(2 * hw + 1, 1, CV_32F);
   double sum = 0.0;
   for (int i = -hw; i <= hw; ++i) {
-    const double v = sigma > 0.0 ? std::exp(-0.5 * (i * i) / (sigma * sigma))
-                                 : (i == 0 ? 1.0 : 0.0);
+    const double v = sigma > 0.0 ? std::exp(-0.5 * (i * i) / (sigma * sigma)) : (i == 0 ? 1.0 : 0.0);
     k.at<float>(i + hw) = static_cast<float>(v);
     sum += v;
   }
@@ -47,11 +45,11 @@ cv::Mat gaussian_kernel(double sigma, int hw) {
 }
 
 struct IterativeKernels {
-  cv::Mat kex, kin; // 1-D kernels, sum 1
+  cv::Mat kex, kin;  // 1-D kernels, sum 1
   cv::Mat norm_ex,
-      norm_in; // response of the kernels to a map of ones (zero border)
+      norm_in;  // response of the kernels to a map of ones (zero border)
 
-  void build(cv::Size size, const IttiParams &p) {
+  void build(cv::Size size, const IttiParams& p) {
     const double side = std::max(size.width, size.height);
     const int maxhw = std::max(0, std::min(size.width, size.height) / 2 - 1);
     const double sex = p.excit_sigma * side;
@@ -61,16 +59,14 @@ struct IterativeKernels {
     kex = gaussian_kernel(sex, hex);
     kin = gaussian_kernel(sinh_, hin);
     const cv::Mat ones(size, CV_32F, cv::Scalar(1.0));
-    cv::sepFilter2D(ones, norm_ex, CV_32F, kex, kex, cv::Point(-1, -1), 0.0,
-                    cv::BORDER_CONSTANT);
-    cv::sepFilter2D(ones, norm_in, CV_32F, kin, kin, cv::Point(-1, -1), 0.0,
-                    cv::BORDER_CONSTANT);
+    cv::sepFilter2D(ones, norm_ex, CV_32F, kex, kex, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
+    cv::sepFilter2D(ones, norm_in, CV_32F, kin, kin, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
   }
 };
 
 // Scale a non-negative map linearly so that [min, max] -> [0, top]. Returns
 // false if flat.
-bool rescale(cv::Mat &map, double top) {
+bool rescale(cv::Mat& map, double top) {
   double mn = 0.0, mx = 0.0;
   cv::minMaxLoc(map, &mn, &mx);
   if (!(mx - mn > 1e-12)) {
@@ -81,20 +77,16 @@ bool rescale(cv::Mat &map, double top) {
   return true;
 }
 
-void iterate_dog(cv::Mat &map, const IttiParams &p, const IterativeKernels &k,
-                 cv::Mat &excit, cv::Mat &inhib) {
+void iterate_dog(cv::Mat& map, const IttiParams& p, const IterativeKernels& k, cv::Mat& excit, cv::Mat& inhib) {
   cv::threshold(map, map, 0.0, 0.0, cv::THRESH_TOZERO);
-  if (!rescale(map, 10.0))
-    return;
+  if (!rescale(map, 10.0)) return;
   const double cex2 = p.excit_coeff * p.excit_coeff;
   const double cin2 = p.inhib_coeff * p.inhib_coeff;
   for (int it = 0; it < p.iterations; ++it) {
     double mx = 0.0;
     cv::minMaxLoc(map, nullptr, &mx);
-    cv::sepFilter2D(map, excit, CV_32F, k.kex, k.kex, cv::Point(-1, -1), 0.0,
-                    cv::BORDER_CONSTANT);
-    cv::sepFilter2D(map, inhib, CV_32F, k.kin, k.kin, cv::Point(-1, -1), 0.0,
-                    cv::BORDER_CONSTANT);
+    cv::sepFilter2D(map, excit, CV_32F, k.kex, k.kex, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
+    cv::sepFilter2D(map, inhib, CV_32F, k.kin, k.kin, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
     cv::divide(excit, k.norm_ex, excit);
     cv::divide(inhib, k.norm_in, inhib);
     cv::scaleAdd(excit, cex2, map, map);
@@ -104,18 +96,14 @@ void iterate_dog(cv::Mat &map, const IttiParams &p, const IterativeKernels &k,
   }
 }
 
-} // namespace
+}  // namespace
 
 void ChannelWeights::validate() const {
-  const std::pair<const char *, double> fields[] = {
-      {"intensity", intensity},
-      {"orientation", orientation},
-      {"colour", colour},
-      {"structure", structure}};
-  for (const auto &[name, v] : fields) {
+  const std::pair<const char*, double> fields[] = {
+      {"intensity", intensity}, {"orientation", orientation}, {"colour", colour}, {"structure", structure}};
+  for (const auto& [name, v] : fields) {
     if (!finite_nonneg(v)) {
-      throw FieldError("ChannelWeights", name,
-                       "must be finite and >= 0 (got " + number_text(v) + ")");
+      throw FieldError("ChannelWeights", name, "must be finite and >= 0 (got " + number_text(v) + ")");
     }
   }
 }
@@ -125,43 +113,29 @@ void IttiParams::validate() const {
   require(centre_max >= centre_min, "centre_max", "must be >= centre_min");
   require(delta_min >= 1, "delta_min", "must be >= 1");
   require(delta_max >= delta_min, "delta_max", "must be >= delta_min");
-  require(max_level() <= 12, "delta_max",
-          "centre_max + delta_max must be <= 12");
-  require(map_level >= 0 && map_level <= max_level(), "map_level",
-          "must be in [0, centre_max + delta_max]");
-  require(num_orientations >= 1 && num_orientations <= 16, "num_orientations",
-          "must be in [1,16]");
-  require(std::isfinite(gabor_period) && gabor_period > 1.0, "gabor_period",
-          "must be > 1 px");
-  require(gabor_size >= 3 && gabor_size % 2 == 1 && gabor_size <= 63,
-          "gabor_size", "must be odd in [3,63]");
-  require(std::isfinite(gabor_sigma) && gabor_sigma > 0.0, "gabor_sigma",
-          "must be > 0");
-  require(std::isfinite(gabor_elongation) && gabor_elongation > 0.0,
-          "gabor_elongation", "must be > 0");
-  require(std::isfinite(border_fraction) && border_fraction >= 0.0 &&
-              border_fraction < 0.5,
-          "border_fraction", "must be in [0, 0.5)");
-  require(iterations >= 1 && iterations <= 100, "iterations",
-          "must be in [1,100]");
+  require(max_level() <= 12, "delta_max", "centre_max + delta_max must be <= 12");
+  require(map_level >= 0 && map_level <= max_level(), "map_level", "must be in [0, centre_max + delta_max]");
+  require(num_orientations >= 1 && num_orientations <= 16, "num_orientations", "must be in [1,16]");
+  require(std::isfinite(gabor_period) && gabor_period > 1.0, "gabor_period", "must be > 1 px");
+  require(gabor_size >= 3 && gabor_size % 2 == 1 && gabor_size <= 63, "gabor_size", "must be odd in [3,63]");
+  require(std::isfinite(gabor_sigma) && gabor_sigma > 0.0, "gabor_sigma", "must be > 0");
+  require(std::isfinite(gabor_elongation) && gabor_elongation > 0.0, "gabor_elongation", "must be > 0");
+  require(std::isfinite(border_fraction) && border_fraction >= 0.0 && border_fraction < 0.5, "border_fraction",
+          "must be in [0, 0.5)");
+  require(iterations >= 1 && iterations <= 100, "iterations", "must be in [1,100]");
   require(finite_nonneg(excit_coeff), "excit_coeff", "must be finite and >= 0");
   require(finite_nonneg(inhib_coeff), "inhib_coeff", "must be finite and >= 0");
-  require(std::isfinite(excit_sigma) && excit_sigma > 0.0, "excit_sigma",
-          "must be > 0");
-  require(std::isfinite(inhib_sigma) && inhib_sigma > 0.0, "inhib_sigma",
-          "must be > 0");
-  require(finite_nonneg(global_inhibition), "global_inhibition",
-          "must be finite and >= 0");
-  require(std::isfinite(colour_lum_threshold) && colour_lum_threshold >= 0.0 &&
-              colour_lum_threshold < 1.0,
+  require(std::isfinite(excit_sigma) && excit_sigma > 0.0, "excit_sigma", "must be > 0");
+  require(std::isfinite(inhib_sigma) && inhib_sigma > 0.0, "inhib_sigma", "must be > 0");
+  require(finite_nonneg(global_inhibition), "global_inhibition", "must be finite and >= 0");
+  require(std::isfinite(colour_lum_threshold) && colour_lum_threshold >= 0.0 && colour_lum_threshold < 1.0,
           "colour_lum_threshold", "must be in [0,1)");
   weights.validate();
 }
 
-void downsample_stb(const cv::Mat &src, cv::Mat &dst, cv::Mat &tmp) {
+void downsample_stb(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp) {
   CV_Assert(src.type() == CV_32FC1 && !src.empty());
-  static constexpr float w[6] = {1.f / 32,  5.f / 32, 10.f / 32,
-                                 10.f / 32, 5.f / 32, 1.f / 32};
+  static constexpr float w[6] = {1.f / 32, 5.f / 32, 10.f / 32, 10.f / 32, 5.f / 32, 1.f / 32};
   const int sw = src.cols, sh = src.rows;
   const int dw = (sw + 1) / 2, dh = (sh + 1) / 2;
   // Rows 0..sh-1: the horizontal pass; rows sh, sh+1: one source row split into its even and odd
@@ -172,12 +146,12 @@ void downsample_stb(const cv::Mat &src, cv::Mat &dst, cv::Mat &tmp) {
   dst.create(dh, dw, CV_32F);
   float *e = tmp.ptr<float>(sh) + 1, *o = tmp.ptr<float>(sh + 1) + 1;
   for (int y = 0; y < sh; ++y) {
-    const float *s = src.ptr<float>(y);
+    const float* s = src.ptr<float>(y);
     for (int j = -1; j <= dw; ++j) {
       e[j] = s[std::clamp(2 * j, 0, sw - 1)];
       o[j] = s[std::clamp(2 * j + 1, 0, sw - 1)];
     }
-    float *t = tmp.ptr<float>(y);
+    float* t = tmp.ptr<float>(y);
     for (int i = 0; i < dw; ++i) {
       float acc = 0.f;
       acc += w[0] * e[i - 1];
@@ -190,24 +164,21 @@ void downsample_stb(const cv::Mat &src, cv::Mat &dst, cv::Mat &tmp) {
     }
   }
   for (int j = 0; j < dh; ++j) {
-    const float *rows[6];
-    for (int k = 0; k < 6; ++k)
-      rows[k] = tmp.ptr<float>(std::clamp(2 * j - 2 + k, 0, sh - 1));
-    float *d = dst.ptr<float>(j);
+    const float* rows[6];
+    for (int k = 0; k < 6; ++k) rows[k] = tmp.ptr<float>(std::clamp(2 * j - 2 + k, 0, sh - 1));
+    float* d = dst.ptr<float>(j);
     for (int x = 0; x < dw; ++x) {
       float acc = 0.f;
-      for (int k = 0; k < 6; ++k)
-        acc += w[k] * rows[k][x];
+      for (int k = 0; k < 6; ++k) acc += w[k] * rows[k][x];
       d[x] = acc;
     }
   }
 }
 
-void normalise_local_max(cv::Mat &map) {
+void normalise_local_max(cv::Mat& map) {
   CV_Assert(map.type() == CV_32FC1);
   cv::threshold(map, map, 0.0, 0.0, cv::THRESH_TOZERO);
-  if (!rescale(map, 10.0))
-    return;
+  if (!rescale(map, 10.0)) return;
   // Local maxima: inner pixels >= their 4 neighbours and >= 1 (10 % of the
   // range). Itti 1998 averages the maxima other than the global one; with none,
   // the factor is 10^2.
@@ -215,13 +186,12 @@ void normalise_local_max(cv::Mat &map) {
   int n = 0;
   float gmax = 0.f;
   for (int y = 1; y + 1 < map.rows; ++y) {
-    const float *up = map.ptr<float>(y - 1);
-    const float *row = map.ptr<float>(y);
-    const float *dn = map.ptr<float>(y + 1);
+    const float* up = map.ptr<float>(y - 1);
+    const float* row = map.ptr<float>(y);
+    const float* dn = map.ptr<float>(y + 1);
     for (int x = 1; x + 1 < map.cols; ++x) {
       const float v = row[x];
-      if (v >= 1.f && v >= row[x - 1] && v >= row[x + 1] && v >= up[x] &&
-          v >= dn[x]) {
+      if (v >= 1.f && v >= row[x - 1] && v >= row[x + 1] && v >= up[x] && v >= dn[x]) {
         sum += v;
         ++n;
         gmax = std::max(gmax, v);
@@ -229,13 +199,12 @@ void normalise_local_max(cv::Mat &map) {
     }
   }
   double mean_other = 0.0;
-  if (n > 1)
-    mean_other = (sum - gmax) / (n - 1);
+  if (n > 1) mean_other = (sum - gmax) / (n - 1);
   const double f = (10.0 - mean_other) * (10.0 - mean_other);
   map *= f;
 }
 
-void normalise_iterative(cv::Mat &map, const IttiParams &p) {
+void normalise_iterative(cv::Mat& map, const IttiParams& p) {
   CV_Assert(map.type() == CV_32FC1);
   IterativeKernels k;
   k.build(map.size(), p);
@@ -244,7 +213,7 @@ void normalise_iterative(cv::Mat &map, const IttiParams &p) {
 }
 
 namespace {
-IterativeKernels &kernels_for(const IttiParams &p, cv::Size size) {
+IterativeKernels& kernels_for(const IttiParams& p, cv::Size size) {
   thread_local IterativeKernels k;
   thread_local cv::Size ksize;
   thread_local double kex = -1, kin = -1;
@@ -256,7 +225,7 @@ IterativeKernels &kernels_for(const IttiParams &p, cv::Size size) {
   }
   return k;
 }
-} // namespace
+}  // namespace
 
 IttiSaliency::IttiSaliency(IttiParams params) : params_(std::move(params)) {
   params_.validate();
@@ -275,28 +244,22 @@ IttiSaliency::IttiSaliency(IttiParams params) : params_(std::move(params)) {
         for (int x = -hw; x <= hw; ++x) {
           const double xr = x * std::cos(theta) + y * std::sin(theta);
           const double yr = -x * std::sin(theta) + y * std::cos(theta);
-          const double env =
-              std::exp(-(xr * xr + params_.gabor_elongation *
-                                       params_.gabor_elongation * yr * yr) /
-                       (2.0 * params_.gabor_sigma * params_.gabor_sigma));
+          const double env = std::exp(-(xr * xr + params_.gabor_elongation * params_.gabor_elongation * yr * yr) /
+                                      (2.0 * params_.gabor_sigma * params_.gabor_sigma));
           k.at<float>(y + hw, x + hw) =
-              static_cast<float>(env * std::cos(2.0 * std::numbers::pi * xr /
-                                                    params_.gabor_period +
-                                                phi));
+              static_cast<float>(env * std::cos(2.0 * std::numbers::pi * xr / params_.gabor_period + phi));
         }
       }
       k -= cv::mean(k)[0];
       const double norm = cv::norm(k, cv::NORM_L2);
-      if (norm > 0)
-        k /= norm;
+      if (norm > 0) k /= norm;
       (phase == 0 ? gabor_even_ : gabor_odd_)[static_cast<size_t>(t)] = k;
     }
   }
 }
 
 void IttiSaliency::prepare(cv::Size size) {
-  if (size == input_size_)
-    return;
+  if (size == input_size_) return;
   input_size_ = size;
   const int levels = params_.max_level() + 1;
   level_sizes_.assign(static_cast<size_t>(levels), cv::Size());
@@ -304,11 +267,9 @@ void IttiSaliency::prepare(cv::Size size) {
   for (int l = 1; l < levels; ++l)
     level_sizes_[static_cast<size_t>(l)] = level_size(level_sizes_[static_cast<size_t>(l - 1)], 1);
   map_size_ = level_sizes_[static_cast<size_t>(params_.map_level)];
-  auto alloc = [&](std::vector<cv::Mat> &pyr) {
+  auto alloc = [&](std::vector<cv::Mat>& pyr) {
     pyr.assign(static_cast<size_t>(levels), cv::Mat());
-    for (int l = 0; l < levels; ++l)
-      pyr[static_cast<size_t>(l)].create(level_sizes_[static_cast<size_t>(l)],
-                                         CV_32F);
+    for (int l = 0; l < levels; ++l) pyr[static_cast<size_t>(l)].create(level_sizes_[static_cast<size_t>(l)], CV_32F);
   };
   alloc(intensity_pyr_);
   alloc(struct_pyr_);
@@ -319,7 +280,7 @@ void IttiSaliency::prepare(cv::Size size) {
   const int r = params_.gabor_size / 2;
   scratch_.assign(static_cast<size_t>(params_.num_orientations + 2), Scratch());
   for (size_t j = 0; j < scratch_.size(); ++j) {
-    Scratch &sc = scratch_[j];
+    Scratch& sc = scratch_[j];
     alloc(sc.down_tmp);
     const bool orientation = j >= 1 && j <= static_cast<size_t>(params_.num_orientations);
     sc.gabor_pad.assign(static_cast<size_t>(levels), cv::Mat());
@@ -329,17 +290,15 @@ void IttiSaliency::prepare(cv::Size size) {
       sc.gabor_pad[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
       sc.gabor_rows[static_cast<size_t>(l)].create(2, ls.width, CV_32F);
     }
-    for (cv::Mat *m : {&sc.centre, &sc.surround, &sc.diff, &sc.acc, &sc.excit, &sc.inhib})
-      m->create(map_size_, CV_32F);
+    for (cv::Mat* m : {&sc.centre, &sc.surround, &sc.diff, &sc.acc, &sc.excit, &sc.inhib}) m->create(map_size_, CV_32F);
   }
-  for (Scratch &sc : scratch_) {  // built per job: a copy would share the tables' row buffers
+  for (Scratch& sc : scratch_) {  // built per job: a copy would share the tables' row buffers
     sc.to_map.assign(static_cast<size_t>(levels), ResizeTable());
     for (int l = 0; l < levels; ++l) {
       const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
       if (l != params_.map_level)
         sc.to_map[static_cast<size_t>(l)].build(
-            ls, map_size_,
-            l < params_.map_level ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
+            ls, map_size_, l < params_.map_level ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
     }
   }
   to_input_.build(map_size_, size, ResizeTable::Mode::kLinear);
@@ -354,31 +313,27 @@ void IttiSaliency::prepare(cv::Size size) {
     alloc(by_pyr_);
   }
   orient_pyr_.assign(static_cast<size_t>(params_.num_orientations), {});
-  for (auto &p : orient_pyr_)
-    alloc(p);
+  for (auto& p : orient_pyr_) alloc(p);
   consp_.intensity.create(map_size_, CV_32F);
   consp_.orientation.create(map_size_, CV_32F);
   // Border attenuation ramp.
   border_.create(map_size_, CV_32F);
-  const int b = static_cast<int>(std::lround(
-      std::max(map_size_.width, map_size_.height) * params_.border_fraction));
+  const int b = static_cast<int>(std::lround(std::max(map_size_.width, map_size_.height) * params_.border_fraction));
   for (int y = 0; y < map_size_.height; ++y) {
     for (int x = 0; x < map_size_.width; ++x) {
-      const int d =
-          std::min({x, y, map_size_.width - 1 - x, map_size_.height - 1 - y});
-      border_.at<float>(y, x) =
-          d >= b ? 1.f : static_cast<float>(d + 1) / static_cast<float>(b + 1);
+      const int d = std::min({x, y, map_size_.width - 1 - x, map_size_.height - 1 - y});
+      border_.at<float>(y, x) = d >= b ? 1.f : static_cast<float>(d + 1) / static_cast<float>(b + 1);
     }
   }
 }
 
-void IttiSaliency::build_pyramid(std::vector<cv::Mat> &pyr, Scratch &s, int from) {
+void IttiSaliency::build_pyramid(std::vector<cv::Mat>& pyr, Scratch& s, int from) {
   for (size_t l = static_cast<size_t>(from) + 1; l < pyr.size(); ++l) {
     downsample_stb(pyr[l - 1], pyr[l], s.down_tmp[l]);
   }
 }
 
-void IttiSaliency::normalise(cv::Mat &map, Scratch &s) {
+void IttiSaliency::normalise(cv::Mat& map, Scratch& s) {
   if (params_.normalisation == Normalisation::kLocalMax) {
     normalise_local_max(map);
   } else {
@@ -387,15 +342,14 @@ void IttiSaliency::normalise(cv::Mat &map, Scratch &s) {
   }
 }
 
-void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat> &pyr,
-                                           cv::Mat &out, Scratch &sc) {
+void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat>& pyr, cv::Mat& out, Scratch& sc) {
   fill_value(out, 0.f);
   const int ml = params_.map_level;
   for (int c = params_.centre_min; c <= params_.centre_max; ++c) {
     for (int d = params_.delta_min; d <= params_.delta_max; ++d) {
       const int s = c + d;
-      const cv::Mat &pc = pyr[static_cast<size_t>(c)];
-      const cv::Mat &ps = pyr[static_cast<size_t>(s)];
+      const cv::Mat& pc = pyr[static_cast<size_t>(c)];
+      const cv::Mat& ps = pyr[static_cast<size_t>(s)];
       // = cv::resize INTER_AREA (c < ml) / INTER_LINEAR, through precomputed tables.
       if (c == ml)
         pc.copyTo(sc.centre);
@@ -414,7 +368,7 @@ void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat> &pyr,
 }
 
 void IttiSaliency::intensity_job(bool colour) {
-  Scratch &sc = scratch_[0];
+  Scratch& sc = scratch_[0];
   centre_surround_channel(intensity_pyr_, consp_.intensity, sc);
   normalise(consp_.intensity, sc);
   if (colour) {
@@ -430,28 +384,28 @@ void IttiSaliency::intensity_job(bool colour) {
 // Orientation t: Gabor energy of every needed intensity level, then its centre-surround map
 // (normalised) in its scratch's acc.
 void IttiSaliency::orientation_job(int t) {
-  Scratch &sc = scratch_[static_cast<size_t>(1 + t)];
-  auto &op = orient_pyr_[static_cast<size_t>(t)];
+  Scratch& sc = scratch_[static_cast<size_t>(1 + t)];
+  auto& op = orient_pyr_[static_cast<size_t>(t)];
   for (int l = params_.centre_min; l <= params_.max_level(); ++l) {
     const size_t li = static_cast<size_t>(l);
     // |even| + |odd| with the filter2D correlation and BORDER_REPLICATE (own direct
     // convolution: cv::filter2D builds a filter engine on the heap at every call).
-    gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)],
-                 op[li], sc.gabor_pad[li], sc.gabor_rows[li]);
+    gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)], op[li],
+                 sc.gabor_pad[li], sc.gabor_rows[li]);
   }
   centre_surround_channel(op, sc.acc, sc);
   normalise(sc.acc, sc);
 }
 
-void IttiSaliency::structure_job(const cv::Mat &height, int level) {
-  Scratch &sc = scratch_[static_cast<size_t>(1 + params_.num_orientations)];
-  cv::Mat &z0 = struct_pyr_[static_cast<size_t>(level)];
+void IttiSaliency::structure_job(const cv::Mat& height, int level) {
+  Scratch& sc = scratch_[static_cast<size_t>(1 + params_.num_orientations)];
+  cv::Mat& z0 = struct_pyr_[static_cast<size_t>(level)];
   height.convertTo(z0, CV_32F);
   // NaN / inf -> the mean of the finite values, then min-max to [0,1].
   double sum = 0.0, mn = std::numeric_limits<double>::max(), mx = -mn;
   long n = 0;
   for (int y = 0; y < z0.rows; ++y) {
-    const float *p = z0.ptr<float>(y);
+    const float* p = z0.ptr<float>(y);
     for (int x = 0; x < z0.cols; ++x) {
       if (std::isfinite(p[x])) {
         sum += p[x];
@@ -461,13 +415,11 @@ void IttiSaliency::structure_job(const cv::Mat &height, int level) {
       }
     }
   }
-  const float fill =
-      n > 0 ? static_cast<float>(sum / static_cast<double>(n)) : 0.f;
+  const float fill = n > 0 ? static_cast<float>(sum / static_cast<double>(n)) : 0.f;
   for (int y = 0; y < z0.rows; ++y) {
-    float *p = z0.ptr<float>(y);
+    float* p = z0.ptr<float>(y);
     for (int x = 0; x < z0.cols; ++x) {
-      if (!std::isfinite(p[x]))
-        p[x] = fill;
+      if (!std::isfinite(p[x])) p[x] = fill;
     }
   }
   if (params_.structure_feature == StructureFeature::kSlope) {
@@ -486,23 +438,17 @@ void IttiSaliency::structure_job(const cv::Mat &height, int level) {
   normalise(consp_.structure, sc);
 }
 
-const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
-                                             const cv::Mat &height) {
-  if (image.empty())
-    throw std::invalid_argument("image: empty");
+const Conspicuity& IttiSaliency::conspicuity(const cv::Mat& image, const cv::Mat& height) {
+  if (image.empty()) throw std::invalid_argument("image: empty");
   const int ch = image.channels();
   if (ch != 1 && ch != 3 && ch != 4) {
-    throw std::invalid_argument("image: must have 1, 3 or 4 channels (got " +
-                                std::to_string(ch) + ")");
+    throw std::invalid_argument("image: must have 1, 3 or 4 channels (got " + std::to_string(ch) + ")");
   }
   const int min_side = params_.min_input_side();
   if (image.cols < min_side || image.rows < min_side) {
-    throw std::invalid_argument(
-        "image: " + std::to_string(image.cols) + "x" +
-        std::to_string(image.rows) +
-        " is smaller than the pyramid needs (each side >= " +
-        std::to_string(min_side) + " px for " +
-        std::to_string(params_.max_level() + 1) + " levels)");
+    throw std::invalid_argument("image: " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                                " is smaller than the pyramid needs (each side >= " + std::to_string(min_side) +
+                                " px for " + std::to_string(params_.max_level() + 1) + " levels)");
   }
   prepare(image.size());
   // The heights enter the structure pyramid at the level of their size: the image's (0) or a
@@ -510,24 +456,21 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
   int height_level = -1;
   if (!height.empty()) {
     for (int l = 0; l <= params_.centre_min && height_level < 0; ++l)
-      if (height.size() == level_sizes_[static_cast<size_t>(l)])
-        height_level = l;
+      if (height.size() == level_sizes_[static_cast<size_t>(l)]) height_level = l;
     if (height_level < 0) {
       const cv::Size q = level_sizes_[static_cast<size_t>(params_.centre_min)];
-      throw std::invalid_argument(
-          "height: size " + std::to_string(height.cols) + "x" +
-          std::to_string(height.rows) + " is neither the image's " +
-          std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-          " nor a pyramid level's down to level " + std::to_string(params_.centre_min) +
-          " (" + std::to_string(q.width) + "x" + std::to_string(q.height) + ")");
+      throw std::invalid_argument("height: size " + std::to_string(height.cols) + "x" + std::to_string(height.rows) +
+                                  " is neither the image's " + std::to_string(image.cols) + "x" +
+                                  std::to_string(image.rows) + " nor a pyramid level's down to level " +
+                                  std::to_string(params_.centre_min) + " (" + std::to_string(q.width) + "x" +
+                                  std::to_string(q.height) + ")");
     }
-    if (height.channels() != 1)
-      throw std::invalid_argument("height: must have one channel");
+    if (height.channels() != 1) throw std::invalid_argument("height: must have one channel");
   }
   to_unit_float(image, bgr_);
 
   // Intensity (and colour opponency) at level 0.
-  cv::Mat &i0 = intensity_pyr_[0];
+  cv::Mat& i0 = intensity_pyr_[0];
   intensity_of(bgr_, i0);
   const bool colour = params_.use_colour && ch >= 3;
   if (colour) {
@@ -535,9 +478,9 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
     cv::minMaxLoc(i0, nullptr, &gmax);
     const float thr = static_cast<float>(params_.colour_lum_threshold * gmax);
     for (int y = 0; y < bgr_.rows; ++y) {
-      const float *p = bgr_.ptr<float>(y);
-      float *rg = rg_pyr_[0].ptr<float>(y);
-      float *by = by_pyr_[0].ptr<float>(y);
+      const float* p = bgr_.ptr<float>(y);
+      float* rg = rg_pyr_[0].ptr<float>(y);
+      float* by = by_pyr_[0].ptr<float>(y);
       for (int x = 0; x < bgr_.cols; ++x) {
         const float b = p[x * ch], g = p[x * ch + 1], r = p[x * ch + 2];
         const float mx = std::max({r, g, b});
@@ -576,67 +519,52 @@ const Conspicuity &IttiSaliency::conspicuity(const cv::Mat &image,
       structure_job(height, height_level);
   });
   fill_value(consp_.orientation, 0.f);
-  for (int t = 0; t < n_orient; ++t)
-    consp_.orientation += scratch_[static_cast<size_t>(1 + t)].acc;
+  for (int t = 0; t < n_orient; ++t) consp_.orientation += scratch_[static_cast<size_t>(1 + t)].acc;
   normalise(consp_.orientation, scratch_[0]);
   return consp_;
 }
 
-void combine_conspicuity(const Conspicuity &c, const ChannelWeights &w,
-                         cv::Size out_size, cv::Mat &saliency,
-                         cv::Mat &scratch) {
+void combine_conspicuity(const Conspicuity& c, const ChannelWeights& w, cv::Size out_size, cv::Mat& saliency,
+                         cv::Mat& scratch) {
   w.validate();
-  const std::pair<const cv::Mat *, double> parts[] = {
-      {&c.intensity, w.intensity},
-      {&c.orientation, w.orientation},
-      {&c.colour, w.colour},
-      {&c.structure, w.structure}};
+  const std::pair<const cv::Mat*, double> parts[] = {
+      {&c.intensity, w.intensity}, {&c.orientation, w.orientation}, {&c.colour, w.colour}, {&c.structure, w.structure}};
   bool first = true;
-  for (const auto &[m, wt] : parts) {
-    if (m->empty())
-      continue;
+  for (const auto& [m, wt] : parts) {
+    if (m->empty()) continue;
     if (first) {
       scratch.create(m->size(), CV_32F);
       scratch.setTo(0.0);
       first = false;
     }
-    if (wt > 0.0)
-      cv::scaleAdd(*m, wt, scratch, scratch);
+    if (wt > 0.0) cv::scaleAdd(*m, wt, scratch, scratch);
   }
-  if (first)
-    throw std::invalid_argument("combine_conspicuity: no conspicuity maps");
+  if (first) throw std::invalid_argument("combine_conspicuity: no conspicuity maps");
   double mx = 0.0;
   cv::minMaxLoc(scratch, nullptr, &mx);
-  if (mx > 0.0)
-    scratch *= 1.0 / mx;
+  if (mx > 0.0) scratch *= 1.0 / mx;
   cv::resize(scratch, saliency, out_size, 0, 0, cv::INTER_LINEAR);
   cv::threshold(saliency, saliency, 1.0, 1.0, cv::THRESH_TRUNC);
   cv::threshold(saliency, saliency, 0.0, 0.0, cv::THRESH_TOZERO);
 }
 
-void IttiSaliency::compute(const cv::Mat &image, const cv::Mat &height,
-                           cv::Mat &saliency) {
-  const Conspicuity &c = conspicuity(image, height);
+void IttiSaliency::compute(const cv::Mat& image, const cv::Mat& height, cv::Mat& saliency) {
+  const Conspicuity& c = conspicuity(image, height);
   // combine_conspicuity() into the pre-sized buffer, resized through the table built for
   // this input size (cv::resize allocates its coefficient tables at every call).
-  const ChannelWeights &w = params_.weights;
-  const std::pair<const cv::Mat *, double> parts[] = {
-      {&c.intensity, w.intensity},
-      {&c.orientation, w.orientation},
-      {&c.colour, w.colour},
-      {&c.structure, w.structure}};
+  const ChannelWeights& w = params_.weights;
+  const std::pair<const cv::Mat*, double> parts[] = {
+      {&c.intensity, w.intensity}, {&c.orientation, w.orientation}, {&c.colour, w.colour}, {&c.structure, w.structure}};
   fill_value(combined_, 0.f);
-  for (const auto &[m, wt] : parts) {
-    if (!m->empty() && wt > 0.0)
-      cv::scaleAdd(*m, wt, combined_, combined_);
+  for (const auto& [m, wt] : parts) {
+    if (!m->empty() && wt > 0.0) cv::scaleAdd(*m, wt, combined_, combined_);
   }
   double mx = 0.0;
   cv::minMaxLoc(combined_, nullptr, &mx);
-  if (mx > 0.0)
-    combined_ *= 1.0 / mx;
+  if (mx > 0.0) combined_ *= 1.0 / mx;
   to_input_.apply(combined_, saliency);
   cv::threshold(saliency, saliency, 1.0, 1.0, cv::THRESH_TRUNC);
   cv::threshold(saliency, saliency, 0.0, 0.0, cv::THRESH_TOZERO);
 }
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

@@ -2,43 +2,39 @@
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/saliency.hpp>
-
 #include <stdexcept>
 
 namespace regolith::saliency {
 
-const char *to_string(Method m) {
+const char* to_string(Method m) {
   switch (m) {
-  case Method::kSams:
-    return "sams";
-  case Method::kItti:
-    return "itti";
-  case Method::kSpectralResidual:
-    return "spectral_residual";
-  case Method::kFineGrained:
-    return "fine_grained";
-  case Method::kContrast:
-    return "contrast";
+    case Method::kSams:
+      return "sams";
+    case Method::kItti:
+      return "itti";
+    case Method::kSpectralResidual:
+      return "spectral_residual";
+    case Method::kFineGrained:
+      return "fine_grained";
+    case Method::kContrast:
+      return "contrast";
   }
   return "?";
 }
 
 std::vector<std::string> method_names() {
   std::vector<std::string> out;
-  for (Method m : kAllMethods)
-    out.emplace_back(to_string(m));
+  for (Method m : kAllMethods) out.emplace_back(to_string(m));
   return out;
 }
 
-Method method_from_string(const std::string &name) {
+Method method_from_string(const std::string& name) {
   std::string accepted;
   for (Method m : kAllMethods) {
-    if (name == to_string(m))
-      return m;
+    if (name == to_string(m)) return m;
     accepted += (accepted.empty() ? "" : ", ") + std::string(to_string(m));
   }
-  throw std::invalid_argument("method: unknown '" + name + "' (accepted: " +
-                              accepted + ")");
+  throw std::invalid_argument("method: unknown '" + name + "' (accepted: " + accepted + ")");
 }
 
 struct OpenCvSaliency::Impl {
@@ -46,50 +42,47 @@ struct OpenCvSaliency::Impl {
   cv::Mat bgr8, raw;
 };
 
-OpenCvSaliency::OpenCvSaliency(Method method)
-    : method_(method), impl_(std::make_unique<Impl>()) {
+OpenCvSaliency::OpenCvSaliency(Method method) : method_(method), impl_(std::make_unique<Impl>()) {
   if (method == Method::kSpectralResidual) {
     impl_->algo = cv::saliency::StaticSaliencySpectralResidual::create();
   } else if (method == Method::kFineGrained) {
     impl_->algo = cv::saliency::StaticSaliencyFineGrained::create();
   } else {
-    throw std::invalid_argument(std::string("OpenCvSaliency: method '") +
-                                to_string(method) + "' is not an OpenCV peer");
+    throw std::invalid_argument(std::string("OpenCvSaliency: method '") + to_string(method) +
+                                "' is not an OpenCV peer");
   }
 }
 
 OpenCvSaliency::~OpenCvSaliency() = default;
-OpenCvSaliency::OpenCvSaliency(OpenCvSaliency &&) noexcept = default;
-OpenCvSaliency &OpenCvSaliency::operator=(OpenCvSaliency &&) noexcept = default;
+OpenCvSaliency::OpenCvSaliency(OpenCvSaliency&&) noexcept = default;
+OpenCvSaliency& OpenCvSaliency::operator=(OpenCvSaliency&&) noexcept = default;
 
-void OpenCvSaliency::compute(const cv::Mat &image, cv::Mat &saliency) {
-  if (image.empty())
-    throw std::invalid_argument("image: empty");
+void OpenCvSaliency::compute(const cv::Mat& image, cv::Mat& saliency) {
+  if (image.empty()) throw std::invalid_argument("image: empty");
   const int ch = image.channels();
-  if (ch != 1 && ch != 3 && ch != 4)
-    throw std::invalid_argument("image: must have 1, 3 or 4 channels");
+  if (ch != 1 && ch != 3 && ch != 4) throw std::invalid_argument("image: must have 1, 3 or 4 channels");
   double scale = 1.0;
   switch (image.depth()) {
-  case CV_8U:
-    scale = 1.0;
-    break;
-  case CV_16U:
-    scale = 255.0 / 65535.0;
-    break;
-  case CV_16S:
-    scale = 255.0 / 32767.0;
-    break;
-  case CV_32F:
-  case CV_64F: {
-    double mx = 0.0;
-    cv::minMaxLoc(image.reshape(1), nullptr, &mx);
-    scale = mx > 1.0 ? 255.0 / mx : 255.0;
-    break;
+    case CV_8U:
+      scale = 1.0;
+      break;
+    case CV_16U:
+      scale = 255.0 / 65535.0;
+      break;
+    case CV_16S:
+      scale = 255.0 / 32767.0;
+      break;
+    case CV_32F:
+    case CV_64F: {
+      double mx = 0.0;
+      cv::minMaxLoc(image.reshape(1), nullptr, &mx);
+      scale = mx > 1.0 ? 255.0 / mx : 255.0;
+      break;
+    }
+    default:
+      throw std::invalid_argument("image: unsupported depth");
   }
-  default:
-    throw std::invalid_argument("image: unsupported depth");
-  }
-  cv::Mat &b = impl_->bgr8;
+  cv::Mat& b = impl_->bgr8;
   if (ch == 1) {
     image.convertTo(impl_->raw, CV_8U, scale);
     cv::cvtColor(impl_->raw, b, cv::COLOR_GRAY2BGR);
@@ -100,12 +93,10 @@ void OpenCvSaliency::compute(const cv::Mat &image, cv::Mat &saliency) {
     image.convertTo(b, CV_8U, scale);
   }
   if (!impl_->algo->computeSaliency(b, impl_->raw) || impl_->raw.empty()) {
-    throw std::runtime_error(std::string("OpenCV ") + to_string(method_) +
-                             " saliency failed");
+    throw std::runtime_error(std::string("OpenCV ") + to_string(method_) + " saliency failed");
   }
-  cv::Mat &r = impl_->raw;
-  if (r.size() != image.size())
-    cv::resize(r, r, image.size(), 0, 0, cv::INTER_LINEAR);
+  cv::Mat& r = impl_->raw;
+  if (r.size() != image.size()) cv::resize(r, r, image.size(), 0, 0, cv::INTER_LINEAR);
   double mn = 0.0, mx = 0.0;
   cv::minMaxLoc(r, &mn, &mx);
   if (mx - mn > 0.0)
@@ -114,4 +105,4 @@ void OpenCvSaliency::compute(const cv::Mat &image, cv::Mat &saliency) {
     saliency = cv::Mat::zeros(image.size(), CV_32F);
 }
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

@@ -25,9 +25,9 @@ namespace {
 
 constexpr int kBoxFeatures = kFeatureCount - 8;  // per-box features; then 5 context and 3 shadow-side features
 constexpr int kCoarseMeanIn = 8;                 // index of "coarse_mean_in" in feature_names()
-constexpr float kDarkOffset = 0.05f;     // I - G_64 * I below -this: dark pixel
-constexpr float kBrightOffset = 0.05f;   // above +this: bright pixel
-constexpr float kEdgeMagnitude = 0.08f;  // |grad I| (Sobel / 8) above this: edge pixel
+constexpr float kDarkOffset = 0.05f;             // I - G_64 * I below -this: dark pixel
+constexpr float kBrightOffset = 0.05f;           // above +this: bright pixel
+constexpr float kEdgeMagnitude = 0.08f;          // |grad I| (Sobel / 8) above this: edge pixel
 
 // Sum over a rect of an integral image (CV_64F, (h+1) x (w+1)).
 double rect_sum(const cv::Mat& ii, const cv::Rect& r) {
@@ -152,9 +152,9 @@ cv::Size CandidateExtractor::working_size(cv::Size size) const {
 
 std::size_t CandidateExtractor::max_candidates(cv::Size size) const {
   const cv::Size ws = working_size(size);
-  const std::size_t per_source =
-      static_cast<std::size_t>(ws.width) * static_cast<std::size_t>(ws.height) /
-          static_cast<std::size_t>(params_.min_area) + 1;
+  const std::size_t per_source = static_cast<std::size_t>(ws.width) * static_cast<std::size_t>(ws.height) /
+                                     static_cast<std::size_t>(params_.min_area) +
+                                 1;
   return per_source * detectors_.size();
 }
 
@@ -387,41 +387,41 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
           cs.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
       }
       const double v[kBoxFeatures] = {std::log(n_in),
-                                           std::log(static_cast<double>(b.width) / b.height),
-                                           static_cast<double>(b.width) / W,
-                                           static_cast<double>(b.height) / H,
-                                           (b.y + 0.5 * b.height) / H,
-                                           static_cast<double>(b.y + b.height) / H,
-                                           std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
-                                           d.area / n_in,
-                                           in(ii.sc),
-                                           smax,
-                                           ring(ii.sc),
-                                           in(ii.sc) - ring(ii.sc),
-                                           in(ii.sf),
-                                           in(ii.sf) - ring(ii.sf),
-                                           i_in,
-                                           std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
-                                           i_ring,
-                                           std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
-                                           i_in - i_ring,
-                                           i_in - img_mean,
-                                           in(ii.g),
-                                           in(ii.edge),
-                                           ring(ii.edge),
-                                           in(ii.bright),
-                                           in(ii.dark),
-                                           dmax,
-                                           nsides ? dsum / nsides : 0.0,
-                                           dmin,
-                                           source,
-                                           img_std,
-                                           in(ii.cr) - ring(ii.cr),
-                                           in(ii.cb) - ring(ii.cb),
-                                           in(ii.cr) - img_cr,
-                                           in(ii.cb) - img_cb,
-                                           in(ii.sch),
-                                           in(ii.sch) - ring(ii.sch)};
+                                      std::log(static_cast<double>(b.width) / b.height),
+                                      static_cast<double>(b.width) / W,
+                                      static_cast<double>(b.height) / H,
+                                      (b.y + 0.5 * b.height) / H,
+                                      static_cast<double>(b.y + b.height) / H,
+                                      std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
+                                      d.area / n_in,
+                                      in(ii.sc),
+                                      smax,
+                                      ring(ii.sc),
+                                      in(ii.sc) - ring(ii.sc),
+                                      in(ii.sf),
+                                      in(ii.sf) - ring(ii.sf),
+                                      i_in,
+                                      std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
+                                      i_ring,
+                                      std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
+                                      i_in - i_ring,
+                                      i_in - img_mean,
+                                      in(ii.g),
+                                      in(ii.edge),
+                                      ring(ii.edge),
+                                      in(ii.bright),
+                                      in(ii.dark),
+                                      dmax,
+                                      nsides ? dsum / nsides : 0.0,
+                                      dmin,
+                                      source,
+                                      img_std,
+                                      in(ii.cr) - ring(ii.cr),
+                                      in(ii.cb) - ring(ii.cb),
+                                      in(ii.cr) - img_cr,
+                                      in(ii.cb) - img_cb,
+                                      in(ii.sch),
+                                      in(ii.sch) - ring(ii.sch)};
       for (int f = 0; f < kBoxFeatures; ++f) c.features[f] = static_cast<float>(v[f]);
       out.candidates.push_back(c);
     }
@@ -641,9 +641,8 @@ void TrainedModel::select(const CandidateSet& set, const std::vector<float>& sco
   order.resize(set.candidates.size());
   std::iota(order.begin(), order.end(), std::uint32_t{0});
   // Descending score, ties in candidate order (std::sort does not allocate; stable_sort would).
-  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return scores[a] != scores[b] ? scores[a] > scores[b] : a < b;
-  });
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return scores[a] != scores[b] ? scores[a] > scores[b] : a < b; });
   for (std::uint32_t i : order) {
     if (scores[i] < threshold) break;
     const cv::Rect& b = set.candidates[i].box;

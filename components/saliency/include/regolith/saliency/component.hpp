@@ -7,10 +7,9 @@
 //     traversability grid's geometry and index convention, to be merged into the GridMap),
 //   * DDS topic terrain/rocks            (regolith_msgs/RockArray) when DDS is enabled.
 // Parameters, I/O and numbers: components/saliency/README.md ("Component").
-#include <opencv2/core.hpp>
-
 #include <array>
 #include <cstdint>
+#include <opencv2/core.hpp>
 
 #include "regolith/common/payloads.hpp"
 #include "regolith/core/time.hpp"
@@ -31,13 +30,12 @@ inline constexpr std::uint32_t kMaxRocks = 64;
 struct RockFrame {
   std::array<RangedRock, kMaxRocks> rocks{};  ///< [0, count): sorted by descending score
   std::uint32_t count = 0;
-  std::uint32_t hazards = 0;    ///< rocks with hazard == true
-  int image_width = 0;          ///< px, size of the image the boxes refer to
-  int image_height = 0;         ///< px
-  TimeNs stamp = 0;             ///< capture time of the source camera frame (ns, process clock)
-  std::uint64_t sequence = 0;   ///< camera frame sequence number (DtmFrame::sequence)
+  std::uint32_t hazards = 0;   ///< rocks with hazard == true
+  int image_width = 0;         ///< px, size of the image the boxes refer to
+  int image_height = 0;        ///< px
+  TimeNs stamp = 0;            ///< capture time of the source camera frame (ns, process clock)
+  std::uint64_t sequence = 0;  ///< camera frame sequence number (DtmFrame::sequence)
 };
-
 
 /// Registers component type "sams".
 void register_component();

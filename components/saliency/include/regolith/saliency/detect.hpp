@@ -3,23 +3,21 @@
 // map -> Otsu threshold -> morphological opening / closing -> 8-connected
 // components -> minimum area -> bounding boxes, each scored by the mean
 // saliency inside its box.
-#include <opencv2/core.hpp>
-
-#include "regolith/saliency/image_ops.hpp"
-
 #include <array>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <vector>
+
+#include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
 
 struct PostProcessParams {
-  double threshold_scale =
-      1.0; ///< binary threshold = clamp(scale * Otsu threshold, 0, 254)
-  int open_radius = 2;    ///< px, elliptical opening radius (0 = none)
-  int close_radius = 2;   ///< px, elliptical closing radius (0 = none)
-  int min_area = 100;     ///< px, components with fewer pixels are dropped
-  int max_detections = 0; ///< keep the highest-scoring boxes only (0 = all)
+  double threshold_scale = 1.0;  ///< binary threshold = clamp(scale * Otsu threshold, 0, 254)
+  int open_radius = 2;           ///< px, elliptical opening radius (0 = none)
+  int close_radius = 2;          ///< px, elliptical closing radius (0 = none)
+  int min_area = 100;            ///< px, components with fewer pixels are dropped
+  int max_detections = 0;        ///< keep the highest-scoring boxes only (0 = all)
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -28,15 +26,15 @@ struct PostProcessParams {
 /// (cv::Rect).
 struct Detection {
   cv::Rect box;
-  double score = 0.0; ///< mean saliency in the box, [0,1]
-  int area = 0;       ///< px, pixels of the connected component
+  double score = 0.0;  ///< mean saliency in the box, [0,1]
+  int area = 0;        ///< px, pixels of the connected component
 };
 
 /// Otsu (1979) on a 256-bin histogram: T* = argmax w0 w1 (mu0 - mu1)^2, class 0
 /// = values <= T*. Returns 0 for a constant histogram.
-int otsu_threshold(const std::array<double, 256> &histogram);
+int otsu_threshold(const std::array<double, 256>& histogram);
 /// Otsu threshold of a CV_8U single-channel image (optional CV_8U mask).
-int otsu_threshold(const cv::Mat &image8u, const cv::Mat &mask = cv::Mat());
+int otsu_threshold(const cv::Mat& image8u, const cv::Mat& mask = cv::Mat());
 
 /// A saliency map prepared for detection: its 8-bit form, Otsu threshold and integral image (for
 /// the box scores). Detectors at several threshold scales over one map share one preparation
@@ -45,26 +43,26 @@ struct PreparedMap {
   cv::Mat map8;      ///< CV_8U 0..255 (to_8bit)
   int otsu = 0;      ///< otsu_threshold(map8)
   cv::Mat integral;  ///< CV_64F, (rows + 1) x (cols + 1) sums of map8
-  void prepare(const cv::Mat &saliency);
+  void prepare(const cv::Mat& saliency);
 };
 
 /// Reusable detector; buffers are allocated on the first frame of a given size.
 class BoxDetector {
-public:
+ public:
   explicit BoxDetector(PostProcessParams params = {});
 
   /// `saliency` CV_32F in [0,1] (or CV_8U 0..255), one channel. Appends
   /// nothing: `out` is cleared and filled, sorted by descending score. Returns
   /// the binary threshold used (0..255).
-  int detect(const cv::Mat &saliency, std::vector<Detection> &out);
+  int detect(const cv::Mat& saliency, std::vector<Detection>& out);
   /// The same on a prepared map.
-  int detect(const PreparedMap &map, std::vector<Detection> &out);
+  int detect(const PreparedMap& map, std::vector<Detection>& out);
 
   /// The binary mask of the last call (CV_8U 0/255) after morphology.
-  const cv::Mat &mask() const { return mask_; }
-  const PostProcessParams &params() const { return params_; }
+  const cv::Mat& mask() const { return mask_; }
+  const PostProcessParams& params() const { return params_; }
 
-private:
+ private:
   PostProcessParams params_;
   PreparedMap prepared_;
   cv::Mat mask_, open_k_, close_k_;
@@ -74,6 +72,6 @@ private:
 
 /// Convenience: float or 8-bit saliency -> CV_8U 0..255 (float clamped to
 /// [0,1]).
-void to_8bit(const cv::Mat &saliency, cv::Mat &out8);
+void to_8bit(const cv::Mat& saliency, cv::Mat& out8);
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

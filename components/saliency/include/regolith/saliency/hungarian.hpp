@@ -10,7 +10,6 @@ namespace regolith::saliency {
 /// The assignment has minimum total cost among all assignments of min(rows,
 /// cols) pairs. Throws std::invalid_argument if the size does not match or a
 /// cost is not finite.
-std::vector<int> solve_assignment(const std::vector<double> &cost, int rows,
-                                  int cols);
+std::vector<int> solve_assignment(const std::vector<double>& cost, int rows, int cols);
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

@@ -6,9 +6,8 @@
 // numbering) up to float rounding; tests/saliency/test_image_ops.cpp checks that on random
 // inputs. Scratch buffers are passed in (or owned by the object) and are only (re)allocated when
 // the image size changes.
-#include <opencv2/core.hpp>
-
 #include <array>
+#include <opencv2/core.hpp>
 #include <vector>
 
 namespace regolith::saliency {
@@ -18,66 +17,65 @@ namespace regolith::saliency {
 /// [0,1]: integers divided by their type's maximum, floats by their maximum when it exceeds 1,
 /// negative values clipped to 0. Throws std::invalid_argument on an unsupported depth or a
 /// non-finite float. `out` is reused when it has the right size and type.
-void to_unit_float(const cv::Mat &image, cv::Mat &out);
+void to_unit_float(const cv::Mat& image, cv::Mat& out);
 
 /// Intensity I = (r + g + b) / 3 of a to_unit_float() result with 1, 3 (BGR) or 4 (BGRA, alpha
 /// ignored) channels; one channel is copied. `intensity` becomes CV_32FC1 of the same size.
 /// Throws std::invalid_argument for another channel count.
-void intensity_of(const cv::Mat &unit, cv::Mat &intensity);
+void intensity_of(const cv::Mat& unit, cv::Mat& intensity);
 
 /// Gabor energy |src (*) even| + |src (*) odd| where (*) is the correlation of cv::filter2D
 /// (kernel not flipped, anchor at the kernel centre) with cv::BORDER_REPLICATE.
 /// `src` CV_32FC1; `even`, `odd` CV_32FC1 of one odd size. `dst` becomes CV_32FC1 of src's size
 /// (must not alias src); `pad` and `rows` are scratch (sized on first use for a given size).
-void gabor_energy(const cv::Mat &src, const cv::Mat &even, const cv::Mat &odd,
-                  cv::Mat &dst, cv::Mat &pad, cv::Mat &rows);
+void gabor_energy(const cv::Mat& src, const cv::Mat& even, const cv::Mat& odd, cv::Mat& dst, cv::Mat& pad,
+                  cv::Mat& rows);
 
 /// Single-kernel version of the same correlation (= cv::filter2D(src, dst, CV_32F, kernel,
 /// centre anchor, 0, BORDER_REPLICATE)); used by tests and the slope feature.
-void correlate_replicate(const cv::Mat &src, const cv::Mat &kernel, cv::Mat &dst,
-                         cv::Mat &pad);
+void correlate_replicate(const cv::Mat& src, const cv::Mat& kernel, cv::Mat& dst, cv::Mat& pad);
 
 /// Grey erosion / dilation of a CV_8UC1 image by a structuring element (CV_8UC1, nonzero =
 /// member, anchor at the centre), as cv::erode / cv::dilate with the default border (pixels
 /// outside the image do not take part). `src` and `dst` may alias; `pad` is scratch.
-void erode_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad);
-void dilate_8u(const cv::Mat &src, cv::Mat &dst, const cv::Mat &kernel, cv::Mat &pad);
+void erode_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad);
+void dilate_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad);
 
 /// Precomputed resampling of a CV_32FC1 image from one size to another, equal to
 /// cv::resize with INTER_LINEAR (any scale) or INTER_AREA (downscaling, both factors >= 1).
 class ResizeTable {
-public:
+ public:
   enum class Mode { kLinear, kArea };
   /// Allocates the tables. Throws std::invalid_argument on empty sizes or an area upscale.
   void build(cv::Size src, cv::Size dst, Mode mode);
   /// `src` CV_32FC1 of the source size; `dst` pre-sized (or created) CV_32FC1 of the target
   /// size. No allocation once `dst` has the target size.
-  void apply(const cv::Mat &src, cv::Mat &dst);
+  void apply(const cv::Mat& src, cv::Mat& dst);
   cv::Size src_size() const { return src_; }
   cv::Size dst_size() const { return dst_; }
 
-private:
+ private:
   struct Axis {
-    std::vector<int> begin; // per output index: taps [begin[i], begin[i+1])
-    std::vector<int> index; // source index of each tap
+    std::vector<int> begin;  // per output index: taps [begin[i], begin[i+1])
+    std::vector<int> index;  // source index of each tap
     std::vector<float> weight;
   };
-  static void build_linear(int src, int dst, Axis &a);
-  static void build_area(int src, int dst, Axis &a);
+  static void build_linear(int src, int dst, Axis& a);
+  static void build_area(int src, int dst, Axis& a);
   cv::Size src_, dst_;
   Axis x_, y_;
-  cv::Mat rows_; // src rows resampled horizontally: src.rows x dst.cols
+  cv::Mat rows_;  // src rows resampled horizontally: src.rows x dst.cols
 };
 
 /// cv::GaussianBlur(src, dst, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT_101) of a CV_32FC1
 /// image: the kernel of OpenCV's size for float images (round(8 sigma + 1) | 1 taps) made once
 /// per sigma, separable passes through a row buffer kept between calls. `dst` may alias `src`.
 class GaussianBlur32f {
-public:
+ public:
   /// Throws std::invalid_argument when sigma is not finite and > 0.
-  void apply(const cv::Mat &src, cv::Mat &dst, double sigma);
+  void apply(const cv::Mat& src, cv::Mat& dst, double sigma);
 
-private:
+ private:
   double sigma_ = 0.0;
   std::vector<float> kernel_;   // 2 r + 1 taps
   std::vector<float> line_;     // one padded row
@@ -87,7 +85,7 @@ private:
 
 /// cv::Sobel(src, gx, CV_32F, 1, 0, 3, scale) and (0, 1) with the default border
 /// (BORDER_REFLECT_101), in one pass, of a CV_32FC1 image. `gx`, `gy` must not alias `src`.
-void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale);
+void sobel3_32f(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy, float scale);
 
 /// Two-pass union-find labelling of the 8-connected components of the nonzero pixels of a
 /// CV_8UC1 image, with the labels and statistics of cv::connectedComponentsWithStats(...,
@@ -95,18 +93,16 @@ void sobel3_32f(const cv::Mat &src, cv::Mat &gx, cv::Mat &gy, float scale);
 /// algorithm gives them (by the first 2x2 block, in raster order of blocks, that holds one of
 /// their pixels). Buffers are sized on the first image of a given size.
 class ConnectedComponents {
-public:
+ public:
   /// Returns the number of labels including the background.
-  int run(const cv::Mat &binary);
+  int run(const cv::Mat& binary);
   /// CV_32SC1 labels of the last run.
-  const cv::Mat &labels() const { return labels_; }
+  const cv::Mat& labels() const { return labels_; }
   /// Statistics of `label` (0 .. n-1) in cv::ConnectedComponentsTypes order: left, top,
   /// width, height, area (px).
-  const std::array<int, 5> &stats(int label) const {
-    return stats_[static_cast<std::size_t>(label)];
-  }
+  const std::array<int, 5>& stats(int label) const { return stats_[static_cast<std::size_t>(label)]; }
 
-private:
+ private:
   int find(int a);
   void unite(int a, int b);
   cv::Mat labels_;
@@ -116,4 +112,4 @@ private:
   std::vector<std::array<int, 5>> stats_;
 };
 
-} // namespace regolith::saliency
+}  // namespace regolith::saliency

@@ -43,7 +43,8 @@ class ModelError : public std::runtime_error {
 };
 
 inline constexpr int kFeatureCount = 44;
-inline constexpr int kTrainedModelVersion = 4;  ///< 4: 44 features (+ the chroma map), chroma candidates; 3: 42 features
+/// 4: 44 features (+ the chroma map), chroma candidates; 3: 42 features.
+inline constexpr int kTrainedModelVersion = 4;
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -59,9 +60,9 @@ struct CandidateParams {
   /// colour image, where grey rocks stand out of red dust that is as bright as they are. A grey
   /// image has no chroma candidates.
   std::vector<double> chroma_scales{0.8, 1.2};
-  int min_area = 200;                                     ///< px, smallest candidate component (contrast method: 1600)
-  int open_radius = 2;                                    ///< px
-  int close_radius = 2;                                   ///< px
+  int min_area = 200;    ///< px, smallest candidate component (contrast method: 1600)
+  int open_radius = 2;   ///< px
+  int close_radius = 2;  ///< px
   /// px: every image is resampled to this width (aspect kept) before its candidates and features
   /// are computed, and the boxes are mapped back; the pixel scales above and the box-size features
   /// hold at this width. `regolith train rocks` sets it to the training images' median width;
@@ -79,7 +80,8 @@ struct TrainParams {
   double positive_iou = 0.5;         ///< label 1 when max IoU with a non-ignored GT box >= this
   uint64_t seed = 0x5EED0F0C4B5ull;  ///< cv::theRNG() state while a forest trains (bootstrap, splits)
   int inner_folds = 4;               ///< grouped CV on the training images to choose the thresholds
-  std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90};
+  std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50,
+                                       0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90};
   std::vector<double> nms_ious{0.2, 0.3, 0.5};
   void validate() const;
 };
@@ -87,10 +89,10 @@ struct TrainParams {
 /// One candidate box with its features.
 struct RockCandidate {
   cv::Rect box;
-  int area = 0;    ///< px of the thresholded component
-  int source = 0;  ///< index of the (map, scale) it came from (bit of CandidateSet::source_masks)
+  int area = 0;              ///< px of the thresholded component
+  int source = 0;            ///< index of the (map, scale) it came from (bit of CandidateSet::source_masks)
   unsigned source_bits = 0;  ///< bit k set for every source k that found exactly this box (source's bit included)
-  int stability = 0;  ///< how many (map, scale) sources found (nearly) this box, itself included
+  int stability = 0;         ///< how many (map, scale) sources found (nearly) this box, itself included
   std::array<float, kFeatureCount> features{};
 };
 
