@@ -25,7 +25,9 @@ inline void use_loopback_config() {
 
 /// This process's DDS domain, held by no other running test process
 /// (tests/common/test_domain.hpp).
-inline std::uint32_t test_domain() { return regolith::testing::test_domain(); }
+inline std::uint32_t test_domain() {
+  return regolith::testing::test_domain();
+}
 
 /// A namespace unique to this process and call ("t<pid>_<n>").
 inline std::string unique_ns() {
@@ -34,7 +36,8 @@ inline std::string unique_ns() {
 }
 
 /// Points a C sequence at `v` (not owned: _release = false).
-template <class Seq, class T> void view(Seq &seq, std::vector<T> &v) {
+template <class Seq, class T>
+void view(Seq& seq, std::vector<T>& v) {
   seq._buffer = v.data();
   seq._length = static_cast<std::uint32_t>(v.size());
   seq._maximum = static_cast<std::uint32_t>(v.size());
@@ -44,17 +47,17 @@ template <class Seq, class T> void view(Seq &seq, std::vector<T> &v) {
 /// Polls `pred` every millisecond up to `timeout` (condition waits on DDS
 /// events that are not driven by our clock: matching, deadline timers).
 template <class Pred>
-bool eventually(Pred pred,
-                std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
+bool eventually(Pred pred, std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
   const auto end = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < end) {
-    if (pred())
-      return true;
+    if (pred()) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   return pred();
 }
 
-inline char *cstr(const char *s) { return const_cast<char *>(s); }
+inline char* cstr(const char* s) {
+  return const_cast<char*>(s);
+}
 
-} // namespace regolith::dds::testing
+}  // namespace regolith::dds::testing

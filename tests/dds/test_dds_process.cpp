@@ -15,7 +15,7 @@
 #include "dds_test_util.hpp"
 #include "regolith/dds/topics.hpp"
 
-extern char **environ;
+extern char** environ;
 
 namespace rd = regolith::dds;
 namespace tst = regolith::dds::testing;
@@ -24,14 +24,12 @@ using regolith::kNsPerSec;
 namespace {
 
 class Child {
-public:
+ public:
   explicit Child(std::vector<std::string> args) {
-    std::vector<char *> argv;
-    for (auto &a : args)
-      argv.push_back(a.data());
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
-    ok_ = posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), environ) ==
-          0;
+    ok_ = posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), environ) == 0;
   }
   ~Child() {
     if (ok_ && !waited_) {
@@ -47,22 +45,21 @@ public:
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
 
-private:
+ private:
   pid_t pid_ = 0;
   bool ok_ = false;
   bool waited_ = false;
 };
 
-std::vector<nlohmann::json> lines_of(const std::string &s) {
+std::vector<nlohmann::json> lines_of(const std::string& s) {
   std::vector<nlohmann::json> out;
   std::istringstream is(s);
   std::string line;
-  while (std::getline(is, line))
-    out.push_back(nlohmann::json::parse(line));
+  while (std::getline(is, line)) out.push_back(nlohmann::json::parse(line));
   return out;
 }
 
-} // namespace
+}  // namespace
 
 TEST(DdsProcess, EchoReceivesFromAnotherProcess) {
   tst::use_loopback_config();
@@ -71,41 +68,32 @@ TEST(DdsProcess, EchoReceivesFromAnotherProcess) {
   rd::Participant pp({domain, ns});
   // Subscribe to the latched map first (after the child has published it:
   // transient-local).
-  Child child(
-      {REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "300", "20"});
+  Child child({REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "300", "20"});
   ASSERT_TRUE(child.ok());
 
   std::ostringstream js_out;
-  const std::size_t n = rd::echo(
-      pp, "joint_states", {.count = 5, .timeout_ns = 20 * kNsPerSec}, js_out);
+  const std::size_t n = rd::echo(pp, "joint_states", {.count = 5, .timeout_ns = 20 * kNsPerSec}, js_out);
   ASSERT_EQ(n, 5u) << js_out.str();
   const auto js = lines_of(js_out.str());
   ASSERT_EQ(js.size(), 5u);
   for (std::size_t i = 0; i < js.size(); ++i) {
     EXPECT_EQ(js[i]["name"][1], "wheel_right");
     if (i > 0) {
-      EXPECT_EQ(js[i]["header"]["stamp"]["sec"].get<int>(),
-                js[i - 1]["header"]["stamp"]["sec"].get<int>() + 1);
+      EXPECT_EQ(js[i]["header"]["stamp"]["sec"].get<int>(), js[i - 1]["header"]["stamp"]["sec"].get<int>() + 1);
     }
   }
 
   std::ostringstream diag_out;
-  ASSERT_EQ(rd::echo(pp, "/diagnostics",
-                     {.count = 2, .timeout_ns = 20 * kNsPerSec}, diag_out),
-            2u);
+  ASSERT_EQ(rd::echo(pp, "/diagnostics", {.count = 2, .timeout_ns = 20 * kNsPerSec}, diag_out), 2u);
   const auto diag = lines_of(diag_out.str());
   EXPECT_EQ(diag[0]["status"][0]["name"], "publisher: heartbeat");
-  EXPECT_EQ(
-      std::stoi(diag[1]["status"][0]["values"][0]["value"].get<std::string>()),
-      std::stoi(diag[0]["status"][0]["values"][0]["value"].get<std::string>()) +
-          1);
+  EXPECT_EQ(std::stoi(diag[1]["status"][0]["values"][0]["value"].get<std::string>()),
+            std::stoi(diag[0]["status"][0]["values"][0]["value"].get<std::string>()) + 1);
 
   // The map was published once, seconds ago: a late transient-local reader
   // still gets it.
   std::ostringstream map_out;
-  ASSERT_EQ(rd::echo(pp, "terrain/grid_map",
-                     {.count = 1, .timeout_ns = 20 * kNsPerSec}, map_out),
-            1u);
+  ASSERT_EQ(rd::echo(pp, "terrain/grid_map", {.count = 1, .timeout_ns = 20 * kNsPerSec}, map_out), 1u);
   const auto map = lines_of(map_out.str());
   EXPECT_EQ(map[0]["layers"][0], "elevation");
   EXPECT_EQ(map[0]["info"]["resolution"], 0.25);
@@ -118,15 +106,17 @@ TEST(DdsProcess, EchoReceivesFromAnotherProcess) {
 // Each child inherits the environment it is spawned with.
 namespace {
 struct ScopedEnv {
-  ScopedEnv(const char *name, const char *value) : name_(name) {
-    if (const char *v = std::getenv(name)) saved_ = v, had_ = true;
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* v = std::getenv(name)) saved_ = v, had_ = true;
     setenv(name, value, 1);
   }
   ~ScopedEnv() {
-    if (had_) setenv(name_, saved_.c_str(), 1);
-    else unsetenv(name_);
+    if (had_)
+      setenv(name_, saved_.c_str(), 1);
+    else
+      unsetenv(name_);
   }
-  const char *name_;
+  const char* name_;
   std::string saved_;
   bool had_ = false;
 };
@@ -152,7 +142,8 @@ TEST(DdsProcess, DiscoveryOffHidesTheProcess) {
   std::unique_ptr<Child> child;
   {
     ScopedEnv range("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF");
-    child = std::make_unique<Child>(std::vector<std::string>{REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "100", "20"});
+    child = std::make_unique<Child>(
+        std::vector<std::string>{REGOLITH_DDS_TEST_PUBLISHER, std::to_string(domain), ns, "100", "20"});
   }
   ASSERT_TRUE(child->ok());
   rd::Participant pp({domain, ns});

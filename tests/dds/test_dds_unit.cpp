@@ -26,14 +26,10 @@ using regolith::dds::testing::view;
 // ---- naming
 // ---------------------------------------------------------------------------------
 TEST(DdsNaming, RelativeNameUnderNamespace) {
-  EXPECT_EQ(rd::wire_topic_name("rover1", "joint_states"),
-            "rt/rover1/joint_states");
-  EXPECT_EQ(rd::ros_topic_name("rover1", "joint_states"),
-            "/rover1/joint_states");
-  EXPECT_EQ(rd::wire_topic_name("rover1", "terrain/grid_map"),
-            "rt/rover1/terrain/grid_map");
-  EXPECT_EQ(rd::wire_topic_name("/fleet/rover1/", "terrain/soil"),
-            "rt/fleet/rover1/terrain/soil");
+  EXPECT_EQ(rd::wire_topic_name("rover1", "joint_states"), "rt/rover1/joint_states");
+  EXPECT_EQ(rd::ros_topic_name("rover1", "joint_states"), "/rover1/joint_states");
+  EXPECT_EQ(rd::wire_topic_name("rover1", "terrain/grid_map"), "rt/rover1/terrain/grid_map");
+  EXPECT_EQ(rd::wire_topic_name("/fleet/rover1/", "terrain/soil"), "rt/fleet/rover1/terrain/soil");
 }
 TEST(DdsNaming, AbsoluteNameIgnoresNamespace) {
   EXPECT_EQ(rd::wire_topic_name("rover1", "/diagnostics"), "rt/diagnostics");
@@ -48,16 +44,14 @@ TEST(DdsNaming, InvalidNamesNameTheProblem) {
   auto msg = [](auto f) {
     try {
       f();
-    } catch (const std::invalid_argument &e) {
+    } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
     return std::string("no exception");
   };
-  EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", ""); }),
-            "topic name: empty");
-  EXPECT_EQ(
-      msg([] { rd::wire_topic_name("rover1", "terrain//map"); }),
-      "topic name 'terrain//map': empty token (\"//\" or a trailing \"/\")");
+  EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", ""); }), "topic name: empty");
+  EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", "terrain//map"); }),
+            "topic name 'terrain//map': empty token (\"//\" or a trailing \"/\")");
   EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", "terrain/"); }),
             "topic name 'terrain/': empty token (\"//\" or a trailing \"/\")");
   EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", "2d_map"); }),
@@ -65,12 +59,10 @@ TEST(DdsNaming, InvalidNamesNameTheProblem) {
   EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", "joint-states"); }),
             "topic name 'joint-states': character '-' not allowed (only "
             "[A-Za-z0-9_/])");
-  EXPECT_EQ(
-      msg([] { rd::wire_topic_name("rover 1", "joint_states"); }),
-      "namespace 'rover 1': character ' ' not allowed (only [A-Za-z0-9_/])");
-  EXPECT_EQ(
-      msg([] { rd::wire_topic_name("rover1", "~/private"); }),
-      "topic name '~/private': character '~' not allowed (only [A-Za-z0-9_/])");
+  EXPECT_EQ(msg([] { rd::wire_topic_name("rover 1", "joint_states"); }),
+            "namespace 'rover 1': character ' ' not allowed (only [A-Za-z0-9_/])");
+  EXPECT_EQ(msg([] { rd::wire_topic_name("rover1", "~/private"); }),
+            "topic name '~/private': character '~' not allowed (only [A-Za-z0-9_/])");
 }
 
 // ---- QoS
@@ -80,15 +72,12 @@ TEST(DdsQos, Presets) {
   EXPECT_EQ(state.reliability, rd::Reliability::kReliable);
   EXPECT_EQ(state.durability, rd::Durability::kTransientLocal);
   EXPECT_EQ(state.depth, 1);
-  EXPECT_EQ(state.describe(),
-            "reliable keep_last(1) transient_local deadline 500 ms");
+  EXPECT_EQ(state.describe(), "reliable keep_last(1) transient_local deadline 500 ms");
   const auto stream = rd::QosProfile::stream(5);
   EXPECT_EQ(stream.durability, rd::Durability::kVolatile);
   EXPECT_EQ(stream.describe(), "reliable keep_last(5) volatile");
-  EXPECT_EQ(rd::QosProfile::diagnostics().describe(),
-            "reliable keep_last(10) volatile");
-  const auto r = rd::QosProfile::reader(rd::Reliability::kBestEffort,
-                                        rd::Durability::kTransientLocal, 1);
+  EXPECT_EQ(rd::QosProfile::diagnostics().describe(), "reliable keep_last(10) volatile");
+  const auto r = rd::QosProfile::reader(rd::Reliability::kBestEffort, rd::Durability::kTransientLocal, 1);
   EXPECT_EQ(r.deadline_ns, 0);
   EXPECT_EQ(r.describe(), "best_effort keep_last(1) transient_local");
 }
@@ -99,7 +88,7 @@ TEST(DdsQos, ReaderQosNeverCarriesADeadline) {
   dds_duration_t d = 0;
   ASSERT_TRUE(dds_qget_deadline(w.get(), &d));
   EXPECT_EQ(d, 100 * regolith::kNsPerMs);
-  EXPECT_FALSE(dds_qget_deadline(r.get(), &d)); // not set: infinite
+  EXPECT_FALSE(dds_qget_deadline(r.get(), &d));  // not set: infinite
   dds_durability_kind_t dk{};
   ASSERT_TRUE(dds_qget_durability(r.get(), &dk));
   EXPECT_EQ(dk, DDS_DURABILITY_TRANSIENT_LOCAL);
@@ -115,7 +104,7 @@ TEST(DdsQos, ValidateNamesField) {
       {
         try {
           p.validate();
-        } catch (const std::invalid_argument &e) {
+        } catch (const std::invalid_argument& e) {
           EXPECT_STREQ(e.what(), "QosProfile.depth: must be >= 1 (got 0)");
           throw;
         }
@@ -128,7 +117,7 @@ TEST(DdsQos, ValidateNamesField) {
 // ---- sample helpers
 // -------------------------------------------------------------------------
 TEST(DdsSample, CopyStringTruncates) {
-  char *s = rd::alloc_string(4);
+  char* s = rd::alloc_string(4);
   EXPECT_STREQ(s, "");
   EXPECT_TRUE(rd::copy_string(s, 4, "abcd"));
   EXPECT_STREQ(s, "abcd");
@@ -139,11 +128,10 @@ TEST(DdsSample, CopyStringTruncates) {
   dds_free(s);
 }
 TEST(DdsSample, FormatNumbers) {
-  char *s = rd::alloc_string(16);
+  char* s = rd::alloc_string(16);
   EXPECT_TRUE(rd::format_double(s, 16, 0.25));
   EXPECT_STREQ(s, "0.25");
-  EXPECT_TRUE(rd::format_double(
-      s, 16, 1.0 / 3.0)); // shortest form needs 18 chars -> 6 digits
+  EXPECT_TRUE(rd::format_double(s, 16, 1.0 / 3.0));  // shortest form needs 18 chars -> 6 digits
   EXPECT_STREQ(s, "0.333333");
   EXPECT_TRUE(rd::format_int(s, 16, -1234));
   EXPECT_STREQ(s, "-1234");
@@ -156,7 +144,7 @@ TEST(DdsSample, TimeConversion) {
   rd::set_time(t, 12 * regolith::kNsPerSec + 345);
   EXPECT_EQ(t.sec, 12);
   EXPECT_EQ(t.nanosec, 345u);
-  rd::set_time(t, -1); // one nanosecond before the epoch
+  rd::set_time(t, -1);  // one nanosecond before the epoch
   EXPECT_EQ(t.sec, -1);
   EXPECT_EQ(t.nanosec, 999'999'999u);
   EXPECT_EQ(rd::to_ns(t), -1);
@@ -172,8 +160,7 @@ TEST(DdsSample, ReserveJointStateAndFree) {
   EXPECT_TRUE(rd::set_length(js.position, 4));
   EXPECT_FALSE(rd::set_length(js.velocity, 5));
   EXPECT_EQ(js.velocity._length, 4u);
-  rd::free_contents(rd::MsgTraits<m::sensor_msgs::JointState>::descriptor(),
-                    &js);
+  rd::free_contents(rd::MsgTraits<m::sensor_msgs::JointState>::descriptor(), &js);
   EXPECT_EQ(js.name._buffer, nullptr);
   EXPECT_EQ(js.header.frame_id, nullptr);
 }
@@ -181,7 +168,7 @@ TEST(DdsSample, ReserveGridMapLayout) {
   m::grid_map_msgs::GridMap g{};
   rd::reserve(g, {.layers = 2, .basic_layers = 1, .size_x = 3, .size_y = 5});
   ASSERT_EQ(g.data._maximum, 2u);
-  const auto &l = g.data._buffer[1].layout;
+  const auto& l = g.data._buffer[1].layout;
   ASSERT_EQ(l.dim._length, 2u);
   EXPECT_STREQ(l.dim._buffer[0].label, "column_index");
   EXPECT_EQ(l.dim._buffer[0].size, 5u);
@@ -197,105 +184,67 @@ TEST(DdsSample, ReserveGridMapLayout) {
 // ---- type table
 // -----------------------------------------------------------------------------
 template <class Msg>
-void expect_type(const char *dds_name, const char *ros_name) {
-  const dds_topic_descriptor_t *d = rd::MsgTraits<Msg>::descriptor();
+void expect_type(const char* dds_name, const char* ros_name) {
+  const dds_topic_descriptor_t* d = rd::MsgTraits<Msg>::descriptor();
   EXPECT_STREQ(d->m_typename, dds_name);
   EXPECT_EQ(rd::MsgTraits<Msg>::ros_type, ros_name);
   EXPECT_EQ(d->m_nkeys, 0u) << dds_name << " must be keyless";
   EXPECT_EQ(d->m_size, sizeof(Msg));
 }
 TEST(DdsTypes, RosWireTypeNamesAndKeyless) {
-  expect_type<m::builtin_interfaces::Time>(
-      "builtin_interfaces::msg::dds_::Time_", "builtin_interfaces/msg/Time");
-  expect_type<m::std_msgs::Header>("std_msgs::msg::dds_::Header_",
-                                   "std_msgs/msg/Header");
-  expect_type<m::std_msgs::MultiArrayDimension>(
-      "std_msgs::msg::dds_::MultiArrayDimension_",
-      "std_msgs/msg/MultiArrayDimension");
-  expect_type<m::std_msgs::MultiArrayLayout>(
-      "std_msgs::msg::dds_::MultiArrayLayout_",
-      "std_msgs/msg/MultiArrayLayout");
-  expect_type<m::std_msgs::Float32MultiArray>(
-      "std_msgs::msg::dds_::Float32MultiArray_",
-      "std_msgs/msg/Float32MultiArray");
-  expect_type<m::geometry_msgs::Point>("geometry_msgs::msg::dds_::Point_",
-                                       "geometry_msgs/msg/Point");
-  expect_type<m::geometry_msgs::Quaternion>(
-      "geometry_msgs::msg::dds_::Quaternion_", "geometry_msgs/msg/Quaternion");
-  expect_type<m::geometry_msgs::Pose>("geometry_msgs::msg::dds_::Pose_",
-                                      "geometry_msgs/msg/Pose");
-  expect_type<m::geometry_msgs::Pose2D>("geometry_msgs::msg::dds_::Pose2D_",
-                                        "geometry_msgs/msg/Pose2D");
-  expect_type<m::geometry_msgs::PoseWithCovariance>(
-      "geometry_msgs::msg::dds_::PoseWithCovariance_",
-      "geometry_msgs/msg/PoseWithCovariance");
-  expect_type<m::sensor_msgs::JointState>("sensor_msgs::msg::dds_::JointState_",
-                                          "sensor_msgs/msg/JointState");
-  expect_type<m::diagnostic_msgs::KeyValue>(
-      "diagnostic_msgs::msg::dds_::KeyValue_", "diagnostic_msgs/msg/KeyValue");
-  expect_type<m::diagnostic_msgs::DiagnosticStatus>(
-      "diagnostic_msgs::msg::dds_::DiagnosticStatus_",
-      "diagnostic_msgs/msg/DiagnosticStatus");
-  expect_type<m::diagnostic_msgs::DiagnosticArray>(
-      "diagnostic_msgs::msg::dds_::DiagnosticArray_",
-      "diagnostic_msgs/msg/DiagnosticArray");
-  expect_type<m::grid_map_msgs::GridMapInfo>(
-      "grid_map_msgs::msg::dds_::GridMapInfo_",
-      "grid_map_msgs/msg/GridMapInfo");
-  expect_type<m::grid_map_msgs::GridMap>("grid_map_msgs::msg::dds_::GridMap_",
-                                         "grid_map_msgs/msg/GridMap");
-  expect_type<m::vision_msgs::Point2D>("vision_msgs::msg::dds_::Point2D_",
-                                       "vision_msgs/msg/Point2D");
-  expect_type<m::vision_msgs::Pose2D>("vision_msgs::msg::dds_::Pose2D_",
-                                      "vision_msgs/msg/Pose2D");
-  expect_type<m::vision_msgs::BoundingBox2D>(
-      "vision_msgs::msg::dds_::BoundingBox2D_",
-      "vision_msgs/msg/BoundingBox2D");
-  expect_type<m::vision_msgs::ObjectHypothesis>(
-      "vision_msgs::msg::dds_::ObjectHypothesis_",
-      "vision_msgs/msg/ObjectHypothesis");
-  expect_type<m::vision_msgs::ObjectHypothesisWithPose>(
-      "vision_msgs::msg::dds_::ObjectHypothesisWithPose_",
-      "vision_msgs/msg/ObjectHypothesisWithPose");
-  expect_type<m::vision_msgs::Detection2D>(
-      "vision_msgs::msg::dds_::Detection2D_", "vision_msgs/msg/Detection2D");
-  expect_type<m::vision_msgs::Detection2DArray>(
-      "vision_msgs::msg::dds_::Detection2DArray_",
-      "vision_msgs/msg/Detection2DArray");
-  expect_type<m::regolith_msgs::WheelSinkage>(
-      "regolith_msgs::msg::dds_::WheelSinkage_",
-      "regolith_msgs/msg/WheelSinkage");
-  expect_type<m::regolith_msgs::SoilStiffness>(
-      "regolith_msgs::msg::dds_::SoilStiffness_",
-      "regolith_msgs/msg/SoilStiffness");
-  expect_type<m::regolith_msgs::RockArray>(
-      "regolith_msgs::msg::dds_::RockArray_", "regolith_msgs/msg/RockArray");
-  expect_type<m::geometry_msgs::Twist>("geometry_msgs::msg::dds_::Twist_",
-                                       "geometry_msgs/msg/Twist");
-  expect_type<m::geometry_msgs::TwistWithCovariance>(
-      "geometry_msgs::msg::dds_::TwistWithCovariance_",
-      "geometry_msgs/msg/TwistWithCovariance");
-  expect_type<m::nav_msgs::Odometry>("nav_msgs::msg::dds_::Odometry_",
-                                     "nav_msgs/msg/Odometry");
+  expect_type<m::builtin_interfaces::Time>("builtin_interfaces::msg::dds_::Time_", "builtin_interfaces/msg/Time");
+  expect_type<m::std_msgs::Header>("std_msgs::msg::dds_::Header_", "std_msgs/msg/Header");
+  expect_type<m::std_msgs::MultiArrayDimension>("std_msgs::msg::dds_::MultiArrayDimension_",
+                                                "std_msgs/msg/MultiArrayDimension");
+  expect_type<m::std_msgs::MultiArrayLayout>("std_msgs::msg::dds_::MultiArrayLayout_", "std_msgs/msg/MultiArrayLayout");
+  expect_type<m::std_msgs::Float32MultiArray>("std_msgs::msg::dds_::Float32MultiArray_",
+                                              "std_msgs/msg/Float32MultiArray");
+  expect_type<m::geometry_msgs::Point>("geometry_msgs::msg::dds_::Point_", "geometry_msgs/msg/Point");
+  expect_type<m::geometry_msgs::Quaternion>("geometry_msgs::msg::dds_::Quaternion_", "geometry_msgs/msg/Quaternion");
+  expect_type<m::geometry_msgs::Pose>("geometry_msgs::msg::dds_::Pose_", "geometry_msgs/msg/Pose");
+  expect_type<m::geometry_msgs::Pose2D>("geometry_msgs::msg::dds_::Pose2D_", "geometry_msgs/msg/Pose2D");
+  expect_type<m::geometry_msgs::PoseWithCovariance>("geometry_msgs::msg::dds_::PoseWithCovariance_",
+                                                    "geometry_msgs/msg/PoseWithCovariance");
+  expect_type<m::sensor_msgs::JointState>("sensor_msgs::msg::dds_::JointState_", "sensor_msgs/msg/JointState");
+  expect_type<m::diagnostic_msgs::KeyValue>("diagnostic_msgs::msg::dds_::KeyValue_", "diagnostic_msgs/msg/KeyValue");
+  expect_type<m::diagnostic_msgs::DiagnosticStatus>("diagnostic_msgs::msg::dds_::DiagnosticStatus_",
+                                                    "diagnostic_msgs/msg/DiagnosticStatus");
+  expect_type<m::diagnostic_msgs::DiagnosticArray>("diagnostic_msgs::msg::dds_::DiagnosticArray_",
+                                                   "diagnostic_msgs/msg/DiagnosticArray");
+  expect_type<m::grid_map_msgs::GridMapInfo>("grid_map_msgs::msg::dds_::GridMapInfo_", "grid_map_msgs/msg/GridMapInfo");
+  expect_type<m::grid_map_msgs::GridMap>("grid_map_msgs::msg::dds_::GridMap_", "grid_map_msgs/msg/GridMap");
+  expect_type<m::vision_msgs::Point2D>("vision_msgs::msg::dds_::Point2D_", "vision_msgs/msg/Point2D");
+  expect_type<m::vision_msgs::Pose2D>("vision_msgs::msg::dds_::Pose2D_", "vision_msgs/msg/Pose2D");
+  expect_type<m::vision_msgs::BoundingBox2D>("vision_msgs::msg::dds_::BoundingBox2D_", "vision_msgs/msg/BoundingBox2D");
+  expect_type<m::vision_msgs::ObjectHypothesis>("vision_msgs::msg::dds_::ObjectHypothesis_",
+                                                "vision_msgs/msg/ObjectHypothesis");
+  expect_type<m::vision_msgs::ObjectHypothesisWithPose>("vision_msgs::msg::dds_::ObjectHypothesisWithPose_",
+                                                        "vision_msgs/msg/ObjectHypothesisWithPose");
+  expect_type<m::vision_msgs::Detection2D>("vision_msgs::msg::dds_::Detection2D_", "vision_msgs/msg/Detection2D");
+  expect_type<m::vision_msgs::Detection2DArray>("vision_msgs::msg::dds_::Detection2DArray_",
+                                                "vision_msgs/msg/Detection2DArray");
+  expect_type<m::regolith_msgs::WheelSinkage>("regolith_msgs::msg::dds_::WheelSinkage_",
+                                              "regolith_msgs/msg/WheelSinkage");
+  expect_type<m::regolith_msgs::SoilStiffness>("regolith_msgs::msg::dds_::SoilStiffness_",
+                                               "regolith_msgs/msg/SoilStiffness");
+  expect_type<m::regolith_msgs::RockArray>("regolith_msgs::msg::dds_::RockArray_", "regolith_msgs/msg/RockArray");
+  expect_type<m::geometry_msgs::Twist>("geometry_msgs::msg::dds_::Twist_", "geometry_msgs/msg/Twist");
+  expect_type<m::geometry_msgs::TwistWithCovariance>("geometry_msgs::msg::dds_::TwistWithCovariance_",
+                                                     "geometry_msgs/msg/TwistWithCovariance");
+  expect_type<m::nav_msgs::Odometry>("nav_msgs::msg::dds_::Odometry_", "nav_msgs/msg/Odometry");
 }
 TEST(DdsTopics, TableLookupAndList) {
   ASSERT_NE(rd::find_topic("joint_states"), nullptr);
-  EXPECT_EQ(rd::find_topic("joint_states")->ros_type,
-            "sensor_msgs/msg/JointState");
+  EXPECT_EQ(rd::find_topic("joint_states")->ros_type, "sensor_msgs/msg/JointState");
   ASSERT_NE(rd::find_topic("diagnostics"), nullptr);
   EXPECT_EQ(rd::find_topic("diagnostics")->name, "/diagnostics");
-  EXPECT_EQ(rd::find_topic("/terrain/grid_map")->ros_type,
-            "grid_map_msgs/msg/GridMap");
-  EXPECT_EQ(rd::find_topic("terrain/rocks")->ros_type,
-            "regolith_msgs/msg/RockArray");
-  EXPECT_EQ(rd::find_topic("terrain/wheel_sinkage")->ros_type,
-            "regolith_msgs/msg/WheelSinkage");
-  EXPECT_EQ(rd::find_topic("terrain/soil")->ros_type,
-            "regolith_msgs/msg/SoilStiffness");
+  EXPECT_EQ(rd::find_topic("/terrain/grid_map")->ros_type, "grid_map_msgs/msg/GridMap");
+  EXPECT_EQ(rd::find_topic("terrain/rocks")->ros_type, "regolith_msgs/msg/RockArray");
+  EXPECT_EQ(rd::find_topic("terrain/wheel_sinkage")->ros_type, "regolith_msgs/msg/WheelSinkage");
+  EXPECT_EQ(rd::find_topic("terrain/soil")->ros_type, "regolith_msgs/msg/SoilStiffness");
   EXPECT_EQ(rd::find_topic("odom")->ros_type, "nav_msgs/msg/Odometry");
   EXPECT_EQ(rd::find_topic("odom/wheel")->ros_type, "nav_msgs/msg/Odometry");
-  EXPECT_EQ(rd::find_topic("terrain/world_map")->ros_type,
-            "grid_map_msgs/msg/GridMap");
+  EXPECT_EQ(rd::find_topic("terrain/world_map")->ros_type, "grid_map_msgs/msg/GridMap");
   EXPECT_EQ(rd::find_topic("terrain/world_map")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("camera/image_raw"), nullptr);
   EXPECT_EQ(rd::find_topic("/tf")->ros_type, "tf2_msgs/msg/TFMessage");
@@ -305,13 +254,11 @@ TEST(DdsTopics, TableLookupAndList) {
   EXPECT_EQ(rd::known_topics().size(), 16u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
-  for (const auto &t : rd::known_topics()) {
+  for (const auto& t : rd::known_topics()) {
     EXPECT_EQ(t.reader_qos().deadline_ns, 0) << t.name;
     if (t.cls == rd::TopicClass::kState) {
-      EXPECT_EQ(t.writer_qos().durability, rd::Durability::kTransientLocal)
-          << t.name;
-      EXPECT_EQ(t.reader_qos().durability, rd::Durability::kTransientLocal)
-          << t.name;
+      EXPECT_EQ(t.writer_qos().durability, rd::Durability::kTransientLocal) << t.name;
+      EXPECT_EQ(t.reader_qos().durability, rd::Durability::kTransientLocal) << t.name;
     } else {
       EXPECT_EQ(t.reader_qos().durability, rd::Durability::kVolatile) << t.name;
     }
@@ -347,7 +294,7 @@ TEST(DdsJson, TransformsClockAndLog) {
   m::tf2_msgs::TFMessage tf{};
   rd::reserve(tf, 2, 16);
   rd::set_length(tf.transforms, 1);
-  auto &t = tf.transforms._buffer[0];
+  auto& t = tf.transforms._buffer[0];
   t.header.stamp = {5, 7};
   rd::copy_string(t.header.frame_id, 16, "base_link");
   rd::copy_string(t.child_frame_id, 16, "front_link");
@@ -378,25 +325,20 @@ TEST(DdsJson, JointState) {
   m::sensor_msgs::JointState js{};
   js.header.stamp = {3, 500};
   js.header.frame_id = cstr("base_link");
-  std::vector<char *> names = {cstr("wheel_fl"), cstr("wheel_fr")};
-  std::vector<double> pos = {0.5, -1.25},
-                      vel = {2.0, std::numeric_limits<double>::quiet_NaN()},
-                      eff;
+  std::vector<char*> names = {cstr("wheel_fl"), cstr("wheel_fr")};
+  std::vector<double> pos = {0.5, -1.25}, vel = {2.0, std::numeric_limits<double>::quiet_NaN()}, eff;
   view(js.name, names);
   view(js.position, pos);
   view(js.velocity, vel);
   view(js.effort, eff);
   const auto j = rd::to_json(js);
-  EXPECT_EQ(
-      j.dump(),
-      R"({"effort":[],"header":{"frame_id":"base_link","stamp":{"nanosec":500,"sec":3}},)"
-      R"("name":["wheel_fl","wheel_fr"],"position":[0.5,-1.25],"velocity":[2.0,null]})");
+  EXPECT_EQ(j.dump(), R"({"effort":[],"header":{"frame_id":"base_link","stamp":{"nanosec":500,"sec":3}},)"
+                      R"("name":["wheel_fl","wheel_fr"],"position":[0.5,-1.25],"velocity":[2.0,null]})");
 }
 TEST(DdsJson, DiagnosticArray) {
   m::diagnostic_msgs::DiagnosticArray a{};
   a.header.frame_id = cstr("");
-  std::vector<m::diagnostic_msgs::KeyValue> kv = {
-      {cstr("max_exec_us"), cstr("812")}, {cstr("cycle_slips"), cstr("0")}};
+  std::vector<m::diagnostic_msgs::KeyValue> kv = {{cstr("max_exec_us"), cstr("812")}, {cstr("cycle_slips"), cstr("0")}};
   std::vector<m::diagnostic_msgs::DiagnosticStatus> st(1);
   st[0].level = m::diagnostic_msgs::kWarn;
   st[0].name = cstr("sfs: timing");
@@ -435,7 +377,7 @@ TEST(DdsJson, GridMap) {
   EXPECT_EQ(j["data"][0]["layout"]["dim"][0]["label"], "column_index");
   EXPECT_EQ(j["data"][0]["layout"]["dim"][1]["stride"], 2);
   EXPECT_EQ(j["data"][0]["data"][0], 1.5);
-  EXPECT_TRUE(j["data"][0]["data"][3].is_null()); // NaN = unknown cell
+  EXPECT_TRUE(j["data"][0]["data"][3].is_null());  // NaN = unknown cell
   EXPECT_EQ(j["data"][0]["data"].size(), 4u);
   EXPECT_EQ(j["inner_start_index"], 0);
   rd::free_contents(rd::MsgTraits<m::grid_map_msgs::GridMap>::descriptor(), &g);
@@ -465,8 +407,7 @@ TEST(DdsJson, Detection2DArrayAndRocks) {
   EXPECT_EQ(j["detections"][0]["bbox"]["size_y"], 22.0);
   EXPECT_EQ(j["detections"][0]["results"][0]["hypothesis"]["class_id"], "rock");
   EXPECT_EQ(j["detections"][0]["results"][0]["hypothesis"]["score"], 0.875);
-  EXPECT_EQ(j["detections"][0]["results"][0]["pose"]["pose"]["position"]["z"],
-            3.0);
+  EXPECT_EQ(j["detections"][0]["results"][0]["pose"]["pose"]["position"]["z"], 3.0);
   EXPECT_EQ(j["detections"][0]["results"][0]["pose"]["covariance"].size(), 36u);
   EXPECT_EQ(j["detections"][0]["results"][0]["pose"]["covariance"][35], 0.5);
 
@@ -492,7 +433,7 @@ TEST(DdsJson, Detection2DArrayAndRocks) {
 TEST(DdsJson, SinkageSoilAndGeometry) {
   m::regolith_msgs::WheelSinkage s{};
   s.header.frame_id = cstr("base_link");
-  std::vector<char *> names = {cstr("fl")};
+  std::vector<char*> names = {cstr("fl")};
   std::vector<double> z = {0.012}, c = {0.9};
   view(s.wheel_names, names);
   view(s.sinkage_m, z);
@@ -527,25 +468,24 @@ TEST(DdsJson, SinkageSoilAndGeometry) {
   view(f.data, fd);
   EXPECT_EQ(rd::to_json(f)["data"].dump(), "[0.5,-1.0]");
   m::std_msgs::Header h{{-1, 999999999u}, nullptr};
-  EXPECT_EQ(rd::to_json(h).dump(),
-            R"({"frame_id":"","stamp":{"nanosec":999999999,"sec":-1}})");
+  EXPECT_EQ(rd::to_json(h).dump(), R"({"frame_id":"","stamp":{"nanosec":999999999,"sec":-1}})");
 }
 
 // ROS_DOMAIN_ID: the default domain of the deployment's `dds.domain` and of `regolith echo`.
 TEST(DdsUnit, DefaultDomainFollowsRosDomainId) {
-  const char *saved = std::getenv("ROS_DOMAIN_ID");
+  const char* saved = std::getenv("ROS_DOMAIN_ID");
   const std::string keep = saved ? saved : "";
   setenv("ROS_DOMAIN_ID", "42", 1);
   EXPECT_EQ(rd::default_domain_id(), 42);
   setenv("ROS_DOMAIN_ID", "", 1);
   EXPECT_EQ(rd::default_domain_id(), 0);
   // A value ROS 2 refuses is an error naming the variable, not a silent domain 0 beside other runs.
-  for (const char *bad : {"not-a-number", "500", "-1", "4x"}) {
+  for (const char* bad : {"not-a-number", "500", "-1", "4x"}) {
     setenv("ROS_DOMAIN_ID", bad, 1);
     try {
       (void)rd::default_domain_id();
       ADD_FAILURE() << bad << " accepted";
-    } catch (const regolith::ConfigError &e) {
+    } catch (const regolith::ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find("ROS_DOMAIN_ID='" + std::string(bad) + "'"), std::string::npos) << e.what();
     }
   }
@@ -557,11 +497,11 @@ TEST(DdsUnit, DefaultDomainFollowsRosDomainId) {
 // The ROS 2 discovery variables, read as ROS 2 reads them (Iron's range and static peers,
 // Humble's ROS_LOCALHOST_ONLY), and the Cyclone XML rmw_cyclonedds makes of them.
 TEST(DdsUnit, DiscoveryRangeFromTheRos2Environment) {
-  const char *names[] = {"ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY"};
+  const char* names[] = {"ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY"};
   std::vector<std::pair<std::string, std::string>> saved;
-  for (const char *n : names)
-    if (const char *v = std::getenv(n)) saved.emplace_back(n, v);
-  for (const char *n : names) unsetenv(n);
+  for (const char* n : names)
+    if (const char* v = std::getenv(n)) saved.emplace_back(n, v);
+  for (const char* n : names) unsetenv(n);
   using R = rd::DiscoveryRange;
   EXPECT_EQ(rd::discovery_from_environment(), rd::DiscoveryOptions{});  // SUBNET, no peers
   setenv("ROS_LOCALHOST_ONLY", "1", 1);
@@ -569,19 +509,20 @@ TEST(DdsUnit, DiscoveryRangeFromTheRos2Environment) {
   setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF", 1);  // the range wins over Humble's variable
   EXPECT_EQ(rd::discovery_from_environment().range, R::kOff);
   unsetenv("ROS_LOCALHOST_ONLY");
-  for (auto [text, range] : {std::pair{"SUBNET", R::kSubnet}, {"LOCALHOST", R::kLocalhost}, {"SYSTEM_DEFAULT", R::kSystemDefault}}) {
+  for (auto [text, range] :
+       {std::pair{"SUBNET", R::kSubnet}, {"LOCALHOST", R::kLocalhost}, {"SYSTEM_DEFAULT", R::kSystemDefault}}) {
     setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", text, 1);
     EXPECT_EQ(rd::discovery_from_environment().range, range) << text;
     EXPECT_STREQ(rd::to_string(range), text);
   }
   setenv("ROS_STATIC_PEERS", " 192.168.1.7; rover2.local ;;", 1);
   EXPECT_EQ(rd::discovery_from_environment().static_peers, (std::vector<std::string>{"192.168.1.7", "rover2.local"}));
-  auto refused = [](const char *name, const char *value, const std::string &says) {
+  auto refused = [](const char* name, const char* value, const std::string& says) {
     setenv(name, value, 1);
     try {
       (void)rd::discovery_from_environment();
       ADD_FAILURE() << name << "=" << value << " accepted";
-    } catch (const regolith::ConfigError &e) {
+    } catch (const regolith::ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
     }
     unsetenv(name);
@@ -589,8 +530,8 @@ TEST(DdsUnit, DiscoveryRangeFromTheRos2Environment) {
   refused("ROS_AUTOMATIC_DISCOVERY_RANGE", "localhost", "ROS_AUTOMATIC_DISCOVERY_RANGE='localhost': must be SUBNET");
   refused("ROS_LOCALHOST_ONLY", "yes", "ROS_LOCALHOST_ONLY='yes': must be 0 or 1");
   refused("ROS_STATIC_PEERS", "a;b\"/><x", "ROS_STATIC_PEERS: 'b\"/><x' is not a host name or address");
-  for (const char *n : names) unsetenv(n);
-  for (const auto &[n, v] : saved) setenv(n.c_str(), v.c_str(), 1);
+  for (const char* n : names) unsetenv(n);
+  for (const auto& [n, v] : saved) setenv(n.c_str(), v.c_str(), 1);
 
   // The XML, as rmw_cyclonedds writes it for the same variables.
   EXPECT_EQ(rd::discovery_config({}, 7), "");
@@ -603,9 +544,10 @@ TEST(DdsUnit, DiscoveryRangeFromTheRos2Environment) {
             "<CycloneDDS><Domain><Discovery><ParticipantIndex>auto</ParticipantIndex>"
             "<MaxAutoParticipantIndex>32</MaxAutoParticipantIndex><Peers><Peer address=\"10.0.0.2\"/></Peers>"
             "</Discovery></Domain></CycloneDDS>");
-  EXPECT_EQ(rd::discovery_config({R::kOff, {"10.0.0.2"}}, 4242),
-            "<CycloneDDS><Domain><General><AllowMulticast>false</AllowMulticast></General><Discovery>"
-            "<ParticipantIndex>none</ParticipantIndex><Tag>ros_discovery_off_4242</Tag></Discovery></Domain></CycloneDDS>");
+  EXPECT_EQ(
+      rd::discovery_config({R::kOff, {"10.0.0.2"}}, 4242),
+      "<CycloneDDS><Domain><General><AllowMulticast>false</AllowMulticast></General><Discovery>"
+      "<ParticipantIndex>none</ParticipantIndex><Tag>ros_discovery_off_4242</Tag></Discovery></Domain></CycloneDDS>");
 }
 
 // Header stamps are ROS time: the process clock plus the measured realtime offset.

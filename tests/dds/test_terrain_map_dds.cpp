@@ -77,7 +77,8 @@ void take_tf(const m::tf2_msgs::TFMessage& msg, std::vector<Tf>& out) {
     const auto& t = msg.transforms._buffer[i];
     const auto& r = t.transform.rotation;
     const auto& v = t.transform.translation;
-    out.push_back({t.header.frame_id != nullptr ? t.header.frame_id : "", t.child_frame_id != nullptr ? t.child_frame_id : "",
+    out.push_back({t.header.frame_id != nullptr ? t.header.frame_id : "",
+                   t.child_frame_id != nullptr ? t.child_frame_id : "",
                    static_cast<double>(rd::to_ns(t.header.stamp)) * 1e-9, v.x, v.y, v.z, r.x, r.y, r.z, r.w});
   }
 }
@@ -113,10 +114,10 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
 
   // The rover waits for our readers before its clock starts: nothing is published unseen.
   const std::string exe = REGOLITH_EXE, out = (dir / "run.txt").string();
-  std::vector<std::string> args{exe,          "run",        "--config",   cfg.string(),       "--sim-time",
-                                "--duration", "16",         "--quiet",    "--wait-for",       "odom",
-                                "--wait-for", "odom/wheel", "--wait-for", "terrain/world_map", "--wait-for", "/tf",
-                                "--wait-for", "/clock"};
+  std::vector<std::string> args{exe,          "run",        "--config",   cfg.string(),        "--sim-time",
+                                "--duration", "16",         "--quiet",    "--wait-for",        "odom",
+                                "--wait-for", "odom/wheel", "--wait-for", "terrain/world_map", "--wait-for",
+                                "/tf",        "--wait-for", "/clock"};
   const pid_t pid = rt::spawn(args, out);
   ASSERT_GT(pid, 0);
 
@@ -130,9 +131,9 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
     wheel.take([&](const m::nav_msgs::Odometry& o, const dds_sample_info_t&) { wheels.push_back(odom_of(o)); }, 1000);
     tf.take([&](const m::tf2_msgs::TFMessage& t, const dds_sample_info_t&) { take_tf(t, dynamic_tf); }, 1000);
     tf_static.take([&](const m::tf2_msgs::TFMessage& t, const dds_sample_info_t&) { take_tf(t, static_tf); }, 10);
-    clock.take([&](const m::rosgraph_msgs::Clock& c, const dds_sample_info_t&) {
-      clock_s.push_back(static_cast<double>(rd::to_ns(c.clock)) * 1e-9);
-    }, 1000);
+    clock.take([&](const m::rosgraph_msgs::Clock& c,
+                   const dds_sample_info_t&) { clock_s.push_back(static_cast<double>(rd::to_ns(c.clock)) * 1e-9); },
+               1000);
     map.take(
         [&](const m::grid_map_msgs::GridMap& g, const dds_sample_info_t&) {
           ++maps;
@@ -179,7 +180,7 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
     drain();
   }
   if (!exited) rt::wait_exit(pid, std::chrono::milliseconds(0));  // killed and reaped, not left running
-  for (int k = 0; k < 10; ++k) {  // what is still in flight
+  for (int k = 0; k < 10; ++k) {                                  // what is still in flight
     odom.wait(20 * kNsPerMs);
     drain();
   }

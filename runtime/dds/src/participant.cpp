@@ -1,19 +1,21 @@
-#include <algorithm>
 #include "regolith/dds/participant.hpp"
-#include "regolith/dds/sample.hpp"
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
-#include <cstdlib>
-
 #include <chrono>
+#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 
+#include "regolith/dds/sample.hpp"
+
 namespace regolith::dds {
 
-int default_domain_id() { return domain_id_from_environment(); }
+int default_domain_id() {
+  return domain_id_from_environment();
+}
 
 namespace {
 
@@ -24,20 +26,20 @@ struct ConfiguredDomain {
   int users = 0;
   DiscoveryOptions options;
 };
-std::mutex &domains_mutex() {
+std::mutex& domains_mutex() {
   static std::mutex m;
   return m;
 }
-std::map<std::uint32_t, ConfiguredDomain> &configured_domains() {
+std::map<std::uint32_t, ConfiguredDomain>& configured_domains() {
   static std::map<std::uint32_t, ConfiguredDomain> d;
   return d;
 }
 
 // True when the participant about to be made holds a reference to a configured domain.
-bool acquire_domain(std::uint32_t id, const DiscoveryOptions &o) {
+bool acquire_domain(std::uint32_t id, const DiscoveryOptions& o) {
   const std::string xml = discovery_config(o, static_cast<long>(::getpid()));
   std::lock_guard lock(domains_mutex());
-  auto &domains = configured_domains();
+  auto& domains = configured_domains();
   const auto it = domains.find(id);
   if (it != domains.end()) {
     if (!(it->second.options == o))
@@ -49,7 +51,7 @@ bool acquire_domain(std::uint32_t id, const DiscoveryOptions &o) {
   }
   if (xml.empty()) return false;  // Cyclone's own configuration (CYCLONEDDS_URI)
   // rmw_cyclonedds's order: the discovery fragment, then CYCLONEDDS_URI (empty fragments ignored).
-  const char *uri = std::getenv("CYCLONEDDS_URI");
+  const char* uri = std::getenv("CYCLONEDDS_URI");
   const std::string config = xml + "," + (uri != nullptr ? uri : "");
   const dds_entity_t h = dds_create_domain(id, config.c_str());
   if (h == DDS_RETCODE_PRECONDITION_NOT_MET)
@@ -64,7 +66,7 @@ bool acquire_domain(std::uint32_t id, const DiscoveryOptions &o) {
 
 void release_domain(std::uint32_t id) {
   std::lock_guard lock(domains_mutex());
-  auto &domains = configured_domains();
+  auto& domains = configured_domains();
   const auto it = domains.find(id);
   if (it == domains.end() || --it->second.users > 0) return;
   (void)dds_delete(it->second.handle);
@@ -75,13 +77,11 @@ void release_domain(std::uint32_t id) {
 
 void ParticipantConfig::validate() const {
   if (domain_id > 232)
-    throw std::invalid_argument("dds.domain: must be in [0, 232] (got " +
-                                std::to_string(domain_id) + ")");
+    throw std::invalid_argument("dds.domain: must be in [0, 232] (got " + std::to_string(domain_id) + ")");
   (void)normalize_namespace(ns);
 }
 
-Participant::Participant(ParticipantConfig cfg)
-    : Participant(std::move(cfg), discovery_from_environment()) {}
+Participant::Participant(ParticipantConfig cfg) : Participant(std::move(cfg), discovery_from_environment()) {}
 
 Participant::Participant(ParticipantConfig cfg, DiscoveryOptions discovery)
     : cfg_(std::move(cfg)), discovery_(std::move(discovery)) {
@@ -93,35 +93,30 @@ Participant::Participant(ParticipantConfig cfg, DiscoveryOptions discovery)
     release_domain(cfg_.domain_id);
     holds_domain_ = false;
   }
-  check(participant_, "dds_create_participant(domain " +
-                          std::to_string(cfg_.domain_id) +
-                          ") (check CYCLONEDDS_URI)");
+  check(participant_, "dds_create_participant(domain " + std::to_string(cfg_.domain_id) + ") (check CYCLONEDDS_URI)");
 }
 
 Participant::~Participant() {
   stop();
   {
     std::lock_guard lock(mutex_);
-    outboxes_.clear(); // deletes the writers of outboxes nobody else holds
+    outboxes_.clear();  // deletes the writers of outboxes nobody else holds
     topics_.clear();
   }
-  (void)dds_delete(participant_); // deletes every remaining child entity
+  (void)dds_delete(participant_);  // deletes every remaining child entity
   if (holds_domain_) release_domain(cfg_.domain_id);
 }
 
-dds_entity_t Participant::topic(std::string_view name,
-                                const dds_topic_descriptor_t *desc) {
+dds_entity_t Participant::topic(std::string_view name, const dds_topic_descriptor_t* desc) {
   const std::string wire = wire_name(name);
   std::lock_guard lock(mutex_);
   if (auto it = topics_.find(wire); it != topics_.end()) {
     if (it->second.second != desc)
-      throw DdsError("topic " + ros_name(name) + ": already used with type " +
-                     it->second.second->m_typename + ", cannot use it with " +
-                     desc->m_typename);
+      throw DdsError("topic " + ros_name(name) + ": already used with type " + it->second.second->m_typename +
+                     ", cannot use it with " + desc->m_typename);
     return it->second.first;
   }
-  const dds_entity_t tp =
-      dds_create_topic(participant_, desc, wire.c_str(), nullptr, nullptr);
+  const dds_entity_t tp = dds_create_topic(participant_, desc, wire.c_str(), nullptr, nullptr);
   check(tp, "dds_create_topic " + wire + " (" + desc->m_typename + ")");
   topics_.emplace(wire, std::make_pair(tp, desc));
   return tp;
@@ -136,10 +131,10 @@ std::array<std::uint8_t, 24> Participant::gid_of(dds_entity_t entity) {
   return gid;
 }
 
-std::string Participant::announce_node(const std::string &node_name) {
+std::string Participant::announce_node(const std::string& node_name) {
   // A ROS node name: [A-Za-z_][A-Za-z0-9_]*.
   std::string name = node_name.empty() ? std::string("regolith") : node_name;
-  for (char &c : name)
+  for (char& c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) c = '_';
   if (std::isdigit(static_cast<unsigned char>(name[0]))) name.insert(name.begin(), '_');
   const std::string ns = cfg_.ns.empty() ? std::string("/") : "/" + cfg_.ns;
@@ -153,7 +148,7 @@ std::string Participant::announce_node(const std::string &node_name) {
     const dds_entity_t tp =
         dds_create_topic(participant_, MsgTraits<Info>::descriptor(), "ros_discovery_info", nullptr, nullptr);
     check(tp, "dds_create_topic ros_discovery_info");
-    dds_qos_t *q = dds_create_qos();
+    dds_qos_t* q = dds_create_qos();
     dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
     dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
     dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
@@ -168,7 +163,7 @@ std::string Participant::announce_node(const std::string &node_name) {
     return g;
   };
   std::vector<Gid> writers, readers;
-  for (const auto &box : outboxes_) writers.push_back(gid(box->writer()));
+  for (const auto& box : outboxes_) writers.push_back(gid(box->writer()));
   for (const dds_entity_t r : readers_) readers.push_back(gid(r));
   Node node{};
   // bounded strings: char[257] for string<256> (capacity excludes the terminator)
@@ -225,26 +220,24 @@ void Participant::remove_reader(dds_entity_t reader) {
   }
   try {
     announce_node(again);
-  } catch (const std::exception &) {
+  } catch (const std::exception&) {
     // a reader removed while the participant shuts down: nobody left to tell (never throws:
     // called from ~Subscription)
   }
 }
 
 void Participant::start() {
-  if (thread_.joinable())
-    return;
+  if (thread_.joinable()) return;
   stop_.store(false);
   thread_ = std::thread([this] { run(); });
 }
 
 void Participant::stop() {
-  if (!thread_.joinable())
-    return;
+  if (!thread_.joinable()) return;
   stop_.store(true);
   waker_->notify();
   thread_.join();
-  flush_all(); // whatever was committed after the thread's last pass
+  flush_all();  // whatever was committed after the thread's last pass
 }
 
 std::size_t Participant::flush_all() {
@@ -254,8 +247,7 @@ std::size_t Participant::flush_all() {
     boxes = outboxes_;
   }
   std::size_t n = 0;
-  for (auto &b : boxes)
-    n += b->flush(source_clock_);
+  for (auto& b : boxes) n += b->flush(source_clock_);
   return n;
 }
 
@@ -272,39 +264,36 @@ void Participant::run() {
       }
     }
     std::size_t written = 0;
-    for (auto &b : boxes)
-      written += b->flush(source_clock_);
+    for (auto& b : boxes) written += b->flush(source_clock_);
     {
-      std::lock_guard lock(idle_mutex_); // no lost wake-up for drain()
+      std::lock_guard lock(idle_mutex_);  // no lost wake-up for drain()
       passes_.fetch_add(1, std::memory_order_release);
     }
     idle_cv_.notify_all();
-    if (stop_.load(std::memory_order_acquire))
-      break;
-    if (written == 0)
-      waker_->counter.wait(seen, std::memory_order_acquire);
+    if (stop_.load(std::memory_order_acquire)) break;
+    if (written == 0) waker_->counter.wait(seen, std::memory_order_acquire);
   }
 }
 
 bool Participant::wait_for_acks(TimeNs timeout_ns) {
   bool ok = drain(timeout_ns);
   std::lock_guard lock(mutex_);
-  for (auto &b : outboxes_) {
+  for (auto& b : outboxes_) {
     if (b->matched_readers() == 0) continue;
     ok = dds_wait_for_acks(b->writer(), timeout_ns) == DDS_RETCODE_OK && ok;
   }
   return ok;
 }
 
-bool Participant::wait_for_readers(const std::vector<std::string> &topics, TimeNs timeout_ns) {
+bool Participant::wait_for_readers(const std::vector<std::string>& topics, TimeNs timeout_ns) {
   std::vector<std::string> wanted;
-  for (const auto &t : topics) wanted.push_back(ros_name(t));
+  for (const auto& t : topics) wanted.push_back(ros_name(t));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
   for (;;) {
     bool all = true;
     {
       std::lock_guard lock(mutex_);
-      for (auto &b : outboxes_) {
+      for (auto& b : outboxes_) {
         const bool selected = wanted.empty() || std::find(wanted.begin(), wanted.end(), b->topic()) != wanted.end();
         if (selected) all = all && b->matched_readers() > 0;
       }
@@ -318,17 +307,15 @@ bool Participant::wait_for_readers(const std::vector<std::string> &topics, TimeN
 bool Participant::drain(TimeNs timeout_ns) {
   auto all_idle = [this] {
     std::lock_guard lock(mutex_);
-    for (auto &b : outboxes_)
-      if (!b->idle())
-        return false;
+    for (auto& b : outboxes_)
+      if (!b->idle()) return false;
     return true;
   };
   if (!thread_.joinable()) {
     flush_all();
     return all_idle();
   }
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
   std::unique_lock lock(idle_mutex_);
   while (!all_idle()) {
     // Wait for the publisher to complete two more passes: then everything
@@ -337,8 +324,7 @@ bool Participant::drain(TimeNs timeout_ns) {
     const std::uint64_t target = passes_.load(std::memory_order_acquire) + 2;
     waker_->notify();
     while (passes_.load(std::memory_order_acquire) < target) {
-      if (idle_cv_.wait_until(lock, deadline) == std::cv_status::timeout)
-        return all_idle();
+      if (idle_cv_.wait_until(lock, deadline) == std::cv_status::timeout) return all_idle();
     }
   }
   return true;
@@ -348,21 +334,18 @@ std::vector<OutboxStats> Participant::stats() const {
   std::lock_guard lock(mutex_);
   std::vector<OutboxStats> out;
   out.reserve(outboxes_.size());
-  for (auto &b : outboxes_)
-    out.push_back(b->stats());
+  for (auto& b : outboxes_) out.push_back(b->stats());
   return out;
 }
 
 std::string Participant::summary() const {
   std::ostringstream os;
-  for (const auto &s : stats()) {
+  for (const auto& s : stats()) {
     os << s.topic << " published " << s.published << " dropped " << s.dropped;
-    if (s.write_errors > 0)
-      os << " write_errors " << s.write_errors;
-    os << " deadline_missed " << s.deadline_missed << " readers "
-       << s.matched_readers << "\n";
+    if (s.write_errors > 0) os << " write_errors " << s.write_errors;
+    os << " deadline_missed " << s.deadline_missed << " readers " << s.matched_readers << "\n";
   }
   return os.str();
 }
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

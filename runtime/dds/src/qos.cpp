@@ -21,7 +21,9 @@ QosProfile QosProfile::stream(int depth) {
   return p;
 }
 
-QosProfile QosProfile::diagnostics() { return stream(10); }
+QosProfile QosProfile::diagnostics() {
+  return stream(10);
+}
 
 QosProfile QosProfile::reader(Reliability r, Durability d, int depth) {
   QosProfile p;
@@ -33,30 +35,23 @@ QosProfile QosProfile::reader(Reliability r, Durability d, int depth) {
 }
 
 void QosProfile::validate() const {
-  if (depth < 1)
-    throw std::invalid_argument("QosProfile.depth: must be >= 1 (got " +
-                                std::to_string(depth) + ")");
+  if (depth < 1) throw std::invalid_argument("QosProfile.depth: must be >= 1 (got " + std::to_string(depth) + ")");
   if (deadline_ns < 0)
-    throw std::invalid_argument("QosProfile.deadline_ns: must be >= 0 (got " +
-                                std::to_string(deadline_ns) + ")");
+    throw std::invalid_argument("QosProfile.deadline_ns: must be >= 0 (got " + std::to_string(deadline_ns) + ")");
   if (max_blocking_ns < 0)
-    throw std::invalid_argument(
-        "QosProfile.max_blocking_ns: must be >= 0 (got " +
-        std::to_string(max_blocking_ns) + ")");
+    throw std::invalid_argument("QosProfile.max_blocking_ns: must be >= 0 (got " + std::to_string(max_blocking_ns) +
+                                ")");
 }
 
 std::string QosProfile::describe() const {
-  std::string s =
-      reliability == Reliability::kReliable ? "reliable" : "best_effort";
+  std::string s = reliability == Reliability::kReliable ? "reliable" : "best_effort";
   s += " keep_last(" + std::to_string(depth) + ")";
-  s += durability == Durability::kTransientLocal ? " transient_local"
-                                                 : " volatile";
-  if (deadline_ns > 0)
-    s += " deadline " + std::to_string(deadline_ns / kNsPerMs) + " ms";
+  s += durability == Durability::kTransientLocal ? " transient_local" : " volatile";
+  if (deadline_ns > 0) s += " deadline " + std::to_string(deadline_ns / kNsPerMs) + " ms";
   return s;
 }
 
-Qos::Qos(const QosProfile &p, For role) {
+Qos::Qos(const QosProfile& p, For role) {
   p.validate();
   qos_ = dds_create_qos();
   if (p.reliability == Reliability::kReliable)
@@ -67,20 +62,17 @@ Qos::Qos(const QosProfile &p, For role) {
     dds_qset_history(qos_, DDS_HISTORY_KEEP_ALL, 0);
   else
     dds_qset_history(qos_, DDS_HISTORY_KEEP_LAST, p.depth);
-  dds_qset_durability(qos_, p.durability == Durability::kTransientLocal
-                                ? DDS_DURABILITY_TRANSIENT_LOCAL
-                                : DDS_DURABILITY_VOLATILE);
+  dds_qset_durability(
+      qos_, p.durability == Durability::kTransientLocal ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   // XCDR1 only: what rmw_cyclonedds accepts (our types are @final without
   // @optional).
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos_, 1, &xcdr1);
-  if (role == For::kWriter && p.deadline_ns > 0)
-    dds_qset_deadline(qos_, p.deadline_ns);
+  if (role == For::kWriter && p.deadline_ns > 0) dds_qset_deadline(qos_, p.deadline_ns);
 }
 
 Qos::~Qos() {
-  if (qos_ != nullptr)
-    dds_delete_qos(qos_);
+  if (qos_ != nullptr) dds_delete_qos(qos_);
 }
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

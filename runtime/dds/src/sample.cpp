@@ -4,75 +4,66 @@
 
 namespace regolith::dds {
 
-char *alloc_string(std::size_t capacity) {
-  void *p = dds_alloc(capacity + 1);
-  if (p == nullptr)
-    throw std::bad_alloc();
+char* alloc_string(std::size_t capacity) {
+  void* p = dds_alloc(capacity + 1);
+  if (p == nullptr) throw std::bad_alloc();
   std::memset(p, 0, capacity + 1);
-  return static_cast<char *>(p);
+  return static_cast<char*>(p);
 }
 
-void free_contents(const dds_topic_descriptor_t *desc, void *sample) noexcept {
-  if (sample == nullptr || desc == nullptr)
-    return;
+void free_contents(const dds_topic_descriptor_t* desc, void* sample) noexcept {
+  if (sample == nullptr || desc == nullptr) return;
   dds_sample_free(sample, desc, DDS_FREE_CONTENTS);
   std::memset(sample, 0, desc->m_size);
 }
 
 namespace {
-void reserve_header(msgs::std_msgs::Header &h, std::size_t frame_id_capacity) {
-  if (h.frame_id != nullptr)
-    dds_free(h.frame_id);
+void reserve_header(msgs::std_msgs::Header& h, std::size_t frame_id_capacity) {
+  if (h.frame_id != nullptr) dds_free(h.frame_id);
   h.frame_id = alloc_string(frame_id_capacity);
   h.stamp = {};
 }
-} // namespace
+}  // namespace
 
-void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity) {
+void reserve(msgs::sensor_msgs::Imu& m, std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
 }
 
-void reserve(msgs::sensor_msgs::CompressedImage &m, std::uint32_t max_bytes,
-             std::size_t format_capacity, std::size_t frame_id_capacity) {
+void reserve(msgs::sensor_msgs::CompressedImage& m, std::uint32_t max_bytes, std::size_t format_capacity,
+             std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
-  if (m.format != nullptr)
-    dds_free(m.format);
+  if (m.format != nullptr) dds_free(m.format);
   m.format = alloc_string(format_capacity);
   reserve_sequence(m.data, max_bytes);
 }
 
-void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity) {
+void reserve(msgs::nav_msgs::Odometry& m, std::size_t frame_id_capacity) {
   reserve_header(m.header, frame_id_capacity);
-  if (m.child_frame_id != nullptr)
-    dds_free(m.child_frame_id);
+  if (m.child_frame_id != nullptr) dds_free(m.child_frame_id);
   m.child_frame_id = alloc_string(frame_id_capacity);
   m.pose.pose.orientation.w = 1.0;
 }
 
-void reserve(msgs::tf2_msgs::TFMessage &m, std::uint32_t transforms,
-             std::size_t frame_id_capacity) {
+void reserve(msgs::tf2_msgs::TFMessage& m, std::uint32_t transforms, std::size_t frame_id_capacity) {
   reserve_sequence(m.transforms, transforms);
   for (std::uint32_t i = 0; i < transforms; ++i) {
-    auto &t = m.transforms._buffer[i];
+    auto& t = m.transforms._buffer[i];
     reserve_header(t.header, frame_id_capacity);
     t.child_frame_id = alloc_string(frame_id_capacity);
     t.transform.rotation.w = 1.0;
   }
 }
 
-void reserve(msgs::rcl_interfaces::Log &m, std::size_t msg_capacity,
-             std::size_t name_capacity) {
-  for (char **s : {&m.name, &m.file, &m.function}) {
-    if (*s != nullptr)
-      dds_free(*s);
+void reserve(msgs::rcl_interfaces::Log& m, std::size_t msg_capacity, std::size_t name_capacity) {
+  for (char** s : {&m.name, &m.file, &m.function}) {
+    if (*s != nullptr) dds_free(*s);
     *s = alloc_string(name_capacity);
   }
-  if (m.msg != nullptr)
-    dds_free(m.msg);
+  if (m.msg != nullptr) dds_free(m.msg);
   m.msg = alloc_string(msg_capacity);
 }
 
-void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c) {
+void reserve(msgs::sensor_msgs::JointState& m, const JointStateCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_string_sequence(m.name, c.joints, c.name_capacity);
   reserve_sequence(m.position, c.joints);
@@ -80,12 +71,11 @@ void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c) {
   reserve_sequence(m.effort, c.joints);
 }
 
-void reserve(msgs::diagnostic_msgs::DiagnosticArray &m,
-             const DiagnosticArrayCapacity &c) {
+void reserve(msgs::diagnostic_msgs::DiagnosticArray& m, const DiagnosticArrayCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_sequence(m.status, c.statuses);
   for (std::uint32_t i = 0; i < c.statuses; ++i) {
-    auto &s = m.status._buffer[i];
+    auto& s = m.status._buffer[i];
     s.name = alloc_string(c.string_capacity);
     s.message = alloc_string(c.string_capacity);
     s.hardware_id = alloc_string(c.string_capacity);
@@ -97,23 +87,20 @@ void reserve(msgs::diagnostic_msgs::DiagnosticArray &m,
   }
 }
 
-void reserve(msgs::regolith_msgs::WheelSinkage &m,
-             const WheelSinkageCapacity &c) {
+void reserve(msgs::regolith_msgs::WheelSinkage& m, const WheelSinkageCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_string_sequence(m.wheel_names, c.wheels, c.name_capacity);
   reserve_sequence(m.sinkage_m, c.wheels);
   reserve_sequence(m.confidence, c.wheels);
 }
 
-void reserve(msgs::regolith_msgs::SoilStiffness &m,
-             const SoilStiffnessCapacity &c) {
+void reserve(msgs::regolith_msgs::SoilStiffness& m, const SoilStiffnessCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
-  if (m.soil_class != nullptr)
-    dds_free(m.soil_class);
+  if (m.soil_class != nullptr) dds_free(m.soil_class);
   m.soil_class = alloc_string(c.soil_class_capacity);
 }
 
-void reserve(msgs::grid_map_msgs::GridMap &m, const GridMapCapacity &c) {
+void reserve(msgs::grid_map_msgs::GridMap& m, const GridMapCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   m.info.pose.orientation.w = 1.0;
   reserve_string_sequence(m.layers, c.layers, c.name_capacity);
@@ -121,18 +108,18 @@ void reserve(msgs::grid_map_msgs::GridMap &m, const GridMapCapacity &c) {
   reserve_sequence(m.data, c.layers);
   const std::uint32_t cells = c.size_x * c.size_y;
   for (std::uint32_t i = 0; i < c.layers; ++i) {
-    auto &layer = m.data._buffer[i];
+    auto& layer = m.data._buffer[i];
     reserve_sequence(layer.layout.dim, 2);
     layer.layout.dim._length = 2;
-    auto &d0 = layer.layout.dim._buffer[0];
-    auto &d1 = layer.layout.dim._buffer[1];
+    auto& d0 = layer.layout.dim._buffer[0];
+    auto& d1 = layer.layout.dim._buffer[1];
     d0.label = alloc_string(16);
     d1.label = alloc_string(16);
     copy_string(d0.label, 16, "column_index");
     copy_string(d1.label, 16, "row_index");
-    d0.size = c.size_y; // columns
+    d0.size = c.size_y;  // columns
     d0.stride = cells;
-    d1.size = c.size_x; // rows
+    d1.size = c.size_x;  // rows
     d1.stride = c.size_x;
     layer.layout.data_offset = 0;
     reserve_sequence(layer.data, cells);
@@ -142,16 +129,16 @@ void reserve(msgs::grid_map_msgs::GridMap &m, const GridMapCapacity &c) {
   m.inner_start_index = 0;
 }
 
-void reserve(msgs::regolith_msgs::RockArray &m, const RockArrayCapacity &c) {
+void reserve(msgs::regolith_msgs::RockArray& m, const RockArrayCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_sequence(m.detections, c.rocks);
   for (std::uint32_t i = 0; i < c.rocks; ++i) {
-    auto &d = m.detections._buffer[i];
+    auto& d = m.detections._buffer[i];
     d.header.frame_id = alloc_string(c.frame_id_capacity);
     d.id = alloc_string(c.string_capacity);
     reserve_sequence(d.results, c.hypotheses);
     for (std::uint32_t k = 0; k < c.hypotheses; ++k) {
-      auto &r = d.results._buffer[k];
+      auto& r = d.results._buffer[k];
       r.hypothesis.class_id = alloc_string(c.string_capacity);
       r.pose.pose.orientation.w = 1.0;
     }
@@ -163,4 +150,4 @@ void reserve(msgs::regolith_msgs::RockArray &m, const RockArrayCapacity &c) {
   reserve_sequence(m.hazard, c.rocks);
 }
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

@@ -27,4 +27,4 @@ std::string ros_topic_name(std::string_view ns, std::string_view topic);
 /// by "rt/".
 std::string wire_topic_name(std::string_view ns, std::string_view topic);
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

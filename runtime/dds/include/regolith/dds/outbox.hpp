@@ -14,6 +14,8 @@
 // sinkage); kLatest writes only the newest one pending (state topics: maps,
 // soil), older ones count as dropped. When no slot is free, begin() returns
 // nullptr and the sample counts as dropped.
+#include <dds/dds.h>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -21,8 +23,6 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
-
-#include <dds/dds.h>
 
 #include "regolith/core/channels.hpp"
 #include "regolith/dds/qos.hpp"
@@ -34,7 +34,7 @@ namespace regolith::dds {
 /// Error from the Cyclone DDS C API: the message names the call, the topic and
 /// the return code.
 class DdsError : public std::runtime_error {
-public:
+ public:
   using std::runtime_error::runtime_error;
 };
 /// Throws DdsError "<what>: <dds_strretcode(rc)>" when rc < 0; returns rc
@@ -45,7 +45,7 @@ enum class OutboxMode { kFifo, kLatest };
 
 struct OutboxOptions {
   OutboxMode mode = OutboxMode::kFifo;
-  std::uint32_t slots = 8; ///< pre-allocated samples (>= 2)
+  std::uint32_t slots = 8;  ///< pre-allocated samples (>= 2)
 };
 
 /// Wake-up counter shared by a participant's publisher thread and its outboxes.
@@ -64,42 +64,31 @@ struct Waker {
 using SourceClock = std::function<TimeNs()>;
 
 struct OutboxStats {
-  std::string topic;           ///< ROS name, e.g. "/rover1/joint_states"
-  std::string ros_type;        ///< e.g. "sensor_msgs/msg/JointState"
-  std::uint64_t committed = 0; ///< samples handed over by the RT side
-  std::uint64_t published = 0; ///< successful dds_write calls
-  std::uint64_t dropped = 0; ///< no free slot at begin() + superseded (kLatest)
-  std::uint64_t write_errors = 0; ///< dds_write failures
-  std::uint64_t deadline_missed =
-      0; ///< offered-deadline-missed events (listener)
-  std::uint32_t matched_readers = 0; ///< currently matched readers
+  std::string topic;                  ///< ROS name, e.g. "/rover1/joint_states"
+  std::string ros_type;               ///< e.g. "sensor_msgs/msg/JointState"
+  std::uint64_t committed = 0;        ///< samples handed over by the RT side
+  std::uint64_t published = 0;        ///< successful dds_write calls
+  std::uint64_t dropped = 0;          ///< no free slot at begin() + superseded (kLatest)
+  std::uint64_t write_errors = 0;     ///< dds_write failures
+  std::uint64_t deadline_missed = 0;  ///< offered-deadline-missed events (listener)
+  std::uint32_t matched_readers = 0;  ///< currently matched readers
 };
 
 /// Type-independent part: the writer, the counters, the listener.
 class OutboxBase {
-public:
+ public:
   virtual ~OutboxBase();
-  OutboxBase(const OutboxBase &) = delete;
-  OutboxBase &operator=(const OutboxBase &) = delete;
+  OutboxBase(const OutboxBase&) = delete;
+  OutboxBase& operator=(const OutboxBase&) = delete;
 
-  const std::string &topic() const { return topic_; }
+  const std::string& topic() const { return topic_; }
   std::string_view ros_type() const { return ros_type_; }
   dds_entity_t writer() const { return writer_; }
-  std::uint64_t committed() const {
-    return committed_.load(std::memory_order_relaxed);
-  }
-  std::uint64_t published() const {
-    return published_.load(std::memory_order_relaxed);
-  }
-  std::uint64_t dropped() const {
-    return dropped_.load(std::memory_order_relaxed);
-  }
-  std::uint64_t write_errors() const {
-    return write_errors_.load(std::memory_order_relaxed);
-  }
-  std::uint64_t deadline_missed() const {
-    return deadline_missed_.load(std::memory_order_relaxed);
-  }
+  std::uint64_t committed() const { return committed_.load(std::memory_order_relaxed); }
+  std::uint64_t published() const { return published_.load(std::memory_order_relaxed); }
+  std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+  std::uint64_t write_errors() const { return write_errors_.load(std::memory_order_relaxed); }
+  std::uint64_t deadline_missed() const { return deadline_missed_.load(std::memory_order_relaxed); }
   std::uint32_t matched_readers() const;
   OutboxStats stats() const;
 
@@ -109,24 +98,21 @@ public:
   /// is written, after it was taken from the queue: under simulated time the
   /// clock cannot have moved past the cycle that committed it (time waits
   /// until every outbox is idle), so the stamp is that cycle's time.
-  virtual std::size_t flush(const SourceClock &source_clock) = 0;
+  virtual std::size_t flush(const SourceClock& source_clock) = 0;
   /// True when nothing committed is waiting to be written.
   virtual bool idle() const = 0;
 
-protected:
-  OutboxBase(dds_entity_t participant, dds_entity_t topic,
-             std::string ros_topic, std::string_view ros_type,
-             const QosProfile &qos, std::shared_ptr<Waker> waker);
-  bool write_sample(const void *sample, const SourceClock &source_clock); // publisher side; counts
+ protected:
+  OutboxBase(dds_entity_t participant, dds_entity_t topic, std::string ros_topic, std::string_view ros_type,
+             const QosProfile& qos, std::shared_ptr<Waker> waker);
+  bool write_sample(const void* sample, const SourceClock& source_clock);  // publisher side; counts
 
   std::shared_ptr<Waker> waker_;
   std::atomic<std::uint64_t> committed_{0};
   std::atomic<std::uint64_t> dropped_{0};
 
-private:
-  static void on_deadline_missed(dds_entity_t,
-                                 dds_offered_deadline_missed_status_t st,
-                                 void *arg);
+ private:
+  static void on_deadline_missed(dds_entity_t, dds_offered_deadline_missed_status_t st, void* arg);
   std::string topic_;
   std::string_view ros_type_;
   dds_entity_t writer_ = 0;
@@ -135,27 +121,25 @@ private:
   std::atomic<std::uint64_t> deadline_missed_{0};
 };
 
-template <class Msg> class Outbox final : public OutboxBase {
-public:
+template <class Msg>
+class Outbox final : public OutboxBase {
+ public:
   /// `reserve` is called once per slot on a zeroed sample and must pre-allocate
   /// every string and sequence the RT side will fill (see sample.hpp for the
   /// rules). Use Participant::make_outbox.
-  Outbox(dds_entity_t participant, dds_entity_t topic, std::string ros_topic,
-         const QosProfile &qos, const OutboxOptions &opt,
-         const std::function<void(Msg &)> &reserve,
-         std::shared_ptr<Waker> waker)
-      : OutboxBase(participant, topic, std::move(ros_topic),
-                   MsgTraits<Msg>::ros_type, qos, std::move(waker)),
-        mode_(opt.mode), slots_(opt.slots), samples_(new Msg[opt.slots]()),
+  Outbox(dds_entity_t participant, dds_entity_t topic, std::string ros_topic, const QosProfile& qos,
+         const OutboxOptions& opt, const std::function<void(Msg&)>& reserve, std::shared_ptr<Waker> waker)
+      : OutboxBase(participant, topic, std::move(ros_topic), MsgTraits<Msg>::ros_type, qos, std::move(waker)),
+        mode_(opt.mode),
+        slots_(opt.slots),
+        samples_(new Msg[opt.slots]()),
         free_(opt.slots, DropPolicy::kDropNewest),
         ready_(opt.slots, DropPolicy::kDropNewest) {
     if (opt.slots < 2)
-      throw std::invalid_argument("OutboxOptions.slots: must be >= 2 (got " +
-                                  std::to_string(opt.slots) + ")");
+      throw std::invalid_argument("OutboxOptions.slots: must be >= 2 (got " + std::to_string(opt.slots) + ")");
     try {
       for (std::uint32_t i = 0; i < slots_; ++i) {
-        if (reserve)
-          reserve(samples_[i]);
+        if (reserve) reserve(samples_[i]);
         free_.push(i);
       }
     } catch (...) {
@@ -169,9 +153,8 @@ public:
   /// flight (counted as dropped). Calling begin() again before commit() returns
   /// the same sample. Never allocates, never blocks. The previous content of
   /// the slot is whatever was last written into it.
-  Msg *begin() noexcept {
-    if (writing_ != kNone)
-      return &samples_[writing_];
+  Msg* begin() noexcept {
+    if (writing_ != kNone) return &samples_[writing_];
     std::uint32_t i = 0;
     if (!free_.pop(i)) {
       dropped_.fetch_add(1, std::memory_order_relaxed);
@@ -182,23 +165,20 @@ public:
   }
   /// RT side: hand the sample from begin() to the publisher thread and wake it.
   void commit() noexcept {
-    if (writing_ == kNone)
-      return;
-    committed_.fetch_add(
-        1, std::memory_order_release); // before the push: idle() stays exact
+    if (writing_ == kNone) return;
+    committed_.fetch_add(1, std::memory_order_release);  // before the push: idle() stays exact
     ready_.push(writing_);
     writing_ = kNone;
     waker_->notify();
   }
   /// RT side: give the sample from begin() back without publishing it.
   void abandon() noexcept {
-    if (writing_ == kNone)
-      return;
+    if (writing_ == kNone) return;
     free_.push(writing_);
     writing_ = kNone;
   }
 
-  std::size_t flush(const SourceClock &source_clock) override {
+  std::size_t flush(const SourceClock& source_clock) override {
     std::size_t written = 0;
     std::uint32_t i = 0;
     if (mode_ == OutboxMode::kFifo) {
@@ -228,18 +208,15 @@ public:
   /// Every committed sample has been written (or superseded), including the
   /// dds_write call.
   bool idle() const override {
-    return consumed_.load(std::memory_order_acquire) >=
-           committed_.load(std::memory_order_acquire);
+    return consumed_.load(std::memory_order_acquire) >= committed_.load(std::memory_order_acquire);
   }
   std::uint32_t slots() const { return slots_; }
 
-private:
+ private:
   static constexpr std::uint32_t kNone = 0xffffffffu;
   void release_samples() noexcept {
-    if (!samples_)
-      return;
-    for (std::uint32_t i = 0; i < slots_; ++i)
-      free_contents(MsgTraits<Msg>::descriptor(), &samples_[i]);
+    if (!samples_) return;
+    for (std::uint32_t i = 0; i < slots_; ++i) free_contents(MsgTraits<Msg>::descriptor(), &samples_[i]);
     samples_.reset();
   }
 
@@ -248,9 +225,8 @@ private:
   std::unique_ptr<Msg[]> samples_;
   BoundedQueue<std::uint32_t> free_;
   BoundedQueue<std::uint32_t> ready_;
-  std::uint32_t writing_ = kNone; // RT side only
-  std::atomic<std::uint64_t> consumed_{
-      0}; // publisher side: samples written or superseded
+  std::uint32_t writing_ = kNone;           // RT side only
+  std::atomic<std::uint64_t> consumed_{0};  // publisher side: samples written or superseded
 };
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

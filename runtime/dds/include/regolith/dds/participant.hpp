@@ -1,6 +1,8 @@
 #pragma once
 // One DDS domain participant per process, with the robot namespace, the topic
 // cache and the publisher thread that drains every Outbox created through it.
+#include <dds/dds.h>
+
 #include <array>
 #include <condition_variable>
 #include <cstdint>
@@ -12,8 +14,6 @@
 #include <string_view>
 #include <thread>
 #include <vector>
-
-#include <dds/dds.h>
 
 #include "regolith/dds/discovery.hpp"
 #include "regolith/dds/naming.hpp"
@@ -32,13 +32,13 @@ inline std::uint32_t resolve_domain_id(int requested) {
 }
 
 struct ParticipantConfig {
-  std::uint32_t domain_id = 0; ///< DDS domain (= ROS_DOMAIN_ID), 0..232
-  std::string ns;              ///< robot namespace, e.g. "rover1" ("" = none)
-  void validate() const; ///< throws std::invalid_argument naming the field
+  std::uint32_t domain_id = 0;  ///< DDS domain (= ROS_DOMAIN_ID), 0..232
+  std::string ns;               ///< robot namespace, e.g. "rover1" ("" = none)
+  void validate() const;        ///< throws std::invalid_argument naming the field
 };
 
 class Participant {
-public:
+ public:
   /// Creates the DDS participant. Throws std::invalid_argument for a bad config, ConfigError for
   /// a ROS 2 discovery variable ROS 2 would refuse, and DdsError when Cyclone refuses (e.g. a
   /// malformed CYCLONEDDS_URI). A discovery range other than Cyclone's default (LOCALHOST, OFF,
@@ -51,42 +51,34 @@ public:
   /// Stops the publisher thread (writing what is pending) and deletes every DDS
   /// entity.
   ~Participant();
-  Participant(const Participant &) = delete;
-  Participant &operator=(const Participant &) = delete;
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
 
   dds_entity_t handle() const { return participant_; }
   std::uint32_t domain_id() const { return cfg_.domain_id; }
   /// The discovery range in effect (given, or from the environment).
-  const DiscoveryOptions &discovery() const { return discovery_; }
-  const std::string &ns() const { return cfg_.ns; }
+  const DiscoveryOptions& discovery() const { return discovery_; }
+  const std::string& ns() const { return cfg_.ns; }
   /// "joint_states" -> "/rover1/joint_states"; "/diagnostics" ->
   /// "/diagnostics".
-  std::string ros_name(std::string_view topic) const {
-    return ros_topic_name(cfg_.ns, topic);
-  }
+  std::string ros_name(std::string_view topic) const { return ros_topic_name(cfg_.ns, topic); }
   /// "joint_states" -> "rt/rover1/joint_states"; "/diagnostics" ->
   /// "rt/diagnostics".
-  std::string wire_name(std::string_view topic) const {
-    return wire_topic_name(cfg_.ns, topic);
-  }
+  std::string wire_name(std::string_view topic) const { return wire_topic_name(cfg_.ns, topic); }
 
   /// The DDS topic for `topic` (relative or absolute ROS name) and `desc`,
   /// created on first use. Throws DdsError when the same name was already
   /// created with another type.
-  dds_entity_t topic(std::string_view topic,
-                     const dds_topic_descriptor_t *desc);
+  dds_entity_t topic(std::string_view topic, const dds_topic_descriptor_t* desc);
 
   /// Creates a writer on `topic` with a pre-allocated RT-side outbox (see
   /// outbox.hpp).
   template <class Msg>
-  std::shared_ptr<Outbox<Msg>>
-  make_outbox(std::string_view topic_name, const QosProfile &qos,
-              const OutboxOptions &opt,
-              const std::function<void(Msg &)> &reserve) {
+  std::shared_ptr<Outbox<Msg>> make_outbox(std::string_view topic_name, const QosProfile& qos, const OutboxOptions& opt,
+                                           const std::function<void(Msg&)>& reserve) {
     qos.validate();
     const dds_entity_t tp = topic(topic_name, MsgTraits<Msg>::descriptor());
-    auto box = std::make_shared<Outbox<Msg>>(
-        participant_, tp, ros_name(topic_name), qos, opt, reserve, waker_);
+    auto box = std::make_shared<Outbox<Msg>>(participant_, tp, ros_name(topic_name), qos, opt, reserve, waker_);
     attach(box);
     return box;
   }
@@ -101,7 +93,7 @@ public:
   /// listed too); a later call renames the node and publishes it. A name that is
   /// not a valid ROS node name is made one (other characters -> '_', a leading digit gets '_').
   /// Non-RT. Returns the node's full name. Throws DdsError when Cyclone refuses.
-  std::string announce_node(const std::string &node_name);
+  std::string announce_node(const std::string& node_name);
   /// Non-RT: a reader of this participant, listed with the node's subscriptions (its reader gids)
   /// by announce_node; when the node is already announced it is announced again with it.
   /// dds::Subscription registers and unregisters its own reader.
@@ -151,7 +143,7 @@ public:
   /// deadline_missed 0 readers 1".
   std::string summary() const;
 
-private:
+ private:
   void attach(std::shared_ptr<OutboxBase> box);
   void run();
 
@@ -165,12 +157,10 @@ private:
   std::string announced_;              // the node name given to announce_node (empty: not announced)
   std::shared_ptr<Waker> waker_ = std::make_shared<Waker>();
 
-  mutable std::mutex mutex_; // outboxes_, readers_, topics_ (never taken on the RT side)
+  mutable std::mutex mutex_;  // outboxes_, readers_, topics_ (never taken on the RT side)
   std::vector<std::shared_ptr<OutboxBase>> outboxes_;
   std::vector<dds_entity_t> readers_;  // subscriptions' readers (add_reader)
-  std::map<std::string, std::pair<dds_entity_t, const dds_topic_descriptor_t *>,
-           std::less<>>
-      topics_;
+  std::map<std::string, std::pair<dds_entity_t, const dds_topic_descriptor_t*>, std::less<>> topics_;
 
   std::thread thread_;
   std::atomic<bool> stop_{false};
@@ -179,4 +169,4 @@ private:
   std::atomic<std::uint64_t> passes_{0};
 };
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

@@ -9,10 +9,10 @@
 // Readers never request a finite deadline (ROS writers offer an infinite one,
 // and a finite request would make them incompatible); a BEST_EFFORT reader
 // matches every writer.
+#include <dds/dds.h>
+
 #include <cstdint>
 #include <string>
-
-#include <dds/dds.h>
 
 #include "regolith/core/time.hpp"
 
@@ -24,10 +24,9 @@ enum class Durability { kVolatile, kTransientLocal };
 struct QosProfile {
   Reliability reliability = Reliability::kReliable;
   Durability durability = Durability::kVolatile;
-  int depth = 10;         ///< KEEP_LAST depth [samples], >= 1
-  TimeNs deadline_ns = 0; ///< offered deadline [ns] on writers; 0 = infinite
-  TimeNs max_blocking_ns =
-      100 * kNsPerMs; ///< reliable writer's max blocking time [ns]
+  int depth = 10;                           ///< KEEP_LAST depth [samples], >= 1
+  TimeNs deadline_ns = 0;                   ///< offered deadline [ns] on writers; 0 = infinite
+  TimeNs max_blocking_ns = 100 * kNsPerMs;  ///< reliable writer's max blocking time [ns]
   /// KEEP_ALL history instead of KEEP_LAST(depth): a reliable writer then delivers every sample,
   /// blocking the (non real-time) publisher thread under back-pressure. Used under simulated time.
   bool keep_all = false;
@@ -44,22 +43,21 @@ struct QosProfile {
 
   /// Throws std::invalid_argument naming the field (depth < 1, negative times).
   void validate() const;
-  std::string describe()
-      const; ///< e.g. "reliable keep_last(1) transient_local deadline 500 ms"
+  std::string describe() const;  ///< e.g. "reliable keep_last(1) transient_local deadline 500 ms"
 };
 
 /// Owning dds_qos_t built from a profile. Reader QoS never carries a deadline.
 class Qos {
-public:
+ public:
   enum class For { kWriter, kReader };
-  Qos(const QosProfile &p, For role);
+  Qos(const QosProfile& p, For role);
   ~Qos();
-  Qos(const Qos &) = delete;
-  Qos &operator=(const Qos &) = delete;
-  const dds_qos_t *get() const { return qos_; }
+  Qos(const Qos&) = delete;
+  Qos& operator=(const Qos&) = delete;
+  const dds_qos_t* get() const { return qos_; }
 
-private:
-  dds_qos_t *qos_ = nullptr;
+ private:
+  dds_qos_t* qos_ = nullptr;
 };
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

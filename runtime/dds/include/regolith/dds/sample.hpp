@@ -13,6 +13,8 @@
 //  * pointers, `_maximum` and `_release` are never touched after configure.
 // free_sample() then releases everything (dds_sample_free walks max(_length,
 // _maximum) elements).
+#include <dds/dds.h>
+
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
@@ -23,8 +25,6 @@
 #include <string_view>
 #include <type_traits>
 
-#include <dds/dds.h>
-
 #include "regolith/core/time.hpp"
 #include "regolith/msgs/types.hpp"
 
@@ -33,17 +33,14 @@ namespace regolith::dds {
 /// A zeroed string buffer of `capacity` characters plus the terminator, from
 /// dds_alloc (so that dds_sample_free can release it). The string is initially
 /// "".
-char *alloc_string(std::size_t capacity);
+char* alloc_string(std::size_t capacity);
 
 /// Copies `src` into a buffer of `capacity` characters (+ terminator),
 /// truncating. Returns false when `src` had to be truncated. Never allocates.
-inline bool copy_string(char *dst, std::size_t capacity,
-                        std::string_view src) noexcept {
-  if (dst == nullptr)
-    return src.empty();
+inline bool copy_string(char* dst, std::size_t capacity, std::string_view src) noexcept {
+  if (dst == nullptr) return src.empty();
   const std::size_t n = src.size() < capacity ? src.size() : capacity;
-  if (n > 0)
-    std::memcpy(dst, src.data(), n);
+  if (n > 0) std::memcpy(dst, src.data(), n);
   dst[n] = '\0';
   return n == src.size();
 }
@@ -51,14 +48,10 @@ inline bool copy_string(char *dst, std::size_t capacity,
 /// Formats `v` (shortest round-trip form when it fits, else `precision`
 /// significant digits) into a buffer of `capacity` characters. Never allocates.
 /// Returns false when it did not fit (then the buffer holds "?").
-inline bool format_double(char *dst, std::size_t capacity, double v,
-                          int precision = 6) noexcept {
-  if (dst == nullptr || capacity == 0)
-    return false;
+inline bool format_double(char* dst, std::size_t capacity, double v, int precision = 6) noexcept {
+  if (dst == nullptr || capacity == 0) return false;
   auto r = std::to_chars(dst, dst + capacity, v);
-  if (r.ec != std::errc{})
-    r = std::to_chars(dst, dst + capacity, v, std::chars_format::general,
-                      precision);
+  if (r.ec != std::errc{}) r = std::to_chars(dst, dst + capacity, v, std::chars_format::general, precision);
   if (r.ec != std::errc{}) {
     copy_string(dst, capacity, "?");
     return false;
@@ -67,10 +60,8 @@ inline bool format_double(char *dst, std::size_t capacity, double v,
   return true;
 }
 /// Integer variant of format_double().
-inline bool format_int(char *dst, std::size_t capacity,
-                       std::int64_t v) noexcept {
-  if (dst == nullptr || capacity == 0)
-    return false;
+inline bool format_int(char* dst, std::size_t capacity, std::int64_t v) noexcept {
+  if (dst == nullptr || capacity == 0) return false;
   const auto r = std::to_chars(dst, dst + capacity, v);
   if (r.ec != std::errc{}) {
     copy_string(dst, capacity, "?");
@@ -84,17 +75,16 @@ inline bool format_int(char *dst, std::size_t capacity,
 /// `_length = 0`,
 /// `_release = true`). Elements that are themselves strings or sequences still
 /// need reserving.
-template <class Seq> void reserve_sequence(Seq &seq, std::uint32_t maximum) {
+template <class Seq>
+void reserve_sequence(Seq& seq, std::uint32_t maximum) {
   using Elem = std::remove_pointer_t<decltype(seq._buffer)>;
-  if (seq._buffer != nullptr && seq._release)
-    dds_free(seq._buffer);
+  if (seq._buffer != nullptr && seq._release) dds_free(seq._buffer);
   seq._buffer = nullptr;
   if (maximum > 0) {
-    void *p = dds_alloc(sizeof(Elem) * maximum);
-    if (p == nullptr)
-      throw std::bad_alloc();
+    void* p = dds_alloc(sizeof(Elem) * maximum);
+    if (p == nullptr) throw std::bad_alloc();
     std::memset(p, 0, sizeof(Elem) * maximum);
-    seq._buffer = static_cast<Elem *>(p);
+    seq._buffer = static_cast<Elem*>(p);
   }
   seq._maximum = maximum;
   seq._length = 0;
@@ -104,15 +94,14 @@ template <class Seq> void reserve_sequence(Seq &seq, std::uint32_t maximum) {
 /// A sequence<string> with `maximum` elements, each a string of `capacity`
 /// characters.
 template <class Seq>
-void reserve_string_sequence(Seq &seq, std::uint32_t maximum,
-                             std::size_t capacity) {
+void reserve_string_sequence(Seq& seq, std::uint32_t maximum, std::size_t capacity) {
   reserve_sequence(seq, maximum);
-  for (std::uint32_t i = 0; i < maximum; ++i)
-    seq._buffer[i] = alloc_string(capacity);
+  for (std::uint32_t i = 0; i < maximum; ++i) seq._buffer[i] = alloc_string(capacity);
 }
 
 /// Sets `seq._length`, clamped to `_maximum`; returns false when clamped.
-template <class Seq> bool set_length(Seq &seq, std::size_t length) noexcept {
+template <class Seq>
+bool set_length(Seq& seq, std::size_t length) noexcept {
   if (length > seq._maximum) {
     seq._length = seq._maximum;
     return false;
@@ -123,7 +112,7 @@ template <class Seq> bool set_length(Seq &seq, std::size_t length) noexcept {
 
 /// builtin_interfaces/Time from regolith time [ns] (sec may be negative;
 /// nanosec in [0, 1e9)).
-inline void set_time(msgs::builtin_interfaces::Time &t, TimeNs ns) noexcept {
+inline void set_time(msgs::builtin_interfaces::Time& t, TimeNs ns) noexcept {
   TimeNs sec = ns / kNsPerSec;
   TimeNs rem = ns % kNsPerSec;
   if (rem < 0) {
@@ -136,17 +125,16 @@ inline void set_time(msgs::builtin_interfaces::Time &t, TimeNs ns) noexcept {
 /// A message's header stamp from a process-clock time: ROS time (regolith::to_ros_time:
 /// CLOCK_REALTIME on the system clock, the simulated time under --sim-time). Every published
 /// header goes through here.
-inline void set_stamp(msgs::builtin_interfaces::Time &t, TimeNs process_ns) noexcept {
+inline void set_stamp(msgs::builtin_interfaces::Time& t, TimeNs process_ns) noexcept {
   set_time(t, to_ros_time(process_ns));
 }
-inline TimeNs to_ns(const msgs::builtin_interfaces::Time &t) noexcept {
-  return static_cast<TimeNs>(t.sec) * kNsPerSec +
-         static_cast<TimeNs>(t.nanosec);
+inline TimeNs to_ns(const msgs::builtin_interfaces::Time& t) noexcept {
+  return static_cast<TimeNs>(t.sec) * kNsPerSec + static_cast<TimeNs>(t.nanosec);
 }
 
 /// Releases the strings and sequences of `sample` (not the struct itself) and
 /// zeroes it.
-void free_contents(const dds_topic_descriptor_t *desc, void *sample) noexcept;
+void free_contents(const dds_topic_descriptor_t* desc, void* sample) noexcept;
 
 // ---- per-type reservation helpers for the messages the runtime publishes
 // --------------------
@@ -160,27 +148,25 @@ struct JointStateCapacity {
   std::size_t name_capacity = 32;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::sensor_msgs::JointState &m, const JointStateCapacity &c);
+void reserve(msgs::sensor_msgs::JointState& m, const JointStateCapacity& c);
 /// sensor_msgs/Imu: only header.frame_id is variable-size (fixed-size vectors and covariances).
-void reserve(msgs::sensor_msgs::Imu &m, std::size_t frame_id_capacity = 32);
+void reserve(msgs::sensor_msgs::Imu& m, std::size_t frame_id_capacity = 32);
 
 /// sensor_msgs/CompressedImage: `format` with `format_capacity` characters and up to
 /// `max_bytes` bytes of data (length starts at 0).
-void reserve(msgs::sensor_msgs::CompressedImage &m, std::uint32_t max_bytes,
-             std::size_t format_capacity = 32, std::size_t frame_id_capacity = 32);
+void reserve(msgs::sensor_msgs::CompressedImage& m, std::uint32_t max_bytes, std::size_t format_capacity = 32,
+             std::size_t frame_id_capacity = 32);
 
 /// nav_msgs/Odometry: header.frame_id and child_frame_id (fixed-size pose, twist, covariances).
-void reserve(msgs::nav_msgs::Odometry &m, std::size_t frame_id_capacity = 32);
+void reserve(msgs::nav_msgs::Odometry& m, std::size_t frame_id_capacity = 32);
 
 /// tf2_msgs/TFMessage with up to `transforms` transforms (length starts at 0),
 /// each with header.frame_id and child_frame_id of `frame_id_capacity` characters.
-void reserve(msgs::tf2_msgs::TFMessage &m, std::uint32_t transforms,
-             std::size_t frame_id_capacity = 32);
+void reserve(msgs::tf2_msgs::TFMessage& m, std::uint32_t transforms, std::size_t frame_id_capacity = 32);
 
 /// rcl_interfaces/Log: msg with `msg_capacity` characters, name, file and function with
 /// `name_capacity` each.
-void reserve(msgs::rcl_interfaces::Log &m, std::size_t msg_capacity = 256,
-             std::size_t name_capacity = 64);
+void reserve(msgs::rcl_interfaces::Log& m, std::size_t msg_capacity = 256, std::size_t name_capacity = 64);
 
 /// diagnostic_msgs/DiagnosticArray with `statuses` statuses of
 /// `values_per_status` key/values; every string has `string_capacity`
@@ -191,8 +177,7 @@ struct DiagnosticArrayCapacity {
   std::size_t string_capacity = 64;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::diagnostic_msgs::DiagnosticArray &m,
-             const DiagnosticArrayCapacity &c);
+void reserve(msgs::diagnostic_msgs::DiagnosticArray& m, const DiagnosticArrayCapacity& c);
 
 /// regolith_msgs/WheelSinkage for `wheels` wheels.
 struct WheelSinkageCapacity {
@@ -200,16 +185,14 @@ struct WheelSinkageCapacity {
   std::size_t name_capacity = 32;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::regolith_msgs::WheelSinkage &m,
-             const WheelSinkageCapacity &c);
+void reserve(msgs::regolith_msgs::WheelSinkage& m, const WheelSinkageCapacity& c);
 
 /// regolith_msgs/SoilStiffness.
 struct SoilStiffnessCapacity {
   std::size_t soil_class_capacity = 32;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::regolith_msgs::SoilStiffness &m,
-             const SoilStiffnessCapacity &c);
+void reserve(msgs::regolith_msgs::SoilStiffness& m, const SoilStiffnessCapacity& c);
 
 /// grid_map_msgs/GridMap with `layers` layers of size_x x size_y cells, laid
 /// out like grid_map does: each layer is an Eigen column-major matrix with one
@@ -221,12 +204,12 @@ void reserve(msgs::regolith_msgs::SoilStiffness &m,
 struct GridMapCapacity {
   std::uint32_t layers = 0;
   std::uint32_t basic_layers = 0;
-  std::uint32_t size_x = 0; ///< cells along the map's x axis (Eigen rows)
-  std::uint32_t size_y = 0; ///< cells along the map's y axis (Eigen columns)
+  std::uint32_t size_x = 0;  ///< cells along the map's x axis (Eigen rows)
+  std::uint32_t size_y = 0;  ///< cells along the map's y axis (Eigen columns)
   std::size_t name_capacity = 32;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::grid_map_msgs::GridMap &m, const GridMapCapacity &c);
+void reserve(msgs::grid_map_msgs::GridMap& m, const GridMapCapacity& c);
 
 /// regolith_msgs/RockArray with up to `rocks` detections, each with up to
 /// `hypotheses` results.
@@ -236,6 +219,6 @@ struct RockArrayCapacity {
   std::size_t string_capacity = 32;
   std::size_t frame_id_capacity = 32;
 };
-void reserve(msgs::regolith_msgs::RockArray &m, const RockArrayCapacity &c);
+void reserve(msgs::regolith_msgs::RockArray& m, const RockArrayCapacity& c);
 
-} // namespace regolith::dds
+}  // namespace regolith::dds

@@ -1,23 +1,22 @@
 #pragma once
 // Compile-time table: C message struct -> DDS topic descriptor and ROS type
 // name.
-#include <string_view>
-
 #include <dds/dds.h>
+
+#include <string_view>
 
 #include "regolith/msgs/types.hpp"
 
 namespace regolith::dds {
 
 template <class Msg>
-struct MsgTraits; // specialised below for every type of regolith::msgs
+struct MsgTraits;  // specialised below for every type of regolith::msgs
 
-#define REGOLITH_DDS_MSG_TRAITS(pkg, Type)                                     \
-  template <> struct MsgTraits<::pkg##_msg_dds__##Type##_> {                   \
-    static const dds_topic_descriptor_t *descriptor() {                        \
-      return &::pkg##_msg_dds__##Type##__desc;                                 \
-    }                                                                          \
-    static constexpr std::string_view ros_type = #pkg "/msg/" #Type;           \
+#define REGOLITH_DDS_MSG_TRAITS(pkg, Type)                                                         \
+  template <>                                                                                      \
+  struct MsgTraits<::pkg##_msg_dds__##Type##_> {                                                   \
+    static const dds_topic_descriptor_t* descriptor() { return &::pkg##_msg_dds__##Type##__desc; } \
+    static constexpr std::string_view ros_type = #pkg "/msg/" #Type;                               \
   };
 REGOLITH_DDS_MSG_TRAITS(builtin_interfaces, Time)
 REGOLITH_DDS_MSG_TRAITS(std_msgs, Header)
@@ -59,4 +58,4 @@ REGOLITH_DDS_MSG_TRAITS(regolith_msgs, SoilStiffness)
 REGOLITH_DDS_MSG_TRAITS(regolith_msgs, RockArray)
 #undef REGOLITH_DDS_MSG_TRAITS
 
-} // namespace regolith::dds
+}  // namespace regolith::dds
