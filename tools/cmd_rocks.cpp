@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
 #include "regolith/saliency/contrast.hpp"
@@ -418,26 +419,12 @@ void run_train(const std::string& images, const std::string& masks, const std::s
 // image possibly with a directory); empty when there is no such file or column.
 std::map<std::string, std::string> read_subsets(const std::filesystem::path& manifest) {
   std::map<std::string, std::string> out;
-  std::ifstream in(manifest);
-  std::string line;
-  if (!in || !std::getline(in, line)) return out;
-  auto split = [](const std::string& l) {
-    std::vector<std::string> f;
-    std::stringstream ss(l);
-    std::string x;
-    while (std::getline(ss, x, ',')) f.push_back(x);
-    return f;
-  };
-  const auto head = split(line);
-  const auto col = [&](const char* n) {
-    return static_cast<size_t>(std::find(head.begin(), head.end(), n) - head.begin());
-  };
-  const size_t ci = col("image"), cs = col("subset");
-  if (ci >= head.size() || cs >= head.size()) return out;
-  while (std::getline(in, line)) {
-    const auto f = split(line);
-    if (f.size() > std::max(ci, cs)) out[std::filesystem::path(f[ci]).filename().string()] = f[cs];
-  }
+  if (!std::filesystem::exists(manifest)) return out;
+  const CsvTable t = CsvTable::read(manifest.string());
+  if (t.column("image") < 0 || t.column("subset") < 0) return out;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (!t.text(i, "image").empty())
+      out[std::filesystem::path(t.text(i, "image")).filename().string()] = t.text(i, "subset");
   return out;
 }
 

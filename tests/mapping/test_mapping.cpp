@@ -1019,6 +1019,23 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
       EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
     }
   }
+  // The header names every column read, and every row has them all.
+  for (const auto& [text, want] : std::vector<std::pair<std::string, std::string>>{
+           {"frame,file,t_s,odom_x_m,odom_y_m\n0,frames/0000.png,0,0,0\n",
+            "frames.csv:1: no column 'odom_yaw_rad' in the header"},
+           {"\n\nframe,file,t_s,odom_x_m,odom_yaw_rad\n", "frames.csv:3: no column 'odom_y_m' in the header"},
+           {"frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/0000.png,0,0,0\n",
+            "frames.csv:2: 5 fields, expected 6"},
+           {"", "frames.csv: empty (no header line)"},
+           {"frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\r\n", "frames.csv: no frames"}}) {
+    std::ofstream(d / "frames.csv") << text;
+    try {
+      read_drive(d);
+      ADD_FAILURE() << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  }
   // Image sizes are whole pixels within 1..16384, checked before any cast.
   for (const char* w : {"1e30", "320.5", "0"}) {
     std::ofstream(d / "input.json") << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": )" << w
@@ -1287,16 +1304,16 @@ TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
       "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
       "0,0,0,1.5707963,0,0,1.5707963\n1,0,0.1,1.5707963,0,0.11,1.5707963\n";
   write(hd.map / "odometry.csv", "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m\n0,0,0,1.57,0,0\n");
-  expect_error("odometry.csv: no column 'wheel_yaw_rad'");
+  expect_error("odometry.csv:1: no column 'wheel_yaw_rad' in the header");
   write(hd.map / "odometry.csv",
         "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n0,0,0,1.57,0,0,1.57\n1e12,0,0,0,0,0,0\n");
   expect_error("odometry.csv:3: frame: must be a whole number");
   write(hd.map / "odometry.csv", "");
-  expect_error("odometry.csv: empty");
+  expect_error("odometry.csv: empty (no header line)");
   write(hd.map / "odometry.csv", odometry);
   hd.detections("");
   write(hd.map / "rocks.csv", "x_m,y_m,score\n0,1.5,1\n");
-  expect_error("rocks.csv: no column 'height_m'");
+  expect_error("rocks.csv:1: no column 'height_m' in the header");
   hd.detections("0.02,1.52,0.18,0.3,1\n");
   cv::imwrite((hd.map / "hazard.tiff").string(), cv::Mat(50, 100, CV_32F, cv::Scalar(0.1)));
   expect_error("hazard.tiff: 100x50 cells, elevation.tiff has 100x100");

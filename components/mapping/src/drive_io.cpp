@@ -25,17 +25,6 @@ namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-double parse_double(const std::string& s, const fs::path& file, int line, const std::string& col) {
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(s, &used);
-    if (used != s.size() && s.find_first_not_of(" \t\r", used) != std::string::npos) throw std::invalid_argument(s);
-    return v;
-  } catch (const std::exception&) {
-    throw InputError(file.string() + ":" + std::to_string(line) + ": " + col + ": not a number ('" + s + "')");
-  }
-}
-
 /// `decimals` after the point, as the columns have always been written, except for a magnitude
 /// no drive reaches (a corrupted odometry line echoed back: 1e308 as %f is 309 digits), which is
 /// written in exponent form with the same significant digits instead.
@@ -91,46 +80,18 @@ RecordedDrive read_drive(const fs::path& dir) {
   d.wheel_radius_m = optional("wheel.radius_m");
 
   const fs::path csv = dir / "frames.csv";
-  std::ifstream f(csv);
-  if (!f) throw InputError(csv.string() + ": cannot open (frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad)");
-  std::string line;
-  int n = 0;
-  std::vector<std::string> header;
-  int ci[6] = {-1, -1, -1, -1, -1, -1};
-  static const char* cols[6] = {"frame", "file", "t_s", "odom_x_m", "odom_y_m", "odom_yaw_rad"};
-  while (std::getline(f, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    const auto fields = split_csv_line(line);
-    if (header.empty()) {
-      header = fields;
-      for (int k = 0; k < 6; ++k) {
-        const auto it = std::find(header.begin(), header.end(), cols[k]);
-        if (it == header.end()) throw InputError(csv.string() + ":1: missing column '" + cols[k] + "'");
-        ci[k] = static_cast<int>(it - header.begin());
-      }
-      continue;
-    }
-    if (fields.size() < header.size())
-      throw InputError(csv.string() + ":" + std::to_string(n) + ": " + std::to_string(fields.size()) + " fields, expected " +
-                       std::to_string(header.size()));
+  if (!fs::exists(csv))
+    throw InputError(csv.string() + ": cannot open (frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad)");
+  const CsvTable t = CsvTable::read(csv.string(), {"frame", "file", "t_s", "odom_x_m", "odom_y_m", "odom_yaw_rad"});
+  t.require_complete();
+  for (std::size_t i = 0; i < t.size(); ++i) {
     DriveFrame fr;
-    fr.line = n;
-    const std::string& frame_text = fields[static_cast<std::size_t>(ci[0])];
-    const double index = parse_double(frame_text, csv, n, "frame");
-    if (!(index >= 0.0 && index <= std::numeric_limits<int>::max()) || index != std::floor(index))
-      throw InputError(csv.string() + ":" + std::to_string(n) + ": frame: must be a whole number in 0.." +
-                       std::to_string(std::numeric_limits<int>::max()) + " (got '" + frame_text + "')");
-    fr.index = static_cast<int>(index);
-    fr.file = dir / fields[static_cast<std::size_t>(ci[1])];
-    fr.t_s = parse_double(fields[static_cast<std::size_t>(ci[2])], csv, n, "t_s");
-    if (!std::isfinite(fr.t_s))
-      throw InputError(csv.string() + ":" + std::to_string(n) + ": t_s: must be a finite time (got '" +
-                       fields[static_cast<std::size_t>(ci[2])] + "')");
-    fr.odometry = {parse_double(fields[static_cast<std::size_t>(ci[3])], csv, n, "odom_x_m"),
-                   parse_double(fields[static_cast<std::size_t>(ci[4])], csv, n, "odom_y_m"),
-                   parse_double(fields[static_cast<std::size_t>(ci[5])], csv, n, "odom_yaw_rad")};
+    fr.line = t.line(i);
+    fr.index = static_cast<int>(t.whole(i, "frame", 0, std::numeric_limits<int>::max()));
+    fr.file = dir / t.text(i, "file");
+    fr.t_s = t.number(i, "t_s");
+    if (!std::isfinite(fr.t_s)) t.fail(i, "t_s", "must be a finite time (got '" + t.text(i, "t_s") + "')");
+    fr.odometry = {t.number(i, "odom_x_m"), t.number(i, "odom_y_m"), t.number(i, "odom_yaw_rad")};
     d.frames.push_back(fr);
   }
   if (d.frames.empty()) throw InputError(csv.string() + ": no frames");
@@ -376,14 +337,14 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
       const double a = std::isfinite(hv) ? std::clamp(static_cast<double>(hv), 0.0, 1.0) * 0.8 : 0.0;
       img(frame.cell(i, j)).setTo(cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
     }
-  const auto px = [&](double x, double y) { return frame.px(x, y); };
   for (std::size_t k = 1; k < wheel.size(); ++k)
-    cv::line(img, px(wheel[k - 1].x, wheel[k - 1].y), px(wheel[k].x, wheel[k].y), cv::Scalar(255, 120, 0), 2, cv::LINE_AA);
+    cv::line(img, frame.px(wheel[k - 1].x, wheel[k - 1].y), frame.px(wheel[k].x, wheel[k].y), cv::Scalar(255, 120, 0),
+             2, cv::LINE_AA);
   for (std::size_t k = 1; k < corrected.size(); ++k)
-    cv::line(img, px(corrected[k - 1].x, corrected[k - 1].y), px(corrected[k].x, corrected[k].y), cv::Scalar(0, 220, 0), 2,
-             cv::LINE_AA);
+    cv::line(img, frame.px(corrected[k - 1].x, corrected[k - 1].y), frame.px(corrected[k].x, corrected[k].y),
+             cv::Scalar(0, 220, 0), 2, cv::LINE_AA);
   for (const MapRock& r : rocks)
-    cv::circle(img, px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m * frame.px_per_m())),
+    cv::circle(img, frame.px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m * frame.px_per_m())),
                cv::Scalar(0, 230, 255), 2, cv::LINE_AA);
   // Scale bar (1 m), north arrow, legend.
   plot::put_scale_bar_and_north(img, frame.px_per_m());

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -24,43 +25,19 @@ namespace regolith::mapping {
 namespace fs = std::filesystem;
 namespace {
 
-// A CSV table with a header -> rows of named doubles, every column of the header in every row (a
-// missing or non-numeric cell is NaN). The columns the caller reads (`required`) must be in the
-// header, and a required `frame` must be a whole number 0..2^31-1 on every row: else an InputError
-// naming the file, the column and the line.
+// A CSV table -> rows of named doubles, every column of the header in every row (a missing or
+// non-numeric cell is NaN). The columns the caller reads (`required`) must be in the header, and
+// a required `frame` must be a whole number 0..2^31-1 on every row (CsvTable's errors name the
+// file, the line and the column).
 std::vector<std::map<std::string, double>> read_csv(const fs::path& p,
                                                     std::initializer_list<std::string_view> required) {
-  std::ifstream f(p);
-  if (!f) throw InputError(p.string() + ": cannot open");
-  std::vector<std::string> header;
-  std::vector<std::map<std::string, double>> rows;
+  const CsvTable t = CsvTable::read(p.string(), required);
   const bool frames = std::find(required.begin(), required.end(), "frame") != required.end();
-  int line_no = 0;
-  for (std::string line; std::getline(f, line);) {
-    ++line_no;
-    const std::vector<std::string> cells = split_csv_line(trim_blanks(line));
-    if (cells.empty()) continue;
-    if (header.empty()) {
-      header = cells;
-      for (std::string_view c : required)
-        if (std::find(header.begin(), header.end(), c) == header.end())
-          throw InputError(p.string() + ": no column '" + std::string(c) + "' in the header");
-      continue;
-    }
-    std::map<std::string, double> r;
-    for (std::size_t k = 0; k < header.size(); ++k) {
-      char* end = nullptr;
-      const double v = k < cells.size() ? std::strtod(cells[k].c_str(), &end) : std::nan("");
-      r[header[k]] = (k < cells.size() && end && *end == '\0' && !cells[k].empty()) ? v : std::nan("");
-    }
-    if (frames) {
-      const double fr = r.at("frame");
-      if (!(fr >= 0.0 && fr <= 2147483647.0) || fr != std::floor(fr))
-        throw InputError(p.string() + ":" + std::to_string(line_no) + ": frame: must be a whole number 0..2^31-1");
-    }
-    rows.push_back(std::move(r));
+  std::vector<std::map<std::string, double>> rows(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (frames) t.whole(i, "frame", 0, std::numeric_limits<int>::max());
+    for (const std::string& c : t.header()) rows[i][c] = t.number_or_nan(i, c);
   }
-  if (header.empty()) throw InputError(p.string() + ": empty (no header line)");
   return rows;
 }
 
@@ -166,10 +143,10 @@ cv::Mat render_scored(const Scored& s) {
       img(frame.cell(i, j)).setTo(cv::Scalar::all(g));
     }
   const double px_per_m = frame.px_per_m();
-  const auto px = [&](double x, double y) { return frame.px(x, y); };
   const auto polyline = [&](const std::vector<cv::Point2d>& path, const cv::Scalar& colour, int thickness) {
     for (std::size_t k = 1; k < path.size(); ++k)
-      cv::line(img, px(path[k - 1].x, path[k - 1].y), px(path[k].x, path[k].y), colour, thickness, cv::LINE_AA);
+      cv::line(img, frame.px(path[k - 1].x, path[k - 1].y), frame.px(path[k].x, path[k].y), colour, thickness,
+               cv::LINE_AA);
   };
   polyline(s.wheel_path, {255, 120, 0}, 2);
   polyline(s.true_path, {255, 255, 255}, 1);
@@ -183,19 +160,19 @@ cv::Mat render_scored(const Scored& s) {
     const cv::Scalar colour = !scored ? kOther : (hit ? kMatched : kMissed);
     const cv::Size axes(std::max(2, static_cast<int>(std::lround(0.5 * t.w * px_per_m))),
                         std::max(2, static_cast<int>(std::lround(0.5 * t.l * px_per_m))));
-    cv::ellipse(img, px(t.x, t.y), axes, -t.yaw * 180.0 / 3.14159265358979323846, 0, 360, colour, scored ? 2 : 1,
+    cv::ellipse(img, frame.px(t.x, t.y), axes, -t.yaw * 180.0 / 3.14159265358979323846, 0, 360, colour, scored ? 2 : 1,
                 cv::LINE_8);
   }
   for (std::size_t b = 0; b < s.detections.size(); ++b) {
     const auto& d = s.detections[b];
-    const cv::Point p = px(d.at("x_m"), d.at("y_m"));
+    const cv::Point p = frame.px(d.at("x_m"), d.at("y_m"));
     const int a = s.rock_of_detection[b];
     cv::Scalar colour = kFalse;
     if (a >= 0) {
       const TRock& t = s.rocks[static_cast<std::size_t>(a)];
       const bool scored_hit = t.observed && t.h >= 0.10;
       colour = scored_hit ? kMatched : kOther;
-      if (scored_hit) cv::line(img, p, px(t.x, t.y), colour, 1, cv::LINE_8);
+      if (scored_hit) cv::line(img, p, frame.px(t.x, t.y), colour, 1, cv::LINE_8);
     }
     const int r = 6;
     cv::line(img, p + cv::Point(-r, -r), p + cv::Point(r, r), colour, 2, cv::LINE_8);
