@@ -1,7 +1,11 @@
 // `regolith assess IMAGE --out DIR`: one image -> SfS height map (TIFF, heat map, hillshade),
 // traversability layers (PNG) and a JSON summary; with a camera model also the ground range per
 // pixel (range.tiff) and the rocks it sees, ranged and sized in metres (rocks.csv). Algorithms:
-// components/sfs, direct_depth, traversability, mapping (RockSightings). Bad input -> InputError / ConfigError (exit code 2) naming the file or option.
+// components/sfs, direct_depth, traversability, mapping (RockSightings). Bad input -> InputError /
+// ConfigError (exit code 2) naming the file or option. assess() runs four stages, each a function
+// below: read_input (the image, or a recording's frame), configure (YAML file, command line,
+// rover description -> SfS, grid, sun, camera), solve_image + map_terrain (SfS, traversability
+// grid), and the outputs (write_pictures, find_hazards, image_rocks, summary.json).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -301,25 +305,33 @@ std::vector<double> parse_camera(const std::string& s) {
   return v;
 }
 
-void assess(const AssessOptions& o) {
-  const double t0 = now_ms();
-  // ---- the image ----
+// ---- 1. the image ----
+
+// The image assess works on, in 8-bit grey, and the camera and deployment it came with.
+struct AssessInput {
+  cv::Mat gray;
+  std::string device;      ///< --device, or the recording's camera
+  std::string rover_file;  ///< --rover, or the recording's deployment (name)
+  std::string rover_text;  ///< the recording's deployment (YAML), empty when read from rover_file
+};
+
+AssessInput read_input(const AssessOptions& o) {
   if (!fs::exists(o.image)) throw InputError("assess: image '" + o.image + "' does not exist");
+  AssessInput in{.gray = {}, .device = o.device, .rover_file = o.rover, .rover_text = {}};
   cv::Mat raw;
   // A recording (`regolith run --record`): one frame of one camera, and the deployment it ran
   // gives that camera's calibration, mount and the sun unless the command line says otherwise.
-  std::string device = o.device, rover_file = o.rover, rover_text;
   if (fs::path(o.image).extension() == ".mcap") {
 #ifdef REGOLITH_HAVE_HAL_RECORD
     if (o.frame < 0) throw ConfigError("--frame: must be >= 0");
     const record::RecordedFrame f = record::recorded_camera_frame(o.image, o.device, static_cast<std::size_t>(o.frame));
     raw = f.image;
-    device = f.device;
+    in.device = f.device;
     std::printf("%s: camera %s, frame %d of %zu (sequence %u)\n", o.image.c_str(), f.device.c_str(), o.frame, f.count,
                 f.sequence);
-    if (rover_file.empty() && o.camera.empty() && !std::isfinite(o.height_m)) {
-      rover_file = f.deployment.name;
-      rover_text = f.deployment.text;
+    if (in.rover_file.empty() && o.camera.empty() && !std::isfinite(o.height_m)) {
+      in.rover_file = f.deployment.name;
+      in.rover_text = f.deployment.text;
     }
 #else
     throw ConfigError("assess: this build reads no recordings (built without the HAL recording)");
@@ -338,106 +350,131 @@ void assess(const AssessOptions& o) {
                        "); give 8- or 16-bit grey or colour");
     raw = g8;
   }
-  cv::Mat gray;
-  if (raw.channels() == 1) gray = raw;
-  else if (raw.channels() == 3) cv::cvtColor(raw, gray, cv::COLOR_BGR2GRAY);
-  else if (raw.channels() == 4) cv::cvtColor(raw, gray, cv::COLOR_BGRA2GRAY);
-  else throw InputError("assess: image '" + o.image + "' has " + std::to_string(raw.channels()) + " channels");
-  if (gray.rows < 16 || gray.cols < 16)
-    throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" +
-                     std::to_string(gray.rows) + " px; at least 16x16 is needed");
+  if (raw.channels() == 1)
+    in.gray = raw;
+  else if (raw.channels() == 3)
+    cv::cvtColor(raw, in.gray, cv::COLOR_BGR2GRAY);
+  else if (raw.channels() == 4)
+    cv::cvtColor(raw, in.gray, cv::COLOR_BGRA2GRAY);
+  else
+    throw InputError("assess: image '" + o.image + "' has " + std::to_string(raw.channels()) + " channels");
+  if (in.gray.rows < 16 || in.gray.cols < 16)
+    throw InputError("assess: image '" + o.image + "' is " + std::to_string(in.gray.cols) + "x" +
+                     std::to_string(in.gray.rows) + " px; at least 16x16 is needed");
+  return in;
+}
 
-  // ---- configuration: optional YAML, then command-line overrides ----
+// ---- 2. the settings: an optional YAML file, then the command line ----
+
+struct AssessSetup {
   sfs::SfsParams sp;
   traversability::TraversabilityParams tp;
-  std::optional<sfs::LightDirection> light;
-  std::optional<direct_depth::CameraModel> model;
-  double pixel_size = o.pixel_size_m;
-  bool grid_given = false;  // grid geometry from the config; else (camera mode) fitted to the view
-  if (!o.config.empty()) {
-    Params p = Params::load_file(o.config);
-    sp.method = sfs::method_from_string(p.get<std::string>("method", sfs::to_string(sp.method),
-        {.choices = {"tsai_shah", "pentland", "bichsel_pentland"}, .doc = "SfS method"}));
-    sp.iterations = p.get<int>("iterations", sp.iterations, {.min = 1, .max = 100000});
-    sp.tolerance = p.get<double>("tolerance", sp.tolerance, {.unit = "px", .min = 0.0});
-    sp.vignetting.a2 = p.get<double>("vignetting_a2", 0.0);
-    sp.vignetting.a4 = p.get<double>("vignetting_a4", 0.0);
-    sp.vignetting.a6 = p.get<double>("vignetting_a6", 0.0);
-    sp.vignetting.enabled = sp.vignetting.a2 != 0 || sp.vignetting.a4 != 0 || sp.vignetting.a6 != 0;
-    if (p.has("sun_slant_rad") || p.has("sun_tilt_rad"))
-      light = sfs::LightDirection{p.require<double>("sun_slant_rad", {.unit = "rad"}),
+  std::optional<sfs::LightDirection> light;        ///< the sun in the image frame; none: estimated
+  std::optional<direct_depth::CameraModel> model;  ///< none: an orthographic top-down patch
+  double pixel_size_m = 0.02;                      ///< orthographic mode
+  bool grid_given = false;  ///< grid geometry from the config; else (camera mode) fitted to the view
+  std::string sun_error;    ///< non-empty: the sun is ahead of the camera (no image-frame SfS)
+  std::unique_ptr<direct_depth::DirectDepth> depth;  ///< of `model`
+  bool sun_ahead() const { return !sun_error.empty(); }
+};
+
+// `--config FILE`: method, iterations, tolerance, vignetting, sun, pixel size, camera_model, grid.
+void read_config_file(const std::string& file, cv::Size image, AssessSetup& s) {
+  Params p = Params::load_file(file);
+  sfs::SfsParams& sp = s.sp;
+  traversability::TraversabilityParams& tp = s.tp;
+  sp.method = sfs::method_from_string(
+      p.get<std::string>("method", sfs::to_string(sp.method),
+                         {.choices = {"tsai_shah", "pentland", "bichsel_pentland"}, .doc = "SfS method"}));
+  sp.iterations = p.get<int>("iterations", sp.iterations, {.min = 1, .max = 100000});
+  sp.tolerance = p.get<double>("tolerance", sp.tolerance, {.unit = "px", .min = 0.0});
+  sp.vignetting.a2 = p.get<double>("vignetting_a2", 0.0);
+  sp.vignetting.a4 = p.get<double>("vignetting_a4", 0.0);
+  sp.vignetting.a6 = p.get<double>("vignetting_a6", 0.0);
+  sp.vignetting.enabled = sp.vignetting.a2 != 0 || sp.vignetting.a4 != 0 || sp.vignetting.a6 != 0;
+  if (p.has("sun_slant_rad") || p.has("sun_tilt_rad"))
+    s.light = sfs::LightDirection{p.require<double>("sun_slant_rad", {.unit = "rad"}),
                                   p.require<double>("sun_tilt_rad", {.unit = "rad"})};
-    pixel_size = p.get<double>("pixel_size_m", pixel_size, {.unit = "m", .min = 0.0, .min_exclusive = true,
-                                                            .doc = "orthographic mode: ground size of a pixel"});
-    // The same camera_model reader as the rover description's tools (sfs component header).
-    if (p.has("camera_model")) model = sfs::read_camera_model(p.child("camera_model"), gray.cols, gray.rows);
-    Params g = p.child("grid");
-    grid_given = common::has_grid_geometry(g);
-    tp.set_grid(common::read_grid_geometry(g, tp.grid(), "grid map"));
-    tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
-    tp.critical_step_m = g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
-    tp.critical_roughness_m = g.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
-    tp.height_gain = g.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true});
-    g.finish();
-    p.finish();
-  }
-  if (!o.method.empty()) sp.method = sfs::method_from_string(o.method);
-  if (!o.flat_field.empty()) {
-    cv::Mat ff;
-    if (const std::string why = sfs::read_flat_field(o.flat_field, ff); !why.empty())
-      throw InputError("assess: --flat-field '" + o.flat_field + "': " + why);
-    sp.vignetting.flat_field = ff;
-    sp.vignetting.enabled = true;
-  }
+  s.pixel_size_m = p.get<double>(
+      "pixel_size_m", s.pixel_size_m,
+      {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "orthographic mode: ground size of a pixel"});
+  // The same camera_model reader as the rover description's tools (sfs component header).
+  if (p.has("camera_model")) s.model = sfs::read_camera_model(p.child("camera_model"), image.width, image.height);
+  Params g = p.child("grid");
+  s.grid_given = common::has_grid_geometry(g);
+  tp.set_grid(common::read_grid_geometry(g, tp.grid(), "grid map"));
+  tp.critical_slope_rad = g.get<double>("critical_slope_rad", tp.critical_slope_rad,
+                                        {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true});
+  tp.critical_step_m =
+      g.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+  tp.critical_roughness_m =
+      g.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true});
+  tp.height_gain = g.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true});
+  g.finish();
+  p.finish();
+}
+
+// --sun-slant / --sun-tilt over the file's sun. A sun behind the image plane (slant >= 90 deg:
+// ahead of a forward camera) leaves no image-frame shading to solve, but the ground-frame path
+// (camera mode) still maps the ground and the rocks need no sun: accepted there (checked once the
+// camera is known, `sun_error`), refused else. No sun at all: SfS estimates it.
+void apply_sun_options(const AssessOptions& o, AssessSetup& s) {
   if (std::isfinite(o.sun_slant_deg) != std::isfinite(o.sun_tilt_deg))
     throw ConfigError("--sun-slant and --sun-tilt must be given together");
-  if (std::isfinite(o.sun_slant_deg)) light = sfs::LightDirection{o.sun_slant_deg * kDeg, o.sun_tilt_deg * kDeg};
-  // A sun behind the image plane (slant >= 90 deg: ahead of a forward camera) leaves no
-  // image-frame shading to solve, but the ground-frame path (camera mode) still maps the ground
-  // and the rocks need no sun: accepted there (checked once the camera is known), refused else.
-  std::string sun_error;
-  if (light) {
-    try {
-      light->validate("sun");
-    } catch (const std::invalid_argument& e) {
-      sun_error = std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)";
-      const bool behind_image_plane = light->slant_rad >= kPi / 2 && light->slant_rad < kPi && std::isfinite(light->tilt_rad);
-      if (!behind_image_plane) throw ConfigError(sun_error);
-    }
-  } else {
-    sp.estimate_light = true;
+  if (std::isfinite(o.sun_slant_deg)) s.light = sfs::LightDirection{o.sun_slant_deg * kDeg, o.sun_tilt_deg * kDeg};
+  if (!s.light) {
+    s.sp.estimate_light = true;
+    return;
   }
-  if (!rover_file.empty() || !device.empty()) {
-    // The camera as the rover describes it (calibration + mount) and, unless given, the one sun
-    // converted into its image frame (level rover).
-    if (rover_file.empty() || device.empty()) throw ConfigError("--rover FILE and --device NAME go together");
-    if (!o.camera.empty() || std::isfinite(o.height_m) || std::isfinite(o.pitch_deg))
-      throw ConfigError("--rover gives the camera (rover.cameras." + device + "): drop --camera/--height/--pitch");
-    if (rover_text.empty() && !fs::is_regular_file(rover_file))
-      throw ConfigError("--rover: '" + rover_file + "' does not exist");
-    Params root = rover_text.empty() ? Params::load_file(rover_file) : Params::load_string(rover_text, rover_file);
-    const fs::path rp(rover_file);
-    const RoverDescription rd = read_rover_description(root, rp.has_parent_path() ? rp.parent_path().string() : ".");
-    const RoverCamera* rc = rd.camera(device);
-    if (rc == nullptr) {
-      std::string names;
-      for (const auto& [n, c] : rd.cameras) names += (names.empty() ? "" : ", ") + n;
-      throw ConfigError(rover_file + ": no rover.cameras." + device + " (described: " + (names.empty() ? "none" : names) + ")");
-    }
-    if (rc->info.width != gray.cols || rc->info.height != gray.rows)
-      throw InputError("assess: image '" + o.image + "' is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                       " px but rover.cameras." + device + " is " + std::to_string(rc->info.width) + "x" +
-                       std::to_string(rc->info.height) + " px (" + rc->where + ")");
-    model = common::camera_model_of(*rc);
-    if (!light && rd.sun) {
-      const common::CameraLight cl = common::camera_light(*rd.sun, *rc);
-      if (!cl.in_view)
-        sun_error = rover_file + ": the sun is ahead of camera '" + device + "' (image slant " +
+  try {
+    s.light->validate("sun");
+  } catch (const std::invalid_argument& e) {
+    s.sun_error = std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)";
+    const bool behind_image_plane =
+        s.light->slant_rad >= kPi / 2 && s.light->slant_rad < kPi && std::isfinite(s.light->tilt_rad);
+    if (!behind_image_plane) throw ConfigError(s.sun_error);
+  }
+}
+
+// --rover FILE --device NAME (or a recording's own): the camera as the rover describes it
+// (calibration + mount) and, unless given, the one sun converted into its image frame (level rover).
+void camera_from_rover(const AssessOptions& o, const AssessInput& in, AssessSetup& s) {
+  const std::string& rover_file = in.rover_file;
+  const std::string& device = in.device;
+  if (rover_file.empty() || device.empty()) throw ConfigError("--rover FILE and --device NAME go together");
+  if (!o.camera.empty() || std::isfinite(o.height_m) || std::isfinite(o.pitch_deg))
+    throw ConfigError("--rover gives the camera (rover.cameras." + device + "): drop --camera/--height/--pitch");
+  if (in.rover_text.empty() && !fs::is_regular_file(rover_file))
+    throw ConfigError("--rover: '" + rover_file + "' does not exist");
+  Params root = in.rover_text.empty() ? Params::load_file(rover_file) : Params::load_string(in.rover_text, rover_file);
+  const fs::path rp(rover_file);
+  const RoverDescription rd = read_rover_description(root, rp.has_parent_path() ? rp.parent_path().string() : ".");
+  const RoverCamera* rc = rd.camera(device);
+  if (rc == nullptr) {
+    std::string names;
+    for (const auto& [n, c] : rd.cameras) names += (names.empty() ? "" : ", ") + n;
+    throw ConfigError(rover_file + ": no rover.cameras." + device + " (described: " + (names.empty() ? "none" : names) +
+                      ")");
+  }
+  if (rc->info.width != in.gray.cols || rc->info.height != in.gray.rows)
+    throw InputError("assess: image '" + o.image + "' is " + std::to_string(in.gray.cols) + "x" +
+                     std::to_string(in.gray.rows) + " px but rover.cameras." + device + " is " +
+                     std::to_string(rc->info.width) + "x" + std::to_string(rc->info.height) + " px (" + rc->where +
+                     ")");
+  s.model = common::camera_model_of(*rc);
+  if (!s.light && rd.sun) {
+    const common::CameraLight cl = common::camera_light(*rd.sun, *rc);
+    if (!cl.in_view)
+      s.sun_error = rover_file + ": the sun is ahead of camera '" + device + "' (image slant " +
                     std::to_string(cl.light.slant_rad / kDeg) + " deg): no image-frame shading to solve";
-      light = cl.light;
-      sp.estimate_light = false;
-    }
-  } else if (!o.camera.empty()) {
+    s.light = cl.light;
+    s.sp.estimate_light = false;
+  }
+}
+
+// --camera fx,fy,cx,cy --height M [--pitch DEG], or --height / --pitch over the file's camera_model.
+void camera_from_options(const AssessOptions& o, cv::Size image, AssessSetup& s) {
+  if (!o.camera.empty()) {
     const auto v = parse_camera(o.camera);
     if (!std::isfinite(o.height_m)) throw ConfigError("--camera needs --height M (camera height above the ground)");
     direct_depth::CameraModel m;
@@ -445,98 +482,132 @@ void assess(const AssessOptions& o) {
     m.fy = v[1];
     m.cx = v[2];
     m.cy = v[3];
-    m.width = gray.cols;
-    m.height = gray.rows;
+    m.width = image.width;
+    m.height = image.height;
     m.mount_height_m = o.height_m;
     m.pitch_rad = std::isfinite(o.pitch_deg) ? o.pitch_deg * kDeg : 0.0;
-    model = m;
+    s.model = m;
   } else if (std::isfinite(o.height_m) || std::isfinite(o.pitch_deg)) {
-    if (!model) throw ConfigError("--height/--pitch need --camera fx,fy,cx,cy");
-    if (std::isfinite(o.height_m)) model->mount_height_m = o.height_m;
-    if (std::isfinite(o.pitch_deg)) model->pitch_rad = o.pitch_deg * kDeg;
+    if (!s.model) throw ConfigError("--height/--pitch need --camera fx,fy,cx,cy");
+    if (std::isfinite(o.height_m)) s.model->mount_height_m = o.height_m;
+    if (std::isfinite(o.pitch_deg)) s.model->pitch_rad = o.pitch_deg * kDeg;
   }
-  const bool sun_ahead = !sun_error.empty();
-  if (sun_ahead && !(model && o.sfs_frame == "ground"))
-    throw ConfigError(sun_error + (model ? " (--sfs-frame image needs it in front)" : ""));
-  std::unique_ptr<direct_depth::DirectDepth> depth;
+}
+
+AssessSetup configure(const AssessOptions& o, const AssessInput& in) {
+  AssessSetup s;
+  s.pixel_size_m = o.pixel_size_m;
+  if (!o.config.empty()) read_config_file(o.config, in.gray.size(), s);
+  if (!o.method.empty()) s.sp.method = sfs::method_from_string(o.method);
+  if (!o.flat_field.empty()) {
+    cv::Mat ff;
+    if (const std::string why = sfs::read_flat_field(o.flat_field, ff); !why.empty())
+      throw InputError("assess: --flat-field '" + o.flat_field + "': " + why);
+    s.sp.vignetting.flat_field = ff;
+    s.sp.vignetting.enabled = true;
+  }
+  apply_sun_options(o, s);
+  if (!in.rover_file.empty() || !in.device.empty())
+    camera_from_rover(o, in, s);
+  else
+    camera_from_options(o, in.gray.size(), s);
+  if (s.sun_ahead() && !(s.model && o.sfs_frame == "ground"))
+    throw ConfigError(s.sun_error + (s.model ? " (--sfs-frame image needs it in front)" : ""));
   try {
-    sp.validate();
-    tp.validate();
-    if (model) depth = std::make_unique<direct_depth::DirectDepth>(*model);
+    s.sp.validate();
+    s.tp.validate();
+    if (s.model) s.depth = std::make_unique<direct_depth::DirectDepth>(*s.model);
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("assess: ") + e.what());
   }
-  if (depth && !grid_given) fit_grid_to_view(*depth, gray.size(), tp);
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (ec || !fs::is_directory(o.out)) throw InputError("assess: cannot create output directory '" + o.out + "'");
+  if (s.depth && !s.grid_given) fit_grid_to_view(*s.depth, in.gray.size(), s.tp);
+  return s;
+}
 
-  // ---- SfS ----
-  const double t1 = now_ms();
+// ---- 3. the solves ----
+
+// Image-frame SfS (skipped with the sun ahead of the camera: height.tiff is then all NaN and the
+// ground path maps the grid).
+sfs::SfsResult solve_image(const AssessOptions& o, const cv::Mat& gray, const AssessSetup& s) {
   sfs::SfsResult res;
-  if (sun_ahead) {  // no image-frame SfS: height.tiff is all NaN, the ground path maps the grid
-    res.light = *light;
+  if (s.sun_ahead()) {
+    res.light = *s.light;
     res.height = cv::Mat(gray.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
     res.valid = cv::Mat::zeros(gray.size(), CV_8U);
   } else {
     try {
-      sfs::ShapeFromShading solver(sp);
-      solver.compute(gray, light, res);
+      sfs::ShapeFromShading solver(s.sp);
+      solver.compute(gray, s.light, res);
     } catch (const std::invalid_argument& e) {
       throw InputError("assess: " + o.image + ": " + e.what());
     }
   }
   if (res.status == sfs::SfsStatus::kUnreliableLight)
-    throw InputError("assess: " + o.image + ": " + sfs::unreliable_light_message(res, sp) +
+    throw InputError("assess: " + o.image + ": " + sfs::unreliable_light_message(res, s.sp) +
                      ": give --sun-slant DEG --sun-tilt DEG (the sun in the image frame), or --rover DEPLOYMENT.yaml "
                      "--device CAMERA (the camera and the sun of a rover description)");
-  const double t2 = now_ms();
+  return res;
+}
 
-  // ---- traversability ----
+struct AssessTerrain {
   traversability::GridMap grid;
-  cv::Mat height_m;  // metric height per pixel (m), NaN where unknown
-  cv::Mat rectified;  // ground-rectified grey image (camera mode, --sfs-frame ground)
-  if (depth && o.sfs_frame == "ground") {
+  cv::Mat height_m;   ///< metric height per pixel (m), NaN where unknown (not in ground mode)
+  cv::Mat rectified;  ///< ground-rectified grey image (camera mode, --sfs-frame ground)
+};
+
+// The traversability grid: in camera mode from the ground-rectified image (the component's
+// default) or from the image-frame heights; an orthographic patch is its own grid.
+AssessTerrain map_terrain(const AssessOptions& o, const cv::Mat& gray, const AssessSetup& s,
+                          const sfs::SfsResult& res) {
+  AssessTerrain t;
+  if (s.depth && o.sfs_frame == "ground") {
     // The traversability component's default: the (vignetting-corrected) grey image resampled
     // onto the ground grid and solved there with the sun in the ground frame.
-    traversability::TraversabilityMapper mapper(*depth, tp);
+    traversability::TraversabilityMapper mapper(*s.depth, s.tp);
     cv::Mat corrected = gray;
-    if (sp.vignetting.enabled) {
+    if (s.sp.vignetting.enabled) {
       cv::Mat g32, f;
       gray.convertTo(g32, CV_32F, 1.0 / 255.0);
-      sfs::correct_vignetting(g32, sp.vignetting, f);
+      sfs::correct_vignetting(g32, s.sp.vignetting, f);
       f.convertTo(corrected, CV_8U, 255.0);
     }
     try {
-      mapper.compute_from_image(corrected, {res.light.slant_rad, res.light.tilt_rad}, grid);
+      mapper.compute_from_image(corrected, {res.light.slant_rad, res.light.tilt_rad}, t.grid);
     } catch (const std::invalid_argument& e) {
       throw InputError("assess: " + o.image + ": " + e.what());
     }
-    rectified = mapper.rectified_image().clone();
-  } else if (depth) {
-    traversability::TraversabilityMapper mapper(*depth, tp);
-    mapper.compute_from_sfs(res.height, res.valid, {res.light.slant_rad, res.light.tilt_rad}, grid);
-    height_m = mapper.metric_heights().clone();
+    t.rectified = mapper.rectified_image().clone();
+  } else if (s.depth) {
+    traversability::TraversabilityMapper mapper(*s.depth, s.tp);
+    mapper.compute_from_sfs(res.height, res.valid, {res.light.slant_rad, res.light.tilt_rad}, t.grid);
+    t.height_m = mapper.metric_heights().clone();
   } else {
     // Orthographic top-down patch: image row 0 = +x (forward), column 0 = +y (left); a pixel is
     // pixel_size metres; SfS heights are in pixel units, so metres = units * pixel_size.
-    height_m = res.height * pixel_size * tp.height_gain;
-    grid.resolution_m = pixel_size;
-    grid.length_x_m = gray.rows * pixel_size;
-    grid.length_y_m = gray.cols * pixel_size;
+    t.height_m = res.height * s.pixel_size_m * s.tp.height_gain;
+    traversability::GridMap& grid = t.grid;
+    grid.resolution_m = s.pixel_size_m;
+    grid.length_x_m = gray.rows * s.pixel_size_m;
+    grid.length_y_m = gray.cols * s.pixel_size_m;
     grid.center_x_m = 0;
     grid.center_y_m = 0;
     grid.layers = {"elevation"};
-    cv::Mat e = height_m.clone();
+    cv::Mat e = t.height_m.clone();
     e.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
     grid.data = {e};
-    traversability::compute_layers(grid, tp);
+    traversability::compute_layers(grid, s.tp);
   }
-  const double t3 = now_ms();
+  return t;
+}
 
-  // ---- outputs ----
-  const fs::path out(o.out);
-  cv::Mat h_up = res.height.clone();  // pixel units, up positive
+// ---- 4. the outputs ----
+
+// height.tiff, height_heatmap.png, hillshade.png, rectified.png and one PNG per grid layer.
+// Returns summary.json's outputs.layers.
+nlohmann::json write_pictures(const fs::path& out, const cv::Mat& gray, const AssessSetup& s, const sfs::SfsResult& res,
+                              const AssessTerrain& t) {
+  const traversability::GridMap& grid = t.grid;
+  const cv::Mat& h_up = res.height;  // pixel units, up positive
   if (!cv::imwrite((out / "height.tiff").string(), h_up))
     throw InputError("assess: cannot write '" + (out / "height.tiff").string() + "'");
   // The height picture: in camera mode the grid's elevation painted on the camera image (each
@@ -547,12 +618,12 @@ void assess(const AssessOptions& o) {
   elev_style.unit_label = "cm";
   elev_style.scale = 100.0;
   elev_style.palette = plot::Palette::turbo;
-  if (depth && elev_layer < static_cast<int>(grid.data.size())) {
+  if (s.depth && elev_layer < static_cast<int>(grid.data.size())) {
     const cv::Mat& elev = grid.data[static_cast<std::size_t>(elev_layer)];
     cv::Mat on_image(gray.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
     for (int r = 0; r < gray.rows; ++r)
       for (int c = 0; c < gray.cols; ++c) {
-        const direct_depth::GroundPoint g = depth->ground(c, r);
+        const direct_depth::GroundPoint g = s.depth->ground(c, r);
         int i = 0, j = 0;
         if (g.valid && grid.cell_of(g.range_m, g.lateral_m, i, j)) on_image.at<float>(r, c) = elev.at<float>(i, j);
       }
@@ -560,7 +631,7 @@ void assess(const AssessOptions& o) {
     elev_style.unknown_note = "uncoloured: no ground cell (sky, beyond the grid, unknown)";
     write_png(out / "height_heatmap.png", plot::render_map(on_image, elev_style, gray));
   } else {
-    cv::Mat metric = height_m.clone();
+    cv::Mat metric = t.height_m.clone();
     metric.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
     elev_style.title = "SfS height of the patch (cm; the solve's pixel units x pixel size)";
     elev_style.unknown_note = "grey: masked (shadow, no shading)";
@@ -596,11 +667,11 @@ void assess(const AssessOptions& o) {
   write_png(out / "hillshade.png", plot::render_map(none, pic, u8));
   pic.axes.reset();
   nlohmann::json layers = nlohmann::json::object();
-  if (!rectified.empty()) {  // what the ground solve saw: far = top, rover = bottom, left = left
+  if (!t.rectified.empty()) {  // what the ground solve saw: far = top, rover = bottom, left = left
     pic.title = "the camera image rectified onto the ground (what the ground SfS solves)";
     pic.axes = grid_axes(grid);
-    const cv::Mat none_r(rectified.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-    write_png(out / "rectified.png", plot::render_map(none_r, pic, rectified));
+    const cv::Mat none_r(t.rectified.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    write_png(out / "rectified.png", plot::render_map(none_r, pic, t.rectified));
     layers["rectified_input"] = "rectified.png";
   }
   for (std::size_t k = 0; k < grid.layers.size(); ++k) {
@@ -620,12 +691,23 @@ void assess(const AssessOptions& o) {
     write_png(out / (name + ".png"), plot::render_map(grid.data[k], style));
     layers[name] = name + ".png";
   }
-  // Hazards: 8-connected groups of cells with traversability 0. A group lying wholly in the band
-  // along the edge of the view (within kEdgeBandCells of the grid border or of a cell whose centre
-  // the camera does not see) is where the solve ran out of image, not an obstacle: reported apart
-  // as `edge_hazards`, not counted. A group reaching further in is counted even where it also
-  // touches the edge (a rock in front of the rover whose red ground runs on out of view). Unknown
-  // cells inside the view (ground hidden behind a rock) do not make an edge.
+  return layers;
+}
+
+// Hazards: 8-connected groups of cells with traversability 0. A group lying wholly in the band
+// along the edge of the view (within kEdgeBandCells of the grid border or of a cell whose centre
+// the camera does not see) is where the solve ran out of image, not an obstacle: reported apart
+// as `edge_hazards`, not counted. A group reaching further in is counted even where it also
+// touches the edge (a rock in front of the rover whose red ground runs on out of view). Unknown
+// cells inside the view (ground hidden behind a rock) do not make an edge.
+struct Hazards {
+  nlohmann::json counted = nlohmann::json::array();  ///< summary.json's hazards
+  nlohmann::json edge = nlohmann::json::array();     ///< summary.json's edge_hazards
+  cv::Mat labels;                                    ///< CV_32S per grid cell: its group (0 = none)
+  std::vector<std::pair<int, std::string>> text;     ///< counted group label -> "H<n> <elevation> cm"
+};
+
+Hazards find_hazards(const traversability::GridMap& grid, const direct_depth::DirectDepth* depth, cv::Size image) {
   constexpr int kEdgeBandCells = 2;
   const cv::Mat& trav = grid.layer("traversability");
   cv::Mat in_view(trav.rows + 2, trav.cols + 2, CV_8U, cv::Scalar(0));  // one out-of-view cell all round
@@ -635,25 +717,24 @@ void assess(const AssessOptions& o) {
       if (depth) {
         const cv::Point2d c = grid.cell_center(i, j);
         const auto p = depth->project(c.x, c.y);
-        seen = p && p->x >= 0 && p->y >= 0 && p->x <= gray.cols - 1 && p->y <= gray.rows - 1;
+        seen = p && p->x >= 0 && p->y >= 0 && p->x <= image.width - 1 && p->y <= image.height - 1;
       }
       in_view.at<uchar>(i + 1, j + 1) = seen ? 1 : 0;
     }
   cv::Mat edge_distance;  // cells (chessboard) to the nearest unseen cell
   cv::distanceTransform(in_view, edge_distance, cv::DIST_C, 3, CV_32F);
   cv::Mat haz = (trav == 0.0f);
-  cv::Mat labels, stats, cents;
-  const int n = cv::connectedComponentsWithStats(haz, labels, stats, cents, 8, CV_32S);
-  nlohmann::json hazards = nlohmann::json::array(), edge_hazards = nlohmann::json::array();
-  std::vector<std::pair<int, std::string>> hazard_text;
+  Hazards h;
+  cv::Mat stats, cents;
+  const int n = cv::connectedComponentsWithStats(haz, h.labels, stats, cents, 8, CV_32S);
   const cv::Mat& elev = grid.layer("elevation");
   for (int k = 1; k < n; ++k) {
     const int area = stats.at<int>(k, cv::CC_STAT_AREA);
     double zmax = -1e9;
     bool edge = true;
-    for (int i = 0; i < labels.rows; ++i)
-      for (int j = 0; j < labels.cols; ++j) {
-        if (labels.at<int>(i, j) != k) continue;
+    for (int i = 0; i < h.labels.rows; ++i)
+      for (int j = 0; j < h.labels.cols; ++j) {
+        if (h.labels.at<int>(i, j) != k) continue;
         if (std::isfinite(elev.at<float>(i, j))) zmax = std::max(zmax, static_cast<double>(elev.at<float>(i, j)));
         edge = edge && edge_distance.at<float>(i + 1, j + 1) <= kEdgeBandCells;
       }
@@ -662,57 +743,24 @@ void assess(const AssessOptions& o) {
     const nlohmann::json hz = {{"x_m", c.x}, {"y_m", c.y}, {"cells", area},
                                {"area_m2", area * grid.resolution_m * grid.resolution_m}, {"max_elevation_m", zmax}};
     if (edge) {
-      edge_hazards.push_back(hz);
+      h.edge.push_back(hz);
     } else {
-      hazards.push_back(hz);
-      hazard_text.emplace_back(k, "H" + std::to_string(hazards.size()) + " " + fmt(100.0 * zmax, 1) + " cm");
+      h.counted.push_back(hz);
+      h.text.emplace_back(k, "H" + std::to_string(h.counted.size()) + " " + fmt(100.0 * zmax, 1) + " cm");
     }
   }
-  // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
-  std::vector<ImageRock> rocks;
-  if (depth) {
-    rocks = image_rocks(gray, *depth);
-    write_rocks(out, rocks);
-    if (!cv::imwrite((out / "range.tiff").string(), depth->range_map()))
-      throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
-    const cv::Mat overlay = camera_overlay(gray, grid, *depth, labels, hazard_text, rocks);
-    write_png(out / "overlay.png", overlay);
-    layers["camera_overlay"] = "overlay.png";
-  }
-  int known = 0;
-  for (int i = 0; i < trav.rows; ++i)
-    for (int j = 0; j < trav.cols; ++j) known += std::isfinite(trav.at<float>(i, j)) ? 1 : 0;
-  nlohmann::json j = {
-      {"image", o.image},
-      {"width_px", gray.cols},
-      {"height_px", gray.rows},
-      {"method", sfs::to_string(sp.method)},
-      {"light", {{"slant_deg", res.light.slant_rad / kDeg}, {"tilt_deg", res.light.tilt_rad / kDeg},
-                 {"source", res.light_estimated ? "estimated" : "given"}, {"confidence", res.light_confidence}}},
-      {"iterations", res.iterations},
-      {"final_mean_update_px", res.final_mean_update},
-      {"mode", depth ? "camera" : "orthographic"},
-      {"grid_sfs_frame", depth ? o.sfs_frame : "orthographic"},
-      {"timings_ms", {{"load", t1 - t0}, {"sfs", t2 - t1}, {"traversability", t3 - t2}}},
-      {"grid", {{"source", grid_given || !depth ? "configured" : "fitted to the view"},
-                {"resolution_m", grid.resolution_m}, {"length_x_m", grid.length_x_m}, {"length_y_m", grid.length_y_m},
-                {"center_x_m", grid.center_x_m}, {"center_y_m", grid.center_y_m}, {"known_cells", known},
-                {"cells", static_cast<int>(trav.total())}}},
-      {"outputs", {{"height", "height.tiff"}, {"heatmap", "height_heatmap.png"}, {"hillshade", "hillshade.png"},
-                   {"layers", layers}}},
-      {"hazards", hazards},
-      {"edge_hazards", edge_hazards},
-  };
-  if (depth) {
-    j["outputs"]["range"] = "range.tiff";
-    j["outputs"]["rocks"] = "rocks.csv";
-    j["rocks"] = rocks_json(rocks);
-  }
+  return h;
+}
+
+// What summary.json's `warning` says (also printed): a sun below the ground plane, no ground
+// cell, the sun ahead of the camera. Adds light.ground_elevation_deg and image_sfs to `j`.
+std::vector<std::string> assess_warnings(const AssessSetup& s, const sfs::SfsResult& res, int known,
+                                         nlohmann::json& j) {
   std::vector<std::string> warnings;
-  if (depth) {
+  if (s.depth) {
     // A sun below the ground plane (often a tilt given in another convention) shades no ground:
     // every grid cell stays unknown. Said here, with the elevation, rather than left as 0 cells.
-    const double el = traversability::sun_elevation(depth->model(), {res.light.slant_rad, res.light.tilt_rad});
+    const double el = traversability::sun_elevation(s.depth->model(), {res.light.slant_rad, res.light.tilt_rad});
     j["light"]["ground_elevation_deg"] = el / kDeg;
     if (!(el > traversability::kMinSunElevationRad))
       warnings.push_back("the sun is not above the ground plane (elevation " + fmt(el / kDeg, 1) + " deg from slant " +
@@ -722,11 +770,85 @@ void assess(const AssessOptions& o) {
   }
   if (known == 0 && warnings.empty())
     warnings.push_back("no ground cell in the grid (camera looks above the horizon or grid outside the view)");
-  if (sun_ahead) {
-    j["image_sfs"] = "skipped: sun ahead of the camera (image slant " + fmt(light->slant_rad / kDeg, 1) +
+  if (s.sun_ahead()) {
+    j["image_sfs"] = "skipped: sun ahead of the camera (image slant " + fmt(s.light->slant_rad / kDeg, 1) +
                      " deg): height.tiff is NaN; the grid comes from the ground-frame path";
     warnings.push_back(warnings.empty() ? "sun ahead of the camera: no image-frame SfS" : "sun ahead of the camera");
   }
+  return warnings;
+}
+
+void assess(const AssessOptions& o) {
+  const double t0 = now_ms();
+  const AssessInput in = read_input(o);
+  const cv::Mat& gray = in.gray;
+  const AssessSetup s = configure(o, in);
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec || !fs::is_directory(o.out)) throw InputError("assess: cannot create output directory '" + o.out + "'");
+  const double t1 = now_ms();
+  const sfs::SfsResult res = solve_image(o, gray, s);
+  const double t2 = now_ms();
+  const AssessTerrain terrain = map_terrain(o, gray, s, res);
+  const traversability::GridMap& grid = terrain.grid;
+  const double t3 = now_ms();
+
+  const fs::path out(o.out);
+  nlohmann::json layers = write_pictures(out, gray, s, res, terrain);
+  const Hazards hazards = find_hazards(grid, s.depth.get(), gray.size());
+  // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
+  std::vector<ImageRock> rocks;
+  if (s.depth) {
+    rocks = image_rocks(gray, *s.depth);
+    write_rocks(out, rocks);
+    if (!cv::imwrite((out / "range.tiff").string(), s.depth->range_map()))
+      throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
+    write_png(out / "overlay.png", camera_overlay(gray, grid, *s.depth, hazards.labels, hazards.text, rocks));
+    layers["camera_overlay"] = "overlay.png";
+  }
+  const cv::Mat& trav = grid.layer("traversability");
+  int known = 0;
+  for (int i = 0; i < trav.rows; ++i)
+    for (int j = 0; j < trav.cols; ++j) known += std::isfinite(trav.at<float>(i, j)) ? 1 : 0;
+  const bool camera = s.depth != nullptr;
+  nlohmann::json j = {
+      {"image", o.image},
+      {"width_px", gray.cols},
+      {"height_px", gray.rows},
+      {"method", sfs::to_string(s.sp.method)},
+      {"light",
+       {{"slant_deg", res.light.slant_rad / kDeg},
+        {"tilt_deg", res.light.tilt_rad / kDeg},
+        {"source", res.light_estimated ? "estimated" : "given"},
+        {"confidence", res.light_confidence}}},
+      {"iterations", res.iterations},
+      {"final_mean_update_px", res.final_mean_update},
+      {"mode", camera ? "camera" : "orthographic"},
+      {"grid_sfs_frame", camera ? o.sfs_frame : "orthographic"},
+      {"timings_ms", {{"load", t1 - t0}, {"sfs", t2 - t1}, {"traversability", t3 - t2}}},
+      {"grid",
+       {{"source", s.grid_given || !camera ? "configured" : "fitted to the view"},
+        {"resolution_m", grid.resolution_m},
+        {"length_x_m", grid.length_x_m},
+        {"length_y_m", grid.length_y_m},
+        {"center_x_m", grid.center_x_m},
+        {"center_y_m", grid.center_y_m},
+        {"known_cells", known},
+        {"cells", static_cast<int>(trav.total())}}},
+      {"outputs",
+       {{"height", "height.tiff"},
+        {"heatmap", "height_heatmap.png"},
+        {"hillshade", "hillshade.png"},
+        {"layers", layers}}},
+      {"hazards", hazards.counted},
+      {"edge_hazards", hazards.edge},
+  };
+  if (camera) {
+    j["outputs"]["range"] = "range.tiff";
+    j["outputs"]["rocks"] = "rocks.csv";
+    j["rocks"] = rocks_json(rocks);
+  }
+  const std::vector<std::string> warnings = assess_warnings(s, res, known, j);
   if (!warnings.empty()) {
     std::string w = warnings[0];
     for (std::size_t i = 1; i < warnings.size(); ++i) w += "; " + warnings[i];
@@ -736,11 +858,11 @@ void assess(const AssessOptions& o) {
   std::ofstream f(out / "summary.json");
   if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
   f << regolith::json_text(j, 2) << "\n";
-  std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(sp.method) << ", light "
+  std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(s.sp.method) << ", light "
             << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
-            << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.size() << " hazards ("
-            << edge_hazards.size() << " more at the edge of the view, not counted), "
-            << known << " known cells" << (depth ? ", " + std::to_string(rocks.size()) + " rocks" : std::string()) << ")\n";
+            << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.counted.size() << " hazards ("
+            << hazards.edge.size() << " more at the edge of the view, not counted), " << known << " known cells"
+            << (camera ? ", " + std::to_string(rocks.size()) + " rocks" : std::string()) << ")\n";
 }
 
 void add_assess(CLI::App& app) {
