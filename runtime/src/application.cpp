@@ -26,100 +26,68 @@ Application::~Application() { stop(); }
 
 Clock& Application::clock() { return executor_->clock(); }
 
-std::unique_ptr<Application> Application::load(Params root, const AppOptions& opts) {
-  std::unique_ptr<Application> app(new Application());
-  app->opts_ = opts;
-  app->resolved_ = root.sink();
-  app->name_ = root.get<std::string>("name", "regolith", {.doc = "deployment name (diagnostics, logs)"});
+namespace {
 
-  Params process = root.child("process");
-  RealtimeOptions rt;
-  rt.lock_memory = process.get<bool>("lock_memory", false, {.doc = "mlockall() before the rate groups start"});
-  process.finish();
-
-  if (opts.sim_time) {
-    app->sim_clock_ = std::make_unique<SimClock>(opts.sim_start);
-    app->executor_ = make_sim_executor(*app->sim_clock_);
-  } else {
-    app->executor_ = make_realtime_executor(rt);
-  }
-  const std::string config_dir =
-      std::filesystem::path(root.file()).has_parent_path() ? std::filesystem::path(root.file()).parent_path().string() : ".";
-  app->context_ = std::make_unique<Context>(app->executor_->clock(), config_dir);
-  Context& ctx = *app->context_;
-  app->view_.context = &ctx;
-  ctx.set_system(&app->view_);
-
-  // ---- DDS ----
-  Params dds = root.child("dds");
-  if (opts.enable_dds) {
-    app->dds_ = make_participant(dds, opts.sim_time);
-    ctx.set_dds(app->dds_.get());
-    if (app->dds_ && opts.sim_time) app->clock_pub_ = make_clock_publisher(*app->dds_);
-  } else {
-    declare_dds_params(dds);
-  }
-  dds.finish();
-
-  // ---- record: the in-process recording of `regolith run` (the tool records; read here) ----
-  Params rec = root.child("record");
-  app->record_.file = rec.get<std::string>(
+// `record:` — the in-process recording of `regolith run` (the tool records; read here so `config
+// check` lists it). `dds_missing`: DDS was asked for but is off in the deployment.
+RecordConfig read_record_config(Params rec, bool dds_missing) {
+  RecordConfig r;
+  r.file = rec.get<std::string>(
       "file", "", {.doc = "MCAP file recording every DDS sample the deployment publishes (empty = none; "
                           "`regolith run --record FILE` overrides)"});
-  app->record_.topics = rec.get<std::vector<std::string>>(
+  r.topics = rec.get<std::vector<std::string>>(
       "topics", {}, {.doc = "topics to record (names of `regolith echo --list`; empty = every known topic)"});
-  app->record_.compression =
+  r.compression =
       rec.get<std::string>("compression", "zstd", {.choices = {"zstd", "none"}, .doc = "MCAP chunk compression"});
-  app->record_.hal = rec.get<bool>(
+  r.hal = rec.get<bool>(
       "hal", true, {.doc = "also record what the devices delivered (camera frames, encoder and IMU samples) so "
                            "`regolith replay` can run the deployment again on them"});
-  app->record_.split_mb = rec.get<double>(
+  r.split_mb = rec.get<double>(
       "split_mb", 0.0, {.unit = "MiB", .min = 0.0, .max = 1e6,
                         .doc = "start a new file (<stem>_001.mcap, ...) after about this many MiB (0 = never)"});
-  if (app->record_.split_mb > 0.0 && app->record_.split_mb < 0.01)
-    rec.fail("split_mb", "must be 0 (never) or >= 0.01 MiB");
-  app->record_.split_s = rec.get<double>(
+  if (r.split_mb > 0.0 && r.split_mb < 0.01) rec.fail("split_mb", "must be 0 (never) or >= 0.01 MiB");
+  r.split_s = rec.get<double>(
       "split_s", 0.0, {.unit = "s", .min = 0.0, .max = 1e7,
                        .doc = "start a new file after this many seconds of messages (0 = never)"});
-  app->record_.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
-  app->record_.where_file = rec.where(rec.has("file") ? "file" : std::string_view{});
-  if (opts.enable_dds && !app->dds_ && !app->record_.file.empty())
+  r.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
+  r.where_file = rec.where(rec.has("file") ? "file" : std::string_view{});
+  if (dds_missing && !r.file.empty())
     rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
                      "deployment publishes)");
   rec.finish();
+  return r;
+}
 
-  // ---- live: the Foxglove WebSocket server and page of `regolith run` (the tool serves; read here) ----
-  Params live = root.child("live");
-  app->live_.enabled = live.get<bool>(
+// `live:` — the Foxglove WebSocket server and page of `regolith run` (the tool serves; read here).
+LiveConfig read_live_config(Params live, const std::string& config_dir, bool dds_missing) {
+  LiveConfig l;
+  l.enabled = live.get<bool>(
       "enabled", false, {.doc = "serve every DDS topic over the Foxglove WebSocket protocol and the built-in page "
                                 "(`regolith run --live [ADDR:]PORT` enables it too)"});
-  app->live_.listen = live.get<std::string>("listen", "127.0.0.1:8765",
-                                            {.doc = "[ADDR:]PORT to listen on (0.0.0.0 = every interface)"});
-  app->live_.max_clients =
-      live.get<int>("max_clients", 8, {.min = 1, .max = 1000, .doc = "connections beyond this are refused"});
-  app->live_.max_queue_mb = live.get<double>(
+  l.listen = live.get<std::string>("listen", "127.0.0.1:8765",
+                                   {.doc = "[ADDR:]PORT to listen on (0.0.0.0 = every interface)"});
+  l.max_clients = live.get<int>("max_clients", 8, {.min = 1, .max = 1000, .doc = "connections beyond this are refused"});
+  l.max_queue_mb = live.get<double>(
       "max_queue_mb", 8.0, {.unit = "MiB", .min = 0.0, .max = 4096.0, .min_exclusive = true,
                             .doc = "per-client send queue; a client whose queue would exceed it is dropped"});
-  app->live_.token_file = live.get<std::string>(
+  l.token_file = live.get<std::string>(
       "token_file", "",
       {.doc = "file (mode 0600) holding the access token clients must present (`?token=`); needed to listen on an "
               "address other than loopback (relative paths: from the config's directory)"});
-  if (!app->live_.token_file.empty() && std::filesystem::path(app->live_.token_file).is_relative())
-    app->live_.token_file = (std::filesystem::path(config_dir) / app->live_.token_file).string();
-  app->live_.token_where = live.where(live.has("token_file") ? "token_file" : std::string_view{});
-  app->live_.where = live.where(live.has("listen") ? "listen" : std::string_view{});
-  if (opts.enable_dds && !app->dds_ && app->live_.enabled)
+  if (!l.token_file.empty() && std::filesystem::path(l.token_file).is_relative())
+    l.token_file = (std::filesystem::path(config_dir) / l.token_file).string();
+  l.token_where = live.where(live.has("token_file") ? "token_file" : std::string_view{});
+  l.where = live.where(live.has("listen") ? "listen" : std::string_view{});
+  if (dds_missing && l.enabled)
     live.fail("enabled", "the live view needs DDS: set dds.enabled: true (it serves the DDS topics)");
   live.finish();
-  if (opts.check_tool_blocks) opts.check_tool_blocks(app->record_, app->live_, app->dds_ != nullptr);
+  return l;
+}
 
-  // ---- rover description: camera calibration and mounts, wheels, the sun ----
-  ctx.set_rover(read_rover_description(root, config_dir));
-
-  // ---- devices ----
-  Params devices = root.child("devices");
+// `devices:` — every device of every kind (devices.<section>.<name> -> BackendRegistry::make<Kind>),
+// each behind the checks every backend of its kind gets, added to the context.
+void load_devices(Params devices, Context& ctx, const AppOptions& opts, const std::string& config_dir) {
   auto& reg = hal::BackendRegistry::instance();
-  // One loop for every device kind: devices.<section>.<name> -> BackendRegistry::make<Kind>.
   auto load_kind = [&]<class Kind>(const char* section) {
     Params sec = devices.child(section);
     std::uint16_t index = 0;
@@ -159,6 +127,11 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   load_kind.operator()<hal::WheelEncoders>("encoders");
   load_kind.operator()<hal::Imu>("imus");
   devices.finish();
+}
+
+// Every device the rover description names (its cameras, the wheels' encoders, the IMU) is one
+// of the deployment's devices.
+void check_rover_devices(Params& root, Context& ctx) {
   for (const auto& [name, cam] : ctx.rover().cameras) {
     if (ctx.find<hal::Camera>(name) == nullptr)
       throw ConfigError(cam.where + ": rover.cameras." + name + ": no camera device named '" + name +
@@ -171,14 +144,16 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   }
   if (!ctx.rover().imu.empty() && ctx.find<hal::Imu>(ctx.rover().imu) == nullptr)
     throw ConfigError(root.where("rover") + ": rover.imu: no IMU named '" + ctx.rover().imu + "' in devices.imus");
+}
 
-  // ---- rate groups (read first so membership errors point at the group) ----
-  std::vector<RateGroupConfig> group_cfgs;
-  std::vector<Params> group_params = root.child_list("rate_groups", true);
-  if (group_params.empty()) root.fail("rate_groups", "at least one rate group is required");
+}  // namespace
+
+Application::GroupPlan Application::read_rate_groups(Params& root) {
+  GroupPlan plan;
+  plan.params = root.child_list("rate_groups", true);
+  if (plan.params.empty()) root.fail("rate_groups", "at least one rate group is required");
   std::set<std::string> group_names;
-  std::map<std::string, std::string> member_of;
-  for (auto& g : group_params) {
+  for (auto& g : plan.params) {
     RateGroupConfig c;
     c.name = g.require<std::string>("name", {.doc = "rate group name"});
     if (!group_names.insert(c.name).second) g.fail("name", "duplicate rate group name '" + c.name + "'");
@@ -204,18 +179,18 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     c.members = g.require<std::vector<std::string>>("members", {.doc = "components, in execution order"});
     if (c.members.empty()) g.fail("members", "a rate group needs at least one member");
     for (const auto& m : c.members) {
-      auto [it, inserted] = member_of.emplace(m, c.name);
+      auto [it, inserted] = plan.member_of.emplace(m, c.name);
       if (!inserted) g.fail("members", "component '" + m + "' is already a member of rate group '" + it->second + "'");
     }
     g.finish();
-    group_cfgs.push_back(std::move(c));
+    plan.configs.push_back(std::move(c));
   }
+  return plan;
+}
 
-  // ---- components ----
-  Params comps = root.require_child("components");
-  std::map<std::string, Component*> by_name;
-  const auto names = comps.keys();
-  for (const auto& name : names) {
+void Application::configure_components(Params comps, const GroupPlan& plan) {
+  Context& ctx = *context_;
+  for (const auto& name : comps.keys()) {
     Params p = comps.child(name);
     const std::string type = p.require<std::string>("type", {.doc = "component type"});
     auto c = ComponentRegistry::instance().make(p, type);
@@ -223,26 +198,27 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
     c->type_ = type;
     c->configured_critical_ =
         p.get<bool>("critical", false, {.doc = "its health gates the systemd watchdog (stalled or failed: not fed)"});
-    if (!member_of.count(name)) p.fail({}, "component '" + name + "' is not a member of any rate group");
+    if (!plan.member_of.count(name)) p.fail({}, "component '" + name + "' is not a member of any rate group");
     ctx.begin_component(name, comps.where(name));
     c->configure(p, ctx);
     ctx.end_component();
     p.finish();
     c->state_.store(Lifecycle::kInactive);
-    by_name[name] = c.get();
-    app->view_.components.push_back(c.get());
-    app->components_.push_back(std::move(c));
+    view_.components.push_back(c.get());
+    components_.push_back(std::move(c));
   }
   comps.finish();
+}
 
-  // ---- data flow: every consumed channel has one producer of its type, no cycle, order ----
-  for (const auto& g : group_cfgs) app->dataflow_.groups.push_back({g.name, g.members});
-  app->dataflow_.ports = ctx.ports();
-  app->dataflow_.check();
-  ctx.link();
-
-  for (std::size_t gi = 0; gi < group_cfgs.size(); ++gi) {
-    auto& c = group_cfgs[gi];
+void Application::build_rate_groups(GroupPlan& plan) {
+  std::map<std::string, Component*> by_name;
+  std::vector<std::string> names;
+  for (const auto& c : components_) {
+    by_name[c->name_] = c.get();
+    names.push_back(c->name_);
+  }
+  for (std::size_t gi = 0; gi < plan.configs.size(); ++gi) {
+    auto& c = plan.configs[gi];
     std::vector<Component*> members;
     for (const auto& m : c.members) {
       auto it = by_name.find(m);
@@ -250,13 +226,69 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
         std::string msg = "unknown component '" + m + "'";
         const std::string guess = did_you_mean(m, names);
         if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
-        group_params[gi].fail("members", msg);
+        plan.params[gi].fail("members", msg);
       }
       members.push_back(it->second);
     }
-    app->groups_.push_back(std::make_unique<RateGroup>(std::move(c), std::move(members)));
-    app->view_.groups.push_back(app->groups_.back().get());
+    groups_.push_back(std::make_unique<RateGroup>(std::move(c), std::move(members)));
+    view_.groups.push_back(groups_.back().get());
   }
+}
+
+std::unique_ptr<Application> Application::load(Params root, const AppOptions& opts) {
+  std::unique_ptr<Application> app(new Application());
+  app->opts_ = opts;
+  app->resolved_ = root.sink();
+  app->name_ = root.get<std::string>("name", "regolith", {.doc = "deployment name (diagnostics, logs)"});
+
+  Params process = root.child("process");
+  RealtimeOptions rt;
+  rt.lock_memory = process.get<bool>("lock_memory", false, {.doc = "mlockall() before the rate groups start"});
+  process.finish();
+
+  if (opts.sim_time) {
+    app->sim_clock_ = std::make_unique<SimClock>(opts.sim_start);
+    app->executor_ = make_sim_executor(*app->sim_clock_);
+  } else {
+    app->executor_ = make_realtime_executor(rt);
+  }
+  const std::string config_dir =
+      std::filesystem::path(root.file()).has_parent_path() ? std::filesystem::path(root.file()).parent_path().string() : ".";
+  app->context_ = std::make_unique<Context>(app->executor_->clock(), config_dir);
+  Context& ctx = *app->context_;
+  app->view_.context = &ctx;
+  ctx.set_system(&app->view_);
+
+  // ---- DDS, and the tool's record: and live: blocks that need it ----
+  Params dds = root.child("dds");
+  if (opts.enable_dds) {
+    app->dds_ = make_participant(dds, opts.sim_time);
+    ctx.set_dds(app->dds_.get());
+    if (app->dds_ && opts.sim_time) app->clock_pub_ = make_clock_publisher(*app->dds_);
+  } else {
+    declare_dds_params(dds);
+  }
+  dds.finish();
+  const bool dds_missing = opts.enable_dds && !app->dds_;
+  app->record_ = read_record_config(root.child("record"), dds_missing);
+  app->live_ = read_live_config(root.child("live"), config_dir, dds_missing);
+  if (opts.check_tool_blocks) opts.check_tool_blocks(app->record_, app->live_, app->dds_ != nullptr);
+
+  // ---- rover description (camera calibration and mounts, wheels, the sun) and the devices ----
+  ctx.set_rover(read_rover_description(root, config_dir));
+  load_devices(root.child("devices"), ctx, opts, config_dir);
+  check_rover_devices(root, ctx);
+
+  // ---- rate groups (read first so membership errors point at the group), then components ----
+  GroupPlan plan = read_rate_groups(root);
+  app->configure_components(root.require_child("components"), plan);
+
+  // ---- data flow: every consumed channel has one producer of its type, no cycle, order ----
+  for (const auto& g : plan.configs) app->dataflow_.groups.push_back({g.name, g.members});
+  app->dataflow_.ports = ctx.ports();
+  app->dataflow_.check();
+  ctx.link();
+  app->build_rate_groups(plan);
   root.finish();
   return app;
 }

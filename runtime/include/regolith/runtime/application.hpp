@@ -5,6 +5,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -14,8 +15,8 @@
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/component.hpp"
 #include "regolith/runtime/context.hpp"
-#include "regolith/runtime/health.hpp"
 #include "regolith/runtime/dataflow.hpp"
+#include "regolith/runtime/health.hpp"
 #include "regolith/runtime/rate_group.hpp"
 
 namespace regolith::dds {
@@ -108,6 +109,16 @@ class Application {
 
  private:
   Application() = default;
+  // load()'s stages. The rate groups are read before the components (membership errors point at
+  // the group) and built after them and the data-flow check.
+  struct GroupPlan {
+    std::vector<RateGroupConfig> configs;
+    std::vector<Params> params;                    ///< each group's block, for errors found later
+    std::map<std::string, std::string> member_of;  ///< component -> its rate group
+  };
+  static GroupPlan read_rate_groups(Params& root);
+  void configure_components(Params comps, const GroupPlan& plan);
+  void build_rate_groups(GroupPlan& plan);
   AppOptions opts_;
   std::string name_;
   RecordConfig record_;
