@@ -194,80 +194,91 @@ cv::Mat render_scored(const Scored& s) {
   return out;
 }
 
-}  // namespace
+using Row = std::map<std::string, double>;
 
-nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, const fs::path& overlay) {
-  nlohmann::json out;
-  const RecordedDrive drive = read_drive(drive_dir);
-  const auto truth_poses = read_csv(
-      drive_dir / "truth_poses.csv",
-      {"frame", "rover_x_m", "rover_y_m", "rover_yaw_rad", "x_m", "y_m", "z_m", "yaw_rad", "pitch_rad", "roll_rad"});
-  const auto est =
-      read_csv(map_dir / "odometry.csv", {"frame", "x_m", "y_m", "yaw_rad", "wheel_x_m", "wheel_y_m", "wheel_yaw_rad"});
-  // --- poses
-  std::map<int, std::map<std::string, double>> tp;
-  for (const auto& r : truth_poses) tp[static_cast<int>(r.at("frame"))] = r;
+// The scored map on its cells: the map's elevation and hazard, the truth heightfield averaged
+// onto the same cells, and which cells a true camera pose saw within 5 m.
+struct ScoredGrid {
+  cv::Mat elev, hazard, truth, seen;
+  double ox = 0, oy = 0, res = 0;  // cell (0, 0) centre and cell size (m)
+  cv::Point2d centre(int i, int j) const { return {ox + j * res, oy + i * res}; }
+};
+
+// --- poses: the corrected and the wheel path against the truth, frame by frame. `path_m` is the
+// true path length over the frames both tables have.
+nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir,
+                           double& path_m) {
   double path = 0, mean_err = 0, mean_err_w = 0;
   int n = 0;
-  std::map<std::string, double> last_t, last_e;
-  const std::map<std::string, double>* prev = nullptr;
+  const Row* last_t = nullptr;
+  const Row* last_e = nullptr;
   for (const auto& e : est) {
-    const int f = static_cast<int>(e.at("frame"));
-    if (!tp.count(f)) continue;
-    const auto& t = tp[f];
-    if (prev) path += std::hypot(t.at("rover_x_m") - prev->at("rover_x_m"), t.at("rover_y_m") - prev->at("rover_y_m"));
-    prev = &tp[f];
+    const auto it = tp.find(static_cast<int>(e.at("frame")));
+    if (it == tp.end()) continue;
+    const Row& t = it->second;
+    if (last_t)
+      path += std::hypot(t.at("rover_x_m") - last_t->at("rover_x_m"), t.at("rover_y_m") - last_t->at("rover_y_m"));
     mean_err += std::hypot(e.at("x_m") - t.at("rover_x_m"), e.at("y_m") - t.at("rover_y_m"));
     mean_err_w += std::hypot(e.at("wheel_x_m") - t.at("rover_x_m"), e.at("wheel_y_m") - t.at("rover_y_m"));
     ++n;
-    last_t = t, last_e = e;
+    last_t = &t, last_e = &e;
   }
   if (n < 2) throw InputError(map_dir.string() + "/odometry.csv: fewer than two frames match truth_poses.csv");
   auto yaw_err = [](double a, double b) { return std::abs(std::remainder(a - b, 2 * 3.14159265358979323846)) * 180.0 / 3.14159265358979323846; };
-  const double fe = std::hypot(last_e.at("x_m") - last_t.at("rover_x_m"), last_e.at("y_m") - last_t.at("rover_y_m"));
-  const double fw = std::hypot(last_e.at("wheel_x_m") - last_t.at("rover_x_m"), last_e.at("wheel_y_m") - last_t.at("rover_y_m"));
-  out["poses"] = {{"frames", n},
-                  {"path_m", path},
-                  {"final_position_error_m", fe},
-                  {"final_position_error_pct", 100 * fe / path},
-                  {"final_heading_error_deg", yaw_err(last_e.at("yaw_rad"), last_t.at("rover_yaw_rad"))},
-                  {"mean_position_error_m", mean_err / n},
-                  {"wheel_final_position_error_m", fw},
-                  {"wheel_final_position_error_pct", 100 * fw / path},
-                  {"wheel_final_heading_error_deg", yaw_err(last_e.at("wheel_yaw_rad"), last_t.at("rover_yaw_rad"))},
-                  {"wheel_mean_position_error_m", mean_err_w / n}};
+  const Row &lt = *last_t, &le = *last_e;
+  const double fe = std::hypot(le.at("x_m") - lt.at("rover_x_m"), le.at("y_m") - lt.at("rover_y_m"));
+  const double fw = std::hypot(le.at("wheel_x_m") - lt.at("rover_x_m"), le.at("wheel_y_m") - lt.at("rover_y_m"));
+  path_m = path;
+  return {{"frames", n},
+          {"path_m", path},
+          {"final_position_error_m", fe},
+          {"final_position_error_pct", 100 * fe / path},
+          {"final_heading_error_deg", yaw_err(le.at("yaw_rad"), lt.at("rover_yaw_rad"))},
+          {"mean_position_error_m", mean_err / n},
+          {"wheel_final_position_error_m", fw},
+          {"wheel_final_position_error_pct", 100 * fw / path},
+          {"wheel_final_heading_error_deg", yaw_err(le.at("wheel_yaw_rad"), lt.at("rover_yaw_rad"))},
+          {"wheel_mean_position_error_m", mean_err_w / n}};
+}
 
-  // --- map vs truth heightfield (averaged onto the map's cells)
+// The map's grids and the truth heightfield averaged onto its cells.
+ScoredGrid read_scored_grid(const fs::path& drive_dir, const fs::path& map_dir) {
   const nlohmann::json mj = read_json_file((map_dir / "map.json").string(), "map description (map.json)");
   const nlohmann::json gj = read_json_file((drive_dir / "grid.json").string(), "truth grid (grid.json)");
-  const cv::Mat elev = read_float(map_dir / "elevation.tiff");
-  const cv::Mat hazard = read_float(map_dir / "hazard.tiff");
+  ScoredGrid g;
+  g.elev = read_float(map_dir / "elevation.tiff");
+  g.hazard = read_float(map_dir / "hazard.tiff");
   const cv::Mat th = read_float(drive_dir / "height.tiff");
-  if (hazard.size() != elev.size())
-    throw InputError((map_dir / "hazard.tiff").string() + ": " + std::to_string(hazard.cols) + "x" +
-                     std::to_string(hazard.rows) + " cells, elevation.tiff has " + std::to_string(elev.cols) + "x" +
-                     std::to_string(elev.rows));
+  if (g.hazard.size() != g.elev.size())
+    throw InputError((map_dir / "hazard.tiff").string() + ": " + std::to_string(g.hazard.cols) + "x" +
+                     std::to_string(g.hazard.rows) + " cells, elevation.tiff has " + std::to_string(g.elev.cols) + "x" +
+                     std::to_string(g.elev.rows));
   const std::string mname = (map_dir / "map.json").string(), gname = (drive_dir / "grid.json").string();
-  const double mox = json_number(mj, mname, "origin_x_m"), moy = json_number(mj, mname, "origin_y_m"),
-               mres = json_number(mj, mname, "resolution_m");
+  g.ox = json_number(mj, mname, "origin_x_m"), g.oy = json_number(mj, mname, "origin_y_m"),
+  g.res = json_number(mj, mname, "resolution_m");
   const double gox = json_number(gj, gname, "origin_x_m"), goy = json_number(gj, gname, "origin_y_m"),
                gres = json_number(gj, gname, "resolution_m");
-  const int R = elev.rows, C = elev.cols;
-  cv::Mat truth(R, C, CV_32F, cv::Scalar(std::nanf(""))), seen(R, C, CV_8U, cv::Scalar(0));
-  const int k = std::max(1, static_cast<int>(std::lround(mres / gres)));
+  const int R = g.elev.rows, C = g.elev.cols;
+  g.truth = cv::Mat(R, C, CV_32F, cv::Scalar(std::nanf("")));
+  g.seen = cv::Mat(R, C, CV_8U, cv::Scalar(0));
+  const int k = std::max(1, static_cast<int>(std::lround(g.res / gres)));
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j) {
-      const double x = mox + j * mres, y = moy + i * mres;
-      const int gi = static_cast<int>(std::lround((y - goy) / gres)), gj2 = static_cast<int>(std::lround((x - gox) / gres));
+      const cv::Point2d c = g.centre(i, j);
+      const int gi = static_cast<int>(std::lround((c.y - goy) / gres)),
+                gj2 = static_cast<int>(std::lround((c.x - gox) / gres));
       double acc = 0;
       int m = 0;
       for (int a = gi - k / 2; a <= gi + (k - 1) / 2; ++a)
         for (int b = gj2 - k / 2; b <= gj2 + (k - 1) / 2; ++b)
           if (a >= 0 && b >= 0 && a < th.rows && b < th.cols && std::isfinite(th.at<float>(a, b))) acc += th.at<float>(a, b), ++m;
-      if (m) truth.at<float>(i, j) = static_cast<float>(acc / m);
+      if (m) g.truth.at<float>(i, j) = static_cast<float>(acc / m);
     }
-  // Ground seen within 5 m: flat-ground visibility from the true camera poses.
-  const auto& cam = drive.camera;
+  return g;
+}
+
+// Ground seen within 5 m: flat-ground visibility of each true cell from the true camera poses.
+void mark_seen(ScoredGrid& g, const std::map<int, Row>& tp, const direct_depth::CameraModel& cam) {
   for (const auto& [f, t] : tp) {
     (void)f;
     const double cx = t.at("x_m"), cy = t.at("y_m"), cz = t.at("z_m"), yaw = t.at("yaw_rad"), pitch = t.at("pitch_rad"),
@@ -277,46 +288,54 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
     cv::Vec3d right(std::sin(yaw), -std::cos(yaw), 0.0);
     cv::Vec3d down = fwd.cross(right);
     const cv::Vec3d r2 = right * std::cos(roll) + down * std::sin(roll), d2 = down * std::cos(roll) - right * std::sin(roll);
-    for (int i = 0; i < R; ++i)
-      for (int j = 0; j < C; ++j) {
-        const float zt = truth.at<float>(i, j);
+    for (int i = 0; i < g.truth.rows; ++i)
+      for (int j = 0; j < g.truth.cols; ++j) {
+        const float zt = g.truth.at<float>(i, j);
         if (!std::isfinite(zt)) continue;
-        const cv::Vec3d v(mox + j * mres - cx, moy + i * mres - cy, zt - cz);
+        const cv::Point2d c = g.centre(i, j);
+        const cv::Vec3d v(c.x - cx, c.y - cy, zt - cz);
         const double z = v.dot(fwd);
         if (z <= 0 || cv::norm(v) > 5.0) continue;
         const double u = cam.fx * v.dot(r2) / z + cam.cx, w = cam.fy * v.dot(d2) / z + cam.cy;
-        if (u >= 0 && w >= 0 && u <= cam.width - 1 && w <= cam.height - 1) seen.at<uchar>(i, j) = 255;
+        if (u >= 0 && w >= 0 && u <= cam.width - 1 && w <= cam.height - 1) g.seen.at<uchar>(i, j) = 255;
       }
   }
+}
+
+// --- map: coverage of the seen cells, elevation r (plane removed) and detail r (0.2 m high-pass).
+nlohmann::json score_elevation(const ScoredGrid& g) {
+  const int R = g.elev.rows, C = g.elev.cols;
   std::vector<double> xs, ys, ze, zt;
   int n_seen = 0, n_known = 0;
   cv::Mat both(R, C, CV_8U, cv::Scalar(0));
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j) {
-      if (!seen.at<uchar>(i, j)) continue;
+      if (!g.seen.at<uchar>(i, j)) continue;
       ++n_seen;
-      if (!std::isfinite(elev.at<float>(i, j))) continue;
+      if (!std::isfinite(g.elev.at<float>(i, j))) continue;
       ++n_known;
       both.at<uchar>(i, j) = 255;
-      xs.push_back(mox + j * mres), ys.push_back(moy + i * mres);
-      ze.push_back(elev.at<float>(i, j)), zt.push_back(truth.at<float>(i, j));
+      const cv::Point2d c = g.centre(i, j);
+      xs.push_back(c.x), ys.push_back(c.y);
+      ze.push_back(g.elev.at<float>(i, j)), zt.push_back(g.truth.at<float>(i, j));
     }
   remove_plane(xs, ys, ze);
   remove_plane(xs, ys, zt);
   const double r_plane = pearson(ze, zt);
   // Detail: subtract a 0.2 m Gaussian from both (over the known cells).
-  cv::Mat ez = elev.clone(), tz = truth.clone();
-  const cv::Mat be = blur_known(ez, both, 0.2 / mres), bt = blur_known(tz, both, 0.2 / mres);
+  cv::Mat ez = g.elev.clone(), tz = g.truth.clone();
+  const cv::Mat be = blur_known(ez, both, 0.2 / g.res), bt = blur_known(tz, both, 0.2 / g.res);
   std::vector<double> de, dt;
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j)
       if (both.at<uchar>(i, j)) de.push_back(ez.at<float>(i, j) - be.at<float>(i, j)), dt.push_back(tz.at<float>(i, j) - bt.at<float>(i, j));
-  out["map"] = {{"seen_cells", n_seen},
-                {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
-                {"elevation_r", r_plane},
-                {"elevation_detail_r", pearson(de, dt)}};
+  return {{"seen_cells", n_seen},
+          {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
+          {"elevation_r", r_plane},
+          {"elevation_detail_r", pearson(de, dt)}};
+}
 
-  // --- rocks and hazard
+std::vector<TRock> read_truth_rocks(const fs::path& drive_dir) {
   const std::string tname = (drive_dir / "truth.json").string();
   const nlohmann::json tj = read_json_file(tname, "truth (truth.json)");
   if (!tj.is_object() || !tj.contains("rocks") || !tj["rocks"].is_array())
@@ -332,7 +351,17 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
                            std::max(num("width_m"), num("length_m")), num("major_axis_m"), num("minor_axis_m"),
                            num("yaw_deg") * 3.14159265358979323846 / 180, r["observed"].get<bool>()});
   }
-  const auto det = read_csv(map_dir / "rocks.csv", {"x_m", "y_m", "height_m"});
+  return truth_rocks;
+}
+
+// Detections matched one-to-one to true rocks, nearest pairs first, within max(0.6 x the rock's
+// extent, 0.10 m).
+struct RockMatch {
+  std::vector<int> rock_of_detection;  // truth index or -1
+  std::vector<int> detection_of_rock;  // detection index or -1
+};
+
+RockMatch match_rocks(const std::vector<TRock>& truth_rocks, const std::vector<Row>& det) {
   std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
   for (std::size_t a = 0; a < truth_rocks.size(); ++a)
     for (std::size_t b = 0; b < det.size(); ++b) {
@@ -341,74 +370,124 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
       if (d <= std::max(0.6 * t.ext, 0.10)) pairs.emplace_back(d, a, b);
     }
   std::sort(pairs.begin(), pairs.end());
-  std::vector<int> t_of(det.size(), -1), d_of(truth_rocks.size(), -1);
+  RockMatch m{std::vector<int>(det.size(), -1), std::vector<int>(truth_rocks.size(), -1)};
   for (const auto& [d, a, b] : pairs)
-    if (t_of[b] < 0 && d_of[a] < 0) t_of[b] = static_cast<int>(a), d_of[a] = static_cast<int>(b);
+    if (m.rock_of_detection[b] < 0 && m.detection_of_rock[a] < 0)
+      m.rock_of_detection[b] = static_cast<int>(a), m.detection_of_rock[a] = static_cast<int>(b);
+  return m;
+}
+
+// --- rocks: recall, precision and F1 over the observed rocks >= 10 cm, median height error.
+nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vector<Row>& det, const RockMatch& m) {
   int positives = 0, hits = 0, false_alarms = 0;
   std::vector<double> herr;
   for (std::size_t a = 0; a < truth_rocks.size(); ++a)
     if (truth_rocks[a].observed && truth_rocks[a].h >= 0.10) {
       ++positives;
-      if (d_of[a] >= 0) {
+      if (const int d = m.detection_of_rock[a]; d >= 0) {
         ++hits;
-        herr.push_back(100 * std::abs(det[static_cast<std::size_t>(d_of[a])].at("height_m") - truth_rocks[a].h) / truth_rocks[a].h);
+        herr.push_back(100 * std::abs(det[static_cast<std::size_t>(d)].at("height_m") - truth_rocks[a].h) /
+                       truth_rocks[a].h);
       }
     }
   for (std::size_t b = 0; b < det.size(); ++b)
-    if (t_of[b] < 0) ++false_alarms;
+    if (m.rock_of_detection[b] < 0) ++false_alarms;
   const double recall = positives ? static_cast<double>(hits) / positives : std::nan("");
   const double precision = (hits + false_alarms) ? static_cast<double>(hits) / (hits + false_alarms) : std::nan("");
   std::sort(herr.begin(), herr.end());
-  out["rocks"] = {{"truth_rocks_ge10cm_observed", positives},
-                  {"detections", det.size()},
-                  {"hits", hits},
-                  {"false_alarms", false_alarms},
-                  {"recall", recall},
-                  {"precision", precision},
-                  {"f1", (recall + precision) > 0 ? 2 * recall * precision / (recall + precision) : 0.0},
-                  {"median_height_error_pct", herr.empty() ? std::nan("") : herr[herr.size() / 2]}};
+  return {{"truth_rocks_ge10cm_observed", positives},
+          {"detections", det.size()},
+          {"hits", hits},
+          {"false_alarms", false_alarms},
+          {"recall", recall},
+          {"precision", precision},
+          {"f1", (recall + precision) > 0 ? 2 * recall * precision / (recall + precision) : 0.0},
+          {"median_height_error_pct", herr.empty() ? std::nan("") : herr[herr.size() / 2]}};
+}
+
+// --- hazard: ROC AUC over the seen cells with a hazard value; positive = on a rock >= 10 cm,
+// negative = on no rock >= 5 cm (cells on 5-10 cm rocks are left out).
+nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth_rocks) {
   std::vector<std::pair<double, int>> scores;
-  for (int i = 0; i < R; ++i)
-    for (int j = 0; j < C; ++j) {
-      if (!seen.at<uchar>(i, j) || !std::isfinite(hazard.at<float>(i, j))) continue;
-      const double x = mox + j * mres, y = moy + i * mres;
+  for (int i = 0; i < g.hazard.rows; ++i)
+    for (int j = 0; j < g.hazard.cols; ++j) {
+      if (!g.seen.at<uchar>(i, j) || !std::isfinite(g.hazard.at<float>(i, j))) continue;
+      const cv::Point2d c = g.centre(i, j);
       bool pos = false, near5 = false;
       for (const TRock& t : truth_rocks) {
         if (t.h < 0.05) continue;
-        const double dx = x - t.x, dy = y - t.y, c = std::cos(t.yaw), s = std::sin(t.yaw);
-        const double u = (c * dx + s * dy) / (0.5 * t.w), v = (-s * dx + c * dy) / (0.5 * t.l);
+        const double dx = c.x - t.x, dy = c.y - t.y, cs = std::cos(t.yaw), sn = std::sin(t.yaw);
+        const double u = (cs * dx + sn * dy) / (0.5 * t.w), v = (-sn * dx + cs * dy) / (0.5 * t.l);
         if (u * u + v * v <= 1.0) {
           near5 = true;
           if (t.h >= 0.10) pos = true;
         }
       }
-      if (pos) scores.emplace_back(hazard.at<float>(i, j), 1);
-      else if (!near5) scores.emplace_back(hazard.at<float>(i, j), 0);
+      if (pos)
+        scores.emplace_back(g.hazard.at<float>(i, j), 1);
+      else if (!near5)
+        scores.emplace_back(g.hazard.at<float>(i, j), 0);
     }
-  out["hazard"] = {{"cells", scores.size()}, {"auc", auc(scores)}};
-  if (!overlay.empty()) {
-    Scored sc{truth, seen, {mox, moy}, mres, truth_rocks, det, t_of, d_of, {}, {}, {}, {}, {}};
-    for (const auto& [f, t] : tp) sc.true_path.emplace_back(t.at("rover_x_m"), t.at("rover_y_m"));
-    for (const auto& e : est) {
-      sc.corrected_path.emplace_back(e.at("x_m"), e.at("y_m"));
-      sc.wheel_path.emplace_back(e.at("wheel_x_m"), e.at("wheel_y_m"));
-    }
-    // The drive's name, also when its path was given with a trailing slash.
-    std::error_code ec;
-    const fs::path whole = fs::absolute(drive_dir / "", ec);
-    const std::string drive_name = (ec ? drive_dir / "" : whole).lexically_normal().parent_path().filename().string();
-    char buf[256];
-    std::snprintf(buf, sizeof buf, "%s: rocks >= 10 cm seen %d: %d hit, %d missed; %d false alarms; F1 %.2f",
-                  drive_name.c_str(), positives, hits, positives - hits, false_alarms,
-                  out["rocks"]["f1"].get<double>());
-    sc.title = buf;
-    std::snprintf(
-        buf, sizeof buf, "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
-        out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
-        out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
-    sc.scores = buf;
-    plot::write_png(overlay, render_scored(sc));
+  return {{"cells", scores.size()}, {"auc", auc(scores)}};
+}
+
+}  // namespace
+
+nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, const fs::path& overlay) {
+  nlohmann::json out;
+  const RecordedDrive drive = read_drive(drive_dir);
+  std::map<int, Row> tp;
+  for (auto& r : read_csv(drive_dir / "truth_poses.csv", {"frame", "rover_x_m", "rover_y_m", "rover_yaw_rad", "x_m",
+                                                          "y_m", "z_m", "yaw_rad", "pitch_rad", "roll_rad"}))
+    tp[static_cast<int>(r.at("frame"))] = std::move(r);
+  const auto est =
+      read_csv(map_dir / "odometry.csv", {"frame", "x_m", "y_m", "yaw_rad", "wheel_x_m", "wheel_y_m", "wheel_yaw_rad"});
+  double path = 0;
+  out["poses"] = score_poses(tp, est, map_dir, path);
+  ScoredGrid grid = read_scored_grid(drive_dir, map_dir);
+  mark_seen(grid, tp, drive.camera);
+  out["map"] = score_elevation(grid);
+  const std::vector<TRock> truth_rocks = read_truth_rocks(drive_dir);
+  const auto det = read_csv(map_dir / "rocks.csv", {"x_m", "y_m", "height_m"});
+  const RockMatch match = match_rocks(truth_rocks, det);
+  out["rocks"] = score_rocks(truth_rocks, det, match);
+  out["hazard"] = score_hazard(grid, truth_rocks);
+  if (overlay.empty()) return out;
+
+  std::vector<cv::Point2d> true_path, corrected_path, wheel_path;
+  for (const auto& [f, t] : tp) true_path.emplace_back(t.at("rover_x_m"), t.at("rover_y_m"));
+  for (const auto& e : est) {
+    corrected_path.emplace_back(e.at("x_m"), e.at("y_m"));
+    wheel_path.emplace_back(e.at("wheel_x_m"), e.at("wheel_y_m"));
   }
+  // The drive's name, also when its path was given with a trailing slash.
+  std::error_code ec;
+  const fs::path whole = fs::absolute(drive_dir / "", ec);
+  const std::string drive_name = (ec ? drive_dir / "" : whole).lexically_normal().parent_path().filename().string();
+  const nlohmann::json& rocks = out["rocks"];
+  const int positives = rocks["truth_rocks_ge10cm_observed"], hits = rocks["hits"];
+  const int false_alarms = rocks["false_alarms"];
+  char title[256], scores[256];
+  std::snprintf(title, sizeof title, "%s: rocks >= 10 cm seen %d: %d hit, %d missed; %d false alarms; F1 %.2f",
+                drive_name.c_str(), positives, hits, positives - hits, false_alarms, rocks["f1"].get<double>());
+  std::snprintf(scores, sizeof scores,
+                "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
+                out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
+                out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
+  const Scored sc{.truth = grid.truth,
+                  .seen = grid.seen,
+                  .origin = {grid.ox, grid.oy},
+                  .res = grid.res,
+                  .rocks = truth_rocks,
+                  .detections = det,
+                  .rock_of_detection = match.rock_of_detection,
+                  .detection_of_rock = match.detection_of_rock,
+                  .true_path = std::move(true_path),
+                  .corrected_path = std::move(corrected_path),
+                  .wheel_path = std::move(wheel_path),
+                  .title = title,
+                  .scores = scores};
+  plot::write_png(overlay, render_scored(sc));
   return out;
 }
 
