@@ -235,18 +235,9 @@ void CandidateExtractor::chromaticity(const cv::Mat& image, cv::Size size, cv::M
   }
 }
 
-void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& masks, bool colour) {
+void CandidateExtractor::prepare_maps(bool colour) {
   const cv::Mat& I = intensity_;
   const int W = I.cols, H = I.rows;
-  if (I.size() != sized_) {
-    // Each source's components are disjoint and at least min_area px: a bound on what one image
-    // can give, reserved once so that later images of this size allocate nothing.
-    dets_.reserve(max_candidates(I.size()) / std::max<std::size_t>(1, detectors_.size()) + 1);
-    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_, &redness_}) m->create(I.size(), CV_32F);
-    sized_ = I.size();
-  }
-  out.candidates.reserve(max_candidates(I.size()));
-  sides_.reserve(max_candidates(I.size()));
   coarse_.compute_from_intensity(I, s_coarse_);
   fine_.compute_from_intensity(I, s_fine_);
   // The chroma map: the contrast of the redness r - b. A grey image's redness is 0 everywhere and
@@ -298,9 +289,166 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
   integral_of(s_chroma_, ii.sch);
   const cv::Rect frame(0, 0, W, H);
   const double n_img = static_cast<double>(W) * H;
-  const double img_mean = rect_sum(ii.i, frame) / n_img;
-  const double img_std = std::sqrt(std::max(0.0, rect_sum(ii.i2, frame) / n_img - img_mean * img_mean));
-  const double img_cr = rect_sum(ii.cr, frame) / n_img, img_cb = rect_sum(ii.cb, frame) / n_img;
+  image_.mean = rect_sum(ii.i, frame) / n_img;
+  image_.std = std::sqrt(std::max(0.0, rect_sum(ii.i2, frame) / n_img - image_.mean * image_.mean));
+  image_.cr = rect_sum(ii.cr, frame) / n_img, image_.cb = rect_sum(ii.cb, frame) / n_img;
+}
+
+void CandidateExtractor::box_features(const Detection& d, double source, RockCandidate& c) {
+  const Integrals& ii = ii_;
+  const int W = intensity_.cols, H = intensity_.rows;
+  const cv::Rect frame(0, 0, W, H);
+  const cv::Rect& b = d.box;
+  const int margin = std::max(3, static_cast<int>(std::lround(0.25 * std::max(b.width, b.height))));
+  const cv::Rect outer = cv::Rect(b.x - margin, b.y - margin, b.width + 2 * margin, b.height + 2 * margin) & frame;
+  const double n_in = static_cast<double>(b.area());
+  const double n_ring = std::max(1.0, static_cast<double>(outer.area()) - n_in);
+  auto in = [&](const cv::Mat& ig) { return rect_sum(ig, b) / n_in; };
+  auto ring = [&](const cv::Mat& ig) { return std::max(0.0, rect_sum(ig, outer) - rect_sum(ig, b)) / n_ring; };
+  const double i_in = in(ii.i), i_ring = ring(ii.i);
+  const double i2_in = in(ii.i2), i2_ring = ring(ii.i2);
+  double smax = 0.0;
+  cv::minMaxLoc(s_coarse_(b), nullptr, &smax);
+  // Dark fraction of the four side strips of the ring.
+  const cv::Rect sides[4] = {
+      cv::Rect(b.x - margin, b.y, margin, b.height) & frame, cv::Rect(b.x + b.width, b.y, margin, b.height) & frame,
+      cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
+  double dmax = 0.0, dsum = 0.0, dmin = 1.0;
+  int nsides = 0;
+  Sides& cs = sides_.emplace_back();
+  for (std::size_t si = 0; si < 4; ++si) {
+    const cv::Rect& s = sides[si];
+    cs.dark[si] = -1.0f;
+    if (s.area() <= 0) continue;
+    const double f = rect_sum(ii.dark, s) / s.area();
+    cs.dark[si] = static_cast<float>(f);
+    dmax = std::max(dmax, f);
+    dmin = std::min(dmin, f);
+    dsum += f;
+    ++nsides;
+  }
+  if (nsides == 0) dmin = 0.0;
+  {
+    const int hw = std::max(1, b.width / 2), hh = std::max(1, b.height / 2);
+    const cv::Rect halves[4] = {cv::Rect(b.x, b.y, hw, b.height), cv::Rect(b.x + b.width - hw, b.y, hw, b.height),
+                                cv::Rect(b.x, b.y, b.width, hh), cv::Rect(b.x, b.y + b.height - hh, b.width, hh)};
+    for (std::size_t si = 0; si < 4; ++si)
+      cs.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
+  }
+  const double v[kBoxFeatures] = {std::log(n_in),
+                                  std::log(static_cast<double>(b.width) / b.height),
+                                  static_cast<double>(b.width) / W,
+                                  static_cast<double>(b.height) / H,
+                                  (b.y + 0.5 * b.height) / H,
+                                  static_cast<double>(b.y + b.height) / H,
+                                  std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
+                                  d.area / n_in,
+                                  in(ii.sc),
+                                  smax,
+                                  ring(ii.sc),
+                                  in(ii.sc) - ring(ii.sc),
+                                  in(ii.sf),
+                                  in(ii.sf) - ring(ii.sf),
+                                  i_in,
+                                  std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
+                                  i_ring,
+                                  std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
+                                  i_in - i_ring,
+                                  i_in - image_.mean,
+                                  in(ii.g),
+                                  in(ii.edge),
+                                  ring(ii.edge),
+                                  in(ii.bright),
+                                  in(ii.dark),
+                                  dmax,
+                                  nsides ? dsum / nsides : 0.0,
+                                  dmin,
+                                  source,
+                                  image_.std,
+                                  in(ii.cr) - ring(ii.cr),
+                                  in(ii.cb) - ring(ii.cb),
+                                  in(ii.cr) - image_.cr,
+                                  in(ii.cb) - image_.cb,
+                                  in(ii.sch),
+                                  in(ii.sch) - ring(ii.sch)};
+  for (int f = 0; f < kBoxFeatures; ++f) c.features[f] = static_cast<float>(v[f]);
+}
+
+namespace {
+
+// Context among the candidates: a rock is found at several thresholds, whole and in fragments;
+// where a box sits in that nesting tells the whole from a fragment.
+void context_features(std::vector<RockCandidate>& candidates) {
+  const size_t nc = candidates.size();
+  for (size_t a = 0; a < nc; ++a) {
+    RockCandidate& c = candidates[a];
+    const cv::Rect& b = c.box;
+    double parent_area = b.area(), max_iou = 0.0;
+    int children = 0, parents = 0;
+    for (size_t o = 0; o < nc; ++o) {
+      if (o == a) continue;
+      const cv::Rect& q = candidates[o].box;
+      max_iou = std::max(max_iou, iou(b, q));
+      const cv::Point qc(q.x + q.width / 2, q.y + q.height / 2), bc(b.x + b.width / 2, b.y + b.height / 2);
+      if (q.area() < b.area() && b.contains(qc)) ++children;
+      if (q.area() > b.area() && q.contains(bc)) {
+        ++parents;
+        parent_area = std::max(parent_area, static_cast<double>(q.area()));
+      }
+    }
+    c.features[kBoxFeatures] = static_cast<float>(c.stability);
+    c.features[kBoxFeatures + 1] = static_cast<float>(std::log(parent_area / std::max(1, b.area())));
+    c.features[kBoxFeatures + 2] = static_cast<float>(children);
+    c.features[kBoxFeatures + 3] = static_cast<float>(parents);
+    c.features[kBoxFeatures + 4] = static_cast<float>(max_iou);
+  }
+}
+
+}  // namespace
+
+void CandidateExtractor::shadow_side_features(CandidateSet& out) const {
+  const std::size_t nc = out.candidates.size();
+  // The image's shadow side: rocks cast their shadows to the same side in one image (the sun's
+  // opposite), ground texture to every side. The side whose ring strips are darker than the
+  // candidate's other strips, summed over the candidates (each weighted by its contrast), is the
+  // shadow side; each candidate's strip there and on the opposite (sun) side, and how much
+  // brighter its half towards the sun is, are features.
+  std::array<double, 4> excess{};
+  for (std::size_t k = 0; k < nc; ++k) {
+    const std::array<float, 4>& dark = sides_[k].dark;
+    double m = 0.0;
+    int n = 0;
+    for (float f : dark)
+      if (f >= 0) m += f, ++n;
+    if (n == 0) continue;
+    m /= n;
+    for (std::size_t si = 0; si < 4; ++si)
+      if (dark[si] >= 0) excess[si] += out.candidates[k].features[kCoarseMeanIn] * (dark[si] - m);
+  }
+  const auto sh = static_cast<std::size_t>(std::max_element(excess.begin(), excess.end()) - excess.begin());
+  const std::size_t su = sh ^ 1u;  // the sun side: left <-> right, top <-> bottom
+  for (std::size_t k = 0; k < nc; ++k) {
+    const Sides& cs = sides_[k];
+    float* f = out.candidates[k].features.data();
+    f[kBoxFeatures + 5] = std::max(0.0f, cs.dark[sh]);
+    f[kBoxFeatures + 6] = std::max(0.0f, cs.dark[su]);
+    f[kBoxFeatures + 7] = cs.half_mean[su] - cs.half_mean[sh];
+  }
+}
+
+void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& masks, bool colour) {
+  const cv::Mat& I = intensity_;
+  const int W = I.cols, H = I.rows;
+  if (I.size() != sized_) {
+    // Each source's components are disjoint and at least min_area px: a bound on what one image
+    // can give, reserved once so that later images of this size allocate nothing.
+    dets_.reserve(max_candidates(I.size()) / std::max<std::size_t>(1, detectors_.size()) + 1);
+    for (cv::Mat* m : {&grad_, &i2_, &edge_, &dark_, &bright_, &redness_}) m->create(I.size(), CV_32F);
+    sized_ = I.size();
+  }
+  out.candidates.reserve(max_candidates(I.size()));
+  sides_.reserve(max_candidates(I.size()));
+  prepare_maps(colour);
 
   out.size = I.size();
   out.candidates.clear();
@@ -349,134 +497,12 @@ void CandidateExtractor::extract_at_working_size(CandidateSet& out, cv::Mat& mas
       c.source = static_cast<int>(k);
       c.source_bits = 1u << k;
       c.stability = 1 + near_same;
-      const cv::Rect& b = d.box;
-      const int margin = std::max(3, static_cast<int>(std::lround(0.25 * std::max(b.width, b.height))));
-      const cv::Rect outer = cv::Rect(b.x - margin, b.y - margin, b.width + 2 * margin, b.height + 2 * margin) & frame;
-      const double n_in = static_cast<double>(b.area());
-      const double n_ring = std::max(1.0, static_cast<double>(outer.area()) - n_in);
-      auto in = [&](const cv::Mat& ig) { return rect_sum(ig, b) / n_in; };
-      auto ring = [&](const cv::Mat& ig) { return std::max(0.0, rect_sum(ig, outer) - rect_sum(ig, b)) / n_ring; };
-      const double i_in = in(ii.i), i_ring = ring(ii.i);
-      const double i2_in = in(ii.i2), i2_ring = ring(ii.i2);
-      double smax = 0.0;
-      cv::minMaxLoc(s_coarse_(b), nullptr, &smax);
-      // Dark fraction of the four side strips of the ring.
-      const cv::Rect sides[4] = {
-          cv::Rect(b.x - margin, b.y, margin, b.height) & frame, cv::Rect(b.x + b.width, b.y, margin, b.height) & frame,
-          cv::Rect(b.x, b.y - margin, b.width, margin) & frame, cv::Rect(b.x, b.y + b.height, b.width, margin) & frame};
-      double dmax = 0.0, dsum = 0.0, dmin = 1.0;
-      int nsides = 0;
-      Sides& cs = sides_.emplace_back();
-      for (std::size_t si = 0; si < 4; ++si) {
-        const cv::Rect& s = sides[si];
-        cs.dark[si] = -1.0f;
-        if (s.area() <= 0) continue;
-        const double f = rect_sum(ii.dark, s) / s.area();
-        cs.dark[si] = static_cast<float>(f);
-        dmax = std::max(dmax, f);
-        dmin = std::min(dmin, f);
-        dsum += f;
-        ++nsides;
-      }
-      if (nsides == 0) dmin = 0.0;
-      {
-        const int hw = std::max(1, b.width / 2), hh = std::max(1, b.height / 2);
-        const cv::Rect halves[4] = {cv::Rect(b.x, b.y, hw, b.height), cv::Rect(b.x + b.width - hw, b.y, hw, b.height),
-                                    cv::Rect(b.x, b.y, b.width, hh), cv::Rect(b.x, b.y + b.height - hh, b.width, hh)};
-        for (std::size_t si = 0; si < 4; ++si)
-          cs.half_mean[si] = static_cast<float>(rect_sum(ii.i, halves[si]) / halves[si].area());
-      }
-      const double v[kBoxFeatures] = {std::log(n_in),
-                                      std::log(static_cast<double>(b.width) / b.height),
-                                      static_cast<double>(b.width) / W,
-                                      static_cast<double>(b.height) / H,
-                                      (b.y + 0.5 * b.height) / H,
-                                      static_cast<double>(b.y + b.height) / H,
-                                      std::abs(b.x + 0.5 * b.width - 0.5 * W) / W,
-                                      d.area / n_in,
-                                      in(ii.sc),
-                                      smax,
-                                      ring(ii.sc),
-                                      in(ii.sc) - ring(ii.sc),
-                                      in(ii.sf),
-                                      in(ii.sf) - ring(ii.sf),
-                                      i_in,
-                                      std::sqrt(std::max(0.0, i2_in - i_in * i_in)),
-                                      i_ring,
-                                      std::sqrt(std::max(0.0, i2_ring - i_ring * i_ring)),
-                                      i_in - i_ring,
-                                      i_in - img_mean,
-                                      in(ii.g),
-                                      in(ii.edge),
-                                      ring(ii.edge),
-                                      in(ii.bright),
-                                      in(ii.dark),
-                                      dmax,
-                                      nsides ? dsum / nsides : 0.0,
-                                      dmin,
-                                      source,
-                                      img_std,
-                                      in(ii.cr) - ring(ii.cr),
-                                      in(ii.cb) - ring(ii.cb),
-                                      in(ii.cr) - img_cr,
-                                      in(ii.cb) - img_cb,
-                                      in(ii.sch),
-                                      in(ii.sch) - ring(ii.sch)};
-      for (int f = 0; f < kBoxFeatures; ++f) c.features[f] = static_cast<float>(v[f]);
+      box_features(d, source, c);
       out.candidates.push_back(c);
     }
   }
-  // Context among the candidates: a rock is found at several thresholds, whole and in fragments;
-  // where a box sits in that nesting tells the whole from a fragment.
-  const size_t nc = out.candidates.size();
-  for (size_t a = 0; a < nc; ++a) {
-    RockCandidate& c = out.candidates[a];
-    const cv::Rect& b = c.box;
-    double parent_area = b.area(), max_iou = 0.0;
-    int children = 0, parents = 0;
-    for (size_t o = 0; o < nc; ++o) {
-      if (o == a) continue;
-      const cv::Rect& q = out.candidates[o].box;
-      max_iou = std::max(max_iou, iou(b, q));
-      const cv::Point qc(q.x + q.width / 2, q.y + q.height / 2), bc(b.x + b.width / 2, b.y + b.height / 2);
-      if (q.area() < b.area() && b.contains(qc)) ++children;
-      if (q.area() > b.area() && q.contains(bc)) {
-        ++parents;
-        parent_area = std::max(parent_area, static_cast<double>(q.area()));
-      }
-    }
-    c.features[kBoxFeatures] = static_cast<float>(c.stability);
-    c.features[kBoxFeatures + 1] = static_cast<float>(std::log(parent_area / std::max(1, b.area())));
-    c.features[kBoxFeatures + 2] = static_cast<float>(children);
-    c.features[kBoxFeatures + 3] = static_cast<float>(parents);
-    c.features[kBoxFeatures + 4] = static_cast<float>(max_iou);
-  }
-  // The image's shadow side: rocks cast their shadows to the same side in one image (the sun's
-  // opposite), ground texture to every side. The side whose ring strips are darker than the
-  // candidate's other strips, summed over the candidates (each weighted by its contrast), is the
-  // shadow side; each candidate's strip there and on the opposite (sun) side, and how much
-  // brighter its half towards the sun is, are features.
-  std::array<double, 4> excess{};
-  for (std::size_t k = 0; k < nc; ++k) {
-    const std::array<float, 4>& dark = sides_[k].dark;
-    double m = 0.0;
-    int n = 0;
-    for (float f : dark)
-      if (f >= 0) m += f, ++n;
-    if (n == 0) continue;
-    m /= n;
-    for (std::size_t si = 0; si < 4; ++si)
-      if (dark[si] >= 0) excess[si] += out.candidates[k].features[kCoarseMeanIn] * (dark[si] - m);
-  }
-  const auto sh = static_cast<std::size_t>(std::max_element(excess.begin(), excess.end()) - excess.begin());
-  const std::size_t su = sh ^ 1u;  // the sun side: left <-> right, top <-> bottom
-  for (std::size_t k = 0; k < nc; ++k) {
-    const Sides& cs = sides_[k];
-    float* f = out.candidates[k].features.data();
-    f[kBoxFeatures + 5] = std::max(0.0f, cs.dark[sh]);
-    f[kBoxFeatures + 6] = std::max(0.0f, cs.dark[su]);
-    f[kBoxFeatures + 7] = cs.half_mean[su] - cs.half_mean[sh];
-  }
+  context_features(out.candidates);
+  shadow_side_features(out);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -123,6 +123,13 @@ class CandidateExtractor {
   /// extract() from intensity_, chroma_r_ and chroma_b_ (at the working size); the sources'
   /// masks go to `masks`. `colour`: the image had three channels (a grey one has no chroma map).
   void extract_at_working_size(CandidateSet& out, cv::Mat& masks, bool colour);
+  /// The maps, per-pixel indicators, their integral images and the image statistics of intensity_.
+  void prepare_maps(bool colour);
+  /// Candidate `c`'s per-box features (kBoxFeatures of them) from detection `d` of a source with
+  /// feature value `source`; its ring strips and box halves go to sides_.
+  void box_features(const Detection& d, double source, RockCandidate& c);
+  /// The image's shadow side from all candidates' ring strips, and each candidate's features for it.
+  void shadow_side_features(CandidateSet& out) const;
   /// r = R / (R + G + B) and b = B / (R + G + B) of a colour `image` (its size), CV_32F; of a
   /// grey one the constant 1/3, made at `size` (for a colour image `size` must be its own).
   void chromaticity(const cv::Mat& image, cv::Size size, cv::Mat& r, cv::Mat& b);
@@ -142,6 +149,9 @@ class CandidateExtractor {
   struct Integrals {
     cv::Mat i, i2, sc, sf, g, edge, dark, bright, cr, cb, sch;
   } ii_;
+  struct ImageStats {
+    double mean = 0, std = 0, cr = 0, cb = 0;  ///< intensity mean and std, mean chromaticity r and b
+  } image_;
   cv::Size sized_;  // image size the buffers and reservations were made for
   std::vector<Detection> dets_;
   /// Per candidate (same order), until the image's shadow side is known: the dark fraction of
