@@ -208,6 +208,152 @@ json export_hal_vector3(std::span<const std::uint8_t> cdr) {
           {"vector", {{"x", d.a.roll_rad}, {"y", d.a.pitch_rad}, {"z", d.a.yaw_rad}}}};
 }
 
+// The channels `topics` name (find_channel), by channel id; an unknown name is an InputError
+// listing what was recorded.
+std::map<std::uint16_t, ExportChannel> select_channels(const record::McapFileInfo& info,
+                                                       const std::vector<std::string>& topics,
+                                                       const std::string& file) {
+  std::map<std::uint16_t, ExportChannel> chans;
+  for (const auto& t : topics) {
+    const record::Channel* c = find_channel(info, t);
+    if (c == nullptr) {
+      std::string list;
+      for (const auto& [id, ch] : info.channels) {
+        const auto s = info.schemas.find(ch.schema_id);
+        list += "\n  " + ch.topic + "  " + (s != info.schemas.end() ? s->second.name : std::string("(no schema)"));
+      }
+      throw InputError("log export: " + file + ": no channel '" + t +
+                       "' (or more than one ends with it); recorded topics:" + list);
+    }
+    chans[c->id].channel = c;
+  }
+  return chans;
+}
+
+// Decides how channel `e` is exported (a candump log of raw CAN frames, the HAL recording's frames
+// and attitudes, or a regolith DDS type through a CdrDecoder on `pp`, the `index`-th) and opens
+// its file (and image directory) in `out_dir`.
+void open_export_channel(ExportChannel& e, const record::McapFileInfo& info, const LogExportArgs& a, dds_entity_t pp,
+                         int& index) {
+  const auto s = info.schemas.find(e.channel->schema_id);
+  const std::string schema = s != info.schemas.end() ? s->second.name : "";
+  std::string stem = e.channel->topic;
+  if (stem.starts_with('/')) stem.erase(0, 1);
+  for (char& ch : stem)
+    if (ch == '/') ch = '_';
+  if (e.channel->message_encoding == "cdr" &&
+      (schema == "can_msgs/msg/Frame" || schema == "ros2_socketcan_msgs/msg/FdFrame")) {
+    // Raw CAN frames: the log every CAN tool reads (and the `candump` encoder backend replays).
+    e.can = schema == "can_msgs/msg/Frame" ? ExportChannel::Can::kClassic : ExportChannel::Can::kFd;
+    const std::string& topic = e.channel->topic;  // /hal/encoders/<id>/can
+    const auto end = topic.rfind('/');
+    const auto begin = end == std::string::npos || end == 0 ? std::string::npos : topic.rfind('/', end - 1);
+    e.can_interface = begin == std::string::npos ? "can" : topic.substr(begin + 1, end - begin - 1);
+    e.path = fs::path(a.out) / (stem + ".log");
+    e.out.open(e.path, std::ios::binary | std::ios::trunc);
+    if (!e.out) throw InputError("log export: cannot write " + e.path.string());
+    return;
+  }
+  if (e.channel->message_encoding == "cdr" &&
+      (schema == "sensor_msgs/msg/Image" || schema == "geometry_msgs/msg/Vector3Stamped")) {
+    // The HAL recording's frames and attitudes: not DDS topic types of regolith, decoded as the
+    // replay backends decode them.
+    e.hal = schema == "sensor_msgs/msg/Image" ? ExportChannel::Hal::kImage : ExportChannel::Hal::kVector3;
+  } else {
+    const dds::TopicInfo* ti = nullptr;
+    for (const auto& k : dds::known_topics())
+      if (k.ros_type == schema) ti = &k;
+    if (ti == nullptr || e.channel->message_encoding != "cdr")
+      throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
+                       ") is not a regolith CDR type");
+    e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
+  }
+  e.path = fs::path(a.out) / (stem + "." + a.format);
+  if (schema == "sensor_msgs/msg/CompressedImage" || e.hal == ExportChannel::Hal::kImage) {  // viewable files too
+    e.images = fs::path(a.out) / stem;
+    std::error_code ec;
+    fs::create_directories(e.images, ec);
+    if (ec) throw InputError("log export: cannot create " + e.images.string() + ": " + ec.message());
+  }
+  e.out.open(e.path, std::ios::binary | std::ios::trunc);
+  if (!e.out) throw InputError("log export: cannot write " + e.path.string());
+}
+
+// One recorded message of channel `e` into its file: a candump line, a JSON line or a CSV row
+// (the header from the first message's fields). Undecodable payloads are counted, not fatal.
+void export_message(ExportChannel& e, const record::MessageView& m, bool csv, TimeNs ros_offset_ns,
+                    std::vector<std::pair<std::string, const json*>>& flat) {
+  if (e.can != ExportChannel::Can::kNone) {
+    try {
+      const hal::CanFrame f = record::decode_can_frame(m.data, e.can == ExportChannel::Can::kFd);
+      e.out << hal::format_candump_line(f, e.can_interface, f.stamp + ros_offset_ns) << '\n';
+      ++e.written;
+    } catch (const std::exception&) {
+      ++e.undecodable;
+    }
+    return;
+  }
+  std::string image_file;
+  const auto save_image = [&](const void* sample) {
+    const auto& im = *static_cast<const msgs::sensor_msgs::CompressedImage*>(sample);
+    const std::string fmt = im.format != nullptr ? im.format : "";
+    char name[48];
+    std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(e.written),
+                  fmt.find("png") != std::string::npos ? "png" : "jpg");
+    std::ofstream f(e.images / name, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(im.data._buffer), static_cast<std::streamsize>(im.data._length));
+    if (!f) throw InputError("log export: cannot write " + (e.images / name).string());
+    image_file = (e.images.filename() / name).string();
+  };
+  std::optional<json> msg;
+  if (e.hal != ExportChannel::Hal::kNone) {
+    try {
+      msg = e.hal == ExportChannel::Hal::kImage ? export_hal_image(m.data, e.images, e.written, image_file)
+                                                : export_hal_vector3(m.data);
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception&) {  // damaged or foreign bytes: counted, the rest exported
+    }
+  } else {
+    msg = e.images.empty() ? e.decoder->decode(m.data) : e.decoder->decode(m.data, save_image);
+  }
+  if (!msg) {
+    ++e.undecodable;
+    return;
+  }
+  // the bytes are in the file (data: their count): beside the message (jsonl), a column (csv)
+  if (!image_file.empty() && csv) (*msg)["file"] = image_file;
+  if (!csv) {
+    json line = {{"log_time_ns", m.log_time},
+                 {"publish_time_ns", m.publish_time},
+                 {"sequence", m.sequence},
+                 {"message", std::move(*msg)}};
+    if (!image_file.empty()) line["file"] = image_file;
+    // A recorded string need not be UTF-8 (a frame_id from another process): replaced, as
+    // `regolith echo` does, instead of json throwing and ending the export.
+    e.out << regolith::json_text(line) << '\n';
+  } else {
+    flat.clear();
+    flatten(*msg, "", flat);
+    if (e.written == 0) {
+      e.out << "log_time_ns,publish_time_ns,sequence";
+      for (const auto& [k, v] : flat) {
+        e.columns.push_back(k);
+        e.out << ',' << csv_field(k);
+      }
+      e.out << '\n';
+    }
+    std::map<std::string, const json*> by_key(flat.begin(), flat.end());
+    e.out << m.log_time << ',' << m.publish_time << ',' << m.sequence;
+    for (const auto& k : e.columns) {
+      const auto f = by_key.find(k);
+      e.out << ',' << (f != by_key.end() ? csv_value(*f->second) : std::string());
+    }
+    e.out << '\n';
+  }
+  ++e.written;
+}
+
 void run_export(const LogExportArgs& a) {
   if (a.format != "jsonl" && a.format != "csv")
     throw InputError("log export: --format must be jsonl or csv, not '" + a.format + "'");
@@ -222,141 +368,19 @@ void run_export(const LogExportArgs& a) {
       if (p > 0) dds_delete(p);
     }
   } guard{pp};
-  std::map<std::uint16_t, ExportChannel> chans;
-  for (const auto& t : a.topics) {
-    const record::Channel* c = find_channel(info, t);
-    if (c == nullptr) {
-      std::string list;
-      for (const auto& [id, ch] : info.channels) {
-        const auto s = info.schemas.find(ch.schema_id);
-        list += "\n  " + ch.topic + "  " + (s != info.schemas.end() ? s->second.name : std::string("(no schema)"));
-      }
-      throw InputError("log export: " + a.file + ": no channel '" + t + "' (or more than one ends with it); recorded topics:" + list);
-    }
-    chans[c->id].channel = c;
-  }
+  std::map<std::uint16_t, ExportChannel> chans = select_channels(info, a.topics, a.file);
   pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
   if (pp < 0) throw std::runtime_error("log export: dds_create_participant: " + std::string(dds_strretcode(pp)));
   std::error_code ec;
   fs::create_directories(a.out, ec);
   if (ec) throw InputError("log export: cannot create " + a.out + ": " + ec.message());
   int index = 0;
-  for (auto& [id, e] : chans) {
-    const auto s = info.schemas.find(e.channel->schema_id);
-    const std::string schema = s != info.schemas.end() ? s->second.name : "";
-    std::string stem = e.channel->topic;
-    if (stem.starts_with('/')) stem.erase(0, 1);
-    for (char& ch : stem)
-      if (ch == '/') ch = '_';
-    if (e.channel->message_encoding == "cdr" &&
-        (schema == "can_msgs/msg/Frame" || schema == "ros2_socketcan_msgs/msg/FdFrame")) {
-      // Raw CAN frames: the log every CAN tool reads (and the `candump` encoder backend replays).
-      e.can = schema == "can_msgs/msg/Frame" ? ExportChannel::Can::kClassic : ExportChannel::Can::kFd;
-      const std::string& topic = e.channel->topic;  // /hal/encoders/<id>/can
-      const auto end = topic.rfind('/');
-      const auto begin = end == std::string::npos || end == 0 ? std::string::npos : topic.rfind('/', end - 1);
-      e.can_interface = begin == std::string::npos ? "can" : topic.substr(begin + 1, end - begin - 1);
-      e.path = fs::path(a.out) / (stem + ".log");
-      e.out.open(e.path, std::ios::binary | std::ios::trunc);
-      if (!e.out) throw InputError("log export: cannot write " + e.path.string());
-      continue;
-    }
-    if (e.channel->message_encoding == "cdr" &&
-        (schema == "sensor_msgs/msg/Image" || schema == "geometry_msgs/msg/Vector3Stamped")) {
-      // The HAL recording's frames and attitudes: not DDS topic types of regolith, decoded as the
-      // replay backends decode them.
-      e.hal = schema == "sensor_msgs/msg/Image" ? ExportChannel::Hal::kImage : ExportChannel::Hal::kVector3;
-    } else {
-      const dds::TopicInfo* ti = nullptr;
-      for (const auto& k : dds::known_topics())
-        if (k.ros_type == schema) ti = &k;
-      if (ti == nullptr || e.channel->message_encoding != "cdr")
-        throw InputError("log export: " + e.channel->topic + ": schema '" + schema + "' (" + e.channel->message_encoding +
-                         ") is not a regolith CDR type");
-      e.decoder = std::make_unique<CdrDecoder>(pp, *ti, index++);
-    }
-    e.path = fs::path(a.out) / (stem + "." + a.format);
-    if (schema == "sensor_msgs/msg/CompressedImage" || e.hal == ExportChannel::Hal::kImage) {  // viewable files too
-      e.images = fs::path(a.out) / stem;
-      fs::create_directories(e.images, ec);
-      if (ec) throw InputError("log export: cannot create " + e.images.string() + ": " + ec.message());
-    }
-    e.out.open(e.path, std::ios::binary | std::ios::trunc);
-    if (!e.out) throw InputError("log export: cannot write " + e.path.string());
-  }
+  for (auto& [id, e] : chans) open_export_channel(e, info, a, pp, index);
   const bool csv = a.format == "csv";
   std::vector<std::pair<std::string, const json*>> flat;
   auto problems = reader.for_each_message([&](const record::MessageView& m) {
     auto it = chans.find(m.channel.id);
-    if (it == chans.end()) return;
-    ExportChannel& e = it->second;
-    if (e.can != ExportChannel::Can::kNone) {
-      try {
-        const hal::CanFrame f = record::decode_can_frame(m.data, e.can == ExportChannel::Can::kFd);
-        e.out << hal::format_candump_line(f, e.can_interface, f.stamp + hal.ros_offset_ns) << '\n';
-        ++e.written;
-      } catch (const std::exception&) {
-        ++e.undecodable;
-      }
-      return;
-    }
-    std::string image_file;
-    const auto save_image = [&](const void* sample) {
-      const auto& im = *static_cast<const msgs::sensor_msgs::CompressedImage*>(sample);
-      const std::string fmt = im.format != nullptr ? im.format : "";
-      char name[48];
-      std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(e.written),
-                    fmt.find("png") != std::string::npos ? "png" : "jpg");
-      std::ofstream f(e.images / name, std::ios::binary | std::ios::trunc);
-      f.write(reinterpret_cast<const char*>(im.data._buffer), static_cast<std::streamsize>(im.data._length));
-      if (!f) throw InputError("log export: cannot write " + (e.images / name).string());
-      image_file = (e.images.filename() / name).string();
-    };
-    std::optional<json> msg;
-    if (e.hal != ExportChannel::Hal::kNone) {
-      try {
-        msg = e.hal == ExportChannel::Hal::kImage ? export_hal_image(m.data, e.images, e.written, image_file)
-                                                  : export_hal_vector3(m.data);
-      } catch (const InputError&) {
-        throw;
-      } catch (const std::exception&) {  // damaged or foreign bytes: counted, the rest exported
-      }
-    } else {
-      msg = e.images.empty() ? e.decoder->decode(m.data) : e.decoder->decode(m.data, save_image);
-    }
-    if (!msg) {
-      ++e.undecodable;
-      return;
-    }
-    // the bytes are in the file (data: their count): beside the message (jsonl), a column (csv)
-    if (!image_file.empty() && csv) (*msg)["file"] = image_file;
-    if (!csv) {
-      json line = {{"log_time_ns", m.log_time}, {"publish_time_ns", m.publish_time}, {"sequence", m.sequence},
-                   {"message", std::move(*msg)}};
-      if (!image_file.empty()) line["file"] = image_file;
-      // A recorded string need not be UTF-8 (a frame_id from another process): replaced, as
-      // `regolith echo` does, instead of json throwing and ending the export.
-      e.out << regolith::json_text(line) << '\n';
-    } else {
-      flat.clear();
-      flatten(*msg, "", flat);
-      if (e.written == 0) {
-        e.out << "log_time_ns,publish_time_ns,sequence";
-        for (const auto& [k, v] : flat) {
-          e.columns.push_back(k);
-          e.out << ',' << csv_field(k);
-        }
-        e.out << '\n';
-      }
-      std::map<std::string, const json*> by_key(flat.begin(), flat.end());
-      e.out << m.log_time << ',' << m.publish_time << ',' << m.sequence;
-      for (const auto& k : e.columns) {
-        const auto f = by_key.find(k);
-        e.out << ',' << (f != by_key.end() ? csv_value(*f->second) : std::string());
-      }
-      e.out << '\n';
-    }
-    ++e.written;
+    if (it != chans.end()) export_message(it->second, m, csv, hal.ros_offset_ns, flat);
   });
   for (auto& [id, e] : chans) {
     e.out.close();
