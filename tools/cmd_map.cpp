@@ -123,6 +123,90 @@ struct SampleTrack {
   }
 };
 
+// What the recording is mapped from: the camera and the encoder set (the command line's, else
+// the recorded terrain_map component's, else the rover description's only one).
+struct MapSources {
+  std::string device, encoders;
+};
+
+MapSources choose_sources(const MapArgs& a, Params& tm, const RoverDescription& rover, const std::string& dep_name) {
+  MapSources src{!a.device.empty() ? a.device : tm.get<std::string>("camera", ""),
+                 !a.encoders.empty() ? a.encoders : tm.get<std::string>("encoders", "")};
+  if (src.encoders.empty()) {
+    for (const Wheel& w : rover.wheels) {
+      if (src.encoders.empty())
+        src.encoders = w.encoders;
+      else if (w.encoders != src.encoders)
+        throw InputError(dep_name + ": rover.wheels report to several encoder sets: choose one with --encoders");
+    }
+  }
+  if (src.device.empty()) {
+    if (rover.cameras.size() != 1)
+      throw InputError(dep_name + ": " + std::to_string(rover.cameras.size()) +
+                       " cameras described and no terrain_map component names one: choose one with --device");
+    src.device = rover.cameras.begin()->first;
+  }
+  return src;
+}
+
+// The recording's inputs to the map: the camera's frames (written as grey PNG into out/frames as
+// they come, with their capture stamps), each wheel's angle samples and the IMU heading samples
+// (when `imu_topic` is set), sorted by time. Damaged messages are skipped with a warning.
+struct RecordedInputs {
+  std::vector<std::pair<TimeNs, fs::path>> frames;
+  std::vector<SampleTrack> angles;  // per wheel (wheel_of's index)
+  SampleTrack yaws{.samples = {}, .angle = true};
+  std::size_t samples = 0;  // encoder samples of the wheels mapped
+};
+
+RecordedInputs read_recorded_inputs(record::McapReader& reader, const std::string& name, const std::string& cam_topic,
+                                    const std::string& enc_topic, const std::string& imu_topic,
+                                    const std::map<std::string, std::size_t>& wheel_of, const fs::path& out) {
+  RecordedInputs in;
+  in.angles.resize(wheel_of.size());
+  fs::create_directories(out / "frames");
+  const auto problems = reader.for_each_message([&](const record::MessageView& m) {
+    if (m.channel.topic == cam_topic) {
+      record::DecodedImage d;
+      try {
+        d = record::decode_image(m.data);
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {} frame {}: {}; skipped", name, cam_topic, in.frames.size(), e.what());
+        return;
+      }
+      cv::Mat gray = d.image;
+      if (gray.channels() == 3) cv::cvtColor(d.image, gray, cv::COLOR_BGR2GRAY);
+      char fn[32];
+      std::snprintf(fn, sizeof fn, "%05zu.png", in.frames.size());
+      const fs::path p = out / "frames" / fn;
+      if (!cv::imwrite(p.string(), gray)) throw InputError(p.string() + ": cannot write");
+      in.frames.emplace_back(d.stamp, p);
+    } else if (!imu_topic.empty() && m.channel.topic == imu_topic) {
+      try {
+        const hal::ImuSample i = record::decode_imu(m.data);
+        // the live system's check (hal::PlausibleImu): a recording made without it may hold damaged samples
+        if (hal::plausible(i)) in.yaws.samples.emplace_back(i.stamp, i.attitude.yaw_rad);
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {}: {}; sample skipped", name, imu_topic, e.what());
+      }
+    } else if (m.channel.topic == enc_topic) {
+      try {
+        const record::DecodedWheelAngle w = record::decode_wheel_angle(m.data);
+        const auto it = wheel_of.find(w.wheel);
+        if (it != wheel_of.end() && std::isfinite(w.angle))
+          in.angles[it->second].samples.emplace_back(w.stamp, w.angle), ++in.samples;
+      } catch (const std::exception& e) {
+        spdlog::warn("{}: {}: {}; sample skipped", name, enc_topic, e.what());
+      }
+    }
+  });
+  for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
+  for (SampleTrack& w : in.angles) w.sort();
+  in.yaws.sort();
+  std::stable_sort(in.frames.begin(), in.frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  return in;
+}
+
 /// A HAL recording as a drive: the frames of one camera written as PNG into `out`/frames (and
 /// `out`/frames.csv) with the skid-steer wheel odometry (rover.wheels of the recorded deployment)
 /// at each frame's capture time, in the odometry frame of the recording's start (x forward, y
@@ -139,21 +223,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
 
   // The terrain_map component's settings, read with the component's own readers.
   Params tm = terrain_map_params(root, dep.name);
-  std::string device = !a.device.empty() ? a.device : tm.get<std::string>("camera", "");
-  std::string encoders = !a.encoders.empty() ? a.encoders : tm.get<std::string>("encoders", "");
-  if (encoders.empty()) {
-    for (const Wheel& w : rover.wheels) {
-      if (encoders.empty()) encoders = w.encoders;
-      else if (w.encoders != encoders)
-        throw InputError(dep.name + ": rover.wheels report to several encoder sets: choose one with --encoders");
-    }
-  }
-  if (device.empty()) {
-    if (rover.cameras.size() != 1)
-      throw InputError(dep.name + ": " + std::to_string(rover.cameras.size()) +
-                       " cameras described and no terrain_map component names one: choose one with --device");
-    device = rover.cameras.begin()->first;
-  }
+  const auto [device, encoders] = choose_sources(a, tm, rover, dep.name);
   const mapping::OdometrySettings settings = mapping::read_odometry_settings(tm, rover);
   const double max_speed = mapping::read_drive_mapper_params(tm).wheel.max_speed_mps;
   const RoverCamera* rc = rover.camera(device);
@@ -174,64 +244,24 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
 
   // The recording: frames to PNG files as they come, samples kept (a few bytes each).
   const fs::path out(a.out);
-  fs::create_directories(out / "frames");
-  std::vector<SampleTrack> angles(wheels.size());  // per wheel
-  SampleTrack yaws{.samples = {}, .angle = true};   // IMU heading (heading_source imu)
-  std::size_t samples = 0;
-  std::vector<std::pair<TimeNs, fs::path>> frames;
   const std::string cam_topic = record::hal_camera_topic(device);
   const std::string enc_topic = record::hal_samples_topic("encoders", encoders);
   const std::string imu_topic = settings.imu_heading ? record::hal_samples_topic("imus", rover.imu) : std::string();
-  const auto problems = reader.for_each_message([&](const record::MessageView& m) {
-    if (m.channel.topic == cam_topic) {
-      record::DecodedImage d;
-      try {
-        d = record::decode_image(m.data);
-      } catch (const std::exception& e) {
-        spdlog::warn("{}: {} frame {}: {}; skipped", name, cam_topic, frames.size(), e.what());
-        return;
-      }
-      cv::Mat gray = d.image;
-      if (gray.channels() == 3) cv::cvtColor(d.image, gray, cv::COLOR_BGR2GRAY);
-      char fn[32];
-      std::snprintf(fn, sizeof fn, "%05zu.png", frames.size());
-      const fs::path p = out / "frames" / fn;
-      if (!cv::imwrite(p.string(), gray)) throw InputError(p.string() + ": cannot write");
-      frames.emplace_back(d.stamp, p);
-    } else if (!imu_topic.empty() && m.channel.topic == imu_topic) {
-      try {
-        const hal::ImuSample i = record::decode_imu(m.data);
-        // the live system's check (hal::PlausibleImu): a recording made without it may hold damaged samples
-        if (hal::plausible(i)) yaws.samples.emplace_back(i.stamp, i.attitude.yaw_rad);
-      } catch (const std::exception& e) {
-        spdlog::warn("{}: {}: {}; sample skipped", name, imu_topic, e.what());
-      }
-    } else if (m.channel.topic == enc_topic) {
-      try {
-        const record::DecodedWheelAngle w = record::decode_wheel_angle(m.data);
-        const auto it = wheel_of.find(w.wheel);
-        if (it != wheel_of.end() && std::isfinite(w.angle)) angles[it->second].samples.emplace_back(w.stamp, w.angle), ++samples;
-      } catch (const std::exception& e) {
-        spdlog::warn("{}: {}: {}; sample skipped", name, enc_topic, e.what());
-      }
-    }
-  });
-  for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
+  const RecordedInputs in = read_recorded_inputs(reader, name, cam_topic, enc_topic, imu_topic, wheel_of, out);
+  const auto& frames = in.frames;
   if (frames.empty()) throw InputError(name + ": no frames of camera '" + device + "' (" + cam_topic + ")");
-  if (samples == 0) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
-  if (settings.imu_heading && yaws.samples.empty())
-    throw InputError(name + ": no samples of IMU '" + rover.imu + "' (" + imu_topic +
-                     "), which gives the terrain_map's heading (heading_source: wheels in the deployment to map without it)");
-  for (SampleTrack& w : angles) w.sort();
-  yaws.sort();
-  std::stable_sort(frames.begin(), frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  if (in.samples == 0) throw InputError(name + ": no samples of encoder set '" + encoders + "' (" + enc_topic + ")");
+  if (settings.imu_heading && in.yaws.samples.empty())
+    throw InputError(
+        name + ": no samples of IMU '" + rover.imu + "' (" + imu_topic +
+        "), which gives the terrain_map's heading (heading_source: wheels in the deployment to map without it)");
   // The recorded inputs read at t as the component reads its devices (one odometry sub-step of
   // extrapolation past the newest sample).
   const auto read = [&](TimeNs t, std::span<double> wheel_angles, double& yaw) {
-    for (std::size_t i = 0; i < angles.size(); ++i)
-      if (!angles[i].at(t, settings.step, wheel_angles[i])) return false;
+    for (std::size_t i = 0; i < in.angles.size(); ++i)
+      if (!in.angles[i].at(t, settings.step, wheel_angles[i])) return false;
     yaw = std::numeric_limits<double>::quiet_NaN();
-    return !settings.imu_heading || yaws.at(t, settings.step, yaw);
+    return !settings.imu_heading || in.yaws.at(t, settings.step, yaw);
   };
 
   // Odometry at each frame: every sample up to the frame's capture time, once each wheel has one.
@@ -276,9 +306,10 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     spdlog::warn("{}: {} implausible wheel steps (faster than wheel_max_speed_mps) re-anchored the odometry", name,
                  odometry.reanchored());
   std::printf("%s: camera %s, %zu frames, encoder set %s (%zu wheels, %zu samples), heading %s, wheel path %.3f m\n",
-              name.c_str(), device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), samples,
-              settings.imu_heading ? ("imu " + rover.imu + " (" + std::to_string(yaws.samples.size()) + " samples)").c_str()
-                                   : "wheels",
+              name.c_str(), device.c_str(), drive.frames.size(), encoders.c_str(), wheels.size(), in.samples,
+              settings.imu_heading
+                  ? ("imu " + rover.imu + " (" + std::to_string(in.yaws.samples.size()) + " samples)").c_str()
+                  : "wheels",
               odometry.distance());
   return drive;
 }
