@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "error_of.hpp"
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "temp_dir.hpp"
@@ -35,15 +36,8 @@ TEST(Csv, SplitGivesOneCellMoreThanCommasEachTrimmed) {
 }
 
 namespace {
-// The message of the InputError `f` throws ("" when it throws none).
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+std::string error_of(const auto& f) {
+  return regolith::testing::error_of<InputError>(f);
 }
 }  // namespace
 

@@ -1,18 +1,14 @@
 // Params: typed access, ranges, defaults, unknown keys, resolved values.
 #include <gtest/gtest.h>
 
+#include "error_of.hpp"
 #include "regolith/core/params.hpp"
 
 using namespace regolith;
 
 namespace {
 std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "<no error>";
+  return regolith::testing::error_of<ConfigError>(f);
 }
 }  // namespace
 

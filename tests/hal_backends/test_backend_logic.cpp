@@ -2,12 +2,12 @@
 // selection, error-frame decoding, YAML validation, start-up errors for absent devices). The
 // back-off and the error types they share are tested with regolith::hal (tests/hal/test_device.cpp).
 #include <gtest/gtest.h>
-
 #include <linux/can.h>
 #include <linux/can/error.h>
 
 #include <filesystem>
 
+#include "error_of.hpp"
 #include "regolith/hal_libcamera/libcamera.hpp"
 #include "regolith/hal_socketcan/socketcan.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
@@ -17,28 +17,7 @@ using namespace regolith::hal;
 
 namespace {
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "<no exception>";
-}
-
-/// The message of the exception of type E that `f` throws ("<other: ...>" for any other type).
-template <class E, class F>
-std::string error_of_type(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("<other: ") + e.what() + ">";
-  }
-  return "<no exception>";
-}
+using regolith::testing::error_of;
 
 #define EXPECT_CONTAINS(haystack, needle) \
   EXPECT_NE(std::string(haystack).find(needle), std::string::npos) << "message: " << (haystack)
@@ -108,10 +87,10 @@ TEST(V4l2Camera, MissingDeviceIsAStartupErrorNamingIt) {
   DeviceContext ctx;
   ctx.id = "front";
   // absent now, may appear later (a USB camera at boot): unavailable, not a configuration error
-  const std::string msg = error_of_type<DeviceUnavailableError>([&] { reg.make_camera(p, ctx); });
+  const std::string msg = error_of<DeviceUnavailableError>([&] { reg.make_camera(p, ctx); });
   EXPECT_CONTAINS(msg, "rover.yaml:2:9: device: v4l2 camera 'front' (/dev/video97): cannot open: No such file or directory");
   auto by_card = Params::load_string("backend: v4l2\ncard: No Such Camera\n", "rover.yaml");
-  const std::string by_card_msg = error_of_type<DeviceUnavailableError>([&] { reg.make_camera(by_card, ctx); });
+  const std::string by_card_msg = error_of<DeviceUnavailableError>([&] { reg.make_camera(by_card, ctx); });
   EXPECT_CONTAINS(by_card_msg, "rover.yaml:2:7: card: v4l2 camera 'front': ");
   EXPECT_CONTAINS(by_card_msg, "no video capture device matches card 'No Such Camera'");
 }
@@ -122,12 +101,12 @@ TEST(V4l2Camera, NonVideoNodeIsRejected) {
   DeviceContext ctx;
   ctx.id = "front";
   // the node is there but cannot capture: a configuration error (not retried)
-  const std::string msg = error_of_type<DeviceConfigError>([&] { v4l2::V4l2Camera cam(c, ctx); });
+  const std::string msg = error_of<DeviceConfigError>([&] { v4l2::V4l2Camera cam(c, ctx); });
   EXPECT_CONTAINS(msg, "v4l2 camera 'front' (/dev/null): not a V4L2 device");
   BackendRegistry reg;
   v4l2::register_v4l2_backend(reg);
   auto p = Params::load_string("backend: v4l2\ndevice: /dev/null\n", "rover.yaml");
-  EXPECT_CONTAINS(error_of_type<ConfigError>([&] { reg.make_camera(p, ctx); }),
+  EXPECT_CONTAINS(error_of<ConfigError>([&] { reg.make_camera(p, ctx); }),
                   "rover.yaml:2:9: device: v4l2 camera 'front' (/dev/null): not a V4L2 device");
 }
 
@@ -217,7 +196,7 @@ TEST(SocketCan, AbsentInterfaceIsAStartupErrorNamingIt) {
   DeviceContext ctx;
   ctx.id = "wheels";
   // the interface is looked up before the CAN socket is created: the same on a kernel without SocketCAN
-  const std::string msg = error_of_type<DeviceUnavailableError>([&] { reg.make_encoders(p, ctx); });
+  const std::string msg = error_of<DeviceUnavailableError>([&] { reg.make_encoders(p, ctx); });
   EXPECT_CONTAINS(
       msg, "rover.yaml:2:12: interface: socketcan 'wheels': interface 'rgcan7' does not exist (CAN interfaces: ");
 }
@@ -228,7 +207,7 @@ TEST(SocketCan, NonCanInterfaceIsRejected) {
   c.wheels.push_back(CanSignal{"fl", 0x101});
   DeviceContext ctx;
   ctx.id = "wheels";
-  const std::string msg = error_of_type<DeviceConfigError>([&] { socketcan::SocketCanEncoders enc(c, ctx); });
+  const std::string msg = error_of<DeviceConfigError>([&] { socketcan::SocketCanEncoders enc(c, ctx); });
   EXPECT_CONTAINS(msg, "socketcan 'wheels': interface 'lo' is not a CAN interface (link type 772");
 }
 

@@ -1,6 +1,5 @@
 #pragma once
 // Helpers for the mock-backend tests: a manual clock, temp directories, YAML -> backends.
-#include "temp_dir.hpp"
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -8,10 +7,12 @@
 #include <random>
 #include <string>
 
+#include "error_of.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/hal/imu.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/mocks/backends.hpp"
+#include "temp_dir.hpp"
 
 namespace regolith::mocks::test {
 
@@ -64,15 +65,10 @@ struct Fixture {
   }
 };
 
-/// Message of the ConfigError thrown by `f` (empty string when nothing is thrown).
+/// Message of the ConfigError thrown by `f` (regolith::testing::error_of).
 template <class F>
 std::string config_error(F&& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return {};
+  return regolith::testing::error_of<ConfigError>(f);
 }
 
 }  // namespace regolith::mocks::test

@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "error_of.hpp"
 #include "scene_helpers.hpp"
 
 namespace rs = regolith::sinkage;
@@ -13,15 +14,7 @@ using rs::testing::kDeg;
 
 namespace {
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "<no exception>";
-}
+using regolith::testing::error_of;
 
 std::uint8_t mask_at(const rs::SinkageEstimator& e, double x, double y) {
   return e.mask().at<std::uint8_t>(static_cast<int>(std::lround(y)), static_cast<int>(std::lround(x)));

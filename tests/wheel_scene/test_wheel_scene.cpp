@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
-
 #include <opencv2/imgcodecs.hpp>
 
+#include "error_of.hpp"
 #include "regolith/wheel_scene/wheel_scene.hpp"
 #include "temp_dir.hpp"
 
@@ -17,15 +17,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 namespace {
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "<no exception>";
-}
+using regolith::testing::error_of;
 
 bool is_blue(const cv::Vec3b& p) { return p[0] > p[2] + 60 && p[0] > p[1] + 30; }
 
