@@ -42,60 +42,8 @@ class SamsComponent final : public runtime::Component {
                                    "candidates ranked by the trained rock model, `model`)"});
     trained_ = method_name_ == "trained";
     method_ = trained_ ? Method::kContrast : method_from_string(method_name_);
-
-    // ---- saliency model (Itti / SAMS) ----
-    IttiParams ip;
-    ip.normalisation = Normalisation::kLocalMax;
-    const std::string norm = p.get<std::string>(
-        "normalisation", "local_max",
-        {.choices = {"local_max", "iterative"}, .doc = "N(.) operator: Itti 1998 local-max or iterative DoG"});
-    ip.normalisation = norm == "iterative" ? Normalisation::kIterative : Normalisation::kLocalMax;
-    const std::string feat = p.get<std::string>(
-        "structure", "height", {.choices = {"height", "slope"}, .doc = "SAMS structure feature of the DTM"});
-    ip.structure_feature = feat == "slope" ? StructureFeature::kSlope : StructureFeature::kHeight;
-    ip.centre_min = p.get<int>("centre_min", ip.centre_min, {.min = 0, .max = 10, .doc = "finest centre level c"});
-    ip.centre_max = p.get<int>("centre_max", ip.centre_max, {.min = 0, .max = 10, .doc = "coarsest centre level c"});
-    ip.delta_min =
-        p.get<int>("delta_min", ip.delta_min, {.min = 1, .max = 10, .doc = "smallest surround offset s - c"});
-    ip.delta_max = p.get<int>("delta_max", ip.delta_max, {.min = 1, .max = 10, .doc = "largest surround offset s - c"});
-    ip.map_level =
-        p.get<int>("map_level", ip.map_level, {.min = 0, .max = 12, .doc = "pyramid level of the maps (4 = 1:16)"});
-    ip.weights.intensity =
-        p.get<double>("w_intensity", 0.2, {.min = 0.0, .doc = "SAMS weight of the intensity channel"});
-    ip.weights.orientation =
-        p.get<double>("w_orientation", 0.5, {.min = 0.0, .doc = "SAMS weight of the orientation channel"});
-    ip.weights.structure =
-        p.get<double>("w_structure", 0.3, {.min = 0.0, .doc = "SAMS weight of the structure (DTM) channel"});
-    ip.weights.colour = 0.0;  // the DTM carries a grey image
-    if (method_ == Method::kItti) ip.weights = {1.0, 1.0, 0.0, 0.0};
-    try {
-      ip.validate();
-    } catch (const FieldError& e) {
-      if (e.owner() == "ChannelWeights") p.fail("w_" + e.field(), e.problem());  // read from w_<channel>
-      p.fail(e);
-    }
-    if (method_ == Method::kSams && ip.weights.intensity + ip.weights.orientation + ip.weights.structure <= 0.0)
-      p.fail("w_structure", "all SAMS channel weights are 0");
-
-    // ---- post-processing ----
-    PostProcessParams pp;
-    pp.threshold_scale = p.get<double>("threshold_scale", pp.threshold_scale,
-                                       {.min = 0.0, .min_exclusive = true, .doc = "binary threshold = scale x Otsu"});
-    pp.open_radius = p.get<int>("open_radius_px", pp.open_radius,
-                                {.unit = "px", .min = 0, .max = 50, .doc = "morphological opening radius (0 = none)"});
-    pp.close_radius = p.get<int>("close_radius_px", pp.close_radius,
-                                 {.unit = "px", .min = 0, .max = 50, .doc = "morphological closing radius (0 = none)"});
-    pp.min_area =
-        p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
-    pp.max_detections =
-        p.get<int>("max_detections", 32,
-                   {.min = 1, .max = static_cast<double>(kMaxRocks), .doc = "rocks kept per frame (highest scores)"});
-    max_detections_ = pp.max_detections;
-    try {
-      pp.validate();
-    } catch (const std::invalid_argument& e) {
-      p.fail({}, e.what());
-    }
+    const IttiParams ip = read_saliency_model(p);
+    const PostProcessParams pp = read_post_processing(p);
 
     // ---- ranging ----
     ranging_.hazard_size_m = p.get<double>(
@@ -109,30 +57,7 @@ class SamsComponent final : public runtime::Component {
     const direct_depth::CameraModel model = common::camera_model_of(rover_camera);
     const int w = model.width, h = model.height;
     size_ = cv::Size(w, h);
-    if (trained_) {
-      const std::string path = p.get<std::string>(
-          "model", default_trained_model_path(),
-          {.doc = "rock model file of method trained (`regolith train rocks`; default the shipped model)"});
-      try {
-        model_ = TrainedModel::load(path);
-      } catch (const ModelError& e) {
-        p.fail("model", e.what());
-      }
-      score_threshold_ =
-          p.get<double>("score_threshold", model_.score_threshold,
-                        {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
-      nms_iou_ = p.get<double>("nms_iou", model_.nms_iou,
-                               {.min = 0.0,
-                                .max = 1.0,
-                                .min_exclusive = true,
-                                .doc = "method trained: a box overlapping a better one by more than this IoU is "
-                                       "dropped (default the model's)"});
-      extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
-      const std::size_t most = extractor_->max_candidates(cv::Size(w, h));
-      candidates_.candidates.reserve(most);
-      scores_.reserve(most);
-      order_.reserve(most);
-    }
+    if (trained_) load_trained_model(p);
     if (method_ == Method::kSams || method_ == Method::kItti) {
       const int need = ip.min_input_side();
       if (w < need || h < need)
@@ -181,6 +106,107 @@ class SamsComponent final : public runtime::Component {
       return GroundPoint{g.range_m, g.lateral_m};
     };
 
+    build_lookups(p);
+    warm_up();
+    connect(p, ctx, frame_id, timeout_s);
+  }
+
+  // ---- configure()'s stages ----
+ private:
+  // The saliency model (Itti / SAMS): normalisation, structure feature, pyramid levels, weights.
+  IttiParams read_saliency_model(Params& p) {
+    IttiParams ip;
+    ip.normalisation = Normalisation::kLocalMax;
+    const std::string norm = p.get<std::string>(
+        "normalisation", "local_max",
+        {.choices = {"local_max", "iterative"}, .doc = "N(.) operator: Itti 1998 local-max or iterative DoG"});
+    ip.normalisation = norm == "iterative" ? Normalisation::kIterative : Normalisation::kLocalMax;
+    const std::string feat = p.get<std::string>(
+        "structure", "height", {.choices = {"height", "slope"}, .doc = "SAMS structure feature of the DTM"});
+    ip.structure_feature = feat == "slope" ? StructureFeature::kSlope : StructureFeature::kHeight;
+    ip.centre_min = p.get<int>("centre_min", ip.centre_min, {.min = 0, .max = 10, .doc = "finest centre level c"});
+    ip.centre_max = p.get<int>("centre_max", ip.centre_max, {.min = 0, .max = 10, .doc = "coarsest centre level c"});
+    ip.delta_min =
+        p.get<int>("delta_min", ip.delta_min, {.min = 1, .max = 10, .doc = "smallest surround offset s - c"});
+    ip.delta_max = p.get<int>("delta_max", ip.delta_max, {.min = 1, .max = 10, .doc = "largest surround offset s - c"});
+    ip.map_level =
+        p.get<int>("map_level", ip.map_level, {.min = 0, .max = 12, .doc = "pyramid level of the maps (4 = 1:16)"});
+    ip.weights.intensity =
+        p.get<double>("w_intensity", 0.2, {.min = 0.0, .doc = "SAMS weight of the intensity channel"});
+    ip.weights.orientation =
+        p.get<double>("w_orientation", 0.5, {.min = 0.0, .doc = "SAMS weight of the orientation channel"});
+    ip.weights.structure =
+        p.get<double>("w_structure", 0.3, {.min = 0.0, .doc = "SAMS weight of the structure (DTM) channel"});
+    ip.weights.colour = 0.0;  // the DTM carries a grey image
+    if (method_ == Method::kItti) ip.weights = {1.0, 1.0, 0.0, 0.0};
+    try {
+      ip.validate();
+    } catch (const FieldError& e) {
+      if (e.owner() == "ChannelWeights") p.fail("w_" + e.field(), e.problem());  // read from w_<channel>
+      p.fail(e);
+    }
+    if (method_ == Method::kSams && ip.weights.intensity + ip.weights.orientation + ip.weights.structure <= 0.0)
+      p.fail("w_structure", "all SAMS channel weights are 0");
+
+    return ip;
+  }
+
+  // The binary map -> boxes step: threshold, morphology, smallest component, most boxes.
+  PostProcessParams read_post_processing(Params& p) {
+    PostProcessParams pp;
+    pp.threshold_scale = p.get<double>("threshold_scale", pp.threshold_scale,
+                                       {.min = 0.0, .min_exclusive = true, .doc = "binary threshold = scale x Otsu"});
+    pp.open_radius = p.get<int>("open_radius_px", pp.open_radius,
+                                {.unit = "px", .min = 0, .max = 50, .doc = "morphological opening radius (0 = none)"});
+    pp.close_radius = p.get<int>("close_radius_px", pp.close_radius,
+                                 {.unit = "px", .min = 0, .max = 50, .doc = "morphological closing radius (0 = none)"});
+    pp.min_area =
+        p.get<int>("min_area_px", pp.min_area, {.unit = "px", .min = 1, .doc = "smallest connected component kept"});
+    pp.max_detections =
+        p.get<int>("max_detections", 32,
+                   {.min = 1, .max = static_cast<double>(kMaxRocks), .doc = "rocks kept per frame (highest scores)"});
+    max_detections_ = pp.max_detections;
+    try {
+      pp.validate();
+    } catch (const std::invalid_argument& e) {
+      p.fail({}, e.what());
+    }
+
+    return pp;
+  }
+
+  // Method trained: the rock model file, its score threshold and NMS overlap, and the candidate
+  // buffers reserved for the most candidates a frame can give.
+  void load_trained_model(Params& p) {
+    const std::string path = p.get<std::string>(
+        "model", default_trained_model_path(),
+        {.doc = "rock model file of method trained (`regolith train rocks`; default the shipped model)"});
+    try {
+      model_ = TrainedModel::load(path);
+    } catch (const ModelError& e) {
+      p.fail("model", e.what());
+    }
+    score_threshold_ =
+        p.get<double>("score_threshold", model_.score_threshold,
+                      {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
+    nms_iou_ = p.get<double>("nms_iou", model_.nms_iou,
+                             {.min = 0.0,
+                              .max = 1.0,
+                              .min_exclusive = true,
+                              .doc = "method trained: a box overlapping a better one by more than this IoU is "
+                                     "dropped (default the model's)"});
+    extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
+    const std::size_t most = extractor_->max_candidates(size_);
+    candidates_.candidates.reserve(most);
+    scores_.reserve(most);
+    order_.reserve(most);
+  }
+
+  // The image region searched (pixels that see the flat ground within max_range_m, at full and at
+  // quarter resolution), the work images, and each grid cell's pixel.
+  void build_lookups(Params& p) {
+    const direct_depth::DirectDepth* dd = depth_.get();
+    const int w = size_.width, h = size_.height, nx = grid_.size_x(), ny = grid_.size_y();
     // Region searched: pixels that see the flat ground within max_range_m. The rest (sky, far
     // terrain) is filled with the mean of the region before saliency, and zeroed afterwards.
     roi_ = (dd->valid_map() != 0) & (dd->range_map() <= max_range_m_);
@@ -212,8 +238,11 @@ class SamsComponent final : public runtime::Component {
         }
         cell_pixel_.at<int>(i, j) = idx;
       }
+  }
 
-    // Warm-up on a synthetic frame of the camera's size: sizes every buffer of the models.
+  // Warm-up on a synthetic frame of the camera's size: sizes every buffer of the models.
+  void warm_up() {
+    const int w = size_.width, h = size_.height;
     cv::Mat gray(size_, CV_8U), height(size_, CV_32F);
     for (int r = 0; r < h; ++r)
       for (int c = 0; c < w; ++c) {
@@ -233,7 +262,11 @@ class SamsComponent final : public runtime::Component {
       process(gray, height, 0);
       if (quarter_ok_) process(gray, height4, 2);
     }
+  }
 
+  // The DTM input, the rock and rock-probability channels, and the terrain/rocks DDS writer.
+  void connect(Params& p, runtime::Context& ctx, const std::string& frame_id, double timeout_s) {
+    const int nx = grid_.size_x(), ny = grid_.size_y();
     dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
     // Only SAMS proper reads the DTM's heights (its terrain-structure channel); the other methods
     // read the grey image.
@@ -270,6 +303,7 @@ class SamsComponent final : public runtime::Component {
     }
   }
 
+ public:
   void step(const runtime::CycleInfo& c) override {
     auto lease = dtm_->acquire();
     if (!lease) return;
