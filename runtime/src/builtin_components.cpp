@@ -157,22 +157,45 @@ class HealthComponent final : public Component {
   }
 
   void step(const CycleInfo& cycle) override {
-    const auto& v = ctx_->system();
     HealthSnapshot* s = out_->begin_write();
     if (s == nullptr) return;
     s->stamp = cycle.now;
     s->count = 0;
     s->all_critical_ok = true;
-    auto add = [&]() -> HealthEntry* {
-      if (s->count >= kMaxHealthEntries) return nullptr;
-      HealthEntry& e = s->entries[s->count++];
-      e = HealthEntry{};
-      return &e;
-    };
+    report_groups(*s);
+    report_components(*s, cycle);
+    blame_slips(*s);
+    for (std::uint32_t i = 0; i < s->count; ++i)
+      if (gates_watchdog(s->entries[i])) s->all_critical_ok = false;
+    report_devices(*s, cycle.now);
+    out_->commit();
+    if (diag_) {
+      if (DiagnosticArray* m = diag_->begin()) {
+        fill_diagnostics(*s, hardware_id_, *m);
+        diag_->commit();
+      }
+    }
+  }
 
+  bool critical() const override { return true; }
+
+ private:
+  // ---- step()'s parts: one entry per rate group, component and device, in that order ----
+
+  // The next entry of `s`, cleared; nullptr when the snapshot is full.
+  static HealthEntry* add_entry(HealthSnapshot& s) {
+    if (s.count >= kMaxHealthEntries) return nullptr;
+    HealthEntry& e = s.entries[s.count++];
+    e = HealthEntry{};
+    return &e;
+  }
+
+  // Rate groups: cycles, slips (a warning when it slipped since the last report), timing.
+  void report_groups(HealthSnapshot& s) {
+    const auto& v = ctx_->system();
     for (std::size_t gi = 0; gi < v.groups.size(); ++gi) {
       const RateGroup& g = *v.groups[gi];
-      HealthEntry* e = add();
+      HealthEntry* e = add_entry(s);
       if (e == nullptr) break;
       const auto c = g.counters();
       e->kind = HealthEntry::Kind::kRateGroup;
@@ -189,11 +212,16 @@ class HealthComponent final : public Component {
       }
       last_slips_[gi] = c.slips;
     }
+  }
 
+  // Components: heartbeat (stalled after stall_cycles reports without one), errors, stale inputs,
+  // timing, and the execution time since the last report (for blame_slips).
+  void report_components(HealthSnapshot& s, const CycleInfo& cycle) {
+    const auto& v = ctx_->system();
     std::fill(entry_of_.begin(), entry_of_.end(), static_cast<std::uint32_t>(kMaxHealthEntries));
     for (std::size_t ci = 0; ci < v.components.size(); ++ci) {
       const Component& comp = *v.components[ci];
-      HealthEntry* e = add();
+      HealthEntry* e = add_entry(s);
       if (e == nullptr) break;
       e->kind = HealthEntry::Kind::kComponent;
       copy_name(e->name, comp.name());
@@ -242,31 +270,37 @@ class HealthComponent final : public Component {
       interval_exec_[ci] = e->exec.count > last_exec_count_[ci] ? total - last_exec_total_[ci] : 0.0;
       last_exec_count_[ci] = e->exec.count;
       last_exec_total_[ci] = total;
-      entry_of_[ci] = s->count - 1;
+      entry_of_[ci] = s.count - 1;
     }
-    // The culprit of each group that slipped since the last report: the member that took the most
-    // time in it (a warning; only a stalled or failed critical component stops the watchdog).
+  }
+
+  // The culprit of each group that slipped since the last report: the member that took the most
+  // time in it (a warning; only a stalled or failed critical component stops the watchdog).
+  void blame_slips(HealthSnapshot& s) {
+    const auto& v = ctx_->system();
     for (std::size_t gi = 0; gi < v.groups.size(); ++gi) {
       if (!slipped_[gi]) continue;
       std::size_t worst = v.components.size();
       for (std::size_t ci = 0; ci < v.components.size(); ++ci) {
         if (group_of_[ci] != gi) continue;
-        if (entry_of_[ci] < s->count && (worst == v.components.size() || interval_exec_[ci] > interval_exec_[worst]))
+        if (entry_of_[ci] < s.count && (worst == v.components.size() || interval_exec_[ci] > interval_exec_[worst]))
           worst = ci;
       }
       if (worst == v.components.size()) continue;
-      HealthEntry& e = s->entries[entry_of_[worst]];
+      HealthEntry& e = s.entries[entry_of_[worst]];
       if (e.level == Level::kOk) {
         e.level = Level::kWarn;
         e.message = "overruns its rate group's period";
       }
     }
-    for (std::uint32_t i = 0; i < s->count; ++i)
-      if (gates_watchdog(s->entries[i])) s->all_critical_ok = false;
+  }
 
+  // Devices: cameras (faults, corrupt and future-stamped frames), encoder sets (rejected, lost,
+  // stale wheels), IMUs.
+  void report_devices(HealthSnapshot& s, TimeNs now) {
     for (std::size_t k = 0; k < cameras_.size(); ++k) {
       const auto& [name, cam] = cameras_[k];
-      HealthEntry* e = add();
+      HealthEntry* e = add_entry(s);
       if (e == nullptr) break;
       const hal::CameraStats st = cam->stats();
       e->kind = HealthEntry::Kind::kCamera;
@@ -286,7 +320,7 @@ class HealthComponent final : public Component {
     }
     for (std::size_t k = 0; k < encoders_.size(); ++k) {
       const auto& [name, enc] = encoders_[k];
-      HealthEntry* e = add();
+      HealthEntry* e = add_entry(s);
       if (e == nullptr) break;
       const hal::EncoderStats st = enc->stats();
       e->kind = HealthEntry::Kind::kEncoders;
@@ -297,7 +331,7 @@ class HealthComponent final : public Component {
       e->lost = st.lost;
       e->message = hal::to_string(st.state).data();
       for (std::size_t w = 0; w < enc->wheel_count(); ++w) {
-        if (enc->stale(w, cycle.now, stale_timeout_)) ++e->stale_inputs;
+        if (enc->stale(w, now, stale_timeout_)) ++e->stale_inputs;
       }
       if (st.state == hal::DeviceState::kFaulted) {
         e->level = Level::kError;
@@ -310,7 +344,7 @@ class HealthComponent final : public Component {
       last_lost_[k] = st.lost;
     }
     for (const auto& [name, imu] : imus_) {
-      HealthEntry* e = add();
+      HealthEntry* e = add_entry(s);
       if (e == nullptr) break;
       const hal::DeviceCounters st = imu->counters();
       e->kind = HealthEntry::Kind::kImu;
@@ -321,18 +355,8 @@ class HealthComponent final : public Component {
       e->message = hal::to_string(st.state).data();
       if (st.state == hal::DeviceState::kFaulted || st.state == hal::DeviceState::kRecovering) e->level = Level::kError;
     }
-    out_->commit();
-    if (diag_) {
-      if (DiagnosticArray* m = diag_->begin()) {
-        fill_diagnostics(*s, hardware_id_, *m);
-        diag_->commit();
-      }
-    }
   }
 
-  bool critical() const override { return true; }
-
- private:
   Context* ctx_ = nullptr;
   std::vector<std::pair<std::string, hal::Camera*>> cameras_;
   std::vector<std::pair<std::string, hal::WheelEncoders*>> encoders_;
