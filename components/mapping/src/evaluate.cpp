@@ -204,10 +204,9 @@ struct ScoredGrid {
   cv::Point2d centre(int i, int j) const { return {ox + j * res, oy + i * res}; }
 };
 
-// --- poses: the corrected and the wheel path against the truth, frame by frame. `path_m` is the
-// true path length over the frames both tables have.
-nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir,
-                           double& path_m) {
+// --- poses: the corrected and the wheel path against the truth, frame by frame (`path_m`: the
+// true path length over the frames both tables have).
+nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir) {
   double path = 0, mean_err = 0, mean_err_w = 0;
   int n = 0;
   const Row* last_t = nullptr;
@@ -228,7 +227,6 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
   const Row &lt = *last_t, &le = *last_e;
   const double fe = std::hypot(le.at("x_m") - lt.at("rover_x_m"), le.at("y_m") - lt.at("rover_y_m"));
   const double fw = std::hypot(le.at("wheel_x_m") - lt.at("rover_x_m"), le.at("wheel_y_m") - lt.at("rover_y_m"));
-  path_m = path;
   return {{"frames", n},
           {"path_m", path},
           {"final_position_error_m", fe},
@@ -442,8 +440,7 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
     tp[static_cast<int>(r.at("frame"))] = std::move(r);
   const auto est =
       read_csv(map_dir / "odometry.csv", {"frame", "x_m", "y_m", "yaw_rad", "wheel_x_m", "wheel_y_m", "wheel_yaw_rad"});
-  double path = 0;
-  out["poses"] = score_poses(tp, est, map_dir, path);
+  out["poses"] = score_poses(tp, est, map_dir);
   ScoredGrid grid = read_scored_grid(drive_dir, map_dir);
   mark_seen(grid, tp, drive.camera);
   out["map"] = score_elevation(grid);
@@ -470,10 +467,10 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
   char title[256], scores[256];
   std::snprintf(title, sizeof title, "%s: rocks >= 10 cm seen %d: %d hit, %d missed; %d false alarms; F1 %.2f",
                 drive_name.c_str(), positives, hits, positives - hits, false_alarms, rocks["f1"].get<double>());
-  std::snprintf(scores, sizeof scores,
-                "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
-                out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(),
-                out["map"]["elevation_r"].get<double>(), out["poses"]["final_position_error_pct"].get<double>(), path);
+  std::snprintf(
+      scores, sizeof scores, "hazard AUC %.3f, coverage %.2f, elevation r %.3f, final position error %.2f %% of %.2f m",
+      out["hazard"]["auc"].get<double>(), out["map"]["coverage"].get<double>(), out["map"]["elevation_r"].get<double>(),
+      out["poses"]["final_position_error_pct"].get<double>(), out["poses"]["path_m"].get<double>());
   const Scored sc{.truth = grid.truth,
                   .seen = grid.seen,
                   .origin = {grid.ox, grid.oy},
