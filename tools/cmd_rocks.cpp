@@ -430,6 +430,28 @@ std::map<std::string, std::string> read_subsets(const std::filesystem::path& man
 
 // `eval rocks --trained-cv`: the trained method scored by grouped k-fold CV (models trained
 // only on the other folds), next to the contrast method with its defaults on the same folds.
+std::string mean_std(const std::vector<double>& v) {
+  const double m = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+  double s2 = 0.0;
+  for (double x : v) s2 += (x - m) * (x - m);
+  const double sd = v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3f ± %.3f", m, sd);
+  return buf;
+}
+
+// An evaluation's markdown on stdout and in `path` (if given); an error after both when
+// `failed` images were skipped, so a partial report is never mistaken for a whole one.
+void publish_report(const std::string& md, const std::string& path, int failed) {
+  std::cout << md;
+  if (!path.empty()) {
+    std::ofstream file(path);
+    file << md;
+    if (!file) throw InputError(path + ": cannot write");
+  }
+  if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
+}
+
 void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
   sal::CandidateParams cp;
   sal::TrainParams tp;
@@ -510,33 +532,11 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
   md << "\nCandidates: " << n_cand << " (" << n_cand / frames.size()
      << " per image); GT components with a candidate at IoU >= 0.2: " << cover02 << " of " << n_gt
      << ", at IoU >= 0.5: " << cover05 << " (the recall the ranking stage cannot exceed).\n";
-  std::cout << md.str();
-  if (!e.markdown.empty()) {
-    std::ofstream file(e.markdown);
-    file << md.str();
-    if (!file) throw InputError(e.markdown + ": cannot write");
-  }
-  if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
+  publish_report(md.str(), e.markdown, failed);
 }
 
-std::string mean_std(const std::vector<double>& v) {
-  const double m = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-  double s2 = 0.0;
-  for (double x : v) s2 += (x - m) * (x - m);
-  const double sd = v.size() > 1 ? std::sqrt(s2 / static_cast<double>(v.size() - 1)) : 0.0;
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3f ± %.3f", m, sd);
-  return buf;
-}
-
-void run_eval(const EvalOptions& e, const RockOptions& o) {
-  if (e.trained_cv) {
-    run_trained_cv(e, o);
-    return;
-  }
-  std::vector<sal::Method> methods;
-  for (const auto& m : e.methods) methods.push_back(sal::method_from_string(m));
-  if (methods.empty()) methods.assign(sal::kAllMethods.begin(), sal::kAllMethods.end());
+// The study's settings from the command line (ConfigError naming the bad one).
+sal::StudyConfig study_config(const EvalOptions& e, const RockOptions& o) {
   sal::StudyConfig cfg;
   cfg.itti = o.itti();
   cfg.itti_weights = {1.0, 1.0, o.colour ? 1.0 : 0.0, 0.0};
@@ -556,14 +556,14 @@ void run_eval(const EvalOptions& e, const RockOptions& o) {
   } catch (const std::invalid_argument& ex) {
     throw ConfigError(ex.what());
   }
-  std::shared_ptr<void> keep;
-  sal::HeightFn height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
-  const bool want_sams = std::find(methods.begin(), methods.end(), sal::Method::kSams) != methods.end();
-  if (want_sams && !height) no_sfs();
+  return cfg;
+}
+
+// Every readable image/mask pair into the study; the others are reported and counted.
+int add_pairs(sal::RockStudy& study, const EvalOptions& e) {
   sal::DatasetListing listing = sal::list_dataset(e.images, e.masks);
   int failed = static_cast<int>(listing.errors.size());
   for (const auto& err : listing.errors) std::cerr << "error: " << err << " (skipped)\n";
-  sal::RockStudy study(cfg, height);
   for (const auto& item : listing.items) {
     try {
       study.add(item);
@@ -573,6 +573,114 @@ void run_eval(const EvalOptions& e, const RockOptions& o) {
     }
   }
   if (study.size() == 0) throw InputError(e.images + ": no usable image/mask pairs");
+  return failed;
+}
+
+// The SAMS weight grid on all images (optimistic: chosen on the images it is scored on).
+void write_weight_sweep(std::ostream& md, sal::RockStudy& study, double weight_step) {
+  const auto cands = study.candidates(sal::Method::kSams, true, false);
+  const auto sweep = study.sweep(sal::Method::kSams, cands);
+  md << "### SAMS weight sweep on all " << study.size() << " images (" << cands.size() << " weight combinations, step "
+     << weight_step << ", fixed post-processing), top 10\n\n"
+     << "| rank | weights | N-MODA@0.2 | N-MODA@0.5 | P@0.2 | R@0.2 | "
+        "boxes |\n"
+     << "|---:|---|---:|---:|---:|---:|---:|\n";
+  for (size_t k = 0; k < std::min<size_t>(10, sweep.size()); ++k) {
+    const auto& s = sweep[k].summary;
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
+                  sweep[k].candidate.describe(sal::Method::kSams).c_str(), s.n_moda02, s.n_moda05, s.precision02,
+                  s.recall02, s.boxes);
+    md << buf;
+  }
+  md << "\nBest on the full set (optimistic, selected on the same images): "
+     << sweep.front().candidate.describe(sal::Method::kSams) << "\n\n";
+}
+
+// The folds, grouped by sol (every image of a sol in one fold).
+void write_folds(std::ostream& md, const sal::RockStudy& study, int folds) {
+  const std::vector<int> fold_of = study.folds();
+  md << "### Folds (grouped by sol: every image of one sol in the same fold)\n\n"
+     << "| fold | images | sols |\n|---:|---:|---|\n";
+  for (int f = 0; f < folds; ++f) {
+    std::vector<std::string> sols;
+    size_t count = 0;
+    for (size_t i = 0; i < study.size(); ++i) {
+      if (fold_of[i] != f) continue;
+      ++count;
+      if (std::find(sols.begin(), sols.end(), study.group(i)) == sols.end()) sols.push_back(study.group(i));
+    }
+    md << "| " << f + 1 << " | " << count << " | ";
+    for (size_t j = 0; j < sols.size(); ++j) md << (j ? ", " : "") << sols[j];
+    md << " |\n";
+  }
+  md << '\n';
+}
+
+// Grouped k-fold cross-validation of every method, once with the Otsu scales fixed and once
+// (given two or more scales) with them chosen on the train folds too.
+void write_cross_validation(std::ostream& md, sal::RockStudy& study, const std::vector<sal::Method>& methods,
+                            const sal::StudyConfig& cfg) {
+  // The contrast grid does not depend on tune_scales: cross-validated once.
+  std::optional<sal::CvResult> contrast_cv;
+  for (bool tune_scales : {false, true}) {
+    if (tune_scales && cfg.threshold_scales.size() < 2) continue;
+    std::vector<std::pair<std::string, sal::Summary>> cv_rows;
+    std::ostringstream folds_md, per_fold_md;
+    for (sal::Method m : methods) {
+      const bool own_grid = m == sal::Method::kSams || m == sal::Method::kContrast;
+      sal::CvResult r;
+      if (m == sal::Method::kContrast && contrast_cv) {
+        r = *contrast_cv;
+      } else {
+        r = study.cross_validate(m, study.candidates(m, own_grid, tune_scales));
+        if (m == sal::Method::kContrast) contrast_cv = r;
+      }
+      cv_rows.emplace_back(sal::to_string(m), sal::summarise(r.pooled));
+      std::vector<double> maxf;
+      for (const auto& s : r.fold_summaries) maxf.push_back(s.max_f);
+      folds_md << "| " << sal::to_string(m) << " | " << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
+               << " | " << mean_std(maxf) << " | " << r.most_chosen().describe(m) << " |\n";
+      for (size_t f = 0; f < r.fold_summaries.size(); ++f) {
+        const auto& s = r.fold_summaries[f];
+        char buf[128];
+        std::snprintf(buf, sizeof buf, "| %d | %d | %.3f | %.3f | %.3f | ", s.images, s.gt, s.n_moda02, s.n_moda05,
+                      s.max_f);
+        per_fold_md << "| " << sal::to_string(m) << " | " << f + 1 << ' ' << buf << r.chosen[f].describe(m) << " |\n";
+      }
+    }
+    md << "### " << cfg.folds << "-fold cross-validation grouped by sol: "
+       << (tune_scales ? "SAMS weights, the contrast grid and every other "
+                         "method's Otsu scale"
+                       : "SAMS weights and the contrast grid (Otsu x1 for "
+                         "the others)")
+       << " chosen on the train folds; test folds pooled\n\n"
+       << sal::markdown_table(cv_rows) << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
+       << "test-fold N-MODA@0.5 (mean ± sd) | test-fold max F (mean ± sd) | "
+          "chosen in most folds |\n|---|---|---|---|---|\n"
+       << folds_md.str()
+       << "\n| method | test fold | images | GT | N-MODA@0.2 | N-MODA@0.5 | "
+          "max F | chosen on the other folds |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---|\n"
+       << per_fold_md.str() << '\n';
+  }
+}
+
+void run_eval(const EvalOptions& e, const RockOptions& o) {
+  if (e.trained_cv) {
+    run_trained_cv(e, o);
+    return;
+  }
+  std::vector<sal::Method> methods;
+  for (const auto& m : e.methods) methods.push_back(sal::method_from_string(m));
+  if (methods.empty()) methods.assign(sal::kAllMethods.begin(), sal::kAllMethods.end());
+  const sal::StudyConfig cfg = study_config(e, o);
+  std::shared_ptr<void> keep;
+  sal::HeightFn height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
+  const bool want_sams = std::find(methods.begin(), methods.end(), sal::Method::kSams) != methods.end();
+  if (want_sams && !height) no_sfs();
+  sal::RockStudy study(cfg, height);
+  const int failed = add_pairs(study, e);
 
   std::ostringstream md;
   md << "Images: " << study.size() << " (" << failed << " skipped), ground-truth components >= " << e.min_gt_area
@@ -588,97 +696,12 @@ void run_eval(const EvalOptions& e, const RockOptions& o) {
   md << "### Fixed settings (SAMS " << study.default_candidate(sal::Method::kSams).describe(sal::Method::kSams)
      << "; contrast " << study.default_candidate(sal::Method::kContrast).describe(sal::Method::kContrast) << ")\n\n"
      << sal::markdown_table(rows) << '\n';
-
   if (e.sweep) {
-    if (want_sams) {
-      const auto cands = study.candidates(sal::Method::kSams, true, false);
-      const auto sweep = study.sweep(sal::Method::kSams, cands);
-      md << "### SAMS weight sweep on all " << study.size() << " images (" << cands.size()
-         << " weight combinations, step " << e.weight_step << ", fixed post-processing), top 10\n\n"
-         << "| rank | weights | N-MODA@0.2 | N-MODA@0.5 | P@0.2 | R@0.2 | "
-            "boxes |\n"
-         << "|---:|---|---:|---:|---:|---:|---:|\n";
-      for (size_t k = 0; k < std::min<size_t>(10, sweep.size()); ++k) {
-        const auto& s = sweep[k].summary;
-        char buf[256];
-        std::snprintf(buf, sizeof buf, "| %zu | %s | %.3f | %.3f | %.3f | %.3f | %d |\n", k + 1,
-                      sweep[k].candidate.describe(sal::Method::kSams).c_str(), s.n_moda02, s.n_moda05, s.precision02,
-                      s.recall02, s.boxes);
-        md << buf;
-      }
-      md << "\nBest on the full set (optimistic, selected on the same images): "
-         << sweep.front().candidate.describe(sal::Method::kSams) << "\n\n";
-    }
-    // The folds, grouped by sol (every image of a sol in one fold).
-    const std::vector<int> fold_of = study.folds();
-    md << "### Folds (grouped by sol: every image of one sol in the same fold)\n\n"
-       << "| fold | images | sols |\n|---:|---:|---|\n";
-    for (int f = 0; f < cfg.folds; ++f) {
-      std::vector<std::string> sols;
-      size_t count = 0;
-      for (size_t i = 0; i < study.size(); ++i) {
-        if (fold_of[i] != f) continue;
-        ++count;
-        if (std::find(sols.begin(), sols.end(), study.group(i)) == sols.end()) sols.push_back(study.group(i));
-      }
-      md << "| " << f + 1 << " | " << count << " | ";
-      for (size_t j = 0; j < sols.size(); ++j) md << (j ? ", " : "") << sols[j];
-      md << " |\n";
-    }
-    md << '\n';
-    // The contrast grid does not depend on tune_scales: cross-validated once.
-    std::optional<sal::CvResult> contrast_cv;
-    for (bool tune_scales : {false, true}) {
-      if (tune_scales && cfg.threshold_scales.size() < 2) continue;
-      std::vector<std::pair<std::string, sal::Summary>> cv_rows;
-      std::ostringstream folds_md, per_fold_md;
-      for (sal::Method m : methods) {
-        const bool own_grid = m == sal::Method::kSams || m == sal::Method::kContrast;
-        sal::CvResult r;
-        if (m == sal::Method::kContrast && contrast_cv) {
-          r = *contrast_cv;
-        } else {
-          r = study.cross_validate(m, study.candidates(m, own_grid, tune_scales));
-          if (m == sal::Method::kContrast) contrast_cv = r;
-        }
-        cv_rows.emplace_back(sal::to_string(m), sal::summarise(r.pooled));
-        std::vector<double> maxf;
-        for (const auto& s : r.fold_summaries) maxf.push_back(s.max_f);
-        folds_md << "| " << sal::to_string(m) << " | " << mean_std(r.fold_moda02) << " | " << mean_std(r.fold_moda05)
-                 << " | " << mean_std(maxf) << " | " << r.most_chosen().describe(m) << " |\n";
-        for (size_t f = 0; f < r.fold_summaries.size(); ++f) {
-          const auto& s = r.fold_summaries[f];
-          char buf[128];
-          std::snprintf(buf, sizeof buf, "| %d | %d | %.3f | %.3f | %.3f | ", s.images, s.gt, s.n_moda02, s.n_moda05,
-                        s.max_f);
-          per_fold_md << "| " << sal::to_string(m) << " | " << f + 1 << ' ' << buf << r.chosen[f].describe(m) << " |\n";
-        }
-      }
-      md << "### " << cfg.folds << "-fold cross-validation grouped by sol: "
-         << (tune_scales ? "SAMS weights, the contrast grid and every other "
-                           "method's Otsu scale"
-                         : "SAMS weights and the contrast grid (Otsu x1 for "
-                           "the others)")
-         << " chosen on the train folds; test folds pooled\n\n"
-         << sal::markdown_table(cv_rows) << "\n| method | test-fold N-MODA@0.2 (mean ± sd) | "
-         << "test-fold N-MODA@0.5 (mean ± sd) | test-fold max F (mean ± sd) | "
-            "chosen in most folds |\n|---|---|---|---|---|\n"
-         << folds_md.str()
-         << "\n| method | test fold | images | GT | N-MODA@0.2 | N-MODA@0.5 | "
-            "max F | chosen on the other folds |\n"
-            "|---|---:|---:|---:|---:|---:|---:|---|\n"
-         << per_fold_md.str() << '\n';
-    }
+    if (want_sams) write_weight_sweep(md, study, e.weight_step);
+    write_folds(md, study, cfg.folds);
+    write_cross_validation(md, study, methods, cfg);
   }
-  std::cout << md.str();
-  if (!e.markdown.empty()) {
-    std::ofstream f(e.markdown);
-    f << md.str();
-    if (!f) throw InputError(e.markdown + ": cannot write");
-  }
-  if (failed > 0) {
-    throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
-  }
+  publish_report(md.str(), e.markdown, failed);
 }
 
 }  // namespace

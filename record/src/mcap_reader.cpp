@@ -118,6 +118,74 @@ std::string hex32(std::uint32_t v) {
   return b;
 }
 
+// One record of the summary section into `s` (a Metadata Index is kept in `metadata_at`: its
+// record sits in the data section). Throws Malformed.
+void add_summary_record(std::uint8_t op, Cursor& c, std::uint64_t data_start, McapFileInfo& s, bool& have_statistics,
+                        std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at) {
+  switch (static_cast<Opcode>(op)) {
+    case Opcode::kSchema: {
+      Schema sc = parse_schema(c);
+      if (sc.id != 0) s.schemas[sc.id] = std::move(sc);
+      break;
+    }
+    case Opcode::kChannel: {
+      Channel ch = parse_channel(c);
+      s.channels[ch.id] = std::move(ch);
+      break;
+    }
+    case Opcode::kStatistics: {
+      s.message_count = c.u64();
+      c.u16();  // schema count
+      c.u32();  // channel count
+      c.u32();  // attachment count
+      c.u32();  // metadata count
+      c.u32();  // chunk count
+      s.message_start_time = c.u64();
+      s.message_end_time = c.u64();
+      s.message_counts = c.id_map("channel_message_counts");
+      have_statistics = true;
+      break;
+    }
+    case Opcode::kChunkIndex: {
+      ChunkInfo ci;
+      ci.message_start_time = c.u64();
+      ci.message_end_time = c.u64();
+      ci.offset = c.u64();
+      ci.length = c.u64();
+      c.id_map("message_index_offsets");
+      c.u64();  // message_index_length
+      ci.compression = c.string("compression");
+      ci.compressed_size = c.u64();
+      ci.uncompressed_size = c.u64();
+      if (ci.offset < data_start || ci.offset > s.file_size || ci.length > s.file_size - ci.offset)
+        throw Malformed("chunk at " + std::to_string(ci.offset) + " (+" + std::to_string(ci.length) +
+                        " bytes) outside the file");
+      s.chunks.push_back(std::move(ci));
+      break;
+    }
+    case Opcode::kAttachmentIndex: {
+      AttachmentInfo a;
+      a.offset = c.u64();
+      c.u64();  // length
+      a.log_time = c.u64();
+      a.create_time = c.u64();
+      a.data_size = c.u64();
+      a.name = c.string("name");
+      a.media_type = c.string("media_type");
+      s.attachments.push_back(std::move(a));
+      break;
+    }
+    case Opcode::kMetadataIndex: {
+      const std::uint64_t off = c.u64();
+      const std::uint64_t mlen = c.u64();
+      metadata_at.emplace_back(off, mlen);
+      break;
+    }
+    default:
+      break;  // DataEnd is not here; unknown and private records are skipped
+  }
+}
+
 }  // namespace
 
 // ---- byte sources -------------------------------------------------------------------------------
@@ -312,68 +380,7 @@ bool McapReader::read_summary() {
     }
     Cursor c(summary.data() + pos + kRecordPrefix, len);
     try {
-      switch (static_cast<Opcode>(op)) {
-        case Opcode::kSchema: {
-          Schema sc = parse_schema(c);
-          if (sc.id != 0) s.schemas[sc.id] = std::move(sc);
-          break;
-        }
-        case Opcode::kChannel: {
-          Channel ch = parse_channel(c);
-          s.channels[ch.id] = std::move(ch);
-          break;
-        }
-        case Opcode::kStatistics: {
-          s.message_count = c.u64();
-          c.u16();  // schema count
-          c.u32();  // channel count
-          c.u32();  // attachment count
-          c.u32();  // metadata count
-          c.u32();  // chunk count
-          s.message_start_time = c.u64();
-          s.message_end_time = c.u64();
-          s.message_counts = c.id_map("channel_message_counts");
-          have_statistics = true;
-          break;
-        }
-        case Opcode::kChunkIndex: {
-          ChunkInfo ci;
-          ci.message_start_time = c.u64();
-          ci.message_end_time = c.u64();
-          ci.offset = c.u64();
-          ci.length = c.u64();
-          c.id_map("message_index_offsets");
-          c.u64();  // message_index_length
-          ci.compression = c.string("compression");
-          ci.compressed_size = c.u64();
-          ci.uncompressed_size = c.u64();
-          if (ci.offset < data_start_ || ci.offset > size || ci.length > size - ci.offset)
-            throw Malformed("chunk at " + std::to_string(ci.offset) + " (+" + std::to_string(ci.length) +
-                            " bytes) outside the file");
-          s.chunks.push_back(std::move(ci));
-          break;
-        }
-        case Opcode::kAttachmentIndex: {
-          AttachmentInfo a;
-          a.offset = c.u64();
-          c.u64();  // length
-          a.log_time = c.u64();
-          a.create_time = c.u64();
-          a.data_size = c.u64();
-          a.name = c.string("name");
-          a.media_type = c.string("media_type");
-          s.attachments.push_back(std::move(a));
-          break;
-        }
-        case Opcode::kMetadataIndex: {
-          const std::uint64_t off = c.u64();
-          const std::uint64_t mlen = c.u64();
-          metadata_at.emplace_back(off, mlen);
-          break;
-        }
-        default:
-          break;  // DataEnd is not here; unknown and private records are skipped
-      }
+      add_summary_record(op, c, data_start_, s, have_statistics, metadata_at);
     } catch (const Malformed& e) {
       info_.problems.push_back({record_at, "summary: bad " + opcode_name(op) + " record: " + e.what() + "; scanning"});
       return false;
@@ -385,6 +392,15 @@ bool McapReader::read_summary() {
   if (!have_statistics || (s.message_count > 0 && s.chunks.empty())) return false;
   std::sort(s.chunks.begin(), s.chunks.end(),
             [](const ChunkInfo& a, const ChunkInfo& b) { return a.offset < b.offset; });
+  read_metadata(metadata_at, s);
+  s.problems.insert(s.problems.begin(), info_.problems.begin(), info_.problems.end());
+  info_ = std::move(s);
+  return true;
+}
+
+void McapReader::read_metadata(const std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at,
+                               McapFileInfo& s) {
+  const std::uint64_t size = s.file_size;
   for (const auto& [off, mlen] : metadata_at) {
     std::vector<std::uint8_t> rec;
     if (mlen < kRecordPrefix || mlen > options_.max_record_bytes || off > size || mlen > size - off) {
@@ -407,9 +423,6 @@ bool McapReader::read_summary() {
       s.problems.push_back({off, std::string("bad Metadata record: ") + e.what()});
     }
   }
-  s.problems.insert(s.problems.begin(), info_.problems.begin(), info_.problems.end());
-  info_ = std::move(s);
-  return true;
 }
 
 // ---- the slow path: every record of the data section --------------------------------------------

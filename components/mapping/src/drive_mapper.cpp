@@ -135,9 +135,34 @@ cv::Vec2d DriveMapper::sighting_tilt() const {
 }
 
 const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& wheel, double t_s) {
-  const Pose2 mount = mount_.pose();
   const double prev_t = last_t_;
   if (std::isfinite(t_s)) last_t_ = t_s;
+  begin_report(wheel);
+  ++counters_.frames;
+  const Located here = started_ ? track(gray, wheel, t_s - prev_t) : start(gray, wheel);
+  // Terrain of this frame, placed with the corrected pose (never with a frame vision rejects as
+  // unusable: black or saturated frames carry no shading).
+  const bool usable = here.foot.finite() && report_.vo != VoStatus::kTooFewPoints;
+  const double c = std::cos(here.foot.yaw), s = std::sin(here.foot.yaw);
+  const cv::Vec3d sun_foot(sun_world_[0] * c + sun_world_[1] * s, -sun_world_[0] * s + sun_world_[1] * c,
+                           sun_world_[2]);
+  if (use_parallax() && p_.fuse_shadows && usable) fuse_shadows(here.foot, sun_foot);
+  // Rocks sighted in this frame, before it can become the keyframe: what they cover is left out
+  // of the VO's tilt refit against it (GroundVisualOdometry::exclude).
+  const bool sight = p_.fuse_terrain && p_.fuse_sightings && usable;
+  if (sight) sight_rocks(gray);
+  if (here.promote) promote(here);
+  if (sight) track_rocks(here.foot);
+  if (p_.fuse_terrain && p_.fuse_shading && here.foot.finite()) fuse_shading(gray, here.foot, sun_foot);
+  counters_.parallax_frames += report_.parallax ? 1 : 0;
+  counters_.shadow_frames += report_.shadow_casters > 0 ? 1 : 0;
+  counters_.rock_sightings += report_.rock_sightings;
+  counters_.rock_tracks = tracker_.opened();
+  map_.recenter(report_.pose.x, report_.pose.y, p_.map.max_range_m + 1.0);
+  return report_;
+}
+
+void DriveMapper::begin_report(const Pose2& wheel) {
   report_.wheel_pose = wheel;
   report_.odometry_jump = false;
   report_.keyframe = false;
@@ -146,146 +171,151 @@ const FrameReport& DriveMapper::add_frame(const cv::Mat& gray, const Pose2& whee
   report_.shadow_casters = 0;
   report_.rock_sightings = 0;
   report_.rock_tracks = 0;
-  ++counters_.frames;
-  Pose2 foot;
-  Cov3 foot_cov;
-  bool promote = false;  // this frame becomes the keyframe
-  if (!started_) {
-    report_.odometry_jump = !wheel.finite();
-    report_.pose = wheel.finite() ? wheel : Pose2{};
-    report_.covariance = Cov3::Zero();
-    last_wheel_ = report_.pose;
-    foot = compose(report_.pose, mount);
-    foot_cov = Cov3::Zero();
-    const VoMeasurement& m = vo_.track(gray, Pose2{});
-    report_.vo = m.status;
-    report_.vo_inliers = 0;
-    tilt_ = cv::Vec2d();
-    if (use_parallax()) parallax_.set_frame(gray);
-    if (use_sweep()) sweep_.set_frame(gray);
-    promote = true;
-    started_ = true;
+}
+
+DriveMapper::Located DriveMapper::start(const cv::Mat& gray, const Pose2& wheel) {
+  report_.odometry_jump = !wheel.finite();
+  report_.pose = wheel.finite() ? wheel : Pose2{};
+  report_.covariance = Cov3::Zero();
+  last_wheel_ = report_.pose;
+  const VoMeasurement& m = vo_.track(gray, Pose2{});
+  report_.vo = m.status;
+  report_.vo_inliers = 0;
+  tilt_ = cv::Vec2d();
+  if (use_parallax()) parallax_.set_frame(gray);
+  if (use_sweep()) sweep_.set_frame(gray);
+  started_ = true;
+  return {.foot = compose(report_.pose, mount_.pose()), .covariance = Cov3::Zero(), .promote = true};
+}
+
+DriveMapper::Located DriveMapper::track(const cv::Mat& gray, const Pose2& wheel, double dt_s) {
+  const Pose2 mount = mount_.pose();
+  Cov3 q;
+  const Pose2 step = wheel_step(wheel, dt_s, q);
+  Pose2 fs;
+  Cov3 fq;
+  foot_step(mount, step, q, fs, fq);
+  // Wheel prediction of this frame's camera foot in the keyframe frame.
+  const Pose2 pred = compose(wheel_since_key_, fs);
+  const Cov3 pred_cov = compose_covariance(wheel_since_key_, wheel_since_key_cov_, fs, fq);
+  const VoMeasurement& m = vo_.track(gray, pred);
+  if (use_parallax()) parallax_.set_frame(gray);
+  if (use_sweep()) sweep_.set_frame(gray);
+  report_.vo = m.status;
+  report_.vo_inliers = m.inliers;
+  // Rocks are ranged with the tilt fitted without the keyframe's objects (the motion fit's
+  // where there was no refit).
+  tilt_ = m.ok() ? cv::Vec2d(m.ground_pitch_rad, m.ground_roll_rad) : cv::Vec2d();
+  if (m.ok()) tilts_[static_cast<std::size_t>(n_tilts_++ % kMaxTiltWindow)] = tilt_;
+  fuse_motion(m, pred, pred_cov);
+  fuse_parallax(m);
+  const Pose2& rel = wheel_since_key_;
+  Located here{.foot = compose(key_foot_, rel),
+               .covariance = compose_covariance(key_foot_, key_cov_, rel, wheel_since_key_cov_)};
+  report_.pose = compose(here.foot, inverse(mount));
+  report_.covariance = compose_covariance(here.foot, here.covariance, inverse(mount), Cov3::Zero());
+  // A new keyframe when the view has moved on, the fit thinned out, or vision failed on a
+  // frame that itself is good (a black or saturated frame never becomes the keyframe).
+  const bool frame_good = m.frame_cells >= 4 * p_.vo.min_points;
+  const bool moved = std::hypot(rel.x, rel.y) > p_.keyframe_distance_m || std::abs(rel.yaw) > p_.keyframe_yaw_rad;
+  const bool thin = m.ok() && m.points > 0 &&
+                    static_cast<double>(m.inliers) < p_.keyframe_min_inlier_fraction * static_cast<double>(m.points);
+  here.promote = frame_good && (moved || thin || !m.ok());
+  return here;
+}
+
+Pose2 DriveMapper::wheel_step(const Pose2& wheel, double dt_s, Cov3& q) {
+  // Wheel step in the body frame; an implausible one is ignored (and counted).
+  Pose2 step = wheel.finite() ? between(last_wheel_, wheel) : Pose2{};
+  if (!wheel.finite() || !p_.wheel.plausible(step, dt_s)) {
+    report_.odometry_jump = true;
+    ++counters_.odometry_jumps;
+    step = Pose2{};
+    q = Cov3::Zero();
+    q(0, 0) = q(1, 1) = p_.wheel.max_step_m * p_.wheel.max_step_m;
+    q(2, 2) = p_.wheel.max_step_rad * p_.wheel.max_step_rad;
   } else {
-    // Wheel step in the body frame; an implausible one is ignored (and counted).
-    Pose2 step = wheel.finite() ? between(last_wheel_, wheel) : Pose2{};
-    Cov3 q;
-    if (!wheel.finite() || !p_.wheel.plausible(step, t_s - prev_t)) {
-      report_.odometry_jump = true;
-      ++counters_.odometry_jumps;
-      step = Pose2{};
-      q = Cov3::Zero();
-      q(0, 0) = q(1, 1) = p_.wheel.max_step_m * p_.wheel.max_step_m;
-      q(2, 2) = p_.wheel.max_step_rad * p_.wheel.max_step_rad;
-    } else {
-      q = p_.wheel.covariance(step);
+    q = p_.wheel.covariance(step);
+  }
+  if (wheel.finite()) last_wheel_ = wheel;
+  return step;
+}
+
+void DriveMapper::fuse_motion(const VoMeasurement& m, const Pose2& pred, const Cov3& pred_cov) {
+  Pose2 rel = pred;
+  Cov3 rel_cov = pred_cov;
+  if (m.ok() && p_.use_vision) {
+    // Information-weighted mean of the two relative estimates (linearised at the VO pose).
+    const Eigen::Matrix3d iv = m.covariance.inverse(), iw = pred_cov.inverse();
+    const Eigen::Matrix3d s = (iv + iw).inverse();
+    const Eigen::Vector3d d(pred.x - m.pose.x, pred.y - m.pose.y, wrap_angle(pred.yaw - m.pose.yaw));
+    const Eigen::Vector3d corr = s * (iw * d);
+    if (corr.allFinite() && s.allFinite()) {
+      rel = {m.pose.x + corr[0], m.pose.y + corr[1], wrap_angle(m.pose.yaw + corr[2])};
+      rel_cov = s;
     }
-    if (wheel.finite()) last_wheel_ = wheel;
-    Pose2 fs;
-    Cov3 fq;
-    foot_step(mount, step, q, fs, fq);
-    // Wheel prediction of this frame's camera foot in the keyframe frame.
-    const Pose2 pred = compose(wheel_since_key_, fs);
-    const Cov3 pred_cov = compose_covariance(wheel_since_key_, wheel_since_key_cov_, fs, fq);
-    const VoMeasurement& m = vo_.track(gray, pred);
-    if (use_parallax()) parallax_.set_frame(gray);
-    if (use_sweep()) sweep_.set_frame(gray);
-    report_.vo = m.status;
-    report_.vo_inliers = m.inliers;
-    // Rocks are ranged with the tilt fitted without the keyframe's objects (the motion fit's
-    // where there was no refit).
-    tilt_ = m.ok() ? cv::Vec2d(m.ground_pitch_rad, m.ground_roll_rad) : cv::Vec2d();
-    if (m.ok()) tilts_[static_cast<std::size_t>(n_tilts_++ % kMaxTiltWindow)] = tilt_;
-    Pose2 rel = pred;
-    Cov3 rel_cov = pred_cov;
-    if (m.ok() && p_.use_vision) {
-      // Information-weighted mean of the two relative estimates (linearised at the VO pose).
-      const Eigen::Matrix3d iv = m.covariance.inverse(), iw = pred_cov.inverse();
-      const Eigen::Matrix3d s = (iv + iw).inverse();
-      const Eigen::Vector3d d(pred.x - m.pose.x, pred.y - m.pose.y, wrap_angle(pred.yaw - m.pose.yaw));
-      const Eigen::Vector3d corr = s * (iw * d);
-      if (corr.allFinite() && s.allFinite()) {
-        rel = {m.pose.x + corr[0], m.pose.y + corr[1], wrap_angle(m.pose.yaw + corr[2])};
-        rel_cov = s;
-      }
-      ++counters_.vo_ok;
-    } else if (p_.use_vision) {
-      ++counters_.vo_failed;
-    }
-    wheel_since_key_ = rel;
-    wheel_since_key_cov_ = rel_cov;
-    // Heights from the parallax against the keyframe, placed with the keyframe's corrected pose.
-    report_.parallax = false;
-    const double base = std::hypot(m.pose.x, m.pose.y);
-    const bool search = m.ok() && base - last_parallax_base_ >= p_.parallax_spacing_m;
-    if (search) last_parallax_base_ = base;
-    if (use_sweep() && search &&
-        sweep_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio)) {
-      report_.cells_fused += map_.fuse_points(sweep_.x(), sweep_.y(), sweep_.height(), sweep_.confidence(), key_foot_);
-      report_.parallax = true;
-    }
-    if (use_parallax() && p_.parallax_mode != ParallaxMode::kSweep && search &&
-        parallax_.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio)) {
-      report_.cells_fused += map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
-      report_.parallax = true;
-    }
-    foot = compose(key_foot_, rel);
-    foot_cov = compose_covariance(key_foot_, key_cov_, rel, rel_cov);
-    report_.pose = compose(foot, inverse(mount));
-    report_.covariance = compose_covariance(foot, foot_cov, inverse(mount), Cov3::Zero());
-    // A new keyframe when the view has moved on, the fit thinned out, or vision failed on a
-    // frame that itself is good (a black or saturated frame never becomes the keyframe).
-    const bool frame_good = m.frame_cells >= 4 * p_.vo.min_points;
-    const bool moved = std::hypot(rel.x, rel.y) > p_.keyframe_distance_m || std::abs(rel.yaw) > p_.keyframe_yaw_rad;
-    const bool thin = m.ok() && m.points > 0 &&
-                      static_cast<double>(m.inliers) < p_.keyframe_min_inlier_fraction * static_cast<double>(m.points);
-    promote = frame_good && (moved || thin || !m.ok());
+    ++counters_.vo_ok;
+  } else if (p_.use_vision) {
+    ++counters_.vo_failed;
   }
-  // Terrain of this frame, placed with the corrected pose (never with a frame vision rejects as
-  // unusable: black or saturated frames carry no shading).
-  const double c = std::cos(foot.yaw), s = std::sin(foot.yaw);
-  const cv::Vec3d sb(sun_world_[0] * c + sun_world_[1] * s, -sun_world_[0] * s + sun_world_[1] * c, sun_world_[2]);
-  if (use_parallax() && p_.fuse_shadows && foot.finite() && report_.vo != VoStatus::kTooFewPoints) {
-    report_.shadow_casters = shadow_.compute(parallax_.current(), parallax_.seen(), sb);
-    if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
+  wheel_since_key_ = rel;
+  wheel_since_key_cov_ = rel_cov;
+}
+
+void DriveMapper::fuse_parallax(const VoMeasurement& m) {
+  // Heights from the parallax against the keyframe, placed with the keyframe's corrected pose.
+  const double base = std::hypot(m.pose.x, m.pose.y);
+  if (!m.ok() || base - last_parallax_base_ < p_.parallax_spacing_m) return;
+  last_parallax_base_ = base;
+  const cv::Vec2d key_tilt(m.key_pitch_rad, m.key_roll_rad), tilt(m.pitch_rad, m.roll_rad);
+  if (use_sweep() && sweep_.compute(m.pose, m.gain, m.bias_dn, key_tilt, tilt, m.height_ratio)) {
+    report_.cells_fused += map_.fuse_points(sweep_.x(), sweep_.y(), sweep_.height(), sweep_.confidence(), key_foot_);
+    report_.parallax = true;
   }
-  // Rocks sighted in this frame, before it can become the keyframe: what they cover is left out
-  // of the VO's tilt refit against it (GroundVisualOdometry::exclude).
-  const bool sight = p_.fuse_terrain && p_.fuse_sightings && foot.finite() && report_.vo != VoStatus::kTooFewPoints;
-  if (sight) {
-    report_.rock_sightings = sightings_.compute(gray, sighting_tilt());
-    if (p_.ground_tilt) {
-      sightings_.object_mask(objects_, p_.object_margin_px);
-      vo_.exclude(objects_);
-    }
+  if (use_parallax() && p_.parallax_mode != ParallaxMode::kSweep &&
+      parallax_.compute(m.pose, m.gain, m.bias_dn, key_tilt, tilt, m.height_ratio)) {
+    report_.cells_fused +=
+        map_.fuse_points(parallax_.x(), parallax_.y(), parallax_.height(), parallax_.confidence(), key_foot_);
+    report_.parallax = true;
   }
-  if (promote) {
-    vo_.promote_last();
-    if (use_parallax()) parallax_.promote();
-    if (use_sweep()) sweep_.promote();
-    last_parallax_base_ = 0.0;
-    key_foot_ = foot;
-    key_cov_ = foot_cov;
-    wheel_since_key_ = Pose2{};
-    wheel_since_key_cov_ = Cov3::Zero();
-    report_.keyframe = true;
-    ++counters_.keyframes;
+}
+
+void DriveMapper::fuse_shadows(const Pose2& foot, const cv::Vec3d& sun_foot) {
+  report_.shadow_casters = shadow_.compute(parallax_.current(), parallax_.seen(), sun_foot);
+  if (report_.shadow_casters > 0) map_.fuse_casters(shadow_.x(), shadow_.y(), shadow_.height(), shadow_.weight(), foot);
+}
+
+void DriveMapper::sight_rocks(const cv::Mat& gray) {
+  report_.rock_sightings = sightings_.compute(gray, sighting_tilt());
+  if (p_.ground_tilt) {
+    sightings_.object_mask(objects_, p_.object_margin_px);
+    vo_.exclude(objects_);
   }
-  if (sight) {
-    tracker_.update(sightings_.table(), foot, depth_.model().mount_height_m);
-    map_.fuse_rock_tracks(tracker_.closed(), tracker_.closed_count(), tracker_.table(), tracker_.count());
-    report_.rock_tracks = tracker_.count();
-  }
-  if (p_.fuse_terrain && p_.fuse_shading && foot.finite()) {
-    terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sb), terrain_);
-    if (vo_.rectified().data && report_.vo != VoStatus::kTooFewPoints)
-      report_.cells_fused += map_.fuse(terrain_, foot, p_.shading_weight);
-  }
-  counters_.parallax_frames += report_.parallax ? 1 : 0;
-  counters_.shadow_frames += report_.shadow_casters > 0 ? 1 : 0;
-  counters_.rock_sightings += report_.rock_sightings;
-  counters_.rock_tracks = tracker_.opened();
-  map_.recenter(report_.pose.x, report_.pose.y, p_.map.max_range_m + 1.0);
-  return report_;
+}
+
+void DriveMapper::promote(const Located& here) {
+  vo_.promote_last();
+  if (use_parallax()) parallax_.promote();
+  if (use_sweep()) sweep_.promote();
+  last_parallax_base_ = 0.0;
+  key_foot_ = here.foot;
+  key_cov_ = here.covariance;
+  wheel_since_key_ = Pose2{};
+  wheel_since_key_cov_ = Cov3::Zero();
+  report_.keyframe = true;
+  ++counters_.keyframes;
+}
+
+void DriveMapper::track_rocks(const Pose2& foot) {
+  tracker_.update(sightings_.table(), foot, depth_.model().mount_height_m);
+  map_.fuse_rock_tracks(tracker_.closed(), tracker_.closed_count(), tracker_.table(), tracker_.count());
+  report_.rock_tracks = tracker_.count();
+}
+
+void DriveMapper::fuse_shading(const cv::Mat& gray, const Pose2& foot, const cv::Vec3d& sun_foot) {
+  terrain_mapper_.compute_from_image(gray, traversability::image_light(depth_.model(), sun_foot), terrain_);
+  if (vo_.rectified().data && report_.vo != VoStatus::kTooFewPoints)
+    report_.cells_fused += map_.fuse(terrain_, foot, p_.shading_weight);
 }
 
 }  // namespace regolith::mapping

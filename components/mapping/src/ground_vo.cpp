@@ -183,21 +183,12 @@ void GroundVisualOdometry::build_frame(const cv::Mat& gray, Frame& f) {
 }
 
 bool GroundVisualOdometry::align_level(int level, const std::vector<Point>& pts, Params& th, bool record) {
-  const Level& lv = cur_.levels[static_cast<std::size_t>(level)];
-  const int rows = lv.img.rows, cols = lv.img.cols;
-  Eigen::Matrix<double, kParams, kParams> H;
-  Eigen::Matrix<double, kParams, 1> g;
-  const double h = mount_height_, ih = 1.0 / h;
-  // Where a ground point appears to a camera tilted by a small pitch e (about body y) or roll
-  // (about body x) against the ground: the ray through nominal point (x, y) rotated by e meets
-  // the ground at (x, y) + D(x, y) * e.
-  auto dp = [&](double x, double y) { return std::pair<double, double>{-(h + x * x * ih), -x * y * ih}; };
-  auto dr = [&](double x, double y) { return std::pair<double, double>{x * y * ih, h + y * y * ih}; };
   // Steps are accepted only if they lower the robust cost, in which a template point that leaves
   // the usable view costs as much as an outlier: otherwise a fit can "improve" by warping its
   // far ground out of view (large tilts), leaving a few near cells that agree with anything.
   Params best = th;
-  double best_cost = std::numeric_limits<double>::infinity(), cut_ref = 0.0, lam_ref = 0.0, lamh_ref = 0.0;
+  double best_cost = std::numeric_limits<double>::infinity();
+  CostScale ref;
   int halvings = 0;
   // Back to half way between the best point and the rejected step; false after 6 halvings.
   auto halve = [&] {
@@ -206,54 +197,7 @@ bool GroundVisualOdometry::align_level(int level, const std::vector<Point>& pts,
     return true;
   };
   for (int it = 0; it < p_.iterations; ++it) {
-    const double c = std::cos(th[kYaw]), s = std::sin(th[kYaw]);
-    int n = 0;
-    histogram_.fill(0);
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      const Point& pt = pts[k];
-      // The keyframe cell where it truly lies on the ground (keyframe tilt), moved into the
-      // current frame, then where the current camera's nominal rectification shows it.
-      const auto [kpx, kpy] = dp(pt.x, pt.y);
-      const auto [krx, kry] = dr(pt.x, pt.y);
-      const double px = pt.x + kpx * th[kKeyPitch] + krx * th[kKeyRoll], py = pt.y + kpy * th[kKeyPitch] + kry * th[kKeyRoll];
-      const double sc = 1.0 + th[kScale];
-      const double rx = c * px - s * py, ry = s * px + c * py;
-      const double tx = sc * rx + th[kX], ty = sc * ry + th[kY];
-      const auto [dpx, dpy] = dp(tx, ty);
-      const auto [drx, dry] = dr(tx, ty);
-      const double qx = tx - dpx * th[kPitch] - drx * th[kRoll], qy = ty - dpy * th[kPitch] - dry * th[kRoll];
-      const cv::Point2d cell = lv.grid.cell(qx, qy);  // (row, col)
-      const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
-      residuals_[k] = std::numeric_limits<float>::quiet_NaN();
-      if (i0 < 0 || j0 < 0 || i0 + 1 >= rows || j0 + 1 >= cols) continue;
-      const uchar* u0 = lv.usable.ptr<uchar>(i0);
-      const uchar* u1 = lv.usable.ptr<uchar>(i0 + 1);
-      if (u0[j0] != kGradient || u0[j0 + 1] != kGradient || u1[j0] != kGradient || u1[j0 + 1] != kGradient) continue;
-      const float fi = static_cast<float>(cell.x - i0), fj = static_cast<float>(cell.y - j0);
-      auto bil = [&](const cv::Mat& m) {
-        const float* ra = m.ptr<float>(i0);
-        const float* rb = m.ptr<float>(i0 + 1);
-        const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]);
-        const float bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
-        return top + fi * (bot - top);
-      };
-      const double v = bil(lv.img), gx = bil(lv.gx), gy = bil(lv.gy);
-      const double r = v - (1.0 + th[kGain]) * pt.value - th[kBias];
-      const double dqx = sc * (-s * px - c * py), dqy = sc * (c * px - s * py);  // d(rotated point) / d yaw
-      residuals_[k] = static_cast<float>(r);
-      jacobians_[k] = {static_cast<float>(gx),
-                       static_cast<float>(gy),
-                       static_cast<float>(gx * dqx + gy * dqy),
-                       static_cast<float>(sc * (gx * (c * kpx - s * kpy) + gy * (s * kpx + c * kpy))),
-                       static_cast<float>(sc * (gx * (c * krx - s * kry) + gy * (s * krx + c * kry))),
-                       static_cast<float>(-(gx * dpx + gy * dpy)),
-                       static_cast<float>(-(gx * drx + gy * dry)),
-                       -pt.value,
-                       -1.0f,
-                       static_cast<float>(gx * rx + gy * ry)};
-      ++histogram_[static_cast<std::size_t>(std::min(511.0, std::abs(r) * 4.0))];
-      ++n;
-    }
+    const int n = linearise(cur_.levels[static_cast<std::size_t>(level)], pts, th);
     if (n < p_.min_points / (1 << (2 * level)) + 5) {
       if (it > 0) {  // the last step moved the ground out of view: back towards the best point
         if (halve()) continue;
@@ -264,27 +208,16 @@ bool GroundVisualOdometry::align_level(int level, const std::vector<Point>& pts,
       return false;
     }
     int median_bin = 0;
-    for (int acc = 0; median_bin < 511 && (acc += histogram_[static_cast<std::size_t>(median_bin)]) * 2 < n;) ++median_bin;
+    for (int acc = 0; median_bin < 511 && (acc += histogram_[static_cast<std::size_t>(median_bin)]) * 2 < n;)
+      ++median_bin;
     const double sigma = std::max(0.5, 1.4826 * (median_bin + 0.5) / 4.0);
     const double cut = p_.tukey_c * sigma;
     if (it == 0) {
-      cut_ref = cut;
-      lam_ref = sigma * sigma / (p_.attitude_prior_rad * p_.attitude_prior_rad);
-      lamh_ref = sigma * sigma / (p_.height_change_prior * p_.height_change_prior);
+      ref.cut = cut;
+      ref.lam = sigma * sigma / (p_.attitude_prior_rad * p_.attitude_prior_rad);
+      ref.lam_h = sigma * sigma / (p_.height_change_prior * p_.height_change_prior);
     }
-    double cost = 0.0;
-    const double cap = cut_ref * cut_ref / 6.0;
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      const float r = residuals_[k];
-      double rho = cap;
-      if (std::isfinite(r) && std::abs(r) < cut_ref) {
-        const double v = 1.0 - (r / cut_ref) * (r / cut_ref);
-        rho = cap * (1.0 - v * v * v);
-      }
-      cost += pts[k].weight * rho;
-    }
-    for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll}) cost += 0.5 * lam_ref * th[static_cast<std::size_t>(q)] * th[static_cast<std::size_t>(q)];
-    cost += 0.5 * lamh_ref * th[kScale] * th[kScale];
+    const double cost = robust_cost(pts, th, ref);
     if (cost > best_cost) {  // the last step went uphill
       if (halve()) continue;
       th = best;
@@ -293,49 +226,135 @@ bool GroundVisualOdometry::align_level(int level, const std::vector<Point>& pts,
     best = th;
     best_cost = cost;
     halvings = 0;
-    H.setZero();
-    g.setZero();
-    double wr2 = 0.0, wsum = 0.0;
-    int inliers = 0;
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      const float r = residuals_[k];
-      if (!std::isfinite(r) || std::abs(r) >= cut) continue;
-      const double u = r / cut, w = (1.0 - u * u) * (1.0 - u * u) * pts[k].weight;
-      const Eigen::Map<const Eigen::Matrix<float, kParams, 1>> jf(jacobians_[k].data());
-      const Eigen::Matrix<double, kParams, 1> j = jf.cast<double>();
-      H.noalias() += w * j * j.transpose();
-      g.noalias() += w * r * j;
-      wr2 += w * r * r;
-      wsum += w;
-      ++inliers;
-    }
-    // Both cameras' tilts against the ground: a prior around the mount (no IMU), in the units of
-    // the photometric cost (residual variance / prior variance).
-    const double s2 = wsum > static_cast<double>(kParams) ? wr2 / wsum : sigma * sigma;
-    // Each fit estimates both tilts afresh around the mount. (Carrying a keyframe's tilt from fit
-    // to fit, or from the current frame to the next keyframe, drifted on every drive tried.)
-    const double lam = s2 / (p_.attitude_prior_rad * p_.attitude_prior_rad);
-    for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll}) {
-      H(q, q) += lam;
-      g[q] += lam * th[static_cast<std::size_t>(q)];
-    }
-    const double lam_h = s2 / (p_.height_change_prior * p_.height_change_prior);
-    H(kScale, kScale) += lam_h;
-    g[kScale] += lam_h * th[kScale];
-    const Eigen::LDLT<Eigen::Matrix<double, kParams, kParams>> ldlt(H);
-    if (ldlt.info() != Eigen::Success || !(H.diagonal().minCoeff() > 0)) return false;
-    const Eigen::Matrix<double, kParams, 1> d = ldlt.solve(-g);
-    if (!d.allFinite()) return false;
-    for (int q = 0; q < kParams; ++q) th[static_cast<std::size_t>(q)] += d[q];
-    if (record) {
-      info_ = H;
-      sigma2_ = s2;
-      used_ = n;
-      inl_ = inliers;
-    }
-    if (std::abs(d[kX]) < 1e-5 && std::abs(d[kY]) < 1e-5 && std::abs(d[kYaw]) < 1e-6) break;
+    const Step step = gauss_newton_step(pts, cut, sigma, n, th, record);
+    if (step == Step::kFailed) return false;
+    if (step == Step::kConverged) break;
   }
   return true;
+}
+
+int GroundVisualOdometry::linearise(const Level& lv, const std::vector<Point>& pts, const Params& th) {
+  const int rows = lv.img.rows, cols = lv.img.cols;
+  const double h = mount_height_, ih = 1.0 / h;
+  // Where a ground point appears to a camera tilted by a small pitch e (about body y) or roll
+  // (about body x) against the ground: the ray through nominal point (x, y) rotated by e meets
+  // the ground at (x, y) + D(x, y) * e.
+  auto dp = [&](double x, double y) { return std::pair<double, double>{-(h + x * x * ih), -x * y * ih}; };
+  auto dr = [&](double x, double y) { return std::pair<double, double>{x * y * ih, h + y * y * ih}; };
+  const double c = std::cos(th[kYaw]), s = std::sin(th[kYaw]);
+  int n = 0;
+  histogram_.fill(0);
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    const Point& pt = pts[k];
+    // The keyframe cell where it truly lies on the ground (keyframe tilt), moved into the
+    // current frame, then where the current camera's nominal rectification shows it.
+    const auto [kpx, kpy] = dp(pt.x, pt.y);
+    const auto [krx, kry] = dr(pt.x, pt.y);
+    const double px = pt.x + kpx * th[kKeyPitch] + krx * th[kKeyRoll];
+    const double py = pt.y + kpy * th[kKeyPitch] + kry * th[kKeyRoll];
+    const double sc = 1.0 + th[kScale];
+    const double rx = c * px - s * py, ry = s * px + c * py;
+    const double tx = sc * rx + th[kX], ty = sc * ry + th[kY];
+    const auto [dpx, dpy] = dp(tx, ty);
+    const auto [drx, dry] = dr(tx, ty);
+    const double qx = tx - dpx * th[kPitch] - drx * th[kRoll], qy = ty - dpy * th[kPitch] - dry * th[kRoll];
+    const cv::Point2d cell = lv.grid.cell(qx, qy);  // (row, col)
+    const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
+    residuals_[k] = std::numeric_limits<float>::quiet_NaN();
+    if (i0 < 0 || j0 < 0 || i0 + 1 >= rows || j0 + 1 >= cols) continue;
+    const uchar* u0 = lv.usable.ptr<uchar>(i0);
+    const uchar* u1 = lv.usable.ptr<uchar>(i0 + 1);
+    if (u0[j0] != kGradient || u0[j0 + 1] != kGradient || u1[j0] != kGradient || u1[j0 + 1] != kGradient) continue;
+    const float fi = static_cast<float>(cell.x - i0), fj = static_cast<float>(cell.y - j0);
+    auto bil = [&](const cv::Mat& m) {
+      const float* ra = m.ptr<float>(i0);
+      const float* rb = m.ptr<float>(i0 + 1);
+      const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]);
+      const float bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
+      return top + fi * (bot - top);
+    };
+    const double v = bil(lv.img), gx = bil(lv.gx), gy = bil(lv.gy);
+    const double r = v - (1.0 + th[kGain]) * pt.value - th[kBias];
+    const double dqx = sc * (-s * px - c * py), dqy = sc * (c * px - s * py);  // d(rotated point) / d yaw
+    residuals_[k] = static_cast<float>(r);
+    jacobians_[k] = {static_cast<float>(gx),
+                     static_cast<float>(gy),
+                     static_cast<float>(gx * dqx + gy * dqy),
+                     static_cast<float>(sc * (gx * (c * kpx - s * kpy) + gy * (s * kpx + c * kpy))),
+                     static_cast<float>(sc * (gx * (c * krx - s * kry) + gy * (s * krx + c * kry))),
+                     static_cast<float>(-(gx * dpx + gy * dpy)),
+                     static_cast<float>(-(gx * drx + gy * dry)),
+                     -pt.value,
+                     -1.0f,
+                     static_cast<float>(gx * rx + gy * ry)};
+    ++histogram_[static_cast<std::size_t>(std::min(511.0, std::abs(r) * 4.0))];
+    ++n;
+  }
+  return n;
+}
+
+double GroundVisualOdometry::robust_cost(const std::vector<Point>& pts, const Params& th, const CostScale& ref) const {
+  double cost = 0.0;
+  const double cap = ref.cut * ref.cut / 6.0;
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    const float r = residuals_[k];
+    double rho = cap;
+    if (std::isfinite(r) && std::abs(r) < ref.cut) {
+      const double v = 1.0 - (r / ref.cut) * (r / ref.cut);
+      rho = cap * (1.0 - v * v * v);
+    }
+    cost += pts[k].weight * rho;
+  }
+  for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll})
+    cost += 0.5 * ref.lam * th[static_cast<std::size_t>(q)] * th[static_cast<std::size_t>(q)];
+  cost += 0.5 * ref.lam_h * th[kScale] * th[kScale];
+  return cost;
+}
+
+GroundVisualOdometry::Step GroundVisualOdometry::gauss_newton_step(const std::vector<Point>& pts, double cut,
+                                                                   double sigma, int n, Params& th, bool record) {
+  Eigen::Matrix<double, kParams, kParams> H = Eigen::Matrix<double, kParams, kParams>::Zero();
+  Eigen::Matrix<double, kParams, 1> g = Eigen::Matrix<double, kParams, 1>::Zero();
+  double wr2 = 0.0, wsum = 0.0;
+  int inliers = 0;
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    const float r = residuals_[k];
+    if (!std::isfinite(r) || std::abs(r) >= cut) continue;
+    const double u = r / cut, w = (1.0 - u * u) * (1.0 - u * u) * pts[k].weight;
+    const Eigen::Map<const Eigen::Matrix<float, kParams, 1>> jf(jacobians_[k].data());
+    const Eigen::Matrix<double, kParams, 1> j = jf.cast<double>();
+    H.noalias() += w * j * j.transpose();
+    g.noalias() += w * r * j;
+    wr2 += w * r * r;
+    wsum += w;
+    ++inliers;
+  }
+  // Both cameras' tilts against the ground: a prior around the mount (no IMU), in the units of
+  // the photometric cost (residual variance / prior variance).
+  const double s2 = wsum > static_cast<double>(kParams) ? wr2 / wsum : sigma * sigma;
+  // Each fit estimates both tilts afresh around the mount. (Carrying a keyframe's tilt from fit
+  // to fit, or from the current frame to the next keyframe, drifted on every drive tried.)
+  const double lam = s2 / (p_.attitude_prior_rad * p_.attitude_prior_rad);
+  for (int q : {kKeyPitch, kKeyRoll, kPitch, kRoll}) {
+    H(q, q) += lam;
+    g[q] += lam * th[static_cast<std::size_t>(q)];
+  }
+  const double lam_h = s2 / (p_.height_change_prior * p_.height_change_prior);
+  H(kScale, kScale) += lam_h;
+  g[kScale] += lam_h * th[kScale];
+  const Eigen::LDLT<Eigen::Matrix<double, kParams, kParams>> ldlt(H);
+  if (ldlt.info() != Eigen::Success || !(H.diagonal().minCoeff() > 0)) return Step::kFailed;
+  const Eigen::Matrix<double, kParams, 1> d = ldlt.solve(-g);
+  if (!d.allFinite()) return Step::kFailed;
+  for (int q = 0; q < kParams; ++q) th[static_cast<std::size_t>(q)] += d[q];
+  if (record) {
+    info_ = H;
+    sigma2_ = s2;
+    used_ = n;
+    inl_ = inliers;
+  }
+  const bool converged = std::abs(d[kX]) < 1e-5 && std::abs(d[kY]) < 1e-5 && std::abs(d[kYaw]) < 1e-6;
+  return converged ? Step::kConverged : Step::kMoved;
 }
 
 const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose2& prior) {

@@ -123,7 +123,8 @@ void PlaneSweep::promote() {
   has_key_ = true;
 }
 
-bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct, double height_ratio) {
+bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct,
+                         double height_ratio) {
   fill(z_, kNaNf);
   fill(x_, kNaNf);
   fill(y_, kNaNf);
@@ -133,6 +134,15 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   if (!has_key_ || !m.finite() || !(base >= p_.min_baseline_m) || !std::isfinite(gain) || !std::isfinite(bias) ||
       !(height_ratio > 0.5 && height_ratio < 2.0))
     return false;
+  const Sweep sweep = project_rays(m, kt, ct, height_ratio);
+  if (sweep.steps < 3) return false;
+  sweep_costs(sweep, gain, bias);
+  read_heights(sweep);
+  return true;
+}
+
+PlaneSweep::Sweep PlaneSweep::project_rays(const Pose2& m, const cv::Vec2d& kt, const cv::Vec2d& ct,
+                                           double height_ratio) {
   const int H = key_.rows, W = key_.cols;
   const double h = h_;
   // Rays of the keyframe camera as tilted against the ground; the current camera's rotation.
@@ -146,7 +156,7 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
   const cv::Vec2d t0 = to_cur(-m.x, -m.y);
   const cv::Vec3d o0 = rc_t * cv::Vec3d(t0[0], t0[1], h - h / height_ratio);
   const double w_lo = 1.0 - p_.max_height_m / h, w_hi = 1.0 - p_.min_height_m / h;
-  const double fx = fx_, fy = fy_, cx = cx_, ccy = cy_;
+  const double fx = fx_, fy = fy_;
   const double r2min = p_.min_range_m * p_.min_range_m, r2max = p_.max_range_m * p_.max_range_m;
   int max_n = 0;
   for (int i = 0; i < H; ++i) {
@@ -178,7 +188,15 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
     row_step_.at<double>(i) = step;
     if (max_disp > 0) max_n = std::max(max_n, static_cast<int>(std::ceil((w_hi - w_lo) / step)) + 1);
   }
-  if (max_n < 3) return false;
+  return {.o0 = o0, .w_lo = w_lo, .steps = max_n};
+}
+
+void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
+  const int H = key_.rows, W = key_.cols;
+  const double fx = fx_, fy = fy_, cx = cx_, ccy = cy_;
+  const cv::Vec3d& o0 = sweep.o0;
+  const double w_lo = sweep.w_lo;
+  const int max_n = sweep.steps;
   // Only the rows that hold swept pixels (plus the matching window) are matched.
   int r0 = H, r1 = -1;
   for (int i = 0; i < H; ++i) {
@@ -244,6 +262,11 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
     common::box_sum(e_rows, c2_rows, tmp_rows, p_.window);
     if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, r0, r1, &second_);
   }
+}
+
+void PlaneSweep::read_heights(const Sweep& sweep) {
+  const int H = key_.rows, W = key_.cols;
+  const double h = h_, w_lo = sweep.w_lo;
   // Sub-step minimum, height, position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
   const double noise2 = p_.noise_dn * p_.noise_dn;
@@ -283,7 +306,6 @@ bool PlaneSweep::compute(const Pose2& m, double gain, double bias, const cv::Vec
       cf[j] = static_cast<float>(conf);
     }
   }
-  return true;
 }
 
 }  // namespace regolith::mapping

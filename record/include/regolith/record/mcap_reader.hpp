@@ -99,6 +99,9 @@ class McapReader {
   using Emit = std::function<void(const MessageView&)>;
   void open();
   bool read_summary();
+  /// The Metadata records a summary's Metadata Index points at (offset, length) into `s`;
+  /// a bad one becomes a problem of `s`.
+  void read_metadata(const std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at, McapFileInfo& s);
   void scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProblem>& problems);
   bool process_chunk(std::uint64_t offset, const std::vector<std::uint8_t>& content, McapFileInfo& info,
                      const Emit* emit, bool count, std::vector<ReadProblem>& problems);

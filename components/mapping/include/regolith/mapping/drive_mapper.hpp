@@ -145,6 +145,24 @@ class DriveMapper {
   const GroundVisualOdometry& vo() const { return vo_; }
 
  private:
+  /// Where this frame's camera foot is (world) and whether the frame becomes the keyframe.
+  struct Located {
+    Pose2 foot;
+    Cov3 covariance = Cov3::Zero();
+    bool promote = false;
+  };
+  // add_frame's stages, in the order it runs them.
+  void begin_report(const Pose2& wheel);
+  Located start(const cv::Mat& gray, const Pose2& wheel);               // the first frame: the origin keyframe
+  Located track(const cv::Mat& gray, const Pose2& wheel, double dt_s);  // wheels + VO + parallax
+  Pose2 wheel_step(const Pose2& wheel, double dt_s, Cov3& q);           // body-frame step; jumps ignored
+  void fuse_motion(const VoMeasurement& m, const Pose2& pred, const Cov3& pred_cov);
+  void fuse_parallax(const VoMeasurement& m);
+  void fuse_shadows(const Pose2& foot, const cv::Vec3d& sun_foot);
+  void sight_rocks(const cv::Mat& gray);
+  void promote(const Located& here);
+  void track_rocks(const Pose2& foot);
+  void fuse_shading(const cv::Mat& gray, const Pose2& foot, const cv::Vec3d& sun_foot);
   bool use_parallax() const { return p_.fuse_terrain && p_.fuse_parallax; }
   bool use_sweep() const { return use_parallax() && p_.parallax_mode != ParallaxMode::kRectified; }
   DriveMapperParams p_;

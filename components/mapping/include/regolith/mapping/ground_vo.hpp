@@ -130,6 +130,16 @@ class GroundVisualOdometry {
   // One level over the template `pts`; `record` keeps the fit's statistics (the finest level of
   // the motion fit).
   bool align_level(int level, const std::vector<Point>& pts, Params& theta, bool record);
+  // align_level's parts: residuals, Jacobians and the residual histogram at `theta` (returns the
+  // points in view); the Tukey cost with the tilt and height priors at the first iteration's
+  // scale; one Gauss-Newton step with those priors (kFailed when it cannot be solved).
+  struct CostScale {
+    double cut = 0.0, lam = 0.0, lam_h = 0.0;
+  };
+  enum class Step { kFailed, kMoved, kConverged };
+  int linearise(const Level& level, const std::vector<Point>& pts, const Params& theta);
+  double robust_cost(const std::vector<Point>& pts, const Params& theta, const CostScale& ref) const;
+  Step gauss_newton_step(const std::vector<Point>& pts, double cut, double sigma, int n, Params& theta, bool record);
 
   GroundVoParams p_;
   direct_depth::GroundRectifier rectifier_;

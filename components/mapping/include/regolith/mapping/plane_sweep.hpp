@@ -83,6 +83,19 @@ class PlaneSweep {
   int scale() const { return scale_; }
 
  private:
+  /// One compute's hypotheses: a keyframe point at w (height h (1 - w)) is seen by the current
+  /// camera at o0 + w o1 (o1 per pixel in ox_/oy_/oz_), w from w_lo in `steps` steps of row_step_.
+  struct Sweep {
+    cv::Vec3d o0;
+    double w_lo = 0.0;
+    int steps = 0;
+  };
+  // compute's stages: each pixel's ground point, o1 and step; the cost of every hypothesis and
+  // its bracketed minima; the sub-step height, position and confidence of each pixel.
+  Sweep project_rays(const Pose2& cur_in_key, const cv::Vec2d& key_tilt, const cv::Vec2d& cur_tilt,
+                     double height_ratio);
+  void sweep_costs(const Sweep& sweep, double gain, double bias);
+  void read_heights(const Sweep& sweep);
   void load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok);
   PlaneSweepParams p_;
   const direct_depth::DirectDepth& depth_;
