@@ -91,7 +91,8 @@ class Cursor {
   std::uint64_t pos_ = 0;
 };
 
-Schema parse_schema(Cursor& c) {
+// A Schema record into `info` (id 0 is reserved for "no schema" and is not stored).
+void add_schema(Cursor& c, McapFileInfo& info) {
   Schema s;
   s.id = c.u16();
   s.name = c.string("name");
@@ -99,17 +100,18 @@ Schema parse_schema(Cursor& c) {
   const std::uint32_t n = c.u32();
   const auto d = c.bytes(n, "data");
   s.data.assign(d.begin(), d.end());
-  return s;
+  if (s.id != 0) info.schemas[s.id] = std::move(s);
 }
 
-Channel parse_channel(Cursor& c) {
+// A Channel record into `info`.
+void add_channel(Cursor& c, McapFileInfo& info) {
   Channel ch;
   ch.id = c.u16();
   ch.schema_id = c.u16();
   ch.topic = c.string("topic");
   ch.message_encoding = c.string("message_encoding");
   ch.metadata = c.string_map("metadata");
-  return ch;
+  info.channels[ch.id] = std::move(ch);
 }
 
 std::string hex32(std::uint32_t v) {
@@ -123,16 +125,12 @@ std::string hex32(std::uint32_t v) {
 void add_summary_record(std::uint8_t op, Cursor& c, std::uint64_t data_start, McapFileInfo& s, bool& have_statistics,
                         std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at) {
   switch (static_cast<Opcode>(op)) {
-    case Opcode::kSchema: {
-      Schema sc = parse_schema(c);
-      if (sc.id != 0) s.schemas[sc.id] = std::move(sc);
+    case Opcode::kSchema:
+      add_schema(c, s);
       break;
-    }
-    case Opcode::kChannel: {
-      Channel ch = parse_channel(c);
-      s.channels[ch.id] = std::move(ch);
+    case Opcode::kChannel:
+      add_channel(c, s);
       break;
-    }
     case Opcode::kStatistics: {
       s.message_count = c.u64();
       c.u16();  // schema count
@@ -497,16 +495,12 @@ void McapReader::scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProb
     Cursor c(content.data(), len);
     try {
       switch (static_cast<Opcode>(op)) {
-        case Opcode::kSchema: {
-          Schema sc = parse_schema(c);
-          if (sc.id != 0) info.schemas[sc.id] = std::move(sc);
+        case Opcode::kSchema:
+          add_schema(c, info);
           break;
-        }
-        case Opcode::kChannel: {
-          Channel ch = parse_channel(c);
-          info.channels[ch.id] = std::move(ch);
+        case Opcode::kChannel:
+          add_channel(c, info);
           break;
-        }
         case Opcode::kMessage: {
           const std::uint16_t id = c.u16();
           const std::uint32_t seq = c.u32();
@@ -649,11 +643,9 @@ bool McapReader::process_chunk(std::uint64_t offset, const std::vector<std::uint
         messages.push_back({log_time, pos + kRecordPrefix, len});
         if (len < 22) throw Malformed("Message record too short");
       } else if (op == static_cast<std::uint8_t>(Opcode::kSchema)) {
-        Schema sc = parse_schema(c);
-        if (sc.id != 0) info.schemas[sc.id] = std::move(sc);
+        add_schema(c, info);
       } else if (op == static_cast<std::uint8_t>(Opcode::kChannel)) {
-        Channel ch = parse_channel(c);
-        info.channels[ch.id] = std::move(ch);
+        add_channel(c, info);
       }
       pos += kRecordPrefix + len;
     } catch (const Malformed& e) {
