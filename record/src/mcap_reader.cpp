@@ -114,10 +114,50 @@ void add_channel(Cursor& c, McapFileInfo& info) {
   info.channels[ch.id] = std::move(ch);
 }
 
+// A Metadata record's name and values.
+Metadata read_metadata_record(Cursor& c) {
+  Metadata m;
+  m.name = c.string("name");
+  m.values = c.string_map("metadata");
+  return m;
+}
+
+// One message into the counts, first and last log time of `info` (the counting pass of a scan,
+// in or outside chunks).
+void count_message(McapFileInfo& info, std::uint16_t channel_id, std::uint64_t log_time) {
+  if (info.message_count == 0 || log_time < info.message_start_time) info.message_start_time = log_time;
+  if (info.message_count == 0 || log_time > info.message_end_time) info.message_end_time = log_time;
+  ++info.message_count;
+  ++info.message_counts[channel_id];
+}
+
 std::string hex32(std::uint32_t v) {
   char b[16];
   std::snprintf(b, sizeof b, "0x%08x", v);
   return b;
+}
+
+// An Attachment record found at `offset` (its data is not kept: read_attachment reads it again);
+// with `verify_crc`, a stored CRC that does not match its bytes is Malformed.
+AttachmentInfo read_attachment_record(Cursor& c, std::uint64_t offset, const std::vector<std::uint8_t>& content,
+                                      bool verify_crc) {
+  AttachmentInfo a;
+  a.offset = offset;
+  a.log_time = c.u64();
+  a.create_time = c.u64();
+  a.name = c.string("name");
+  a.media_type = c.string("media_type");
+  a.data_size = c.u64();
+  c.bytes(a.data_size, "data");
+  const std::uint64_t covered = c.pos();
+  const std::uint32_t stored = c.u32();
+  if (verify_crc && stored != 0) {
+    const std::uint32_t crc = crc32(content.data(), static_cast<std::size_t>(covered));
+    if (crc != stored)
+      throw Malformed("attachment '" + a.name + "' CRC mismatch (stored " + hex32(stored) + ", computed " + hex32(crc) +
+                      ")");
+  }
+  return a;
 }
 
 // One record of the summary section into `s` (a Metadata Index is kept in `metadata_at`: its
@@ -413,10 +453,7 @@ void McapReader::read_metadata(const std::vector<std::pair<std::uint64_t, std::u
     }
     try {
       Cursor c(rec.data() + kRecordPrefix, mlen - kRecordPrefix);
-      Metadata m;
-      m.name = c.string("name");
-      m.values = c.string_map("metadata");
-      s.metadata.push_back(std::move(m));
+      s.metadata.push_back(read_metadata_record(c));
     } catch (const Malformed& e) {
       s.problems.push_back({off, std::string("bad Metadata record: ") + e.what()});
     }
@@ -425,147 +462,115 @@ void McapReader::read_metadata(const std::vector<std::pair<std::uint64_t, std::u
 
 // ---- the slow path: every record of the data section --------------------------------------------
 void McapReader::scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProblem>& problems) {
-  const std::uint64_t size = info.file_size;
-  const bool count = emit == nullptr;
-  std::uint64_t pos = data_start_;
-  std::uint32_t data_crc = 0;
   const bool crc_on = options_.verify_crcs;
+  std::uint32_t data_crc = 0;
   std::vector<std::uint8_t> content;
   if (crc_on) {  // the magic and the Header are part of the data-section CRC
     content.resize(static_cast<std::size_t>(data_start_));
     if (source_->read(0, data_start_, content.data())) data_crc = crc32(content.data(), content.size());
   }
-  bool ended = false;
-  while (!stop_) {
-    if (pos == size) {  // clean end of a record, but no DataEnd / Footer
-      info.truncated = true;
-      info.readable_end = pos;
-      break;
-    }
-    std::uint8_t prefix[kRecordPrefix];
-    if (size - pos < kRecordPrefix || !source_->read(pos, kRecordPrefix, prefix)) {
-      info.truncated = true;
-      info.readable_end = pos;
-      break;
-    }
-    const std::uint8_t op = prefix[0];
-    const std::uint64_t len = get_u64(prefix + 1);
-    if (len > size - pos - kRecordPrefix) {
-      info.truncated = true;
-      info.readable_end = pos;
-      break;
-    }
-    if (op == 0 || op == static_cast<std::uint8_t>(Opcode::kFooter) ||
-        op == static_cast<std::uint8_t>(Opcode::kHeader)) {
-      problems.push_back({pos, "unexpected " + (op == 0 ? std::string("opcode 0x00") : opcode_name(op)) +
-                                   " record in the data section; cannot read further"});
-      info.readable_end = pos;
-      break;
-    }
-    if (len > options_.max_record_bytes) {
-      problems.push_back({pos, opcode_name(op) + " record of " + std::to_string(len) + " bytes exceeds the limit of " +
-                                   std::to_string(options_.max_record_bytes) + "; cannot read further"});
-      info.readable_end = pos;
-      break;
-    }
-    content.resize(static_cast<std::size_t>(len));
-    if (!source_->read(pos + kRecordPrefix, len, content.data())) {
-      problems.push_back({pos, "read error"});
-      info.readable_end = pos;
-      break;
-    }
-    if (op == static_cast<std::uint8_t>(Opcode::kDataEnd)) {
-      try {
-        Cursor c(content.data(), len);
-        const std::uint32_t stored = c.u32();
-        if (count && crc_on && stored != 0 && stored != data_crc)
-          problems.push_back(
-              {pos, "data section CRC mismatch (stored " + hex32(stored) + ", computed " + hex32(data_crc) + ")"});
-      } catch (const Malformed& e) {
-        problems.push_back({pos, std::string("bad DataEnd record: ") + e.what()});
-      }
-      ended = true;
-      info.readable_end = pos;
-      break;
+  std::uint8_t prefix[kRecordPrefix];
+  for (std::uint64_t pos = data_start_; !stop_; pos += kRecordPrefix + content.size()) {
+    if (!read_data_record(pos, info, prefix, content, problems)) return;
+    if (prefix[0] == static_cast<std::uint8_t>(Opcode::kDataEnd)) {
+      check_data_end(pos, content, emit == nullptr && crc_on, data_crc, problems);
+      // The data section is complete; the file is truncated if the Footer and end magic are missing.
+      std::uint8_t tail[8];
+      const bool has_end = info.file_size >= data_start_ + kFooterRecord + 8 &&
+                           source_->read(info.file_size - 8, 8, tail) && std::memcmp(tail, kMcapMagic.data(), 8) == 0;
+      info.truncated = !has_end;
+      info.readable_end = has_end ? info.file_size : pos;
+      return;
     }
     if (crc_on) {
       data_crc = crc32_update(data_crc, prefix, kRecordPrefix);
       data_crc = crc32_update(data_crc, content.data(), content.size());
     }
-    Cursor c(content.data(), len);
-    try {
-      switch (static_cast<Opcode>(op)) {
-        case Opcode::kSchema:
-          add_schema(c, info);
-          break;
-        case Opcode::kChannel:
-          add_channel(c, info);
-          break;
-        case Opcode::kMessage: {
-          const std::uint16_t id = c.u16();
-          const std::uint32_t seq = c.u32();
-          const std::uint64_t log_time = c.u64();
-          const std::uint64_t publish_time = c.u64();
-          const auto data = c.bytes(c.remaining(), "data");
-          const auto ch = info.channels.find(id);
-          if (ch == info.channels.end()) throw Malformed("message on unknown channel id " + std::to_string(id));
-          if (count) {
-            if (info.message_count == 0 || log_time < info.message_start_time) info.message_start_time = log_time;
-            if (info.message_count == 0 || log_time > info.message_end_time) info.message_end_time = log_time;
-            ++info.message_count;
-            ++info.message_counts[id];
-          } else {
-            (*emit)(MessageView{ch->second, seq, log_time, publish_time, data});
-          }
-          break;
-        }
-        case Opcode::kChunk:
-          process_chunk(pos, content, info, emit, count, problems);
-          break;
-        case Opcode::kAttachment: {
-          if (!count) break;
-          AttachmentInfo a;
-          a.offset = pos;
-          a.log_time = c.u64();
-          a.create_time = c.u64();
-          a.name = c.string("name");
-          a.media_type = c.string("media_type");
-          a.data_size = c.u64();
-          c.bytes(a.data_size, "data");
-          const std::uint64_t covered = c.pos();
-          const std::uint32_t stored = c.u32();
-          if (crc_on && stored != 0) {
-            const std::uint32_t crc = crc32(content.data(), static_cast<std::size_t>(covered));
-            if (crc != stored)
-              throw Malformed("attachment '" + a.name + "' CRC mismatch (stored " + hex32(stored) + ", computed " +
-                              hex32(crc) + ")");
-          }
-          info.attachments.push_back(std::move(a));
-          break;
-        }
-        case Opcode::kMetadata: {
-          if (!count) break;
-          Metadata m;
-          m.name = c.string("name");
-          m.values = c.string_map("metadata");
-          info.metadata.push_back(std::move(m));
-          break;
-        }
-        default:
-          break;  // Message Index (rebuilt from the chunks), summary-only records, private records
-      }
-    } catch (const Malformed& e) {
-      problems.push_back({pos, opcode_name(op) + " record: " + e.what()});
-    }
-    pos += kRecordPrefix + len;
+    scan_record(pos, prefix[0], content, info, emit, problems);
   }
-  if (ended) {
-    // The data section is complete; the file is truncated if the Footer and end magic are missing.
-    std::uint8_t tail[8];
-    const bool has_end = size >= data_start_ + kFooterRecord + 8 && source_->read(size - 8, 8, tail) &&
-                         std::memcmp(tail, kMcapMagic.data(), 8) == 0;
-    info.truncated = !has_end;
-    info.readable_end = has_end ? size : info.readable_end;
+}
+
+bool McapReader::read_data_record(std::uint64_t pos, McapFileInfo& info, std::uint8_t* prefix,
+                                  std::vector<std::uint8_t>& content, std::vector<ReadProblem>& problems) {
+  const std::uint64_t size = info.file_size;
+  // A clean end of a record but no DataEnd / Footer, or a record cut off: the file is truncated.
+  if (pos == size || size - pos < kRecordPrefix || !source_->read(pos, kRecordPrefix, prefix) ||
+      get_u64(prefix + 1) > size - pos - kRecordPrefix) {
+    info.truncated = true;
+    info.readable_end = pos;
+    return false;
+  }
+  const std::uint8_t op = prefix[0];
+  const std::uint64_t len = get_u64(prefix + 1);
+  auto stop = [&](std::string what) {
+    problems.push_back({pos, std::move(what)});
+    info.readable_end = pos;
+    return false;
+  };
+  if (op == 0 || op == static_cast<std::uint8_t>(Opcode::kFooter) || op == static_cast<std::uint8_t>(Opcode::kHeader))
+    return stop("unexpected " + (op == 0 ? std::string("opcode 0x00") : opcode_name(op)) +
+                " record in the data section; cannot read further");
+  if (len > options_.max_record_bytes)
+    return stop(opcode_name(op) + " record of " + std::to_string(len) + " bytes exceeds the limit of " +
+                std::to_string(options_.max_record_bytes) + "; cannot read further");
+  content.resize(static_cast<std::size_t>(len));
+  if (!source_->read(pos + kRecordPrefix, len, content.data())) return stop("read error");
+  return true;
+}
+
+void McapReader::check_data_end(std::uint64_t pos, const std::vector<std::uint8_t>& content, bool check_crc,
+                                std::uint32_t data_crc, std::vector<ReadProblem>& problems) {
+  try {
+    Cursor c(content.data(), content.size());
+    const std::uint32_t stored = c.u32();
+    if (check_crc && stored != 0 && stored != data_crc)
+      problems.push_back(
+          {pos, "data section CRC mismatch (stored " + hex32(stored) + ", computed " + hex32(data_crc) + ")"});
+  } catch (const Malformed& e) {
+    problems.push_back({pos, std::string("bad DataEnd record: ") + e.what()});
+  }
+}
+
+void McapReader::scan_record(std::uint64_t pos, std::uint8_t op, const std::vector<std::uint8_t>& content,
+                             McapFileInfo& info, const Emit* emit, std::vector<ReadProblem>& problems) {
+  const bool count = emit == nullptr;
+  Cursor c(content.data(), content.size());
+  try {
+    switch (static_cast<Opcode>(op)) {
+      case Opcode::kSchema:
+        add_schema(c, info);
+        break;
+      case Opcode::kChannel:
+        add_channel(c, info);
+        break;
+      case Opcode::kMessage: {
+        const std::uint16_t id = c.u16();
+        const std::uint32_t seq = c.u32();
+        const std::uint64_t log_time = c.u64();
+        const std::uint64_t publish_time = c.u64();
+        const auto data = c.bytes(c.remaining(), "data");
+        const auto ch = info.channels.find(id);
+        if (ch == info.channels.end()) throw Malformed("message on unknown channel id " + std::to_string(id));
+        if (count)
+          count_message(info, id, log_time);
+        else
+          (*emit)(MessageView{ch->second, seq, log_time, publish_time, data});
+        break;
+      }
+      case Opcode::kChunk:
+        process_chunk(pos, content, info, emit, count, problems);
+        break;
+      case Opcode::kAttachment:
+        if (count) info.attachments.push_back(read_attachment_record(c, pos, content, options_.verify_crcs));
+        break;
+      case Opcode::kMetadata:
+        if (count) info.metadata.push_back(read_metadata_record(c));
+        break;
+      default:
+        break;  // Message Index (rebuilt from the chunks), summary-only records, private records
+    }
+  } catch (const Malformed& e) {
+    problems.push_back({pos, opcode_name(op) + " record: " + e.what()});
   }
 }
 
@@ -667,10 +672,7 @@ bool McapReader::process_chunk(std::uint64_t offset, const std::vector<std::uint
       continue;
     }
     if (count) {
-      if (info.message_count == 0 || m.log_time < info.message_start_time) info.message_start_time = m.log_time;
-      if (info.message_count == 0 || m.log_time > info.message_end_time) info.message_end_time = m.log_time;
-      ++info.message_count;
-      ++info.message_counts[id];
+      count_message(info, id, m.log_time);
     } else {
       (*emit)(MessageView{ch->second, get_u32(p + 2), m.log_time, get_u64(p + 14),
                           std::span<const std::uint8_t>(p + 22, static_cast<std::size_t>(m.len - 22))});

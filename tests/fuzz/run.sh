@@ -17,6 +17,10 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 ci=0
 runs=0
+if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
+  sed -n '2,/^set -euo/{/^#/s/^# \{0,1\}//p}' "$0"
+  exit 0
+fi
 if [[ "${1:-}" == "--ci" ]]; then
   ci=1
   shift
@@ -59,11 +63,18 @@ declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=6
 # seconds under ASan on a shared core).
 declare -A timeout_s=([deployment_check]=60)
 build=build/fuzz
+all_targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene drive sfs image mcap
+             hal_messages live_messages terrain soil_fit)
 targets=("$@")
 if ((${#targets[@]} == 0)); then
-  targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene drive sfs image mcap hal_messages
-           live_messages terrain soil_fit)
+  targets=("${all_targets[@]}")
 fi
+for t in "${targets[@]}"; do
+  if [[ " ${all_targets[*]} " != *" $t "* ]]; then
+    echo "tests/fuzz/run.sh: unknown target '$t' (the targets: ${all_targets[*]}; --help for the usage)" >&2
+    exit 2
+  fi
+done
 if [[ ! -f "$build/CMakeCache.txt" ]]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DREGOLITH_FUZZ=ON \
     -DREGOLITH_BUILD_BENCH=OFF -DREGOLITH_WITH_LIBCAMERA=OFF >/dev/null

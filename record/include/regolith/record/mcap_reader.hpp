@@ -102,7 +102,22 @@ class McapReader {
   /// The Metadata records a summary's Metadata Index points at (offset, length) into `s`;
   /// a bad one becomes a problem of `s`.
   void read_metadata(const std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at, McapFileInfo& s);
+  /// The slow path: every record of the data section from the first after the Header, counted
+  /// into `info` (emit == nullptr) or each message passed to `*emit`.
   void scan(McapFileInfo& info, const Emit* emit, std::vector<ReadProblem>& problems);
+  /// The record at `pos` of the data section: its 9-byte prefix (opcode, length) into `prefix` and
+  /// its content into `content`. False where the scan stops: the file ends or is cut off there
+  /// (`info.truncated`), or the record cannot be read (a problem says why); `info.readable_end`
+  /// is then `pos`.
+  bool read_data_record(std::uint64_t pos, McapFileInfo& info, std::uint8_t* prefix, std::vector<std::uint8_t>& content,
+                        std::vector<ReadProblem>& problems);
+  /// A DataEnd record: malformed, or (with `check_crc`) its stored CRC not `data_crc`, is a problem.
+  static void check_data_end(std::uint64_t pos, const std::vector<std::uint8_t>& content, bool check_crc,
+                             std::uint32_t data_crc, std::vector<ReadProblem>& problems);
+  /// One record of the data section (not DataEnd) into `info`, or its messages to `*emit`; a
+  /// malformed record is a problem and the scan goes on.
+  void scan_record(std::uint64_t pos, std::uint8_t op, const std::vector<std::uint8_t>& content, McapFileInfo& info,
+                   const Emit* emit, std::vector<ReadProblem>& problems);
   bool process_chunk(std::uint64_t offset, const std::vector<std::uint8_t>& content, McapFileInfo& info,
                      const Emit* emit, bool count, std::vector<ReadProblem>& problems);
   [[noreturn]] void fail(std::uint64_t offset, const std::string& what) const;
