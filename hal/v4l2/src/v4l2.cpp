@@ -276,7 +276,23 @@ void V4l2Camera::set_error(const std::string& what) {
   last_error_ = what;
 }
 
+// Opens the device (found by card / bus_info when configured), sets its format, frame rate and
+// controls and maps its buffers. `first`: the format the camera reports is taken from this open
+// (a reopen after a fault keeps the one the frame pool was made for).
 void V4l2Camera::open_and_configure(bool first) {
+  const std::string dev = open_device();
+  const DeviceFormat chosen = choose_format(dev);
+  set_format(dev, chosen);
+  const double rate = set_frame_rate();
+  if (first) {
+    format_ = CameraFormat{cfg_.width, cfg_.height, cfg_.output, rate};
+  }
+  apply_controls();
+  map_buffers(dev);
+  have_seq_ = false;
+}
+
+std::string V4l2Camera::open_device() {
   const std::string who = "v4l2 camera '" + id_ + "'";
   std::string path = cfg_.device;
   if (!cfg_.card.empty() || !cfg_.bus_info.empty()) {
@@ -309,7 +325,10 @@ void V4l2Camera::open_and_configure(bool first) {
     throw DeviceConfigError("device", dev + ": card '" + cstr(cap.card, sizeof cap.card) +
                                           "' is not a single-planar video capture node with streaming I/O");
   }
-  // --- format ---
+  return dev;
+}
+
+DeviceFormat V4l2Camera::choose_format(const std::string& dev) const {
   std::vector<std::uint32_t> offered;
   for (std::uint32_t i = 0;; ++i) {
     v4l2_fmtdesc d{};
@@ -323,23 +342,23 @@ void V4l2Camera::open_and_configure(bool first) {
     for (auto f : offered) s += (s.empty() ? "" : ", ") + fourcc_to_string(f);
     return s.empty() ? std::string("none") : s;
   };
-  DeviceFormat chosen{};
-  bool found = false;
+  auto is_offered = [&offered](DeviceFormat f) {
+    return std::find(offered.begin(), offered.end(), fourcc_of(f)) != offered.end();
+  };
   if (cfg_.fourcc == "auto") {
-    for (DeviceFormat f : preferred_formats(cfg_.output)) {
-      if (std::find(offered.begin(), offered.end(), fourcc_of(f)) != offered.end()) {
-        chosen = f;
-        found = true;
-        break;
-      }
-    }
-    if (!found) throw DeviceConfigError("fourcc", dev + ": offers no format regolith converts (offers: " + offered_text() + ")");
-  } else {
-    device_format_from_fourcc(fourcc_from_string(cfg_.fourcc), chosen);
-    if (std::find(offered.begin(), offered.end(), fourcc_of(chosen)) == offered.end()) {
-      throw DeviceConfigError("fourcc", dev + ": does not offer '" + cfg_.fourcc + "' (offers: " + offered_text() + ")");
-    }
+    for (DeviceFormat f : preferred_formats(cfg_.output))
+      if (is_offered(f)) return f;
+    throw DeviceConfigError("fourcc", dev + ": offers no format regolith converts (offers: " + offered_text() + ")");
   }
+  DeviceFormat chosen{};
+  device_format_from_fourcc(fourcc_from_string(cfg_.fourcc), chosen);
+  if (!is_offered(chosen)) {
+    throw DeviceConfigError("fourcc", dev + ": does not offer '" + cfg_.fourcc + "' (offers: " + offered_text() + ")");
+  }
+  return chosen;
+}
+
+void V4l2Camera::set_format(const std::string& dev, DeviceFormat chosen) {
   v4l2_format fmt{};
   fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   fmt.fmt.pix.width = static_cast<__u32>(cfg_.width);
@@ -375,7 +394,9 @@ void V4l2Camera::open_and_configure(bool first) {
   }
   dev_format_ = chosen;
   stride_ = fmt.fmt.pix.bytesperline;
-  // --- frame rate ---
+}
+
+double V4l2Camera::set_frame_rate() {
   double rate = cfg_.rate_hz;
   v4l2_streamparm parm{};
   parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
@@ -386,11 +407,10 @@ void V4l2Camera::open_and_configure(bool first) {
       rate = static_cast<double>(parm.parm.capture.timeperframe.denominator) / parm.parm.capture.timeperframe.numerator;
     }
   }
-  if (first) {
-    format_ = CameraFormat{cfg_.width, cfg_.height, cfg_.output, rate};
-  }
-  apply_controls();
-  // --- buffers ---
+  return rate;
+}
+
+void V4l2Camera::map_buffers(const std::string& dev) {
   v4l2_requestbuffers req{};
   req.count = static_cast<__u32>(cfg_.buffers);
   req.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
@@ -412,7 +432,6 @@ void V4l2Camera::open_and_configure(bool first) {
     if (m == MAP_FAILED) throw std::runtime_error(dev + ": mmap: " + errno_text(errno));
     buffers_[i] = Buffer{m, b.length};
   }
-  have_seq_ = false;
 }
 
 void V4l2Camera::apply_controls() {

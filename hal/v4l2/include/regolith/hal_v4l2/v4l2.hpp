@@ -110,6 +110,12 @@ class V4l2Camera final : public Camera {
     std::size_t length = 0;
   };
   void open_and_configure(bool first);  // throws DeviceError / std::runtime_error
+  // The stages of open_and_configure; `dev` is "v4l2 camera 'ID' (PATH)", the errors' prefix.
+  std::string open_device();                                     // fd_ open and a capture node: returns `dev`
+  DeviceFormat choose_format(const std::string& dev) const;      // the configured fourcc, or the best offered
+  void set_format(const std::string& dev, DeviceFormat chosen);  // VIDIOC_S_FMT at the configured size
+  double set_frame_rate();                                       // the rate the driver granted (or the configured one)
+  void map_buffers(const std::string& dev);                      // VIDIOC_REQBUFS + mmap of each buffer
   void apply_controls();
   void stream_on();
   void close_device();
