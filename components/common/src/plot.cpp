@@ -62,8 +62,22 @@ std::vector<double> nice_ticks(double lo, double hi, int target) {
   return t;
 }
 
-cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
-  cv::Mat img(std::max(200, spec.height_px), std::max(300, spec.width_px), CV_8UC3, cv::Scalar(255, 255, 255));
+namespace {
+
+// Where render_plot draws: the data bounds and the pixel rectangle they map onto.
+struct PlotFrame {
+  double xmin = 0.0, xmax = 1.0, ymin = 0.0, ymax = 1.0;
+  cv::Rect area;
+  bool empty = true;  // no finite point: the unit square
+  int px(double x) const { return area.x + static_cast<int>(std::lround((x - xmin) / (xmax - xmin) * area.width)); }
+  int py(double y) const {
+    return area.y + area.height - static_cast<int>(std::lround((y - ymin) / (ymax - ymin) * area.height));
+  }
+};
+
+// The bounds of the finite points (0 included when the spec asks, a degenerate range widened to
+// 1, y padded by 5 %) and the plot area inside `image`'s margins.
+PlotFrame plot_frame(const PlotSpec& spec, std::span<const PlotSeries> series, cv::Size image) {
   double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin;
   double ymin = xmin, ymax = -xmin;
   for (const auto& s : series) {
@@ -76,62 +90,65 @@ cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
       ymax = std::max(ymax, s.y[i]);
     }
   }
-  const bool empty = !std::isfinite(xmin);
-  if (empty) {
-    xmin = 0.0;
-    xmax = 1.0;
-    ymin = 0.0;
-    ymax = 1.0;
+  PlotFrame f;
+  f.empty = !std::isfinite(xmin);
+  if (!f.empty) {
+    f.xmin = xmin;
+    f.xmax = xmax;
+    f.ymin = ymin;
+    f.ymax = ymax;
   }
   if (spec.y_from_zero) {
-    ymin = std::min(ymin, 0.0);
-    ymax = std::max(ymax, 0.0);
+    f.ymin = std::min(f.ymin, 0.0);
+    f.ymax = std::max(f.ymax, 0.0);
   }
-  if (xmax - xmin < 1e-12) {
-    xmin -= 0.5;
-    xmax += 0.5;
+  if (f.xmax - f.xmin < 1e-12) {
+    f.xmin -= 0.5;
+    f.xmax += 0.5;
   }
-  if (ymax - ymin < 1e-12) {
-    ymin -= 0.5;
-    ymax += 0.5;
+  if (f.ymax - f.ymin < 1e-12) {
+    f.ymin -= 0.5;
+    f.ymax += 0.5;
   }
-  const double ypad = 0.05 * (ymax - ymin);
-  if (!(spec.y_from_zero && ymin == 0.0)) ymin -= ypad;
-  ymax += ypad;
-
+  const double ypad = 0.05 * (f.ymax - f.ymin);
+  if (!(spec.y_from_zero && f.ymin == 0.0)) f.ymin -= ypad;
+  f.ymax += ypad;
   const int left = 90, right = 30, top = 50, bottom = 70;
-  const cv::Rect area(left, top, img.cols - left - right, img.rows - top - bottom);
-  auto px = [&](double x) { return area.x + static_cast<int>(std::lround((x - xmin) / (xmax - xmin) * area.width)); };
-  auto py = [&](double y) {
-    return area.y + area.height - static_cast<int>(std::lround((y - ymin) / (ymax - ymin) * area.height));
-  };
-  // grid + ticks
-  const auto xt = nice_ticks(xmin, xmax);
-  const auto yt = nice_ticks(ymin, ymax);
+  f.area = cv::Rect(left, top, image.width - left - right, image.height - top - bottom);
+  return f;
+}
+
+// Grid lines, ticks with their values, the frame, the title and the axis labels.
+void draw_axes(cv::Mat& img, const PlotSpec& spec, const PlotFrame& f) {
+  const cv::Rect& area = f.area;
+  const auto xt = nice_ticks(f.xmin, f.xmax);
+  const auto yt = nice_ticks(f.ymin, f.ymax);
   const double xstep = xt.size() > 1 ? xt[1] - xt[0] : 1.0;
   const double ystep = yt.size() > 1 ? yt[1] - yt[0] : 1.0;
   for (double v : xt) {
-    const int x = px(v);
+    const int x = f.px(v);
     cv::line(img, {x, area.y}, {x, area.y + area.height}, {225, 225, 225}, 1);
     cv::line(img, {x, area.y + area.height}, {x, area.y + area.height + 6}, {0, 0, 0}, 1);
     const std::string s = fmt_tick(v, xstep);
     put_text(img, s, {x - text_size(s).width / 2, area.y + area.height + 22});
   }
   for (double v : yt) {
-    const int y = py(v);
+    const int y = f.py(v);
     cv::line(img, {area.x, y}, {area.x + area.width, y}, {225, 225, 225}, 1);
     cv::line(img, {area.x - 6, y}, {area.x, y}, {0, 0, 0}, 1);
     const std::string s = fmt_tick(v, ystep);
     put_text(img, s, {area.x - 10 - text_size(s).width, y + 5});
   }
   cv::rectangle(img, area, {0, 0, 0}, 1);
-  // labels
   put_text(img, spec.title, {area.x, 30}, 0.65, 2);
   put_text(img, spec.x_label, {area.x + area.width / 2 - text_size(spec.x_label, 0.55).width / 2, img.rows - 18}, 0.55);
   put_vertical_text(img, spec.y_label, 8, area.y + area.height / 2, 0.55);
-  if (empty) put_text(img, "no data", {area.x + area.width / 2 - 30, area.y + area.height / 2}, 0.7, 2);
-  // series, then the legend on a box of its own (drawn last: no line crosses it), in the corner
-  // of the plot that hides the fewest data points
+  if (f.empty) put_text(img, "no data", {area.x + area.width / 2 - 30, area.y + area.height / 2}, 0.7, 2);
+}
+
+// Each series as markers, a dashed or a solid line (broken at non-finite points); returns every
+// point drawn (the legend avoids them).
+std::vector<cv::Point> draw_series(cv::Mat& img, std::span<const PlotSeries> series, const PlotFrame& f) {
   std::vector<cv::Point> drawn;
   for (const auto& s : series) {
     const std::size_t m = std::min(s.x.size(), s.y.size());
@@ -151,43 +168,58 @@ cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
         flush();
         continue;
       }
-      pts.emplace_back(px(s.x[i]), py(s.y[i]));
+      pts.emplace_back(f.px(s.x[i]), f.py(s.y[i]));
       drawn.push_back(pts.back());
     }
     flush();
   }
+  return drawn;
+}
+
+// The labelled series' legend on a box of its own (drawn last: no line crosses it), in the corner
+// of the plot area that hides the fewest drawn points.
+void draw_legend(cv::Mat& img, std::span<const PlotSeries> series, const cv::Rect& area,
+                 const std::vector<cv::Point>& drawn) {
   const int labelled =
       static_cast<int>(std::count_if(series.begin(), series.end(), [](const auto& s) { return !s.label.empty(); }));
-  if (labelled > 0) {
-    int text_w = 0;
-    for (const auto& s : series)
-      if (!s.label.empty()) text_w = std::max(text_w, text_size(s.label).width);
-    const cv::Size box(std::min(area.width - 8, text_w + 56), 12 + 20 * labelled);
-    cv::Rect best;
-    std::size_t hidden_best = 0;
-    for (const cv::Point corner :
-         {cv::Point(area.x + area.width - 4 - box.width, area.y + 4), cv::Point(area.x + 4, area.y + 4),
-          cv::Point(area.x + area.width - 4 - box.width, area.y + area.height - 4 - box.height),
-          cv::Point(area.x + 4, area.y + area.height - 4 - box.height)}) {
-      const cv::Rect r(corner, box);
-      const auto hidden = static_cast<std::size_t>(
-          std::count_if(drawn.begin(), drawn.end(), [&r](const cv::Point& p) { return r.contains(p); }));
-      if (best.area() == 0 || hidden < hidden_best) {
-        best = r;
-        hidden_best = hidden;
-      }
-    }
-    cv::rectangle(img, best, cv::Scalar(255, 255, 255), cv::FILLED);
-    cv::rectangle(img, best, cv::Scalar(200, 200, 200), 1);
-    const int lx = best.x + 8;
-    int legend_y = best.y + 16;
-    for (const auto& s : series) {
-      if (s.label.empty()) continue;
-      cv::line(img, {lx, legend_y - 5}, {lx + 30, legend_y - 5}, s.colour, 3);
-      put_text(img, s.label, {lx + 38, legend_y});
-      legend_y += 20;
+  if (labelled == 0) return;
+  int text_w = 0;
+  for (const auto& s : series)
+    if (!s.label.empty()) text_w = std::max(text_w, text_size(s.label).width);
+  const cv::Size box(std::min(area.width - 8, text_w + 56), 12 + 20 * labelled);
+  cv::Rect best;
+  std::size_t hidden_best = 0;
+  for (const cv::Point corner :
+       {cv::Point(area.x + area.width - 4 - box.width, area.y + 4), cv::Point(area.x + 4, area.y + 4),
+        cv::Point(area.x + area.width - 4 - box.width, area.y + area.height - 4 - box.height),
+        cv::Point(area.x + 4, area.y + area.height - 4 - box.height)}) {
+    const cv::Rect r(corner, box);
+    const auto hidden = static_cast<std::size_t>(
+        std::count_if(drawn.begin(), drawn.end(), [&r](const cv::Point& p) { return r.contains(p); }));
+    if (best.area() == 0 || hidden < hidden_best) {
+      best = r;
+      hidden_best = hidden;
     }
   }
+  cv::rectangle(img, best, cv::Scalar(255, 255, 255), cv::FILLED);
+  cv::rectangle(img, best, cv::Scalar(200, 200, 200), 1);
+  const int lx = best.x + 8;
+  int legend_y = best.y + 16;
+  for (const auto& s : series) {
+    if (s.label.empty()) continue;
+    cv::line(img, {lx, legend_y - 5}, {lx + 30, legend_y - 5}, s.colour, 3);
+    put_text(img, s.label, {lx + 38, legend_y});
+    legend_y += 20;
+  }
+}
+
+}  // namespace
+
+cv::Mat render_plot(const PlotSpec& spec, std::span<const PlotSeries> series) {
+  cv::Mat img(std::max(200, spec.height_px), std::max(300, spec.width_px), CV_8UC3, cv::Scalar(255, 255, 255));
+  const PlotFrame frame = plot_frame(spec, series, img.size());
+  draw_axes(img, spec, frame);
+  draw_legend(img, series, frame.area, draw_series(img, series, frame));
   return img;
 }
 
