@@ -186,13 +186,18 @@ cv::Mat to_bgr8(const cv::Mat& img) {
   return out;
 }
 
-void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const std::string& csv_path,
-               const std::string& overlay_dir, const std::string& saliency_dir, const std::string& masks_dir) {
-  // A directory stands for the images in it (sorted by name, not recursing); one without any is
-  // a failed input like an unreadable image, and the others are still processed.
+// A failed input (a directory without images, an unreadable image) is skipped: counted in `count`, its error kept in
+// `first_error` when it is the first, and printed.
+void skip_input(const sal::DataError& e, int& count, std::string& first_error) {
+  ++count;
+  if (first_error.empty()) first_error = e.what();
+  std::cerr << "error: " << e.what() << " (skipped)\n";
+}
+
+// The images of the inputs. A directory stands for the images in it (sorted by name, not recursing); one without any
+// is a failed input like an unreadable image (counted in `bad_dirs`), and the others are still processed.
+std::vector<std::string> list_inputs(const std::vector<std::string>& args, int& bad_dirs, std::string& first_error) {
   std::vector<std::string> images;
-  int bad_dirs = 0;
-  std::string first_error;
   for (const std::string& a : args) {
     std::error_code ec;
     if (!fs::is_directory(a, ec)) {
@@ -205,56 +210,182 @@ void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const
         throw sal::DataError(a + ": a directory without an image regolith reads (PNG, JPEG, TIFF, BMP, PNM, WebP)");
       images.insert(images.end(), in_dir.begin(), in_dir.end());
     } catch (const sal::DataError& e) {
-      ++bad_dirs;
-      if (first_error.empty()) first_error = e.what();
-      std::cerr << "error: " << e.what() << " (skipped)\n";
+      skip_input(e, bad_dirs, first_error);
     }
   }
-  const bool trained = o.method == "trained";
+  return images;
+}
+
+// What the method needs, validated: the trained model and its candidate extractor, or the saliency method with its
+// parameters (and for SAMS the SfS height map); the post-processing into boxes.
+struct RockMethod {
+  bool trained = false;
   std::optional<sal::TrainedModel> model;
   std::unique_ptr<sal::CandidateExtractor> extractor;
-  sal::CandidateSet cand_set;
-  if (trained) {
+  sal::Method method = sal::Method::kContrast;
+  sal::PostProcessParams post;
+  sal::IttiParams ip;
+  sal::ContrastParams cp;
+  std::shared_ptr<void> keep;  // owns what `height` calls
+  sal::HeightFn height;
+};
+
+// The method of the options (InputError for a model that does not load, ConfigError for bad parameters or SAMS
+// without SfS).
+RockMethod configure(const RockOptions& o) {
+  RockMethod m;
+  m.trained = o.method == "trained";
+  if (m.trained) {
     const std::string path = o.model.empty() ? sal::default_trained_model_path() : o.model;
     try {
-      model = sal::TrainedModel::load(path);
+      m.model = sal::TrainedModel::load(path);
     } catch (const sal::ModelError& e) {
       throw InputError(e.what());
     }
-    extractor = std::make_unique<sal::CandidateExtractor>(model->candidates);
+    m.extractor = std::make_unique<sal::CandidateExtractor>(m.model->candidates);
   }
-  const sal::Method method = trained ? sal::Method::kContrast : sal::method_from_string(o.method);
-  const sal::PostProcessParams post = o.post(method);
-  const sal::IttiParams ip = o.itti();
-  const sal::ContrastParams cp = o.contrast();
+  m.method = m.trained ? sal::Method::kContrast : sal::method_from_string(o.method);
+  m.post = o.post(m.method);
+  m.ip = o.itti();
+  m.cp = o.contrast();
   try {
-    post.validate();
-    ip.validate();
-    cp.validate();
+    m.post.validate();
+    m.ip.validate();
+    m.cp.validate();
   } catch (const std::invalid_argument& e) {
     throw ConfigError(e.what());
   }
-  std::shared_ptr<void> keep;
-  sal::HeightFn height;
-  if (method == sal::Method::kSams) {
-    height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, keep);
-    if (!height) no_sfs();
+  if (m.method == sal::Method::kSams) {
+    m.height = make_height_fn(o.sfs_downsample, o.sfs_slant_deg, m.keep);
+    if (!m.height) no_sfs();
   }
+  return m;
+}
+
+// The CSV with its header line, after the overlay and saliency directories (created when asked for).
+std::ofstream open_outputs(const std::string& csv_path, const std::string& overlay_dir,
+                           const std::string& saliency_dir) {
   ensure_dir(overlay_dir, "--overlay-dir");
   ensure_dir(saliency_dir, "--saliency-dir");
   std::ofstream csv(csv_path);
   if (!csv) throw ConfigError("--csv: cannot write '" + csv_path + "'");
   csv << "image,xmin,ymin,xmax,ymax,score\n";
+  return csv;
+}
 
-  sal::IttiSaliency itti(ip);
-  sal::ContrastSaliency contrast(cp);
-  std::unique_ptr<sal::OpenCvSaliency> peer;
+// The saliency of an OpenCV peer method (spectral_residual, fine_grained); none for the others.
+std::unique_ptr<sal::OpenCvSaliency> make_peer(sal::Method method) {
   if (method == sal::Method::kSpectralResidual || method == sal::Method::kFineGrained) {
-    peer = std::make_unique<sal::OpenCvSaliency>(method);
+    return std::make_unique<sal::OpenCvSaliency>(method);
   }
-  sal::BoxDetector detector(post);
+  return nullptr;
+}
+
+// The method's detectors and their buffers, reused from image to image.
+struct RockDetectors {
+  explicit RockDetectors(const RockMethod& m)
+      : itti(m.ip), contrast(m.cp), peer(make_peer(m.method)), detector(m.post) {}
+
+  sal::IttiSaliency itti;
+  sal::ContrastSaliency contrast;
+  std::unique_ptr<sal::OpenCvSaliency> peer;  // spectral_residual, fine_grained
+  sal::BoxDetector detector;
+  sal::CandidateSet cand_set;
   cv::Mat map, map8, h;
   std::vector<sal::Detection> dets;
+};
+
+// The boxes of one image in d.dets, and its saliency map in d.map (trained: only when `want_map`; the map is for
+// people, detection needs only the scores). DataError naming `path` when the method fails on the image.
+void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, const std::string& path, bool want_map) {
+  try {
+    if (m.trained) {
+      m.extractor->extract(img, d.cand_set);
+      const std::vector<float> scores = m.model->score(d.cand_set);
+      if (want_map) sal::TrainedModel::score_map(d.cand_set, scores, d.map);
+      d.dets = sal::TrainedModel::select(d.cand_set, scores, m.model->score_threshold, m.model->nms_iou);
+    } else if (d.peer) {
+      d.peer->compute(img, d.map);
+    } else if (m.method == sal::Method::kContrast) {
+      d.contrast.compute(img, d.map);
+    } else if (m.method == sal::Method::kSams) {
+      m.height(img, d.h);
+      d.itti.compute(img, d.h, d.map);
+    } else {
+      d.itti.compute(img, cv::Mat(), d.map);
+    }
+  } catch (const std::exception& e) {
+    throw sal::DataError(path + ": " + e.what());
+  }
+  if (!m.trained) d.detector.detect(d.map, d.dets);
+}
+
+// The CSV lines of one image: one per box.
+void write_boxes(std::ostream& csv, const std::string& name, const std::vector<sal::Detection>& dets) {
+  for (const auto& d : dets) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6f", d.score);
+    csv << name << ',' << d.box.x << ',' << d.box.y << ',' << d.box.x + d.box.width << ',' << d.box.y + d.box.height
+        << ',' << buf << '\n';
+  }
+}
+
+// <saliency_dir>/<stem>.png: the saliency map in 8 bits (converted into `map8`).
+void write_saliency(const cv::Mat& map, cv::Mat& map8, const std::string& saliency_dir, const std::string& stem) {
+  sal::to_8bit(map, map8);
+  const std::string out = (fs::path(saliency_dir) / (stem + ".png")).string();
+  if (!cv::imwrite(out, map8)) throw sal::DataError(out + ": cannot write saliency map");
+}
+
+// The ground truth drawn on the overlay `ov` of an image of `size`: cyan outlines of the components of the mask
+// <masks_dir>/<stem>.png; returns the number of rocks it holds.
+std::size_t draw_truth(cv::Mat& ov, cv::Size size, const std::string& masks_dir, const std::string& stem) {
+  const fs::path mp = fs::path(masks_dir) / (stem + ".png");
+  const sal::FrameTruth truth = sal::read_truth(mp.string(), size, 0);
+  cv::Mat m = sal::read_image(mp.string()), bin;
+  if (m.channels() > 1) cv::extractChannel(m, m, 0);
+  cv::compare(m, 0, bin, cv::CMP_GT);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(bin, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
+  return truth.objects.size();
+}
+
+// <overlay_dir>/<stem>.png: the image with the boxes coloured by score and, when masks are given, the ground truth
+// under them; a legend strip at the bottom.
+void write_overlay(const cv::Mat& img, const std::vector<sal::Detection>& dets, const std::string& masks_dir,
+                   const std::string& overlay_dir, const std::string& stem) {
+  cv::Mat ov = to_bgr8(img).clone();
+  std::string legend = "boxes: score red 0 -> green 1";
+  if (!masks_dir.empty()) {
+    const std::size_t rocks = draw_truth(ov, img.size(), masks_dir, stem);
+    legend += "; ground truth: cyan (" + std::to_string(rocks) + " rocks)";
+  }
+  for (const auto& d : dets) {
+    const double sc = std::clamp(static_cast<double>(d.score), 0.0, 1.0);
+    const cv::Scalar colour(0, 255.0 * sc, 255.0 * (1.0 - sc));
+    cv::rectangle(ov, d.box, colour, 2);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f", d.score);
+    cv::putText(ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)), cv::FONT_HERSHEY_SIMPLEX, 0.4, colour, 1);
+  }
+  cv::rectangle(ov, cv::Rect(0, ov.rows - 18, ov.cols, 18), cv::Scalar(0, 0, 0), cv::FILLED);
+  cv::putText(ov, legend, cv::Point(4, ov.rows - 5), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+  const std::string out = (fs::path(overlay_dir) / (stem + ".png")).string();
+  if (!cv::imwrite(out, ov)) throw sal::DataError(out + ": cannot write overlay");
+}
+
+// `regolith rocks`: the boxes of every image in the CSV (and its overlay and saliency map when asked for); InputError
+// after the others when an input failed.
+void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const std::string& csv_path,
+               const std::string& overlay_dir, const std::string& saliency_dir, const std::string& masks_dir) {
+  int bad_dirs = 0;
+  std::string first_error;
+  const std::vector<std::string> images = list_inputs(args, bad_dirs, first_error);
+  const RockMethod m = configure(o);
+  std::ofstream csv = open_outputs(csv_path, overlay_dir, saliency_dir);
+  RockDetectors d(m);
   int failed = 0;
   size_t total_boxes = 0;
   double detect_s = 0.0;  // wall time of map / candidates + boxes, decoding excluded
@@ -263,77 +394,16 @@ void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const
     try {
       const cv::Mat img = sal::read_image(path);
       const auto t0 = std::chrono::steady_clock::now();
-      try {
-        if (trained) {
-          extractor->extract(img, cand_set);
-          const std::vector<float> scores = model->score(cand_set);
-          if (!saliency_dir.empty())  // the map is for people; detection needs only the scores
-            sal::TrainedModel::score_map(cand_set, scores, map);
-          dets = sal::TrainedModel::select(cand_set, scores, model->score_threshold, model->nms_iou);
-        } else if (peer) {
-          peer->compute(img, map);
-        } else if (method == sal::Method::kContrast) {
-          contrast.compute(img, map);
-        } else if (method == sal::Method::kSams) {
-          height(img, h);
-          itti.compute(img, h, map);
-        } else {
-          itti.compute(img, cv::Mat(), map);
-        }
-      } catch (const std::exception& e) {
-        throw sal::DataError(path + ": " + e.what());
-      }
-      if (!trained) detector.detect(map, dets);
+      detect_rocks(m, d, img, path, !saliency_dir.empty());
       detect_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       ++detected;
-      const std::string name = fs::path(path).filename().string();
       const std::string stem = fs::path(path).stem().string();
-      for (const auto& d : dets) {
-        char buf[64];
-        std::snprintf(buf, sizeof buf, "%.6f", d.score);
-        csv << name << ',' << d.box.x << ',' << d.box.y << ',' << d.box.x + d.box.width << ',' << d.box.y + d.box.height
-            << ',' << buf << '\n';
-      }
-      total_boxes += dets.size();
-      if (!saliency_dir.empty()) {
-        sal::to_8bit(map, map8);
-        const std::string out = (fs::path(saliency_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, map8)) throw sal::DataError(out + ": cannot write saliency map");
-      }
-      if (!overlay_dir.empty()) {
-        cv::Mat ov = to_bgr8(img).clone();
-        // ground truth first (cyan outlines of the mask's components), when masks are given
-        std::string legend = "boxes: score red 0 -> green 1";
-        if (!masks_dir.empty()) {
-          const fs::path mp = fs::path(masks_dir) / (stem + ".png");
-          const sal::FrameTruth truth = sal::read_truth(mp.string(), img.size(), 0);
-          cv::Mat m = sal::read_image(mp.string()), bin;
-          if (m.channels() > 1) cv::extractChannel(m, m, 0);
-          cv::compare(m, 0, bin, cv::CMP_GT);
-          std::vector<std::vector<cv::Point>> contours;
-          cv::findContours(bin, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
-          cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
-          legend += "; ground truth: cyan (" + std::to_string(truth.objects.size()) + " rocks)";
-        }
-        for (const auto& d : dets) {
-          const double sc = std::clamp(static_cast<double>(d.score), 0.0, 1.0);
-          const cv::Scalar colour(0, 255.0 * sc, 255.0 * (1.0 - sc));
-          cv::rectangle(ov, d.box, colour, 2);
-          char buf[32];
-          std::snprintf(buf, sizeof buf, "%.2f", d.score);
-          cv::putText(ov, buf, cv::Point(d.box.x + 2, std::max(12, d.box.y - 3)), cv::FONT_HERSHEY_SIMPLEX, 0.4, colour,
-                      1);
-        }
-        cv::rectangle(ov, cv::Rect(0, ov.rows - 18, ov.cols, 18), cv::Scalar(0, 0, 0), cv::FILLED);
-        cv::putText(ov, legend, cv::Point(4, ov.rows - 5), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1,
-                    cv::LINE_AA);
-        const std::string out = (fs::path(overlay_dir) / (stem + ".png")).string();
-        if (!cv::imwrite(out, ov)) throw sal::DataError(out + ": cannot write overlay");
-      }
+      write_boxes(csv, fs::path(path).filename().string(), d.dets);
+      total_boxes += d.dets.size();
+      if (!saliency_dir.empty()) write_saliency(d.map, d.map8, saliency_dir, stem);
+      if (!overlay_dir.empty()) write_overlay(img, d.dets, masks_dir, overlay_dir, stem);
     } catch (const sal::DataError& e) {
-      ++failed;
-      if (first_error.empty()) first_error = e.what();
-      std::cerr << "error: " << e.what() << " (skipped)\n";
+      skip_input(e, failed, first_error);
     }
   }
   csv.flush();

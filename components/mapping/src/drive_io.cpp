@@ -35,8 +35,14 @@ std::string csv_fixed(double v, int decimals) {
   return buf;
 }
 
-void write_tiff(const fs::path& p, const cv::Mat& m) {
-  if (!cv::imwrite(p.string(), m)) throw InputError("map: cannot write '" + p.string() + "'");
+// InputError naming the file `map` cannot write.
+[[noreturn]] void cannot_write(const fs::path& p) {
+  throw InputError("map: cannot write '" + p.string() + "'");
+}
+
+// An image file (TIFF, PNG: by the extension).
+void write_image(const fs::path& p, const cv::Mat& m) {
+  if (!cv::imwrite(p.string(), m)) cannot_write(p);
 }
 
 }  // namespace
@@ -112,80 +118,104 @@ void write_drive_description(const RecordedDrive& d, const fs::path& file) {
   if (!f) throw InputError(file.string() + ": cannot write the drive description");
 }
 
-DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& params, const fs::path& out,
-                          const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
-  DriveMapSummary sum;
-  // The description must be the frames' camera before anything is sized by it: the mapper's
-  // per-pixel tables follow the declared size (a 16384 x 12288 camera over 320 x 240 frames asked
-  // for gigabytes and ended in an OpenCV out-of-memory error). The first frame that reads decides;
-  // a later frame of another size is skipped below. That frame's image is kept for the loop below
-  // (decoded once).
-  const DriveFrame* first_read = nullptr;
-  cv::Mat first;
+namespace {
+
+// The first frame that reads and its image, kept for the frame loop (decoded once); none when no frame reads.
+struct FirstFrame {
+  const DriveFrame* frame = nullptr;
+  cv::Mat image;
+};
+
+// The description must be the frames' camera before anything is sized by it: the mapper's per-pixel tables follow the
+// declared size (a 16384 x 12288 camera over 320 x 240 frames asked for gigabytes and ended in an OpenCV out-of-memory
+// error). The first frame that reads decides (InputError when it is of another size); a later frame of another size
+// is skipped by add_frames.
+FirstFrame read_first_frame(const RecordedDrive& drive) {
+  FirstFrame first;
   for (const DriveFrame& fr : drive.frames) {
-    first = regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE);
-    if (first.empty()) continue;
-    first_read = &fr;
-    if (first.cols != drive.camera.width || first.rows != drive.camera.height)
+    first.image = regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE);
+    if (first.image.empty()) continue;
+    first.frame = &fr;
+    if (first.image.cols != drive.camera.width || first.image.rows != drive.camera.height)
       throw InputError((drive.dir / "input.json").string() + ": camera is " + std::to_string(drive.camera.width) + "x" +
                        std::to_string(drive.camera.height) + " px, but frame " + std::to_string(fr.index) + " (" +
-                       fr.file.string() + ") is " + std::to_string(first.cols) + "x" + std::to_string(first.rows) +
-                       ": the description is not this drive's camera");
+                       fr.file.string() + ") is " + std::to_string(first.image.cols) + "x" +
+                       std::to_string(first.image.rows) + ": the description is not this drive's camera");
     break;
   }
-  fs::create_directories(out);
-  // The window covers the wheel path plus the camera's reach (wheel drift is small against it):
-  // the path the mapper will dead-reckon, its odometry jumps left out as it leaves them out (one
-  // corrupted line of 1e6 m asked for a window of 4e7 cells per side).
+  return first;
+}
+
+// The mapper's parameters for the drive and the centre of its map window.
+struct MapWindow {
+  DriveMapperParams params;
+  cv::Point2d center;
+};
+
+// The mapper's parameters with a map window covering the wheel path plus the camera's reach (wheel drift is small
+// against it), and the window's centre: the path the mapper will dead-reckon, its odometry jumps left out as it leaves
+// them out (one corrupted line of 1e6 m asked for a window of 4e7 cells per side).
+MapWindow map_window(const RecordedDrive& drive, const DriveMapperParams& params) {
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
-  {
-    bool started = false;
-    Pose2 pose, last;
-    double last_t = std::numeric_limits<double>::quiet_NaN();
-    for (const auto& fr : drive.frames) {
-      if (!started) {
-        pose = last = fr.odometry.finite() ? fr.odometry : Pose2{};
-        started = true;
-      } else if (fr.odometry.finite()) {
-        const Pose2 step = between(last, fr.odometry);
-        if (params.wheel.plausible(step, fr.t_s - last_t)) pose = compose(pose, step);
-        last = fr.odometry;
-      }
-      last_t = fr.t_s;
-      xmin = std::min(xmin, pose.x), xmax = std::max(xmax, pose.x);
-      ymin = std::min(ymin, pose.y), ymax = std::max(ymax, pose.y);
+  bool started = false;
+  Pose2 pose, last;
+  double last_t = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& fr : drive.frames) {
+    if (!started) {
+      pose = last = fr.odometry.finite() ? fr.odometry : Pose2{};
+      started = true;
+    } else if (fr.odometry.finite()) {
+      const Pose2 step = between(last, fr.odometry);
+      if (params.wheel.plausible(step, fr.t_s - last_t)) pose = compose(pose, step);
+      last = fr.odometry;
     }
+    last_t = fr.t_s;
+    xmin = std::min(xmin, pose.x), xmax = std::max(xmax, pose.x);
+    ymin = std::min(ymin, pose.y), ymax = std::max(ymax, pose.y);
   }
   if (xmin > xmax) xmin = xmax = ymin = ymax = 0.0;
-  DriveMapperParams p = params;
-  const double reach = p.map.max_range_m + 1.5;
-  p.map.length_x_m = std::max(p.map.length_x_m, xmax - xmin + 2 * reach);
-  p.map.length_y_m = std::max(p.map.length_y_m, ymax - ymin + 2 * reach);
-  DriveMapper mapper(drive.camera, drive.mount, drive.sun_world(), p, {0.5 * (xmin + xmax), 0.5 * (ymin + ymax)});
+  MapWindow w{params, {0.5 * (xmin + xmax), 0.5 * (ymin + ymax)}};
+  const double reach = w.params.map.max_range_m + 1.5;
+  w.params.map.length_x_m = std::max(w.params.map.length_x_m, xmax - xmin + 2 * reach);
+  w.params.map.length_y_m = std::max(w.params.map.length_y_m, ymax - ymin + 2 * reach);
+  return w;
+}
 
+// A frame not used: its note, counted as skipped.
+void skip(DriveMapSummary& sum, std::string note) {
+  sum.notes.push_back(std::move(note));
+  ++sum.skipped;
+}
+
+// The corrected and the wheel-odometry path, one pose per used frame.
+struct Paths {
   std::vector<Pose2> corrected, wheel;
+};
+
+// Every usable frame through the mapper (reports, frame indices, path length and notes in `sum`); returns the
+// corrected and the wheel path. Frames out of order, unreadable or of another size are skipped with a note.
+Paths add_frames(const RecordedDrive& drive, FirstFrame& first, DriveMapper& mapper,
+                 const std::function<void(const DriveFrame&, const FrameReport&)>& progress, DriveMapSummary& sum) {
+  Paths paths;
   double last_t = -std::numeric_limits<double>::infinity();
   int last_index = std::numeric_limits<int>::min();
   for (const DriveFrame& fr : drive.frames) {
     const std::string name = "frame " + std::to_string(fr.index) + " (" + fr.file.filename().string() + ")";
     if (fr.index <= last_index || !(fr.t_s > last_t)) {
-      sum.notes.push_back(name + ": out of order (frame " + std::to_string(fr.index) + ", t " + std::to_string(fr.t_s) +
-                          " s after frame " + std::to_string(last_index) + "): skipped");
-      ++sum.skipped;
+      skip(sum, name + ": out of order (frame " + std::to_string(fr.index) + ", t " + std::to_string(fr.t_s) +
+                    " s after frame " + std::to_string(last_index) + "): skipped");
       continue;
     }
     std::string why;
-    cv::Mat gray = &fr == first_read ? std::move(first) : regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
+    cv::Mat gray = &fr == first.frame ? std::move(first.image)
+                                      : regolith::read_image_8bit(fr.file.string(), cv::IMREAD_GRAYSCALE, &why);
     if (gray.empty()) {
-      sum.notes.push_back(name + ": cannot read '" + fr.file.string() + "': " + why + ": skipped");
-      ++sum.skipped;
+      skip(sum, name + ": cannot read '" + fr.file.string() + "': " + why + ": skipped");
       continue;
     }
     if (gray.cols != drive.camera.width || gray.rows != drive.camera.height) {
-      sum.notes.push_back(name + ": " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                          " px, the camera is " + std::to_string(drive.camera.width) + "x" +
-                          std::to_string(drive.camera.height) + ": skipped");
-      ++sum.skipped;
+      skip(sum, name + ": " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " px, the camera is " +
+                    std::to_string(drive.camera.width) + "x" + std::to_string(drive.camera.height) + ": skipped");
       continue;
     }
     last_index = fr.index;
@@ -194,22 +224,22 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
     if (r.odometry_jump) sum.notes.push_back(name + ": wheel odometry jumped: step ignored, vision only");
     if (!sum.reports.empty() && r.vo != VoStatus::kOk)
       sum.notes.push_back(name + ": visual odometry: " + std::string(to_string(r.vo)) + ": wheel odometry used");
-    if (!corrected.empty()) sum.path_length_m += std::hypot(r.pose.x - corrected.back().x, r.pose.y - corrected.back().y);
+    if (!paths.corrected.empty())
+      sum.path_length_m += std::hypot(r.pose.x - paths.corrected.back().x, r.pose.y - paths.corrected.back().y);
     sum.reports.push_back(r);
     sum.frame_index.push_back(fr.index);
-    corrected.push_back(r.pose);
-    wheel.push_back(fr.odometry);
+    paths.corrected.push_back(r.pose);
+    paths.wheel.push_back(fr.odometry);
     if (progress) progress(fr, r);
   }
-  sum.counters = mapper.counters();
+  return paths;
+}
 
-  // Outputs, cropped to the seen cells (+ a margin).
-  WorldMap& map = mapper.map();
-  map.finish();
-  sum.rocks = map.rocks();
+// The cells written: every known cell (an elevation, or a hazard: a rock sighted beyond the known ground) and the
+// corrected path, plus a margin; the whole map when there is none.
+cv::Rect known_cells(const WorldMap& map, const std::vector<Pose2>& corrected) {
   const cv::Mat& el = map.layer("elevation");
   const cv::Mat& hz = map.layer("hazard");
-  // Every known cell: an elevation, or a hazard (a rock sighted beyond the known ground)
   int r0 = map.rows(), r1 = -1, c0 = map.cols(), c1 = -1;
   for (int i = 0; i < map.rows(); ++i)
     for (int j = 0; j < map.cols(); ++j)
@@ -224,9 +254,50 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   r0 = std::clamp(r0 - margin, 0, map.rows() - 1), r1 = std::clamp(r1 + margin, 0, map.rows() - 1);
   c0 = std::clamp(c0 - margin, 0, map.cols() - 1), c1 = std::clamp(c1 + margin, 0, map.cols() - 1);
   if (r1 < r0 || c1 < c0) r0 = c0 = 0, r1 = map.rows() - 1, c1 = map.cols() - 1;
-  const cv::Rect roi(c0, r0, c1 - c0 + 1, r1 - r0 + 1);
-  const cv::Point2d origin = map.cell_center(r0, c0);
+  return {c0, r0, c1 - c0 + 1, r1 - r0 + 1};
+}
 
+// <layer>.tiff of every layer, cropped to `roi`; returns map.json's `layers` ({layer: file}).
+nlohmann::json write_layers(const WorldMap& map, const cv::Rect& roi, const fs::path& out, DriveMapSummary& sum) {
+  nlohmann::json layers = nlohmann::json::object();
+  for (const std::string& name : WorldMap::layer_names()) {
+    const std::string file = name + ".tiff";
+    write_image(out / file, map.layer(name)(roi));
+    layers[name] = file;
+    sum.written.push_back(out / file);
+  }
+  return layers;
+}
+
+// map.json's `cues`: which cues made this map (a stationary rover has no parallax; a sun outside the shadow cue's
+// elevation range has no shadows).
+nlohmann::json cues_json(const RecordedDrive& drive, const DriveMapperParams& params, const DriveCounters& counters) {
+  const double sun_el = drive.sun_elevation_deg * 3.14159265358979323846 / 180.0;
+  const bool sun_ok = sun_el >= params.shadow.min_elevation_rad && sun_el <= params.shadow.max_elevation_rad;
+  nlohmann::json cues;
+  cues["parallax"] = {{"enabled", params.fuse_terrain && params.fuse_parallax},
+                      {"mode", params.parallax_mode == ParallaxMode::kSweep       ? "sweep"
+                               : params.parallax_mode == ParallaxMode::kRectified ? "rectified"
+                                                                                  : "both"},
+                      {"frames", counters.parallax_frames}};
+  cues["rock_sightings"] = {{"enabled", params.fuse_terrain && params.fuse_sightings},
+                            {"sightings", counters.rock_sightings},
+                            {"tracked", params.tracks.enabled},
+                            {"tracks", counters.rock_tracks}};
+  cues["shadows"] = {{"enabled", params.fuse_terrain && params.fuse_parallax && params.fuse_shadows},
+                     {"available", sun_ok},
+                     {"frames", counters.shadow_frames}};
+  if (!sun_ok)
+    cues["shadows"]["why"] =
+        "sun elevation " + std::to_string(drive.sun_elevation_deg) + " deg outside the cue's range";
+  cues["shading"] = {{"enabled", params.fuse_terrain && params.fuse_shading}};
+  return cues;
+}
+
+// map.json: where the cells of `roi` lie in the world, the layer files, the counters and the cues.
+void write_map_json(const RecordedDrive& drive, const DriveMapperParams& params, const WorldMap& map,
+                    const cv::Rect& roi, const nlohmann::json& layers, const fs::path& out, DriveMapSummary& sum) {
+  const cv::Point2d origin = map.cell_center(roi.y, roi.x);
   nlohmann::json mj;
   mj["origin_x_m"] = origin.x;
   mj["origin_y_m"] = origin.y;
@@ -238,13 +309,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   mj["convention"] =
       "cell (row i, col j) is centred at x = origin_x_m + j*resolution_m, y = origin_y_m + i*resolution_m; "
       "world = odometry frame of frames.csv (x east, y north, z up)";
-  mj["layers"] = nlohmann::json::object();
-  for (const std::string& name : WorldMap::layer_names()) {
-    const std::string file = name + ".tiff";
-    write_tiff(out / file, map.layer(name)(roi));
-    mj["layers"][name] = file;
-    sum.written.push_back(out / file);
-  }
+  mj["layers"] = layers;
   mj["frames"] = sum.counters.frames;
   mj["frames_skipped"] = sum.skipped;
   mj["vo_ok"] = sum.counters.vo_ok;
@@ -253,65 +318,67 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
   mj["keyframes"] = sum.counters.keyframes;
   mj["path_length_m"] = sum.path_length_m;
   mj["rocks"] = sum.rocks.size();
-  // Which cues made this map (a stationary rover has no parallax; a sun outside the shadow cue's
-  // elevation range has no shadows).
-  {
-    const double sun_el = drive.sun_elevation_deg * 3.14159265358979323846 / 180.0;
-    const bool sun_ok = sun_el >= params.shadow.min_elevation_rad && sun_el <= params.shadow.max_elevation_rad;
-    nlohmann::json cues;
-    cues["parallax"] = {{"enabled", params.fuse_terrain && params.fuse_parallax},
-                        {"mode", params.parallax_mode == ParallaxMode::kSweep       ? "sweep"
-                                 : params.parallax_mode == ParallaxMode::kRectified ? "rectified"
-                                                                                    : "both"},
-                        {"frames", sum.counters.parallax_frames}};
-    cues["rock_sightings"] = {{"enabled", params.fuse_terrain && params.fuse_sightings},
-                              {"sightings", sum.counters.rock_sightings},
-                              {"tracked", params.tracks.enabled},
-                              {"tracks", sum.counters.rock_tracks}};
-    cues["shadows"] = {{"enabled", params.fuse_terrain && params.fuse_parallax && params.fuse_shadows},
-                       {"available", sun_ok},
-                       {"frames", sum.counters.shadow_frames}};
-    if (!sun_ok)
-      cues["shadows"]["why"] = "sun elevation " + std::to_string(drive.sun_elevation_deg) + " deg outside the cue's range";
-    cues["shading"] = {{"enabled", params.fuse_terrain && params.fuse_shading}};
-    mj["cues"] = cues;
+  mj["cues"] = cues_json(drive, params, sum.counters);
+  std::ofstream o(out / "map.json");
+  o << regolith::json_text(mj, 1) << "\n";
+  if (!o) cannot_write(out / "map.json");
+  sum.written.push_back(out / "map.json");
+}
+
+// rocks.csv: one line per rock of the map.
+void write_rocks_csv(const fs::path& out, DriveMapSummary& sum) {
+  std::ofstream o(out / "rocks.csv");
+  o << "x_m,y_m,height_m,width_m,score\n";
+  char buf[160];
+  for (const MapRock& r : sum.rocks) {
+    std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f\n", r.x_m, r.y_m, r.height_m, r.width_m, r.score);
+    o << buf;
   }
-  {
-    std::ofstream o(out / "map.json");
-    o << regolith::json_text(mj, 1) << "\n";
-    if (!o) throw InputError("map: cannot write '" + (out / "map.json").string() + "'");
-    sum.written.push_back(out / "map.json");
+  sum.written.push_back(out / "rocks.csv");
+}
+
+// odometry.csv: one line per used frame, the corrected pose and its covariance beside the wheel pose.
+void write_odometry_csv(const fs::path& out, DriveMapSummary& sum) {
+  std::ofstream o(out / "odometry.csv");
+  o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
+  for (std::size_t k = 0; k < sum.reports.size(); ++k) {
+    const FrameReport& r = sum.reports[k];
+    const auto g = [](double v) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.3g", v);
+      return std::string(buf);
+    };
+    o << sum.frame_index[k] << ',' << csv_fixed(r.pose.x, 6) << ',' << csv_fixed(r.pose.y, 6) << ','
+      << csv_fixed(r.pose.yaw, 8) << ',' << g(r.covariance(0, 0)) << ',' << g(r.covariance(1, 1)) << ','
+      << g(r.covariance(2, 2)) << ',' << (r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel")) << ','
+      << csv_fixed(r.wheel_pose.x, 6) << ',' << csv_fixed(r.wheel_pose.y, 6) << ',' << csv_fixed(r.wheel_pose.yaw, 8)
+      << '\n';
   }
-  {
-    std::ofstream o(out / "rocks.csv");
-    o << "x_m,y_m,height_m,width_m,score\n";
-    char buf[160];
-    for (const MapRock& r : sum.rocks) {
-      std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f\n", r.x_m, r.y_m, r.height_m, r.width_m, r.score);
-      o << buf;
-    }
-    sum.written.push_back(out / "rocks.csv");
-  }
-  {
-    std::ofstream o(out / "odometry.csv");
-    o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
-    for (std::size_t k = 0; k < sum.reports.size(); ++k) {
-      const FrameReport& r = sum.reports[k];
-      const auto g = [](double v) {
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%.3g", v);
-        return std::string(buf);
-      };
-      o << sum.frame_index[k] << ',' << csv_fixed(r.pose.x, 6) << ',' << csv_fixed(r.pose.y, 6) << ','
-        << csv_fixed(r.pose.yaw, 8) << ',' << g(r.covariance(0, 0)) << ',' << g(r.covariance(1, 1)) << ','
-        << g(r.covariance(2, 2)) << ',' << (r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel")) << ','
-        << csv_fixed(r.wheel_pose.x, 6) << ',' << csv_fixed(r.wheel_pose.y, 6) << ',' << csv_fixed(r.wheel_pose.yaw, 8)
-        << '\n';
-    }
-    sum.written.push_back(out / "odometry.csv");
-  }
-  if (!cv::imwrite((out / "overview.png").string(), render_overview(map, corrected, wheel, sum.rocks)))
-    throw InputError("map: cannot write '" + (out / "overview.png").string() + "'");
+  sum.written.push_back(out / "odometry.csv");
+}
+
+}  // namespace
+
+DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& params, const fs::path& out,
+                          const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
+  DriveMapSummary sum;
+  FirstFrame first = read_first_frame(drive);
+  fs::create_directories(out);
+  const MapWindow window = map_window(drive, params);
+  DriveMapper mapper(drive.camera, drive.mount, drive.sun_world(), window.params, window.center);
+  const Paths paths = add_frames(drive, first, mapper, progress, sum);
+  sum.counters = mapper.counters();
+
+  // Outputs, cropped to the seen cells (+ a margin).
+  WorldMap& map = mapper.map();
+  map.finish();
+  sum.rocks = map.rocks();
+  const cv::Rect roi = known_cells(map, paths.corrected);
+  const nlohmann::json layers = write_layers(map, roi, out, sum);
+  write_map_json(drive, params, map, roi, layers, out, sum);
+  write_rocks_csv(out, sum);
+  write_odometry_csv(out, sum);
+  write_image(out / "overview.png", render_overview(map, paths.corrected, paths.wheel, sum.rocks));
   sum.written.push_back(out / "overview.png");
   return sum;
 }

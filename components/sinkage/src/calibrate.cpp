@@ -72,10 +72,8 @@ cv::Mat segment_legs(const cv::Mat& bgr, const SinkageParams& p) {
   return bin;
 }
 
-}  // namespace
-
-CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder_angle_rad,
-                                              const CalibrationHints& hints) {
+// Throws std::invalid_argument for an image that is not 8-bit BGR, a non-finite encoder angle or hints out of range.
+void check_inputs(const cv::Mat& bgr, double encoder_angle_rad, const CalibrationHints& hints) {
   if (bgr.empty()) throw std::invalid_argument("calibrate_from_unsunk_frame: bgr: empty image");
   if (bgr.type() != CV_8UC3) {
     throw std::invalid_argument("calibrate_from_unsunk_frame: bgr: expected CV_8UC3 (got type " +
@@ -94,7 +92,10 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
     throw std::invalid_argument("CalibrationHints.rotation_direction: must be +1 or -1");
   }
   hints.colour.validate();
+}
 
+// The blobs of the leg colour of at least hints.min_leg_area_px: their pixels and whether they touch the border.
+std::vector<Blob> find_blobs(const cv::Mat& bgr, const CalibrationHints& hints) {
   const cv::Mat bin = segment_legs(bgr, hints.colour);
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
@@ -116,7 +117,11 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
       if (bi >= 0) blobs[static_cast<std::size_t>(bi)].pts.emplace_back(x, y);
     }
   }
-  // principal axis of each blob
+  return blobs;
+}
+
+// The legs: the elongated blobs, with their centroid and principal axis. Throws when there are fewer than two.
+std::vector<Blob> find_legs(std::vector<Blob> blobs) {
   std::vector<Blob> legs;
   for (auto& b : blobs) {
     double mx = 0, my = 0;
@@ -145,7 +150,16 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
     throw std::runtime_error("calibrate_from_unsunk_frame: found " + std::to_string(legs.size()) +
                              " leg(s) of the leg colour; need at least 2 to locate the hub");
   }
-  // hub: least-squares intersection of the leg axes
+  return legs;
+}
+
+struct Hub {
+  cv::Vec2d centre;
+  double rms_px = 0;  // rms distance of the leg axes from the centre
+};
+
+// The hub: least-squares intersection of the leg axes. Throws when the axes are parallel.
+Hub fit_hub(const std::vector<Blob>& legs) {
   cv::Matx22d A = cv::Matx22d::zeros();
   cv::Vec2d rhs(0, 0);
   for (const auto& l : legs) {
@@ -164,20 +178,56 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
     rms += std::pow(nrm.dot(hub - cv::Vec2d(l.centroid.x, l.centroid.y)), 2);
   }
   rms = std::sqrt(rms / static_cast<double>(legs.size()));
+  return {hub, rms};
+}
 
-  // per leg: axial width profile
+// Per-leg measurements, px (offsets: rad); lengths and feet only of the legs that do not touch the border.
+struct LegMeasures {
   std::vector<double> lengths, widths, hub_radii, foot_widths, foot_thick, offsets;
-  for (auto& l : legs) {
+};
+
+// The leg's axial width profile: its pixels per 1 px bin of distance from the hub along `u` (none before the hub).
+std::vector<double> axial_profile(const Blob& l, const cv::Vec2d& hub, const cv::Point2d& u) {
+  std::vector<double> count;
+  for (const auto& p : l.pts) {
+    const double along = (p.x - hub[0]) * u.x + (p.y - hub[1]) * u.y;
+    if (along < 0) continue;
+    const auto bi = static_cast<std::size_t>(along);
+    if (bi >= count.size()) count.resize(bi + 1, 0.0);
+    count[bi] += 1.0;
+  }
+  return count;
+}
+
+// The foot in the profile `count` of a leg of shaft width `w` from bin r0 to the tip bin `end`: a run of bins clearly
+// wider than the shaft ending within 3 bins of the tip (the last bins are partial). Adds its median width and its
+// thickness to `m` (0 and 0 without a foot).
+void measure_foot(const std::vector<double>& count, std::size_t r0, std::size_t end, double w, LegMeasures& m) {
+  std::size_t fe = end;
+  while (fe > r0 && fe + 3 > end && count[fe] <= 1.3 * w) --fe;
+  std::size_t fs = fe + 1;
+  while (fs > r0 && count[fs - 1] > 1.3 * w) --fs;
+  if (count[fe] <= 1.3 * w) fs = end + 1;
+  if (fs <= end) {
+    std::vector<double> fw(count.begin() + static_cast<std::ptrdiff_t>(fs),
+                           count.begin() + static_cast<std::ptrdiff_t>(fe + 1));
+    m.foot_widths.push_back(median_of(fw));
+    m.foot_thick.push_back(static_cast<double>(end + 1 - fs));
+  } else {
+    m.foot_widths.push_back(0.0);
+    m.foot_thick.push_back(0.0);
+  }
+}
+
+// Width, hub radius and angle offset of every leg with a profile; length and foot of those inside the image. Throws
+// when no leg lies fully inside the image.
+LegMeasures measure_legs(const std::vector<Blob>& legs, const cv::Vec2d& hub, double encoder_angle_rad,
+                         const CalibrationHints& hints) {
+  LegMeasures m;
+  for (const auto& l : legs) {
     cv::Point2d u = l.dir;
     if (u.x * (l.centroid.x - hub[0]) + u.y * (l.centroid.y - hub[1]) < 0) u = -u;
-    std::vector<double> count;
-    for (const auto& p : l.pts) {
-      const double along = (p.x - hub[0]) * u.x + (p.y - hub[1]) * u.y;
-      if (along < 0) continue;
-      const auto bi = static_cast<std::size_t>(along);
-      if (bi >= count.size()) count.resize(bi + 1, 0.0);
-      count[bi] += 1.0;
-    }
+    const std::vector<double> count = axial_profile(l, hub, u);
     if (count.size() < 8) continue;
     // the shaft: middle half of the occupied range
     std::size_t first = 0;
@@ -187,49 +237,36 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
                             count.begin() + static_cast<std::ptrdiff_t>(first + (last - first) / 2));
     const double w = median_of(mid);
     if (w < 2.0) continue;
-    widths.push_back(w);
+    m.widths.push_back(w);
     std::size_t r0 = first;
     while (r0 < count.size() && count[r0] < 0.5 * w) ++r0;
-    hub_radii.push_back(static_cast<double>(r0));
-    offsets.push_back(std::atan2(u.x, u.y) - hints.rotation_direction * encoder_angle_rad);
+    m.hub_radii.push_back(static_cast<double>(r0));
+    m.offsets.push_back(std::atan2(u.x, u.y) - hints.rotation_direction * encoder_angle_rad);
     if (l.touches_border) continue;
     std::size_t end = last;
     while (end > r0 && count[end] < 0.5 * w) --end;
-    lengths.push_back(static_cast<double>(end) + 1.0);
-    // foot: trailing run of bins clearly wider than the shaft
-    // foot: a run of bins clearly wider than the shaft ending within 3 bins of the tip (the last
-    // bins are partial)
-    std::size_t fe = end;
-    while (fe > r0 && fe + 3 > end && count[fe] <= 1.3 * w) --fe;
-    std::size_t fs = fe + 1;
-    while (fs > r0 && count[fs - 1] > 1.3 * w) --fs;
-    if (count[fe] <= 1.3 * w) fs = end + 1;
-    if (fs <= end) {
-      std::vector<double> fw(count.begin() + static_cast<std::ptrdiff_t>(fs),
-                             count.begin() + static_cast<std::ptrdiff_t>(fe + 1));
-      foot_widths.push_back(median_of(fw));
-      foot_thick.push_back(static_cast<double>(end + 1 - fs));
-    } else {
-      foot_widths.push_back(0.0);
-      foot_thick.push_back(0.0);
-    }
+    m.lengths.push_back(static_cast<double>(end) + 1.0);
+    measure_foot(count, r0, end, w, m);
   }
-  if (lengths.empty() || widths.empty()) {
-    throw std::runtime_error(
-        "calibrate_from_unsunk_frame: no leg lies fully inside the image; cannot measure length");
+  if (m.lengths.empty() || m.widths.empty()) {
+    throw std::runtime_error("calibrate_from_unsunk_frame: no leg lies fully inside the image; cannot measure length");
   }
+  return m;
+}
 
-  CalibrationReport rep;
-  WheelGeometry& g = rep.geometry;
+// The wheel geometry: the hints, the hub and the medians of the leg measurements (a foot no wider than the shaft is
+// none), the angle offset their circular mean modulo the leg spacing.
+WheelGeometry wheel_geometry(const LegMeasures& m, const cv::Vec2d& hub, const CalibrationHints& hints) {
+  WheelGeometry g;
   g.hub_center_px = {hub[0], hub[1]};
   g.leg_count = hints.leg_count;
   g.leg_spacing_rad = hints.leg_spacing_rad;
   g.rotation_direction = hints.rotation_direction;
-  g.leg_length_px = median_of(lengths);
-  g.leg_width_px = median_of(widths);
-  g.hub_radius_px = median_of(hub_radii);
-  g.foot_width_px = median_of(foot_widths);
-  g.foot_thickness_px = g.foot_width_px > 0 ? median_of(foot_thick) : 0.0;
+  g.leg_length_px = median_of(m.lengths);
+  g.leg_width_px = median_of(m.widths);
+  g.hub_radius_px = median_of(m.hub_radii);
+  g.foot_width_px = median_of(m.foot_widths);
+  g.foot_thickness_px = g.foot_width_px > 0 ? median_of(m.foot_thick) : 0.0;
   if (g.foot_width_px <= g.leg_width_px) {
     g.foot_width_px = 0;
     g.foot_thickness_px = 0;
@@ -237,14 +274,26 @@ CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder
   // angle offset modulo the spacing: circular mean with period = spacing
   double cs = 0, sn = 0;
   const double k = 2.0 * std::numbers::pi / hints.leg_spacing_rad;
-  for (double o : offsets) {
+  for (double o : m.offsets) {
     cs += std::cos(k * o);
     sn += std::sin(k * o);
   }
   g.angle_offset_rad = std::atan2(sn, cs) / k;
+  return g;
+}
+
+}  // namespace
+
+CalibrationReport calibrate_from_unsunk_frame(const cv::Mat& bgr, double encoder_angle_rad,
+                                              const CalibrationHints& hints) {
+  check_inputs(bgr, encoder_angle_rad, hints);
+  const std::vector<Blob> legs = find_legs(find_blobs(bgr, hints));
+  const Hub hub = fit_hub(legs);
+  CalibrationReport rep;
+  rep.geometry = wheel_geometry(measure_legs(legs, hub.centre, encoder_angle_rad, hints), hub.centre, hints);
   rep.legs_used = static_cast<int>(legs.size());
-  rep.hub_fit_rms_px = rms;
-  g.validate();
+  rep.hub_fit_rms_px = hub.rms_px;
+  rep.geometry.validate();
   return rep;
 }
 
