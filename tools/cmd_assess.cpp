@@ -36,6 +36,7 @@
 #include "regolith/core/rover.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/sfs/component.hpp"
@@ -217,8 +218,7 @@ void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image, tr
 
 // rocks.csv: one line per rock (id from 1, nearest first), the columns of summary.json's rocks.
 void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
-  std::ofstream csv(out / "rocks.csv");
-  if (!csv) throw InputError("assess: cannot write '" + (out / "rocks.csv").string() + "'");
+  std::ostringstream csv;
   csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n";
   for (std::size_t k = 0; k < rocks.size(); ++k) {
     const ImageRock& r = rocks[k];
@@ -226,6 +226,7 @@ void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
         << fmt(r.height_m, 4) << "," << (r.top_cut ? 1 : 0) << "," << fmt(r.score, 3) << "," << r.box.x << ","
         << r.box.y << "," << r.box.x + r.box.width - 1 << "," << r.box.y + r.box.height - 1 << "\n";
   }
+  write_file((out / "rocks.csv").string(), csv.str(), "the rocks table");
 }
 
 nlohmann::json rocks_json(const std::vector<ImageRock>& rocks) {
@@ -855,9 +856,7 @@ void assess(const AssessOptions& o) {
     j["warning"] = w;
     std::cerr << "assess: " << o.image << ": warning: " << w << "\n";
   }
-  std::ofstream f(out / "summary.json");
-  if (!f) throw InputError("assess: cannot write '" + (out / "summary.json").string() + "'");
-  f << regolith::json_text(j, 2) << "\n";
+  write_file((out / "summary.json").string(), regolith::json_text(j, 2) + "\n", "the summary");
   std::cout << "assess: " << o.image << " -> " << o.out << " (" << sfs::to_string(s.sp.method) << ", light "
             << (res.light_estimated ? "estimated" : "given") << " slant " << fmt(res.light.slant_rad / kDeg, 1)
             << " deg tilt " << fmt(res.light.tilt_rad / kDeg, 1) << " deg, " << hazards.counted.size() << " hazards ("

@@ -42,6 +42,7 @@
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/record/info.hpp"
 #include "regolith/record/mcap_reader.hpp"
 
@@ -300,9 +301,8 @@ void export_message(ExportChannel& e, const record::MessageView& m, bool csv, Ti
     char name[48];
     std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(e.written),
                   fmt.find("png") != std::string::npos ? "png" : "jpg");
-    std::ofstream f(e.images / name, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(im.data._buffer), static_cast<std::streamsize>(im.data._length));
-    if (!f) throw InputError("log export: cannot write " + (e.images / name).string());
+    write_file((e.images / name).string(),
+               std::string_view(reinterpret_cast<const char*>(im.data._buffer), im.data._length), "an exported image");
     image_file = (e.images.filename() / name).string();
   };
   std::optional<json> msg;

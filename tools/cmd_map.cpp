@@ -31,6 +31,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/mapping/config.hpp"
 #include "regolith/mapping/drive_io.hpp"
 #include "regolith/mapping/evaluate.hpp"
@@ -273,8 +274,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   drive.sun_azimuth_deg = std::atan2(sun.x, sun.y) * 180.0 / 3.14159265358979323846;  // from +y towards +x
   drive.sun_elevation_deg = std::asin(std::clamp(sun.z, -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
   drive.wheel_radius_m = radius / static_cast<double>(wheels.size());
-  std::ofstream csv(out / "frames.csv");
-  csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
+  std::string csv = "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
   long unavailable = 0;
   for (const auto& [stamp, path] : frames) {
     if (!odometry.advance_to(stamp, read)) {
@@ -294,10 +294,11 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     char row[256];
     std::snprintf(row, sizeof row, "%d,frames/%s,%.6f,%.6f,%.6f,%.6f\n", f.index, path.filename().c_str(), f.t_s,
                   f.odometry.x, f.odometry.y, f.odometry.yaw);
-    csv << row;
+    csv += row;
     drive.frames.push_back(f);
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
+  write_file((out / "frames.csv").string(), csv, "the drive's frame table");
   mapping::write_drive_description(drive, out / "input.json");  // `out` is now a drive directory too
   if (unavailable > 0)
     spdlog::warn("{}: {} frames have no wheel{} samples around their capture time and keep the last odometry pose",

@@ -26,6 +26,7 @@
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/detect.hpp"
@@ -515,9 +516,7 @@ std::string mean_std(const std::vector<double>& v) {
 void publish_report(const std::string& md, const std::string& path, int failed) {
   std::cout << md;
   if (!path.empty()) {
-    std::ofstream file(path);
-    file << md;
-    if (!file) throw InputError(path + ": cannot write");
+    write_file(path, md, "the report");
   }
   if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }

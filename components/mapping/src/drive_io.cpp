@@ -11,8 +11,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <cmath>
-#include <fstream>
 #include <limits>
+#include <sstream>
 #include <utility>
 
 #include "regolith/core/csv.hpp"
@@ -35,14 +35,9 @@ std::string csv_fixed(double v, int decimals) {
   return buf;
 }
 
-// InputError naming the file `map` cannot write.
-[[noreturn]] void cannot_write(const fs::path& p) {
-  throw InputError("map: cannot write '" + p.string() + "'");
-}
-
-// An image file (TIFF, PNG: by the extension).
+// An image file (TIFF, PNG: by the extension); InputError naming it when it cannot be written.
 void write_image(const fs::path& p, const cv::Mat& m) {
-  if (!cv::imwrite(p.string(), m)) cannot_write(p);
+  if (!cv::imwrite(p.string(), m)) throw InputError("map: cannot write '" + p.string() + "'");
 }
 
 }  // namespace
@@ -113,9 +108,7 @@ void write_drive_description(const RecordedDrive& d, const fs::path& file) {
         {"mount_x_m", d.mount.x_m}, {"mount_y_m", d.mount.y_m}, {"mount_yaw_deg", d.mount.yaw_rad / kDeg}}},
       {"sun", {{"azimuth_deg", d.sun_azimuth_deg}, {"elevation_deg", d.sun_elevation_deg}}},
       {"wheel", {{"radius_m", d.wheel_radius_m}}}};
-  std::ofstream f(file);
-  f << regolith::json_text(j, 2) << "\n";
-  if (!f) throw InputError(file.string() + ": cannot write the drive description");
+  write_file(file.string(), regolith::json_text(j, 2) + "\n", "the drive description");
 }
 
 namespace {
@@ -319,27 +312,26 @@ void write_map_json(const RecordedDrive& drive, const DriveMapperParams& params,
   mj["path_length_m"] = sum.path_length_m;
   mj["rocks"] = sum.rocks.size();
   mj["cues"] = cues_json(drive, params, sum.counters);
-  std::ofstream o(out / "map.json");
-  o << regolith::json_text(mj, 1) << "\n";
-  if (!o) cannot_write(out / "map.json");
+  write_file((out / "map.json").string(), regolith::json_text(mj, 1) + "\n", "the map description");
   sum.written.push_back(out / "map.json");
 }
 
 // rocks.csv: one line per rock of the map.
 void write_rocks_csv(const fs::path& out, DriveMapSummary& sum) {
-  std::ofstream o(out / "rocks.csv");
+  std::ostringstream o;
   o << "x_m,y_m,height_m,width_m,score\n";
   char buf[160];
   for (const MapRock& r : sum.rocks) {
     std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f\n", r.x_m, r.y_m, r.height_m, r.width_m, r.score);
     o << buf;
   }
+  write_file((out / "rocks.csv").string(), o.str(), "the rocks table");
   sum.written.push_back(out / "rocks.csv");
 }
 
 // odometry.csv: one line per used frame, the corrected pose and its covariance beside the wheel pose.
 void write_odometry_csv(const fs::path& out, DriveMapSummary& sum) {
-  std::ofstream o(out / "odometry.csv");
+  std::ostringstream o;
   o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
   for (std::size_t k = 0; k < sum.reports.size(); ++k) {
     const FrameReport& r = sum.reports[k];
@@ -354,6 +346,7 @@ void write_odometry_csv(const fs::path& out, DriveMapSummary& sum) {
       << csv_fixed(r.wheel_pose.x, 6) << ',' << csv_fixed(r.wheel_pose.y, 6) << ',' << csv_fixed(r.wheel_pose.yaw, 8)
       << '\n';
   }
+  write_file((out / "odometry.csv").string(), o.str(), "the corrected odometry");
   sum.written.push_back(out / "odometry.csv");
 }
 

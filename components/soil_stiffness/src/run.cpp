@@ -16,6 +16,7 @@
 #include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/mission_table.hpp"
 #include "regolith/common/plot.hpp"
+#include "regolith/core/text_file.hpp"
 
 namespace regolith::soil {
 
@@ -271,10 +272,7 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
     write_png(f.overlay_png, render_track_overlay(image, camera, rover, params, e));
   }
   f.json = out_dir / "result.json";
-  std::ofstream os(f.json);
-  if (!os) throw std::runtime_error(f.json.string() + ": cannot open for writing");
-  os << estimate_to_json(e, rover) << "\n";
-  if (!os) throw std::runtime_error(f.json.string() + ": write failed");
+  write_file(f.json.string(), estimate_to_json(e, rover) + "\n", "the result");
   return f;
 }
 

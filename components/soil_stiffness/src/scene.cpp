@@ -162,9 +162,7 @@ SoilAnalysisFiles run_soil_scene(const std::filesystem::path& image_path, const 
   j["track_details"] = j["tracks"];
   j["tracks"] = std::move(tracks);
   j["scene"] = input_json.string();
-  std::ofstream out(f.json);
-  out << regolith::json_text(j, 2) << "\n";
-  if (!out) throw InputError(f.json.string() + ": cannot write");
+  write_file(f.json.string(), regolith::json_text(j, 2) + "\n", "the result");
   return f;
 }
 

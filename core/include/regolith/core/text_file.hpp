@@ -2,12 +2,15 @@
 // Reading a whole text file from outside (deployments, scene descriptions, recorded drives)
 // with a bound: a path naming a device, FIFO or directory (`--config /dev/zero`) or a file larger
 // than any sane input is refused with its name instead of being read until memory runs out.
+// Writing a whole output file (the tools' JSON and CSV results) so that a failure is an error
+// naming the file, also one that shows only when the file is closed.
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <system_error>
 
 #include <sys/stat.h>
@@ -38,6 +41,23 @@ inline std::string read_text_file(const std::string& path, const char* what = "f
   std::string text = ss.str();
   if (text.size() > max_bytes) throw InputError(path + ": grew past " + std::to_string(max_bytes) + " bytes while read");
   return text;
+}
+
+/// Writes `data` to `path` (created or truncated) and closes it. Throws InputError "PATH: cannot
+/// write WHAT (reason)" when the file cannot be opened or a write or the close fails: a small file
+/// sits in the stream's buffer until the close, so a full disk or a lost mount shows only there,
+/// and a check of the stream before it passes.
+inline void write_file(const std::string& path, std::string_view data, const char* what = "file") {
+  auto fail = [&] {
+    const int e = errno;
+    throw InputError(path + ": cannot write " + what + (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
+  };
+  errno = 0;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) fail();
+  out.write(data.data(), static_cast<std::streamsize>(data.size()));
+  out.close();
+  if (!out) fail();
 }
 
 }  // namespace regolith
