@@ -784,9 +784,7 @@ void assess(const AssessOptions& o) {
   const AssessInput in = read_input(o);
   const cv::Mat& gray = in.gray;
   const AssessSetup s = configure(o, in);
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (ec || !fs::is_directory(o.out)) throw InputError("assess: cannot create output directory '" + o.out + "'");
+  make_output_dir(o.out, "assess's output directory (--out)");
   const double t1 = now_ms();
   const sfs::SfsResult res = solve_image(o, gray, s);
   const double t2 = now_ms();

@@ -272,9 +272,7 @@ void open_export_channel(ExportChannel& e, const record::McapFileInfo& info, con
   e.path = fs::path(a.out) / (stem + "." + a.format);
   if (schema == "sensor_msgs/msg/CompressedImage" || e.hal == ExportChannel::Hal::kImage) {  // viewable files too
     e.images = fs::path(a.out) / stem;
-    std::error_code ec;
-    fs::create_directories(e.images, ec);
-    if (ec) throw InputError("log export: cannot create " + e.images.string() + ": " + ec.message());
+    make_output_dir(e.images.string(), "the exported images' directory");
   }
   e.out.open(e.path, std::ios::binary | std::ios::trunc);
   if (!e.out) throw InputError("log export: cannot write " + e.path.string());
@@ -371,9 +369,7 @@ void run_export(const LogExportArgs& a) {
   std::map<std::uint16_t, ExportChannel> chans = select_channels(info, a.topics, a.file);
   pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
   if (pp < 0) throw std::runtime_error("log export: dds_create_participant: " + std::string(dds_strretcode(pp)));
-  std::error_code ec;
-  fs::create_directories(a.out, ec);
-  if (ec) throw InputError("log export: cannot create " + a.out + ": " + ec.message());
+  make_output_dir(a.out, "log export's output directory (--out)");
   int index = 0;
   for (auto& [id, e] : chans) open_export_channel(e, info, a, pp, index);
   const bool csv = a.format == "csv";

@@ -165,7 +165,7 @@ RecordedInputs read_recorded_inputs(record::McapReader& reader, const std::strin
                                     const std::map<std::string, std::size_t>& wheel_of, const fs::path& out) {
   RecordedInputs in;
   in.angles.resize(wheel_of.size());
-  fs::create_directories(out / "frames");
+  make_output_dir((out / "frames").string(), "the drive's frames directory");
   const auto problems = reader.for_each_message([&](const record::MessageView& m) {
     if (m.channel.topic == cam_topic) {
       record::DecodedImage d;

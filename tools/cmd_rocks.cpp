@@ -167,12 +167,7 @@ sal::HeightFn make_height_fn(int downsample, double slant_deg, std::shared_ptr<v
 }
 
 void ensure_dir(const std::string& dir, const char* option) {
-  if (dir.empty()) return;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir)) {
-    throw ConfigError(std::string(option) + ": cannot create directory '" + dir + "' (" + ec.message() + ")");
-  }
+  if (!dir.empty()) make_output_dir(dir, std::string("the ") + option + " directory");
 }
 
 cv::Mat to_bgr8(const cv::Mat& img) {

@@ -36,6 +36,22 @@ TEST(TextFile, AFileThatCannotBeOpenedIsAnErrorNamingIt) {
             path + ": cannot write map.json (No such file or directory)");
 }
 
+TEST(TextFile, AnOutputDirectoryIsMadeWithItsParentsOrRefusedWithItsName) {
+  regolith::testing::TempDir dir("text_file");
+  const std::string nested = (dir.path() / "a" / "b").string();
+  regolith::make_output_dir(nested);
+  regolith::make_output_dir(nested);  // already there: fine
+  EXPECT_TRUE(std::filesystem::is_directory(nested));
+  regolith::write_file((dir.path() / "file").string(), "x");
+  const std::string under_file = (dir.path() / "file" / "out").string();
+  EXPECT_EQ(
+      error_of<regolith::InputError>([&] { regolith::make_output_dir(under_file, "the map's output directory"); }),
+      under_file + ": cannot create the map's output directory (Not a directory)");
+  const std::string is_file = (dir.path() / "file").string();
+  EXPECT_EQ(error_of<regolith::InputError>([&] { regolith::make_output_dir(is_file); }),
+            is_file + ": cannot create the output directory (Not a directory)");
+}
+
 TEST(TextFile, ReadingRefusesADeviceWithItsName) {
   EXPECT_EQ(error_of<regolith::InputError>([] { regolith::read_text_file("/dev/zero", "deployment"); }),
             "/dev/zero: not a regular file (a device, FIFO or directory), not a deployment");

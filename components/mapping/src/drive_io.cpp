@@ -356,7 +356,7 @@ DriveMapSummary map_drive(const RecordedDrive& drive, const DriveMapperParams& p
                           const std::function<void(const DriveFrame&, const FrameReport&)>& progress) {
   DriveMapSummary sum;
   FirstFrame first = read_first_frame(drive);
-  fs::create_directories(out);
+  make_output_dir(out.string(), "the map's output directory");
   const MapWindow window = map_window(drive, params);
   DriveMapper mapper(drive.camera, drive.mount, drive.sun_world(), window.params, window.center);
   const Paths paths = add_frames(drive, first, mapper, progress, sum);

@@ -194,9 +194,7 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
   SoilAnalysisFiles f;
   est.estimate(image, sun, f.estimate);
   const SoilEstimate& e = f.estimate;
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ec) throw std::runtime_error(out_dir.string() + ": cannot create directory: " + ec.message());
+  make_output_dir(out_dir.string(), "the soil analysis' output directory");
 
   if (e.ok) {
     f.dtm_png = out_dir / "track_dtm.png";

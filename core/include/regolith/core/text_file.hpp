@@ -3,10 +3,11 @@
 // with a bound: a path naming a device, FIFO or directory (`--config /dev/zero`) or a file larger
 // than any sane input is refused with its name instead of being read until memory runs out.
 // Writing a whole output file (the tools' JSON and CSV results) so that a failure is an error
-// naming the file, also one that shows only when the file is closed.
+// naming the file, also one that shows only when the file is closed; making an output directory.
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -41,6 +42,15 @@ inline std::string read_text_file(const std::string& path, const char* what = "f
   std::string text = ss.str();
   if (text.size() > max_bytes) throw InputError(path + ": grew past " + std::to_string(max_bytes) + " bytes while read");
   return text;
+}
+
+/// Creates the directory `path` (and its parents) unless it is there. Throws InputError "PATH:
+/// cannot create WHAT (reason)" when that fails or something other than a directory is in the way.
+inline void make_output_dir(const std::string& path, const std::string& what = "the output directory") {
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  if (ec || !std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": cannot create " + what + " (" + (ec ? ec.message() : "not a directory") + ")");
 }
 
 /// Writes `data` to `path` (created or truncated) and closes it. Throws InputError "PATH: cannot
