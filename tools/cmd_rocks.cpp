@@ -336,13 +336,9 @@ void write_saliency(const cv::Mat& map, cv::Mat& map8, const std::string& salien
 // The ground truth drawn on the overlay `ov` of an image of `size`: cyan outlines of the components of the mask
 // <masks_dir>/<stem>.png; returns the number of rocks it holds.
 std::size_t draw_truth(cv::Mat& ov, cv::Size size, const std::string& masks_dir, const std::string& stem) {
-  const fs::path mp = fs::path(masks_dir) / (stem + ".png");
-  const sal::FrameTruth truth = sal::read_truth(mp.string(), size, 0);
-  cv::Mat m = sal::read_image(mp.string()), bin;
-  if (m.channels() > 1) cv::extractChannel(m, m, 0);
-  cv::compare(m, 0, bin, cv::CMP_GT);
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(bin, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  const sal::FrameTruth truth = sal::read_truth((fs::path(masks_dir) / (stem + ".png")).string(), size, 0);
+  std::vector<std::vector<cv::Point>> contours;  // of the mask read_truth decoded (255 = rock), not a second read
+  cv::findContours(truth.mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
   cv::drawContours(ov, contours, -1, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
   return truth.objects.size();
 }

@@ -137,6 +137,20 @@ std::string hex32(std::uint32_t v) {
   return b;
 }
 
+// A DataEnd record: malformed, or (with `check_crc`) its stored CRC not `data_crc`, is a problem.
+void check_data_end(std::uint64_t pos, const std::vector<std::uint8_t>& content, bool check_crc, std::uint32_t data_crc,
+                    std::vector<ReadProblem>& problems) {
+  try {
+    Cursor c(content.data(), content.size());
+    const std::uint32_t stored = c.u32();
+    if (check_crc && stored != 0 && stored != data_crc)
+      problems.push_back(
+          {pos, "data section CRC mismatch (stored " + hex32(stored) + ", computed " + hex32(data_crc) + ")"});
+  } catch (const Malformed& e) {
+    problems.push_back({pos, std::string("bad DataEnd record: ") + e.what()});
+  }
+}
+
 // An Attachment record found at `offset` (its data is not kept: read_attachment reads it again);
 // with `verify_crc`, a stored CRC that does not match its bytes is Malformed.
 AttachmentInfo read_attachment_record(Cursor& c, std::uint64_t offset, const std::vector<std::uint8_t>& content,
@@ -516,19 +530,6 @@ bool McapReader::read_data_record(std::uint64_t pos, McapFileInfo& info, std::ui
   content.resize(static_cast<std::size_t>(len));
   if (!source_->read(pos + kRecordPrefix, len, content.data())) return stop("read error");
   return true;
-}
-
-void McapReader::check_data_end(std::uint64_t pos, const std::vector<std::uint8_t>& content, bool check_crc,
-                                std::uint32_t data_crc, std::vector<ReadProblem>& problems) {
-  try {
-    Cursor c(content.data(), content.size());
-    const std::uint32_t stored = c.u32();
-    if (check_crc && stored != 0 && stored != data_crc)
-      problems.push_back(
-          {pos, "data section CRC mismatch (stored " + hex32(stored) + ", computed " + hex32(data_crc) + ")"});
-  } catch (const Malformed& e) {
-    problems.push_back({pos, std::string("bad DataEnd record: ") + e.what()});
-  }
 }
 
 void McapReader::scan_record(std::uint64_t pos, std::uint8_t op, const std::vector<std::uint8_t>& content,

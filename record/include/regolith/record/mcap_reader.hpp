@@ -111,9 +111,6 @@ class McapReader {
   /// is then `pos`.
   bool read_data_record(std::uint64_t pos, McapFileInfo& info, std::uint8_t* prefix, std::vector<std::uint8_t>& content,
                         std::vector<ReadProblem>& problems);
-  /// A DataEnd record: malformed, or (with `check_crc`) its stored CRC not `data_crc`, is a problem.
-  static void check_data_end(std::uint64_t pos, const std::vector<std::uint8_t>& content, bool check_crc,
-                             std::uint32_t data_crc, std::vector<ReadProblem>& problems);
   /// One record of the data section (not DataEnd) into `info`, or its messages to `*emit`; a
   /// malformed record is a problem and the scan goes on.
   void scan_record(std::uint64_t pos, std::uint8_t op, const std::vector<std::uint8_t>& content, McapFileInfo& info,
