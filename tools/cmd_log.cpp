@@ -379,8 +379,7 @@ void run_export(const LogExportArgs& a) {
     if (it != chans.end()) export_message(it->second, m, csv, hal.ros_offset_ns, flat);
   });
   for (auto& [id, e] : chans) {
-    e.out.close();
-    if (!e.out) throw InputError("log export: write error on " + e.path.string());
+    close_output(e.out, e.path.string(), "the exported log");
     std::printf("%s: %llu messages -> %s", e.channel->topic.c_str(), static_cast<unsigned long long>(e.written),
                 e.path.string().c_str());
     if (!e.images.empty()) std::printf(" (images in %s/)", e.images.string().c_str());

@@ -398,8 +398,7 @@ void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const
       skip_input(e, failed, first_error);
     }
   }
-  csv.flush();
-  if (!csv) throw InputError(csv_path + ": write failed");
+  close_output(csv, csv_path, "the rocks CSV");
   std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed) << " image(s), " << total_boxes
             << " box(es) -> " << csv_path << " (" << o.method << ": " << (detected ? 1e3 * detect_s / detected : 0.0)
             << " ms per image, decoding excluded)\n";

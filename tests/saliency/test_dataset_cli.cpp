@@ -274,6 +274,21 @@ TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {
   EXPECT_THROW(rs::list_images((d / "nowhere").string()), rs::DataError);
 }
 
+// The CSV's last buffer reaches the disk at the close: a full disk (/dev/full) there is an error
+// naming the file and the reason, not a silently short CSV.
+TEST(Cli, RocksCsvOnAFullDiskIsAnErrorNamingTheFile) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full on this system";
+  const regolith::testing::TempDir tmp("saliency_cli_full");
+  const fs::path img = tmp.path() / "a.png";
+  cv::imwrite(img.string(), scene(cv::Size(320, 288), {100, 120}, 25, 1));
+  try {
+    run_cli({"rocks", img.string(), "--method", "contrast", "--csv", "/dev/full"});
+    FAIL() << "expected an InputError for the full disk";
+  } catch (const regolith::InputError& e) {
+    EXPECT_STREQ(e.what(), "/dev/full: cannot write the rocks CSV (No space left on device)");
+  }
+}
+
 TEST(Cli, EvalRocksTableAndMaskMismatch) {
   const regolith::testing::TempDir tmp("saliency_eval");
   const fs::path& d = tmp.path();

@@ -187,6 +187,9 @@ TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
   for (const auto& x : probe_samples()) EXPECT_NEAR(x.transducer_mm, 19.5, 1e-9);
   EXPECT_EQ(diag(*app, "sinkage", "log_rows"), "20");
   EXPECT_EQ(diag(*app, "sinkage", "log_dropped"), "0");
+  EXPECT_EQ(diag(*app, "sinkage", "log_write_errors"), "0");
+  EXPECT_EQ(diag(*app, "sinkage", "log_error"), "<no key log_error>");
+  EXPECT_EQ(diag(*app, "sinkage", "overlays_failed"), "0");
   EXPECT_EQ(diag(*app, "sinkage", "transducer_missing"), "0");
   // Overlays of frames 0, 5, 10, 15 (a frame may be skipped when both slots are busy: counted).
   const std::uint64_t written = std::stoull(diag(*app, "sinkage", "overlays_written"));
@@ -194,6 +197,28 @@ TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
   EXPECT_EQ(written + skipped, 4u);
   EXPECT_GE(written, 2u);
   EXPECT_TRUE(fs::exists(dir / "overlays" / "sinkage_00000000.png"));
+}
+
+// A full disk under the bench log (/dev/full takes the rows into the stdio buffer and fails them
+// at the flush) and an overlay directory that went away after configure: the run goes on, every
+// failure is counted and the log's is named in diagnostics (the rig's health page shows it).
+TEST(SinkagePipeline, BenchLogAndOverlayWriteFailuresAreCountedAndNamed) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full on this system";
+  const regolith::testing::TempDir tmp("sinkage_pipeline_full");
+  const fs::path overlays = tmp.path() / "overlays";
+  fs::create_directories(overlays);
+  const std::string comp = "    log_csv: /dev/full\n    overlay_every: 5\n    overlay_dir: " + overlays.string() + "\n";
+  auto app = load(deployment("rate_hz: 10, frames: 20, speed_rad_s: 0.5, sinkage_mm: 19.5", comp));
+  fs::remove_all(overlays);
+  run_for(*app, 1.95);
+  EXPECT_EQ(diag(*app, "sinkage", "frames"), "20");
+  EXPECT_EQ(diag(*app, "sinkage", "valid"), "20");
+  EXPECT_NE(diag(*app, "sinkage", "log_write_errors"), "0");
+  EXPECT_EQ(diag(*app, "sinkage", "log_error"), "/dev/full: No space left on device");
+  EXPECT_EQ(diag(*app, "sinkage", "overlays_written"), "0");
+  const std::uint64_t failed = std::stoull(diag(*app, "sinkage", "overlays_failed"));
+  EXPECT_EQ(failed + std::stoull(diag(*app, "sinkage", "overlays_skipped")), 4u);
+  EXPECT_GE(failed, 2u);
 }
 
 // ---- configuration errors name the field ----------------------------------------------------

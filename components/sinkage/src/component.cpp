@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -291,10 +293,13 @@ class WheelSinkageComponent final : public runtime::Component {
     if (log_q_) {
       add("log_rows", log_rows_);
       kv.emplace_back("log_dropped", std::to_string(log_q_->dropped()));
+      add("log_write_errors", log_errors_);
+      if (const int e = log_errno_.load(); e != 0) kv.emplace_back("log_error", log_path_ + ": " + std::strerror(e));
     }
     if (ov_free_) {
       add("overlays_written", overlays_written_);
       add("overlays_skipped", overlays_skipped_);
+      add("overlays_failed", overlays_failed_);
     }
   }
 
@@ -447,9 +452,11 @@ class WheelSinkageComponent final : public runtime::Component {
         const std::size_t n = format_bench_log_row(line, sizeof line, to_seconds(rec.stamp), rec.sequence, rec.angle,
                                                    rec.vision_mm, rec.valid, rec.confidence, rec.reason,
                                                    rec.transducer_mm, load_label_.c_str(), light_label_.c_str());
-        std::fwrite(line, 1, n, log_file_);
-        std::fputc('\n', log_file_);
-        log_rows_.fetch_add(1, std::memory_order_relaxed);
+        if (std::fwrite(line, 1, n, log_file_) == n && std::fputc('\n', log_file_) != EOF) {
+          log_rows_.fetch_add(1, std::memory_order_relaxed);
+        } else {
+          log_failed(errno);
+        }
         did = true;
       }
       int idx = 0;
@@ -457,14 +464,14 @@ class WheelSinkageComponent final : public runtime::Component {
         const OverlaySlot& slot = slots_[static_cast<std::size_t>(idx)];
         char file[64];
         std::snprintf(file, sizeof file, "_%08llu.png", static_cast<unsigned long long>(slot.sequence));
+        bool written = false;
         try {
           draw_overlay(*estimator_, slot.image, slot.result, overlay_);
-          if (cv::imwrite((std::filesystem::path(overlay_dir_) / (name() + file)).string(), overlay_)) {
-            overlays_written_.fetch_add(1, std::memory_order_relaxed);
-          }
+          written = cv::imwrite((std::filesystem::path(overlay_dir_) / (name() + file)).string(), overlay_);
         } catch (const std::exception&) {
-          // an unwritable overlay must not stop the log
+          // an unwritable overlay must not stop the log: counted below
         }
+        (written ? overlays_written_ : overlays_failed_).fetch_add(1, std::memory_order_relaxed);
         ov_free_->push(idx);
         did = true;
       }
@@ -473,7 +480,15 @@ class WheelSinkageComponent final : public runtime::Component {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }
     }
-    if (log_file_ != nullptr) std::fflush(log_file_);
+    if (log_file_ != nullptr && std::fflush(log_file_) != 0) log_failed(errno);
+  }
+
+  // A row (or the flush, or the close) that did not reach the log: counted, and the first reason
+  // kept for diagnostics() (a full disk must show on the rig's health page, not only in the file).
+  void log_failed(int err) {
+    log_errors_.fetch_add(1, std::memory_order_relaxed);
+    int none = 0;
+    log_errno_.compare_exchange_strong(none, err != 0 ? err : EIO);
   }
 
   void stop_writer() {
@@ -482,7 +497,7 @@ class WheelSinkageComponent final : public runtime::Component {
       writer_.join();
     }
     if (log_file_ != nullptr) {
-      std::fclose(log_file_);
+      if (std::fclose(log_file_) != 0) log_failed(errno);
       log_file_ = nullptr;
     }
   }
@@ -519,7 +534,9 @@ class WheelSinkageComponent final : public runtime::Component {
   std::FILE* log_file_ = nullptr;
   std::thread writer_;
   std::atomic<bool> stop_{false};
-  std::atomic<std::uint64_t> log_rows_{0}, overlays_written_{0}, overlays_skipped_{0};
+  std::atomic<std::uint64_t> log_rows_{0}, log_errors_{0};
+  std::atomic<std::uint64_t> overlays_written_{0}, overlays_skipped_{0}, overlays_failed_{0};
+  std::atomic<int> log_errno_{0};  // the first write error's errno (0 = none)
 };
 
 }  // namespace

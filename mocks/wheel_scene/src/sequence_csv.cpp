@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/csv.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/wheel_scene/wheel_scene.hpp"
 
 namespace regolith::wheel_scene {
@@ -50,7 +51,7 @@ void write_sequence_csv(const std::filesystem::path& csv, const std::vector<Sequ
     std::snprintf(buf, sizeof buf, "%.9g,%.6f", r.encoder_angle_rad, r.truth_mm);
     os << buf << '\n';
   }
-  if (!os) throw std::runtime_error(csv.string() + ": write failed");
+  close_output(os, csv.string(), "the sequence CSV");
 }
 
 std::vector<SequenceRow> read_sequence_csv(const std::filesystem::path& csv) {

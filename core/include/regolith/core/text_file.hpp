@@ -53,21 +53,27 @@ inline void make_output_dir(const std::string& path, const std::string& what = "
     throw InputError(path + ": cannot create " + what + " (" + (ec ? ec.message() : "not a directory") + ")");
 }
 
-/// Writes `data` to `path` (created or truncated) and closes it. Throws InputError "PATH: cannot
-/// write WHAT (reason)" when the file cannot be opened or a write or the close fails: a small file
-/// sits in the stream's buffer until the close, so a full disk or a lost mount shows only there,
-/// and a check of the stream before it passes.
-inline void write_file(const std::string& path, std::string_view data, const char* what = "file") {
-  auto fail = [&] {
+/// Closes `out`, the stream writing `path`, and throws InputError "PATH: cannot write WHAT
+/// (reason)" when a write into it or the close failed: a file's last buffer reaches the disk only
+/// at the close, so a full disk or a lost mount often shows there and nowhere before. The reason is
+/// the errno of the failure when the library left one.
+inline void close_output(std::ofstream& out, const std::string& path, const char* what = "file") {
+  const bool wrote = static_cast<bool>(out);
+  if (wrote) errno = 0;
+  out.close();
+  if (!out || !wrote) {
     const int e = errno;
     throw InputError(path + ": cannot write " + what + (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
-  };
+  }
+}
+
+/// Writes `data` to `path` (created or truncated) and closes it (close_output's error when the
+/// open, the write or the close fails).
+inline void write_file(const std::string& path, std::string_view data, const char* what = "file") {
   errno = 0;
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) fail();
-  out.write(data.data(), static_cast<std::streamsize>(data.size()));
-  out.close();
-  if (!out) fail();
+  if (out) out.write(data.data(), static_cast<std::streamsize>(data.size()));
+  close_output(out, path, what);
 }
 
 }  // namespace regolith
