@@ -28,6 +28,7 @@ TEST_PACKAGES=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   graphviz                   # `regolith config check --dot` output is parsed by dot in the tests
   clang libclang-rt-14-dev   # the asan preset's compiler; libFuzzer + ASan/UBSan runtimes (tests/fuzz/run.sh)
+  clang-format               # style.clang_format: every C++ file formatted with .clang-format
   # driver tests (tests/hw): QEMU VM with Debian's kernel (downloaded with apt-get download and
   # cached in ~/.cache/regolith-vm), vimc built out of tree, can-utils / v4l-utils / cam in the guest
   qemu-system-x86 kmod cpio xz-utils libelf1 iproute2 busybox-static can-utils v4l-utils python3

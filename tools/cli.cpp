@@ -1,13 +1,14 @@
 // The sub-command registry and the helpers every tools/cmd_*.cpp shares (part of regolith_cli, so
 // that test binaries link the same code as the `regolith` executable).
-#include <unistd.h>
+#include "cli.hpp"
 
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include "cli.hpp"
+#include <unistd.h>
+
 #include "regolith/core/params.hpp"
 
 namespace regolith::cli {
@@ -19,7 +20,9 @@ std::vector<Setup>& setups() {
 }
 }  // namespace
 
-const std::vector<Setup>& commands() { return setups(); }
+const std::vector<Setup>& commands() {
+  return setups();
+}
 
 bool add_command(Setup setup) {
   setups().push_back(std::move(setup));
@@ -59,9 +62,15 @@ CLI::Validator number_check(Bound bound) {
 }
 }  // namespace
 
-CLI::Validator finite() { return number_check(Bound::kFinite); }
-CLI::Validator non_negative() { return number_check(Bound::kNonNegative); }
-CLI::Validator positive() { return number_check(Bound::kPositive); }
+CLI::Validator finite() {
+  return number_check(Bound::kFinite);
+}
+CLI::Validator non_negative() {
+  return number_check(Bound::kNonNegative);
+}
+CLI::Validator positive() {
+  return number_check(Bound::kPositive);
+}
 
 std::string tool_node_name(const std::string& command) {
   return "regolith_" + command + "_" + std::to_string(::getpid());

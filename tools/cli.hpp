@@ -1,11 +1,11 @@
 #pragma once
 // Sub-commands of the `regolith` tool. Each tools/cmd_<name>.cpp registers itself:
 //   static const bool registered = regolith::cli::add_command([](CLI::App& app) { ... });
-#include <CLI/CLI.hpp>
-
 #include <functional>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "cli_support.hpp"
 

@@ -6,11 +6,6 @@
 // below: read_input (the image, or a recording's frame), configure (YAML file, command line,
 // rover description -> SfS, grid, sun, camera), solve_image + map_terrain (SfS, traversability
 // grid), and the outputs (write_pictures, find_hazards, image_rocks, summary.json).
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -24,18 +19,23 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "cli.hpp"
 #ifdef REGOLITH_HAVE_HAL_RECORD
 #include "regolith/record/recording.hpp"
 #endif
-#include "regolith/core/image_file.hpp"
-#include "regolith/core/json_text.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
 #include "regolith/common/plot.hpp"
-#include "regolith/core/rover.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/rover.hpp"
 #include "regolith/core/text_file.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
@@ -53,7 +53,7 @@ constexpr double kDeg = kPi / 180.0;
 
 struct AssessOptions {
   std::string image, config, out, method, flat_field, camera;
-  std::string rover, device;  ///< camera + sun from a deployment's rover description
+  std::string rover, device;         ///< camera + sun from a deployment's rover description
   std::string sfs_frame = "ground";  ///< camera mode: "ground" (rectified) or "image" SfS for the grid
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
@@ -121,13 +121,13 @@ class LabelPlacer {
 
 // One rock seen in a perspective image: its image box and its size on the ground.
 struct ImageRock {
-  cv::Rect box;              ///< px
-  double range_m = 0.0;      ///< forward ground distance of its centre (camera foot frame)
-  double lateral_m = 0.0;    ///< left of the optical axis's ground track
-  double width_m = 0.0;      ///< across the line of sight, at the ground contact
-  double height_m = 0.0;     ///< top above the ground
-  bool top_cut = false;      ///< the image's top edge cuts it: height is a lower bound
-  double score = 0.0;        ///< 0..1, contrast against the ground
+  cv::Rect box;            ///< px
+  double range_m = 0.0;    ///< forward ground distance of its centre (camera foot frame)
+  double lateral_m = 0.0;  ///< left of the optical axis's ground track
+  double width_m = 0.0;    ///< across the line of sight, at the ground contact
+  double height_m = 0.0;   ///< top above the ground
+  bool top_cut = false;    ///< the image's top edge cuts it: height is a lower bound
+  double score = 0.0;      ///< 0..1, contrast against the ground
 };
 
 // Rocks in one perspective image: mapping::RockSightings (contrast blobs against the local
@@ -139,7 +139,7 @@ struct ImageRock {
 // halves merged into one (merge_halves). `g8`: the 8-bit grey image (assess converts on reading).
 std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth) {
   mapping::RockSightingParams p;
-  p.min_pixels = 24;  // at the reference width: twice the map's (one frame, no second look)
+  p.min_pixels = 24;      // at the reference width: twice the map's (one frame, no second look)
   p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
   p = p.scaled_to_width(g8.cols);
   p.max_pixels = std::max(p.min_pixels, g8.cols * g8.rows / 4);
@@ -154,8 +154,10 @@ std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::Direct
   const cv::Mat& t = sightings.table();
   for (int k = 0; k < n; ++k) {
     ImageRock r;
-    const int c0 = static_cast<int>(t.at<float>(mapping::kSightCol0, k)), r0 = static_cast<int>(t.at<float>(mapping::kSightRow0, k));
-    const int c1 = static_cast<int>(t.at<float>(mapping::kSightCol1, k)), r1 = static_cast<int>(t.at<float>(mapping::kSightRow1, k));
+    const int c0 = static_cast<int>(t.at<float>(mapping::kSightCol0, k)),
+              r0 = static_cast<int>(t.at<float>(mapping::kSightRow0, k));
+    const int c1 = static_cast<int>(t.at<float>(mapping::kSightCol1, k)),
+              r1 = static_cast<int>(t.at<float>(mapping::kSightRow1, k));
     r.box = cv::Rect(c0, r0, c1 - c0 + 1, r1 - r0 + 1);
     r.range_m = t.at<float>(mapping::kSightX, k);
     r.lateral_m = t.at<float>(mapping::kSightY, k);
@@ -188,7 +190,8 @@ void draw_rocks(cv::Mat& img, const std::vector<ImageRock>& rocks, LabelPlacer& 
 // most +-2 m), in cells of 1/60 of its length (0.01-0.05 m), so a camera close to the ground
 // (0.3-1.4 m of view) is mapped as fully as a rover's navigation camera (the default 1-5 m grid).
 // A camera that sees no ground keeps the configured default.
-void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image, traversability::TraversabilityParams& tp) {
+void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image,
+                      traversability::TraversabilityParams& tp) {
   const double cxm = 0.5 * (image.width - 1);
   const direct_depth::GroundPoint bottom = depth.ground(cxm, image.height - 0.5), top = depth.ground(cxm, -0.5);
   if (!bottom.valid) return;
@@ -215,7 +218,6 @@ void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image, tr
   tp.rectify_resolution_m = std::min(tp.rectify_resolution_m, 0.5 * g.resolution_m);
 }
 
-
 // rocks.csv: one line per rock (id from 1, nearest first), the columns of summary.json's rocks.
 void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
   std::ostringstream csv;
@@ -233,8 +235,13 @@ nlohmann::json rocks_json(const std::vector<ImageRock>& rocks) {
   nlohmann::json a = nlohmann::json::array();
   for (std::size_t k = 0; k < rocks.size(); ++k) {
     const ImageRock& r = rocks[k];
-    a.push_back({{"id", k + 1}, {"range_m", r.range_m}, {"lateral_m", r.lateral_m}, {"width_m", r.width_m},
-                 {"height_m", r.height_m}, {"height_is_lower_bound", r.top_cut}, {"score", r.score},
+    a.push_back({{"id", k + 1},
+                 {"range_m", r.range_m},
+                 {"lateral_m", r.lateral_m},
+                 {"width_m", r.width_m},
+                 {"height_m", r.height_m},
+                 {"height_is_lower_bound", r.top_cut},
+                 {"score", r.score},
                  {"box_px", {r.box.x, r.box.y, r.box.x + r.box.width - 1, r.box.y + r.box.height - 1}}});
   }
   return a;
@@ -268,7 +275,8 @@ cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid,
       const bool hazard = t == 0.0f;
       cv::fillConvexPoly(paint, quad, hazard ? cv::Scalar(40, 40, 230) : cv::Scalar(0, 150, 255), cv::LINE_AA);
       const int k = hazard_labels.at<int>(i, j);
-      if (k > 0 && k < static_cast<int>(outlines.size())) outlines[k].insert(outlines[k].end(), quad.begin(), quad.end());
+      if (k > 0 && k < static_cast<int>(outlines.size()))
+        outlines[k].insert(outlines[k].end(), quad.begin(), quad.end());
     }
   cv::addWeighted(paint, 0.45, img, 0.55, 0.0, img);
   LabelPlacer labels;
@@ -283,8 +291,10 @@ cv::Mat camera_overlay(const cv::Mat& gray, const traversability::GridMap& grid,
   draw_rocks(img, rocks, labels);
   cv::Mat out(img.rows + 26, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
   img.copyTo(out(cv::Rect(0, 0, img.cols, img.rows)));
-  std::string legend = "hazards (red, H<n>: highest elevation), poor ground (orange), rocks (yellow, R<n>: width x height)";
-  if (labels.skipped() > 0) legend += "; " + std::to_string(labels.skipped()) + " crowded labels left out (summary.json)";
+  std::string legend =
+      "hazards (red, H<n>: highest elevation), poor ground (orange), rocks (yellow, R<n>: width x height)";
+  if (labels.skipped() > 0)
+    legend += "; " + std::to_string(labels.skipped()) + " crowded labels left out (summary.json)";
   plot::put_fitted_text(out, legend, {6, img.rows + 18}, img.cols - 12, 0.42);
   return out;
 }
@@ -614,7 +624,8 @@ nlohmann::json write_pictures(const fs::path& out, const cv::Mat& gray, const As
   // The height picture: in camera mode the grid's elevation painted on the camera image (each
   // pixel coloured by the cell its ground point falls in: what a person compares with the rocks
   // they see); in orthographic mode the SfS heights of the patch in metres on metric axes.
-  const int elev_layer = static_cast<int>(std::find(grid.layers.begin(), grid.layers.end(), "elevation") - grid.layers.begin());
+  const int elev_layer =
+      static_cast<int>(std::find(grid.layers.begin(), grid.layers.end(), "elevation") - grid.layers.begin());
   plot::MapStyle elev_style;
   elev_style.unit_label = "cm";
   elev_style.scale = 100.0;
@@ -741,8 +752,11 @@ Hazards find_hazards(const traversability::GridMap& grid, const direct_depth::Di
       }
     const cv::Point2d c = grid.cell_center(static_cast<int>(std::lround(cents.at<double>(k, 1))),
                                            static_cast<int>(std::lround(cents.at<double>(k, 0))));
-    const nlohmann::json hz = {{"x_m", c.x}, {"y_m", c.y}, {"cells", area},
-                               {"area_m2", area * grid.resolution_m * grid.resolution_m}, {"max_elevation_m", zmax}};
+    const nlohmann::json hz = {{"x_m", c.x},
+                               {"y_m", c.y},
+                               {"cells", area},
+                               {"area_m2", area * grid.resolution_m * grid.resolution_m},
+                               {"max_elevation_m", zmax}};
     if (edge) {
       h.edge.push_back(hz);
     } else {
@@ -865,9 +879,11 @@ void assess(const AssessOptions& o) {
 void add_assess(CLI::App& app) {
   auto o = std::make_shared<AssessOptions>();
   CLI::App* cmd = app.add_subcommand("assess", "one image -> SfS height map, traversability layers, JSON summary");
-  cmd->add_option("image", o->image, "input image (8- or 16-bit grey or colour), or a recording (.mcap, with --frame)")->required();
+  cmd->add_option("image", o->image, "input image (8- or 16-bit grey or colour), or a recording (.mcap, with --frame)")
+      ->required();
   cmd->add_option("--out,-o", o->out, "output directory")->required();
-  cmd->add_option("--config,-c", o->config, "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
+  cmd->add_option("--config,-c", o->config,
+                  "YAML: method, sun_slant_rad, sun_tilt_rad, vignetting_a2.., camera_model {..}, grid {..}");
   cmd->add_option("--sun-slant", o->sun_slant_deg, "deg, sun angle from the optical axis (towards the camera)")
       ->check(finite());
   cmd->add_option("--sun-tilt", o->sun_tilt_deg, "deg, sun direction in the image from +x towards +y (clockwise)")
@@ -880,10 +896,12 @@ void add_assess(CLI::App& app) {
                   "camera mode: SfS for the grid on the ground-rectified image (default) or in the image frame")
       ->check(CLI::IsMember({"ground", "image"}));
   cmd->add_option("--rover", o->rover, "deployment (or any YAML with rover: and sun:) giving the camera and the sun");
-  cmd->add_option("--device", o->device, "with --rover: the camera device (rover.cameras.NAME) that took the image; "
-                                         "with a recording: the camera whose frame is read");
-  cmd->add_option("--frame", o->frame, "IMAGE is a recording (.mcap of `regolith run --record`): its frame N (0 = first) of "
-                                       "the camera --device (or the only one); the recorded deployment gives the camera and the sun");
+  cmd->add_option("--device", o->device,
+                  "with --rover: the camera device (rover.cameras.NAME) that took the image; "
+                  "with a recording: the camera whose frame is read");
+  cmd->add_option("--frame", o->frame,
+                  "IMAGE is a recording (.mcap of `regolith run --record`): its frame N (0 = first) of "
+                  "the camera --device (or the only one); the recorded deployment gives the camera and the sun");
   cmd->add_option("--height", o->height_m, "m, camera height above the ground")->check(positive());
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal")->check(finite());
   cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")

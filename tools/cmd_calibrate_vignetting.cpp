@@ -1,17 +1,17 @@
 // `regolith calibrate vignetting FLATFIELD.png`: fits V(r) = 1 + a2 r^2 + a4 r^4 + a6 r^6 to a
 // flat-field image and prints the YAML block of the sfs component.
-#include <CLI/CLI.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
 
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "cli.hpp"
-#include "regolith/core/image_file.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/sfs/sfs.hpp"
 
 namespace regolith::cli {

@@ -23,7 +23,8 @@ void list_devices(bool with_slow) {
 
 const bool registered = add_command([](CLI::App& app) {
   auto no_libcamera = std::make_shared<bool>(false);
-  CLI::App* cmd = app.add_subcommand("devices", "list cameras and CAN interfaces, with formats, to help write the YAML");
+  CLI::App* cmd =
+      app.add_subcommand("devices", "list cameras and CAN interfaces, with formats, to help write the YAML");
   cmd->add_flag("--no-libcamera", *no_libcamera, "skip libcamera (its camera manager takes a few seconds to start)");
   cmd->callback([no_libcamera] {
     register_everything();

@@ -53,8 +53,9 @@ const bool registered = add_command([](CLI::App& app) {
     std::unique_ptr<live::DdsRelay> relay_ptr;
     try {
       if (!a->token_file.empty()) opt.token = live::read_token_file(a->token_file);
-      relay_ptr = std::make_unique<live::DdsRelay>(participant, opt);  // std::runtime_error when the port cannot be bound
-    } catch (const std::invalid_argument& e) {  // a bad token file, or not loopback without one
+      relay_ptr =
+          std::make_unique<live::DdsRelay>(participant, opt);  // std::runtime_error when the port cannot be bound
+    } catch (const std::invalid_argument& e) {                 // a bad token file, or not loopback without one
       throw InputError(std::string("live: ") + e.what());
     }
     live::DdsRelay& relay = *relay_ptr;
@@ -62,8 +63,8 @@ const bool registered = add_command([](CLI::App& app) {
     std::signal(SIGTERM, on_live_interrupt);
     relay.start();
     std::cout << "regolith live: ws://" << opt.address << ":" << relay.server().port() << " ("
-              << relay.server().channels().size() << " channels, domain " << participant.domain_id() << ", namespace '" << a->ns
-              << "'); page http://" << opt.address << ":" << relay.server().port() << "/"
+              << relay.server().channels().size() << " channels, domain " << participant.domain_id() << ", namespace '"
+              << a->ns << "'); page http://" << opt.address << ":" << relay.server().port() << "/"
               << (opt.token.empty() ? "" : "?token=<the token>") << "; Ctrl-C stops" << std::endl;
     const auto start = std::chrono::steady_clock::now();
     while (!g_interrupted.load()) {

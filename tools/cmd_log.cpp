@@ -20,17 +20,16 @@
 #include <string>
 #include <vector>
 #ifdef REGOLITH_HAVE_DDS_RECORD
-#include <dds/dds.h>
-#include <dds/ddsi/ddsi_serdata.h>
-#include <dds/ddsi/ddsi_sertype.h>
-
-#include <opencv2/imgcodecs.hpp>
-
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
 #include <span>
+
+#include <dds/dds.h>
+#include <dds/ddsi/ddsi_serdata.h>
+#include <dds/ddsi/ddsi_sertype.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/json_text.hpp"
 #include "regolith/dds/json.hpp"
@@ -75,7 +74,8 @@ class CdrDecoder {
     ddsi_serdata* sd = nullptr;
     dds_sample_info_t si;
     const dds_return_t n = dds_takecdr(reader_, &sd, 1, &si, DDS_ANY_STATE);
-    if (n != 1 || sd == nullptr) throw std::runtime_error("log export: no Cyclone sertype for " + std::string(t.ros_type));
+    if (n != 1 || sd == nullptr)
+      throw std::runtime_error("log export: no Cyclone sertype for " + std::string(t.ros_type));
     type_ = ddsi_sertype_ref(sd->type);
     ddsi_serdata_unref(sd);
   }
@@ -169,9 +169,9 @@ struct ExportChannel {
   std::ofstream out;
   std::vector<std::string> columns;  // csv: from the first message
   std::uint64_t written = 0, undecodable = 0;
-  fs::path images;                   // sensor_msgs/CompressedImage: each image's bytes as a file here
-  enum class Can { kNone, kClassic, kFd } can = Can::kNone;  // raw CAN frames: written as a candump -l log
-  std::string can_interface;         // the interface name in that log: the encoder set's id
+  fs::path images;  // sensor_msgs/CompressedImage: each image's bytes as a file here
+  enum class Can { kNone, kClassic, kFd } can = Can::kNone;     // raw CAN frames: written as a candump -l log
+  std::string can_interface;                                    // the interface name in that log: the encoder set's id
   enum class Hal { kNone, kImage, kVector3 } hal = Hal::kNone;  // HAL frames (PNG files) and attitudes
 };
 
@@ -190,7 +190,8 @@ json export_hal_image(std::span<const std::uint8_t> cdr, const fs::path& dir, st
   const record::DecodedImage d = record::decode_image(cdr);
   char name[32];
   std::snprintf(name, sizeof name, "%06llu.png", static_cast<unsigned long long>(index));
-  if (!cv::imwrite((dir / name).string(), d.image)) throw InputError("log export: cannot write " + (dir / name).string());
+  if (!cv::imwrite((dir / name).string(), d.image))
+    throw InputError("log export: cannot write " + (dir / name).string());
   file = (dir.filename() / name).string();
   const int channels = d.image.channels();
   return {{"header", {{"stamp", stamp_json(d.stamp)}, {"frame_id", d.frame_id}}},

@@ -6,11 +6,6 @@
 // frames of one camera, the wheel odometry integrated from the recorded encoder samples, and the
 // camera, wheels and sun of the recorded deployment.
 // regolith eval map DRIVE_DIR --map DIR: scores such an output against the drive's truth files.
-#include <spdlog/spdlog.h>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -24,14 +19,18 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
+
 #include "cli.hpp"
-#include "regolith/core/json_text.hpp"
-#include "regolith/hal/imu.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
 #include "regolith/core/text_file.hpp"
+#include "regolith/hal/imu.hpp"
 #include "regolith/mapping/config.hpp"
 #include "regolith/mapping/drive_io.hpp"
 #include "regolith/mapping/evaluate.hpp"
@@ -108,7 +107,8 @@ struct SampleTrack {
     std::stable_sort(samples.begin(), samples.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   }
   bool at(TimeNs t, TimeNs max_extrapolation, double& v) const {
-    const auto it = std::lower_bound(samples.begin(), samples.end(), t, [](const auto& s, TimeNs u) { return s.first < u; });
+    const auto it =
+        std::lower_bound(samples.begin(), samples.end(), t, [](const auto& s, TimeNs u) { return s.first < u; });
     if (it == samples.end()) {
       if (samples.empty() || t - samples.back().first > max_extrapolation) return false;
       v = samples.back().second;
@@ -280,7 +280,8 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     if (!odometry.advance_to(stamp, read)) {
       if (!odometry.started()) {
         spdlog::warn("{}: frame at {:.3f} s precedes the wheel odometry (the first sample of every wheel{}); skipped",
-                     name, static_cast<double>(stamp - frames.front().first) / 1e9, settings.imu_heading ? " and the IMU" : "");
+                     name, static_cast<double>(stamp - frames.front().first) / 1e9,
+                     settings.imu_heading ? " and the IMU" : "");
         continue;
       }
       ++unavailable;  // no odometry at its capture time (after the last samples): the last pose
@@ -326,20 +327,24 @@ const bool registered = add_command([](CLI::App& app) {
   auto a = std::make_shared<MapArgs>();
   CLI::App* cmd = app.add_subcommand(
       "map", "drive-long terrain map of a recorded drive: corrected odometry + world-frame map (TIFF, CSV, PNG)");
-  cmd->add_option("drive", a->drive,
-                  "drive directory (input.json, frames.csv, frames/) or a HAL recording FILE.mcap (`regolith run --record`)")
+  cmd->add_option(
+         "drive", a->drive,
+         "drive directory (input.json, frames.csv, frames/) or a HAL recording FILE.mcap (`regolith run --record`)")
       ->required();
   cmd->add_option("--device", a->device, "recordings: the camera (default: the terrain_map component's)");
-  cmd->add_option("--encoders", a->encoders, "recordings: the encoder set of the wheel odometry (default: the terrain_map component's)");
+  cmd->add_option("--encoders", a->encoders,
+                  "recordings: the encoder set of the wheel odometry (default: the terrain_map component's)");
   cmd->add_option("--out,-o", a->out, "output directory (created)")->required();
   CLI::Option* res_opt = cmd->add_option("--resolution", a->resolution_m, "m per map cell (map_resolution_m)")
                              ->capture_default_str()
                              ->check(CLI::Range(0.005, 1.0));
   cmd->add_flag("--wheel-only", a->wheel_only, "place the map with the wheel odometry alone (no visual odometry)");
   cmd->add_flag("--quiet,-q", a->quiet, "no per-frame lines");
-  cmd->add_option("--config", a->config,
-                  "YAML file of mapper parameters: the keys of the terrain_map component (components/mapping/README.md)");
-  cmd->add_option("--set", a->sets, "one mapper parameter, key=value (repeatable; after --config), e.g. rock_min_frames=4");
+  cmd->add_option(
+      "--config", a->config,
+      "YAML file of mapper parameters: the keys of the terrain_map component (components/mapping/README.md)");
+  cmd->add_option("--set", a->sets,
+                  "one mapper parameter, key=value (repeatable; after --config), e.g. rock_min_frames=4");
   cmd->callback([a, res_opt] {
     mapping::RecordedDrive drive;
     if (fs::path(a->drive).extension() == ".mcap") {
@@ -349,21 +354,23 @@ const bool registered = add_command([](CLI::App& app) {
       throw ConfigError("map: this build reads no recordings (built without the HAL recording)");
 #endif
     } else {
-      if (!a->device.empty() || !a->encoders.empty()) throw ConfigError("map: --device and --encoders are for recordings (.mcap)");
+      if (!a->device.empty() || !a->encoders.empty())
+        throw ConfigError("map: --device and --encoders are for recordings (.mcap)");
       drive = mapping::read_drive(a->drive);
     }
     const mapping::DriveMapperParams p = mapper_params(*a, res_opt->count() > 0);
-    const auto s = mapping::map_drive(drive, p, a->out, [&](const mapping::DriveFrame& f, const mapping::FrameReport& r) {
-      if (a->quiet) return;
-      std::printf("frame %4d  x %8.4f  y %8.4f  yaw %8.4f  sd %.3f m  vo %-4s inliers %5d%s%s\n", f.index, r.pose.x, r.pose.y,
-                  r.pose.yaw, std::sqrt(std::max(r.covariance(0, 0), r.covariance(1, 1))),
-                  r.vo == mapping::VoStatus::kOk ? "ok" : "-", r.vo_inliers, r.keyframe ? "  keyframe" : "",
-                  r.odometry_jump ? "  odometry jump" : "");
-    });
+    const auto s =
+        mapping::map_drive(drive, p, a->out, [&](const mapping::DriveFrame& f, const mapping::FrameReport& r) {
+          if (a->quiet) return;
+          std::printf("frame %4d  x %8.4f  y %8.4f  yaw %8.4f  sd %.3f m  vo %-4s inliers %5d%s%s\n", f.index, r.pose.x,
+                      r.pose.y, r.pose.yaw, std::sqrt(std::max(r.covariance(0, 0), r.covariance(1, 1))),
+                      r.vo == mapping::VoStatus::kOk ? "ok" : "-", r.vo_inliers, r.keyframe ? "  keyframe" : "",
+                      r.odometry_jump ? "  odometry jump" : "");
+        });
     for (const auto& n : s.notes) spdlog::warn("{}", n);
     std::printf("%s: %ld frames (%ld skipped), vision %ld ok / %ld lost, %ld keyframes, path %.3f m, %zu rocks\n",
-                a->drive.c_str(), s.counters.frames, s.skipped, s.counters.vo_ok, s.counters.vo_failed, s.counters.keyframes,
-                s.path_length_m, s.rocks.size());
+                a->drive.c_str(), s.counters.frames, s.skipped, s.counters.vo_ok, s.counters.vo_failed,
+                s.counters.keyframes, s.path_length_m, s.rocks.size());
     for (const auto& w : s.written) std::printf("wrote %s\n", w.string().c_str());
     // The (empty) outputs stay, but a script must not take a drive of which nothing was read for
     // a map of flat, unknown ground.
@@ -375,7 +382,8 @@ const bool registered = add_command([](CLI::App& app) {
   auto e = std::make_shared<EvalMapArgs>();
   CLI::App* eval = group(app, "eval", "evaluate algorithms against ground truth");
   CLI::App* em = eval->add_subcommand("map", "score a `regolith map` output against a drive's truth (JSON on stdout)");
-  em->add_option("drive", e->drive, "drive directory with truth_poses.csv, height.tiff, grid.json, truth.json")->required();
+  em->add_option("drive", e->drive, "drive directory with truth_poses.csv, height.tiff, grid.json, truth.json")
+      ->required();
   em->add_option("--map", e->map, "output directory of `regolith map`")->required();
   em->add_option("--overlay", e->overlay,
                  "also draw what was scored into this PNG: true rocks hit / missed, detections matched / false, "

@@ -4,7 +4,6 @@
 // k-fold cross-validation). Algorithms: components/saliency. The SAMS structure
 // channel needs regolith::sfs; when this file is compiled without it (header
 // not on the include path), --method sams fails with a message.
-#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,12 +14,14 @@
 #include <map>
 #include <memory>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "cli.hpp"
 #include "regolith/core/csv.hpp"

@@ -1,8 +1,5 @@
 // regolith run: load a deployment, run its rate groups with a live summary until Ctrl-C or
 // --duration. regolith config check: validate a deployment and print the resolved configuration.
-#include <spdlog/spdlog.h>
-#include <unistd.h>
-
 #include <csignal>
 #include <cstdio>
 #include <ctime>
@@ -12,22 +9,27 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
+
 #include "cli.hpp"
 #include "regolith/core/error.hpp"
-#include "regolith/core/text_file.hpp"
 #include "regolith/core/params.hpp"
+#include "regolith/core/text_file.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
 #include "regolith/runtime/watchdog.hpp"
 #include "summary.hpp"
 #ifdef REGOLITH_HAVE_DDS_RECORD
+#include <yaml-cpp/yaml.h>
+
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/recorder.hpp"
 #include "regolith/record/hal_recorder.hpp"
 #include "regolith/record/mcap_reader.hpp"
-#include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
-#include <yaml-cpp/yaml.h>
+#include "regolith/record/recording.hpp"
 #endif
 #ifdef REGOLITH_HAVE_LIVE
 #include "regolith/live/dds_relay.hpp"
@@ -38,7 +40,9 @@ namespace regolith::cli {
 namespace {
 
 std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop.store(true); }
+extern "C" void on_signal(int) {
+  g_stop.store(true);
+}
 
 Params load_config(const std::string& path) {
   if (path.empty()) return Params::load_string(embedded_mock_rover(), "<embedded>/config/mock_rover.yaml");
@@ -58,8 +62,8 @@ struct RunOptions {
   bool quiet = false;
   std::vector<std::string> wait_for;
   double wait_timeout_s = 30.0;
-  std::string record;  ///< --record FILE (overrides record.file)
-  std::string live;    ///< --live [ADDR:]PORT: Foxglove WebSocket server of the DDS topics
+  std::string record;           ///< --record FILE (overrides record.file)
+  std::string live;             ///< --live [ADDR:]PORT: Foxglove WebSocket server of the DDS topics
   std::string live_token_file;  ///< --live-token-file FILE (overrides live.token_file)
 };
 
@@ -79,8 +83,9 @@ struct ToolBlocks {
              const RunOptions& o) {
 #ifdef REGOLITH_HAVE_DDS_RECORD
     if (!o.record.empty() && !dds)
-      throw InputError("run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
-                       "records the DDS topics the deployment publishes)");
+      throw InputError(
+          "run: --record: recording needs DDS, but the deployment has dds.enabled: false (record: "
+          "records the DDS topics the deployment publishes)");
     record_topics.clear();
     for (const auto& name : rc.topics) {
       const dds::TopicInfo* t = dds::find_topic(name);
@@ -124,7 +129,8 @@ struct ToolBlocks {
     }
     live = std::move(lo);
 #else
-    constexpr const char* kNoLive = "this build has no live server (configured with REGOLITH_WITH_LIVE=OFF or without websocketpp)";
+    constexpr const char* kNoLive =
+        "this build has no live server (configured with REGOLITH_WITH_LIVE=OFF or without websocketpp)";
     if (!o.live.empty()) throw InputError(std::string("run: --live: ") + kNoLive);
     if (lc.enabled) throw ConfigError(lc.where + ": live.enabled: " + kNoLive);
 #endif
@@ -158,14 +164,14 @@ std::string utc_now_iso() {
 /// deployment file as an Attachment and a `regolith` Metadata record. Created before app->start()
 /// so its readers have matched every writer before the first cycle.
 std::unique_ptr<dds::DdsRecorder> make_recorder(runtime::Application& app, const RunOptions& o,
-                                               const ToolBlocks& blocks) {
+                                                const ToolBlocks& blocks) {
   const runtime::RecordConfig& rc = app.record_config();
   const std::string file = o.record.empty() ? rc.file : o.record;
   if (file.empty()) return nullptr;
   dds::DdsRecorderOptions ro;
   ro.topics = blocks.record_topics;
   ro.compression = rc.compression == "none" ? record::Compression::kNone : record::Compression::kZstd;
-  ro.keep_all = o.sim_time;  // simulated time: every sample, however fast the rover runs
+  ro.keep_all = o.sim_time;         // simulated time: every sample, however fast the rover runs
   ro.log_source_time = o.sim_time;  // ... on the simulated time line (the writers' source clock)
   ro.split_bytes = static_cast<std::uint64_t>(rc.split_mb * 1024.0 * 1024.0);
   ro.split_duration_ns = static_cast<std::uint64_t>(rc.split_s * 1e9);
@@ -320,7 +326,9 @@ int compare_recordings(const std::string& a, const std::string& b) {
     const bool ok = sa.size() == sb.size() && same == sa.size();
     if (!ok) ++differ;
     std::printf("%-34s %8zu %8zu %10zu  %s\n", topic.c_str(), sa.size(), sb.size(), same,
-                ok ? "-" : first >= 0 ? ("sample " + std::to_string(first)).c_str() : "count");
+                ok           ? "-"
+                : first >= 0 ? ("sample " + std::to_string(first)).c_str()
+                             : "count");
   }
   return differ;
 }
@@ -411,8 +419,8 @@ void run(const RunOptions& o) {
 #ifdef REGOLITH_HAVE_DDS_RECORD
   if (recorder) {
     std::printf("recorded %llu samples on %zu topics to %s (%llu bytes; recorder thread CPU %.3f s)\n",
-                static_cast<unsigned long long>(recorder->total()), recorder->topic_count(),
-                recorder->path().c_str(), static_cast<unsigned long long>(recorder->file_bytes()),
+                static_cast<unsigned long long>(recorder->total()), recorder->topic_count(), recorder->path().c_str(),
+                static_cast<unsigned long long>(recorder->file_bytes()),
                 static_cast<double>(recorder->thread_cpu_ns()) * 1e-9);
     if (const auto files = recorder->files(); files.size() > 1) {
       std::printf("  split into %zu files:", files.size());
@@ -445,7 +453,8 @@ const bool registered = add_command([](CLI::App& app) {
   cmd->add_option("--summary-interval", opts->summary_interval_s, "seconds between live summaries")
       ->check(regolith::cli::positive());
   cmd->add_flag("--quiet,-q", opts->quiet, "no live summary");
-  cmd->add_option("--wait-for", opts->wait_for, "before starting, wait for a subscriber on this DDS topic (repeatable)");
+  cmd->add_option("--wait-for", opts->wait_for,
+                  "before starting, wait for a subscriber on this DDS topic (repeatable)");
   cmd->add_option("--wait-timeout", opts->wait_timeout_s, "seconds to wait for --wait-for subscribers")
       ->check(regolith::cli::non_negative());
   cmd->add_option("--record", opts->record,
@@ -457,7 +466,6 @@ const bool registered = add_command([](CLI::App& app) {
                   "access token file (mode 0600) the live view's clients must present (`?token=`); needed to listen "
                   "on an address other than loopback (overrides live.token_file)");
   cmd->callback([opts] { run(*opts); });
-
 
 #ifdef REGOLITH_HAVE_DDS_RECORD
   auto ropts = std::make_shared<RunOptions>();
@@ -482,7 +490,8 @@ const bool registered = add_command([](CLI::App& app) {
                      "access token file (mode 0600) for the live view; needed off loopback");
   replay->callback([ropts, rfile, rconfig, realtime, compare] {
     RunOptions o = *ropts;
-    if (*compare && o.record.empty()) throw InputError("replay: --compare needs --record FILE (the replay's recording)");
+    if (*compare && o.record.empty())
+      throw InputError("replay: --compare needs --record FILE (the replay's recording)");
     if (!o.record.empty() && std::filesystem::exists(o.record) && std::filesystem::exists(*rfile) &&
         std::filesystem::equivalent(o.record, *rfile))
       throw InputError("replay: --record " + o.record + " is the recording being replayed");
@@ -497,7 +506,8 @@ const bool registered = add_command([](CLI::App& app) {
     }
     if (o.duration_s <= 0) {
       if (times.end <= times.origin)
-        throw InputError(*rfile + ": the recording's length is unknown (no regolith_hal_end and no readable device "
+        throw InputError(*rfile +
+                         ": the recording's length is unknown (no regolith_hal_end and no readable device "
                          "sample); give --duration");
       o.duration_s = to_seconds(times.end - times.origin);
       if (times.cut_short)
@@ -552,7 +562,8 @@ const bool registered = add_command([](CLI::App& app) {
       loaded->dataflow().print(std::cout);
       return;
     }
-    if (*dot) throw InputError("config check: --dot takes one deployment (" + std::to_string(files->size()) + " given)");
+    if (*dot)
+      throw InputError("config check: --dot takes one deployment (" + std::to_string(files->size()) + " given)");
     // Several (`regolith config check config/*.yaml`): every file is checked, each error said with
     // its file, exit 2 when any has one.
     std::size_t failed = 0;

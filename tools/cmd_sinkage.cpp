@@ -6,9 +6,6 @@
 // sequences generated here (--synthetic).
 // Algorithms: components/sinkage; synthetic scenes: mocks/wheel_scene (optional: without it
 // --synthetic fails with a message).
-#include <CLI/CLI.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -19,9 +16,12 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "cli.hpp"
-#include "regolith/core/image_file.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/sinkage/bench_log.hpp"
 #include "regolith/sinkage/sinkage.hpp"
@@ -336,16 +336,19 @@ void run_eval(const EvalOptions& given) {
 void add_sinkage_commands(CLI::App& app) {
   CLI::App* cal = group(app, "calibrate", "calibration tools");
   auto co = std::make_shared<CalibrateOptions>();
-  CLI::App* c = cal->add_subcommand("sinkage", "wheel-leg geometry (hub centre, leg length / width, angle offset) from "
-                                               "a frame of the un-sunk wheel; prints the YAML geometry block");
+  CLI::App* c = cal->add_subcommand("sinkage",
+                                    "wheel-leg geometry (hub centre, leg length / width, angle offset) from "
+                                    "a frame of the un-sunk wheel; prints the YAML geometry block");
   c->add_option("frame", co->frame, "image of the un-sunk wheel (colour)")->required();
   c->add_option("--angle", co->angle_rad, "rad, encoder angle when the frame was captured")->required();
   c->add_option("--leg-count", co->leg_count, "legs on the wheel")->check(CLI::Range(2, 16))->capture_default_str();
   c->add_option("--spacing-rad", co->spacing_rad, "rad between legs (default 2 pi / leg count)");
   c->add_option("--direction", co->direction, "+1 / -1: sign of the encoder angle in the image")
-      ->check(CLI::IsMember({-1, 1}))->capture_default_str();
+      ->check(CLI::IsMember({-1, 1}))
+      ->capture_default_str();
   c->add_option("--segmentation", co->segmentation, "hsv|adaptive|auto")
-      ->check(CLI::IsMember({"hsv", "adaptive", "auto"}))->capture_default_str();
+      ->check(CLI::IsMember({"hsv", "adaptive", "auto"}))
+      ->capture_default_str();
   c->add_option("--hue-min", co->hue_min, "deg, leg colour band")->capture_default_str();
   c->add_option("--hue-max", co->hue_max, "deg")->capture_default_str();
   c->add_option("--sat-min", co->sat_min, "[0, 1]")->capture_default_str();
@@ -356,18 +359,24 @@ void add_sinkage_commands(CLI::App& app) {
 
   CLI::App* ev = group(app, "eval", "evaluate algorithms against ground truth");
   auto eo = std::make_shared<EvalOptions>();
-  CLI::App* e = ev->add_subcommand("sinkage", "sinkage error per load x illumination (thesis Table 4.1 analogue) "
-                                              "from recorded / synthetic sequences or bench-rig logs");
+  CLI::App* e = ev->add_subcommand("sinkage",
+                                   "sinkage error per load x illumination (thesis Table 4.1 analogue) "
+                                   "from recorded / synthetic sequences or bench-rig logs");
   e->add_option("--sequence", eo->sequences,
                 "sequence folder (with sequence.csv) or CSV 'frame,encoder_angle_rad,truth_mm'; '# load: X' and "
                 "'# illumination: Y' comment lines label the condition (default: the folder name)");
   e->add_option("--log", eo->logs, "bench-rig log written by the wheel_sinkage component (log_csv)");
-  e->add_flag("--synthetic", eo->synthetic, "generate the four conditions (3.5 / 1.0 kg x 300-400 / 10-15 lux); what runs when no --sequence or --log is given");
+  e->add_flag("--synthetic", eo->synthetic,
+              "generate the four conditions (3.5 / 1.0 kg x 300-400 / 10-15 lux); what runs when no --sequence or "
+              "--log is given");
   e->add_option("--params", eo->params, "YAML with the geometry block and estimator keys, or a deployment");
   e->add_option("--component", eo->component, "with a deployment in --params: the component name");
-  e->add_option("--frames", eo->frames, "synthetic: frames per condition")->check(CLI::Range(4, 100000))->capture_default_str();
+  e->add_option("--frames", eo->frames, "synthetic: frames per condition")
+      ->check(CLI::Range(4, 100000))
+      ->capture_default_str();
   e->add_option("--misalignment-deg", eo->misalignment_deg, "synthetic: true legs minus encoder prediction")
-      ->check(CLI::Range(-30.0, 30.0))->capture_default_str();
+      ->check(CLI::Range(-30.0, 30.0))
+      ->capture_default_str();
   e->add_option("--seed", eo->seed, "synthetic: scene seed")->capture_default_str();
   e->add_option("--write", eo->write_dir, "synthetic: also write the sequences (PNG + sequence.csv) under this folder");
   e->callback([eo] { run_eval(*eo); });

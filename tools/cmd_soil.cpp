@@ -27,10 +27,13 @@ const bool registered = add_command([](CLI::App& app) {
   auto a = std::make_shared<SoilArgs>();
   CLI::App* cmd = app.add_subcommand(
       "soil", "soil stiffness k (and n) from an image of the rover's wheel tracks -> PNG plots + JSON");
-  cmd->add_option("image", a->image, "rear-camera image of the tracks (8- or 16-bit grey or colour: PNG, JPEG, TIFF, BMP, PNM, WebP)")->required();
-  CLI::Option* config = cmd->add_option("--config,-c", a->config,
-                                        "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
-                                        "or a deployment with a soil_stiffness component");
+  cmd->add_option("image", a->image,
+                  "rear-camera image of the tracks (8- or 16-bit grey or colour: PNG, JPEG, TIFF, BMP, PNM, WebP)")
+      ->required();
+  CLI::Option* config =
+      cmd->add_option("--config,-c", a->config,
+                      "ROVER.yaml: `soil_stiffness:` section (see components/soil_stiffness/example_rover.yaml) "
+                      "or a deployment with a soil_stiffness component");
   CLI::Option* scene = cmd->add_option("--scene", a->scene,
                                        "a recorded scene's input.json (camera, sun, wheel, per-track load and "
                                        "x_nominal_m; the development set's tracks format) instead of a YAML");
@@ -47,7 +50,8 @@ const bool registered = add_command([](CLI::App& app) {
                   e.mean_sinkage_m * 1e3, e.samples_used);
       std::printf("  n fixed %.2f: k = %.4g +- %.2g N/m^(n+2)\n", e.n_fixed, e.k_fixed, e.k_fixed_std);
       if (e.joint_ok)
-        std::printf("  joint: k = %.4g +- %.2g, n = %.3f +- %.3f\n", e.k_joint, e.k_joint_std, e.n_joint, e.n_joint_std);
+        std::printf("  joint: k = %.4g +- %.2g, n = %.3f +- %.3f\n", e.k_joint, e.k_joint_std, e.n_joint,
+                    e.n_joint_std);
       std::printf("  reported: k = %.4g +- %.2g, n = %.3f +- %.3f%s\n", e.k, e.k_std, e.n, e.n_std,
                   e.n_data_std > 0 ? " (joint fit with the prior on n)" : " (n fixed)");
       std::printf("  soil class: %s (p(z_ref) = %.0f Pa)\n", soil::to_string(e.soil_class), e.class_pressure_pa);

@@ -1,9 +1,9 @@
 // regolith: the command-line tool. Sub-commands live in tools/cmd_*.cpp and register themselves.
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
-
 #include <cstdlib>
 #include <string>
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 
 #include "cli.hpp"
 #include "regolith/core/error.hpp"

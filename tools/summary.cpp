@@ -1,12 +1,12 @@
 #include "summary.hpp"
 
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
-
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "regolith/runtime/dds_hooks.hpp"
 
@@ -21,19 +21,17 @@ std::string us(TimeNs ns) {
 }  // namespace
 
 Summary::Summary(runtime::Application& app, bool redraw)
-    : app_(app),
-      redraw_(redraw),
-      start_wall_(monotonic_now()),
-      start_clock_(app.clock().now()) {}
+    : app_(app), redraw_(redraw), start_wall_(monotonic_now()), start_clock_(app.clock().now()) {}
 
 void Summary::print(std::ostream& os, bool final) {
   const auto& v = app_.view();
   std::ostringstream out;
   const double wall = to_seconds(monotonic_now() - start_wall_);
   const double sim = to_seconds(app_.clock().now() - start_clock_);
-  out << fmt::format("regolith '{}'  {:.1f} s{}{}\n", app_.name(), app_.sim_time() ? sim : wall,
-                     app_.sim_time() ? fmt::format(" simulated in {:.1f} s wall ({:.0f}x)", wall, wall > 0 ? sim / wall : 0.0) : "",
-                     final ? "  [final]" : "");
+  out << fmt::format(
+      "regolith '{}'  {:.1f} s{}{}\n", app_.name(), app_.sim_time() ? sim : wall,
+      app_.sim_time() ? fmt::format(" simulated in {:.1f} s wall ({:.0f}x)", wall, wall > 0 ? sim / wall : 0.0) : "",
+      final ? "  [final]" : "");
   out << fmt::format("{:<12} {:>8} {:>9} {:>6} {:>9} {:>9} {:>9} {:>10}\n", "rate group", "rate Hz", "cycles", "slips",
                      "exec avg", "exec p99", "exec max", "wake p99");
   for (const auto* g : v.groups) {
@@ -43,20 +41,21 @@ void Summary::print(std::ostream& os, bool final) {
     // Under --sim-time the cycle times are simulated (members cost nothing unless they model it):
     // the per-component CPU times below are the meaningful numbers then.
     out << fmt::format("{:<12} {:>8.1f} {:>9} {:>6} {:>9} {:>9} {:>9} {:>10}\n", g->config().name,
-                       1e9 / static_cast<double>(g->config().period), c.cycles, c.slips, app_.sim_time() ? "-" : us(e.mean),
-                       app_.sim_time() ? "-" : us(e.p99), app_.sim_time() ? "-" : us(e.max),
-                       app_.sim_time() ? "-" : us(w.p99));
+                       1e9 / static_cast<double>(g->config().period), c.cycles, c.slips,
+                       app_.sim_time() ? "-" : us(e.mean), app_.sim_time() ? "-" : us(e.p99),
+                       app_.sim_time() ? "-" : us(e.max), app_.sim_time() ? "-" : us(w.p99));
   }
   // cpu = CLOCK_THREAD_CPUTIME_ID around step(); wall = elapsed (includes preemption, page faults).
-  out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", "component", "steps", "cpu avg", "cpu p99",
-                     "wall avg", "wall p99", "errors", "stale", "status");
+  out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", "component", "steps", "cpu avg",
+                     "cpu p99", "wall avg", "wall p99", "errors", "stale", "status");
   for (const auto* c : v.components) {
     const auto cpu = c->cpu().summary();
     const auto elapsed = c->wall().summary();
     std::uint64_t stale = 0;
     for (const auto& in : c->inputs()) stale += in->stale_cycles.load();
-    out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", c->name(), c->heartbeat(), us(cpu.mean),
-                       us(cpu.p99), us(elapsed.mean), us(elapsed.p99), c->errors(), stale, c->status_message());
+    out << fmt::format("{:<16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5}  {}\n", c->name(), c->heartbeat(),
+                       us(cpu.mean), us(cpu.p99), us(elapsed.mean), us(elapsed.p99), c->errors(), stale,
+                       c->status_message());
   }
   out << "latest results\n";
   for (const auto* c : v.components) {
@@ -81,8 +80,8 @@ void Summary::print(std::ostream& os, bool final) {
   }
   for (const auto& [name, enc] : app_.context().devices_of<hal::WheelEncoders>()) {
     const auto s = enc->stats();
-    out << fmt::format("encoders {:<13} {} samples {} rejected {} faults {}\n", name, hal::to_string(s.state), s.samples,
-                       s.rejected, s.faults);
+    out << fmt::format("encoders {:<13} {} samples {} rejected {} faults {}\n", name, hal::to_string(s.state),
+                       s.samples, s.rejected, s.faults);
   }
   for (const auto& [name, imu] : app_.context().devices_of<hal::Imu>()) {
     const auto c = imu->counters();

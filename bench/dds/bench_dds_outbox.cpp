@@ -2,13 +2,14 @@
 // an Outbox (begin / fill / commit; the publisher thread does dds_write)
 // against calling dds_write directly on that thread (the peer), with one
 // matched in-process reader. Prints the ratio.
-#include <benchmark/benchmark.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <string>
+
+#include <unistd.h>
+
+#include <benchmark/benchmark.h>
 
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/reader.hpp"

@@ -13,13 +13,6 @@
 // (the backend clamps such stamps to its dequeue time, v4l2-ctl prints them raw): for a common
 // reference the bench first switches vivid to "Start of Exposure" stamps (timestamp_source=1).
 // Exits 0 with a message when there is no V4L2 capture device or no v4l2-ctl.
-#include <benchmark/benchmark.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -32,6 +25,14 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <benchmark/benchmark.h>
 
 #include "regolith/hal_v4l2/v4l2.hpp"
 

@@ -7,9 +7,6 @@
 // message's header stamp (the camera frame's capture time for the vision topics, ROS time) to its
 // arrival at a client, p50 / p99 (goal p99 <= 150 ms capture to pixels; a browser adds decoding
 // and painting, a few ms for a 320x240 JPEG).
-#include <benchmark/benchmark.h>
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -20,10 +17,14 @@
 #include <memory>
 #include <mutex>
 #include <new>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <sys/resource.h>
+
+#include <benchmark/benchmark.h>
+#include <nlohmann/json.hpp>
 
 #include "cli_support.hpp"
 #include "regolith/live/dds_relay.hpp"
@@ -88,8 +89,12 @@ void client_loop(std::uint16_t port, const std::atomic<bool>& stop, Latencies& o
   if (!c.ok()) return;
   std::map<std::uint32_t, std::string> by_sub;
   std::map<std::string, std::vector<double>> mine;
-  const std::vector<std::string> stamped = {"joint_states", "terrain/rocks", "terrain/wheel_sinkage",
-                                            "preview/rocks/compressed", "preview/sinkage/compressed", "odom",
+  const std::vector<std::string> stamped = {"joint_states",
+                                            "terrain/rocks",
+                                            "terrain/wheel_sinkage",
+                                            "preview/rocks/compressed",
+                                            "preview/sinkage/compressed",
+                                            "odom",
                                             "terrain/grid_map"};
   while (!stop.load()) {
     auto f = c.read(200);
@@ -130,9 +135,9 @@ struct RunResult {
 };
 
 RunResult run_rover(int clients, Latencies& lat) {
-  auto app = runtime::Application::load(
-      Params::load_string(cli::embedded_mock_rover(), "<embedded>/config/mock_rover.yaml"),
-      {.sim_time = false, .enable_dds = true});
+  auto app =
+      runtime::Application::load(Params::load_string(cli::embedded_mock_rover(), "<embedded>/config/mock_rover.yaml"),
+                                 {.sim_time = false, .enable_dds = true});
   live::FoxgloveServerOptions opt;
   opt.port = 0;
   live::DdsRelay relay(*app->dds(), opt);

@@ -4,17 +4,17 @@
 // a driving rover, against the textbook peer measured in the same run: OpenCV 5-point VO
 // (goodFeaturesToTrack 300 + pyramidal LK + findEssentialMat RANSAC + recoverPose) on the same
 // frame pairs. One thread (cv::setNumThreads(1)); prints the per-frame split and the ratios.
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
-#include <string>
-#include <vector>
 
 #include "regolith/mapping/drive_mapper.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
@@ -99,8 +99,12 @@ void run_mapper(benchmark::State& st, bool terrain) {
   }
   st.counters["vo_ok_passes"] = static_cast<double>(vo_ok + m->counters().vo_ok);
 }
-void BM_GroundVoFusion(benchmark::State& st) { run_mapper(st, false); }
-void BM_DriveMapper(benchmark::State& st) { run_mapper(st, true); }
+void BM_GroundVoFusion(benchmark::State& st) {
+  run_mapper(st, false);
+}
+void BM_DriveMapper(benchmark::State& st) {
+  run_mapper(st, true);
+}
 
 // One cue on one frame pair 0.42 m apart (frames 0 and 7), with the VO's measurement of it.
 struct CuePair {
@@ -201,11 +205,14 @@ class RatioReporter : public benchmark::ConsoleReporter {
     std::printf("\nPer frame, 1 thread, same run (goal: VO + fusion <= 10 ms at 320x240, <= 25 ms at 640x480):\n");
     for (int w : {320, 640}) {
       const std::string s = "/" + std::to_string(w);
-      const double peer = ms_["BM_RecoverPose5pt" + s], vo = ms_["BM_GroundVoFusion" + s], all = ms_["BM_DriveMapper" + s];
-      std::printf("  %dx%d: ground VO + fusion %6.2f ms (%.2fx the 5-point peer's %.2f ms); with every cue + map %6.2f ms\n",
-                  w, w * 3 / 4, vo, peer > 0 ? vo / peer : 0.0, peer, all);
+      const double peer = ms_["BM_RecoverPose5pt" + s], vo = ms_["BM_GroundVoFusion" + s],
+                   all = ms_["BM_DriveMapper" + s];
+      std::printf(
+          "  %dx%d: ground VO + fusion %6.2f ms (%.2fx the 5-point peer's %.2f ms); with every cue + map %6.2f ms\n", w,
+          w * 3 / 4, vo, peer > 0 ? vo / peer : 0.0, peer, all);
       for (const char* n : {"BM_PlaneSweep", "BM_GroundParallax", "BM_RockSightings"})
-        if (const double ms = ms_[n + s]; ms > 0) std::printf("      %-18s %6.2f ms (%.2fx peer)\n", n + 3, ms, peer > 0 ? ms / peer : 0.0);
+        if (const double ms = ms_[n + s]; ms > 0)
+          std::printf("      %-18s %6.2f ms (%.2fx peer)\n", n + 3, ms, peer > 0 ? ms / peer : 0.0);
     }
   }
 

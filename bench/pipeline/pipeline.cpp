@@ -12,16 +12,6 @@
 //
 //   pipeline [--sizes 640x480,1280x960] [--sim-s 4] [--realtime-s 10] [--sams-threads 2] [--regolith PATH]
 // (sams runs its channels on `--sams-threads` threads; its CPU is summed over them)
-#include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -32,11 +22,21 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
@@ -80,7 +80,9 @@ components:
   return buf;
 }
 
-double thread_cpu_ms() { return static_cast<double>(thread_cpu_now()) * 1e-6; }
+double thread_cpu_ms() {
+  return static_cast<double>(thread_cpu_now()) * 1e-6;
+}
 
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return std::nan("");
@@ -155,8 +157,8 @@ RealTime real_time(int w, int h, double seconds, const std::string& regolith) {
   const fs::path out = fs::temp_directory_path() / (ns + "_echo.jsonl");
   const std::string count = std::to_string(static_cast<int>(seconds * kRateHz * 2));
   const std::string timeout = std::to_string(static_cast<int>(seconds + 30));
-  std::vector<std::string> args = {regolith, "echo", "terrain/rocks", "--namespace", ns, "--delay",
-                                   "-n", count, "--timeout", timeout};
+  std::vector<std::string> args = {regolith,  "echo", "terrain/rocks", "--namespace", ns,
+                                   "--delay", "-n",   count,           "--timeout",   timeout};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -271,13 +273,20 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc && a != "-h" && a != "--help") return usage("'" + a + "' needs a value");
-    if (a == "--sizes") size_list = argv[++i];
-    else if (a == "--sim-s") sim_s = std::atof(argv[++i]);
-    else if (a == "--realtime-s") realtime_s = std::atof(argv[++i]);
-    else if (a == "--regolith") regolith = argv[++i];
-    else if (a == "--sams-threads") g_sams_threads = std::atoi(argv[++i]);
-    else if (a == "-h" || a == "--help") return usage("the forward pipeline bench"), 0;
-    else return usage("unknown argument '" + a + "'");
+    if (a == "--sizes")
+      size_list = argv[++i];
+    else if (a == "--sim-s")
+      sim_s = std::atof(argv[++i]);
+    else if (a == "--realtime-s")
+      realtime_s = std::atof(argv[++i]);
+    else if (a == "--regolith")
+      regolith = argv[++i];
+    else if (a == "--sams-threads")
+      g_sams_threads = std::atoi(argv[++i]);
+    else if (a == "-h" || a == "--help")
+      return usage("the forward pipeline bench"), 0;
+    else
+      return usage("unknown argument '" + a + "'");
   }
   if (!(sim_s > 0 && sim_s <= 600) || !(realtime_s > 0 && realtime_s <= 3600))
     return usage("--sim-s and --realtime-s must be > 0 (at most 600 / 3600)");
@@ -296,10 +305,11 @@ int main(int argc, char** argv) {
     const RealTime rt = real_time(w, h, realtime_s, regolith);
     const double sgbm = sgbm64_ms(w, h);
     const double p50 = quantile(rt.latency_ms, 0.5), p99 = quantile(rt.latency_ms, 0.99);
-    std::printf("  real time %.0f s: %llu cycles, %llu slips; terrain/rocks capture -> receipt in another process "
-                "(%zu samples): p50 %.1f ms, p99 %.1f ms\n",
-                realtime_s, static_cast<unsigned long long>(rt.cycles), static_cast<unsigned long long>(rt.slips),
-                rt.latency_ms.size(), p50, p99);
+    std::printf(
+        "  real time %.0f s: %llu cycles, %llu slips; terrain/rocks capture -> receipt in another process "
+        "(%zu samples): p50 %.1f ms, p99 %.1f ms\n",
+        realtime_s, static_cast<unsigned long long>(rt.cycles), static_cast<unsigned long long>(rt.slips),
+        rt.latency_ms.size(), p50, p99);
     std::printf("  peer: StereoSGBM 64 disparities, one thread, same size: %.1f ms per frame (%.1fx the pipeline)\n",
                 sgbm, sgbm / cpu);
     char line[512];

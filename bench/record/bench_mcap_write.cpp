@@ -6,12 +6,12 @@
 // Run: build/release/bench/record/bench_mcap_write [--benchmark_min_time=2s]
 // Files go to $TMPDIR (default /tmp); the page cache absorbs them, so this measures the CPU cost
 // of the writer (CRCs, compression, copies), not the disk.
-#include <benchmark/benchmark.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
+
+#include <benchmark/benchmark.h>
 
 #include "regolith/record/mcap_writer.hpp"
 

@@ -35,7 +35,8 @@ double quantile_us(std::vector<TimeNs> v, double q) {
 class Load {
  public:
   explicit Load(bool on) {
-    if (on) thread_ = std::thread([this] {
+    if (on)
+      thread_ = std::thread([this] {
         volatile std::uint64_t x = 0;
         while (!stop_.load(std::memory_order_relaxed)) x = x + 1;
       });
@@ -129,10 +130,14 @@ int main(int argc, char** argv) {
   bool idle_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--cycles" && i + 1 < argc) cycles = std::atol(argv[++i]);
-    else if (a == "--window" && i + 1 < argc) window = std::atoi(argv[++i]);
-    else if (a == "--idle-only") idle_only = true;
-    else return usage(("unknown or incomplete argument '" + a + "'").c_str());
+    if (a == "--cycles" && i + 1 < argc)
+      cycles = std::atol(argv[++i]);
+    else if (a == "--window" && i + 1 < argc)
+      window = std::atoi(argv[++i]);
+    else if (a == "--idle-only")
+      idle_only = true;
+    else
+      return usage(("unknown or incomplete argument '" + a + "'").c_str());
   }
   if (cycles < 100 || window < 100 || window > cycles) return usage("need 100 <= --window <= --cycles");
   std::printf("wake-up latency at 1 kHz: %ld cycles per loop and load, in alternating windows of %d (us)\n", cycles,

@@ -9,9 +9,6 @@
 // when it did (CTest runs it on every shipped deployment whose devices are all mocks), 2 on a
 // usage or deployment error. --trace N prints the call stacks of the first N steady-state
 // allocations (addr2line or gdb turn the addresses into lines).
-#include <execinfo.h>
-#include <unistd.h>
-
 #include <array>
 #include <atomic>
 #include <cstdio>
@@ -21,6 +18,9 @@
 #include <map>
 #include <new>
 #include <string>
+
+#include <execinfo.h>
+#include <unistd.h>
 
 #include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
@@ -77,11 +77,21 @@ void* operator new(std::size_t n) {
   if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void* operator new[](std::size_t n) {
+  return operator new(n);
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+  std::free(p);
+}
 
 using namespace regolith;
 
@@ -157,7 +167,9 @@ int main(int argc, char** argv) {
   g_attribute = false;
   const std::uint64_t steady_cycles = total_cycles(*app) - warm_cycles;
 
-  auto per_cycle = [](std::uint64_t a, std::uint64_t c) { return c ? static_cast<double>(a) / static_cast<double>(c) : 0.0; };
+  auto per_cycle = [](std::uint64_t a, std::uint64_t c) {
+    return c ? static_cast<double>(a) / static_cast<double>(c) : 0.0;
+  };
   std::printf("%s, simulated time: %zu components in %zu rate groups\n", name.c_str(), app->view().components.size(),
               app->view().groups.size());
   std::printf("  warm-up %.0f s (peer): %llu allocations in %llu cycles (%.2f per cycle)\n", warmup_s,

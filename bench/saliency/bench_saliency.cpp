@@ -5,15 +5,15 @@
 // fine-grained, and the trained ranking detector (issue 15: candidates + features + the shipped
 // forest + selection). Prints each time as a ratio against Itti measured in the same run, and the
 // trained detector's against SAMS and the contrast peer. Single thread (cv::setNumThreads(1)).
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <string>
+
+#include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <string>
 
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"

@@ -6,14 +6,14 @@
 // block 5, MODE_SGBM; cv::setNumThreads(1)), same run; prints the ratio. The ratio is against 64
 // disparities, the peer the goals name (bench/pipeline uses the same); 96 (what the rock-size
 // comparison in tests/terrain_stereo runs) is timed beside it.
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 #include <map>
+#include <string>
+
+#include <benchmark/benchmark.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
-#include <string>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
@@ -252,8 +252,9 @@ class RatioReporter : public benchmark::ConsoleReporter {
     for (const char* n : {"BM_TsaiShahTrav", "BM_PentlandTrav", "BM_GroundTsaiShahTrav", "BM_GroundPentlandTrav"}) {
       const double ms = ms_[n];
       if (ms > 0 && sg > 0)
-        std::printf("  %-22s (SfS + traversability) %8.2f ms  StereoSGBM-64 / this = %.1fx (goal >= 5x; SGBM-96: %.1fx)\n",
-                    n, ms, sg / ms, sg96 / ms);
+        std::printf(
+            "  %-22s (SfS + traversability) %8.2f ms  StereoSGBM-64 / this = %.1fx (goal >= 5x; SGBM-96: %.1fx)\n", n,
+            ms, sg / ms, sg96 / ms);
     }
   }
 

@@ -1,8 +1,6 @@
 // Frames/s of the full sinkage estimator at 640x480 on one core (dynamic mask), next to the same
 // estimator segmenting the whole frame (no dynamic mask) on the same frames in the same run.
 // Also reports heap allocations per frame (global operator new counted in this binary).
-#include <benchmark/benchmark.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -12,10 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "regolith/sinkage/sinkage.hpp"
-#include "regolith/wheel_scene/sinkage_setup.hpp"
+#include <benchmark/benchmark.h>
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "regolith/sinkage/sinkage.hpp"
+#include "regolith/wheel_scene/sinkage_setup.hpp"
 
 namespace rs = regolith::sinkage;
 namespace ws = regolith::wheel_scene;
@@ -62,17 +61,24 @@ void run(benchmark::State& state, bool masked, bool poor) {
   }
   const long news = static_cast<long>(regolith::testing::allocations()) - news0;
   state.SetItemsProcessed(state.iterations());
-  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                             benchmark::Counter::kIsRate);
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["allocs_per_frame"] =
       static_cast<double>(news) / static_cast<double>(std::max<benchmark::IterationCount>(1, state.iterations()));
   state.counters["mean_err_mm"] = err / static_cast<double>(std::max<benchmark::IterationCount>(1, state.iterations()));
 }
 
-void BM_Sinkage_DynamicMask_Normal(benchmark::State& s) { run(s, true, false); }
-void BM_Sinkage_FullFrame_Normal(benchmark::State& s) { run(s, false, false); }
-void BM_Sinkage_DynamicMask_Poor(benchmark::State& s) { run(s, true, true); }
-void BM_Sinkage_FullFrame_Poor(benchmark::State& s) { run(s, false, true); }
+void BM_Sinkage_DynamicMask_Normal(benchmark::State& s) {
+  run(s, true, false);
+}
+void BM_Sinkage_FullFrame_Normal(benchmark::State& s) {
+  run(s, false, false);
+}
+void BM_Sinkage_DynamicMask_Poor(benchmark::State& s) {
+  run(s, true, true);
+}
+void BM_Sinkage_FullFrame_Poor(benchmark::State& s) {
+  run(s, false, true);
+}
 BENCHMARK(BM_Sinkage_DynamicMask_Normal)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Sinkage_FullFrame_Normal)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Sinkage_DynamicMask_Poor)->Unit(benchmark::kMicrosecond);
@@ -103,13 +109,14 @@ int main(int argc, char** argv) {
     const std::string m = std::string("BM_Sinkage_DynamicMask_") + light;
     const std::string f = std::string("BM_Sinkage_FullFrame_") + light;
     if (rep.seconds.count(m) == 0 || rep.seconds.count(f) == 0) continue;
-    std::printf("%-6s light, CPU time : dynamic mask %6.0f frames/s | full-frame segmentation %6.0f "
-                "frames/s | ratio %.2fx\n",
-                light, 1.0 / rep.cpu_seconds[m], 1.0 / rep.cpu_seconds[f],
-                rep.cpu_seconds[f] / rep.cpu_seconds[m]);
-    std::printf("%-6s light, wall time: dynamic mask %6.0f frames/s | full-frame segmentation %6.0f "
-                "frames/s | ratio %.2fx\n",
-                light, 1.0 / rep.seconds[m], 1.0 / rep.seconds[f], rep.seconds[f] / rep.seconds[m]);
+    std::printf(
+        "%-6s light, CPU time : dynamic mask %6.0f frames/s | full-frame segmentation %6.0f "
+        "frames/s | ratio %.2fx\n",
+        light, 1.0 / rep.cpu_seconds[m], 1.0 / rep.cpu_seconds[f], rep.cpu_seconds[f] / rep.cpu_seconds[m]);
+    std::printf(
+        "%-6s light, wall time: dynamic mask %6.0f frames/s | full-frame segmentation %6.0f "
+        "frames/s | ratio %.2fx\n",
+        light, 1.0 / rep.seconds[m], 1.0 / rep.seconds[f], rep.seconds[f] / rep.seconds[m]);
   }
   benchmark::Shutdown();
   return 0;

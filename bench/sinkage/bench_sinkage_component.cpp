@@ -2,8 +2,6 @@
 // angle interpolation at the capture time, estimator, channel publish, bench-log queue) next to the
 // bare estimator on frames of the same scene, measured in the same run. Simulated clock: every
 // cycle of the "sinkage" group takes exactly one new frame.
-#include <benchmark/benchmark.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -12,6 +10,8 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <benchmark/benchmark.h>
 
 #include "regolith/hal/registry.hpp"
 #include "regolith/mocks/backends.hpp"
@@ -110,8 +110,12 @@ void BM_EstimatorOnly(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 
-void BM_Component(benchmark::State& s) { BM_ComponentStep(s, false); }
-void BM_ComponentWithLog(benchmark::State& s) { BM_ComponentStep(s, true); }
+void BM_Component(benchmark::State& s) {
+  BM_ComponentStep(s, false);
+}
+void BM_ComponentWithLog(benchmark::State& s) {
+  BM_ComponentStep(s, true);
+}
 BENCHMARK(BM_EstimatorOnly)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Component)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ComponentWithLog)->Unit(benchmark::kMicrosecond);
@@ -137,9 +141,10 @@ int main(int argc, char** argv) {
   const auto& m = rep.cpu_per_item;
   if (m.count("BM_EstimatorOnly") && m.count("BM_Component")) {
     const double e = m.at("BM_EstimatorOnly"), c = m.at("BM_Component");
-    std::printf("\n640x480: estimator alone %.0f us/frame (%.0f frames/s); component step in its rate group "
-                "%.0f us/frame (%.0f frames/s); ratio %.2fx",
-                e * 1e6, 1.0 / e, c * 1e6, 1.0 / c, c / e);
+    std::printf(
+        "\n640x480: estimator alone %.0f us/frame (%.0f frames/s); component step in its rate group "
+        "%.0f us/frame (%.0f frames/s); ratio %.2fx",
+        e * 1e6, 1.0 / e, c * 1e6, 1.0 / c, c / e);
     if (m.count("BM_ComponentWithLog")) {
       std::printf("; with bench log + transducer %.0f us/frame (%.2fx)", m.at("BM_ComponentWithLog") * 1e6,
                   m.at("BM_ComponentWithLog") / e);

@@ -1,9 +1,8 @@
 // Whole retrospective-soil-stiffness estimate on a 640x480 synthetic rear-camera frame versus its
 // peer, the SfS step alone on the same rectified region, and the full-frame SfS. Prints the ratio.
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 
+#include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
 
 #include "regolith/sfs/sfs.hpp"
@@ -22,8 +21,14 @@ struct Fixture {
     p.tracks = {{0.4, 60.0}, {-0.4, 60.0}};
     scene = track_scene::generate_track_scene(p);
     const auto& c = p.camera;
-    cam.width = c.width; cam.height = c.height; cam.fx = c.fx; cam.fy = c.fy; cam.cx = c.cx;
-    cam.cy = c.cy; cam.mount_height_m = c.mount_height_m; cam.pitch_rad = c.pitch_rad;
+    cam.width = c.width;
+    cam.height = c.height;
+    cam.fx = c.fx;
+    cam.fy = c.fy;
+    cam.cx = c.cx;
+    cam.cy = c.cy;
+    cam.mount_height_m = c.mount_height_m;
+    cam.pitch_rad = c.pitch_rad;
     rover.wheel_width_m = p.wheel_width_m;
     rover.wheel_diameter_m = p.wheel_diameter_m;
   }

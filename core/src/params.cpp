@@ -1,11 +1,12 @@
 #include "regolith/core/params.hpp"
-#include "regolith/core/text_file.hpp"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
+
+#include "regolith/core/text_file.hpp"
 
 namespace regolith {
 namespace {
@@ -30,27 +31,64 @@ std::string render(const YAML::Node& n) {
   return e.c_str();
 }
 
-template <class T> struct TypeName;
-template <> struct TypeName<bool> { static constexpr const char* v = "bool"; };
-template <> struct TypeName<int> { static constexpr const char* v = "int"; };
-template <> struct TypeName<std::int64_t> { static constexpr const char* v = "int"; };
-template <> struct TypeName<double> { static constexpr const char* v = "double"; };
-template <> struct TypeName<std::string> { static constexpr const char* v = "string"; };
-template <> struct TypeName<std::vector<double>> { static constexpr const char* v = "double[]"; };
-template <> struct TypeName<std::vector<std::string>> { static constexpr const char* v = "string[]"; };
+template <class T>
+struct TypeName;
+template <>
+struct TypeName<bool> {
+  static constexpr const char* v = "bool";
+};
+template <>
+struct TypeName<int> {
+  static constexpr const char* v = "int";
+};
+template <>
+struct TypeName<std::int64_t> {
+  static constexpr const char* v = "int";
+};
+template <>
+struct TypeName<double> {
+  static constexpr const char* v = "double";
+};
+template <>
+struct TypeName<std::string> {
+  static constexpr const char* v = "string";
+};
+template <>
+struct TypeName<std::vector<double>> {
+  static constexpr const char* v = "double[]";
+};
+template <>
+struct TypeName<std::vector<std::string>> {
+  static constexpr const char* v = "string[]";
+};
 
 // Strict scalar conversions: yaml-cpp's own `as<int>` accepts "1.5" in some versions and `as<bool>`
 // accepts "y"; we want exactly what the type says.
 bool parse_bool(const std::string& s, bool& out) {
-  if (s == "true" || s == "True" || s == "TRUE") { out = true; return true; }
-  if (s == "false" || s == "False" || s == "FALSE") { out = false; return true; }
+  if (s == "true" || s == "True" || s == "TRUE") {
+    out = true;
+    return true;
+  }
+  if (s == "false" || s == "False" || s == "FALSE") {
+    out = false;
+    return true;
+  }
   return false;
 }
 bool parse_double(const std::string& s, double& out) {
   if (s.empty()) return false;
-  if (s == ".nan" || s == ".NaN" || s == "nan") { out = std::numeric_limits<double>::quiet_NaN(); return true; }
-  if (s == ".inf" || s == "inf") { out = std::numeric_limits<double>::infinity(); return true; }
-  if (s == "-.inf" || s == "-inf") { out = -std::numeric_limits<double>::infinity(); return true; }
+  if (s == ".nan" || s == ".NaN" || s == "nan") {
+    out = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  if (s == ".inf" || s == "inf") {
+    out = std::numeric_limits<double>::infinity();
+    return true;
+  }
+  if (s == "-.inf" || s == "-inf") {
+    out = -std::numeric_limits<double>::infinity();
+    return true;
+  }
   std::size_t pos = 0;
   try {
     out = std::stod(s, &pos);
@@ -93,8 +131,8 @@ Params Params::load_string(const std::string& text, const std::string& name) {
   }
   if (!root || root.IsNull()) throw ConfigError(name + ": configuration is empty");
   if (!root.IsMap()) {
-    throw ConfigError(name + ":" + std::to_string(root.Mark().line + 1) + ":" +
-                      std::to_string(root.Mark().column + 1) + ": top level must be a mapping");
+    throw ConfigError(name + ":" + std::to_string(root.Mark().line + 1) + ":" + std::to_string(root.Mark().column + 1) +
+                      ": top level must be a mapping");
   }
   return Params(root, name, "", std::make_shared<std::vector<ResolvedParam>>());
 }
@@ -137,8 +175,8 @@ void Params::fail(const FieldError& e) const {
   // "hub_center_px.x"), else at the mapping; the path always names the whole field.
   const std::string& field = e.field();
   const std::string head = field.substr(0, field.find('.'));
-  throw ConfigError(where(has(head) ? std::string_view(head) : std::string_view()) + ": " + field_path(field) +
-                    ": " + e.problem());
+  throw ConfigError(where(has(head) ? std::string_view(head) : std::string_view()) + ": " + field_path(field) + ": " +
+                    e.problem());
 }
 
 void Params::reject_moved(std::string_view key, const std::string& write_instead) const {
@@ -257,7 +295,8 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
   // still report the same way).
   auto check_num = [&](double v, const std::string& what) {
     if (spec.min && (spec.min_exclusive ? !(v > *spec.min) : !(v >= *spec.min)))
-      fail(key, what + " must be " + (spec.min_exclusive ? "> " : ">= ") + number_text(*spec.min) + " (got " + number_text(v) + ")");
+      fail(key, what + " must be " + (spec.min_exclusive ? "> " : ">= ") + number_text(*spec.min) + " (got " +
+                    number_text(v) + ")");
     if (spec.max && !(v <= *spec.max))
       fail(key, what + " must be <= " + number_text(*spec.max) + " (got " + number_text(v) + ")");
   };
@@ -294,11 +333,14 @@ T Params::read(std::string_view key, const T* default_value, const ParamSpec& sp
     rendered += "]";
   }
   // A key read twice (e.g. a device name resolved by two helpers) is listed once.
-  ResolvedParam rp{field_path(key), TypeName<T>::v, rendered, std::string(spec.unit),
+  ResolvedParam rp{field_path(key),  TypeName<T>::v,        rendered, std::string(spec.unit),
                    range_text(spec), std::string(spec.doc), !present};
-  const auto same = std::find_if(sink_->begin(), sink_->end(), [&](const ResolvedParam& r) { return r.path == rp.path; });
-  if (same != sink_->end()) *same = std::move(rp);
-  else sink_->push_back(std::move(rp));
+  const auto same =
+      std::find_if(sink_->begin(), sink_->end(), [&](const ResolvedParam& r) { return r.path == rp.path; });
+  if (same != sink_->end())
+    *same = std::move(rp);
+  else
+    sink_->push_back(std::move(rp));
   return value;
 }
 
@@ -311,8 +353,8 @@ T Params::require(std::string_view key, const ParamSpec& spec) {
   return read<T>(key, nullptr, spec);
 }
 
-#define REGOLITH_PARAMS_INSTANTIATE(T)                                              \
-  template T Params::get<T>(std::string_view, const T&, const ParamSpec&);         \
+#define REGOLITH_PARAMS_INSTANTIATE(T)                                     \
+  template T Params::get<T>(std::string_view, const T&, const ParamSpec&); \
   template T Params::require<T>(std::string_view, const ParamSpec&);
 REGOLITH_PARAMS_INSTANTIATE(bool)
 REGOLITH_PARAMS_INSTANTIATE(int)

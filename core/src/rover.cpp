@@ -1,10 +1,11 @@
 #include "regolith/core/rover.hpp"
-#include "regolith/core/image_limits.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <set>
+
+#include "regolith/core/image_limits.hpp"
 
 namespace regolith {
 namespace {
@@ -163,8 +164,8 @@ std::vector<FrameTransform> static_transforms(const RoverDescription& rover) {
     const Pose& m = cam.mount;
     out.push_back({rover.base_frame, name + "_link", {m.x_m, m.y_m, m.z_m}, quaternion(m.rotation())});
     out.push_back({name + "_link", cam.frame_id, {}, quaternion(link_from_optical)});
-    out.push_back({rover.base_frame, name + "_ground", {m.x_m, m.y_m, 0.0},
-                   quaternion(Rotation::from_rpy(0.0, 0.0, m.yaw_rad))});
+    out.push_back(
+        {rover.base_frame, name + "_ground", {m.x_m, m.y_m, 0.0}, quaternion(Rotation::from_rpy(0.0, 0.0, m.yaw_rad))});
   }
   return out;
 }
@@ -270,7 +271,8 @@ RoverDescription read_rover_description(Params& root, const std::string& config_
   d.mass_kg = r.get<double>("mass_kg", 0.0, {.unit = "kg", .min = 0.0, .doc = "total rover mass (0 = not given)"});
   d.gravity_mps2 = r.get<double>("gravity_mps2", 0.0,
                                  {.unit = "m/s^2", .min = 0.0, .max = 100.0, .doc = "surface gravity (0 = not given)"});
-  d.imu = r.get<std::string>("imu", "", {.doc = "IMU device giving the body attitude (devices.imus.<name>); empty: level"});
+  d.imu =
+      r.get<std::string>("imu", "", {.doc = "IMU device giving the body attitude (devices.imus.<name>); empty: level"});
   std::set<std::string> wheel_names;
   for (Params w : r.child_list("wheels")) {
     Wheel wh;
@@ -285,8 +287,12 @@ RoverDescription read_rover_description(Params& root, const std::string& config_
         w.get<std::string>("encoders", "", {.doc = "encoder device reporting this wheel (devices.encoders.<name>)"});
     wh.max_rate_rad_s = w.get<double>(
         "max_rate_rad_s", wh.max_rate_rad_s,
-        {.unit = "rad/s", .min = 0.0, .max = 1e4, .min_exclusive = true,
-         .doc = "fastest the wheel can turn: an encoder sample implying a faster turn is rejected as corrupt (counted)"});
+        {.unit = "rad/s",
+         .min = 0.0,
+         .max = 1e4,
+         .min_exclusive = true,
+         .doc =
+             "fastest the wheel can turn: an encoder sample implying a faster turn is rejected as corrupt (counted)"});
     w.finish();
     d.wheels.push_back(std::move(wh));
   }

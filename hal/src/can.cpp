@@ -1,10 +1,10 @@
 #include "regolith/hal/can.hpp"
 
-#include <cctype>
 #include <algorithm>
-#include <cstdlib>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 namespace regolith::hal {
 
@@ -18,7 +18,8 @@ CanSignal can_signal_from_params(Params& p, const std::string& name) {
   s.byte_offset = p.get<int>("byte_offset", 0, {.unit = "byte", .min = 0, .max = 63, .doc = "first payload byte"});
   s.length = p.get<int>("length", 4, {.unit = "byte", .min = 1, .max = 8, .doc = "value width"});
   if (s.byte_offset + s.length > 64) p.fail("length", "byte_offset + length exceeds a CAN FD payload (64)");
-  const std::string endian = p.get<std::string>("endian", "little", {.choices = {"little", "big"}, .doc = "byte order"});
+  const std::string endian =
+      p.get<std::string>("endian", "little", {.choices = {"little", "big"}, .doc = "byte order"});
   s.big_endian = endian == "big";
   s.is_signed = p.get<bool>("signed", true, {.doc = "two's complement value"});
   s.scale = p.get<double>("scale", 1.0, {.unit = "unit/count", .doc = "physical units (rad for encoders) per count"});
@@ -233,7 +234,8 @@ std::string format_candump_line(const CanFrame& f, const std::string& interface_
   const std::int64_t us = unix_time_ns >= 0 ? unix_time_ns / 1000 : -((-unix_time_ns + 999) / 1000);
   const std::int64_t sec = us >= 0 ? us / 1000000 : (us - 999999) / 1000000;
   char head[48];
-  std::snprintf(head, sizeof head, "(%lld.%06lld) ", static_cast<long long>(sec), static_cast<long long>(us - sec * 1000000));
+  std::snprintf(head, sizeof head, "(%lld.%06lld) ", static_cast<long long>(sec),
+                static_cast<long long>(us - sec * 1000000));
   std::string line = head;
   line += interface_name;
   line += ' ';

@@ -38,7 +38,8 @@ Quaternion to_quaternion(const Attitude& a) {
 }
 
 void validate_backoff(double retry_min_s, double retry_max_s) {
-  if (!(retry_min_s > 0.0) || !std::isfinite(retry_min_s)) throw FieldError("", "retry_min", "must be > 0 s and finite");
+  if (!(retry_min_s > 0.0) || !std::isfinite(retry_min_s))
+    throw FieldError("", "retry_min", "must be > 0 s and finite");
   if (!(retry_max_s >= retry_min_s) || !std::isfinite(retry_max_s)) {
     throw FieldError("", "retry_max", "must be finite and >= retry_min (" + number_text(retry_min_s) + " s)");
   }
@@ -47,12 +48,14 @@ void validate_backoff(double retry_min_s, double retry_max_s) {
 void validate_capture(int width, int height, double frame_timeout_s) {
   const auto side = [](int v, const char* field) {
     if (v < 1 || v > kMaxImageSidePx) {
-      throw FieldError("", field, "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px (got " + std::to_string(v) + ")");
+      throw FieldError("", field,
+                       "must be in [1, " + std::to_string(kMaxImageSidePx) + "] px (got " + std::to_string(v) + ")");
     }
   };
   side(width, "width");
   side(height, "height");
-  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s)) throw FieldError("", "frame_timeout", "must be > 0 s and finite");
+  if (!(frame_timeout_s > 0.0) || !std::isfinite(frame_timeout_s))
+    throw FieldError("", "frame_timeout", "must be > 0 s and finite");
 }
 
 void rethrow_located(const Params& p, const DeviceError& e) {

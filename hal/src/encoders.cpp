@@ -16,7 +16,7 @@ bool WheelEncoders::velocity(std::size_t wheel, TimeNs now, double& rad_per_s) c
 }
 
 std::size_t WheelEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs now,
-                                        std::span<AngleSample> out) const {
+                                         std::span<AngleSample> out) const {
   AngleSample s;
   if (out.empty() || !latest(wheel, now, s) || s.stamp <= after) return 0;
   out[0] = s;
@@ -24,7 +24,7 @@ std::size_t WheelEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs
 }
 
 std::size_t WheelEncoders::can_frames(std::uint64_t& /*cursor*/, TimeNs /*now*/, std::span<CanFrame> /*out*/,
-                                     std::uint64_t& /*missed*/) const {
+                                      std::uint64_t& /*missed*/) const {
   return 0;
 }
 
@@ -46,8 +46,8 @@ bool interpolate(const AngleHistory::Snapshot& h, TimeNs t, TimeNs max_extrapola
     if (t - newest.stamp > max_extrapolation) return false;
     const AngleSample& prev = h.newest(1);
     const double dt = static_cast<double>(newest.stamp - prev.stamp);
-    angle = dt > 0 ? newest.angle + (newest.angle - prev.angle) * static_cast<double>(t - newest.stamp) / dt
-                   : newest.angle;
+    angle =
+        dt > 0 ? newest.angle + (newest.angle - prev.angle) * static_cast<double>(t - newest.stamp) / dt : newest.angle;
     return true;
   }
   // Walk back from the newest sample to the pair bracketing t.

@@ -6,7 +6,9 @@
 
 namespace regolith::hal {
 
-std::string_view to_string(PixelFormat f) { return f == PixelFormat::kMono8 ? "mono8" : "bgr8"; }
+std::string_view to_string(PixelFormat f) {
+  return f == PixelFormat::kMono8 ? "mono8" : "bgr8";
+}
 
 PixelFormat pixel_format_from_string(std::string_view s) {
   if (s == "mono8") return PixelFormat::kMono8;

@@ -1,9 +1,9 @@
 #include "regolith/hal/plausible_encoders.hpp"
 
-#include "regolith/hal/sample_filter.hpp"
-
 #include <cmath>
 #include <limits>
+
+#include "regolith/hal/sample_filter.hpp"
 
 namespace regolith::hal {
 

@@ -1,9 +1,9 @@
 #include "regolith/hal/plausible_imu.hpp"
 
-#include "regolith/hal/sample_filter.hpp"
-
 #include <array>
 #include <cmath>
+
+#include "regolith/hal/sample_filter.hpp"
 
 namespace regolith::hal {
 

@@ -59,14 +59,16 @@ CdrReader::CdrReader(std::span<const std::uint8_t> payload) : p_(payload) {
 const std::uint8_t* CdrReader::need(std::size_t n, std::size_t align) {
   if (align > 1) pos_ += (align - (pos_ - 4) % align) % align;
   if (pos_ > p_.size() || p_.size() - pos_ < n)
-    throw std::out_of_range("CDR: " + std::to_string(n) + " bytes needed at offset " + std::to_string(pos_) +
-                            " of a " + std::to_string(p_.size()) + "-byte payload");
+    throw std::out_of_range("CDR: " + std::to_string(n) + " bytes needed at offset " + std::to_string(pos_) + " of a " +
+                            std::to_string(p_.size()) + "-byte payload");
   const std::uint8_t* at = p_.data() + pos_;
   pos_ += n;
   return at;
 }
 
-std::uint8_t CdrReader::u8() { return *need(1, 1); }
+std::uint8_t CdrReader::u8() {
+  return *need(1, 1);
+}
 
 std::uint32_t CdrReader::u32() {
   std::uint32_t v;

@@ -4,8 +4,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -366,7 +366,7 @@ void HalRecorder::drain_all() {
       tap.frames->drain([&](const FrameSlot& s) {
         encode_image(buf, s.capture_time, tap.frame_id, s.image);
         sink_->write(s.corrupt ? tap.ch_corrupt : tap.ch_image, static_cast<std::uint32_t>(s.sequence),
-                    log_time(s.capture_time), log_time(s.capture_time), buf);
+                     log_time(s.capture_time), log_time(s.capture_time), buf);
         tap.recorded.fetch_add(1, std::memory_order_relaxed);
       });
     }

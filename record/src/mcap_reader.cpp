@@ -1,11 +1,5 @@
 // McapReader: see mcap_reader.hpp; record layouts from the MCAP specification (mcap.dev/spec).
 #include "regolith/record/mcap_reader.hpp"
-#include "regolith/record/mcap_writer.hpp"
-
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,9 +7,15 @@
 #include <cstring>
 #include <stdexcept>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zstd.h>
+
 #include "bytes.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/record/crc32.hpp"
+#include "regolith/record/mcap_writer.hpp"
 
 namespace regolith::record {
 
@@ -179,12 +179,8 @@ AttachmentInfo read_attachment_record(Cursor& c, std::uint64_t offset, const std
 void add_summary_record(std::uint8_t op, Cursor& c, std::uint64_t data_start, McapFileInfo& s, bool& have_statistics,
                         std::vector<std::pair<std::uint64_t, std::uint64_t>>& metadata_at) {
   switch (static_cast<Opcode>(op)) {
-    case Opcode::kSchema:
-      add_schema(c, s);
-      break;
-    case Opcode::kChannel:
-      add_channel(c, s);
-      break;
+    case Opcode::kSchema: add_schema(c, s); break;
+    case Opcode::kChannel: add_channel(c, s); break;
     case Opcode::kStatistics: {
       s.message_count = c.u64();
       c.u16();  // schema count
@@ -233,8 +229,7 @@ void add_summary_record(std::uint8_t op, Cursor& c, std::uint64_t data_start, Mc
       metadata_at.emplace_back(off, mlen);
       break;
     }
-    default:
-      break;  // DataEnd is not here; unknown and private records are skipped
+    default: break;  // DataEnd is not here; unknown and private records are skipped
   }
 }
 
@@ -538,12 +533,8 @@ void McapReader::scan_record(std::uint64_t pos, std::uint8_t op, const std::vect
   Cursor c(content.data(), content.size());
   try {
     switch (static_cast<Opcode>(op)) {
-      case Opcode::kSchema:
-        add_schema(c, info);
-        break;
-      case Opcode::kChannel:
-        add_channel(c, info);
-        break;
+      case Opcode::kSchema: add_schema(c, info); break;
+      case Opcode::kChannel: add_channel(c, info); break;
       case Opcode::kMessage: {
         const std::uint16_t id = c.u16();
         const std::uint32_t seq = c.u32();
@@ -558,17 +549,14 @@ void McapReader::scan_record(std::uint64_t pos, std::uint8_t op, const std::vect
           (*emit)(MessageView{ch->second, seq, log_time, publish_time, data});
         break;
       }
-      case Opcode::kChunk:
-        process_chunk(pos, content, info, emit, count, problems);
-        break;
+      case Opcode::kChunk: process_chunk(pos, content, info, emit, count, problems); break;
       case Opcode::kAttachment:
         if (count) info.attachments.push_back(read_attachment_record(c, pos, content, options_.verify_crcs));
         break;
       case Opcode::kMetadata:
         if (count) info.metadata.push_back(read_metadata_record(c));
         break;
-      default:
-        break;  // Message Index (rebuilt from the chunks), summary-only records, private records
+      default: break;  // Message Index (rebuilt from the chunks), summary-only records, private records
     }
   } catch (const Malformed& e) {
     problems.push_back({pos, opcode_name(op) + " record: " + e.what()});

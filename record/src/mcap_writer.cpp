@@ -1,13 +1,13 @@
 // McapWriter: see mcap_writer.hpp; record layouts from the MCAP specification (mcap.dev/spec).
 #include "regolith/record/mcap_writer.hpp"
 
-#include <zstd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+
+#include <zstd.h>
 
 #include "bytes.hpp"
 #include "regolith/core/error.hpp"
@@ -19,36 +19,21 @@ using namespace detail;
 
 std::string opcode_name(std::uint8_t op) {
   switch (static_cast<Opcode>(op)) {
-    case Opcode::kHeader:
-      return "Header";
-    case Opcode::kFooter:
-      return "Footer";
-    case Opcode::kSchema:
-      return "Schema";
-    case Opcode::kChannel:
-      return "Channel";
-    case Opcode::kMessage:
-      return "Message";
-    case Opcode::kChunk:
-      return "Chunk";
-    case Opcode::kMessageIndex:
-      return "MessageIndex";
-    case Opcode::kChunkIndex:
-      return "ChunkIndex";
-    case Opcode::kAttachment:
-      return "Attachment";
-    case Opcode::kAttachmentIndex:
-      return "AttachmentIndex";
-    case Opcode::kStatistics:
-      return "Statistics";
-    case Opcode::kMetadata:
-      return "Metadata";
-    case Opcode::kMetadataIndex:
-      return "MetadataIndex";
-    case Opcode::kSummaryOffset:
-      return "SummaryOffset";
-    case Opcode::kDataEnd:
-      return "DataEnd";
+    case Opcode::kHeader: return "Header";
+    case Opcode::kFooter: return "Footer";
+    case Opcode::kSchema: return "Schema";
+    case Opcode::kChannel: return "Channel";
+    case Opcode::kMessage: return "Message";
+    case Opcode::kChunk: return "Chunk";
+    case Opcode::kMessageIndex: return "MessageIndex";
+    case Opcode::kChunkIndex: return "ChunkIndex";
+    case Opcode::kAttachment: return "Attachment";
+    case Opcode::kAttachmentIndex: return "AttachmentIndex";
+    case Opcode::kStatistics: return "Statistics";
+    case Opcode::kMetadata: return "Metadata";
+    case Opcode::kMetadataIndex: return "MetadataIndex";
+    case Opcode::kSummaryOffset: return "SummaryOffset";
+    case Opcode::kDataEnd: return "DataEnd";
   }
   static const char* hex = "0123456789abcdef";
   return std::string("opcode 0x") + hex[op >> 4] + hex[op & 0xF];

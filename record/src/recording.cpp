@@ -40,13 +40,15 @@ RecordedFrame recorded_camera_frame(const std::filesystem::path& file, const std
   std::string list;
   for (const auto& c : cameras) list += (list.empty() ? "" : ", ") + c;
   if (cameras.empty())
-    throw InputError(file.string() + ": no camera frames recorded (no /hal/cameras/<id>/image channel: record with "
-                                     "`regolith run --record`, which records the devices' inputs)");
+    throw InputError(file.string() +
+                     ": no camera frames recorded (no /hal/cameras/<id>/image channel: record with "
+                     "`regolith run --record`, which records the devices' inputs)");
   RecordedFrame out;
   out.device = device;
   if (device.empty()) {
-    if (cameras.size() > 1) throw InputError(file.string() + ": " + std::to_string(cameras.size()) +
-                                             " cameras recorded (" + list + "): choose one with --device");
+    if (cameras.size() > 1)
+      throw InputError(file.string() + ": " + std::to_string(cameras.size()) + " cameras recorded (" + list +
+                       "): choose one with --device");
     out.device = cameras.front();
   } else if (std::find(cameras.begin(), cameras.end(), device) == cameras.end()) {
     throw InputError(file.string() + ": no camera '" + device + "' recorded (recorded: " + list + ")");

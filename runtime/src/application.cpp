@@ -1,30 +1,33 @@
 #include "regolith/runtime/application.hpp"
 
-#include <chrono>
-
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <memory>
 #include <set>
 #include <thread>
-#include <vector>
 #include <type_traits>
+#include <vector>
+
+#include <spdlog/spdlog.h>
 
 #include "regolith/hal/plausible_encoders.hpp"
 #include "regolith/hal/plausible_imu.hpp"
-#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/hal/registry.hpp"
+#include "regolith/hal/stamp_checked_camera.hpp"
 #include "regolith/runtime/dds_hooks.hpp"
 #include "regolith/runtime/event_log.hpp"
 
 namespace regolith::runtime {
 
-Application::~Application() { stop(); }
+Application::~Application() {
+  stop();
+}
 
-Clock& Application::clock() { return executor_->clock(); }
+Clock& Application::clock() {
+  return executor_->clock();
+}
 
 namespace {
 
@@ -32,28 +35,32 @@ namespace {
 // check` lists it). `dds_missing`: DDS was asked for but is off in the deployment.
 RecordConfig read_record_config(Params rec, bool dds_missing) {
   RecordConfig r;
-  r.file = rec.get<std::string>(
-      "file", "", {.doc = "MCAP file recording every DDS sample the deployment publishes (empty = none; "
-                          "`regolith run --record FILE` overrides)"});
+  r.file = rec.get<std::string>("file", "",
+                                {.doc = "MCAP file recording every DDS sample the deployment publishes (empty = none; "
+                                        "`regolith run --record FILE` overrides)"});
   r.topics = rec.get<std::vector<std::string>>(
       "topics", {}, {.doc = "topics to record (names of `regolith echo --list`; empty = every known topic)"});
   r.compression =
       rec.get<std::string>("compression", "zstd", {.choices = {"zstd", "none"}, .doc = "MCAP chunk compression"});
-  r.hal = rec.get<bool>(
-      "hal", true, {.doc = "also record what the devices delivered (camera frames, encoder and IMU samples) so "
-                           "`regolith replay` can run the deployment again on them"});
-  r.split_mb = rec.get<double>(
-      "split_mb", 0.0, {.unit = "MiB", .min = 0.0, .max = 1e6,
-                        .doc = "start a new file (<stem>_001.mcap, ...) after about this many MiB (0 = never)"});
+  r.hal = rec.get<bool>("hal", true,
+                        {.doc = "also record what the devices delivered (camera frames, encoder and IMU samples) so "
+                                "`regolith replay` can run the deployment again on them"});
+  r.split_mb =
+      rec.get<double>("split_mb", 0.0,
+                      {.unit = "MiB",
+                       .min = 0.0,
+                       .max = 1e6,
+                       .doc = "start a new file (<stem>_001.mcap, ...) after about this many MiB (0 = never)"});
   if (r.split_mb > 0.0 && r.split_mb < 0.01) rec.fail("split_mb", "must be 0 (never) or >= 0.01 MiB");
   r.split_s = rec.get<double>(
-      "split_s", 0.0, {.unit = "s", .min = 0.0, .max = 1e7,
-                       .doc = "start a new file after this many seconds of messages (0 = never)"});
+      "split_s", 0.0,
+      {.unit = "s", .min = 0.0, .max = 1e7, .doc = "start a new file after this many seconds of messages (0 = never)"});
   r.where_topics = rec.where(rec.has("topics") ? "topics" : std::string_view{});
   r.where_file = rec.where(rec.has("file") ? "file" : std::string_view{});
   if (dds_missing && !r.file.empty())
-    rec.fail("file", "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
-                     "deployment publishes)");
+    rec.fail("file",
+             "recording needs DDS: set dds.enabled: true (record: records the DDS topics the "
+             "deployment publishes)");
   rec.finish();
   return r;
 }
@@ -61,15 +68,19 @@ RecordConfig read_record_config(Params rec, bool dds_missing) {
 // `live:` — the Foxglove WebSocket server and page of `regolith run` (the tool serves; read here).
 LiveConfig read_live_config(Params live, const std::string& config_dir, bool dds_missing) {
   LiveConfig l;
-  l.enabled = live.get<bool>(
-      "enabled", false, {.doc = "serve every DDS topic over the Foxglove WebSocket protocol and the built-in page "
-                                "(`regolith run --live [ADDR:]PORT` enables it too)"});
+  l.enabled = live.get<bool>("enabled", false,
+                             {.doc = "serve every DDS topic over the Foxglove WebSocket protocol and the built-in page "
+                                     "(`regolith run --live [ADDR:]PORT` enables it too)"});
   l.listen = live.get<std::string>("listen", "127.0.0.1:8765",
                                    {.doc = "[ADDR:]PORT to listen on (0.0.0.0 = every interface)"});
-  l.max_clients = live.get<int>("max_clients", 8, {.min = 1, .max = 1000, .doc = "connections beyond this are refused"});
-  l.max_queue_mb = live.get<double>(
-      "max_queue_mb", 8.0, {.unit = "MiB", .min = 0.0, .max = 4096.0, .min_exclusive = true,
-                            .doc = "per-client send queue; a client whose queue would exceed it is dropped"});
+  l.max_clients =
+      live.get<int>("max_clients", 8, {.min = 1, .max = 1000, .doc = "connections beyond this are refused"});
+  l.max_queue_mb = live.get<double>("max_queue_mb", 8.0,
+                                    {.unit = "MiB",
+                                     .min = 0.0,
+                                     .max = 4096.0,
+                                     .min_exclusive = true,
+                                     .doc = "per-client send queue; a client whose queue would exceed it is dropped"});
   l.token_file = live.get<std::string>(
       "token_file", "",
       {.doc = "file (mode 0600) holding the access token clients must present (`?token=`); needed to listen on an "
@@ -112,8 +123,8 @@ void load_devices(Params devices, Context& ctx, const AppOptions& opts, const st
       // Frames stamped after they are read (a device clock off the process clock) are withheld
       // and counted: one check for every camera backend.
       if constexpr (std::is_same_v<Kind, hal::Camera>)
-        d = std::make_unique<hal::StampCheckedCamera>(std::unique_ptr<hal::Camera>(static_cast<hal::Camera*>(d.release())),
-                                                      ctx.clock());
+        d = std::make_unique<hal::StampCheckedCamera>(
+            std::unique_ptr<hal::Camera>(static_cast<hal::Camera*>(d.release())), ctx.clock());
       // IMU samples beyond what an IMU can report (a damaged packet) are skipped and counted.
       if constexpr (std::is_same_v<Kind, hal::Imu>)
         d = std::make_unique<hal::PlausibleImu>(std::unique_ptr<hal::Imu>(static_cast<hal::Imu*>(d.release())),
@@ -161,12 +172,12 @@ Application::GroupPlan Application::read_rate_groups(Params& root) {
     const bool has_period = g.has("period_ms");
     if (has_rate == has_period) g.fail({}, "give exactly one of rate_hz or period_ms");
     if (has_rate) {
-      const double hz = g.require<double>("rate_hz", {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
-                                                      .doc = "cycle rate"});
+      const double hz = g.require<double>(
+          "rate_hz", {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true, .doc = "cycle rate"});
       c.period = static_cast<TimeNs>(std::llround(1e9 / hz));
     } else {
-      const double ms = g.require<double>("period_ms", {.unit = "ms", .min = 0.0, .min_exclusive = true,
-                                                        .doc = "cycle period"});
+      const double ms =
+          g.require<double>("period_ms", {.unit = "ms", .min = 0.0, .min_exclusive = true, .doc = "cycle period"});
       c.period = static_cast<TimeNs>(std::llround(ms * 1e6));
     }
     c.offset = static_cast<TimeNs>(std::llround(
@@ -252,8 +263,9 @@ std::unique_ptr<Application> Application::load(Params root, const AppOptions& op
   } else {
     app->executor_ = make_realtime_executor(rt);
   }
-  const std::string config_dir =
-      std::filesystem::path(root.file()).has_parent_path() ? std::filesystem::path(root.file()).parent_path().string() : ".";
+  const std::string config_dir = std::filesystem::path(root.file()).has_parent_path()
+                                     ? std::filesystem::path(root.file()).parent_path().string()
+                                     : ".";
   app->context_ = std::make_unique<Context>(app->executor_->clock(), config_dir);
   Context& ctx = *app->context_;
   app->view_.context = &ctx;
@@ -308,8 +320,8 @@ void Application::start() {
     ros_time_stop_ = false;
     ros_time_thread_ = std::thread([this] {
       std::unique_lock<std::mutex> lock(ros_time_mutex_);
-      for (int tick = 1; !ros_time_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return ros_time_stop_; });
-           ++tick) {
+      for (int tick = 1;
+           !ros_time_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return ros_time_stop_; }); ++tick) {
         if (tick % 4 == 0) ros_time_offset().store(measure_realtime_offset(), std::memory_order_relaxed);
         poll_events();
       }
@@ -353,9 +365,10 @@ void Application::start() {
         while (!devices[i]->ready_for(t)) {
           if (std::chrono::steady_clock::now() > give_up) {
             if (!(*warned)[i])
-              spdlog::warn("simulated time: device {} has not produced its output for t = {:.3f} s after 10 s of waiting; time "
-                           "moves on without it",
-                           devices[i]->id(), static_cast<double>(t) * 1e-9);
+              spdlog::warn(
+                  "simulated time: device {} has not produced its output for t = {:.3f} s after 10 s of waiting; time "
+                  "moves on without it",
+                  devices[i]->id(), static_cast<double>(t) * 1e-9);
             (*warned)[i] = true;
             break;
           }

@@ -1,9 +1,9 @@
 // Components built into the runtime: `health` (diagnostics, stale inputs, watchdog gate) and
 // `joint_state_publisher` (wheel encoder angles -> sensor_msgs/JointState).
-#include <cstdio>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <thread>
 
@@ -125,8 +125,9 @@ class HealthComponent final : public Component {
     cameras_ = ctx.devices_of<hal::Camera>();
     encoders_ = ctx.devices_of<hal::WheelEncoders>();
     imus_ = ctx.devices_of<hal::Imu>();
-    stall_cycles_ = p.get<int>("stall_cycles", 3, {.min = 1, .max = 1000,
-        .doc = "health cycles without a heartbeat before a component is reported stale"});
+    stall_cycles_ = p.get<int>(
+        "stall_cycles", 3,
+        {.min = 1, .max = 1000, .doc = "health cycles without a heartbeat before a component is reported stale"});
     out_ = &ctx.produce<HealthSnapshot>("health/snapshot");
     hardware_id_ = p.get<std::string>("hardware_id", "regolith", {.doc = "hardware_id of every DiagnosticStatus"});
     diag_ = make_outbox<DiagnosticArray>(ctx, "/diagnostics", dds::OutboxMode::kLatest, [](DiagnosticArray& m) {
@@ -384,8 +385,10 @@ class JointStatePublisher final : public Component {
   void configure(Params& p, Context& ctx) override {
     enc_ = &ctx.encoders(p, "encoders");
     stale_timeout_ = static_cast<TimeNs>(
-        p.get<double>("stale_timeout_s", 0.5, {.unit = "s", .min = 0.0, .min_exclusive = true,
-                                               .doc = "a wheel without samples for this long is stale"}) * 1e9);
+        p.get<double>(
+            "stale_timeout_s", 0.5,
+            {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "a wheel without samples for this long is stale"}) *
+        1e9);
     if (enc_->wheel_count() > kMaxJoints) p.fail("encoders", "more wheels than JointState supports (16)");
     out_ = &ctx.produce<JointStateSample>("joint_states");
     input_ = &watch_input("encoders", stale_timeout_);
@@ -453,9 +456,11 @@ class ImuPublisher final : public Component {
  public:
   void configure(Params& p, Context& ctx) override {
     imu_ = &ctx.device<hal::Imu>(p, "imu");
-    const double stale_s = p.get<double>("stale_timeout_s", 0.5, {.unit = "s", .min = 0.0, .min_exclusive = true,
-                                                                  .doc = "the IMU is stale after this long without a sample"});
-    frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of imu (the IMU is body-aligned)"});
+    const double stale_s = p.get<double>(
+        "stale_timeout_s", 0.5,
+        {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the IMU is stale after this long without a sample"});
+    frame_id_ =
+        p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of imu (the IMU is body-aligned)"});
     if (frame_id_.size() > 32) p.fail("frame_id", "longer than 32 characters");
     input_ = &watch_input("imu", from_seconds(stale_s));
     out_ = &ctx.produce<hal::ImuSample>("imu");
@@ -516,15 +521,23 @@ class CpuLoad final : public Component {
  public:
   void configure(Params& p, Context& ctx) override {
     busy_ = static_cast<TimeNs>(std::llround(
-        p.get<double>("busy_ms", 1.0, {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "time spent in a busy cycle"}) * 1e6));
-    every_ = p.get<std::int64_t>("every", 1, {.unit = "cycles", .min = 1, .max = std::int64_t{1} << 40,
-                                              .doc = "busy in every N-th cycle (the first, then every N)"});
-    stall_after_ = static_cast<TimeNs>(std::llround(
-        p.get<double>("stall_after_s", 0.0, {.unit = "s", .min = 0.0, .max = 86400.0,
-                                             .doc = "time after the first step at which it stalls once (0 = never)"}) *
-        1e9));
+        p.get<double>("busy_ms", 1.0, {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "time spent in a busy cycle"}) *
+        1e6));
+    every_ = p.get<std::int64_t>("every", 1,
+                                 {.unit = "cycles",
+                                  .min = 1,
+                                  .max = std::int64_t{1} << 40,
+                                  .doc = "busy in every N-th cycle (the first, then every N)"});
+    stall_after_ = static_cast<TimeNs>(
+        std::llround(p.get<double>("stall_after_s", 0.0,
+                                   {.unit = "s",
+                                    .min = 0.0,
+                                    .max = 86400.0,
+                                    .doc = "time after the first step at which it stalls once (0 = never)"}) *
+                     1e9));
     stall_ = static_cast<TimeNs>(std::llround(
-        p.get<double>("stall_s", 5.0, {.unit = "s", .min = 0.0, .max = 3600.0, .doc = "how long the stall lasts"}) * 1e9));
+        p.get<double>("stall_s", 5.0, {.unit = "s", .min = 0.0, .max = 3600.0, .doc = "how long the stall lasts"}) *
+        1e9));
     sim_ = dynamic_cast<SimClock*>(&ctx.clock());
   }
   void step(const CycleInfo&) override {
@@ -572,7 +585,9 @@ void register_builtin_components() {
         [] { return std::make_unique<HealthComponent>(); });
   r.add("imu_publisher", "IMU attitude, rates and specific force -> channel imu + imu (sensor_msgs/Imu)",
         [] { return std::make_unique<ImuPublisher>(); });
-  r.add("cpu_load", "fault drills: busy_ms in every N-th cycle (overruns), stalls once for stall_s after stall_after_s (simulated time under --sim-time)",
+  r.add("cpu_load",
+        "fault drills: busy_ms in every N-th cycle (overruns), stalls once for stall_s after stall_after_s (simulated "
+        "time under --sim-time)",
         [] { return std::make_unique<CpuLoad>(); });
   r.add("joint_state_publisher", "wheel encoder angles and velocities -> joint_states (sensor_msgs/JointState)",
         [] { return std::make_unique<JointStatePublisher>(); });

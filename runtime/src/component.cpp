@@ -1,7 +1,7 @@
 #include "regolith/runtime/component.hpp"
-#include "regolith/runtime/worker_pool.hpp"
 
 #include "regolith/runtime/context.hpp"
+#include "regolith/runtime/worker_pool.hpp"
 
 namespace regolith::runtime {
 
@@ -16,7 +16,9 @@ const char* to_string(Lifecycle s) {
   return "unknown";
 }
 
-TimeNs Component::worker_cpu_ns() const { return workers_ != nullptr ? workers_->worker_cpu_ns() : 0; }
+TimeNs Component::worker_cpu_ns() const {
+  return workers_ != nullptr ? workers_->worker_cpu_ns() : 0;
+}
 
 InputWatch& Component::watch_input(const std::string& name, TimeNs timeout) {
   auto w = std::make_unique<InputWatch>();
@@ -88,7 +90,7 @@ const hal::Imu* Context::attitude_imu() {
 
 const RoverCamera& Context::rover_camera(Params& p, std::string_view key) {
   const std::string name = lookup(hal::Camera::kKind, p, key).id();  // must exist (located error)
-  declare(Port::Kind::kDevice, name, "calibration");  // reads the camera's geometry, not its frames
+  declare(Port::Kind::kDevice, name, "calibration");                 // reads the camera's geometry, not its frames
   const RoverCamera* c = rover_.camera(name);
   if (c == nullptr)
     p.fail(key, "camera '" + name + "' has no calibration: declare it once as rover.cameras." + name +

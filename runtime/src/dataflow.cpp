@@ -1,7 +1,5 @@
 #include "regolith/runtime/dataflow.hpp"
 
-#include <cxxabi.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <functional>
@@ -9,6 +7,8 @@
 #include <memory>
 #include <ostream>
 #include <set>
+
+#include <cxxabi.h>
 
 #include "regolith/core/error.hpp"
 

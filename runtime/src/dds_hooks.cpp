@@ -1,9 +1,9 @@
 #include "regolith/runtime/dds_hooks.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <limits>
+
+#include <spdlog/spdlog.h>
 
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
@@ -99,7 +99,9 @@ std::function<void(TimeNs)> make_clock_publisher(dds::Participant& p) {
     }
   };
 }
-void sync_participant(dds::Participant& p) { p.drain(10 * kNsPerSec); }
+void sync_participant(dds::Participant& p) {
+  p.drain(10 * kNsPerSec);
+}
 void wait_for_readers(dds::Participant& p, const std::vector<std::string>& topics, TimeNs timeout) {
   if (!p.wait_for_readers(topics, timeout)) {
     for (const auto& t : topics) {
@@ -115,6 +117,8 @@ void stop_participant(dds::Participant& p) {
   p.wait_for_acks(2 * kNsPerSec);
   p.stop();
 }
-std::string dds_summary(dds::Participant& p) { return p.summary(); }
+std::string dds_summary(dds::Participant& p) {
+  return p.summary();
+}
 
 }  // namespace regolith::runtime

@@ -31,7 +31,9 @@ int badness(Level l) {
   return 0;
 }
 
-std::string name_of(const HealthEntry& e) { return std::string(e.name.data(), strnlen(e.name.data(), e.name.size())); }
+std::string name_of(const HealthEntry& e) {
+  return std::string(e.name.data(), strnlen(e.name.data(), e.name.size()));
+}
 
 constexpr std::size_t kMsgCapacity = 255;
 constexpr std::size_t kNameCapacity = 63;

@@ -1,14 +1,15 @@
 // Real-time and simulated-time executors for rate groups.
-#include <pthread.h>
-#include <sched.h>
-#include <spdlog/spdlog.h>
-#include <sys/mman.h>
-
 #include <cerrno>
 #include <cstring>
 #include <memory>
 #include <mutex>
 #include <thread>
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+
+#include <spdlog/spdlog.h>
 
 #include "regolith/runtime/rate_group.hpp"
 
@@ -28,10 +29,9 @@ void apply_thread_settings(const RateGroupConfig& cfg) {
     sp.sched_priority = cfg.priority;
     const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
     if (rc != 0) {
-      warn_once(g_prio_warning,
-                std::string("real-time priority (SCHED_FIFO) not permitted: ") + std::strerror(rc) +
-                    "; rate groups run with normal scheduling. Grant it with LimitRTPRIO (systemd), "
-                    "an rtprio entry in /etc/security/limits.conf or CAP_SYS_NICE.");
+      warn_once(g_prio_warning, std::string("real-time priority (SCHED_FIFO) not permitted: ") + std::strerror(rc) +
+                                    "; rate groups run with normal scheduling. Grant it with LimitRTPRIO (systemd), "
+                                    "an rtprio entry in /etc/security/limits.conf or CAP_SYS_NICE.");
     }
   }
   if (cfg.cpu >= 0) {
@@ -40,9 +40,8 @@ void apply_thread_settings(const RateGroupConfig& cfg) {
     CPU_SET(static_cast<unsigned>(cfg.cpu), &set);
     const int rc = pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
     if (rc != 0) {
-      warn_once(g_affinity_warning, "CPU affinity for rate group '" + cfg.name + "' (cpu " +
-                                        std::to_string(cfg.cpu) + ") failed: " + std::strerror(rc) +
-                                        "; the thread may run on any CPU.");
+      warn_once(g_affinity_warning, "CPU affinity for rate group '" + cfg.name + "' (cpu " + std::to_string(cfg.cpu) +
+                                        ") failed: " + std::strerror(rc) + "; the thread may run on any CPU.");
     }
   }
 }
@@ -145,6 +144,8 @@ class SimExecutor final : public Executor {
 std::unique_ptr<Executor> make_realtime_executor(RealtimeOptions opts) {
   return std::make_unique<RealtimeExecutor>(opts);
 }
-std::unique_ptr<Executor> make_sim_executor(SimClock& clock) { return std::make_unique<SimExecutor>(clock); }
+std::unique_ptr<Executor> make_sim_executor(SimClock& clock) {
+  return std::make_unique<SimExecutor>(clock);
+}
 
 }  // namespace regolith::runtime

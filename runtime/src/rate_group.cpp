@@ -1,8 +1,7 @@
 #include "regolith/runtime/rate_group.hpp"
 
-#include <ctime>
-
 #include <algorithm>
+#include <ctime>
 #include <stdexcept>
 
 namespace regolith::runtime {
@@ -19,8 +18,12 @@ struct CycleFlag {
 };
 }  // namespace
 
-bool in_rate_group_cycle() { return t_in_cycle; }
-const Component* current_cycle_member() { return t_member; }
+bool in_rate_group_cycle() {
+  return t_in_cycle;
+}
+const Component* current_cycle_member() {
+  return t_member;
+}
 
 CycleScope::CycleScope(bool in_cycle, const Component* member) : prev_in_cycle_(t_in_cycle), prev_member_(t_member) {
   t_in_cycle = in_cycle;
@@ -41,7 +44,6 @@ void RateGroup::reset(TimeNs start) {
   next_release_ = start + cfg_.offset;
   slip_horizon_ = next_release_;
 }
-
 
 void RateGroup::run_cycle(Clock& clock) {
   const CycleFlag flag;

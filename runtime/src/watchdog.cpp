@@ -1,15 +1,16 @@
 // systemd notification and watchdog gating (see watchdog.hpp).
 #include "regolith/runtime/watchdog.hpp"
 
-#include <spdlog/spdlog.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
+
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
 
 #include "regolith/runtime/application.hpp"
 

@@ -1,11 +1,11 @@
 #include "regolith/runtime/worker_pool.hpp"
 
-#include "regolith/runtime/rate_group.hpp"
+#include <stdexcept>
+#include <string>
 
 #include <pthread.h>
 
-#include <stdexcept>
-#include <string>
+#include "regolith/runtime/rate_group.hpp"
 
 namespace regolith::runtime {
 
@@ -31,7 +31,8 @@ WorkerPool::~WorkerPool() {
 
 void WorkerPool::take_jobs(bool worker) {
   std::uint64_t done = 0;
-  for (int i = next_.fetch_add(1, std::memory_order_relaxed); i < n_; i = next_.fetch_add(1, std::memory_order_relaxed)) {
+  for (int i = next_.fetch_add(1, std::memory_order_relaxed); i < n_;
+       i = next_.fetch_add(1, std::memory_order_relaxed)) {
     fn_(ctx_, i);
     ++done;
   }
@@ -110,10 +111,12 @@ void WorkerPool::run(int n, void (*fn)(void*, int), void* ctx) {
 }
 
 std::unique_ptr<WorkerPool> workers_from(Params& p, const std::string& name) {
-  const int threads = p.get<int>("threads", 1,
-                                 {.min = 1, .max = 16,
-                                  .doc = "threads for the data-parallel work of one step, the rate group's own included "
-                                         "(workers made at configure; their CPU counts in this member's cpu)"});
+  const int threads =
+      p.get<int>("threads", 1,
+                 {.min = 1,
+                  .max = 16,
+                  .doc = "threads for the data-parallel work of one step, the rate group's own included "
+                         "(workers made at configure; their CPU counts in this member's cpu)"});
   if (threads <= 1) return nullptr;
   return std::make_unique<WorkerPool>(threads, name.c_str());
 }

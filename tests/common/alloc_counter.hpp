@@ -37,10 +37,18 @@ inline std::atomic<int> trace_left{0};
 inline thread_local std::uint64_t this_thread = 0;
 }  // namespace detail
 
-inline std::uint64_t allocations() { return detail::all.load(std::memory_order_relaxed); }
-inline std::uint64_t thread_allocations() { return detail::this_thread; }
-inline std::uint64_t cycle_allocations() { return detail::in_cycle.load(std::memory_order_relaxed); }
-inline void trace_cycle_allocations(int n) { detail::trace_left.store(n, std::memory_order_relaxed); }
+inline std::uint64_t allocations() {
+  return detail::all.load(std::memory_order_relaxed);
+}
+inline std::uint64_t thread_allocations() {
+  return detail::this_thread;
+}
+inline std::uint64_t cycle_allocations() {
+  return detail::in_cycle.load(std::memory_order_relaxed);
+}
+inline void trace_cycle_allocations(int n) {
+  detail::trace_left.store(n, std::memory_order_relaxed);
+}
 }  // namespace regolith::testing
 
 void* operator new(std::size_t n) {
@@ -61,7 +69,9 @@ void* operator new(std::size_t n) {
   if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
-void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new[](std::size_t n) {
+  return operator new(n);
+}
 // The nothrow forms too (std::stable_sort's temporary buffer, among others): counted like the
 // others, and freed by the free() below (left to the library, a sanitizer's new would be paired
 // with this file's delete: ASan reports alloc-dealloc-mismatch).
@@ -72,10 +82,24 @@ void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
     return nullptr;
   }
 }
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept {
+  return operator new(n, t);
+}
+void operator delete(void* p, const std::nothrow_t&) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, const std::nothrow_t&) noexcept {
+  std::free(p);
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+  std::free(p);
+}

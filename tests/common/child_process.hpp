@@ -11,17 +11,17 @@
 //
 // Waiting for another program is wall-clock time by nature; the tests keep it to the child's own
 // run and bound it with a timeout, after which the child is killed, never left behind.
-#include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <chrono>
 #include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 extern char** environ;
 

@@ -9,9 +9,6 @@
 //
 // `TempDir tmp("e2e", TempDir::kKeepOnFailure)` keeps the directory when the running test has
 // failed (and says where on stderr), for end-to-end tests whose logs are worth reading.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -21,6 +18,10 @@
 #include <string>
 #include <system_error>
 #include <thread>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 namespace regolith::testing {
 

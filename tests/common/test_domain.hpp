@@ -8,12 +8,12 @@
 // The claim is an exclusive flock on /tmp/regolith-test-dds-domain-<id>.lock held until the
 // process ends (the kernel releases it then, also after a crash). Domains 100..229 (Cyclone's
 // default port mapping allows ids up to 232); the search starts at an offset from the pid.
+#include <cstdint>
+#include <string>
+
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
-
-#include <cstdint>
-#include <string>
 
 namespace regolith::testing {
 
@@ -25,7 +25,7 @@ inline std::uint32_t test_domain() {
       const std::uint32_t d = kFirst + (start + i) % kCount;
       const std::string lock = "/tmp/regolith-test-dds-domain-" + std::to_string(d) + ".lock";
       const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-      if (fd < 0) continue;  // e.g. another user's lock file
+      if (fd < 0) continue;                               // e.g. another user's lock file
       if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return d;  // fd stays open: the claim lasts the process
       ::close(fd);
     }

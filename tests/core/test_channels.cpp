@@ -1,10 +1,10 @@
 // Channels between rate groups: single-thread semantics and concurrent producer/consumer tests
 // (run under the tsan preset too: `ctest --preset tsan`).
-#include <gtest/gtest.h>
-
 #include <array>
 #include <atomic>
 #include <thread>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/channels.hpp"
 

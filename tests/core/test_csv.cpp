@@ -1,11 +1,11 @@
 // The CSV helpers shared by the readers of bench logs, wheel-scene sequences, scripted encoder
 // profiles, recorded drives and scored maps (regolith/core/csv.hpp).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "error_of.hpp"
 #include "regolith/core/csv.hpp"

@@ -1,13 +1,12 @@
 // regolith/core/image_file.hpp: only known image signatures reach OpenCV's decoders (GDCM, tried
 // on bytes nobody claims, aborts the process on some: tests/fuzz/corpus/pixel_convert/gdcm_abort).
-#include <gtest/gtest.h>
-
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/image_file.hpp"
@@ -61,10 +60,12 @@ TEST(ImageFile, TruncatedJpegAndPngAreRefusedWithTheReason) {
     EXPECT_EQ(why, "");
     const regolith::testing::TempDir tmp("img_cut");  // removed whatever the outcome
     const fs::path f = tmp / ("img_cut" + ext);
-    std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(cut.data()), static_cast<std::streamsize>(cut.size()));
+    std::ofstream(f, std::ios::binary)
+        .write(reinterpret_cast<const char*>(cut.data()), static_cast<std::streamsize>(cut.size()));
     EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_UNCHANGED, &why).empty()) << ext;
     EXPECT_EQ(why, expect);
-    std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    std::ofstream(f, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     EXPECT_EQ(regolith::read_image_file(f.string(), cv::IMREAD_UNCHANGED, &why).size(), img.size()) << ext;
   }
   std::string why;
@@ -93,8 +94,8 @@ TEST(ImageFile, TheDeclaredSizeIsReadFromEveryFormatsHeader) {
   EXPECT_EQ(regolith::declared_image_extent(lossless.data(), lossless.size()).width, 37u);
   // Extended WebP (VP8X): the canvas size, 24 bits each, minus one; 31 bytes are not enough to
   // hold it (read under ASan: no byte past the end).
-  std::vector<unsigned char> vp8x = {'R', 'I', 'F', 'F', 0, 0, 0, 0, 'W', 'E', 'B', 'P', 'V', 'P', '8', 'X', 10, 0, 0, 0,
-                                     0, 0, 0, 0, 0x1F, 0x4E, 0x00, 0x1F, 0x4E, 0x00, 0, 0};
+  std::vector<unsigned char> vp8x = {'R', 'I', 'F', 'F', 0, 0, 0, 0, 'W',  'E',  'B',  'P',  'V',  'P',  '8', 'X',
+                                     10,  0,   0,   0,   0, 0, 0, 0, 0x1F, 0x4E, 0x00, 0x1F, 0x4E, 0x00, 0,   0};
   EXPECT_EQ(regolith::declared_image_extent(vp8x.data(), vp8x.size()).width, 20000u);
   EXPECT_EQ(regolith::declared_image_extent(vp8x.data(), vp8x.size()).height, 20000u);
   vp8x.resize(31);
@@ -124,7 +125,7 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
       jpg[i + 6] = jpg[i + 8] = 0xFF;
       break;
     }
-  bmp[18] = 0x20, bmp[19] = 0x4E, bmp[20] = bmp[21] = 0;  // width 20000
+  bmp[18] = 0x20, bmp[19] = 0x4E, bmp[20] = bmp[21] = 0;     // width 20000
   bmp[22] = 0xE0, bmp[23] = 0xB1, bmp[24] = bmp[25] = 0xFF;  // height -20000 (top-down)
   const std::string pnm = "P5\n# a comment\n20000 20000\n255\n" + std::string(64, '\0');
   const std::vector<unsigned char> pgm(pnm.begin(), pnm.end());
@@ -133,12 +134,14 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
     std::string why;
     EXPECT_TRUE(regolith::decode_image(b->data(), b->size(), cv::IMREAD_UNCHANGED, &why).empty());
     EXPECT_NE(why.find("pixels, more than regolith decodes in one image (67108864"), std::string::npos) << why;
-    EXPECT_TRUE(why.find("20000 x 20000") != std::string::npos || why.find("65535 x 65535") != std::string::npos) << why;
+    EXPECT_TRUE(why.find("20000 x 20000") != std::string::npos || why.find("65535 x 65535") != std::string::npos)
+        << why;
   }
   // From a file, the same (it is read whole, then decoded from memory).
   const regolith::testing::TempDir tmp("img_big");  // removed whatever the outcome
   const fs::path f = tmp / "img_big.png";
-  std::ofstream(f, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  std::ofstream(f, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
   std::string why;
   EXPECT_TRUE(regolith::read_image_file(f.string(), cv::IMREAD_GRAYSCALE, &why).empty());
   EXPECT_NE(why.find("it declares 20000 x 20000 pixels"), std::string::npos) << why;
@@ -169,8 +172,10 @@ TEST(ImageFile, AnImageDeclaringMorePixelsThanTheBoundIsNotDecoded) {
   }
   // PNM numbers as OpenCV reads them: any non-digit ends a number and is consumed (tests/fuzz: 23
   // bytes, "P6\n2222\xff444444\xff44..." asked for a 2.96 GB allocation); a comment ends at '\r'.
-  for (const std::string& head : {std::string("P6\n2222\xff" "444444\xff" "44ZO:1@\xa0"), std::string("P5 2222Z444444 255\n"),
-                                 std::string("P5\n#c\r2222 444444\n255\n")}) {
+  for (const std::string& head : {std::string("P6\n2222\xff"
+                                              "444444\xff"
+                                              "44ZO:1@\xa0"),
+                                  std::string("P5 2222Z444444 255\n"), std::string("P5\n#c\r2222 444444\n255\n")}) {
     const std::vector<unsigned char> b(head.begin(), head.end());
     const regolith::ImageExtent e = regolith::declared_image_extent(b.data(), b.size());
     EXPECT_EQ(e.width, 2222u) << head;

@@ -1,14 +1,14 @@
 // core/json_file.hpp: the one reader of JSON descriptions (recorded drives, track scenes, truth).
-#include "regolith/core/json_file.hpp"
-#include "temp_dir.hpp"
-
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "regolith/core/json_file.hpp"
+#include "temp_dir.hpp"
 
 namespace {
 
@@ -35,8 +35,10 @@ TEST(JsonFile, ReadsNumbersAtDottedPaths) {
 }
 
 TEST(JsonFile, ErrorsNameTheFileAndTheField) {
-  EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "sun.azimuth_deg"); }), "in.json: sun.azimuth_deg: missing");
-  EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "camera.name"); }), "in.json: camera.name: must be a number");
+  EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "sun.azimuth_deg"); }),
+            "in.json: sun.azimuth_deg: missing");
+  EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "camera.name"); }),
+            "in.json: camera.name: must be a number");
   EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "flat.x"); }),
             "in.json: flat: must be an object (holding flat.x)");
   EXPECT_EQ(error_of([] { regolith::json_number(kDoc, "in.json", "list.x"); }),
@@ -58,8 +60,9 @@ TEST(JsonFile, ReadsAFileAndNamesItWhenItIsNotJson) {
   std::ofstream(bad) << R"({"a": )";
   EXPECT_DOUBLE_EQ(regolith::json_number(regolith::read_json_file(good, "test file"), good, "a.b"), 2.0);
   EXPECT_EQ(error_of([&] { regolith::read_json_file(bad, "test file"); }).rfind(bad + ": not valid JSON: ", 0), 0u);
-  EXPECT_EQ(error_of([&] { regolith::read_json_file((dir / "absent.json").string(), "test file"); })
-                .rfind((dir / "absent.json").string() + ": cannot open test file", 0),
+  EXPECT_EQ(error_of([&] {
+              regolith::read_json_file((dir / "absent.json").string(), "test file");
+            }).rfind((dir / "absent.json").string() + ": cannot open test file", 0),
             0u);
 }
 

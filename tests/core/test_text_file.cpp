@@ -1,9 +1,9 @@
 // core/text_file.hpp: bounded reading of outside text files, and writing a whole output file with
 // every failure (also one at the close) an error naming the file.
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "error_of.hpp"
 #include "regolith/core/text_file.hpp"

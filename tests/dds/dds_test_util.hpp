@@ -3,8 +3,6 @@
 // (no cross-talk with other test processes on the same host), the loopback
 // Cyclone configuration, and views that point C sequences at std::vector
 // storage (for building samples on the stack in tests).
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -12,6 +10,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 #include "test_domain.hpp"
 

@@ -1,16 +1,17 @@
 // Cross-process DDS test: a publisher in a child process (dds_test_publisher),
 // `echo` here, over UDP on the loopback interface (CYCLONEDDS_URI =
 // runtime/dds/cyclonedds_loopback.xml).
-#include <gtest/gtest.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
 
 #include "dds_test_util.hpp"
 #include "regolith/dds/topics.hpp"

@@ -2,8 +2,6 @@
 // back through Cyclone (writer + reader in the same domain, unique namespace),
 // the Outbox counters, the allocation-free RT path, offered-deadline events,
 // latched state for late readers and `echo`.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <functional>
@@ -12,6 +10,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "dds_test_util.hpp"
 #include "regolith/dds/participant.hpp"

@@ -1,12 +1,12 @@
 // Unit tests of the DDS layer that need no participant: ROS naming, QoS
 // profiles, sample pre-allocation helpers, the type table and the JSON
 // rendering of every message type.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "dds_test_util.hpp"
 #include "regolith/core/error.hpp"

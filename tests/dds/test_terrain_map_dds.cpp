@@ -2,10 +2,6 @@
 // moving mock rover (tests/mapping/terrain_map_test.yaml, simulated clock) in a child process;
 // this process subscribes to odom, odom/wheel (nav_msgs/Odometry) and terrain/world_map
 // (grid_map_msgs/GridMap) and checks the values against the mock's exact path.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -13,6 +9,11 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "child_process.hpp"
 #include "dds_test_util.hpp"

@@ -3,14 +3,14 @@
 // does not exist) exits 3, which the unit restarts; a device that is there but cannot do what the
 // deployment asks exits 2 (RestartPreventExitStatus=2), like any configuration error. The host
 // kernel needs neither V4L2 nor SocketCAN for this: the devices are absent everywhere.
-#include <gtest/gtest.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "child_process.hpp"
 #include "temp_dir.hpp"

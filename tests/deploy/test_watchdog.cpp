@@ -5,16 +5,17 @@
 // notification with its (simulated) time. A stalled rate group is modelled by
 // no longer running its cycles while the other groups go on, as when its thread
 // blocks.
-#include <gtest/gtest.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <set>
 #include <string>
 #include <vector>
+
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/params.hpp"
 #include "regolith/runtime/application.hpp"

@@ -1,8 +1,8 @@
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
@@ -211,8 +211,10 @@ TEST(DirectDepth, RockSizesAgainstGeneratorTruth) {
   ew /= n;
   eh_round /= n;
   eh_vert /= n;
-  std::printf("%d rocks: mean |error| width %.1f %%, height (round footprint) %.1f %%, height "
-              "(vertical face, spec formula) %.1f %%\n", n, 100 * ew, 100 * eh_round, 100 * eh_vert);
+  std::printf(
+      "%d rocks: mean |error| width %.1f %%, height (round footprint) %.1f %%, height "
+      "(vertical face, spec formula) %.1f %%\n",
+      n, 100 * ew, 100 * eh_round, 100 * eh_vert);
   EXPECT_LT(ew, 0.15);
   EXPECT_LT(eh_round, 0.35);
   EXPECT_LT(eh_round, eh_vert);  // the spec formula overestimates
@@ -236,7 +238,7 @@ TEST(DirectDepth, BadInput) {
   const DirectDepth dd(model());
   EXPECT_THROW(dd.object_size(cv::Rect(0, 0, 0, 5)), std::invalid_argument);
   EXPECT_THROW(dd.ground(std::nan(""), 3), std::invalid_argument);
-  const DirectDepth low(model(0.05));  // horizon at row ~99
+  const DirectDepth low(model(0.05));                          // horizon at row ~99
   EXPECT_FALSE(low.object_size(cv::Rect(10, 0, 5, 5)).valid);  // above the horizon
 }
 

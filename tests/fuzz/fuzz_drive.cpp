@@ -3,8 +3,6 @@
 // separated by the first NUL byte (input.json before it, frames.csv after; no NUL: no frames.csv).
 // Any input either reads as a drive or throws an InputError naming the file, line and field; the
 // frame images themselves are not read here (the image target covers decoding).
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -13,6 +11,8 @@
 #include <fstream>
 #include <string>
 #include <system_error>
+
+#include <unistd.h>
 
 #include "regolith/mapping/drive_io.hpp"
 
@@ -33,8 +33,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto* nul = static_cast<const std::uint8_t*>(std::memchr(data, 0, size));
   const std::size_t json_size = nul != nullptr ? static_cast<std::size_t>(nul - data) : size;
   write_file(dir / "input.json", data, json_size);
-  if (nul != nullptr) write_file(dir / "frames.csv", nul + 1, size - json_size - 1);
-  else fs::remove(dir / "frames.csv", ec);
+  if (nul != nullptr)
+    write_file(dir / "frames.csv", nul + 1, size - json_size - 1);
+  else
+    fs::remove(dir / "frames.csv", ec);
   try {
     const regolith::mapping::RecordedDrive d = regolith::mapping::read_drive(dir);
     (void)d;

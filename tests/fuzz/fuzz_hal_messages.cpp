@@ -21,15 +21,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (d.image.empty()) __builtin_trap();  // a decoded image always has pixels
         break;
       }
-      case 1:
-        (void)regolith::record::decode_wheel_angle(cdr);
-        break;
-      case 2:
-        (void)regolith::record::decode_imu(cdr);
-        break;
-      case 3:
-        (void)regolith::record::decode_attitude(cdr);
-        break;
+      case 1: (void)regolith::record::decode_wheel_angle(cdr); break;
+      case 2: (void)regolith::record::decode_imu(cdr); break;
+      case 3: (void)regolith::record::decode_attitude(cdr); break;
       default: {
         const bool fd = data[0] % 6 == 5;
         const auto f = regolith::record::decode_can_frame(cdr, fd);

@@ -27,22 +27,26 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   p.iterations = 20;  // Jacobi / Bichsel-Pentland sweeps: enough to reach every code path
   switch (flags & 3u) {
     case 0: p.method = Method::kTsaiShah; break;
-    case 1: p.method = Method::kTsaiShah; p.tsai_shah_scheme = TsaiShahScheme::kJacobi; break;
+    case 1:
+      p.method = Method::kTsaiShah;
+      p.tsai_shah_scheme = TsaiShahScheme::kJacobi;
+      break;
     case 2: p.method = Method::kPentland; break;
     default: p.method = Method::kBichselPentland; break;
   }
   p.estimate_light = (flags & 4u) != 0;
   p.tsai_shah_skip_black = (flags & 8u) != 0;
   std::optional<LightDirection> light;
-  if (!p.estimate_light)
-    light = LightDirection{data[3] / 256.0 * 89.9 * M_PI / 180.0, data[4] / 256.0 * 2.0 * M_PI};
+  if (!p.estimate_light) light = LightDirection{data[3] / 256.0 * 89.9 * M_PI / 180.0, data[4] / 256.0 * 2.0 * M_PI};
   const std::uint8_t* px = data + 5;
   const std::size_t n = size - 5;
   cv::Mat img8(h, w, CV_8UC1);
   for (int i = 0; i < w * h; ++i) img8.data[i] = px[static_cast<std::size_t>(i) % n];
   cv::Mat img;
-  if ((flags & 16u) != 0) img8.convertTo(img, CV_32F, 1.0 / 255.0);
-  else img = img8;
+  if ((flags & 16u) != 0)
+    img8.convertTo(img, CV_32F, 1.0 / 255.0);
+  else
+    img = img8;
   static SfsResult out;  // reused, as the component does
   try {
     ShapeFromShading solver(p);

@@ -25,9 +25,13 @@
 
 namespace {
 
-double span(std::uint8_t b, double lo, double hi) { return lo + (hi - lo) * b / 255.0; }
+double span(std::uint8_t b, double lo, double hi) {
+  return lo + (hi - lo) * b / 255.0;
+}
 
-bool finite_nonneg(double v) { return std::isfinite(v) && v >= 0.0; }
+bool finite_nonneg(double v) {
+  return std::isfinite(v) && v >= 0.0;
+}
 
 }  // namespace
 

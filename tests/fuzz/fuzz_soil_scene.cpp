@@ -1,8 +1,6 @@
 // libFuzzer target: the recorded scene reader behind `regolith soil IMAGE --scene input.json`
 // (camera intrinsics, height, pitch, sun, wheel geometry, tracks). Any input either gives a
 // validated setup or an InputError naming the file and field.
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -10,6 +8,8 @@
 #include <fstream>
 #include <string>
 #include <system_error>
+
+#include <unistd.h>
 
 #include "regolith/soil_stiffness/scene.hpp"
 

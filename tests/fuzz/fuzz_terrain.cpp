@@ -36,7 +36,9 @@ namespace {
 
 using namespace regolith;
 
-double span(std::uint8_t b, double lo, double hi) { return lo + (hi - lo) * b / 255.0; }
+double span(std::uint8_t b, double lo, double hi) {
+  return lo + (hi - lo) * b / 255.0;
+}
 
 void check_layers(const traversability::GridMap& m) {
   const int sx = m.size_x(), sy = m.size_y();
@@ -99,10 +101,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::uint8_t b = gray.data[i];
     float v = (static_cast<float>(b) - 128.0f) / 256.0f;
     if ((flags & 4u) != 0) {
-      if (b == 0) v = std::numeric_limits<float>::quiet_NaN();
-      else if (b == 1) v = std::numeric_limits<float>::infinity();
-      else if (b == 2) v = -std::numeric_limits<float>::infinity();
-      else if (b == 3) v = 1e30f;
+      if (b == 0)
+        v = std::numeric_limits<float>::quiet_NaN();
+      else if (b == 1)
+        v = std::numeric_limits<float>::infinity();
+      else if (b == 2)
+        v = -std::numeric_limits<float>::infinity();
+      else if (b == 3)
+        v = 1e30f;
     }
     reinterpret_cast<float*>(height.data)[i] = v;
   }

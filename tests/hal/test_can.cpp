@@ -1,9 +1,9 @@
 // The shared CAN decoder and the candump log parser, table-driven.
-#include <gtest/gtest.h>
-
 #include <array>
 #include <cmath>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "regolith/hal/can.hpp"
 
@@ -69,16 +69,15 @@ TEST(CanDecoder, LayoutsTable) {
 }
 
 TEST(CanDecoder, IdsFilteringAndShortFrames) {
-  CanDecoder d({sig(0, 2, false, false, 1.0, 0.0, false, 0x100),
-                sig(2, 2, false, false, 1.0, 0.0, false, 0x100),
+  CanDecoder d({sig(0, 2, false, false, 1.0, 0.0, false, 0x100), sig(2, 2, false, false, 1.0, 0.0, false, 0x100),
                 sig(0, 1, false, false, 1.0, 0.0, false, 0x18FF0001, true)});
   std::vector<std::pair<std::size_t, double>> got;
   auto sink = [&](std::size_t i, double v) { got.emplace_back(i, v); };
-  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2, 0}), sink), 2);          // two signals in one frame
-  EXPECT_EQ(d.decode(frame(0x101, {1, 0, 2, 0}), sink), 0);          // other id
-  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2, 0}, true), sink), 0);    // same number, extended: other id
+  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2, 0}), sink), 2);        // two signals in one frame
+  EXPECT_EQ(d.decode(frame(0x101, {1, 0, 2, 0}), sink), 0);        // other id
+  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2, 0}, true), sink), 0);  // same number, extended: other id
   EXPECT_EQ(d.decode(frame(0x18FF0001, {7}, true), sink), 1);
-  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2}), sink), 1);             // b does not fit: short
+  EXPECT_EQ(d.decode(frame(0x100, {1, 0, 2}), sink), 1);  // b does not fit: short
   EXPECT_EQ(d.short_frames(), 1u);
   CanFrame err = frame(0x100, {1, 0, 2, 0});
   err.error = true;
@@ -207,10 +206,12 @@ TEST(CanFrameHistory, GivesFramesInOrderAndCountsTheOnesItNoLongerHolds) {
 
 TEST(Candump, FormattedLinesParseBackToTheSameFrame) {
   const std::vector<std::string> lines = {
-      "(1700000000.000100) can0 0CF#1A2B",         "(1700000000.250000) can0 18FF0010#0102030405060708",
-      "(1700000001.000000) wheels 123#R",          "(1700000001.000001) can0 7FF#",
+      "(1700000000.000100) can0 0CF#1A2B",
+      "(1700000000.250000) can0 18FF0010#0102030405060708",
+      "(1700000001.000000) wheels 123#R",
+      "(1700000001.000001) can0 7FF#",
       "(1700000002.123456) can1 456##0" + std::string(128, 'E'),  // FD, 64 bytes
-      "(1700000003.000000) can0 20000004#0000080000000000",           // error frame (controller)
+      "(1700000003.000000) can0 20000004#0000080000000000",       // error frame (controller)
   };
   for (const auto& line : lines) {
     CanFrame f;

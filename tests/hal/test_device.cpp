@@ -1,12 +1,12 @@
 // What the hardware backends share: the re-open back-off, and the start-up device errors with
 // their YAML location (a configuration problem becomes a ConfigError; an unavailable device stays
 // a DeviceUnavailableError so that `regolith run` can exit with its own, restartable status).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_limits.hpp"
@@ -53,7 +53,8 @@ TEST(Backoff, FieldsAreCheckedOnceForEveryBackend) {
   EXPECT_EQ(field_of([] { validate_backoff(std::nan(""), 5.0); }), "retry_min");
   EXPECT_EQ(field_of([] { validate_backoff(HUGE_VAL, HUGE_VAL); }), "retry_min");
   EXPECT_EQ(field_of([] { validate_backoff(0.5, 0.2); }), "retry_max");
-  EXPECT_EQ(field_of([] { validate_backoff(0.5, HUGE_VAL); }), "retry_max") << "libcamera let an infinite ceiling through";
+  EXPECT_EQ(field_of([] { validate_backoff(0.5, HUGE_VAL); }), "retry_max")
+      << "libcamera let an infinite ceiling through";
   EXPECT_EQ(field_of([] { validate_backoff(0.5, std::nan("")); }), "retry_max");
 }
 

@@ -1,11 +1,12 @@
 // Host-side logic of the real HAL backends: no device needed (sequence gaps, control names, device
 // selection, error-frame decoding, YAML validation, start-up errors for absent devices). The
 // back-off and the error types they share are tested with regolith::hal (tests/hal/test_device.cpp).
-#include <gtest/gtest.h>
+#include <filesystem>
+
 #include <linux/can.h>
 #include <linux/can/error.h>
 
-#include <filesystem>
+#include <gtest/gtest.h>
 
 #include "error_of.hpp"
 #include "regolith/hal_libcamera/libcamera.hpp"
@@ -57,9 +58,10 @@ TEST(V4l2Logic, SelectDeviceByCardOrBusInfo) {
 }
 
 TEST(V4l2Config, YamlIsValidatedWithLocations) {
-  auto p = Params::load_string("backend: v4l2\ndevice: /dev/video0\nwidth: 640\nheight: 360\nfourcc: YUYV\n"
-                               "pixel_format: bgr8\nrate: 25\nbuffers: 3\ncontrols:\n  brightness: 200\n  test_pattern: 75% Colorbar\n",
-                               "cam.yaml");
+  auto p = Params::load_string(
+      "backend: v4l2\ndevice: /dev/video0\nwidth: 640\nheight: 360\nfourcc: YUYV\n"
+      "pixel_format: bgr8\nrate: 25\nbuffers: 3\ncontrols:\n  brightness: 200\n  test_pattern: 75% Colorbar\n",
+      "cam.yaml");
   p.get<std::string>("backend", "");
   const v4l2::Config c = v4l2::config_from_params(p);
   EXPECT_EQ(c.width, 640);
@@ -73,7 +75,8 @@ TEST(V4l2Config, YamlIsValidatedWithLocations) {
   const std::string m1 = error_of([&] { v4l2::config_from_params(bad_fourcc); });
   EXPECT_CONTAINS(m1, "cam.yaml:2:9: fourcc: 'H264' is not one of");
   auto no_device = Params::load_string("width: 640\n", "cam.yaml");
-  EXPECT_CONTAINS(error_of([&] { v4l2::config_from_params(no_device); }), "give device (e.g. /dev/video0), card or bus_info");
+  EXPECT_CONTAINS(error_of([&] { v4l2::config_from_params(no_device); }),
+                  "give device (e.g. /dev/video0), card or bus_info");
   auto typo = Params::load_string("device: /dev/video0\nbufers: 4\n", "cam.yaml");
   EXPECT_CONTAINS(error_of([&] { v4l2::config_from_params(typo); }), "did you mean 'buffers'");
   auto few = Params::load_string("device: /dev/video0\nbuffers: 1\n", "cam.yaml");
@@ -88,7 +91,8 @@ TEST(V4l2Camera, MissingDeviceIsAStartupErrorNamingIt) {
   ctx.id = "front";
   // absent now, may appear later (a USB camera at boot): unavailable, not a configuration error
   const std::string msg = error_of<DeviceUnavailableError>([&] { reg.make_camera(p, ctx); });
-  EXPECT_CONTAINS(msg, "rover.yaml:2:9: device: v4l2 camera 'front' (/dev/video97): cannot open: No such file or directory");
+  EXPECT_CONTAINS(msg,
+                  "rover.yaml:2:9: device: v4l2 camera 'front' (/dev/video97): cannot open: No such file or directory");
   auto by_card = Params::load_string("backend: v4l2\ncard: No Such Camera\n", "rover.yaml");
   const std::string by_card_msg = error_of<DeviceUnavailableError>([&] { reg.make_camera(by_card, ctx); });
   EXPECT_CONTAINS(by_card_msg, "rover.yaml:2:7: card: v4l2 camera 'front': ");
@@ -181,12 +185,14 @@ command: {enabled: true, id: 0x300}
 
   auto dup = Params::load_string("interface: vcan0\nwheels:\n  a: {id: 1}\ntransducers:\n  a: {id: 2}\n", "enc.yaml");
   EXPECT_CONTAINS(error_of([&] { socketcan::config_from_params(dup); }), "name 'a' is used twice");
-  auto fd_offset = Params::load_string("interface: vcan0\nwheels:\n  a: {id: 1, byte_offset: 6, length: 4}\n", "enc.yaml");
+  auto fd_offset =
+      Params::load_string("interface: vcan0\nwheels:\n  a: {id: 1, byte_offset: 6, length: 4}\n", "enc.yaml");
   EXPECT_CONTAINS(error_of([&] { socketcan::config_from_params(fd_offset); }), "must fit a classic CAN payload (8)");
   auto none = Params::load_string("interface: vcan0\n", "enc.yaml");
   EXPECT_CONTAINS(error_of([&] { socketcan::config_from_params(none); }), "at least one wheel or transducer");
   auto long_name = Params::load_string("interface: a_very_long_interface_name\nwheels:\n  a: {id: 1}\n", "enc.yaml");
-  EXPECT_CONTAINS(error_of([&] { socketcan::config_from_params(long_name); }), "enc.yaml:1:12: interface: must be a network interface name");
+  EXPECT_CONTAINS(error_of([&] { socketcan::config_from_params(long_name); }),
+                  "enc.yaml:1:12: interface: must be a network interface name");
 }
 
 TEST(SocketCan, AbsentInterfaceIsAStartupErrorNamingIt) {
@@ -212,15 +218,18 @@ TEST(SocketCan, NonCanInterfaceIsRejected) {
 }
 
 TEST(LibcameraConfig, YamlIsValidated) {
-  auto p = Params::load_string("camera: /base/platform/vimc.0\nwidth: 960\nheight: 720\nformat: BGR888\n"
-                               "controls:\n  Brightness: 0.5\n", "cam.yaml");
+  auto p = Params::load_string(
+      "camera: /base/platform/vimc.0\nwidth: 960\nheight: 720\nformat: BGR888\n"
+      "controls:\n  Brightness: 0.5\n",
+      "cam.yaml");
   const auto c = libcam::config_from_params(p);
   EXPECT_EQ(c.pixel_format, "BGR888");
   EXPECT_EQ(c.output, PixelFormat::kBgr8);
   ASSERT_EQ(c.controls.size(), 1u);
   EXPECT_EQ(c.controls[0].second, "0.5");
   auto bad_role = Params::load_string("role: selfie\n", "cam.yaml");
-  EXPECT_CONTAINS(error_of([&] { libcam::config_from_params(bad_role); }), "cam.yaml:1:7: role: 'selfie' is not one of");
+  EXPECT_CONTAINS(error_of([&] { libcam::config_from_params(bad_role); }),
+                  "cam.yaml:1:7: role: 'selfie' is not one of");
   auto bad_format = Params::load_string("format: NV12\n", "cam.yaml");
   EXPECT_CONTAINS(error_of([&] { libcam::config_from_params(bad_format); }), "format: 'NV12' is not one of");
 }

@@ -1,11 +1,10 @@
 // Pixel-format conversions of the V4L2 / libcamera backends, against hand-computed ground truth.
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/hal_v4l2/convert.hpp"
 
@@ -49,13 +48,14 @@ TEST(Convert, MinFrameBytesHonoursStride) {
 TEST(Convert, YuyvToBgrAndMonoMatchBt601) {
   const int w = 4, h = 2;
   // two macro-pixels per row with distinct chroma: (Y0 U Y1 V)
-  const std::vector<std::uint8_t> yuyv = {
-      81, 90, 145, 240, 41, 240, 210, 110,    // row 0
-      235, 128, 16, 128, 128, 54, 128, 34};  // row 1
+  const std::vector<std::uint8_t> yuyv = {81,  90,  145, 240, 41,  240, 210, 110,  // row 0
+                                          235, 128, 16,  128, 128, 54,  128, 34};  // row 1
   cv::Mat bgr(h, w, CV_8UC3), mono(h, w, CV_8UC1);
   std::string err;
-  ASSERT_TRUE(convert_frame(DeviceFormat::kYuyv, yuyv.data(), yuyv.size(), w, h, 0, PixelFormat::kBgr8, bgr, err)) << err;
-  ASSERT_TRUE(convert_frame(DeviceFormat::kYuyv, yuyv.data(), yuyv.size(), w, h, 0, PixelFormat::kMono8, mono, err)) << err;
+  ASSERT_TRUE(convert_frame(DeviceFormat::kYuyv, yuyv.data(), yuyv.size(), w, h, 0, PixelFormat::kBgr8, bgr, err))
+      << err;
+  ASSERT_TRUE(convert_frame(DeviceFormat::kYuyv, yuyv.data(), yuyv.size(), w, h, 0, PixelFormat::kMono8, mono, err))
+      << err;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const std::size_t base = static_cast<std::size_t>(y * w * 2 + (x / 2) * 4);
@@ -88,14 +88,16 @@ TEST(Convert, UyvyIsYuyvWithSwappedBytes) {
 TEST(Convert, Rgb24SwapsToBgrAndStrideIsSkipped) {
   const int w = 2, h = 2;
   const std::size_t stride = 8;  // 6 bytes of pixels + 2 padding bytes per row
-  const std::vector<std::uint8_t> rgb = {10, 20, 30, 40, 50, 60, 0xEE, 0xEE,  //
+  const std::vector<std::uint8_t> rgb = {10, 20, 30, 40,  50,  60,  0xEE, 0xEE,  //
                                          70, 80, 90, 100, 110, 120, 0xEE, 0xEE};
   cv::Mat bgr(h, w, CV_8UC3), mono(h, w, CV_8UC1);
   std::string err;
-  ASSERT_TRUE(convert_frame(DeviceFormat::kRgb24, rgb.data(), rgb.size(), w, h, stride, PixelFormat::kBgr8, bgr, err)) << err;
+  ASSERT_TRUE(convert_frame(DeviceFormat::kRgb24, rgb.data(), rgb.size(), w, h, stride, PixelFormat::kBgr8, bgr, err))
+      << err;
   EXPECT_EQ(bgr.at<cv::Vec3b>(0, 0), cv::Vec3b(30, 20, 10));
   EXPECT_EQ(bgr.at<cv::Vec3b>(1, 1), cv::Vec3b(120, 110, 100));
-  ASSERT_TRUE(convert_frame(DeviceFormat::kRgb24, rgb.data(), rgb.size(), w, h, stride, PixelFormat::kMono8, mono, err));
+  ASSERT_TRUE(
+      convert_frame(DeviceFormat::kRgb24, rgb.data(), rgb.size(), w, h, stride, PixelFormat::kMono8, mono, err));
   // ITU-R 601 luma weights 0.299 R + 0.587 G + 0.114 B
   EXPECT_NEAR(mono.at<std::uint8_t>(0, 0), 0.299 * 10 + 0.587 * 20 + 0.114 * 30, 1.0);
   EXPECT_NEAR(mono.at<std::uint8_t>(1, 1), 0.299 * 100 + 0.587 * 110 + 0.114 * 120, 1.0);
@@ -132,15 +134,18 @@ TEST(Convert, MjpegDecodesWithinJpegError) {
   ASSERT_TRUE(cv::imencode(".jpg", truth, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95}));
   cv::Mat bgr(48, 64, CV_8UC3), mono(48, 64, CV_8UC1);
   std::string err;
-  ASSERT_TRUE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 64, 48, 0, PixelFormat::kBgr8, bgr, err)) << err;
+  ASSERT_TRUE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 64, 48, 0, PixelFormat::kBgr8, bgr, err))
+      << err;
   EXPECT_LT(cv::norm(bgr, truth, cv::NORM_L1) / static_cast<double>(truth.total() * 3), 3.0);
-  ASSERT_TRUE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 64, 48, 0, PixelFormat::kMono8, mono, err)) << err;
+  ASSERT_TRUE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 64, 48, 0, PixelFormat::kMono8, mono, err))
+      << err;
   cv::Mat truth_grey;
   cv::cvtColor(truth, truth_grey, cv::COLOR_BGR2GRAY);
   EXPECT_LT(cv::norm(mono, truth_grey, cv::NORM_L1) / static_cast<double>(truth.total()), 3.0);
   // wrong geometry is reported, not silently resized
   cv::Mat other(24, 32, CV_8UC3);
-  EXPECT_FALSE(convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 32, 24, 0, PixelFormat::kBgr8, other, err));
+  EXPECT_FALSE(
+      convert_frame(DeviceFormat::kMjpeg, jpeg.data(), jpeg.size(), 32, 24, 0, PixelFormat::kBgr8, other, err));
   EXPECT_NE(err.find("MJPEG frame declares 64x48, expected 32x24"), std::string::npos) << err;
 }
 
@@ -148,13 +153,16 @@ TEST(Convert, DamagedPayloadsAreReportedWithByteCounts) {
   cv::Mat bgr(480, 640, CV_8UC3);
   std::vector<std::uint8_t> short_frame(1000);
   std::string err;
-  EXPECT_FALSE(convert_frame(DeviceFormat::kYuyv, short_frame.data(), short_frame.size(), 640, 480, 0, PixelFormat::kBgr8, bgr, err));
+  EXPECT_FALSE(convert_frame(DeviceFormat::kYuyv, short_frame.data(), short_frame.size(), 640, 480, 0,
+                             PixelFormat::kBgr8, bgr, err));
   EXPECT_NE(err.find("YUYV frame has 1000 bytes, 614400 needed for 640x480"), std::string::npos) << err;
   std::vector<std::uint8_t> not_jpeg(100, 0x55);
-  EXPECT_FALSE(convert_frame(DeviceFormat::kMjpeg, not_jpeg.data(), not_jpeg.size(), 640, 480, 0, PixelFormat::kBgr8, bgr, err));
+  EXPECT_FALSE(
+      convert_frame(DeviceFormat::kMjpeg, not_jpeg.data(), not_jpeg.size(), 640, 480, 0, PixelFormat::kBgr8, bgr, err));
   EXPECT_NE(err.find("SOI marker"), std::string::npos) << err;
   std::vector<std::uint8_t> truncated = {0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x10};
-  EXPECT_FALSE(convert_frame(DeviceFormat::kMjpeg, truncated.data(), truncated.size(), 640, 480, 0, PixelFormat::kBgr8, bgr, err));
+  EXPECT_FALSE(convert_frame(DeviceFormat::kMjpeg, truncated.data(), truncated.size(), 640, 480, 0, PixelFormat::kBgr8,
+                             bgr, err));
   EXPECT_NE(err.find("could not be decoded"), std::string::npos) << err;
   cv::Mat wrong(10, 10, CV_8UC1);
   std::vector<std::uint8_t> ok(640 * 480 * 2);

@@ -1,6 +1,5 @@
 // Driver tests of the libcamera backend against vimc (label hw; skipped when libcamera sees no vimc).
 #include <gtest/gtest.h>
-
 #include <opencv2/core.hpp>
 
 #include "hw_util.hpp"
@@ -18,9 +17,9 @@ std::string vimc_camera(const std::vector<libcam::CameraInfo>& cams) {
   return {};
 }
 
-#define REQUIRE_VIMC(var)                                                                       \
-  const auto cams_ = libcam::list_libcamera_cameras();                                          \
-  const std::string var = vimc_camera(cams_);                                                   \
+#define REQUIRE_VIMC(var)                                                                           \
+  const auto cams_ = libcam::list_libcamera_cameras();                                              \
+  const std::string var = vimc_camera(cams_);                                                       \
   if (var.empty()) GTEST_SKIP() << "libcamera sees no vimc camera (run tests/hw/run.sh BUILD_DIR)"; \
   static_cast<void>(0)
 
@@ -96,7 +95,8 @@ TEST(HwLibcamera, RejectsUnknownCameraSizeAndControlClearly) {
     FAIL() << "unknown camera accepted";
   } catch (const DeviceUnavailableError& e) {  // may appear later: restartable
     EXPECT_EQ(e.field(), "camera");
-    EXPECT_NE(std::string(e.what()).find("no camera '/base/no/such/camera' (cameras: " + id), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no camera '/base/no/such/camera' (cameras: " + id), std::string::npos)
+        << e.what();
   }
   c.camera = id;
   c.width = 17;

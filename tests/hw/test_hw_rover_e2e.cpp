@@ -12,26 +12,27 @@
 //    start-up under TCG costs 5-10 s per process; libcamera is covered by test_hw_libcamera);
 //  * the `rear` V4L2 camera and its consumer `soil` are removed: vivid offers one capture node
 //    and the wheel camera holds it.
-#include <gtest/gtest.h>
-#include <linux/can.h>
-#include <linux/can/raw.h>
-#include <net/if.h>
-#include <sys/socket.h>
-#include <unistd.h>
-#include <yaml-cpp/yaml.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <linux/can.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "child_process.hpp"
 #include "hw_util.hpp"
@@ -127,8 +128,7 @@ TEST(HwRoverEndToEnd, SmartRoverOnVividAndVcanPublishesJointStatesAndDiagnostics
   const fs::path& dir = tmp.path();
   const std::string ns = "hwe2e" + std::to_string(getpid());
   const int domain = static_cast<int>(regolith::testing::test_domain());
-  setenv("CYCLONEDDS_URI",
-         ("file://" + std::string(REGOLITH_HW_DATA_DIR) + "/cyclonedds_loopback.xml").c_str(), 0);
+  setenv("CYCLONEDDS_URI", ("file://" + std::string(REGOLITH_HW_DATA_DIR) + "/cyclonedds_loopback.xml").c_str(), 0);
 
   // ---- the deployment, derived from the shipped SMART rover file
   YAML::Node cfg = YAML::LoadFile(std::string(REGOLITH_HW_DATA_DIR) + "/smart_rover.yaml");

@@ -1,6 +1,9 @@
 // Driver tests of the SocketCAN backend on vcan0 with can-utils' cansend (label hw; skipped when
 // there is no vcan0).
-#include <gtest/gtest.h>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
 
 #include <linux/can.h>
 #include <linux/can/raw.h>
@@ -8,10 +11,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <array>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
+#include <gtest/gtest.h>
 
 #include "hw_util.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
@@ -30,7 +30,7 @@ bool have_vcan0() {
   return false;
 }
 
-#define REQUIRE_VCAN0()                                                                               \
+#define REQUIRE_VCAN0()                                                                                 \
   if (!have_vcan0()) GTEST_SKIP() << "no vcan0 (needs the vcan driver: run tests/hw/run.sh BUILD_DIR)"; \
   if (sh("command -v cansend") != 0) GTEST_SKIP() << "cansend missing (apt-get install can-utils)"
 
@@ -52,7 +52,9 @@ retry_max: 0.2
   return std::make_unique<socketcan::SocketCanEncoders>(socketcan::config_from_params(p), ctx);
 }
 
-bool sample(const WheelEncoders& e, std::size_t wheel, AngleSample& s) { return e.latest(wheel, monotonic_now(), s); }
+bool sample(const WheelEncoders& e, std::size_t wheel, AngleSample& s) {
+  return e.latest(wheel, monotonic_now(), s);
+}
 
 bool wait_angle(const WheelEncoders& e, std::size_t wheel, double value, double timeout = 5.0) {
   return wait_until(
@@ -113,7 +115,8 @@ TEST(HwSocketCan, KernelFiltersDropOtherIdsAndShortFramesAreCounted) {
   REQUIRE_VCAN0();
   auto enc = make();
   enc->start();
-  for (const char* f : {"102#01020304", "7FF#00", "18FF0103#0102", "201#1122", "101#R"}) ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
+  for (const char* f : {"102#01020304", "7FF#00", "18FF0103#0102", "201#1122", "101#R"})
+    ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
   ASSERT_EQ(sh("cansend vcan0 101#0A000000F6FFFFFF"), 0);  // 0.010, -0.010
   ASSERT_TRUE(wait_angle(*enc, 0, 0.010));
   ASSERT_EQ(sh("cansend vcan0 101#0102"), 0);  // DLC 2: too short for both wheels
@@ -136,7 +139,8 @@ TEST(HwSocketCan, RawFramesAreKeptForRecordersInOrderWithTheirStamps) {
   ASSERT_TRUE(enc->reads_can());
   enc->start();
   const TimeNs before = monotonic_now();
-  for (const char* f : {"101#E803000030F8FFFF", "18FF0102#F07F", "200#3930"}) ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
+  for (const char* f : {"101#E803000030F8FFFF", "18FF0102#F07F", "200#3930"})
+    ASSERT_EQ(sh(std::string("cansend vcan0 ") + f), 0);
   ASSERT_TRUE(wait_until([&] { return enc->bus_stats().frames >= 3; }, 5.0));
   std::array<CanFrame, 8> out{};
   std::uint64_t cursor = 0, missed = 0;
@@ -183,9 +187,12 @@ TEST(HwSocketCan, AGarbageFloodIsCountedWhileAnUntouchedWheelKeepsItsValues) {
   const std::uint64_t frames0 = raw->bus_stats().frames;
   // Both floods run until stopped below (timeout 30 only guards against a test that dies first;
   // timeout passes the TERM on to cangen).
-  ASSERT_EQ(sh("(timeout 30 cangen vcan0 -g 0 -I 101 -L 8 -D r >/dev/null 2>&1 & echo $! > /tmp/regolith_flood.pid)"), 0);
-  ASSERT_EQ(sh("(timeout 30 cangen vcan0 -g 0.2 -I r -L r -D r -e >/dev/null 2>&1 & echo $! >> /tmp/regolith_flood.pid)"), 0);
-  ASSERT_TRUE(wait_until([&] { return raw->bus_stats().frames > frames0 + 1000; }, 10.0)) << "the flood never reached the backend";
+  ASSERT_EQ(sh("(timeout 30 cangen vcan0 -g 0 -I 101 -L 8 -D r >/dev/null 2>&1 & echo $! > /tmp/regolith_flood.pid)"),
+            0);
+  ASSERT_EQ(
+      sh("(timeout 30 cangen vcan0 -g 0.2 -I r -L r -D r -e >/dev/null 2>&1 & echo $! >> /tmp/regolith_flood.pid)"), 0);
+  ASSERT_TRUE(wait_until([&] { return raw->bus_stats().frames > frames0 + 1000; }, 10.0))
+      << "the flood never reached the backend";
   constexpr int kSent = 8;
   int checked = 0;
   bool foreign = false;
@@ -208,11 +215,12 @@ TEST(HwSocketCan, AGarbageFloodIsCountedWhileAnUntouchedWheelKeepsItsValues) {
   const std::uint64_t during = raw->bus_stats().frames - frames0;
   ASSERT_EQ(sh("kill $(cat /tmp/regolith_flood.pid); sleep 0.5"), 0);  // the floods end
   const socketcan::BusStats b = raw->bus_stats();
-  std::printf("flood: %llu frames passed the kernel filters, %llu garbage samples rejected, %llu rx overflows "
-              "(receive queue %llu bytes), rear_left decoded %d of %d values\n",
-              static_cast<unsigned long long>(b.frames - frames0), static_cast<unsigned long long>(enc.stats().rejected),
-              static_cast<unsigned long long>(b.rx_overflows), static_cast<unsigned long long>(b.receive_buffer_bytes),
-              checked, kSent);
+  std::printf(
+      "flood: %llu frames passed the kernel filters, %llu garbage samples rejected, %llu rx overflows "
+      "(receive queue %llu bytes), rear_left decoded %d of %d values\n",
+      static_cast<unsigned long long>(b.frames - frames0), static_cast<unsigned long long>(enc.stats().rejected),
+      static_cast<unsigned long long>(b.rx_overflows), static_cast<unsigned long long>(b.receive_buffer_bytes), checked,
+      kSent);
   EXPECT_GT(during, 2000u) << "the flood did not last through the eight rear_left values";
   EXPECT_GT(enc.stats().rejected, 0u) << "random payloads on 0x101 are implausible wheel angles";
   EXPECT_EQ(enc.stats().lost, b.rx_overflows) << "lost frames reach the health monitor through the plausibility check";
@@ -265,7 +273,8 @@ TEST(HwSocketCan, SurvivesInterfaceDownUpAndRemoval) {
   ASSERT_EQ(sh("ip link del vcan0"), 0);
   ASSERT_TRUE(wait_until([&] { return enc->stats().state != DeviceState::kStreaming; }, 5.0));
   ASSERT_EQ(sh("ip link add dev vcan0 type vcan && ip link set vcan0 up"), 0);
-  ASSERT_TRUE(wait_until([&] { return enc->stats().state == DeviceState::kStreaming; }, 5.0)) << enc->bus_stats().last_error;
+  ASSERT_TRUE(wait_until([&] { return enc->stats().state == DeviceState::kStreaming; }, 5.0))
+      << enc->bus_stats().last_error;
   ASSERT_TRUE(wait_until(
       [&] {
         sh("cansend vcan0 101#0400000000000000");
@@ -336,5 +345,7 @@ TEST(HwSocketCan, DownInterfaceIsAStartupError) {
     msg = e.what();
   }
   sh("ip link set vcan0 up");
-  EXPECT_NE(msg.find("socketcan 'wheels': interface 'vcan0' is down (bring it up: ip link set vcan0 up)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("socketcan 'wheels': interface 'vcan0' is down (bring it up: ip link set vcan0 up)"),
+            std::string::npos)
+      << msg;
 }

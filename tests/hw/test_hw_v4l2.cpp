@@ -1,13 +1,13 @@
 // Driver tests of the V4L2 backend against vivid (label hw; skipped when no vivid node exists).
-#include <gtest/gtest.h>
+#include <filesystem>
+#include <fstream>
 
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
-#include <filesystem>
-#include <fstream>
+#include <gtest/gtest.h>
 
 #include "hw_util.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
@@ -26,7 +26,7 @@ const v4l2::DeviceInfo* vivid_node(const std::vector<v4l2::DeviceInfo>& devs) {
 
 #define REQUIRE_VIVID(var)                                                                                    \
   const auto all_devices_ = v4l2::list_v4l2_devices(false);                                                   \
-  const v4l2::DeviceInfo* var = vivid_node(all_devices_);                                                    \
+  const v4l2::DeviceInfo* var = vivid_node(all_devices_);                                                     \
   if (var == nullptr) GTEST_SKIP() << "no vivid capture node (load vivid, or run tests/hw/run.sh BUILD_DIR)"; \
   static_cast<void>(0)
 
@@ -197,14 +197,16 @@ TEST(HwV4l2, AppliesControlsAndRejectsUnknownOnes) {
     FAIL() << "unknown control accepted";
   } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "controls");
-    EXPECT_NE(std::string(e.what()).find("has no control 'brightnes' (did you mean 'brightness'?)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("has no control 'brightnes' (did you mean 'brightness'?)"), std::string::npos)
+        << e.what();
   }
   c.controls = {{"brightness", "999"}};
   try {
     v4l2::V4l2Camera cam(c, context("front"));
     FAIL() << "out-of-range control accepted";
   } catch (const DeviceConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("control 'brightness' = 999 is outside [0, 255]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("control 'brightness' = 999 is outside [0, 255]"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -220,7 +222,8 @@ TEST(HwV4l2, RejectsFormatSizeAndBusyDeviceClearly) {
     FAIL() << "vivid does not offer MJPG";
   } catch (const DeviceConfigError& e) {
     EXPECT_EQ(e.field(), "fourcc");
-    EXPECT_NE(std::string(e.what()).find("(" + dev->path + "): does not offer 'MJPG' (offers: YUYV"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("(" + dev->path + "): does not offer 'MJPG' (offers: YUYV"), std::string::npos)
+        << e.what();
   }
   c.fourcc = "YUYV";
   c.width = 1000;
@@ -242,7 +245,8 @@ TEST(HwV4l2, RejectsFormatSizeAndBusyDeviceClearly) {
     FAIL() << "a second camera on a streaming device was accepted";
   } catch (const DeviceUnavailableError& e) {  // busy now, may be free later: restartable
     EXPECT_EQ(e.field(), "device");
-    EXPECT_NE(std::string(e.what()).find("v4l2 camera 'second' (" + dev->path + "): busy"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("v4l2 camera 'second' (" + dev->path + "): busy"), std::string::npos)
+        << e.what();
   }
   first.stop();
 }
@@ -276,7 +280,8 @@ TEST(HwV4l2, RecoversFromVividDisconnect) {
   }
   ASSERT_TRUE(wait_until([&] { return cam.stats().faults >= 1; }, 10.0)) << "disconnect not detected";
   EXPECT_NE(cam.last_error().find(dev->path), std::string::npos) << cam.last_error();
-  ASSERT_TRUE(wait_until([&] { return cam.stats().recoveries >= 1 && cam.stats().state == DeviceState::kStreaming; }, 20.0))
+  ASSERT_TRUE(
+      wait_until([&] { return cam.stats().recoveries >= 1 && cam.stats().state == DeviceState::kStreaming; }, 20.0))
       << "no recovery; last error: " << cam.last_error();
   const std::uint64_t after = cam.stats().frames;
   ASSERT_TRUE(wait_until([&] { return cam.stats().frames >= after + 5; }, 20.0)) << "no frames after recovery";

@@ -1,13 +1,12 @@
 // The mocked rover's camera previews (components/preview): under simulated time every terrain frame
 // and the wheel camera at the preview rate give a JPEG of the camera's frame with the results drawn
 // where the results put them.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdio>
 #include <map>
 #include <string>
 
+#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_support.hpp"
@@ -88,7 +87,7 @@ TEST(CameraPreview, TheMockRoverPreviewsItsFrontAndWheelCameras) {
   ASSERT_TRUE(ps);
   const cv::Mat wimg = cv::imdecode(ps->jpeg, cv::IMREAD_COLOR);
   ASSERT_EQ(wimg.size(), cv::Size(320, 240));  // 640x480 scaled to width 320
-  int red = 0;  // the leg template outline
+  int red = 0;                                 // the leg template outline
   for (int y = 0; y < wimg.rows; ++y)
     for (int x = 0; x < wimg.cols; ++x) {
       const cv::Vec3b p = wimg.at<cv::Vec3b>(y, x);

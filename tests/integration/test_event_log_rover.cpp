@@ -2,14 +2,14 @@
 // camera is wrapped in the fault-injection decorator (down after 20 frames for 15 frames' worth
 // of time); the application logs, off the cycles, exactly one error when it faults and one
 // recovery when it streams again, with the consumer's stale input in between.
-#include <gtest/gtest.h>
-#include <spdlog/sinks/ringbuffer_sink.h>
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <atomic>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <spdlog/sinks/ringbuffer_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"
@@ -35,7 +35,8 @@ std::string mock_rover_with_faulty_hub_camera(const std::string& faults) {
     indented += block[i];
     if (block[i] == '\n') indented += "    ";
   }
-  yaml.replace(at, end - at, "    wheel_cam:\n      backend: fault_injection\n" + faults + "      inner: &wheel_scene" + indented);
+  yaml.replace(at, end - at,
+               "    wheel_cam:\n      backend: fault_injection\n" + faults + "      inner: &wheel_scene" + indented);
   return yaml;
 }
 
@@ -48,7 +49,8 @@ Events run_and_log(const std::string& yaml, const std::string& camera, const std
   auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
   spdlog::default_logger()->sinks().push_back(ring);
   {
-    auto app = runtime::Application::load(Params::load_string(yaml, "fault_rover.yaml"), {.sim_time = true, .enable_dds = false});
+    auto app = runtime::Application::load(Params::load_string(yaml, "fault_rover.yaml"),
+                                          {.sim_time = true, .enable_dds = false});
     std::atomic<bool> stop{false};
     app->start();
     app->run(10 * kNsPerSec, stop);
@@ -70,8 +72,9 @@ Events run_and_log(const std::string& yaml, const std::string& camera, const std
 
 TEST(EventLog, MockRoverCameraFaultAndRecoveryAreLoggedOnce) {
   cli::register_everything();
-  const Events ev = run_and_log(
-      mock_rover_with_faulty_hub_camera("      disconnect_after: 20\n      reconnect_after: 15\n"), "wheel_cam", "wheel_sinkage");
+  const Events ev =
+      run_and_log(mock_rover_with_faulty_hub_camera("      disconnect_after: 20\n      reconnect_after: 15\n"),
+                  "wheel_cam", "wheel_sinkage");
   // The camera's own events exactly once each, in order; the consumer's stale input in between
   // (other components may add events of their own when a mock renderer thread falls behind on a
   // loaded machine: those are not asserted).
@@ -81,7 +84,8 @@ TEST(EventLog, MockRoverCameraFaultAndRecoveryAreLoggedOnce) {
   EXPECT_NE(camera[0].find("[error] camera wheel_cam: faulted"), std::string::npos) << camera[0];
   EXPECT_NE(camera[1].find("[info] camera wheel_cam: recovered (streaming)"), std::string::npos) << camera[1];
   ASSERT_GE(sinkage.size(), 2u) << ::testing::PrintToString(sinkage);
-  EXPECT_NE(sinkage.front().find("[warning] component wheel_sinkage: stale input"), std::string::npos) << sinkage.front();
+  EXPECT_NE(sinkage.front().find("[warning] component wheel_sinkage: stale input"), std::string::npos)
+      << sinkage.front();
   EXPECT_NE(sinkage.back().find("[info] component wheel_sinkage: recovered (ok)"), std::string::npos) << sinkage.back();
 }
 
@@ -91,16 +95,21 @@ TEST(EventLog, ACameraClockSteppingForwardIsWithheldCountedAndLogged) {
   // and recovers, and the sinkage component sees its camera input go stale meanwhile.
   cli::register_everything();
   hal::CameraStats st;
-  const Events ev = run_and_log(
-      mock_rover_with_faulty_hub_camera("      stamp_step_after: 20\n      stamp_step_for: 15\n      stamp_step_ms: 60000\n"),
-      "wheel_cam", "wheel_sinkage", &st);
+  const Events ev =
+      run_and_log(mock_rover_with_faulty_hub_camera(
+                      "      stamp_step_after: 20\n      stamp_step_for: 15\n      stamp_step_ms: 60000\n"),
+                  "wheel_cam", "wheel_sinkage", &st);
   EXPECT_EQ(st.bad_stamps, 15u);
   EXPECT_EQ(st.stamp_steps, 0u);
   ASSERT_EQ(ev.camera.size(), 2u) << ::testing::PrintToString(ev.camera);
-  EXPECT_NE(ev.camera[0].find("[warning] camera wheel_cam: frames stamped in the future withheld since last report (device clock)"),
-            std::string::npos) << ev.camera[0];
+  EXPECT_NE(ev.camera[0].find(
+                "[warning] camera wheel_cam: frames stamped in the future withheld since last report (device clock)"),
+            std::string::npos)
+      << ev.camera[0];
   EXPECT_NE(ev.camera[1].find("[info] camera wheel_cam: recovered (streaming)"), std::string::npos) << ev.camera[1];
   ASSERT_GE(ev.component.size(), 2u) << ::testing::PrintToString(ev.component);
-  EXPECT_NE(ev.component.front().find("[warning] component wheel_sinkage: stale input"), std::string::npos) << ev.component.front();
-  EXPECT_NE(ev.component.back().find("[info] component wheel_sinkage: recovered (ok)"), std::string::npos) << ev.component.back();
+  EXPECT_NE(ev.component.front().find("[warning] component wheel_sinkage: stale input"), std::string::npos)
+      << ev.component.front();
+  EXPECT_NE(ev.component.back().find("[info] component wheel_sinkage: recovered (ok)"), std::string::npos)
+      << ev.component.back();
 }

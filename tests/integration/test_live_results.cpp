@@ -1,12 +1,12 @@
 // The live summary's per-component results and CPU times on the mocked rover (embedded
 // config/mock_rover.yaml, simulated time): every perception component reports its latest output,
 // and the numbers agree with the mock scenes' ground truth.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdio>
 #include <map>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
@@ -57,8 +57,9 @@ TEST(LiveResults, MockRoverComponentsReportTheirLatestOutput) {
   // terrain_map on the moving mock rover: 6 s at 2 Hz = frames 0..12, every frame after the first
   // tracked by the ground VO, the map growing.
   long frames = 0, vo_ok = 0, vo_failed = 0, keyframes = 0, cells = 0;
-  ASSERT_EQ(std::sscanf(result["terrain_map"].c_str(), "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known",
-                        &frames, &vo_ok, &vo_failed, &keyframes, &cells),
+  ASSERT_EQ(std::sscanf(result["terrain_map"].c_str(),
+                        "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known", &frames, &vo_ok,
+                        &vo_failed, &keyframes, &cells),
             5)
       << result["terrain_map"];
   EXPECT_EQ(frames, 13);

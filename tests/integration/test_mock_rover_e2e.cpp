@@ -6,29 +6,29 @@
 // process, `regolith echo` subscribers in two others; every JointState and DiagnosticArray sample
 // arrives, with increasing stamps. The deployment gets a namespace and domain of its own so
 // parallel runs cannot cross-talk.
-#include <gtest/gtest.h>
-#include <unistd.h>
-#include <yaml-cpp/yaml.h>
-
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 
 namespace fs = std::filesystem;
 namespace rt = regolith::testing;
 
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(MockRoverEndToEnd, SubscribersInOtherProcessesReceiveEverySample) {
   const regolith::testing::TempDir tmp("e2e");  // removed whatever the outcome
   const fs::path& dir = tmp.path();
   const std::string ns = "e2e" + std::to_string(getpid());
   const std::string domain = std::to_string(regolith::testing::test_domain());
-  setenv("CYCLONEDDS_URI", ("file://" + std::string(REGOLITH_SOURCE_DIR) + "/runtime/dds/cyclonedds_loopback.xml").c_str(), 0);
+  setenv("CYCLONEDDS_URI",
+         ("file://" + std::string(REGOLITH_SOURCE_DIR) + "/runtime/dds/cyclonedds_loopback.xml").c_str(), 0);
 
   // The shipped mock rover, with its own namespace and domain.
   YAML::Node cfg = YAML::LoadFile(std::string(REGOLITH_SOURCE_DIR) + "/config/mock_rover.yaml");

@@ -2,9 +2,9 @@
 // mocked rover's front camera ray-casts its frames in the background, and lockstep runs several
 // times faster than real time. Without the wait the vision components saw late frames after
 // ~20 s of simulated time ("stale input" flapping, 42 of 121 frames used in 60 s).
-#include <gtest/gtest.h>
-
 #include <atomic>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"

@@ -1,10 +1,10 @@
 // The rules a Foxglove client's text messages are held to (regolith::live::apply_client_message):
 // what FoxgloveServer applies, without a socket. The server's own tests check the same texts
 // arrive as status messages over a real connection (test_foxglove_server.cpp).
-#include <gtest/gtest.h>
-
 #include <map>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/live/client_message.hpp"
 
@@ -43,7 +43,8 @@ TEST(ClientMessage, SubscribesAndUnsubscribesWhatIsValidAndNamesTheRest) {
 TEST(ClientMessage, AConnectionHoldsABoundedNumberOfSubscriptions) {
   std::map<std::uint32_t, std::uint32_t> subs;
   std::string many = R"({"op":"subscribe","subscriptions":[)";
-  for (int i = 0; i < 1030; ++i) many += (i ? "," : "") + std::string(R"({"id":)") + std::to_string(i) + R"(,"channelId":2})";
+  for (int i = 0; i < 1030; ++i)
+    many += (i ? "," : "") + std::string(R"({"id":)") + std::to_string(i) + R"(,"channelId":2})";
   many += "]}";
   const ClientMessageResult r = apply_client_message(many, subs, kChannels);
   EXPECT_EQ(subs.size(), kMaxSubscriptionsPerClient);
@@ -56,8 +57,8 @@ TEST(ClientMessage, ADeeplyNestedValueIsNamedByItsTypeNotWrittenOut) {
   // 1 MB (the server's message bound) nests 500 000 levels deep: writing such a value into the
   // error message recursed once per level and overflowed the stack of the server's thread.
   const std::size_t depth = 500000;
-  const std::string text = R"({"op":"unsubscribe","subscriptionIds":[)" + std::string(depth, '[') + std::string(depth, ']') +
-                           R"(,{"a":1},")" + std::string(100, 'y') + R"("]})";
+  const std::string text = R"({"op":"unsubscribe","subscriptionIds":[)" + std::string(depth, '[') +
+                           std::string(depth, ']') + R"(,{"a":1},")" + std::string(100, 'y') + R"("]})";
   std::map<std::uint32_t, std::uint32_t> subs;
   const ClientMessageResult r = apply_client_message(text, subs, kChannels);
   ASSERT_EQ(r.errors.size(), 3u);

@@ -2,13 +2,13 @@
 // advertise on connect, the binary messageData layout, error statuses for bad client messages
 // (the server keeps serving), a stalled client dropped and counted while another keeps receiving,
 // the client limit and the subprotocol check.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <chrono>
-#include <nlohmann/json.hpp>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "regolith/live/foxglove_server.hpp"
 #include "ws_test_client.hpp"
@@ -111,8 +111,8 @@ TEST(FoxgloveServer, AdvertisesRelaysAndAnswersBadMessagesWithErrors) {
   expect_error_status(c, "unknown subscription 42");
   // 1 MB nesting 400 000 levels deep: writing it into the error recursed once per level and
   // overflowed the server thread's stack (a remote crash); now it is named by its type.
-  const std::string deep = R"({"op":"unsubscribe","subscriptionIds":[)" + std::string(400000, '[') +
-                           std::string(400000, ']') + "]}";
+  const std::string deep =
+      R"({"op":"unsubscribe","subscriptionIds":[)" + std::string(400000, '[') + std::string(400000, ']') + "]}";
   ASSERT_TRUE(c.send_text(deep));
   expect_error_status(c, "unknown subscription (an array)");
   ASSERT_TRUE(c.send(2, std::string("\x01\x02\x03", 3)));

@@ -3,22 +3,23 @@
 // free port, and tests/live/js/client.js (Foxglove's @foxglove/ws-protocol client, schemas parsed
 // by @foxglove/rosmsg, CDR decoded by @foxglove/rosmsg2-serialization) runs as a child process:
 // serverInfo, every advertised channel (ros2msg / cdr) and the decoded names and positions.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
 #include "cli_support.hpp"
@@ -230,8 +231,8 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
       for (std::size_t k = 0; k < subs.size(); ++k) {
         const auto& t = rd::known_topics()[k];
         any |= subs[k]->take([&](const void* s, const dds_sample_info_t&) {
-                 rendered[ref.ros_name(t.name)].push_back(t.to_json(s));
-               }) > 0;
+          rendered[ref.ros_name(t.name)].push_back(t.to_json(s));
+        }) > 0;
       }
       if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
@@ -292,9 +293,9 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   }
   // What the mocked rover publishes in 6 s: every topic but /rosout (no event) and the latched ones
   // a late subscriber may have missed.
-  for (const char* t : {"joint_states", "imu", "terrain/grid_map", "terrain/rocks", "terrain/wheel_sinkage",
-                        "terrain/soil", "odom", "odom/wheel", "terrain/world_map", "preview/rocks/compressed",
-                        "preview/sinkage/compressed"})
+  for (const char* t :
+       {"joint_states", "imu", "terrain/grid_map", "terrain/rocks", "terrain/wheel_sinkage", "terrain/soil", "odom",
+        "odom/wheel", "terrain/world_map", "preview/rocks/compressed", "preview/sinkage/compressed"})
     EXPECT_GT(decoded["/" + ns + "/" + t], 0) << t;
   EXPECT_GT(decoded["/diagnostics"], 0);
   EXPECT_GT(decoded["/tf"], 0);

@@ -4,13 +4,6 @@
 // (cdr.js, run by node) against samples serialized by Cyclone DDS and relayed here, every field
 // compared with the runtime's own JSON rendering; and, when Debian's chromium is installed, the
 // page rendered headless against a fake rover: panels filled (DOM) and a non-blank screenshot.
-#include <arpa/inet.h>
-#include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <poll.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -21,14 +14,22 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "child_process.hpp"
 #include "dds_test_util.hpp"
@@ -74,7 +75,7 @@ std::string header(const std::string& head, const std::string& name) {
 
 /// One HTTP/1.1 request over a plain socket, the target sent byte for byte (no normalisation).
 HttpReply http(std::uint16_t port, const std::string& target, const std::string& method = "GET",
-              const std::string& extra_headers = "") {
+               const std::string& extra_headers = "") {
   HttpReply r;
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};
@@ -789,8 +790,9 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   // asynchronous, after the message arrived)
   const bool shown = until(
       [&] {
-        return browser.evaluate("['rocksPreview', 'sinkagePreview'].every((k) => "
-                                "Number(document.getElementById(k + '-image').dataset.frames ?? 0) > 0)") == true;
+        return browser.evaluate(
+                   "['rocksPreview', 'sinkagePreview'].every((k) => "
+                   "Number(document.getElementById(k + '-image').dataset.frames ?? 0) > 0)") == true;
       },
       std::chrono::seconds(30));
   EXPECT_TRUE(shown);

@@ -2,17 +2,17 @@
 // A minimal blocking WebSocket client for the tests of the Foxglove server, written against
 // RFC 6455 with plain sockets so that a test controls every byte: garbage frames, and a client
 // that completes the handshake and then never reads (small receive buffer).
+#include <cstdint>
+#include <cstring>
+#include <optional>
+#include <string>
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <cstdint>
-#include <cstring>
-#include <optional>
-#include <string>
 
 namespace regolith::live::testing {
 

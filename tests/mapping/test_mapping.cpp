@@ -1,23 +1,23 @@
 // regolith::mapping: planar poses, ground visual odometry, motion parallax, the world map, the
 // drive mapper and the recorded-drive reader, against exact truth from the project's own
 // renderer (mocks/terrain_scene) and, when present, the independent development drives.
-#include "temp_dir.hpp"
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
-#include <functional>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <limits>
+#include <functional>
 #include <iterator>
+#include <limits>
 #include <random>
 #include <tuple>
 #include <utility>
+
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/mapping/drive_io.hpp"
@@ -31,8 +31,7 @@
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/terrain_scene/drive.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
-
-#include <sys/wait.h>
+#include "temp_dir.hpp"
 
 namespace {
 
@@ -226,7 +225,8 @@ TEST(GroundVisualOdometry, ExcludingTheRocksTakesTheirPullOffTheTilt) {
     cv::Mat objects(key.rock_id.size(), CV_8U, cv::Scalar(0));
     for (int i = 0; i < objects.rows; ++i)
       for (int j = 0; j < objects.cols; ++j)
-        if (key.rock_id.at<int>(i, j) >= 0) objects(cv::Rect(j - 3, i - 3, 7, 7) & cv::Rect({}, objects.size())).setTo(255);
+        if (key.rock_id.at<int>(i, j) >= 0)
+          objects(cv::Rect(j - 3, i - 3, 7, 7) & cv::Rect({}, objects.size())).setTo(255);
     vo.track(rig.frame({}), {});
     vo.exclude(objects);
     vo.promote_last();
@@ -275,7 +275,8 @@ TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   const VoMeasurement& m = vo.track(fb, between(a, b));
   ASSERT_TRUE(m.ok());
   plx.set_frame(fb);
-  ASSERT_TRUE(plx.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio));
+  ASSERT_TRUE(plx.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad},
+                          m.height_ratio));
   // Heights against the true terrain at each cell's placed position (terrain relative to the
   // plane z = 0 of the camera's ground): median absolute error on confident cells.
   std::vector<double> err;
@@ -294,7 +295,7 @@ TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   ASSERT_GT(err.size(), 2000u);
   std::nth_element(err.begin(), err.begin() + static_cast<long>(err.size() / 2), err.end());
   EXPECT_LT(err[err.size() / 2], 0.015);  // median |error| over 3 m, measured 12.5 mm
-  EXPECT_GT(rocks_hit, 20);              // rock cells measured to 3 cm
+  EXPECT_GT(rocks_hit, 20);               // rock cells measured to 3 cm
   // Too short a baseline: nothing.
   EXPECT_FALSE(plx.compute(Pose2{0.1, 0, 0}, 1.0, 0.0));
   ParallaxParams bad;
@@ -321,7 +322,8 @@ TEST(PlaneSweep, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   const VoMeasurement& m = vo.track(fb, between(a, b));
   ASSERT_TRUE(m.ok());
   sweep.set_frame(fb);
-  ASSERT_TRUE(sweep.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio));
+  ASSERT_TRUE(sweep.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad},
+                            m.height_ratio));
   EXPECT_GT(sweep.samples(), 0);
   // Heights against the true terrain at each pixel's placed position, within 3 m: median
   // absolute error over confident pixels, and rock pixels measured to 3 cm.
@@ -351,7 +353,8 @@ TEST(PlaneSweep, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
   coarse.set_frame(fa);
   coarse.promote();
   coarse.set_frame(fb);
-  ASSERT_TRUE(coarse.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad}, m.height_ratio));
+  ASSERT_TRUE(coarse.compute(m.pose, m.gain, m.bias_dn, {m.key_pitch_rad, m.key_roll_rad}, {m.pitch_rad, m.roll_rad},
+                             m.height_ratio));
   ASSERT_EQ(coarse.height().cols, 160);
   std::vector<double> cerr;
   for (int i = 0; i < coarse.height().rows; ++i)
@@ -450,7 +453,7 @@ TEST(RockSightings, PixelScalesGrowWithTheImage) {
   EXPECT_EQ(wide.min_pixels, 4 * ref.min_pixels);  // areas x4
   EXPECT_EQ(wide.max_pixels, 4 * ref.max_pixels);
   EXPECT_EQ(wide.merge_gap_px, 2 * ref.merge_gap_px);
-  EXPECT_DOUBLE_EQ(wide.threshold, ref.threshold);  // not a pixel quantity
+  EXPECT_DOUBLE_EQ(wide.threshold, ref.threshold);        // not a pixel quantity
   EXPECT_NO_THROW(ref.scaled_to_width(4096).validate());  // clamped to what validate() accepts
   EXPECT_NO_THROW(ref.scaled_to_width(16).validate());
   EXPECT_THROW(ref.scaled_to_width(0), FieldError);
@@ -468,7 +471,8 @@ TEST(RockSightings, RangesRocksSeenInOneFrame) {
   ASSERT_GT(n, 2);
   int on_rock = 0, height_ok = 0;
   for (int k = 0; k < n; ++k) {
-    const double x = sightings.x().at<float>(0, k), y = sightings.y().at<float>(0, k), h = sightings.height().at<float>(0, k);
+    const double x = sightings.x().at<float>(0, k), y = sightings.y().at<float>(0, k),
+                 h = sightings.height().at<float>(0, k);
     EXPECT_GT(sightings.score().at<float>(0, k), 0.0f);
     EXPECT_GT(sightings.width().at<float>(0, k), 0.0f);
     for (const auto& r : rig.terrain.rocks()) {
@@ -517,7 +521,8 @@ TEST(RockSightings, ARockCutByTheTopEdgeIsSightedWithItsContact) {
   ASSERT_TRUE(g.valid);
   const double x = kept.x().at<float>(0, 0), y = kept.y().at<float>(0, 0), h = kept.height().at<float>(0, 0);
   const double w = kept.width().at<float>(0, 0);
-  std::printf("top-cut sighting at %.2f %.2f m (contact %.2f m), height >= %.2f m, width %.2f m\n", x, y, g.range_m, h, w);
+  std::printf("top-cut sighting at %.2f %.2f m (contact %.2f m), height >= %.2f m, width %.2f m\n", x, y, g.range_m, h,
+              w);
   EXPECT_GT(x, g.range_m);
   EXPECT_LT(x, g.range_m + std::max(0.5 * w, h) + 0.02);
   EXPECT_NEAR(y, g.lateral_m, 0.05);
@@ -680,7 +685,8 @@ TEST(WorldMap, RecenteringKeepsEveryCellAtItsWorldPositionInAnyDirection) {
     map.recenter(to.x, to.y, 0.9);
     map.finish();
     const cv::Mat& after = map.layer("elevation");
-    const int dj = static_cast<int>(std::lround((map.origin_x() - ox) / 0.1)), di = static_cast<int>(std::lround((map.origin_y() - oy) / 0.1));
+    const int dj = static_cast<int>(std::lround((map.origin_x() - ox) / 0.1)),
+              di = static_cast<int>(std::lround((map.origin_y() - oy) / 0.1));
     SCOPED_TRACE(::testing::Message() << "shift " << di << ", " << dj);
     EXPECT_TRUE(di != 0 || dj != 0);
     int kept = 0;
@@ -726,7 +732,8 @@ DriveRun run_rendered_drive(std::uint64_t seed, bool vision, int black_frame = -
       r.path += 0.06;
       r.wheel = compose(r.wheel, Pose2{0.06 * 1.015 + 0.0003 * nd(rng), 0, step.yaw + 0.0008 + 0.0003 * nd(rng)});
     }
-    cv::Mat img = rig.frame(r.truth, 0.004 * std::sin(k * 0.3), 0.006 * std::cos(k * 0.25), static_cast<std::uint64_t>(k));
+    cv::Mat img =
+        rig.frame(r.truth, 0.004 * std::sin(k * 0.3), 0.006 * std::cos(k * 0.25), static_cast<std::uint64_t>(k));
     if (k == black_frame) img = cv::Mat(240, 320, CV_8U, cv::Scalar(0));
     Pose2 odo = r.wheel;
     if (k == jump_frame) odo.x += 3.0;
@@ -752,9 +759,16 @@ void sight(cv::Mat& t, int k, const Pose2& foot, double h, const cv::Vec3d& cont
   // Top ray: towards the point top_z high at the true centre's distance.
   const double slope = (top_z - h) / (r + radius);
   const double single_h = h + c.norm() * slope;
-  for (auto [row, v] : {std::pair{kSightX, c.x()}, {kSightY, c.y()}, {kSightHeight, single_h}, {kSightWidth, width},
-                        {kSightScore, score}, {kSightSigmaRange, 0.1}, {kSightSigmaLateral, 0.03}, {kSightContactX, g.x()},
-                        {kSightContactY, g.y()}, {kSightTopSlope, slope}})
+  for (auto [row, v] : {std::pair{kSightX, c.x()},
+                        {kSightY, c.y()},
+                        {kSightHeight, single_h},
+                        {kSightWidth, width},
+                        {kSightScore, score},
+                        {kSightSigmaRange, 0.1},
+                        {kSightSigmaLateral, 0.03},
+                        {kSightContactX, g.x()},
+                        {kSightContactY, g.y()},
+                        {kSightTopSlope, slope}})
     t.at<float>(row, k) = static_cast<float>(v);
 }
 
@@ -865,8 +879,15 @@ TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat live(kTrackRows, 4, CV_32F, cv::Scalar(nan)), closed(kTrackRows, 4, CV_32F, cv::Scalar(nan));
   auto set = [](cv::Mat& t, int k, double x, double y, double h, double w, double score, double sd, int frames) {
-    for (auto [row, v] : {std::pair{kTrackX, x}, {kTrackY, y}, {kTrackHeight, h}, {kTrackWidth, w}, {kTrackScore, score},
-                          {kTrackSxx, sd * sd}, {kTrackSxy, 0.0}, {kTrackSyy, sd * sd}, {kTrackFrames, double(frames)}})
+    for (auto [row, v] : {std::pair{kTrackX, x},
+                          {kTrackY, y},
+                          {kTrackHeight, h},
+                          {kTrackWidth, w},
+                          {kTrackScore, score},
+                          {kTrackSxx, sd * sd},
+                          {kTrackSxy, 0.0},
+                          {kTrackSyy, sd * sd},
+                          {kTrackFrames, double(frames)}})
       t.at<float>(row, k) = static_cast<float>(v);
   };
   // A closed track (kept for good), a live one, a live one seen in too few frames.
@@ -906,7 +927,8 @@ TEST(DriveMapper, VisionCorrectsWheelDriftOnARenderedDrive) {
   const DriveRun vo = run_rendered_drive(11, true), wheel = run_rendered_drive(11, false);
   const double e_vo = std::hypot(vo.est.x - vo.truth.x, vo.est.y - vo.truth.y);
   const double e_w = std::hypot(wheel.est.x - wheel.truth.x, wheel.est.y - wheel.truth.y);
-  const double h_vo = std::abs(wrap_angle(vo.est.yaw - vo.truth.yaw)), h_w = std::abs(wrap_angle(wheel.est.yaw - wheel.truth.yaw));
+  const double h_vo = std::abs(wrap_angle(vo.est.yaw - vo.truth.yaw)),
+               h_w = std::abs(wrap_angle(wheel.est.yaw - wheel.truth.yaw));
   EXPECT_LT(h_vo, 0.5 * h_w) << "heading error vision " << h_vo / kDeg << " deg, wheels " << h_w / kDeg << " deg";
   EXPECT_LT(e_vo, e_w) << "position error vision " << e_vo << " m, wheels " << e_w << " m";
   EXPECT_GE(vo.counters.vo_ok, 24);  // of 29 (measured 25)
@@ -916,8 +938,8 @@ TEST(DriveMapper, VisionCorrectsWheelDriftOnARenderedDrive) {
 TEST(DriveMapper, BlackFrameAndOdometryJumpFallBackAndAreCounted) {
   const DriveRun r = run_rendered_drive(12, true, 10, 20);
   EXPECT_EQ(r.counters.frames, 30);
-  EXPECT_EQ(r.counters.odometry_jumps, 2);  // a spike jumps out and back
-  EXPECT_GE(r.counters.vo_failed, 1);  // the black frame
+  EXPECT_EQ(r.counters.odometry_jumps, 2);                                // a spike jumps out and back
+  EXPECT_GE(r.counters.vo_failed, 1);                                     // the black frame
   EXPECT_LT(std::hypot(r.est.x - r.truth.x, r.est.y - r.truth.y), 0.05);  // the jump was ignored
 }
 
@@ -999,13 +1021,16 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
     read_drive(d);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("frames.csv:3: odom_y_m: not a number ('abc')"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("frames.csv:3: odom_y_m: not a number ('abc')"), std::string::npos)
+        << e.what();
   }
   // A frame number is a whole number checked before the cast (1e308 as an int is undefined) and a
   // time is finite (NaN compared as "out of order" and the frame was dropped without a word).
   for (const auto& [row, want] : std::vector<std::pair<std::string, std::string>>{
-           {"1e308,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '1e308')"},
-           {"2.5,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '2.5')"},
+           {"1e308,frames/0001.png,1,0,0,1.57",
+            "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '1e308')"},
+           {"2.5,frames/0001.png,1,0,0,1.57",
+            "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '2.5')"},
            {"-1,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number in 0..2147483647 (got '-1')"},
            {"nan,frames/0001.png,1,0,0,1.57", "frames.csv:3: frame: must be a whole number"},
            {"1,frames/0001.png,nan,0,0,1.57", "frames.csv:3: t_s: must be a finite time (got 'nan')"},
@@ -1038,13 +1063,15 @@ TEST(RecordedDrive, BadInputNamesTheFileFieldAndLine) {
   }
   // Image sizes are whole pixels within 1..16384, checked before any cast.
   for (const char* w : {"1e30", "320.5", "0"}) {
-    std::ofstream(d / "input.json") << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": )" << w
-                                    << R"(, "height": 240, "mount_height_m": 0.6, "pitch_deg": 30}, "sun": {"azimuth_deg": 100, "elevation_deg": 40}})";
+    std::ofstream(d / "input.json")
+        << R"({"camera": {"fx": 200, "fy": 200, "cx": 159.5, "cy": 119.5, "width": )" << w
+        << R"(, "height": 240, "mount_height_m": 0.6, "pitch_deg": 30}, "sun": {"azimuth_deg": 100, "elevation_deg": 40}})";
     try {
       read_drive(d);
       ADD_FAILURE() << w;
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("input.json: camera.width: must be a whole number of pixels, 1..16384"), std::string::npos)
+      EXPECT_NE(std::string(e.what()).find("input.json: camera.width: must be a whole number of pixels, 1..16384"),
+                std::string::npos)
           << e.what();
     }
   }
@@ -1087,7 +1114,8 @@ TEST(RecordedDrive, ADescriptionOfAnotherCameraIsRefusedBeforeAnythingIsSized) {
   const regolith::testing::TempDir d_dir("mapping_other_camera");
   const fs::path d = d_dir.path();
   Rig rig(6);
-  std::ofstream(d / "input.json") << R"({"camera": {"fx": 11264, "fy": 11264, "cx": 8191.5, "cy": 6143.5, "width": 16384,
+  std::ofstream(d / "input.json")
+      << R"({"camera": {"fx": 11264, "fy": 11264, "cx": 8191.5, "cy": 6143.5, "width": 16384,
     "height": 12288, "mount_height_m": 0.67, "pitch_deg": 34.377}, "sun": {"azimuth_deg": 100, "elevation_deg": 45}})";
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n0,frames/missing.png,0,0,0,1.5707963\n";
@@ -1148,8 +1176,9 @@ TEST(RecordedDrive, ADriveOfWhichNoFrameReadsIsAnErrorOfTheCli) {
   const regolith::testing::TempDir d_dir("mapping_none");
   const fs::path d = d_dir.path();
   std::ofstream(d / "input.json") << kRigDriveJson;
-  std::ofstream(d / "frames.csv") << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n"
-                                  << "0,frames/missing0.png,0,0,0,1.5707963\n1,frames/missing1.png,1,0,0.05,1.5707963\n";
+  std::ofstream(d / "frames.csv")
+      << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n"
+      << "0,frames/missing0.png,0,0,0,1.5707963\n1,frames/missing1.png,1,0,0.05,1.5707963\n";
   const fs::path log = d / "log.txt";
   const std::string cmd = std::string(REGOLITH_TOOL) + " map " + d.string() + " --out " + (d / "out").string() + " > " +
                           log.string() + " 2>&1";
@@ -1172,8 +1201,8 @@ TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   std::ofstream csv(d / "frames.csv");
   csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
   write_rig_frames(rig, d, csv, 0, 6);
-  csv << "3,frames/3.png,3,0,0.18,1.5707963\n";          // out of order
-  csv << "7,frames/missing.png,7,0,0.42,1.5707963\n";   // unreadable
+  csv << "3,frames/3.png,3,0,0.18,1.5707963\n";        // out of order
+  csv << "7,frames/missing.png,7,0,0.42,1.5707963\n";  // unreadable
   csv.close();
   const DriveMapSummary s = map_drive(read_drive(d), DriveMapperParams{}, d / "out");
   EXPECT_EQ(s.counters.frames, 6);
@@ -1390,8 +1419,8 @@ TEST(DevelopmentDrives, TwiceTheResolutionMapsAsWell) {
   map_drive(twice, DriveMapperParams{}, out2.path());
   const nlohmann::json j1 = evaluate_map(dir, out1.path()), j2 = evaluate_map(dir, out2.path());
   const double auc1 = j1["hazard"]["auc"].get<double>(), auc2 = j2["hazard"]["auc"].get<double>();
-  std::printf("320 px: hazard AUC %.3f, rock F1 %.2f; 640 px: AUC %.3f, F1 %.2f\n", auc1, j1["rocks"]["f1"].get<double>(),
-              auc2, j2["rocks"]["f1"].get<double>());
+  std::printf("320 px: hazard AUC %.3f, rock F1 %.2f; 640 px: AUC %.3f, F1 %.2f\n", auc1,
+              j1["rocks"]["f1"].get<double>(), auc2, j2["rocks"]["f1"].get<double>());
   EXPECT_GT(auc2, auc1 - 0.02);
   EXPECT_GT(j2["map"]["coverage"].get<double>(), j1["map"]["coverage"].get<double>() - 0.05);
   EXPECT_LT(j2["poses"]["final_position_error_pct"].get<double>(),

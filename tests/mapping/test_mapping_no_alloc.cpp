@@ -1,15 +1,14 @@
 // DriveMapper::add_frame (VO, fusion, parallax, map fusion, window moves) and WorldMap::finish
 // must not allocate once running: global operator new is counted in this binary.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <new>
 
-#include "regolith/mapping/drive_mapper.hpp"
-#include "regolith/terrain_scene/terrain_scene.hpp"
+#include <gtest/gtest.h>
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "regolith/mapping/drive_mapper.hpp"
+#include "regolith/terrain_scene/terrain_scene.hpp"
 
 namespace {
 using namespace regolith;

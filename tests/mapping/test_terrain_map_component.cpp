@@ -1,8 +1,6 @@
 // The terrain_map component on the moving mock rover (synthetic_drive camera, encoders and IMU),
 // under the simulated clock: the corrected pose follows the mock's exact path, the wheels alone
 // drift with their slip, the map fills, the counters add up; bad configuration names its field.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +9,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/core/error.hpp"
@@ -168,7 +168,8 @@ TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {
                                         {.sim_time = true, .enable_dds = false});
   auto* cam = app->context().find<hal::Camera>("front");
   ASSERT_NE(cam, nullptr);
-  const auto* checked = dynamic_cast<const hal::StampCheckedCamera*>(cam);  // every camera is read through the stamp check
+  const auto* checked =
+      dynamic_cast<const hal::StampCheckedCamera*>(cam);  // every camera is read through the stamp check
   ASSERT_NE(checked, nullptr);
   const auto* truth = dynamic_cast<const mocks::DriveTruth*>(&checked->inner());
   ASSERT_NE(truth, nullptr);
@@ -290,7 +291,8 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
     ADD_FAILURE() << "track_rocks false with rock_min_frames 3 accepted";
   } catch (const regolith::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("--set:2:"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("rock_min_frames: must be 1 with track_rocks: false"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rock_min_frames: must be 1 with track_rocks: false"), std::string::npos)
+        << e.what();
   }
   EXPECT_DOUBLE_EQ(got.map.rock_merge_m, 0.4);
   EXPECT_EQ(got.sighting_tilt_window, 3);

@@ -1,13 +1,13 @@
 // The terrain_map component allocates nothing on the heap inside rate-group cycles once running,
 // with DDS on (odom, odom/wheel and the grid map are copied into pre-allocated outbox samples):
 // global operator new is counted on the rate-group threads in this binary.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <fstream>
 #include <new>
 #include <sstream>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/mapping/component.hpp"

@@ -1,10 +1,9 @@
-#include <gtest/gtest.h>
-
 #include <array>
-#include <limits>
-
 #include <cmath>
 #include <cstdio>
+#include <limits>
+
+#include <gtest/gtest.h>
 
 #include "mock_test_util.hpp"
 
@@ -279,9 +278,8 @@ TEST(CandumpEncoders, MalformedLineNamesFileAndLine) {
 TEST(CandumpEncoders, ConfigurationErrors) {
   Fixture fx;
   fx.dir.write("run.log", make_log(3));
-  std::string msg = config_error([&] {
-    fx.encoders("backend: candump\nfile: run.log\nwheels:\n  fl: {id: 0x0CF, byte_ofset: 1}\n");
-  });
+  std::string msg = config_error(
+      [&] { fx.encoders("backend: candump\nfile: run.log\nwheels:\n  fl: {id: 0x0CF, byte_ofset: 1}\n"); });
   EXPECT_NE(msg.find("did you mean 'byte_offset'"), std::string::npos) << msg;
   msg = config_error([&] { fx.encoders("backend: candump\nfile: run.log\nwheels:\n  fl: {id: 0x123}\n"); });
   EXPECT_NE(msg.find("no frame with CAN id 123"), std::string::npos) << msg;

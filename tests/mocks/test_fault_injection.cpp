@@ -1,10 +1,9 @@
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
-
 #include <array>
 #include <limits>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "mock_test_util.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
@@ -18,11 +17,14 @@ namespace {
 std::string camera_yaml(Fixture& fx, const std::string& faults) {
   std::filesystem::create_directories(fx.dir.file("frames"));
   for (int i = 0; i < 10; ++i) {
-    cv::imwrite(fx.dir.file("frames/f" + std::to_string(i) + ".png"), cv::Mat(24, 32, CV_8UC1, cv::Scalar(10 * (i + 1))));
+    cv::imwrite(fx.dir.file("frames/f" + std::to_string(i) + ".png"),
+                cv::Mat(24, 32, CV_8UC1, cv::Scalar(10 * (i + 1))));
   }
   return "backend: fault_injection\ninner: {backend: image_files, path: frames, rate_hz: 10}\n" + faults;
 }
-int expected_pixel(std::uint64_t seq) { return 10 * static_cast<int>(seq % 10 + 1); }
+int expected_pixel(std::uint64_t seq) {
+  return 10 * static_cast<int>(seq % 10 + 1);
+}
 const TimeNs kFrame = 100 * kNsPerMs;
 
 // Polls once per frame period and returns the delivered sequence numbers (-1 = nothing).
@@ -160,14 +162,14 @@ TEST(FaultCamera, ClockStepsAreCaughtByTheStampCheckEveryCameraIsReadThrough) {
   // counted once however often it is polled, and the camera reads on from frame 10 (stamps back
   // on the process clock; that step back is counted).
   Fixture fx;
-  hal::StampCheckedCamera cam(fx.camera(camera_yaml(fx, "stamp_step_after: 5\nstamp_step_for: 5\nstamp_step_ms: 10000\n")),
-                              fx.clock);
+  hal::StampCheckedCamera cam(
+      fx.camera(camera_yaml(fx, "stamp_step_after: 5\nstamp_step_for: 5\nstamp_step_ms: 10000\n")), fx.clock);
   cam.start();
   const TimeNs t0 = fx.clock.now();
   std::vector<std::int64_t> seen;
   hal::FrameLease f;
   for (int k = 0; k < 15; ++k)
-    for (int again = 0; again < 3; ++again) {  // three readers per frame period
+    for (int again = 0; again < 3; ++again) {            // three readers per frame period
       fx.clock.set(t0 + k * kFrame + again * kNsPerMs);  // read a little after the cycle's start
       const bool got = cam.latest(t0 + k * kFrame, f);
       if (again == 0) seen.push_back(got ? static_cast<std::int64_t>(f->sequence) : -1);
@@ -228,9 +230,8 @@ TEST(FaultCamera, InnerParametersAreValidated) {
   Fixture fx;
   std::string msg = config_error([&] { fx.camera(camera_yaml(fx, "") + "drop_rate: 1.5\n"); });
   EXPECT_NE(msg.find("drop_rate"), std::string::npos) << msg;
-  msg = config_error([&] {
-    fx.camera("backend: fault_injection\ninner: {backend: image_files, path: frames, rate: 10}\n");
-  });
+  msg = config_error(
+      [&] { fx.camera("backend: fault_injection\ninner: {backend: image_files, path: frames, rate: 10}\n"); });
   EXPECT_NE(msg.find("inner.rate"), std::string::npos) << msg;
   msg = config_error([&] { fx.camera("backend: fault_injection\ninner: {backend: image_file}\n"); });
   EXPECT_NE(msg.find("did you mean 'image_files'"), std::string::npos) << msg;
@@ -342,7 +343,8 @@ TEST(FaultEncoders, RecordersGetExactlyTheSamplesTheConsumerReceived) {
   // sample: the same stamps, no dropped sample and nothing from the outage, the same corrupted
   // angles. Before, the decorator served only the newest sample per recorder poll.
   Fixture fx;
-  auto enc = fx.encoders(encoder_yaml("drop_rate: 0.2\ncorrupt_rate: 0.1\nseed: 4\ndisconnect_after: 300\nreconnect_after: 50\n"));
+  auto enc = fx.encoders(
+      encoder_yaml("drop_rate: 0.2\ncorrupt_rate: 0.1\nseed: 4\ndisconnect_after: 300\nreconnect_after: 50\n"));
   enc->start();
   const TimeNs t0 = fx.clock.now();
   std::vector<hal::AngleSample> polled;
@@ -420,7 +422,8 @@ TEST(PlausibleEncoders, CorruptSamplesNeverReachTheReaderAndAreCounted) {
 
 // A scripted IMU turning at 10 deg/s (yaw = 0.1745 t rad), 100 Hz, level.
 std::string imu_yaml(const std::string& faults) {
-  return "backend: fault_injection\ninner: {backend: scripted, rate_hz: 100, yaw_rate_deg_s: 10}\nsample_rate_hz: 100\n" +
+  return "backend: fault_injection\ninner: {backend: scripted, rate_hz: 100, yaw_rate_deg_s: 10}\nsample_rate_hz: "
+         "100\n" +
          faults;
 }
 constexpr double kYawRate = 10.0 * 3.14159265358979323846 / 180.0;

@@ -1,9 +1,9 @@
-#include <gtest/gtest.h>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "mock_test_util.hpp"
 
@@ -20,7 +20,9 @@ void write_images(const TempDir& d, const std::string& sub, int n, int w = 32, i
   }
 }
 
-int pixel(const hal::FrameLease& f) { return f->image.at<std::uint8_t>(0, 0); }
+int pixel(const hal::FrameLease& f) {
+  return f->image.at<std::uint8_t>(0, 0);
+}
 
 TEST(ImageFiles, FrameIndexFollowsSimulatedTime) {
   Fixture fx;
@@ -131,7 +133,8 @@ TEST(ImageFiles, BadInputErrors) {
     cv::Mat noise(64, 64, CV_8UC1);
     cv::randu(noise, 0, 255);
     ASSERT_TRUE(cv::imencode(".jpg", noise, jpg));
-    fx.dir.write("cut/img_000.jpg", std::string(jpg.begin(), jpg.begin() + static_cast<std::ptrdiff_t>(jpg.size() / 2)));
+    fx.dir.write("cut/img_000.jpg",
+                 std::string(jpg.begin(), jpg.begin() + static_cast<std::ptrdiff_t>(jpg.size() / 2)));
     msg = config_error([&] { fx.camera("backend: image_files\npath: cut\n"); });
     EXPECT_NE(msg.find("img_000.jpg': truncated JPEG"), std::string::npos) << msg;
   }

@@ -12,8 +12,9 @@ namespace {
 #ifdef REGOLITH_HAVE_TERRAIN_SCENE
 TEST(SyntheticTerrain, RendersMovingDeterministicFrames) {
   Fixture fx;
-  const std::string yaml = "backend: synthetic_terrain\nwidth: 96\nheight: 72\nframes: 3\nrate_hz: 2\n"
-                           "speed_m_s: 0.4\nresolution_m: 0.05\n";
+  const std::string yaml =
+      "backend: synthetic_terrain\nwidth: 96\nheight: 72\nframes: 3\nrate_hz: 2\n"
+      "speed_m_s: 0.4\nresolution_m: 0.05\n";
   auto a = fx.camera(yaml + "seed: 4\n");
   auto b = fx.camera(yaml + "seed: 4\n");
   auto c = fx.camera(yaml + "seed: 5\n");
@@ -42,19 +43,18 @@ TEST(SyntheticTerrain, RendersMovingDeterministicFrames) {
 
 TEST(SyntheticTerrain, LeavingTheTerrainIsAConfigError) {
   Fixture fx;
-  const std::string msg = config_error([&] {
-    fx.camera("backend: synthetic_terrain\nwidth: 32\nheight: 24\nframes: 30\nrate_hz: 1\nspeed_m_s: 1\n");
-  });
+  const std::string msg = config_error(
+      [&] { fx.camera("backend: synthetic_terrain\nwidth: 32\nheight: 24\nframes: 30\nrate_hz: 1\nspeed_m_s: 1\n"); });
   EXPECT_NE(msg.find("leaves the terrain at frame 12"), std::string::npos) << msg;
 }
 
 TEST(SyntheticTerrain, TooManyFramesToHoldAreAConfigErrorNotAnEndlessRender) {
   Fixture fx;
-  const std::string msg = config_error([&] {
-    fx.camera("backend: synthetic_terrain\nwidth: 4096\nheight: 4096\nformat: bgr8\nframes: 10000\n");
-  });
-  EXPECT_NE(msg.find("frames: 10000 frames of 4096x4096 x 3 B are 468.8 GiB, more than the 1 GiB a mock camera may hold"),
-            std::string::npos)
+  const std::string msg = config_error(
+      [&] { fx.camera("backend: synthetic_terrain\nwidth: 4096\nheight: 4096\nformat: bgr8\nframes: 10000\n"); });
+  EXPECT_NE(
+      msg.find("frames: 10000 frames of 4096x4096 x 3 B are 468.8 GiB, more than the 1 GiB a mock camera may hold"),
+      std::string::npos)
       << msg;
 }
 #endif
@@ -62,8 +62,9 @@ TEST(SyntheticTerrain, TooManyFramesToHoldAreAConfigErrorNotAnEndlessRender) {
 #ifdef REGOLITH_HAVE_WHEEL_SCENE
 TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
   Fixture fx;
-  const std::string body = "frames: 4\nrate_hz: 10\nsample_rate_hz: 100\nspeed_rad_s: 0.5\n"
-                           "initial_angle_rad: 0.1\nsinkage_mm: 15\nseed: 3\n";
+  const std::string body =
+      "frames: 4\nrate_hz: 10\nsample_rate_hz: 100\nspeed_rad_s: 0.5\n"
+      "initial_angle_rad: 0.1\nsinkage_mm: 15\nseed: 3\n";
   auto cam = fx.camera("backend: synthetic_wheel\n" + body);
   auto enc = fx.encoders("backend: synthetic_wheel\n" + body);
   ASSERT_EQ(enc->wheel_names().at(0), "wheel");
@@ -90,7 +91,8 @@ TEST(SyntheticWheel, FramesAndEncoderAnglesMatch) {
     EXPECT_EQ(s.stamp, f->capture_time);
     const double expect_angle = 0.1 + 0.5 * 0.1 * (k % 4);
     EXPECT_NEAR(s.angle, expect_angle, 1e-12) << k;
-    EXPECT_EQ(cv::norm(f->image, ref[static_cast<std::size_t>(k % 4)], cv::NORM_INF), 0.0) << "frame " << k << " is the scene at the encoder angle";
+    EXPECT_EQ(cv::norm(f->image, ref[static_cast<std::size_t>(k % 4)], cv::NORM_INF), 0.0)
+        << "frame " << k << " is the scene at the encoder angle";
   }
 }
 
@@ -106,8 +108,7 @@ TEST(SyntheticWheel, ConfigCheckValidatesWithoutRendering) {
   hal::FrameLease f;
   ASSERT_TRUE(cam->latest(fx.clock.now(), f));
   EXPECT_EQ(cv::countNonZero(f->image), 0);
-  const std::string bad =
-      config_error([&] { fx.camera("backend: synthetic_wheel\nsinkage_mm: -1\n", 0, false); });
+  const std::string bad = config_error([&] { fx.camera("backend: synthetic_wheel\nsinkage_mm: -1\n", 0, false); });
   EXPECT_NE(bad.find("sinkage_mm"), std::string::npos) << bad;
 }
 

@@ -1,9 +1,9 @@
 // regolith::msgs::ros2msg_definition: the ros2msg schema text (rosbag2 / MCAP format) built from
 // the embedded .msg files.
-#include <gtest/gtest.h>
-
 #include <stdexcept>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/msgs/ros2msg.hpp"
 

@@ -1,12 +1,12 @@
 // regolith::plot: the pictures the tools write. Colours land where the values are, unknown
 // values are grey (or show the image beneath), the colour bar and metric axes are drawn, and
 // titles are fitted to the picture.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/common/plot.hpp"
 
@@ -116,8 +116,8 @@ TEST(Plot, HillshadeIsLitFromTheUpperLeftAndKeepsUnknownCellsUnknown) {
   const cv::Mat s = plot::hillshade(h, 0.02);
   ASSERT_EQ(s.type(), CV_32F);
   EXPECT_NEAR(s.at<float>(35, 35), std::sqrt(0.5), 1e-5);  // flat
-  EXPECT_GT(s.at<float>(15, 20), 0.9f);                     // rising towards the lower right: faces the light
-  EXPECT_LT(s.at<float>(25, 20), 0.5f);                     // falling away from it
+  EXPECT_GT(s.at<float>(15, 20), 0.9f);                    // rising towards the lower right: faces the light
+  EXPECT_LT(s.at<float>(25, 20), 0.5f);                    // falling away from it
   EXPECT_TRUE(std::isnan(s.at<float>(2, 2)));
   EXPECT_NEAR(s.at<float>(2, 3), std::sqrt(0.5), 1e-5);  // a NaN neighbour counts as flat
   EXPECT_THROW(plot::hillshade(cv::Mat(4, 4, CV_8U), 0.02), std::invalid_argument);

@@ -1,14 +1,13 @@
 // Camera previews (components/preview): boxes and overlay lines land where the results say, at the
 // preview's scale, and the JPEG decodes to the preview's size.
-#include <gtest/gtest.h>
-
 #include <array>
 #include <cmath>
 #include <limits>
-#include <utility>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/preview/preview.hpp"
@@ -27,10 +26,18 @@ saliency::RangedRock rock(cv::Rect box, double score, bool hazard, double range_
   return r;
 }
 
-bool is_red(const cv::Vec3b& p) { return p[2] > 200 && p[1] < 60 && p[0] < 60; }
-bool is_yellow(const cv::Vec3b& p) { return p[2] > 200 && p[1] > 180 && p[0] < 60; }
-bool is_green(const cv::Vec3b& p) { return p[1] > 200 && p[0] < 60 && p[2] < 60; }
-bool is_grey(const cv::Vec3b& p, int v) { return p[0] == v && p[1] == v && p[2] == v; }
+bool is_red(const cv::Vec3b& p) {
+  return p[2] > 200 && p[1] < 60 && p[0] < 60;
+}
+bool is_yellow(const cv::Vec3b& p) {
+  return p[2] > 200 && p[1] > 180 && p[0] < 60;
+}
+bool is_green(const cv::Vec3b& p) {
+  return p[1] > 200 && p[0] < 60 && p[2] < 60;
+}
+bool is_grey(const cv::Vec3b& p, int v) {
+  return p[0] == v && p[1] == v && p[2] == v;
+}
 
 }  // namespace
 
@@ -113,7 +120,7 @@ TEST(PreviewJpeg, DecodesToThePreviewAndKeepsTheColours) {
   ASSERT_TRUE(preview::encode_jpeg(out, 80, bytes));
   EXPECT_GT(bytes.size(), 500u);
   EXPECT_LT(bytes.size(), 320u * 240u);  // compressed
-  EXPECT_EQ(bytes[0], 0xFF);  // SOI marker
+  EXPECT_EQ(bytes[0], 0xFF);             // SOI marker
   EXPECT_EQ(bytes[1], 0xD8);
   const cv::Mat back = cv::imdecode(bytes, cv::IMREAD_COLOR);
   ASSERT_EQ(back.size(), out.size());
@@ -165,8 +172,8 @@ TEST(PreviewHazard, EveryPixelFindsTheCellItSeesAndOnlyThoseAreTinted) {
 
   // one impassable block of cells (traversability 0), NaN elsewhere except a free block
   cv::Mat t(grid.size_x(), grid.size_y(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  t(cv::Rect(20, 30, 20, 20)).setTo(0.0f);    // cells i 30..49, j 20..39: ~ 1.5-2.5 m ahead, centre
-  t(cv::Rect(0, 30, 10, 20)).setTo(1.0f);     // free, on the left
+  t(cv::Rect(20, 30, 20, 20)).setTo(0.0f);  // cells i 30..49, j 20..39: ~ 1.5-2.5 m ahead, centre
+  t(cv::Rect(0, 30, 10, 20)).setTo(1.0f);   // free, on the left
   const cv::Mat grey(240, 320, CV_8UC1, cv::Scalar(100));
   cv::Mat out;
   preview::draw_rocks(grey, {}, 160, out, preview::HazardOverlay{&cells, &t});

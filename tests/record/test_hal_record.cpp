@@ -2,15 +2,14 @@
 // recording (image pixels, exact angles, failed queries as NaN) and record::HalRecorder with a
 // camera, an encoder set and an IMU of its own: what is recorded, what is dropped when a ring is
 // full, and that the wrappers only forward before start().
-#include <gtest/gtest.h>
-
 #include <atomic>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <mutex>
 
+#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 #include "regolith/hal/camera.hpp"
@@ -134,8 +133,7 @@ class MemorySink final : public record::MessageSink {
   void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time, std::uint64_t,
              std::span<const std::uint8_t> data) override {
     std::lock_guard<std::mutex> l(m_);
-    messages_[topics_.at(channel)].push_back(
-        {sequence, log_time, std::vector<std::uint8_t>(data.begin(), data.end())});
+    messages_[topics_.at(channel)].push_back({sequence, log_time, std::vector<std::uint8_t>(data.begin(), data.end())});
   }
   void add_metadata(const std::string& name, const std::map<std::string, std::string>& values) override {
     std::lock_guard<std::mutex> l(m_);

@@ -5,20 +5,21 @@
 // what was written. Also: topic name spellings, unknown topic (exit 2), a file cut mid-chunk, the
 // HAL recording's camera frames (PNG files) and attitudes.
 #include <algorithm>
-#include <iterator>
-#include <gtest/gtest.h>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <sys/wait.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/serialized.hpp"
@@ -66,7 +67,8 @@ std::vector<std::string> lines(const fs::path& p) {
 template <class Msg>
 std::vector<std::vector<std::uint8_t>> serialize(dds_entity_t pp, const std::string& topic_name,
                                                  const std::vector<Msg*>& samples) {
-  const dds_entity_t topic = dds_create_topic(pp, rd::MsgTraits<Msg>::descriptor(), topic_name.c_str(), nullptr, nullptr);
+  const dds_entity_t topic =
+      dds_create_topic(pp, rd::MsgTraits<Msg>::descriptor(), topic_name.c_str(), nullptr, nullptr);
   EXPECT_GT(topic, 0);
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
@@ -154,7 +156,9 @@ class LogExport : public ::testing::Test {
     const auto cr = w.add_channel(sr, "/rover7/terrain/rocks", "cdr", {});
     for (int i = 0; i < kJointStates; ++i) {
       w.write(cj, static_cast<std::uint32_t>(i), 1000 + 10 * i, 900 + 10 * i, js_bytes[static_cast<std::size_t>(i)]);
-      if (i < kRockArrays) w.write(cr, static_cast<std::uint32_t>(i), 1005 + 10 * i, 905 + 10 * i, rock_bytes[static_cast<std::size_t>(i)]);
+      if (i < kRockArrays)
+        w.write(cr, static_cast<std::uint32_t>(i), 1005 + 10 * i, 905 + 10 * i,
+                rock_bytes[static_cast<std::size_t>(i)]);
     }
     w.close();
   }
@@ -169,9 +173,11 @@ TEST_F(LogExport, JsonLinesFieldByField) {
   const ExportRun r = run(file_.string() + " --topic joint_states --topic /rover7/terrain/rocks --out " + out.string());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("/rover7/joint_states: 30 messages -> " + (out / "rover7_joint_states.jsonl").string()),
-            std::string::npos) << r.out;
+            std::string::npos)
+      << r.out;
   EXPECT_NE(r.out.find("/rover7/terrain/rocks: 2 messages -> " + (out / "rover7_terrain_rocks.jsonl").string()),
-            std::string::npos) << r.out;
+            std::string::npos)
+      << r.out;
 
   const auto jl = lines(out / "rover7_joint_states.jsonl");
   ASSERT_EQ(jl.size(), static_cast<std::size_t>(kJointStates));
@@ -268,8 +274,10 @@ TEST_F(LogExport, DamagedChunkIsReportedTheRestExported) {
   const fs::path out = dir_ / "bad";
   const ExportRun r = run(file_.string() + " --topic joint_states --out " + out.string());
   EXPECT_EQ(r.status, 2) << r.out;
-  EXPECT_NE(r.out.find("damaged: " + file_.string() + ": byte " + std::to_string(chunk_offset) + ": Chunk: CRC mismatch"),
-            std::string::npos) << r.out;
+  EXPECT_NE(
+      r.out.find("damaged: " + file_.string() + ": byte " + std::to_string(chunk_offset) + ": Chunk: CRC mismatch"),
+      std::string::npos)
+      << r.out;
   const auto jl = lines(out / "rover7_joint_states.jsonl");
   EXPECT_GT(jl.size(), 0U);
   EXPECT_LT(jl.size(), static_cast<std::size_t>(kJointStates));
@@ -356,8 +364,8 @@ TEST_F(LogExport, HalFramesBecomePngFilesAndAttitudesLines) {
     w.close();
   }
   const fs::path out = dir_ / "hal";
-  const ExportRun r = run(file.string() + " --topic /hal/cameras/front/image --topic /hal/imus/body_imu/attitude --out " +
-                          out.string());
+  const ExportRun r = run(
+      file.string() + " --topic /hal/cameras/front/image --topic /hal/imus/body_imu/attitude --out " + out.string());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("/hal/cameras/front/image: 2 messages"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("(1 undecodable CDR payloads skipped)"), std::string::npos) << r.out;
@@ -388,7 +396,8 @@ TEST_F(LogExport, HalFramesBecomePngFilesAndAttitudesLines) {
   EXPECT_DOUBLE_EQ(v["vector"]["z"].get<double>(), 1.5);
   EXPECT_EQ(v["header"]["stamp"]["sec"], 7);
   // CSV: the same frames, the file in a column.
-  const ExportRun c = run(file.string() + " --topic /hal/cameras/front/image --format csv --out " + (dir_ / "csv").string());
+  const ExportRun c =
+      run(file.string() + " --topic /hal/cameras/front/image --format csv --out " + (dir_ / "csv").string());
   ASSERT_EQ(c.status, 0) << c.out;
   const auto cl = lines(dir_ / "csv" / "hal_cameras_front_image.csv");
   ASSERT_EQ(cl.size(), 3u);

@@ -1,13 +1,13 @@
 // regolith::record: McapWriter / McapReader round trips with and without zstd, many channels,
 // files cut off at every byte, damaged CRCs, wrong magic, and the `regolith log info` text.
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/record/crc32.hpp"

@@ -4,14 +4,14 @@
 // and per-topic message counts must be those written (for a truncated file: those of the complete
 // chunks, which the C++ reader reports too). Needs `npm ci` in tests/record/mcap_js
 // (deploy/setup.sh does it).
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/record/mcap_reader.hpp"
 #include "regolith/record/mcap_writer.hpp"
@@ -68,8 +68,7 @@ std::vector<std::uint8_t> bytes_of(std::size_t n, std::uint32_t seed) {
 
 /// Three topics, a metadata record, the deployment as attachment. Returns messages per topic.
 std::map<std::string, std::uint64_t> write_file(const fs::path& path, Compression c, std::uint64_t chunk_size,
-                                                std::uint64_t split_bytes = 0,
-                                                std::vector<fs::path>* files = nullptr) {
+                                                std::uint64_t split_bytes = 0, std::vector<fs::path>* files = nullptr) {
   McapWriterOptions o;
   o.compression = c;
   o.chunk_size = chunk_size;
@@ -162,8 +161,8 @@ TEST_P(McapJs, EveryFileOfASplitRecordingIsReadOnItsOwn) {
   check_node_modules();
   const fs::path path = temp_file(std::string("split_") + compression_name(GetParam()) + "x.mcap");
   std::vector<fs::path> files;
-  const auto topics = write_file(path, GetParam(), 64 * 1024, GetParam() == Compression::kNone ? 300 * 1024 : 48 * 1024,
-                                 &files);
+  const auto topics =
+      write_file(path, GetParam(), 64 * 1024, GetParam() == Compression::kNone ? 300 * 1024 : 48 * 1024, &files);
   ASSERT_GE(files.size(), 2U);
   std::map<std::string, std::uint64_t> sum;
   for (const auto& f : files) {

@@ -4,9 +4,6 @@
 // and decoded by an independent decoder (tests/record/mcap_js/decode.js: @mcap/core +
 // @foxglove/rosmsg parse + @foxglove/rosmsg2-serialization MessageReader), whose fields must equal
 // what was published.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -14,11 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
 #include "dds_test_util.hpp"
@@ -416,9 +417,20 @@ void record_sim_and_wall_writers(bool record_clock) {
   wall.start();
   constexpr int kSteps = 3;
   const int samples = 2 * kSteps + (record_clock ? kSteps : 0);
-  std::vector<std::string> args = {std::string(REGOLITH_EXE), "record", "joint_states", "--out", file.string(),
-                                   "--domain", std::to_string(domain), "--namespace", ns, "--use-sim-time",
-                                   "--count", std::to_string(samples), "--duration", "60"};
+  std::vector<std::string> args = {std::string(REGOLITH_EXE),
+                                   "record",
+                                   "joint_states",
+                                   "--out",
+                                   file.string(),
+                                   "--domain",
+                                   std::to_string(domain),
+                                   "--namespace",
+                                   ns,
+                                   "--use-sim-time",
+                                   "--count",
+                                   std::to_string(samples),
+                                   "--duration",
+                                   "60"};
   if (record_clock) args.insert(args.begin() + 3, "/clock");
   const pid_t pid = rt::spawn(args, log, {rt::Stderr::kSame});
   ASSERT_GT(pid, 0);
@@ -478,9 +490,13 @@ void record_sim_and_wall_writers(bool record_clock) {
   EXPECT_EQ(from_sim, samples - kSteps);
 }
 
-TEST(RecordDds, UseSimTimePutsWallClockWritersOnTheNewestClock) { record_sim_and_wall_writers(false); }
+TEST(RecordDds, UseSimTimePutsWallClockWritersOnTheNewestClock) {
+  record_sim_and_wall_writers(false);
+}
 
-TEST(RecordDds, UseSimTimeWithClockRecordedLogsItOnItsOwnTime) { record_sim_and_wall_writers(true); }
+TEST(RecordDds, UseSimTimeWithClockRecordedLogsItOnItsOwnTime) {
+  record_sim_and_wall_writers(true);
+}
 
 TEST(RecordDds, UsageErrorsExitTwoNamingTheProblem) {
   const regolith::testing::TempDir tmp("record_" + rd::testing::unique_ns());  // removed whatever the outcome

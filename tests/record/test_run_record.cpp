@@ -6,10 +6,6 @@
 // log times non-decreasing per channel; `regolith log info` reads the file. Config errors: a
 // `record:` block with DDS disabled names record.file; an unknown record key is located. With node:
 // tests/record/mcap_js/decode.js (@mcap/core, @foxglove/rosmsg2-serialization) decodes every message.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,9 +17,14 @@
 #include <string>
 #include <vector>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
 #include "regolith/record/mcap_reader.hpp"
-#include "regolith/record/recording.hpp"
 #include "regolith/record/mcap_writer.hpp"
+#include "regolith/record/recording.hpp"
 #include "temp_dir.hpp"
 #include "test_domain.hpp"
 
@@ -52,7 +53,8 @@ Result shell(const std::string& cmd) {
 
 /// `regolith ARGS` through /bin/sh, after the shell commands `shell_prefix` (e.g. limits).
 Result run(const std::string& args, const std::string& shell_prefix = "") {
-  return shell(shell_prefix + std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") + REGOLITH_EXE + " " + args);
+  return shell(shell_prefix + std::string("CYCLONEDDS_URI=file://" REGOLITH_DDS_LOOPBACK_XML " ") + REGOLITH_EXE + " " +
+               args);
 }
 
 #ifdef REGOLITH_NODE
@@ -256,15 +258,16 @@ TEST_F(RunRecord, RawCanFramesAreRecordedAndExportAsACandumpLog) {
   }
   std::ofstream(dir_ / "bus.log") << log;
   const fs::path cfg = dir_ / "can.yaml";
-  std::ofstream(cfg) << "name: can_rec\n"
-                        "dds: {enabled: true, domain: "
-                     << regolith::testing::test_domain() << ", namespace: " << ns_
-                     << "}\n"
-                        "rover:\n  wheels:\n    - {name: fl, x_m: 0.0, y_m: 0.2, radius_m: 0.1, width_m: 0.05, encoders: bus}\n"
-                        "devices:\n  encoders:\n    bus:\n      backend: candump\n      file: bus.log\n      interface: can0\n"
-                        "      wheels:\n        fl: {id: 0x0CF, length: 2, signed: false, scale: 0.001}\n"
-                        "rate_groups:\n  - {name: io, rate_hz: 100, members: [joint_states]}\n"
-                        "components:\n  joint_states: {type: joint_state_publisher, encoders: bus}\n";
+  std::ofstream(cfg)
+      << "name: can_rec\n"
+         "dds: {enabled: true, domain: "
+      << regolith::testing::test_domain() << ", namespace: " << ns_
+      << "}\n"
+         "rover:\n  wheels:\n    - {name: fl, x_m: 0.0, y_m: 0.2, radius_m: 0.1, width_m: 0.05, encoders: bus}\n"
+         "devices:\n  encoders:\n    bus:\n      backend: candump\n      file: bus.log\n      interface: can0\n"
+         "      wheels:\n        fl: {id: 0x0CF, length: 2, signed: false, scale: 0.001}\n"
+         "rate_groups:\n  - {name: io, rate_hz: 100, members: [joint_states]}\n"
+         "components:\n  joint_states: {type: joint_state_publisher, encoders: bus}\n";
   const fs::path out = dir_ / "can.mcap";
   const Result r = run("run --sim-time --duration 0.5 --quiet --config " + cfg.string() + " --record " + out.string());
   ASSERT_EQ(r.status, 0) << r.out;
@@ -299,11 +302,13 @@ TEST_F(RunRecord, RawCanFramesAreRecordedAndExportAsACandumpLog) {
   const Result d = decode_js(out);
   const std::string& js = d.out;
   ASSERT_EQ(d.status, 0) << js.substr(0, 2000);
-  EXPECT_NE(js.find("\"id\":416,\"is_extended\":false,\"is_error\":false,\"len\":11,\"data\":[17,34,51,68,85,102,119,136,153,170,187]"),
+  EXPECT_NE(js.find("\"id\":416,\"is_extended\":false,\"is_error\":false,\"len\":11,\"data\":[17,34,51,68,85,102,119,"
+                    "136,153,170,187]"),
             std::string::npos)
       << js.substr(0, 3000);
-  EXPECT_NE(js.find("\"id\":4,\"is_rtr\":false,\"is_extended\":true,\"is_error\":true,\"dlc\":8,\"data\":[0,0,8,0,0,0,0,0]"),
-            std::string::npos)
+  EXPECT_NE(
+      js.find("\"id\":4,\"is_rtr\":false,\"is_extended\":true,\"is_error\":true,\"dlc\":8,\"data\":[0,0,8,0,0,0,0,0]"),
+      std::string::npos)
       << js.substr(0, 3000);
 #endif
 }
@@ -329,8 +334,8 @@ TEST_F(RunRecord, RecordBlockFromYamlWithTopicSubset) {
 
 TEST_F(RunRecord, RecordBlockSplitsTheRecordingBySize) {
   const fs::path out = dir_ / "split.mcap";
-  const fs::path cfg = write_config(
-      "split.yaml", "\nrecord:\n  file: " + out.string() + "\n  topics: [joint_states]\n  hal: false\n  split_mb: 0.01\n");
+  const fs::path cfg = write_config("split.yaml", "\nrecord:\n  file: " + out.string() +
+                                                      "\n  topics: [joint_states]\n  hal: false\n  split_mb: 0.01\n");
   const Result r = run("run --sim-time --duration 3.5 --quiet --config " + cfg.string());
   ASSERT_EQ(r.status, 0) << r.out;
   const std::size_t at = r.out.find("split into ");
@@ -439,10 +444,12 @@ TEST_F(RunRecord, ConfigErrors) {
   r = run("run --sim-time --duration 1 --quiet --config " + plain_no_dds.string() + " --live 0");
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("--live: needs DDS, but the deployment has dds.enabled: false"), std::string::npos) << r.out;
-  const fs::path ok_live = write_config("ok_live.yaml", "\nlive: {enabled: true, listen: '127.0.0.1:0', max_clients: 2}\n");
+  const fs::path ok_live =
+      write_config("ok_live.yaml", "\nlive: {enabled: true, listen: '127.0.0.1:0', max_clients: 2}\n");
   r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string());
   EXPECT_EQ(r.status, 0) << r.out;
-  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://127\.0\.0\.1:[1-9]\d*, page http://)")))
+  EXPECT_TRUE(std::regex_search(
+      r.out, std::regex(R"(live: Foxglove WebSocket server on ws://127\.0\.0\.1:[1-9]\d*, page http://)")))
       << r.out;
   // Every interface needs a token: without one the error is located at live.listen (config) or
   // names --live (command line); a token file others can read is located at live.token_file.
@@ -451,7 +458,8 @@ TEST_F(RunRecord, ConfigErrors) {
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("open_live.yaml:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("live.listen: listening on 0.0.0.0 (not a loopback address) needs an access token"),
-            std::string::npos) << r.out;
+            std::string::npos)
+      << r.out;
   EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;
   r = run("run --sim-time --duration 1 --quiet --config " + ok_live.string() + " --live 0.0.0.0:0");
   EXPECT_EQ(r.status, 2) << r.out;
@@ -461,17 +469,20 @@ TEST_F(RunRecord, ConfigErrors) {
     fs::permissions(dir_ / "live.token", fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_read,
                     fs::perm_options::replace);
   }
-  const fs::path leaky = write_config("leaky.yaml", "\nlive: {enabled: true, listen: '0.0.0.0:0', token_file: live.token}\n");
+  const fs::path leaky =
+      write_config("leaky.yaml", "\nlive: {enabled: true, listen: '0.0.0.0:0', token_file: live.token}\n");
   r = run("run --sim-time --duration 1 --quiet --config " + leaky.string());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("leaky.yaml:"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("live.token_file: token file '" + (dir_ / "live.token").string() + "': mode 0604"), std::string::npos)
+  EXPECT_NE(r.out.find("live.token_file: token file '" + (dir_ / "live.token").string() + "': mode 0604"),
+            std::string::npos)
       << r.out;
   EXPECT_EQ(r.out.find("rate groups"), std::string::npos) << r.out;
   fs::permissions(dir_ / "live.token", fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
   r = run("run --sim-time --duration 1 --quiet --config " + leaky.string());
   EXPECT_EQ(r.status, 0) << r.out;
-  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://0\.0\.0\.0:[1-9]\d*)"))) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(live: Foxglove WebSocket server on ws://0\.0\.0\.0:[1-9]\d*)")))
+      << r.out;
 #endif
 }
 
@@ -537,7 +548,8 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   EXPECT_TRUE(fs::exists(dir_ / "assess" / "range.tiff"));
   r = run("assess " + a.string() + " --frame 1 --out " + (dir_ / "assess2").string());
   EXPECT_EQ(r.status, 2) << r.out;
-  EXPECT_NE(r.out.find("3 cameras recorded (wheel_cam, front, rear): choose one with --device"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3 cameras recorded (wheel_cam, front, rear): choose one with --device"), std::string::npos)
+      << r.out;
   r = run("assess " + a.string() + " --device front --frame 999 --out " + (dir_ / "assess2").string());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("/hal/cameras/front/image has "), std::string::npos) << r.out;
@@ -667,7 +679,9 @@ TEST_F(RunRecord, ACutRecordingReplaysItsReadablePart) {
   r = run("replay " + cut.string() + " --quiet");
   ASSERT_EQ(r.status, 0) << r.out;
   std::smatch m;
-  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(no end record \(the recording was cut short\): replaying its readable part, ([0-9.]+) s)")))
+  ASSERT_TRUE(std::regex_search(
+      r.out, m,
+      std::regex(R"(no end record \(the recording was cut short\): replaying its readable part, ([0-9.]+) s)")))
       << r.out;
   const double played = std::stod(m[1].str());
   EXPECT_GT(played, 0.2);

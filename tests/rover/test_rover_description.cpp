@@ -1,14 +1,14 @@
 // The rover description (core/rover.hpp, components/common): one sun converted into each camera's
 // frames, camera calibration inline or from a ROS camera_calibration file, and the located errors
 // an old deployment file gets.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/common/camera.hpp"
 #include "regolith/common/payloads.hpp"

@@ -1,10 +1,10 @@
 // Deployment loading: one test per class of configuration error (asserting the message, with
 // file:line:col and the field path), and a simulated-time run of a small deployment.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdio>
 #include <fstream>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
@@ -100,7 +100,9 @@ std::string replace(std::string s, const std::string& from, const std::string& t
 
 }  // namespace
 
-TEST(ConfigErrors, GoodConfigLoads) { EXPECT_EQ(load_error(kGood), "<no error>"); }
+TEST(ConfigErrors, GoodConfigLoads) {
+  EXPECT_EQ(load_error(kGood), "<no error>");
+}
 
 TEST(ConfigErrors, MalformedYaml) {
   EXPECT_EQ(load_error("name: x\nrate_groups: [\n  {name: a\n"),
@@ -125,13 +127,19 @@ TEST(ConfigErrors, UnknownComponentParameter) {
 TEST(ConfigErrors, UnknownComponentType) {
   const std::string e = load_error(replace(kGood, "type: joint_state_publisher", "type: joint_state_publsher"));
   EXPECT_EQ(e.rfind("rover.yaml:14:18: components.joints.type: unknown component type 'joint_state_publsher' "
-                    "(did you mean 'joint_state_publisher'?); available:", 0), 0u) << e;
+                    "(did you mean 'joint_state_publisher'?); available:",
+                    0),
+            0u)
+      << e;
 }
 
 TEST(ConfigErrors, UnknownBackend) {
   const std::string e = load_error(replace(kGood, "backend: constant", "backend: constnt"));
   EXPECT_EQ(e.rfind("rover.yaml:5:23: devices.encoders.wheels.backend: unknown encoder backend 'constnt' "
-                    "(did you mean 'constant'?)", 0), 0u) << e;
+                    "(did you mean 'constant'?)",
+                    0),
+            0u)
+      << e;
 }
 
 TEST(ConfigErrors, MissingDevice) {
@@ -166,8 +174,9 @@ TEST(ConfigErrors, RateAndPeriodBothGiven) {
 }
 
 TEST(ConfigErrors, BadChoice) {
-  EXPECT_EQ(load_error(replace(kGood, "rate_hz: 100", "rate_hz: 100\n    overrun: catchup")),
-            "rover.yaml:9:14: rate_groups[0].overrun: 'catchup' is not one of skip|catch_up (did you mean 'catch_up'?)");
+  EXPECT_EQ(
+      load_error(replace(kGood, "rate_hz: 100", "rate_hz: 100\n    overrun: catchup")),
+      "rover.yaml:9:14: rate_groups[0].overrun: 'catchup' is not one of skip|catch_up (did you mean 'catch_up'?)");
 }
 
 TEST(ConfigErrors, MissingFile) {
@@ -186,7 +195,8 @@ TEST(ConfigErrors, DevicesDirectoriesAndHugeFilesAreNotRead) {
       Params::load_file(path);
       ADD_FAILURE() << path;
     } catch (const ConfigError& e) {
-      EXPECT_EQ(std::string(e.what()), std::string(path) + ": not a regular file (a device, FIFO or directory), not a configuration file");
+      EXPECT_EQ(std::string(e.what()),
+                std::string(path) + ": not a regular file (a device, FIFO or directory), not a configuration file");
     }
   }
   const std::string big = ::testing::TempDir() + "regolith_big.yaml";
@@ -248,7 +258,8 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   // cpu_load under the simulated clock: 15 ms of simulated execution time in every 50th cycle of
   // the 100 Hz io group. Each such cycle ends 5 ms past the next release: one slip, one skipped
   // release; the 1 Hz health group starts late by at most 15 ms and never slips.
-  auto app = run_ten_seconds(replace(replace(kGood, "members: [joints]", "members: [joints, drill]"), "  health: {type: health}",
+  auto app = run_ten_seconds(replace(replace(kGood, "members: [joints]", "members: [joints, drill]"),
+                                     "  health: {type: health}",
                                      "  health: {type: health}\n  drill: {type: cpu_load, busy_ms: 15, every: 50}"));
   auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
   const auto& groups = app->view().groups;
@@ -274,8 +285,10 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   for (std::size_t i = 0; i < h->count; ++i) {
     const HealthEntry& e = h->entries[i];
     const std::string name = e.name.data();
-    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io") group_warned = e.level == Level::kWarn && e.slips == io.slips;
-    if (name == "drill") drill_named = e.level == Level::kWarn && std::string(e.message) == "overruns its rate group's period";
+    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io")
+      group_warned = e.level == Level::kWarn && e.slips == io.slips;
+    if (name == "drill")
+      drill_named = e.level == Level::kWarn && std::string(e.message) == "overruns its rate group's period";
     if (name == "joints") joints_ok = e.level == Level::kOk;
   }
   EXPECT_TRUE(group_warned);

@@ -2,9 +2,6 @@
 // type) while configuring; the loader checks the graph before anything runs. One test per class
 // of violation (each a located ConfigError), a linked deployment that runs, and the printed graph
 // (`regolith config check --dot` parsed by Graphviz's dot).
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +9,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/runtime/application.hpp"

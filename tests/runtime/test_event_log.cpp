@@ -1,14 +1,14 @@
 // The event log: health snapshots -> events (HealthEvents), spdlog -> /rosout (RosoutSink, rate
 // limited on the process clock), and a simulated run whose encoders fault and recover, read on
 // /rosout by a DDS reader in the same process.
-#include <gtest/gtest.h>
-#include <spdlog/logger.h>
-#include <spdlog/spdlog.h>
-
 #include <atomic>
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <spdlog/logger.h>
+#include <spdlog/spdlog.h>
 
 #include "../dds/dds_test_util.hpp"
 #include "regolith/dds/participant.hpp"
@@ -50,9 +50,11 @@ struct Got {
 
 std::vector<Got> take_all(rd::Reader<msgs::rcl_interfaces::Log>& r) {
   std::vector<Got> out;
-  r.take([&](const msgs::rcl_interfaces::Log& m, const dds_sample_info_t&) {
-    out.push_back({m.level, m.name != nullptr ? m.name : "", m.msg != nullptr ? m.msg : "", rd::to_ns(m.stamp)});
-  }, 1000);
+  r.take(
+      [&](const msgs::rcl_interfaces::Log& m, const dds_sample_info_t&) {
+        out.push_back({m.level, m.name != nullptr ? m.name : "", m.msg != nullptr ? m.msg : "", rd::to_ns(m.stamp)});
+      },
+      1000);
   return out;
 }
 
@@ -61,10 +63,12 @@ std::vector<Got> take_all(rd::Reader<msgs::rcl_interfaces::Log>& r) {
 TEST(HealthEvents, FaultsRecoveriesAndSlipsBecomeOneLineEach) {
   HealthEvents ev;
   using K = HealthEntry::Kind;
-  auto e0 = ev.update(snapshot({entry(K::kRateGroup, "io", Level::kOk, "ok"), entry(K::kCamera, "front", Level::kOk, "running")}, 1));
+  auto e0 = ev.update(
+      snapshot({entry(K::kRateGroup, "io", Level::kOk, "ok"), entry(K::kCamera, "front", Level::kOk, "running")}, 1));
   EXPECT_TRUE(e0.empty());
   auto e1 = ev.update(snapshot({entry(K::kRateGroup, "io", Level::kWarn, "cycle slips since last report", 3),
-                                entry(K::kCamera, "front", Level::kError, "faulted")}, 2));
+                                entry(K::kCamera, "front", Level::kError, "faulted")},
+                               2));
   ASSERT_EQ(e1.size(), 3u);
   EXPECT_EQ(e1[0].text, "rate group io: cycle slips since last report");
   EXPECT_EQ(e1[0].severity, Event::Severity::kWarn);
@@ -72,24 +76,28 @@ TEST(HealthEvents, FaultsRecoveriesAndSlipsBecomeOneLineEach) {
   EXPECT_EQ(e1[2].text, "camera front: faulted");
   EXPECT_EQ(e1[2].severity, Event::Severity::kError);
   // Still faulted: nothing new; the slips stopped: the group recovers.
-  auto e2 = ev.update(snapshot({entry(K::kRateGroup, "io", Level::kOk, "ok", 3), entry(K::kCamera, "front", Level::kError, "faulted")}, 3));
+  auto e2 = ev.update(snapshot(
+      {entry(K::kRateGroup, "io", Level::kOk, "ok", 3), entry(K::kCamera, "front", Level::kError, "faulted")}, 3));
   ASSERT_EQ(e2.size(), 1u);
   EXPECT_EQ(e2[0].text, "rate group io: recovered (ok)");
   EXPECT_EQ(e2[0].severity, Event::Severity::kInfo);
-  auto e3 = ev.update(snapshot({entry(K::kRateGroup, "io", Level::kOk, "ok", 3), entry(K::kCamera, "front", Level::kOk, "running")}, 4));
+  auto e3 = ev.update(snapshot(
+      {entry(K::kRateGroup, "io", Level::kOk, "ok", 3), entry(K::kCamera, "front", Level::kOk, "running")}, 4));
   ASSERT_EQ(e3.size(), 1u);
   EXPECT_EQ(e3[0].text, "camera front: recovered (running)");
   // A first snapshot reports errors at once; warnings (inputs not delivered yet at start-up)
   // only when the next snapshot still has them.
   HealthEvents late;
-  auto f = late.update(snapshot({entry(K::kComponent, "sfs", Level::kStale, "no heartbeat: component stalled"),
-                                 entry(K::kComponent, "soil", Level::kWarn, "stale input"),
-                                 entry(K::kImu, "body_imu", Level::kError, "faulted")}, 9));
+  auto f = late.update(snapshot(
+      {entry(K::kComponent, "sfs", Level::kStale, "no heartbeat: component stalled"),
+       entry(K::kComponent, "soil", Level::kWarn, "stale input"), entry(K::kImu, "body_imu", Level::kError, "faulted")},
+      9));
   ASSERT_EQ(f.size(), 1u);
   EXPECT_EQ(f[0].text, "imu body_imu: faulted");
-  auto g = late.update(snapshot({entry(K::kComponent, "sfs", Level::kStale, "no heartbeat: component stalled"),
-                                 entry(K::kComponent, "soil", Level::kOk, "ok"),
-                                 entry(K::kImu, "body_imu", Level::kError, "faulted")}, 10));
+  auto g = late.update(
+      snapshot({entry(K::kComponent, "sfs", Level::kStale, "no heartbeat: component stalled"),
+                entry(K::kComponent, "soil", Level::kOk, "ok"), entry(K::kImu, "body_imu", Level::kError, "faulted")},
+               10));
   ASSERT_EQ(g.size(), 1u);
   EXPECT_EQ(g[0].text, "component sfs: no heartbeat: component stalled");
   EXPECT_EQ(g[0].severity, Event::Severity::kWarn);
@@ -103,7 +111,8 @@ TEST(RosoutSink, RateLimitedOnTheProcessClockWithASuppressedCount) {
   rd::Participant pp({domain, tst::unique_ns()});
   rd::Reader<msgs::rcl_interfaces::Log> reader(pp, "/rosout", rd::find_topic("/rosout")->reader_qos());
   TimeNs now = 5 * kNsPerSec;
-  auto sink = std::make_shared<RosoutSink>(pp, "test_rover", [&now] { return now; }, 10.0, 5.0);
+  auto sink = std::make_shared<RosoutSink>(
+      pp, "test_rover", [&now] { return now; }, 10.0, 5.0);
   spdlog::logger log("event_log_test", sink);
   pp.start();
   ASSERT_TRUE(tst::eventually([&] {

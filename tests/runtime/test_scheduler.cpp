@@ -1,9 +1,9 @@
 // Rate groups under the simulated clock: periods, member order, exact slip counts, skip vs
 // catch-up, statistics. Members model their execution time by advancing the simulated clock.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/runtime/rate_group.hpp"
 
@@ -150,7 +150,8 @@ TEST(Scheduler, SkipDropsMissedReleasesCatchUpRunsThem) {
     if (policy == OverrunPolicy::kSkip) {
       // 0, 10 (ends at 46), next release 50: 20, 30, 40 skipped.
       EXPECT_EQ(c.skipped, 3u);
-      EXPECT_EQ(releases, (std::vector<TimeNs>{0, 10 * kMs, 50 * kMs, 60 * kMs, 70 * kMs, 80 * kMs, 90 * kMs, 100 * kMs}));
+      EXPECT_EQ(releases,
+                (std::vector<TimeNs>{0, 10 * kMs, 50 * kMs, 60 * kMs, 70 * kMs, 80 * kMs, 90 * kMs, 100 * kMs}));
     } else {
       // Every release runs: 20, 30, 40 back to back right after the overrun.
       EXPECT_EQ(c.skipped, 0u);

@@ -1,17 +1,18 @@
 // WorkerPool: every job runs exactly once across the caller and the workers, run() returns only
 // when all are done, the workers' CPU is counted and reaches the member's cpu() through the rate
 // group, and the pool shuts down cleanly. Labelled `concurrency` (TSan runs it).
-#include <gtest/gtest.h>
-#include <pthread.h>
-#include <sched.h>
-
 #include <atomic>
 #include <chrono>
-#include <mutex>
 #include <ctime>
+#include <mutex>
 #include <set>
 #include <thread>
 #include <vector>
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/parallel.hpp"
 #include "regolith/runtime/rate_group.hpp"

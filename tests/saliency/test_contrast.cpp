@@ -1,12 +1,12 @@
 // The intensity-contrast method |I - G_sigma * I| on constructed scenes, its input handling and
 // parameter errors, and the sol grouping of the cross-validation folds.
-#include <gtest/gtest.h>
-
 #include <algorithm>
-#include <opencv2/imgproc.hpp>
 #include <set>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/dataset.hpp"

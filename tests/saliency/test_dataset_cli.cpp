@@ -1,15 +1,15 @@
 // Dataset loading errors, evaluation on a few real MarsData images (skipped
 // when the shared data is absent), and the CLI contract of `regolith rocks` /
 // `regolith eval rocks`.
-#include <gtest/gtest.h>
-
-#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/dataset.hpp"

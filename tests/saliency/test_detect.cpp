@@ -1,9 +1,9 @@
 // Otsu threshold and the box post-processing on constructed images with known
 // answers.
-#include <gtest/gtest.h>
-
-#include <opencv2/imgproc.hpp>
 #include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/evaluate.hpp"

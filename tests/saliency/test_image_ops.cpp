@@ -4,15 +4,15 @@
 // this thread while armed).
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <map>
 #include <new>
-#include <opencv2/imgproc.hpp>
 #include <random>
 #include <tuple>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 #include "regolith/saliency/detect.hpp"

@@ -1,11 +1,11 @@
 // Itti-Koch building blocks and SAMS on constructed scenes with known salient
 // objects.
-#include <gtest/gtest.h>
-
-#include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/parallel.hpp"
 #include "regolith/saliency/detect.hpp"

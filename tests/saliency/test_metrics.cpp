@@ -1,12 +1,12 @@
 // Hungarian assignment, box IoU, one-to-one matching, N-MODA / N-MODP, centroid
 // hits and the pixel-level F-measure / MAE on hand-built cases with known
 // answers.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <numeric>
-#include <opencv2/imgproc.hpp>
 #include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/saliency/evaluate.hpp"
 #include "regolith/saliency/hungarian.hpp"

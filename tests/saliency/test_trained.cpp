@@ -1,17 +1,17 @@
 // The trained ranking stage (method "trained", issue 15): candidate features on a constructed
 // scene, bit-for-bit deterministic training, model-file errors, the shipped model being a
 // re-training of the dev set, and the grouped cross-validated accuracy on marsdata_rocks_dev.
-#include <gtest/gtest.h>
-
-#include <CLI/CLI.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/dataset.hpp"

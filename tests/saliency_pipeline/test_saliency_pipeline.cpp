@@ -6,10 +6,6 @@
 // counted; configuration errors must name the field.
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#include <execinfo.h>
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +14,11 @@
 #include <regex>
 #include <string>
 #include <vector>
+
+#include <execinfo.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/hal/registry.hpp"
@@ -49,7 +50,7 @@ void register_once() {
 // Camera and sun of the deployment (synthetic_terrain defaults except the sun; static rover).
 constexpr int kW = 320, kH = 240;
 constexpr double kHfov = 1.349, kCamH = 0.5, kPitch = 0.35, kSunAz = 2.5, kSunEl = 0.6;
-constexpr int kRocks = 40;      // rocks in the scene (synthetic_terrain `rocks`)
+constexpr int kRocks = 40;       // rocks in the scene (synthetic_terrain `rocks`)
 constexpr int kMinGtArea = 100;  // px, = the component's min_area_px: smaller rocks are "ignored"
 
 ts::CameraPose camera_pose() {
@@ -92,7 +93,8 @@ components:
     map_level: 2
     threshold_scale: 2.0
 %s)",
-                kW, kH, cam.fx, cam.cx, cam.fy, cam.cy, kCamH, kPitch, az_deg, el_deg, seed, kRocks, sams_extra.c_str());
+                kW, kH, cam.fx, cam.cx, cam.fy, cam.cy, kCamH, kPitch, az_deg, el_deg, seed, kRocks,
+                sams_extra.c_str());
   return buf;
 }
 
@@ -229,10 +231,11 @@ TEST(SceneRocks, DetectedAndRangedLikeTheTruth) {
       const double lat = std::abs(rr.lateral_m - rock.y_m);
       const double wrel = std::abs(rr.width_m - 2 * rock.radius_y_m) / (2 * rock.radius_y_m);
       const bool hazard_truth = 2 * rock.radius_y_m > 0.15 || rock.height_m > 0.15;
-      std::printf("seed %d rock %d: range %.3f (truth %.3f) lateral %.3f (truth %.3f) width %.3f (truth %.3f) "
-                  "height %.3f (truth %.3f) hazard %d (truth %d) IoU %.2f\n",
-                  seed, truth.rock_of[k], rr.range_m, range_truth, rr.lateral_m, rock.y_m, rr.width_m,
-                  2 * rock.radius_y_m, rr.height_m, rock.height_m, rr.hazard ? 1 : 0, hazard_truth ? 1 : 0, best_iou);
+      std::printf(
+          "seed %d rock %d: range %.3f (truth %.3f) lateral %.3f (truth %.3f) width %.3f (truth %.3f) "
+          "height %.3f (truth %.3f) hazard %d (truth %d) IoU %.2f\n",
+          seed, truth.rock_of[k], rr.range_m, range_truth, rr.lateral_m, rock.y_m, rr.width_m, 2 * rock.radius_y_m,
+          rr.height_m, rock.height_m, rr.hazard ? 1 : 0, hazard_truth ? 1 : 0, best_iou);
       max_range_rel = std::max(max_range_rel, rel);
       max_lat = std::max(max_lat, lat);
       sum_range_rel += rel;
@@ -276,12 +279,14 @@ TEST(SceneRocks, DetectedAndRangedLikeTheTruth) {
   }
   const double recall = static_cast<double>(matched) / std::max(1, n_gt);
   const double precision = static_cast<double>(matched) / std::max(1, n_det);
-  std::printf("pooled: %d valid GT rocks, %d detections, matched %d: recall@0.2 %.2f precision@0.2 %.2f, GT centres inside a box %d; "
-              "ranged %d: mean |range err| %.1f %%, max %.1f %%, max |lateral err| %.3f m, mean |width err| %.0f %%, "
-              "hazard flag agrees %d/%d; heap allocations inside cycles: %llu over %llu frames\n",
-              n_gt, n_det, matched, recall, precision, centre_hits, ranged, 100 * sum_range_rel / std::max(1, ranged),
-              100 * max_range_rel, max_lat, 100 * sum_width_rel / std::max(1, ranged), hazard_ok, ranged,
-              static_cast<unsigned long long>(allocs), static_cast<unsigned long long>(frames));
+  std::printf(
+      "pooled: %d valid GT rocks, %d detections, matched %d: recall@0.2 %.2f precision@0.2 %.2f, GT centres inside a "
+      "box %d; "
+      "ranged %d: mean |range err| %.1f %%, max %.1f %%, max |lateral err| %.3f m, mean |width err| %.0f %%, "
+      "hazard flag agrees %d/%d; heap allocations inside cycles: %llu over %llu frames\n",
+      n_gt, n_det, matched, recall, precision, centre_hits, ranged, 100 * sum_range_rel / std::max(1, ranged),
+      100 * max_range_rel, max_lat, 100 * sum_width_rel / std::max(1, ranged), hazard_ok, ranged,
+      static_cast<unsigned long long>(allocs), static_cast<unsigned long long>(frames));
   // Measured (seeds 7-9): 21 GT, 12 detections, 3 matched (recall 0.14, precision 0.25), 11 GT
   // centres inside a box; ranged rocks: mean range error 17.5 %, max 28.9 %, lateral <= 0.30 m;
   // rock_probability on rocks ~2x the visible mean.
@@ -354,8 +359,10 @@ TEST(SceneRocks, TrainedMethodRunsInTheComponentWithoutAllocating) {
   }
   EXPECT_GT(frames, 0u);
   EXPECT_EQ(allocs, 0u) << "heap allocations inside the cycles (REGOLITH_TRACE_ALLOC=N prints their stacks)";
-  std::printf("trained in the component: %d detections, %d matched (IoU 0.2), %d of %d rocks' centres inside a box, "
-              "%.0f grid cells > 0\n", detections, matched, centre_hits, n_gt, prob_on);
+  std::printf(
+      "trained in the component: %d detections, %d matched (IoU 0.2), %d of %d rocks' centres inside a box, "
+      "%.0f grid cells > 0\n",
+      detections, matched, centre_hits, n_gt, prob_on);
   EXPECT_GT(detections, 0);
   EXPECT_GE(matched, 1);
   EXPECT_GE(centre_hits, n_gt / 4);
@@ -386,13 +393,14 @@ TEST(SamsConfig, ErrorsNameTheField) {
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_structur: 0.4\n"));
   EXPECT_NE(e.find("w_structur"), std::string::npos) << e;
   EXPECT_NE(e.find("w_structure"), std::string::npos) << e;  // did you mean
-  e = config_error(with("    camera: front\n", ""));  // which camera's DTM: required
+  e = config_error(with("    camera: front\n", ""));         // which camera's DTM: required
   EXPECT_NE(e.find("components.sams.camera"), std::string::npos) << e;
   e = config_error(with("    camera: front\n", "    camera: front\n    camera_model: {fx: 200}\n"));  // old format
   EXPECT_NE(e.find("components.sams.camera_model: no longer read here: the camera is described once, in rover.cameras"),
             std::string::npos)
       << e;
-  e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_intensity: 0\n    w_orientation: 0\n    w_structure: 0\n"));
+  e = config_error(
+      with("    delta_max: 3\n", "    delta_max: 3\n    w_intensity: 0\n    w_orientation: 0\n    w_structure: 0\n"));
   EXPECT_NE(e.find("w_structure"), std::string::npos) << e;
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    max_detections: 65\n"));
   EXPECT_NE(e.find("max_detections"), std::string::npos) << e;
@@ -406,7 +414,8 @@ TEST(SamsConfig, DtmOfAnotherSizeIsCountedNotCrashed) {
       deployment(1), std::regex("sun: \\{"),
       "    other:\n      camera_info: {width: 640, height: 480, k: [400, 0, 319.5, 0, 400, 239.5, 0, 0, 1]}\n"
       "      mount: {z_m: 0.5, pitch_rad: 0.35}\nsun: {");
-  y = std::regex_replace(y, std::regex("    rocks: 40\\}\n"), "    rocks: 40}\n    other: {backend: synthetic_terrain, frames: 1, rate_hz: 2}\n");
+  y = std::regex_replace(y, std::regex("    rocks: 40\\}\n"),
+                         "    rocks: 40}\n    other: {backend: synthetic_terrain, frames: 1, rate_hz: 2}\n");
   y = std::regex_replace(y, std::regex("    type: sams\n    camera: front"), "    type: sams\n    camera: other");
   ASSERT_NE(y.find("camera: other"), std::string::npos) << y;
   ASSERT_NE(y.find("other: {backend"), std::string::npos) << y;

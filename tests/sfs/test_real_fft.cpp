@@ -1,6 +1,5 @@
 // RealFft2d (FFTW plans made once) against cv::dft, and its copy / move semantics.
 #include <gtest/gtest.h>
-
 #include <opencv2/core.hpp>
 
 #include "regolith/sfs/real_fft.hpp"
@@ -9,7 +8,9 @@ namespace rs = regolith::sfs;
 
 namespace {
 
-double max_abs_diff(const cv::Mat& a, const cv::Mat& b) { return cv::norm(a, b, cv::NORM_INF); }
+double max_abs_diff(const cv::Mat& a, const cv::Mat& b) {
+  return cv::norm(a, b, cv::NORM_INF);
+}
 
 }  // namespace
 

@@ -1,10 +1,9 @@
 // Shape from shading against exact ground truth from the synthetic terrain generator.
-#include <gtest/gtest.h>
-
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <cstdio>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
@@ -14,8 +13,8 @@ using namespace regolith;
 constexpr double kDeg = CV_PI / 180.0;
 
 struct Score {
-  double r;      // Pearson correlation (invariant to the scale/offset fit)
-  double nrmse;  // RMSE of the least-squares fitted heights / std of the truth
+  double r;          // Pearson correlation (invariant to the scale/offset fit)
+  double nrmse;      // RMSE of the least-squares fitted heights / std of the truth
   double angle_deg;  // mean surface-normal angle error after the fit
 };
 
@@ -25,10 +24,14 @@ Score score(const cv::Mat& est, const cv::Mat& truth, const cv::Mat& valid) {
     for (int c = 0; c < est.cols; ++c) {
       if (!valid.at<uchar>(r, c)) continue;
       const double x = est.at<float>(r, c), y = truth.at<float>(r, c);
-      n += 1; sx += x; sy += y; sxx += x * x; syy += y * y; sxy += x * y;
+      n += 1;
+      sx += x;
+      sy += y;
+      sxx += x * x;
+      syy += y * y;
+      sxy += x * y;
     }
-  const double cov = sxy / n - sx / n * sy / n, vx = sxx / n - sx * sx / n / n,
-               vy = syy / n - sy * sy / n / n;
+  const double cov = sxy / n - sx / n * sy / n, vx = sxx / n - sx * sx / n / n, vy = syy / n - sy * sy / n / n;
   const double a = cov / vx, b = sy / n - a * sx / n;
   Score s{cov / std::sqrt(vx * vy), 0, 0};
   double ss = 0, ang = 0;
@@ -69,8 +72,7 @@ struct Case {
   double az_deg, el_deg;
 };
 
-Score run(sfs::Method m, const terrain_scene::OrthoImage& o, double tilt_offset = 0.0,
-          int* iterations = nullptr) {
+Score run(sfs::Method m, const terrain_scene::OrthoImage& o, double tilt_offset = 0.0, int* iterations = nullptr) {
   sfs::SfsParams p;
   p.method = m;
   sfs::ShapeFromShading s(p);
@@ -89,8 +91,8 @@ TEST(Sfs, PentlandKnownLightRecoversHeights) {
     const auto o = terrain_scene::render_ortho(t, {cs.az_deg * kDeg, cs.el_deg * kDeg});
     const Score good = run(sfs::Method::kPentland, o);
     const Score wrong = run(sfs::Method::kPentland, o, CV_PI);
-    std::printf("pentland az %.0f el %.0f: r %.3f nrmse %.3f angle %.1f deg | tilt+180: r %.3f\n",
-                cs.az_deg, cs.el_deg, good.r, good.nrmse, good.angle_deg, wrong.r);
+    std::printf("pentland az %.0f el %.0f: r %.3f nrmse %.3f angle %.1f deg | tilt+180: r %.3f\n", cs.az_deg, cs.el_deg,
+                good.r, good.nrmse, good.angle_deg, wrong.r);
     // Measured r = 0.62 .. 0.73, nrmse 0.69 .. 0.79 on these scenes; margin 0.1.
     EXPECT_GT(good.r, 0.5);
     EXPECT_LT(good.nrmse, 0.88);
@@ -108,8 +110,8 @@ TEST(Sfs, TsaiShahKnownLightRecoversHeights) {
     int it = 0;
     const Score good = run(sfs::Method::kTsaiShah, o, 0.0, &it);
     const Score wrong = run(sfs::Method::kTsaiShah, o, CV_PI);
-    std::printf("tsai_shah az %.0f el %.0f: r %.3f nrmse %.3f angle %.1f deg it %d | tilt+180: r %.3f\n",
-                cs.az_deg, cs.el_deg, good.r, good.nrmse, good.angle_deg, it, wrong.r);
+    std::printf("tsai_shah az %.0f el %.0f: r %.3f nrmse %.3f angle %.1f deg it %d | tilt+180: r %.3f\n", cs.az_deg,
+                cs.el_deg, good.r, good.nrmse, good.angle_deg, it, wrong.r);
     EXPECT_GT(good.r, 0.6);
     EXPECT_LT(good.nrmse, 0.8);
     EXPECT_LT(wrong.r, good.r - 0.8);
@@ -130,8 +132,8 @@ TEST(Sfs, TsaiShahReferenceJacobiDoesNotConverge) {
   p.tsai_shah_scheme = sfs::TsaiShahScheme::kMarching;
   sfs::ShapeFromShading(p).compute(o.image, sfs::LightDirection{o.light_slant_rad, o.light_tilt_rad}, mar);
   const Score sj = score(jac.height, o.height_px, jac.valid), sm = score(mar.height, o.height_px, mar.valid);
-  std::printf("jacobi: r %.3f it %d mean update %.4f | marching: r %.3f it %d mean update %.6f\n", sj.r,
-              jac.iterations, jac.final_mean_update, sm.r, mar.iterations, mar.final_mean_update);
+  std::printf("jacobi: r %.3f it %d mean update %.4f | marching: r %.3f it %d mean update %.6f\n", sj.r, jac.iterations,
+              jac.final_mean_update, sm.r, mar.iterations, mar.final_mean_update);
   EXPECT_EQ(jac.iterations, 200);
   EXPECT_GT(jac.final_mean_update, 0.005);  // measured 0.019 (marching: 1e-5)
   EXPECT_LT(mar.final_mean_update, 1e-3);
@@ -144,8 +146,8 @@ TEST(Sfs, BichselPentlandKnownLight) {
   int it = 0;
   const Score good = run(sfs::Method::kBichselPentland, o, 0.0, &it);
   const Score wrong = run(sfs::Method::kBichselPentland, o, CV_PI);
-  std::printf("bichsel_pentland: r %.3f nrmse %.3f angle %.1f deg it %d | tilt+180: r %.3f\n", good.r,
-              good.nrmse, good.angle_deg, it, wrong.r);
+  std::printf("bichsel_pentland: r %.3f nrmse %.3f angle %.1f deg it %d | tilt+180: r %.3f\n", good.r, good.nrmse,
+              good.angle_deg, it, wrong.r);
   EXPECT_GT(good.r, 0.15);  // measured 0.23
   EXPECT_LT(wrong.r, good.r);
   EXPECT_GT(it, 1);
@@ -169,9 +171,8 @@ TEST(Sfs, LightEstimatorRefusesLowConfidenceOnTerrain) {
   const auto t = scene(3);
   const auto o = terrain_scene::render_ortho(t, {200 * kDeg, 35 * kDeg});
   const auto est = sfs::estimate_light(o.image);
-  std::printf("terrain estimate: slant %.1f tilt %.1f conf %.2f (true %.1f / %.1f)\n",
-              est.light.slant_rad / kDeg, est.light.tilt_rad / kDeg, est.confidence,
-              o.light_slant_rad / kDeg, o.light_tilt_rad / kDeg);
+  std::printf("terrain estimate: slant %.1f tilt %.1f conf %.2f (true %.1f / %.1f)\n", est.light.slant_rad / kDeg,
+              est.light.tilt_rad / kDeg, est.confidence, o.light_slant_rad / kDeg, o.light_tilt_rad / kDeg);
   EXPECT_LT(est.confidence, 0.2);
   sfs::SfsParams p;
   p.estimate_light = true;
@@ -201,8 +202,8 @@ TEST(Sfs, LightEstimatorOnSphericalPatches) {
     const cv::Mat img = terrain_scene::render_ortho_height(h, slant, tilt);
     const auto est = sfs::estimate_light(img);
     const double dt = std::abs(std::remainder(est.light.tilt_rad - tilt, 2 * CV_PI)) / kDeg;
-    std::printf("spheres tilt %.0f: est slant %.1f tilt %.1f conf %.2f\n", tilt_deg,
-                est.light.slant_rad / kDeg, est.light.tilt_rad / kDeg, est.confidence);
+    std::printf("spheres tilt %.0f: est slant %.1f tilt %.1f conf %.2f\n", tilt_deg, est.light.slant_rad / kDeg,
+                est.light.tilt_rad / kDeg, est.confidence);
     EXPECT_LT(dt, 15.0);
     EXPECT_NEAR(est.light.slant_rad / kDeg, 40.0, 20.0);
   }
@@ -319,13 +320,18 @@ TEST(Sfs, BadInput) {
     return std::string("no throw");
   };
   EXPECT_NE(msg([&] { sfs::shape_from_shading(cv::Mat(), l); }).find("empty"), std::string::npos);
-  EXPECT_NE(msg([&] { sfs::shape_from_shading(cv::Mat(32, 32, CV_16U, cv::Scalar(1)), l); }).find("16-bit"), std::string::npos);
-  EXPECT_NE(msg([&] { sfs::shape_from_shading(cv::Mat(32, 32, CV_8UC3, cv::Scalar(1, 1, 1)), l); }).find("one channel"), std::string::npos);
+  EXPECT_NE(msg([&] { sfs::shape_from_shading(cv::Mat(32, 32, CV_16U, cv::Scalar(1)), l); }).find("16-bit"),
+            std::string::npos);
+  EXPECT_NE(msg([&] { sfs::shape_from_shading(cv::Mat(32, 32, CV_8UC3, cv::Scalar(1, 1, 1)), l); }).find("one channel"),
+            std::string::npos);
   cv::Mat nanimg(32, 32, CV_32F, cv::Scalar(0.5));
   nanimg.at<float>(3, 3) = std::numeric_limits<float>::quiet_NaN();
   EXPECT_NE(msg([&] { sfs::shape_from_shading(nanimg, l); }).find("NaN"), std::string::npos);
   const cv::Mat ok(32, 32, CV_8U, cv::Scalar(100));
-  EXPECT_NE(msg([&] { sfs::shape_from_shading(ok, sfs::LightDirection{CV_PI / 2 + 0.1, 0}); }).find("slant"), std::string::npos);
+  EXPECT_NE(msg([&] {
+              sfs::shape_from_shading(ok, sfs::LightDirection{CV_PI / 2 + 0.1, 0});
+            }).find("slant"),
+            std::string::npos);
   EXPECT_NE(msg([&] { sfs::shape_from_shading(ok, std::nullopt); }).find("estimate_light"), std::string::npos);
   sfs::SfsParams p;
   p.tolerance = std::nan("");

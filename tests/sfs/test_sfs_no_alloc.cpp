@@ -1,12 +1,10 @@
 // A warm Pentland solve (FFTW plans made on the first frame) must not allocate: global operator
 // new is counted in this binary. Tsai-Shah (the marching default) is held to the same.
 #include <gtest/gtest.h>
-
 #include <opencv2/core.hpp>
 
-#include "regolith/sfs/sfs.hpp"
-
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "regolith/sfs/sfs.hpp"
 
 namespace rs = regolith::sfs;
 

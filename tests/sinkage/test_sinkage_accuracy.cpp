@@ -1,8 +1,8 @@
 // Accuracy of the estimator against the synthetic scene's exact ground truth.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
+
+#include <gtest/gtest.h>
 
 #include "scene_helpers.hpp"
 
@@ -45,11 +45,11 @@ class SequenceAccuracy : public ::testing::TestWithParam<Case> {};
 TEST_P(SequenceAccuracy, MeanErrorWithinFivePercentOfMaxSinkage) {
   const Case c = GetParam();
   const rs::EvalSummary s = run_sequence(c, 48, 3);
-  std::printf("[accuracy] light=%s misalignment=%.0f deg: valid %zu/%zu mean %.3f mm max %.3f mm "
-              "(%.2f %% / %.2f %% of max sinkage %.1f mm)\n",
-              c.poor ? "poor" : "normal", c.misalignment_deg, s.valid, s.frames,
-              s.mean_abs_error_mm, s.max_abs_error_mm, s.mean_error_pct_of_max_truth,
-              s.max_error_pct_of_max_truth, s.max_truth_mm);
+  std::printf(
+      "[accuracy] light=%s misalignment=%.0f deg: valid %zu/%zu mean %.3f mm max %.3f mm "
+      "(%.2f %% / %.2f %% of max sinkage %.1f mm)\n",
+      c.poor ? "poor" : "normal", c.misalignment_deg, s.valid, s.frames, s.mean_abs_error_mm, s.max_abs_error_mm,
+      s.mean_error_pct_of_max_truth, s.max_error_pct_of_max_truth, s.max_truth_mm);
   EXPECT_EQ(s.valid, s.frames);
   EXPECT_GT(s.max_truth_mm, 38.0);
   EXPECT_LE(s.mean_error_pct_of_max_truth, 5.0);
@@ -57,12 +57,11 @@ TEST_P(SequenceAccuracy, MeanErrorWithinFivePercentOfMaxSinkage) {
 }
 
 INSTANTIATE_TEST_SUITE_P(LightAndMisalignment, SequenceAccuracy,
-                         ::testing::Values(Case{false, 0}, Case{false, 2}, Case{false, 4},
-                                           Case{true, 0}, Case{true, 2}, Case{true, 4}),
+                         ::testing::Values(Case{false, 0}, Case{false, 2}, Case{false, 4}, Case{true, 0}, Case{true, 2},
+                                           Case{true, 4}),
                          [](const auto& tp) {
                            return std::string(tp.param.poor ? "Poor" : "Normal") + "Light" +
-                                  std::to_string(static_cast<int>(tp.param.misalignment_deg)) +
-                                  "deg";
+                                  std::to_string(static_cast<int>(tp.param.misalignment_deg)) + "deg";
                          });
 
 // Known depths: not sunk, partial and deep, at several leg angles, both light levels.
@@ -71,8 +70,7 @@ TEST(SinkageKnownDepth, ZeroPartialDeepBothLights) {
     ws::SceneParams sp;
     sp.light = poor ? ws::Illumination::poor() : ws::Illumination::normal();
     ws::WheelSceneGenerator gen(sp);
-    rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel),
-                             sp.size);
+    rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
     for (double depth : {0.0, 12.0, 45.0}) {
       for (double angle_deg : {0.0, 11.0, 25.0, 33.0}) {
         cv::Mat img;
@@ -81,8 +79,7 @@ TEST(SinkageKnownDepth, ZeroPartialDeepBothLights) {
         est.process(img, angle_deg * kDeg, r);
         ASSERT_TRUE(r.valid) << "poor=" << poor << " depth=" << depth << " angle=" << angle_deg
                              << " reason=" << rs::to_string(r.reason);
-        EXPECT_NEAR(r.sinkage_mm, t.sinkage_mm, 1.5)
-            << "poor=" << poor << " depth=" << depth << " angle=" << angle_deg;
+        EXPECT_NEAR(r.sinkage_mm, t.sinkage_mm, 1.5) << "poor=" << poor << " depth=" << depth << " angle=" << angle_deg;
         EXPECT_GT(r.confidence, 0.6);
         EXPECT_EQ(r.used_adaptive, poor);
         // the deepest leg reported is the true deepest leg
@@ -102,8 +99,7 @@ TEST(SinkageKnownDepth, ZeroPartialDeepBothLights) {
 TEST(SinkageKnownDepth, TiltedLegUsesVerticalDepth) {
   ws::SceneParams sp;
   ws::WheelSceneGenerator gen(sp);
-  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel),
-                           sp.size);
+  rs::SinkageEstimator est(ws::sinkage_geometry(sp.wheel), ws::sinkage_params(sp.wheel), sp.size);
   const double angle = 30.0 * kDeg;  // legs at 30 and -42 deg: only leg 0 is in the window
   cv::Mat img;
   const double tip_y = sp.wheel.hub_center_px.y + sp.wheel.leg_length_px * std::cos(angle);
@@ -146,8 +142,8 @@ TEST(SinkageMisalignment, ErrorGrowthUpToMaskTolerance) {
     for (double mis : {-6.0, 6.0}) {
       const rs::EvalSummary s = run_sequence({poor, mis}, 24, 5);
       std::printf("[misalignment] light=%s %+.0f deg: mean %.3f mm (%.2f %%) max %.3f mm valid %zu/%zu\n",
-                  poor ? "poor" : "normal", mis, s.mean_abs_error_mm,
-                  s.mean_error_pct_of_max_truth, s.max_abs_error_mm, s.valid, s.frames);
+                  poor ? "poor" : "normal", mis, s.mean_abs_error_mm, s.mean_error_pct_of_max_truth, s.max_abs_error_mm,
+                  s.valid, s.frames);
       EXPECT_EQ(s.valid, s.frames);
       EXPECT_LE(s.mean_error_pct_of_max_truth, 5.0);
     }
@@ -197,8 +193,7 @@ TEST(SinkageFilter, MedianAndEma) {
 }
 
 TEST(SinkageEvaluate, SummaryNumbers) {
-  const std::vector<rs::EvalSample> s = {
-      {0.0, 1.0, true}, {10.0, 12.0, true}, {20.0, 17.0, true}, {40.0, 0.0, false}};
+  const std::vector<rs::EvalSample> s = {{0.0, 1.0, true}, {10.0, 12.0, true}, {20.0, 17.0, true}, {40.0, 0.0, false}};
   const rs::EvalSummary e = rs::evaluate(s);
   EXPECT_EQ(e.frames, 4U);
   EXPECT_EQ(e.valid, 3U);

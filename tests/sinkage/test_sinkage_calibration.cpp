@@ -1,8 +1,8 @@
 // Calibration from an un-sunk frame recovers the scene's geometry; YAML rendering.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "scene_helpers.hpp"
 
@@ -12,7 +12,9 @@ using rs::testing::kDeg;
 
 namespace {
 
-double wrap_period(double a, double period) { return std::remainder(a, period); }
+double wrap_period(double a, double period) {
+  return std::remainder(a, period);
+}
 
 }  // namespace
 
@@ -22,8 +24,7 @@ TEST(SinkageCalibration, RecoversKnownGeometry) {
     double length, width, offset_deg, angle;
     bool poor;
   };
-  for (const Setup& s : {Setup{{320, 110}, 300, 28, 0.0, 0.3, false},
-                         Setup{{300, 130}, 280, 24, 10.0, -0.5, false},
+  for (const Setup& s : {Setup{{320, 110}, 300, 28, 0.0, 0.3, false}, Setup{{300, 130}, 280, 24, 10.0, -0.5, false},
                          Setup{{330, 100}, 300, 30, -5.0, 0.9, true}}) {
     ws::SceneParams sp;
     sp.wheel.hub_center_px = s.hub;
@@ -46,8 +47,7 @@ TEST(SinkageCalibration, RecoversKnownGeometry) {
     EXPECT_NEAR(g.hub_radius_px, sp.wheel.hub_radius_px, 3.0);
     EXPECT_NEAR(g.foot_width_px, sp.wheel.foot_width_px, 4.0);
     EXPECT_NEAR(g.foot_thickness_px, sp.wheel.foot_thickness_px, 3.0);
-    EXPECT_NEAR(wrap_period(g.angle_offset_rad - s.offset_deg * kDeg, g.leg_spacing_rad), 0.0,
-                1.0 * kDeg);
+    EXPECT_NEAR(wrap_period(g.angle_offset_rad - s.offset_deg * kDeg, g.leg_spacing_rad), 0.0, 1.0 * kDeg);
 
     // the calibrated geometry measures sinkage as well as the true one
     rs::SinkageEstimator est(g, ws::sinkage_params(sp.wheel), sp.size);

@@ -1,9 +1,9 @@
 // Dynamic mask geometry, parameter validation and bad input.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "error_of.hpp"
 #include "scene_helpers.hpp"
@@ -99,8 +99,7 @@ TEST(SinkageMask, OnlyContactWindowLegs) {
         const double rho = std::hypot(dx, dy);
         const double psi = std::atan2(dx, dy);
         const double limit = p.contact_half_angle_rad + p.angle_tolerance_rad +
-                             std::atan((0.5 * g.foot_width_px + p.mask_margin_px + 1.0) /
-                                       std::max(rho, 1.0));
+                             std::atan((0.5 * g.foot_width_px + p.mask_margin_px + 1.0) / std::max(rho, 1.0));
         if (std::abs(psi) > limit || rho > g.leg_length_px + 30.0) ++bad;
       }
     }
@@ -131,19 +130,32 @@ TEST(SinkageValidation, GeometryErrorsNameTheField) {
     mutate(g);
     return error_of([&] { g.validate(); });
   };
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_width_px = -1; }).find("WheelGeometry.leg_width_px"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.hub_center_px.x = std::numeric_limits<double>::quiet_NaN(); }).find("WheelGeometry.hub_center_px.x"), std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_width_px = -1; }).find("WheelGeometry.leg_width_px"),
+            std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) {
+              g.hub_center_px.x = std::numeric_limits<double>::quiet_NaN();
+            }).find("WheelGeometry.hub_center_px.x"),
+            std::string::npos);
   EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_count = 0; }).find("WheelGeometry.leg_count"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_spacing_rad = 2.0; }).find("WheelGeometry.leg_spacing_rad"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = 30; }).find("WheelGeometry.leg_length_px"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.foot_width_px = -3; }).find("WheelGeometry.foot_width_px"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.foot_thickness_px = 1000; }).find("WheelGeometry.foot_thickness_px"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.rotation_direction = 0; }).find("WheelGeometry.rotation_direction"), std::string::npos);
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.angle_offset_rad = INFINITY; }).find("WheelGeometry.angle_offset_rad"), std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_spacing_rad = 2.0; }).find("WheelGeometry.leg_spacing_rad"),
+            std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = 30; }).find("WheelGeometry.leg_length_px"),
+            std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.foot_width_px = -3; }).find("WheelGeometry.foot_width_px"),
+            std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.foot_thickness_px = 1000; }).find("WheelGeometry.foot_thickness_px"),
+            std::string::npos);
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.rotation_direction = 0; }).find("WheelGeometry.rotation_direction"),
+            std::string::npos);
+  EXPECT_NE(
+      bad_geom([](rs::WheelGeometry& g) { g.angle_offset_rad = INFINITY; }).find("WheelGeometry.angle_offset_rad"),
+      std::string::npos);
   EXPECT_EQ(bad_geom([](rs::WheelGeometry&) {}), "<no exception>");
   // A leg of 1e9 px passed and the estimator's tables threw std::bad_alloc at configure (found by
   // probing every deployment parameter at its bounds).
-  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = 1e9; }).find("WheelGeometry.leg_length_px: must be <= 32768 px"),
+  EXPECT_NE(bad_geom([](rs::WheelGeometry& g) {
+              g.leg_length_px = 1e9;
+            }).find("WheelGeometry.leg_length_px: must be <= 32768 px"),
             std::string::npos);
   EXPECT_EQ(bad_geom([](rs::WheelGeometry& g) { g.leg_length_px = rs::kMaxLegLengthPx; }), "<no exception>");
 }
@@ -154,19 +166,26 @@ TEST(SinkageValidation, ParamErrorsNameTheField) {
     mutate(p);
     return error_of([&] { p.validate(); });
   };
-  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.ema_alpha = 0; }).find("SinkageParams.ema_alpha"), std::string::npos);
-  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.open_kernel_px = 4; }).find("SinkageParams.open_kernel_px"), std::string::npos);
-  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.mm_per_px = std::numeric_limits<double>::quiet_NaN(); }).find("SinkageParams.mm_per_px"), std::string::npos);
+  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.ema_alpha = 0; }).find("SinkageParams.ema_alpha"),
+            std::string::npos);
+  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.open_kernel_px = 4; }).find("SinkageParams.open_kernel_px"),
+            std::string::npos);
+  EXPECT_NE(bad_params([](rs::SinkageParams& p) {
+              p.mm_per_px = std::numeric_limits<double>::quiet_NaN();
+            }).find("SinkageParams.mm_per_px"),
+            std::string::npos);
   EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.sat_min = 1.5; }).find("SinkageParams.sat_min"), std::string::npos);
-  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.median_window = 0; }).find("SinkageParams.median_window"), std::string::npos);
-  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.angle_tolerance_rad = -0.1; }).find("SinkageParams.angle_tolerance_rad"), std::string::npos);
+  EXPECT_NE(bad_params([](rs::SinkageParams& p) { p.median_window = 0; }).find("SinkageParams.median_window"),
+            std::string::npos);
+  EXPECT_NE(
+      bad_params([](rs::SinkageParams& p) { p.angle_tolerance_rad = -0.1; }).find("SinkageParams.angle_tolerance_rad"),
+      std::string::npos);
   EXPECT_EQ(bad_params([](rs::SinkageParams&) {}), "<no exception>");
   // the constructor validates too
   rs::WheelGeometry g;
   g.leg_width_px = 0;
   EXPECT_THROW(rs::SinkageEstimator(g, rs::SinkageParams{}, {640, 480}), std::invalid_argument);
-  EXPECT_THROW(rs::SinkageEstimator(rs::WheelGeometry{}, rs::SinkageParams{}, {0, 480}),
-               std::invalid_argument);
+  EXPECT_THROW(rs::SinkageEstimator(rs::WheelGeometry{}, rs::SinkageParams{}, {0, 480}), std::invalid_argument);
   // leg_length_mm overrides mm_per_px (thesis L / plz)
   rs::SinkageParams p;
   p.leg_length_mm = 150.0;
@@ -177,9 +196,14 @@ TEST(SinkageBadInput, ImageErrorsAreClear) {
   rs::SinkageEstimator est(rs::WheelGeometry{}, rs::SinkageParams{}, {640, 480});
   rs::SinkageResult r;
   EXPECT_NE(error_of([&] { est.process(cv::Mat(), 0.0, r); }).find("bgr: empty image"), std::string::npos);
-  EXPECT_NE(error_of([&] { est.process(cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)), 0.0, r); }).find("expected CV_8UC3"), std::string::npos);
-  EXPECT_NE(error_of([&] { est.process(cv::Mat(240, 320, CV_8UC3, cv::Scalar(0)), 0.0, r); }).find("expected 640x480 (got 320x240)"), std::string::npos);
-  EXPECT_NE(error_of([&] { est.process(cv::Mat(480, 640, CV_32FC3, cv::Scalar(0)), 0.0, r); }).find("expected CV_8UC3"), std::string::npos);
+  EXPECT_NE(error_of([&] { est.process(cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)), 0.0, r); }).find("expected CV_8UC3"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              est.process(cv::Mat(240, 320, CV_8UC3, cv::Scalar(0)), 0.0, r);
+            }).find("expected 640x480 (got 320x240)"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { est.process(cv::Mat(480, 640, CV_32FC3, cv::Scalar(0)), 0.0, r); }).find("expected CV_8UC3"),
+            std::string::npos);
 }
 
 // Stale or missing encoder data (NaN angle) -> invalid, confidence 0, counted.

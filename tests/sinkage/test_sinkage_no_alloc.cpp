@@ -1,13 +1,12 @@
 // process() must not allocate once constructed: global operator new is counted in this binary.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <new>
 
-#include "scene_helpers.hpp"
+#include <gtest/gtest.h>
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "scene_helpers.hpp"
 
 namespace rs = regolith::sinkage;
 namespace ws = regolith::wheel_scene;

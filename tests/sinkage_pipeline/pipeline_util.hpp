@@ -2,14 +2,14 @@
 // Shared helpers for the wheel_sinkage pipeline tests: registration of the runtime, mock backends
 // and the component, a probe component that records every sample of the "terrain/wheel_sinkage"
 // channel (into a pre-reserved vector: it does not allocate in step), and deployment loading.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/hal/registry.hpp"
@@ -114,12 +114,17 @@ inline std::string deployment(const std::string& scene, const std::string& compo
          "dds: {enabled: false}\n"
          "devices:\n"
          "  cameras:\n"
-         "    wheel_cam: &scene {backend: synthetic_wheel, " + scene + "}\n"
+         "    wheel_cam: &scene {backend: synthetic_wheel, " +
+         scene +
+         "}\n"
          "  encoders:\n"
-         "    wheel_leg: *scene\n" + extra_devices +
+         "    wheel_leg: *scene\n" +
+         extra_devices +
          "rate_groups:\n"
          "  - name: sinkage\n"
-         "    rate_hz: " + std::to_string(group_hz) + "\n"
+         "    rate_hz: " +
+         std::to_string(group_hz) +
+         "\n"
          "    members: [sinkage, probe]\n"
          "components:\n"
          "  sinkage:\n"
@@ -133,8 +138,8 @@ inline std::string deployment(const std::string& scene, const std::string& compo
          "      hub_radius_px: 40\n"
          "      foot_width_px: 48\n"
          "      foot_thickness_px: 10\n"
-         "    mm_per_px: 0.5\n" + component +
-         "  probe: {type: test_sinkage_probe}\n";
+         "    mm_per_px: 0.5\n" +
+         component + "  probe: {type: test_sinkage_probe}\n";
 }
 
 }  // namespace regolith::sinkage::testing

@@ -2,16 +2,16 @@
 // binary (cli_stub.cpp stands in for tools/main.cpp's helpers). Output numbers are checked against
 // the synthetic ground truth; bad input raises InputError / ConfigError naming the file and line
 // (tools/main.cpp maps both to exit code 2).
-#include <CLI/CLI.hpp>
-#include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/sinkage/bench_log.hpp"
@@ -89,8 +89,8 @@ TEST(SinkageCli, CalibratePrintsTheGeometryBlockOfTheUnsunkWheel) {
   gen.render_at_soil_level(0.3, 470.0, bgr);  // soil below every tip: un-sunk
   const fs::path png = dir / "unsunk.png";
   ASSERT_TRUE(cv::imwrite(png.string(), bgr));
-  const std::string out = run_cli({"calibrate", "sinkage", png.string(), "--angle", "0.3",
-                                   "--overlay", (dir / "cal.png").string()});
+  const std::string out =
+      run_cli({"calibrate", "sinkage", png.string(), "--angle", "0.3", "--overlay", (dir / "cal.png").string()});
   ASSERT_EQ(out.rfind("# regolith calibrate sinkage ", 0), 0u) << out;
   const YAML::Node g = YAML::Load(out)["geometry"];
   ASSERT_TRUE(g) << out;
@@ -203,8 +203,8 @@ TEST(SinkageCli, EvalBenchLogGroupsConditions) {
   EXPECT_EQ(rows[0].valid, 2);
   EXPECT_NEAR(rows[0].mean_mm, 1.5, 1e-9);
   EXPECT_NEAR(rows[0].max_mm, 2.0, 1e-9);
-  EXPECT_NEAR(rows[0].mean_pct_gt, 5.0, 0.051);    // 1.5 / 30
-  EXPECT_NEAR(rows[0].max_pct_max, 5.0, 0.051);    // 2 / 40
+  EXPECT_NEAR(rows[0].mean_pct_gt, 5.0, 0.051);  // 1.5 / 30
+  EXPECT_NEAR(rows[0].max_pct_max, 5.0, 0.051);  // 2 / 40
   EXPECT_EQ(rows[1].light, "10-15 lux");
   EXPECT_NEAR(rows[1].mean_mm, 0.5, 1e-9);
 }
@@ -227,11 +227,13 @@ TEST(SinkageCli, EvalBadInputNamesFileAndLine) {
   EXPECT_EQ(error_of<regolith::InputError>({"eval", "sinkage", "--log", log.string()}),
             log.string() + ":2: column valid: expected 0 or 1 (got 'yes')");
   std::ofstream(log) << "time,vision\n";
-  EXPECT_EQ(error_of<regolith::InputError>({"eval", "sinkage", "--log", log.string()}).substr(0, log.string().size() + 20),
-            log.string() + ":1: expected header ");
+  EXPECT_EQ(
+      error_of<regolith::InputError>({"eval", "sinkage", "--log", log.string()}).substr(0, log.string().size() + 20),
+      log.string() + ":1: expected header ");
   // A parameter file with a bad geometry names the field (ConfigError, exit code 2 as well).
   const fs::path params = dir / "params.yaml";
   std::ofstream(params) << "geometry:\n  hub_center_px: [320, 110]\n  leg_length_px: 300\n  leg_width_px: -3\n";
-  const std::string e = error_of<regolith::ConfigError>({"eval", "sinkage", "--synthetic", "--params", params.string()});
+  const std::string e =
+      error_of<regolith::ConfigError>({"eval", "sinkage", "--synthetic", "--params", params.string()});
   EXPECT_EQ(e, params.string() + ":4:17: geometry.leg_width_px: value must be > 0 (got -3)");
 }

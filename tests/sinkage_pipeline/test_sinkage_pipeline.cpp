@@ -1,11 +1,11 @@
 // The wheel_sinkage component in a deployment run under the simulated clock (DDS disabled):
 // published sinkage against the synthetic truth, the wheel angle interpolated at each frame's
 // capture time, stale / missing encoder data, bench-rig log and overlays, configuration errors.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+
+#include <gtest/gtest.h>
 
 #include "pipeline_util.hpp"
 #include "regolith/sinkage/bench_log.hpp"
@@ -75,8 +75,9 @@ TEST(SinkagePipeline, PublishedSinkageMatchesSyntheticTruthPoorLight) {
 // Frames at 7 Hz, encoder samples at 30 Hz: capture times fall between samples. The component must
 // interpolate at the capture time; the newest sample would be up to 2 rad/s / 30 Hz = 0.067 rad off.
 TEST(SinkagePipeline, WheelAngleIsInterpolatedAtTheFrameCaptureTime) {
-  auto app = load(deployment("rate_hz: 7, frames: 30, speed_rad_s: 2.0, initial_angle_rad: 0.1, sinkage_mm: 15, "
-                             "sample_rate_hz: 30"));
+  auto app =
+      load(deployment("rate_hz: 7, frames: 30, speed_rad_s: 2.0, initial_angle_rad: 0.1, sinkage_mm: 15, "
+                      "sample_rate_hz: 30"));
   run_for(*app, 4.0);  // 29 frames: less than one loop of the 30 rendered frames
   const auto& v = probe_samples();
   ASSERT_EQ(v.size(), 29u);
@@ -121,8 +122,9 @@ TEST(SinkagePipeline, StaleEncoderGivesInvalidCountedResults) {
 // With a tolerant timeout the late samples are not "stale", but the angle at the capture time needs
 // 300 ms of extrapolation (the backend allows 50 ms) -> no angle, invalid, counted.
 TEST(SinkagePipeline, EncoderFarBehindTheFrameGivesNoAngle) {
-  std::string yaml = deployment("rate_hz: 10, frames: 20, speed_rad_s: 0.5, sinkage_mm: 20", "    encoder_timeout_s: 1.0\n",
-                                "    late: {backend: fault_injection, delay_ms: 300, inner: *scene}\n");
+  std::string yaml =
+      deployment("rate_hz: 10, frames: 20, speed_rad_s: 0.5, sinkage_mm: 20", "    encoder_timeout_s: 1.0\n",
+                 "    late: {backend: fault_injection, delay_ms: 300, inner: *scene}\n");
   yaml = replace(yaml, "encoders: wheel_leg", "encoders: late");
   auto app = load(yaml);
   run_for(*app, 1.95);
@@ -160,16 +162,22 @@ TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
   const fs::path& dir = tmp.path();
   const fs::path log = dir / "bench.csv";
   fs::create_directories(dir / "overlays");
-  const std::string comp = "    transducer_encoders: lvdt\n"
-                           "    transducer: sinkage_lvdt\n"
-                           "    transducer_scale: 0.001\n"       // channel in mm -> m
-                           "    transducer_offset_m: 0.0005\n"
-                           "    log_csv: " + log.string() + "\n"
-                           "    load_label: 3.5 kg\n"
-                           "    illumination_label: 300-400 lux\n"
-                           "    overlay_dir: " + (dir / "overlays").string() + "\n"
-                           "    overlay_every: 5\n";
-  const std::string lvdt = "    lvdt: {backend: scripted, wheels: [sinkage_lvdt], speed_rad_s: 0, initial_angle_rad: 19.0}\n";
+  const std::string comp =
+      "    transducer_encoders: lvdt\n"
+      "    transducer: sinkage_lvdt\n"
+      "    transducer_scale: 0.001\n"  // channel in mm -> m
+      "    transducer_offset_m: 0.0005\n"
+      "    log_csv: " +
+      log.string() +
+      "\n"
+      "    load_label: 3.5 kg\n"
+      "    illumination_label: 300-400 lux\n"
+      "    overlay_dir: " +
+      (dir / "overlays").string() +
+      "\n"
+      "    overlay_every: 5\n";
+  const std::string lvdt =
+      "    lvdt: {backend: scripted, wheels: [sinkage_lvdt], speed_rad_s: 0, initial_angle_rad: 19.0}\n";
   auto app = load(deployment("rate_hz: 10, frames: 20, speed_rad_s: 0.5, sinkage_mm: 19.5", comp, lvdt));
   run_for(*app, 1.95);
   const auto rows = read_bench_log(log);
@@ -225,10 +233,14 @@ TEST(SinkagePipeline, BenchLogAndOverlayWriteFailuresAreCountedAndNamed) {
 
 namespace {
 const std::string kScene = "rate_hz: 10, frames: 2, speed_rad_s: 0.5, sinkage_mm: 20";
-std::string with(const std::string& from, const std::string& to) { return replace(deployment(kScene), from, to); }
+std::string with(const std::string& from, const std::string& to) {
+  return replace(deployment(kScene), from, to);
+}
 }  // namespace
 
-TEST(SinkageConfig, GoodDeploymentLoads) { EXPECT_EQ(load_error(deployment(kScene)), "<no error>"); }
+TEST(SinkageConfig, GoodDeploymentLoads) {
+  EXPECT_EQ(load_error(deployment(kScene)), "<no error>");
+}
 
 TEST(SinkageConfig, GeometryValidationNamesTheField) {
   EXPECT_EQ(load_error(with("leg_width_px: 28", "leg_width_px: 400")),
@@ -265,13 +277,16 @@ TEST(SinkageConfig, ParameterRangesAndChoices) {
 TEST(SinkageConfig, DevicesChannelsAndOutputs) {
   std::string e = load_error(with("mm_per_px: 0.5", "mm_per_px: 0.5\n    wheel: wheel_fl"));
   EXPECT_NE(e.find("components.sinkage.wheel: encoder set 'wheel_leg' has no channel 'wheel_fl' (channels: wheel)"),
-            std::string::npos) << e;
+            std::string::npos)
+      << e;
   e = load_error(with("mm_per_px: 0.5", "mm_per_px: 0.5\n    transducer: lvdt"));
-  EXPECT_NE(e.find("components.sinkage.transducer: encoder set 'wheel_leg' has no channel 'lvdt'"), std::string::npos) << e;
+  EXPECT_NE(e.find("components.sinkage.transducer: encoder set 'wheel_leg' has no channel 'lvdt'"), std::string::npos)
+      << e;
   e = load_error(with("mm_per_px: 0.5", "mm_per_px: 0.5\n    overlay_every: 5"));
   EXPECT_NE(e.find("components.sinkage.overlay_every: needs overlay_dir"), std::string::npos) << e;
   e = load_error(with("mm_per_px: 0.5", "mm_per_px: 0.5\n    log_csv: /nonexistent_dir_xyz/log.csv"));
-  EXPECT_NE(e.find("components.sinkage.log_csv: directory '/nonexistent_dir_xyz' does not exist"), std::string::npos) << e;
+  EXPECT_NE(e.find("components.sinkage.log_csv: directory '/nonexistent_dir_xyz' does not exist"), std::string::npos)
+      << e;
   e = load_error(with("mm_per_px: 0.5", "mm_per_px: 0.5\n    load_label: '3,5 kg'"));
   EXPECT_NE(e.find("components.sinkage.load_label: must not contain commas"), std::string::npos) << e;
   e = load_error(replace(deployment(kScene), "synthetic_wheel,", "synthetic_wheel, format: mono8,"));

@@ -2,11 +2,11 @@
 // angle interpolation, estimator, channel publish, bench log queue, overlay slot copy) is counted
 // by replacing the global operator new (this binary only). The writer thread (log formatting,
 // overlay drawing, PNG encoding) runs outside the cycles and may allocate.
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <new>
+
+#include <gtest/gtest.h>
 
 #include "pipeline_util.hpp"
 #include "regolith/runtime/rate_group.hpp"
@@ -21,16 +21,21 @@ TEST(SinkagePipelineNoAlloc, StepDoesNotAllocateOnceWarm) {
   const regolith::testing::TempDir tmp("sinkage_pipeline_noalloc");
   const std::filesystem::path& dir = tmp.path();
   std::filesystem::create_directories(dir / "ov");
-  const std::string comp = "    transducer_encoders: lvdt\n"
-                           "    transducer: z\n"
-                           "    filter: median\n"
-                           "    log_csv: " + (dir / "log.csv").string() + "\n"
-                           "    overlay_dir: " + (dir / "ov").string() + "\n"
-                           "    overlay_every: 3\n";
+  const std::string comp =
+      "    transducer_encoders: lvdt\n"
+      "    transducer: z\n"
+      "    filter: median\n"
+      "    log_csv: " +
+      (dir / "log.csv").string() +
+      "\n"
+      "    overlay_dir: " +
+      (dir / "ov").string() +
+      "\n"
+      "    overlay_every: 3\n";
   const std::string lvdt = "    lvdt: {backend: scripted, wheels: [z], speed_rad_s: 0.001}\n";
   // Poor light (adaptive threshold path), fast wheel so that the legs sweep through the window.
-  auto app = load(deployment("rate_hz: 10, frames: 30, speed_rad_s: 1.5, sinkage_mm: 25, illumination: poor",
-                             comp, lvdt));
+  auto app =
+      load(deployment("rate_hz: 10, frames: 30, speed_rad_s: 1.5, sinkage_mm: 25, illumination: poor", comp, lvdt));
   std::atomic<bool> stop{false};
   app->start();
   app->run(from_seconds(0.5), stop);  // warm-up

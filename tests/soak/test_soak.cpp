@@ -11,9 +11,6 @@
 // Under AddressSanitizer (the asan preset) it runs 3 simulated hours by default (about a minute)
 // and checks everything but resident memory: ASan's quarantine holds freed blocks back, so the
 // resident size grows there by design; every report (use after free, leak at exit) fails it.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -24,6 +21,10 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/hal/camera.hpp"
@@ -127,10 +128,11 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
   const double seconds = 3600.0 * total_hours;
 
   // ---- the process holds still ----
-  std::printf("soak: %d simulated hours; resident %.1f MiB after the first hour, at most %.1f MiB after "
-              "(+%.0f KiB); %ld fds, %ld threads\n",
-              total_hours, static_cast<double>(rss0) / 1048576.0, static_cast<double>(rss_max) / 1048576.0,
-              static_cast<double>(rss_max - rss0) / 1024.0, fds0, threads0);
+  std::printf(
+      "soak: %d simulated hours; resident %.1f MiB after the first hour, at most %.1f MiB after "
+      "(+%.0f KiB); %ld fds, %ld threads\n",
+      total_hours, static_cast<double>(rss0) / 1048576.0, static_cast<double>(rss_max) / 1048576.0,
+      static_cast<double>(rss_max - rss0) / 1024.0, fds0, threads0);
   if (kUnderAsan)
     std::printf("soak: resident memory not checked under AddressSanitizer (its quarantine holds freed memory)\n");
   else

@@ -1,8 +1,8 @@
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/soil_stiffness/mission_table.hpp"
 #include "regolith/soil_stiffness/rigid_wheel.hpp"

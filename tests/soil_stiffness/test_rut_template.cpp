@@ -1,12 +1,12 @@
 // The rut template fit (rut_template.hpp): its rendered cross-section behaves as the geometry of
 // sun and rut says, and the fit recovers depth and centre from an image of that model, through
 // the camera's perspective, with noise. Accuracy on an independent renderer: test_soil_scene.cpp.
-#include <gtest/gtest.h>
-
 #include <cmath>
-#include <opencv2/core.hpp>
 #include <random>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/soil_stiffness/rut_template.hpp"

@@ -1,9 +1,9 @@
 // The sinkage layer: body-frame placement of the rut profiles and rasterisation on a grid with the
 // traversability GridMap convention (row 0 = +x edge, column 0 = +y edge).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
+
+#include <gtest/gtest.h>
 
 #include "regolith/soil_stiffness/sinkage_layer.hpp"
 

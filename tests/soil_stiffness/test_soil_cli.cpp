@@ -1,22 +1,22 @@
 // `regolith soil IMAGE --config ROVER.yaml --out DIR`: the in-process entry point run_soil_file on
 // a synthetic image written at test time with the shipped example_rover.yaml, its error messages,
 // and the exit code of the real binary for bad input.
-#include "temp_dir.hpp"
-#include <gtest/gtest.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
 #include <sys/wait.h>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/soil_stiffness/config.hpp"
 #include "regolith/track_scene/track_scene.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 namespace fs = std::filesystem;
@@ -77,8 +77,8 @@ TEST(SoilCli, WritesPlotsAndJsonForASyntheticImage) {
   const double k = j["fixed_n"]["k"].get<double>();
   const double z = j["mean_sinkage_m"].get<double>();
   const double z_true = scene.truth[0].mean_sinkage_m;
-  std::printf("cli: k %.4g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), class %s\n", k, z * 1e3,
-              z_true * 1e3, j["soil_class"].get<std::string>().c_str());
+  std::printf("cli: k %.4g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), class %s\n", k, z * 1e3, z_true * 1e3,
+              j["soil_class"].get<std::string>().c_str());
   EXPECT_NEAR(k / 5.0e5, 1.0, 0.15);
   EXPECT_NEAR(z / z_true, 1.0, 0.10);
   EXPECT_EQ(j["tracks"].size(), 2u);
@@ -170,14 +170,17 @@ TEST(SoilCli, BadInputNamesTheFileOrField) {
   const std::string size = variant("size.yaml", "width: 640, height: 480", "width: 320, height: 480");
   const std::string size_err = error_of(image, size, tmp.path() / "o");
   EXPECT_NE(size_err.find("soil_stiffness.camera: rover.cameras.rear is 320x480 px but the frames are 640x480 px"),
-            std::string::npos) << size_err;
+            std::string::npos)
+      << size_err;
   const std::string cam = variant("cam.yaml", "  camera: rear ", "  camera: back ");
   const std::string cam_err = error_of(image, cam, tmp.path() / "o");
   EXPECT_NE(cam_err.find("soil_stiffness.camera: no rover.cameras.back in this file"), std::string::npos) << cam_err;
-  const std::string old = variant("old.yaml", "  camera: rear ", "  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n  camera: rear ");
+  const std::string old = variant("old.yaml", "  camera: rear ",
+                                  "  camera_model: {fx: 500, mount_height_m: 1.2, pitch_rad: 0.61}\n  camera: rear ");
   const std::string old_err = error_of(image, old, tmp.path() / "o");
   EXPECT_NE(old_err.find("soil_stiffness.camera_model: no longer read here: the camera is described once"),
-            std::string::npos) << old_err;
+            std::string::npos)
+      << old_err;
   const std::string top = write_text(tmp.path() / "top.yaml", "rover: {}\n");
   const std::string top_err = error_of(image, top, tmp.path() / "o");
   EXPECT_NE(top_err.find("soil_stiffness: required section is missing"), std::string::npos) << top_err;
@@ -192,9 +195,9 @@ TEST(SoilCli, ExitCodeTwoForBadInput) {
 #else
   if (!fs::exists(REGOLITH_EXE)) GTEST_SKIP() << REGOLITH_EXE << " not built";
   TempDir tmp("soil_cli");
-  const std::string cmd = std::string(REGOLITH_EXE) + " soil " + (tmp.path() / "missing.png").string() +
-                          " --config " + kExample.string() + " --out " + (tmp.path() / "o").string() +
-                          " > " + (tmp.path() / "log.txt").string() + " 2>&1";
+  const std::string cmd = std::string(REGOLITH_EXE) + " soil " + (tmp.path() / "missing.png").string() + " --config " +
+                          kExample.string() + " --out " + (tmp.path() / "o").string() + " > " +
+                          (tmp.path() / "log.txt").string() + " 2>&1";
   const int rc = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(rc));
   EXPECT_EQ(WEXITSTATUS(rc), 2);

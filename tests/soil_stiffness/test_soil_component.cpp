@@ -4,14 +4,14 @@
 // once warm, and the configuration errors (named fields, file:line:col).
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#include <gtest/gtest.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <new>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/core/error.hpp"
 #include "regolith/hal/registry.hpp"
@@ -78,8 +78,10 @@ components:
 
 std::string replace(std::string s, const std::string& a, const std::string& b) {
   const auto p = s.find(a);
-  if (p == std::string::npos) ADD_FAILURE() << "'" << a << "' not in the deployment";
-  else s.replace(p, a.size(), b);
+  if (p == std::string::npos)
+    ADD_FAILURE() << "'" << a << "' not in the deployment";
+  else
+    s.replace(p, a.size(), b);
   return s;
 }
 
@@ -95,8 +97,7 @@ runtime::AppOptions sim_options(bool open_devices = true) {
 std::string load_error(const std::string& yaml) {
   register_all();
   try {
-    auto app = runtime::Application::load(Params::load_string(yaml, "rover.yaml"),
-                                          sim_options(false));
+    auto app = runtime::Application::load(Params::load_string(yaml, "rover.yaml"), sim_options(false));
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -107,8 +108,7 @@ std::string load_error(const std::string& yaml) {
 
 TEST(SoilComponent, EstimatesKOfTheSyntheticTracksUnderSimulatedTime) {
   register_all();
-  auto app = runtime::Application::load(Params::load_string(kDeployment, "soil_test.yaml"),
-                                        sim_options());
+  auto app = runtime::Application::load(Params::load_string(kDeployment, "soil_test.yaml"), sim_options());
   auto& soil_ch = app->context().channel<soil::SoilStiffnessSample>(soil::kSoilChannel);
   auto& layer_ch = app->context().channel<soil::SinkageLayer>(soil::kSinkageLayerChannel);
   std::atomic<bool> stop{false};
@@ -127,11 +127,12 @@ TEST(SoilComponent, EstimatesKOfTheSyntheticTracksUnderSimulatedTime) {
   auto s = soil_ch.acquire();
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->ok) << s->reason;
-  std::printf("component: k %.4g +- %.2g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), %u samples, "
-              "%u tracks, class %s; %llu allocations in %llu steady cycles\n",
-              s->k, s->k_sigma, s->mean_sinkage_m * 1e3, z_true * 1e3, s->samples_used, s->tracks,
-              soil::to_string(s->soil_class), static_cast<unsigned long long>(steady_allocs),
-              static_cast<unsigned long long>(cycles1 - cycles0));
+  std::printf(
+      "component: k %.4g +- %.2g (truth 5e5), mean sinkage %.2f mm (truth %.2f mm), %u samples, "
+      "%u tracks, class %s; %llu allocations in %llu steady cycles\n",
+      s->k, s->k_sigma, s->mean_sinkage_m * 1e3, z_true * 1e3, s->samples_used, s->tracks,
+      soil::to_string(s->soil_class), static_cast<unsigned long long>(steady_allocs),
+      static_cast<unsigned long long>(cycles1 - cycles0));
   EXPECT_FALSE(s->joint);  // equal loads: n fixed
   EXPECT_DOUBLE_EQ(s->n, 1.0);
   EXPECT_NEAR(s->k / 5.0e5, 1.0, 0.15);
@@ -234,36 +235,49 @@ TEST(SoilComponent, NoTracksMeansAnExplicitNoEstimate) {
 TEST(SoilComponent, ConfigurationErrorsNameTheField) {
   const std::string no_wheels = load_error(replace(kDeployment, "    - {name: wheel_fl", "    - {nam: wheel_fl"));
   EXPECT_NE(no_wheels.find("rover.yaml:"), std::string::npos) << no_wheels;
-  EXPECT_NE(no_wheels.find("rover.yaml:7:7: rover.wheels[0].name: required string is missing"), std::string::npos) << no_wheels;
+  EXPECT_NE(no_wheels.find("rover.yaml:7:7: rover.wheels[0].name: required string is missing"), std::string::npos)
+      << no_wheels;
   const std::string radius = load_error(replace(kDeployment, "y_m: 0.4, radius_m: 0.15", "y_m: 0.4, radius_m: -0.15"));
   EXPECT_NE(radius.find("rover.wheels[0].radius_m: value must be > 0 (got -0.15)"), std::string::npos) << radius;
-  const std::string width = load_error(replace(kDeployment, "      frames: 1\n", "      frames: 1\n      width: 320\n"));
+  const std::string width =
+      load_error(replace(kDeployment, "      frames: 1\n", "      frames: 1\n      width: 320\n"));
   EXPECT_NE(width.find("devices.cameras.rear.width: 320x480 px differs from the calibration (640x480 px"),
-            std::string::npos) << width;
+            std::string::npos)
+      << width;
   const std::string typo = load_error(replace(kDeployment, "mass_kg: 140", "mass_kgs: 140"));
   EXPECT_NE(typo.find("rover.mass_kgs: unknown key (did you mean 'mass_kg'?)"), std::string::npos) << typo;
   const std::string no_mass = load_error(replace(kDeployment, "  mass_kg: 140\n", ""));
   EXPECT_NE(no_mass.find("components.soil: soil stiffness needs the rover's mass and wheels: rover.mass_kg"),
-            std::string::npos) << no_mass;
-  const std::string no_model = load_error(replace(kDeployment, "    rear:\n      camera_info", "    rear_cam:\n      camera_info"));
+            std::string::npos)
+      << no_mass;
+  const std::string no_model =
+      load_error(replace(kDeployment, "    rear:\n      camera_info", "    rear_cam:\n      camera_info"));
   EXPECT_NE(no_model.find("rover.cameras.rear_cam: no camera device named 'rear_cam'"), std::string::npos) << no_model;
-  const std::string loads = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n"));
-  EXPECT_NE(loads.find("components.soil.tracks.load_n: needs one load per lateral_m entry (2), got 1"), std::string::npos)
+  const std::string loads = load_error(replace(
+      kDeployment, "    camera: rear\n", "    camera: rear\n    tracks: {lateral_m: [0.4, -0.4], load_n: [30]}\n"));
+  EXPECT_NE(loads.find("components.soil.tracks.load_n: needs one load per lateral_m entry (2), got 1"),
+            std::string::npos)
       << loads;
-  const std::string many = load_error(replace(kDeployment, "    camera: rear\n",
-                                              "    camera: rear\n    tracks: {lateral_m: [0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]}\n"));
+  const std::string many =
+      load_error(replace(kDeployment, "    camera: rear\n",
+                         "    camera: rear\n    tracks: {lateral_m: [0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]}\n"));
   EXPECT_NE(many.find("components.soil.tracks.lateral_m: at most 8 ruts (got 9)"), std::string::npos) << many;
-  const std::string region = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    region: {range_min_m: 3.0, range_max_m: 1.0}\n"));
+  const std::string region = load_error(replace(
+      kDeployment, "    camera: rear\n", "    camera: rear\n    region: {range_min_m: 3.0, range_max_m: 1.0}\n"));
   EXPECT_NE(region.find("range_max_m: must be > range_min_m"), std::string::npos) << region;
   const std::string camera = load_error(replace(kDeployment, "    camera: rear\n", "    camera: front\n"));
   EXPECT_NE(camera.find("components.soil.camera"), std::string::npos) << camera;
   // The old format (camera, sun and rover repeated in the component): located, saying what to write.
-  const std::string old = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    sun: {azimuth_rad: 1.5708, elevation_rad: 0.7854}\n"));
+  const std::string old = load_error(replace(
+      kDeployment, "    camera: rear\n", "    camera: rear\n    sun: {azimuth_rad: 1.5708, elevation_rad: 0.7854}\n"));
   EXPECT_NE(old.find("components.soil.sun: no longer read here: the deployment has one sun: a top-level `sun: "
                      "{azimuth_deg, elevation_deg}` block"),
-            std::string::npos) << old;
-  const std::string old_model = load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    camera_model: {fx: 500}\n"));
+            std::string::npos)
+      << old;
+  const std::string old_model =
+      load_error(replace(kDeployment, "    camera: rear\n", "    camera: rear\n    camera_model: {fx: 500}\n"));
   EXPECT_NE(old_model.find("components.soil.camera_model: no longer read here: the camera is described once, in "
                            "rover.cameras.<camera>"),
-            std::string::npos) << old_model;
+            std::string::npos)
+      << old_model;
 }

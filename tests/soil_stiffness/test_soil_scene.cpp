@@ -1,16 +1,15 @@
 // `regolith soil IMAGE --scene input.json`: the development set's scene description read
 // directly (no YAML), an estimate written in the scene's own keys, and located errors.
-#include "temp_dir.hpp"
-#include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
 #include "regolith/core/error.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
+#include "temp_dir.hpp"
 
 namespace {
 namespace fs = std::filesystem;
@@ -163,7 +162,8 @@ TEST(SoilScene, EveryDevelopmentSceneGivesAnEstimateAndThePzCurveImproves) {
     const double kt = t["k"].get<double>(), nt = t["n"].get<double>();
     double zmin = 1e9, zmax = 0;
     for (const auto& tr : t["tracks"])
-      for (const auto& z : tr["sinkage_m"]) zmin = std::min(zmin, z.get<double>()), zmax = std::max(zmax, z.get<double>());
+      for (const auto& z : tr["sinkage_m"])
+        zmin = std::min(zmin, z.get<double>()), zmax = std::max(zmax, z.get<double>());
     double err = 0;
     for (int q = 0; q <= 20; ++q) {
       const double z = zmin + (zmax - zmin) * q / 20.0;

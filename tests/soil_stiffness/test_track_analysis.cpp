@@ -1,18 +1,16 @@
-#include "temp_dir.hpp"
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdio>
-#include <string>
-
 #include <filesystem>
 #include <fstream>
+#include <string>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "regolith/soil_stiffness/run.hpp"
 #include "regolith/soil_stiffness/track_analysis.hpp"
 #include "regolith/track_scene/track_scene.hpp"
+#include "temp_dir.hpp"
 
 using namespace regolith;
 using soil::SoilEstimate;
@@ -22,8 +20,14 @@ namespace {
 // The mock renders with its own (independent) pinhole; the estimator uses direct_depth's model.
 soil::CameraModel to_ground(const track_scene::CameraModel& c) {
   soil::CameraModel g;
-  g.width = c.width; g.height = c.height; g.fx = c.fx; g.fy = c.fy; g.cx = c.cx; g.cy = c.cy;
-  g.mount_height_m = c.mount_height_m; g.pitch_rad = c.pitch_rad;
+  g.width = c.width;
+  g.height = c.height;
+  g.fx = c.fx;
+  g.fy = c.fy;
+  g.cx = c.cx;
+  g.cy = c.cy;
+  g.mount_height_m = c.mount_height_m;
+  g.pitch_rad = c.pitch_rad;
   return g;
 }
 
@@ -43,7 +47,7 @@ struct SceneRun {
 };
 
 SceneRun run_scene(const track_scene::TrackSceneParams& p, soil::TrackAnalysisParams ap = {},
-        bool configure_tracks = false) {
+                   bool configure_tracks = false) {
   SceneRun r{track_scene::generate_track_scene(p), {}};
   if (configure_tracks)
     for (const auto& t : p.tracks) ap.tracks.push_back({t.lateral_m, t.load_n});
@@ -66,8 +70,7 @@ TEST(TrackAnalysis, FixedNStiffnessOnTwoEqualTracks) {
     const auto& tr = r.est.tracks[t];
     const auto& truth = r.scene.truth[t];  // both ordered left (y > 0) to right
     std::printf("track %.3f m: mean %.2f mm (true %.2f mm) std %.2f samples %d\n", tr.lateral_m,
-                tr.mean_sinkage_m * 1e3, truth.mean_sinkage_m * 1e3, tr.std_sinkage_m * 1e3,
-                tr.samples);
+                tr.mean_sinkage_m * 1e3, truth.mean_sinkage_m * 1e3, tr.std_sinkage_m * 1e3, tr.samples);
     EXPECT_NEAR(tr.lateral_m, truth.lateral_m, 0.02);
     EXPECT_NEAR(tr.mean_sinkage_m / truth.mean_sinkage_m, 1.0, 0.10);
     // pointwise profile: RMS relative error of the smoothed profile against the truth < 10 %
@@ -84,8 +87,8 @@ TEST(TrackAnalysis, FixedNStiffnessOnTwoEqualTracks) {
     std::printf("  profile rms rel error %.3f, %d of %d samples beyond 10 %%\n", std::sqrt(se / n), bad, n);
     EXPECT_LT(std::sqrt(se / n), 0.10);
   }
-  std::printf("k %.4g (true %.4g) std %.3g spread [%.3g, %.3g]\n", r.est.k_fixed, p.k,
-              r.est.k_fixed_std, r.est.k_spread_p25, r.est.k_spread_p75);
+  std::printf("k %.4g (true %.4g) std %.3g spread [%.3g, %.3g]\n", r.est.k_fixed, p.k, r.est.k_fixed_std,
+              r.est.k_spread_p25, r.est.k_spread_p75);
   EXPECT_NEAR(r.est.k_fixed / p.k, 1.0, 0.15);
   EXPECT_FALSE(r.est.joint_ok);
 }
@@ -113,8 +116,8 @@ TEST(TrackAnalysis, ProfileFollowsVaryingSinkage) {
       ++n;
     }
     const double rms = std::sqrt(se / n);
-    std::printf("varying profile track %zu: rms relative error %.3f over %d samples, true %.1f-%.1f mm\n",
-                t, rms, n, zmin * 1e3, zmax * 1e3);
+    std::printf("varying profile track %zu: rms relative error %.3f over %d samples, true %.1f-%.1f mm\n", t, rms, n,
+                zmin * 1e3, zmax * 1e3);
     EXPECT_GT(zmax / zmin, 1.3);  // the truth really varies
     EXPECT_LT(rms, 0.10);
   }
@@ -129,8 +132,8 @@ TEST(TrackAnalysis, JointFitWithThreeLoads) {
   const SceneRun r = run_scene(p, {}, /*configure_tracks=*/true);
   ASSERT_TRUE(r.est.ok) << r.est.reason;
   ASSERT_TRUE(r.est.joint_ok) << r.est.joint_reason;
-  std::printf("joint: k %.4g (true %.4g) +- %.3g, n %.3f (true %.3f) +- %.3f\n", r.est.k_joint,
-              p.k, r.est.k_joint_std, r.est.n_joint, p.n, r.est.n_joint_std);
+  std::printf("joint: k %.4g (true %.4g) +- %.3g, n %.3f (true %.3f) +- %.3f\n", r.est.k_joint, p.k, r.est.k_joint_std,
+              r.est.n_joint, p.n, r.est.n_joint_std);
   EXPECT_NEAR(r.est.k_joint / p.k, 1.0, 0.20);
   EXPECT_NEAR(r.est.n_joint / p.n, 1.0, 0.20);
   EXPECT_GT(r.est.n_joint_std, 0.0);
@@ -153,8 +156,7 @@ TEST(TrackAnalysis, NoiseWidensUncertaintyButStaysUnbiased) {
     p.seed = 11;
     const SceneRun r = run_scene(p);
     ASSERT_TRUE(r.est.ok) << r.est.reason;
-    std::printf("noise %.0f DN: k %.4g (true %.4g) bootstrap std %.3g\n", noise, r.est.k_fixed, p.k,
-                r.est.k_fixed_std);
+    std::printf("noise %.0f DN: k %.4g (true %.4g) bootstrap std %.3g\n", noise, r.est.k_fixed, p.k, r.est.k_fixed_std);
     EXPECT_NEAR(r.est.k_fixed / p.k, 1.0, 0.15);
     stds[idx++] = r.est.k_fixed_std;
   }
@@ -212,7 +214,11 @@ TEST(TrackAnalysis, ConfiguredTracksOutsideRegionOrAbsent) {
 
 TEST(TrackAnalysis, ParamsRejectBadFieldsNamingThem) {
   auto msg = [](soil::TrackAnalysisParams ap) -> std::string {
-    try { ap.validate(); } catch (const std::invalid_argument& e) { return e.what(); }
+    try {
+      ap.validate();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
     return "";
   };
   soil::TrackAnalysisParams ap;

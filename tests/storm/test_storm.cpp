@@ -10,14 +10,15 @@
 //     "overruns its rate group's period") and the camera outages;
 //   - the watchdog is fed throughout the overruns, outages and garbage, withheld while the
 //     critical component is really stuck (naming it), and fed again once it steps again.
-#include <gtest/gtest.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cstring>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "cli_support.hpp"
 #include "regolith/core/params.hpp"
@@ -124,9 +125,12 @@ TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForT
   int fed_before = 0, fed_during = 0, fed_after = 0;
   for (std::size_t i = 0; i < sent.size(); ++i) {
     if (sent[i].text != "WATCHDOG=1") continue;
-    if (i < withheld) ++fed_before;
-    else if (i + 1 < resumed) ++fed_during;
-    else ++fed_after;
+    if (i < withheld)
+      ++fed_before;
+    else if (i + 1 < resumed)
+      ++fed_during;
+    else
+      ++fed_after;
   }
   EXPECT_GE(sent[withheld].t, 4 * kNsPerSec) << "withheld before the stall: overruns, outages or garbage stopped it";
   EXPECT_LE(sent[withheld].t, 5500 * kNsPerMs) << "the stall (at 4 s) took too long to be noticed";

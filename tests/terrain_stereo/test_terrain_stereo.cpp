@@ -13,17 +13,17 @@
 //  * stereo: SGBM disparity -> 3D points (left optical frame -> world); ground = median z of the
 //    same ring; height = 95th percentile z in the box - ground; width = lateral (world y) extent,
 //    1st..99th percentile, of the box points more than max(1 cm, 25 % of that height) above ground.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
-#include <utility>
-#include <vector>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"

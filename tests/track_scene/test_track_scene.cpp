@@ -1,8 +1,8 @@
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "regolith/track_scene/track_scene.hpp"
 
@@ -16,7 +16,7 @@ TEST(TrackScene, RutDepthFollowsRigidWheelRelation) {
   for (const auto& t : s.truth) {
     const double z = std::pow(3.0 * t.load_n / (2.0 * 0.10 * 5e5 * std::sqrt(0.30)), 2.0 / 3.0);
     EXPECT_NEAR(t.mean_sinkage_m, z, 1e-12);
-    EXPECT_NEAR(s.height_at(2.0, t.lateral_m), -z, 1e-4);       // rut floor
+    EXPECT_NEAR(s.height_at(2.0, t.lateral_m), -z, 1e-4);         // rut floor
     EXPECT_NEAR(s.height_at(2.0, t.lateral_m + 0.2), 0.0, 1e-6);  // undisturbed ground
   }
   // heavier wheel, deeper rut: z ~ W^(2/(2n+1))
@@ -35,7 +35,8 @@ TEST(TrackScene, RenderedImageIsLambertianAndDeterministic) {
   double u = 0, v = 0;
   ASSERT_TRUE(project(p.camera, 2.0, 0.0, 0.0, u, v));
   const double expect = p.gain_dn * p.albedo * std::sin(p.sun.elevation_rad);
-  EXPECT_NEAR(a.image.at<unsigned char>(static_cast<int>(std::lround(v)), static_cast<int>(std::lround(u))), expect, 1.0);
+  EXPECT_NEAR(a.image.at<unsigned char>(static_cast<int>(std::lround(v)), static_cast<int>(std::lround(u))), expect,
+              1.0);
   // the rut wall facing the sun (sun on the left, +y) is the one on the right side of the rut
   ASSERT_TRUE(project(p.camera, 2.0, 0.4 - 0.05 - 0.01, -0.01, u, v));
   EXPECT_GT(a.image.at<unsigned char>(static_cast<int>(std::lround(v)), static_cast<int>(std::lround(u))), expect + 20);

@@ -1,12 +1,11 @@
-#include <gtest/gtest.h>
-
 #include <algorithm>
-#include <vector>
-
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
 
 #include "regolith/common/grid.hpp"
 #include "regolith/core/error.hpp"
@@ -88,13 +87,14 @@ TEST(Traversability, StepAndSlopeAboveCriticalAreFlagged) {
   // Rows 0..19 (x > 0): a 0.2 m step at row 20; columns 0..19 flat, 20..39 a 30 deg slope.
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j)
-      e.at<float>(i, j) = static_cast<float>((i < 20 ? 0.2 : 0.0) + (j >= 20 ? (j - 20) * 0.05 * std::tan(30 * CV_PI / 180) : 0.0));
+      e.at<float>(i, j) =
+          static_cast<float>((i < 20 ? 0.2 : 0.0) + (j >= 20 ? (j - 20) * 0.05 * std::tan(30 * CV_PI / 180) : 0.0));
   g.data = {e};
   traversability::compute_layers(g, p);
   const cv::Mat& st = g.layer("traversability_step");
   const cv::Mat& sl = g.layer("traversability_slope");
   const cv::Mat& t = g.layer("traversability");
-  EXPECT_EQ(st.at<float>(19, 5), 0.0f);   // at the step
+  EXPECT_EQ(st.at<float>(19, 5), 0.0f);  // at the step
   EXPECT_EQ(st.at<float>(20, 5), 0.0f);
   EXPECT_EQ(t.at<float>(20, 5), 0.0f);
   EXPECT_FLOAT_EQ(st.at<float>(10, 5), 1.0f);  // far from the step
@@ -173,15 +173,19 @@ RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool p
         if (!std::isfinite(e)) continue;
         const cv::Point2d p = g.cell_center(i, j);
         const double d = std::hypot((p.x - rk.x_m) / rk.radius_x_m, (p.y - rk.y_m) / rk.radius_y_m);
-        if (d < 0.7) peak = std::max(peak, static_cast<double>(e));
-        else if (d > 1.5 && d < 2.5) ring.push_back(e);
+        if (d < 0.7)
+          peak = std::max(peak, static_cast<double>(e));
+        else if (d > 1.5 && d < 2.5)
+          ring.push_back(e);
       }
     if (peak < -1e8 || ring.size() < 5) continue;
     std::nth_element(ring.begin(), ring.begin() + static_cast<long>(ring.size() / 2), ring.end());
     const double est = peak - ring[ring.size() / 2];
     ratios.push_back(est / rk.height_m);
     err += std::abs(est - rk.height_m) / rk.height_m;
-    if (print) std::printf("  rock at %.2f,%.2f r %.2f: true %.3f m est %.3f m\n", rk.x_m, rk.y_m, rk.radius_x_m, rk.height_m, est);
+    if (print)
+      std::printf("  rock at %.2f,%.2f r %.2f: true %.3f m est %.3f m\n", rk.x_m, rk.y_m, rk.radius_x_m, rk.height_m,
+                  est);
   }
   RockStats s;
   s.rocks = static_cast<int>(ratios.size());
@@ -195,8 +199,14 @@ RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool p
 // Rover camera pose matching cam().
 terrain_scene::CameraPose pose_of(const direct_depth::CameraModel& m) {
   terrain_scene::CameraPose pose;
-  pose.fx = m.fx; pose.fy = m.fy; pose.cx = m.cx; pose.cy = m.cy; pose.width = m.width;
-  pose.height = m.height; pose.height_m = m.mount_height_m; pose.pitch_rad = m.pitch_rad;
+  pose.fx = m.fx;
+  pose.fy = m.fy;
+  pose.cx = m.cx;
+  pose.cy = m.cy;
+  pose.width = m.width;
+  pose.height = m.height;
+  pose.height_m = m.mount_height_m;
+  pose.pitch_rad = m.pitch_rad;
   return pose;
 }
 
@@ -222,7 +232,12 @@ double elevation_correlation(const GridMap& g, const terrain_scene::Terrain& t) 
       const cv::Point2d p = g.cell_center(i, j);
       if (!std::isfinite(e) || p.x < 1.2 || p.x > 3.0) continue;
       const double a = e, b = t.height_at(p.x, p.y);
-      n += 1; sa += a; sb += b; saa += a * a; sbb += b * b; sab += a * b;
+      n += 1;
+      sa += a;
+      sb += b;
+      saa += a * a;
+      sbb += b * b;
+      sab += a * b;
     }
   const double va = saa - sa * sa / n, vb = sbb - sb * sb / n;
   return (sab - sa * sb / n) / std::sqrt(va * vb);
@@ -250,8 +265,8 @@ TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
       GridMap g;
       mapper.compute_from_sfs(res.height, res.valid, light, g);
       const RockStats s = rock_heights(g, t, false);
-      std::printf("  %s: %d rocks, median est/true height %.2f, mean |error| %.0f %%, elevation r %.2f\n", sfs::to_string(method),
-                  s.rocks, s.median_ratio, s.mean_abs_err_pct, elevation_correlation(g, t));
+      std::printf("  %s: %d rocks, median est/true height %.2f, mean |error| %.0f %%, elevation r %.2f\n",
+                  sfs::to_string(method), s.rocks, s.median_ratio, s.mean_abs_err_pct, elevation_correlation(g, t));
       ASSERT_GE(s.rocks, 5);
       // Measured (README): Pentland 0.16 / 0.24, Tsai-Shah 0.00 / 0.69 -- rock heights are
       // still underestimated on perspective frames (known limitation). Guard against a sign or
@@ -268,7 +283,8 @@ TEST(Traversability, GroundLightIsTheOrthographicSun) {
   // The image-frame light converted to the rectified ground frame equals the generator's sun in
   // its orthographic image frame (same axes: columns = -y, rows = -x, up).
   const direct_depth::CameraModel m = cam();
-  for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{-1.0, 0.9}, terrain_scene::Sun{3.0, 0.2}}) {
+  for (const terrain_scene::Sun sun :
+       {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{-1.0, 0.9}, terrain_scene::Sun{3.0, 0.2}}) {
     const cv::Vec2d il = terrain_scene::camera_light(pose_of(m), sun);
     const cv::Vec2d ol = terrain_scene::ortho_light(sun);
     const ImageLight g = traversability::ground_light(m, {il[0], il[1]});
@@ -336,15 +352,17 @@ TEST(Traversability, GroundRectifiedSfsRecoversRockHeights) {
     const RockStats s = rock_heights(g, t, false);
     // The sun reversed in azimuth (a wrong light): heights come out inverted / flat.
     const ImageLight wrong = [&] {
-      const cv::Vec2d l = terrain_scene::camera_light(pose_of(m), terrain_scene::Sun{sun.azimuth_rad + CV_PI, sun.elevation_rad});
+      const cv::Vec2d l =
+          terrain_scene::camera_light(pose_of(m), terrain_scene::Sun{sun.azimuth_rad + CV_PI, sun.elevation_rad});
       return ImageLight{l[0], l[1]};
     }();
     GridMap gw;
     mapper.compute_from_image(img8, wrong, gw);
     const double r = elevation_correlation(g, t), rw = elevation_correlation(gw, t);
-    std::printf("sun az %.1f el %.1f: ground Tsai-Shah %d rocks, median est/true %.2f, mean |err| %.0f %%, "
-                "elevation r %.2f; wrong sun r %.2f\n", sun.azimuth_rad, sun.elevation_rad, s.rocks,
-                s.median_ratio, s.mean_abs_err_pct, r, rw);
+    std::printf(
+        "sun az %.1f el %.1f: ground Tsai-Shah %d rocks, median est/true %.2f, mean |err| %.0f %%, "
+        "elevation r %.2f; wrong sun r %.2f\n",
+        sun.azimuth_rad, sun.elevation_rad, s.rocks, s.median_ratio, s.mean_abs_err_pct, r, rw);
     ASSERT_GE(s.rocks, 15);
     EXPECT_GT(s.median_ratio, 0.4);
     EXPECT_LT(s.median_ratio, 1.3);

@@ -1,10 +1,10 @@
 // Synthetic wheel-leg scene: ground truth geometry, rendering, sequences and the sequence CSV.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+
+#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "error_of.hpp"
@@ -19,7 +19,9 @@ namespace {
 
 using regolith::testing::error_of;
 
-bool is_blue(const cv::Vec3b& p) { return p[0] > p[2] + 60 && p[0] > p[1] + 30; }
+bool is_blue(const cv::Vec3b& p) {
+  return p[0] > p[2] + 60 && p[0] > p[1] + 30;
+}
 
 }  // namespace
 
@@ -59,7 +61,7 @@ TEST(WheelScene, RenderedPixelsFollowTheGeometry) {
   gen.render_at_soil_level(0.0, 350.0, img);  // leg 0 straight down, 60 px buried
   ASSERT_EQ(img.type(), CV_8UC3);
   ASSERT_EQ(img.size(), cv::Size(640, 480));
-  EXPECT_TRUE(is_blue(img.at<cv::Vec3b>(250, 320)));   // leg above the soil
+  EXPECT_TRUE(is_blue(img.at<cv::Vec3b>(250, 320)));  // leg above the soil
   EXPECT_TRUE(is_blue(img.at<cv::Vec3b>(345, 320)));
   EXPECT_FALSE(is_blue(img.at<cv::Vec3b>(355, 320)));  // buried part hidden by sand
   EXPECT_FALSE(is_blue(img.at<cv::Vec3b>(250, 340)));  // beside the leg (half width 14)
@@ -88,7 +90,8 @@ TEST(WheelScene, SequenceProfile) {
   double mx = 0;
   for (std::size_t i = 0; i < seq.size(); ++i) {
     EXPECT_NEAR(seq[i].truth.sinkage_mm, spec.profile_mm(static_cast<int>(i)), 1e-9);
-    EXPECT_NEAR(seq[i].truth.encoder_angle_rad, spec.start_angle_rad + static_cast<double>(i) * spec.angle_step_rad, 1e-12);
+    EXPECT_NEAR(seq[i].truth.encoder_angle_rad, spec.start_angle_rad + static_cast<double>(i) * spec.angle_step_rad,
+                1e-12);
     mx = std::max(mx, seq[i].truth.sinkage_mm);
   }
   EXPECT_GT(mx, 29.0);
@@ -104,7 +107,8 @@ TEST(WheelScene, ValidationNamesTheField) {
   EXPECT_NE(error_of([&] { ws::WheelSceneGenerator g(sp); }).find("Illumination.noise_sigma"), std::string::npos);
   sp = {};
   sp.sand_on_leg_fraction = 0.9;
-  EXPECT_NE(error_of([&] { ws::WheelSceneGenerator g(sp); }).find("SceneParams.sand_on_leg_fraction"), std::string::npos);
+  EXPECT_NE(error_of([&] { ws::WheelSceneGenerator g(sp); }).find("SceneParams.sand_on_leg_fraction"),
+            std::string::npos);
   sp = {};
   ws::WheelSceneGenerator g(sp);
   cv::Mat img;
@@ -142,16 +146,21 @@ TEST(WheelSceneCsv, MalformedFilesNameFileAndLine) {
   const auto hdr = write("hdr.csv", "frame,angle,truth\na.png,0,0\n");
   EXPECT_NE(error_of([&] { ws::read_sequence_csv(hdr); }).find("hdr.csv:1: expected header"), std::string::npos);
   const auto cols = write("cols.csv", "frame,encoder_angle_rad,truth_mm\na.png,0.1,2\nb.png,0.2\n");
-  EXPECT_NE(error_of([&] { ws::read_sequence_csv(cols); }).find("cols.csv:3: expected 3 columns (got 2)"), std::string::npos);
+  EXPECT_NE(error_of([&] { ws::read_sequence_csv(cols); }).find("cols.csv:3: expected 3 columns (got 2)"),
+            std::string::npos);
   const auto num = write("num.csv", "frame,encoder_angle_rad,truth_mm\na.png,zero,2\n");
-  EXPECT_NE(error_of([&] { ws::read_sequence_csv(num); }).find("num.csv:2: column encoder_angle_rad: expected a finite number (got 'zero')"), std::string::npos);
+  EXPECT_NE(error_of([&] {
+              ws::read_sequence_csv(num);
+            }).find("num.csv:2: column encoder_angle_rad: expected a finite number (got 'zero')"),
+            std::string::npos);
   const auto nan = write("nan.csv", "frame,encoder_angle_rad,truth_mm\n# comment\na.png,0.1,nan\n");
   EXPECT_NE(error_of([&] { ws::read_sequence_csv(nan); }).find("nan.csv:3: column truth_mm"), std::string::npos);
   const auto trail = write("trail.csv", "frame,encoder_angle_rad,truth_mm\na.png,0.1,2x\n");
   EXPECT_NE(error_of([&] { ws::read_sequence_csv(trail); }).find("trail.csv:2: column truth_mm"), std::string::npos);
   const auto empty = write("empty.csv", "");
   EXPECT_NE(error_of([&] { ws::read_sequence_csv(empty); }).find("empty.csv: empty file"), std::string::npos);
-  EXPECT_NE(error_of([&] { ws::read_sequence_csv(dir / "missing.csv"); }).find("missing.csv: cannot open"), std::string::npos);
+  EXPECT_NE(error_of([&] { ws::read_sequence_csv(dir / "missing.csv"); }).find("missing.csv: cannot open"),
+            std::string::npos);
   const auto ok = write("ok.csv", "frame,encoder_angle_rad,truth_mm\n\n a.png , -0.5 , 3.25 \n");
   const auto rows = ws::read_sequence_csv(ok);
   ASSERT_EQ(rows.size(), 1U);

@@ -18,9 +18,13 @@ int cells(double length_m, double resolution_m) {
 }
 }  // namespace
 
-int GridGeometry::size_x() const { return cells(length_x_m, resolution_m); }
+int GridGeometry::size_x() const {
+  return cells(length_x_m, resolution_m);
+}
 
-int GridGeometry::size_y() const { return cells(length_y_m, resolution_m); }
+int GridGeometry::size_y() const {
+  return cells(length_y_m, resolution_m);
+}
 
 cv::Point2d GridGeometry::cell_center(int i, int j) const {
   return {center_x_m + 0.5 * length_x_m - (i + 0.5) * resolution_m,

@@ -6,9 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <stdexcept>
 
 namespace regolith::plot {
 namespace {
@@ -363,7 +364,8 @@ cv::Mat render_map(const cv::Mat& values, const MapStyle& style, const cv::Mat& 
 }
 
 cv::Mat hillshade(const cv::Mat& height_m, double cell_m, double exaggeration) {
-  if (height_m.empty() || height_m.type() != CV_32F) throw std::invalid_argument("hillshade: expected a non-empty CV_32F map");
+  if (height_m.empty() || height_m.type() != CV_32F)
+    throw std::invalid_argument("hillshade: expected a non-empty CV_32F map");
   if (!(cell_m > 0) || !std::isfinite(exaggeration)) throw std::invalid_argument("hillshade: cell_m must be > 0");
   const int R = height_m.rows, C = height_m.cols;
   cv::Mat out(R, C, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));

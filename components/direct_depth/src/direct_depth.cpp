@@ -1,13 +1,13 @@
 #include "regolith/direct_depth/direct_depth.hpp"
 
-#include <opencv2/calib3d.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <opencv2/calib3d.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
@@ -43,10 +43,8 @@ void CameraModel::validate() const {
   if (width <= 0 || height <= 0 || width > kMaxImageSidePx || height > kMaxImageSidePx)
     fail("width/height", "must be in 1.." + std::to_string(kMaxImageSidePx) + " px");
   if (!std::isfinite(mount_height_m) || mount_height_m <= 0) fail("mount_height_m", "must be > 0 m");
-  if (!std::isfinite(pitch_rad) || std::abs(pitch_rad) >= CV_PI / 2)
-    fail("pitch_rad", "must be in (-pi/2, pi/2)");
-  if (!std::isfinite(roll_rad) || std::abs(roll_rad) >= CV_PI / 2)
-    fail("roll_rad", "must be in (-pi/2, pi/2)");
+  if (!std::isfinite(pitch_rad) || std::abs(pitch_rad) >= CV_PI / 2) fail("pitch_rad", "must be in (-pi/2, pi/2)");
+  if (!std::isfinite(roll_rad) || std::abs(roll_rad) >= CV_PI / 2) fail("roll_rad", "must be in (-pi/2, pi/2)");
 }
 
 DirectDepth::DirectDepth(const CameraModel& model, Maps maps) : model_(model) {
@@ -93,7 +91,8 @@ DirectDepth::DirectDepth(const CameraModel& model, Maps maps) : model_(model) {
     for (int c = 0; c < W; ++c) {
       const int c0 = std::max(c - 1, 0), c1 = std::min(c + 1, W - 1);
       const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, H - 1);
-      const float dl = (lateral_.at<float>(r, c1) - lateral_.at<float>(r, c0)) / static_cast<float>(std::max(c1 - c0, 1));
+      const float dl =
+          (lateral_.at<float>(r, c1) - lateral_.at<float>(r, c0)) / static_cast<float>(std::max(c1 - c0, 1));
       const float dr = (range_.at<float>(r1, c) - range_.at<float>(r0, c)) / static_cast<float>(std::max(r1 - r0, 1));
       foot_lat_.at<float>(r, c) = std::abs(dl);
       foot_rng_.at<float>(r, c) = std::abs(dr);
@@ -102,8 +101,7 @@ DirectDepth::DirectDepth(const CameraModel& model, Maps maps) : model_(model) {
 
 cv::Point2d DirectDepth::normalised(double c, double r) const {
   if (!std::isfinite(c) || !std::isfinite(r)) fail("pixel", "coordinates must be finite");
-  if (!model_.has_distortion())
-    return {(c - model_.cx) / model_.fx, (r - model_.cy) / model_.fy};
+  if (!model_.has_distortion()) return {(c - model_.cx) / model_.fx, (r - model_.cy) / model_.fy};
   const cv::Matx33d K(model_.fx, 0, model_.cx, 0, model_.fy, model_.cy, 0, 0, 1);
   const cv::Vec<double, 5> D(model_.k1, model_.k2, model_.p1, model_.p2, model_.k3);
   std::vector<cv::Point2d> in{{c, r}}, out;
@@ -157,10 +155,9 @@ ObjectSize DirectDepth::object_size(const cv::Rect& box, double assumed_depth_m)
 }
 
 double DirectDepth::range_error_exact(double r, double rows) const {
-  const double a = canonical_range(model_.mount_height_m, model_.pitch_rad,
-                                   std::atan((r - model_.cy) / model_.fy));
-  const double b = canonical_range(model_.mount_height_m, model_.pitch_rad,
-                                   std::atan((r + rows - model_.cy) / model_.fy));
+  const double a = canonical_range(model_.mount_height_m, model_.pitch_rad, std::atan((r - model_.cy) / model_.fy));
+  const double b =
+      canonical_range(model_.mount_height_m, model_.pitch_rad, std::atan((r + rows - model_.cy) / model_.fy));
   return std::abs(a - b);
 }
 

@@ -75,7 +75,8 @@ GroundRectifier::GroundRectifier(const DirectDepth& depth, const RectifiedGrid& 
       const int c = static_cast<int>(std::lround(px->x)), r = static_cast<int>(std::lround(px->y));
       const double a = static_cast<double>(fl.at<float>(r, c)) * static_cast<double>(fr.at<float>(r, c));
       if (!(a > 0.0)) continue;  // pixel at or above the horizon
-      const int c0 = std::min(static_cast<int>(px->x), sz.width - 1), r0 = std::min(static_cast<int>(px->y), sz.height - 1);
+      const int c0 = std::min(static_cast<int>(px->x), sz.width - 1),
+                r0 = std::min(static_cast<int>(px->y), sz.height - 1);
       src_.at<cv::Vec4i>(i, j) = {r0, c0, std::min(r0 + 1, sz.height - 1), std::min(c0 + 1, sz.width - 1)};
       frac_.at<cv::Vec2f>(i, j) = {static_cast<float>(px->x - c0), static_cast<float>(px->y - r0)};
       valid_.at<uchar>(i, j) = 255;
@@ -88,8 +89,9 @@ void GroundRectifier::resample(const cv::Mat& gray, cv::Mat& out, double outside
   if (gray.empty()) fail(what, "empty image");
   if (gray.type() != CV_8UC1) fail(what, "must be CV_8UC1 (8-bit grey)");
   if (gray.size() != image_size_)
-    fail(what, "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " differs from the camera model " +
-                   std::to_string(image_size_.width) + "x" + std::to_string(image_size_.height));
+    fail(what, "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                   " differs from the camera model " + std::to_string(image_size_.width) + "x" +
+                   std::to_string(image_size_.height));
   const int type = (out.type() == CV_8UC1 && !out.empty()) ? CV_8UC1 : CV_32FC1;
   out.create(grid_.rows, grid_.cols, type);
   if (type == CV_8UC1)

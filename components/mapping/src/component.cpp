@@ -9,10 +9,11 @@
 #include <limits>
 #include <memory>
 #include <optional>
-#include <opencv2/imgproc.hpp>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/common/camera.hpp"
 #include "regolith/dds/participant.hpp"
@@ -134,10 +135,10 @@ class TerrainMapComponent final : public runtime::Component {
     const double window_m = std::max(mp.map.length_x_m, mp.map.length_y_m);
     const double cells_per_side = window_m / mp.map.resolution_m;
     if (cells_per_side > kMaxLiveMapCellsPerSide) {
-      p.fail("map_resolution_m", "map_length_m " + number_text(window_m) + " m at " + number_text(mp.map.resolution_m) +
-                                     " m per cell is " + number_text(std::ceil(cells_per_side)) +
-                                     " cells per side; the live map takes at most " +
-                                     std::to_string(kMaxLiveMapCellsPerSide) + " (a coarser resolution or a shorter window)");
+      p.fail("map_resolution_m",
+             "map_length_m " + number_text(window_m) + " m at " + number_text(mp.map.resolution_m) + " m per cell is " +
+                 number_text(std::ceil(cells_per_side)) + " cells per side; the live map takes at most " +
+                 std::to_string(kMaxLiveMapCellsPerSide) + " (a coarser resolution or a shorter window)");
     }
     map_every_ = p.get<int>(
         "map_publish_every", 2,

@@ -14,7 +14,8 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                                   {.doc = "rocks sighted in each frame, followed across frames (far rocks)"});
   mp.shading_weight = p.get<double>(
       "shading_weight", mp.shading_weight,
-      {.min = 0.0, .max = 10.0,
+      {.min = 0.0,
+       .max = 10.0,
        .doc = "weight of the ground-rectified SfS heights against parallax (x the SfS grid's confidence)"});
   mp.tracks.enabled = p.get<bool>(
       "track_rocks", mp.tracks.enabled,
@@ -22,19 +23,24 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
               "ranged on the ground plane)"});
   mp.tracks.ground_sigma_m = p.get<double>(
       "rock_ground_sigma_m", mp.tracks.ground_sigma_m,
-      {.unit = "m", .min = 0.0, .max = 1.0, .min_exclusive = true,
+      {.unit = "m",
+       .min = 0.0,
+       .max = 1.0,
+       .min_exclusive = true,
        .doc = "std of a rock contact's height about the ground plane under the camera (the triangulation's prior)"});
   const bool min_frames_given = p.has("rock_min_frames");
-  mp.map.rock_min_frames = p.get<int>(
-      "rock_min_frames", mp.map.rock_min_frames,
-      {.min = 1, .max = 1000,
-       .doc = "frames a tracked rock must be sighted in to be reported (1 with track_rocks: false, where every sighting is "
-              "a track of one frame)"});
+  mp.map.rock_min_frames = p.get<int>("rock_min_frames", mp.map.rock_min_frames,
+                                      {.min = 1,
+                                       .max = 1000,
+                                       .doc = "frames a tracked rock must be sighted in to be reported (1 with "
+                                              "track_rocks: false, where every sighting is "
+                                              "a track of one frame)"});
   if (!mp.tracks.enabled) {
     // Untracked, no rock is ever seen in more than one frame: a larger minimum reports nothing.
     if (min_frames_given && mp.map.rock_min_frames > 1)
       p.fail("rock_min_frames",
-             "must be 1 with track_rocks: false (every sighting is then a track of one frame, so no rock would be reported)");
+             "must be 1 with track_rocks: false (every sighting is then a track of one frame, so no rock would be "
+             "reported)");
     mp.map.rock_min_frames = 1;
   }
   mp.map.rock_merge_m = p.get<double>(
@@ -42,26 +48,35 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
       {.unit = "m", .min = 0.0, .max = 5.0, .doc = "reported rocks closer than this are one rock (the stronger kept)"});
   mp.sighting_tilt_window = p.get<int>(
       "sighting_tilt_window", mp.sighting_tilt_window,
-      {.min = 1, .max = 64, .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
-  mp.sighting_tilt_noise_rad = p.get<double>(
-      "sighting_tilt_noise_rad", mp.sighting_tilt_noise_rad,
-      {.unit = "rad", .min = 0.0, .max = 0.5,
-       .doc = "error of one VO tilt: the ranging tilt is shrunk towards the mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
-  mp.ground_tilt = p.get<bool>(
-      "ground_tilt", mp.ground_tilt,
-      {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects (rocks pull the joint fit nose-down)"});
-  mp.object_margin_px = p.get<int>("object_margin_px", mp.object_margin_px,
-                                   {.min = 0, .max = 64, .doc = "pixels around each sighted rock's box left out of that refit"});
-  mp.parallax_spacing_m = p.get<double>(
-      "parallax_spacing_m", mp.parallax_spacing_m,
-      {.unit = "m", .min = 0.0, .max = 5.0,
-       .doc = "a parallax search runs when the baseline grew this much since the last (0 = every frame: denser map, ~3x the time)"});
+      {.min = 1,
+       .max = 64,
+       .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
+  mp.sighting_tilt_noise_rad = p.get<double>("sighting_tilt_noise_rad", mp.sighting_tilt_noise_rad,
+                                             {.unit = "rad",
+                                              .min = 0.0,
+                                              .max = 0.5,
+                                              .doc = "error of one VO tilt: the ranging tilt is shrunk towards the "
+                                                     "mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
+  mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
+                               {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
+                                       "(rocks pull the joint fit nose-down)"});
+  mp.object_margin_px =
+      p.get<int>("object_margin_px", mp.object_margin_px,
+                 {.min = 0, .max = 64, .doc = "pixels around each sighted rock's box left out of that refit"});
+  mp.parallax_spacing_m = p.get<double>("parallax_spacing_m", mp.parallax_spacing_m,
+                                        {.unit = "m",
+                                         .min = 0.0,
+                                         .max = 5.0,
+                                         .doc = "a parallax search runs when the baseline grew this much since the "
+                                                "last (0 = every frame: denser map, ~3x the time)"});
   {
     const std::string mode = p.get<std::string>(
         "parallax", "both",
         {.choices = {"sweep", "rectified", "both"},
          .doc = "parallax heights: plane sweep in the image, search in the ground-rectified frame, or both"});
-    mp.parallax_mode = mode == "sweep" ? ParallaxMode::kSweep : mode == "rectified" ? ParallaxMode::kRectified : ParallaxMode::kBoth;
+    mp.parallax_mode = mode == "sweep"       ? ParallaxMode::kSweep
+                       : mode == "rectified" ? ParallaxMode::kRectified
+                                             : ParallaxMode::kBoth;
   }
   mp.keyframe_distance_m = p.get<double>("keyframe_distance_m", mp.keyframe_distance_m,
                                          {.unit = "m",
@@ -77,11 +92,16 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                                        .doc = "turn after which the frame becomes the keyframe"});
   mp.vo.attitude_prior_rad = p.get<double>(
       "vo_attitude_prior_rad", mp.vo.attitude_prior_rad,
-      {.unit = "rad", .min = 0.0, .max = 0.5, .min_exclusive = true,
+      {.unit = "rad",
+       .min = 0.0,
+       .max = 0.5,
+       .min_exclusive = true,
        .doc = "std of the camera's tilt against the ground ahead, around the mount (visual odometry prior)"});
   mp.vo.height_change_prior = p.get<double>(
       "vo_height_change_prior", mp.vo.height_change_prior,
-      {.min = 0.0, .max = 0.5, .min_exclusive = true,
+      {.min = 0.0,
+       .max = 0.5,
+       .min_exclusive = true,
        .doc = "std of the change of the camera's height above the ground between keyframe and frame, as a fraction"});
   mp.map.resolution_m = p.get<double>("map_resolution_m", mp.map.resolution_m,
                                       {.unit = "m", .min = 0.005, .max = 1.0, .doc = "map cell size"});
@@ -101,13 +121,17 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.map.hazard_relief_weight = p.get<double>(
       "hazard_relief_weight", mp.map.hazard_relief_weight,
       {.min = 0.0, .max = 1.0, .doc = "probability the parallax relief alone gives a cell at full height"});
-  mp.map.hazard_evidence_scale = p.get<double>(
-      "hazard_evidence_scale", mp.map.hazard_evidence_scale,
-      {.min = 0.0, .max = 100.0, .min_exclusive = true,
-       .doc = "summed sighting scores at which a sighted rock's probability is 1 - 1/e"});
+  mp.map.hazard_evidence_scale =
+      p.get<double>("hazard_evidence_scale", mp.map.hazard_evidence_scale,
+                    {.min = 0.0,
+                     .max = 100.0,
+                     .min_exclusive = true,
+                     .doc = "summed sighting scores at which a sighted rock's probability is 1 - 1/e"});
   mp.map.fill_radius_m = p.get<double>(
       "map_fill_radius_m", mp.map.fill_radius_m,
-      {.unit = "m", .min = 0.0, .max = 1.0,
+      {.unit = "m",
+       .min = 0.0,
+       .max = 1.0,
        .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) take the smoothed local "
               "ground there, with a lowered confidence and no relief or hazard of their own (0 = off)"});
   mp.wheel.along_fraction =
@@ -116,9 +140,8 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.wheel.lateral_fraction =
       p.get<double>("wheel_lateral_fraction", mp.wheel.lateral_fraction,
                     {.min = 0.0, .max = 1.0, .doc = "std across the heading, fraction of the step"});
-  mp.wheel.yaw_per_m_rad =
-      p.get<double>("wheel_yaw_per_m_rad", mp.wheel.yaw_per_m_rad,
-                    {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
+  mp.wheel.yaw_per_m_rad = p.get<double>("wheel_yaw_per_m_rad", mp.wheel.yaw_per_m_rad,
+                                         {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
   mp.wheel.max_speed_mps =
       p.get<double>("wheel_max_speed_mps", mp.wheel.max_speed_mps,
                     {.unit = "m/s",
@@ -138,9 +161,11 @@ OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover
   o.imu_heading = heading == "imu";
   if (o.imu_heading && rover.imu.empty())
     p.fail("heading_source", "`imu` needs an IMU in the rover description (rover.imu: <device>)");
-  o.step = from_seconds(p.get<double>(
-      "odometry_step_s", 0.05,
-      {.unit = "s", .min = 0.001, .max = 10.0, .doc = "wheel odometry is integrated in steps of at most this between frames"}));
+  o.step = from_seconds(p.get<double>("odometry_step_s", 0.05,
+                                      {.unit = "s",
+                                       .min = 0.001,
+                                       .max = 10.0,
+                                       .doc = "wheel odometry is integrated in steps of at most this between frames"}));
   return o;
 }
 

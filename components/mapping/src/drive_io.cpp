@@ -1,22 +1,22 @@
-#include "regolith/common/plot.hpp"
-#include "regolith/core/image_file.hpp"
-#include "regolith/core/json_file.hpp"
-#include "regolith/core/json_text.hpp"
 #include "regolith/mapping/drive_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <algorithm>
-#include <cstdio>
-#include <cmath>
-#include <limits>
-#include <sstream>
-#include <utility>
-
+#include "regolith/common/plot.hpp"
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_file.hpp"
+#include "regolith/core/json_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/core/text_file.hpp"
 
 namespace regolith::mapping {
@@ -30,8 +30,10 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 /// written in exponent form with the same significant digits instead.
 std::string csv_fixed(double v, int decimals) {
   char buf[64];
-  if (std::abs(v) < 1e9 || !std::isfinite(v)) std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  else std::snprintf(buf, sizeof buf, "%.*g", decimals + 10, v);
+  if (std::abs(v) < 1e9 || !std::isfinite(v))
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  else
+    std::snprintf(buf, sizeof buf, "%.*g", decimals + 10, v);
   return buf;
 }
 
@@ -101,13 +103,21 @@ RecordedDrive read_drive(const fs::path& dir) {
 
 void write_drive_description(const RecordedDrive& d, const fs::path& file) {
   const direct_depth::CameraModel& c = d.camera;
-  const nlohmann::json j = {
-      {"camera",
-       {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"width", c.width}, {"height", c.height},
-        {"mount_height_m", c.mount_height_m}, {"pitch_deg", c.pitch_rad / kDeg}, {"roll_deg", c.roll_rad / kDeg},
-        {"mount_x_m", d.mount.x_m}, {"mount_y_m", d.mount.y_m}, {"mount_yaw_deg", d.mount.yaw_rad / kDeg}}},
-      {"sun", {{"azimuth_deg", d.sun_azimuth_deg}, {"elevation_deg", d.sun_elevation_deg}}},
-      {"wheel", {{"radius_m", d.wheel_radius_m}}}};
+  const nlohmann::json j = {{"camera",
+                             {{"fx", c.fx},
+                              {"fy", c.fy},
+                              {"cx", c.cx},
+                              {"cy", c.cy},
+                              {"width", c.width},
+                              {"height", c.height},
+                              {"mount_height_m", c.mount_height_m},
+                              {"pitch_deg", c.pitch_rad / kDeg},
+                              {"roll_deg", c.roll_rad / kDeg},
+                              {"mount_x_m", d.mount.x_m},
+                              {"mount_y_m", d.mount.y_m},
+                              {"mount_yaw_deg", d.mount.yaw_rad / kDeg}}},
+                            {"sun", {{"azimuth_deg", d.sun_azimuth_deg}, {"elevation_deg", d.sun_elevation_deg}}},
+                            {"wheel", {{"radius_m", d.wheel_radius_m}}}};
   write_file(file.string(), regolith::json_text(j, 2) + "\n", "the drive description");
 }
 
@@ -415,13 +425,15 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
     cv::line(img, hb.tl() + cv::Point(x, 0), hb.tl() + cv::Point(x, hb.height - 1),
              cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
   }
-  cv::putText(img, "hazard 0", hb.tl() + cv::Point(-72, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
-  cv::putText(img, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
+  cv::putText(img, "hazard 0", hb.tl() + cv::Point(-72, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
+              1, cv::LINE_AA);
+  cv::putText(img, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
+              1, cv::LINE_AA);
   // Legend, in the colours it explains.
-  const plot::LegendEntry legend[] = {
-      {"corrected path", {0, 220, 0}}, {"wheel odometry", {255, 120, 0}}, {"hazard", {0, 0, 255}}, {"rocks", {0, 230, 255}}};
+  const plot::LegendEntry legend[] = {{"corrected path", {0, 220, 0}},
+                                      {"wheel odometry", {255, 120, 0}},
+                                      {"hazard", {0, 0, 255}},
+                                      {"rocks", {0, 230, 255}}};
   plot::put_legend(img, {10, 18}, legend);
   return img;
 }

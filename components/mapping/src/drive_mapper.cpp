@@ -1,10 +1,10 @@
 #include "regolith/mapping/drive_mapper.hpp"
 
-#include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <string>
+
+#include <Eigen/LU>
 
 #include "regolith/core/error.hpp"
 
@@ -34,8 +34,12 @@ void WheelNoise::validate() const {
   nonneg(lateral_fraction, "lateral_fraction");
   nonneg(yaw_per_m_rad, "yaw_per_m_rad");
   nonneg(yaw_fraction, "yaw_fraction");
-  for (auto [v, f] : {std::pair{floor_m, "floor_m"}, {floor_rad, "floor_rad"}, {max_step_m, "max_step_m"},
-                      {max_step_rad, "max_step_rad"}, {max_speed_mps, "max_speed_mps"}, {max_yaw_rate_rps, "max_yaw_rate_rps"}})
+  for (auto [v, f] : {std::pair{floor_m, "floor_m"},
+                      {floor_rad, "floor_rad"},
+                      {max_step_m, "max_step_m"},
+                      {max_step_rad, "max_step_rad"},
+                      {max_speed_mps, "max_speed_mps"},
+                      {max_yaw_rate_rps, "max_yaw_rate_rps"}})
     if (!std::isfinite(v) || v <= 0) fail("mapping.wheel", f, "must be > 0");
 }
 
@@ -72,11 +76,14 @@ void DriveMapperParams::validate() const {
   tracks.validate();
   shadow.validate();
   if (sighting_tilt_window < 1 || sighting_tilt_window > 64) fail("mapping", "sighting_tilt_window", "must be 1..64");
-  if (!std::isfinite(sighting_tilt_noise_rad) || sighting_tilt_noise_rad < 0) fail("mapping", "sighting_tilt_noise_rad", "must be >= 0");
+  if (!std::isfinite(sighting_tilt_noise_rad) || sighting_tilt_noise_rad < 0)
+    fail("mapping", "sighting_tilt_noise_rad", "must be >= 0");
   if (object_margin_px < 0 || object_margin_px > 64) fail("mapping", "object_margin_px", "must be 0..64");
-  if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0) fail("mapping", "keyframe_distance_m", "must be > 0");
+  if (!std::isfinite(keyframe_distance_m) || keyframe_distance_m <= 0)
+    fail("mapping", "keyframe_distance_m", "must be > 0");
   if (!std::isfinite(keyframe_yaw_rad) || keyframe_yaw_rad <= 0) fail("mapping", "keyframe_yaw_rad", "must be > 0");
-  if (!std::isfinite(parallax_spacing_m) || parallax_spacing_m < 0) fail("mapping", "parallax_spacing_m", "must be >= 0");
+  if (!std::isfinite(parallax_spacing_m) || parallax_spacing_m < 0)
+    fail("mapping", "parallax_spacing_m", "must be >= 0");
   if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
     fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
 }
@@ -111,7 +118,8 @@ DriveMapper::DriveMapper(const direct_depth::CameraModel& camera, const CameraMo
   objects_.create(camera.height, camera.width, CV_8U);
   if (!std::isfinite(mount.x_m) || !std::isfinite(mount.y_m) || !std::isfinite(mount.yaw_rad))
     fail("mapping", "mount", "must be finite");
-  if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world))) fail("mapping", "sun", "must be a finite non-zero vector");
+  if (!(cv::norm(sun_world) > 0) || !std::isfinite(cv::norm(sun_world)))
+    fail("mapping", "sun", "must be a finite non-zero vector");
 }
 
 cv::Vec2d DriveMapper::sighting_tilt() const {
@@ -125,7 +133,8 @@ cv::Vec2d DriveMapper::sighting_tilt() const {
   cv::Vec2d out;
   std::array<double, kMaxTiltWindow> v{};
   for (int axis = 0; axis < 2; ++axis) {
-    for (int i = 0; i < n; ++i) v[static_cast<std::size_t>(i)] = tilts_[static_cast<std::size_t>((n_tilts_ - 1 - i) % kMaxTiltWindow)][axis];
+    for (int i = 0; i < n; ++i)
+      v[static_cast<std::size_t>(i)] = tilts_[static_cast<std::size_t>((n_tilts_ - 1 - i) % kMaxTiltWindow)][axis];
     std::nth_element(v.begin(), v.begin() + n / 2, v.begin() + n);
     double med = v[static_cast<std::size_t>(n / 2)];
     if (n % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), v.begin() + n / 2));

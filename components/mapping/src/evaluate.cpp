@@ -7,12 +7,13 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/common/plot.hpp"
 #include "regolith/core/csv.hpp"
@@ -76,7 +77,8 @@ void remove_plane(const std::vector<double>& x, const std::vector<double>& y, st
   }
   cv::Mat coef;
   if (!cv::solve(A, Z, coef, cv::DECOMP_SVD)) return;
-  for (std::size_t k = 0; k < z.size(); ++k) z[k] -= coef.at<double>(0) * x[k] + coef.at<double>(1) * y[k] + coef.at<double>(2);
+  for (std::size_t k = 0; k < z.size(); ++k)
+    z[k] -= coef.at<double>(0) * x[k] + coef.at<double>(1) * y[k] + coef.at<double>(2);
 }
 
 double auc(std::vector<std::pair<double, int>> s) {
@@ -87,8 +89,10 @@ double auc(std::vector<std::pair<double, int>> s) {
     while (e < s.size() && s[e].first == s[k].first) ++e;
     const double avg = 0.5 * static_cast<double>(k + 1 + e);  // average 1-based rank of ties
     for (std::size_t q = k; q < e; ++q)
-      if (s[q].second) rank_sum += avg, ++pos;
-      else ++neg;
+      if (s[q].second)
+        rank_sum += avg, ++pos;
+      else
+        ++neg;
     k = e;
   }
   if (pos == 0 || neg == 0) return std::nan("");
@@ -223,7 +227,9 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
     last_t = &t, last_e = &e;
   }
   if (n < 2) throw InputError(map_dir.string() + "/odometry.csv: fewer than two frames match truth_poses.csv");
-  auto yaw_err = [](double a, double b) { return std::abs(std::remainder(a - b, 2 * 3.14159265358979323846)) * 180.0 / 3.14159265358979323846; };
+  auto yaw_err = [](double a, double b) {
+    return std::abs(std::remainder(a - b, 2 * 3.14159265358979323846)) * 180.0 / 3.14159265358979323846;
+  };
   const Row &lt = *last_t, &le = *last_e;
   const double fe = std::hypot(le.at("x_m") - lt.at("rover_x_m"), le.at("y_m") - lt.at("rover_y_m"));
   const double fw = std::hypot(le.at("wheel_x_m") - lt.at("rover_x_m"), le.at("wheel_y_m") - lt.at("rover_y_m"));
@@ -269,7 +275,8 @@ ScoredGrid read_scored_grid(const fs::path& drive_dir, const fs::path& map_dir) 
       int m = 0;
       for (int a = gi - k / 2; a <= gi + (k - 1) / 2; ++a)
         for (int b = gj2 - k / 2; b <= gj2 + (k - 1) / 2; ++b)
-          if (a >= 0 && b >= 0 && a < th.rows && b < th.cols && std::isfinite(th.at<float>(a, b))) acc += th.at<float>(a, b), ++m;
+          if (a >= 0 && b >= 0 && a < th.rows && b < th.cols && std::isfinite(th.at<float>(a, b)))
+            acc += th.at<float>(a, b), ++m;
       if (m) g.truth.at<float>(i, j) = static_cast<float>(acc / m);
     }
   return g;
@@ -285,7 +292,8 @@ void mark_seen(ScoredGrid& g, const std::map<int, Row>& tp, const direct_depth::
     const cv::Vec3d fwd(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), -std::sin(pitch));
     cv::Vec3d right(std::sin(yaw), -std::cos(yaw), 0.0);
     cv::Vec3d down = fwd.cross(right);
-    const cv::Vec3d r2 = right * std::cos(roll) + down * std::sin(roll), d2 = down * std::cos(roll) - right * std::sin(roll);
+    const cv::Vec3d r2 = right * std::cos(roll) + down * std::sin(roll),
+                    d2 = down * std::cos(roll) - right * std::sin(roll);
     for (int i = 0; i < g.truth.rows; ++i)
       for (int j = 0; j < g.truth.cols; ++j) {
         const float zt = g.truth.at<float>(i, j);
@@ -326,7 +334,8 @@ nlohmann::json score_elevation(const ScoredGrid& g) {
   std::vector<double> de, dt;
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j)
-      if (both.at<uchar>(i, j)) de.push_back(ez.at<float>(i, j) - be.at<float>(i, j)), dt.push_back(tz.at<float>(i, j) - bt.at<float>(i, j));
+      if (both.at<uchar>(i, j))
+        de.push_back(ez.at<float>(i, j) - be.at<float>(i, j)), dt.push_back(tz.at<float>(i, j) - bt.at<float>(i, j));
   return {{"seen_cells", n_seen},
           {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
           {"elevation_r", r_plane},

@@ -1,22 +1,24 @@
 #include "regolith/mapping/ground_vo.hpp"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "regolith/core/error.hpp"
 
 namespace regolith::mapping {
 namespace {
 
-[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.vo", field, why); }
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.vo", field, why);
+}
 
-constexpr uchar kValue = 128;   // a usable grey value
-constexpr uchar kGradient = 255;  // ... with a usable gradient
+constexpr uchar kValue = 128;                 // a usable grey value
+constexpr uchar kGradient = 255;              // ... with a usable gradient
 constexpr float kLow = 3.0f, kHigh = 252.0f;  // clipped brightness carries no shading
 
 direct_depth::RectifiedGrid finest_grid(const GroundVoParams& p) {
@@ -371,7 +373,8 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   th[kX] = a0.x, th[kY] = a0.y, th[kYaw] = a0.yaw;
   used_ = inl_ = 0;
   bool ok = true;
-  for (int l = p_.levels - 1; l >= 0 && ok; --l) ok = align_level(l, templates_[static_cast<std::size_t>(l)], th, l == 0);
+  for (int l = p_.levels - 1; l >= 0 && ok; --l)
+    ok = align_level(l, templates_[static_cast<std::size_t>(l)], th, l == 0);
   last_.points = used_;
   last_.inliers = inl_;
   last_.pitch_rad = th[kPitch];

@@ -1,12 +1,12 @@
 #include "regolith/mapping/parallax.hpp"
 
-#include <Eigen/Cholesky>
-#include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "regolith/common/box.hpp"
 #include "regolith/common/fill.hpp"
@@ -30,7 +30,8 @@ using common::fill;
 void ParallaxParams::validate() const {
   if (!std::isfinite(resolution_m) || resolution_m <= 0) fail("resolution_m", "must be > 0");
   if (!std::isfinite(max_range_m) || max_range_m <= 0) fail("max_range_m", "must be > 0");
-  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m) fail("min_range_m", "must be in [0, max_range_m)");
+  if (!std::isfinite(min_range_m) || min_range_m < 0 || min_range_m >= max_range_m)
+    fail("min_range_m", "must be in [0, max_range_m)");
   if (!std::isfinite(half_width_m) || half_width_m <= 0) fail("half_width_m", "must be > 0");
   if ((max_range_m - min_range_m) / resolution_m > 2048 || 2 * half_width_m / resolution_m > 2048)
     fail("resolution_m", "more than 2048 cells per side");
@@ -92,7 +93,8 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
   const double base = std::hypot(m.x, m.y);
   for (cv::Mat* q : {&z_, &x_, &y_}) fill(*q, kNaNf);
   fill(conf_, 0.0f);
-  if (!has_key_ || !(base >= p_.min_baseline_m) || !m.finite() || !(height_ratio > 0.5 && height_ratio < 2.0)) return false;
+  if (!has_key_ || !(base >= p_.min_baseline_m) || !m.finite() || !(height_ratio > 0.5 && height_ratio < 2.0))
+    return false;
   const double bx = m.x / base, by = m.y / base;
   const Pose2 a = inverse(m);  // keyframe ground coordinates -> current
   const double ca = std::cos(a.yaw), sa = std::sin(a.yaw);
@@ -128,11 +130,12 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
         const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
         const double px = pc.x + d * bx, py = pc.y + d * by;
         // The current camera's rectification scales metres by height_ratio (its height differs).
-        const cv::Point2d q = nominal(height_ratio * (ca * px - sa * py + a.x), height_ratio * (sa * px + ca * py + a.y), ct);
+        const cv::Point2d q =
+            nominal(height_ratio * (ca * px - sa * py + a.x), height_ratio * (sa * px + ca * py + a.y), ct);
         const cv::Point2d cell = grid_.cell(q.x, q.y);
         const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
-        if (i0 < 0 || j0 < 0 || i0 + 1 >= R || j0 + 1 >= C || !cur_ok.at<uchar>(i0, j0) || !cur_ok.at<uchar>(i0 + 1, j0) ||
-            !cur_ok.at<uchar>(i0, j0 + 1) || !cur_ok.at<uchar>(i0 + 1, j0 + 1)) {
+        if (i0 < 0 || j0 < 0 || i0 + 1 >= R || j0 + 1 >= C || !cur_ok.at<uchar>(i0, j0) ||
+            !cur_ok.at<uchar>(i0 + 1, j0) || !cur_ok.at<uchar>(i0, j0 + 1) || !cur_ok.at<uchar>(i0 + 1, j0 + 1)) {
           e[j] = penalty;
           continue;
         }

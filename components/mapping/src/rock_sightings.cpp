@@ -279,7 +279,8 @@ void RockSightings::object_mask(cv::Mat& out, int margin_px) const {
   const cv::Rect frame(0, 0, out.cols, out.rows);
   for (int k = 0; k < count_; ++k) {
     const auto at = [&](SightingRow r) { return static_cast<int>(table_.at<float>(r, k)); };
-    const cv::Rect box(at(kSightCol0) - margin_px, at(kSightRow0) - margin_px, at(kSightCol1) - at(kSightCol0) + 1 + 2 * margin_px,
+    const cv::Rect box(at(kSightCol0) - margin_px, at(kSightRow0) - margin_px,
+                       at(kSightCol1) - at(kSightCol0) + 1 + 2 * margin_px,
                        at(kSightRow1) - at(kSightRow0) + 1 + 2 * margin_px);
     out(box & frame).setTo(255);
   }

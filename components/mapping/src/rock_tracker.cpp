@@ -1,12 +1,12 @@
 #include "regolith/mapping/rock_tracker.hpp"
 
-#include <Eigen/Cholesky>
-#include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
@@ -140,7 +140,8 @@ int RockTracker::update(const cv::Mat& st, const Pose2& foot, double mount_m) {
           if (!(along > 0)) continue;
           const double across = std::max(0.0, (v - along * r.d).norm() - r.spread) / r.sigma;
           const double off = (along - r.ground) / r.sigma_along;
-          if (across < p_.gate && std::abs(off) < p_.gate) candidates_.push_back({across * across + off * off, double(k), double(s)});
+          if (across < p_.gate && std::abs(off) < p_.gate)
+            candidates_.push_back({across * across + off * off, double(k), double(s)});
         }
       }
     std::sort(candidates_.begin(), candidates_.end(), [](const auto& a, const auto& b) { return a[0] < b[0]; });

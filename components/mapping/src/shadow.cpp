@@ -13,7 +13,9 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.shadow", field, why); }
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.shadow", field, why);
+}
 
 using common::fill;
 

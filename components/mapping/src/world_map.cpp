@@ -1,12 +1,12 @@
 #include "regolith/mapping/world_map.hpp"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
@@ -17,11 +17,28 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-[[noreturn]] void fail(const std::string& field, const std::string& why) { throw FieldError("mapping.map", field, why); }
+[[noreturn]] void fail(const std::string& field, const std::string& why) {
+  throw FieldError("mapping.map", field, why);
+}
 
 using common::fill;
 
-enum Layer { kElevation, kVariance, kConfidence, kCount, kSlope, kRoughness, kStep, kTrav, kRelief, kShadow, kHazard, kEvidence, kRockHeight, kLayers };
+enum Layer {
+  kElevation,
+  kVariance,
+  kConfidence,
+  kCount,
+  kSlope,
+  kRoughness,
+  kStep,
+  kTrav,
+  kRelief,
+  kShadow,
+  kHazard,
+  kEvidence,
+  kRockHeight,
+  kLayers
+};
 
 }  // namespace
 
@@ -96,10 +113,10 @@ WorldMap::WorldMap(const WorldMapParams& params, double cx, double cy) : p_((par
   tp.set_grid({p_.resolution_m, rows_ * p_.resolution_m, cols_ * p_.resolution_m, 0.0, 0.0});
   p_.traversability = tp;
   static_cast<common::GridGeometry&>(trav_) = tp.grid();
-  trav_.layers = {"elevation", "confidence", "traversability_slope", "traversability_roughness", "traversability_step",
-                  "traversability"};
-  trav_.data = {layers_[kElevation], layers_[kConfidence], layers_[kSlope], layers_[kRoughness], layers_[kStep],
-                layers_[kTrav]};
+  trav_.layers = {"elevation",           "confidence",    "traversability_slope", "traversability_roughness",
+                  "traversability_step", "traversability"};
+  trav_.data = {layers_[kElevation], layers_[kConfidence], layers_[kSlope],
+                layers_[kRoughness], layers_[kStep],       layers_[kTrav]};
 }
 
 const cv::Mat& WorldMap::layer(std::string_view name) const {
@@ -175,7 +192,8 @@ int WorldMap::fuse(const traversability::GridMap& body, const Pose2& foot, doubl
     for (int j = j0; j <= j1; ++j) {
       const double wx = ox_ + j * p_.resolution_m;
       const double bx = inv.x + c * wx - s * wy, by = inv.y + s * wx + c * wy;
-      const int bi = static_cast<int>(std::floor((x_top - bx) / br)), bj = static_cast<int>(std::floor((y_left - by) / br));
+      const int bi = static_cast<int>(std::floor((x_top - bx) / br)),
+                bj = static_cast<int>(std::floor((y_left - by) / br));
       if (bi < 0 || bj < 0 || bi >= nx || bj >= ny) continue;
       const float z = e.at<float>(bi, bj);
       const float cf = conf.at<float>(bi, bj);
@@ -222,7 +240,8 @@ int WorldMap::fuse_points(const cv::Mat& x, const cv::Mat& y, const cv::Mat& z, 
       const double bx = px[k], by = py[k], r2 = bx * bx + by * by;
       if (r2 > r2max) continue;
       const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
-      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)), i = static_cast<int>(std::lround((wy - oy_) * inv_res));
+      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)),
+                i = static_cast<int>(std::lround((wy - oy_) * inv_res));
       if (i < 0 || j < 0 || i >= rows_ || j >= cols_) continue;
       add(i, j, pz[k], static_cast<double>(pw[k]) / (1.0 + r2 * inv_rs2));
       ++updated;
@@ -246,7 +265,8 @@ int WorldMap::fuse_casters(const cv::Mat& x, const cv::Mat& y, const cv::Mat& h,
       const double bx = px[k], by = py[k];
       if (bx * bx + by * by > r2max) continue;
       const double wx = foot.x + c * bx - s * by, wy = foot.y + s * bx + c * by;
-      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)), i = static_cast<int>(std::lround((wy - oy_) * inv_res));
+      const int j = static_cast<int>(std::lround((wx - ox_) * inv_res)),
+                i = static_cast<int>(std::lround((wy - oy_) * inv_res));
       if (i < 0 || j < 0 || i >= rows_ || j >= cols_) continue;
       float& sw = shadow_w_.at<float>(i, j);
       float& sh = shadow_h_.at<float>(i, j);
@@ -297,7 +317,8 @@ void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh) {
     const double spread2 = std::max(floor2, 0.0625 * w * w);
     const double sxx = v(kTrackSxx) + spread2, sxy = v(kTrackSxy), syy = v(kTrackSyy) + spread2;
     const double det = sxx * syy - sxy * sxy;
-    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(h) || !std::isfinite(w) || !(score > 0) || !(det > 0)) continue;
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(h) || !std::isfinite(w) || !(score > 0) || !(det > 0))
+      continue;
     // Gaussian of the covariance, peak = score x min(1, s0^2 / sqrt(det)); reach 3 sigma.
     const double ixx = syy / det, ixy = -sxy / det, iyy = sxx / det;
     const double peak = score * std::min(1.0, s0 * s0 / std::sqrt(det));
@@ -320,7 +341,8 @@ void WorldMap::paint_tracks(const cv::Mat& t, int n, cv::Mat& ew, cv::Mat& eh) {
 
 // Normalised-convolution Gaussian (three box passes) of `src` with weights `w` (0 = unknown).
 void WorldMap::smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells) {
-  const int k = std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_cells * sigma_cells + 1.0) - 1.0) / 2.0)));
+  const int k =
+      std::max(1, static_cast<int>(std::lround((std::sqrt(4.0 * sigma_cells * sigma_cells + 1.0) - 1.0) / 2.0)));
   // scratch2_ = src * w, scratch3_ = w; both blurred; dst = ratio.
   for (int i = 0; i < rows_; ++i)
     for (int j = 0; j < cols_; ++j) {
@@ -331,7 +353,8 @@ void WorldMap::smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, 
   auto pass = [&](cv::Mat& m, bool along_rows) {
     const int n = along_rows ? cols_ : rows_, lines = along_rows ? rows_ : cols_;
     for (int l = 0; l < lines; ++l) {
-      for (int q = 0; q < n; ++q) line_[static_cast<std::size_t>(q)] = along_rows ? m.at<float>(l, q) : m.at<float>(q, l);
+      for (int q = 0; q < n; ++q)
+        line_[static_cast<std::size_t>(q)] = along_rows ? m.at<float>(l, q) : m.at<float>(q, l);
       double acc = 0.0;
       for (int q = -k; q <= k; ++q) acc += (q >= 0 && q < n) ? line_[static_cast<std::size_t>(q)] : 0.0;
       for (int q = 0; q < n; ++q) {
@@ -433,7 +456,8 @@ void WorldMap::finish() {
         continue;
       }
       const auto frac = [&](double height) { return std::clamp(height / p_.hazard_height_m, 0.0, 1.0); };
-      const double p_sight = ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(evidence_height(i, j) / ev) : 0.0;
+      const double p_sight =
+          ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(evidence_height(i, j) / ev) : 0.0;
       const double p_shadow = std::isfinite(sh) ? frac(sh) : 0.0;
       const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
@@ -497,7 +521,8 @@ std::vector<MapRock> WorldMap::rocks() const {
     r.height_m = v(kTrackHeight);
     r.width_m = v(kTrackWidth);
     const double e = v(kTrackScore);
-    if (!(v(kTrackFrames) >= p_.rock_min_frames) || !(e >= p_.rock_min_evidence) || !(r.height_m >= p_.rock_min_height_m) ||
+    if (!(v(kTrackFrames) >= p_.rock_min_frames) || !(e >= p_.rock_min_evidence) ||
+        !(r.height_m >= p_.rock_min_height_m) ||
         !(r.x_m >= x0 && r.x_m < x0 + cols_ * p_.resolution_m && r.y_m >= y0 && r.y_m < y0 + rows_ * p_.resolution_m))
       continue;
     r.score = std::clamp(r.height_m / p_.hazard_height_m, 0.0, 1.0) * std::min(1.0, e / (2.0 * p_.rock_min_evidence));

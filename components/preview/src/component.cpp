@@ -52,15 +52,22 @@ class PreviewComponent final : public runtime::Component {
     source_ = source == "sinkage" ? Source::kSinkage : Source::kRocks;
     hal::Camera& cam = ctx.camera(p, "camera");  // rocks: the camera the DTM comes from (its size, frame id)
     const hal::CameraFormat fmt = cam.format();
-    width_ = p.get<int>("width", 320, {.unit = "px", .min = 16, .max = 4096,
-                                       .doc = "preview width (height keeps the aspect ratio; never wider than the camera)"});
+    width_ = p.get<int>("width", 320,
+                        {.unit = "px",
+                         .min = 16,
+                         .max = 4096,
+                         .doc = "preview width (height keeps the aspect ratio; never wider than the camera)"});
     quality_ = p.get<int>("jpeg_quality", 80, {.min = 1, .max = 100, .doc = "JPEG quality"});
-    const double rate = p.get<double>("max_rate_hz", 2.0, {.unit = "Hz", .min = 0.0, .min_exclusive = true,
-                                                          .doc = "at most this many previews per second (of the run's clock)"});
+    const double rate = p.get<double>("max_rate_hz", 2.0,
+                                      {.unit = "Hz",
+                                       .min = 0.0,
+                                       .min_exclusive = true,
+                                       .doc = "at most this many previews per second (of the run's clock)"});
     min_interval_ = static_cast<TimeNs>(1e9 / rate);
     const RoverCamera* described = ctx.rover().camera(cam.id());
-    frame_id_ = p.get<std::string>("frame_id", described != nullptr ? described->frame_id : cam.id() + "_optical_frame",
-                                   {.doc = "header.frame_id (default: rover.cameras.<camera>.frame_id, else <camera>_optical_frame)"});
+    frame_id_ = p.get<std::string>(
+        "frame_id", described != nullptr ? described->frame_id : cam.id() + "_optical_frame",
+        {.doc = "header.frame_id (default: rover.cameras.<camera>.frame_id, else <camera>_optical_frame)"});
 
     size_ = {fmt.width, fmt.height};
     const int type = source_ == Source::kSinkage ? CV_8UC3 : CV_8UC1;  // wheel_sinkage needs bgr8; the DTM is grey
@@ -72,8 +79,8 @@ class PreviewComponent final : public runtime::Component {
     const cv::Size out = preview_size(size_, width_);
     capacity_ = static_cast<std::uint32_t>(out.area()) * 3u + 4096u;  // a JPEG never needs more in practice
     const bool hazard = p.get<bool>("hazard_map", false,
-                                     {.doc = "source rocks: tint what the camera sees of the traversability grid "
-                                             "(channel terrain/grid_map) red by 1 - traversability"});
+                                    {.doc = "source rocks: tint what the camera sees of the traversability grid "
+                                            "(channel terrain/grid_map) red by 1 - traversability"});
     if (source_ == Source::kRocks) {
       dtm_ = &ctx.consume<common::DtmFrame>(common::kDtmChannel);
       rocks_ = &ctx.consume<saliency::RockFrame>(saliency::kRocksChannel);
@@ -85,8 +92,8 @@ class PreviewComponent final : public runtime::Component {
           p.fail("camera", e.what());
         }
         if (depth_->range_map().size() != size_)
-          p.fail("camera", "rover.cameras." + cam.id() + " describes a " + std::to_string(depth_->range_map().cols) + "x" +
-                               std::to_string(depth_->range_map().rows) + " image but the device delivers " +
+          p.fail("camera", "rover.cameras." + cam.id() + " describes a " + std::to_string(depth_->range_map().cols) +
+                               "x" + std::to_string(depth_->range_map().rows) + " image but the device delivers " +
                                std::to_string(size_.width) + "x" + std::to_string(size_.height));
       }
     } else {
@@ -197,8 +204,8 @@ class PreviewComponent final : public runtime::Component {
 
   // ---- worker thread (not real time): draw, encode, publish ----
   void worker_loop() {
-    cv::Mat scaled, out, cells;            // cells: the hazard overlay's pixel -> grid cell lookup
-    common::GridGeometry cells_grid{};     // the grid `cells` was made for
+    cv::Mat scaled, out, cells;         // cells: the hazard overlay's pixel -> grid cell lookup
+    common::GridGeometry cells_grid{};  // the grid `cells` was made for
     std::vector<std::uint8_t> jpeg;
     jpeg.reserve(capacity_);
     for (;;) {

@@ -34,7 +34,8 @@ void caption(cv::Mat& out, const char* text) {
   int base = 0;
   const cv::Size ts = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &base);
   cv::rectangle(out, {0, 0}, {std::min(out.cols, ts.width + 8), ts.height + base + 6}, cv::Scalar(0, 0, 0), cv::FILLED);
-  cv::putText(out, text, {4, ts.height + 3}, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  cv::putText(out, text, {4, ts.height + 3}, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
 }
 
 }  // namespace
@@ -65,8 +66,9 @@ void draw_rocks(const cv::Mat& frame, std::span<const saliency::RangedRock> rock
     const cv::Mat& cell = *hazard.cell;
     const cv::Mat& t = *hazard.traversability;
     if (cell.size() != out.size() || cell.type() != CV_32S || t.type() != CV_32F || !t.isContinuous())
-      throw std::invalid_argument("draw_rocks: hazard overlay: the cell lookup must be CV_32S of the preview's size "
-                                  "and the layer a continuous CV_32F matrix");
+      throw std::invalid_argument(
+          "draw_rocks: hazard overlay: the cell lookup must be CV_32S of the preview's size "
+          "and the layer a continuous CV_32F matrix");
     const int n = static_cast<int>(t.total());
     const float* tv = t.ptr<float>(0);  // continuous (a grid layer)
     for (int r = 0; r < out.rows; ++r) {
@@ -94,7 +96,8 @@ void draw_rocks(const cv::Mat& frame, std::span<const saliency::RangedRock> rock
     const cv::Point p0(static_cast<int>(b.x * s), static_cast<int>(b.y * s));
     const cv::Point p1(std::max(p0.x + 1, static_cast<int>((b.x + b.width) * s) - 1),
                        std::max(p0.y + 1, static_cast<int>((b.y + b.height) * s) - 1));
-    cv::rectangle(out, p0, p1, r.hazard ? red : yellow, r.hazard ? 3 : 2, cv::LINE_8);  // 1 px does not survive JPEG chroma
+    cv::rectangle(out, p0, p1, r.hazard ? red : yellow, r.hazard ? 3 : 2,
+                  cv::LINE_8);  // 1 px does not survive JPEG chroma
     char label[32];
     std::snprintf(label, sizeof label, "%.2f", r.detection.score);
     cv::putText(out, label, {p0.x, std::max(8, p0.y - 2)}, cv::FONT_HERSHEY_PLAIN, 0.7, r.hazard ? red : yellow, 1,

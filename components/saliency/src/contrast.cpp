@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/image_ops.hpp"

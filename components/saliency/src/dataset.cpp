@@ -7,9 +7,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <stdexcept>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <stdexcept>
 
 #include "regolith/core/image_file.hpp"
 #include "regolith/saliency/image_ops.hpp"
@@ -293,15 +294,9 @@ void RockStudy::saliency(size_t k, Method m, const Candidate& cand, cv::Mat& out
       combine_conspicuity(c, w, f.size, out, scratch_);
       break;
     }
-    case Method::kSpectralResidual:
-      f.sr.copyTo(out);
-      break;
-    case Method::kFineGrained:
-      f.fg.copyTo(out);
-      break;
-    case Method::kContrast:
-      ContrastSaliency(cand.contrast).compute_from_intensity(f.intensity, out);
-      break;
+    case Method::kSpectralResidual: f.sr.copyTo(out); break;
+    case Method::kFineGrained: f.fg.copyTo(out); break;
+    case Method::kContrast: ContrastSaliency(cand.contrast).compute_from_intensity(f.intensity, out); break;
   }
 }
 

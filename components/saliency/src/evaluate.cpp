@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/saliency/hungarian.hpp"
 

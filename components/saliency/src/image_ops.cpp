@@ -6,24 +6,19 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 namespace regolith::saliency {
 
 void to_unit_float(const cv::Mat& image, cv::Mat& out) {
   double scale = 1.0;
   switch (image.depth()) {
-    case CV_8U:
-      scale = 1.0 / 255.0;
-      break;
-    case CV_16U:
-      scale = 1.0 / 65535.0;
-      break;
-    case CV_16S:
-      scale = 1.0 / 32767.0;
-      break;
+    case CV_8U: scale = 1.0 / 255.0; break;
+    case CV_16U: scale = 1.0 / 65535.0; break;
+    case CV_16S: scale = 1.0 / 32767.0; break;
     case CV_32F:
     case CV_64F: {
       double mx = 0.0;
@@ -32,8 +27,7 @@ void to_unit_float(const cv::Mat& image, cv::Mat& out) {
       scale = mx > 1.0 ? 1.0 / mx : 1.0;
       break;
     }
-    default:
-      throw std::invalid_argument("image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
+    default: throw std::invalid_argument("image: unsupported depth (use 8U, 16U, 16S, 32F or 64F)");
   }
   image.convertTo(out, CV_32F, scale);
   if (image.depth() == CV_16S || image.depth() == CV_32F || image.depth() == CV_64F) {

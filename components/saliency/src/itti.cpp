@@ -4,9 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/image_ops.hpp"

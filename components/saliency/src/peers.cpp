@@ -1,23 +1,19 @@
 #include "regolith/saliency/peers.hpp"
 
+#include <stdexcept>
+
 #include <opencv2/imgproc.hpp>
 #include <opencv2/saliency.hpp>
-#include <stdexcept>
 
 namespace regolith::saliency {
 
 const char* to_string(Method m) {
   switch (m) {
-    case Method::kSams:
-      return "sams";
-    case Method::kItti:
-      return "itti";
-    case Method::kSpectralResidual:
-      return "spectral_residual";
-    case Method::kFineGrained:
-      return "fine_grained";
-    case Method::kContrast:
-      return "contrast";
+    case Method::kSams: return "sams";
+    case Method::kItti: return "itti";
+    case Method::kSpectralResidual: return "spectral_residual";
+    case Method::kFineGrained: return "fine_grained";
+    case Method::kContrast: return "contrast";
   }
   return "?";
 }
@@ -63,15 +59,9 @@ void OpenCvSaliency::compute(const cv::Mat& image, cv::Mat& saliency) {
   if (ch != 1 && ch != 3 && ch != 4) throw std::invalid_argument("image: must have 1, 3 or 4 channels");
   double scale = 1.0;
   switch (image.depth()) {
-    case CV_8U:
-      scale = 1.0;
-      break;
-    case CV_16U:
-      scale = 255.0 / 65535.0;
-      break;
-    case CV_16S:
-      scale = 255.0 / 32767.0;
-      break;
+    case CV_8U: scale = 1.0; break;
+    case CV_16U: scale = 255.0 / 65535.0; break;
+    case CV_16S: scale = 255.0 / 32767.0; break;
     case CV_32F:
     case CV_64F: {
       double mx = 0.0;
@@ -79,8 +69,7 @@ void OpenCvSaliency::compute(const cv::Mat& image, cv::Mat& saliency) {
       scale = mx > 1.0 ? 255.0 / mx : 255.0;
       break;
     }
-    default:
-      throw std::invalid_argument("image: unsupported depth");
+    default: throw std::invalid_argument("image: unsupported depth");
   }
   cv::Mat& b = impl_->bgr8;
   if (ch == 1) {

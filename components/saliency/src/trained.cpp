@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numeric>
+
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 

@@ -1,38 +1,41 @@
 // Component "sfs": camera frame -> grey -> vignetting correction -> shape from shading -> shared
 // DTM ("terrain/dtm"). Everything is sized in configure(); step() reuses the buffers.
-#include "regolith/sfs/flat_field.hpp"
 #include "regolith/sfs/component.hpp"
-
-#include <cstdio>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "regolith/core/image_limits.hpp"
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "regolith/common/camera.hpp"
+#include "regolith/core/image_limits.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
+#include "regolith/sfs/flat_field.hpp"
 
 namespace regolith::sfs {
 
 direct_depth::CameraModel read_camera_model(Params p, int width, int height) {
   direct_depth::CameraModel m;
-  m.width = p.get<int>("width", width, {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image width (must match the camera)"});
-  m.height = p.get<int>("height", height, {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image height (must match the camera)"});
+  m.width = p.get<int>("width", width,
+                       {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image width (must match the camera)"});
+  m.height =
+      p.get<int>("height", height,
+                 {.unit = "px", .min = 8, .max = kMaxImageSidePx, .doc = "image height (must match the camera)"});
   if (m.width != width || m.height != height)
     p.fail("width", "camera_model is " + std::to_string(m.width) + "x" + std::to_string(m.height) +
                         " px but the image is " + std::to_string(width) + "x" + std::to_string(height) + " px");
   m.fx = p.require<double>("fx", {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length x"});
-  m.fy = p.get<double>("fy", m.fx, {.unit = "px", .min = 0.0, .min_exclusive = true,
-                                    .doc = "focal length y (default fx)"});
+  m.fy = p.get<double>("fy", m.fx,
+                       {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "focal length y (default fx)"});
   m.cx = p.get<double>("cx", 0.5 * (width - 1), {.unit = "px", .doc = "principal point column (default centre)"});
   m.cy = p.get<double>("cy", 0.5 * (height - 1), {.unit = "px", .doc = "principal point row (default centre)"});
   m.k1 = p.get<double>("k1", 0.0, {.doc = "radial distortion (OpenCV model)"});
@@ -40,12 +43,13 @@ direct_depth::CameraModel read_camera_model(Params p, int width, int height) {
   m.p1 = p.get<double>("p1", 0.0, {.doc = "tangential distortion (OpenCV model)"});
   m.p2 = p.get<double>("p2", 0.0, {.doc = "tangential distortion (OpenCV model)"});
   m.k3 = p.get<double>("k3", 0.0, {.doc = "radial distortion (OpenCV model)"});
-  m.mount_height_m = p.require<double>("mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true,
-                                                         .doc = "optical centre above the ground"});
-  m.pitch_rad = p.get<double>("pitch_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707,
-                                                 .doc = "optical axis below the horizontal (down positive)"});
-  m.roll_rad = p.get<double>("roll_rad", 0.0, {.unit = "rad", .min = -1.5707, .max = 1.5707,
-                                               .doc = "rotation about the optical axis"});
+  m.mount_height_m = p.require<double>(
+      "mount_height_m", {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "optical centre above the ground"});
+  m.pitch_rad = p.get<double>(
+      "pitch_rad", 0.0,
+      {.unit = "rad", .min = -1.5707, .max = 1.5707, .doc = "optical axis below the horizontal (down positive)"});
+  m.roll_rad = p.get<double>("roll_rad", 0.0,
+                             {.unit = "rad", .min = -1.5707, .max = 1.5707, .doc = "rotation about the optical axis"});
   p.finish_and_check([&] { m.validate(); });
   return m;
 }
@@ -67,26 +71,30 @@ class SfsComponent final : public runtime::Component {
         "method", "pentland",
         {.choices = {"tsai_shah", "pentland", "bichsel_pentland"}, .doc = "shape-from-shading method"});
     sp.method = method_from_string(method);
-    sp.iterations = p.get<int>("iterations", sp.iterations, {.min = 1, .max = 100000,
-                                                            .doc = "max iterations (Tsai-Shah, Bichsel-Pentland)"});
-    sp.tolerance = p.get<double>("tolerance", sp.tolerance, {.unit = "px", .min = 0.0,
-                                                            .doc = "stop when the mean |dZ| per iteration is below"});
+    sp.iterations = p.get<int>("iterations", sp.iterations,
+                               {.min = 1, .max = 100000, .doc = "max iterations (Tsai-Shah, Bichsel-Pentland)"});
+    sp.tolerance = p.get<double>("tolerance", sp.tolerance,
+                                 {.unit = "px", .min = 0.0, .doc = "stop when the mean |dZ| per iteration is below"});
     sp.saturation_level = p.get<double>("saturation_level", sp.saturation_level,
-                                        {.min = 0.0, .max = 1.0, .min_exclusive = true,
+                                        {.min = 0.0,
+                                         .max = 1.0,
+                                         .min_exclusive = true,
                                          .doc = "normalised brightness at/above which a pixel is masked"});
-    sp.shadow_level = p.get<double>("shadow_level", sp.shadow_level,
-                                    {.min = 0.0, .max = 1.0, .doc = "normalised brightness at/below which a pixel is masked"});
-    const std::string moved_sun = "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` "
-                                  "block, converted into this camera's image frame with its mount (light_source: sun)";
+    sp.shadow_level =
+        p.get<double>("shadow_level", sp.shadow_level,
+                      {.min = 0.0, .max = 1.0, .doc = "normalised brightness at/below which a pixel is masked"});
+    const std::string moved_sun =
+        "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` "
+        "block, converted into this camera's image frame with its mount (light_source: sun)";
     p.reject_moved("sun_slant_rad", moved_sun);
     p.reject_moved("sun_tilt_rad", moved_sun);
     p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}");
     if (p.has("light_source") && p.node()["light_source"].Scalar() == "config")
       p.fail("light_source", "`config` (sun_slant_rad/sun_tilt_rad) is replaced by `sun`: " + moved_sun);
-    const std::string source = p.get<std::string>(
-        "light_source", "sun",
-        {.choices = {"sun", "estimate"},
-         .doc = "sun: the deployment sun in this camera's frame (needs rover.cameras.<camera>); estimate: moment estimator"});
+    const std::string source = p.get<std::string>("light_source", "sun",
+                                                  {.choices = {"sun", "estimate"},
+                                                   .doc = "sun: the deployment sun in this camera's frame (needs "
+                                                          "rover.cameras.<camera>); estimate: moment estimator"});
     // The camera's calibration and mount (rover.cameras.<camera>): required for the sun, optional
     // with an estimated light (then the DTM carries no camera model).
     const RoverCamera* rc = ctx.rover().camera(p.node()["camera"].Scalar());
@@ -106,14 +114,16 @@ class SfsComponent final : public runtime::Component {
       sun_in_view_ = cl.in_view;
     } else {
       sp.estimate_light = true;
-      sp.min_light_confidence = p.get<double>("min_light_confidence", sp.min_light_confidence,
-                                              {.min = 0.0, .max = 1.0,
-                                               .doc = "estimates below this confidence are rejected (frame skipped)"});
+      sp.min_light_confidence = p.get<double>(
+          "min_light_confidence", sp.min_light_confidence,
+          {.min = 0.0, .max = 1.0, .doc = "estimates below this confidence are rejected (frame skipped)"});
     }
-    sp.vignetting.a2 = p.get<double>("vignetting_a2", 0.0, {.doc = "radial vignetting V(r) = 1 + a2 r^2 + a4 r^4 + a6 r^6"});
+    sp.vignetting.a2 =
+        p.get<double>("vignetting_a2", 0.0, {.doc = "radial vignetting V(r) = 1 + a2 r^2 + a4 r^4 + a6 r^6"});
     sp.vignetting.a4 = p.get<double>("vignetting_a4", 0.0, {.doc = "see vignetting_a2"});
     sp.vignetting.a6 = p.get<double>("vignetting_a6", 0.0, {.doc = "see vignetting_a2"});
-    const std::string flat = p.get<std::string>("flat_field", "", {.doc = "flat-field image (overrides the polynomial); relative to the config file"});
+    const std::string flat = p.get<std::string>(
+        "flat_field", "", {.doc = "flat-field image (overrides the polynomial); relative to the config file"});
     if (!flat.empty()) {
       std::filesystem::path fp(flat);
       if (fp.is_relative() && !ctx.config_dir().empty()) fp = std::filesystem::path(ctx.config_dir()) / fp;
@@ -122,8 +132,8 @@ class SfsComponent final : public runtime::Component {
         p.fail("flat_field", "'" + fp.string() + "': " + why);
       sp.vignetting.flat_field = ff;
     }
-    sp.vignetting.enabled = !flat.empty() || sp.vignetting.a2 != 0.0 || sp.vignetting.a4 != 0.0 ||
-                            sp.vignetting.a6 != 0.0;
+    sp.vignetting.enabled =
+        !flat.empty() || sp.vignetting.a2 != 0.0 || sp.vignetting.a4 != 0.0 || sp.vignetting.a6 != 0.0;
     try {
       sfs_ = std::make_unique<ShapeFromShading>(sp);
       quarter_sfs_ = std::make_unique<ShapeFromShading>(sp);  // same model on the frame reduced 4x
@@ -198,8 +208,10 @@ class SfsComponent final : public runtime::Component {
       return;
     }
     // Size and type are checked above and the light at configure: nothing here throws.
-    if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
-    else fr.image.copyTo(gray_);
+    if (fr.image.type() == CV_8UC3)
+      cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
+    else
+      fr.image.copyTo(gray_);
     const bool solve = !light_ || (sun_in_view_ && heights_wanted_);
     // The solve of this level: the full frame's, or the reduced frame's (level 2).
     const SfsResult& res = level_ == 2 ? quarter_res_ : res_;
@@ -228,7 +240,7 @@ class SfsComponent final : public runtime::Component {
       res_.height.copyTo(d->height);
       res_.valid.copyTo(d->valid);
       d->light = res.light;
-    } else {  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
+    } else {                  // sun ahead of the camera or no reader of heights: the grey image and sun still go out
       if (slot_was_solved) {  // a slot last written unsolved is NaN / 0 already
         fill_invalid(d->height, d->valid);
         fill_invalid(d->height4, d->valid4);
@@ -243,7 +255,7 @@ class SfsComponent final : public runtime::Component {
     d->sequence = fr.sequence;
     d->camera = model_.get();
     out_->commit();
-    set_status(solve            ? "ok"
+    set_status(solve          ? "ok"
                : sun_in_view_ ? "no consumer reads the DTM heights: SfS not run (grey image and sun published)"
                               : "sun ahead of the camera: no image-frame SfS (ground-frame consumers only)");
   }
@@ -251,7 +263,9 @@ class SfsComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("method", to_string(sfs_->params().method));
     kv.emplace_back("light_source", light_ ? "sun" : "estimate");
-    kv.emplace_back("solve_resolution", !heights_wanted_ ? "none (no reader of heights)" : level_ == 2 ? "quarter" : "full");
+    kv.emplace_back("solve_resolution", !heights_wanted_ ? "none (no reader of heights)"
+                                        : level_ == 2    ? "quarter"
+                                                         : "full");
   }
 
   std::string result() const override {
@@ -270,8 +284,8 @@ class SfsComponent final : public runtime::Component {
       const cv::Mat& v = quarter ? l->valid4 : l->valid;
       const double valid = 100.0 * cv::countNonZero(v) / static_cast<double>(std::max<std::size_t>(1, v.total()));
       std::snprintf(buf, sizeof buf, "DTM %dx%d%s, %.0f %% valid, sun slant %.0f tilt %.0f deg%s", h.cols, h.rows,
-                    quarter ? " (quarter resolution)" : "", valid, l->light.slant_rad * kDeg,
-                    l->light.tilt_rad * kDeg, l->light_estimated ? " (estimated)" : "");
+                    quarter ? " (quarter resolution)" : "", valid, l->light.slant_rad * kDeg, l->light.tilt_rad * kDeg,
+                    l->light_estimated ? " (estimated)" : "");
     }
     return buf;
   }

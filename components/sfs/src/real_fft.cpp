@@ -1,11 +1,11 @@
 #include "regolith/sfs/real_fft.hpp"
 
-#include <fftw3.h>
-
 #include <mutex>
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+#include <fftw3.h>
 
 namespace regolith::sfs {
 namespace {
@@ -18,7 +18,9 @@ std::mutex& planner_mutex() {
 
 }  // namespace
 
-RealFft2d::~RealFft2d() { release(); }
+RealFft2d::~RealFft2d() {
+  release();
+}
 
 RealFft2d::RealFft2d(const RealFft2d& other) {
   if (other.rows_ > 0) resize(other.rows_, other.cols_);
@@ -99,9 +101,13 @@ void RealFft2d::resize(int rows, int cols) {
   }
 }
 
-cv::Mat RealFft2d::real() const { return cv::Mat(rows_, cols_, CV_32F, real_); }
+cv::Mat RealFft2d::real() const {
+  return cv::Mat(rows_, cols_, CV_32F, real_);
+}
 
-cv::Mat RealFft2d::spectrum() const { return cv::Mat(rows_, cols_ / 2 + 1, CV_32FC2, spectrum_); }
+cv::Mat RealFft2d::spectrum() const {
+  return cv::Mat(rows_, cols_ / 2 + 1, CV_32FC2, spectrum_);
+}
 
 void RealFft2d::forward() {
   if (forward_plan_ != nullptr) fftwf_execute(static_cast<fftwf_plan>(forward_plan_));

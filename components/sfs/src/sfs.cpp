@@ -1,8 +1,5 @@
 #include "regolith/sfs/sfs.hpp"
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -10,6 +7,9 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
 
@@ -24,11 +24,12 @@ constexpr double kPi = 3.14159265358979323846;
 
 void check_gray(const cv::Mat& gray) {
   if (gray.empty()) fail("image", "empty image");
-  if (gray.channels() != 1)
-    fail("image", "expected one channel (grey), got " + std::to_string(gray.channels()));
+  if (gray.channels() != 1) fail("image", "expected one channel (grey), got " + std::to_string(gray.channels()));
   if (gray.depth() != CV_8U && gray.depth() != CV_32F)
-    fail("image", "expected CV_8U (0..255) or CV_32F (0..1); 16-bit and other depths are not "
-                  "accepted (got depth " + std::to_string(gray.depth()) + ")");
+    fail("image",
+         "expected CV_8U (0..255) or CV_32F (0..1); 16-bit and other depths are not "
+         "accepted (got depth " +
+             std::to_string(gray.depth()) + ")");
   if (gray.rows < 8 || gray.cols < 8) fail("image", "smaller than 8x8 pixels");
   if (gray.depth() == CV_32F && !cv::checkRange(gray)) fail("image", "contains NaN/Inf");
 }
@@ -99,13 +100,11 @@ double zc_poly(double x) {
 }  // namespace
 
 cv::Vec3d LightDirection::vector() const {
-  return {std::cos(tilt_rad) * std::sin(slant_rad), std::sin(tilt_rad) * std::sin(slant_rad),
-          std::cos(slant_rad)};
+  return {std::cos(tilt_rad) * std::sin(slant_rad), std::sin(tilt_rad) * std::sin(slant_rad), std::cos(slant_rad)};
 }
 
 void LightDirection::validate(const std::string& what) const {
-  if (!std::isfinite(slant_rad) || !std::isfinite(tilt_rad))
-    fail(what, "slant/tilt must be finite");
+  if (!std::isfinite(slant_rad) || !std::isfinite(tilt_rad)) fail(what, "slant/tilt must be finite");
   if (slant_rad < 0.0 || slant_rad >= kPi / 2)
     fail(what + ".slant_rad", "must be in [0, pi/2) (got " + number_text(slant_rad) +
                                   "); a light at or below the image plane cannot shade it");
@@ -130,10 +129,8 @@ Method method_from_string(const std::string& name) {
 // ------------------------------------------------------------------------------------------
 // Vignetting
 void Vignetting::validate() const {
-  if (!std::isfinite(a2) || !std::isfinite(a4) || !std::isfinite(a6))
-    fail("vignetting.a2/a4/a6", "must be finite");
-  if (!std::isfinite(cx_frac) || !std::isfinite(cy_frac) || cx_frac < 0 || cx_frac > 1 ||
-      cy_frac < 0 || cy_frac > 1)
+  if (!std::isfinite(a2) || !std::isfinite(a4) || !std::isfinite(a6)) fail("vignetting.a2/a4/a6", "must be finite");
+  if (!std::isfinite(cx_frac) || !std::isfinite(cy_frac) || cx_frac < 0 || cx_frac > 1 || cy_frac < 0 || cy_frac > 1)
     fail("vignetting.cx_frac/cy_frac", "must be in [0, 1]");
   if (!flat_field.empty()) {
     if (flat_field.channels() != 1) fail("vignetting.flat_field", "must be one channel");
@@ -167,12 +164,13 @@ cv::Mat Vignetting::gain_map(cv::Size size) const {
 
 VignettingFit fit_vignetting_polynomial(const cv::Mat& flatfield, double cx_frac, double cy_frac) {
   if (flatfield.empty()) fail("flatfield", "empty image");
-  if (!std::isfinite(cx_frac) || !std::isfinite(cy_frac) || cx_frac < 0 || cx_frac > 1 ||
-      cy_frac < 0 || cy_frac > 1)
+  if (!std::isfinite(cx_frac) || !std::isfinite(cy_frac) || cx_frac < 0 || cx_frac > 1 || cy_frac < 0 || cy_frac > 1)
     fail("cx_frac/cy_frac", "must be in [0, 1]");
   cv::Mat g = flatfield;
-  if (g.channels() == 3) cv::cvtColor(flatfield, g, cv::COLOR_BGR2GRAY);
-  else if (g.channels() != 1) fail("flatfield", "expected 1 or 3 channels");
+  if (g.channels() == 3)
+    cv::cvtColor(flatfield, g, cv::COLOR_BGR2GRAY);
+  else if (g.channels() != 1)
+    fail("flatfield", "expected 1 or 3 channels");
   double sat;
   switch (g.depth()) {
     case CV_8U: sat = 0.98 * 255.0; break;
@@ -234,15 +232,13 @@ void correct_vignetting(const cv::Mat& src, const Vignetting& v, cv::Mat& dst) {
 
 // ------------------------------------------------------------------------------------------
 void SfsParams::validate() const {
-  if (method != Method::kTsaiShah && method != Method::kPentland &&
-      method != Method::kBichselPentland)
+  if (method != Method::kTsaiShah && method != Method::kPentland && method != Method::kBichselPentland)
     fail("method", "unknown value");
   if (iterations < 1 || iterations > 100000) fail("iterations", "must be in 1..100000");
   if (!std::isfinite(tolerance) || tolerance < 0) fail("tolerance", "must be >= 0");
   if (!std::isfinite(wn) || wn < 0) fail("wn", "must be >= 0");
   if (!std::isfinite(s0) || s0 <= 0) fail("s0", "must be > 0");
-  if (!std::isfinite(step_damping) || step_damping <= 0 || step_damping > 1)
-    fail("step_damping", "must be in (0, 1]");
+  if (!std::isfinite(step_damping) || step_damping <= 0 || step_damping > 1) fail("step_damping", "must be in (0, 1]");
   if (!std::isfinite(max_step) || max_step <= 0) fail("max_step", "must be > 0");
   if (tsai_shah_newton_iterations < 1 || tsai_shah_newton_iterations > 1000)
     fail("tsai_shah_newton_iterations", "must be in 1..1000");
@@ -260,8 +256,7 @@ void SfsParams::validate() const {
     fail("min_light_confidence", "must be in [0, 1]");
   if (!std::isfinite(pentland_min_denominator) || pentland_min_denominator <= 0)
     fail("pentland_min_denominator", "must be > 0");
-  if (!std::isfinite(bichsel_singular_tolerance) || bichsel_singular_tolerance <= 0 ||
-      bichsel_singular_tolerance >= 1)
+  if (!std::isfinite(bichsel_singular_tolerance) || bichsel_singular_tolerance <= 0 || bichsel_singular_tolerance >= 1)
     fail("bichsel_singular_tolerance", "must be in (0, 1)");
   vignetting.validate();
 }
@@ -273,8 +268,10 @@ LightEstimate estimate_light(const cv::Mat& gray, bool refine, const cv::Mat& ma
   if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != gray.size()))
     fail("mask", "must be CV_8UC1 of the image size");
   cv::Mat e;
-  if (gray.depth() == CV_8U) gray.convertTo(e, CV_32F, 1.0 / 255.0);
-  else e = gray;
+  if (gray.depth() == CV_8U)
+    gray.convertTo(e, CV_32F, 1.0 / 255.0);
+  else
+    e = gray;
   double mu1 = 0, mu2 = 0, sx = 0, sy = 0, jxx = 0, jyy = 0, jxy = 0;
   long n = 0, ng = 0;
   for (int r = 1; r < e.rows - 1; ++r)
@@ -346,8 +343,10 @@ ShapeFromShading::ShapeFromShading(SfsParams params) : params_(std::move(params)
 void ShapeFromShading::prepare(const cv::Mat& gray) {
   check_gray(gray);
   const cv::Size sz = gray.size();
-  if (gray.depth() == CV_8U) gray.convertTo(e_, CV_32F, 1.0 / 255.0);
-  else gray.copyTo(e_);
+  if (gray.depth() == CV_8U)
+    gray.convertTo(e_, CV_32F, 1.0 / 255.0);
+  else
+    gray.copyTo(e_);
   // Mask on the raw (uncorrected) brightness: saturation and deep shadow are sensor facts.
   mask_.create(sz, CV_8U);
   const float sat = static_cast<float>(params_.saturation_level);
@@ -363,8 +362,7 @@ void ShapeFromShading::prepare(const cv::Mat& gray) {
   }
 }
 
-void ShapeFromShading::compute(const cv::Mat& gray, const std::optional<LightDirection>& light,
-                               SfsResult& out) {
+void ShapeFromShading::compute(const cv::Mat& gray, const std::optional<LightDirection>& light, SfsResult& out) {
   prepare(gray);
   LightDirection l;
   if (light) {
@@ -373,8 +371,7 @@ void ShapeFromShading::compute(const cv::Mat& gray, const std::optional<LightDir
     out.light_estimated = false;
     out.light_confidence = 1.0;
   } else {
-    if (!params_.estimate_light)
-      fail("light", "no light direction supplied and estimate_light is false");
+    if (!params_.estimate_light) fail("light", "no light direction supplied and estimate_light is false");
     const LightEstimate est = estimate_light(e_, params_.zheng_chellappa_refine, mask_);
     l = est.light;
     out.light_estimated = true;
@@ -436,8 +433,10 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
   const float ps = static_cast<float>(tx * std::tan(l.slant_rad));
   const float qs = static_cast<float>(ty * std::tan(l.slant_rad));
   const int flip = flip_x && flip_y ? -1 : (flip_x ? 1 : (flip_y ? 0 : 2));
-  if (flip == 2) e_.copyTo(work_e_);
-  else cv::flip(e_, work_e_, flip);
+  if (flip == 2)
+    e_.copyTo(work_e_);
+  else
+    cv::flip(e_, work_e_, flip);
   const cv::Size sz = e_.size();
   z_.create(sz, CV_32F);
   fill(z_, 0.0f);
@@ -495,7 +494,8 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
   out.iterations = std::min(it, params_.iterations);
   out.final_mean_update = mean_upd;
   // Height (up) = -depth, mirrored back to the image frame.
-  if (flip == 2) z_.convertTo(out.height, CV_32F, -1.0);
+  if (flip == 2)
+    z_.convertTo(out.height, CV_32F, -1.0);
   else {
     cv::flip(z_, z_new_, flip);
     z_new_.convertTo(out.height, CV_32F, -1.0);
@@ -624,7 +624,8 @@ void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& ou
     out.iterations = max_used;
     out.final_mean_update = sum_last / static_cast<double>(sz.area());
   }
-  if (flip == 2) z_.convertTo(out.height, CV_32F, -1.0);
+  if (flip == 2)
+    z_.convertTo(out.height, CV_32F, -1.0);
   else {
     cv::flip(z_, z_new_, flip);
     z_new_.convertTo(out.height, CV_32F, -1.0);
@@ -763,8 +764,10 @@ void ShapeFromShading::bichsel_pentland(const LightDirection& l, SfsResult& out)
           best = std::max(best, hn - drop[static_cast<size_t>(k)][lev]);
         }
         if (best > pz[c]) {
-          if (pz[c] > kLow) sum += static_cast<double>(best - pz[c]);
-          else sum += 1.0;
+          if (pz[c] > kLow)
+            sum += static_cast<double>(best - pz[c]);
+          else
+            sum += 1.0;
           pz[c] = best;
         }
       }
@@ -787,8 +790,7 @@ void ShapeFromShading::bichsel_pentland(const LightDirection& l, SfsResult& out)
   }
 }
 
-SfsResult shape_from_shading(const cv::Mat& gray, const std::optional<LightDirection>& light,
-                             const SfsParams& params) {
+SfsResult shape_from_shading(const cv::Mat& gray, const std::optional<LightDirection>& light, const SfsParams& params) {
   ShapeFromShading s(params);
   SfsResult r;
   s.compute(gray, light, r);

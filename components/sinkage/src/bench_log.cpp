@@ -15,8 +15,8 @@ namespace {
 constexpr const char* kHeader =
     "time_s,sequence,encoder_angle_rad,vision_mm,valid,confidence,reason,transducer_mm,load,illumination";
 constexpr int kColumns = 10;
-constexpr const char* kNames[kColumns] = {"time_s", "sequence", "encoder_angle_rad", "vision_mm", "valid",
-                                          "confidence", "reason", "transducer_mm", "load", "illumination"};
+constexpr const char* kNames[kColumns] = {"time_s",     "sequence", "encoder_angle_rad", "vision_mm", "valid",
+                                          "confidence", "reason",   "transducer_mm",     "load",      "illumination"};
 
 [[noreturn]] void bad(const std::filesystem::path& f, int line, const std::string& what) {
   throw std::runtime_error(f.string() + ":" + std::to_string(line) + ": " + what);
@@ -28,26 +28,29 @@ double number(const std::string& t, const std::filesystem::path& f, int line, in
   char* end = nullptr;
   const double v = std::strtod(t.c_str(), &end);
   if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(v)) {
-    bad(f, line, std::string("column ") + kNames[col] + ": expected a " + (nan_ok ? "number or nan" : "finite number") +
-                     " (got '" + t + "')");
+    bad(f, line,
+        std::string("column ") + kNames[col] + ": expected a " + (nan_ok ? "number or nan" : "finite number") +
+            " (got '" + t + "')");
   }
   return v;
 }
 
 void put_double(char* buf, std::size_t size, std::size_t& n, double v, int decimals) {
   if (n >= size) return;
-  const int w = std::isfinite(v) ? std::snprintf(buf + n, size - n, "%.*f", decimals, v) : std::snprintf(buf + n, size - n, "nan");
+  const int w = std::isfinite(v) ? std::snprintf(buf + n, size - n, "%.*f", decimals, v)
+                                 : std::snprintf(buf + n, size - n, "nan");
   if (w > 0) n += static_cast<std::size_t>(w);
 }
 
 }  // namespace
 
-const char* bench_log_header() { return kHeader; }
+const char* bench_log_header() {
+  return kHeader;
+}
 
 std::size_t format_bench_log_row(char* buf, std::size_t size, double time_s, std::uint64_t sequence,
                                  double encoder_angle_rad, double vision_mm, bool valid, double confidence,
-                                 const char* reason, double transducer_mm, const char* load,
-                                 const char* illumination) {
+                                 const char* reason, double transducer_mm, const char* load, const char* illumination) {
   if (size == 0) return 0;
   std::size_t n = 0;
   const int w = std::snprintf(buf, size, "%.6f,%llu,", time_s, static_cast<unsigned long long>(sequence));
@@ -91,7 +94,8 @@ std::vector<BenchLogRow> read_bench_log(const std::filesystem::path& csv) {
     r.line = n;
     r.time_s = number(cols[0], csv, n, 0, false);
     const double seq = number(cols[1], csv, n, 1, false);
-    if (seq < 0 || seq != std::floor(seq)) bad(csv, n, "column sequence: expected a non-negative integer (got '" + cols[1] + "')");
+    if (seq < 0 || seq != std::floor(seq))
+      bad(csv, n, "column sequence: expected a non-negative integer (got '" + cols[1] + "')");
     r.sequence = static_cast<std::uint64_t>(seq);
     r.encoder_angle_rad = number(cols[2], csv, n, 2, true);
     r.vision_mm = number(cols[3], csv, n, 3, true);

@@ -33,14 +33,13 @@ cv::Mat segment_legs(const cv::Mat& bgr, const SinkageParams& p) {
   cv::cvtColor(bgr, hsv, cv::COLOR_BGR2HSV_FULL);  // H in [0, 255] for [0, 360)
   cv::Scalar mean_bgr = cv::mean(bgr);
   const double mean_v = std::max({mean_bgr[0], mean_bgr[1], mean_bgr[2]}) / 255.0;
-  const bool adaptive = p.mode == SegmentationMode::kAdaptive ||
-                        (p.mode == SegmentationMode::kAuto && mean_v < p.dark_mean_value);
+  const bool adaptive =
+      p.mode == SegmentationMode::kAdaptive || (p.mode == SegmentationMode::kAuto && mean_v < p.dark_mean_value);
   if (!adaptive) {
     const double k = 255.0 / 360.0;
     const double smin = p.sat_min * 255.0, vmin = p.val_min * 255.0;
     if (p.hue_min_deg <= p.hue_max_deg) {
-      cv::inRange(hsv, cv::Scalar(p.hue_min_deg * k, smin, vmin),
-                  cv::Scalar(p.hue_max_deg * k, 255, 255), bin);
+      cv::inRange(hsv, cv::Scalar(p.hue_min_deg * k, smin, vmin), cv::Scalar(p.hue_max_deg * k, 255, 255), bin);
     } else {
       cv::Mat a, b;
       cv::inRange(hsv, cv::Scalar(p.hue_min_deg * k, smin, vmin), cv::Scalar(255, 255, 255), a);
@@ -61,13 +60,11 @@ cv::Mat segment_legs(const cv::Mat& bgr, const SinkageParams& p) {
   }
   if (p.open_kernel_px > 1) {
     cv::morphologyEx(bin, bin, cv::MORPH_OPEN,
-                     cv::getStructuringElement(cv::MORPH_RECT,
-                                               {p.open_kernel_px, p.open_kernel_px}));
+                     cv::getStructuringElement(cv::MORPH_RECT, {p.open_kernel_px, p.open_kernel_px}));
   }
   if (p.close_kernel_px > 1) {
     cv::morphologyEx(bin, bin, cv::MORPH_CLOSE,
-                     cv::getStructuringElement(cv::MORPH_RECT,
-                                               {p.close_kernel_px, p.close_kernel_px}));
+                     cv::getStructuringElement(cv::MORPH_RECT, {p.close_kernel_px, p.close_kernel_px}));
   }
   return bin;
 }

@@ -4,8 +4,6 @@
 // allocate, lock, format strings or block.
 #include "regolith/sinkage/component.hpp"
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -20,6 +18,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/channels.hpp"
 #include "regolith/dds/participant.hpp"
@@ -55,29 +55,32 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 WheelGeometry read_geometry(Params g) {
   WheelGeometry w;
-  const auto hub = g.require<std::vector<double>>("hub_center_px", {.unit = "px",
-      .doc = "[x, y] centre of rotation of the wheel in the image"});
+  const auto hub = g.require<std::vector<double>>(
+      "hub_center_px", {.unit = "px", .doc = "[x, y] centre of rotation of the wheel in the image"});
   if (hub.size() != 2) g.fail("hub_center_px", "expected [x, y] (got " + std::to_string(hub.size()) + " values)");
   w.hub_center_px = {hub[0], hub[1]};
-  w.leg_count = g.get<int>("leg_count", w.leg_count, {.min = 1, .max = static_cast<double>(kMaxLegs),
-                                                     .doc = "legs on the wheel"});
+  w.leg_count = g.get<int>("leg_count", w.leg_count,
+                           {.min = 1, .max = static_cast<double>(kMaxLegs), .doc = "legs on the wheel"});
   w.leg_spacing_rad = g.get<double>("leg_spacing_rad", 2.0 * 3.14159265358979323846 / w.leg_count,
-                                    {.unit = "rad", .min = 0.0, .min_exclusive = true,
+                                    {.unit = "rad",
+                                     .min = 0.0,
+                                     .min_exclusive = true,
                                      .doc = "angle between neighbouring legs (default 2 pi / leg_count)"});
-  w.leg_length_px = g.require<double>("leg_length_px", {.unit = "px", .min = 0.0, .min_exclusive = true,
-                                                        .doc = "hub centre to leg tip (thesis plz)"});
-  w.leg_width_px = g.require<double>("leg_width_px", {.unit = "px", .min = 0.0, .min_exclusive = true,
-                                                      .doc = "width of the leg shaft"});
-  w.hub_radius_px = g.get<double>("hub_radius_px", w.hub_radius_px, {.unit = "px", .min = 0.0,
-                                                                     .doc = "legs are visible from this radius outwards"});
-  w.foot_width_px = g.get<double>("foot_width_px", w.foot_width_px, {.unit = "px", .min = 0.0,
-                                                                     .doc = "foot width across the leg axis (0 = no foot)"});
+  w.leg_length_px = g.require<double>(
+      "leg_length_px", {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "hub centre to leg tip (thesis plz)"});
+  w.leg_width_px = g.require<double>(
+      "leg_width_px", {.unit = "px", .min = 0.0, .min_exclusive = true, .doc = "width of the leg shaft"});
+  w.hub_radius_px = g.get<double>("hub_radius_px", w.hub_radius_px,
+                                  {.unit = "px", .min = 0.0, .doc = "legs are visible from this radius outwards"});
+  w.foot_width_px = g.get<double>("foot_width_px", w.foot_width_px,
+                                  {.unit = "px", .min = 0.0, .doc = "foot width across the leg axis (0 = no foot)"});
   w.foot_thickness_px = g.get<double>("foot_thickness_px", w.foot_thickness_px,
                                       {.unit = "px", .min = 0.0, .doc = "foot extent along the axis from the tip"});
-  w.angle_offset_rad = g.get<double>("angle_offset_rad", 0.0, {.unit = "rad",
-      .doc = "image angle of leg 0 (from straight down towards +x) when the encoder reads 0"});
-  w.rotation_direction = g.get<int>("rotation_direction", 1, {.min = -1, .max = 1,
-      .doc = "+1 or -1: sign of the encoder angle in the image angle"});
+  w.angle_offset_rad = g.get<double>(
+      "angle_offset_rad", 0.0,
+      {.unit = "rad", .doc = "image angle of leg 0 (from straight down towards +x) when the encoder reads 0"});
+  w.rotation_direction = g.get<int>(
+      "rotation_direction", 1, {.min = -1, .max = 1, .doc = "+1 or -1: sign of the encoder angle in the image angle"});
   try {
     w.validate();
   } catch (const FieldError& e) {
@@ -93,48 +96,67 @@ AlgorithmConfig read_algorithm_config(Params& p) {
   AlgorithmConfig a;
   a.geometry = read_geometry(p.require_child("geometry"));
   SinkageParams& s = a.params;
-  s.hue_min_deg = p.get<double>("hue_min_deg", s.hue_min_deg, {.unit = "deg", .min = 0.0, .max = 360.0,
-                                                              .doc = "HSV hue band of the leg paint, lower end"});
-  s.hue_max_deg = p.get<double>("hue_max_deg", s.hue_max_deg, {.unit = "deg", .min = 0.0, .max = 360.0,
-                                                              .doc = "upper end (band wraps when min > max)"});
+  s.hue_min_deg =
+      p.get<double>("hue_min_deg", s.hue_min_deg,
+                    {.unit = "deg", .min = 0.0, .max = 360.0, .doc = "HSV hue band of the leg paint, lower end"});
+  s.hue_max_deg =
+      p.get<double>("hue_max_deg", s.hue_max_deg,
+                    {.unit = "deg", .min = 0.0, .max = 360.0, .doc = "upper end (band wraps when min > max)"});
   s.sat_min = p.get<double>("sat_min", s.sat_min, {.min = 0.0, .max = 1.0, .doc = "minimum HSV saturation"});
   s.val_min = p.get<double>("val_min", s.val_min, {.min = 0.0, .max = 1.0, .doc = "minimum HSV value"});
-  const std::string mode = p.get<std::string>("segmentation", "auto", {.choices = {"hsv", "adaptive", "auto"},
-      .doc = "hsv band, adaptive (Otsu on blue chroma), auto (adaptive in poor light)"});
-  s.mode = mode == "hsv" ? SegmentationMode::kHsv : mode == "adaptive" ? SegmentationMode::kAdaptive : SegmentationMode::kAuto;
-  s.dark_mean_value = p.get<double>("dark_mean_value", s.dark_mean_value, {.min = 0.0, .max = 1.0,
-      .doc = "auto: mean V in the mask below which the adaptive threshold is used"});
-  s.adaptive_min_separation = p.get<double>("adaptive_min_separation", s.adaptive_min_separation,
+  const std::string mode =
+      p.get<std::string>("segmentation", "auto",
+                         {.choices = {"hsv", "adaptive", "auto"},
+                          .doc = "hsv band, adaptive (Otsu on blue chroma), auto (adaptive in poor light)"});
+  s.mode = mode == "hsv"        ? SegmentationMode::kHsv
+           : mode == "adaptive" ? SegmentationMode::kAdaptive
+                                : SegmentationMode::kAuto;
+  s.dark_mean_value = p.get<double>(
+      "dark_mean_value", s.dark_mean_value,
+      {.min = 0.0, .max = 1.0, .doc = "auto: mean V in the mask below which the adaptive threshold is used"});
+  s.adaptive_min_separation = p.get<double>(
+      "adaptive_min_separation", s.adaptive_min_separation,
       {.min = 0.0, .max = 255.0, .doc = "8-bit chroma units between Otsu class means (else: no leg colour)"});
-  s.open_kernel_px = p.get<int>("open_kernel_px", s.open_kernel_px, {.unit = "px", .min = 1, .max = 15,
-                                                                     .doc = "opening kernel, odd (1 = off)"});
-  s.close_kernel_px = p.get<int>("close_kernel_px", s.close_kernel_px, {.unit = "px", .min = 1, .max = 15,
-                                                                        .doc = "closing kernel, odd (1 = off)"});
+  s.open_kernel_px = p.get<int>("open_kernel_px", s.open_kernel_px,
+                                {.unit = "px", .min = 1, .max = 15, .doc = "opening kernel, odd (1 = off)"});
+  s.close_kernel_px = p.get<int>("close_kernel_px", s.close_kernel_px,
+                                 {.unit = "px", .min = 1, .max = 15, .doc = "closing kernel, odd (1 = off)"});
   s.contact_half_angle_rad = p.get<double>("contact_half_angle_rad", s.contact_half_angle_rad,
-      {.unit = "rad", .min = 0.0, .max = 1.5707963267948966, .doc = "legs within this angle of straight down are examined"});
-  s.angle_tolerance_rad = p.get<double>("angle_tolerance_rad", s.angle_tolerance_rad,
-      {.unit = "rad", .min = 0.0, .max = 0.5, .doc = "mask sweep for encoder-to-leg misalignment"});
-  s.mask_margin_px = p.get<double>("mask_margin_px", s.mask_margin_px, {.unit = "px", .min = 0.0, .max = 100.0,
-                                                                        .doc = "mask dilation around the template"});
+                                           {.unit = "rad",
+                                            .min = 0.0,
+                                            .max = 1.5707963267948966,
+                                            .doc = "legs within this angle of straight down are examined"});
+  s.angle_tolerance_rad =
+      p.get<double>("angle_tolerance_rad", s.angle_tolerance_rad,
+                    {.unit = "rad", .min = 0.0, .max = 0.5, .doc = "mask sweep for encoder-to-leg misalignment"});
+  s.mask_margin_px =
+      p.get<double>("mask_margin_px", s.mask_margin_px,
+                    {.unit = "px", .min = 0.0, .max = 100.0, .doc = "mask dilation around the template"});
   s.use_dynamic_mask = p.get<bool>("use_dynamic_mask", true, {.doc = "false: segment the whole frame (slow)"});
   s.refine_leg_angle = p.get<bool>("refine_leg_angle", true, {.doc = "re-fit each leg's axis from its pixels"});
-  s.mm_per_px = p.get<double>("mm_per_px", s.mm_per_px, {.unit = "mm/px", .min = 0.0, .min_exclusive = true,
-                                                        .doc = "scale at the wheel plane"});
-  s.leg_length_mm = p.get<double>("leg_length_mm", 0.0, {.unit = "mm", .min = 0.0,
-      .doc = "> 0: scale = leg_length_mm / geometry.leg_length_px (overrides mm_per_px)"});
-  s.min_confidence = p.get<double>("min_confidence", s.min_confidence, {.min = 0.0, .max = 1.0,
-                                                                        .doc = "legs below are invalid"});
-  s.min_visible_px = p.get<double>("min_visible_px", s.min_visible_px, {.unit = "px", .min = 0.0, .max = 1e4,
-                                                                        .doc = "a leg needs this much visible length"});
-  s.contact_min_mm = p.get<double>("contact_min_mm", s.contact_min_mm, {.unit = "mm", .min = 0.0, .max = 1e4,
-                                                                        .doc = "a leg deeper than this is in contact"});
-  const std::string filter = p.get<std::string>("filter", "none", {.choices = {"none", "ema", "median"},
-                                                                   .doc = "temporal filter on the wheel sinkage"});
-  s.filter = filter == "ema" ? TemporalFilter::kEma : filter == "median" ? TemporalFilter::kMedian : TemporalFilter::kNone;
-  s.ema_alpha = p.get<double>("ema_alpha", s.ema_alpha, {.min = 0.0, .max = 1.0, .min_exclusive = true,
-                                                        .doc = "ema: weight of the newest frame"});
-  s.median_window = p.get<int>("median_window", s.median_window, {.unit = "frames", .min = 1, .max = 31,
-                                                                  .doc = "median: window length"});
+  s.mm_per_px = p.get<double>("mm_per_px", s.mm_per_px,
+                              {.unit = "mm/px", .min = 0.0, .min_exclusive = true, .doc = "scale at the wheel plane"});
+  s.leg_length_mm = p.get<double>(
+      "leg_length_mm", 0.0,
+      {.unit = "mm", .min = 0.0, .doc = "> 0: scale = leg_length_mm / geometry.leg_length_px (overrides mm_per_px)"});
+  s.min_confidence =
+      p.get<double>("min_confidence", s.min_confidence, {.min = 0.0, .max = 1.0, .doc = "legs below are invalid"});
+  s.min_visible_px =
+      p.get<double>("min_visible_px", s.min_visible_px,
+                    {.unit = "px", .min = 0.0, .max = 1e4, .doc = "a leg needs this much visible length"});
+  s.contact_min_mm =
+      p.get<double>("contact_min_mm", s.contact_min_mm,
+                    {.unit = "mm", .min = 0.0, .max = 1e4, .doc = "a leg deeper than this is in contact"});
+  const std::string filter = p.get<std::string>(
+      "filter", "none", {.choices = {"none", "ema", "median"}, .doc = "temporal filter on the wheel sinkage"});
+  s.filter = filter == "ema"      ? TemporalFilter::kEma
+             : filter == "median" ? TemporalFilter::kMedian
+                                  : TemporalFilter::kNone;
+  s.ema_alpha =
+      p.get<double>("ema_alpha", s.ema_alpha,
+                    {.min = 0.0, .max = 1.0, .min_exclusive = true, .doc = "ema: weight of the newest frame"});
+  s.median_window = p.get<int>("median_window", s.median_window,
+                               {.unit = "frames", .min = 1, .max = 31, .doc = "median: window length"});
   try {
     s.validate();
   } catch (const FieldError& e) {
@@ -174,20 +196,27 @@ class WheelSinkageComponent final : public runtime::Component {
     size_ = cv::Size(fmt.width, fmt.height);
     enc_ = &ctx.encoders(p, "encoders");
     wheel_ = find_channel(p, "wheel", *enc_, enc_->wheel_names().empty() ? std::string() : enc_->wheel_names()[0]);
-    enc_timeout_ = from_seconds(p.get<double>("encoder_timeout_s", 0.1, {.unit = "s", .min = 0.0, .min_exclusive = true,
-        .doc = "newest encoder sample older than this at the frame's capture time -> stale, invalid result"}));
+    enc_timeout_ = from_seconds(p.get<double>(
+        "encoder_timeout_s", 0.1,
+        {.unit = "s",
+         .min = 0.0,
+         .min_exclusive = true,
+         .doc = "newest encoder sample older than this at the frame's capture time -> stale, invalid result"}));
 
     // Bench rig: a linear transducer channel (m) on the same or another encoder device.
-    const std::string transducer = p.get<std::string>("transducer", "", {.doc =
-        "encoder channel carrying the bench rig's linear sinkage transducer (m); empty = none"});
+    const std::string transducer = p.get<std::string>(
+        "transducer", "",
+        {.doc = "encoder channel carrying the bench rig's linear sinkage transducer (m); empty = none"});
     if (!transducer.empty()) {
       tenc_ = p.has("transducer_encoders") ? &ctx.encoders(p, "transducer_encoders") : enc_;
       transducer_ = find_channel(p, "transducer", *tenc_, transducer);
     } else if (p.has("transducer_encoders")) {
       p.fail("transducer_encoders", "given without 'transducer' (the channel name)");
     }
-    transducer_scale_ = p.get<double>("transducer_scale", 1.0, {.doc = "m per channel unit (sinkage = scale * value + offset)"});
-    transducer_offset_m_ = p.get<double>("transducer_offset_m", 0.0, {.unit = "m", .doc = "added to the scaled value (zero of the transducer)"});
+    transducer_scale_ =
+        p.get<double>("transducer_scale", 1.0, {.doc = "m per channel unit (sinkage = scale * value + offset)"});
+    transducer_offset_m_ = p.get<double>("transducer_offset_m", 0.0,
+                                         {.unit = "m", .doc = "added to the scaled value (zero of the transducer)"});
 
     algo_ = read_algorithm_config(p);
     const WheelGeometry& g = algo_.geometry;
@@ -225,7 +254,8 @@ class WheelSinkageComponent final : public runtime::Component {
     if (dds::Participant* part = ctx.dds()) {
       const dds::TopicInfo* info = dds::find_topic(kSinkageChannel);
       const std::string name = wheel_name_, frame = frame_id_;
-      dds_ = part->make_outbox<WheelSinkageMsg>(kSinkageChannel, info->writer_qos(), dds::OutboxOptions{dds::OutboxMode::kFifo, 8},
+      dds_ = part->make_outbox<WheelSinkageMsg>(kSinkageChannel, info->writer_qos(),
+                                                dds::OutboxOptions{dds::OutboxMode::kFifo, 8},
                                                 [name, frame](WheelSinkageMsg& m) {
                                                   dds::reserve(m, dds::WheelSinkageCapacity{1, 64, 64});
                                                   dds::copy_string(m.header.frame_id, 64, frame);
@@ -235,23 +265,28 @@ class WheelSinkageComponent final : public runtime::Component {
     }
 
     // Bench-rig log and overlays (written by the writer thread).
-    log_path_ = p.get<std::string>("log_csv", "", {.doc =
-        "bench log (vision vs transducer) CSV, relative to the working directory; empty = off"});
+    log_path_ = p.get<std::string>(
+        "log_csv", "", {.doc = "bench log (vision vs transducer) CSV, relative to the working directory; empty = off"});
     load_label_ = label(p, "load_label", "unknown", "test condition: normal load, e.g. '3.5 kg' (log column)");
-    light_label_ = label(p, "illumination_label", "unknown", "test condition: illumination, e.g. '10-15 lux' (log column)");
-    const int queue = p.get<int>("log_queue", 4096, {.unit = "rows", .min = 16, .max = 1 << 20,
-                                                     .doc = "rows buffered for the writer thread (overflow: dropped, counted)"});
+    light_label_ =
+        label(p, "illumination_label", "unknown", "test condition: illumination, e.g. '10-15 lux' (log column)");
+    const int queue = p.get<int>("log_queue", 4096,
+                                 {.unit = "rows",
+                                  .min = 16,
+                                  .max = 1 << 20,
+                                  .doc = "rows buffered for the writer thread (overflow: dropped, counted)"});
     if (!log_path_.empty()) {
       check_parent(p, "log_csv", log_path_);
       log_q_ = std::make_unique<BoundedQueue<LogRecord>>(static_cast<std::size_t>(queue), DropPolicy::kDropNewest);
     }
     overlay_dir_ = p.get<std::string>("overlay_dir", "", {.doc = "directory for diagnostic overlay PNGs; empty = off"});
-    overlay_every_ = p.get<int>("overlay_every", 0, {.unit = "frames", .min = 0,
-                                                      .doc = "save an overlay every N processed frames (0 = off)"});
+    overlay_every_ = p.get<int>(
+        "overlay_every", 0, {.unit = "frames", .min = 0, .doc = "save an overlay every N processed frames (0 = off)"});
     if (overlay_every_ > 0 && overlay_dir_.empty()) p.fail("overlay_every", "needs overlay_dir");
     if (!overlay_dir_.empty() && overlay_every_ == 0) p.fail("overlay_dir", "needs overlay_every > 0");
     if (overlay_every_ > 0) {
-      if (!std::filesystem::is_directory(overlay_dir_)) p.fail("overlay_dir", "'" + overlay_dir_ + "' is not a directory");
+      if (!std::filesystem::is_directory(overlay_dir_))
+        p.fail("overlay_dir", "'" + overlay_dir_ + "' is not a directory");
       for (auto& s : slots_) s.image.create(size_, CV_8UC3);
       ov_free_ = std::make_unique<BoundedQueue<int>>(kSlots, DropPolicy::kDropNewest);
       ov_ready_ = std::make_unique<BoundedQueue<int>>(kSlots, DropPolicy::kDropNewest);
@@ -281,14 +316,17 @@ class WheelSinkageComponent final : public runtime::Component {
   void step(const runtime::CycleInfo& c) override { step_frame(c); }
 
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
-    auto add = [&kv](const char* k, const std::atomic<std::uint64_t>& v) { kv.emplace_back(k, std::to_string(v.load())); };
+    auto add = [&kv](const char* k, const std::atomic<std::uint64_t>& v) {
+      kv.emplace_back(k, std::to_string(v.load()));
+    };
     add("frames", frames_);
     add("valid", valid_);
     add("bad_frames", bad_frames_);
     for (std::size_t i = 1; i < enc_problems_.size(); ++i)
       kv.emplace_back(to_string(static_cast<EncoderProblem>(i)), std::to_string(enc_problems_[i].load()));
     for (std::size_t i = 1; i < reasons_.size(); ++i)
-      kv.emplace_back(std::string("invalid_") + to_string(static_cast<InvalidReason>(i)), std::to_string(reasons_[i].load()));
+      kv.emplace_back(std::string("invalid_") + to_string(static_cast<InvalidReason>(i)),
+                      std::to_string(reasons_[i].load()));
     if (tenc_ != nullptr) add("transducer_missing", transducer_missing_);
     if (log_q_) {
       add("log_rows", log_rows_);
@@ -379,8 +417,10 @@ class WheelSinkageComponent final : public runtime::Component {
 
     estimator_->process(fr.image, angle, result_);  // NaN angle -> invalid, kBadAngle
     const SinkageResult& r = result_;
-    if (r.valid) valid_.fetch_add(1, std::memory_order_relaxed);
-    else reasons_[static_cast<std::size_t>(r.reason)].fetch_add(1, std::memory_order_relaxed);
+    if (r.valid)
+      valid_.fetch_add(1, std::memory_order_relaxed);
+    else
+      reasons_[static_cast<std::size_t>(r.reason)].fetch_add(1, std::memory_order_relaxed);
 
     double truth_mm = kNaN;
     if (tenc_ != nullptr) {

@@ -15,8 +15,9 @@
 namespace regolith::sinkage {
 namespace {
 
-
-inline double sq(double v) { return v * v; }
+inline double sq(double v) {
+  return v * v;
+}
 
 /// Blue chromaticity code: b - (r + g) / 2 in [-255, 255] mapped to [1, 255] (0 = outside mask).
 /// The leg colour test of both segmentation passes: value >= vmin, saturation (v - min) / v >=
@@ -24,7 +25,8 @@ inline double sq(double v) { return v * v; }
 /// `wrap`). `v` / `mn` are the channel maximum / minimum.
 inline bool in_hsv_range(int b, int g, int r, int v, int mn, float vmin, float smin, float hlo, float hhi, bool wrap) {
   const int dv = v - mn;
-  if (!(static_cast<float>(v) >= vmin && dv > 0 && static_cast<float>(dv) >= smin * static_cast<float>(v))) return false;
+  if (!(static_cast<float>(v) >= vmin && dv > 0 && static_cast<float>(dv) >= smin * static_cast<float>(v)))
+    return false;
   const float inv = 60.0F / static_cast<float>(dv);
   float hue;
   if (v == r) {
@@ -39,11 +41,13 @@ inline bool in_hsv_range(int b, int g, int r, int v, int mn, float vmin, float s
 }
 
 inline std::uint8_t chroma_code(int b, int g, int r) {
-  const int c = 2 * b - r - g;  // 2x chroma, [-510, 510]
+  const int c = 2 * b - r - g;     // 2x chroma, [-510, 510]
   const int code = (c + 514) / 4;  // [1, 256]
   return static_cast<std::uint8_t>(std::min(code, 255));
 }
-inline double code_to_chroma(double code) { return code * 2.0 - 257.0; }
+inline double code_to_chroma(double code) {
+  return code * 2.0 - 257.0;
+}
 
 /// Otsu threshold over histogram bins [1, 255]; returns the bin t (class 1 = code > t) and the
 /// class means. Returns false when a class is empty.
@@ -114,16 +118,14 @@ void minmax_filter(const cv::Mat& src, cv::Mat& tmp, cv::Mat& dst, int r, bool i
 
 }  // namespace
 
-SinkageEstimator::SinkageEstimator(const WheelGeometry& geometry, const SinkageParams& params,
-                                   cv::Size image_size)
+SinkageEstimator::SinkageEstimator(const WheelGeometry& geometry, const SinkageParams& params, cv::Size image_size)
     : geometry_(geometry), params_(params), size_(image_size) {
   geometry_.validate();
   params_.validate();
   if (image_size.width < 8 || image_size.height < 8 || image_size.width > kMaxImageSidePx ||
       image_size.height > kMaxImageSidePx) {
     throw std::invalid_argument("SinkageEstimator: image_size must be within [8, " + std::to_string(kMaxImageSidePx) +
-                                "] px (got " +
-                                std::to_string(image_size.width) + "x" +
+                                "] px (got " + std::to_string(image_size.width) + "x" +
                                 std::to_string(image_size.height) + ")");
   }
   mm_per_px_ = params_.scale_mm_per_px(geometry_);
@@ -133,14 +135,13 @@ SinkageEstimator::SinkageEstimator(const WheelGeometry& geometry, const SinkageP
   tmp_ = cv::Mat::zeros(size_, CV_8UC1);
   tmp2_ = cv::Mat::zeros(size_, CV_8UC1);
   clean_ = cv::Mat::zeros(size_, CV_8UC1);
-  const double reach = std::hypot(geometry_.leg_length_px, 0.5 * geometry_.foot_width_px) +
-                       params_.mask_margin_px + 4.0;
+  const double reach =
+      std::hypot(geometry_.leg_length_px, 0.5 * geometry_.foot_width_px) + params_.mask_margin_px + 4.0;
   bins_.assign(static_cast<std::size_t>(std::ceil(reach)) + 2, {0, 0, 0, 0});
   s0_ = geometry_.hub_radius_px + 1.0;
   n_along_ = std::max(1, static_cast<int>(std::floor(geometry_.leg_length_px - s0_)) + 1);
   col_half_ = 0.7 * 0.5 * geometry_.leg_width_px;
-  n_cols_ = std::min(static_cast<int>(col_y_.size()) - 1,
-                     2 * std::max(1, static_cast<int>(std::floor(col_half_))) + 1);
+  n_cols_ = std::min(static_cast<int>(col_y_.size()) - 1, 2 * std::max(1, static_cast<int>(std::floor(col_half_))) + 1);
   cols_.assign(static_cast<std::size_t>(n_cols_ * n_along_), 2);
   prev_full_ = true;
 }
@@ -159,8 +160,8 @@ SinkageEstimator::Roi SinkageEstimator::leg_roi(double phi) const {
   double xmin = 1e18, xmax = -1e18, ymin = 1e18, ymax = -1e18;
   constexpr int kSteps = 6;
   for (int i = 0; i <= kSteps; ++i) {
-    const double a = phi - params_.angle_tolerance_rad +
-                     2.0 * params_.angle_tolerance_rad * i / static_cast<double>(kSteps);
+    const double a =
+        phi - params_.angle_tolerance_rad + 2.0 * params_.angle_tolerance_rad * i / static_cast<double>(kSteps);
     const double sa = std::sin(a), ca = std::cos(a);
     for (double s : {s_lo, s_hi}) {
       for (double t : {-hw, hw}) {
@@ -185,8 +186,7 @@ SinkageEstimator::Roi SinkageEstimator::leg_roi(double phi) const {
 
 // One pass over the leg's ROI: dynamic-mask test (swept template), and when `segment` is set,
 // HSV band test + blue-chroma code for the pixels inside the mask.
-void SinkageEstimator::build_mask_and_segment(int slot, double phi, const Roi& roi,
-                                              const cv::Mat& bgr, bool segment) {
+void SinkageEstimator::build_mask_and_segment(int slot, double phi, const Roi& roi, const cv::Mat& bgr, bool segment) {
   const auto bit = static_cast<std::uint8_t>(1U << (slot % 8));
   const double m = params_.mask_margin_px;
   const double d = params_.angle_tolerance_rad;
@@ -264,8 +264,8 @@ void SinkageEstimator::build_mask_and_segment(int slot, double phi, const Roi& r
 void SinkageEstimator::threshold_adaptive(const Roi& roi) {
   int t = 0;
   double mu0 = 0, mu1 = 0;
-  const bool ok = otsu(hist_, t, mu0, mu1) &&
-                  (code_to_chroma(mu1) - code_to_chroma(mu0)) >= params_.adaptive_min_separation;
+  const bool ok =
+      otsu(hist_, t, mu0, mu1) && (code_to_chroma(mu1) - code_to_chroma(mu0)) >= params_.adaptive_min_separation;
   for (int y = roi.y0; y < roi.y1; ++y) {
     const std::uint8_t* c = chroma_.ptr<std::uint8_t>(y);
     std::uint8_t* s = seg_.ptr<std::uint8_t>(y);
@@ -394,8 +394,8 @@ void SinkageEstimator::sample_columns(double phi, const Roi& roi) {
 // min(y_s, end(column)) for every column; y_s is the L1 best fit over the candidates {column ends,
 // +inf}, refined by the mean of the cut columns that agree with it. Robust to a few columns cut
 // short by noise. Returns false when too few columns are known.
-bool SinkageEstimator::fit_interface(double phi, double& soil_y, double& agreement,
-                                     int& cut_columns, int& known_columns) {
+bool SinkageEstimator::fit_interface(double phi, double& soil_y, double& agreement, int& cut_columns,
+                                     int& known_columns) {
   const double sp = std::sin(phi), cp = std::cos(phi);
   const double cy = geometry_.hub_center_px.y;
   const double plz = geometry_.leg_length_px;
@@ -586,9 +586,8 @@ void SinkageEstimator::process(const cv::Mat& bgr, double wheel_angle_rad, Sinka
                                 std::to_string(bgr.type()) + ")");
   }
   if (bgr.size() != size_) {
-    throw std::invalid_argument("SinkageEstimator::process: bgr: expected " +
-                                std::to_string(size_.width) + "x" + std::to_string(size_.height) +
-                                " (got " + std::to_string(bgr.cols) + "x" +
+    throw std::invalid_argument("SinkageEstimator::process: bgr: expected " + std::to_string(size_.width) + "x" +
+                                std::to_string(size_.height) + " (got " + std::to_string(bgr.cols) + "x" +
                                 std::to_string(bgr.rows) + ")");
   }
   ++diag_.frames;

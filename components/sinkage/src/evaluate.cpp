@@ -55,16 +55,14 @@ EvalSummary evaluate_sequence(SinkageEstimator& estimator, std::span<const Seque
 std::string format_table(std::span<const ConditionSummary> rows) {
   std::ostringstream os;
   char line[256];
-  std::snprintf(line, sizeof line, "%-10s %-14s %7s %6s %10s %10s %9s %9s %9s\n", "load",
-                "illumination", "frames", "valid", "mean[mm]", "max[mm]", "mean[%GT]",
-                "mean[%max]", "max[%max]");
+  std::snprintf(line, sizeof line, "%-10s %-14s %7s %6s %10s %10s %9s %9s %9s\n", "load", "illumination", "frames",
+                "valid", "mean[mm]", "max[mm]", "mean[%GT]", "mean[%max]", "max[%max]");
   os << line;
   for (const ConditionSummary& r : rows) {
     const EvalSummary& s = r.summary;
-    std::snprintf(line, sizeof line, "%-10s %-14s %7zu %6zu %10.2f %10.2f %9.1f %9.1f %9.1f\n",
-                  r.load.c_str(), r.illumination.c_str(), s.frames, s.valid, s.mean_abs_error_mm,
-                  s.max_abs_error_mm, s.mean_error_pct_of_mean_truth, s.mean_error_pct_of_max_truth,
-                  s.max_error_pct_of_max_truth);
+    std::snprintf(line, sizeof line, "%-10s %-14s %7zu %6zu %10.2f %10.2f %9.1f %9.1f %9.1f\n", r.load.c_str(),
+                  r.illumination.c_str(), s.frames, s.valid, s.mean_abs_error_mm, s.max_abs_error_mm,
+                  s.mean_error_pct_of_mean_truth, s.mean_error_pct_of_max_truth, s.max_error_pct_of_max_truth);
     os << line;
   }
   return os.str();

@@ -58,8 +58,9 @@ void WheelGeometry::validate() const {
     fail(o, "leg_length_px", "must exceed hub_radius_px by at least 4 px", leg_length_px);
   }
   if (leg_length_px > kMaxLegLengthPx) {
-    fail(o, "leg_length_px", "must be <= " + std::to_string(static_cast<int>(kMaxLegLengthPx)) +
-                                 " px (twice the largest camera side)", leg_length_px);
+    fail(o, "leg_length_px",
+         "must be <= " + std::to_string(static_cast<int>(kMaxLegLengthPx)) + " px (twice the largest camera side)",
+         leg_length_px);
   }
   require_finite(o, "leg_width_px", leg_width_px);
   if (leg_width_px < 2.0 || leg_width_px > leg_length_px) {
@@ -71,8 +72,7 @@ void WheelGeometry::validate() const {
   }
   require_finite(o, "foot_thickness_px", foot_thickness_px);
   if (foot_thickness_px < 0.0 || foot_thickness_px > leg_length_px - hub_radius_px) {
-    fail(o, "foot_thickness_px", "must be in [0, leg_length_px - hub_radius_px]",
-         foot_thickness_px);
+    fail(o, "foot_thickness_px", "must be in [0, leg_length_px - hub_radius_px]", foot_thickness_px);
   }
   require_finite(o, "angle_offset_rad", angle_offset_rad);
   if (rotation_direction != 1 && rotation_direction != -1) {
@@ -86,8 +86,7 @@ double WheelGeometry::leg_angle(int k, double encoder_angle_rad) const {
 
 double WheelGeometry::half_width_at(double along_px) const {
   const double hw = 0.5 * leg_width_px;
-  if (foot_width_px > 0.0 && foot_thickness_px > 0.0 &&
-      along_px >= leg_length_px - foot_thickness_px) {
+  if (foot_width_px > 0.0 && foot_thickness_px > 0.0 && along_px >= leg_length_px - foot_thickness_px) {
     return std::max(hw, 0.5 * foot_width_px);
   }
   return hw;
@@ -99,8 +98,7 @@ void SinkageParams::validate() const {
   require_range(o, "hue_max_deg", hue_max_deg, 0.0, 360.0);
   require_range(o, "sat_min", sat_min, 0.0, 1.0);
   require_range(o, "val_min", val_min, 0.0, 1.0);
-  if (mode != SegmentationMode::kHsv && mode != SegmentationMode::kAdaptive &&
-      mode != SegmentationMode::kAuto) {
+  if (mode != SegmentationMode::kHsv && mode != SegmentationMode::kAdaptive && mode != SegmentationMode::kAuto) {
     fail(o, "mode", "unknown segmentation mode", static_cast<double>(mode));
   }
   require_range(o, "dark_mean_value", dark_mean_value, 0.0, 1.0);
@@ -121,8 +119,7 @@ void SinkageParams::validate() const {
   require_range(o, "min_confidence", min_confidence, 0.0, 1.0);
   require_range(o, "min_visible_px", min_visible_px, 0.0, 1e4);
   require_range(o, "contact_min_mm", contact_min_mm, 0.0, 1e4);
-  if (filter != TemporalFilter::kNone && filter != TemporalFilter::kEma &&
-      filter != TemporalFilter::kMedian) {
+  if (filter != TemporalFilter::kNone && filter != TemporalFilter::kEma && filter != TemporalFilter::kMedian) {
     fail(o, "filter", "unknown temporal filter", static_cast<double>(filter));
   }
   require_finite(o, "ema_alpha", ema_alpha);

@@ -9,8 +9,7 @@
 
 namespace regolith::sinkage {
 
-void draw_overlay(const cv::Mat& bgr, const WheelGeometry& g, const SinkageResult& result,
-                  cv::Mat& out) {
+void draw_overlay(const cv::Mat& bgr, const WheelGeometry& g, const SinkageResult& result, cv::Mat& out) {
   if (bgr.empty() || bgr.type() != CV_8UC3) {
     throw std::invalid_argument("draw_overlay: bgr: expected a non-empty CV_8UC3 image");
   }
@@ -31,26 +30,23 @@ void draw_overlay(const cv::Mat& bgr, const WheelGeometry& g, const SinkageResul
     const double fs = g.leg_length_px - g.foot_thickness_px;
     const double r0 = g.hub_radius_px, r1 = g.leg_length_px;
     // template outline (shaft + foot)
-    const cv::Point poly[8] = {fp(c + r0 * d - hw * n), fp(c + fs * d - hw * n),
-                               fp(c + fs * d - fw * n), fp(c + r1 * d - fw * n),
-                               fp(c + r1 * d + fw * n), fp(c + fs * d + fw * n),
+    const cv::Point poly[8] = {fp(c + r0 * d - hw * n), fp(c + fs * d - hw * n), fp(c + fs * d - fw * n),
+                               fp(c + r1 * d - fw * n), fp(c + r1 * d + fw * n), fp(c + fs * d + fw * n),
                                fp(c + fs * d + hw * n), fp(c + r0 * d + hw * n)};
     const cv::Point* pts = poly;
     const int npts = 8;
     cv::polylines(out, &pts, &npts, 1, true, red, 1, cv::LINE_AA, kShift);
     if (l.valid) {
-      cv::line(out, fp(l.interface_left_px), fp(l.interface_right_px), green, 2, cv::LINE_AA,
-               kShift);
+      cv::line(out, fp(l.interface_left_px), fp(l.interface_right_px), green, 2, cv::LINE_AA, kShift);
       if (l.sinkage_px > 0.0) {
-        cv::line(out, fp(l.tip_px), fp(l.tip_px - cv::Point2d(0, l.sinkage_px)), blue, 2,
-                 cv::LINE_AA, kShift);
+        cv::line(out, fp(l.tip_px), fp(l.tip_px - cv::Point2d(0, l.sinkage_px)), blue, 2, cv::LINE_AA, kShift);
       }
     }
   }
   char text[128];
   if (result.valid) {
-    std::snprintf(text, sizeof text, "sinkage %.1f mm  conf %.2f%s", result.sinkage_mm,
-                  result.confidence, result.used_adaptive ? "  (adaptive)" : "");
+    std::snprintf(text, sizeof text, "sinkage %.1f mm  conf %.2f%s", result.sinkage_mm, result.confidence,
+                  result.used_adaptive ? "  (adaptive)" : "");
   } else {
     std::snprintf(text, sizeof text, "invalid: %s", to_string(result.reason));
   }

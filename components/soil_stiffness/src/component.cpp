@@ -4,10 +4,10 @@
 // allocate once the estimator is warm (see README "Real time" for the measurement).
 #include "regolith/soil_stiffness/component.hpp"
 
-#include <cstdio>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -34,11 +34,15 @@ class SoilStiffnessComponent final : public runtime::Component {
     const hal::CameraFormat fmt = camera_->format();
     const RoverCamera& rover_camera = ctx.rover_camera(p, "camera");
     cfg_ = read_soil_config(p, ctx.rover(), rover_camera, fmt.width, fmt.height);
-    const double stale_s = p.get<double>("stale_timeout_s", 10.0,
-        {.unit = "s", .min = 0.0, .min_exclusive = true,
-         .doc = "the rear camera is reported stale after this long without a new frame"});
+    const double stale_s =
+        p.get<double>("stale_timeout_s", 10.0,
+                      {.unit = "s",
+                       .min = 0.0,
+                       .min_exclusive = true,
+                       .doc = "the rear camera is reported stale after this long without a new frame"});
     frame_id_ = p.get<std::string>("frame_id", rover_camera.name + "_ground",
-        {.doc = "header.frame_id of terrain/soil (the camera ground frame of the profiles, <camera>_ground on /tf_static)"});
+                                   {.doc = "header.frame_id of terrain/soil (the camera ground frame of the profiles, "
+                                           "<camera>_ground on /tf_static)"});
     if (frame_id_.size() > kFrameIdCapacity) p.fail("frame_id", "longer than 32 characters");
     try {
       estimator_ = std::make_unique<SoilStiffnessEstimator>(cfg_.camera, cfg_.rover, cfg_.analysis);
@@ -47,15 +51,13 @@ class SoilStiffnessComponent final : public runtime::Component {
     }
     estimator_->reserve(estimate_);
     out_ = &ctx.produce<SoilStiffnessSample>(kSoilChannel);
-    layer_ = &ctx.produce<SinkageLayer>(kSinkageLayerChannel, 2,
-                                        [] { return SinkageLayer{}; });
+    layer_ = &ctx.produce<SinkageLayer>(kSinkageLayerChannel, 2, [] { return SinkageLayer{}; });
     input_ = &watch_input("camera", static_cast<TimeNs>(stale_s * 1e9));
     if (dds::Participant* dp = ctx.dds()) {
       const dds::TopicInfo* info = dds::find_topic(kSoilChannel);
       if (info == nullptr) p.fail({}, "DDS topic terrain/soil is not registered");
       const std::string frame = frame_id_;
-      dds_ = dp->make_outbox<SoilMsg>(kSoilChannel, info->writer_qos(),
-                                      dds::OutboxOptions{dds::OutboxMode::kLatest, 4},
+      dds_ = dp->make_outbox<SoilMsg>(kSoilChannel, info->writer_qos(), dds::OutboxOptions{dds::OutboxMode::kLatest, 4},
                                       [frame](SoilMsg& m) {
                                         dds::reserve(m, dds::SoilStiffnessCapacity{32, kFrameIdCapacity});
                                         dds::copy_string(m.header.frame_id, kFrameIdCapacity, frame);

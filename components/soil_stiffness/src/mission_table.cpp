@@ -7,8 +7,8 @@
 namespace regolith::soil {
 
 double MissionEntry::predicted_sinkage_m(SinkageModel model) const {
-  return sinkage_from_soil(k_traditional(), n, rover.wheel_load_n(), rover.wheel_width_m,
-                           rover.wheel_diameter_m, model);
+  return sinkage_from_soil(k_traditional(), n, rover.wheel_load_n(), rover.wheel_width_m, rover.wheel_diameter_m,
+                           model);
 }
 
 double MissionEntry::k_from_reported_sinkage(SinkageModel model) const {
@@ -48,8 +48,7 @@ std::vector<MissionEntry> mission_table() {
   lrv.vehicle_verified = false;
   lrv.soil_source = sourcebook;
   lrv.reported_sinkage_m = 0.0125;
-  lrv.sinkage_source =
-      "Costes et al., NASA TR R-401 (1972): LRV rut depth ~1.25 cm (recollection, not verified)";
+  lrv.sinkage_source = "Costes et al., NASA TR R-401 (1972): LRV rut depth ~1.25 cm (recollection, not verified)";
   t.push_back(lrv);
 
   MissionEntry ce3;

@@ -45,8 +45,7 @@ double load_factor(double n, SinkageModel model) {
   return 0.5 * std::exp(log_beta);
 }
 
-double sinkage_from_soil(double k, double n, double load_n, double width_m, double diameter_m,
-                         SinkageModel model) {
+double sinkage_from_soil(double k, double n, double load_n, double width_m, double diameter_m, SinkageModel model) {
   require_positive("k", k);
   require_positive("load_n", load_n);
   require_positive("width_m", width_m);
@@ -56,8 +55,8 @@ double sinkage_from_soil(double k, double n, double load_n, double width_m, doub
   return std::pow(base, 2.0 / (2.0 * n + 1.0));
 }
 
-double stiffness_from_sinkage(double z_m, double n, double load_n, double width_m,
-                              double diameter_m, SinkageModel model) {
+double stiffness_from_sinkage(double z_m, double n, double load_n, double width_m, double diameter_m,
+                              SinkageModel model) {
   require_positive("z_m", z_m);
   require_positive("load_n", load_n);
   require_positive("width_m", width_m);
@@ -75,8 +74,7 @@ double fit_k_fixed_n(std::span<const SinkageSample> samples, double n, SinkageMo
   return std::exp(acc / static_cast<double>(samples.size()));
 }
 
-JointFit fit_joint(std::span<const SinkageSample> samples, SinkageModel model,
-                   double min_load_ratio) {
+JointFit fit_joint(std::span<const SinkageSample> samples, SinkageModel model, double min_load_ratio) {
   JointFit r;
   if (samples.size() < 2) {
     std::snprintf(r.reason, sizeof r.reason, "need at least two sinkage samples");
@@ -97,8 +95,8 @@ JointFit fit_joint(std::span<const SinkageSample> samples, SinkageModel model,
     sy += std::log(s.z_m);
   }
   if (xmax - xmin < std::log(min_load_ratio)) {
-    std::snprintf(r.reason, sizeof r.reason,
-                  "need at least two distinct wheel loads (load ratio >= %.3g)", min_load_ratio);
+    std::snprintf(r.reason, sizeof r.reason, "need at least two distinct wheel loads (load ratio >= %.3g)",
+                  min_load_ratio);
     return r;
   }
   const double cnt = static_cast<double>(samples.size());

@@ -11,12 +11,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/common/plot.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
 #include "regolith/core/json_text.hpp"
-#include "regolith/soil_stiffness/mission_table.hpp"
-#include "regolith/common/plot.hpp"
 #include "regolith/core/text_file.hpp"
+#include "regolith/soil_stiffness/mission_table.hpp"
 
 namespace regolith::soil {
 
@@ -36,10 +36,12 @@ using plot::PlotSpec;
 using plot::render_plot;
 using plot::write_png;
 
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json num(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
 
-const cv::Scalar kColours[] = {{200, 60, 20}, {30, 30, 220}, {40, 160, 40}, {160, 40, 160},
-                               {0, 140, 220}, {120, 120, 0}};
+const cv::Scalar kColours[] = {{200, 60, 20},  {30, 30, 220}, {40, 160, 40},
+                               {160, 40, 160}, {0, 140, 220}, {120, 120, 0}};
 
 // The track DTM on metric axes (range behind the camera, lateral), heights in mm.
 cv::Mat render_dtm(const SoilStiffnessEstimator& est) {
@@ -85,10 +87,14 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
                   {"k_p25", num(e.k_spread_p25)},
                   {"k_p75", num(e.k_spread_p75)},
                   {"k_unit", "N/m^(n+2)"}};
-  j["joint"] = {{"ok", e.joint_ok}, {"reason", e.joint_reason}, {"k", num(e.k_joint)},
+  j["joint"] = {{"ok", e.joint_ok},    {"reason", e.joint_reason},    {"k", num(e.k_joint)},
                 {"n", num(e.n_joint)}, {"k_std", num(e.k_joint_std)}, {"n_std", num(e.n_joint_std)}};
-  j["estimate"] = {{"k", num(e.k)}, {"n", num(e.n)}, {"k_std", num(e.k_std)}, {"n_std", num(e.n_std)},
-                   {"n_data_std", num(e.n_data_std)}, {"k_unit", "N/m^(n+2)"}};
+  j["estimate"] = {{"k", num(e.k)},
+                   {"n", num(e.n)},
+                   {"k_std", num(e.k_std)},
+                   {"n_std", num(e.n_std)},
+                   {"n_data_std", num(e.n_data_std)},
+                   {"k_unit", "N/m^(n+2)"}};
   j["soil_class"] = to_string(e.soil_class);
   j["class_pressure_pa"] = num(e.class_pressure_pa);
   j["tracks"] = nlohmann::json::array();
@@ -101,8 +107,7 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
     tj["samples"] = t.samples;
     tj["k_fixed"] = num(t.k_fixed);
     nlohmann::json prof = nlohmann::json::array();
-    for (std::size_t i = 0; i < t.range_m.size(); ++i)
-      prof.push_back({t.range_m[i], num(t.sinkage_m[i])});
+    for (std::size_t i = 0; i < t.range_m.size(); ++i) prof.push_back({t.range_m[i], num(t.sinkage_m[i])});
     tj["profile_range_sinkage_m"] = std::move(prof);
     j["tracks"].push_back(std::move(tj));
   }
@@ -112,13 +117,17 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
 cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
                              const TrackAnalysisParams& params, const SoilEstimate& e) {
   cv::Mat out;
-  if (image.channels() == 1) cv::cvtColor(image, out, cv::COLOR_GRAY2BGR);
-  else image.copyTo(out);
+  if (image.channels() == 1)
+    cv::cvtColor(image, out, cv::COLOR_GRAY2BGR);
+  else
+    image.copyTo(out);
   const direct_depth::DirectDepth geometry(camera);
   // shadowed pixels of the ground region (darker than shadow_fraction of its median), tinted blue
   cv::Mat grey;
-  if (image.channels() == 1) grey = image;
-  else cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 1)
+    grey = image;
+  else
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
   std::vector<unsigned char> region;
   for (int r = 0; r < grey.rows; r += 2)
     for (int c = 0; c < grey.cols; c += 2) {
@@ -180,15 +189,13 @@ cv::Mat render_track_overlay(const cv::Mat& image, const CameraModel& camera, co
   }
   cv::rectangle(out, cv::Rect(0, 0, out.cols, 34), cv::Scalar(0, 0, 0), cv::FILLED);
   char head[200];
-  std::snprintf(head, sizeof head, "floor edges (colour), wall tops (yellow), shadow (blue): k %.2g n %.2f",
-                e.k, e.n);
+  std::snprintf(head, sizeof head, "floor edges (colour), wall tops (yellow), shadow (blue): k %.2g n %.2f", e.k, e.n);
   cv::putText(out, head, cv::Point(6, 22), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   return out;
 }
 
-SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera,
-                                    const RoverConfig& rover, const TrackAnalysisParams& params,
-                                    const SunDirection& sun,
+SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
+                                    const TrackAnalysisParams& params, const SunDirection& sun,
                                     const std::filesystem::path& out_dir) {
   SoilStiffnessEstimator est(camera, rover, params);
   SoilAnalysisFiles f;
@@ -206,8 +213,7 @@ SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& cam
     for (std::size_t t = 0; t < e.tracks.size(); ++t) {
       PlotSeries p;
       char lab[96];
-      std::snprintf(lab, sizeof lab, "track y=%.2f m, W=%.0f N", e.tracks[t].lateral_m,
-                    e.tracks[t].load_n);
+      std::snprintf(lab, sizeof lab, "track y=%.2f m, W=%.0f N", e.tracks[t].lateral_m, e.tracks[t].load_n);
       p.label = lab;
       p.x = e.tracks[t].range_m;
       for (double z : e.tracks[t].sinkage_m) p.y.push_back(z * 1000.0);

@@ -1,8 +1,4 @@
-#include "regolith/core/json_file.hpp"
-#include "regolith/core/json_text.hpp"
 #include "regolith/soil_stiffness/scene.hpp"
-
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +6,11 @@
 #include <stdexcept>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "regolith/core/error.hpp"
+#include "regolith/core/json_file.hpp"
+#include "regolith/core/json_text.hpp"
 #include "regolith/core/text_file.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 
@@ -38,7 +38,8 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   }
   const double el = scene_number("sun_elevation_deg");
   if (!(el > 0.0 && el <= 90.0))
-    throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + number_text(el) + ")");
+    throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + number_text(el) +
+                     ")");
   // Camera ground frame: x = the view (world +Y), y = left (world -X). The scene's azimuth turns
   // from +Y towards +X (clockwise seen from above); GroundSun's from x towards y (anticlockwise).
   cfg.sun.azimuth_rad = -scene_number("sun_azimuth_deg") * kDeg;
@@ -62,7 +63,8 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
     };
     TrackSpec spec;
     spec.load_n = num("load_N");
-    if (!(spec.load_n > 0)) throw InputError(file.string() + ": " + at + ".load_N: must be > 0 N (got " + number_text(spec.load_n) + ")");
+    if (!(spec.load_n > 0))
+      throw InputError(file.string() + ": " + at + ".load_N: must be > 0 N (got " + number_text(spec.load_n) + ")");
     spec.lateral_m = -num("x_nominal_m");
     max_abs_x = std::max(max_abs_x, std::abs(spec.lateral_m));
     load_sum += spec.load_n;
@@ -88,7 +90,8 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
     }
   }();
   const auto near = dd.ground(c.cx, c.height - 1.0), far = dd.ground(c.cx, 0.0);
-  if (!near.valid) throw InputError(file.string() + ": camera: the bottom image row does not see the ground (pitch_deg too small?)");
+  if (!near.valid)
+    throw InputError(file.string() + ": camera: the bottom image row does not see the ground (pitch_deg too small?)");
   cfg.analysis.range_min_m = near.range_m + 0.05;
   cfg.analysis.range_max_m = std::min(far.valid ? far.range_m - 0.05 : 1e9, near.range_m + 2.5);
   // every listed rut must be seen somewhere between the region's near and far ends
@@ -100,8 +103,8 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
       seen = px && px->x >= 0 && px->x <= c.width - 1 && px->y >= 0 && px->y <= c.height - 1;
     }
     if (!seen)
-      throw InputError(file.string() + ": tracks[" + std::to_string(k) + "].x_nominal_m: " +
-                       std::to_string(-cfg.analysis.tracks[k].lateral_m) +
+      throw InputError(file.string() + ": tracks[" + std::to_string(k) +
+                       "].x_nominal_m: " + std::to_string(-cfg.analysis.tracks[k].lateral_m) +
                        " m lies outside the camera's view of the ground (range " +
                        std::to_string(cfg.analysis.range_min_m) + " to " + std::to_string(cfg.analysis.range_max_m) +
                        " m)");

@@ -7,8 +7,8 @@
 
 namespace regolith::soil {
 
-void fill_sinkage_layer(const SoilEstimate& e, double wheel_width_m, const LayerPose& pose,
-                        std::int64_t stamp_ns, std::uint64_t sequence, SinkageLayer& out) {
+void fill_sinkage_layer(const SoilEstimate& e, double wheel_width_m, const LayerPose& pose, std::int64_t stamp_ns,
+                        std::uint64_t sequence, SinkageLayer& out) {
   constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
   out.stamp_ns = stamp_ns;
   out.sequence = sequence;
@@ -32,7 +32,10 @@ void fill_sinkage_layer(const SoilEstimate& e, double wheel_width_m, const Layer
       int nz = 0;
       for (std::size_t q = a; q < b; ++q) {
         r += p.range_m[q];
-        if (std::isfinite(p.sinkage_m[q])) { z += p.sinkage_m[q]; ++nz; }
+        if (std::isfinite(p.sinkage_m[q])) {
+          z += p.sinkage_m[q];
+          ++nz;
+        }
       }
       r /= static_cast<double>(b - a);
       o.range_m[k] = static_cast<float>(r);

@@ -1,21 +1,19 @@
 #include "regolith/soil_stiffness/track_analysis.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdarg>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <cmath>
-#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
-
-#include "regolith/sfs/sfs.hpp"
-
 #include "regolith/core/error.hpp"
+#include "regolith/sfs/sfs.hpp"
 
 namespace regolith::soil {
 namespace {
@@ -32,7 +30,9 @@ constexpr std::size_t kMessageCapacity = 512;  ///< reserved length of reason st
 void need(bool ok, const char* field, const char* what, double got) {
   if (!ok) bad(field, what, got);
 }
-bool finite_pos(double v) { return std::isfinite(v) && v > 0.0; }
+bool finite_pos(double v) {
+  return std::isfinite(v) && v > 0.0;
+}
 
 /// printf-style message into `dst` without allocating once dst has the capacity (reserved by the
 /// estimator): formats into a stack buffer, then assigns.
@@ -78,15 +78,12 @@ const char* to_string(SoilClass c) {
 
 void TrackAnalysisParams::validate() const {
   need(std::isfinite(range_min_m) && range_min_m > 0, "range_min_m", "must be > 0", range_min_m);
-  need(std::isfinite(range_max_m) && range_max_m > range_min_m, "range_max_m",
-       "must be > range_min_m", range_max_m);
+  need(std::isfinite(range_max_m) && range_max_m > range_min_m, "range_max_m", "must be > range_min_m", range_max_m);
   need(std::isfinite(lateral_min_m), "lateral_min_m", "must be finite", lateral_min_m);
-  need(std::isfinite(lateral_max_m) && lateral_max_m > lateral_min_m, "lateral_max_m",
-       "must be > lateral_min_m", lateral_max_m);
-  need(finite_pos(grid_res_m) && grid_res_m < 0.2, "grid_res_m", "must be in (0, 0.2) m",
-       grid_res_m);
-  const double cells = (range_max_m - range_min_m) / grid_res_m * (lateral_max_m - lateral_min_m) /
-                       grid_res_m;
+  need(std::isfinite(lateral_max_m) && lateral_max_m > lateral_min_m, "lateral_max_m", "must be > lateral_min_m",
+       lateral_max_m);
+  need(finite_pos(grid_res_m) && grid_res_m < 0.2, "grid_res_m", "must be in (0, 0.2) m", grid_res_m);
+  const double cells = (range_max_m - range_min_m) / grid_res_m * (lateral_max_m - lateral_min_m) / grid_res_m;
   need(cells <= 4.0e6, "grid_res_m", "region too large for the grid (> 4e6 cells)", cells);
   need(cells >= 100.0, "grid_res_m", "region too small for the grid (< 100 cells)", cells);
   static_assert(kMaxTracks == 8, "the messages below say 8");
@@ -95,51 +92,39 @@ void TrackAnalysisParams::validate() const {
     need(std::isfinite(t.lateral_m), "tracks[].lateral_m", "must be finite", t.lateral_m);
     need(std::isfinite(t.load_n) && t.load_n >= 0, "tracks[].load_n", "must be >= 0", t.load_n);
   }
-  need(std::isfinite(track_search_m) && track_search_m >= 0, "track_search_m", "must be >= 0",
-       track_search_m);
+  need(std::isfinite(track_search_m) && track_search_m >= 0, "track_search_m", "must be >= 0", track_search_m);
   need(max_tracks >= 1 && static_cast<std::size_t>(max_tracks) <= kMaxTracks, "max_tracks", "must be in [1, 8]",
        max_tracks);
-  need(std::isfinite(min_sinkage_m) && min_sinkage_m >= 0, "min_sinkage_m", "must be >= 0",
-       min_sinkage_m);
-  need(std::isfinite(detection_snr) && detection_snr >= 0, "detection_snr", "must be >= 0",
-       detection_snr);
-  need(floor_fraction > 0 && floor_fraction <= 1, "floor_fraction", "must be in (0, 1]",
-       floor_fraction);
-  need(std::isfinite(shoulder_gap) && shoulder_gap >= 0, "shoulder_gap", "must be >= 0",
-       shoulder_gap);
-  need(shoulder_width > 0 && shoulder_width <= 5, "shoulder_width", "must be in (0, 5]",
-       shoulder_width);
+  need(std::isfinite(min_sinkage_m) && min_sinkage_m >= 0, "min_sinkage_m", "must be >= 0", min_sinkage_m);
+  need(std::isfinite(detection_snr) && detection_snr >= 0, "detection_snr", "must be >= 0", detection_snr);
+  need(floor_fraction > 0 && floor_fraction <= 1, "floor_fraction", "must be in (0, 1]", floor_fraction);
+  need(std::isfinite(shoulder_gap) && shoulder_gap >= 0, "shoulder_gap", "must be >= 0", shoulder_gap);
+  need(shoulder_width > 0 && shoulder_width <= 5, "shoulder_width", "must be in (0, 5]", shoulder_width);
   need(std::isfinite(presmooth_m) && presmooth_m >= 0, "presmooth_m", "must be >= 0", presmooth_m);
-  need(std::isfinite(profile_window_m) && profile_window_m >= 0, "profile_window_m",
-       "must be >= 0", profile_window_m);
-  need(min_valid_fraction >= 0 && min_valid_fraction <= 1, "min_valid_fraction",
-       "must be in [0, 1]", min_valid_fraction);
-  need(sfs_iterations >= 1 && sfs_iterations <= 100000, "sfs_iterations", "must be in [1, 1e5]",
-       sfs_iterations);
-  need(min_lateral_sun >= 0 && min_lateral_sun < 1, "min_lateral_sun", "must be in [0, 1)",
-       min_lateral_sun);
+  need(std::isfinite(profile_window_m) && profile_window_m >= 0, "profile_window_m", "must be >= 0", profile_window_m);
+  need(min_valid_fraction >= 0 && min_valid_fraction <= 1, "min_valid_fraction", "must be in [0, 1]",
+       min_valid_fraction);
+  need(sfs_iterations >= 1 && sfs_iterations <= 100000, "sfs_iterations", "must be in [1, 1e5]", sfs_iterations);
+  need(min_lateral_sun >= 0 && min_lateral_sun < 1, "min_lateral_sun", "must be in [0, 1)", min_lateral_sun);
   need(shadow_fraction > 0 && shadow_fraction < 1, "shadow_fraction", "must be in (0, 1)", shadow_fraction);
   need(std::isfinite(berm_ratio) && berm_ratio >= 0 && berm_ratio < 2, "berm_ratio", "must be in [0, 2)", berm_ratio);
   need(wall_slope_rad > 0 && wall_slope_rad < kPi / 2, "wall_slope_rad", "must be in (0, pi/2)", wall_slope_rad);
   rut_template.validate();
-  need(std::isfinite(n_fixed) && n_fixed >= 0 &&
-           (model == SinkageModel::kBeta || n_fixed < 3.0),
-       "n_fixed", "must be in [0, 3) (Bekker form) or >= 0 (Beta form)", n_fixed);
-  need(bootstrap_samples >= 0 && bootstrap_samples <= 100000, "bootstrap_samples",
-       "must be in [0, 1e5]", bootstrap_samples);
-  need(std::isfinite(min_load_ratio) && min_load_ratio > 1.0, "min_load_ratio", "must be > 1",
-       min_load_ratio);
+  need(std::isfinite(n_fixed) && n_fixed >= 0 && (model == SinkageModel::kBeta || n_fixed < 3.0), "n_fixed",
+       "must be in [0, 3) (Bekker form) or >= 0 (Beta form)", n_fixed);
+  need(bootstrap_samples >= 0 && bootstrap_samples <= 100000, "bootstrap_samples", "must be in [0, 1e5]",
+       bootstrap_samples);
+  need(std::isfinite(min_load_ratio) && min_load_ratio > 1.0, "min_load_ratio", "must be > 1", min_load_ratio);
   need(std::isfinite(n_prior) && n_prior > 0 && n_prior < 3, "n_prior", "must be in (0, 3)", n_prior);
   need(std::isfinite(n_prior_sigma) && n_prior_sigma >= 0, "n_prior_sigma", "must be >= 0", n_prior_sigma);
   need(std::isfinite(profile_sigma_m) && profile_sigma_m >= 0, "profile_sigma_m", "must be >= 0 m", profile_sigma_m);
-  need(max_saturated_fraction >= 0 && max_saturated_fraction <= 1, "max_saturated_fraction",
-       "must be in [0, 1]", max_saturated_fraction);
-  need(max_dark_fraction >= 0 && max_dark_fraction <= 1, "max_dark_fraction",
-       "must be in [0, 1]", max_dark_fraction);
+  need(max_saturated_fraction >= 0 && max_saturated_fraction <= 1, "max_saturated_fraction", "must be in [0, 1]",
+       max_saturated_fraction);
+  need(max_dark_fraction >= 0 && max_dark_fraction <= 1, "max_dark_fraction", "must be in [0, 1]", max_dark_fraction);
   need(finite_pos(class_z_ref_m), "class_z_ref_m", "must be > 0", class_z_ref_m);
   need(finite_pos(loose_below_pa), "loose_below_pa", "must be > 0", loose_below_pa);
-  need(std::isfinite(firm_above_pa) && firm_above_pa > loose_below_pa, "firm_above_pa",
-       "must be > loose_below_pa", firm_above_pa);
+  need(std::isfinite(firm_above_pa) && firm_above_pa > loose_below_pa, "firm_above_pa", "must be > loose_below_pa",
+       firm_above_pa);
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -153,24 +138,24 @@ struct SoilStiffnessEstimator::Impl {
     double configured_lateral;
   };
   int rows = 0, cols = 0;
-  int track_cap = 0;      // most candidate tracks one frame can produce
+  int track_cap = 0;  // most candidate tracks one frame can produce
   // bilinear sampling of the image at each grid cell (precomputed ground projection)
   std::vector<std::int32_t> src_x, src_y;  // top-left neighbour of the cell's pixel, -1 outside
-  std::vector<float> wx, wy;             // bilinear weights of the right / lower neighbour
-  cv::Mat inside;         // CV_8U, 255 = cell projects into the image
-  cv::Mat grey;           // CV_8U image size (BGR input converted here)
-  cv::Mat rect8;          // CV_8U grid (rounded, for the frame-quality histogram)
-  cv::Mat rectf;          // CV_32F grid: bilinear brightness without re-quantisation [DN]
-  cv::Mat e;              // CV_32F normalised brightness (flat ground = sin(elevation))
-  cv::Mat e_smooth;       // e box-filtered along the track (photoclinometry input)
-  cv::Mat dtm;            // CV_32F metres
+  std::vector<float> wx, wy;               // bilinear weights of the right / lower neighbour
+  cv::Mat inside;                          // CV_8U, 255 = cell projects into the image
+  cv::Mat grey;                            // CV_8U image size (BGR input converted here)
+  cv::Mat rect8;                           // CV_8U grid (rounded, for the frame-quality histogram)
+  cv::Mat rectf;                           // CV_32F grid: bilinear brightness without re-quantisation [DN]
+  cv::Mat e;                               // CV_32F normalised brightness (flat ground = sin(elevation))
+  cv::Mat e_smooth;                        // e box-filtered along the track (photoclinometry input)
+  cv::Mat dtm;                             // CV_32F metres
   sfs::ShapeFromShading solver;
   sfs::SfsResult sfs_out;
   std::vector<double> col_mean, score, line_h, slope, raw, shade_raw, ratios, valid_scores, column_acc;
   std::vector<double> mean_xs, cnt_xs, row_xs;
   std::vector<Candidate> cands, kept;
-  std::vector<std::vector<double>> kept_raw;    // [track_cap][rows]: raw per-row sinkage (NaN invalid)
-  std::vector<std::vector<double>> valid_raw;   // [track_cap]: finite raw samples (bootstrap)
+  std::vector<std::vector<double>> kept_raw;   // [track_cap][rows]: raw per-row sinkage (NaN invalid)
+  std::vector<std::vector<double>> valid_raw;  // [track_cap]: finite raw samples (bootstrap)
   std::vector<double> ks, means, bmeans, bk, bjk, bjn;
   std::vector<SinkageSample> samples;
   std::vector<std::size_t> order;
@@ -179,7 +164,7 @@ struct SoilStiffnessEstimator::Impl {
   int inside_count = 0;
   std::unique_ptr<RutTemplateFit> rut;  // profile_source kTemplate
   RutLight light;
-  std::vector<double> ranges;           // grid row centres [m]
+  std::vector<double> ranges;  // grid row centres [m]
 
   Impl(const SoilStiffnessEstimator& owner, const sfs::SfsParams& sp) : est(owner), solver(sp) {}
 
@@ -295,8 +280,7 @@ SoilStiffnessEstimator::SoilStiffnessEstimator(const CameraModel& camera, const 
   for (int i = 0; i < m.rows; ++i) {
     for (int j = 0; j < m.cols; ++j) {
       const auto px = geometry.project(row_range_m(i), col_lateral_m(j), 0.0);
-      const bool ok = px.has_value() && px->x >= 0.0 && px->y >= 0.0 && px->x <= W - 1 &&
-                      px->y <= H - 1;
+      const bool ok = px.has_value() && px->x >= 0.0 && px->y >= 0.0 && px->x <= W - 1 && px->y <= H - 1;
       m.inside.at<unsigned char>(i, j) = ok ? 255 : 0;
       if (!ok) continue;
       const auto q = static_cast<std::size_t>(i) * static_cast<std::size_t>(m.cols) + static_cast<std::size_t>(j);
@@ -375,8 +359,12 @@ void SoilStiffnessEstimator::reserve(SoilEstimate& out) {
   }
 }
 
-const cv::Mat& SoilStiffnessEstimator::rectified() const { return impl_->e; }
-const cv::Mat& SoilStiffnessEstimator::dtm_m() const { return impl_->dtm; }
+const cv::Mat& SoilStiffnessEstimator::rectified() const {
+  return impl_->e;
+}
+const cv::Mat& SoilStiffnessEstimator::dtm_m() const {
+  return impl_->dtm;
+}
 double SoilStiffnessEstimator::row_range_m(int row) const {
   return params_.range_max_m - (row + 0.5) * params_.grid_res_m;
 }
@@ -384,21 +372,17 @@ double SoilStiffnessEstimator::col_lateral_m(int col) const {
   return params_.lateral_max_m - (col + 0.5) * params_.grid_res_m;
 }
 
-void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& sun,
-                                      SoilEstimate& out) {
+void SoilStiffnessEstimator::estimate(const cv::Mat& image, const SunDirection& sun, SoilEstimate& out) {
   // input checks (programming/config errors -> exceptions)
   if (image.empty()) throw std::invalid_argument("image: empty frame");
   if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
-    throw std::invalid_argument("image: expected CV_8UC1 or CV_8UC3 (got type " +
-                                std::to_string(image.type()) + ")");
+    throw std::invalid_argument("image: expected CV_8UC1 or CV_8UC3 (got type " + std::to_string(image.type()) + ")");
   if (image.cols != camera_.width || image.rows != camera_.height)
-    throw std::invalid_argument("image: size " + std::to_string(image.cols) + "x" +
-                                std::to_string(image.rows) + " does not match camera " +
-                                std::to_string(camera_.width) + "x" +
+    throw std::invalid_argument("image: size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                                " does not match camera " + std::to_string(camera_.width) + "x" +
                                 std::to_string(camera_.height));
   need(std::isfinite(sun.azimuth_rad), "sun.azimuth_rad", "must be finite", sun.azimuth_rad);
-  need(std::isfinite(sun.elevation_rad) && sun.elevation_rad > 0.02 &&
-           sun.elevation_rad <= kPi / 2,
+  need(std::isfinite(sun.elevation_rad) && sun.elevation_rad > 0.02 && sun.elevation_rad <= kPi / 2,
        "sun.elevation_rad", "must be in (0.02, pi/2] rad", sun.elevation_rad);
   Impl& m = *impl_;
   m.reset(out, params_);
@@ -461,7 +445,11 @@ bool SoilStiffnessEstimator::Impl::rectify(const cv::Mat& image, Frame& f, SoilE
     for (int j = 0; j < cols; ++j) {
       const auto q = static_cast<std::size_t>(i) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(j);
       const int x0 = src_x[q], y0 = src_y[q];
-      if (x0 < 0) { r8[j] = 0; rf[j] = 0.f; continue; }
+      if (x0 < 0) {
+        r8[j] = 0;
+        rf[j] = 0.f;
+        continue;
+      }
       const unsigned char* p0 = f.src->ptr<unsigned char>(y0) + x0;
       const unsigned char* p1 = f.src->ptr<unsigned char>(std::min(y0 + 1, camera.height - 1)) + x0;
       const float a = wx[q], b = wy[q];
@@ -489,13 +477,11 @@ bool SoilStiffnessEstimator::Impl::normalise(Frame& f, SoilEstimate& out) {
   for (int v = 0; v <= 5; ++v) dark += f.hist[v];
   const double nin = inside_count;
   if (sat / nin > P.max_saturated_fraction) {
-    say(out.reason, "frame saturated: %d %% of the track region at >= 250 DN",
-        static_cast<int>(100.0 * sat / nin));
+    say(out.reason, "frame saturated: %d %% of the track region at >= 250 DN", static_cast<int>(100.0 * sat / nin));
     return false;
   }
   if (dark / nin > P.max_dark_fraction) {
-    say(out.reason, "frame too dark: %d %% of the track region at <= 5 DN",
-        static_cast<int>(100.0 * dark / nin));
+    say(out.reason, "frame too dark: %d %% of the track region at <= 5 DN", static_cast<int>(100.0 * dark / nin));
     return false;
   }
   int median = 0;
@@ -547,8 +533,7 @@ bool SoilStiffnessEstimator::Impl::find_tracks(const Frame& f, SoilEstimate& out
   const double res = P.grid_res_m;
   const int half = f.half, fhalf = f.fhalf, gap = f.gap, reach = f.reach;
   if (2 * reach + 1 > cols) {
-    say(out.reason, "region of interest narrower than one track cross-section (%.3g m)",
-        (2 * reach + 1) * res);
+    say(out.reason, "region of interest narrower than one track cross-section (%.3g m)", (2 * reach + 1) * res);
     return false;
   }
   // along-track mean cross-section of the DTM (inside cells only)
@@ -597,7 +582,10 @@ bool SoilStiffnessEstimator::Impl::find_tracks(const Frame& f, SoilEstimate& out
       double best_s = -std::numeric_limits<double>::infinity();
       for (int c = std::max(reach, c0); c <= std::min(cols - 1 - reach, c1); ++c) {
         const double s = score[static_cast<std::size_t>(c)];
-        if (std::isfinite(s) && s > best_s) { best_s = s; best = c; }
+        if (std::isfinite(s) && s > best_s) {
+          best_s = s;
+          best = c;
+        }
       }
       // no trough response (e.g. the rut near the region's edge): measure at the configured place
       if (best < 0) best = std::clamp(static_cast<int>(std::lround(cf)), 0, cols - 1);

@@ -1,20 +1,20 @@
 // Component "traversability": shared DTM -> metric grid map (channel + grid_map_msgs/GridMap).
 #include "regolith/traversability/component.hpp"
 
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <limits>
-#include <vector>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/common/grid_params.hpp"
+#include "regolith/common/payloads.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/runtime/application.hpp"
-#include "regolith/common/grid_params.hpp"
-#include "regolith/common/payloads.hpp"
 
 namespace regolith::traversability {
 namespace {
@@ -25,45 +25,72 @@ class TraversabilityComponent final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
     // The camera whose DTM frames this maps (its calibration and mount: rover.cameras.<camera>).
-    p.reject_moved("camera_model", "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
-                                   "write `camera: <device>` here");
+    p.reject_moved("camera_model",
+                   "the camera is described once, in rover.cameras.<camera> {camera_info, mount}; "
+                   "write `camera: <device>` here");
     const RoverCamera& rc = ctx.rover_camera(p, "camera");
     const direct_depth::CameraModel model = common::camera_model_of(rc);
     const int w = model.width, h = model.height;
 
     TraversabilityParams tp;
     tp.set_grid(common::read_grid_geometry(p, tp.grid(), "grid map"));
-    tp.detrend_sigma_px = p.get<double>("detrend_sigma_px", tp.detrend_sigma_px, {.unit = "px", .min = 0.0, .doc = "low-frequency SfS drift removed (0 = off)"});
-    tp.height_gain = p.get<double>("height_gain", tp.height_gain, {.min = 0.0, .min_exclusive = true, .doc = "extra multiplier on metric SfS heights"});
-    tp.max_range_m = p.get<double>("max_range_m", tp.max_range_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "pixels farther than this are ignored"});
-    tp.critical_slope_rad = p.get<double>("critical_slope_rad", tp.critical_slope_rad, {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true, .doc = "slope with traversability_slope = 0"});
-    tp.critical_step_m = p.get<double>("critical_step_m", tp.critical_step_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "step with traversability_step = 0"});
-    tp.critical_roughness_m = p.get<double>("critical_roughness_m", tp.critical_roughness_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "roughness with traversability_roughness = 0"});
-    tp.slope_radius_m = p.get<double>("slope_radius_m", tp.slope_radius_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "plane-fit neighbourhood"});
-    tp.step_radius_m = p.get<double>("step_radius_m", tp.step_radius_m, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "max-min neighbourhood"});
+    tp.detrend_sigma_px = p.get<double>("detrend_sigma_px", tp.detrend_sigma_px,
+                                        {.unit = "px", .min = 0.0, .doc = "low-frequency SfS drift removed (0 = off)"});
+    tp.height_gain =
+        p.get<double>("height_gain", tp.height_gain,
+                      {.min = 0.0, .min_exclusive = true, .doc = "extra multiplier on metric SfS heights"});
+    tp.max_range_m =
+        p.get<double>("max_range_m", tp.max_range_m,
+                      {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "pixels farther than this are ignored"});
+    tp.critical_slope_rad = p.get<double>(
+        "critical_slope_rad", tp.critical_slope_rad,
+        {.unit = "rad", .min = 0.0, .max = 1.57, .min_exclusive = true, .doc = "slope with traversability_slope = 0"});
+    tp.critical_step_m =
+        p.get<double>("critical_step_m", tp.critical_step_m,
+                      {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "step with traversability_step = 0"});
+    tp.critical_roughness_m = p.get<double>(
+        "critical_roughness_m", tp.critical_roughness_m,
+        {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "roughness with traversability_roughness = 0"});
+    tp.slope_radius_m =
+        p.get<double>("slope_radius_m", tp.slope_radius_m,
+                      {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "plane-fit neighbourhood"});
+    tp.step_radius_m = p.get<double>("step_radius_m", tp.step_radius_m,
+                                     {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "max-min neighbourhood"});
     tp.weight_slope = p.get<double>("weight_slope", tp.weight_slope, {.min = 0.0, .doc = "weight of the slope score"});
     tp.weight_step = p.get<double>("weight_step", tp.weight_step, {.min = 0.0, .doc = "weight of the step score"});
-    tp.weight_roughness = p.get<double>("weight_roughness", tp.weight_roughness, {.min = 0.0, .doc = "weight of the roughness score"});
-    tp.full_confidence_points = p.get<double>("full_confidence_points", tp.full_confidence_points, {.min = 0.0, .min_exclusive = true, .doc = "pixels per cell for confidence 1"});
+    tp.weight_roughness =
+        p.get<double>("weight_roughness", tp.weight_roughness, {.min = 0.0, .doc = "weight of the roughness score"});
+    tp.full_confidence_points =
+        p.get<double>("full_confidence_points", tp.full_confidence_points,
+                      {.min = 0.0, .min_exclusive = true, .doc = "pixels per cell for confidence 1"});
     // Where the map's SfS runs (README "Two SfS paths"): "ground" = this component resamples the
     // DTM frame's grey image onto the ground plane and solves it there with the sun in the ground
     // frame (metric by construction); "image" = the sfs component's image-frame heights, scaled.
     const std::string frame = p.get<std::string>(
-        "sfs_frame", "ground", {.choices = {"ground", "image"}, .doc = "SfS on the ground-rectified image or in the image frame"});
+        "sfs_frame", "ground",
+        {.choices = {"ground", "image"}, .doc = "SfS on the ground-rectified image or in the image frame"});
     ground_ = frame == "ground";
     tp.rectify_resolution_m = p.get<double>("rectify_resolution_m", tp.rectify_resolution_m,
-                                            {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "cell of the ground-rectified image (sfs_frame ground)"});
-    tp.ground_detrend_sigma_m = p.get<double>("ground_detrend_sigma_m", tp.ground_detrend_sigma_m,
-                                              {.unit = "m", .min = 0.0, .doc = "ground SfS drift removed (0 = off; sfs_frame ground)"});
-    const std::string gmethod = p.get<std::string>(
-        "ground_method", "tsai_shah",
-        {.choices = {"tsai_shah", "pentland"}, .doc = "ground SfS solver (tsai_shah: the more accurate on the rectified grid)"});
+                                            {.unit = "m",
+                                             .min = 0.0,
+                                             .min_exclusive = true,
+                                             .doc = "cell of the ground-rectified image (sfs_frame ground)"});
+    tp.ground_detrend_sigma_m =
+        p.get<double>("ground_detrend_sigma_m", tp.ground_detrend_sigma_m,
+                      {.unit = "m", .min = 0.0, .doc = "ground SfS drift removed (0 = off; sfs_frame ground)"});
+    const std::string gmethod =
+        p.get<std::string>("ground_method", "tsai_shah",
+                           {.choices = {"tsai_shah", "pentland"},
+                            .doc = "ground SfS solver (tsai_shah: the more accurate on the rectified grid)"});
     tp.ground_sfs.method = sfs::method_from_string(gmethod);
-    tp.ground_sfs.tsai_shah_leak_px = p.get<double>("ground_leak_px", tp.ground_sfs.tsai_shah_leak_px,
-                                                    {.unit = "px", .min = 0.0, .doc = "Tsai-Shah integration memory on the rectified grid"});
-    const std::string frame_id = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of the grid map"});
-    const double timeout_s = p.get<double>("input_timeout_s", 2.0, {.unit = "s", .min = 0.0, .min_exclusive = true,
-                                                                    .doc = "the DTM input is stale after this long"});
+    tp.ground_sfs.tsai_shah_leak_px =
+        p.get<double>("ground_leak_px", tp.ground_sfs.tsai_shah_leak_px,
+                      {.unit = "px", .min = 0.0, .doc = "Tsai-Shah integration memory on the rectified grid"});
+    const std::string frame_id =
+        p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of the grid map"});
+    const double timeout_s = p.get<double>(
+        "input_timeout_s", 2.0,
+        {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the DTM input is stale after this long"});
     try {
       depth_ = std::make_unique<direct_depth::DirectDepth>(model);
       mapper_ = std::make_unique<TraversabilityMapper>(*depth_, tp);
@@ -82,14 +109,16 @@ class TraversabilityComponent final : public runtime::Component {
     // Layers other components measure, appended after the mapper's own (NaN until they arrive).
     const std::vector<std::string> available{common::kRockProbabilityLayer, "sinkage"};
     const auto extra = p.get<std::vector<std::string>>(
-        "extra_layers", {}, {.choices = available,
-                             .doc = "layers merged from other components: rock_probability (sams), sinkage (soil_stiffness)"});
+        "extra_layers", {},
+        {.choices = available,
+         .doc = "layers merged from other components: rock_probability (sams), sinkage (soil_stiffness)"});
     full_ = map_;
     for (auto& m : full_.data) m = m.clone();
     base_layers_ = map_.data.size();
     for (const auto& name : extra) {
       full_.layers.push_back(name);
-      full_.data.emplace_back(map_.size_x(), map_.size_y(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+      full_.data.emplace_back(map_.size_x(), map_.size_y(), CV_32F,
+                              cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
       if (name == common::kRockProbabilityLayer) {
         rock_index_ = full_.data.size() - 1;
         rocks_ = &ctx.consume<common::RockProbabilityFrame>(common::kRockProbabilityChannel);
@@ -185,8 +214,10 @@ class TraversabilityComponent final : public runtime::Component {
     for (int r = 0; r < t.rows; ++r)
       for (int c = 0; c < t.cols; ++c) {
         const float v = t.at<float>(r, c);
-        if (!(v == v)) ++unknown;
-        else if (v <= 0.0f) ++hazard;
+        if (!(v == v))
+          ++unknown;
+        else if (v <= 0.0f)
+          ++hazard;
       }
     char buf[96];
     std::snprintf(buf, sizeof buf, "map %.0f %% unknown, %d hazard cells (traversability 0)",
@@ -225,7 +256,7 @@ class TraversabilityComponent final : public runtime::Component {
     }
   }
 
-  GridMap full_;                 // the mapper's layers + extra layers, as published
+  GridMap full_;  // the mapper's layers + extra layers, as published
   std::size_t base_layers_ = 0;
   const runtime::Input<common::RockProbabilityFrame>* rocks_ = nullptr;
   std::size_t rock_index_ = 0;
@@ -246,8 +277,7 @@ class TraversabilityComponent final : public runtime::Component {
 
 void register_component() {
   runtime::ComponentRegistry::instance().add(
-      "traversability",
-      "terrain/dtm + camera model -> metric elevation and traversability layers (terrain/grid_map)",
+      "traversability", "terrain/dtm + camera model -> metric elevation and traversability layers (terrain/grid_map)",
       [] { return std::make_unique<TraversabilityComponent>(); });
 }
 

@@ -1,12 +1,12 @@
 #include "regolith/traversability/traversability.hpp"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/common/fill.hpp"
 #include "regolith/core/error.hpp"
@@ -47,7 +47,6 @@ std::size_t GridMap::layer_index(std::string_view name) const {
   throw std::out_of_range("traversability: GridMap has no layer '" + std::string(name) + "'");
 }
 
-
 void export_column_major(const GridMap& map, std::size_t k, float* out, std::size_t n) {
   if (k >= map.data.size()) fail("layer", "index " + std::to_string(k) + " out of range");
   const cv::Mat& m = map.data[k];
@@ -57,7 +56,8 @@ void export_column_major(const GridMap& map, std::size_t k, float* out, std::siz
   const int rows = m.rows;
   for (int i = 0; i < rows; ++i) {
     const float* p = m.ptr<float>(i);
-    for (int j = 0; j < m.cols; ++j) out[static_cast<std::size_t>(i) + static_cast<std::size_t>(j) * static_cast<std::size_t>(rows)] = p[j];
+    for (int j = 0; j < m.cols; ++j)
+      out[static_cast<std::size_t>(i) + static_cast<std::size_t>(j) * static_cast<std::size_t>(rows)] = p[j];
   }
 }
 
@@ -101,8 +101,7 @@ void TraversabilityParams::validate() const {
   }
 }
 
-TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& depth,
-                                           const TraversabilityParams& params)
+TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& depth, const TraversabilityParams& params)
     : depth_(depth), p_((params.validate(), params)), ground_solver_(p_.ground_sfs) {
   nx_ = static_cast<int>(std::lround(p_.length_x_m / p_.resolution_m));
   ny_ = static_cast<int>(std::lround(p_.length_y_m / p_.resolution_m));
@@ -137,9 +136,8 @@ void TraversabilityMapper::check_image(const cv::Mat& m, const cv::Mat& valid, c
   if (m.empty()) fail(what, "empty image");
   if (m.type() != CV_32FC1) fail(what, "must be CV_32FC1");
   if (m.size() != sz)
-    fail(what, "size " + std::to_string(m.cols) + "x" + std::to_string(m.rows) +
-                   " differs from the camera model " + std::to_string(sz.width) + "x" +
-                   std::to_string(sz.height));
+    fail(what, "size " + std::to_string(m.cols) + "x" + std::to_string(m.rows) + " differs from the camera model " +
+                   std::to_string(sz.width) + "x" + std::to_string(sz.height));
   if (!valid.empty() && (valid.type() != CV_8UC1 || valid.size() != sz))
     fail("valid", "must be empty or CV_8UC1 of the image size");
 }
@@ -200,7 +198,8 @@ void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma
     const double inv = 1.0 / (2 * k + 1);
     for (int i = 0; i < n; ++i) {
       base[i * stride] = static_cast<float>(acc * inv);
-      acc += line_[static_cast<std::size_t>(std::min(i + k + 1, n - 1))] - line_[static_cast<std::size_t>(std::max(i - k, 0))];
+      acc += line_[static_cast<std::size_t>(std::min(i + k + 1, n - 1))] -
+             line_[static_cast<std::size_t>(std::max(i - k, 0))];
     }
   };
   for (int rep = 0; rep < 3; ++rep) {
@@ -210,8 +209,8 @@ void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma
   }
 }
 
-void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid,
-                                            const ImageLight& light, GridMap& out) {
+void TraversabilityMapper::compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid, const ImageLight& light,
+                                            GridMap& out) {
   check_image(height_px, valid, "height_px");
   const double el = sun_elevation(depth_.model(), light);
   if (!std::isfinite(light.slant_rad) || !std::isfinite(light.tilt_rad) || !(el > kMinSunElevationRad) ||
@@ -253,8 +252,8 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
   if (gray.empty()) fail("gray", "empty image");
   if (gray.type() != CV_8UC1) fail("gray", "must be CV_8UC1 (8-bit grey)");
   if (gray.size() != sz)
-    fail("gray", "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " differs from the camera model " +
-                     std::to_string(sz.width) + "x" + std::to_string(sz.height));
+    fail("gray", "size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                     " differs from the camera model " + std::to_string(sz.width) + "x" + std::to_string(sz.height));
   begin_grid(out);
   last_ground_light_ = ground_light(depth_.model(), light);
   // The image-frame slant may exceed 90 deg here (sun ahead of the camera): only the sun's
@@ -300,7 +299,8 @@ void TraversabilityMapper::compute_from_image(const cv::Mat& gray, const ImageLi
     uchar* pm = rect_mask_.ptr<uchar>(i);
     for (int j = 0; j < rect_height_.cols; ++j) {
       pm[j] = (v[j] && sv[j]) ? 255 : 0;
-      if (v[j]) pz[j] = static_cast<float>((static_cast<double>(ph[j]) - (pb ? static_cast<double>(pb[j]) : 0.0)) * scale);
+      if (v[j])
+        pz[j] = static_cast<float>((static_cast<double>(ph[j]) - (pb ? static_cast<double>(pb[j]) : 0.0)) * scale);
     }
   }
   bin_points(rect_height_, rect_mask_, rectifier_->x_map(), rectifier_->y_map(), rectifier_->support(), out);
@@ -361,7 +361,9 @@ void TraversabilityMapper::finish_grid(GridMap& out) {
   layers_from_elevation(out);
 }
 
-void TraversabilityMapper::layers_from_elevation(GridMap& out) { compute_layers(out, p_); }
+void TraversabilityMapper::layers_from_elevation(GridMap& out) {
+  compute_layers(out, p_);
+}
 
 void compute_layers(GridMap& map, const TraversabilityParams& p) {
   p.validate();
@@ -383,8 +385,8 @@ void compute_layers(GridMap& map, const TraversabilityParams& p) {
     map.data.push_back(c);
   }
   // Create missing layers first (push_back may reallocate), then take references.
-  for (const char* name : {"traversability_slope", "traversability_roughness", "traversability_step",
-                           "traversability"}) {
+  for (const char* name :
+       {"traversability_slope", "traversability_roughness", "traversability_step", "traversability"}) {
     bool found = false;
     for (std::size_t k = 0; k < map.layers.size(); ++k)
       if (map.layers[k] == name) {
@@ -421,8 +423,16 @@ void compute_layers(GridMap& map, const TraversabilityParams& p) {
           const float zf = e.at<float>(ii, jj);
           if (!std::isfinite(zf)) continue;
           const double x = di * res, y = dj * res, z = static_cast<double>(zf);
-          s1 += 1; sx += x; sy += y; sz += z; sxx += x * x; syy += y * y; sxy += x * y;
-          sxz += x * z; syz += y * z; szz += z * z;
+          s1 += 1;
+          sx += x;
+          sy += y;
+          sz += z;
+          sxx += x * x;
+          syy += y * y;
+          sxy += x * y;
+          sxz += x * z;
+          syz += y * z;
+          szz += z * z;
         }
       float vs = kNaNf, vr = kNaNf;
       if (s1 >= 3) {
@@ -460,7 +470,8 @@ void compute_layers(GridMap& map, const TraversabilityParams& p) {
           t = 0.0f;
         else
           t = static_cast<float>((p.weight_slope * static_cast<double>(vs) + p.weight_step * static_cast<double>(vst) +
-                                  p.weight_roughness * static_cast<double>(vr)) / wsum);
+                                  p.weight_roughness * static_cast<double>(vr)) /
+                                 wsum);
       }
       tt.at<float>(i, j) = t;
     }

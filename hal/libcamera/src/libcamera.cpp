@@ -1,7 +1,15 @@
 #include "regolith/hal_libcamera/libcamera.hpp"
-#include "regolith/hal/unopened.hpp"
 
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <map>
+#include <mutex>
 #include <ostream>
+#include <thread>
 
 #include <sys/mman.h>
 
@@ -14,17 +22,8 @@
 #include <libcamera/request.h>
 #include <libcamera/stream.h>
 
-#include <algorithm>
-#include <atomic>
-#include <cerrno>
-#include <cmath>
-#include <condition_variable>
-#include <cstring>
-#include <map>
-#include <mutex>
-#include <thread>
-
 #include "regolith/core/image_limits.hpp"
+#include "regolith/hal/unopened.hpp"
 #include "regolith/hal_v4l2/convert.hpp"
 #include "regolith/hal_v4l2/v4l2.hpp"
 
@@ -54,12 +53,30 @@ std::shared_ptr<lc::CameraManager> shared_manager() {
 
 bool device_format_of(const lc::PixelFormat& pf, DeviceFormat& out) {
   // libcamera names formats by the little-endian word: BGR888 is R,G,B in memory
-  if (pf == lc::formats::BGR888) { out = DeviceFormat::kRgb24; return true; }
-  if (pf == lc::formats::RGB888) { out = DeviceFormat::kBgr24; return true; }
-  if (pf == lc::formats::YUYV) { out = DeviceFormat::kYuyv; return true; }
-  if (pf == lc::formats::UYVY) { out = DeviceFormat::kUyvy; return true; }
-  if (pf == lc::formats::R8) { out = DeviceFormat::kGrey; return true; }
-  if (pf == lc::formats::MJPEG) { out = DeviceFormat::kMjpeg; return true; }
+  if (pf == lc::formats::BGR888) {
+    out = DeviceFormat::kRgb24;
+    return true;
+  }
+  if (pf == lc::formats::RGB888) {
+    out = DeviceFormat::kBgr24;
+    return true;
+  }
+  if (pf == lc::formats::YUYV) {
+    out = DeviceFormat::kYuyv;
+    return true;
+  }
+  if (pf == lc::formats::UYVY) {
+    out = DeviceFormat::kUyvy;
+    return true;
+  }
+  if (pf == lc::formats::R8) {
+    out = DeviceFormat::kGrey;
+    return true;
+  }
+  if (pf == lc::formats::MJPEG) {
+    out = DeviceFormat::kMjpeg;
+    return true;
+  }
   return false;
 }
 
@@ -98,9 +115,11 @@ void Config::validate() const {
 
 Config config_from_params(Params& p) {
   Config c;
-  c.camera = p.get<std::string>("camera", "", {.doc = "libcamera camera id as `cam --list` prints it (empty: use index)"});
+  c.camera =
+      p.get<std::string>("camera", "", {.doc = "libcamera camera id as `cam --list` prints it (empty: use index)"});
   c.index = p.get<int>("index", c.index, {.min = 0, .max = 63, .doc = "camera index when no id is given"});
-  c.role = p.get<std::string>("role", c.role, {.choices = {"raw", "still", "video", "viewfinder"}, .doc = "libcamera stream role"});
+  c.role = p.get<std::string>("role", c.role,
+                              {.choices = {"raw", "still", "video", "viewfinder"}, .doc = "libcamera stream role"});
   c.width = p.get<int>("width", c.width, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame width"});
   c.height = p.get<int>("height", c.height, {.unit = "px", .min = 1, .max = kMaxImageSidePx, .doc = "frame height"});
   c.pixel_format = p.get<std::string>("format", c.pixel_format,
@@ -110,9 +129,15 @@ Config config_from_params(Params& p) {
       p.get<std::string>("pixel_format", "bgr8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
   c.buffers = p.get<int>("buffers", c.buffers, {.min = 1, .max = 16, .doc = "requests in flight"});
   c.frame_timeout_s = p.get<double>("frame_timeout", c.frame_timeout_s,
-                                    {.unit = "s", .min = 0.0, .max = 60.0, .min_exclusive = true, .doc = "no completed request for this long -> fault and restart"});
-  c.retry_min_s = p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first restart delay"});
-  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s, {.unit = "s", .min = 0.001, .max = 600.0, .doc = "restart back-off ceiling"});
+                                    {.unit = "s",
+                                     .min = 0.0,
+                                     .max = 60.0,
+                                     .min_exclusive = true,
+                                     .doc = "no completed request for this long -> fault and restart"});
+  c.retry_min_s =
+      p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first restart delay"});
+  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s,
+                                {.unit = "s", .min = 0.001, .max = 600.0, .doc = "restart back-off ceiling"});
   c.max_readers = p.get<int>("max_readers", c.max_readers, {.min = 1, .max = 64, .doc = "simultaneous frame leases"});
   Params ctl = p.child("controls");
   for (const auto& name : ctl.keys()) {
@@ -198,7 +223,8 @@ struct LibcameraCamera::Impl {
 void LibcameraCamera::Impl::open(bool first) {
   if (!manager) manager = shared_manager();
   auto cams = manager->cameras();
-  const bool missing = cfg.camera.empty() ? static_cast<std::size_t>(cfg.index) >= cams.size() : !manager->get(cfg.camera);
+  const bool missing =
+      cfg.camera.empty() ? static_cast<std::size_t>(cfg.index) >= cams.size() : !manager->get(cfg.camera);
   if (missing && !first && manager.use_count() == 1) {
     // the camera may have re-appeared: a camera manager without udev does not hot-plug, so
     // restart it (only when no other camera of this process holds it)
@@ -247,7 +273,8 @@ void LibcameraCamera::Impl::open(bool first) {
       }
       if (chosen.isValid()) break;
     }
-    if (!chosen.isValid()) throw DeviceConfigError("format", who() + ": offers no convertible format (offers: " + join(offered_names) + ")");
+    if (!chosen.isValid())
+      throw DeviceConfigError("format", who() + ": offers no convertible format (offers: " + join(offered_names) + ")");
   } else {
     chosen = lc::PixelFormat::fromString(cfg.pixel_format);
     if (std::find(offered.begin(), offered.end(), chosen) == offered.end()) {
@@ -263,9 +290,9 @@ void LibcameraCamera::Impl::open(bool first) {
     throw DeviceConfigError("format", who() + ": configuration " + sc.toString() + " is invalid");
   }
   if (sc.size.width != static_cast<unsigned>(cfg.width) || sc.size.height != static_cast<unsigned>(cfg.height)) {
-    throw DeviceConfigError("width", who() + ": cannot produce " + std::to_string(cfg.width) + "x" + std::to_string(cfg.height) +
-                                         " in " + chosen.toString() + " (it proposed " + sc.size.toString() +
-                                         "; range " + sc.formats().range(chosen).toString() + ")");
+    throw DeviceConfigError("width", who() + ": cannot produce " + std::to_string(cfg.width) + "x" +
+                                         std::to_string(cfg.height) + " in " + chosen.toString() + " (it proposed " +
+                                         sc.size.toString() + "; range " + sc.formats().range(chosen).toString() + ")");
   }
   if (sc.pixelFormat != chosen) {
     throw DeviceConfigError("format", who() + ": replaced " + chosen.toString() + " by " + sc.pixelFormat.toString());
@@ -315,7 +342,8 @@ void LibcameraCamera::Impl::build_controls() {
     const lc::ControlId* cid = it->first;
     const lc::ControlInfo& range = it->second;
     auto bad = [&](const std::string& why) {
-      throw DeviceConfigError("controls", who() + ": control " + name + " = '" + text + "': " + why + " (range " + range.toString() + ")");
+      throw DeviceConfigError(
+          "controls", who() + ": control " + name + " = '" + text + "': " + why + " (range " + range.toString() + ")");
     };
     try {
       std::size_t pos = 0;
@@ -357,12 +385,14 @@ void LibcameraCamera::Impl::build_controls() {
 
 void LibcameraCamera::Impl::start_streaming() {
   have_seq = false;
-  if (const int r = cam->start(controls.get()); r < 0) throw std::runtime_error(who() + ": start: " + std::strerror(-r));
+  if (const int r = cam->start(controls.get()); r < 0)
+    throw std::runtime_error(who() + ": start: " + std::strerror(-r));
   cam_started = true;
   accepting.store(true);
   last_complete.store(clock->now());
   for (auto& req : requests) {
-    if (const int r = cam->queueRequest(req.get()); r < 0) throw std::runtime_error(who() + ": queueRequest: " + std::strerror(-r));
+    if (const int r = cam->queueRequest(req.get()); r < 0)
+      throw std::runtime_error(who() + ": queueRequest: " + std::strerror(-r));
   }
 }
 
@@ -411,8 +441,8 @@ void LibcameraCamera::Impl::on_complete(lc::Request* r) {
     } else {
       const std::size_t used = md.planes().empty() ? it->second.length : md.planes()[0].bytesused;
       std::string err;
-      if (v4l2::convert_frame(dev_format, it->second.data, std::min(used, it->second.length), format.width, format.height,
-                              stride, format.format, slot->image, err)) {
+      if (v4l2::convert_frame(dev_format, it->second.data, std::min(used, it->second.length), format.width,
+                              format.height, stride, format.format, slot->image, err)) {
         slot->capture_time = stamp;
         slot->sequence = md.sequence;
         slot->camera_index = index;
@@ -445,7 +475,8 @@ void LibcameraCamera::Impl::run_monitor() {
     if (!fault_flag.load() && !stalled) continue;
     faults.fetch_add(1);
     state.store(DeviceState::kFaulted);
-    set_error(who() + (fault_flag.load() ? ": disconnected or request failed" : ": no frame for " + std::to_string(cfg.frame_timeout_s) + " s"));
+    set_error(who() + (fault_flag.load() ? ": disconnected or request failed"
+                                         : ": no frame for " + std::to_string(cfg.frame_timeout_s) + " s"));
     teardown();
     fault_flag.store(false);
     while (running.load()) {
@@ -490,7 +521,8 @@ LibcameraCamera::LibcameraCamera(Config cfg, const DeviceContext& ctx) : impl_(s
     m.teardown();
     throw;
   }
-  m.pool = make_frame_pool(m.format.width, m.format.height, m.format.format, static_cast<std::size_t>(m.cfg.max_readers));
+  m.pool =
+      make_frame_pool(m.format.width, m.format.height, m.format.format, static_cast<std::size_t>(m.cfg.max_readers));
 }
 
 LibcameraCamera::~LibcameraCamera() {
@@ -498,10 +530,18 @@ LibcameraCamera::~LibcameraCamera() {
   impl_->teardown();
 }
 
-const std::string& LibcameraCamera::id() const { return impl_->id; }
-CameraFormat LibcameraCamera::format() const { return impl_->format; }
-std::string LibcameraCamera::camera_id() const { return impl_->cam_id; }
-std::string LibcameraCamera::device_format() const { return impl_->dev_format_name; }
+const std::string& LibcameraCamera::id() const {
+  return impl_->id;
+}
+CameraFormat LibcameraCamera::format() const {
+  return impl_->format;
+}
+std::string LibcameraCamera::camera_id() const {
+  return impl_->cam_id;
+}
+std::string LibcameraCamera::device_format() const {
+  return impl_->dev_format_name;
+}
 std::string LibcameraCamera::last_error() const {
   std::lock_guard<std::mutex> lock(impl_->text_mutex);
   return impl_->last_error;
@@ -579,7 +619,8 @@ std::vector<CameraInfo> list_libcamera_cameras() {
       for (const auto& pf : formats.pixelformats()) {
         CameraInfo::Format f;
         f.pixel_format = pf.toString();
-        for (const auto& s : formats.sizes(pf)) f.sizes.emplace_back(static_cast<int>(s.width), static_cast<int>(s.height));
+        for (const auto& s : formats.sizes(pf))
+          f.sizes.emplace_back(static_cast<int>(s.width), static_cast<int>(s.height));
         f.size_range = formats.range(pf).toString();
         ci.formats.push_back(std::move(f));
       }
@@ -592,31 +633,36 @@ std::vector<CameraInfo> list_libcamera_cameras() {
 }
 
 void register_libcamera_backend(BackendRegistry& r) {
-  r.add_lister("libcamera", [](std::ostream& os) {
-    const auto cams = hal::libcam::list_libcamera_cameras();
-    os << "libcamera cameras (backend: libcamera):" << (cams.empty() ? " none\n" : "\n");
-    for (const auto& c : cams) {
-      os << "  id: \"" << c.id << "\"" << (c.model.empty() ? "" : "  model: " + c.model) << "\n";
-      for (const auto& f : c.formats) {
-        os << "    " << f.pixel_format << ":";
-        for (const auto& [w, h] : f.sizes) os << " " << w << "x" << h;
-        if (!f.size_range.empty()) os << " (" << f.size_range << ")";
-        os << "\n";
-      }
-    }
-  }, /*slow: the camera manager takes seconds to start*/ true);
-  r.add_camera("libcamera", "libcamera camera (CSI sensors with ISP pipelines, UVC, vimc): request queue, sensor timestamps, auto-restart",
-               [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<Camera> {
-                 Config c = config_from_params(p);
-                 if (!ctx.open_devices) {
-                   return make_unopened_camera(ctx.id, CameraFormat{c.width, c.height, c.output, 0.0});
-                 }
-                 try {
-                   return std::make_unique<LibcameraCamera>(std::move(c), ctx);
-                 } catch (const DeviceError& e) {
-                   rethrow_located(p, e);  // ConfigError, or DeviceUnavailableError (may appear later)
-                 }
-               });
+  r.add_lister(
+      "libcamera",
+      [](std::ostream& os) {
+        const auto cams = hal::libcam::list_libcamera_cameras();
+        os << "libcamera cameras (backend: libcamera):" << (cams.empty() ? " none\n" : "\n");
+        for (const auto& c : cams) {
+          os << "  id: \"" << c.id << "\"" << (c.model.empty() ? "" : "  model: " + c.model) << "\n";
+          for (const auto& f : c.formats) {
+            os << "    " << f.pixel_format << ":";
+            for (const auto& [w, h] : f.sizes) os << " " << w << "x" << h;
+            if (!f.size_range.empty()) os << " (" << f.size_range << ")";
+            os << "\n";
+          }
+        }
+      },
+      /*slow: the camera manager takes seconds to start*/ true);
+  r.add_camera(
+      "libcamera",
+      "libcamera camera (CSI sensors with ISP pipelines, UVC, vimc): request queue, sensor timestamps, auto-restart",
+      [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<Camera> {
+        Config c = config_from_params(p);
+        if (!ctx.open_devices) {
+          return make_unopened_camera(ctx.id, CameraFormat{c.width, c.height, c.output, 0.0});
+        }
+        try {
+          return std::make_unique<LibcameraCamera>(std::move(c), ctx);
+        } catch (const DeviceError& e) {
+          rethrow_located(p, e);  // ConfigError, or DeviceUnavailableError (may appear later)
+        }
+      });
 }
 
 }  // namespace regolith::hal::libcam

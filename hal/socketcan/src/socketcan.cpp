@@ -1,20 +1,4 @@
 #include "regolith/hal_socketcan/socketcan.hpp"
-#include "regolith/hal/unopened.hpp"
-
-#include <ostream>
-
-#include <net/if.h>
-#include <net/if_arp.h>
-#include <fcntl.h>
-#include <linux/can.h>
-#include <linux/can/error.h>
-#include <linux/can/raw.h>
-#include <linux/errqueue.h>
-#include <linux/net_tstamp.h>
-#include <poll.h>
-#include <sys/eventfd.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -24,13 +8,31 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <ostream>
 #include <stdexcept>
+
+#include <fcntl.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <linux/errqueue.h>
+#include <linux/net_tstamp.h>
+#include <net/if.h>
+#include <net/if_arp.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "regolith/hal/unopened.hpp"
 
 namespace regolith::hal::socketcan {
 
 namespace {
 
-std::string errno_text(int e) { return std::string(std::strerror(e)); }
+std::string errno_text(int e) {
+  return std::string(std::strerror(e));
+}
 
 std::string read_sysfs(const std::filesystem::path& p) {
   std::ifstream in(p);
@@ -57,8 +59,9 @@ bool wait_wake(int wake_fd, TimeNs d) {
 // ------------------------------------------------------------------------------------------------
 void Config::validate() const {
   if (interface.empty() || interface.size() >= IFNAMSIZ) {
-    throw FieldError("", "interface", "must be a network interface name of 1.." +
-                                std::to_string(IFNAMSIZ - 1) + " characters (got '" + interface + "')");
+    throw FieldError("", "interface",
+                     "must be a network interface name of 1.." + std::to_string(IFNAMSIZ - 1) + " characters (got '" +
+                         interface + "')");
   }
   if (wheels.empty() && transducers.empty()) throw FieldError("", "wheels", "at least one wheel or transducer");
   std::vector<std::string> seen;
@@ -81,11 +84,12 @@ void Config::validate() const {
     throw FieldError("", "max_extrapolation", "must be >= 0 and finite");
   }
   validate_backoff(retry_min_s, retry_max_s);
-  if (receive_buffer_kb < 16 || receive_buffer_kb > 1 << 16) throw FieldError("", "receive_buffer_kb", "must be 16..65536");
+  if (receive_buffer_kb < 16 || receive_buffer_kb > 1 << 16)
+    throw FieldError("", "receive_buffer_kb", "must be 16..65536");
   if (frame_history < 1 || frame_history > 1 << 20) throw FieldError("", "frame_history", "must be 1..1048576");
   if (tx_enabled && tx_id > (tx_extended ? CAN_EFF_MASK : CAN_SFF_MASK)) {
-    throw FieldError("", "command.id", "out of range for a " + std::string(tx_extended ? "29" : "11") +
-                                "-bit identifier");
+    throw FieldError("", "command.id",
+                     "out of range for a " + std::string(tx_extended ? "29" : "11") + "-bit identifier");
   }
 }
 
@@ -102,19 +106,28 @@ Config config_from_params(Params& p) {
   };
   read_signals("wheels", c.wheels);
   read_signals("transducers", c.transducers);
-  c.stale_timeout_s = p.get<double>("stale_timeout", c.stale_timeout_s,
-                                    {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "no sample for this long -> wheel stale"});
-  c.max_extrapolation_s = p.get<double>("max_extrapolation", c.max_extrapolation_s,
-                                        {.unit = "s", .min = 0.0, .max = 1.0, .doc = "angle_at may extrapolate this far past the newest sample"});
-  c.retry_min_s = p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first re-open delay after the interface vanished"});
-  c.receive_buffer_kb = p.get<int>("receive_buffer_kb", c.receive_buffer_kb,
-                                   {.unit = "KiB", .min = 16, .max = 1 << 16,
-                                    .doc = "socket receive queue for bursts (beyond net.core.rmem_max needs CAP_NET_ADMIN)"});
+  c.stale_timeout_s =
+      p.get<double>("stale_timeout", c.stale_timeout_s,
+                    {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "no sample for this long -> wheel stale"});
+  c.max_extrapolation_s = p.get<double>(
+      "max_extrapolation", c.max_extrapolation_s,
+      {.unit = "s", .min = 0.0, .max = 1.0, .doc = "angle_at may extrapolate this far past the newest sample"});
+  c.retry_min_s = p.get<double>(
+      "retry_min", c.retry_min_s,
+      {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first re-open delay after the interface vanished"});
+  c.receive_buffer_kb =
+      p.get<int>("receive_buffer_kb", c.receive_buffer_kb,
+                 {.unit = "KiB",
+                  .min = 16,
+                  .max = 1 << 16,
+                  .doc = "socket receive queue for bursts (beyond net.core.rmem_max needs CAP_NET_ADMIN)"});
   c.frame_history = p.get<int>("frame_history", c.frame_history,
                                {.unit = "frames", .min = 1, .max = 1 << 20, .doc = "raw frames kept for recorders"});
-  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s, {.unit = "s", .min = 0.001, .max = 600.0, .doc = "re-open back-off ceiling"});
+  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s,
+                                {.unit = "s", .min = 0.001, .max = 600.0, .doc = "re-open back-off ceiling"});
   c.error_frames = p.get<bool>("error_frames", c.error_frames, {.doc = "receive and decode CAN error frames"});
-  c.kernel_timestamps = p.get<bool>("kernel_timestamps", c.kernel_timestamps, {.doc = "use kernel receive timestamps (SO_TIMESTAMPING)"});
+  c.kernel_timestamps =
+      p.get<bool>("kernel_timestamps", c.kernel_timestamps, {.doc = "use kernel receive timestamps (SO_TIMESTAMPING)"});
   if (p.has("command")) {
     Params cmd = p.child("command");
     c.tx_enabled = cmd.get<bool>("enabled", false, {.doc = "allow sending command frames"});
@@ -188,9 +201,9 @@ std::string CanErrorInfo::describe() const {
 struct SocketCanEncoders::Counters {
   std::atomic<std::uint64_t> samples{0}, rejected{0}, faults{0}, stale_events{0}, recoveries{0};
   std::atomic<DeviceState> state{DeviceState::kStopped};
-  std::atomic<std::uint64_t> frames{0}, unexpected{0}, short_frames{0}, error_frames{0}, bus_off{0},
-      error_passive{0}, error_warning{0}, lost_arb{0}, controller{0}, protocol{0}, transceiver{0}, no_ack{0},
-      restarts{0}, rx_overflows{0}, iface_down{0}, tx_frames{0}, tx_errors{0};
+  std::atomic<std::uint64_t> frames{0}, unexpected{0}, short_frames{0}, error_frames{0}, bus_off{0}, error_passive{0},
+      error_warning{0}, lost_arb{0}, controller{0}, protocol{0}, transceiver{0}, no_ack{0}, restarts{0},
+      rx_overflows{0}, iface_down{0}, tx_frames{0}, tx_errors{0};
   std::atomic<bool> kernel_ts{false};
   std::atomic<int> rcvbuf{0};
   mutable std::mutex text_mutex;
@@ -408,11 +421,13 @@ void SocketCanEncoders::handle_frame(const CanFrame& f) {
     c_->rejected.fetch_add(1);
     if (decoder_.short_frames() != short_before) {
       // The text before the count: whoever sees the count grow then finds its reason in last_error.
-      note_error("frame 0x" + [&f] {
-        char b[16];
-        std::snprintf(b, sizeof b, "%X", f.id);
-        return std::string(b);
-      }() + " has DLC " + std::to_string(f.len) + ", too short for its signals");
+      note_error("frame 0x" +
+                 [&f] {
+                   char b[16];
+                   std::snprintf(b, sizeof b, "%X", f.id);
+                   return std::string(b);
+                 }() +
+                 " has DLC " + std::to_string(f.len) + ", too short for its signals");
       c_->short_frames.fetch_add(1);
     } else {
       c_->unexpected.fetch_add(1);
@@ -513,7 +528,8 @@ void SocketCanEncoders::run() {
         f.len = std::min<std::uint8_t>(cf->len, f.fd ? 64 : 8);
         std::memcpy(f.data.data(), cf->data, f.len);
         TimeNs kernel_rt = 0;
-        for (const cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(const_cast<msghdr*>(&msg), const_cast<cmsghdr*>(c))) {
+        for (const cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr;
+             c = CMSG_NXTHDR(const_cast<msghdr*>(&msg), const_cast<cmsghdr*>(c))) {
           if (c->cmsg_level != SOL_SOCKET) continue;
           if (c->cmsg_type == SO_TIMESTAMPING) {
             scm_timestamping ts{};
@@ -523,7 +539,8 @@ void SocketCanEncoders::run() {
             std::uint32_t dropped = 0;
             std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
             // the socket's running total: add what it dropped since the last frame
-            if (dropped != socket_drops_) c_->rx_overflows.fetch_add(static_cast<std::uint32_t>(dropped - socket_drops_));
+            if (dropped != socket_drops_)
+              c_->rx_overflows.fetch_add(static_cast<std::uint32_t>(dropped - socket_drops_));
             socket_drops_ = dropped;
           }
         }
@@ -546,13 +563,13 @@ bool SocketCanEncoders::angle_at(std::size_t wheel, TimeNs t, double& angle) con
 }
 
 std::size_t SocketCanEncoders::samples_since(std::size_t wheel, TimeNs after, TimeNs /*now*/,
-                                            std::span<AngleSample> out) const {
+                                             std::span<AngleSample> out) const {
   if (wheel >= history_.size()) return 0;
   return history_[wheel]->since(after, out);
 }
 
 std::size_t SocketCanEncoders::can_frames(std::uint64_t& cursor, TimeNs /*now*/, std::span<CanFrame> out,
-                                         std::uint64_t& missed) const {
+                                          std::uint64_t& missed) const {
   return frames_->since(cursor, out, missed);
 }
 
@@ -599,8 +616,9 @@ BusStats SocketCanEncoders::bus_stats() const {
 
 bool SocketCanEncoders::send(const std::uint8_t* data, std::size_t len) {
   if (!cfg_.tx_enabled) throw std::logic_error("socketcan '" + id_ + "': send() needs command.enabled: true");
-  if (len > 8) throw std::invalid_argument("socketcan '" + id_ + "': command payload of " + std::to_string(len) +
-                                           " bytes (max 8)");
+  if (len > 8)
+    throw std::invalid_argument("socketcan '" + id_ + "': command payload of " + std::to_string(len) +
+                                " bytes (max 8)");
   can_frame f{};
   f.can_id = cfg_.tx_extended ? (cfg_.tx_id | CAN_EFF_FLAG) : cfg_.tx_id;
   f.len = static_cast<std::uint8_t>(len);
@@ -644,7 +662,7 @@ void register_socketcan_backend(BackendRegistry& r) {
     os << "CAN interfaces (backend: socketcan):" << (cans.empty() ? " none\n" : "\n");
     for (const auto& c : cans) {
       os << "  " << c.name << "  " << (c.up ? "up" : "down") << "  kind: " << c.kind
-                << (c.virtual_can ? " (virtual)" : "") << "  mtu: " << c.mtu << (c.mtu >= 72 ? " (CAN FD)" : "") << "\n";
+         << (c.virtual_can ? " (virtual)" : "") << "  mtu: " << c.mtu << (c.mtu >= 72 ? " (CAN FD)" : "") << "\n";
     }
   });
   r.add_encoders("socketcan",

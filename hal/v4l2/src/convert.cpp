@@ -1,15 +1,14 @@
 #include "regolith/hal_v4l2/convert.hpp"
 
-#include "regolith/core/image_file.hpp"
-
 #include <cstdint>
+#include <stdexcept>
 
 #include <linux/videodev2.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <stdexcept>
+#include "regolith/core/image_file.hpp"
 
 namespace regolith::hal::v4l2 {
 
@@ -55,7 +54,8 @@ std::uint32_t fourcc_from_string(std::string_view s) {
   std::uint32_t v = 0;
   for (int i = 3; i >= 0; --i) {
     const auto c = static_cast<unsigned char>(s[static_cast<std::size_t>(i)]);
-    if (c < 0x20 || c > 0x7e) throw std::invalid_argument("fourcc '" + std::string(s) + "' has a non-printable character");
+    if (c < 0x20 || c > 0x7e)
+      throw std::invalid_argument("fourcc '" + std::string(s) + "' has a non-printable character");
     v = (v << 8) | c;
   }
   return v;
@@ -94,11 +94,11 @@ std::size_t min_frame_bytes(DeviceFormat f, int width, int height, std::size_t s
 
 std::vector<DeviceFormat> preferred_formats(PixelFormat out) {
   if (out == PixelFormat::kMono8) {
-    return {DeviceFormat::kGrey, DeviceFormat::kYuyv, DeviceFormat::kUyvy, DeviceFormat::kBgr24,
-            DeviceFormat::kRgb24, DeviceFormat::kMjpeg};
+    return {DeviceFormat::kGrey,  DeviceFormat::kYuyv,  DeviceFormat::kUyvy,
+            DeviceFormat::kBgr24, DeviceFormat::kRgb24, DeviceFormat::kMjpeg};
   }
-  return {DeviceFormat::kBgr24, DeviceFormat::kRgb24, DeviceFormat::kYuyv, DeviceFormat::kUyvy,
-          DeviceFormat::kMjpeg, DeviceFormat::kGrey};
+  return {DeviceFormat::kBgr24, DeviceFormat::kRgb24, DeviceFormat::kYuyv,
+          DeviceFormat::kUyvy,  DeviceFormat::kMjpeg, DeviceFormat::kGrey};
 }
 
 bool convert_frame(DeviceFormat f, const std::uint8_t* data, std::size_t bytes, int width, int height,

@@ -1,9 +1,14 @@
 #include "regolith/hal_v4l2/v4l2.hpp"
-#include "regolith/core/image_limits.hpp"
-#include "regolith/core/params.hpp"
-#include "regolith/hal/unopened.hpp"
 
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
 #include <ostream>
+#include <stdexcept>
 
 #include <fcntl.h>
 #include <linux/videodev2.h>
@@ -13,14 +18,9 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include <algorithm>
-#include <cctype>
-#include <cerrno>
-#include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <map>
-#include <stdexcept>
+#include "regolith/core/image_limits.hpp"
+#include "regolith/core/params.hpp"
+#include "regolith/hal/unopened.hpp"
 
 namespace regolith::hal::v4l2 {
 
@@ -34,7 +34,9 @@ int xioctl(int fd, unsigned long request, void* arg) {
   return r;
 }
 
-std::string errno_text(int e) { return std::string(std::strerror(e)); }
+std::string errno_text(int e) {
+  return std::string(std::strerror(e));
+}
 
 /// open() failures that say the node is not usable *now* (absent, gone, busy, not yet accessible:
 /// udev may still be creating it or setting its group) rather than a wrong configuration. EPERM
@@ -79,7 +81,8 @@ void Config::validate() const {
       throw FieldError("", "fourcc", e.what());
     }
     if (!device_format_from_fourcc(code, f)) {
-      throw FieldError("", "fourcc", "'" + fourcc + "' cannot be converted (use auto, YUYV, UYVY, GREY, RGB3, BGR3 or MJPG)");
+      throw FieldError("", "fourcc",
+                       "'" + fourcc + "' cannot be converted (use auto, YUYV, UYVY, GREY, RGB3, BGR3 or MJPG)");
     }
   }
   if (!(rate_hz > 0.0) || rate_hz > 1000.0) throw FieldError("", "rate", "must be in (0, 1000] Hz");
@@ -103,16 +106,25 @@ Config config_from_params(Params& p) {
                                  .doc = "device pixel format (auto: cheapest the device offers)"});
   c.output = pixel_format_from_string(
       p.get<std::string>("pixel_format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
-  c.rate_hz = p.get<double>("rate", c.rate_hz, {.unit = "Hz", .min = 0.0, .max = 1000.0, .min_exclusive = true, .doc = "requested frame rate"});
+  c.rate_hz =
+      p.get<double>("rate", c.rate_hz,
+                    {.unit = "Hz", .min = 0.0, .max = 1000.0, .min_exclusive = true, .doc = "requested frame rate"});
   c.buffers = p.get<int>("buffers", c.buffers, {.min = 2, .max = 32, .doc = "mmap buffers queued in the driver"});
   c.frame_timeout_s = p.get<double>("frame_timeout", c.frame_timeout_s,
-                                    {.unit = "s", .min = 0.0, .max = 60.0, .min_exclusive = true, .doc = "no frame for this long -> fault and restart"});
-  c.retry_min_s = p.get<double>("retry_min", c.retry_min_s, {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first reconnection delay"});
-  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s, {.unit = "s", .min = 0.001, .max = 600.0, .doc = "reconnection back-off ceiling"});
+                                    {.unit = "s",
+                                     .min = 0.0,
+                                     .max = 60.0,
+                                     .min_exclusive = true,
+                                     .doc = "no frame for this long -> fault and restart"});
+  c.retry_min_s = p.get<double>("retry_min", c.retry_min_s,
+                                {.unit = "s", .min = 0.001, .max = 60.0, .doc = "first reconnection delay"});
+  c.retry_max_s = p.get<double>("retry_max", c.retry_max_s,
+                                {.unit = "s", .min = 0.001, .max = 600.0, .doc = "reconnection back-off ceiling"});
   c.max_readers = p.get<int>("max_readers", c.max_readers, {.min = 1, .max = 64, .doc = "simultaneous frame leases"});
   Params ctl = p.child("controls");
   for (const auto& name : ctl.keys()) {
-    c.controls.push_back({name, ctl.require<std::string>(name, {.doc = "V4L2 control value (integer, bool or menu entry)"})});
+    c.controls.push_back(
+        {name, ctl.require<std::string>(name, {.doc = "V4L2 control value (integer, bool or menu entry)"})});
   }
   ctl.finish();
   p.finish_and_check([&] { c.validate(); });
@@ -184,9 +196,10 @@ std::vector<DeviceInfo> list_v4l2_devices(bool with_formats) {
           fs.pixel_format = fd_desc.pixelformat;
           if (xioctl(fd, VIDIOC_ENUM_FRAMESIZES, &fs) < 0) break;
           if (fs.type != V4L2_FRMSIZE_TYPE_DISCRETE) {
-            fi.size_range = std::to_string(fs.stepwise.min_width) + "x" + std::to_string(fs.stepwise.min_height) + " - " +
-                            std::to_string(fs.stepwise.max_width) + "x" + std::to_string(fs.stepwise.max_height) +
-                            " step " + std::to_string(fs.stepwise.step_width) + "x" + std::to_string(fs.stepwise.step_height);
+            fi.size_range = std::to_string(fs.stepwise.min_width) + "x" + std::to_string(fs.stepwise.min_height) +
+                            " - " + std::to_string(fs.stepwise.max_width) + "x" +
+                            std::to_string(fs.stepwise.max_height) + " step " + std::to_string(fs.stepwise.step_width) +
+                            "x" + std::to_string(fs.stepwise.step_height);
             break;
           }
           FrameSize size;
@@ -311,7 +324,8 @@ std::string V4l2Camera::open_device() {
   if (fd_ < 0) {
     const int e = errno;
     std::string msg = dev + ": cannot open: " + errno_text(e);
-    if (e == ENOENT || e == ENODEV) msg += " (capture devices: " + describe_capture_devices(list_v4l2_devices(false)) + ")";
+    if (e == ENOENT || e == ENODEV)
+      msg += " (capture devices: " + describe_capture_devices(list_v4l2_devices(false)) + ")";
     if (e == EACCES) msg += " (add the user to the 'video' group)";
     if (unavailable_errno(e)) throw DeviceUnavailableError("device", msg);
     throw DeviceConfigError("device", msg);
@@ -381,7 +395,8 @@ void V4l2Camera::set_format(const std::string& dev, DeviceFormat chosen) {
         sizes = "up to " + std::to_string(fs.stepwise.max_width) + "x" + std::to_string(fs.stepwise.max_height);
         break;
       }
-      sizes += (sizes.empty() ? "" : ", ") + std::to_string(fs.discrete.width) + "x" + std::to_string(fs.discrete.height);
+      sizes +=
+          (sizes.empty() ? "" : ", ") + std::to_string(fs.discrete.width) + "x" + std::to_string(fs.discrete.height);
     }
     throw DeviceConfigError("width", dev + ": cannot capture " + std::to_string(cfg_.width) + "x" +
                                          std::to_string(cfg_.height) + " in " + std::string(to_string(chosen)) +
@@ -420,7 +435,8 @@ void V4l2Camera::map_buffers(const std::string& dev) {
     if (e == EBUSY) throw DeviceUnavailableError("device", dev + ": busy (another process owns its buffers)");
     throw DeviceConfigError("buffers", dev + ": VIDIOC_REQBUFS: " + errno_text(e));
   }
-  if (req.count < 2) throw DeviceConfigError("buffers", dev + ": driver granted only " + std::to_string(req.count) + " buffer(s)");
+  if (req.count < 2)
+    throw DeviceConfigError("buffers", dev + ": driver granted only " + std::to_string(req.count) + " buffer(s)");
   buffers_.assign(req.count, Buffer{});
   for (std::uint32_t i = 0; i < req.count; ++i) {
     v4l2_buffer b{};
@@ -482,8 +498,8 @@ void V4l2Camera::apply_controls() {
         }
       }
       if (!matched) {
-        throw DeviceConfigError("controls", dev + ": control '" + setting.name + "': '" + text +
-                                                "' is not an integer" + (c.type == V4L2_CTRL_TYPE_MENU ? " or a menu entry" : ""));
+        throw DeviceConfigError("controls", dev + ": control '" + setting.name + "': '" + text + "' is not an integer" +
+                                                (c.type == V4L2_CTRL_TYPE_MENU ? " or a menu entry" : ""));
       }
     }
     if (c.type != V4L2_CTRL_TYPE_BUTTON && (value < c.minimum || value > c.maximum)) {
@@ -630,7 +646,8 @@ bool V4l2Camera::capture_one(TimeNs& last_frame) {
     TimeNs stamp = now;
     const bool monotonic = (b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC;
     if (monotonic && !clock_->simulated()) {
-      const TimeNs kernel = static_cast<TimeNs>(b.timestamp.tv_sec) * kNsPerSec + static_cast<TimeNs>(b.timestamp.tv_usec) * kNsPerUs;
+      const TimeNs kernel =
+          static_cast<TimeNs>(b.timestamp.tv_sec) * kNsPerSec + static_cast<TimeNs>(b.timestamp.tv_usec) * kNsPerUs;
       const TimeNs mapped = kernel + (now - monotonic_now());
       // vivid stamps the end of the frame period, which can lie slightly ahead of the dequeue:
       // clamp to the dequeue time; stamps that are far off fall back to the dequeue time
@@ -728,7 +745,7 @@ void register_v4l2_backend(BackendRegistry& r) {
     for (const auto& d : v4l2) {
       if (!d.capture) continue;
       os << "  " << d.path << "  card: \"" << d.card << "\"  bus_info: \"" << d.bus_info << "\"  driver: " << d.driver
-                << "\n";
+         << "\n";
       for (const auto& f : d.formats) {
         os << "    " << f.fourcc << (f.convertible ? "" : " (not convertible)") << "  " << f.description << ":";
         for (const auto& s : f.sizes) {

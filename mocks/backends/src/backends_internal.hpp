@@ -24,6 +24,7 @@ std::unique_ptr<hal::Camera> make_fault_camera(Params& p, const hal::DeviceConte
                                                const hal::BackendRegistry& registry);
 std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::DeviceContext& ctx,
                                                         const hal::BackendRegistry& registry);
-std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ctx, const hal::BackendRegistry& registry);
+std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ctx,
+                                         const hal::BackendRegistry& registry);
 
 }  // namespace regolith::mocks

@@ -85,8 +85,8 @@ class CandumpEncoders final : public LazyEncoders {
       pass = rel / period_;
       rel -= pass * period_;
     }
-    const auto it = std::upper_bound(s.begin(), s.end(), rel,
-                                     [](TimeNs t, const hal::AngleSample& a) { return t < a.stamp; });
+    const auto it =
+        std::upper_bound(s.begin(), s.end(), rel, [](TimeNs t, const hal::AngleSample& a) { return t < a.stamp; });
     const auto i = static_cast<std::int64_t>(it - s.begin()) - 1;  // -1: before this pass's first sample
     return pass * n + i;
   }
@@ -115,10 +115,11 @@ std::unique_ptr<hal::WheelEncoders> make_candump_encoders(Params& p, const hal::
   const std::string iface =
       p.get<std::string>("interface", "", {.doc = "replay only frames of this interface (empty = all)"});
   const bool loop = p.get<bool>("loop", false, {.doc = "replay the log again from the start when it ends"});
-  const double rate_scale = p.get<double>("rate_scale", 1.0, {.min = 0.0, .max = 1000.0, .min_exclusive = true,
-                                                              .doc = "replay speed factor (2 = twice as fast)"});
-  const bool skip_bad = p.get<bool>("skip_bad_lines", false,
-                                    {.doc = "count malformed lines in stats().rejected instead of failing"});
+  const double rate_scale = p.get<double>(
+      "rate_scale", 1.0,
+      {.min = 0.0, .max = 1000.0, .min_exclusive = true, .doc = "replay speed factor (2 = twice as fast)"});
+  const bool skip_bad =
+      p.get<bool>("skip_bad_lines", false, {.doc = "count malformed lines in stats().rejected instead of failing"});
   Params wheels_p = p.require_child("wheels");
   std::vector<std::string> names = wheels_p.keys();
   if (names.empty()) wheels_p.fail({}, "needs at least one wheel: <name>: {id: ..., ...}");

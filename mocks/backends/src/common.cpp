@@ -16,11 +16,13 @@ SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
                                    const std::vector<std::string>& moved_camera_keys,
                                    const std::vector<std::string>& moved_sun_keys) {
   for (const auto& k : moved_camera_keys)
-    p.reject_moved(k, "the camera is described once, in rover.cameras." + ctx.id +
-                          " {camera_info: {width, height, k, d}, mount: {x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad}}");
+    p.reject_moved(k,
+                   "the camera is described once, in rover.cameras." + ctx.id +
+                       " {camera_info: {width, height, k, d}, mount: {x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad}}");
   for (const auto& k : moved_sun_keys)
-    p.reject_moved(k, "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` block "
-                      "(compass azimuth from the rover's heading at start)");
+    p.reject_moved(k,
+                   "the deployment has one sun: a top-level `sun: {azimuth_deg, elevation_deg}` block "
+                   "(compass azimuth from the rover's heading at start)");
   SceneDescription d;
   if (ctx.rover != nullptr) {
     d.camera = ctx.rover->camera(ctx.id);
@@ -35,10 +37,12 @@ SceneDescription scene_description(Params& p, const hal::DeviceContext& ctx,
 }
 
 void check_preload(Params& p, const char* key, std::uint64_t frames, cv::Size size, int bytes_per_pixel) {
-  const std::uint64_t frame_bytes = static_cast<std::uint64_t>(size.area()) * static_cast<std::uint64_t>(bytes_per_pixel);
+  const std::uint64_t frame_bytes =
+      static_cast<std::uint64_t>(size.area()) * static_cast<std::uint64_t>(bytes_per_pixel);
   if (frames * frame_bytes <= kMaxPreloadBytes) return;
   char text[256];
-  std::snprintf(text, sizeof text, "%llu frames of %dx%d x %d B are %.1f GiB, more than the %.0f GiB a mock camera may hold; "
+  std::snprintf(text, sizeof text,
+                "%llu frames of %dx%d x %d B are %.1f GiB, more than the %.0f GiB a mock camera may hold; "
                 "use fewer frames (they repeat with loop: true)",
                 static_cast<unsigned long long>(frames), size.width, size.height, bytes_per_pixel,
                 static_cast<double>(frames * frame_bytes) / static_cast<double>(1ull << 30),
@@ -48,19 +52,21 @@ void check_preload(Params& p, const char* key, std::uint64_t frames, cv::Size si
 
 cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallback) {
   if (d.camera != nullptr) fallback = {d.camera->info.width, d.camera->info.height};
-  const cv::Size s(p.get<int>("width", fallback.width, {.unit = "px", .min = 16, .max = 4096, .doc = "image width"}),
-                   p.get<int>("height", fallback.height, {.unit = "px", .min = 16, .max = 4096, .doc = "image height"}));
+  const cv::Size s(
+      p.get<int>("width", fallback.width, {.unit = "px", .min = 16, .max = 4096, .doc = "image width"}),
+      p.get<int>("height", fallback.height, {.unit = "px", .min = 16, .max = 4096, .doc = "image height"}));
   if (d.camera != nullptr && s != fallback)
     p.fail(s.width != fallback.width ? "width" : "height",
            std::to_string(s.width) + "x" + std::to_string(s.height) + " px differs from the calibration (" +
-               std::to_string(fallback.width) + "x" + std::to_string(fallback.height) + " px, " + d.camera->where + ")");
+               std::to_string(fallback.width) + "x" + std::to_string(fallback.height) + " px, " + d.camera->where +
+               ")");
   return s;
 }
 
 TimeNs read_max_extrapolation(Params& p) {
-  const double ms = p.get<double>("max_extrapolation_ms", 50.0,
-                                  {.unit = "ms", .min = 0.0, .max = 10000.0,
-                                   .doc = "angle_at may extrapolate this far past the newest sample"});
+  const double ms = p.get<double>(
+      "max_extrapolation_ms", 50.0,
+      {.unit = "ms", .min = 0.0, .max = 10000.0, .doc = "angle_at may extrapolate this far past the newest sample"});
   return static_cast<TimeNs>(std::llround(ms * 1e6));
 }
 
@@ -94,7 +100,9 @@ void PreloadedCamera::start() {
   run_.begin(clock_->now());
 }
 
-void PreloadedCamera::stop() { run_.end(clock_->now()); }
+void PreloadedCamera::stop() {
+  run_.end(clock_->now());
+}
 
 bool PreloadedCamera::latest(TimeNs now, hal::FrameLease& out) {
   out.reset();
@@ -128,7 +136,9 @@ void LazyEncoders::start() {
   run_.begin(clock_->now());
 }
 
-void LazyEncoders::stop() { run_.end(clock_->now()); }
+void LazyEncoders::stop() {
+  run_.end(clock_->now());
+}
 
 bool LazyEncoders::latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const {
   if (!run_.running() || wheel >= wheels_.size()) return false;
@@ -203,9 +213,13 @@ hal::EncoderStats LazyEncoders::stats() const {
 
 GridImu::GridImu(const hal::DeviceContext& ctx, double rate_hz) : id_(ctx.id), clock_(clock_of(ctx)), grid_(rate_hz) {}
 
-void GridImu::start() { run_.begin(clock_->now()); }
+void GridImu::start() {
+  run_.begin(clock_->now());
+}
 
-void GridImu::stop() { run_.end(clock_->now()); }
+void GridImu::stop() {
+  run_.end(clock_->now());
+}
 
 bool GridImu::latest(TimeNs now, hal::ImuSample& out) const {
   if (!run_.running()) return false;

@@ -56,7 +56,6 @@ class RunSpan {
   std::atomic<TimeNs> start_{0}, stop_{0};
 };
 
-
 // ---- deterministic pseudo-randomness (stateless: a pure function of its inputs) ---------------
 
 /// SplitMix64 finaliser: a good 64-bit mixing function.
@@ -70,7 +69,9 @@ inline std::uint64_t hash(std::uint64_t seed, std::uint64_t a, std::uint64_t b =
   return mix64(mix64(mix64(seed ^ 0x5851F42D4C957F2DULL) ^ a) ^ mix64(b + 0x2545F4914F6CDD1DULL) ^ (c << 1));
 }
 /// Uniform in [0, 1).
-inline double unit(std::uint64_t h) { return static_cast<double>(h >> 11) * 0x1.0p-53; }
+inline double unit(std::uint64_t h) {
+  return static_cast<double>(h >> 11) * 0x1.0p-53;
+}
 /// Standard normal from two hashes (Box-Muller).
 inline double gaussian(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
   const double u1 = 1.0 - unit(hash(seed, a, b, 1));  // (0, 1]
@@ -152,8 +153,7 @@ std::size_t grid_samples_since(const RunSpan& run, const TimeGrid& grid, TimeNs 
 /// other leases the current frame. A full pool (every slot leased) skips the frame and counts it.
 class FrameOutlet {
  public:
-  explicit FrameOutlet(const hal::CameraFormat& fmt)
-      : pool_(hal::make_frame_pool(fmt.width, fmt.height, fmt.format)) {}
+  explicit FrameOutlet(const hal::CameraFormat& fmt) : pool_(hal::make_frame_pool(fmt.width, fmt.height, fmt.format)) {}
 
   /// At start(): nothing written yet.
   void reset() { published_.store(-1, std::memory_order_release); }
@@ -253,7 +253,8 @@ class LazyEncoders : public hal::WheelEncoders {
   bool latest(std::size_t wheel, TimeNs now, hal::AngleSample& out) const override;
   bool angle_at(std::size_t wheel, TimeNs t, double& angle) const override;
   /// Every scripted sample in (after, now]: the script is the history.
-  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override;
+  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now,
+                            std::span<hal::AngleSample> out) const override;
   hal::EncoderStats stats() const override;
 
  protected:

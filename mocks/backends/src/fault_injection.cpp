@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "backends_internal.hpp"
-#include "regolith/hal/sample_filter.hpp"
 #include "common.hpp"
+#include "regolith/hal/sample_filter.hpp"
 
 namespace regolith::mocks {
 namespace detail {
@@ -32,12 +32,13 @@ struct FaultConfig {
 FaultConfig read_fault_config(Params& p, std::string_view unit) {
   FaultConfig c;
   c.drop_rate = p.get<double>("drop_rate", 0.0, {.min = 0.0, .max = 1.0, .doc = "probability a new item is withheld"});
-  c.corrupt_rate = p.get<double>("corrupt_rate", 0.0, {.min = 0.0, .max = 1.0,
-                                                       .doc = "probability an item is damaged (bytes / garbage angle)"});
-  c.freeze_after = p.get<std::int64_t>("freeze_after", 0, {.unit = unit, .min = 0,
-                                                           .doc = "content stops changing after N items (0 = never)"});
-  const double delay_ms = p.get<double>("delay_ms", 0.0, {.unit = "ms", .min = 0.0, .max = 60000.0,
-                                                          .doc = "deliver what the inner device had this long ago"});
+  c.corrupt_rate = p.get<double>(
+      "corrupt_rate", 0.0, {.min = 0.0, .max = 1.0, .doc = "probability an item is damaged (bytes / garbage angle)"});
+  c.freeze_after = p.get<std::int64_t>(
+      "freeze_after", 0, {.unit = unit, .min = 0, .doc = "content stops changing after N items (0 = never)"});
+  const double delay_ms = p.get<double>(
+      "delay_ms", 0.0,
+      {.unit = "ms", .min = 0.0, .max = 60000.0, .doc = "deliver what the inner device had this long ago"});
   c.delay = static_cast<TimeNs>(std::llround(delay_ms * 1e6));
   c.disconnect_after = p.get<std::int64_t>(
       "disconnect_after", 0, {.unit = unit, .min = 0, .doc = "device faults after N items' worth of time (0 = never)"});
@@ -57,8 +58,9 @@ void read_stamp_step(Params& p, FaultConfig& c) {
       "stamp_step_after", 0, {.unit = "frames", .min = 0, .doc = "capture stamps step from frame N on (0 = never)"});
   c.stamp_step_for = p.get<std::int64_t>(
       "stamp_step_for", 0, {.unit = "frames", .min = 0, .doc = "frames the stamp step lasts (0 = for good)"});
-  const double ms = p.get<double>("stamp_step_ms", 0.0, {.unit = "ms", .min = -86400000.0, .max = 86400000.0,
-                                                         .doc = "size of the stamp step (+ forward, - back)"});
+  const double ms = p.get<double>(
+      "stamp_step_ms", 0.0,
+      {.unit = "ms", .min = -86400000.0, .max = 86400000.0, .doc = "size of the stamp step (+ forward, - back)"});
   c.stamp_step = static_cast<TimeNs>(std::llround(ms * 1e6));
 }
 
@@ -294,7 +296,8 @@ class SampleFaults {
       older = run_.start() + st.outage_begin - 1;
       return false;
     }
-    if (cfg_.drop_rate > 0.0 && unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
+    if (cfg_.drop_rate > 0.0 &&
+        unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kDrop)) < cfg_.drop_rate) {
       older = stamp - 1;
       return false;
     }
@@ -302,7 +305,8 @@ class SampleFaults {
   }
   template <class... Key>
   bool corrupt(TimeNs stamp, Key... key) const {
-    return cfg_.corrupt_rate > 0.0 && unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kCorrupt)) < cfg_.corrupt_rate;
+    return cfg_.corrupt_rate > 0.0 &&
+           unit(hash(cfg_.seed, key..., static_cast<std::uint64_t>(stamp), kCorrupt)) < cfg_.corrupt_rate;
   }
   std::uint64_t seed() const { return cfg_.seed; }
 
@@ -340,7 +344,11 @@ class FaultEncoders final : public hal::WheelEncoders {
  public:
   FaultEncoders(const hal::DeviceContext& ctx, std::unique_ptr<hal::WheelEncoders> inner, const FaultConfig& cfg,
                 double rate_hz, TimeNs max_extrapolation)
-      : id_(ctx.id), clock_(clock_of(ctx)), inner_(std::move(inner)), faults_(cfg, rate_hz), max_extrapolation_(max_extrapolation) {}
+      : id_(ctx.id),
+        clock_(clock_of(ctx)),
+        inner_(std::move(inner)),
+        faults_(cfg, rate_hz),
+        max_extrapolation_(max_extrapolation) {}
 
   const std::string& id() const override { return id_; }
   const std::vector<std::string>& wheel_names() const override { return inner_->wheel_names(); }
@@ -387,11 +395,14 @@ class FaultEncoders final : public hal::WheelEncoders {
 
   /// What the consumer received (for recorders): the inner device's samples up to `now` - delay,
   /// without those dropped or inside outages, frozen and corrupted as latest() serves them.
-  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now, std::span<hal::AngleSample> out) const override {
+  std::size_t samples_since(std::size_t wheel, TimeNs after, TimeNs now,
+                            std::span<hal::AngleSample> out) const override {
     if (!faults_.running()) return 0;
     return hal::filter_samples(
         after, out,
-        [&](TimeNs a, std::span<hal::AngleSample> b) { return inner_->samples_since(wheel, a, faults_.horizon(now), b); },
+        [&](TimeNs a, std::span<hal::AngleSample> b) {
+          return inner_->samples_since(wheel, a, faults_.horizon(now), b);
+        },
         [&](hal::AngleSample& s) {
           TimeNs older = 0;
           if (!faults_.received(s.stamp, older, wheel)) return false;
@@ -447,7 +458,11 @@ class FaultImu final : public hal::Imu {
  public:
   FaultImu(const hal::DeviceContext& ctx, std::unique_ptr<hal::Imu> inner, const FaultConfig& cfg, double rate_hz,
            TimeNs max_extrapolation)
-      : id_(ctx.id), clock_(clock_of(ctx)), inner_(std::move(inner)), faults_(cfg, rate_hz), max_extrapolation_(max_extrapolation) {}
+      : id_(ctx.id),
+        clock_(clock_of(ctx)),
+        inner_(std::move(inner)),
+        faults_(cfg, rate_hz),
+        max_extrapolation_(max_extrapolation) {}
 
   const std::string& id() const override { return id_; }
   void start() override {
@@ -493,7 +508,8 @@ class FaultImu final : public hal::Imu {
   std::size_t samples_since(TimeNs after, TimeNs now, std::span<hal::ImuSample> out) const override {
     if (!faults_.running()) return 0;
     return hal::filter_samples(
-        after, out, [&](TimeNs a, std::span<hal::ImuSample> b) { return inner_->samples_since(a, faults_.horizon(now), b); },
+        after, out,
+        [&](TimeNs a, std::span<hal::ImuSample> b) { return inner_->samples_since(a, faults_.horizon(now), b); },
         [&](hal::ImuSample& s) {
           TimeNs older = 0;
           if (!faults_.received(s.stamp, older)) return false;
@@ -585,19 +601,26 @@ std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::De
   inner_p.finish();
   const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
   const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                    {.unit = "Hz",
+                                     .min = 0.0,
+                                     .max = 100000.0,
+                                     .min_exclusive = true,
                                      .doc = "inner report rate: converts the sample counts above into time"});
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::FaultEncoders>(ctx, std::move(inner), cfg, rate, max_ex);
 }
 
-std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ctx, const hal::BackendRegistry& registry) {
+std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ctx,
+                                         const hal::BackendRegistry& registry) {
   Params inner_p = p.require_child("inner");
   auto inner = registry.make<hal::Imu>(inner_p, ctx);
   inner_p.finish();
   const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
   const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                    {.unit = "Hz",
+                                     .min = 0.0,
+                                     .max = 100000.0,
+                                     .min_exclusive = true,
                                      .doc = "inner report rate: converts the sample counts above into time"});
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::FaultImu>(ctx, std::move(inner), cfg, rate, max_ex);

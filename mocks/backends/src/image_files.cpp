@@ -1,15 +1,16 @@
 // Camera "image_files": a directory or glob of images served at a fixed rate.
-#include <glob.h>
-
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+
+#include <glob.h>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "regolith/core/image_file.hpp"
 #include "backends_internal.hpp"
 #include "common.hpp"
+#include "regolith/core/image_file.hpp"
 
 namespace regolith::mocks {
 namespace {
@@ -18,7 +19,8 @@ namespace fs = std::filesystem;
 
 bool is_image_name(const fs::path& p) {
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   static const char* const kExt[] = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm"};
   return std::any_of(std::begin(kExt), std::end(kExt), [&](const char* e) { return ext == e; });
 }
@@ -56,14 +58,16 @@ std::vector<std::string> list_images(Params& p, const std::string& path) {
 std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::DeviceContext& ctx) {
   const std::string raw_path =
       p.require<std::string>("path", {.doc = "directory of images, an image file or a glob such as frames/*.png"});
-  const double rate = p.get<double>("rate_hz", 10.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true,
-                                                      .doc = "frame rate of the simulated camera"});
+  const double rate = p.get<double>(
+      "rate_hz", 10.0,
+      {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true, .doc = "frame rate of the simulated camera"});
   const bool loop = p.get<bool>("loop", true, {.doc = "start again after the last image (else the last image stays)"});
   const std::string fmt_name =
       p.get<std::string>("format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"});
-  const int width = p.get<int>("width", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this width (0 = keep)"});
-  const int height =
-      p.get<int>("height", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this height (0 = keep)"});
+  const int width = p.get<int>(
+      "width", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this width (0 = keep)"});
+  const int height = p.get<int>(
+      "height", 0, {.unit = "px", .min = 0, .max = kMaxImageSidePx, .doc = "resize to this height (0 = keep)"});
   const int max_frames =
       p.get<int>("max_frames", 1000, {.min = 1, .max = 1000000, .doc = "preload at most this many images"});
   if ((width == 0) != (height == 0)) p.fail(width == 0 ? "width" : "height", "give both width and height, or neither");
@@ -89,13 +93,14 @@ std::unique_ptr<hal::Camera> make_image_files_camera(Params& p, const hal::Devic
         img = resized;
       }
     } else if (!images.empty() && img.size() != images.front().size()) {
-      p.fail("path", "image '" + f + "' is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                         " but '" + files.front() + "' is " + std::to_string(images.front().cols) + "x" +
+      p.fail("path", "image '" + f + "' is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) + " but '" +
+                         files.front() + "' is " + std::to_string(images.front().cols) + "x" +
                          std::to_string(images.front().rows) + " (set width/height to resize all images)");
     }
     if (!img.isContinuous()) img = img.clone();
     // Every image of the list stays in memory: bounded as the rendered cameras are.
-    if (images.empty()) detail::check_preload(p, "max_frames", files.size(), img.size(), static_cast<int>(img.elemSize()));
+    if (images.empty())
+      detail::check_preload(p, "max_frames", files.size(), img.size(), static_cast<int>(img.elemSize()));
     images.push_back(img);
   }
   fmt.width = images.front().cols;

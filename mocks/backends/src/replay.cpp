@@ -32,8 +32,8 @@ struct RecordedCamera {
 };
 
 struct RecordedWheel {
-  std::vector<hal::AngleSample> samples;            // stamps relative to the origin, ascending
-  std::vector<std::pair<TimeNs, double>> queries;   // (rel t, angle or NaN), ascending t
+  std::vector<hal::AngleSample> samples;           // stamps relative to the origin, ascending
+  std::vector<std::pair<TimeNs, double>> queries;  // (rel t, angle or NaN), ascending t
 };
 
 struct RecordedEncoders {
@@ -42,9 +42,9 @@ struct RecordedEncoders {
 };
 
 struct RecordedImu {
-  std::vector<hal::ImuSample> samples;              // stamps relative to the origin, ascending
-  std::vector<std::pair<TimeNs, Attitude>> queries; // (rel t, attitude or NaN), ascending t
-  std::vector<std::pair<TimeNs, Attitude>> exact;   // each sample's attitude as recorded (load only)
+  std::vector<hal::ImuSample> samples;               // stamps relative to the origin, ascending
+  std::vector<std::pair<TimeNs, Attitude>> queries;  // (rel t, attitude or NaN), ascending t
+  std::vector<std::pair<TimeNs, Attitude>> exact;    // each sample's attitude as recorded (load only)
 };
 
 /// One HAL recording, read once and shared by every replay device of a deployment.
@@ -60,9 +60,12 @@ struct Recording {
   std::string devices(const char* kind) const {
     std::string s;
     auto add = [&](const std::string& id) { s += (s.empty() ? "" : ", ") + id; };
-    if (std::string_view(kind) == hal::Camera::kKind) for (const auto& [id, c] : cameras) add(id);
-    if (std::string_view(kind) == hal::WheelEncoders::kKind) for (const auto& [id, c] : encoders) add(id);
-    if (std::string_view(kind) == hal::Imu::kKind) for (const auto& [id, c] : imus) add(id);
+    if (std::string_view(kind) == hal::Camera::kKind)
+      for (const auto& [id, c] : cameras) add(id);
+    if (std::string_view(kind) == hal::WheelEncoders::kKind)
+      for (const auto& [id, c] : encoders) add(id);
+    if (std::string_view(kind) == hal::Imu::kKind)
+      for (const auto& [id, c] : imus) add(id);
     return s.empty() ? "none" : s;
   }
 };
@@ -167,11 +170,13 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
     const record::HalRecordingInfo hal = record::hal_recording_info(reader.info(), file);
     if (hal.found && hal.origin_ns >= 0) rec->origin = hal.origin_ns;
     if (!hal.found || hal.origin_ns < 0)
-      throw InputError(file + ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
+      throw InputError(file +
+                       ": no HAL recording in this file (no `regolith_hal` metadata: record with `regolith run "
                        "--record`, which records the devices' inputs)");
     read_file(reader, file, *rec);
   }
-  if (files.size() > 1) spdlog::info("replay: {} and the {} later file(s) of its split recording", path, files.size() - 1);
+  if (files.size() > 1)
+    spdlog::info("replay: {} and the {} later file(s) of its split recording", path, files.size() - 1);
   // Chunks arrive in file order, each sorted by log time: sort the series by their own stamps.
   for (auto& camera : rec->cameras) {
     auto& c = camera.second;  // a reference, not a binding: the comparator captures it (clang 14)
@@ -190,13 +195,17 @@ std::shared_ptr<const Recording> Recording::load(const std::string& path) {
   }
   for (auto& [id, e] : rec->encoders) {
     for (auto& w : e.per_wheel) {
-      std::stable_sort(w.samples.begin(), w.samples.end(), [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
-      std::stable_sort(w.queries.begin(), w.queries.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      std::stable_sort(w.samples.begin(), w.samples.end(),
+                       [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+      std::stable_sort(w.queries.begin(), w.queries.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
     }
   }
   for (auto& [id, u] : rec->imus) {
-    std::stable_sort(u.samples.begin(), u.samples.end(), [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
-    std::stable_sort(u.queries.begin(), u.queries.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::stable_sort(u.samples.begin(), u.samples.end(),
+                     [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+    std::stable_sort(u.queries.begin(), u.queries.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
     // The samples' attitudes exactly as the device gave them (not through the quaternion).
     std::map<TimeNs, Attitude> exact(u.exact.begin(), u.exact.end());
     for (auto& smp : u.samples) {
@@ -302,9 +311,7 @@ class ReplayImu final : public hal::Imu {
       : id_(ctx.id), clock_(clock_of(ctx)), rec_(std::move(rec)), imu_(imu) {}
 
   const std::string& id() const override { return id_; }
-  void start() override {
-    run_.begin(clock_->now());
-  }
+  void start() override { run_.begin(clock_->now()); }
   void stop() override { run_.end(clock_->now()); }
 
   bool latest(TimeNs now, hal::ImuSample& out) const override {

@@ -5,8 +5,8 @@
 #include <fstream>
 
 #include "backends_internal.hpp"
-#include "regolith/core/csv.hpp"
 #include "common.hpp"
+#include "regolith/core/csv.hpp"
 #include "script.hpp"
 
 namespace regolith::mocks {
@@ -163,11 +163,15 @@ std::unique_ptr<hal::WheelEncoders> make_scripted_encoders(Params& p, const hal:
   const auto wheels = p.get<std::vector<std::string>>(
       "wheels", {}, {.doc = "wheel names (with profile_csv: default = the CSV columns)"});
   const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true,
+                                    {.unit = "Hz",
+                                     .min = 0.0,
+                                     .max = 100000.0,
+                                     .min_exclusive = true,
                                      .doc = "encoder report rate: samples lie on this grid"});
   detail::ScriptedMotion motion = detail::ScriptedMotion::from_params(p, ctx, wheels);
-  const double noise = p.get<double>("noise_rad", 0.0, {.unit = "rad", .min = 0.0, .max = 10.0,
-                                                        .doc = "std dev of Gaussian angle noise (deterministic)"});
+  const double noise =
+      p.get<double>("noise_rad", 0.0,
+                    {.unit = "rad", .min = 0.0, .max = 10.0, .doc = "std dev of Gaussian angle noise (deterministic)"});
   const auto seed = p.get<std::int64_t>("seed", 1, {.min = 0, .doc = "noise seed"});
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::ScriptedEncoders>(ctx, std::move(motion), rate, noise,

@@ -15,8 +15,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <opencv2/imgproc.hpp>
 #include <thread>
+
+#include <opencv2/imgproc.hpp>
 
 #include "backends_internal.hpp"
 #include "common.hpp"
@@ -123,7 +124,11 @@ DriveSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
 class DriveCamera final : public hal::Camera, public DriveTruth {
  public:
   DriveCamera(const hal::DeviceContext& ctx, DriveSpec spec, Params& p)
-      : id_(ctx.id), index_(ctx.index), clock_(clock_of(ctx)), spec_(std::move(spec)), grid_(spec_.fmt.rate_hz),
+      : id_(ctx.id),
+        index_(ctx.index),
+        clock_(clock_of(ctx)),
+        spec_(std::move(spec)),
+        grid_(spec_.fmt.rate_hz),
         outlet_(spec_.fmt) {
     images_.resize(static_cast<std::size_t>(spec_.frames));
     if (!ctx.open_devices) {  // `config check`: parameters validated, nothing rendered

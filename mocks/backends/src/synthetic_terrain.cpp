@@ -1,6 +1,7 @@
 // Camera "synthetic_terrain": a rover camera driving over generated Lambertian terrain
 // (regolith::terrain_scene), all frames rendered at configure time.
 #include <cmath>
+
 #include <opencv2/imgproc.hpp>
 
 #include "backends_internal.hpp"
@@ -12,26 +13,28 @@ namespace regolith::mocks {
 std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal::DeviceContext& ctx) {
   namespace ts = regolith::terrain_scene;
   hal::CameraFormat fmt;
-  fmt.rate_hz = p.get<double>("rate_hz", 10.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true,
-                                                .doc = "frame rate of the simulated camera"});
+  fmt.rate_hz = p.get<double>(
+      "rate_hz", 10.0,
+      {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true, .doc = "frame rate of the simulated camera"});
   fmt.format = hal::pixel_format_from_string(
       p.get<std::string>("format", "mono8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
-  const detail::SceneDescription desc = detail::scene_description(
-      p, ctx, {"hfov_rad", "camera_height_m", "camera_pitch_rad", "camera_roll_rad"},
-      {"sun_azimuth_rad", "sun_elevation_rad"});
+  const detail::SceneDescription desc =
+      detail::scene_description(p, ctx, {"hfov_rad", "camera_height_m", "camera_pitch_rad", "camera_roll_rad"},
+                                {"sun_azimuth_rad", "sun_elevation_rad"});
   const cv::Size size = detail::scene_image_size(p, desc, {320, 240});
   fmt.width = size.width;
   fmt.height = size.height;
   const int frames = p.get<int>("frames", 20, {.min = 1, .max = 10000, .doc = "frames rendered at configure"});
-  detail::check_preload(p, "frames", static_cast<std::uint64_t>(frames), size, fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
+  detail::check_preload(p, "frames", static_cast<std::uint64_t>(frames), size,
+                        fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
   const bool loop = p.get<bool>("loop", true, {.doc = "repeat the rendered frames (else the last one stays)"});
 
   ts::SceneParams scene;
   scene.seed = static_cast<std::uint64_t>(p.get<std::int64_t>("seed", 1, {.min = 0, .doc = "terrain seed"}));
-  scene.resolution_m = p.get<double>("resolution_m", 0.02, {.unit = "m", .min = 0.002, .max = 1.0,
-                                                            .doc = "height-field cell size"});
-  scene.fractal_rms_m = p.get<double>("fractal_rms_m", 0.02, {.unit = "m", .min = 0.0, .max = 1.0,
-                                                              .doc = "RMS of the fractal terrain"});
+  scene.resolution_m =
+      p.get<double>("resolution_m", 0.02, {.unit = "m", .min = 0.002, .max = 1.0, .doc = "height-field cell size"});
+  scene.fractal_rms_m =
+      p.get<double>("fractal_rms_m", 0.02, {.unit = "m", .min = 0.0, .max = 1.0, .doc = "RMS of the fractal terrain"});
   scene.num_rocks = p.get<int>("rocks", 12, {.min = 0, .max = 1000, .doc = "number of rocks"});
   scene.num_craters = p.get<int>("craters", 3, {.min = 0, .max = 100, .doc = "number of craters"});
 
@@ -62,10 +65,10 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
   cam.x_m = start_x + std::cos(start_yaw) * mount.x_m - std::sin(start_yaw) * mount.y_m;
   cam.y_m = start_y + std::sin(start_yaw) * mount.x_m + std::cos(start_yaw) * mount.y_m;
   cam.yaw_rad = start_yaw + mount.yaw_rad;
-  const double speed = p.get<double>("speed_m_s", 0.05, {.unit = "m/s", .min = -10.0, .max = 10.0,
-                                                         .doc = "forward motion between frames"});
-  const double yaw_rate = p.get<double>("yaw_rate_rad_s", 0.0, {.unit = "rad/s", .min = -10.0, .max = 10.0,
-                                                                .doc = "turn rate between frames"});
+  const double speed = p.get<double>(
+      "speed_m_s", 0.05, {.unit = "m/s", .min = -10.0, .max = 10.0, .doc = "forward motion between frames"});
+  const double yaw_rate = p.get<double>(
+      "yaw_rate_rad_s", 0.0, {.unit = "rad/s", .min = -10.0, .max = 10.0, .doc = "turn rate between frames"});
 
   ts::Sun sun;  // without a deployment sun: 0.8 rad counter-clockwise from +x, 0.6 rad high
   sun.azimuth_rad = 0.8;
@@ -77,8 +80,8 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
   }
   ts::RenderOptions ro;
   ro.albedo = p.get<double>("albedo", 0.8, {.min = 0.0, .max = 1.0, .doc = "Lambertian albedo"});
-  ro.noise_sigma = p.get<double>("noise_sigma", 0.01, {.min = 0.0, .max = 1.0,
-                                                       .doc = "Gaussian image noise (image range 0..1)"});
+  ro.noise_sigma =
+      p.get<double>("noise_sigma", 0.01, {.min = 0.0, .max = 1.0, .doc = "Gaussian image noise (image range 0..1)"});
   ro.cast_shadows = p.get<bool>("cast_shadows", false, {.doc = "ray-marched cast shadows (slower)"});
 
   std::vector<cv::Mat> images;
@@ -94,8 +97,8 @@ std::unique_ptr<hal::Camera> make_synthetic_terrain_camera(Params& p, const hal:
     for (int k = 0; k < frames; ++k) {
       if (cam.x_m < terrain.x_min() || cam.x_m > terrain.x_max() || cam.y_m < terrain.y_min() ||
           cam.y_m > terrain.y_max())
-        p.fail("speed_m_s", "the camera leaves the terrain at frame " + std::to_string(k) +
-                                " (fewer frames or a lower speed)");
+        p.fail("speed_m_s",
+               "the camera leaves the terrain at frame " + std::to_string(k) + " (fewer frames or a lower speed)");
       ro.noise_seed = scene.seed * 1000003ULL + static_cast<std::uint64_t>(k);
       const ts::CameraImage img = ts::render_camera(terrain, cam, sun, ro);
       cv::Mat u8 = ts::to_u8(img.image);

@@ -2,6 +2,7 @@
 // (regolith::wheel_scene) rendered at configure time for a scripted wheel angle, and encoders that
 // report exactly the angles the frames were rendered at. Give both devices the same mapping.
 #include <cmath>
+
 #include <opencv2/imgproc.hpp>
 
 #include "backends_internal.hpp"
@@ -39,8 +40,8 @@ struct WheelSpec {
 // Both backends read every key so that one mapping serves the camera and the encoders.
 WheelSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   WheelSpec s;
-  s.fmt.rate_hz = p.get<double>("rate_hz", 10.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true,
-                                                  .doc = "camera frame rate"});
+  s.fmt.rate_hz = p.get<double>(
+      "rate_hz", 10.0, {.unit = "Hz", .min = 0.0, .max = 10000.0, .min_exclusive = true, .doc = "camera frame rate"});
   s.fmt.format = hal::pixel_format_from_string(
       p.get<std::string>("format", "bgr8", {.choices = {"mono8", "bgr8"}, .doc = "camera pixel format"}));
   s.fmt.width = p.get<int>("width", 640, {.unit = "px", .min = 64, .max = 4096, .doc = "image width"});
@@ -49,20 +50,22 @@ WheelSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   detail::check_preload(p, "frames", static_cast<std::uint64_t>(s.frames), {s.fmt.width, s.fmt.height},
                         s.fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
   s.loop = p.get<bool>("loop", true, {.doc = "repeat the frames (angles repeat too); else the last one stays"});
-  s.sample_rate_hz = p.get<double>("sample_rate_hz", 100.0, {.unit = "Hz", .min = 0.0, .max = 100000.0,
-                                                             .min_exclusive = true, .doc = "encoder report rate"});
+  s.sample_rate_hz =
+      p.get<double>("sample_rate_hz", 100.0,
+                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true, .doc = "encoder report rate"});
   s.max_extrapolation = read_max_extrapolation(p);
   s.wheel = p.get<std::string>("wheel", "wheel", {.doc = "wheel name reported by the encoders"});
   s.motion = ScriptedMotion::from_params(p, ctx, {s.wheel});
   if (s.motion.wheels().size() != 1) p.fail("profile_csv", "the wheel scene needs exactly one wheel column");
-  s.sinkage_mm = p.get<double>("sinkage_mm", 20.0, {.unit = "mm", .min = 0.0, .max = 1000.0,
-                                                    .doc = "depth of the deepest leg tip below the soil"});
+  s.sinkage_mm =
+      p.get<double>("sinkage_mm", 20.0,
+                    {.unit = "mm", .min = 0.0, .max = 1000.0, .doc = "depth of the deepest leg tip below the soil"});
   s.scene.size = cv::Size(s.fmt.width, s.fmt.height);
   s.scene.seed = static_cast<std::uint32_t>(p.get<int>("seed", 1, {.min = 0, .doc = "texture / noise seed"}));
-  s.scene.misalignment_rad = p.get<double>("misalignment_rad", 0.0, {.unit = "rad", .min = -3.2, .max = 3.2,
-                                                                     .doc = "true legs minus encoder prediction"});
-  const std::string light = p.get<std::string>("illumination", "normal", {.choices = {"normal", "poor"},
-                                                                           .doc = "lighting preset"});
+  s.scene.misalignment_rad = p.get<double>(
+      "misalignment_rad", 0.0, {.unit = "rad", .min = -3.2, .max = 3.2, .doc = "true legs minus encoder prediction"});
+  const std::string light =
+      p.get<std::string>("illumination", "normal", {.choices = {"normal", "poor"}, .doc = "lighting preset"});
   s.scene.light = light == "poor" ? wheel_scene::Illumination::poor() : wheel_scene::Illumination::normal();
   // Keep the wheel geometry proportional to the image (defaults are for 640 x 480).
   const double k = s.fmt.width / 640.0;

@@ -1,13 +1,13 @@
 #include "regolith/terrain_scene/terrain_scene.hpp"
 
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::terrain_scene {
 namespace {
@@ -25,8 +25,7 @@ bool finite_all(std::initializer_list<double> v) {
 }
 
 // Spectral synthesis: white noise -> FFT -> filter |f|^(-beta/2) -> IFFT, scaled to rms.
-cv::Mat fractal(int rows, int cols, double res, double beta, double min_wavelength, double rms,
-                std::mt19937_64& rng) {
+cv::Mat fractal(int rows, int cols, double res, double beta, double min_wavelength, double rms, std::mt19937_64& rng) {
   cv::Mat out(rows, cols, CV_32F, cv::Scalar(0));
   if (rms <= 0.0) return out;
   const int R = cv::getOptimalDFTSize(rows), C = cv::getOptimalDFTSize(cols);
@@ -67,42 +66,39 @@ cv::Matx33d rot_z(double a) {
 
 void SceneParams::validate() const {
   require(std::isfinite(resolution_m) && resolution_m > 0, "resolution_m", "must be > 0");
-  require(finite_all({x_min_m, x_max_m, y_min_m, y_max_m}) && x_max_m > x_min_m &&
-              y_max_m > y_min_m,
+  require(finite_all({x_min_m, x_max_m, y_min_m, y_max_m}) && x_max_m > x_min_m && y_max_m > y_min_m,
           "x_min_m/x_max_m/y_min_m/y_max_m", "must be finite with max > min");
-  require((x_max_m - x_min_m) / resolution_m < 20000 && (y_max_m - y_min_m) / resolution_m < 20000,
-          "resolution_m", "grid larger than 20000 cells per side");
+  require((x_max_m - x_min_m) / resolution_m < 20000 && (y_max_m - y_min_m) / resolution_m < 20000, "resolution_m",
+          "grid larger than 20000 cells per side");
   // A scene holds ~20 bytes per cell (heights, normals, albedo, rock ids): 2^26 cells is ~1.3 GB.
   // (A 92 x 52 m drive tile at 5 mm, within the per-side bound, took 4 GB and 24 s to start.)
   const double cells = std::floor((x_max_m - x_min_m) / resolution_m) * std::floor((y_max_m - y_min_m) / resolution_m);
   require(cells <= 67108864.0, "resolution_m",
           "grid of " + std::to_string(static_cast<long long>(cells)) + " cells, more than a scene may hold (2^26)");
   require(std::isfinite(fractal_rms_m) && fractal_rms_m >= 0, "fractal_rms_m", "must be >= 0");
-  require(std::isfinite(fractal_beta) && fractal_beta > 0 && fractal_beta < 6, "fractal_beta",
-          "must be in (0, 6)");
-  require(std::isfinite(fractal_min_wavelength_m) && fractal_min_wavelength_m > 0,
-          "fractal_min_wavelength_m", "must be > 0");
+  require(std::isfinite(fractal_beta) && fractal_beta > 0 && fractal_beta < 6, "fractal_beta", "must be in (0, 6)");
+  require(std::isfinite(fractal_min_wavelength_m) && fractal_min_wavelength_m > 0, "fractal_min_wavelength_m",
+          "must be > 0");
   require(num_rocks >= 0, "num_rocks", "must be >= 0");
   require(num_craters >= 0, "num_craters", "must be >= 0");
   require(finite_all({rock_radius_min_m, rock_radius_max_m}) && rock_radius_min_m > 0 &&
               rock_radius_max_m >= rock_radius_min_m,
           "rock_radius_min_m/rock_radius_max_m", "need 0 < min <= max");
-  require(finite_all({rock_height_ratio_min, rock_height_ratio_max}) &&
-              rock_height_ratio_min > 0 && rock_height_ratio_max >= rock_height_ratio_min,
+  require(finite_all({rock_height_ratio_min, rock_height_ratio_max}) && rock_height_ratio_min > 0 &&
+              rock_height_ratio_max >= rock_height_ratio_min,
           "rock_height_ratio_min/max", "need 0 < min <= max");
   require(finite_all({crater_radius_min_m, crater_radius_max_m}) && crater_radius_min_m > 0 &&
               crater_radius_max_m >= crater_radius_min_m,
           "crater_radius_min_m/crater_radius_max_m", "need 0 < min <= max");
-  require(std::isfinite(crater_depth_ratio) && crater_depth_ratio >= 0, "crater_depth_ratio",
-          "must be >= 0");
-  require(finite_all({place_x_min_m, place_x_max_m, place_y_abs_max_m}) &&
-              place_x_max_m >= place_x_min_m && place_y_abs_max_m >= 0,
+  require(std::isfinite(crater_depth_ratio) && crater_depth_ratio >= 0, "crater_depth_ratio", "must be >= 0");
+  require(finite_all({place_x_min_m, place_x_max_m, place_y_abs_max_m}) && place_x_max_m >= place_x_min_m &&
+              place_y_abs_max_m >= 0,
           "place_x_min_m/place_x_max_m/place_y_abs_max_m", "need max >= min, y >= 0");
 }
 
 cv::Vec3d Sun::vector() const {
-  return {std::cos(elevation_rad) * std::cos(azimuth_rad),
-          std::cos(elevation_rad) * std::sin(azimuth_rad), std::sin(elevation_rad)};
+  return {std::cos(elevation_rad) * std::cos(azimuth_rad), std::cos(elevation_rad) * std::sin(azimuth_rad),
+          std::sin(elevation_rad)};
 }
 
 Terrain::Terrain(const SceneParams& p) {
@@ -113,8 +109,7 @@ Terrain::Terrain(const SceneParams& p) {
   const int rows = static_cast<int>(std::floor((p.x_max_m - p.x_min_m) / res_)) + 1;
   const int cols = static_cast<int>(std::floor((p.y_max_m - p.y_min_m) / res_)) + 1;
   std::mt19937_64 rng(p.seed);
-  height_ = fractal(rows, cols, res_, p.fractal_beta, p.fractal_min_wavelength_m,
-                    p.fractal_rms_m, rng);
+  height_ = fractal(rows, cols, res_, p.fractal_beta, p.fractal_min_wavelength_m, p.fractal_rms_m, rng);
   std::uniform_real_distribution<double> ux(p.place_x_min_m, p.place_x_max_m);
   std::uniform_real_distribution<double> uy(-p.place_y_abs_max_m, p.place_y_abs_max_m);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
@@ -160,13 +155,11 @@ Terrain::Terrain(const SceneParams& p) {
     for (int attempt = 0; attempt < 100 && !placed; ++attempt) {
       rk.x_m = ux(rng);
       rk.y_m = uy(rng);
-      const double rad =
-          p.rock_radius_min_m + u01(rng) * (p.rock_radius_max_m - p.rock_radius_min_m);
+      const double rad = p.rock_radius_min_m + u01(rng) * (p.rock_radius_max_m - p.rock_radius_min_m);
       const double elong = 0.8 + 0.4 * u01(rng);
       rk.radius_x_m = rad * elong;
       rk.radius_y_m = rad / elong;
-      rk.height_m = rad * (p.rock_height_ratio_min +
-                           u01(rng) * (p.rock_height_ratio_max - p.rock_height_ratio_min));
+      rk.height_m = rad * (p.rock_height_ratio_min + u01(rng) * (p.rock_height_ratio_max - p.rock_height_ratio_min));
       placed = clear(rk.x_m, rk.y_m, std::max(rk.radius_x_m, rk.radius_y_m));
     }
     if (placed) rocks_.push_back(rk);
@@ -332,12 +325,10 @@ OrthoImage render_ortho(const Terrain& t, const Sun& sun, const RenderOptions& o
 void CameraPose::validate() const {
   require(finite_all({fx, fy}) && fx > 0 && fy > 0, "camera.fx/fy", "must be > 0");
   require(finite_all({cx, cy}), "camera.cx/cy", "must be finite");
-  require(width > 0 && height > 0 && width <= 8192 && height <= 8192, "camera.width/height",
-          "must be in 1..8192");
+  require(width > 0 && height > 0 && width <= 8192 && height <= 8192, "camera.width/height", "must be in 1..8192");
   require(finite_all({x_m, y_m, yaw_rad, roll_rad}), "camera.x_m/y_m/yaw_rad/roll_rad", "must be finite");
   require(std::isfinite(height_m) && height_m > 0, "camera.height_m", "must be > 0");
-  require(std::isfinite(pitch_rad) && std::abs(pitch_rad) < CV_PI / 2, "camera.pitch_rad",
-          "must be in (-pi/2, pi/2)");
+  require(std::isfinite(pitch_rad) && std::abs(pitch_rad) < CV_PI / 2, "camera.pitch_rad", "must be in (-pi/2, pi/2)");
 }
 
 cv::Matx33d CameraPose::world_from_optical() const {
@@ -353,8 +344,7 @@ cv::Vec2d camera_light(const CameraPose& cam, const Sun& sun) {
   return {std::acos(std::clamp(sz, -1.0, 1.0)), std::atan2(sy, sx)};
 }
 
-CameraImage render_camera(const Terrain& t, const CameraPose& cam, const Sun& sun,
-                          const RenderOptions& opt) {
+CameraImage render_camera(const Terrain& t, const CameraPose& cam, const Sun& sun, const RenderOptions& opt) {
   cam.validate();
   check_options(opt);
   require(std::isfinite(sun.elevation_rad) && sun.elevation_rad > 0, "sun.elevation_rad", "must be > 0");

@@ -31,25 +31,22 @@ Basis camera_basis(double pitch) {
 }  // namespace
 
 void TrackSceneParams::validate() const {
-  check(camera.width > 0 && camera.height > 0, "camera.width/height", "must be > 0",
-        camera.width);
+  check(camera.width > 0 && camera.height > 0, "camera.width/height", "must be > 0", camera.width);
   check(camera.fx > 0 && camera.fy > 0, "camera.fx/fy", "must be > 0", camera.fx);
   check(camera.mount_height_m > 0, "camera.mount_height_m", "must be > 0", camera.mount_height_m);
-  check(camera.pitch_rad > 0 && camera.pitch_rad < kPi / 2, "camera.pitch_rad",
-        "must be in (0, pi/2)", camera.pitch_rad);
-  check(sun.elevation_rad > 0 && sun.elevation_rad <= kPi / 2, "sun.elevation_rad",
-        "must be in (0, pi/2]", sun.elevation_rad);
+  check(camera.pitch_rad > 0 && camera.pitch_rad < kPi / 2, "camera.pitch_rad", "must be in (0, pi/2)",
+        camera.pitch_rad);
+  check(sun.elevation_rad > 0 && sun.elevation_rad <= kPi / 2, "sun.elevation_rad", "must be in (0, pi/2]",
+        sun.elevation_rad);
   check(std::isfinite(sun.azimuth_rad), "sun.azimuth_rad", "must be finite", sun.azimuth_rad);
   check(k > 0 && std::isfinite(k), "k", "must be > 0", k);
   check(n >= 0 && n < 3, "n", "must be in [0, 3)", n);
   check(wheel_width_m > 0, "wheel_width_m", "must be > 0", wheel_width_m);
   check(wheel_diameter_m > 0, "wheel_diameter_m", "must be > 0", wheel_diameter_m);
   for (const auto& t : tracks) check(t.load_n > 0, "tracks[].load_n", "must be > 0", t.load_n);
-  check(wall_slope_rad > 0.05 && wall_slope_rad < kPi / 2, "wall_slope_rad",
-        "must be in (0.05, pi/2)", wall_slope_rad);
+  check(wall_slope_rad > 0.05 && wall_slope_rad < kPi / 2, "wall_slope_rad", "must be in (0.05, pi/2)", wall_slope_rad);
   check(std::abs(k_variation) < 0.9, "k_variation", "must satisfy |a| < 0.9", k_variation);
-  check(variation_wavelength_m > 0, "variation_wavelength_m", "must be > 0",
-        variation_wavelength_m);
+  check(variation_wavelength_m > 0, "variation_wavelength_m", "must be > 0", variation_wavelength_m);
   check(x_max_m > x_min_m && x_min_m >= 0, "x_min_m/x_max_m", "need 0 <= x_min < x_max", x_min_m);
   check(y_half_width_m > 0, "y_half_width_m", "must be > 0", y_half_width_m);
   check(grid_res_m > 0 && grid_res_m < 0.1, "grid_res_m", "must be in (0, 0.1)", grid_res_m);
@@ -57,16 +54,14 @@ void TrackSceneParams::validate() const {
         "height field too large", grid_res_m);
   check(edge_smoothing_m >= 0, "edge_smoothing_m", "must be >= 0", edge_smoothing_m);
   check(albedo > 0 && albedo <= 1, "albedo", "must be in (0, 1]", albedo);
-  check(albedo_texture >= 0 && albedo_texture < 0.5, "albedo_texture", "must be in [0, 0.5)",
-        albedo_texture);
+  check(albedo_texture >= 0 && albedo_texture < 0.5, "albedo_texture", "must be in [0, 0.5)", albedo_texture);
   check(noise_dn >= 0, "noise_dn", "must be >= 0", noise_dn);
   check(gain_dn > 0, "gain_dn", "must be > 0", gain_dn);
 }
 
 double rut_depth(double k, double n, double load_n, double width_m, double diameter_m) {
   // W = b k sqrt(D) z^((2n+1)/2) (3-n)/3  =>  z = [3 W / ((3-n) b k sqrt(D))]^(2/(2n+1))
-  return std::pow(3.0 * load_n / ((3.0 - n) * width_m * k * std::sqrt(diameter_m)),
-                  2.0 / (2.0 * n + 1.0));
+  return std::pow(3.0 * load_n / ((3.0 - n) * width_m * k * std::sqrt(diameter_m)), 2.0 / (2.0 * n + 1.0));
 }
 
 double TrackTruth::sinkage_at(double x) const {
@@ -135,8 +130,10 @@ TrackScene generate_track_scene(const TrackSceneParams& p) {
       for (int c = c0; c <= c1; ++c) {
         const double u = std::abs(s.y0_m + c * s.res_m - t.lateral_m);
         double h = 0.0;
-        if (u <= half) h = -z;
-        else if (u < reach) h = -z + (u - half) * tan_wall;
+        if (u <= half)
+          h = -z;
+        else if (u < reach)
+          h = -z + (u - half) * tan_wall;
         row[c] = std::min(row[c], static_cast<float>(h));
       }
     }
@@ -201,8 +198,10 @@ TrackScene generate_track_scene(const TrackSceneParams& p) {
           double lo = tprev, hi = tt;
           for (int it = 0; it < 12; ++it) {
             const double m = 0.5 * (lo + hi);
-            if (h + m * d[2] <= s.height_at(m * d[0], m * d[1])) hi = m;
-            else lo = m;
+            if (h + m * d[2] <= s.height_at(m * d[0], m * d[1]))
+              hi = m;
+            else
+              lo = m;
           }
           thit = hi;
           break;

@@ -14,8 +14,7 @@
 namespace regolith::wheel_scene {
 namespace {
 
-double parse_number(const std::string& text, const std::filesystem::path& file, int line,
-                    const char* column) {
+double parse_number(const std::string& text, const std::filesystem::path& file, int line, const char* column) {
   const std::string t = trim_blanks(text);
   std::size_t used = 0;
   double v = 0;
@@ -67,11 +66,9 @@ std::vector<SequenceRow> read_sequence_csv(const std::filesystem::path& csv) {
     if (t.empty() || t[0] == '#') continue;
     const std::vector<std::string> cols = split_csv_line(t);
     if (!header) {
-      if (cols.size() != 3 || cols[0] != "frame" || cols[1] != "encoder_angle_rad" ||
-          cols[2] != "truth_mm") {
+      if (cols.size() != 3 || cols[0] != "frame" || cols[1] != "encoder_angle_rad" || cols[2] != "truth_mm") {
         throw std::runtime_error(csv.string() + ":" + std::to_string(n) +
-                                 ": expected header 'frame,encoder_angle_rad,truth_mm' (got '" + t +
-                                 "')");
+                                 ": expected header 'frame,encoder_angle_rad,truth_mm' (got '" + t + "')");
       }
       header = true;
       continue;
@@ -108,8 +105,7 @@ std::string read_sequence_comment(const std::filesystem::path& csv, const std::s
   return {};
 }
 
-std::filesystem::path write_sequence(const std::filesystem::path& dir,
-                                     const std::vector<SequenceFrame>& frames,
+std::filesystem::path write_sequence(const std::filesystem::path& dir, const std::vector<SequenceFrame>& frames,
                                      const std::vector<std::string>& comments) {
   std::filesystem::create_directories(dir);
   std::vector<SequenceRow> rows;

@@ -100,8 +100,7 @@ void SceneParams::validate() const {
   finite("SceneParams.misalignment_rad", misalignment_rad);
 }
 
-WheelSceneGenerator::WheelSceneGenerator(const SceneParams& params)
-    : params_(params), rng_(params.seed) {
+WheelSceneGenerator::WheelSceneGenerator(const SceneParams& params) : params_(params), rng_(params.seed) {
   params_.validate();
   cv::RNG rng(params_.seed * 7919U + 17U);
   const cv::Size sz = params_.size;
@@ -122,8 +121,10 @@ WheelSceneGenerator::WheelSceneGenerator(const SceneParams& params)
     const double wall_shade = 0.8 + 0.4 * y / static_cast<double>(sz.height);
     for (int x = 0; x < sz.width; ++x) {
       double f = 1.0 + c * np[x];
-      if (gp[x] < 0.015) f *= 0.45;        // dark grain
-      else if (gp[x] > 0.99) f *= 1.35;    // bright grain
+      if (gp[x] < 0.015)
+        f *= 0.45;  // dark grain
+      else if (gp[x] > 0.99)
+        f *= 1.35;  // bright grain
       const double fw = wall_shade * (1.0 + 0.08 * bp[x]);
       for (int ch = 0; ch < 3; ++ch) {
         sp[x][ch] = static_cast<float>(params_.soil_bgr[ch] * f);
@@ -143,8 +144,8 @@ void WheelSceneGenerator::set_illumination(const Illumination& l) {
 
 double WheelSceneGenerator::leg_angle(int k, double encoder_angle_rad) const {
   const WheelModel& w = params_.wheel;
-  return wrap_pi(w.rotation_direction * encoder_angle_rad + w.angle_offset_rad +
-                 params_.misalignment_rad + k * w.leg_spacing_rad);
+  return wrap_pi(w.rotation_direction * encoder_angle_rad + w.angle_offset_rad + params_.misalignment_rad +
+                 k * w.leg_spacing_rad);
 }
 
 double WheelSceneGenerator::lowest_tip_y(double encoder_angle_rad, int* leg) const {
@@ -162,8 +163,7 @@ double WheelSceneGenerator::lowest_tip_y(double encoder_angle_rad, int* leg) con
   return best;
 }
 
-FrameTruth WheelSceneGenerator::render_with_sinkage(double encoder_angle_rad, double sinkage_mm,
-                                                    cv::Mat& bgr) {
+FrameTruth WheelSceneGenerator::render_with_sinkage(double encoder_angle_rad, double sinkage_mm, cv::Mat& bgr) {
   if (!std::isfinite(sinkage_mm) || sinkage_mm < 0) {
     bad("render_with_sinkage: sinkage_mm", "must be finite and >= 0", sinkage_mm);
   }
@@ -171,8 +171,7 @@ FrameTruth WheelSceneGenerator::render_with_sinkage(double encoder_angle_rad, do
   return render_at_soil_level(encoder_angle_rad, soil_y, bgr);
 }
 
-FrameTruth WheelSceneGenerator::render_at_soil_level(double encoder_angle_rad, double soil_y_px,
-                                                     cv::Mat& bgr) {
+FrameTruth WheelSceneGenerator::render_at_soil_level(double encoder_angle_rad, double soil_y_px, cv::Mat& bgr) {
   finite("render: encoder_angle_rad", encoder_angle_rad);
   finite("render: soil_y_px", soil_y_px);
   const WheelModel& w = params_.wheel;
@@ -209,19 +208,17 @@ FrameTruth WheelSceneGenerator::render_at_soil_level(double encoder_angle_rad, d
     const double nx = std::cos(phi), ny = -std::sin(phi);
     const double cx = w.hub_center_px.x, cy = w.hub_center_px.y;
     auto P = [&](double s, double tt) { return fp(cx + s * dx + tt * nx, cy + s * dy + tt * ny); };
-    const cv::Point shaft[4] = {P(r0, -hw), P(w.leg_length_px, -hw), P(w.leg_length_px, hw),
-                                P(r0, hw)};
+    const cv::Point shaft[4] = {P(r0, -hw), P(w.leg_length_px, -hw), P(w.leg_length_px, hw), P(r0, hw)};
     cv::fillConvexPoly(cover_, shaft, 4, cv::Scalar(255), cv::LINE_8, kShift);
     if (w.foot_width_px > 0 && w.foot_thickness_px > 0) {
-      const cv::Point foot[4] = {P(fs, -fw), P(w.leg_length_px, -fw), P(w.leg_length_px, fw),
-                                 P(fs, fw)};
+      const cv::Point foot[4] = {P(fs, -fw), P(w.leg_length_px, -fw), P(w.leg_length_px, fw), P(fs, fw)};
       cv::fillConvexPoly(cover_, foot, 4, cv::Scalar(255), cv::LINE_8, kShift);
     }
   }
   if (w.hub_radius_px > 0) {
     cv::circle(hub_cover_, fp(w.hub_center_px.x, w.hub_center_px.y),
-               static_cast<int>(std::lround(w.hub_radius_px * kSuper * (1 << kShift))),
-               cv::Scalar(255), cv::FILLED, cv::LINE_8, kShift);
+               static_cast<int>(std::lround(w.hub_radius_px * kSuper * (1 << kShift))), cv::Scalar(255), cv::FILLED,
+               cv::LINE_8, kShift);
   }
   cv::Mat leg_a, hub_a;
   cv::resize(cover_, leg_a, sz, 0, 0, cv::INTER_AREA);
@@ -229,8 +226,7 @@ FrameTruth WheelSceneGenerator::render_at_soil_level(double encoder_angle_rad, d
 
   // --- compose radiance ---
   std::uniform_real_distribution<double> uni(0.0, 1.0);
-  const int shift = static_cast<int>(std::lround(std::abs(encoder_angle_rad) * 0.3 * w.leg_length_px)) %
-                    sz.width;
+  const int shift = static_cast<int>(std::lround(std::abs(encoder_angle_rad) * 0.3 * w.leg_length_px)) % sz.width;
   for (int y = 0; y < sz.height; ++y) {
     const double a_soil = std::clamp(y + 0.5 - soil_y_px, 0.0, 1.0);
     const auto* sp = soil_tex_.ptr<cv::Vec3f>(y);
@@ -245,8 +241,7 @@ FrameTruth WheelSceneGenerator::render_at_soil_level(double encoder_angle_rad, d
       if (al > 0.0F) {
         cv::Vec3f leg(static_cast<float>(params_.leg_bgr[0]), static_cast<float>(params_.leg_bgr[1]),
                       static_cast<float>(params_.leg_bgr[2]));
-        if (a_soil < 1.0 && params_.sand_on_leg_fraction > 0 &&
-            uni(rng_) < params_.sand_on_leg_fraction) {
+        if (a_soil < 1.0 && params_.sand_on_leg_fraction > 0 && uni(rng_) < params_.sand_on_leg_fraction) {
           leg = soil;  // a sand grain stuck on the leg
         }
         v = v * (1.0F - al) + leg * al;

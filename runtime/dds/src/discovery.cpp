@@ -44,14 +44,10 @@ int domain_id_from_environment() {
 
 const char* to_string(DiscoveryRange r) {
   switch (r) {
-    case DiscoveryRange::kSubnet:
-      return "SUBNET";
-    case DiscoveryRange::kLocalhost:
-      return "LOCALHOST";
-    case DiscoveryRange::kOff:
-      return "OFF";
-    case DiscoveryRange::kSystemDefault:
-      return "SYSTEM_DEFAULT";
+    case DiscoveryRange::kSubnet: return "SUBNET";
+    case DiscoveryRange::kLocalhost: return "LOCALHOST";
+    case DiscoveryRange::kOff: return "OFF";
+    case DiscoveryRange::kSystemDefault: return "SYSTEM_DEFAULT";
   }
   return "?";
 }

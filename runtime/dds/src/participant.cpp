@@ -1,13 +1,13 @@
 #include "regolith/dds/participant.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cstdlib>
 #include <sstream>
 #include <stdexcept>
+
+#include <unistd.h>
 
 #include "regolith/dds/sample.hpp"
 

@@ -1,8 +1,8 @@
 #include "regolith/dds/recorder.hpp"
 
-#include <time.h>
-
 #include <algorithm>
+
+#include <time.h>
 
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/reader.hpp"

@@ -52,12 +52,9 @@ std::string_view strip_slash(std::string_view s) {
 
 const char* class_name(TopicClass c) {
   switch (c) {
-    case TopicClass::kState:
-      return "state";
-    case TopicClass::kStream:
-      return "stream";
-    case TopicClass::kDiagnostics:
-      return "diagnostics";
+    case TopicClass::kState: return "state";
+    case TopicClass::kStream: return "stream";
+    case TopicClass::kDiagnostics: return "diagnostics";
   }
   return "?";
 }
@@ -66,12 +63,9 @@ const char* class_name(TopicClass c) {
 
 QosProfile TopicInfo::writer_qos() const {
   switch (cls) {
-    case TopicClass::kState:
-      return QosProfile::state();
-    case TopicClass::kStream:
-      return QosProfile::stream(10);
-    case TopicClass::kDiagnostics:
-      return QosProfile::diagnostics();
+    case TopicClass::kState: return QosProfile::state();
+    case TopicClass::kStream: return QosProfile::stream(10);
+    case TopicClass::kDiagnostics: return QosProfile::diagnostics();
   }
   return QosProfile::stream(10);
 }

@@ -63,8 +63,7 @@ ClientMessageResult apply_client_message(std::string_view text, std::map<std::ui
         continue;
       }
       if (subs.size() >= max_subscriptions) {
-        r.errors.push_back("subscribe: at most " + std::to_string(max_subscriptions) +
-                           " subscriptions per connection");
+        r.errors.push_back("subscribe: at most " + std::to_string(max_subscriptions) + " subscriptions per connection");
         continue;
       }
       const SubscriptionChange c{static_cast<std::uint32_t>(sub_id), static_cast<std::uint32_t>(channel_id)};

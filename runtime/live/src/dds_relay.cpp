@@ -1,14 +1,14 @@
 #include "regolith/live/dds_relay.hpp"
 
-#include <time.h>
-
 #include <chrono>
 #include <string>
 
+#include <time.h>
+
 #include "regolith/dds/outbox.hpp"
 #include "regolith/dds/participant.hpp"
-#include "regolith/dds/sample.hpp"
 #include "regolith/dds/reader.hpp"
+#include "regolith/dds/sample.hpp"
 #include "regolith/dds/serialized.hpp"
 #include "regolith/dds/topics.hpp"
 #include "regolith/msgs/ros2msg.hpp"
@@ -29,10 +29,10 @@ struct DdsRelay::Topic {
 
 DdsRelay::DdsRelay(dds::Participant& p, FoxgloveServerOptions options) : participant_(p) {
   const dds::TopicInfo* diag = dds::find_topic("/diagnostics");
-  status_ = p.make_outbox<DiagnosticArray>("/diagnostics", diag->writer_qos(), {.mode = dds::OutboxMode::kLatest, .slots = 2},
-                                           [](DiagnosticArray& m) {
-                                             dds::reserve(m, dds::DiagnosticArrayCapacity{1, kStatusValues, kStatusString, 32});
-                                           });
+  status_ = p.make_outbox<DiagnosticArray>(
+      "/diagnostics", diag->writer_qos(), {.mode = dds::OutboxMode::kLatest, .slots = 2}, [](DiagnosticArray& m) {
+        dds::reserve(m, dds::DiagnosticArrayCapacity{1, kStatusValues, kStatusString, 32});
+      });
   waitset_ = std::make_unique<dds::ReaderWaitSet>(p.handle());
   std::vector<Channel> channels;
   std::uint32_t id = 1;
@@ -90,10 +90,15 @@ void DdsRelay::publish_status() {
   dds::copy_string(st.message, kStatusString,
                    grew ? "clients dropped or refused" : std::to_string(s.connected) + " client(s) connected");
   dds::copy_string(st.hardware_id, kStatusString, where_);
-  const std::pair<const char*, std::uint64_t> values[kStatusValues] = {
-      {"connected", s.connected},       {"accepted", s.accepted},         {"refused", s.refused},
-      {"dropped_slow", s.dropped_slow}, {"samples_dropped", s.samples_dropped}, {"unauthorized", s.unauthorized},
-      {"bad_requests", s.bad_requests}, {"messages_sent", s.messages_sent}, {"samples_taken", samples_.load()}};
+  const std::pair<const char*, std::uint64_t> values[kStatusValues] = {{"connected", s.connected},
+                                                                       {"accepted", s.accepted},
+                                                                       {"refused", s.refused},
+                                                                       {"dropped_slow", s.dropped_slow},
+                                                                       {"samples_dropped", s.samples_dropped},
+                                                                       {"unauthorized", s.unauthorized},
+                                                                       {"bad_requests", s.bad_requests},
+                                                                       {"messages_sent", s.messages_sent},
+                                                                       {"samples_taken", samples_.load()}};
   dds::set_length(st.values, kStatusValues);
   for (std::uint32_t k = 0; k < kStatusValues; ++k) {
     dds::copy_string(st.values._buffer[k].key, kStatusString, values[k].first);

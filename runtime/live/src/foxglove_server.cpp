@@ -1,10 +1,5 @@
 #include "regolith/live/foxglove_server.hpp"
 
-#include "regolith/live/client_message.hpp"
-
-#include <sys/socket.h>
-#include <sys/stat.h>
-
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -13,13 +8,19 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+#include <sys/socket.h>
+#include <sys/stat.h>
+
+#include <nlohmann/json.hpp>
 #include <websocketpp/config/asio_no_tls.hpp>
 #include <websocketpp/server.hpp>
+
+#include "regolith/live/client_message.hpp"
 
 namespace regolith::live {
 namespace {
@@ -66,7 +67,8 @@ bool plain_file_name(const std::string& name) {
 bool same_secret(const std::string& a, const std::string& b) {
   unsigned diff = a.size() == b.size() ? 0u : 1u;
   for (std::size_t i = 0; i < a.size(); ++i)
-    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : 0));
+    diff |=
+        static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : 0));
   return diff == 0;
 }
 
@@ -74,7 +76,12 @@ bool same_secret(const std::string& a, const std::string& b) {
 std::string percent_decoded(const std::string& s) {
   std::string out;
   for (std::size_t i = 0; i < s.size(); ++i) {
-    const auto hex = [](char c) { return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1; };
+    const auto hex = [](char c) {
+      return c >= '0' && c <= '9'   ? c - '0'
+             : c >= 'a' && c <= 'f' ? c - 'a' + 10
+             : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                    : -1;
+    };
     if (s[i] == '%' && i + 2 < s.size() && hex(s[i + 1]) >= 0 && hex(s[i + 2]) >= 0) {
       out.push_back(static_cast<char>(hex(s[i + 1]) * 16 + hex(s[i + 2])));
       i += 2;
@@ -134,7 +141,8 @@ std::string read_token_file(const std::string& path) {
 
 void check_access(const FoxgloveServerOptions& options) {
   if (options.token.empty() && !is_loopback_address(options.address))
-    throw std::invalid_argument("listening on " + options.address + " (not a loopback address) needs an access token: "
+    throw std::invalid_argument("listening on " + options.address +
+                                " (not a loopback address) needs an access token: "
                                 "give a token file (`--token-file FILE` / live.token_file, mode 0600)");
 }
 
@@ -220,7 +228,8 @@ struct FoxgloveServer::Impl {
     if (opts.token.empty()) return true;
     const std::string resource = con->get_resource();
     const std::size_t q = resource.find('?');
-    const std::string query = q == std::string::npos ? std::string() : resource.substr(q + 1, resource.find('#', q) - q - 1);
+    const std::string query =
+        q == std::string::npos ? std::string() : resource.substr(q + 1, resource.find('#', q) - q - 1);
     const std::string in_query = percent_decoded(find_value(query, "token", '&'));
     if (!in_query.empty() && same_secret(in_query, opts.token)) {
       if (from_query) *from_query = true;
@@ -290,8 +299,8 @@ struct FoxgloveServer::Impl {
   }
 
   void on_text(const Hdl& h, Client& c, const std::string& text) {
-    const ClientMessageResult r = apply_client_message(
-        text, c.subs, [this](std::uint32_t channel) { return channel_index.count(channel) != 0; });
+    const ClientMessageResult r =
+        apply_client_message(text, c.subs, [this](std::uint32_t channel) { return channel_index.count(channel) != 0; });
     for (const std::string& e : r.errors) status_error(h, e);
     for (const SubscriptionChange& gone : r.removed) subscribers[channel_index.at(gone.channel)].fetch_sub(1);
     // Every new subscription is counted before any is answered: a send that drops the client

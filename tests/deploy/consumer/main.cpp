@@ -47,7 +47,8 @@ class Odometer final : public runtime::Component {
  public:
   void configure(Params& p, runtime::Context& ctx) override {
     enc_ = &ctx.encoders(p, "encoders");
-    radius_ = p.get<double>("wheel_radius_m", 0.1, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "wheel radius"});
+    radius_ =
+        p.get<double>("wheel_radius_m", 0.1, {.unit = "m", .min = 0.0, .min_exclusive = true, .doc = "wheel radius"});
   }
   void step(const runtime::CycleInfo& cycle) override {
     double sum = 0;

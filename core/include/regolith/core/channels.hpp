@@ -79,7 +79,8 @@ class LatestPool {
   };
 
   /// `max_readers` simultaneous leases; the pool holds max_readers + 2 slots, each made by `make`.
-  explicit LatestPool(std::size_t max_readers, const std::function<T()>& make = [] { return T{}; })
+  explicit LatestPool(
+      std::size_t max_readers, const std::function<T()>& make = [] { return T{}; })
       : slots_(max_readers + 2) {
     for (auto& s : slots_) s.value = make();
   }

@@ -33,7 +33,8 @@ inline bool known_image_signature(const unsigned char* p, std::size_t n) {
   if (starts("\xFF\xD8\xFF", 3)) return true;
   if (starts("II*\0", 4) || starts("MM\0*", 4)) return true;
   if (starts("BM", 2)) return true;
-  if (n >= 3 && p[0] == 'P' && p[1] >= '1' && p[1] <= '6' && (p[2] == ' ' || p[2] == '\n' || p[2] == '\r' || p[2] == '\t'))
+  if (n >= 3 && p[0] == 'P' && p[1] >= '1' && p[1] <= '6' &&
+      (p[2] == ' ' || p[2] == '\n' || p[2] == '\r' || p[2] == '\t'))
     return true;
   if (n >= 12 && std::memcmp(p, "RIFF", 4) == 0 && std::memcmp(p + 8, "WEBP", 4) == 0) return true;
   return false;
@@ -86,7 +87,7 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
       if (i >= n) break;
       const unsigned m = p[i++];
       if (m == 0x00 || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) continue;  // no length
-      if (m == 0xD9 || m == 0xDA || i + 2 > n) break;       // end of image, scan: no frame header first
+      if (m == 0xD9 || m == 0xDA || i + 2 > n) break;                    // end of image, scan: no frame header first
       const std::uint64_t len = be16(i);
       const bool sof = m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
       if (sof) {
@@ -105,8 +106,10 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
         const auto s = static_cast<std::int64_t>(v) - (v >= (std::uint64_t{1} << 31) ? (std::int64_t{1} << 32) : 0);
         return static_cast<std::uint64_t>(s < 0 ? -s : s);
       };
-      if (dib == 12) e = {le16(18), le16(20)};
-      else if (dib >= 40) e = {abs32(le32(18)), abs32(le32(22))};
+      if (dib == 12)
+        e = {le16(18), le16(20)};
+      else if (dib >= 40)
+        e = {abs32(le32(18)), abs32(le32(22))};
     }
   } else if (n >= 3 && p[0] == 'P' && p[1] >= '1' && p[1] <= '6') {
     // Read as OpenCV's PxM decoder reads it: before a number, whitespace and comments ('#' to the
@@ -129,11 +132,13 @@ inline ImageExtent declared_image_extent(const unsigned char* p, std::size_t n) 
         if (++digits <= 12) v[k] = v[k] * 10 + (p[i] - '0');
       if (digits == 0) return {};
       if (digits > 12) v[k] = std::uint64_t{1} << 40;  // absurd: more than any limit
-      ++i;  // the byte that ended the number
+      ++i;                                             // the byte that ended the number
     }
     e = {v[0], v[1]};
-  } else if (n >= 32 && std::memcmp(p, "RIFF", 4) == 0 && std::memcmp(p + 8, "WEBP", 4) == 0) {  // VP8X reads to byte 30
-    if (std::memcmp(p + 12, "VP8 ", 4) == 0) e = {le16(26) & 0x3FFF, le16(28) & 0x3FFF};
+  } else if (n >= 32 && std::memcmp(p, "RIFF", 4) == 0 &&
+             std::memcmp(p + 8, "WEBP", 4) == 0) {  // VP8X reads to byte 30
+    if (std::memcmp(p + 12, "VP8 ", 4) == 0)
+      e = {le16(26) & 0x3FFF, le16(28) & 0x3FFF};
     else if (std::memcmp(p + 12, "VP8L", 4) == 0) {
       const std::uint64_t b = le32(21);
       e = {(b & 0x3FFF) + 1, ((b >> 14) & 0x3FFF) + 1};
@@ -201,7 +206,8 @@ inline cv::Mat decode_image(const unsigned char* data, std::size_t size, int fla
     return fail("not an image regolith reads (it carries a DICOM signature at byte 128)");
   if (size > static_cast<std::size_t>(INT32_MAX)) return fail("larger than 2 GiB");
   const std::size_t n_tail = std::min(size, kImageTailBytes);
-  if (const std::string t = truncated_image(data, std::min<std::size_t>(size, 16), data + size - n_tail, n_tail); !t.empty())
+  if (const std::string t = truncated_image(data, std::min<std::size_t>(size, 16), data + size - n_tail, n_tail);
+      !t.empty())
     return fail(t);
   if (const std::string t = oversized_image(declared_image_extent(data, size)); !t.empty()) return fail(t);
   try {

@@ -26,7 +26,8 @@ void parallel_for(ParallelFor* par, int n, F&& f) {
     return;
   }
   using Fn = std::remove_reference_t<F>;
-  par->run(n, [](void* ctx, int i) { (*static_cast<Fn*>(ctx))(i); }, const_cast<void*>(static_cast<const void*>(&f)));
+  par->run(
+      n, [](void* ctx, int i) { (*static_cast<Fn*>(ctx))(i); }, const_cast<void*>(static_cast<const void*>(&f)));
 }
 
 }  // namespace regolith

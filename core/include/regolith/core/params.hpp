@@ -3,34 +3,34 @@
 // with its type, unit, default and range; reading records the resolved value (for
 // `regolith config check`) and `finish()` rejects keys nobody declared, with a did-you-mean.
 // All problems throw ConfigError("file:line:col: path.to.field: problem").
-#include <yaml-cpp/yaml.h>
-
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
 #include "regolith/core/error.hpp"
 
 namespace regolith {
 
 struct ParamSpec {
-  std::string_view unit{};            ///< SI unit ("m", "rad", "Hz", "px", "" for none)
-  std::optional<double> min{};        ///< inclusive lower bound (numbers, list elements, list sizes for min_size)
-  std::optional<double> max{};        ///< inclusive upper bound
-  bool min_exclusive = false;         ///< lower bound is exclusive (e.g. period > 0)
-  std::vector<std::string> choices{}; ///< allowed values of a string parameter
-  std::string_view doc{};             ///< one-line description
+  std::string_view unit{};             ///< SI unit ("m", "rad", "Hz", "px", "" for none)
+  std::optional<double> min{};         ///< inclusive lower bound (numbers, list elements, list sizes for min_size)
+  std::optional<double> max{};         ///< inclusive upper bound
+  bool min_exclusive = false;          ///< lower bound is exclusive (e.g. period > 0)
+  std::vector<std::string> choices{};  ///< allowed values of a string parameter
+  std::string_view doc{};              ///< one-line description
 };
 
 /// One parameter as resolved from a file: for `config check` and `config schema` output.
 struct ResolvedParam {
-  std::string path;     ///< e.g. components.sfs.iterations
-  std::string type;     ///< bool, int, double, string, double[], string[]
-  std::string value;    ///< YAML rendering of the value in use
+  std::string path;   ///< e.g. components.sfs.iterations
+  std::string type;   ///< bool, int, double, string, double[], string[]
+  std::string value;  ///< YAML rendering of the value in use
   std::string unit;
-  std::string range;    ///< e.g. "[0, 1]", "> 0", "one of skip|catch_up"
+  std::string range;  ///< e.g. "[0, 1]", "> 0", "one of skip|catch_up"
   std::string doc;
   bool defaulted = false;
 };
@@ -117,8 +117,11 @@ extern template int Params::get<int>(std::string_view, const int&, const ParamSp
 extern template std::int64_t Params::get<std::int64_t>(std::string_view, const std::int64_t&, const ParamSpec&);
 extern template double Params::get<double>(std::string_view, const double&, const ParamSpec&);
 extern template std::string Params::get<std::string>(std::string_view, const std::string&, const ParamSpec&);
-extern template std::vector<double> Params::get<std::vector<double>>(std::string_view, const std::vector<double>&, const ParamSpec&);
-extern template std::vector<std::string> Params::get<std::vector<std::string>>(std::string_view, const std::vector<std::string>&, const ParamSpec&);
+extern template std::vector<double> Params::get<std::vector<double>>(std::string_view, const std::vector<double>&,
+                                                                     const ParamSpec&);
+extern template std::vector<std::string> Params::get<std::vector<std::string>>(std::string_view,
+                                                                               const std::vector<std::string>&,
+                                                                               const ParamSpec&);
 extern template bool Params::require<bool>(std::string_view, const ParamSpec&);
 extern template int Params::require<int>(std::string_view, const ParamSpec&);
 extern template std::int64_t Params::require<std::int64_t>(std::string_view, const ParamSpec&);

@@ -80,7 +80,7 @@ struct Wheel {
   std::string name;             ///< joint name, e.g. wheel_fl
   double x_m = 0.0, y_m = 0.0;  ///< contact point in the body frame
   double radius_m = 0.0, width_m = 0.0;
-  std::string encoders;  ///< encoder device that reports it (devices.encoders.<name>)
+  std::string encoders;          ///< encoder device that reports it (devices.encoders.<name>)
   double max_rate_rad_s = 50.0;  ///< fastest it can turn: encoder samples implying more are rejected
 };
 
@@ -99,7 +99,7 @@ struct RoverDescription {
   double gravity_mps2 = 0.0;  ///< surface gravity, 0 = not given
   std::vector<Wheel> wheels;
   std::map<std::string, RoverCamera> cameras;
-  std::string imu;             ///< IMU device giving the body attitude (devices.imus.<name>), empty = level
+  std::string imu;  ///< IMU device giving the body attitude (devices.imus.<name>), empty = level
   std::optional<Sun> sun;
 
   const RoverCamera* camera(const std::string& name) const {
@@ -128,7 +128,7 @@ std::array<double, 4> quaternion(const Rotation& r);
 /// One fixed transform of the rover (tf2): the pose of `child` in `parent`.
 struct FrameTransform {
   std::string parent, child;
-  Vec3 translation;                       ///< m, child origin in the parent frame
+  Vec3 translation;                            ///< m, child origin in the parent frame
   std::array<double, 4> rotation{0, 0, 0, 1};  ///< unit quaternion (x, y, z, w)
 };
 /// The rover's fixed frames for /tf_static, per camera (REP-103/105 names):

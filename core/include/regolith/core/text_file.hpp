@@ -31,7 +31,8 @@ inline std::string read_text_file(const std::string& path, const char* what = "f
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0)
     throw InputError(path + ": cannot open " + what + " (" + std::strerror(errno) + ")");
-  if (!S_ISREG(st.st_mode)) throw InputError(path + ": not a regular file (a device, FIFO or directory), not a " + what);
+  if (!S_ISREG(st.st_mode))
+    throw InputError(path + ": not a regular file (a device, FIFO or directory), not a " + what);
   if (static_cast<std::uintmax_t>(st.st_size) > max_bytes)
     throw InputError(path + ": " + std::to_string(st.st_size) + " bytes, more than the " + std::to_string(max_bytes) +
                      " a " + what + " may have");
@@ -40,7 +41,8 @@ inline std::string read_text_file(const std::string& path, const char* what = "f
   std::ostringstream ss;
   ss << in.rdbuf();
   std::string text = ss.str();
-  if (text.size() > max_bytes) throw InputError(path + ": grew past " + std::to_string(max_bytes) + " bytes while read");
+  if (text.size() > max_bytes)
+    throw InputError(path + ": grew past " + std::to_string(max_bytes) + " bytes while read");
   return text;
 }
 

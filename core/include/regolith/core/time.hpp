@@ -13,8 +13,12 @@ inline constexpr TimeNs kNsPerUs = 1'000;
 inline constexpr TimeNs kNsPerMs = 1'000'000;
 inline constexpr TimeNs kNsPerSec = 1'000'000'000;
 
-constexpr double to_seconds(TimeNs t) { return static_cast<double>(t) * 1e-9; }
-constexpr TimeNs from_seconds(double s) { return static_cast<TimeNs>(s * 1e9); }
+constexpr double to_seconds(TimeNs t) {
+  return static_cast<double>(t) * 1e-9;
+}
+constexpr TimeNs from_seconds(double s) {
+  return static_cast<TimeNs>(s * 1e9);
+}
 
 inline TimeNs monotonic_now() {
   timespec ts{};

@@ -22,13 +22,13 @@ void validate_capture(int width, int height, double frame_timeout_s);
 
 /// Counters every camera backend keeps; read from any thread.
 struct CameraStats {
-  std::uint64_t frames = 0;          ///< frames delivered
-  std::uint64_t dropped = 0;         ///< sequence gaps / frames lost
-  std::uint64_t corrupt = 0;         ///< frames with damaged payload
-  std::uint64_t faults = 0;          ///< device errors (ENODEV, timeouts, ...)
-  std::uint64_t recoveries = 0;      ///< successful restarts after a fault
-  std::uint64_t bad_stamps = 0;      ///< frames withheld: stamped after they were read (StampCheckedCamera)
-  std::uint64_t stamp_steps = 0;     ///< new frames stamped before the previous one (device clock stepped back)
+  std::uint64_t frames = 0;       ///< frames delivered
+  std::uint64_t dropped = 0;      ///< sequence gaps / frames lost
+  std::uint64_t corrupt = 0;      ///< frames with damaged payload
+  std::uint64_t faults = 0;       ///< device errors (ENODEV, timeouts, ...)
+  std::uint64_t recoveries = 0;   ///< successful restarts after a fault
+  std::uint64_t bad_stamps = 0;   ///< frames withheld: stamped after they were read (StampCheckedCamera)
+  std::uint64_t stamp_steps = 0;  ///< new frames stamped before the previous one (device clock stepped back)
   DeviceState state = DeviceState::kStopped;
   TimeNs last_frame_time = 0;
 };

@@ -15,28 +15,28 @@
 namespace regolith::hal {
 
 struct CanFrame {
-  std::uint32_t id = 0;      ///< 11-bit or 29-bit identifier (no flag bits)
-  bool extended = false;     ///< 29-bit identifier
-  bool remote = false;       ///< RTR frame
-  bool error = false;        ///< error frame (SocketCAN CAN_ERR_FLAG)
-  bool fd = false;           ///< CAN FD frame
-  std::uint8_t len = 0;      ///< payload bytes (0..8, 0..64 for FD)
+  std::uint32_t id = 0;   ///< 11-bit or 29-bit identifier (no flag bits)
+  bool extended = false;  ///< 29-bit identifier
+  bool remote = false;    ///< RTR frame
+  bool error = false;     ///< error frame (SocketCAN CAN_ERR_FLAG)
+  bool fd = false;        ///< CAN FD frame
+  std::uint8_t len = 0;   ///< payload bytes (0..8, 0..64 for FD)
   std::array<std::uint8_t, 64> data{};
-  TimeNs stamp = 0;          ///< receive time on the process clock
+  TimeNs stamp = 0;  ///< receive time on the process clock
 };
 
 /// Where one value sits in a CAN payload and how it becomes a physical quantity.
 struct CanSignal {
-  std::string name;            ///< wheel (or transducer) name
+  std::string name;  ///< wheel (or transducer) name
   std::uint32_t id = 0;
   bool extended = false;
-  int byte_offset = 0;         ///< first payload byte
-  int length = 4;              ///< bytes, 1..8
-  bool big_endian = false;     ///< false = little endian (Intel), true = big endian (Motorola)
+  int byte_offset = 0;      ///< first payload byte
+  int length = 4;           ///< bytes, 1..8
+  bool big_endian = false;  ///< false = little endian (Intel), true = big endian (Motorola)
   bool is_signed = true;
-  double scale = 1.0;          ///< physical units per count (rad/count for encoders)
-  double offset = 0.0;         ///< added after scaling
-  bool wrap = true;            ///< the counter wraps at 2^(8*length): unwrap into a continuous value
+  double scale = 1.0;   ///< physical units per count (rad/count for encoders)
+  double offset = 0.0;  ///< added after scaling
+  bool wrap = true;     ///< the counter wraps at 2^(8*length): unwrap into a continuous value
 };
 
 /// Read one CanSignal from YAML (`id`, `extended`, `byte_offset`, `length`, `endian`,
@@ -109,7 +109,7 @@ std::string format_candump_line(const CanFrame& frame, const std::string& interf
 /// Parse one `candump -l` line: "(1700000000.123456) can0 0CF#1A2B3C4D". Also accepts remote
 /// frames ("123#R"), CAN FD ("123##1AABB"), and 8-digit (extended) ids. On failure returns false
 /// and sets `error` to a description of what is wrong.
-bool parse_candump_line(std::string_view line, CanFrame& frame, std::string& interface_name,
-                        double& unix_time_s, std::string& error);
+bool parse_candump_line(std::string_view line, CanFrame& frame, std::string& interface_name, double& unix_time_s,
+                        std::string& error);
 
 }  // namespace regolith::hal

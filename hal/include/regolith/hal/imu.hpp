@@ -30,7 +30,7 @@ Quaternion to_quaternion(const Attitude& a);
 
 /// Physical limits of what an IMU can report; beyond them a sample is damaged (a corrupt packet,
 /// a sensor fault), not a motion, and consumers skip it.
-inline constexpr double kImuMaxRateRadS = 35.0;       ///< ~2000 deg/s, the largest common gyro range
+inline constexpr double kImuMaxRateRadS = 35.0;           ///< ~2000 deg/s, the largest common gyro range
 inline constexpr double kImuMaxAccelerationMps2 = 160.0;  ///< 16 g
 /// Finite angles, roll within +-pi, pitch within +-pi/2 (yaw is continuous, any finite value).
 bool plausible(const Attitude& a);

@@ -36,9 +36,9 @@ class PlausibleEncoders final : public WheelEncoders {
  public:
   static constexpr double kDefaultMaxRateRadS = 50.0;  ///< rad/s (about 480 rpm)
   static constexpr double kToleranceRad = 0.05;        ///< rad, quantisation and timestamp jitter
-  static constexpr int kReacquire = 5;   ///< rejected samples in a row after which the wheel re-references
+  static constexpr int kReacquire = 5;  ///< rejected samples in a row after which the wheel re-references
   static constexpr int kMaxWalk = 16;
-  static constexpr int kPredecessors = 4;  ///< samples a new reference is compared with
+  static constexpr int kPredecessors = 4;                      ///< samples a new reference is compared with
   static constexpr TimeNs kMaxExtrapolation = 100 * kNsPerMs;  ///< past the newest plausible sample
 
   /// `max_rate_rad_s[i]` for wheel i of `inner` (missing or non-positive: the default).

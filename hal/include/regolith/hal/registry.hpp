@@ -19,10 +19,10 @@ namespace regolith::hal {
 
 /// What a backend gets besides its own parameters.
 struct DeviceContext {
-  std::string id;              ///< device name in the YAML (e.g. "front")
-  std::uint16_t index = 0;     ///< index among devices of its kind
-  Clock* clock = nullptr;      ///< the process clock (simulated under --sim-time)
-  std::string config_dir;      ///< directory of the YAML file: relative paths resolve from here
+  std::string id;           ///< device name in the YAML (e.g. "front")
+  std::uint16_t index = 0;  ///< index among devices of its kind
+  Clock* clock = nullptr;   ///< the process clock (simulated under --sim-time)
+  std::string config_dir;   ///< directory of the YAML file: relative paths resolve from here
   /// false for `regolith config check`: validate parameters only, do not open or probe devices.
   bool open_devices = true;
   /// The deployment's rover description (camera calibration and mounts, sun); never null when

@@ -57,8 +57,8 @@ class StampCheckedCamera final : public Camera {
 
   std::unique_ptr<Camera> inner_;
   const Clock& clock_;
-  std::atomic_flag busy_ = ATOMIC_FLAG_INIT;  // try-lock of the fields below
-  std::uint64_t last_seq_ = kNone;            // the last frame counted ...
+  std::atomic_flag busy_ = ATOMIC_FLAG_INIT;                // try-lock of the fields below
+  std::uint64_t last_seq_ = kNone;                          // the last frame counted ...
   TimeNs last_stamp_ = std::numeric_limits<TimeNs>::min();  // ... and the last delivered one's stamp
   std::atomic<std::uint64_t> bad_stamps_{0}, stamp_steps_{0};
 };

@@ -60,7 +60,8 @@ class WheelEncoders : public Device {
   /// on (each backend numbers its frames from 0) that arrived by `now`, oldest first, at most
   /// out.size(); advances `cursor` past them. Frames the backend no longer holds are skipped and
   /// added to `missed`. Backends without a bus (reads_can() false) return 0.
-  virtual std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out, std::uint64_t& missed) const;
+  virtual std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out,
+                                 std::uint64_t& missed) const;
 
   /// A wheel is stale when its newest sample is older than `timeout` at `now`.
   bool stale(std::size_t wheel, TimeNs now, TimeNs timeout) const;
@@ -78,9 +79,7 @@ class AngleHistory {
     std::array<AngleSample, kCapacity> ring{};
     std::size_t count = 0;  ///< valid samples (<= kCapacity)
     std::size_t head = 0;   ///< index of the newest sample
-    const AngleSample& newest(std::size_t back = 0) const {
-      return ring[(head + kCapacity - back) % kCapacity];
-    }
+    const AngleSample& newest(std::size_t back = 0) const { return ring[(head + kCapacity - back) % kCapacity]; }
   };
 
   AngleHistory() : pool_(4) {}

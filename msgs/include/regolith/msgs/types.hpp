@@ -23,13 +23,13 @@
 #include "grid_map_msgs/msg/GridMapInfo.h"
 #include "nav_msgs/msg/Odometry.h"
 #include "rcl_interfaces/msg/Log.h"
+#include "regolith_msgs/msg/RockArray.h"
+#include "regolith_msgs/msg/SoilStiffness.h"
+#include "regolith_msgs/msg/WheelSinkage.h"
 #include "rmw_dds_common/msg/Gid.h"
 #include "rmw_dds_common/msg/NodeEntitiesInfo.h"
 #include "rmw_dds_common/msg/ParticipantEntitiesInfo.h"
-#include "regolith_msgs/msg/RockArray.h"
 #include "rosgraph_msgs/msg/Clock.h"
-#include "regolith_msgs/msg/SoilStiffness.h"
-#include "regolith_msgs/msg/WheelSinkage.h"
 #include "sensor_msgs/msg/CompressedImage.h"
 #include "sensor_msgs/msg/Imu.h"
 #include "sensor_msgs/msg/JointState.h"
@@ -50,9 +50,9 @@
 // regolith::msgs::sensor_msgs::JointState is the C struct
 // sensor_msgs_msg_dds__JointState_.
 namespace regolith::msgs {
-#define REGOLITH_MSGS_ALIAS(pkg, Type)                                         \
-  namespace pkg {                                                              \
-  using Type = ::pkg##_msg_dds__##Type##_;                                     \
+#define REGOLITH_MSGS_ALIAS(pkg, Type)     \
+  namespace pkg {                          \
+  using Type = ::pkg##_msg_dds__##Type##_; \
   }
 REGOLITH_MSGS_ALIAS(builtin_interfaces, Time)
 REGOLITH_MSGS_ALIAS(std_msgs, Header)
@@ -102,5 +102,5 @@ inline constexpr std::uint8_t kOk = 0;
 inline constexpr std::uint8_t kWarn = 1;
 inline constexpr std::uint8_t kError = 2;
 inline constexpr std::uint8_t kStale = 3;
-} // namespace diagnostic_msgs
-} // namespace regolith::msgs
+}  // namespace diagnostic_msgs
+}  // namespace regolith::msgs

@@ -2,12 +2,12 @@
 // The CDR messages of the HAL recording (hal_recorder.hpp) and their decoders for replay.
 // Encoders reuse the caller's buffer (no allocation once it is large enough); decoders throw
 // std::out_of_range ("CDR: ...") or std::invalid_argument on a damaged or foreign message.
-#include <opencv2/core/mat.hpp>
-
 #include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <opencv2/core/mat.hpp>
 
 #include "regolith/core/rover.hpp"
 #include "regolith/core/time.hpp"

@@ -44,9 +44,9 @@
 namespace regolith::record {
 
 struct HalRecorderOptions {
-  std::size_t frames_per_camera = 4;     ///< ring slots per camera (each one frame of its geometry)
-  std::size_t queries_per_device = 4096; ///< ring slots per encoder set / IMU for query answers
-  TimeNs poll_period = 5 * kNsPerMs;     ///< writer thread wake-up (wall time)
+  std::size_t frames_per_camera = 4;      ///< ring slots per camera (each one frame of its geometry)
+  std::size_t queries_per_device = 4096;  ///< ring slots per encoder set / IMU for query answers
+  TimeNs poll_period = 5 * kNsPerMs;      ///< writer thread wake-up (wall time)
   /// A full ring makes the device call wait for the writer instead of dropping (simulated time).
   bool lossless = false;
   /// Under simulated time: ROS time - simulated time (runtime::AppOptions::sim_ros_offset; 0 but
@@ -58,9 +58,9 @@ class HalRecorder {
  public:
   struct DeviceCount {
     std::string id;
-    std::string kind;             ///< camera / encoders / imu
-    std::uint64_t recorded = 0;   ///< messages written (frames, samples + queries)
-    std::uint64_t dropped = 0;    ///< items lost because a ring was full
+    std::string kind;            ///< camera / encoders / imu
+    std::uint64_t recorded = 0;  ///< messages written (frames, samples + queries)
+    std::uint64_t dropped = 0;   ///< items lost because a ring was full
   };
 
   explicit HalRecorder(HalRecorderOptions options = {});

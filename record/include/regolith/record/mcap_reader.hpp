@@ -130,12 +130,12 @@ class McapReader {
 /// A HAL recording's identity and time frame, from a file's `regolith_hal` and `regolith_hal_end`
 /// metadata (hal_recorder.hpp). The one reader of those records.
 struct HalRecordingInfo {
-  bool found = false;             ///< the file has `regolith_hal` metadata (a HAL recording)
-  std::int64_t origin_ns = -1;    ///< process clock at the recording's start
-  std::int64_t end_ns = -1;       ///< ... at its end (-1: not in this file: a cut-off or not-last split file)
+  bool found = false;              ///< the file has `regolith_hal` metadata (a HAL recording)
+  std::int64_t origin_ns = -1;     ///< process clock at the recording's start
+  std::int64_t end_ns = -1;        ///< ... at its end (-1: not in this file: a cut-off or not-last split file)
   std::int64_t ros_offset_ns = 0;  ///< ROS time = process clock + this (simulated time: 0 but for a recorded replay)
   bool simulated = false;
-  std::string recording_id;       ///< empty in files written before it existed
+  std::string recording_id;  ///< empty in files written before it existed
 };
 /// Throws InputError naming `file`, the record and the key when a number does not parse.
 HalRecordingInfo hal_recording_info(const McapFileInfo& info, const std::string& file);

@@ -40,7 +40,7 @@ struct McapWriterOptions {
   /// then <stem>_001<ext>, <stem>_002<ext>, ... (mcap_split_path).
   std::uint64_t split_bytes = 0;
   std::uint64_t split_duration_ns = 0;
-  void validate() const;                ///< throws FieldError (McapWriterOptions.<field>)
+  void validate() const;  ///< throws FieldError (McapWriterOptions.<field>)
 };
 
 /// The name of file `index` of a split recording: `path` itself for 0, else <stem>_NNN<ext>
@@ -128,8 +128,8 @@ class McapWriter {
   void write_out(const void* data, std::size_t size, bool update_crc = true);
   void write_record(const std::vector<std::uint8_t>& record);
   void write_chunk();
-  void open_file();    // creates path_, writes the magic and the Header; resets the per-file state
-  void finish_file();  // the open chunk, DataEnd, summary, offsets, Footer; closes the file
+  void open_file();        // creates path_, writes the magic and the Header; resets the per-file state
+  void finish_file();      // the open chunk, DataEnd, summary, offsets, Footer; closes the file
   void start_next_file();  // finish this file, open the next, repeat schemas/channels/metadata/attachments
   void write_metadata_record(const std::string& name, const std::map<std::string, std::string>& values);
   void write_attachment_record(const std::string& name, const std::string& media_type, std::uint64_t log_time_ns,

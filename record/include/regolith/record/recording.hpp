@@ -3,11 +3,11 @@
 // deployment it ran (its YAML attachment) and single camera frames of the HAL recording
 // (`regolith assess REC.mcap --frame N`). Errors are InputError naming the file, the channel and
 // the frame.
-#include <opencv2/core/mat.hpp>
-
 #include <cstddef>
 #include <filesystem>
 #include <string>
+
+#include <opencv2/core/mat.hpp>
 
 #include "regolith/core/time.hpp"
 
@@ -31,12 +31,12 @@ RecordedDeployment recorded_deployment(McapReader& reader, const std::filesystem
 TimeNs last_hal_stamp(McapReader& reader);
 
 struct RecordedFrame {
-  std::string device;   ///< camera device id
+  std::string device;  ///< camera device id
   std::size_t index = 0;
-  std::size_t count = 0;  ///< frames of that camera in the file
-  std::uint32_t sequence = 0;  ///< the camera's frame sequence number
-  TimeNs stamp = 0;     ///< capture time (process clock of the recording)
-  cv::Mat image;        ///< CV_8UC1 or CV_8UC3
+  std::size_t count = 0;          ///< frames of that camera in the file
+  std::uint32_t sequence = 0;     ///< the camera's frame sequence number
+  TimeNs stamp = 0;               ///< capture time (process clock of the recording)
+  cv::Mat image;                  ///< CV_8UC1 or CV_8UC3
   RecordedDeployment deployment;  ///< the deployment the recording ran (read from the same file)
 };
 /// Frame `index` (0 = first, in file order) of camera `device` (/hal/cameras/<device>/image); an

@@ -17,8 +17,8 @@ class MessageSink {
   virtual std::uint16_t add_cdr_channel(const std::string& topic, const std::string& ros_type,
                                         const std::map<std::string, std::string>& metadata) = 0;
   /// One message; `log_time` / `publish_time` in ns (MCAP: the recording's ROS time).
-  virtual void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
-                     std::uint64_t publish_time, std::span<const std::uint8_t> data) = 0;
+  virtual void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time, std::uint64_t publish_time,
+                     std::span<const std::uint8_t> data) = 0;
   virtual void add_metadata(const std::string& name, const std::map<std::string, std::string>& values) = 0;
 };
 

@@ -25,17 +25,17 @@ class Participant;
 
 namespace regolith::runtime {
 
-class RosoutSink;    // event_log.hpp
-class HealthEvents;  // event_log.hpp
+class RosoutSink;     // event_log.hpp
+class HealthEvents;   // event_log.hpp
 struct RecordConfig;  // below
 struct LiveConfig;    // below
 
 struct AppOptions {
-  bool sim_time = false;     ///< run rate groups on the simulated clock, as fast as possible
-  bool enable_dds = true;    ///< false: ignore the dds section (e.g. `config check`)
-  bool open_devices = true;  ///< false: backends validate parameters without opening devices
-  std::vector<std::string> wait_for{};  ///< DDS topics that need a subscriber before starting
-  TimeNs wait_timeout = 30 * kNsPerSec; ///< how long to wait for them
+  bool sim_time = false;                 ///< run rate groups on the simulated clock, as fast as possible
+  bool enable_dds = true;                ///< false: ignore the dds section (e.g. `config check`)
+  bool open_devices = true;              ///< false: backends validate parameters without opening devices
+  std::vector<std::string> wait_for{};   ///< DDS topics that need a subscriber before starting
+  TimeNs wait_timeout = 30 * kNsPerSec;  ///< how long to wait for them
   /// Simulated time: the clock's value at start and the ROS time offset (ROS time = clock +
   /// offset; 0 = ROS's use_sim_time). `regolith replay` starts at a recording's own time origin and
   /// offset, so the replay's stamps are the recorded ones.
@@ -68,13 +68,13 @@ struct RecordConfig {
 /// The `live:` block (read here so `config check` lists it; the server is started by the tool,
 /// regolith::live::DdsRelay): a Foxglove WebSocket server of every DDS topic and the built-in page.
 struct LiveConfig {
-  bool enabled = false;                 ///< `regolith run --live ADDR` enables it too (and overrides listen)
-  std::string listen = "127.0.0.1:8765";///< [ADDR:]PORT
-  int max_clients = 8;                  ///< connections beyond this are refused
-  double max_queue_mb = 8.0;            ///< per-client send queue limit; a client above it is dropped
-  std::string token_file;               ///< access token file (mode 0600; relative to the config); required off loopback
-  std::string where;                    ///< file:line:col of live.listen (or of the block), for errors
-  std::string token_where;              ///< file:line:col of live.token_file
+  bool enabled = false;                   ///< `regolith run --live ADDR` enables it too (and overrides listen)
+  std::string listen = "127.0.0.1:8765";  ///< [ADDR:]PORT
+  int max_clients = 8;                    ///< connections beyond this are refused
+  double max_queue_mb = 8.0;              ///< per-client send queue limit; a client above it is dropped
+  std::string token_file;   ///< access token file (mode 0600; relative to the config); required off loopback
+  std::string where;        ///< file:line:col of live.listen (or of the block), for errors
+  std::string token_where;  ///< file:line:col of live.token_file
 };
 
 /// Everything the health monitor and the live summary read.
@@ -126,8 +126,8 @@ class Application {
   std::unique_ptr<SimClock> sim_clock_;
   std::unique_ptr<Executor> executor_;
   std::shared_ptr<dds::Participant> dds_;
-  std::shared_ptr<void> tf_static_;              // the /tf_static writer (latched for late subscribers)
-  std::function<void(TimeNs)> clock_pub_;        // /clock under --sim-time
+  std::shared_ptr<void> tf_static_;        // the /tf_static writer (latched for late subscribers)
+  std::function<void(TimeNs)> clock_pub_;  // /clock under --sim-time
   // The event log: health snapshots -> events (spdlog), and spdlog -> /rosout when on DDS.
   std::shared_ptr<RosoutSink> rosout_;
   std::unique_ptr<HealthEvents> health_events_;

@@ -21,8 +21,8 @@ class WorkerPool;  // worker_pool.hpp
 
 /// What a rate group tells each member every cycle.
 struct CycleInfo {
-  TimeNs release = 0;     ///< scheduled start of this cycle (absolute, process clock)
-  TimeNs now = 0;         ///< clock reading when the member starts
+  TimeNs release = 0;  ///< scheduled start of this cycle (absolute, process clock)
+  TimeNs now = 0;      ///< clock reading when the member starts
   TimeNs period = 0;
   std::uint64_t cycle = 0;
 };
@@ -124,7 +124,10 @@ class ComponentRegistry {
   std::vector<std::pair<std::string, std::string>> types() const;
 
  private:
-  struct Entry { std::string doc; Factory make; };
+  struct Entry {
+    std::string doc;
+    Factory make;
+  };
   std::map<std::string, Entry> entries_;
 };
 

@@ -104,8 +104,8 @@ class Context {
   /// Declares that the component being configured produces channel `name` with payload T, and
   /// creates its slots now with `make` (one producer per channel, checked by link()).
   template <class T>
-  LatestPool<T>& produce(const std::string& name, std::size_t max_readers = 4,
-                         const std::function<T()>& make = [] { return T{}; }) {
+  LatestPool<T>& produce(
+      const std::string& name, std::size_t max_readers = 4, const std::function<T()>& make = [] { return T{}; }) {
     declare(Port::Kind::kProduces, name, type_name(typeid(T)));
     auto it = channels_.find(name);
     if (it != channels_.end() && it->second.type != std::type_index(typeid(T)))
@@ -153,8 +153,8 @@ class Context {
   /// A named latest-value channel by name, for observers outside the component graph (the live
   /// summary, tests): created on first use, the type must match. Components use produce/consume.
   template <class T>
-  LatestPool<T>& channel(const std::string& name, std::size_t max_readers = 4,
-                         const std::function<T()>& make = [] { return T{}; }) {
+  LatestPool<T>& channel(
+      const std::string& name, std::size_t max_readers = 4, const std::function<T()>& make = [] { return T{}; }) {
     auto it = channels_.find(name);
     if (it == channels_.end()) {
       auto pool = std::make_shared<LatestPool<T>>(max_readers, make);

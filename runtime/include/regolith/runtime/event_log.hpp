@@ -7,15 +7,15 @@
 // Nothing here runs in a rate-group cycle: HealthEvents compares two snapshots (allocates,
 // formats); the application calls it from a non-real-time thread (or after each simulated cycle
 // under --sim-time).
-#include <spdlog/details/null_mutex.h>
-#include <spdlog/sinks/base_sink.h>
-
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
+
+#include <spdlog/details/null_mutex.h>
+#include <spdlog/sinks/base_sink.h>
 
 #include "regolith/core/time.hpp"
 #include "regolith/runtime/health.hpp"

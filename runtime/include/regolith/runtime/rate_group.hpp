@@ -45,18 +45,18 @@ enum class OverrunPolicy : std::uint8_t {
 
 struct RateGroupConfig {
   std::string name;
-  TimeNs period = 0;          ///< ns, > 0
-  TimeNs offset = 0;          ///< phase of the first release after start, ns
-  int priority = 0;           ///< SCHED_FIFO priority 1..99; 0 = normal scheduling
-  int cpu = -1;               ///< CPU to pin the thread to; -1 = any
+  TimeNs period = 0;  ///< ns, > 0
+  TimeNs offset = 0;  ///< phase of the first release after start, ns
+  int priority = 0;   ///< SCHED_FIFO priority 1..99; 0 = normal scheduling
+  int cpu = -1;       ///< CPU to pin the thread to; -1 = any
   OverrunPolicy overrun = OverrunPolicy::kSkip;
   std::vector<std::string> members;
 };
 
 struct RateGroupCounters {
-  std::uint64_t cycles = 0;        ///< cycles executed
-  std::uint64_t slips = 0;         ///< releases missed (deadline passed before the cycle ended)
-  std::uint64_t skipped = 0;       ///< releases not executed (skip policy)
+  std::uint64_t cycles = 0;   ///< cycles executed
+  std::uint64_t slips = 0;    ///< releases missed (deadline passed before the cycle ended)
+  std::uint64_t skipped = 0;  ///< releases not executed (skip policy)
   TimeNs last_release = 0;
 };
 

@@ -4,9 +4,6 @@
 // libraries take it without depending on the runtime. A job is handed over under one mutex and
 // condition variable; nothing is allocated per job. The workers' CPU time is counted and the rate
 // group adds it to the member's CPU, so the summary shows what a member costs across its workers.
-#include <pthread.h>
-#include <sched.h>
-
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -16,8 +13,11 @@
 #include <thread>
 #include <vector>
 
-#include "regolith/core/params.hpp"
+#include <pthread.h>
+#include <sched.h>
+
 #include "regolith/core/parallel.hpp"
+#include "regolith/core/params.hpp"
 #include "regolith/core/time.hpp"
 
 namespace regolith::runtime {
@@ -59,7 +59,7 @@ class WorkerPool final : public ParallelFor {
   void (*fn_)(void*, int) = nullptr;
   void* ctx_ = nullptr;
   int n_ = 0;
-  bool caller_in_cycle_ = false;          // the caller's cycle scope, taken over by the workers
+  bool caller_in_cycle_ = false;  // the caller's cycle scope, taken over by the workers
   // Scheduling of the first run()'s caller (the rate group's thread), taken over by the workers
   // before their first job (guarded by m_; read by a worker after it wakes under m_).
   int policy_ = 0;

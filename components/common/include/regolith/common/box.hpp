@@ -6,6 +6,7 @@
 // No allocation once `dst`, `tmp` (src's size, CV_32F) and `acc` (1 x cols, CV_64F) exist (the
 // real-time path preallocates them).
 #include <algorithm>
+
 #include <opencv2/core.hpp>
 
 namespace regolith::common {

@@ -1,9 +1,9 @@
 #pragma once
 // Fills a (continuous or strided) single- or multi-channel Mat with one value without allocating:
 // cv::Mat::setTo converts its scalar through a heap buffer, which a rate-group cycle must avoid.
-#include <opencv2/core.hpp>
-
 #include <algorithm>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::common {
 

@@ -6,6 +6,7 @@
 //   y = center_y + length_y / 2 - (j + 0.5) * resolution.
 // Used by the traversability grid map, the rock-probability layer and the sinkage layer.
 #include <cmath>
+
 #include <opencv2/core.hpp>
 
 namespace regolith::common {

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+
 #include <opencv2/core.hpp>
 
 #include "regolith/common/grid.hpp"

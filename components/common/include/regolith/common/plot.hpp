@@ -6,11 +6,12 @@
 //    when the picture is metric, and unknown (NaN) cells grey or showing the image beneath.
 // Offline tools only: these allocate freely and are never called inside a rate-group cycle.
 #include <filesystem>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::plot {
 

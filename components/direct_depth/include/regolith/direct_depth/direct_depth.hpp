@@ -11,20 +11,20 @@
 // optical). With roll = 0 and no distortion the results equal the canonical formulas:
 //   beta = atan((r - cy)/fy), Y = h / tan(alpha + beta), valid iff alpha + beta > 0,
 //   lateral = -u h / (v cos(alpha) + sin(alpha)), u = (c - cx)/fx, v = (r - cy)/fy.
-#include <opencv2/core.hpp>
-
 #include <optional>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::direct_depth {
 
 struct CameraModel {
-  double fx = 0.0, fy = 0.0;  ///< px, focal lengths
-  double cx = 0.0, cy = 0.0;  ///< px, principal point
+  double fx = 0.0, fy = 0.0;                                ///< px, focal lengths
+  double cx = 0.0, cy = 0.0;                                ///< px, principal point
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;  ///< OpenCV distortion coefficients
-  int width = 0, height = 0;  ///< px, image size
-  double mount_height_m = 0.0;  ///< m, optical centre above the (flat) ground
-  double pitch_rad = 0.0;       ///< rad, optical axis below the horizontal (down positive)
-  double roll_rad = 0.0;        ///< rad, about the optical axis
+  int width = 0, height = 0;                                ///< px, image size
+  double mount_height_m = 0.0;                              ///< m, optical centre above the (flat) ground
+  double pitch_rad = 0.0;                                   ///< rad, optical axis below the horizontal (down positive)
+  double roll_rad = 0.0;                                    ///< rad, about the optical axis
   /// Seconds-free sanity check; throws std::invalid_argument naming the field.
   void validate() const;
   bool has_distortion() const { return k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0; }
@@ -38,9 +38,9 @@ struct GroundPoint {
 };
 
 struct ObjectSize {
-  double width_m = 0.0;     ///< lateral extent of the bottom edge
-  double height_m = 0.0;    ///< height of the box's top ray above the ground at the estimated depth
-  double range_m = 0.0;     ///< forward range of the bottom edge (ground contact)
+  double width_m = 0.0;   ///< lateral extent of the bottom edge
+  double height_m = 0.0;  ///< height of the box's top ray above the ground at the estimated depth
+  double range_m = 0.0;   ///< forward range of the bottom edge (ground contact)
   bool valid = false;
 };
 

@@ -28,10 +28,11 @@ struct TerrainMapState {
   DriveCounters counters;         ///< the mapper's: frames, vo_ok, vo_failed, odometry_jumps, keyframes
   long frames_rejected = 0;       ///< frames never given to the mapper (corrupt, wrong size / type, mapper error)
   long odometry_unavailable = 0;  ///< frames without encoder angles at their capture time
-  long odometry_reanchored = 0;   ///< odometry sub-steps whose wheel reading was implausible (re-anchored, distance lost)
-  long cells_known = 0;           ///< map cells with an elevation (at the last map update)
-  long map_updates = 0;           ///< times the derived layers were recomputed (and published)
-  double distance_m = 0.0;        ///< wheel odometry distance driven
+  long odometry_reanchored =
+      0;                    ///< odometry sub-steps whose wheel reading was implausible (re-anchored, distance lost)
+  long cells_known = 0;     ///< map cells with an elevation (at the last map update)
+  long map_updates = 0;     ///< times the derived layers were recomputed (and published)
+  double distance_m = 0.0;  ///< wheel odometry distance driven
 };
 
 /// Registers "terrain_map" with the runtime's component registry.

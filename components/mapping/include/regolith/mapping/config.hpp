@@ -3,9 +3,9 @@
 // component (its `params:` block) and `regolith map` (`--config FILE`, `--set key=value`), so a
 // key means the same in both. Keys, units and defaults: components/mapping/README.md
 // ("Parameters"); `regolith config check` lists them for a deployment.
-#include "regolith/core/time.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
+#include "regolith/core/time.hpp"
 #include "regolith/mapping/drive_mapper.hpp"
 
 namespace regolith::mapping {

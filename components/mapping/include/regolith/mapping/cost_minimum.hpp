@@ -4,10 +4,10 @@
 // t arrive as rolling slices c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 bracketed by its
 // neighbours replaces the best so far. Then a parabola through the three gives the sub-step
 // offset and the match confidence. Header-only, no allocation.
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <cmath>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::mapping {
 

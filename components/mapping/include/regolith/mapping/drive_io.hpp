@@ -24,15 +24,15 @@ struct DriveFrame {
   int index = 0;
   std::filesystem::path file;  ///< absolute (resolved against the drive directory)
   double t_s = 0.0;
-  Pose2 odometry;              ///< wheel odometry (world)
-  int line = 0;                ///< line in frames.csv
+  Pose2 odometry;  ///< wheel odometry (world)
+  int line = 0;    ///< line in frames.csv
 };
 
 struct RecordedDrive {
   std::filesystem::path dir;
   direct_depth::CameraModel camera;
   CameraMount mount;
-  double sun_azimuth_deg = 0.0;    ///< from +y (north) clockwise towards +x (east)
+  double sun_azimuth_deg = 0.0;  ///< from +y (north) clockwise towards +x (east)
   double sun_elevation_deg = 0.0;
   double wheel_radius_m = 0.0;
   std::vector<DriveFrame> frames;
@@ -56,7 +56,7 @@ struct DriveMapSummary {
   std::vector<FrameReport> reports;  ///< per used frame
   std::vector<int> frame_index;      ///< frames.csv `frame` of each report
   std::vector<MapRock> rocks;
-  double path_length_m = 0.0;        ///< of the corrected poses
+  double path_length_m = 0.0;  ///< of the corrected poses
   std::vector<std::filesystem::path> written;
 };
 

@@ -8,20 +8,20 @@
 // little ground, no texture, black or saturated frame, divergence) and the pose covariance then
 // grows with the wheel model. The map is placed with the corrected pose.
 // Framework-free: the `terrain_map` component and `regolith map` both drive this class.
-#include <opencv2/core.hpp>
-
 #include <array>
 #include <limits>
 #include <optional>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/mapping/ground_vo.hpp"
 #include "regolith/mapping/parallax.hpp"
 #include "regolith/mapping/plane_sweep.hpp"
+#include "regolith/mapping/pose2.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/mapping/rock_tracker.hpp"
 #include "regolith/mapping/shadow.hpp"
-#include "regolith/mapping/pose2.hpp"
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -60,26 +60,28 @@ struct DriveMapperParams {
   RockTrackerParams tracks;
   ShadowParams shadow;
   traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
-  int sighting_tilt_window = 9;       ///< frames: rocks are ranged with the median of the last this many VO tilts ...
-  double sighting_tilt_noise_rad = 0.015;  ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
-                                      ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
-  bool ground_tilt = true;            ///< rocks are ranged with the VO tilt refitted without the keyframe's sighted objects
-  int object_margin_px = 3;           ///< px around each sighted rock's image box left out of that refit
-  double keyframe_distance_m = 0.70;  ///< m of camera motion after which the current frame becomes the keyframe
-  double keyframe_yaw_rad = 0.12;     ///< rad
+  int sighting_tilt_window = 9;  ///< frames: rocks are ranged with the median of the last this many VO tilts ...
+  double sighting_tilt_noise_rad =
+      0.015;                 ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
+                             ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
+  bool ground_tilt = true;   ///< rocks are ranged with the VO tilt refitted without the keyframe's sighted objects
+  int object_margin_px = 3;  ///< px around each sighted rock's image box left out of that refit
+  double keyframe_distance_m = 0.70;          ///< m of camera motion after which the current frame becomes the keyframe
+  double keyframe_yaw_rad = 0.12;             ///< rad
   double keyframe_min_inlier_fraction = 0.5;  ///< a fit with fewer inliers also makes a new keyframe
-  bool use_vision = true;             ///< false: wheel odometry only (for comparison)
-  bool fuse_terrain = true;           ///< false: odometry only (no terrain in the map)
-  bool fuse_parallax = true;          ///< heights from motion parallax against the keyframe
+  bool use_vision = true;                     ///< false: wheel odometry only (for comparison)
+  bool fuse_terrain = true;                   ///< false: odometry only (no terrain in the map)
+  bool fuse_parallax = true;                  ///< heights from motion parallax against the keyframe
   ParallaxMode parallax_mode = ParallaxMode::kBoth;  ///< which parallax search(es) give heights
-  double parallax_spacing_m = 0.0;    ///< m, a parallax search runs when the baseline grew this much since the last one
-                                      ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
-  bool fuse_shadows = false;          ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: no rock gained and hazard AUC -0.016 .. +0.009 on the dev drives
-  bool fuse_sightings = true;         ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
-  bool fuse_shading = true;           ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
-                                      ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
-                                      ///< leaves it off for its time budget)
-  double shading_weight = 0.1;        ///< x the SfS grid's confidence when fused (components/mapping/README.md: the sweep)
+  double parallax_spacing_m = 0.0;  ///< m, a parallax search runs when the baseline grew this much since the last one
+                                    ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
+  bool fuse_shadows = false;    ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: no
+                                ///< rock gained and hazard AUC -0.016 .. +0.009 on the dev drives
+  bool fuse_sightings = true;   ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
+  bool fuse_shading = true;     ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
+                                ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
+                                ///< leaves it off for its time budget)
+  double shading_weight = 0.1;  ///< x the SfS grid's confidence when fused (components/mapping/README.md: the sweep)
   static traversability::TraversabilityParams default_terrain() {
     traversability::TraversabilityParams t;
     t.center_x_m = 2.75;
@@ -104,13 +106,13 @@ struct FrameReport {
   bool keyframe = false;       ///< this frame became the keyframe
   int vo_inliers = 0;
   int cells_fused = 0;
-  bool parallax = false;  ///< heights from parallax were fused
-  int shadow_casters = 0; ///< objects measured from their shadows in this frame
-  int rock_sightings = 0; ///< rocks sighted and ranged in this frame
-  int rock_tracks = 0;    ///< rocks followed across frames (live tracks) after this frame
-  Pose2 pose;        ///< corrected rover pose (world)
-  Cov3 covariance;   ///< of `pose`
-  Pose2 wheel_pose;  ///< wheel odometry as given
+  bool parallax = false;   ///< heights from parallax were fused
+  int shadow_casters = 0;  ///< objects measured from their shadows in this frame
+  int rock_sightings = 0;  ///< rocks sighted and ranged in this frame
+  int rock_tracks = 0;     ///< rocks followed across frames (live tracks) after this frame
+  Pose2 pose;              ///< corrected rover pose (world)
+  Cov3 covariance;         ///< of `pose`
+  Pose2 wheel_pose;        ///< wheel odometry as given
 };
 
 struct DriveCounters {
@@ -186,13 +188,13 @@ class DriveMapper {
   double last_parallax_base_ = 0.0;  // baseline of the last parallax search against this keyframe
   cv::Vec2d tilt_;                   // this frame's camera tilt against the ground (VO; 0 without)
   cv::Mat objects_;                  // CV_8U camera-size: this frame's sighted objects (VO exclusion)
-  cv::Vec2d sighting_tilt() const;         // the filtered tilt rocks are ranged with
+  cv::Vec2d sighting_tilt() const;   // the filtered tilt rocks are ranged with
   static constexpr int kMaxTiltWindow = 64;
   std::array<cv::Vec2d, kMaxTiltWindow> tilts_{};  // the last VO tilts (ring)
   int n_tilts_ = 0;
-  Pose2 key_foot_;                   // keyframe camera foot in the world
-  Cov3 key_cov_ = Cov3::Zero();      // its covariance
-  Pose2 wheel_since_key_;            // wheel-predicted camera foot in the keyframe frame
+  Pose2 key_foot_;               // keyframe camera foot in the world
+  Cov3 key_cov_ = Cov3::Zero();  // its covariance
+  Pose2 wheel_since_key_;        // wheel-predicted camera foot in the keyframe frame
   Cov3 wheel_since_key_cov_ = Cov3::Zero();
 };
 

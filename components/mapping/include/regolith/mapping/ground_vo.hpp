@@ -15,11 +15,11 @@
 // keyframe's camera foot frame, with a covariance from the fit (Gauss-Newton information scaled
 // by the residual variance and `covariance_inflation` for correlated neighbouring cells).
 // Everything is allocated in the constructor: track() does not touch the heap.
-#include <opencv2/core.hpp>
-
 #include <array>
 #include <optional>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/direct_depth/ground_rectifier.hpp"
@@ -28,19 +28,19 @@
 namespace regolith::mapping {
 
 struct GroundVoParams {
-  double resolution_m = 0.02;      ///< m, finest rectified cell
-  double min_range_m = 0.5;        ///< m, ground used from this forward distance ...
-  double max_range_m = 3.0;        ///< m, ... to this one (farther cells are blurred by the view)
-  double half_width_m = 2.0;       ///< m, lateral half-width of the rectified window
-  int levels = 2;                  ///< pyramid levels (each halves the resolution)
-  int iterations = 15;             ///< Gauss-Newton iterations per level (stops earlier on convergence)
-  int stride = 2;                  ///< template cells used every `stride` cells (finest level)
-  double min_support = 0.2;        ///< image pixels per cell below which a cell is too blurred to use
-  double tukey_c = 4.685;          ///< Tukey constant in robust standard deviations
-  int min_points = 300;            ///< inlier cells needed for a measurement
-  double max_sigma_m = 0.01;       ///< m, a fit whose translation std exceeds this is "no texture"
-  double max_correction_m = 0.15;  ///< m, farther from the prior than this = diverged
-  double max_correction_rad = 0.15;  ///< rad
+  double resolution_m = 0.02;         ///< m, finest rectified cell
+  double min_range_m = 0.5;           ///< m, ground used from this forward distance ...
+  double max_range_m = 3.0;           ///< m, ... to this one (farther cells are blurred by the view)
+  double half_width_m = 2.0;          ///< m, lateral half-width of the rectified window
+  int levels = 2;                     ///< pyramid levels (each halves the resolution)
+  int iterations = 15;                ///< Gauss-Newton iterations per level (stops earlier on convergence)
+  int stride = 2;                     ///< template cells used every `stride` cells (finest level)
+  double min_support = 0.2;           ///< image pixels per cell below which a cell is too blurred to use
+  double tukey_c = 4.685;             ///< Tukey constant in robust standard deviations
+  int min_points = 300;               ///< inlier cells needed for a measurement
+  double max_sigma_m = 0.01;          ///< m, a fit whose translation std exceeds this is "no texture"
+  double max_correction_m = 0.15;     ///< m, farther from the prior than this = diverged
+  double max_correction_rad = 0.15;   ///< rad
   double covariance_inflation = 8.0;  ///< x the Gauss-Newton covariance (neighbouring cells are correlated)
   double scale_uncertainty = 0.05;    ///< std of the motion's scale beyond the fit (height / tilt model error)
   double attitude_prior_rad = 0.015;  ///< rad, std of a camera's tilt against the ground around the mount
@@ -56,15 +56,15 @@ const char* to_string(VoStatus s);
 struct VoMeasurement {
   VoStatus status = VoStatus::kNoKeyframe;
   bool ok() const { return status == VoStatus::kOk; }
-  Pose2 pose;                          ///< current camera foot in the keyframe's camera foot frame
-  Cov3 covariance = Cov3::Identity();  ///< of `pose`
-  int points = 0;                      ///< template cells compared at the finest level
-  int inliers = 0;                     ///< of those, with a non-zero robust weight
-  int frame_cells = 0;                 ///< usable (textured, unclipped) cells of the current frame
-  double residual_dn = 0.0;            ///< robust residual standard deviation (grey levels)
-  double gain = 1.0, bias_dn = 0.0;    ///< brightness change current = gain * keyframe + bias
-  double pitch_rad = 0.0, roll_rad = 0.0;  ///< the current camera's tilt against the ground, beyond the mount
-  double height_ratio = 1.0;  ///< keyframe camera's height above the ground / the current camera's
+  Pose2 pose;                                      ///< current camera foot in the keyframe's camera foot frame
+  Cov3 covariance = Cov3::Identity();              ///< of `pose`
+  int points = 0;                                  ///< template cells compared at the finest level
+  int inliers = 0;                                 ///< of those, with a non-zero robust weight
+  int frame_cells = 0;                             ///< usable (textured, unclipped) cells of the current frame
+  double residual_dn = 0.0;                        ///< robust residual standard deviation (grey levels)
+  double gain = 1.0, bias_dn = 0.0;                ///< brightness change current = gain * keyframe + bias
+  double pitch_rad = 0.0, roll_rad = 0.0;          ///< the current camera's tilt against the ground, beyond the mount
+  double height_ratio = 1.0;                       ///< keyframe camera's height above the ground / the current camera's
   double key_pitch_rad = 0.0, key_roll_rad = 0.0;  ///< the keyframe camera's, estimated in the same fit
   /// The current camera's tilt fitted again from the same solution without the keyframe cells
   /// marked by exclude() (objects standing on the ground): `ground_tilt` says whether that refit
@@ -123,7 +123,7 @@ class GroundVisualOdometry {
   };
   void build_frame(const cv::Mat& gray, Frame& f);
   // One level of Gauss-Newton; returns false when the normal equations are singular.
-    // Unknowns: the planar transform taking keyframe ground points into the current frame, both
+  // Unknowns: the planar transform taking keyframe ground points into the current frame, both
   // cameras' tilts against the ground (pitch, roll beyond the mount) and the brightness change.
   enum Param { kX, kY, kYaw, kKeyPitch, kKeyRoll, kPitch, kRoll, kGain, kBias, kScale, kParams };
   using Params = std::array<double, kParams>;
@@ -147,8 +147,8 @@ class GroundVisualOdometry {
   bool has_keyframe_ = false;
   cv::Mat raw_, tmp_;
   std::vector<std::vector<Point>> templates_;  // per level, from the keyframe (capacity fixed)
-  std::vector<Point> ground_template_;          // finest level without the excluded cells (empty: no refit)
-  cv::Mat excluded_cur_, excluded_key_;          // CV_8U on the finest grid, non-zero = excluded
+  std::vector<Point> ground_template_;         // finest level without the excluded cells (empty: no refit)
+  cv::Mat excluded_cur_, excluded_key_;        // CV_8U on the finest grid, non-zero = excluded
   // last_.ground_*: the tilt refitted from the motion fit's solution `th` over ground_template_.
   void refit_ground_tilt(const Params& th);
   bool cur_excluded_ = false, key_excluded_ = false;

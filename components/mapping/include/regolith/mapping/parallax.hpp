@@ -39,8 +39,8 @@ struct ParallaxParams {
   /// Ambiguous cells (a second cost valley nearly as deep as the best: unique_minimum) are
   /// unknown; 0 = off. As PlaneSweepParams::uniqueness_ratio.
   double uniqueness_ratio = 1.25;
-  bool remove_plane = false;     ///< remove each frame's best-fit plane (tilt error); tried: neutral on the dev drives
-  void validate() const;  ///< FieldError("mapping.parallax", ...)
+  bool remove_plane = false;  ///< remove each frame's best-fit plane (tilt error); tried: neutral on the dev drives
+  void validate() const;      ///< FieldError("mapping.parallax", ...)
 };
 
 class GroundParallax {

@@ -42,13 +42,13 @@ struct PlaneSweepParams {
   double noise_dn = 2.0;           ///< grey levels, image noise for the confidence
   double reference_step_m = 0.02;  ///< m, height step at which a match keeps its full confidence; coarser steps (far
                                    ///< rows, short baselines) scale it by (reference / step)^2
-  double min_confidence = 0.001;  ///< pixels below this are unknown
+  double min_confidence = 0.001;   ///< pixels below this are unknown
   /// A pixel whose second-deepest cost valley (another bracketed minimum) is below this times the
   /// best plus one noise variance per window sample is ambiguous and unknown (Lowe's ratio test:
   /// best / second > 0.8). 0 = off. Repetitive texture along the epipolar line otherwise lifts a
   /// flat ground 0.2-0.4 m (the mocked rover's rippled near field: see components/mapping/README.md).
   double uniqueness_ratio = 1.25;
-  void validate() const;          ///< FieldError("mapping.sweep", ...)
+  void validate() const;  ///< FieldError("mapping.sweep", ...)
 };
 
 class PlaneSweep {

@@ -2,9 +2,9 @@
 // Planar poses (SE(2)) with covariance, for odometry in a fixed world frame (REP-105 `odom`:
 // x, y in metres, yaw counter-clockwise from +x). Plain structs and Eigen fixed-size matrices:
 // nothing here allocates.
-#include <Eigen/Core>
-
 #include <cmath>
+
+#include <Eigen/Core>
 
 namespace regolith::mapping {
 
@@ -22,7 +22,9 @@ struct Pose2 {
 
 using Cov3 = Eigen::Matrix3d;  ///< covariance of (x, y, yaw), m^2 / m rad / rad^2
 
-inline double wrap_angle(double a) { return std::remainder(a, 2.0 * 3.14159265358979323846); }
+inline double wrap_angle(double a) {
+  return std::remainder(a, 2.0 * 3.14159265358979323846);
+}
 
 /// a then b (b expressed in a's frame).
 inline Pose2 compose(const Pose2& a, const Pose2& b) {
@@ -34,7 +36,9 @@ inline Pose2 inverse(const Pose2& a) {
   return {-c * a.x - s * a.y, s * a.x - c * a.y, wrap_angle(-a.yaw)};
 }
 /// b in a's frame: inverse(a) then b.
-inline Pose2 between(const Pose2& a, const Pose2& b) { return compose(inverse(a), b); }
+inline Pose2 between(const Pose2& a, const Pose2& b) {
+  return compose(inverse(a), b);
+}
 
 /// Covariance of compose(a, b) for independent a (cov pa) and b (cov pb), first order.
 inline Cov3 compose_covariance(const Pose2& a, const Cov3& pa, const Pose2& b, const Cov3& pb) {

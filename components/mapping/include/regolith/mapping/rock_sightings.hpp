@@ -26,8 +26,9 @@
 // `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle), the blob's image box
 // (for overlays and single-image reports), the contact's ground point and the top ray's slope
 // (for RockTracker, which triangulates the contact across frames). Everything is allocated in the constructor.
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/direct_depth/direct_depth.hpp"
 
@@ -102,8 +103,8 @@ class RockSightings {
   const cv::Mat& mask() const { return mask_; }
   /// What stands on the ground in the last frame, for GroundVisualOdometry::exclude: the blob
   /// mask plus each sighting's image box grown by `margin_px` (a rock's inside can match the
-  /// ground's brightness; its far side and top are seen over the ground behind it). `out` must be CV_8U of the camera's size (else FieldError naming
-  /// "objects"); no allocation.
+  /// ground's brightness; its far side and top are seen over the ground behind it). `out` must be CV_8U of the camera's
+  /// size (else FieldError naming "objects"); no allocation.
   void object_mask(cv::Mat& out, int margin_px) const;
 
  private:

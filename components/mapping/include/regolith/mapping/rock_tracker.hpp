@@ -28,12 +28,11 @@
 // `kObservations` nearest frames (weight score / range^2); width = their mean width.
 // Output: table() (live tracks) and closed() (tracks closed by the last update), world frame, one
 // column per track (TrackRow; NaN after the count). No heap allocation after construction.
-#include <opencv2/core.hpp>
-
-#include <Eigen/Core>
-
 #include <array>
 #include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
 
 #include "regolith/mapping/pose2.hpp"
 
@@ -52,7 +51,7 @@ struct RockTrackerParams {
 
 /// Rows of RockTracker::table() and closed().
 enum TrackRow {
-  kTrackX,       ///< m, world: the rock's centre
+  kTrackX,  ///< m, world: the rock's centre
   kTrackY,
   kTrackHeight,  ///< m, above its contact
   kTrackWidth,   ///< m
@@ -76,7 +75,7 @@ class RockTracker {
   /// pose or mount height uses none (the frame still ages the tracks).
   int update(const cv::Mat& sightings, const Pose2& camera_foot, double mount_height_m);
 
-  int count() const { return count_; }         ///< live tracks (columns of table())
+  int count() const { return count_; }  ///< live tracks (columns of table())
   const cv::Mat& table() const { return table_; }
   int closed_count() const { return closed_count_; }  ///< tracks closed by the last update
   const cv::Mat& closed() const { return closed_; }
@@ -102,7 +101,7 @@ class RockTracker {
     Eigen::Vector3d o, d;  // camera centre, unit ray to the contact (world)
     double ground = 0;     // distance from o to the ray's ground point
     double sigma = 0, sigma_along = 0, spread = 0, range = 0, radius = 0;
-    bool ok = false;       // finite: usable
+    bool ok = false;  // finite: usable
   };
   void write(const Track& t, cv::Mat& table, int column) const;
   void close(int slot);
@@ -112,9 +111,9 @@ class RockTracker {
   int max_sightings_ = 0;
   std::vector<Track> tracks_;
   std::vector<Ray> rays_;
-  std::vector<int> matched_;                         // per sighting: track slot or -1
-  std::vector<unsigned char> taken_;                 // per slot: continued this frame
-  std::vector<std::array<double, 3>> candidates_;    // (cost, sighting, slot)
+  std::vector<int> matched_;                       // per sighting: track slot or -1
+  std::vector<unsigned char> taken_;               // per slot: continued this frame
+  std::vector<std::array<double, 3>> candidates_;  // (cost, sighting, slot)
   cv::Mat table_, closed_;
   int count_ = 0, closed_count_ = 0;
   long frame_ = 0, opened_ = 0;

@@ -4,6 +4,7 @@
 // axis (forward). The physical ray of a pixel is tilt_rotation(pitch, roll) x its nominal ray
 // (body frame: x forward, y left, z up). Header-only, no allocation.
 #include <cmath>
+
 #include <opencv2/core.hpp>
 
 namespace regolith::mapping {

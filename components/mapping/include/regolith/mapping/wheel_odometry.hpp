@@ -79,9 +79,9 @@ class SteppedOdometry {
 
   bool started() const { return odo_.started(); }
   const Pose2& pose() const { return odo_.pose(); }
-  double distance() const { return odo_.distance(); }          ///< m driven
-  std::int64_t time_ns() const { return time_; }               ///< the last time reached
-  long reanchored() const { return reanchored_; }              ///< implausible sub-steps met
+  double distance() const { return odo_.distance(); }  ///< m driven
+  std::int64_t time_ns() const { return time_; }       ///< the last time reached
+  long reanchored() const { return reanchored_; }      ///< implausible sub-steps met
   std::size_t wheel_count() const { return odo_.wheel_count(); }
 
  private:
@@ -106,8 +106,8 @@ bool SteppedOdometry::advance_to(std::int64_t t, Read&& read) {
   const std::int64_t n = std::clamp<std::int64_t>((span + step_ - 1) / step_, 1, kMaxSubsteps);
   const std::int64_t from = time_;
   for (std::int64_t k = 1; k <= n; ++k) {
-    const auto tk = from + static_cast<std::int64_t>(static_cast<double>(span) * static_cast<double>(k) /
-                                                     static_cast<double>(n));
+    const auto tk =
+        from + static_cast<std::int64_t>(static_cast<double>(span) * static_cast<double>(k) / static_cast<double>(n));
     if (!read(tk, std::span<double>(angles_), yaw)) return false;
     const double max_step = max_speed_ * static_cast<double>(tk - time_) * 1e-9 + 0.05;
     if (!odo_.update(angles_, yaw, max_step)) ++reanchored_;

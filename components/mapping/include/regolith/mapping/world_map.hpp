@@ -22,11 +22,11 @@
 // ones replaced each frame) with enough frames, evidence and height, one per rock_merge_m; with
 // rocks_from_relief also connected relief blobs. Derived layers (finish()) and rocks are computed
 // on request.
-#include <opencv2/core.hpp>
-
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/mapping/pose2.hpp"
 #include "regolith/traversability/traversability.hpp"
@@ -34,13 +34,13 @@
 namespace regolith::mapping {
 
 struct WorldMapParams {
-  double resolution_m = 0.04;   ///< m per cell
-  double length_x_m = 16.0;     ///< m, window extent along world x
-  double length_y_m = 16.0;     ///< m, window extent along world y
-  double range_scale_m = 2.0;   ///< m, a look from this range weighs half a look from 0 m
-  double max_range_m = 5.0;     ///< m, body cells farther than this are not fused
-  double weight_full = 1.0;     ///< weight at which confidence reaches 1 - 1/e
-  double min_weight = 0.01;     ///< cells with less total weight stay unknown (elevation)
+  double resolution_m = 0.04;  ///< m per cell
+  double length_x_m = 16.0;    ///< m, window extent along world x
+  double length_y_m = 16.0;    ///< m, window extent along world y
+  double range_scale_m = 2.0;  ///< m, a look from this range weighs half a look from 0 m
+  double max_range_m = 5.0;    ///< m, body cells farther than this are not fused
+  double weight_full = 1.0;    ///< weight at which confidence reaches 1 - 1/e
+  double min_weight = 0.01;    ///< cells with less total weight stay unknown (elevation)
   /// Weight a cell's relief needs to shape the local ground and to be a hazard cue: below it a
   /// cell has an elevation (and its variance) but its relief is unknown (NaN).
   double hazard_min_weight = 0.05;
@@ -51,17 +51,18 @@ struct WorldMapParams {
   double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
   double hazard_height_m = 0.10;      ///< m, obstacle height the hazard is the probability of
   double hazard_relief_weight = 0.2;  ///< probability the parallax relief alone carries at hazard_height_m (a weak cue)
-  double hazard_evidence_scale = 1.0; ///< summed sighting scores at which p(sighted rock) = 1 - 1/e
-  double shadow_spread_m = 0.08;      ///< m, a caster's height covers cells this close to its foot
-  double rock_min_height_m = 0.05;    ///< m, relief a rock must reach
-  double rock_min_area_m2 = 0.004;    ///< m^2, smallest rock footprint reported
-  double sighting_radius_m = 0.06;    ///< m, standard deviation at which a sighting adds its full score at its centre
-  double rock_min_evidence = 1.0;     ///< summed sighting scores a rock needs (several frames agreeing)
-  int rock_min_frames = 3;            ///< frames a tracked rock must have been sighted in
-  int max_rocks = 4096;               ///< rock tracks the map keeps (the weakest go first)
-  double rock_merge_m = 0.25;         ///< m, rocks closer than this are one rock (the stronger kept)
-  bool rocks_from_relief = false;     ///< also report connected relief blobs as rocks (off: more false than true rocks on the dev drives)
-  double rock_min_confidence = 0.3;   ///< confidence a rock's top cell needs (0 = any; a shadow-only top has none)
+  double hazard_evidence_scale = 1.0;  ///< summed sighting scores at which p(sighted rock) = 1 - 1/e
+  double shadow_spread_m = 0.08;       ///< m, a caster's height covers cells this close to its foot
+  double rock_min_height_m = 0.05;     ///< m, relief a rock must reach
+  double rock_min_area_m2 = 0.004;     ///< m^2, smallest rock footprint reported
+  double sighting_radius_m = 0.06;     ///< m, standard deviation at which a sighting adds its full score at its centre
+  double rock_min_evidence = 1.0;      ///< summed sighting scores a rock needs (several frames agreeing)
+  int rock_min_frames = 3;             ///< frames a tracked rock must have been sighted in
+  int max_rocks = 4096;                ///< rock tracks the map keeps (the weakest go first)
+  double rock_merge_m = 0.25;          ///< m, rocks closer than this are one rock (the stronger kept)
+  bool rocks_from_relief =
+      false;  ///< also report connected relief blobs as rocks (off: more false than true rocks on the dev drives)
+  double rock_min_confidence = 0.3;  ///< confidence a rock's top cell needs (0 = any; a shadow-only top has none)
   traversability::TraversabilityParams traversability;  ///< slope / step / roughness thresholds
   /// Throws FieldError("mapping.map", field, ...) naming the bad field.
   void validate() const;
@@ -139,10 +140,10 @@ class WorldMap {
   float evidence_height(int i, int j) const { return sight_h_.at<float>(i, j) + live_h_.at<float>(i, j); }
   cv::Mat sight_w_, sight_h_;  // closed rock tracks: evidence and its weighted sum of heights (CV_32F)
   cv::Mat live_w_, live_h_;    // the same for the live tracks (repainted every frame)
-  cv::Mat tracks_;                       // TrackRow columns: closed tracks [0, n_closed_), then the live ones
+  cv::Mat tracks_;             // TrackRow columns: closed tracks [0, n_closed_), then the live ones
   int n_closed_ = 0, n_live_ = 0;
   std::vector<cv::Mat> layers_;
-  traversability::GridMap trav_;      // view of elevation for compute_layers
+  traversability::GridMap trav_;  // view of elevation for compute_layers
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)

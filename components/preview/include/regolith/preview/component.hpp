@@ -19,9 +19,9 @@ namespace regolith::preview {
 
 /// One encoded preview, on channel "preview/<source>".
 struct PreviewImage {
-  TimeNs stamp = 0;             ///< capture time of the camera frame (ns, process clock)
-  std::uint64_t sequence = 0;   ///< camera frame sequence number
-  int width = 0, height = 0;    ///< px, of the encoded image
+  TimeNs stamp = 0;                ///< capture time of the camera frame (ns, process clock)
+  std::uint64_t sequence = 0;      ///< camera frame sequence number
+  int width = 0, height = 0;       ///< px, of the encoded image
   std::vector<std::uint8_t> jpeg;  ///< capacity reserved at configure time; size() = bytes
 };
 

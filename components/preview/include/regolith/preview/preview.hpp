@@ -46,8 +46,8 @@ void draw_rocks(const cv::Mat& frame, std::span<const saliency::RangedRock> rock
 /// Wheel camera: the CV_8UC3 `frame` scaled into `scaled` (preview_size), then sinkage::draw_overlay
 /// (leg template red, interface line green, sinkage blue, caption) with the geometry and the
 /// result scaled alike, into `out`. Throws std::invalid_argument for a frame that is not CV_8UC3.
-void draw_sinkage(const cv::Mat& frame, const sinkage::WheelGeometry& geometry,
-                  const sinkage::SinkageResult& result, int width, cv::Mat& scaled, cv::Mat& out);
+void draw_sinkage(const cv::Mat& frame, const sinkage::WheelGeometry& geometry, const sinkage::SinkageResult& result,
+                  int width, cv::Mat& scaled, cv::Mat& out);
 
 /// JPEG of a CV_8UC3 image at `quality` (1..100) into `bytes` (reused: it grows, never shrinks).
 /// Returns false when OpenCV cannot encode it.

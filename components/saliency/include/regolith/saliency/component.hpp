@@ -9,6 +9,7 @@
 // Parameters, I/O and numbers: components/saliency/README.md ("Component").
 #include <array>
 #include <cstdint>
+
 #include <opencv2/core.hpp>
 
 #include "regolith/common/payloads.hpp"

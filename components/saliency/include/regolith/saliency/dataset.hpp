@@ -6,10 +6,11 @@
 // channel-weight sweep (thesis Table 5.2 analogue) and k-fold cross-validation
 // of weights, contrast parameters and thresholds with folds grouped by sol.
 #include <functional>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"

@@ -5,8 +5,9 @@
 // saliency inside its box.
 #include <array>
 #include <cstdint>
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/saliency/image_ops.hpp"
 

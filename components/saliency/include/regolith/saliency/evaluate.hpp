@@ -16,9 +16,10 @@
 //  beta^2 = 0.3, and
 //    the mean absolute error of the map scaled to [0,1].
 #include <array>
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/saliency/detect.hpp"
 

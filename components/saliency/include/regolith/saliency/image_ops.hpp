@@ -7,8 +7,9 @@
 // inputs. Scratch buffers are passed in (or owned by the object) and are only (re)allocated when
 // the image size changes.
 #include <array>
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::saliency {
 

@@ -18,9 +18,10 @@
 //   -> SM = sum_f w_f N(conspicuity_f), scaled so that max = 1, bilinearly
 //   resized to the input.
 #include <array>
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/core/parallel.hpp"
 #include "regolith/saliency/image_ops.hpp"

@@ -5,9 +5,10 @@
 // in [0,1] at the input size.
 #include <array>
 #include <memory>
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::saliency {
 

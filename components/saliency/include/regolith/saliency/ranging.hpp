@@ -4,8 +4,9 @@
 // around regolith::direct_depth) that maps a pixel to a point on the ground in
 // the rover frame (REP-103: x forward, y left).
 #include <functional>
-#include <opencv2/core.hpp>
 #include <optional>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/saliency/detect.hpp"
 

@@ -5,9 +5,10 @@
 // when that library is built); the regolith::saliency library itself
 // does not depend on the SfS component.
 #include <cmath>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
 
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/sfs/sfs.hpp"

@@ -24,10 +24,11 @@
 #include <array>
 #include <cstdint>
 #include <memory>
-#include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"

@@ -2,13 +2,13 @@
 // Component wrapper "sfs": one camera frame per cycle -> grey -> vignetting correction -> SfS ->
 // shared DTM on channel "terrain/dtm" (consumed by traversability and, later, SAMS: the DTM is
 // computed once per frame). Parameters and I/O: components/sfs/README.md.
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 
+#include <opencv2/core.hpp>
+
+#include "regolith/common/payloads.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/time.hpp"
-#include "regolith/common/payloads.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
 

@@ -44,7 +44,7 @@ class RealFft2d {
   void release();
   int rows_ = 0, cols_ = 0;
   float* real_ = nullptr;
-  void* spectrum_ = nullptr;  // fftwf_complex*
+  void* spectrum_ = nullptr;      // fftwf_complex*
   void* forward_plan_ = nullptr;  // fftwf_plan
   void* inverse_plan_ = nullptr;
 };

@@ -13,13 +13,13 @@
 //  * Output height is UP positive (towards the viewer), in pixel units: a surface rising by one
 //    height unit per pixel step has a 45 degree slope. Tsai-Shah's internal Z is depth (away from
 //    the viewer); SfsResult::height is its negative.
-#include <opencv2/core.hpp>
-
-#include "regolith/sfs/real_fft.hpp"
-
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "regolith/sfs/real_fft.hpp"
 
 namespace regolith::sfs {
 
@@ -61,16 +61,15 @@ struct Vignetting {
 };
 
 struct VignettingFit {
-  Vignetting model;       ///< enabled = true, fitted a2, a4, a6, centre as given
-  double rms_residual;    ///< RMS of (F/F0 - V(r)) over the fitted pixels, dimensionless
-  double f0;              ///< fitted centre brightness (same unit as the flat field)
+  Vignetting model;     ///< enabled = true, fitted a2, a4, a6, centre as given
+  double rms_residual;  ///< RMS of (F/F0 - V(r)) over the fitted pixels, dimensionless
+  double f0;            ///< fitted centre brightness (same unit as the flat field)
 };
 
 /// Least-squares fit of F(r) = f0 (1 + a2 r^2 + a4 r^4 + a6 r^6) to a flat-field image
 /// (CV_8U, CV_16U or CV_32F single channel; colour is converted to grey). Saturated (>= 98 % of
 /// the type maximum for 8/16 bit) and zero pixels are ignored. Throws std::invalid_argument.
-VignettingFit fit_vignetting_polynomial(const cv::Mat& flatfield, double cx_frac = 0.5,
-                                        double cy_frac = 0.5);
+VignettingFit fit_vignetting_polynomial(const cv::Mat& flatfield, double cx_frac = 0.5, double cy_frac = 0.5);
 
 /// dst = src / V (src CV_32F single channel; dst reallocated only if size/type differ).
 void correct_vignetting(const cv::Mat& src, const Vignetting& v, cv::Mat& dst);
@@ -90,9 +89,9 @@ struct SfsParams {
   /// Tsai-Shah marching: max Newton iterations per pixel (measured: 2-3 reach the accuracy of
   /// full convergence; the mean last update is ~2e-4 px after 3).
   int tsai_shah_newton_iterations = 3;
-  double tolerance = 1e-4;       ///< px: stop when |dZ| (marching: per pixel) or mean |dZ| < tolerance
-  double wn = 1e-8;              ///< Tsai-Shah measurement noise Wn (reference 1e-8)
-  double s0 = 0.01;              ///< Tsai-Shah initial variance S0 (reference 0.01)
+  double tolerance = 1e-4;  ///< px: stop when |dZ| (marching: per pixel) or mean |dZ| < tolerance
+  double wn = 1e-8;         ///< Tsai-Shah measurement noise Wn (reference 1e-8)
+  double s0 = 0.01;         ///< Tsai-Shah initial variance S0 (reference 0.01)
   TsaiShahScheme tsai_shah_scheme = TsaiShahScheme::kMarching;  ///< update scheme
   /// Marching: memory length (px) of the integration along the light: upstream heights are
   /// multiplied by 1 - 1/leak before use, which damps the low-frequency drift that integrating
@@ -104,14 +103,14 @@ struct SfsParams {
   /// instead of being solved. Off by default: on rendered terrain the attached shadows of rocks
   /// are black and solving them (to the gradient bound) scores better (r 0.70 vs 0.59).
   bool tsai_shah_skip_black = false;
-  bool kalman_gain = false;      ///< Jacobi: reference Kalman-style gain (freezes; for comparison)
-  bool gauss_seidel = false;      ///< Tsai-Shah: in-place raster update instead of Jacobi
-  double step_damping = 0.5;     ///< Tsai-Shah damped Newton step fraction (0, 1]
-  double max_step = 0.5;         ///< px, clamp on |dZ| per pixel per iteration (Tsai-Shah)
-  double saturation_level = 0.98;  ///< normalised E at/above which a pixel is masked invalid
-  double shadow_level = 0.02;      ///< normalised E at/below which a pixel is masked invalid
-  bool normalise_albedo = true;  ///< scale E so the median valid pixel = cos(slant) (flat ground)
-  bool estimate_light = false;   ///< estimate the light when none is supplied to compute()
+  bool kalman_gain = false;            ///< Jacobi: reference Kalman-style gain (freezes; for comparison)
+  bool gauss_seidel = false;           ///< Tsai-Shah: in-place raster update instead of Jacobi
+  double step_damping = 0.5;           ///< Tsai-Shah damped Newton step fraction (0, 1]
+  double max_step = 0.5;               ///< px, clamp on |dZ| per pixel per iteration (Tsai-Shah)
+  double saturation_level = 0.98;      ///< normalised E at/above which a pixel is masked invalid
+  double shadow_level = 0.02;          ///< normalised E at/below which a pixel is masked invalid
+  bool normalise_albedo = true;        ///< scale E so the median valid pixel = cos(slant) (flat ground)
+  bool estimate_light = false;         ///< estimate the light when none is supplied to compute()
   bool zheng_chellappa_refine = true;  ///< refine the estimated slant with the Z-C polynomial
   double min_light_confidence = 0.2;   ///< estimated light below this confidence -> throws
   /// Pentland: Tikhonov term of the inverse filter (frequencies whose |denominator| is below it
@@ -139,8 +138,7 @@ struct LightEstimate {
 /// Moment-based estimator (Lee-Rosenfeld / Zheng-Chellappa): tilt from mean normalised image
 /// gradient, slant and albedo from the first two intensity moments, optionally refined with the
 /// Zheng-Chellappa polynomial. `gray` CV_8U or CV_32F (0..1). `mask` optional CV_8U.
-LightEstimate estimate_light(const cv::Mat& gray, bool zheng_chellappa_refine = true,
-                             const cv::Mat& mask = cv::Mat());
+LightEstimate estimate_light(const cv::Mat& gray, bool zheng_chellappa_refine = true, const cv::Mat& mask = cv::Mat());
 
 /// Outcome of one solve. Not an exception: an unusable frame is normal input on a rover.
 enum class SfsStatus {
@@ -150,12 +148,12 @@ enum class SfsStatus {
 
 struct SfsResult {
   SfsStatus status = SfsStatus::kSolved;
-  cv::Mat height;  ///< CV_32F, same size as the input, relative height UP positive, pixel units
-  cv::Mat valid;   ///< CV_8U, 255 = valid pixel (not saturated / shadowed / outside)
-  LightDirection light;         ///< light direction actually used
+  cv::Mat height;        ///< CV_32F, same size as the input, relative height UP positive, pixel units
+  cv::Mat valid;         ///< CV_8U, 255 = valid pixel (not saturated / shadowed / outside)
+  LightDirection light;  ///< light direction actually used
   bool light_estimated = false;
-  double light_confidence = 1.0;  ///< 1 when supplied, estimator confidence otherwise
-  int iterations = 0;             ///< iterations run (Pentland: 1)
+  double light_confidence = 1.0;   ///< 1 when supplied, estimator confidence otherwise
+  int iterations = 0;              ///< iterations run (Pentland: 1)
   double final_mean_update = 0.0;  ///< mean |dZ| of the last iteration (px units)
 };
 
@@ -184,14 +182,14 @@ class ShapeFromShading {
   void bichsel_pentland(const LightDirection& l, SfsResult& out);
 
   SfsParams params_;
-  cv::Mat e_;       // CV_32F normalised brightness
-  cv::Mat gain_;    // vignetting gain map (cached per size)
-  cv::Mat work_e_;  // oriented copy for Tsai-Shah
-  cv::Mat z_, z_new_, s_;   // Tsai-Shah state (oriented frame)
-  cv::Mat mask_;    // CV_8U valid mask (image frame)
-  cv::Mat work_mask_;  // oriented copy of the mask for Tsai-Shah
-  RealFft2d fft_;     // Pentland: FFTW plans and buffers (allocation-free after the first frame)
-  cv::Mat filt_re_;   // Pentland: imaginary part of the inverse filter over the half spectrum
+  cv::Mat e_;              // CV_32F normalised brightness
+  cv::Mat gain_;           // vignetting gain map (cached per size)
+  cv::Mat work_e_;         // oriented copy for Tsai-Shah
+  cv::Mat z_, z_new_, s_;  // Tsai-Shah state (oriented frame)
+  cv::Mat mask_;           // CV_8U valid mask (image frame)
+  cv::Mat work_mask_;      // oriented copy of the mask for Tsai-Shah
+  RealFft2d fft_;          // Pentland: FFTW plans and buffers (allocation-free after the first frame)
+  cv::Mat filt_re_;        // Pentland: imaginary part of the inverse filter over the half spectrum
   cv::Size last_size_;
   double last_tilt_ = 1e9, last_slant_ = 1e9;
 };

@@ -24,10 +24,10 @@ struct BenchLogRow {
   bool valid = false;
   double confidence = 0;
   std::string reason;
-  double transducer_mm = 0;      ///< NaN when not available
+  double transducer_mm = 0;  ///< NaN when not available
   std::string load;
   std::string illumination;
-  int line = 0;                  ///< line in the file (for messages)
+  int line = 0;  ///< line in the file (for messages)
 };
 
 /// The header line (without newline).
@@ -35,9 +35,8 @@ const char* bench_log_header();
 /// One CSV line (without newline) into `buf` of `size` bytes, no allocation; returns the length
 /// written (truncated to size - 1). Labels must not contain commas or newlines.
 std::size_t format_bench_log_row(char* buf, std::size_t size, double time_s, std::uint64_t sequence,
-                                 double encoder_angle_rad, double vision_mm, bool valid,
-                                 double confidence, const char* reason, double transducer_mm,
-                                 const char* load, const char* illumination);
+                                 double encoder_angle_rad, double vision_mm, bool valid, double confidence,
+                                 const char* reason, double transducer_mm, const char* load, const char* illumination);
 /// Reads a log; throws std::runtime_error "FILE:LINE: ..." for a bad header or row.
 std::vector<BenchLogRow> read_bench_log(const std::filesystem::path& csv);
 

@@ -30,13 +30,13 @@ const char* to_string(EncoderProblem p);
 
 /// One processed frame, on channel "terrain/wheel_sinkage".
 struct WheelSinkageSample {
-  TimeNs stamp = 0;                 ///< capture time of the frame (ns, process clock)
-  std::uint64_t sequence = 0;       ///< camera frame sequence number
+  TimeNs stamp = 0;            ///< capture time of the frame (ns, process clock)
+  std::uint64_t sequence = 0;  ///< camera frame sequence number
   double encoder_angle_rad = std::numeric_limits<double>::quiet_NaN();  ///< at the capture time
   EncoderProblem encoder = EncoderProblem::kNone;
   double transducer_mm = std::numeric_limits<double>::quiet_NaN();  ///< bench rig: truth at capture time
-  SinkageResult result;             ///< valid / sinkage_mm / confidence / per-leg details
-  WheelGeometry geometry;           ///< the wheel in the image the result refers to (configured)
+  SinkageResult result;    ///< valid / sinkage_mm / confidence / per-leg details
+  WheelGeometry geometry;  ///< the wheel in the image the result refers to (configured)
 };
 
 /// The algorithm part of a `wheel_sinkage` mapping: the `geometry` block (mandatory; hub_center_px,

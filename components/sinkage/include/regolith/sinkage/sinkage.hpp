@@ -30,16 +30,16 @@ inline constexpr double kMaxLegLengthPx = 2.0 * kMaxImageSidePx;
 
 /// Geometry of the wheel-leg as seen in the image (calibrated once, see calibrate_from_unsunk_frame).
 struct WheelGeometry {
-  cv::Point2d hub_center_px{320.0, 110.0};  ///< px, centre of rotation in the image
-  int leg_count = 5;                       ///< legs on the wheel (Asguard type: 5)
+  cv::Point2d hub_center_px{320.0, 110.0};      ///< px, centre of rotation in the image
+  int leg_count = 5;                            ///< legs on the wheel (Asguard type: 5)
   double leg_spacing_rad = 1.2566370614359172;  ///< rad between neighbouring legs (2 pi / 5)
-  double leg_length_px = 300.0;            ///< px, hub centre to leg tip (thesis "plz")
-  double leg_width_px = 28.0;              ///< px, width of the leg shaft
-  double hub_radius_px = 40.0;             ///< px, legs are visible from this radius outwards
-  double foot_width_px = 48.0;             ///< px, foot width across the leg axis (0 = no foot)
-  double foot_thickness_px = 10.0;         ///< px, foot extent along the axis from the tip inwards
-  double angle_offset_rad = 0.0;           ///< rad, image angle of leg 0 when the encoder reads 0
-  int rotation_direction = 1;              ///< +1 or -1: sign of encoder angle in image angle
+  double leg_length_px = 300.0;                 ///< px, hub centre to leg tip (thesis "plz")
+  double leg_width_px = 28.0;                   ///< px, width of the leg shaft
+  double hub_radius_px = 40.0;                  ///< px, legs are visible from this radius outwards
+  double foot_width_px = 48.0;                  ///< px, foot width across the leg axis (0 = no foot)
+  double foot_thickness_px = 10.0;              ///< px, foot extent along the axis from the tip inwards
+  double angle_offset_rad = 0.0;                ///< rad, image angle of leg 0 when the encoder reads 0
+  int rotation_direction = 1;                   ///< +1 or -1: sign of encoder angle in image angle
 
   /// Throws std::invalid_argument naming the first bad field ("WheelGeometry.leg_width_px: ...").
   void validate() const;
@@ -64,7 +64,7 @@ struct SinkageParams {
   double sat_min = 0.35;       ///< [0, 1] minimum saturation
   double val_min = 0.20;       ///< [0, 1] minimum value (brightness)
   SegmentationMode mode = SegmentationMode::kAuto;
-  double dark_mean_value = 0.22;  ///< [0, 1] kAuto: mean V in the mask below this -> adaptive
+  double dark_mean_value = 0.22;          ///< [0, 1] kAuto: mean V in the mask below this -> adaptive
   double adaptive_min_separation = 12.0;  ///< chroma units (8-bit): Otsu classes closer than this
                                           ///< mean "no leg colour present" (blue chroma b-(r+g)/2)
   // --- morphology ---
@@ -73,20 +73,20 @@ struct SinkageParams {
   // --- dynamic mask ---
   double contact_half_angle_rad = 0.6981317007977318;  ///< rad: legs within +-40 deg of down
   double angle_tolerance_rad = 0.10471975511965977;    ///< rad: mask sweep for misalignment (6 deg)
-  double mask_margin_px = 4.0;  ///< px: mask dilation around the template
-  bool use_dynamic_mask = true;  ///< false: segment the whole frame (the slow peer, for benches)
+  double mask_margin_px = 4.0;                         ///< px: mask dilation around the template
+  bool use_dynamic_mask = true;                        ///< false: segment the whole frame (the slow peer, for benches)
   bool refine_leg_angle = true;  ///< re-estimate the leg axis from its pixels (encoder misalignment)
   // --- scale ---
-  double mm_per_px = 0.5;       ///< mm/px at the wheel plane
-  double leg_length_mm = 0.0;   ///< mm; > 0 overrides mm_per_px with leg_length_mm / leg_length_px
+  double mm_per_px = 0.5;      ///< mm/px at the wheel plane
+  double leg_length_mm = 0.0;  ///< mm; > 0 overrides mm_per_px with leg_length_mm / leg_length_px
   // --- decision ---
-  double min_confidence = 0.3;       ///< [0, 1] below -> leg result invalid
-  double min_visible_px = 12.0;      ///< px: a leg needs this much visible length
-  double contact_min_mm = 0.5;       ///< mm: a leg deeper than this is "in contact"
+  double min_confidence = 0.3;   ///< [0, 1] below -> leg result invalid
+  double min_visible_px = 12.0;  ///< px: a leg needs this much visible length
+  double contact_min_mm = 0.5;   ///< mm: a leg deeper than this is "in contact"
   // --- temporal filter on the wheel sinkage ---
   TemporalFilter filter = TemporalFilter::kNone;
-  double ema_alpha = 0.5;   ///< (0, 1] weight of the newest frame
-  int median_window = 5;    ///< frames, 1..31
+  double ema_alpha = 0.5;  ///< (0, 1] weight of the newest frame
+  int median_window = 5;   ///< frames, 1..31
 
   /// Throws std::invalid_argument naming the first bad field ("SinkageParams.ema_alpha: ...").
   void validate() const;
@@ -96,11 +96,11 @@ struct SinkageParams {
 
 enum class InvalidReason : std::uint8_t {
   kNone = 0,
-  kBadAngle,         ///< encoder angle NaN / infinite (stale or missing encoder data)
-  kNoContactLeg,     ///< no leg inside the contact window
-  kOutsideImage,     ///< the leg's template is (mostly) outside the image
-  kNoLegPixels,      ///< leg colour not found / leg not visible
-  kLowConfidence,    ///< template poorly explained
+  kBadAngle,       ///< encoder angle NaN / infinite (stale or missing encoder data)
+  kNoContactLeg,   ///< no leg inside the contact window
+  kOutsideImage,   ///< the leg's template is (mostly) outside the image
+  kNoLegPixels,    ///< leg colour not found / leg not visible
+  kLowConfidence,  ///< template poorly explained
   kCount
 };
 const char* to_string(InvalidReason r);
@@ -112,8 +112,8 @@ struct LegSinkage {
   double visible_length_px = 0;  ///< hub centre to interface along the axis
   double sinkage_px = 0;         ///< vertical depth of the tip below the interface
   double sinkage_mm = 0;
-  double confidence = 0;         ///< [0, 1]
-  int leg_pixels = 0;            ///< segmented pixels used
+  double confidence = 0;  ///< [0, 1]
+  int leg_pixels = 0;     ///< segmented pixels used
   bool valid = false;
   bool in_contact = false;
   InvalidReason reason = InvalidReason::kNone;
@@ -123,10 +123,10 @@ struct LegSinkage {
 
 struct SinkageResult {
   bool valid = false;
-  double sinkage_mm = 0;      ///< wheel sinkage (temporally filtered when enabled)
-  double raw_sinkage_mm = 0;  ///< this frame only
-  double confidence = 0;      ///< [0, 1], 0 when invalid
-  int deepest = -1;           ///< index into legs[] of the leg giving the wheel sinkage
+  double sinkage_mm = 0;       ///< wheel sinkage (temporally filtered when enabled)
+  double raw_sinkage_mm = 0;   ///< this frame only
+  double confidence = 0;       ///< [0, 1], 0 when invalid
+  int deepest = -1;            ///< index into legs[] of the leg giving the wheel sinkage
   bool used_adaptive = false;  ///< adaptive threshold used this frame
   InvalidReason reason = InvalidReason::kNone;
   std::array<LegSinkage, kMaxLegs> legs{};
@@ -175,8 +175,7 @@ class SinkageEstimator {
   void analyse_leg(int slot, double phi_enc, const Roi& roi, LegSinkage& leg);
   bool fit_axis(double phi_enc, double along_max, double& phi) const;
   void sample_columns(double phi, const Roi& roi);
-  bool fit_interface(double phi, double& soil_y, double& agreement, int& cut_columns,
-                     int& known_columns);
+  bool fit_interface(double phi, double& soil_y, double& agreement, int& cut_columns, int& known_columns);
   void segment_full_frame(const cv::Mat& bgr, bool adaptive);
   double apply_filter(double z);
 
@@ -224,11 +223,10 @@ class SinkageEstimator {
 /// Diagnostic overlay: template outline in red, interface line in green, sinkage (tip to
 /// interface, vertical) in blue, text with the wheel sinkage. `out` becomes a copy of `bgr` with
 /// the drawing (allocates; not for the real-time path).
-void draw_overlay(const cv::Mat& bgr, const WheelGeometry& geometry, const SinkageResult& result,
-                  cv::Mat& out);
+void draw_overlay(const cv::Mat& bgr, const WheelGeometry& geometry, const SinkageResult& result, cv::Mat& out);
 /// Same, with the estimator's geometry.
-inline void draw_overlay(const SinkageEstimator& estimator, const cv::Mat& bgr,
-                         const SinkageResult& result, cv::Mat& out) {
+inline void draw_overlay(const SinkageEstimator& estimator, const cv::Mat& bgr, const SinkageResult& result,
+                         cv::Mat& out) {
   draw_overlay(bgr, estimator.geometry(), result, out);
 }
 
@@ -237,14 +235,14 @@ struct CalibrationHints {
   int leg_count = 5;
   double leg_spacing_rad = 1.2566370614359172;
   int rotation_direction = 1;
-  SinkageParams colour{};         ///< colour band / mode used to find the legs
-  int min_leg_area_px = 200;      ///< px^2: smaller blobs are ignored
+  SinkageParams colour{};     ///< colour band / mode used to find the legs
+  int min_leg_area_px = 200;  ///< px^2: smaller blobs are ignored
 };
 
 struct CalibrationReport {
   WheelGeometry geometry;
-  int legs_used = 0;            ///< blobs used for the hub fit
-  double hub_fit_rms_px = 0;    ///< rms distance of leg axes from the fitted hub
+  int legs_used = 0;          ///< blobs used for the hub fit
+  double hub_fit_rms_px = 0;  ///< rms distance of leg axes from the fitted hub
 };
 
 /// Derives hub centre, leg length, leg width, hub radius, foot size and the angle offset (modulo

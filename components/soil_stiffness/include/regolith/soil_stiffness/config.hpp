@@ -34,8 +34,7 @@ SoilConfig read_soil_config(Params& p, const RoverDescription& rover, const Rove
 /// (`rover:` with cameras, mass and wheels, and `sun:`) and either a top-level `soil_stiffness:`
 /// mapping or is a deployment file (the first component of type soil_stiffness is used; its
 /// `camera` key picks rover.cameras.<name>; rate-group and DDS keys are ignored).
-SoilAnalysisFiles run_soil_file(const std::filesystem::path& image,
-                                const std::filesystem::path& rover_yaml,
+SoilAnalysisFiles run_soil_file(const std::filesystem::path& image, const std::filesystem::path& rover_yaml,
                                 const std::filesystem::path& out_dir);
 
 }  // namespace regolith::soil

@@ -12,16 +12,16 @@
 namespace regolith::soil {
 
 struct MissionEntry {
-  std::string mission;        ///< e.g. "Luna 17"
-  std::string vehicle;        ///< e.g. "Lunokhod 1"
-  RoverConfig rover;          ///< mass, wheels, gravity, wheel b and D
-  std::string vehicle_source; ///< where mass / wheel data come from
+  std::string mission;            ///< e.g. "Luna 17"
+  std::string vehicle;            ///< e.g. "Lunokhod 1"
+  RoverConfig rover;              ///< mass, wheels, gravity, wheel b and D
+  std::string vehicle_source;     ///< where mass / wheel data come from
   bool vehicle_verified = false;  ///< every vehicle number checked against the cited source here
   // "Traditional" soil values (Table 4.4 analogue): Lunar Sourcebook Bekker parameters,
   // k = k_c / b + k_phi with the vehicle's wheel width, n = 1.
-  double k_c = 1400.0;        ///< cohesive modulus [N/m^(n+1)]
-  double k_phi = 820000.0;    ///< frictional modulus [N/m^(n+2)]
-  double n = 1.0;             ///< sinkage exponent [-]
+  double k_c = 1400.0;      ///< cohesive modulus [N/m^(n+1)]
+  double k_phi = 820000.0;  ///< frictional modulus [N/m^(n+2)]
+  double n = 1.0;           ///< sinkage exponent [-]
   std::string soil_source;
   bool soil_verified = false;
   /// Reported static rut depth [m], NaN when no value could be sourced.
@@ -42,7 +42,6 @@ struct MissionEntry {
 std::vector<MissionEntry> mission_table();
 
 /// p = k z^n sampled at `count` points on [0, z_max] (pairs of z [m], p [Pa]).
-std::vector<std::pair<double, double>> pz_curve(double k, double n, double z_max_m,
-                                                int count = 64);
+std::vector<std::pair<double, double>> pz_curve(double k, double n, double z_max_m, int count = 64);
 
 }  // namespace regolith::soil

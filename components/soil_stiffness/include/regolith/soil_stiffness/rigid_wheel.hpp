@@ -46,8 +46,8 @@ double load_factor(double n, SinkageModel model = SinkageModel::kBekker);
 double sinkage_from_soil(double k, double n, double load_n, double width_m, double diameter_m,
                          SinkageModel model = SinkageModel::kBekker);
 /// Inverse for fixed n: k [N/m^(n+2)] that gives sinkage z [m] under load W [N].
-double stiffness_from_sinkage(double z_m, double n, double load_n, double width_m,
-                              double diameter_m, SinkageModel model = SinkageModel::kBekker);
+double stiffness_from_sinkage(double z_m, double n, double load_n, double width_m, double diameter_m,
+                              SinkageModel model = SinkageModel::kBekker);
 /// Pressure p = k z^n [Pa].
 inline double bg_pressure(double k, double n, double z_m);
 
@@ -65,8 +65,8 @@ struct JointFit {
   /// Why !ok (e.g. "need at least two distinct wheel loads"); a fixed buffer so that a fit never
   /// allocates (it runs inside the real-time step and in the bootstrap loop).
   char reason[128] = {};
-  double k = 0.0;          ///< [N/m^(n+2)]
-  double n = 0.0;          ///< [-]
+  double k = 0.0;                 ///< [N/m^(n+2)]
+  double n = 0.0;                 ///< [-]
   double rms_log_residual = 0.0;  ///< RMS of ln(z) residuals [-]
 };
 
@@ -75,13 +75,12 @@ struct JointFit {
 /// ln z = s * ln(W/(b sqrt D)) - s * ln(k f(n)), with s = 2/(2n+1), i.e. the measured quantity is
 /// the dependent variable (unbiased under sinkage noise). Closed form, no iteration beyond a
 /// scalar solve for f(n) when the model is kBeta.
-JointFit fit_joint(std::span<const SinkageSample> samples,
-                   SinkageModel model = SinkageModel::kBekker, double min_load_ratio = 1.2);
+JointFit fit_joint(std::span<const SinkageSample> samples, SinkageModel model = SinkageModel::kBekker,
+                   double min_load_ratio = 1.2);
 
 /// Fixed-n estimate of k from samples: k from the geometric mean of the per-sample k values
 /// (i.e. a least-squares fit in log space). Throws std::invalid_argument on empty input.
-double fit_k_fixed_n(std::span<const SinkageSample> samples, double n,
-                     SinkageModel model = SinkageModel::kBekker);
+double fit_k_fixed_n(std::span<const SinkageSample> samples, double n, SinkageModel model = SinkageModel::kBekker);
 
 inline double bg_pressure(double k, double n, double z_m) {
   return z_m <= 0.0 ? 0.0 : k * std::pow(z_m, n);

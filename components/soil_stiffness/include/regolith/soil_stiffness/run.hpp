@@ -36,9 +36,8 @@ std::string estimate_to_json(const SoilEstimate& e, const RoverConfig& rover, in
 /// missing). Throws std::invalid_argument for bad configuration/image and std::runtime_error when
 /// a file cannot be written; a frame without usable tracks gives estimate.ok == false and a
 /// result.json saying why.
-SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera,
-                                    const RoverConfig& rover, const TrackAnalysisParams& params,
-                                    const SunDirection& sun,
+SoilAnalysisFiles run_soil_analysis(const cv::Mat& image, const CameraModel& camera, const RoverConfig& rover,
+                                    const TrackAnalysisParams& params, const SunDirection& sun,
                                     const std::filesystem::path& out_dir);
 
 }  // namespace regolith::soil

@@ -18,8 +18,9 @@
 //
 // Framework-free (plain C++ over cv::Mat); the workspace is sized at construction and fit() does
 // not allocate.
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/common/sun.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"

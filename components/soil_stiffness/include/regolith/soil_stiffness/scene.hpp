@@ -14,7 +14,7 @@ struct SoilSetup {
   CameraModel camera;  ///< rear camera (regolith::direct_depth model)
   RoverConfig rover;
   TrackAnalysisParams analysis;
-  SunDirection sun;    ///< in the camera's ground frame
+  SunDirection sun;  ///< in the camera's ground frame
 };
 
 /// A recorded scene's `input.json` (the development set's tracks format: camera {width, height,

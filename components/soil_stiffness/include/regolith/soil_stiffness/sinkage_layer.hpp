@@ -24,13 +24,13 @@
 namespace regolith::soil {
 
 // The layer types live in regolith/common/payloads.hpp (consumers need only regolith::common).
+using common::GridGeometry;
 using common::kLayerMaxSamples;
 using common::kLayerMaxTracks;
 using common::LayerPose;
+using common::rasterise_sinkage;
 using common::SinkageLayer;
 using common::SinkageLayerTrack;
-using common::GridGeometry;
-using common::rasterise_sinkage;
 
 /// Fills `out` from an estimate (no allocation). Profiles longer than kLayerMaxSamples are averaged
 /// over consecutive groups of samples; tracks beyond kLayerMaxTracks are dropped.

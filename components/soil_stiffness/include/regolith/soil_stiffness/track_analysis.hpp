@@ -72,12 +72,12 @@ struct TrackAnalysisParams {
   double min_sinkage_m = 0.004;   ///< a track must be at least this deep on average [m]
   double detection_snr = 4.0;     ///< measured mean sinkage must exceed this many standard errors [-]
   // cross-section geometry, in wheel widths b
-  double floor_fraction = 0.5;    ///< central part of the rut used as floor [-]
-  double shoulder_gap = 0.6;      ///< gap between the rut edge and the shoulder window [b]
-  double shoulder_width = 0.6;    ///< width of each shoulder window [b]
-  double profile_window_m = 0.08; ///< along-track smoothing (box) of the profile [m]
-  double presmooth_m = 0.04;      ///< along-track box filter of the brightness before inversion [m]
-  double min_valid_fraction = 0.3;///< of the profile rows, else the track is rejected [-]
+  double floor_fraction = 0.5;      ///< central part of the rut used as floor [-]
+  double shoulder_gap = 0.6;        ///< gap between the rut edge and the shoulder window [b]
+  double shoulder_width = 0.6;      ///< width of each shoulder window [b]
+  double profile_window_m = 0.08;   ///< along-track smoothing (box) of the profile [m]
+  double presmooth_m = 0.04;        ///< along-track box filter of the brightness before inversion [m]
+  double min_valid_fraction = 0.3;  ///< of the profile rows, else the track is rejected [-]
   ProfileSource profile_source = ProfileSource::kTemplate;
   RutTemplateParams rut_template;  ///< the template fit's search (profile_source kTemplate)
   double berm_offset = 0.15;       ///< berm crest beyond the rut wall's top edge / b (template) [-]
@@ -91,27 +91,28 @@ struct TrackAnalysisParams {
   /// value the template fit needs to read unbiased depths on the development scenes (leave-one-
   /// scene-out choice; their berms are 0.25 z high, which reads 1.5 mm shallow: README "Rut template").
   double berm_ratio = 0.16;
-  double wall_slope_rad = 0.70;   ///< rut wall slope (~ angle of repose, 40 deg): shadows are used only for a lower sun [rad]
+  double wall_slope_rad =
+      0.70;  ///< rut wall slope (~ angle of repose, 40 deg): shadows are used only for a lower sun [rad]
   // fit
-  double n_fixed = 1.0;           ///< sinkage exponent for the fixed-n fit [-]
+  double n_fixed = 1.0;  ///< sinkage exponent for the fixed-n fit [-]
   SinkageModel model = SinkageModel::kBekker;
-  int bootstrap_samples = 200;    ///< 0 disables the bootstrap
+  int bootstrap_samples = 200;  ///< 0 disables the bootstrap
   std::uint32_t seed = 12345;
-  double min_load_ratio = 1.2;    ///< loads must differ by this ratio for the joint fit [-]
+  double min_load_ratio = 1.2;  ///< loads must differ by this ratio for the joint fit [-]
   // reported (k, n): the joint fit's n combined with a prior on n (k refitted for that n)
-  double n_prior = 1.0;           ///< prior mean of n (Lunar Sourcebook regolith) [-]
+  double n_prior = 1.0;  ///< prior mean of n (Lunar Sourcebook regolith) [-]
   /// Prior standard deviation of n [-]; 0 = always n_prior. 0.12: the spread of n about 1 across
   /// the development track scenes (0.117, empirical Bayes), also what leave-one-scene-out
   /// cross-validation of this value picks (README "Measured accuracy on independent scenes").
   double n_prior_sigma = 0.12;
-  double profile_sigma_m = 0.0015;///< systematic error of one rut's mean depth [m] (measured, README)
+  double profile_sigma_m = 0.0015;  ///< systematic error of one rut's mean depth [m] (measured, README)
   // frame quality
   double max_saturated_fraction = 0.3;  ///< region cells at >= 250 DN [-]
   double max_dark_fraction = 0.3;       ///< region cells at <= 5 DN [-]
   // soil class: bearing pressure p(z_ref) = k z_ref^n
-  double class_z_ref_m = 0.01;          ///< [m]
-  double loose_below_pa = 4100.0;       ///< half the Lunar Sourcebook value at 1 cm [Pa]
-  double firm_above_pa = 16400.0;       ///< twice the Lunar Sourcebook value at 1 cm [Pa]
+  double class_z_ref_m = 0.01;     ///< [m]
+  double loose_below_pa = 4100.0;  ///< half the Lunar Sourcebook value at 1 cm [Pa]
+  double firm_above_pa = 16400.0;  ///< twice the Lunar Sourcebook value at 1 cm [Pa]
   /// Throws std::invalid_argument naming the offending field.
   void validate() const;
 };
@@ -120,28 +121,28 @@ enum class SoilClass { kUnknown, kLoose, kNominal, kFirm };
 const char* to_string(SoilClass c);
 
 struct TrackProfile {
-  double lateral_m = 0.0;       ///< measured rut centre [m]
-  double load_n = 0.0;          ///< wheel load used in the fit [N]
-  std::vector<double> range_m;  ///< along-track positions [m] (grid rows, far to near)
-  std::vector<double> sinkage_m;///< smoothed sinkage [m], NaN where not measurable
+  double lateral_m = 0.0;         ///< measured rut centre [m]
+  double load_n = 0.0;            ///< wheel load used in the fit [N]
+  std::vector<double> range_m;    ///< along-track positions [m] (grid rows, far to near)
+  std::vector<double> sinkage_m;  ///< smoothed sinkage [m], NaN where not measurable
   double mean_sinkage_m = 0.0;
   double std_sinkage_m = 0.0;
-  int samples = 0;              ///< valid profile samples
-  double k_fixed = 0.0;         ///< k of this track alone with n fixed [N/m^(n+2)]
+  int samples = 0;       ///< valid profile samples
+  double k_fixed = 0.0;  ///< k of this track alone with n fixed [N/m^(n+2)]
 };
 
 struct SoilEstimate {
   bool ok = false;
-  std::string reason;           ///< why there is no estimate (empty when ok)
-  std::string rejected;         ///< ruts not used (configured but too weak, shallow troughs), each with its reason
+  std::string reason;    ///< why there is no estimate (empty when ok)
+  std::string rejected;  ///< ruts not used (configured but too weak, shallow troughs), each with its reason
   std::vector<TrackProfile> tracks;
   double mean_sinkage_m = 0.0;  ///< over all valid samples of all tracks [m]
   int samples_used = 0;
   // fixed n
   double n_fixed = 1.0;
-  double k_fixed = 0.0;         ///< [N/m^(n+2)]
-  double k_fixed_std = 0.0;     ///< bootstrap std [N/m^(n+2)]
-  double k_spread_p25 = 0.0;    ///< 25th / 75th percentile of per-sample k (along-track spread)
+  double k_fixed = 0.0;       ///< [N/m^(n+2)]
+  double k_fixed_std = 0.0;   ///< bootstrap std [N/m^(n+2)]
+  double k_spread_p25 = 0.0;  ///< 25th / 75th percentile of per-sample k (along-track spread)
   double k_spread_p75 = 0.0;
   // joint
   bool joint_ok = false;
@@ -150,9 +151,9 @@ struct SoilEstimate {
   double k_joint_std = 0.0, n_joint_std = 0.0;
   // reported: n from the joint fit (its error from profile_sigma_m and the bootstrap) combined
   // with the prior on n, k fitted for that n; n_prior and the fixed-n k without a joint fit
-  double k = 0.0, n = 0.0;        ///< [N/m^(n+2)], [-]
+  double k = 0.0, n = 0.0;  ///< [N/m^(n+2)], [-]
   double k_std = 0.0, n_std = 0.0;
-  double n_data_std = 0.0;        ///< standard deviation of the joint fit's n alone (0 = none) [-]
+  double n_data_std = 0.0;  ///< standard deviation of the joint fit's n alone (0 = none) [-]
   // class and diagnostics
   SoilClass soil_class = SoilClass::kUnknown;
   double class_pressure_pa = 0.0;  ///< p(z_ref) used for the class [Pa]
@@ -166,8 +167,7 @@ struct SoilEstimate {
 class SoilStiffnessEstimator {
  public:
   /// Validates all three (std::invalid_argument naming the field) and sizes the workspace.
-  SoilStiffnessEstimator(const CameraModel& camera, const RoverConfig& rover,
-                         const TrackAnalysisParams& params);
+  SoilStiffnessEstimator(const CameraModel& camera, const RoverConfig& rover, const TrackAnalysisParams& params);
   ~SoilStiffnessEstimator();
   SoilStiffnessEstimator(const SoilStiffnessEstimator&) = delete;
   SoilStiffnessEstimator& operator=(const SoilStiffnessEstimator&) = delete;

@@ -32,13 +32,13 @@
 // detrend_sigma_px, three box passes ~ Gaussian, is subtracted: SfS low frequencies are drift).
 // Each pixel's point is then placed on its viewing ray at that height: (x, y) = flat-ground
 // (range, lateral) * (1 - z / mount_height).
-#include <opencv2/core.hpp>
-
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/common/grid.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
@@ -65,21 +65,21 @@ void export_column_major(const GridMap& map, std::size_t k, float* out, std::siz
 std::vector<float> export_column_major(const GridMap& map, std::size_t k);
 
 struct TraversabilityParams {
-  double resolution_m = 0.05;   ///< m per cell
-  double length_x_m = 4.0;      ///< m, extent along x
-  double length_y_m = 4.0;      ///< m, extent along y
-  double center_x_m = 3.0;      ///< m, map centre ahead of the rover (body frame)
-  double center_y_m = 0.0;      ///< m
-  double detrend_sigma_px = 30.0;  ///< px, smooth background removed from SfS heights (0 = off)
-  double height_gain = 1.0;     ///< extra multiplier on the metric SfS heights (calibration)
-  double max_range_m = 10.0;    ///< m, pixels beyond this flat-ground range are ignored
-  double critical_slope_rad = 0.35;   ///< rad (20 deg), slope at which traversability_slope = 0
-  double critical_step_m = 0.12;      ///< m, step height at which traversability_step = 0
-  double critical_roughness_m = 0.05; ///< m, roughness at which traversability_roughness = 0
-  double slope_radius_m = 0.10;       ///< m, neighbourhood for the plane fit (slope, roughness)
-  double step_radius_m = 0.10;        ///< m, neighbourhood for max - min height (step)
+  double resolution_m = 0.05;          ///< m per cell
+  double length_x_m = 4.0;             ///< m, extent along x
+  double length_y_m = 4.0;             ///< m, extent along y
+  double center_x_m = 3.0;             ///< m, map centre ahead of the rover (body frame)
+  double center_y_m = 0.0;             ///< m
+  double detrend_sigma_px = 30.0;      ///< px, smooth background removed from SfS heights (0 = off)
+  double height_gain = 1.0;            ///< extra multiplier on the metric SfS heights (calibration)
+  double max_range_m = 10.0;           ///< m, pixels beyond this flat-ground range are ignored
+  double critical_slope_rad = 0.35;    ///< rad (20 deg), slope at which traversability_slope = 0
+  double critical_step_m = 0.12;       ///< m, step height at which traversability_step = 0
+  double critical_roughness_m = 0.05;  ///< m, roughness at which traversability_roughness = 0
+  double slope_radius_m = 0.10;        ///< m, neighbourhood for the plane fit (slope, roughness)
+  double step_radius_m = 0.10;         ///< m, neighbourhood for max - min height (step)
   double weight_slope = 0.4, weight_step = 0.4, weight_roughness = 0.2;  ///< combination weights
-  double full_confidence_points = 4.0;  ///< points per cell for confidence 1
+  double full_confidence_points = 4.0;                                   ///< points per cell for confidence 1
   // Ground-rectified SfS (compute_from_image).
   double rectify_resolution_m = 0.02;   ///< m per cell of the ground-rectified image
   double ground_detrend_sigma_m = 0.5;  ///< m, smooth background removed from ground SfS heights (0 = off)
@@ -105,9 +105,8 @@ struct TraversabilityParams {
 
 /// Layer names, in GridMap::layers order.
 inline const std::vector<std::string>& layer_names() {
-  static const std::vector<std::string> names{"elevation", "traversability_slope",
-                                              "traversability_roughness", "traversability_step",
-                                              "traversability", "confidence"};
+  static const std::vector<std::string> names{"elevation",           "traversability_slope", "traversability_roughness",
+                                              "traversability_step", "traversability",       "confidence"};
   return names;
 }
 
@@ -140,8 +139,7 @@ class TraversabilityMapper {
   /// + the light the SfS used -> metric grid. No heap allocation after the first call when `out`
   /// is reused. A light whose sun is at or below the ground horizon (or a non-finite light) gives
   /// an all-unknown map (NaN, confidence 0): shading carries no usable height information.
-  void compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid, const ImageLight& light,
-                        GridMap& out);
+  void compute_from_sfs(const cv::Mat& height_px, const cv::Mat& valid, const ImageLight& light, GridMap& out);
   /// Ground-rectified SfS: grey camera image (CV_8UC1, camera size) + the light in the image
   /// frame -> metric grid (see the header comment). No heap allocation after the first call with
   /// a Tsai-Shah ground solver when `out` is reused. Sun at or below the ground horizon, or no

@@ -15,19 +15,20 @@
 namespace regolith::hal::libcam {
 
 struct Config {
-  std::string camera;                       ///< [camera] libcamera id (cam --list); empty: use [index]
-  int index = 0;                            ///< [index] position in the sorted camera list
-  std::string role = "video";               ///< [role] raw | still | video | viewfinder
-  int width = 960;                          ///< [width] px
-  int height = 720;                         ///< [height] px
-  std::string pixel_format = "auto";        ///< [format] libcamera format name (BGR888, RGB888, YUYV, UYVY, R8, MJPEG) or auto
-  PixelFormat output = PixelFormat::kBgr8;  ///< [pixel_format] mono8 | bgr8
-  int buffers = 4;                          ///< [buffers] requests / buffers in flight (1..16)
+  std::string camera;          ///< [camera] libcamera id (cam --list); empty: use [index]
+  int index = 0;               ///< [index] position in the sorted camera list
+  std::string role = "video";  ///< [role] raw | still | video | viewfinder
+  int width = 960;             ///< [width] px
+  int height = 720;            ///< [height] px
+  std::string pixel_format =
+      "auto";  ///< [format] libcamera format name (BGR888, RGB888, YUYV, UYVY, R8, MJPEG) or auto
+  PixelFormat output = PixelFormat::kBgr8;                    ///< [pixel_format] mono8 | bgr8
+  int buffers = 4;                                            ///< [buffers] requests / buffers in flight (1..16)
   std::vector<std::pair<std::string, std::string>> controls;  ///< [controls] libcamera control name -> value
-  double frame_timeout_s = 2.0;             ///< [frame_timeout] s without a completed request -> fault + restart
-  double retry_min_s = 0.2;                 ///< [retry_min] s
-  double retry_max_s = 5.0;                 ///< [retry_max] s
-  int max_readers = 4;                      ///< [max_readers]
+  double frame_timeout_s = 2.0;  ///< [frame_timeout] s without a completed request -> fault + restart
+  double retry_min_s = 0.2;      ///< [retry_min] s
+  double retry_max_s = 5.0;      ///< [retry_max] s
+  int max_readers = 4;           ///< [max_readers]
   void validate() const;
 };
 
@@ -36,14 +37,14 @@ Config config_from_params(Params& p);
 /// A camera as libcamera sees it (for `regolith devices`).
 struct CameraInfo {
   std::string id;
-  std::string model;                        ///< properties::Model when present
+  std::string model;  ///< properties::Model when present
   struct Format {
-    std::string pixel_format;               ///< libcamera name, e.g. "BGR888"
-    std::vector<std::pair<int, int>> sizes; ///< discrete sizes offered for the role
-    std::string size_range;                 ///< "min - max" text
+    std::string pixel_format;                ///< libcamera name, e.g. "BGR888"
+    std::vector<std::pair<int, int>> sizes;  ///< discrete sizes offered for the role
+    std::string size_range;                  ///< "min - max" text
   };
-  std::vector<Format> formats;              ///< for the video-recording role
-  std::vector<std::string> controls;        ///< control names with their ranges
+  std::vector<Format> formats;        ///< for the video-recording role
+  std::vector<std::string> controls;  ///< control names with their ranges
 };
 /// Cameras libcamera can see (starts a camera manager; empty when there is none).
 std::vector<CameraInfo> list_libcamera_cameras();

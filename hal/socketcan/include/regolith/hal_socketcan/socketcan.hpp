@@ -19,20 +19,20 @@ namespace regolith::hal::socketcan {
 
 /// Backend parameters (YAML keys in brackets). validate() throws std::invalid_argument naming the field.
 struct Config {
-  std::string interface = "can0";            ///< [interface] network interface name
-  std::vector<CanSignal> wheels;             ///< [wheels] name -> signal (angles in rad)
-  std::vector<CanSignal> transducers;        ///< [transducers] bench channels (own unit, e.g. m)
-  double stale_timeout_s = 0.2;              ///< [stale_timeout] s without a sample -> wheel stale
-  double max_extrapolation_s = 0.05;         ///< [max_extrapolation] s, angle_at beyond newest sample
-  double retry_min_s = 0.05;                 ///< [retry_min] s, first retry after a bus/socket fault
-  double retry_max_s = 2.0;                  ///< [retry_max] s, retry back-off ceiling
-  int receive_buffer_kb = 1024;              ///< [receive_buffer_kb] socket receive queue (SO_RCVBUF[FORCE])
-  int frame_history = 1024;                  ///< [frame_history] raw frames kept for recorders (can_frames)
-  bool error_frames = true;                  ///< [error_frames] subscribe to and decode error frames
-  bool kernel_timestamps = true;             ///< [kernel_timestamps] SO_TIMESTAMPING receive stamps
-  bool tx_enabled = false;                   ///< [command.enabled] allow send()
-  std::uint32_t tx_id = 0;                   ///< [command.id]
-  bool tx_extended = false;                  ///< [command.extended]
+  std::string interface = "can0";      ///< [interface] network interface name
+  std::vector<CanSignal> wheels;       ///< [wheels] name -> signal (angles in rad)
+  std::vector<CanSignal> transducers;  ///< [transducers] bench channels (own unit, e.g. m)
+  double stale_timeout_s = 0.2;        ///< [stale_timeout] s without a sample -> wheel stale
+  double max_extrapolation_s = 0.05;   ///< [max_extrapolation] s, angle_at beyond newest sample
+  double retry_min_s = 0.05;           ///< [retry_min] s, first retry after a bus/socket fault
+  double retry_max_s = 2.0;            ///< [retry_max] s, retry back-off ceiling
+  int receive_buffer_kb = 1024;        ///< [receive_buffer_kb] socket receive queue (SO_RCVBUF[FORCE])
+  int frame_history = 1024;            ///< [frame_history] raw frames kept for recorders (can_frames)
+  bool error_frames = true;            ///< [error_frames] subscribe to and decode error frames
+  bool kernel_timestamps = true;       ///< [kernel_timestamps] SO_TIMESTAMPING receive stamps
+  bool tx_enabled = false;             ///< [command.enabled] allow send()
+  std::uint32_t tx_id = 0;             ///< [command.id]
+  bool tx_extended = false;            ///< [command.extended]
   void validate() const;
 };
 
@@ -43,31 +43,31 @@ Config config_from_params(Params& p);
 struct CanErrorInfo {
   bool tx_timeout = false;
   bool lost_arbitration = false;
-  int arbitration_bit = -1;          ///< bit position where arbitration was lost (-1 unknown)
-  bool controller = false;           ///< any controller problem
+  int arbitration_bit = -1;  ///< bit position where arbitration was lost (-1 unknown)
+  bool controller = false;   ///< any controller problem
   bool rx_overflow = false;
   bool tx_overflow = false;
-  bool error_warning = false;        ///< rx or tx error counter reached the warning level
-  bool error_passive = false;        ///< rx or tx error passive
-  bool error_active = false;         ///< controller back to error active
+  bool error_warning = false;  ///< rx or tx error counter reached the warning level
+  bool error_passive = false;  ///< rx or tx error passive
+  bool error_active = false;   ///< controller back to error active
   bool protocol = false;
   bool transceiver = false;
   bool no_ack = false;
   bool bus_off = false;
   bool bus_error = false;
   bool restarted = false;
-  int tx_error_count = -1;           ///< from data[6] when CAN_ERR_CNT is set
-  int rx_error_count = -1;           ///< from data[7]
-  std::string describe() const;      ///< e.g. "bus-off, error-passive (tx 128, rx 0)"
+  int tx_error_count = -1;       ///< from data[6] when CAN_ERR_CNT is set
+  int rx_error_count = -1;       ///< from data[7]
+  std::string describe() const;  ///< e.g. "bus-off, error-passive (tx 128, rx 0)"
 };
 /// Decode an error frame (frame.error must be true; id holds the error class bits).
 CanErrorInfo decode_error_frame(const CanFrame& frame);
 
 /// Bus-level counters (besides EncoderStats).
 struct BusStats {
-  std::uint64_t frames = 0;              ///< frames received (all ids passed by the filters)
-  std::uint64_t unexpected_ids = 0;      ///< frames no signal decodes (should stay 0: kernel filters)
-  std::uint64_t short_frames = 0;        ///< known id with a too-short payload (DLC)
+  std::uint64_t frames = 0;          ///< frames received (all ids passed by the filters)
+  std::uint64_t unexpected_ids = 0;  ///< frames no signal decodes (should stay 0: kernel filters)
+  std::uint64_t short_frames = 0;    ///< known id with a too-short payload (DLC)
   std::uint64_t error_frames = 0;
   std::uint64_t bus_off = 0;
   std::uint64_t error_passive = 0;
@@ -78,13 +78,13 @@ struct BusStats {
   std::uint64_t transceiver_errors = 0;
   std::uint64_t no_ack = 0;
   std::uint64_t restarts = 0;
-  std::uint64_t rx_overflows = 0;        ///< controller or socket receive-queue overflows
-  std::uint64_t interface_down = 0;      ///< times the interface went down / vanished
+  std::uint64_t rx_overflows = 0;    ///< controller or socket receive-queue overflows
+  std::uint64_t interface_down = 0;  ///< times the interface went down / vanished
   std::uint64_t tx_frames = 0;
   std::uint64_t tx_errors = 0;
-  bool kernel_timestamps = false;        ///< receive stamps come from the kernel
-  std::uint64_t receive_buffer_bytes = 0; ///< socket receive queue the kernel granted (SO_RCVBUF)
-  std::string last_error;                ///< human-readable last fault (diagnostics)
+  bool kernel_timestamps = false;          ///< receive stamps come from the kernel
+  std::uint64_t receive_buffer_bytes = 0;  ///< socket receive queue the kernel granted (SO_RCVBUF)
+  std::string last_error;                  ///< human-readable last fault (diagnostics)
 };
 
 class SocketCanEncoders final : public WheelEncoders {
@@ -106,7 +106,8 @@ class SocketCanEncoders final : public WheelEncoders {
   /// Every frame the socket received (the configured ids and error frames), from a history of
   /// Config::frame_history frames.
   bool reads_can() const override { return true; }
-  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out, std::uint64_t& missed) const override;
+  std::size_t can_frames(std::uint64_t& cursor, TimeNs now, std::span<CanFrame> out,
+                         std::uint64_t& missed) const override;
   EncoderStats stats() const override;
 
   BusStats bus_stats() const;
@@ -150,9 +151,9 @@ class SocketCanEncoders final : public WheelEncoders {
 struct CanInterfaceInfo {
   std::string name;
   bool up = false;
-  bool virtual_can = false;    ///< vcan / vxcan (no bus timing, no error frames)
-  int mtu = 0;                 ///< 16 = classic CAN, 72 = CAN FD capable
-  std::string kind;            ///< driver kind from sysfs ("vcan", "can", ...)
+  bool virtual_can = false;  ///< vcan / vxcan (no bus timing, no error frames)
+  int mtu = 0;               ///< 16 = classic CAN, 72 = CAN FD capable
+  std::string kind;          ///< driver kind from sysfs ("vcan", "can", ...)
 };
 /// All interfaces of type ARPHRD_CAN (from /sys/class/net). Empty when there is none.
 std::vector<CanInterfaceInfo> list_can_interfaces();

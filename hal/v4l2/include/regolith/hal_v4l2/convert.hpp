@@ -1,13 +1,13 @@
 #pragma once
 // Device pixel formats -> regolith output formats (mono8 / bgr8). Shared by the V4L2 and libcamera
 // backends; pure functions over memory, testable without a device.
-#include <opencv2/core/mat.hpp>
-
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <opencv2/core/mat.hpp>
 
 #include "regolith/hal/frame.hpp"
 

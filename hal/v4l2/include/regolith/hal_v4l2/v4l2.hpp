@@ -27,20 +27,20 @@ struct ControlSetting {
 
 /// Backend parameters (YAML keys in brackets).
 struct Config {
-  std::string device;                       ///< [device] /dev/videoN (or empty: select by card / bus_info)
-  std::string card;                         ///< [card] VIDIOC_QUERYCAP card name (exact match)
-  std::string bus_info;                     ///< [bus_info] e.g. "usb-0000:00:14.0-1" or "platform:vivid-000"
-  int width = 640;                          ///< [width] px
-  int height = 480;                         ///< [height] px
-  std::string fourcc = "auto";              ///< [fourcc] device format: auto, YUYV, UYVY, GREY, RGB3, BGR3, MJPG
-  PixelFormat output = PixelFormat::kMono8; ///< [pixel_format] mono8 | bgr8
-  double rate_hz = 30.0;                    ///< [rate] requested frame rate, Hz
-  int buffers = 4;                          ///< [buffers] mmap buffers (2..32)
-  std::vector<ControlSetting> controls;     ///< [controls] name: value
-  double frame_timeout_s = 2.0;             ///< [frame_timeout] s without a frame while streaming -> fault + restart
-  double retry_min_s = 0.1;                 ///< [retry_min] s, first reconnection delay
-  double retry_max_s = 2.0;                 ///< [retry_max] s, reconnection back-off ceiling
-  int max_readers = 4;                      ///< [max_readers] simultaneous frame leases
+  std::string device;                        ///< [device] /dev/videoN (or empty: select by card / bus_info)
+  std::string card;                          ///< [card] VIDIOC_QUERYCAP card name (exact match)
+  std::string bus_info;                      ///< [bus_info] e.g. "usb-0000:00:14.0-1" or "platform:vivid-000"
+  int width = 640;                           ///< [width] px
+  int height = 480;                          ///< [height] px
+  std::string fourcc = "auto";               ///< [fourcc] device format: auto, YUYV, UYVY, GREY, RGB3, BGR3, MJPG
+  PixelFormat output = PixelFormat::kMono8;  ///< [pixel_format] mono8 | bgr8
+  double rate_hz = 30.0;                     ///< [rate] requested frame rate, Hz
+  int buffers = 4;                           ///< [buffers] mmap buffers (2..32)
+  std::vector<ControlSetting> controls;      ///< [controls] name: value
+  double frame_timeout_s = 2.0;              ///< [frame_timeout] s without a frame while streaming -> fault + restart
+  double retry_min_s = 0.1;                  ///< [retry_min] s, first reconnection delay
+  double retry_max_s = 2.0;                  ///< [retry_max] s, reconnection back-off ceiling
+  int max_readers = 4;                       ///< [max_readers] simultaneous frame leases
   void validate() const;
 };
 
@@ -59,18 +59,18 @@ struct FrameSize {
   std::vector<double> rates_hz;  ///< discrete frame rates (empty if unknown / stepwise)
 };
 struct FormatInfo {
-  std::string fourcc;           ///< e.g. "YUYV"
-  std::string description;      ///< driver text
-  bool convertible = false;     ///< regolith can convert it
-  std::vector<FrameSize> sizes; ///< discrete sizes; stepwise ranges listed as min and max
-  std::string size_range;       ///< "16x16 - 1920x1080 step 2x2" for stepwise/continuous sizes
+  std::string fourcc;            ///< e.g. "YUYV"
+  std::string description;       ///< driver text
+  bool convertible = false;      ///< regolith can convert it
+  std::vector<FrameSize> sizes;  ///< discrete sizes; stepwise ranges listed as min and max
+  std::string size_range;        ///< "16x16 - 1920x1080 step 2x2" for stepwise/continuous sizes
 };
 struct DeviceInfo {
-  std::string path;       ///< /dev/videoN
+  std::string path;  ///< /dev/videoN
   std::string driver;
   std::string card;
   std::string bus_info;
-  bool capture = false;   ///< single-planar video capture with streaming I/O
+  bool capture = false;  ///< single-planar video capture with streaming I/O
   std::vector<FormatInfo> formats;
 };
 /// Every /dev/video* node (capture nodes with their formats; others with capture = false).

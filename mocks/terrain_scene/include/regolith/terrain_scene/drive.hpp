@@ -9,8 +9,9 @@
 // z up); the rover starts at (start_x, start_y, start_yaw). Body frame REP-103 (x forward, y
 // left, z up, origin on the ground below the body centre).
 #include <cstdint>
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "regolith/terrain_scene/terrain_scene.hpp"
 

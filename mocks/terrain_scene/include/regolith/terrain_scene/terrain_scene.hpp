@@ -8,19 +8,19 @@
 // x = columns = world -y, y = rows = world -x, third axis = world +z (towards the viewer).
 // The perspective camera follows regolith::direct_depth conventions (pitch down positive, roll
 // about the optical axis, position = optical centre in world coordinates).
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 namespace regolith::terrain_scene {
 
 struct Rock {
-  double x_m = 0.0, y_m = 0.0;        ///< centre (world)
-  double radius_x_m = 0.0;            ///< half-axis along world x
-  double radius_y_m = 0.0;            ///< half-axis along world y
-  double height_m = 0.0;              ///< height of the half-ellipsoid above the local terrain
-  double base_z_m = 0.0;              ///< terrain height under the centre before the rock
+  double x_m = 0.0, y_m = 0.0;  ///< centre (world)
+  double radius_x_m = 0.0;      ///< half-axis along world x
+  double radius_y_m = 0.0;      ///< half-axis along world y
+  double height_m = 0.0;        ///< height of the half-ellipsoid above the local terrain
+  double base_z_m = 0.0;        ///< terrain height under the centre before the rock
 };
 
 struct Crater {
@@ -34,10 +34,10 @@ struct SceneParams {
   double resolution_m = 0.02;  ///< grid cell size (m)
   double x_min_m = -1.0;       ///< extent along world x (forward)
   double x_max_m = 11.0;
-  double y_min_m = -6.0;       ///< extent along world y (left)
+  double y_min_m = -6.0;  ///< extent along world y (left)
   double y_max_m = 6.0;
-  double fractal_rms_m = 0.02;   ///< RMS of the fractal component (m); 0 = flat
-  double fractal_beta = 3.2;     ///< power-spectrum exponent P(f) ~ f^-beta (2 < beta < 4)
+  double fractal_rms_m = 0.02;             ///< RMS of the fractal component (m); 0 = flat
+  double fractal_beta = 3.2;               ///< power-spectrum exponent P(f) ~ f^-beta (2 < beta < 4)
   double fractal_min_wavelength_m = 0.08;  ///< spectrum cut below this wavelength (smoothness)
   int num_rocks = 12;
   double rock_radius_min_m = 0.05, rock_radius_max_m = 0.20;
@@ -95,31 +95,30 @@ struct RenderOptions {
   double albedo = 0.8;
   double noise_sigma = 0.0;  ///< std dev of additive Gaussian noise, normalised units (0..1)
   std::uint64_t noise_seed = 7;
-  bool vignetting = false;   ///< multiply by V(r) = 1 + a2 r^2 + a4 r^4 + a6 r^6
+  bool vignetting = false;              ///< multiply by V(r) = 1 + a2 r^2 + a4 r^4 + a6 r^6
   double a2 = 0.0, a4 = 0.0, a6 = 0.0;  ///< r normalised to the half-diagonal from the centre
-  bool cast_shadows = false; ///< march towards the sun and darken occluded points (slower)
+  bool cast_shadows = false;            ///< march towards the sun and darken occluded points (slower)
 };
 
 struct OrthoImage {
-  cv::Mat image;       ///< CV_32F 0..1
-  cv::Mat height_px;   ///< CV_32F true height in pixel units (metres / resolution), UP positive
+  cv::Mat image;      ///< CV_32F 0..1
+  cv::Mat height_px;  ///< CV_32F true height in pixel units (metres / resolution), UP positive
   double light_slant_rad = 0.0, light_tilt_rad = 0.0;  ///< sun in the image frame (sfs convention)
 };
 
 /// Top-down orthographic rendering of the whole grid (one pixel per cell).
 OrthoImage render_ortho(const Terrain& t, const Sun& sun, const RenderOptions& opt = {});
 /// Same for a synthetic height field in pixel units with a light given in the image frame.
-cv::Mat render_ortho_height(const cv::Mat& height_px, double slant_rad, double tilt_rad,
-                            const RenderOptions& opt = {});
+cv::Mat render_ortho_height(const cv::Mat& height_px, double slant_rad, double tilt_rad, const RenderOptions& opt = {});
 
 struct CameraPose {
   double fx = 400.0, fy = 400.0, cx = 319.5, cy = 239.5;  ///< px
-  int width = 640, height = 480;                           ///< px
-  double x_m = 0.0, y_m = 0.0;       ///< optical centre in the world
-  double height_m = 0.5;             ///< optical centre above z = 0 (m)
-  double pitch_rad = 0.35;           ///< down positive
+  int width = 640, height = 480;                          ///< px
+  double x_m = 0.0, y_m = 0.0;                            ///< optical centre in the world
+  double height_m = 0.5;                                  ///< optical centre above z = 0 (m)
+  double pitch_rad = 0.35;                                ///< down positive
   double roll_rad = 0.0;
-  double yaw_rad = 0.0;              ///< heading from +x towards +y
+  double yaw_rad = 0.0;  ///< heading from +x towards +y
   void validate() const;
   /// Rotation from the optical frame to the world frame.
   cv::Matx33d world_from_optical() const;
@@ -127,23 +126,22 @@ struct CameraPose {
 
 struct PixelBox {
   int rock_index = -1;
-  cv::Rect box;           ///< pixel bounding box of the rock's projected surface
+  cv::Rect box;  ///< pixel bounding box of the rock's projected surface
   bool fully_inside = false;
 };
 
 struct CameraImage {
-  cv::Mat image;          ///< CV_32F 0..1 (0 where the ray misses the terrain)
-  cv::Mat range_m;        ///< CV_32F forward horizontal distance from the camera (NaN = miss)
-  cv::Mat lateral_m;      ///< CV_32F left offset in the camera's heading frame (NaN = miss)
-  cv::Mat hit_z_m;        ///< CV_32F world z of the hit point (NaN = miss)
-  cv::Mat rock_id;        ///< CV_32S index of the rock seen at the pixel, -1 = none
+  cv::Mat image;                     ///< CV_32F 0..1 (0 where the ray misses the terrain)
+  cv::Mat range_m;                   ///< CV_32F forward horizontal distance from the camera (NaN = miss)
+  cv::Mat lateral_m;                 ///< CV_32F left offset in the camera's heading frame (NaN = miss)
+  cv::Mat hit_z_m;                   ///< CV_32F world z of the hit point (NaN = miss)
+  cv::Mat rock_id;                   ///< CV_32S index of the rock seen at the pixel, -1 = none
   std::vector<PixelBox> rock_boxes;  ///< boxes of rocks visible (at least one pixel)
   double light_slant_rad = 0.0, light_tilt_rad = 0.0;  ///< sun in the image frame (sfs convention)
 };
 
 /// Ray-cast rendering from a rover camera (pinhole, no distortion).
-CameraImage render_camera(const Terrain& t, const CameraPose& cam, const Sun& sun,
-                          const RenderOptions& opt = {});
+CameraImage render_camera(const Terrain& t, const CameraPose& cam, const Sun& sun, const RenderOptions& opt = {});
 
 /// Sun direction in the image frame of `cam` in the sfs LightDirection convention:
 /// S_img = (s_x, s_y, -s_z) of the optical-frame sun vector. Returns (slant, tilt).

@@ -19,20 +19,20 @@
 namespace regolith::track_scene {
 
 struct CameraModel {
-  int width = 640;               ///< [px]
-  int height = 480;              ///< [px]
-  double fx = 500.0;             ///< [px]
-  double fy = 500.0;             ///< [px]
-  double cx = 319.5;             ///< [px]
-  double cy = 239.5;             ///< [px]
-  double mount_height_m = 1.2;   ///< optical centre above the ground [m]
-  double pitch_rad = 0.61;       ///< depression of the optical axis below horizontal [rad]
+  int width = 640;              ///< [px]
+  int height = 480;             ///< [px]
+  double fx = 500.0;            ///< [px]
+  double fy = 500.0;            ///< [px]
+  double cx = 319.5;            ///< [px]
+  double cy = 239.5;            ///< [px]
+  double mount_height_m = 1.2;  ///< optical centre above the ground [m]
+  double pitch_rad = 0.61;      ///< depression of the optical axis below horizontal [rad]
 };
 
 /// Sun direction in the scene frame: azimuth from +x towards +y, elevation above the ground.
 struct Sun {
-  double azimuth_rad = 1.5708;   ///< default: sun on the left of the viewing direction
-  double elevation_rad = 0.7854; ///< 45 deg
+  double azimuth_rad = 1.5708;    ///< default: sun on the left of the viewing direction
+  double elevation_rad = 0.7854;  ///< 45 deg
 };
 
 struct Track {
@@ -43,25 +43,25 @@ struct Track {
 struct TrackSceneParams {
   CameraModel camera;
   Sun sun;
-  double k = 5.0e5;              ///< Bernstein-Goriatchkin modulus [N/m^(n+2)]
-  double n = 1.0;                ///< sinkage exponent [-]
-  double wheel_width_m = 0.10;   ///< b [m]
-  double wheel_diameter_m = 0.30;///< D [m]
+  double k = 5.0e5;                ///< Bernstein-Goriatchkin modulus [N/m^(n+2)]
+  double n = 1.0;                  ///< sinkage exponent [-]
+  double wheel_width_m = 0.10;     ///< b [m]
+  double wheel_diameter_m = 0.30;  ///< D [m]
   std::vector<Track> tracks{{0.40, 60.0}, {-0.40, 60.0}};
   double wall_slope_rad = 0.61;  ///< rut wall angle from horizontal (~35 deg, angle of repose)
   /// Along-track soil variability: k(x) = k (1 + a sin(2 pi x / wavelength)).
-  double k_variation = 0.0;        ///< a [-], |a| < 0.9
+  double k_variation = 0.0;  ///< a [-], |a| < 0.9
   double variation_wavelength_m = 1.5;
-  double x_min_m = 0.3;          ///< height-field extent along x [m]
+  double x_min_m = 0.3;  ///< height-field extent along x [m]
   double x_max_m = 10.0;
-  double y_half_width_m = 4.0;   ///< height field spans y in [-w, w] [m]
-  double grid_res_m = 0.004;     ///< height-field cell [m]
-  double edge_smoothing_m = 0.006; ///< Gaussian sigma rounding the rut edges [m]
-  double albedo = 0.5;           ///< mean albedo [-]
-  double albedo_texture = 0.03;  ///< relative std of the albedo texture [-]
-  double texture_scale_m = 0.01; ///< correlation length of the texture [m]
-  double gain_dn = 400.0;        ///< DN per unit radiance (albedo * cos(incidence)) [DN]
-  double noise_dn = 1.0;         ///< sensor noise std [DN]
+  double y_half_width_m = 4.0;      ///< height field spans y in [-w, w] [m]
+  double grid_res_m = 0.004;        ///< height-field cell [m]
+  double edge_smoothing_m = 0.006;  ///< Gaussian sigma rounding the rut edges [m]
+  double albedo = 0.5;              ///< mean albedo [-]
+  double albedo_texture = 0.03;     ///< relative std of the albedo texture [-]
+  double texture_scale_m = 0.01;    ///< correlation length of the texture [m]
+  double gain_dn = 400.0;           ///< DN per unit radiance (albedo * cos(incidence)) [DN]
+  double noise_dn = 1.0;            ///< sensor noise std [DN]
   std::uint32_t seed = 1;
 
   /// Throws std::invalid_argument naming the field.
@@ -79,8 +79,8 @@ struct TrackTruth {
 };
 
 struct TrackScene {
-  cv::Mat image;       ///< CV_8U rear-camera frame
-  cv::Mat height;      ///< CV_32F height field [m]: row i <-> x = x0 + i*res, col j <-> y = y0 + j*res
+  cv::Mat image;   ///< CV_8U rear-camera frame
+  cv::Mat height;  ///< CV_32F height field [m]: row i <-> x = x0 + i*res, col j <-> y = y0 + j*res
   double x0_m = 0.0, y0_m = 0.0, res_m = 0.0;
   TrackSceneParams params;
   std::vector<TrackTruth> truth;

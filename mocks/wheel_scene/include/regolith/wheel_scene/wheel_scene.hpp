@@ -48,14 +48,14 @@ struct Illumination {
 struct SceneParams {
   cv::Size size{640, 480};
   WheelModel wheel{};
-  cv::Scalar leg_bgr{175, 95, 35};         ///< painted blue legs
+  cv::Scalar leg_bgr{175, 95, 35};  ///< painted blue legs
   cv::Scalar hub_bgr{120, 120, 125};
-  cv::Scalar soil_bgr{110, 150, 185};      ///< sand
-  cv::Scalar background_bgr{60, 66, 72};   ///< test-bed wall behind the wheel
-  double soil_texture_contrast = 0.25;     ///< relative amplitude of the sand texture
-  double sand_on_leg_fraction = 0.01;      ///< fraction of leg pixels covered by sand grains
+  cv::Scalar soil_bgr{110, 150, 185};     ///< sand
+  cv::Scalar background_bgr{60, 66, 72};  ///< test-bed wall behind the wheel
+  double soil_texture_contrast = 0.25;    ///< relative amplitude of the sand texture
+  double sand_on_leg_fraction = 0.01;     ///< fraction of leg pixels covered by sand grains
   Illumination light{};
-  double misalignment_rad = 0.0;           ///< rad, true legs minus encoder prediction
+  double misalignment_rad = 0.0;  ///< rad, true legs minus encoder prediction
   std::uint32_t seed = 1;
   void validate() const;
 };
@@ -134,8 +134,7 @@ std::vector<SequenceRow> read_sequence_csv(const std::filesystem::path& csv);
 /// `# key: value` comment lines of a sequence CSV (value for `key`, or "" when absent).
 std::string read_sequence_comment(const std::filesystem::path& csv, const std::string& key);
 /// Writes frame_%04d.png files and sequence.csv into `dir` (created); returns the CSV path.
-std::filesystem::path write_sequence(const std::filesystem::path& dir,
-                                     const std::vector<SequenceFrame>& frames,
+std::filesystem::path write_sequence(const std::filesystem::path& dir, const std::vector<SequenceFrame>& frames,
                                      const std::vector<std::string>& comments = {});
 
 }  // namespace regolith::wheel_scene

@@ -14,8 +14,6 @@
 // sinkage); kLatest writes only the newest one pending (state topics: maps,
 // soil), older ones count as dropped. When no slot is free, begin() returns
 // nullptr and the sample counts as dropped.
-#include <dds/dds.h>
-
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -23,6 +21,8 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+
+#include <dds/dds.h>
 
 #include "regolith/core/channels.hpp"
 #include "regolith/dds/qos.hpp"

@@ -1,8 +1,6 @@
 #pragma once
 // One DDS domain participant per process, with the robot namespace, the topic
 // cache and the publisher thread that drains every Outbox created through it.
-#include <dds/dds.h>
-
 #include <array>
 #include <condition_variable>
 #include <cstdint>
@@ -14,6 +12,8 @@
 #include <string_view>
 #include <thread>
 #include <vector>
+
+#include <dds/dds.h>
 
 #include "regolith/dds/discovery.hpp"
 #include "regolith/dds/naming.hpp"

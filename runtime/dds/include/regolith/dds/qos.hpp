@@ -9,10 +9,10 @@
 // Readers never request a finite deadline (ROS writers offer an infinite one,
 // and a finite request would make them incompatible); a BEST_EFFORT reader
 // matches every writer.
-#include <dds/dds.h>
-
 #include <cstdint>
 #include <string>
+
+#include <dds/dds.h>
 
 #include "regolith/core/time.hpp"
 

@@ -2,12 +2,12 @@
 // Readers: a type-erased Subscription (descriptor + waitset; used by `regolith
 // echo`) and the typed Reader<Msg> on top of it. Not for real-time threads:
 // take() hands out loaned samples.
-#include <dds/dds.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
+
+#include <dds/dds.h>
 
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/qos.hpp"

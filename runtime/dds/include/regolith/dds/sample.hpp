@@ -13,8 +13,6 @@
 //  * pointers, `_maximum` and `_release` are never touched after configure.
 // free_sample() then releases everything (dds_sample_free walks max(_length,
 // _maximum) elements).
-#include <dds/dds.h>
-
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
@@ -24,6 +22,8 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+
+#include <dds/dds.h>
 
 #include "regolith/core/time.hpp"
 #include "regolith/msgs/types.hpp"

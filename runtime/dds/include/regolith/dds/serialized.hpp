@@ -1,14 +1,14 @@
 #pragma once
 // Samples as serialized CDR bytes (for recorders: `regolith record` writes them to MCAP unchanged)
 // and one waitset over several readers. Not for real-time threads.
-#include <dds/dds.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <dds/dds.h>
 
 #include "regolith/core/time.hpp"
 

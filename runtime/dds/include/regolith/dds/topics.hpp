@@ -2,13 +2,13 @@
 // The table of topics regolith publishes (names relative to the robot namespace
 // unless they start with "/"), their ROS types and QoS class, plus the generic
 // `echo` used by `regolith echo`.
-#include <dds/dds.h>
-
 #include <cstddef>
 #include <functional>
 #include <iosfwd>
 #include <span>
 #include <string_view>
+
+#include <dds/dds.h>
 
 #include "regolith/dds/json.hpp"
 #include "regolith/dds/participant.hpp"

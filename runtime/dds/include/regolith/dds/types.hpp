@@ -1,9 +1,9 @@
 #pragma once
 // Compile-time table: C message struct -> DDS topic descriptor and ROS type
 // name.
-#include <dds/dds.h>
-
 #include <string_view>
+
+#include <dds/dds.h>
 
 #include "regolith/msgs/types.hpp"
 

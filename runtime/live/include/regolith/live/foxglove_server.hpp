@@ -6,8 +6,8 @@
 // options.web_root. Serves from one asio thread of its own; send_message() is called from any
 // other thread (the DDS relay's) and never blocks. Per-client send queue limited in bytes: a
 // client whose queue would exceed it is disconnected and counted, never waited for. Bounded
-// number of clients. Not for real-time threads. (Its source is compiled as C++17: websocketpp 0.8 is not C++20.) Target regolith::live
-// (websocketpp + Boost.Asio, nlohmann-json).
+// number of clients. Not for real-time threads. (Its source is compiled as C++17: websocketpp 0.8 is not C++20.) Target
+// regolith::live (websocketpp + Boost.Asio, nlohmann-json).
 #include <cstddef>
 #include <cstdint>
 #include <memory>
