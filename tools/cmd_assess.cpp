@@ -33,6 +33,7 @@
 #include "regolith/common/plot.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
@@ -54,6 +55,7 @@ constexpr double kDeg = kPi / 180.0;
 struct AssessOptions {
   std::string image, config, out, method, flat_field, camera;
   std::string rover, device;         ///< camera + sun from a deployment's rover description
+  std::string scene;                 ///< camera (or pixel size), sun and flat field from a scene's input.json
   std::string sfs_frame = "ground";  ///< camera mode: "ground" (rectified) or "image" SfS for the grid
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
@@ -505,23 +507,104 @@ void camera_from_options(const AssessOptions& o, cv::Size image, AssessSetup& s)
   }
 }
 
+// --scene input.json: a rendered scene described as the development sets do
+// (../shared/data/synthetic_dev/sfs/*/input.json). "projection" is
+//  * "orthographic": gsd_m (ground size of a pixel), sun_slant_deg / sun_tilt_deg (image frame),
+//    flat_field (null, or a flat-field image beside the file; --flat-field wins);
+//  * "perspective": camera {width, height, fx, fy, cx, cy, h_m, pitch_deg [, roll_deg]} and the
+//    sun in the world (X right, Y forward, Z up): sun_elevation_deg, sun_azimuth_deg from +Y
+//    towards +X, which is the rover description's compass azimuth, so the sun goes into the image
+//    frame by the same conversion as --rover's (common::camera_light, level rover).
+// Fills the setup as --pixel-size / --camera --height --pitch / --sun-* would; returns the flat
+// field it names (empty: none). InputError naming the file and the field.
+std::string scene_setup(const std::string& file, cv::Size image, AssessSetup& s) {
+  const nlohmann::json j = read_json_file(file, "scene description (input.json)");
+  const auto number = [&](const char* field) { return json_number(j, file, field); };
+  const auto size_check = [&](const char* w_key, const char* h_key) {
+    const int w = json_pixels(j, file, w_key), h = json_pixels(j, file, h_key);
+    if (w != image.width || h != image.height)
+      throw InputError(file + ": " + w_key + " x " + h_key + " is " + std::to_string(w) + "x" + std::to_string(h) +
+                       " px, but the image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                       ": not this image's scene");
+  };
+  const std::string projection = j.is_object() && j.contains("projection") && j["projection"].is_string()
+                                     ? j["projection"].get<std::string>()
+                                     : std::string();
+  s.sp.estimate_light = false;
+  if (projection == "orthographic") {
+    if (j.contains("width") || j.contains("height")) size_check("width", "height");
+    s.pixel_size_m = number("gsd_m");
+    if (!(s.pixel_size_m > 0.0))
+      throw InputError(file + ": gsd_m: must be > 0 m (got " + number_text(s.pixel_size_m) + ")");
+    const sfs::LightDirection l{number("sun_slant_deg") * kDeg, number("sun_tilt_deg") * kDeg};
+    try {
+      l.validate("sun");
+    } catch (const std::invalid_argument& e) {
+      throw InputError(file + ": sun_slant_deg: " + e.what() + " (an orthographic patch needs the sun above it)");
+    }
+    s.light = l;
+    const auto ff = j.find("flat_field");
+    if (ff == j.end() || ff->is_null()) return {};
+    if (!ff->is_string() || ff->get<std::string>().empty())
+      throw InputError(file + ": flat_field: must be null or the name of a flat-field image");
+    const fs::path rel(ff->get<std::string>());
+    return (rel.is_absolute() ? rel : fs::path(file).parent_path() / rel).string();
+  }
+  if (projection != "perspective")
+    throw InputError(file + ": projection: must be \"orthographic\" or \"perspective\"" +
+                     (projection.empty() ? std::string(" (missing)") : " (got \"" + projection + "\")"));
+  size_check("camera.width", "camera.height");
+  RoverCamera rc;
+  rc.name = "scene";
+  rc.where = file;
+  rc.info.width = image.width;
+  rc.info.height = image.height;
+  rc.info.k = {
+      number("camera.fx"), 0.0, number("camera.cx"), 0.0, number("camera.fy"), number("camera.cy"), 0.0, 0.0, 1.0};
+  rc.info.distortion_model = "none";
+  rc.mount.z_m = number("camera.h_m");
+  rc.mount.pitch_rad = number("camera.pitch_deg") * kDeg;
+  rc.mount.roll_rad = json_optional_number(j, file, "camera.roll_deg").value_or(0.0) * kDeg;
+  direct_depth::CameraModel m = common::camera_model_of(rc);
+  try {
+    m.validate();
+  } catch (const FieldError& e) {
+    throw InputError(file + ": camera: " + e.what());
+  }
+  s.model = m;
+  const double el = number("sun_elevation_deg");
+  if (!(el >= -90.0 && el <= 90.0))
+    throw InputError(file + ": sun_elevation_deg: must be in -90..90 deg (got " + number_text(el) + ")");
+  const Sun sun{.azimuth_rad = number("sun_azimuth_deg") * kDeg, .elevation_rad = el * kDeg};
+  const common::CameraLight cl = common::camera_light(sun, rc);
+  s.light = cl.light;
+  if (!cl.in_view)
+    s.sun_error = file + ": the sun is ahead of the camera (image slant " + fmt(cl.light.slant_rad / kDeg, 1) +
+                  " deg): no image-frame shading to solve";
+  return {};
+}
+
 AssessSetup configure(const AssessOptions& o, const AssessInput& in) {
   AssessSetup s;
   s.pixel_size_m = o.pixel_size_m;
   if (!o.config.empty()) read_config_file(o.config, in.gray.size(), s);
   if (!o.method.empty()) s.sp.method = sfs::method_from_string(o.method);
-  if (!o.flat_field.empty()) {
+  const std::string scene_flat = o.scene.empty() ? std::string() : scene_setup(o.scene, in.gray.size(), s);
+  if (const std::string& flat = o.flat_field.empty() ? scene_flat : o.flat_field; !flat.empty()) {
     cv::Mat ff;
-    if (const std::string why = sfs::read_flat_field(o.flat_field, ff); !why.empty())
-      throw InputError("assess: --flat-field '" + o.flat_field + "': " + why);
+    if (const std::string why = sfs::read_flat_field(flat, ff); !why.empty())
+      throw InputError("assess: " + (o.flat_field.empty() ? o.scene + ": flat_field" : std::string("--flat-field")) +
+                       " '" + flat + "': " + why);
     s.sp.vignetting.flat_field = ff;
     s.sp.vignetting.enabled = true;
   }
-  apply_sun_options(o, s);
-  if (!in.rover_file.empty() || !in.device.empty())
-    camera_from_rover(o, in, s);
-  else
-    camera_from_options(o, in.gray.size(), s);
+  if (o.scene.empty()) {  // else the scene gave the sun and the camera (or the pixel size)
+    apply_sun_options(o, s);
+    if (!in.rover_file.empty() || !in.device.empty())
+      camera_from_rover(o, in, s);
+    else
+      camera_from_options(o, in.gray.size(), s);
+  }
   if (s.sun_ahead() && !(s.model && o.sfs_frame == "ground"))
     throw ConfigError(s.sun_error + (s.model ? " (--sfs-frame image needs it in front)" : ""));
   try {
@@ -856,6 +939,7 @@ void assess(const AssessOptions& o) {
       {"hazards", hazards.counted},
       {"edge_hazards", hazards.edge},
   };
+  if (!o.scene.empty()) j["scene"] = o.scene;
   if (camera) {
     j["outputs"]["range"] = "range.tiff";
     j["outputs"]["rocks"] = "rocks.csv";
@@ -904,8 +988,21 @@ void add_assess(CLI::App& app) {
                   "the camera --device (or the only one); the recorded deployment gives the camera and the sun");
   cmd->add_option("--height", o->height_m, "m, camera height above the ground")->check(positive());
   cmd->add_option("--pitch", o->pitch_deg, "deg, camera pitch below the horizontal")->check(finite());
-  cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")
-      ->check(regolith::cli::positive());
+  CLI::Option* pixel =
+      cmd->add_option("--pixel-size", o->pixel_size_m, "m, ground size of a pixel in orthographic mode")
+          ->check(regolith::cli::positive());
+  cmd->add_option("--scene", o->scene,
+                  "a rendered scene's input.json (the development sets' format): the orthographic patch's pixel size, "
+                  "sun and flat field, or the perspective camera (intrinsics, height, pitch) and the world sun")
+      ->excludes(pixel)
+      ->excludes("--camera")
+      ->excludes("--height")
+      ->excludes("--pitch")
+      ->excludes("--sun-slant")
+      ->excludes("--sun-tilt")
+      ->excludes("--rover")
+      ->excludes("--device")
+      ->excludes("--frame");
   cmd->callback([o] { assess(*o); });
 }
 

@@ -795,16 +795,17 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   for (const char* name : {"persp_dev_0", "persp_dev_1"}) {
     const auto in = nlohmann::json::parse(read_file(root / name / "input.json"));
     const auto truth = nlohmann::json::parse(read_file(root / name / "truth.json"));
-    const auto& c = in["camera"];
-    char args[1024];
-    std::snprintf(
-        args, sizeof args,
-        "assess %s --out %s --sun-slant %.4f --sun-tilt %.4f --camera %.6f,%.6f,%.3f,%.3f --height %.6f --pitch %.6f",
-        (root / name / "image.png").c_str(), (dir / name).c_str(), in["sun_slant_deg_image"].get<double>(),
-        in["sun_tilt_deg_image"].get<double>(), c["fx"].get<double>(), c["fy"].get<double>(), c["cx"].get<double>(),
-        c["cy"].get<double>(), c["h_m"].get<double>(), c["pitch_deg"].get<double>());
+    // The scene's own description (--scene): camera, mount and the world sun, which assess turns
+    // into the image frame itself; the renderer's image-frame sun is the check of that conversion.
+    const std::string args = "assess " + (root / name / "image.png").string() + " --out " + (dir / name).string() +
+                             " --scene " + (root / name / "input.json").string();
     ASSERT_EQ(run_tool(args, dir / (std::string(name) + ".txt")), 0) << read_file(dir / (std::string(name) + ".txt"));
     const auto summary = nlohmann::json::parse(read_file(dir / name / "summary.json"));
+    EXPECT_EQ(summary["mode"], "camera");
+    EXPECT_NEAR(summary["light"]["slant_deg"].get<double>(), in["sun_slant_deg_image"].get<double>(), 0.01);
+    EXPECT_NEAR(
+        std::remainder(summary["light"]["tilt_deg"].get<double>() - in["sun_tilt_deg_image"].get<double>(), 360.0), 0.0,
+        0.01);
     if (in["sun_slant_deg_image"].get<double>() >= 90.0) {
       EXPECT_NE(summary["image_sfs"].get<std::string>().find("sun ahead of the camera"), std::string::npos);
       EXPECT_GT(summary["grid"]["known_cells"].get<int>(), 0);
@@ -850,6 +851,82 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   EXPECT_GE(werr.size() * 10, static_cast<std::size_t>(measurable) * 9);  // measured 19 of 19
   EXPECT_LT(median(werr), 0.15);                                          // measured 9 % (goal 15 %)
   EXPECT_LT(median(herr), 0.25);  // measured 17 % (goal 25 %; the thesis' box formula ~138 %)
+}
+
+// `assess IMAGE --scene input.json` on an orthographic development patch does exactly what the
+// patch's numbers given as options do (pixel size, image-frame sun, the flat field beside the
+// file), and the run says which scene it read.
+TEST(AssessCli, AnOrthographicSceneFileIsTheSameRunAsItsNumbers) {
+  const fs::path patch = fs::path(REGOLITH_SHARED_DIR) / "data" / "synthetic_dev" / "sfs" / "ortho_vignette_dev_1";
+  if (!fs::exists(patch / "input.json")) GTEST_SKIP() << patch << " not present";
+  const regolith::testing::TempDir tmp("assess_scene");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
+  const auto in = nlohmann::json::parse(read_file(patch / "input.json"));
+  ASSERT_TRUE(in["flat_field"].is_string());
+  char numbers[512];
+  std::snprintf(numbers, sizeof numbers, " --sun-slant %.17g --sun-tilt %.17g --pixel-size %.17g --flat-field %s",
+                in["sun_slant_deg"].get<double>(), in["sun_tilt_deg"].get<double>(), in["gsd_m"].get<double>(),
+                (patch / in["flat_field"].get<std::string>()).c_str());
+  const std::string image = "assess " + (patch / "image.png").string();
+  ASSERT_EQ(run_tool(image + " --out " + (dir / "scene").string() + " --scene " + (patch / "input.json").string(),
+                     dir / "scene.txt"),
+            0)
+      << read_file(dir / "scene.txt");
+  ASSERT_EQ(run_tool(image + " --out " + (dir / "numbers").string() + numbers, dir / "numbers.txt"), 0)
+      << read_file(dir / "numbers.txt");
+  EXPECT_EQ(read_file(dir / "scene" / "height.tiff"), read_file(dir / "numbers" / "height.tiff"));
+  const auto summary = nlohmann::json::parse(read_file(dir / "scene" / "summary.json"));
+  EXPECT_EQ(summary["scene"], (patch / "input.json").string());
+  EXPECT_EQ(summary["mode"], "orthographic");
+}
+
+// A scene file that cannot describe the image: one line naming the file and the field, exit 2;
+// and --scene with the options it replaces is refused before anything runs.
+TEST(AssessCli, ABadSceneFileNamesTheFileAndTheField) {
+  const regolith::testing::TempDir tmp("assess_bad_scene");  // removed whatever the outcome
+  const fs::path& dir = tmp.path();
+  const fs::path png = dir / "ground.png";
+  ASSERT_TRUE(cv::imwrite(png.string(), cv::Mat(120, 160, CV_8U, cv::Scalar(128))));
+  const auto attempt = [&](const std::string& name, const std::string& text, const std::string& extra = "") {
+    const fs::path scene = dir / (name + ".json");
+    std::ofstream(scene) << text;
+    const int rc =
+        run_tool("assess " + png.string() + " --out " + (dir / "out").string() + " --scene " + scene.string() + extra,
+                 dir / (name + ".txt"));
+    return std::make_pair(rc, read_file(dir / (name + ".txt")));
+  };
+  const std::string camera =
+      R"("camera": {"width": 160, "height": 120, "fx": 150, "fy": 150, "cx": 79.5, "cy": 59.5, "h_m": 0.6, "pitch_deg": 30})";
+  const std::string sun = R"("sun_elevation_deg": 40, "sun_azimuth_deg": 90)";
+  const struct {
+    const char* name;
+    std::string text, expected;
+  } cases[] = {
+      {"no_cx", R"({"projection": "perspective", "camera": {"width": 160, "height": 120, "fx": 150}})",
+       "no_cx.json: camera.cx: missing"},
+      {"other_size",
+       R"({"projection": "perspective", "camera": {"width": 640, "height": 480, "fx": 150, "fy": 150, "cx": 79.5, "cy": 59.5, "h_m": 0.6, "pitch_deg": 30}, )" +
+           sun + "}",
+       "other_size.json: camera.width x camera.height is 640x480 px, but the image is 160x120"},
+      {"no_projection", "{" + camera + ", " + sun + "}", "no_projection.json: projection: must be"},
+      {"sun_text", R"({"projection": "perspective", )" + camera + R"(, "sun_elevation_deg": "high"})",
+       "sun_text.json: sun_elevation_deg: must be a number"},
+      {"no_pixel_size", R"({"projection": "orthographic", "sun_slant_deg": 30, "sun_tilt_deg": 0})",
+       "no_pixel_size.json: gsd_m: missing"},
+      {"not_json", "{\"projection\": ", "not_json.json: not valid JSON"},
+  };
+  for (const auto& c : cases) {
+    const auto [rc, log] = attempt(c.name, c.text);
+    EXPECT_EQ(rc, 2) << c.name << ": " << log;
+    EXPECT_NE(log.find(c.expected), std::string::npos) << c.name << ": " << log;
+    EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << c.name << ": " << log;
+  }
+  const std::string good = R"({"projection": "perspective", )" + camera + ", " + sun + "}";
+  const auto [ok, ok_log] = attempt("good", good);
+  EXPECT_EQ(ok, 0) << ok_log;
+  const auto [both, both_log] = attempt("both", good, " --height 0.5");
+  EXPECT_NE(both, 0);
+  EXPECT_NE(both_log.find("--height excludes --scene"), std::string::npos) << both_log;
 }
 #endif
 

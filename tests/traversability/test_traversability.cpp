@@ -119,6 +119,86 @@ TEST(Traversability, StepAndSlopeAboveCriticalAreFlagged) {
   EXPECT_NEAR(g.layer("traversability_step").at<float>(20, 20), 0.5, 1e-4);
 }
 
+// The layers by definition, cell by cell over every disc cell (what compute_layers did before
+// its prefix sums and running extremes): slope, roughness and step of cell (i, j).
+struct DirectLayers {
+  float slope, roughness, step;
+};
+DirectLayers direct_layers(const cv::Mat& e, int i, int j, double res, const TraversabilityParams& p) {
+  const int rs = std::max(1, static_cast<int>(std::ceil(p.slope_radius_m / res - 1e-9)));
+  const int rst = std::max(1, static_cast<int>(std::ceil(p.step_radius_m / res - 1e-9)));
+  cv::Matx33d A = cv::Matx33d::zeros();
+  cv::Vec3d b(0, 0, 0);
+  double szz = 0;
+  float zmin = e.at<float>(i, j), zmax = zmin;
+  for (int di = -std::max(rs, rst); di <= std::max(rs, rst); ++di)
+    for (int dj = -std::max(rs, rst); dj <= std::max(rs, rst); ++dj) {
+      const int ii = i + di, jj = j + dj;
+      if (ii < 0 || jj < 0 || ii >= e.rows || jj >= e.cols || !std::isfinite(e.at<float>(ii, jj))) continue;
+      const float zf = e.at<float>(ii, jj);
+      if (di * di + dj * dj <= rst * rst) zmin = std::min(zmin, zf), zmax = std::max(zmax, zf);
+      if (di * di + dj * dj > rs * rs) continue;
+      const cv::Vec3d r(1.0, di * res, dj * res);
+      A += r * r.t();
+      b += r * static_cast<double>(zf);
+      szz += static_cast<double>(zf) * zf;
+    }
+  cv::Vec3d sol;
+  cv::solve(A, b, sol, cv::DECOMP_LU);
+  const double slope = std::atan(std::hypot(sol[1], sol[2]));
+  const double rough = std::sqrt(std::max(0.0, szz - sol.dot(b)) / A(0, 0));
+  const auto score = [](double v, double critical) {
+    return static_cast<float>(v >= critical ? 0.0 : 1.0 - v / critical);
+  };
+  return {score(slope, p.critical_slope_rad), score(rough, p.critical_roughness_m),
+          score(zmax - zmin, p.critical_step_m)};
+}
+
+// compute_layers sums its discs from row prefix sums and takes the step from running row extremes;
+// on rough ground with unknown holes, at the grid's edges, far from zero elevation and with discs
+// from 1 to 25 cells across, every layer agrees with the definition computed cell by cell (the
+// step exactly), and a reused workspace gives the same layers again.
+TEST(Traversability, LayersEqualTheirDefinitionOnEveryDisc) {
+  cv::RNG rng(7);
+  cv::Mat e(41, 57, CV_32F);
+  for (int i = 0; i < e.rows; ++i)
+    for (int j = 0; j < e.cols; ++j)
+      e.at<float>(i, j) = static_cast<float>(12.0 + 0.02 * i + 0.3 * std::sin(0.21 * j) * std::cos(0.13 * i) +
+                                             rng.gaussian(0.01) + (rng.uniform(0, 40) == 0 ? 0.15 : 0.0));
+  for (int k = 0; k < 300; ++k) e.at<float>(rng.uniform(0, e.rows), rng.uniform(0, e.cols)) = std::nanf("");
+  e(cv::Rect(20, 10, 6, 5)).setTo(std::numeric_limits<float>::quiet_NaN());
+  traversability::LayerWorkspace ws;
+  for (const double res : {0.05, 0.01, 0.004}) {
+    TraversabilityParams p = params();
+    p.resolution_m = res;
+    p.critical_roughness_m = 0.03;
+    GridMap g;
+    g.resolution_m = res;
+    g.length_x_m = e.rows * res;
+    g.length_y_m = e.cols * res;
+    for (int pass = 0; pass < 2; ++pass) {  // the second reuses the workspace
+      g.layers = {"elevation"};
+      g.data = {e.clone()};
+      traversability::compute_layers(g, p, ws);
+      int compared = 0;
+      for (int i = 0; i < e.rows; ++i)
+        for (int j = 0; j < e.cols; ++j) {
+          if (!std::isfinite(e.at<float>(i, j))) {
+            EXPECT_TRUE(std::isnan(g.layer("traversability").at<float>(i, j)));
+            continue;
+          }
+          const DirectLayers d = direct_layers(e, i, j, res, p);
+          ASSERT_NEAR(g.layer("traversability_slope").at<float>(i, j), d.slope, 1e-5) << res << " at " << i << "," << j;
+          ASSERT_NEAR(g.layer("traversability_roughness").at<float>(i, j), d.roughness, 1e-5)
+              << res << " at " << i << "," << j;
+          ASSERT_EQ(g.layer("traversability_step").at<float>(i, j), d.step) << res << " at " << i << "," << j;
+          ++compared;
+        }
+      EXPECT_GT(compared, 1900);
+    }
+  }
+}
+
 TEST(Traversability, MetricRockFromCameraIsFlagged) {
   // A 0.2 m tall block in the metric height image lands in the right cells.
   const direct_depth::DirectDepth dd(cam());

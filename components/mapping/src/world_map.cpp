@@ -416,7 +416,7 @@ void WorldMap::finish() {
         var.at<float>(i, j) = static_cast<float>(s0 / p_.fill_min_weight);
         conf.at<float>(i, j) = std::min(0.5f * w, 0.5f);
       }
-  traversability::compute_layers(trav_, p_.traversability);
+  traversability::compute_layers(trav_, p_.traversability, trav_ws_);
   cv::Mat& relief = layers_[kRelief];
   cv::Mat& hazard = layers_[kHazard];
   cv::Mat& shadow = layers_[kShadow];

@@ -143,7 +143,8 @@ class WorldMap {
   cv::Mat tracks_;             // TrackRow columns: closed tracks [0, n_closed_), then the live ones
   int n_closed_ = 0, n_live_ = 0;
   std::vector<cv::Mat> layers_;
-  traversability::GridMap trav_;  // view of elevation for compute_layers
+  traversability::GridMap trav_;            // view of elevation for compute_layers
+  traversability::LayerWorkspace trav_ws_;  // compute_layers' scratch, reused every frame
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)

@@ -130,6 +130,17 @@ inline constexpr double kMinSunElevationRad = 0.01;
 /// the sun is at or below the horizon.
 ImageLight ground_light(const direct_depth::CameraModel& model, const ImageLight& light);
 
+/// Scratch of compute_layers: per-row prefix sums for the plane fits, running extremes for the
+/// step. Sized by the first call for a grid; later calls on a grid of the same size reuse it
+/// without allocating (what a rate-group cycle needs).
+struct LayerWorkspace {
+  cv::Mat prefix;                           ///< CV_64FC(6): per row, running sums over the columns before j
+  cv::Mat zmax, zmin;                       ///< CV_32F: highest / lowest elevation over each cell's step disc
+  cv::Mat rowmax, rowmin;                   ///< CV_32F: one half-width's running row extremes
+  std::vector<float> block_fwd, block_bwd;  ///< block scans of one row (van Herk / Gil-Werman)
+  std::vector<int> half;                    ///< half-width of each row of the plane-fit disc
+};
+
 class TraversabilityMapper {
  public:
   /// Pre-allocates every buffer for the camera's image size and the grid.
@@ -183,12 +194,18 @@ class TraversabilityMapper {
   cv::Mat ground_step_x_, ground_step_y_;  // m per px along columns / rows (footprints)
   std::vector<double> line_;
   cv::Mat sum_, count_;
+  LayerWorkspace layer_ws_;  // compute_layers' scratch, reused every frame
   int nx_ = 0, ny_ = 0;
 };
 
 /// Computes the traversability layers of an existing elevation grid (for tests and other
 /// sources of elevation): `map` must contain an "elevation" layer; the other layers are
 /// (re)created. Confidence is left as is if present, else 1 where elevation is finite.
+/// Slope and roughness: a least-squares plane over the known cells within slope_radius_m of a
+/// cell; step: highest minus lowest known elevation within step_radius_m. The cost per cell grows
+/// with the radius in cells, not with its square.
+void compute_layers(GridMap& map, const TraversabilityParams& params, LayerWorkspace& workspace);
+/// The same with a workspace of its own (allocates on every call).
 void compute_layers(GridMap& map, const TraversabilityParams& params);
 
 }  // namespace regolith::traversability
