@@ -9,89 +9,20 @@
 // when it did (CTest runs it on every shipped deployment whose devices are all mocks), 2 on a
 // usage or deployment error. --trace N prints the call stacks of the first N steady-state
 // allocations (addr2line or gdb turn the addresses into lines).
-#include <array>
-#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <map>
-#include <new>
 #include <string>
-
-#include <execinfo.h>
-#include <unistd.h>
 
 #include "cli_support.hpp"
 #include "regolith/runtime/application.hpp"
 
-namespace {
-std::atomic<std::uint64_t> g_all{0};
-std::atomic<std::uint64_t> g_in_cycle{0};
-std::atomic<bool> g_attribute{false};  // steady state: count per component
-std::atomic<int> g_trace_left{0};
-// Per-member counts without allocating: a fixed table of (component pointer, count).
-constexpr int kMaxMembers = 64;
-std::array<std::atomic<const void*>, kMaxMembers> g_member_key{};
-std::array<std::atomic<std::uint64_t>, kMaxMembers> g_member_count{};
-std::atomic<std::uint64_t> g_unattributed{0};
-
-void attribute(const void* member) {
-  if (member == nullptr) {
-    g_unattributed.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  for (int i = 0; i < kMaxMembers; ++i) {
-    const void* k = g_member_key[static_cast<size_t>(i)].load(std::memory_order_acquire);
-    if (k == nullptr) {
-      const void* expected = nullptr;
-      if (g_member_key[static_cast<size_t>(i)].compare_exchange_strong(expected, member) || expected == member) {
-        g_member_count[static_cast<size_t>(i)].fetch_add(1, std::memory_order_relaxed);
-        return;
-      }
-      continue;
-    }
-    if (k == member) {
-      g_member_count[static_cast<size_t>(i)].fetch_add(1, std::memory_order_relaxed);
-      return;
-    }
-  }
-  g_unattributed.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-
-void* operator new(std::size_t n) {
-  g_all.fetch_add(1, std::memory_order_relaxed);
-  if (regolith::runtime::in_rate_group_cycle()) {
-    g_in_cycle.fetch_add(1, std::memory_order_relaxed);
-    if (g_attribute.load(std::memory_order_relaxed)) {
-      attribute(regolith::runtime::current_cycle_member());
-      if (g_trace_left.load(std::memory_order_relaxed) > 0 && g_trace_left.fetch_sub(1) > 0) {
-        void* frames[24];
-        const int depth = backtrace(frames, 24);
-        backtrace_symbols_fd(frames, depth, STDERR_FILENO);
-        (void)!write(STDERR_FILENO, "----\n", 5);
-      }
-    }
-  }
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  return operator new(n);
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t) noexcept {
-  std::free(p);
-}
+// The counting operator new shared with the allocation tests, with the count inside rate-group
+// cycles and its attribution to the member that allocated.
+#define REGOLITH_ALLOC_COUNT_CYCLES
+#include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
 
 using namespace regolith;
 
@@ -152,19 +83,20 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "steady_state_allocations: %s\n", e.what());
     return 2;
   }
-  const std::uint64_t before_load = g_in_cycle.load();
+  namespace counter = regolith::testing;
+  const std::uint64_t before_load = counter::cycle_allocations();
   std::atomic<bool> stop{false};
   app->start();
   app->run(static_cast<TimeNs>(warmup_s * static_cast<double>(kNsPerSec)), stop);
   const std::uint64_t warm_cycles = total_cycles(*app);
-  const std::uint64_t warm_allocs = g_in_cycle.load() - before_load;
+  const std::uint64_t warm_allocs = counter::cycle_allocations() - before_load;
 
-  g_trace_left = trace;
-  g_attribute = true;
-  const std::uint64_t a0 = g_in_cycle.load();
+  counter::trace_cycle_allocations(trace);
+  counter::attribute_cycle_allocations(true);
+  const std::uint64_t a0 = counter::cycle_allocations();
   app->run(static_cast<TimeNs>(steady_s * static_cast<double>(kNsPerSec)), stop);
-  const std::uint64_t steady_allocs = g_in_cycle.load() - a0;
-  g_attribute = false;
+  const std::uint64_t steady_allocs = counter::cycle_allocations() - a0;
+  counter::attribute_cycle_allocations(false);
   const std::uint64_t steady_cycles = total_cycles(*app) - warm_cycles;
 
   auto per_cycle = [](std::uint64_t a, std::uint64_t c) {
@@ -178,16 +110,12 @@ int main(int argc, char** argv) {
   std::printf("  steady  %.0f s: %llu allocations in %llu cycles (%.4f per cycle, goal 0)\n", steady_s,
               static_cast<unsigned long long>(steady_allocs), static_cast<unsigned long long>(steady_cycles),
               per_cycle(steady_allocs, steady_cycles));
-  for (const auto* c : app->view().components) {
-    for (int i = 0; i < kMaxMembers; ++i) {
-      if (g_member_key[static_cast<size_t>(i)].load() == static_cast<const void*>(c))
-        std::printf("    %-20s %llu allocations in steady state\n", c->name().c_str(),
-                    static_cast<unsigned long long>(g_member_count[static_cast<size_t>(i)].load()));
-    }
-  }
-  if (g_unattributed.load() > 0)
-    std::printf("    (between members)    %llu allocations in steady state\n",
-                static_cast<unsigned long long>(g_unattributed.load()));
+  for (const auto* c : app->view().components)
+    if (const std::uint64_t n = counter::member_allocations(c); n > 0)
+      std::printf("    %-20s %llu allocations in steady state\n", c->name().c_str(),
+                  static_cast<unsigned long long>(n));
+  if (const std::uint64_t n = counter::unattributed_cycle_allocations(); n > 0)
+    std::printf("    (between members)    %llu allocations in steady state\n", static_cast<unsigned long long>(n));
   app->stop();
   if (steady_cycles == 0) {
     std::fprintf(stderr, "steady_state_allocations: %s: no rate-group cycle ran in the steady window\n", name.c_str());
