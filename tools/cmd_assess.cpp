@@ -130,7 +130,41 @@ struct ImageRock {
   double height_m = 0.0;   ///< top above the ground
   bool top_cut = false;    ///< the image's top edge cuts it: height is a lower bound
   double score = 0.0;      ///< 0..1, contrast against the ground
+  double height_sfs_m = std::numeric_limits<double>::quiet_NaN();  ///< from the grid's SfS elevation; NaN: not seen
 };
+
+// Each rock's height as the grid's shading solve sees it: the highest known elevation within the
+// rock's footprint (half its width, at least 1.5 cells, around its ground position) over the median of
+// the ring 1.5-2.5 footprint radii out (the local ground). NaN when fewer than 3 footprint or 5
+// ring cells are known.
+void sfs_rock_heights(const traversability::GridMap& grid, std::vector<ImageRock>& rocks) {
+  const cv::Mat& e = grid.layer("elevation");
+  const double res = grid.resolution_m;
+  std::vector<float> ring;
+  for (ImageRock& r : rocks) {
+    const double rf = std::max(0.5 * r.width_m, 1.5 * res), ring_out = 2.5 * rf;
+    int ci = 0, cj = 0;
+    if (!grid.cell_of(r.range_m, r.lateral_m, ci, cj)) continue;
+    const int span = static_cast<int>(std::ceil(ring_out / res));
+    float top = -std::numeric_limits<float>::infinity();
+    int inside = 0;
+    ring.clear();
+    for (int i = std::max(0, ci - span); i <= std::min(e.rows - 1, ci + span); ++i)
+      for (int j = std::max(0, cj - span); j <= std::min(e.cols - 1, cj + span); ++j) {
+        const float z = e.at<float>(i, j);
+        if (!std::isfinite(z)) continue;
+        const cv::Point2d c = grid.cell_center(i, j);
+        const double d = std::hypot(c.x - r.range_m, c.y - r.lateral_m);
+        if (d <= rf)
+          top = std::max(top, z), ++inside;
+        else if (d >= 1.5 * rf && d <= ring_out)
+          ring.push_back(z);
+      }
+    if (inside < 3 || ring.size() < 5) continue;
+    std::nth_element(ring.begin(), ring.begin() + static_cast<std::ptrdiff_t>(ring.size() / 2), ring.end());
+    r.height_sfs_m = std::max(0.0, static_cast<double>(top - ring[ring.size() / 2]));
+  }
+}
 
 // Rocks in one perspective image: mapping::RockSightings (contrast blobs against the local
 // ground, ranged by direct depth: contact = the blob's lowest row, width = its side columns at
@@ -223,12 +257,13 @@ void fit_grid_to_view(const direct_depth::DirectDepth& depth, cv::Size image,
 // rocks.csv: one line per rock (id from 1, nearest first), the columns of summary.json's rocks.
 void write_rocks(const fs::path& out, const std::vector<ImageRock>& rocks) {
   std::ostringstream csv;
-  csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax\n";
+  csv << "id,range_m,lateral_m,width_m,height_m,height_is_lower_bound,score,xmin,ymin,xmax,ymax,height_sfs_m\n";
   for (std::size_t k = 0; k < rocks.size(); ++k) {
     const ImageRock& r = rocks[k];
     csv << k + 1 << "," << fmt(r.range_m, 4) << "," << fmt(r.lateral_m, 4) << "," << fmt(r.width_m, 4) << ","
         << fmt(r.height_m, 4) << "," << (r.top_cut ? 1 : 0) << "," << fmt(r.score, 3) << "," << r.box.x << ","
-        << r.box.y << "," << r.box.x + r.box.width - 1 << "," << r.box.y + r.box.height - 1 << "\n";
+        << r.box.y << "," << r.box.x + r.box.width - 1 << "," << r.box.y + r.box.height - 1 << ","
+        << (std::isfinite(r.height_sfs_m) ? fmt(r.height_sfs_m, 4) : std::string()) << "\n";
   }
   write_file((out / "rocks.csv").string(), csv.str(), "the rocks table");
 }
@@ -244,7 +279,8 @@ nlohmann::json rocks_json(const std::vector<ImageRock>& rocks) {
                  {"height_m", r.height_m},
                  {"height_is_lower_bound", r.top_cut},
                  {"score", r.score},
-                 {"box_px", {r.box.x, r.box.y, r.box.x + r.box.width - 1, r.box.y + r.box.height - 1}}});
+                 {"box_px", {r.box.x, r.box.y, r.box.x + r.box.width - 1, r.box.y + r.box.height - 1}},
+                 {"height_sfs_m", std::isfinite(r.height_sfs_m) ? nlohmann::json(r.height_sfs_m) : nlohmann::json()}});
   }
   return a;
 }
@@ -896,6 +932,7 @@ void assess(const AssessOptions& o) {
   std::vector<ImageRock> rocks;
   if (s.depth) {
     rocks = image_rocks(gray, *s.depth);
+    sfs_rock_heights(grid, rocks);
     write_rocks(out, rocks);
     if (!cv::imwrite((out / "range.tiff").string(), s.depth->range_map()))
       throw InputError("assess: cannot write '" + (out / "range.tiff").string() + "'");
