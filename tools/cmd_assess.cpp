@@ -31,9 +31,9 @@
 #include "regolith/common/camera.hpp"
 #include "regolith/common/grid_params.hpp"
 #include "regolith/common/plot.hpp"
+#include "regolith/common/scene.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
-#include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
@@ -543,81 +543,21 @@ void camera_from_options(const AssessOptions& o, cv::Size image, AssessSetup& s)
   }
 }
 
-// --scene input.json: a rendered scene described as the development sets do
-// (../shared/data/synthetic_dev/sfs/*/input.json). "projection" is
-//  * "orthographic": gsd_m (ground size of a pixel), sun_slant_deg / sun_tilt_deg (image frame),
-//    flat_field (null, or a flat-field image beside the file; --flat-field wins);
-//  * "perspective": camera {width, height, fx, fy, cx, cy, h_m, pitch_deg [, roll_deg]} and the
-//    sun in the world (X right, Y forward, Z up): sun_elevation_deg, sun_azimuth_deg from +Y
-//    towards +X, which is the rover description's compass azimuth, so the sun goes into the image
-//    frame by the same conversion as --rover's (common::camera_light, level rover).
-// Fills the setup as --pixel-size / --camera --height --pitch / --sun-* would; returns the flat
-// field it names (empty: none). InputError naming the file and the field.
+// --scene input.json (common::read_scene_description: the development sets' orthographic or
+// perspective scene description): fills the setup as --pixel-size / --camera --height --pitch /
+// --sun-* would; returns the flat field it names (empty: none; --flat-field wins).
 std::string scene_setup(const std::string& file, cv::Size image, AssessSetup& s) {
-  const nlohmann::json j = read_json_file(file, "scene description (input.json)");
-  const auto number = [&](const char* field) { return json_number(j, file, field); };
-  const auto size_check = [&](const char* w_key, const char* h_key) {
-    const int w = json_pixels(j, file, w_key), h = json_pixels(j, file, h_key);
-    if (w != image.width || h != image.height)
-      throw InputError(file + ": " + w_key + " x " + h_key + " is " + std::to_string(w) + "x" + std::to_string(h) +
-                       " px, but the image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                       ": not this image's scene");
-  };
-  const std::string projection = j.is_object() && j.contains("projection") && j["projection"].is_string()
-                                     ? j["projection"].get<std::string>()
-                                     : std::string();
+  const common::SceneDescription d = common::read_scene_description(file, image.width, image.height);
   s.sp.estimate_light = false;
-  if (projection == "orthographic") {
-    if (j.contains("width") || j.contains("height")) size_check("width", "height");
-    s.pixel_size_m = number("gsd_m");
-    if (!(s.pixel_size_m > 0.0))
-      throw InputError(file + ": gsd_m: must be > 0 m (got " + number_text(s.pixel_size_m) + ")");
-    const sfs::LightDirection l{number("sun_slant_deg") * kDeg, number("sun_tilt_deg") * kDeg};
-    try {
-      l.validate("sun");
-    } catch (const std::invalid_argument& e) {
-      throw InputError(file + ": sun_slant_deg: " + e.what() + " (an orthographic patch needs the sun above it)");
-    }
-    s.light = l;
-    const auto ff = j.find("flat_field");
-    if (ff == j.end() || ff->is_null()) return {};
-    if (!ff->is_string() || ff->get<std::string>().empty())
-      throw InputError(file + ": flat_field: must be null or the name of a flat-field image");
-    const fs::path rel(ff->get<std::string>());
-    return (rel.is_absolute() ? rel : fs::path(file).parent_path() / rel).string();
-  }
-  if (projection != "perspective")
-    throw InputError(file + ": projection: must be \"orthographic\" or \"perspective\"" +
-                     (projection.empty() ? std::string(" (missing)") : " (got \"" + projection + "\")"));
-  size_check("camera.width", "camera.height");
-  RoverCamera rc;
-  rc.name = "scene";
-  rc.where = file;
-  rc.info.width = image.width;
-  rc.info.height = image.height;
-  rc.info.k = {
-      number("camera.fx"), 0.0, number("camera.cx"), 0.0, number("camera.fy"), number("camera.cy"), 0.0, 0.0, 1.0};
-  rc.info.distortion_model = "none";
-  rc.mount.z_m = number("camera.h_m");
-  rc.mount.pitch_rad = number("camera.pitch_deg") * kDeg;
-  rc.mount.roll_rad = json_optional_number(j, file, "camera.roll_deg").value_or(0.0) * kDeg;
-  direct_depth::CameraModel m = common::camera_model_of(rc);
-  try {
-    m.validate();
-  } catch (const FieldError& e) {
-    throw InputError(file + ": camera: " + e.what());
-  }
-  s.model = m;
-  const double el = number("sun_elevation_deg");
-  if (!(el >= -90.0 && el <= 90.0))
-    throw InputError(file + ": sun_elevation_deg: must be in -90..90 deg (got " + number_text(el) + ")");
-  const Sun sun{.azimuth_rad = number("sun_azimuth_deg") * kDeg, .elevation_rad = el * kDeg};
-  const common::CameraLight cl = common::camera_light(sun, rc);
-  s.light = cl.light;
-  if (!cl.in_view)
-    s.sun_error = file + ": the sun is ahead of the camera (image slant " + fmt(cl.light.slant_rad / kDeg, 1) +
+  s.light = d.light;
+  if (d.camera)
+    s.model = *d.camera;
+  else
+    s.pixel_size_m = d.pixel_size_m;
+  if (!d.sun_in_view)
+    s.sun_error = file + ": the sun is ahead of the camera (image slant " + fmt(d.light.slant_rad / kDeg, 1) +
                   " deg): no image-frame shading to solve";
-  return {};
+  return d.flat_field;
 }
 
 AssessSetup configure(const AssessOptions& o, const AssessInput& in) {
