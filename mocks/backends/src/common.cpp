@@ -63,6 +63,11 @@ cv::Size scene_image_size(Params& p, const SceneDescription& d, cv::Size fallbac
   return s;
 }
 
+double read_sample_rate(Params& p, const char* doc) {
+  return p.get<double>("sample_rate_hz", 100.0,
+                       {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true, .doc = doc});
+}
+
 TimeNs read_max_extrapolation(Params& p) {
   const double ms = p.get<double>(
       "max_extrapolation_ms", 50.0,

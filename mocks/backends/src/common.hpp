@@ -279,6 +279,9 @@ class LazyEncoders : public hal::WheelEncoders {
 
 /// Read `max_extrapolation_ms` (shared by the encoder backends).
 TimeNs read_max_extrapolation(Params& p);
+/// `sample_rate_hz` (default 100 Hz): the rate an encoder or IMU source reports at; `doc` says
+/// what it means for that source.
+double read_sample_rate(Params& p, const char* doc);
 
 // ---- an IMU computed on demand on its rate grid ------------------------------------------------
 

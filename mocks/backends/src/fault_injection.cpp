@@ -600,12 +600,7 @@ std::unique_ptr<hal::WheelEncoders> make_fault_encoders(Params& p, const hal::De
   auto inner = registry.make_encoders(inner_p, ctx);
   inner_p.finish();
   const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
-  const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz",
-                                     .min = 0.0,
-                                     .max = 100000.0,
-                                     .min_exclusive = true,
-                                     .doc = "inner report rate: converts the sample counts above into time"});
+  const double rate = detail::read_sample_rate(p, "inner report rate: converts the sample counts above into time");
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::FaultEncoders>(ctx, std::move(inner), cfg, rate, max_ex);
 }
@@ -616,12 +611,7 @@ std::unique_ptr<hal::Imu> make_fault_imu(Params& p, const hal::DeviceContext& ct
   auto inner = registry.make<hal::Imu>(inner_p, ctx);
   inner_p.finish();
   const detail::FaultConfig cfg = detail::read_fault_config(p, "samples");
-  const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz",
-                                     .min = 0.0,
-                                     .max = 100000.0,
-                                     .min_exclusive = true,
-                                     .doc = "inner report rate: converts the sample counts above into time"});
+  const double rate = detail::read_sample_rate(p, "inner report rate: converts the sample counts above into time");
   const TimeNs max_ex = detail::read_max_extrapolation(p);
   return std::make_unique<detail::FaultImu>(ctx, std::move(inner), cfg, rate, max_ex);
 }

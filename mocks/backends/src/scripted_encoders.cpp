@@ -162,12 +162,7 @@ class ScriptedEncoders final : public LazyEncoders {
 std::unique_ptr<hal::WheelEncoders> make_scripted_encoders(Params& p, const hal::DeviceContext& ctx) {
   const auto wheels = p.get<std::vector<std::string>>(
       "wheels", {}, {.doc = "wheel names (with profile_csv: default = the CSV columns)"});
-  const double rate = p.get<double>("sample_rate_hz", 100.0,
-                                    {.unit = "Hz",
-                                     .min = 0.0,
-                                     .max = 100000.0,
-                                     .min_exclusive = true,
-                                     .doc = "encoder report rate: samples lie on this grid"});
+  const double rate = detail::read_sample_rate(p, "encoder report rate: samples lie on this grid");
   detail::ScriptedMotion motion = detail::ScriptedMotion::from_params(p, ctx, wheels);
   const double noise =
       p.get<double>("noise_rad", 0.0,

@@ -100,9 +100,7 @@ DriveSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   s.render.noise_sigma =
       p.get<double>("noise_sigma", 0.005, {.min = 0.0, .max = 1.0, .doc = "Gaussian image noise (0..1)"});
   s.render.cast_shadows = p.get<bool>("cast_shadows", true, {.doc = "cast shadows from the sun"});
-  s.sample_rate_hz =
-      p.get<double>("sample_rate_hz", 100.0,
-                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true, .doc = "encoder report rate"});
+  s.sample_rate_hz = read_sample_rate(p, "encoder report rate");
   s.max_extrapolation = read_max_extrapolation(p);
   s.slip_left = p.get<double>("slip_left", 0.0,
                               {.min = -0.5, .max = 0.5, .doc = "left wheels turn (1 + slip) x the distance they roll"});

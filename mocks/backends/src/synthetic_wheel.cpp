@@ -50,9 +50,7 @@ WheelSpec read_spec(Params& p, const hal::DeviceContext& ctx) {
   detail::check_preload(p, "frames", static_cast<std::uint64_t>(s.frames), {s.fmt.width, s.fmt.height},
                         s.fmt.format == hal::PixelFormat::kBgr8 ? 3 : 1);
   s.loop = p.get<bool>("loop", true, {.doc = "repeat the frames (angles repeat too); else the last one stays"});
-  s.sample_rate_hz =
-      p.get<double>("sample_rate_hz", 100.0,
-                    {.unit = "Hz", .min = 0.0, .max = 100000.0, .min_exclusive = true, .doc = "encoder report rate"});
+  s.sample_rate_hz = read_sample_rate(p, "encoder report rate");
   s.max_extrapolation = read_max_extrapolation(p);
   s.wheel = p.get<std::string>("wheel", "wheel", {.doc = "wheel name reported by the encoders"});
   s.motion = ScriptedMotion::from_params(p, ctx, {s.wheel});
