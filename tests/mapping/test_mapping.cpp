@@ -1359,6 +1359,39 @@ TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
   EXPECT_EQ(evaluate_map(hd.drive, hd.map)["rocks"]["hits"].get<int>(), 0);
 }
 
+// The hazard AUC is scored over the seen cells with a value; the seen cells left unknown are
+// counted and scored as 0 in a second AUC, so a map cannot look better by leaving a rock NaN.
+TEST(EvaluateMap, UnknownHazardCellsAreCountedAndScoredAsZeroInTheSecondAuc) {
+  const regolith::testing::TempDir tmp("mapping_eval_unknown");
+  const HandScoredDrive hd(tmp.path());
+  hd.detections("0.02,1.52,0.18,0.3,1\n");
+  // Map cell (i, j) is centred at (-2 + 0.04 j, -1 + 0.04 i). Rock 1 (0, 1.5) reads 0.9 within
+  // 0.12 m of its centre; rock 2 (0.5, 1.2; semi-axes 0.125 x 0.1 m) is unknown within 0.09 m.
+  cv::Mat hazard(100, 100, CV_32F, cv::Scalar(0.1));
+  int unknown = 0, high = 0;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j) {
+      const double x = -2 + 0.04 * j, y = -1 + 0.04 * i;
+      if (std::hypot(x, y - 1.5) <= 0.12) hazard.at<float>(i, j) = 0.9f, ++high;
+      if (std::hypot(x - 0.5, y - 1.2) <= 0.09) hazard.at<float>(i, j) = std::nanf(""), ++unknown;
+    }
+  ASSERT_GT(unknown, 10);
+  cv::imwrite((hd.map / "hazard.tiff").string(), hazard);
+  const nlohmann::json h = evaluate_map(hd.drive, hd.map)["hazard"];
+  EXPECT_EQ(h["unknown_cells"].get<int>(), unknown) << h.dump();
+  EXPECT_EQ(h["unknown_positive_cells"].get<int>(), unknown) << h.dump();
+  const double pos = h["positive_cells"].get<double>();
+  // Known positives: rock 1's cells at 0.9 above every negative, its rim and rock 2's rim tied with them at 0.1.
+  EXPECT_NEAR(h["auc"].get<double>(), (high + 0.5 * (pos - high)) / pos, 1e-9) << h.dump();
+  // Scored as 0, rock 2's unknown cells rank below every negative: each costs 1 / (pos + unknown).
+  EXPECT_NEAR(h["auc_unknown_as_zero"].get<double>(), h["auc"].get<double>() * pos / (pos + unknown), 1e-9) << h.dump();
+  // With every cell known the two readings agree.
+  cv::imwrite((hd.map / "hazard.tiff").string(), cv::Mat(100, 100, CV_32F, cv::Scalar(0.1)));
+  const nlohmann::json k = evaluate_map(hd.drive, hd.map)["hazard"];
+  EXPECT_EQ(k["unknown_cells"].get<int>(), 0);
+  EXPECT_DOUBLE_EQ(k["auc_unknown_as_zero"].get<double>(), k["auc"].get<double>());
+}
+
 // The independent development drives (../shared/data/synthetic_dev/traverse): the corrected pose
 // must beat the drifting wheel odometry it starts from.
 TEST(DevelopmentDrives, CorrectedPosesBeatWheelOdometry) {

@@ -413,12 +413,16 @@ nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vec
 }
 
 // --- hazard: ROC AUC over the seen cells with a hazard value; positive = on a rock >= 10 cm,
-// negative = on no rock >= 5 cm (cells on 5-10 cm rocks are left out).
+// negative = on no rock >= 5 cm (cells on 5-10 cm rocks are left out). Also the other reading of
+// "over the seen cells": every seen cell scored, an unknown (NaN) hazard as 0 (auc_unknown_as_zero),
+// with how many seen cells are unknown and how many of them lie on a rock >= 10 cm.
 nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth_rocks) {
-  std::vector<std::pair<double, int>> scores;
+  std::vector<std::pair<double, int>> scores, with_unknown;
+  int unknown_pos = 0;
   for (int i = 0; i < g.hazard.rows; ++i)
     for (int j = 0; j < g.hazard.cols; ++j) {
-      if (!g.seen.at<uchar>(i, j) || !std::isfinite(g.hazard.at<float>(i, j))) continue;
+      if (!g.seen.at<uchar>(i, j)) continue;
+      const bool known = std::isfinite(g.hazard.at<float>(i, j));
       const cv::Point2d c = g.centre(i, j);
       bool pos = false, near5 = false;
       for (const TRock& t : truth_rocks) {
@@ -430,12 +434,21 @@ nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth
           if (t.h >= 0.10) pos = true;
         }
       }
-      if (pos)
-        scores.emplace_back(g.hazard.at<float>(i, j), 1);
-      else if (!near5)
-        scores.emplace_back(g.hazard.at<float>(i, j), 0);
+      if (!pos && near5) continue;
+      const double h = known ? g.hazard.at<float>(i, j) : 0.0;
+      with_unknown.emplace_back(h, pos ? 1 : 0);
+      if (known)
+        scores.emplace_back(h, pos ? 1 : 0);
+      else if (pos)
+        ++unknown_pos;
     }
-  return {{"cells", scores.size()}, {"auc", auc(scores)}};
+  const auto positives = std::count_if(scores.begin(), scores.end(), [](const auto& s) { return s.second == 1; });
+  return {{"cells", scores.size()},
+          {"positive_cells", positives},
+          {"auc", auc(scores)},
+          {"unknown_cells", with_unknown.size() - scores.size()},
+          {"unknown_positive_cells", unknown_pos},
+          {"auc_unknown_as_zero", auc(with_unknown)}};
 }
 
 }  // namespace
