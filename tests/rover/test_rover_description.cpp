@@ -9,8 +9,10 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/common/json_camera.hpp"
 #include "regolith/common/payloads.hpp"
 #include "regolith/core/rover.hpp"
 #include "regolith/hal/registry.hpp"
@@ -118,6 +120,55 @@ TEST(Sun, ImageLightMatchesTheIndependentSceneRenderer) {
           }
           EXPECT_EQ(got.in_view, want[0] < 0.5 * 3.14159265358979323846);
         }
+}
+
+// A recorded scene's or drive's camera block (input.json) is read one way by `regolith map`,
+// `soil --scene` and `assess --scene`: the drives call the height mount_height_m, the scenes h_m.
+TEST(CameraCalibration, SceneAndDriveCameraBlocksReadTheSame) {
+  const auto block = [](const char* height_key, double height) {
+    return nlohmann::json{{"camera",
+                           {{"width", 320},
+                            {"height", 240},
+                            {"fx", 219.7},
+                            {"fy", 219.5},
+                            {"cx", 159.5},
+                            {"cy", 119.5},
+                            {height_key, height},
+                            {"pitch_deg", 35.0},
+                            {"roll_deg", -2.0}}}};
+  };
+  const auto drive = common::read_json_camera(block("mount_height_m", 0.67), "drive/input.json");
+  const auto scene = common::read_json_camera(block("h_m", 0.67), "scene/input.json");
+  for (const auto& c : {drive, scene}) {
+    EXPECT_EQ(c.width, 320);
+    EXPECT_EQ(c.height, 240);
+    EXPECT_DOUBLE_EQ(c.fx, 219.7);
+    EXPECT_DOUBLE_EQ(c.fy, 219.5);
+    EXPECT_DOUBLE_EQ(c.cx, 159.5);
+    EXPECT_DOUBLE_EQ(c.mount_height_m, 0.67);
+    EXPECT_NEAR(c.pitch_rad, 35.0 * kDeg, 1e-15);
+    EXPECT_NEAR(c.roll_rad, -2.0 * kDeg, 1e-15);
+    EXPECT_FALSE(c.has_distortion());
+  }
+  const auto error = [](const nlohmann::json& j) {
+    try {
+      common::read_json_camera(j, "x/input.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  nlohmann::json both = block("h_m", 0.67);
+  both["camera"]["mount_height_m"] = 0.7;
+  EXPECT_NE(error(both).find("x/input.json: camera.h_m: the height is given twice"), std::string::npos) << error(both);
+  nlohmann::json none = block("h_m", 0.67);
+  none["camera"].erase("h_m");
+  EXPECT_NE(error(none).find("x/input.json: camera.h_m: missing"), std::string::npos) << error(none);
+  EXPECT_NE(error(block("h_m", -1.0)).find("x/input.json: camera: "), std::string::npos) << error(block("h_m", -1.0));
+  nlohmann::json no_fx = block("h_m", 0.67);
+  no_fx["camera"]["fx"] = "wide";
+  EXPECT_EQ(error(no_fx), "x/input.json: camera.fx: must be a number");
+  EXPECT_NE(error(nlohmann::json{{"camera", 3}}).find("x/input.json: camera: must be an object"), std::string::npos);
 }
 
 TEST(CameraCalibration, RosCalibrationFileAndInlineAgree) {

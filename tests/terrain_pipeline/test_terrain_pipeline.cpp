@@ -926,7 +926,7 @@ TEST(AssessCli, ABadSceneFileNamesTheFileAndTheField) {
     const char* name;
     std::string text, expected;
   } cases[] = {
-      {"no_cx", R"({"projection": "perspective", "camera": {"width": 160, "height": 120, "fx": 150}})",
+      {"no_cx", R"({"projection": "perspective", "camera": {"width": 160, "height": 120, "fx": 150, "fy": 150}})",
        "no_cx.json: camera.cx: missing"},
       {"other_size",
        R"({"projection": "perspective", "camera": {"width": 640, "height": 480, "fx": 150, "fy": 150, "cx": 79.5, "cy": 59.5, "h_m": 0.6, "pitch_deg": 30}, )" +

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/common/json_camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/json_file.hpp"
 #include "regolith/core/rover.hpp"
@@ -37,25 +38,13 @@ void read_orthographic(const nlohmann::json& j, const std::string& file, SceneDe
 
 // The perspective camera (a level rover's) and the world sun in its image frame.
 void read_perspective(const nlohmann::json& j, const std::string& file, SceneDescription& d) {
-  RoverCamera rc;
-  rc.name = "scene";
-  rc.where = file;
-  rc.info.width = json_pixels(j, file, "camera.width");
-  rc.info.height = json_pixels(j, file, "camera.height");
+  d.camera = read_json_camera(j, file);
   const auto number = [&](const char* field) { return json_number(j, file, field); };
-  rc.info.k = {
-      number("camera.fx"), 0.0, number("camera.cx"), 0.0, number("camera.fy"), number("camera.cy"), 0.0, 0.0, 1.0};
-  rc.info.distortion_model = "none";
-  rc.mount.z_m = number("camera.h_m");
-  rc.mount.pitch_rad = number("camera.pitch_deg") * kDeg;
-  rc.mount.roll_rad = json_optional_number(j, file, "camera.roll_deg").value_or(0.0) * kDeg;
-  direct_depth::CameraModel m = camera_model_of(rc);
-  try {
-    m.validate();
-  } catch (const FieldError& e) {
-    throw InputError(file + ": camera: " + e.what());
-  }
-  d.camera = m;
+  // The sun goes into the image frame through the camera's mount, as --rover's does.
+  RoverCamera rc;
+  rc.mount.z_m = d.camera->mount_height_m;
+  rc.mount.pitch_rad = d.camera->pitch_rad;
+  rc.mount.roll_rad = d.camera->roll_rad;
   const double el = number("sun_elevation_deg");
   if (!(el >= -90.0 && el <= 90.0))
     throw InputError(file + ": sun_elevation_deg: must be in -90..90 deg (got " + number_text(el) + ")");

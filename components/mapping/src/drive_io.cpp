@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/common/json_camera.hpp"
 #include "regolith/common/plot.hpp"
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
@@ -58,24 +59,10 @@ RecordedDrive read_drive(const fs::path& dir) {
   const nlohmann::json j = read_json_file(name, "drive description (input.json: camera, sun, wheels)");
   const auto number = [&](const char* field) { return json_number(j, name, field); };
   const auto optional = [&](const char* field) { return json_optional_number(j, name, field).value_or(0.0); };
-  direct_depth::CameraModel& c = d.camera;
-  c.fx = number("camera.fx");
-  c.fy = number("camera.fy");
-  c.cx = number("camera.cx");
-  c.cy = number("camera.cy");
-  c.width = json_pixels(j, name, "camera.width");
-  c.height = json_pixels(j, name, "camera.height");
-  c.mount_height_m = number("camera.mount_height_m");
-  c.pitch_rad = number("camera.pitch_deg") * kDeg;
-  c.roll_rad = optional("camera.roll_deg") * kDeg;
+  d.camera = common::read_json_camera(j, name);
   d.mount.x_m = optional("camera.mount_x_m");
   d.mount.y_m = optional("camera.mount_y_m");
   d.mount.yaw_rad = optional("camera.mount_yaw_deg") * kDeg;
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    throw InputError(name + ": camera: " + e.what());
-  }
   d.sun_azimuth_deg = number("sun.azimuth_deg");
   d.sun_elevation_deg = number("sun.elevation_deg");
   if (d.sun_elevation_deg <= 0 || d.sun_elevation_deg > 90)

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "regolith/common/json_camera.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/json_file.hpp"
 #include "regolith/core/json_text.hpp"
@@ -22,20 +23,7 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   const auto scene_number = [&](const char* field) { return json_number(j, name, field); };
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   SoilSetup cfg;
-  CameraModel& c = cfg.camera;
-  c.width = json_pixels(j, name, "camera.width");
-  c.height = json_pixels(j, name, "camera.height");
-  c.fx = scene_number("camera.fx");
-  c.fy = scene_number("camera.fy");
-  c.cx = scene_number("camera.cx");
-  c.cy = scene_number("camera.cy");
-  c.mount_height_m = scene_number("camera.h_m");
-  c.pitch_rad = scene_number("camera.pitch_deg") * kDeg;
-  try {
-    c.validate();
-  } catch (const FieldError& e) {
-    throw InputError(file.string() + ": camera: " + e.what());
-  }
+  cfg.camera = common::read_json_camera(j, name);
   const double el = scene_number("sun_elevation_deg");
   if (!(el > 0.0 && el <= 90.0))
     throw InputError(file.string() + ": sun_elevation_deg: the sun must be above the horizon (got " + number_text(el) +
@@ -82,6 +70,7 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
   // Region of interest: the ground the image sees (bottom row to a far limit), the ruts with margin.
   // Closed-form rays only: the per-pixel maps of the declared camera are the analysis' business,
   // once an image of that size exists (tests/fuzz found 14 s for a 9882 x 778 camera here).
+  const CameraModel& c = cfg.camera;
   const direct_depth::DirectDepth dd = [&] {
     try {
       return direct_depth::DirectDepth(c, direct_depth::DirectDepth::Maps::kNone);
