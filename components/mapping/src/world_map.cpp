@@ -449,7 +449,9 @@ void WorldMap::finish() {
       // Hazard = probability of an obstacle of hazard_height_m here: a noisy-OR of the cues, each
       // an independent chance of one: rocks sighted here (1 - exp(-evidence / scale), times their
       // mean sighted height over hazard_height_m), a cast shadow's caster height, and the parallax
-      // relief, a weak cue on its own (hazard_relief_weight at full height). NaN where no cue saw it.
+      // relief, a weak cue on its own (hazard_relief_weight at full height, times the cell's
+      // confidence: a relief from one faint look says less than one seen often and near). NaN
+      // where no cue saw it.
       const float ev = evidence(i, j), sh = shadow.at<float>(i, j);
       if (!std::isfinite(r) && !(ev > 0.0f) && !std::isfinite(sh)) {
         hazard.at<float>(i, j) = kNaNf;
@@ -459,7 +461,7 @@ void WorldMap::finish() {
       const double p_sight =
           ev > 0.0f ? (1.0 - std::exp(-ev / p_.hazard_evidence_scale)) * frac(evidence_height(i, j) / ev) : 0.0;
       const double p_shadow = std::isfinite(sh) ? frac(sh) : 0.0;
-      const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * frac(r) : 0.0;
+      const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * conf.at<float>(i, j) * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
     }
 }

@@ -14,7 +14,8 @@
 //   observed_count (frames), traversability and its parts, relief (elevation above the smoothed
 //   local ground), shadow_height (heights of objects measured from their cast shadows, spread
 //   over shadow_spread_m around their feet), hazard (0..1: the probability of an obstacle of
-//   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly, the relief;
+//   hazard_height_m, a noisy-OR of the sightings, the shadow heights and, weakly and in
+//   proportion to the cell's confidence, the relief;
 //   NaN where no cue covers the cell: a cell seen with less than hazard_min_weight has no relief),
 //   rock_evidence (summed scores of the rocks tracked across frames, spread over their position's uncertainty)
 //   and rock_height (their weighted mean height, where the evidence reaches rock_min_evidence).
@@ -50,7 +51,8 @@ struct WorldMapParams {
   double fill_min_weight = 0.05;      ///< smoothed confidence a hole needs to be filled
   double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
   double hazard_height_m = 0.10;      ///< m, obstacle height the hazard is the probability of
-  double hazard_relief_weight = 0.2;  ///< probability the parallax relief alone carries at hazard_height_m (a weak cue)
+  double hazard_relief_weight =
+      0.2;  ///< probability the parallax relief alone carries at hazard_height_m and full confidence (a weak cue)
   double hazard_evidence_scale = 1.0;  ///< summed sighting scores at which p(sighted rock) = 1 - 1/e
   double shadow_spread_m = 0.08;       ///< m, a caster's height covers cells this close to its foot
   double rock_min_height_m = 0.05;     ///< m, relief a rock must reach
