@@ -4,6 +4,29 @@
 
 namespace regolith::mapping {
 
+namespace {
+
+// The wheel odometry's noise model (`wheel_*`).
+void read_wheel_noise(Params& p, WheelNoise& wheel) {
+  wheel.along_fraction =
+      p.get<double>("wheel_along_fraction", wheel.along_fraction,
+                    {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});
+  wheel.lateral_fraction =
+      p.get<double>("wheel_lateral_fraction", wheel.lateral_fraction,
+                    {.min = 0.0, .max = 1.0, .doc = "std across the heading, fraction of the step"});
+  wheel.yaw_per_m_rad = p.get<double>("wheel_yaw_per_m_rad", wheel.yaw_per_m_rad,
+                                      {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
+  wheel.max_speed_mps =
+      p.get<double>("wheel_max_speed_mps", wheel.max_speed_mps,
+                    {.unit = "m/s",
+                     .min = 0.0,
+                     .max = 20.0,
+                     .min_exclusive = true,
+                     .doc = "faster wheel steps between frames are odometry jumps (ignored, counted)"});
+}
+
+}  // namespace
+
 DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.use_vision = p.get<bool>("use_vision", mp.use_vision, {.doc = "false: wheel odometry only (comparison)"});
   mp.fuse_terrain = p.get<bool>("fuse_terrain", mp.fuse_terrain, {.doc = "false: odometry only, no map"});
@@ -103,6 +126,10 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
        .max = 0.5,
        .min_exclusive = true,
        .doc = "std of the change of the camera's height above the ground between keyframe and frame, as a fraction"});
+  mp.scale_from_ground = p.get<bool>(
+      "vo_scale_from_ground", mp.scale_from_ground,
+      {.doc = "the visual odometry's motion length from its fit over the ground without the sighted rocks (their "
+              "parallax biases the tilt, which scales the motion); direction and heading from the fit over all"});
   mp.map.resolution_m = p.get<double>("map_resolution_m", mp.map.resolution_m,
                                       {.unit = "m", .min = 0.005, .max = 1.0, .doc = "map cell size"});
   const double length = p.get<double>(
@@ -134,21 +161,7 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
        .max = 1.0,
        .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) take the smoothed local "
               "ground there, with a lowered confidence and no relief or hazard of their own (0 = off)"});
-  mp.wheel.along_fraction =
-      p.get<double>("wheel_along_fraction", mp.wheel.along_fraction,
-                    {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});
-  mp.wheel.lateral_fraction =
-      p.get<double>("wheel_lateral_fraction", mp.wheel.lateral_fraction,
-                    {.min = 0.0, .max = 1.0, .doc = "std across the heading, fraction of the step"});
-  mp.wheel.yaw_per_m_rad = p.get<double>("wheel_yaw_per_m_rad", mp.wheel.yaw_per_m_rad,
-                                         {.unit = "rad/m", .min = 0.0, .max = 1.0, .doc = "heading std per m driven"});
-  mp.wheel.max_speed_mps =
-      p.get<double>("wheel_max_speed_mps", mp.wheel.max_speed_mps,
-                    {.unit = "m/s",
-                     .min = 0.0,
-                     .max = 20.0,
-                     .min_exclusive = true,
-                     .doc = "faster wheel steps between frames are odometry jumps (ignored, counted)"});
+  read_wheel_noise(p, mp.wheel);
   return mp;
 }
 

@@ -254,13 +254,21 @@ void DriveMapper::fuse_motion(const VoMeasurement& m, const Pose2& pred, const C
   Pose2 rel = pred;
   Cov3 rel_cov = pred_cov;
   if (m.ok() && p_.use_vision) {
+    // The motion's length from the fit without the objects (scale_from_ground), where it ran.
+    Pose2 vo = m.pose;
+    const double joint = std::hypot(vo.x, vo.y);
+    if (p_.scale_from_ground && m.ground_tilt && m.ground_distance_m > 0 && joint > 1e-9) {
+      const double k = m.ground_distance_m / joint;
+      vo.x *= k;
+      vo.y *= k;
+    }
     // Information-weighted mean of the two relative estimates (linearised at the VO pose).
     const Eigen::Matrix3d iv = m.covariance.inverse(), iw = pred_cov.inverse();
     const Eigen::Matrix3d s = (iv + iw).inverse();
-    const Eigen::Vector3d d(pred.x - m.pose.x, pred.y - m.pose.y, wrap_angle(pred.yaw - m.pose.yaw));
+    const Eigen::Vector3d d(pred.x - vo.x, pred.y - vo.y, wrap_angle(pred.yaw - vo.yaw));
     const Eigen::Vector3d corr = s * (iw * d);
     if (corr.allFinite() && s.allFinite()) {
-      rel = {m.pose.x + corr[0], m.pose.y + corr[1], wrap_angle(m.pose.yaw + corr[2])};
+      rel = {vo.x + corr[0], vo.y + corr[1], wrap_angle(vo.yaw + corr[2])};
       rel_cov = s;
     }
     ++counters_.vo_ok;

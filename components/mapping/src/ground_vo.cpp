@@ -432,6 +432,7 @@ void GroundVisualOdometry::refit_ground_tilt(const Params& th) {
   // The tilt again, from the motion fit's solution, over the ground the objects leave free.
   Params tg = th;
   if (align_level(0, ground_template_, tg, false)) {
+    last_.ground_distance_m = std::hypot(tg[kX], tg[kY]) / (1.0 + tg[kScale]);
     last_.ground_tilt = true;
     last_.ground_pitch_rad = tg[kPitch];
     last_.ground_roll_rad = tg[kRoll];

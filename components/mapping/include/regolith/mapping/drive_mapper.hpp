@@ -62,10 +62,14 @@ struct DriveMapperParams {
   traversability::TraversabilityParams terrain = default_terrain();  ///< per-frame terrain grid (body frame)
   int sighting_tilt_window = 9;  ///< frames: rocks are ranged with the median of the last this many VO tilts ...
   double sighting_tilt_noise_rad =
-      0.015;                 ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
-                             ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
-  bool ground_tilt = true;   ///< rocks are ranged with the VO tilt refitted without the keyframe's sighted objects
-  int object_margin_px = 3;  ///< px around each sighted rock's image box left out of that refit
+      0.015;                ///< rad ... shrunk towards the mount by vo.attitude_prior_rad^2 / (prior^2 + this^2)
+                            ///< (one VO tilt is off by 0.01-0.05 rad on rock-strewn ground: worse than none)
+  bool ground_tilt = true;  ///< rocks are ranged with the VO tilt refitted without the keyframe's sighted objects
+  /// The VO motion fused with the wheels takes its length from that refit (direction and heading
+  /// from the joint fit): the objects' parallax biases the joint fit's tilt, and the tilt scales
+  /// the rectified ground, so the motion's length.
+  bool scale_from_ground = true;
+  int object_margin_px = 3;                   ///< px around each sighted rock's image box left out of that refit
   double keyframe_distance_m = 0.70;          ///< m of camera motion after which the current frame becomes the keyframe
   double keyframe_yaw_rad = 0.12;             ///< rad
   double keyframe_min_inlier_fraction = 0.5;  ///< a fit with fewer inliers also makes a new keyframe

@@ -72,6 +72,9 @@ struct VoMeasurement {
   /// these equal pitch_rad / roll_rad.
   bool ground_tilt = false;
   double ground_pitch_rad = 0.0, ground_roll_rad = 0.0;
+  /// The motion's length (keyframe metres) in the refit without the objects (0 when it did not
+  /// run); `pose` is the joint fit's, consistent with its tilts (what the parallax searches need).
+  double ground_distance_m = 0.0;
 };
 
 class GroundVisualOdometry {
