@@ -387,7 +387,7 @@ const bool registered = add_command([](CLI::App& app) {
   em->add_option("--map", e->map, "output directory of `regolith map`")->required();
   em->add_option("--overlay", e->overlay,
                  "also draw what was scored into this PNG: true rocks hit / missed, detections matched / false, "
-                 "true, corrected and wheel paths, over the true terrain");
+                 "true, corrected and wheel paths, seen cells the map left unknown (blue), over the true terrain");
   em->callback([e] {
     std::cout << regolith::json_text(mapping::evaluate_map(e->drive, e->map, e->overlay), 1) << "\n";
     if (!e->overlay.empty()) std::fprintf(stderr, "wrote %s\n", e->overlay.c_str());

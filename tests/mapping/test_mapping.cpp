@@ -1319,6 +1319,37 @@ TEST(EvaluateMap, TheOverlayShowsHitsMissesAndFalseAlarms) {
   }
 }
 
+// Seen cells the map left unknown are what the coverage counts against it: the overlay tints them
+// blue, so a person sees where the map is missing, not only how much.
+TEST(EvaluateMap, TheOverlayTintsSeenCellsTheMapLeftUnknown) {
+  const regolith::testing::TempDir tmp("mapping_overlay_unknown");
+  const HandScoredDrive hd(tmp.path());
+  hd.detections("0.02,1.52,0.18,0.3,1\n");
+  const auto bluish = [](const cv::Mat& img) {
+    int n = 0;
+    for (int i = 0; i < img.rows; ++i)
+      for (int j = 0; j < img.cols; ++j) {
+        const cv::Vec3b p = img.at<cv::Vec3b>(i, j);
+        n += p[0] > p[2] + 40 && p[0] > p[1] + 20;
+      }
+    return n;
+  };
+  const fs::path png = tmp.path() / "overlay.png";
+  nlohmann::json j = evaluate_map(hd.drive, hd.map, png);
+  EXPECT_DOUBLE_EQ(j["map"]["coverage"].get<double>(), 1.0);
+  const int full = bluish(cv::imread(png.string(), cv::IMREAD_COLOR));
+  // A hole of 0.4 x 0.4 m in the seen ground 1-1.4 m ahead of the start (cells 10 x 10).
+  cv::Mat elev(100, 100, CV_32F, cv::Scalar(0));
+  elev(cv::Rect(45, 50, 10, 10)).setTo(std::numeric_limits<float>::quiet_NaN());
+  cv::imwrite((hd.map / "elevation.tiff").string(), elev);
+  j = evaluate_map(hd.drive, hd.map, png);
+  const int seen = j["map"]["seen_cells"].get<int>();
+  EXPECT_NEAR(j["map"]["coverage"].get<double>(), 1.0 - 100.0 / seen, 1e-9);
+  const cv::Mat holed = cv::imread(png.string(), cv::IMREAD_COLOR);
+  // Each map cell is drawn as a square of several pixels: 100 cells tint well over 100 pixels.
+  EXPECT_GT(bluish(holed) - full, 100) << "the unmapped cells' tint";
+}
+
 // A scorer fed a broken file says which file and which field, not "map::at".
 TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
   const regolith::testing::TempDir tmp("mapping_eval_bad");

@@ -119,6 +119,7 @@ struct TRock {
 struct Scored {
   const cv::Mat& truth;  // true heights on the map's cells (NaN where the truth has none)
   const cv::Mat& seen;   // cells some true camera pose saw within 5 m
+  const cv::Mat& elev;   // the map's elevation on the same cells (NaN = not mapped)
   cv::Point2d origin;    // the map's cell (0, 0) centre
   double res;            // cell size
   const std::vector<TRock>& rocks;
@@ -143,8 +144,13 @@ cv::Mat render_scored(const Scored& s) {
     for (int j = frame.cols().start; j < frame.cols().end; ++j) {
       const float shade = shaded.at<float>(i, j);
       if (!std::isfinite(shade)) continue;
-      const double g = (60 + 180 * shade) * (s.seen.at<uchar>(i, j) ? 1.0 : 0.45);
-      img(frame.cell(i, j)).setTo(cv::Scalar::all(g));
+      const bool seen = s.seen.at<uchar>(i, j);
+      const double g = (60 + 180 * shade) * (seen ? 1.0 : 0.45);
+      // Seen but left unmapped (what the coverage counts against the map): tinted blue.
+      if (seen && !std::isfinite(s.elev.at<float>(i, j)))
+        img(frame.cell(i, j)).setTo(cv::Scalar(std::min(255.0, g + 70), 0.8 * g, 0.55 * g));
+      else
+        img(frame.cell(i, j)).setTo(cv::Scalar::all(g));
     }
   const double px_per_m = frame.px_per_m();
   const auto polyline = [&](const std::vector<cv::Point2d>& path, const cv::Scalar& colour, int thickness) {
@@ -191,8 +197,13 @@ cv::Mat render_scored(const Scored& s) {
   cv::putText(band, s.scores, cv::Point(10, 35), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
   const plot::LegendEntry legend[] = {
-      {"rock hit", kMatched},         {"rock missed", kMissed},   {"false alarm", kFalse},
-      {"true path", {255, 255, 255}}, {"corrected", {0, 220, 0}}, {"wheels", {255, 120, 0}},
+      {"rock hit", kMatched},
+      {"rock missed", kMissed},
+      {"false alarm", kFalse},
+      {"true path", {255, 255, 255}},
+      {"corrected", {0, 220, 0}},
+      {"wheels", {255, 120, 0}},
+      {"seen, not mapped", {230, 110, 75}},
   };
   plot::put_legend(band, {10, 55}, legend);
   return out;
@@ -495,6 +506,7 @@ nlohmann::json evaluate_map(const fs::path& drive_dir, const fs::path& map_dir, 
       out["poses"]["final_position_error_pct"].get<double>(), out["poses"]["path_m"].get<double>());
   const Scored sc{.truth = grid.truth,
                   .seen = grid.seen,
+                  .elev = grid.elev,
                   .origin = {grid.ox, grid.oy},
                   .res = grid.res,
                   .rocks = truth_rocks,
