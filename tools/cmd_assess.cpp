@@ -173,7 +173,8 @@ void sfs_rock_heights(const traversability::GridMap& grid, std::vector<ImageRock
 // map's: one frame has no second look to confirm a small one), its range window opened to what a single
 // image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
 // halves merged into one (merge_halves). `g8`: the 8-bit grey image (assess converts on reading).
-std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth) {
+std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth,
+                                   const cv::Vec3d& sun_body) {
   mapping::RockSightingParams p;
   p.min_pixels = 24;      // at the reference width: twice the map's (one frame, no second look)
   p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
@@ -185,7 +186,7 @@ std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::Direct
   p.max_height_m = 1.0;
   p.max_sightings = 256;
   mapping::RockSightings sightings(depth, p);
-  const int n = sightings.compute(g8);
+  const int n = sightings.compute(g8, {}, sun_body);
   std::vector<ImageRock> out;
   const cv::Mat& t = sightings.table();
   for (int k = 0; k < n; ++k) {
@@ -871,7 +872,7 @@ void assess(const AssessOptions& o) {
   // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
   std::vector<ImageRock> rocks;
   if (s.depth) {
-    rocks = image_rocks(gray, *s.depth);
+    rocks = image_rocks(gray, *s.depth, traversability::sun_in_body(s.depth->model(), *s.light));
     sfs_rock_heights(grid, rocks);
     write_rocks(out, rocks);
     if (!cv::imwrite((out / "range.tiff").string(), s.depth->range_map()))

@@ -569,6 +569,49 @@ TEST(RockSightings, ASideLitRocksTwoHalvesMergeIntoOne) {
   EXPECT_EQ(one.compute(g), 2);
 }
 
+TEST(RockSightings, WithTheSunBehindTheTopRayGrazesTheSilhouetteNotTheApex) {
+  // A dark object ~0.8 m ahead (a steep view): its top ray passes over the centre at h_ray. With the sun behind
+  // or beside the camera a dome's far flank is darker than the ground and the blob's top is the
+  // silhouette, which lies beyond the apex: the height is the half-ellipsoid's the ray grazes,
+  // sqrt(h_ray^2 - (a tan alpha)^2) (a: the footprint radius, which also moves the centre the
+  // ray is read over), never below 0.75 h_ray cos alpha. With the sun ahead (lit
+  // flank), or no sun given, the top ray's height stands.
+  Rig rig(11, 0);
+  const direct_depth::DirectDepth dd(rig.model);
+  cv::Mat f = noisy_ground(7, 5);
+  f(cv::Rect(150, 170, 24, 30)).setTo(30);
+  RockSightingParams near;
+  near.min_range_m = 0.3;
+  RockSightings s(dd, near);
+  const auto height = [&](const cv::Vec3d& sun) {
+    EXPECT_EQ(s.compute(f, {}, sun), 1);
+    return static_cast<double>(s.height().at<float>(0, 0));
+  };
+  const double h_ray = height({});
+  const double ahead = height({1.0, 0.2, 0.8}), behind = height({-1.0, 0.3, 0.8}), beside = height({0.0, 1.0, 0.5});
+  // The top row's ray (row 170, upper pixel edge 169.5) and its depression.
+  const direct_depth::GroundPoint top = dd.ground(161.5, 169.5);
+  ASSERT_TRUE(top.valid);
+  const double tan_alpha = dd.model().mount_height_m / top.range_m, cos_alpha = 1.0 / std::hypot(1.0, tan_alpha);
+  std::printf("top ray %.3f m over the centre; sun ahead %.3f, behind %.3f, beside %.3f m (alpha %.1f deg)\n", h_ray,
+              ahead, behind, beside, std::atan(tan_alpha) * 180 / 3.14159265358979);
+  EXPECT_GT(h_ray, 0.05);
+  EXPECT_DOUBLE_EQ(ahead, h_ray);
+  EXPECT_LT(behind, h_ray - 0.005);  // measured 0.106 against 0.115
+  EXPECT_GE(behind, 0.75 * h_ray * cos_alpha - 0.01);
+  EXPECT_LT(beside, h_ray);
+  // Off: the top ray's height whatever the sun; a sun that is not finite names the input.
+  RockSightingParams off = near;
+  off.silhouette_height = false;
+  RockSightings plain(dd, off);
+  ASSERT_EQ(plain.compute(f, {}, {-1.0, 0.3, 0.8}), 1);
+  EXPECT_DOUBLE_EQ(plain.height().at<float>(0, 0), h_ray);
+  EXPECT_THROW(s.compute(f, {}, {std::nan(""), 0.0, 1.0}), FieldError);
+  RockSightingParams bad;
+  bad.silhouette_floor = 1.5;
+  EXPECT_THROW(RockSightings(dd, bad), FieldError);
+}
+
 // A 0.1 m world map window of lx by ly metres, and the cell (column, row) at world (wx, wy) in it.
 WorldMapParams small_window(double lx, double ly) {
   WorldMapParams p;

@@ -799,11 +799,14 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   if (!fs::exists(root / "persp_dev_0")) GTEST_SKIP() << root << " not present";
   const regolith::testing::TempDir tmp("assess_persp");  // removed whatever the outcome
   const fs::path& dir = tmp.path();
-  std::vector<double> werr, herr;
-  std::map<std::string, std::vector<double>> sfs_err;  // per scene: the grid's SfS height of each boxed rock
+  std::vector<double> werr, herr;                         // persp_dev_0 and _1 (the first two scenes)
+  std::map<std::string, std::vector<double>> sfs_err;     // per scene: the grid's SfS height of each boxed rock
+  std::map<std::string, std::vector<double>> scene_herr;  // per scene: the box height's error
   int sfs_missing = 0;
   int measurable = 0;
-  for (const char* name : {"persp_dev_0", "persp_dev_1"}) {
+  for (const char* name : {"persp_dev_0", "persp_dev_1", "persp_dev_2", "persp_dev_3"}) {
+    if (!fs::exists(root / name)) continue;
+    const bool first_two = std::string(name) == "persp_dev_0" || std::string(name) == "persp_dev_1";
     const auto in = nlohmann::json::parse(read_file(root / name / "input.json"));
     const auto truth = nlohmann::json::parse(read_file(root / name / "truth.json"));
     // The scene's own description (--scene): camera, mount and the world sun, which assess turns
@@ -833,7 +836,7 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
       if (t["visible_px"].get<int>() < 30 || t["touches_border"].get<bool>() ||
           t["occluded_fraction"].get<double>() >= 0.3)
         continue;
-      ++measurable;
+      measurable += first_two;
       const auto tb = t["bbox_px"];
       const cv::Rect truth_box(tb[0].get<int>(), tb[1].get<int>(), tb[2].get<int>() - tb[0].get<int>(),
                                tb[3].get<int>() - tb[1].get<int>());
@@ -847,8 +850,11 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
         if (iou > best) best = iou, match = &rk;
       }
       if (!match) continue;
+      const double he = std::abs((*match)["height_m"].get<double>() / t["height_above_ground_m"].get<double>() - 1);
+      scene_herr[name].push_back(he);
+      if (!first_two) continue;
       werr.push_back(std::abs((*match)["width_m"].get<double>() / t["width_m"].get<double>() - 1));
-      herr.push_back(std::abs((*match)["height_m"].get<double>() / t["height_above_ground_m"].get<double>() - 1));
+      herr.push_back(he);
       if ((*match)["height_sfs_m"].is_null())
         ++sfs_missing;
       else
@@ -866,7 +872,16 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
               werr.size(), measurable, 100 * median(werr), 100 * median(herr));
   EXPECT_GE(werr.size() * 10, static_cast<std::size_t>(measurable) * 9);  // measured 19 of 19
   EXPECT_LT(median(werr), 0.15);                                          // measured 9 % (goal 15 %)
-  EXPECT_LT(median(herr), 0.25);  // measured 17 % (goal 25 %; the thesis' box formula ~138 %)
+  EXPECT_LT(median(herr), 0.25);  // measured 14 % (goal 25 %; the thesis' box formula ~138 %)
+  // Every scene on its own (steep views with the sun behind read the silhouette's top, not the
+  // apex's, without the sun-aware height: persp_dev_1 78 %, persp_dev_3 58 %; measured 14 / 17 /
+  // 16 / 15 % with it).
+  for (const auto& [scene, errors] : scene_herr) {
+    ASSERT_GE(errors.size(), 5u) << scene;
+    std::printf("%s: %zu rocks boxed, median height error %.0f %%\n", scene.c_str(), errors.size(),
+                100 * median(errors));
+    EXPECT_LT(median(errors), 0.25) << scene;
+  }
   // The shading's own height of each rock (summary.json height_sfs_m): reported for every boxed
   // rock; close to the truth with the sun ahead (persp_dev_0, measured median error 17 %), far
   // below it on persp_dev_1 (~90 %: its low camera and a sun from behind flatten the ground solve).

@@ -55,6 +55,8 @@ void RockSightingParams::validate() const {
   if (!std::isfinite(tilt_sigma_rad) || tilt_sigma_rad < 0) fail("tilt_sigma_rad", "must be >= 0");
   if (!std::isfinite(footprint_per_height) || footprint_per_height < 0 || footprint_per_height > 5)
     fail("footprint_per_height", "must be in [0, 5]");
+  if (!std::isfinite(silhouette_floor) || silhouette_floor < 0 || silhouette_floor > 1)
+    fail("silhouette_floor", "must be in [0, 1]");
 }
 
 RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params)
@@ -132,14 +134,17 @@ void RockSightings::contrast_and_thresholds() {
   }
 }
 
-int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt) {
+int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt, const cv::Vec3d& sun) {
   const auto& cam = depth_.model();
   const int H = cam.height, W = cam.width;
   if (gray.empty() || gray.type() != CV_8UC1 || gray.cols != W || gray.rows != H)
     fail("gray", "expected an 8-bit grey frame of " + std::to_string(W) + "x" + std::to_string(H));
+  if (!std::isfinite(sun[0]) || !std::isfinite(sun[1]) || !std::isfinite(sun[2]))
+    fail("sun", "must be finite (zero: unknown)");
   count_ = 0;
   fill(table_, kNaNf);
   rot_ = tilt_rotation(tilt[0], tilt[1]) * depth_.body_from_optical();
+  sun_ = sun;
   // Contrast against the local ground, in two passes: the second background leaves out what the
   // first found (a bright rock would otherwise lift the ground around it into a halo).
   for (int i = 0; i < H; ++i) {
@@ -246,12 +251,13 @@ bool RockSightings::measure(int k, double cb, int rmin, int rmax, int cmin, int 
   if (!(horiz > 1e-9)) return false;
   double radius = 0.5 * width, height = 0.0;
   cv::Vec2d c = g + radius * u;
+  const double tan_alpha = -dt[2] / horiz;
   for (int pass = 0; pass < 2; ++pass) {
-    height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+    height = silhouette(h + std::hypot(c[0], c[1]) / horiz * dt[2], tan_alpha, u, radius);
     radius = std::max(0.5 * width, p_.footprint_per_height * std::max(height, 0.0));
     c = g + radius * u;
   }
-  height = h + std::hypot(c[0], c[1]) / horiz * dt[2];
+  height = silhouette(h + std::hypot(c[0], c[1]) / horiz * dt[2], tan_alpha, u, radius);
   if (height < p_.min_height_m || height > p_.max_height_m) return false;
   x_.at<float>(0, k) = static_cast<float>(c[0]);
   y_.at<float>(0, k) = static_cast<float>(c[1]);
@@ -270,6 +276,20 @@ bool RockSightings::measure(int k, double cb, int rmin, int rmax, int cmin, int 
   table_.at<float>(kSightContactY, k) = static_cast<float>(g[1]);
   table_.at<float>(kSightTopSlope, k) = static_cast<float>(dt[2] / horiz);
   return true;
+}
+
+double RockSightings::silhouette(double h_ray, double tan_alpha, const cv::Vec2d& view, double radius) const {
+  // The far flank's brightness against flat ground (Lambertian, both lit): its normal is
+  // perpendicular to the grazing ray, n = (sin alpha view, cos alpha), so n.s / s_z =
+  // cos alpha + sin alpha (view . s_horizontal) / s_z. Below 1 (sun behind or beside the camera)
+  // the flank is darker than the ground around it and the blob's top is the silhouette; above 1
+  // (sun ahead) the lit flank blends into lit ground and the blob ends lower, near the apex's ray.
+  if (!p_.silhouette_height || !(sun_[2] > 0) || !(tan_alpha > 0) || !(h_ray > 0)) return h_ray;
+  const double cos_a = 1.0 / std::sqrt(1.0 + tan_alpha * tan_alpha), sin_a = tan_alpha * cos_a;
+  const double flank = cos_a + sin_a * (view[0] * sun_[0] + view[1] * sun_[1]) / sun_[2];
+  if (!(flank < 1.0)) return h_ray;
+  const double reach = radius * tan_alpha;
+  return std::max(p_.silhouette_floor * h_ray * cos_a, std::sqrt(std::max(0.0, h_ray * h_ray - reach * reach)));
 }
 
 void RockSightings::object_mask(cv::Mat& out, int margin_px) const {

@@ -51,7 +51,14 @@ struct RockSightingParams {
   int merge_gap_px = 2;               ///< px, column gap two halves may leave between them
   bool keep_top_cut = true;           ///< blobs cut by the image's top edge are kept (their height is a lower bound)
   double tilt_sigma_rad = 0.01;       ///< rad, error of the camera's tilt against the far ground (ranging)
-  void validate() const;              ///< FieldError("mapping.sightings", ...)
+  /// With the sun known (compute's `sun`): where it leaves a rock's far flank darker than the ground,
+  /// the blob reaches the rock's silhouette, whose top ray grazes that flank beyond the apex; the
+  /// height is then that of a half-ellipsoid of the footprint radius a the ray is tangent to,
+  /// sqrt(h_ray^2 - (a tan alpha)^2) (alpha: the ray's depression), at least `silhouette_floor` x
+  /// h_ray cos alpha (a dome's value; a footprint measured too wide would take it to 0).
+  bool silhouette_height = true;
+  double silhouette_floor = 0.75;
+  void validate() const;  ///< FieldError("mapping.sightings", ...)
 
   /// The image widths the pixel parameters above are given for: 320 px.
   static constexpr int kReferenceWidthPx = 320;
@@ -87,8 +94,10 @@ class RockSightings {
   RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params);
 
   /// One 8-bit grey frame (camera size, else FieldError naming "gray"); tilt = the camera's
-  /// (pitch, roll) against the ground beyond the mount (rad). Returns the number of sightings.
-  int compute(const cv::Mat& gray, const cv::Vec2d& tilt = {});
+  /// (pitch, roll) against the ground beyond the mount (rad); sun = the direction towards the sun
+  /// in the camera's ground frame (x forward, y left, z up; any length; zero = unknown: heights
+  /// from the top ray alone). Returns the number of sightings.
+  int compute(const cv::Mat& gray, const cv::Vec2d& tilt = {}, const cv::Vec3d& sun = {});
 
   int count() const { return count_; }
   const cv::Mat& table() const { return table_; }
@@ -114,6 +123,10 @@ class RockSightings {
   bool measure(int k, double cb, int rmin, int rmax, int cmin, int cmax, double score);
   void merge_halves();
   cv::Vec3d ray(double col, double row) const;
+  /// The rock's height from its top ray's height h_ray over the centre (seen along the horizontal
+  /// unit `view`, depression tan_alpha), footprint radius `radius`: see silhouette_height.
+  double silhouette(double h_ray, double tan_alpha, const cv::Vec2d& view, double radius) const;
+  cv::Vec3d sun_;  // of the current frame (zero: unknown)
   RockSightingParams p_;
   const direct_depth::DirectDepth& depth_;
   cv::Matx33d rot_;  // body from optical, with the tilt of the current frame
