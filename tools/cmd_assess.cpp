@@ -60,7 +60,8 @@ struct AssessOptions {
   double sun_slant_deg = std::nan(""), sun_tilt_deg = std::nan("");
   double height_m = std::nan(""), pitch_deg = std::nan("");
   double pixel_size_m = 0.02;
-  int frame = 0;  ///< IMAGE is a recording (.mcap): this frame of the camera --device
+  int frame = 0;                 ///< IMAGE is a recording (.mcap): this frame of the camera --device
+  double min_rock_score = 0.35;  ///< rocks whose contrast score is lower are texture (counted, not listed)
 };
 
 double now_ms() {
@@ -173,8 +174,8 @@ void sfs_rock_heights(const traversability::GridMap& grid, std::vector<ImageRock
 // map's: one frame has no second look to confirm a small one), its range window opened to what a single
 // image shows (0.2 m to 10 m, rocks of 5 mm and more), and a side-lit rock's bright and dark
 // halves merged into one (merge_halves). `g8`: the 8-bit grey image (assess converts on reading).
-std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth,
-                                   const cv::Vec3d& sun_body) {
+std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::DirectDepth& depth, const cv::Vec3d& sun_body,
+                                   double min_score, int& below_min_score) {
   mapping::RockSightingParams p;
   p.min_pixels = 24;      // at the reference width: twice the map's (one frame, no second look)
   p.merge_halves = true;  // a side-lit rock's bright and dark halves are one rock
@@ -189,7 +190,12 @@ std::vector<ImageRock> image_rocks(const cv::Mat& g8, const direct_depth::Direct
   const int n = sightings.compute(g8, {}, sun_body);
   std::vector<ImageRock> out;
   const cv::Mat& t = sightings.table();
+  below_min_score = 0;
   for (int k = 0; k < n; ++k) {
+    if (t.at<float>(mapping::kSightScore, k) < min_score) {
+      ++below_min_score;
+      continue;
+    }
     ImageRock r;
     const int c0 = static_cast<int>(t.at<float>(mapping::kSightCol0, k)),
               r0 = static_cast<int>(t.at<float>(mapping::kSightRow0, k));
@@ -871,8 +877,10 @@ void assess(const AssessOptions& o) {
   const Hazards hazards = find_hazards(grid, s.depth.get(), gray.size());
   // Rocks seen in the image, ranged and sized on the ground; the ground range of every pixel.
   std::vector<ImageRock> rocks;
+  int rocks_below_min_score = 0;
   if (s.depth) {
-    rocks = image_rocks(gray, *s.depth, traversability::sun_in_body(s.depth->model(), *s.light));
+    rocks = image_rocks(gray, *s.depth, traversability::sun_in_body(s.depth->model(), *s.light), o.min_rock_score,
+                        rocks_below_min_score);
     sfs_rock_heights(grid, rocks);
     write_rocks(out, rocks);
     if (!cv::imwrite((out / "range.tiff").string(), s.depth->range_map()))
@@ -922,6 +930,8 @@ void assess(const AssessOptions& o) {
     j["outputs"]["range"] = "range.tiff";
     j["outputs"]["rocks"] = "rocks.csv";
     j["rocks"] = rocks_json(rocks);
+    j["min_rock_score"] = o.min_rock_score;
+    j["rocks_below_min_score"] = rocks_below_min_score;
   }
   const std::vector<std::string> warnings = assess_warnings(s, res, known, j);
   if (!warnings.empty()) {
@@ -981,6 +991,11 @@ void add_assess(CLI::App& app) {
       ->excludes("--rover")
       ->excludes("--device")
       ->excludes("--frame");
+  cmd->add_option("--min-rock-score", o->min_rock_score,
+                  "camera mode: rocks whose contrast score (0..1) is lower are not listed, only counted "
+                  "(summary.json rocks_below_min_score); 0 lists every blob")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   cmd->callback([o] { assess(*o); });
 }
 
