@@ -79,7 +79,7 @@ def main():
     ap.add_argument("--regolith", default=os.path.join(here, "../../../build/release/tools/regolith"))
     ap.add_argument("--out", default="/tmp/assess_on_drive_frames")
     o = ap.parse_args()
-    rows = []  # (score, best IoU, height of the best rock)
+    rows = []  # (score, best IoU, height of the best rock, reported height)
     for name in sorted(os.listdir(o.drives)):
         base = os.path.join(o.drives, name)
         if not os.path.exists(os.path.join(base, "truth_poses.csv")):
@@ -115,13 +115,18 @@ def main():
                     v = iou(rock["box_px"], tbox)
                     if v > best:
                         best, height = v, t["height_above_ground_m"]
-                rows.append((rock["score"], best, height))
+                rows.append((rock["score"], best, height, rock["height_m"]))
     print("floor  kept  on a rock  (>= 10 cm)  on none")
     for floor in (0.0, 0.1, 0.2, 0.3, 0.35, 0.4, 0.5, 0.6, 0.8):
         kept = [r for r in rows if r[0] >= floor]
         hit = [r for r in kept if r[1] > 0.2]
         print("%5.2f %5d %10d %11d %8d" % (floor, len(kept), len(hit), sum(1 for r in hit if r[2] >= 0.1),
                                           len(kept) - len(hit)))
+    # Height of the boxes on a rock >= 5 cm at the default floor (|reported - true| / true).
+    errors = sorted(abs(r[3] / r[2] - 1) for r in rows if r[0] >= 0.35 and r[1] > 0.2 and r[2] >= 0.05)
+    if errors:
+        print("boxes on rocks >= 5 cm (floor 0.35): %d, median height error %.0f %%"
+              % (len(errors), 100 * errors[len(errors) // 2]))
 
 
 if __name__ == "__main__":
