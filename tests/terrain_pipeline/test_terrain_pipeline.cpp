@@ -809,7 +809,6 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
     if (!fs::exists(root / name)) continue;
     const bool first_two = std::string(name) == "persp_dev_0" || std::string(name) == "persp_dev_1";
     const auto in = nlohmann::json::parse(read_file(root / name / "input.json"));
-    const auto truth = nlohmann::json::parse(read_file(root / name / "truth.json"));
     // The scene's own description (--scene): camera, mount and the world sun, which assess turns
     // into the image frame itself; the renderer's image-frame sun is the check of that conversion.
     const std::string args = "assess " + (root / name / "image.png").string() + " --out " + (dir / name).string() +
@@ -833,52 +832,30 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
         grey += ((*it)[0] == (*it)[1] && (*it)[1] == (*it)[2] && (*it)[0] > 60 && (*it)[0] < 250) ? 1 : 0;
       EXPECT_GT(grey, static_cast<int>(hs.total() / 5)) << "hillshade.png mostly black or white";
     }
-    // Boxes on no rock (IoU <= 0.2 with every rock of >= 10 visible px): texture and shadows.
-    const auto box_of = [](const nlohmann::json& b) {
-      return cv::Rect(b[0].get<int>(), b[1].get<int>(), b[2].get<int>() - b[0].get<int>(),
-                      b[3].get<int>() - b[1].get<int>());
-    };
-    for (const auto& rk : summary["rocks"]) {
-      const cv::Rect box = box_of(rk["box_px"]);
-      bool on_rock = false;
-      for (const auto& t : truth["rocks"]) {
-        if (t["visible_px"].get<int>() < 10) continue;
-        const cv::Rect tbox = box_of(t["bbox_px"]);
-        const double inter = (box & tbox).area();
-        on_rock = on_rock || inter / (box.area() + tbox.area() - inter) > 0.2;
-      }
-      false_boxes += on_rock ? 0 : 1;
-    }
-    below_min_score += summary["rocks_below_min_score"].get<int>();
-    for (const auto& t : truth["rocks"]) {
-      if (t["visible_px"].get<int>() < 30 || t["touches_border"].get<bool>() ||
-          t["occluded_fraction"].get<double>() >= 0.3)
-        continue;
+    // Scored by `regolith eval assess` (each measurable rock's box of largest IoU > 0.2; boxes on
+    // no rock: IoU <= 0.2 with every rock of >= 10 visible px, i.e. texture and shadows).
+    const fs::path scored = dir / (std::string(name) + ".eval.json");
+    ASSERT_EQ(run_tool("eval assess " + (root / name).string() + " --out " + (dir / name).string(), scored), 0)
+        << read_file(scored);
+    const auto ev = nlohmann::json::parse(read_file(scored));
+    false_boxes += ev["boxes_on_no_rock"].get<int>();
+    below_min_score += ev["rocks_below_min_score"].get<int>();
+    EXPECT_EQ(ev["reported_boxes"].get<std::size_t>(), summary["rocks"].size());
+    for (const auto& row : ev["rocks"]) {
       measurable += first_two;
-      const auto tb = t["bbox_px"];
-      const cv::Rect truth_box(tb[0].get<int>(), tb[1].get<int>(), tb[2].get<int>() - tb[0].get<int>(),
-                               tb[3].get<int>() - tb[1].get<int>());
-      double best = 0.2;
-      const nlohmann::json* match = nullptr;
-      for (const auto& rk : summary["rocks"]) {
-        const auto b = rk["box_px"];
-        const cv::Rect box(b[0].get<int>(), b[1].get<int>(), b[2].get<int>() - b[0].get<int>(),
-                           b[3].get<int>() - b[1].get<int>());
-        const double inter = (box & truth_box).area(), iou = inter / (box.area() + truth_box.area() - inter);
-        if (iou > best) best = iou, match = &rk;
-      }
-      if (!match) continue;
-      const double he = std::abs((*match)["height_m"].get<double>() / t["height_above_ground_m"].get<double>() - 1);
+      if (!row["matched"].get<bool>()) continue;
+      const double th = row["height_m"].get<double>();
+      const double he = std::abs(row["reported_height_m"].get<double>() / th - 1);
       scene_herr[name].push_back(he);
       if (!first_two) continue;
-      werr.push_back(std::abs((*match)["width_m"].get<double>() / t["width_m"].get<double>() - 1));
+      werr.push_back(std::abs(row["reported_width_m"].get<double>() / row["width_m"].get<double>() - 1));
       herr.push_back(he);
-      if ((*match)["height_sfs_m"].is_null())
+      if (!row.contains("reported_height_sfs_m"))
         ++sfs_missing;
       else
-        sfs_err[name].push_back(
-            std::abs((*match)["height_sfs_m"].get<double>() / t["height_above_ground_m"].get<double>() - 1));
+        sfs_err[name].push_back(std::abs(row["reported_height_sfs_m"].get<double>() / th - 1));
     }
+    EXPECT_EQ(ev["boxed"].get<std::size_t>(), scene_herr[name].size());
   }
   ASSERT_GT(measurable, 10);
   auto median = [](std::vector<double> v) {
@@ -913,6 +890,48 @@ TEST(AssessCli, RockSizesOnTheDevelopmentPerspectiveScenes) {
   std::printf("persp_dev: SfS rock heights, median error %.0f %% (persp_dev_0), %.0f %% (persp_dev_1)\n",
               100 * median(sfs_err["persp_dev_0"]), 100 * median(sfs_err["persp_dev_1"]));
   EXPECT_LT(median(sfs_err["persp_dev_0"]), 0.25);
+}
+
+// `regolith eval assess` on files it cannot score: one line naming the file and the field, exit 2.
+TEST(AssessCli, EvalAssessNamesTheFileAndFieldItCannotScore) {
+  const regolith::testing::TempDir tmp("eval_assess_bad");
+  const fs::path& dir = tmp.path();
+  fs::create_directories(dir / "scene");
+  fs::create_directories(dir / "out");
+  const fs::path log = dir / "log.txt";
+  // No truth.json in the scene.
+  EXPECT_EQ(run_tool("eval assess " + (dir / "scene").string() + " --out " + (dir / "out").string(), log), 2);
+  EXPECT_NE(read_file(log).find("truth.json"), std::string::npos) << read_file(log);
+  // A rock whose box is not four numbers.
+  std::ofstream(dir / "scene" / "truth.json")
+      << R"({"rocks": [{"visible_px": 50, "touches_border": false, "occluded_fraction": 0, "bbox_px": [1, 2, 3],
+                        "width_m": 0.1, "height_above_ground_m": 0.05}]})";
+  std::ofstream(dir / "out" / "summary.json") << R"({"rocks": []})";
+  EXPECT_EQ(run_tool("eval assess " + (dir / "scene").string() + " --out " + (dir / "out").string(), log), 2);
+  EXPECT_NE(read_file(log).find("truth.json: rocks[0]: bbox_px: must be [xmin, ymin, xmax, ymax]"), std::string::npos)
+      << read_file(log);
+  // An orthographic run of assess has no rocks to score.
+  std::ofstream(dir / "scene" / "truth.json")
+      << R"({"rocks": [{"visible_px": 50, "touches_border": false, "occluded_fraction": 0, "bbox_px": [1, 2, 30, 40],
+                        "width_m": 0.1, "height_above_ground_m": 0.05}]})";
+  std::ofstream(dir / "out" / "summary.json") << R"({"mode": "orthographic"})";
+  EXPECT_EQ(run_tool("eval assess " + (dir / "scene").string() + " --out " + (dir / "out").string(), log), 2);
+  EXPECT_NE(read_file(log).find("summary.json: rocks: missing"), std::string::npos) << read_file(log);
+  // Scored: one measurable rock, one box on it (IoU 0.9) and one on nothing.
+  std::ofstream(dir / "out" / "summary.json")
+      << R"({"rocks": [{"box_px": [2, 3, 30, 40], "width_m": 0.12, "height_m": 0.04},
+                       {"box_px": [100, 100, 120, 120], "width_m": 0.05, "height_m": 0.02}],
+             "rocks_below_min_score": 3})";
+  ASSERT_EQ(run_tool("eval assess " + (dir / "scene").string() + " --out " + (dir / "out").string(), log), 0)
+      << read_file(log);
+  const auto ev = nlohmann::json::parse(read_file(log));
+  EXPECT_EQ(ev["measurable_rocks"].get<int>(), 1);
+  EXPECT_EQ(ev["boxed"].get<int>(), 1);
+  EXPECT_EQ(ev["boxes_on_no_rock"].get<int>(), 1);
+  EXPECT_EQ(ev["rocks_below_min_score"].get<int>(), 3);
+  EXPECT_NEAR(ev["median_width_error_pct"].get<double>(), 20.0, 1e-9);
+  EXPECT_NEAR(ev["median_height_error_pct"].get<double>(), 20.0, 1e-9);
+  EXPECT_TRUE(ev["median_height_sfs_error_pct"].is_null());
 }
 
 // `assess IMAGE --scene input.json` on an orthographic development patch does exactly what the
