@@ -1393,6 +1393,32 @@ TEST(EvaluateMap, TheOverlayTintsSeenCellsTheMapLeftUnknown) {
   EXPECT_GT(bluish(holed) - full, 100) << "the unmapped cells' tint";
 }
 
+// Seen = in a true camera's image within 5 m and reached by its line of sight (the development
+// set's `observed`: projection and depth test). Ground hidden behind a wall is in view but not
+// seen: a map that leaves it unknown loses no coverage, and its hazard cells are not scored.
+TEST(EvaluateMap, GroundHiddenFromEveryCameraIsNotCountedAsSeen) {
+  const regolith::testing::TempDir tmp("mapping_eval_hidden");
+  const HandScoredDrive hd(tmp.path());
+  hd.detections("0.02,1.52,0.18,0.3,1\n");
+  nlohmann::json j = evaluate_map(hd.drive, hd.map);
+  const int flat_seen = j["map"]["seen_cells"].get<int>();
+  EXPECT_EQ(j["map"]["in_view_cells"].get<int>(), flat_seen);  // flat ground: everything in view is seen
+  // A wall 0.5 m tall across x -0.5..0.5 m at y 0.60-0.64 m (heightfield cells of 2 cm).
+  cv::Mat height(200, 200, CV_32F, cv::Scalar(0));
+  height(cv::Rect(75, 80, 51, 3)).setTo(0.5);
+  cv::imwrite((hd.drive / "height.tiff").string(), height);
+  // The map leaves the ground right behind the wall unknown (x -0.2..0.2, y 1.0-1.2: cells of 4 cm).
+  cv::Mat elev(100, 100, CV_32F, cv::Scalar(0));
+  elev(cv::Rect(45, 50, 10, 5)).setTo(std::numeric_limits<float>::quiet_NaN());
+  cv::imwrite((hd.map / "elevation.tiff").string(), elev);
+  j = evaluate_map(hd.drive, hd.map);
+  const int seen = j["map"]["seen_cells"].get<int>(), in_view = j["map"]["in_view_cells"].get<int>();
+  std::printf("flat: %d cells seen; wall: %d in view, %d seen\n", flat_seen, in_view, seen);
+  EXPECT_LT(seen, in_view - 50);  // the wall's shadow
+  EXPECT_DOUBLE_EQ(j["map"]["coverage"].get<double>(), 1.0);
+  EXPECT_NEAR(j["map"]["coverage_in_view"].get<double>(), 1.0 - 50.0 / in_view, 1e-9);
+}
+
 // A scorer fed a broken file says which file and which field, not "map::at".
 TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
   const regolith::testing::TempDir tmp("mapping_eval_bad");

@@ -214,8 +214,17 @@ using Row = std::map<std::string, double>;
 // The scored map on its cells: the map's elevation and hazard, the truth heightfield averaged
 // onto the same cells, and which cells a true camera pose saw within 5 m.
 struct ScoredGrid {
-  cv::Mat elev, hazard, truth, seen;
+  cv::Mat elev, hazard, truth;
+  cv::Mat in_view;                 // cells some true camera pose had in its image within 5 m
+  cv::Mat seen;                    // ... of which the line of sight reached the ground (not hidden by rocks or rises)
   double ox = 0, oy = 0, res = 0;  // cell (0, 0) centre and cell size (m)
+  cv::Mat height;                  // the truth heightfield at its own resolution (grid.json)
+  double hox = 0, hoy = 0, hres = 0;
+  /// The true height at world (x, y), NaN outside the heightfield.
+  float height_at(double x, double y) const {
+    const int i = static_cast<int>(std::lround((y - hoy) / hres)), j = static_cast<int>(std::lround((x - hox) / hres));
+    return (i >= 0 && j >= 0 && i < height.rows && j < height.cols) ? height.at<float>(i, j) : std::nanf("");
+  }
   cv::Point2d centre(int i, int j) const { return {ox + j * res, oy + i * res}; }
 };
 
@@ -263,7 +272,8 @@ ScoredGrid read_scored_grid(const fs::path& drive_dir, const fs::path& map_dir) 
   ScoredGrid g;
   g.elev = read_float(map_dir / "elevation.tiff");
   g.hazard = read_float(map_dir / "hazard.tiff");
-  const cv::Mat th = read_float(drive_dir / "height.tiff");
+  g.height = read_float(drive_dir / "height.tiff");
+  const cv::Mat& th = g.height;
   if (g.hazard.size() != g.elev.size())
     throw InputError((map_dir / "hazard.tiff").string() + ": " + std::to_string(g.hazard.cols) + "x" +
                      std::to_string(g.hazard.rows) + " cells, elevation.tiff has " + std::to_string(g.elev.cols) + "x" +
@@ -273,9 +283,12 @@ ScoredGrid read_scored_grid(const fs::path& drive_dir, const fs::path& map_dir) 
   g.res = json_number(mj, mname, "resolution_m");
   const double gox = json_number(gj, gname, "origin_x_m"), goy = json_number(gj, gname, "origin_y_m"),
                gres = json_number(gj, gname, "resolution_m");
+  if (!(gres > 0)) throw InputError(gname + ": resolution_m: must be > 0");
+  g.hox = gox, g.hoy = goy, g.hres = gres;
   const int R = g.elev.rows, C = g.elev.cols;
   g.truth = cv::Mat(R, C, CV_32F, cv::Scalar(std::nanf("")));
   g.seen = cv::Mat(R, C, CV_8U, cv::Scalar(0));
+  g.in_view = cv::Mat(R, C, CV_8U, cv::Scalar(0));
   const int k = std::max(1, static_cast<int>(std::lround(g.res / gres)));
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j) {
@@ -293,7 +306,24 @@ ScoredGrid read_scored_grid(const fs::path& drive_dir, const fs::path& map_dir) 
   return g;
 }
 
-// Ground seen within 5 m: flat-ground visibility of each true cell from the true camera poses.
+// Whether the line of sight from the camera at `from` reaches the ground point `to`: no true
+// height above it on the way (marched every 2 cm; the last 6 cm are the cell itself, whose mean
+// height may lie under its own rock's surface; 5 mm of tolerance).
+bool line_of_sight(const ScoredGrid& g, const cv::Vec3d& from, const cv::Vec3d& to) {
+  const double d = std::hypot(to[0] - from[0], to[1] - from[1]);
+  const int n = static_cast<int>(std::ceil(d / 0.02));
+  for (int k = 1; k < n; ++k) {
+    const double s = static_cast<double>(k) / n;
+    if ((1.0 - s) * d < 0.06) break;
+    const cv::Vec3d p = from + (to - from) * s;
+    if (g.height_at(p[0], p[1]) > p[2] + 0.005) return false;
+  }
+  return true;
+}
+
+// Ground seen within 5 m: each true cell projected into the true camera poses' images (in_view),
+// and seen where the line of sight reaches it (the development set's `observed`: projection and
+// depth test).
 void mark_seen(ScoredGrid& g, const std::map<int, Row>& tp, const direct_depth::CameraModel& cam) {
   for (const auto& [f, t] : tp) {
     (void)f;
@@ -314,7 +344,9 @@ void mark_seen(ScoredGrid& g, const std::map<int, Row>& tp, const direct_depth::
         const double z = v.dot(fwd);
         if (z <= 0 || cv::norm(v) > 5.0) continue;
         const double u = cam.fx * v.dot(r2) / z + cam.cx, w = cam.fy * v.dot(d2) / z + cam.cy;
-        if (u >= 0 && w >= 0 && u <= cam.width - 1 && w <= cam.height - 1) g.seen.at<uchar>(i, j) = 255;
+        if (!(u >= 0 && w >= 0 && u <= cam.width - 1 && w <= cam.height - 1)) continue;
+        g.in_view.at<uchar>(i, j) = 255;
+        if (!g.seen.at<uchar>(i, j) && line_of_sight(g, {cx, cy, cz}, {c.x, c.y, zt})) g.seen.at<uchar>(i, j) = 255;
       }
   }
 }
@@ -323,10 +355,11 @@ void mark_seen(ScoredGrid& g, const std::map<int, Row>& tp, const direct_depth::
 nlohmann::json score_elevation(const ScoredGrid& g) {
   const int R = g.elev.rows, C = g.elev.cols;
   std::vector<double> xs, ys, ze, zt;
-  int n_seen = 0, n_known = 0;
+  int n_seen = 0, n_known = 0, n_view = 0, n_view_known = 0;
   cv::Mat both(R, C, CV_8U, cv::Scalar(0));
   for (int i = 0; i < R; ++i)
     for (int j = 0; j < C; ++j) {
+      if (g.in_view.at<uchar>(i, j)) ++n_view, n_view_known += std::isfinite(g.elev.at<float>(i, j)) ? 1 : 0;
       if (!g.seen.at<uchar>(i, j)) continue;
       ++n_seen;
       if (!std::isfinite(g.elev.at<float>(i, j))) continue;
@@ -347,10 +380,9 @@ nlohmann::json score_elevation(const ScoredGrid& g) {
     for (int j = 0; j < C; ++j)
       if (both.at<uchar>(i, j))
         de.push_back(ez.at<float>(i, j) - be.at<float>(i, j)), dt.push_back(tz.at<float>(i, j) - bt.at<float>(i, j));
-  return {{"seen_cells", n_seen},
-          {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
-          {"elevation_r", r_plane},
-          {"elevation_detail_r", pearson(de, dt)}};
+  return {{"seen_cells", n_seen},    {"coverage", n_seen ? static_cast<double>(n_known) / n_seen : 0.0},
+          {"in_view_cells", n_view}, {"coverage_in_view", n_view ? static_cast<double>(n_view_known) / n_view : 0.0},
+          {"elevation_r", r_plane},  {"elevation_detail_r", pearson(de, dt)}};
 }
 
 std::vector<TRock> read_truth_rocks(const fs::path& drive_dir) {
@@ -428,11 +460,11 @@ nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vec
 // "over the seen cells": every seen cell scored, an unknown (NaN) hazard as 0 (auc_unknown_as_zero),
 // with how many seen cells are unknown and how many of them lie on a rock >= 10 cm.
 nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth_rocks) {
-  std::vector<std::pair<double, int>> scores, with_unknown;
+  std::vector<std::pair<double, int>> scores, with_unknown, in_view;
   int unknown_pos = 0;
   for (int i = 0; i < g.hazard.rows; ++i)
     for (int j = 0; j < g.hazard.cols; ++j) {
-      if (!g.seen.at<uchar>(i, j)) continue;
+      if (!g.in_view.at<uchar>(i, j)) continue;
       const bool known = std::isfinite(g.hazard.at<float>(i, j));
       const cv::Point2d c = g.centre(i, j);
       bool pos = false, near5 = false;
@@ -446,6 +478,8 @@ nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth
         }
       }
       if (!pos && near5) continue;
+      if (known) in_view.emplace_back(g.hazard.at<float>(i, j), pos ? 1 : 0);
+      if (!g.seen.at<uchar>(i, j)) continue;
       const double h = known ? g.hazard.at<float>(i, j) : 0.0;
       with_unknown.emplace_back(h, pos ? 1 : 0);
       if (known)
@@ -459,7 +493,8 @@ nlohmann::json score_hazard(const ScoredGrid& g, const std::vector<TRock>& truth
           {"auc", auc(scores)},
           {"unknown_cells", with_unknown.size() - scores.size()},
           {"unknown_positive_cells", unknown_pos},
-          {"auc_unknown_as_zero", auc(with_unknown)}};
+          {"auc_unknown_as_zero", auc(with_unknown)},
+          {"auc_in_view", auc(in_view)}};
 }
 
 }  // namespace
