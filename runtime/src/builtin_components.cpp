@@ -1,6 +1,7 @@
 // Components built into the runtime: `health` (diagnostics, stale inputs, watchdog gate) and
 // `joint_state_publisher` (wheel encoder angles -> sensor_msgs/JointState).
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -408,21 +409,35 @@ class JointStatePublisher final : public Component {
     s->count = static_cast<std::uint32_t>(enc_->wheel_count());
     TimeNs newest = 0;
     bool any = false;
+    std::array<TimeNs, kMaxJoints> used{};  // the stamp of each wheel's sample in this one
     for (std::size_t w = 0; w < s->count; ++w) {
       hal::AngleSample a;
       double vel = 0.0;
-      if (enc_->latest(w, cycle.now, a)) {
-        s->position[w] = a.angle;
-        s->velocity[w] = enc_->velocity(w, cycle.now, vel) ? vel : 0.0;
-        newest = std::max(newest, a.stamp);
-        any = true;
+      if (!enc_->latest(w, cycle.now, a)) continue;
+      if (a.stamp < published_[w].stamp) {
+        // A stream never goes back in time: the device's newest usable sample is older than the
+        // one already published (its newer ones were rejected as implausible, or the clock
+        // stepped back), so the wheel keeps what was published.
+        a = published_[w];
+        vel = published_velocity_[w];
+      } else if (!enc_->velocity(w, cycle.now, vel)) {
+        vel = 0.0;
       }
+      s->position[w] = a.angle;
+      s->velocity[w] = vel;
+      used[w] = a.stamp;
+      newest = std::max(newest, a.stamp);
+      any = true;
     }
     if (!any) return;  // nothing to publish yet; the slot is reused next cycle
     s->stamp = newest;
-    const bool fresh = newest != last_stamp_;
-    if (fresh) input_updated(*input_, cycle.now);
-    last_stamp_ = newest;
+    const bool fresh = newest > last_stamp_;
+    if (fresh) {
+      input_updated(*input_, cycle.now);
+      last_stamp_ = newest;
+      for (std::size_t w = 0; w < s->count; ++w)
+        if (used[w] > 0) published_[w] = {used[w], s->position[w]}, published_velocity_[w] = s->velocity[w];
+    }
     out_->commit();
     if (js_ && fresh) {
       if (JointState* m = js_->begin()) {
@@ -446,6 +461,8 @@ class JointStatePublisher final : public Component {
   InputWatch* input_ = nullptr;
   TimeNs stale_timeout_ = 0;
   TimeNs last_stamp_ = 0;
+  std::array<hal::AngleSample, kMaxJoints> published_{};  // per wheel: the sample last published
+  std::array<double, kMaxJoints> published_velocity_{};
   std::string frame_id_;
   std::shared_ptr<dds::Outbox<JointState>> js_;
 };
