@@ -414,10 +414,11 @@ class JointStatePublisher final : public Component {
       hal::AngleSample a;
       double vel = 0.0;
       if (!enc_->latest(w, cycle.now, a)) continue;
-      if (a.stamp < published_[w].stamp) {
-        // A stream never goes back in time: the device's newest usable sample is older than the
-        // one already published (its newer ones were rejected as implausible, or the clock
-        // stepped back), so the wheel keeps what was published.
+      if (a.stamp < published_[w].stamp && published_[w].stamp - a.stamp <= stale_timeout_) {
+        // A stream never goes back in time: the device's newest usable sample is a little older
+        // than the one already published (its newer ones were rejected as implausible), so the
+        // wheel keeps what was published. A step back by more than the stale timeout is the clock
+        // itself stepping back (a time sync): the stream goes on from there rather than freeze.
         a = published_[w];
         vel = published_velocity_[w];
       } else if (!enc_->velocity(w, cycle.now, vel)) {
@@ -431,12 +432,12 @@ class JointStatePublisher final : public Component {
     }
     if (!any) return;  // nothing to publish yet; the slot is reused next cycle
     s->stamp = newest;
-    const bool fresh = newest > last_stamp_;
+    const bool fresh = newest > last_stamp_ || newest < last_stamp_ - stale_timeout_;
     if (fresh) {
       input_updated(*input_, cycle.now);
       last_stamp_ = newest;
       for (std::size_t w = 0; w < s->count; ++w)
-        if (used[w] > 0) published_[w] = {used[w], s->position[w]}, published_velocity_[w] = s->velocity[w];
+        if (used[w] != 0) published_[w] = {used[w], s->position[w]}, published_velocity_[w] = s->velocity[w];
     }
     out_->commit();
     if (js_ && fresh) {

@@ -23,12 +23,13 @@ namespace {
 class ConstantEncoders final : public hal::WheelEncoders {
  public:
   ConstantEncoders(std::string id, std::vector<std::string> wheels, Clock* clock, int lost_per_s = 0,
-                   int step_back_every = 0)
+                   int step_back_every = 0, double step_back_s_at_2s = 0.0)
       : id_(std::move(id)),
         wheels_(std::move(wheels)),
         clock_(clock),
         lost_per_s_(lost_per_s),
-        step_back_every_(step_back_every) {}
+        step_back_every_(step_back_every),
+        step_back_ns_(static_cast<TimeNs>(step_back_s_at_2s * 1e9)) {}
   const std::string& id() const override { return id_; }
   const std::vector<std::string>& wheel_names() const override { return wheels_; }
   void start() override { t0_ = clock_->now(); }
@@ -38,6 +39,7 @@ class ConstantEncoders final : public hal::WheelEncoders {
     // Every step_back_every-th read the newest usable sample is 30 ms older (its newer ones
     // rejected, or the clock stepped back).
     if (step_back_every_ > 0 && ++reads_ % step_back_every_ == 0 && t - t0_ >= 30 * kNsPerMs) t -= 30 * kNsPerMs;
+    if (step_back_ns_ > 0 && t - t0_ >= 2 * kNsPerSec) t -= step_back_ns_;  // the device clock steps back at 2 s
     out = {t, to_seconds(t - t0_)};
     return true;
   }
@@ -58,6 +60,7 @@ class ConstantEncoders final : public hal::WheelEncoders {
   Clock* clock_;
   int lost_per_s_ = 0;
   int step_back_every_ = 0;
+  TimeNs step_back_ns_ = 0;
   mutable std::uint64_t reads_ = 0;
   TimeNs t0_ = 0;
 };
@@ -72,7 +75,8 @@ void register_test_backends() {
         auto wheels = p.require<std::vector<std::string>>("wheels");
         const int lost = p.get<int>("lost_per_s", 0, {.min = 0, .doc = "frames the bus loses per second"});
         const int back = p.get<int>("step_back_every", 0, {.min = 0, .doc = "reads between two that step back"});
-        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock, lost, back);
+        const double step = p.get<double>("step_back_s_at_2s", 0.0, {.unit = "s", .min = 0.0});
+        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock, lost, back, step);
       });
 }
 
@@ -298,6 +302,36 @@ TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
   EXPECT_GT(samples, 250);
   EXPECT_EQ(back, 0);
   EXPECT_NEAR(last_angle[0], 3.0, 0.05);  // 1 rad/s for 3 s: still moving
+}
+TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
+  // A step back by more than the stale timeout (0.5 s) is the clock itself (a time sync), not a
+  // rejected sample: from 2 s on, the encoders' stamps are 1.5 s earlier for good. joint_states go
+  // on from there (one step back, then newer every cycle) instead of holding the last angle until
+  // the old time comes back.
+  register_test_backends();
+  auto app = Application::load(
+      Params::load_string(replace(kGood, "wheels: [left, right]}", "wheels: [left, right], step_back_s_at_2s: 1.5}"),
+                          "rover.yaml"),
+      {.sim_time = true});
+  auto& joints = app->context().channel<JointStateSample>("joint_states");
+  std::atomic<bool> stop{false};
+  app->start();
+  TimeNs last = 0;
+  int newer = 0, older = 0;
+  double angle = 0.0;
+  for (int k = 0; k < 300; ++k) {
+    app->run(10 * kNsPerMs, stop);
+    auto js = joints.acquire();
+    ASSERT_TRUE(js);
+    if (last != 0 && js->stamp > last) ++newer;
+    if (last != 0 && js->stamp < last) ++older;
+    last = js->stamp;
+    angle = js->position[0];
+  }
+  app->stop();
+  EXPECT_EQ(older, 1);            // the clock's step
+  EXPECT_GT(newer, 280);          // every other cycle a newer sample, before and after it
+  EXPECT_NEAR(angle, 1.5, 0.05);  // 3 s of turning at 1 rad/s, read on a clock 1.5 s behind
 }
 
 TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
