@@ -849,6 +849,11 @@ std::vector<std::string> assess_warnings(const AssessSetup& s, const sfs::SfsRes
                          " deg and the camera's pitch and roll): no ground shading, every grid cell unknown; check "
                          "--sun-slant / --sun-tilt (tilt: from image +x towards +y, clockwise)");
   }
+  // An image without shading (all black, all saturated): said as such, not blamed on the geometry.
+  const int usable = res.valid.empty() ? -1 : cv::countNonZero(res.valid);
+  if (known == 0 && warnings.empty() && usable >= 0 && usable * 100 < static_cast<int>(res.valid.total()))
+    warnings.push_back("no shading to read: " + std::to_string(usable) + " of " + std::to_string(res.valid.total()) +
+                       " pixels are neither black, saturated nor in shadow; every grid cell unknown");
   if (known == 0 && warnings.empty())
     warnings.push_back("no ground cell in the grid (camera looks above the horizon or grid outside the view)");
   if (s.sun_ahead()) {

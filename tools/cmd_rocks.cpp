@@ -288,9 +288,29 @@ struct RockDetectors {
   std::unique_ptr<sal::OpenCvSaliency> peer;  // spectral_residual, fine_grained
   sal::BoxDetector detector;
   sal::CandidateSet cand_set;
-  cv::Mat map, map8, h;
+  cv::Mat map, map8, h, enlarged, full_map;
   std::vector<sal::Detection> dets;
+  std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
 };
+
+// SAMS and Itti-Koch build a pyramid of 2^(centre_max + delta_max) px a side (256 px by default). A smaller image
+// (a 320x240 navigation camera's frame) is processed enlarged to that side, and its map is brought back to the
+// image's size, so boxes, minimum areas and the CSV stay in the image's pixels.
+const cv::Mat& pyramid_input(const RockMethod& m, RockDetectors& d, const cv::Mat& img, const std::string& path) {
+  const int need = m.ip.min_input_side(), side = std::min(img.cols, img.rows);
+  if (side >= need) return img;
+  const double s = static_cast<double>(need) / side;
+  const cv::Size size(std::max(need, static_cast<int>(std::ceil(img.cols * s))),
+                      std::max(need, static_cast<int>(std::ceil(img.rows * s))));
+  cv::resize(img, d.enlarged, size, 0, 0, cv::INTER_LINEAR);
+  if (d.enlarged_note.empty())
+    d.enlarged_note =
+        path + " is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) + " px, less than the " +
+        std::to_string(need) + " px a side the " + std::to_string(m.ip.max_level() + 1) +
+        "-level pyramid needs: such images are processed enlarged (this one to " + std::to_string(size.width) + "x" +
+        std::to_string(size.height) + "); boxes are in the image's pixels";
+  return d.enlarged;
+}
 
 // The boxes of one image in d.dets, and its saliency map in d.map (trained: only when `want_map`; the map is for
 // people, detection needs only the scores). DataError naming `path` when the method fails on the image.
@@ -305,11 +325,18 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
       d.peer->compute(img, d.map);
     } else if (m.method == sal::Method::kContrast) {
       d.contrast.compute(img, d.map);
-    } else if (m.method == sal::Method::kSams) {
-      m.height(img, d.h);
-      d.itti.compute(img, d.h, d.map);
-    } else {
-      d.itti.compute(img, cv::Mat(), d.map);
+    } else {  // SAMS, Itti-Koch
+      const cv::Mat& in = pyramid_input(m, d, img, path);
+      if (m.method == sal::Method::kSams) {
+        m.height(in, d.h);
+        d.itti.compute(in, d.h, d.map);
+      } else {
+        d.itti.compute(in, cv::Mat(), d.map);
+      }
+      if (in.size() != img.size()) {
+        cv::resize(d.map, d.full_map, img.size(), 0, 0, cv::INTER_AREA);
+        std::swap(d.map, d.full_map);
+      }
     }
   } catch (const std::exception& e) {
     throw sal::DataError(path + ": " + e.what());
@@ -400,6 +427,7 @@ void run_rocks(const std::vector<std::string>& args, const RockOptions& o, const
     }
   }
   close_output(csv, csv_path, "the rocks CSV");
+  if (!d.enlarged_note.empty()) std::cerr << "rocks: note: " << d.enlarged_note << "\n";
   std::cerr << "rocks: " << images.size() - static_cast<size_t>(failed) << " image(s), " << total_boxes
             << " box(es) -> " << csv_path << " (" << o.method << ": " << (detected ? 1e3 * detect_s / detected : 0.0)
             << " ms per image, decoding excluded)\n";

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <tuple>
 #include <utility>
 
@@ -1240,6 +1241,40 @@ TEST(RecordedDrive, ADriveOfWhichNoFrameReadsIsAnErrorOfTheCli) {
   EXPECT_TRUE(fs::exists(d / "out" / "map.json"));  // what was written stays
 }
 #endif
+
+// One corrupted timestamp far in the future used to make every later frame "out of order": the rest of the
+// drive was lost. The lone spike is the frame skipped; a row missing from frames.csv is said, not skipped.
+TEST(RecordedDrive, ALoneBadTimestampCostsOneFrameNotTheRestOfTheDrive) {
+  const regolith::testing::TempDir d_dir("mapping_spike");
+  const fs::path d = d_dir.path();
+  Rig rig(10);
+  std::ofstream(d / "input.json") << kRigDriveJson;
+  std::ostringstream rows;
+  write_rig_frames(rig, d, rows, 0, 10);
+  std::istringstream in(rows.str());
+  std::ofstream csv(d / "frames.csv");
+  csv << "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("6,", 0) == 0) continue;                                     // frame 6's row lost
+    if (line.rfind("3,", 0) == 0) line = "3,frames/3.png,58,0,0.18,1.5707963";  // frame 3's time corrupted
+    csv << line << "\n";
+  }
+  csv.close();
+  const DriveMapSummary s = map_drive(read_drive(d), DriveMapperParams{}, d / "out");
+  EXPECT_EQ(s.counters.frames, 8);  // 0-2, 4, 5, 7-9
+  EXPECT_EQ(s.skipped, 1);
+  int spike_notes = 0, gap_notes = 0, order_notes = 0;
+  for (const auto& n : s.notes) {
+    spike_notes += n ==
+                   "frame 3 (3.png): its time, 58 s, is later than the next frame's (4 s) while the frames "
+                   "around it are in order: a bad timestamp: skipped";
+    gap_notes += n == "frame 7 (7.png): frame 6 not in the drive (2 s since frame 5)";
+    order_notes += n.find("out of order") != std::string::npos;
+  }
+  EXPECT_EQ(spike_notes, 1);
+  EXPECT_EQ(gap_notes, 1);
+  EXPECT_EQ(order_notes, 0);
+}
 
 TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   const regolith::testing::TempDir d_dir("mapping_skip");

@@ -171,6 +171,91 @@ TEST(CameraCalibration, SceneAndDriveCameraBlocksReadTheSame) {
   EXPECT_NE(error(nlohmann::json{{"camera", 3}}).find("x/input.json: camera: must be an object"), std::string::npos);
 }
 
+// A scene's camera given by its rotation (the development scenes' R_world_from_camera: camera x right,
+// y down, z optical in a world X right, Y forward, Z up). The matrices here are built from the camera's
+// axes, not from direct_depth's formula: the test is that a ground point projected through the matrix
+// comes back to its place through the model read from it.
+TEST(CameraCalibration, TheRotationOfAScenePlacesTheGroundAsItDoes) {
+  const auto rotation = [](double pitch_deg, double roll_deg, double yaw_deg) {
+    const double a = pitch_deg * kDeg, r = roll_deg * kDeg, y = yaw_deg * kDeg;
+    const cv::Vec3d z(std::sin(y) * std::cos(a), std::cos(y) * std::cos(a), -std::sin(a));  // optical axis
+    const cv::Vec3d x0(std::cos(y), -std::sin(y), 0.0);                                     // level, to the right
+    const cv::Vec3d y0 = z.cross(x0);                                                       // down the image
+    const cv::Vec3d x = std::cos(r) * x0 + std::sin(r) * y0, yy = -std::sin(r) * x0 + std::cos(r) * y0;
+    return nlohmann::json::array({{x[0], yy[0], z[0]}, {x[1], yy[1], z[1]}, {x[2], yy[2], z[2]}});
+  };
+  const auto scene = [](const nlohmann::json& r) {
+    return nlohmann::json{{"camera",
+                           {{"width", 640},
+                            {"height", 480},
+                            {"fx", 600.0},
+                            {"fy", 600.0},
+                            {"cx", 319.5},
+                            {"cy", 239.5},
+                            {"h_m", 0.8},
+                            {"R_world_from_camera", r}}}};
+  };
+  // The first development track scene's matrix, as written there: 48.10 deg down, no roll.
+  const nlohmann::json dev = {
+      {1.0, 0.0, 0.0}, {0.0, -0.744356348416, 0.667782619251}, {0.0, -0.667782619251, -0.744356348416}};
+  const auto c0 = common::read_json_camera(scene(dev), "tracks_dev_0/input.json");
+  EXPECT_NEAR(c0.pitch_rad / kDeg, 48.1038438857836, 1e-6);
+  EXPECT_NEAR(c0.roll_rad, 0.0, 1e-9);
+
+  for (const double roll : {-6.0, 0.0, 4.0}) {
+    const nlohmann::json r = rotation(40.0, roll, 0.0);
+    const auto c = common::read_json_camera(scene(r), "x/input.json");
+    EXPECT_NEAR(c.pitch_rad / kDeg, 40.0, 1e-9);
+    const direct_depth::DirectDepth model(c, direct_depth::DirectDepth::Maps::kNone);
+    for (const cv::Vec3d& ground : {cv::Vec3d(0.0, 1.5, 0.0), cv::Vec3d(-0.4, 1.0, 0.0), cv::Vec3d(0.6, 2.5, 0.0)}) {
+      cv::Matx33d m;
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) m(i, k) = r[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)].get<double>();
+      const cv::Vec3d p = m.t() * (ground - cv::Vec3d(0.0, 0.0, 0.8));  // in the camera
+      const double u = 600.0 * p[0] / p[2] + 319.5, v = 600.0 * p[1] / p[2] + 239.5;
+      const direct_depth::GroundPoint g = model.ground(u, v);
+      ASSERT_TRUE(g.valid) << "roll " << roll;
+      EXPECT_NEAR(g.range_m, ground[1], 1e-6) << "roll " << roll << ", world X " << ground[0];
+      EXPECT_NEAR(g.lateral_m, -ground[0], 1e-6) << "roll " << roll << ", world X " << ground[0];
+    }
+  }
+
+  const auto error = [&](nlohmann::json j) {
+    try {
+      common::read_json_camera(j, "x/input.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  nlohmann::json disagree = scene(rotation(40.0, 0.0, 0.0));
+  disagree["camera"]["pitch_deg"] = 35.0;
+  EXPECT_EQ(
+      error(disagree),
+      "x/input.json: camera.pitch_deg: 35.00 deg, but camera.R_world_from_camera tilts the optical axis 40.00 deg "
+      "down: the two disagree");
+  nlohmann::json agree = scene(rotation(40.0, 2.0, 0.0));
+  agree["camera"]["pitch_deg"] = 40.2;
+  agree["camera"]["roll_deg"] = 2.0;
+  EXPECT_NEAR(common::read_json_camera(agree, "x/input.json").pitch_rad / kDeg, 40.2, 1e-9);  // the stated one
+  EXPECT_NE(
+      error(scene(rotation(40.0, 0.0, 5.0)))
+          .find("camera.R_world_from_camera: the optical axis points 5.00 deg right of the scene's forward (+Y) axis"),
+      std::string::npos)
+      << error(scene(rotation(40.0, 0.0, 5.0)));
+  nlohmann::json mirror = scene(rotation(40.0, 0.0, 0.0));
+  for (auto& row : mirror["camera"]["R_world_from_camera"]) row[0] = -row[0].get<double>();
+  EXPECT_EQ(error(mirror), "x/input.json: camera.R_world_from_camera: a reflection (determinant -1), not a rotation");
+  EXPECT_EQ(error(scene({{1, 0}, {0, 1}})), "x/input.json: camera.R_world_from_camera: must be 3 rows of 3 numbers");
+  EXPECT_EQ(error(scene({{1, 0, 0}, {0, 2, 0}, {0, 0, 1}})),
+            "x/input.json: camera.R_world_from_camera: not a rotation (its columns are not orthonormal)");
+  EXPECT_EQ(error(scene({{1, 0, 0}, {0, "a", 0}, {0, 0, 1}})),
+            "x/input.json: camera.R_world_from_camera: row 1, column 1: must be a finite number");
+  nlohmann::json neither = scene(rotation(40.0, 0.0, 0.0));
+  neither["camera"].erase("R_world_from_camera");
+  EXPECT_NE(error(neither).find("x/input.json: camera.pitch_deg: missing"), std::string::npos) << error(neither);
+}
+
 TEST(CameraCalibration, RosCalibrationFileAndInlineAgree) {
   const regolith::testing::TempDir tmp("rover");  // removed whatever the outcome
   const fs::path& dir = tmp.path();

@@ -1,6 +1,7 @@
 // Dataset loading errors, evaluation on a few real MarsData images (skipped
 // when the shared data is absent), and the CLI contract of `regolith rocks` /
 // `regolith eval rocks`.
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -235,6 +236,39 @@ TEST(Cli, RocksCsvContractOverlaysSaliencyAndBadImage) {
   }
   // Unknown method: a parse error from CLI11.
   EXPECT_THROW(run_cli({"rocks", a.string(), "--method", "gbvs", "--csv", csv.string()}), CLI::ValidationError);
+}
+
+// A navigation camera's 240x180 frame is below the 256 px a side of the 9-level pyramid: SAMS and Itti-Koch
+// run on it enlarged (they refused it until 2026-12-04) and report boxes and maps in its own pixels.
+TEST(Cli, RocksOnImagesSmallerThanThePyramidWorkEnlarged) {
+  const regolith::testing::TempDir tmp("saliency_small");
+  const fs::path& d = tmp.path();
+  const cv::Size size(240, 180);
+  const fs::path img = d / "nav.png";
+  cv::imwrite(img.string(), scene(size, {160, 100}, 22, 3));
+  std::vector<std::string> methods = {"itti"};
+#ifdef REGOLITH_HAVE_SFS
+  methods.push_back("sams");
+#endif
+  for (const std::string& m : methods) {
+    const fs::path csv = d / (m + ".csv"), sal = d / (m + "_sal");
+    run_cli({"rocks", img.string(), "--method", m, "--csv", csv.string(), "--saliency-dir", sal.string()});
+    const auto lines = read_lines(csv);
+    ASSERT_GE(lines.size(), 2u) << m << ": no box";
+    bool on_rock = false;
+    for (size_t k = 1; k < lines.size(); ++k) {
+      int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+      ASSERT_EQ(std::sscanf(lines[k].c_str(), "nav.png,%d,%d,%d,%d,", &x0, &y0, &x1, &y1), 4) << lines[k];
+      EXPECT_GE(x0, 0) << m;
+      EXPECT_GE(y0, 0) << m;
+      EXPECT_LE(x1, size.width) << m;
+      EXPECT_LE(y1, size.height) << m;
+      on_rock |= (cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(138, 78, 45, 45)).area() > 0;
+    }
+    EXPECT_TRUE(on_rock) << m;
+    const cv::Mat map = cv::imread((sal / "nav.png").string(), cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(map.size(), size) << m;
+  }
 }
 
 TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {

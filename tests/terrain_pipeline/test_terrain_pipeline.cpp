@@ -612,6 +612,19 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
         << jb.dump();
     EXPECT_NE(read_file(dir / "below.txt").find("warning: the sun is not above the ground plane"), std::string::npos)
         << read_file(dir / "below.txt");
+    // An all-black frame (a lens cap, a night frame): the warning says there is no shading to read,
+    // not that the camera looks above the horizon.
+    ASSERT_TRUE(cv::imwrite((dir / "black.png").string(), cv::Mat(240, 320, CV_8U, cv::Scalar(0))));
+    ASSERT_EQ(run_tool("assess " + (dir / "black.png").string() + " --out " + (dir / "black").string() +
+                           " --sun-slant 48 --sun-tilt -90 --camera 300,300,159.5,119.5 --height 0.6 --pitch 25.78",
+                       dir / "black.txt"),
+              0)
+        << read_file(dir / "black.txt");
+    const auto jk = nlohmann::json::parse(read_file(dir / "black" / "summary.json"));
+    EXPECT_EQ(
+        jk.value("warning", ""),
+        "no shading to read: 0 of 76800 pixels are neither black, saturated nor in shadow; every grid cell unknown")
+        << jk.dump();
     EXPECT_GT(jc["grid"]["known_cells"].get<int>(), 1000);
     EXPECT_FALSE(cv::imread((dir / "cam" / "rectified.png").string()).empty());
     bool rock_hazard = false;

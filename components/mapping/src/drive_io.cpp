@@ -177,6 +177,20 @@ void skip(DriveMapSummary& sum, std::string note) {
   ++sum.skipped;
 }
 
+// Per frame: its time is a lone spike, later than the next frame's while the one before it is earlier than that
+// (a corrupted timestamp). Skipping it keeps the order; taking it would make every later frame "out of order" (one
+// bad time lost the rest of a drive).
+std::vector<bool> time_spikes(const std::vector<DriveFrame>& frames) {
+  std::vector<bool> spike(frames.size(), false);
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
+    const double t = frames[i].t_s, next = frames[i + 1].t_s;
+    const bool before_ok = i == 0 || frames[i - 1].t_s < next;
+    spike[i] =
+        std::isfinite(t) && std::isfinite(next) && t > next && before_ok && frames[i + 1].index > frames[i].index;
+  }
+  return spike;
+}
+
 // The corrected and the wheel-odometry path, one pose per used frame.
 struct Paths {
   std::vector<Pose2> corrected, wheel;
@@ -189,8 +203,26 @@ Paths add_frames(const RecordedDrive& drive, FirstFrame& first, DriveMapper& map
   Paths paths;
   double last_t = -std::numeric_limits<double>::infinity();
   int last_index = std::numeric_limits<int>::min();
-  for (const DriveFrame& fr : drive.frames) {
+  const std::vector<bool> spike = time_spikes(drive.frames);
+  for (std::size_t i = 0; i < drive.frames.size(); ++i) {
+    const DriveFrame& fr = drive.frames[i];
     const std::string name = "frame " + std::to_string(fr.index) + " (" + fr.file.filename().string() + ")";
+    // a gap in the frame numbers (rows missing from frames.csv): said, the mapper bridges it
+    if (i > 0 && fr.index > drive.frames[i - 1].index + 1) {
+      const DriveFrame& prev = drive.frames[i - 1];
+      const int from = prev.index + 1, to = fr.index - 1;
+      sum.notes.push_back(
+          name + ": frame" +
+          (from == to ? " " + std::to_string(from) : "s " + std::to_string(from) + " to " + std::to_string(to)) +
+          " not in the drive (" + number_text(fr.t_s - prev.t_s) + " s since frame " + std::to_string(prev.index) +
+          ")");
+    }
+    if (spike[i]) {
+      skip(sum, name + ": its time, " + number_text(fr.t_s) + " s, is later than the next frame's (" +
+                    number_text(drive.frames[i + 1].t_s) + " s) while the frames around it are in order: a bad " +
+                    "timestamp: skipped");
+      continue;
+    }
     if (fr.index <= last_index || !(fr.t_s > last_t)) {
       skip(sum, name + ": out of order (frame " + std::to_string(fr.index) + ", t " + std::to_string(fr.t_s) +
                     " s after frame " + std::to_string(last_index) + "): skipped");
@@ -211,7 +243,9 @@ Paths add_frames(const RecordedDrive& drive, FirstFrame& first, DriveMapper& map
     last_index = fr.index;
     last_t = fr.t_s;
     const FrameReport& r = mapper.add_frame(gray, fr.odometry, fr.t_s);
-    if (r.odometry_jump) sum.notes.push_back(name + ": wheel odometry jumped: step ignored, vision only");
+    if (r.odometry_jump)
+      sum.notes.push_back(name + (fr.odometry.finite() ? ": wheel odometry jumped" : ": wheel odometry not a number") +
+                          ": step ignored, vision only");
     if (!sum.reports.empty() && r.vo != VoStatus::kOk)
       sum.notes.push_back(name + ": visual odometry: " + std::string(to_string(r.vo)) + ": wheel odometry used");
     if (!paths.corrected.empty())
