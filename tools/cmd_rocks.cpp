@@ -16,6 +16,7 @@
 #include <numeric>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include "regolith/core/csv.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/core/image_file.hpp"
+#include "regolith/core/image_limits.hpp"
 #include "regolith/core/text_file.hpp"
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/dataset.hpp"
@@ -300,8 +302,15 @@ const cv::Mat& pyramid_input(const RockMethod& m, RockDetectors& d, const cv::Ma
   const int need = m.ip.min_input_side(), side = std::min(img.cols, img.rows);
   if (side >= need) return img;
   const double s = static_cast<double>(need) / side;
-  const cv::Size size(std::max(need, static_cast<int>(std::ceil(img.cols * s))),
-                      std::max(need, static_cast<int>(std::ceil(img.rows * s))));
+  const double w = std::max<double>(need, std::ceil(img.cols * s)), h = std::max<double>(need, std::ceil(img.rows * s));
+  if (w > regolith::kMaxImageSidePx || h > regolith::kMaxImageSidePx ||
+      w * h > static_cast<double>(regolith::kMaxImagePixels))
+    throw std::invalid_argument(std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                                " px is too narrow for the " + std::to_string(need) +
+                                " px a side of the pyramid: enlarged to that it would be " +
+                                std::to_string(static_cast<long>(w)) + "x" + std::to_string(static_cast<long>(h)) +
+                                " px (use --method contrast or trained)");
+  const cv::Size size(static_cast<int>(w), static_cast<int>(h));
   cv::resize(img, d.enlarged, size, 0, 0, cv::INTER_LINEAR);
   if (d.enlarged_note.empty())
     d.enlarged_note =

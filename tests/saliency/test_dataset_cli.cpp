@@ -269,6 +269,17 @@ TEST(Cli, RocksOnImagesSmallerThanThePyramidWorkEnlarged) {
     const cv::Mat map = cv::imread((sal / "nav.png").string(), cv::IMREAD_UNCHANGED);
     EXPECT_EQ(map.size(), size) << m;
   }
+  // A strip 16 px wide would have to grow to 256 x 80000 px: refused, naming the image, not enlarged.
+  const fs::path strip = d / "strip.png";
+  cv::imwrite(strip.string(), cv::Mat(5000, 16, CV_8U, cv::Scalar(128)));
+  try {
+    run_cli({"rocks", strip.string(), "--method", "itti", "--csv", (d / "strip.csv").string()});
+    FAIL() << "a 16 px strip was enlarged";
+  } catch (const regolith::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("strip.png: 16x5000 px is too narrow for the 256 px a side of the pyramid"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Cli, RocksReadsTheImagesOfADirectoryAndNamesAnEmptyOne) {
