@@ -299,18 +299,14 @@ struct RockDetectors {
 // (a 320x240 navigation camera's frame) is processed enlarged to that side, and its map is brought back to the
 // image's size, so boxes, minimum areas and the CSV stay in the image's pixels.
 const cv::Mat& pyramid_input(const RockMethod& m, RockDetectors& d, const cv::Mat& img, const std::string& path) {
-  const int need = m.ip.min_input_side(), side = std::min(img.cols, img.rows);
-  if (side >= need) return img;
-  const double s = static_cast<double>(need) / side;
-  const double w = std::max<double>(need, std::ceil(img.cols * s)), h = std::max<double>(need, std::ceil(img.rows * s));
-  if (w > regolith::kMaxImageSidePx || h > regolith::kMaxImageSidePx ||
-      w * h > static_cast<double>(regolith::kMaxImagePixels))
-    throw std::invalid_argument(std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                                " px is too narrow for the " + std::to_string(need) +
-                                " px a side of the pyramid: enlarged to that it would be " +
-                                std::to_string(static_cast<long>(w)) + "x" + std::to_string(static_cast<long>(h)) +
-                                " px (use --method contrast or trained)");
-  const cv::Size size(static_cast<int>(w), static_cast<int>(h));
+  cv::Size size;
+  try {
+    size = m.ip.input_size(img.size());
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string(e.what()) + " (use --method contrast or trained)");
+  }
+  if (size == img.size()) return img;
+  const int need = m.ip.min_input_side();
   cv::resize(img, d.enlarged, size, 0, 0, cv::INTER_LINEAR);
   if (d.enlarged_note.empty())
     d.enlarged_note =

@@ -246,6 +246,27 @@ TEST(Itti, BadInputAndParametersGiveClearMessages) {
   EXPECT_EQ(rs::method_from_string("fine_grained"), rs::Method::kFineGrained);
 }
 
+// The size a small image is processed at (`regolith rocks` and the sams component): the shorter
+// side brought to the pyramid's, the aspect kept (rounded up); a sliver that would exceed the image
+// limits is an error naming both sizes.
+TEST(Itti, ASmallImageIsProcessedEnlargedToThePyramidsSide) {
+  const rs::IttiParams p;  // 2^(4 + 4) = 256 px
+  EXPECT_EQ(p.input_size({640, 480}), cv::Size(640, 480));
+  EXPECT_EQ(p.input_size({256, 256}), cv::Size(256, 256));
+  EXPECT_EQ(p.input_size({320, 240}), cv::Size(342, 256));
+  EXPECT_EQ(p.input_size({100, 300}), cv::Size(256, 768));
+  EXPECT_EQ(p.input_size({16, 16}), cv::Size(256, 256));
+  try {
+    static_cast<void>(p.input_size({16000, 100}));
+    FAIL() << "a 16000x100 sliver enlarged to 40960x256";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "16000x100 px is too narrow for the 256 px a side of the pyramid: enlarged to that it would be "
+                 "40960x256 px");
+  }
+  EXPECT_THROW(static_cast<void>(p.input_size({0, 100})), std::invalid_argument);
+}
+
 namespace {
 // Every job on a thread of its own, started last job first: the channels must not share any
 // buffer or depend on each other's order.

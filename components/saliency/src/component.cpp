@@ -58,12 +58,15 @@ class SamsComponent final : public runtime::Component {
     const int w = model.width, h = model.height;
     size_ = cv::Size(w, h);
     if (trained_) load_trained_model(p);
+    // SAMS and Itti build a pyramid of 2^(centre_max + delta_max) px a side: a smaller camera's
+    // frames (a 320x240 navigation camera) are processed enlarged, as `regolith rocks` does.
+    input_size_ = size_;
     if (method_ == Method::kSams || method_ == Method::kItti) {
-      const int need = ip.min_input_side();
-      if (w < need || h < need)
-        p.fail("delta_max", "the " + std::to_string(w) + "x" + std::to_string(h) + " px image is smaller than the " +
-                                "pyramid needs (each side >= 2^(centre_max + delta_max) = " + std::to_string(need) +
-                                " px): lower centre_max or delta_max");
+      try {
+        input_size_ = ip.input_size(size_);
+      } catch (const std::invalid_argument& e) {
+        p.fail("delta_max", std::string(e.what()) + ": lower centre_max or delta_max");
+      }
     }
 
     // ---- grid layer (traversability grid geometry) ----
@@ -107,6 +110,7 @@ class SamsComponent final : public runtime::Component {
     };
 
     build_lookups(p);
+    build_enlargement();
     warm_up();
     connect(p, ctx, frame_id, timeout_s);
   }
@@ -238,6 +242,19 @@ class SamsComponent final : public runtime::Component {
         }
         cell_pixel_.at<int>(i, j) = idx;
       }
+  }
+
+  // A camera smaller than the pyramid: the resampling tables between its frames (full and quarter
+  // resolution) and the enlarged frames the saliency model reads, and back for the map.
+  void build_enlargement() {
+    if (input_size_ == size_) return;
+    using Mode = ResizeTable::Mode;
+    up_gray_.build(size_, input_size_, Mode::kLinear);
+    up_height4_.build(IttiSaliency::level_size(size_, 2), IttiSaliency::level_size(input_size_, 2), Mode::kLinear);
+    down_.build(input_size_, size_, Mode::kArea);
+    gray_f_.create(size_, CV_32F);
+    for (cv::Mat* m : {&big_gray_, &big_height_, &big_saliency_}) m->create(input_size_, CV_32F);
+    big_height4_.create(IttiSaliency::level_size(input_size_, 2), CV_32F);
   }
 
   // Warm-up on a synthetic frame of the camera's size: sizes every buffer of the models.
@@ -390,22 +407,43 @@ class SamsComponent final : public runtime::Component {
     }
     if (peer_) {
       peer_->compute(work_gray_, saliency_);
-    } else if (method_ == Method::kSams && level == 2) {
-      pad_quarter(height);
-      cv::patchNaNs(work_height4_, 0.0);
-      fill_outside(work_height4_, static_cast<float>(cv::mean(work_height4_, roi4_)[0]), roi4_);
-      itti_->compute(work_gray_, work_height4_, saliency_);
-    } else if (method_ == Method::kSams) {
-      height.copyTo(work_height_);
-      cv::patchNaNs(work_height_, 0.0);
-      fill_outside(work_height_, static_cast<float>(cv::mean(work_height_, roi_)[0]));
-      itti_->compute(work_gray_, work_height_, saliency_);
     } else {
-      itti_->compute(work_gray_, cv::Mat(), saliency_);
+      const cv::Mat* heights = nullptr;  // SAMS: the DTM with its unsearched region filled
+      if (method_ == Method::kSams && level == 2) {
+        pad_quarter(height);
+        cv::patchNaNs(work_height4_, 0.0);
+        fill_outside(work_height4_, static_cast<float>(cv::mean(work_height4_, roi4_)[0]), roi4_);
+        heights = &work_height4_;
+      } else if (method_ == Method::kSams) {
+        height.copyTo(work_height_);
+        cv::patchNaNs(work_height_, 0.0);
+        fill_outside(work_height_, static_cast<float>(cv::mean(work_height_, roi_)[0]));
+        heights = &work_height_;
+      }
+      saliency_of(heights, level);
     }
     fill_outside(saliency_, 0.f);
     detector_->detect(saliency_, dets_);
     rank_and_range();
+  }
+
+  /// saliency_ := Itti / SAMS of work_gray_ (and `heights`, nullptr = none; level 0 or 2), through
+  /// the enlarged frame when the camera is smaller than the pyramid (into pre-sized buffers).
+  void saliency_of(const cv::Mat* heights, int level) {
+    static const cv::Mat kNone;
+    if (input_size_ == size_) {
+      itti_->compute(work_gray_, heights != nullptr ? *heights : kNone, saliency_);
+      return;
+    }
+    work_gray_.convertTo(gray_f_, CV_32F, 1.0 / 255.0);
+    up_gray_.apply(gray_f_, big_gray_);
+    cv::Mat* big_heights = nullptr;
+    if (heights != nullptr) {
+      big_heights = level == 2 ? &big_height4_ : &big_height_;
+      (level == 2 ? up_height4_ : up_gray_).apply(*heights, *big_heights);
+    }
+    itti_->compute(big_gray_, big_heights != nullptr ? *big_heights : kNone, big_saliency_);
+    down_.apply(big_saliency_, saliency_);
   }
 
   /// dets_ (best first) -> last_: ranged rocks, hazards.
@@ -511,6 +549,10 @@ class SamsComponent final : public runtime::Component {
   bool quarter_ok_ = false;          // the structure pyramid can start at level 2 (centre_min >= 2)
   cv::Mat cell_pixel_;               // CV_32S, per grid cell the pixel index r * w + c or -1
   cv::Mat saliency_;
+  // a camera smaller than the pyramid: its frames enlarged to input_size_ and the map brought back
+  cv::Size input_size_;
+  ResizeTable up_gray_, up_height4_, down_;  // up_gray_ also serves the full-resolution heights
+  cv::Mat gray_f_, big_gray_, big_height_, big_height4_, big_saliency_;
   std::vector<Detection> dets_;
   RockFrame last_;
   const runtime::Input<common::DtmFrame>* dtm_ = nullptr;

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
+#include "regolith/core/image_limits.hpp"
 #include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
@@ -107,6 +108,21 @@ void ChannelWeights::validate() const {
       throw FieldError("ChannelWeights", name, "must be finite and >= 0 (got " + number_text(v) + ")");
     }
   }
+}
+
+cv::Size IttiParams::input_size(cv::Size image) const {
+  const int need = min_input_side(), side = std::min(image.width, image.height);
+  if (side <= 0) throw std::invalid_argument("image: empty");
+  if (side >= need) return image;
+  const double s = static_cast<double>(need) / side;
+  const double w = std::max<double>(need, std::ceil(image.width * s));
+  const double h = std::max<double>(need, std::ceil(image.height * s));
+  if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > static_cast<double>(kMaxImagePixels))
+    throw std::invalid_argument(
+        std::to_string(image.width) + "x" + std::to_string(image.height) + " px is too narrow for the " +
+        std::to_string(need) + " px a side of the pyramid: enlarged to that it would be " +
+        std::to_string(static_cast<long>(w)) + "x" + std::to_string(static_cast<long>(h)) + " px");
+  return {static_cast<int>(w), static_cast<int>(h)};
 }
 
 void IttiParams::validate() const {

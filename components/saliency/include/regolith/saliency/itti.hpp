@@ -80,6 +80,12 @@ struct IttiParams {
   int max_level() const { return centre_max + delta_max; }
   /// Smallest input side (px) that gives at least 1 px at the coarsest level.
   int min_input_side() const { return 1 << max_level(); }
+  /// The size an image of `image` size is processed at: itself when both sides reach
+  /// min_input_side(), else enlarged by one factor (aspect kept, rounded up) until the shorter side
+  /// does (a 320x240 navigation frame -> 342x256 with the default 256 px). Throws
+  /// std::invalid_argument when the enlarged image would exceed kMaxImageSidePx a side or
+  /// kMaxImagePixels (a sliver: 2x4000 px would need 256x512000).
+  cv::Size input_size(cv::Size image) const;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
