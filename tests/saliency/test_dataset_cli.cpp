@@ -276,7 +276,7 @@ TEST(Cli, RocksOnImagesSmallerThanThePyramidWorkEnlarged) {
     run_cli({"rocks", strip.string(), "--method", "itti", "--csv", (d / "strip.csv").string()});
     FAIL() << "a 16 px strip was enlarged";
   } catch (const regolith::InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("strip.png: 16x5000 px is too narrow for the 256 px a side of the pyramid"),
+    EXPECT_NE(std::string(e.what()).find("strip.png: 16x5000 px is too small for the 256 px a side of the pyramid"),
               std::string::npos)
         << e.what();
   }

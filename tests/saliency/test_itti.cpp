@@ -261,7 +261,7 @@ TEST(Itti, ASmallImageIsProcessedEnlargedToThePyramidsSide) {
     FAIL() << "a 16000x100 sliver enlarged to 40960x256";
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(),
-                 "16000x100 px is too narrow for the 256 px a side of the pyramid: enlarged to that it would be "
+                 "16000x100 px is too small for the 256 px a side of the pyramid: enlarged to that it would be "
                  "40960x256 px");
   }
   EXPECT_THROW(static_cast<void>(p.input_size({0, 100})), std::invalid_argument);

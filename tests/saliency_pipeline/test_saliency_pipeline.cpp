@@ -462,6 +462,12 @@ TEST(SamsConfig, ErrorsNameTheField) {
   std::string e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    method: gbvs\n"));
   EXPECT_NE(e.find("method"), std::string::npos) << e;
   EXPECT_NE(e.find("gbvs"), std::string::npos) << e;
+  // 2^(4+8) = 4096 px a side: 320x240 would be enlarged to 5462x4096, past the 4 Mpx the component allows
+  e = config_error(with("    delta_max: 3\n", "    delta_max: 8\n"));
+  EXPECT_NE(e.find("components.sams.delta_max: 320x240 px is too small for the 4096 px a side of the pyramid: "
+                   "enlarged to that it would be 5462x4096 px: lower centre_max or delta_max"),
+            std::string::npos)
+      << e;
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    hazard_size_m: -0.1\n"));
   EXPECT_NE(e.find("hazard_size_m"), std::string::npos) << e;
   e = config_error(with("    delta_max: 3\n", "    delta_max: 3\n    w_structur: 0.4\n"));

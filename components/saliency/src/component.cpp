@@ -31,6 +31,9 @@ namespace {
 using RockArrayMsg = msgs::regolith_msgs::RockArray;
 constexpr std::size_t kIdCapacity = 8;
 constexpr std::size_t kStringCapacity = 32;
+// A camera smaller than the pyramid is processed enlarged; past this many pixels (2048x2048) the
+// camera is a sliver the pyramid does not suit, refused at configure rather than gigabytes of buffers.
+constexpr double kMaxEnlargedPixels = 4194304.0;
 
 class SamsComponent final : public runtime::Component {
  public:
@@ -63,7 +66,7 @@ class SamsComponent final : public runtime::Component {
     input_size_ = size_;
     if (method_ == Method::kSams || method_ == Method::kItti) {
       try {
-        input_size_ = ip.input_size(size_);
+        input_size_ = ip.input_size(size_, kMaxEnlargedPixels);
       } catch (const std::invalid_argument& e) {
         p.fail("delta_max", std::string(e.what()) + ": lower centre_max or delta_max");
       }

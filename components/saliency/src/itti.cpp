@@ -10,7 +10,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
-#include "regolith/core/image_limits.hpp"
 #include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
@@ -110,16 +109,16 @@ void ChannelWeights::validate() const {
   }
 }
 
-cv::Size IttiParams::input_size(cv::Size image) const {
+cv::Size IttiParams::input_size(cv::Size image, double max_pixels) const {
   const int need = min_input_side(), side = std::min(image.width, image.height);
   if (side <= 0) throw std::invalid_argument("image: empty");
   if (side >= need) return image;
   const double s = static_cast<double>(need) / side;
   const double w = std::max<double>(need, std::ceil(image.width * s));
   const double h = std::max<double>(need, std::ceil(image.height * s));
-  if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > static_cast<double>(kMaxImagePixels))
+  if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > std::min(max_pixels, static_cast<double>(kMaxImagePixels)))
     throw std::invalid_argument(
-        std::to_string(image.width) + "x" + std::to_string(image.height) + " px is too narrow for the " +
+        std::to_string(image.width) + "x" + std::to_string(image.height) + " px is too small for the " +
         std::to_string(need) + " px a side of the pyramid: enlarged to that it would be " +
         std::to_string(static_cast<long>(w)) + "x" + std::to_string(static_cast<long>(h)) + " px");
   return {static_cast<int>(w), static_cast<int>(h)};

@@ -23,6 +23,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "regolith/core/image_limits.hpp"
 #include "regolith/core/parallel.hpp"
 #include "regolith/saliency/image_ops.hpp"
 
@@ -84,8 +85,8 @@ struct IttiParams {
   /// min_input_side(), else enlarged by one factor (aspect kept, rounded up) until the shorter side
   /// does (a 320x240 navigation frame -> 342x256 with the default 256 px). Throws
   /// std::invalid_argument when the enlarged image would exceed kMaxImageSidePx a side or
-  /// kMaxImagePixels (a sliver: 2x4000 px would need 256x512000).
-  cv::Size input_size(cv::Size image) const;
+  /// `max_pixels` (a sliver: 2x4000 px would need 256x512000).
+  cv::Size input_size(cv::Size image, double max_pixels = static_cast<double>(kMaxImagePixels)) const;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
