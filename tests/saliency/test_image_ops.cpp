@@ -82,6 +82,28 @@ TEST(ImageOps, GaborEnergyEqualsFilter2DReplicate) {
   }
 }
 
+// The separable form of an isotropic Gabor pair gives the energy of the pair's 2-D kernels (every
+// orientation IttiSaliency uses and two odd ones, both kernel sizes, every test size: replicated
+// borders included).
+TEST(ImageOps, SeparableGaborEnergyEqualsTheDirectOne) {
+  int seed = 40;
+  for (const int ks : {3, 9})
+    for (const double theta : {0.0, CV_PI / 4, CV_PI / 2, 3 * CV_PI / 4, 0.3, 2.0}) {
+      cv::Mat even, odd;
+      rs::gabor_kernels(ks, 7.0 / 3.0, 7.0, 1.0, theta, even, odd);
+      const rs::SeparableGabor sep = rs::SeparableGabor::make(ks, 7.0 / 3.0, 7.0, theta);
+      for (const cv::Size s : kSizes) {
+        const cv::Mat src = random_float(s, seed++);
+        cv::Mat ref, dst, pad, rows;
+        rs::gabor_energy(src, even, odd, ref, pad, rows);
+        rs::gabor_energy(src, sep, dst, pad, rows);
+        EXPECT_LT(rel_diff(dst, ref), 2e-5) << s << " k" << ks << " theta " << theta;
+      }
+    }
+  EXPECT_THROW(rs::SeparableGabor::make(4, 1.0, 7.0, 0.0), std::invalid_argument);
+  EXPECT_THROW(rs::SeparableGabor::make(9, 0.0, 7.0, 0.0), std::invalid_argument);
+}
+
 TEST(ImageOps, SobelThroughCorrelationEqualsCvSobel) {
   const cv::Mat kx = (cv::Mat_<float>(3, 3) << -1, 0, 1, -2, 0, 2, -1, 0, 1) / 8.0;
   const cv::Mat src = random_float({37, 29}, 5);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -279,6 +280,149 @@ void gabor_energy(const cv::Mat& src, const cv::Mat& even, const cv::Mat& odd, c
       }
     }
     for (int x = wb; x < w; ++x) d[x] = std::abs(e[x]) + std::abs(o[x]);
+  }
+}
+
+void gabor_kernels(int size, double sigma, double period, double elongation, double theta_rad, cv::Mat& even,
+                   cv::Mat& odd) {
+  const int hw = size / 2;
+  for (int phase = 0; phase < 2; ++phase) {
+    cv::Mat k(size, size, CV_32F);
+    const double phi = phase == 0 ? 0.0 : std::numbers::pi / 2;
+    for (int y = -hw; y <= hw; ++y)
+      for (int x = -hw; x <= hw; ++x) {
+        const double xr = x * std::cos(theta_rad) + y * std::sin(theta_rad);
+        const double yr = -x * std::sin(theta_rad) + y * std::cos(theta_rad);
+        const double env = std::exp(-(xr * xr + elongation * elongation * yr * yr) / (2.0 * sigma * sigma));
+        k.at<float>(y + hw, x + hw) = static_cast<float>(env * std::cos(2.0 * std::numbers::pi * xr / period + phi));
+      }
+    k -= cv::mean(k)[0];
+    const double norm = cv::norm(k, cv::NORM_L2);
+    if (norm > 0) k /= norm;
+    (phase == 0 ? even : odd) = k;
+  }
+}
+
+SeparableGabor SeparableGabor::make(int size, double sigma, double period, double theta_rad) {
+  if (size < 1 || size % 2 == 0) throw std::invalid_argument("SeparableGabor: size must be odd and >= 1");
+  if (!(sigma > 0.0) || !(period > 0.0)) throw std::invalid_argument("SeparableGabor: sigma and period must be > 0");
+  const int hw = size / 2;
+  const double w = 2.0 * std::numbers::pi / period, a = w * std::cos(theta_rad), b = w * std::sin(theta_rad);
+  SeparableGabor k;
+  for (auto* v : {&k.row_re, &k.row_im, &k.col_re, &k.col_im}) v->resize(static_cast<std::size_t>(size));
+  for (int t = -hw; t <= hw; ++t) {
+    const double g = std::exp(-t * t / (2.0 * sigma * sigma));
+    const auto i = static_cast<std::size_t>(t + hw);
+    k.row_re[i] = static_cast<float>(g * std::cos(a * t));
+    k.row_im[i] = static_cast<float>(g * std::sin(a * t));
+    k.col_re[i] = static_cast<float>(g * std::cos(b * t));
+    k.col_im[i] = static_cast<float>(g * std::sin(b * t));
+  }
+  // The means and norms of the 2-D kernels (in double): even = Re K, odd = -Im K before them.
+  double se = 0, so = 0, se2 = 0, so2 = 0;
+  for (int y = -hw; y <= hw; ++y)
+    for (int x = -hw; x <= hw; ++x) {
+      const double g = std::exp(-(x * x + y * y) / (2.0 * sigma * sigma)), ph = a * x + b * y;
+      const double e = g * std::cos(ph), o = -g * std::sin(ph);
+      se += e, so += o, se2 += e * e, so2 += o * o;
+    }
+  const double n = static_cast<double>(size) * size, me = se / n, mo = so / n;
+  const double ne = std::sqrt(std::max(0.0, se2 - n * me * me)), no = std::sqrt(std::max(0.0, so2 - n * mo * mo));
+  k.mean_even = static_cast<float>(me);
+  k.mean_odd = static_cast<float>(mo);
+  k.inv_norm_even = ne > 0 ? static_cast<float>(1.0 / ne) : 1.0f;
+  k.inv_norm_odd = no > 0 ? static_cast<float>(1.0 / no) : 1.0f;
+  return k;
+}
+
+void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv::Mat& pad, cv::Mat& rows) {
+  if (src.type() != CV_32FC1 || src.empty())
+    throw std::invalid_argument("gabor_energy: image must be non-empty CV_32FC1");
+  const int n = k.size();
+  if (n < 1 || n % 2 == 0 || k.row_im.size() != k.row_re.size() || k.col_re.size() != k.row_re.size() ||
+      k.col_im.size() != k.row_re.size())
+    throw std::invalid_argument("gabor_energy: the separable kernel's taps must be odd in number and match");
+  const int w = src.cols, h = src.rows, r = n / 2, ph = h + 2 * r;
+  pad_replicate_32f(src, pad, r, r);
+  // Rows [0, ph): real part, [ph, 2 ph): imaginary part, [2 ph, 3 ph): box sum, of the row pass.
+  rows.create(3 * ph, w, CV_32F);
+  const float *xr = k.row_re.data(), *xi = k.row_im.data(), *yr = k.col_re.data(), *yi = k.col_im.data();
+  // As the direct pass: blocks of kBlock pixels keep their sums in registers over all taps.
+  using V4 = float __attribute__((vector_size(16)));  // GCC / Clang vector extension (SSE, NEON)
+  constexpr int kVecs = 4, kBlock = 4 * kVecs;
+  const int wb = w - w % kBlock;
+  const auto load = [](const float* p) {
+    V4 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  };
+  const auto store = [](float* p, const V4& v) { std::memcpy(p, &v, sizeof v); };
+  for (int y = 0; y < ph; ++y) {
+    const float* p = pad.ptr<float>(y);
+    float* re = rows.ptr<float>(y);
+    float* im = rows.ptr<float>(ph + y);
+    float* box = rows.ptr<float>(2 * ph + y);
+    for (int x0 = 0; x0 < wb; x0 += kBlock) {
+      V4 sr[kVecs] = {}, si[kVecs] = {}, sb[kVecs] = {};
+      for (int j = 0; j < n; ++j) {
+        const V4 a = {xr[j], xr[j], xr[j], xr[j]}, b = {xi[j], xi[j], xi[j], xi[j]};
+        for (int v = 0; v < kVecs; ++v) {
+          const V4 q = load(p + x0 + j + 4 * v);
+          sr[v] += a * q;
+          si[v] += b * q;
+          sb[v] += q;
+        }
+      }
+      for (int v = 0; v < kVecs; ++v) {
+        store(re + x0 + 4 * v, sr[v]);
+        store(im + x0 + 4 * v, si[v]);
+        store(box + x0 + 4 * v, sb[v]);
+      }
+    }
+    for (int x = wb; x < w; ++x) {
+      float sr = 0.0f, si = 0.0f, sb = 0.0f;
+      for (int j = 0; j < n; ++j) {
+        sr += xr[j] * p[x + j];
+        si += xi[j] * p[x + j];
+        sb += p[x + j];
+      }
+      re[x] = sr, im[x] = si, box[x] = sb;
+    }
+  }
+  dst.create(h, w, CV_32F);
+  const float me = k.mean_even, mo = k.mean_odd, ie = k.inv_norm_even, io = k.inv_norm_odd;
+  const auto energy = [&](float cre, float cim, float s) {
+    return std::abs((cre - me * s) * ie) + std::abs((-cim - mo * s) * io);
+  };
+  for (int y = 0; y < h; ++y) {
+    float* d = dst.ptr<float>(y);
+    for (int x0 = 0; x0 < wb; x0 += kBlock) {
+      V4 cr[kVecs] = {}, ci[kVecs] = {}, cs[kVecs] = {};
+      for (int i = 0; i < n; ++i) {
+        const V4 a = {yr[i], yr[i], yr[i], yr[i]}, b = {yi[i], yi[i], yi[i], yi[i]};
+        const float* re = rows.ptr<float>(y + i) + x0;
+        const float* im = rows.ptr<float>(ph + y + i) + x0;
+        const float* box = rows.ptr<float>(2 * ph + y + i) + x0;
+        for (int v = 0; v < kVecs; ++v) {
+          const V4 qr = load(re + 4 * v), qi = load(im + 4 * v);
+          cr[v] += a * qr - b * qi;
+          ci[v] += a * qi + b * qr;
+          cs[v] += load(box + 4 * v);
+        }
+      }
+      for (int v = 0; v < kVecs; ++v)
+        for (int l = 0; l < 4; ++l) d[x0 + 4 * v + l] = energy(cr[v][l], ci[v][l], cs[v][l]);
+    }
+    for (int x = wb; x < w; ++x) {
+      float cre = 0.0f, cim = 0.0f, s = 0.0f;
+      for (int i = 0; i < n; ++i) {
+        const float qr = rows.ptr<float>(y + i)[x], qi = rows.ptr<float>(ph + y + i)[x];
+        cre += yr[i] * qr - yi[i] * qi;
+        cim += yr[i] * qi + yi[i] * qr;
+        s += rows.ptr<float>(2 * ph + y + i)[x];
+      }
+      d[x] = energy(cre, cim, s);
+    }
   }
 }
 

@@ -250,27 +250,15 @@ IttiSaliency::IttiSaliency(IttiParams params) : params_(std::move(params)) {
   const int n = params_.num_orientations;
   gabor_even_.resize(static_cast<size_t>(n));
   gabor_odd_.resize(static_cast<size_t>(n));
-  const int hw = params_.gabor_size / 2;
+  // An isotropic envelope (elongation 1, the default) makes each pair separable: filtered as such.
+  const bool separable = params_.gabor_elongation == 1.0;
   for (int t = 0; t < n; ++t) {
     const double theta = std::numbers::pi * t / n;
-    for (int phase = 0; phase < 2; ++phase) {
-      cv::Mat k(params_.gabor_size, params_.gabor_size, CV_32F);
-      const double phi = phase == 0 ? 0.0 : std::numbers::pi / 2;
-      for (int y = -hw; y <= hw; ++y) {
-        for (int x = -hw; x <= hw; ++x) {
-          const double xr = x * std::cos(theta) + y * std::sin(theta);
-          const double yr = -x * std::sin(theta) + y * std::cos(theta);
-          const double env = std::exp(-(xr * xr + params_.gabor_elongation * params_.gabor_elongation * yr * yr) /
-                                      (2.0 * params_.gabor_sigma * params_.gabor_sigma));
-          k.at<float>(y + hw, x + hw) =
-              static_cast<float>(env * std::cos(2.0 * std::numbers::pi * xr / params_.gabor_period + phi));
-        }
-      }
-      k -= cv::mean(k)[0];
-      const double norm = cv::norm(k, cv::NORM_L2);
-      if (norm > 0) k /= norm;
-      (phase == 0 ? gabor_even_ : gabor_odd_)[static_cast<size_t>(t)] = k;
-    }
+    gabor_kernels(params_.gabor_size, params_.gabor_sigma, params_.gabor_period, params_.gabor_elongation, theta,
+                  gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)]);
+    if (separable)
+      gabor_separable_.push_back(
+          SeparableGabor::make(params_.gabor_size, params_.gabor_sigma, params_.gabor_period, theta));
   }
 }
 
@@ -304,7 +292,9 @@ void IttiSaliency::prepare(cv::Size size) {
     for (int l = params_.centre_min; orientation && l < levels; ++l) {
       const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
       sc.gabor_pad[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
-      sc.gabor_rows[static_cast<size_t>(l)].create(2, ls.width, CV_32F);
+      // the separable pass's three row planes, or the direct pass's two accumulator rows
+      sc.gabor_rows[static_cast<size_t>(l)].create(gabor_separable_.empty() ? 2 : 3 * (ls.height + 2 * r), ls.width,
+                                                   CV_32F);
     }
     for (cv::Mat* m : {&sc.centre, &sc.surround, &sc.diff, &sc.acc, &sc.excit, &sc.inhib}) m->create(map_size_, CV_32F);
   }
@@ -406,8 +396,12 @@ void IttiSaliency::orientation_job(int t) {
     const size_t li = static_cast<size_t>(l);
     // |even| + |odd| with the filter2D correlation and BORDER_REPLICATE (own direct
     // convolution: cv::filter2D builds a filter engine on the heap at every call).
-    gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)], op[li],
-                 sc.gabor_pad[li], sc.gabor_rows[li]);
+    if (!gabor_separable_.empty())
+      gabor_energy(intensity_pyr_[li], gabor_separable_[static_cast<size_t>(t)], op[li], sc.gabor_pad[li],
+                   sc.gabor_rows[li]);
+    else
+      gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)], op[li],
+                   sc.gabor_pad[li], sc.gabor_rows[li]);
   }
   centre_surround_channel(op, sc.acc, sc);
   normalise(sc.acc, sc);

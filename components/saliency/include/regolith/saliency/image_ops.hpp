@@ -32,6 +32,31 @@ void intensity_of(const cv::Mat& unit, cv::Mat& intensity);
 void gabor_energy(const cv::Mat& src, const cv::Mat& even, const cv::Mat& odd, cv::Mat& dst, cv::Mat& pad,
                   cv::Mat& rows);
 
+/// The Gabor pair of orientation `theta_rad` (IttiSaliency's kernels): a size x size window,
+/// envelope exp(-(xr^2 + elongation^2 yr^2) / (2 sigma^2)) with xr = x cos theta + y sin theta
+/// (x the column offset, y the row offset), carrier cos(2 pi xr / period + phi) with phi 0 (even)
+/// and pi/2 (odd); each kernel made zero-mean, then of unit L2 norm. CV_32F.
+void gabor_kernels(int size, double sigma, double period, double elongation, double theta_rad, cv::Mat& even,
+                   cv::Mat& odd);
+
+/// The same pair when the envelope is isotropic (elongation 1), in separable form: with g the 1-D
+/// Gaussian, even + i (-odd) before the mean and norm is g(y) e^{i b y} g(x) e^{i a x}
+/// (a = 2 pi cos theta / period, b = 2 pi sin theta / period), so the pair's correlation is one
+/// complex pass along the rows, one down the columns and a box sum for the means: 72 instead of
+/// 162 multiply-adds per pixel at 9x9.
+struct SeparableGabor {
+  std::vector<float> row_re, row_im;  ///< taps over x (columns)
+  std::vector<float> col_re, col_im;  ///< taps over y (rows)
+  float mean_even = 0.0f, inv_norm_even = 1.0f, mean_odd = 0.0f, inv_norm_odd = 1.0f;
+  /// Throws std::invalid_argument on a size that is not odd and >= 1 or a sigma / period <= 0.
+  static SeparableGabor make(int size, double sigma, double period, double theta_rad);
+  int size() const { return static_cast<int>(row_re.size()); }
+};
+
+/// gabor_energy() of the pair `k` describes (the same map up to float rounding). `pad` and `rows`
+/// are scratch (sized on first use for a given size).
+void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv::Mat& pad, cv::Mat& rows);
+
 /// Single-kernel version of the same correlation (= cv::filter2D(src, dst, CV_32F, kernel,
 /// centre anchor, 0, BORDER_REPLICATE)); used by tests and the slope feature.
 void correlate_replicate(const cv::Mat& src, const cv::Mat& kernel, cv::Mat& dst, cv::Mat& pad);

@@ -161,6 +161,7 @@ class IttiSaliency {
   std::vector<cv::Mat> intensity_pyr_, rg_pyr_, by_pyr_, struct_pyr_;
   std::vector<std::vector<cv::Mat>> orient_pyr_;  // [theta][level]
   std::vector<cv::Mat> gabor_even_, gabor_odd_;
+  std::vector<SeparableGabor> gabor_separable_;  // per orientation when the envelope is isotropic
   cv::Mat tmp_, tmp2_, border_;
   Conspicuity consp_;
   cv::Mat combined_;
