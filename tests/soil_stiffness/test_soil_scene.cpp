@@ -65,7 +65,7 @@ TEST(SoilScene, BadFieldsAreNamed) {
   expect_error(k.dump(), "tracks[1].load_N: must be > 0");
   k = j;
   k["tracks"][0]["x_nominal_m"] = 4.0;
-  expect_error(k.dump(), "tracks[0].x_nominal_m: 4.000000 m lies outside the camera's view");
+  expect_error(k.dump(), "tracks[0].x_nominal_m: 4.000 m lies outside the camera's view of the ground 0.");
   k = j;
   k["camera"].erase("fy");
   expect_error(k.dump(), "camera.fy: missing");

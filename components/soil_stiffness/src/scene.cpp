@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -91,12 +92,13 @@ SoilSetup read_soil_scene(const std::filesystem::path& file) {
       const auto px = dd.project(x, cfg.analysis.tracks[k].lateral_m, 0.0);
       seen = px && px->x >= 0 && px->x <= c.width - 1 && px->y >= 0 && px->y <= c.height - 1;
     }
-    if (!seen)
-      throw InputError(file.string() + ": tracks[" + std::to_string(k) +
-                       "].x_nominal_m: " + std::to_string(-cfg.analysis.tracks[k].lateral_m) +
-                       " m lies outside the camera's view of the ground (range " +
-                       std::to_string(cfg.analysis.range_min_m) + " to " + std::to_string(cfg.analysis.range_max_m) +
-                       " m)");
+    if (!seen) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "].x_nominal_m: %.3f m lies outside the camera's view of the ground %.2f to %.2f m ahead",
+                    -cfg.analysis.tracks[k].lateral_m, cfg.analysis.range_min_m, cfg.analysis.range_max_m);
+      throw InputError(file.string() + ": tracks[" + std::to_string(k) + buf);
+    }
   }
   const double half = max_abs_x + 2.5 * r.wheel_width_m;
   cfg.analysis.lateral_min_m = -half;
