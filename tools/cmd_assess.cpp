@@ -485,7 +485,15 @@ void apply_sun_options(const AssessOptions& o, AssessSetup& s) {
   try {
     s.light->validate("sun");
   } catch (const std::invalid_argument& e) {
-    s.sun_error = std::string("--sun-slant: ") + e.what() + " (the sun is at or below the image plane)";
+    char msg[320];
+    if (o.sun_slant_deg >= 0 && o.sun_slant_deg < 90)  // the slant is fine: the tilt is not
+      std::snprintf(msg, sizeof msg, "--sun-tilt %g deg: must be a finite angle", o.sun_tilt_deg);
+    else
+      std::snprintf(msg, sizeof msg,
+                    "--sun-slant %g deg: must be 0 to below 90 deg (the angle of the sun from the optical axis; "
+                    "at 90 deg and beyond it is at or behind the image plane and shades nothing the camera sees)",
+                    o.sun_slant_deg);
+    s.sun_error = msg;
     const bool behind_image_plane =
         s.light->slant_rad >= kPi / 2 && s.light->slant_rad < kPi && std::isfinite(s.light->tilt_rad);
     if (!behind_image_plane) throw ConfigError(s.sun_error);

@@ -532,7 +532,8 @@ TEST(AssessCli, WritesOutputsAndRejectsBadInput) {
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant 95 --sun-tilt 0",
                      dir / "e4.txt"),
             2);
-  EXPECT_NE(read_file(dir / "e4.txt").find("--sun-slant"), std::string::npos) << read_file(dir / "e4.txt");
+  EXPECT_NE(read_file(dir / "e4.txt").find("--sun-slant 95 deg: must be 0 to below 90 deg"), std::string::npos)
+      << read_file(dir / "e4.txt");
   // NaN was taken for "not given" ("--sun-slant and --sun-tilt must be given together").
   EXPECT_EQ(run_tool("assess " + png.string() + " --out " + (dir / "o2").string() + " --sun-slant nan --sun-tilt 0",
                      dir / "e4n.txt"),
