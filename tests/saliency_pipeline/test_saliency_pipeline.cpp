@@ -6,6 +6,7 @@
 // counted; configuration errors must name the field.
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -173,6 +174,49 @@ RunResult run(int seed, const std::string& extra = "") {
   return run_yaml(deployment(seed, extra));
 }
 
+// Valid rocks whose box centre lies inside a detection (coarse maps give boxes larger than the
+// rock, which IoU punishes).
+int centre_hits(const Truth& truth, const std::vector<cv::Rect>& boxes) {
+  int hits = 0;
+  for (const saliency::GtObject& o : truth.frame.objects) {
+    if (o.ignored) continue;
+    const cv::Point c(o.box.x + o.box.width / 2, o.box.y + o.box.height / 2);
+    hits += std::any_of(boxes.begin(), boxes.end(), [&](const cv::Rect& b) { return b.contains(c); }) ? 1 : 0;
+  }
+  return hits;
+}
+
+// rock_probability over the cells under the valid rocks and over all visible (finite) cells.
+struct OnRocks {
+  double on = 0, all = 0;  // sums of the probability
+  int n_on = 0, n_all = 0;
+  int out_of_range = 0;  // finite cells outside [0, 1]
+};
+OnRocks probability_on_rocks(const RunResult& r, const Truth& truth) {
+  OnRocks o;
+  const cv::Mat& P = r.grid.probability;
+  for (int i = 0; i < P.rows; ++i)
+    for (int j = 0; j < P.cols; ++j) {
+      const float v = P.at<float>(i, j);
+      if (!std::isfinite(v)) continue;
+      o.out_of_range += v < 0.f || v > 1.f ? 1 : 0;
+      o.all += v;
+      ++o.n_all;
+      const double x = r.grid.center_x_m + 0.5 * r.grid.length_x_m - (i + 0.5) * r.grid.resolution_m;
+      const double y = r.grid.center_y_m + 0.5 * r.grid.length_y_m - (j + 0.5) * r.grid.resolution_m;
+      for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
+        if (truth.frame.objects[k].ignored) continue;
+        const ts::Rock& rock = truth.rocks[static_cast<std::size_t>(truth.rock_of[k])];
+        if (std::hypot((x - rock.x_m) / rock.radius_x_m, (y - rock.y_m) / rock.radius_y_m) < 1.0) {
+          o.on += v;
+          ++o.n_on;
+          break;
+        }
+      }
+    }
+  return o;
+}
+
 // Pooled over three scenes (seeds 7, 8, 9: held out; the component settings of the deployment,
 // map_level 2 and threshold_scale 2.0, were chosen on seeds 1-6). Measured numbers are in the
 // README ("Component"); the thresholds below leave a margin under them.
@@ -199,17 +243,7 @@ TEST(SceneRocks, DetectedAndRangedLikeTheTruth) {
     n_det += m.n_det;
     matched += m.matched;
 
-    // Centre hits: valid rocks whose box centre lies inside a detection (coarse maps give boxes
-    // larger than the rock, which IoU punishes).
-    for (const saliency::GtObject& o : truth.frame.objects) {
-      if (o.ignored) continue;
-      const cv::Point c(o.box.x + o.box.width / 2, o.box.y + o.box.height / 2);
-      for (const cv::Rect& b : boxes)
-        if (b.contains(c)) {
-          ++centre_hits;
-          break;
-        }
-    }
+    centre_hits += ::centre_hits(truth, boxes);
 
     // Ranging of each valid rock against its best-overlapping detection (IoU >= 0.2).
     for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
@@ -249,35 +283,14 @@ TEST(SceneRocks, DetectedAndRangedLikeTheTruth) {
 
     // rock_probability: mean over the cells under the valid rocks vs over all visible cells.
     ASSERT_TRUE(r.have_grid);
-    const cv::Mat& P = r.grid.probability;
-    double on = 0, all = 0;
-    int non = 0, nall = 0;
-    for (int i = 0; i < P.rows; ++i)
-      for (int j = 0; j < P.cols; ++j) {
-        const float v = P.at<float>(i, j);
-        if (!std::isfinite(v)) continue;
-        ASSERT_GE(v, 0.f);
-        ASSERT_LE(v, 1.f);
-        all += v;
-        ++nall;
-        const double x = r.grid.center_x_m + 0.5 * r.grid.length_x_m - (i + 0.5) * r.grid.resolution_m;
-        const double y = r.grid.center_y_m + 0.5 * r.grid.length_y_m - (j + 0.5) * r.grid.resolution_m;
-        for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
-          if (truth.frame.objects[k].ignored) continue;
-          const ts::Rock& rock = truth.rocks[static_cast<std::size_t>(truth.rock_of[k])];
-          if (std::hypot((x - rock.x_m) / rock.radius_x_m, (y - rock.y_m) / rock.radius_y_m) < 1.0) {
-            on += v;
-            ++non;
-            break;
-          }
-        }
-      }
-    ASSERT_GT(nall, 1000);
+    const OnRocks g = probability_on_rocks(r, truth);
+    ASSERT_EQ(g.out_of_range, 0) << "rock_probability outside [0, 1]";
+    ASSERT_GT(g.n_all, 1000);
     std::printf("seed %d: GT %d det %d matched %d; rock_probability on rocks %.3f (%d cells), visible %.3f (%d)\n",
-                seed, m.n_gt, m.n_det, m.matched, non ? on / non : 0.0, non, all / nall, nall);
-    if (non > 0) {
-      prob_on += on / non;
-      prob_all += all / nall;
+                seed, m.n_gt, m.n_det, m.matched, g.n_on ? g.on / g.n_on : 0.0, g.n_on, g.all / g.n_all, g.n_all);
+    if (g.n_on > 0) {
+      prob_on += g.on / g.n_on;
+      prob_all += g.all / g.n_all;
     }
   }
   const double recall = static_cast<double>(matched) / std::max(1, n_gt);
@@ -397,40 +410,13 @@ TEST(SceneRocks, TheDefaultPyramidOnASmallCameraRunsOnTheFrameEnlarged) {
     n_gt += m.n_gt;
     matched += m.matched;
     detections += m.n_det;
-    for (const saliency::GtObject& o : truth.frame.objects) {
-      if (o.ignored) continue;
-      const cv::Point c(o.box.x + o.box.width / 2, o.box.y + o.box.height / 2);
-      for (const cv::Rect& b : boxes)
-        if (b.contains(c)) {
-          ++centre_hits;
-          break;
-        }
-    }
+    centre_hits += ::centre_hits(truth, boxes);
     ASSERT_TRUE(r.have_grid);
-    const cv::Mat& P = r.grid.probability;
-    double on = 0, all = 0;
-    int non = 0, nall = 0;
-    for (int i = 0; i < P.rows; ++i)
-      for (int j = 0; j < P.cols; ++j) {
-        const float v = P.at<float>(i, j);
-        if (!std::isfinite(v)) continue;
-        all += v;
-        ++nall;
-        const double x = r.grid.center_x_m + 0.5 * r.grid.length_x_m - (i + 0.5) * r.grid.resolution_m;
-        const double y = r.grid.center_y_m + 0.5 * r.grid.length_y_m - (j + 0.5) * r.grid.resolution_m;
-        for (std::size_t k = 0; k < truth.frame.objects.size(); ++k) {
-          if (truth.frame.objects[k].ignored) continue;
-          const ts::Rock& rock = truth.rocks[static_cast<std::size_t>(truth.rock_of[k])];
-          if (std::hypot((x - rock.x_m) / rock.radius_x_m, (y - rock.y_m) / rock.radius_y_m) < 1.0) {
-            on += v;
-            ++non;
-            break;
-          }
-        }
-      }
-    if (non > 0) {
-      prob_on += on / non;
-      prob_all += all / std::max(1, nall);
+    const OnRocks g = probability_on_rocks(r, truth);
+    EXPECT_EQ(g.out_of_range, 0) << "rock_probability outside [0, 1]";
+    if (g.n_on > 0) {
+      prob_on += g.on / g.n_on;
+      prob_all += g.all / std::max(1, g.n_all);
     }
   }
   std::printf(
