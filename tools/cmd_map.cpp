@@ -152,7 +152,9 @@ MapSources choose_sources(const MapArgs& a, Params& tm, const RoverDescription& 
 
 // The recording's inputs to the map: the camera's frames (written as grey PNG into out/frames as
 // they come, with their capture stamps), each wheel's angle samples and the IMU heading samples
-// (when `imu_topic` is set), sorted by time. Damaged messages are skipped with a warning.
+// (when `imu_topic` is set). Samples are sorted by time; frames stay in the order they were recorded
+// (the order the live component took them: mapping::FrameOrder judges them there). Damaged messages
+// are skipped with a warning.
 struct RecordedInputs {
   std::vector<std::pair<TimeNs, fs::path>> frames;
   std::vector<SampleTrack> angles;  // per wheel (wheel_of's index)
@@ -204,7 +206,6 @@ RecordedInputs read_recorded_inputs(record::McapReader& reader, const std::strin
   for (const auto& pr : problems) spdlog::warn("{}", reader.describe(pr));
   for (SampleTrack& w : in.angles) w.sort();
   in.yaws.sort();
-  std::stable_sort(in.frames.begin(), in.frames.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   return in;
 }
 
@@ -276,7 +277,23 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   drive.wheel_radius_m = radius / static_cast<double>(wheels.size());
   std::string csv = "frame,file,t_s,odom_x_m,odom_y_m,odom_yaw_rad\n";
   long unavailable = 0;
+  // The live component's frame order: frames stamped at or before the last one taken are skipped, a
+  // step back past the input timeout maps on (the odometry re-read there). The drive's t_s stays
+  // increasing across such a step: one mean frame interval after the frame before it.
+  std::vector<TimeNs> gaps;  // the camera's rate: the median interval between successive frames
+  for (std::size_t i = 1; i < frames.size(); ++i)
+    if (frames[i].first > frames[i - 1].first) gaps.push_back(frames[i].first - frames[i - 1].first);
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
+  const double rate_hz = gaps.empty() ? 1.0 : 1.0 / to_seconds(gaps[gaps.size() / 2]);
+  mapping::FrameOrder order(mapping::read_input_timeout(tm, rate_hz));
+  TimeNs shift = 0, last_taken = 0;
   for (const auto& [stamp, path] : frames) {
+    const mapping::FrameOrder::Verdict verdict = order.judge(stamp);
+    if (verdict == mapping::FrameOrder::Verdict::kOutOfOrder) continue;
+    if (verdict == mapping::FrameOrder::Verdict::kClockStep) {
+      odometry.clock_stepped_back();
+      shift += last_taken - stamp + from_seconds(1.0 / rate_hz);
+    }
     if (!odometry.advance_to(stamp, read)) {
       if (!odometry.started()) {
         spdlog::warn("{}: frame at {:.3f} s precedes the wheel odometry (the first sample of every wheel{}); skipped",
@@ -289,7 +306,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     mapping::DriveFrame f;
     f.index = static_cast<int>(drive.frames.size());
     f.file = path;
-    f.t_s = static_cast<double>(stamp - frames.front().first) / 1e9;
+    f.t_s = static_cast<double>(stamp + shift - frames.front().first) / 1e9;
     f.odometry = odometry.pose();
     f.line = f.index + 2;
     char row[256];
@@ -297,6 +314,8 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
                   f.odometry.x, f.odometry.y, f.odometry.yaw);
     csv += row;
     drive.frames.push_back(f);
+    order.take(stamp);
+    last_taken = stamp;
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");
   write_file((out / "frames.csv").string(), csv, "the drive's frame table");
@@ -304,6 +323,16 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   if (unavailable > 0)
     spdlog::warn("{}: {} frames have no wheel{} samples around their capture time and keep the last odometry pose",
                  name, unavailable, settings.imu_heading ? " or IMU" : "");
+  if (order.out_of_order() > 0)
+    spdlog::warn(
+        "{}: {} frames stamped at or before the frame mapped before them (the camera clock stepped back) "
+        "were skipped (their PNGs are in frames/, not in frames.csv)",
+        name, order.out_of_order());
+  if (order.clock_steps() > 0)
+    spdlog::warn(
+        "{}: the camera clock stepped back {} times by more than the input timeout: mapped on from the new "
+        "time base, the wheel odometry re-read there",
+        name, order.clock_steps());
   if (odometry.reanchored() > 0)
     spdlog::warn("{}: {} implausible wheel steps (faster than wheel_max_speed_mps) re-anchored the odometry", name,
                  odometry.reanchored());

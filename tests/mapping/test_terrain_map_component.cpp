@@ -52,6 +52,21 @@ std::string load_error(const std::string& yaml) {
   return {};
 }
 
+// The test deployment with its camera's clock stepping by `step_ms` from frame `after` on, for
+// `frames` frames (0: for good): the camera is the fault-injection decorator around the same drive
+// the encoders and the IMU read.
+std::string with_camera_clock_step(int after, int frames, double step_ms) {
+  const std::string s = test_yaml();
+  const std::string front = "    front: &drive\n";
+  const auto d = s.find("devices:\n"), a = s.find(front), b = s.find("  encoders:\n"), e = s.find("rate_groups:");
+  EXPECT_TRUE(d != std::string::npos && a != std::string::npos && b != std::string::npos && e != std::string::npos);
+  const std::string drive = s.substr(a + front.size(), b - a - front.size());  // the drive's keys, 6 spaces in
+  return s.substr(0, d) + "devices:\n  encoders:\n    wheels: &drive\n" + drive +
+         "  imus:\n    body_imu: *drive\n  cameras:\n    front:\n      backend: fault_injection\n" +
+         "      stamp_step_after: " + std::to_string(after) + "\n      stamp_step_for: " + std::to_string(frames) +
+         "\n      stamp_step_ms: " + std::to_string(step_ms) + "\n      inner: *drive\n" + s.substr(e);
+}
+
 }  // namespace
 
 TEST(SkidSteerOdometry, ArcFromWheelAnglesAndHeadingFromTheImu) {
@@ -139,6 +154,24 @@ TEST(SteppedOdometry, SubStepsReadFailuresAndCorruptReadings) {
   ASSERT_TRUE(odo.advance_to(from_seconds(3.0), read));
   EXPECT_EQ(odo.reanchored(), 2);
   EXPECT_NEAR(odo.pose().x, 0.29, 1e-9);
+  // The clock steps back 2 s: the next read (at 1 s, wheels 0.1 m behind) becomes the reference,
+  // nothing is integrated across the step, and driving on from there adds only what is driven.
+  odo.clock_stepped_back();
+  ASSERT_TRUE(odo.advance_to(from_seconds(1.0), read));
+  EXPECT_NEAR(odo.pose().x, 0.29, 1e-9);
+  EXPECT_EQ(odo.time_ns(), from_seconds(1.0));
+  ASSERT_TRUE(odo.advance_to(from_seconds(1.5), read));
+  EXPECT_NEAR(odo.pose().x, 0.34, 1e-9);
+  // A failed or non-finite reading after the step keeps it pending.
+  odo.clock_stepped_back();
+  garbage_at = -1;
+  fail_at = from_seconds(0.5);
+  EXPECT_FALSE(odo.advance_to(from_seconds(0.5), read));
+  fail_at = -1;
+  ASSERT_TRUE(odo.advance_to(from_seconds(0.6), read));
+  ASSERT_TRUE(odo.advance_to(from_seconds(0.7), read));
+  EXPECT_NEAR(odo.pose().x, 0.35, 1e-9);
+  EXPECT_NEAR(odo.distance(), 0.35, 1e-9) << "the distance goes on across the steps";
   // A long gap is crossed in at most kMaxSubsteps reads.
   reads.clear();
   ASSERT_TRUE(odo.advance_to(from_seconds(3.0 + 60.0), read));
@@ -160,6 +193,21 @@ TEST(SteppedOdometry, SubStepsReadFailuresAndCorruptReadings) {
   } catch (const FieldError& e) {
     EXPECT_EQ(e.field(), "step");
   }
+}
+
+TEST(FrameOrder, OutOfOrderWithinTheLimitAClockStepBeyondIt) {
+  mapping::FrameOrder order(from_seconds(2.0));
+  using V = mapping::FrameOrder::Verdict;
+  EXPECT_EQ(order.judge(from_seconds(5.0)), V::kNext) << "the first frame";
+  order.take(from_seconds(5.0));
+  EXPECT_EQ(order.judge(from_seconds(5.0)), V::kOutOfOrder) << "the same stamp again";
+  EXPECT_EQ(order.judge(from_seconds(3.0)), V::kOutOfOrder) << "2 s back: at the limit";
+  EXPECT_EQ(order.judge(from_seconds(5.5)), V::kNext);
+  EXPECT_EQ(order.judge(from_seconds(2.9)), V::kClockStep) << "2.1 s back";
+  order.take(from_seconds(2.9));
+  EXPECT_EQ(order.judge(from_seconds(3.4)), V::kNext) << "on from the new time base";
+  EXPECT_EQ(order.out_of_order(), 2);
+  EXPECT_EQ(order.clock_steps(), 1);
 }
 
 TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {
@@ -234,6 +282,99 @@ TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {
   ASSERT_NE(tm, nullptr);
   EXPECT_EQ(tm->errors(), 0u);
   EXPECT_EQ(tm->result().rfind("map 31 frames", 0), 0u) << tm->result();
+}
+
+namespace {
+
+// 16 s of the test drive with the camera's clock stepping (with_camera_clock_step); every published
+// state's stamp in order, the last state, the component's result line and details.
+struct ClockStepRun {
+  std::vector<TimeNs> stamps;
+  mapping::TerrainMapState last;
+  std::string result;
+  std::vector<std::pair<std::string, std::string>> details;
+};
+
+ClockStepRun run_with_camera_clock_step(int after, int frames, double step_ms) {
+  cli::register_everything();
+  auto app = runtime::Application::load(
+      Params::load_string(with_camera_clock_step(after, frames, step_ms), "terrain_map_test.yaml"),
+      {.sim_time = true, .enable_dds = false});
+  auto& state = app->context().channel<mapping::TerrainMapState>(mapping::kOdometryChannel);
+  std::atomic<bool> stop{false};
+  app->start();
+  ClockStepRun r;
+  std::uint64_t seen = 0;
+  for (int k = 0; k < 64; ++k) {  // 0.25 s slices at 2 Hz: every published state seen
+    app->run(250 * kNsPerMs, stop);
+    auto l = state.acquire();
+    if (!l || l.generation() == seen) continue;
+    seen = l.generation();
+    r.stamps.push_back(l->stamp);
+  }
+  app->stop();
+  auto l = state.acquire();
+  EXPECT_TRUE(l);
+  if (l) r.last = *l;
+  for (const auto* c : app->view().components)
+    if (c->name() == "terrain_map") {
+      r.result = c->result();
+      c->diagnostics(r.details);
+    }
+  return r;
+}
+
+std::string detail(const ClockStepRun& r, const std::string& key) {
+  for (const auto& [k, v] : r.details)
+    if (k == key) return v;
+  ADD_FAILURE() << "no diagnostic " << key;
+  return {};
+}
+
+}  // namespace
+
+TEST(TerrainMapComponent, FramesStampedBeforeTheLastMappedOneAreSkippedAndCounted) {
+  // The camera's clock steps back 1.2 s (less than the 2 s input timeout) for frames 10 and 11:
+  // stamped 3.8 and 4.3 s after frame 9's 4.5 s. Both are skipped; frame 12 (6.0 s) maps again.
+  const ClockStepRun r = run_with_camera_clock_step(10, 2, -1200.0);
+  ASSERT_GE(r.stamps.size(), 25u);
+  for (std::size_t i = 1; i < r.stamps.size(); ++i)
+    EXPECT_GT(r.stamps[i], r.stamps[i - 1]) << "the odom stream never goes back in time (state " << i << ")";
+  EXPECT_EQ(r.last.frames_out_of_order, 2);
+  EXPECT_EQ(r.last.clock_steps, 0);
+  EXPECT_EQ(r.last.counters.frames, 31 - 2);
+  EXPECT_EQ(r.last.odometry_unavailable, 0) << "no frame went to the mapper without its wheel pose";
+  EXPECT_EQ(r.last.frames_rejected, 0);
+  EXPECT_EQ(detail(r, "frames_out_of_order"), "2");
+  EXPECT_NE(r.result.find("camera clock stepped back"), std::string::npos) << r.result;
+  // The drive is the same as without the step: the pose ends where the unfaulted run's does (the
+  // first test: 1.5 m of a left arc of radius 8 m, the corrected pose within 5 cm of the truth).
+  const double x = 8.0 * std::sin(1.5 / 8.0), y = 8.0 * (1.0 - std::cos(1.5 / 8.0));
+  EXPECT_LT(std::hypot(r.last.pose.x - x, r.last.pose.y - y), 0.05);
+  EXPECT_NEAR(r.last.distance_m, 1.05 * 1.5, 0.01);
+}
+
+TEST(TerrainMapComponent, AClockStepBackPastTheTimeoutMapsOnFromTheNewTimeBase) {
+  // From frame 10 on the camera's clock is 3 s behind for good (more than the 2 s timeout): waiting
+  // for its stamps to pass frame 9's would stop the map for 3 s, so mapping goes on and the wheel
+  // odometry continues from its pose on the angles read at the new stamps. Nothing is integrated
+  // across the step: the wheels lose only the 0.5 s between frame 9 and frame 10.
+  const ClockStepRun r = run_with_camera_clock_step(10, 0, -3000.0);
+  EXPECT_EQ(r.last.clock_steps, 1);
+  EXPECT_EQ(r.last.frames_out_of_order, 0);
+  EXPECT_EQ(r.last.counters.frames, 31);
+  EXPECT_EQ(r.last.odometry_unavailable, 0);
+  EXPECT_EQ(r.last.counters.odometry_jumps, 0);
+  EXPECT_EQ(detail(r, "clock_steps"), "1");
+  EXPECT_NEAR(r.last.distance_m, 1.05 * (1.5 - 0.05), 0.01);
+  // The last frame shows the rover at the end of its 1.5 m arc; the wheels' pose lacks the 5 cm
+  // the step hid from them.
+  const double x = 8.0 * std::sin(1.5 / 8.0), y = 8.0 * (1.0 - std::cos(1.5 / 8.0));
+  const double e = std::hypot(r.last.pose.x - x, r.last.pose.y - y);
+  std::printf("clock step back 3 s: corrected pose %.1f mm from the truth, wheels %.1f mm\n", 1e3 * e,
+              1e3 * std::hypot(r.last.wheel_pose.x - x, r.last.wheel_pose.y - y));
+  EXPECT_LT(e, 0.08);
+  EXPECT_GT(r.last.cells_known, 2000);
 }
 
 TEST(TerrainMapComponent, BadConfigurationNamesTheField) {

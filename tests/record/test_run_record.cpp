@@ -622,6 +622,38 @@ TEST_F(RunRecord, MapReadsARecordingWithItsWheelOdometry) {
   EXPECT_NE(r.out.find("no rover.wheels entry reports to encoder set 'wheel_leg'"), std::string::npos) << r.out;
 }
 
+TEST_F(RunRecord, MapTakesTheFramesOfARecordingTheLiveComponentTook) {
+  // The front camera's clock steps back 1.2 s at frame 4 (stamped 0.8 s, after frame 3's 1.5 s):
+  // the live terrain_map skips it (mapping::FrameOrder) and so does `regolith map REC.mcap`, which
+  // keeps the recorded order instead of sorting the frames by stamp.
+  std::string yaml = read_text(write_config("step.yaml", ""));
+  const std::string front = "    front: &drive ";
+  const auto at = yaml.find(front);
+  ASSERT_NE(at, std::string::npos) << "config/mock_rover.yaml's front camera changed";
+  const auto line_end = yaml.find('\n', at);
+  const auto rear = yaml.find("    rear:", at);
+  std::string drive = yaml.substr(line_end + 1, rear - line_end - 1), indented;
+  for (std::size_t b = 0; b < drive.size();) {
+    const auto e = drive.find('\n', b);
+    indented += "  " + drive.substr(b, e - b + 1);
+    b = e + 1;
+  }
+  yaml = yaml.substr(0, at) +
+         "    front:\n      backend: fault_injection\n      stamp_step_after: 4\n      stamp_step_for: 1\n"
+         "      stamp_step_ms: -1200\n      inner: &drive\n" +
+         indented + yaml.substr(rear);
+  const fs::path cfg = dir_ / "step.yaml", rec = dir_ / "step.mcap", out = dir_ / "map";
+  std::ofstream(cfg, std::ios::binary) << yaml;
+  Result r = run("run --sim-time --duration 6 --config " + cfg.string() + " --record " + rec.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("map 12 frames"), std::string::npos) << "13 frames, one skipped\n" << r.out;
+  EXPECT_NE(r.out.find("camera clock stepped back"), std::string::npos) << r.out;
+  r = run("map " + rec.string() + " --out " + out.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("camera front, 12 frames"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1 frames stamped at or before the frame mapped before them"), std::string::npos) << r.out;
+}
+
 TEST_F(RunRecord, ReplayPlaysEveryFileOfASplitRecording) {
   // 3 s of the mocked rover in files of 8 MiB (~23 MiB of frames: 3 files). `replay` of the first
   // file plays the whole recording: every output sample of every file again, byte for byte.

@@ -150,9 +150,7 @@ class TerrainMapComponent final : public runtime::Component {
     frame_id_ = p.get<std::string>("frame_id", "odom", {.doc = "header.frame_id of odom and the map (REP-105 odom)"});
     child_frame_id_ = p.get<std::string>("child_frame_id", ctx.rover().base_frame,
                                          {.doc = "child_frame_id of odom (default rover.base_frame)"});
-    const double timeout_s = p.get<double>(
-        "input_timeout_s", 2.0 / std::max(0.1, fmt.rate_hz) + 1.0,
-        {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the camera input is stale after this long"});
+    const TimeNs timeout = read_input_timeout(p, fmt.rate_hz);
     if (frame_id_.size() > 31 || child_frame_id_.size() > 31)
       p.fail("frame_id", "frame names are limited to 31 characters");
     try {
@@ -186,7 +184,8 @@ class TerrainMapComponent final : public runtime::Component {
 
     // ---- outputs ----
     state_ = &ctx.produce<TerrainMapState>(kOdometryChannel, 4);
-    input_ = &watch_input("camera", from_seconds(timeout_s));
+    input_ = &watch_input("camera", timeout);
+    order_.emplace(timeout);
     if (dds::Participant* part = ctx.dds()) {
       for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic, kTfTopic})
         if (dds::find_topic(topic) == nullptr)
@@ -238,6 +237,7 @@ class TerrainMapComponent final : public runtime::Component {
     if (!cam_->latest(c.now, lease)) return;
     if (!new_frame_(lease.generation())) return;
     const hal::Frame& fr = *lease;
+    if (!in_order(fr.capture_time)) return;
     input_updated(*input_, c.now);
     const bool odometry_ok = advance_odometry(fr.capture_time);
     if (!odometry_ok) ++odometry_unavailable_;
@@ -289,6 +289,8 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("frames_rejected", std::to_string(l->frames_rejected));
     kv.emplace_back("odometry_unavailable", std::to_string(l->odometry_unavailable));
     kv.emplace_back("odometry_reanchored", std::to_string(l->odometry_reanchored));
+    kv.emplace_back("frames_out_of_order", std::to_string(l->frames_out_of_order));
+    kv.emplace_back("clock_steps", std::to_string(l->clock_steps));
     kv.emplace_back("cells_known", std::to_string(l->cells_known));
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
@@ -298,18 +300,32 @@ class TerrainMapComponent final : public runtime::Component {
   std::string result() const override {
     const auto l = state_ != nullptr ? state_->acquire() : decltype(state_->acquire()){};
     if (!l) return {};
-    char buf[200];
+    char buf[256];
     const double dw = std::hypot(l->pose.x - l->wheel_pose.x, l->pose.y - l->wheel_pose.y);
     std::snprintf(buf, sizeof buf,
                   "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known, pose %.2f %.2f m %.1f deg "
-                  "(wheels %.1f cm away)%s",
+                  "(wheels %.1f cm away)%s%s",
                   l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->cells_known,
                   l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
-                  l->frames_rejected > 0 ? ", frames rejected" : "");
+                  l->frames_rejected > 0 ? ", frames rejected" : "",
+                  l->frames_out_of_order + l->clock_steps > 0 ? ", camera clock stepped back" : "");
     return buf;
   }
 
  private:
+  // FrameOrder: a frame stamped at or before the last mapped one is skipped; a step back past the
+  // input timeout maps on from the new time base.
+  bool in_order(TimeNs stamp) {
+    switch (order_->judge(stamp)) {
+      case FrameOrder::Verdict::kNext: return true;
+      case FrameOrder::Verdict::kOutOfOrder:
+        set_status("frame stamped at or before the last mapped one (the camera clock stepped back): skipped");
+        return false;
+      case FrameOrder::Verdict::kClockStep: odo_->clock_stepped_back(); return true;
+    }
+    return false;
+  }
+
   // Wheel (+ IMU heading) odometry up to `t` (SteppedOdometry: sub-steps of odometry_step_s). False
   // when the encoders (or the IMU) have nothing at `t`; the pose then stays where the last good
   // reading left it.
@@ -359,6 +375,8 @@ class TerrainMapComponent final : public runtime::Component {
       s->frames_rejected = rejected_;
       s->odometry_unavailable = odometry_unavailable_;
       s->odometry_reanchored = odo_->reanchored();
+      s->frames_out_of_order = order_->out_of_order();
+      s->clock_steps = order_->clock_steps();
       s->cells_known = cells_known_;
       s->map_updates = map_updates_;
       s->distance_m = odo_->distance();
@@ -412,6 +430,7 @@ class TerrainMapComponent final : public runtime::Component {
     if (r.wheel_pose.finite()) prev_wheel_ = r.wheel_pose;
     prev_stamp_ = fr.capture_time;
     have_prev_ = true;
+    order_->take(fr.capture_time);
   }
 
   hal::Camera* cam_ = nullptr;
@@ -426,6 +445,7 @@ class TerrainMapComponent final : public runtime::Component {
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
   long rejected_ = 0, odometry_unavailable_ = 0, cells_known_ = 0, map_updates_ = 0;
+  std::optional<FrameOrder> order_;  // its step-back limit is the input timeout
   bool have_prev_ = false;
   Pose2 prev_pose_, prev_wheel_;
   Cov3 wheel_cov_ = Cov3::Zero();

@@ -1,5 +1,6 @@
 #include "regolith/mapping/config.hpp"
 
+#include <algorithm>
 #include <string>
 
 namespace regolith::mapping {
@@ -180,6 +181,12 @@ OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover
                                        .max = 10.0,
                                        .doc = "wheel odometry is integrated in steps of at most this between frames"}));
   return o;
+}
+
+TimeNs read_input_timeout(Params& p, double rate_hz) {
+  return from_seconds(p.get<double>(
+      "input_timeout_s", 2.0 / std::max(0.1, rate_hz) + 1.0,
+      {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the camera input is stale after this long"}));
 }
 
 }  // namespace regolith::mapping

@@ -33,6 +33,15 @@ void SkidSteerOdometry::reset(std::span<const double> angles, const Pose2& pose,
   started_ = true;
 }
 
+bool SkidSteerOdometry::rebase(std::span<const double> angles, double yaw) {
+  if (angles.size() < wheels_.size()) return false;
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+    if (!std::isfinite(angles[i])) return false;
+  for (std::size_t i = 0; i < wheels_.size() && i < angles.size(); ++i) last_[i] = angles[i];
+  last_yaw_ = yaw;
+  return true;
+}
+
 bool SkidSteerOdometry::update(std::span<const double> angles, double yaw, double max_step_m) {
   if (angles.size() < wheels_.size()) return false;
   for (std::size_t i = 0; i < wheels_.size(); ++i)
@@ -43,7 +52,7 @@ bool SkidSteerOdometry::update(std::span<const double> angles, double yaw, doubl
   }
   for (std::size_t i = 0; i < wheels_.size(); ++i)
     if (std::abs(wheels_[i].radius_m * (angles[i] - last_[i])) > max_step_m) {
-      reset(angles, pose_, yaw);  // re-anchor where the rover is
+      rebase(angles, yaw);  // re-anchor where the rover is (the distance driven stays)
       return false;
     }
   double sl = 0.0, sr = 0.0;

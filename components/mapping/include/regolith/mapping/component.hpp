@@ -29,9 +29,12 @@ struct TerrainMapState {
   long frames_rejected = 0;       ///< frames never given to the mapper (corrupt, wrong size / type, mapper error)
   long odometry_unavailable = 0;  ///< frames without encoder angles at their capture time
   long odometry_reanchored =
-      0;                    ///< odometry sub-steps whose wheel reading was implausible (re-anchored, distance lost)
-  long cells_known = 0;     ///< map cells with an elevation (at the last map update)
-  long map_updates = 0;     ///< times the derived layers were recomputed (and published)
+      0;  ///< odometry sub-steps whose wheel reading was implausible (re-anchored, distance lost)
+  long frames_out_of_order =
+      0;                 ///< frames stamped at or before the last mapped one, by less than the input timeout (skipped)
+  long clock_steps = 0;  ///< stamps further back than the input timeout: mapping went on from there
+  long cells_known = 0;  ///< map cells with an elevation (at the last map update)
+  long map_updates = 0;  ///< times the derived layers were recomputed (and published)
   double distance_m = 0.0;  ///< wheel odometry distance driven
 };
 

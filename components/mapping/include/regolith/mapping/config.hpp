@@ -24,4 +24,9 @@ struct OdometrySettings {
 /// when heading_source is imu and the rover has none.
 OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover);
 
+/// input_timeout_s (default 2 frame periods + 1 s at `rate_hz`): the camera input is stale after
+/// this long, and a frame stamped further back than this before the last mapped one is a clock
+/// step (FrameOrder). The terrain_map component's key, read here for `regolith map REC.mcap` too.
+TimeNs read_input_timeout(Params& p, double rate_hz);
+
 }  // namespace regolith::mapping

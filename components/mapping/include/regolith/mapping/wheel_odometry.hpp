@@ -34,11 +34,16 @@ class SkidSteerOdometry {
   /// when given (finite), the IMU heading `yaw` (rad) at that moment.
   void reset(std::span<const double> angles, const Pose2& pose = {},
              double yaw = std::numeric_limits<double>::quiet_NaN());
+  /// Takes `angles` (and `yaw`) as the new reference without moving: the pose and the distance
+  /// stay (a reading after a time base changed, whose angle change since the last is meaningless).
+  /// A non-finite angle changes nothing and returns false.
+  bool rebase(std::span<const double> angles, double yaw = std::numeric_limits<double>::quiet_NaN());
   /// Advances to the wheel angles `angles`; with a finite `yaw` the heading change is the IMU's
   /// (yaw - the previous yaw), else the wheels'. A non-finite angle leaves the pose unchanged
   /// and returns false (the next good reading spans the gap). A wheel rolling farther than
   /// `max_step_m` in this step (an impossible jump: a corrupt reading the odometry started from)
-  /// re-anchors on these angles without moving and returns false. Not started: reset() is done.
+  /// re-anchors on these angles without moving (rebase: the distance driven stays) and returns false. Not started:
+  /// reset() is done.
   bool update(std::span<const double> angles, double yaw = std::numeric_limits<double>::quiet_NaN(),
               double max_step_m = std::numeric_limits<double>::infinity());
   const Pose2& pose() const { return pose_; }
@@ -76,6 +81,10 @@ class SteppedOdometry {
   /// when equal).
   template <class Read>
   bool advance_to(std::int64_t t_ns, Read&& read);
+  /// The clock the times come from stepped back: the next advance_to() reads the inputs at its
+  /// time and continues from the current pose on them (SkidSteerOdometry::rebase), whatever that
+  /// time is; nothing is integrated across the step.
+  void clock_stepped_back() { rebase_ = odo_.started(); }
 
   bool started() const { return odo_.started(); }
   const Pose2& pose() const { return odo_.pose(); }
@@ -90,6 +99,46 @@ class SteppedOdometry {
   std::int64_t step_ = 0, time_ = 0;
   double max_speed_ = 0.0;
   long reanchored_ = 0;
+  bool rebase_ = false;
+};
+
+/// The order of the frames the drive-long map takes, one rule for the terrain_map component and
+/// `regolith map REC.mcap` (which then maps the frames the live component mapped). The odom stream
+/// never goes back in time: a frame stamped at or before the last one taken (a camera clock that
+/// stepped back by up to `step_back_limit_ns`, or a frame delivered twice) is out of order, to be
+/// skipped, since its pose and map would be older than what was published. A step back by more
+/// than the limit is the clock itself stepping back (a time sync): waiting for the stamps to pass
+/// the last one would stop the map that long, so mapping goes on from the new time base
+/// (SteppedOdometry::clock_stepped_back). Both are counted. Allocation-free.
+class FrameOrder {
+ public:
+  enum class Verdict { kNext, kOutOfOrder, kClockStep };
+
+  /// `step_back_limit_ns` >= 0: the terrain_map component's input timeout.
+  explicit FrameOrder(std::int64_t step_back_limit_ns) : limit_(step_back_limit_ns) {}
+
+  /// The frame stamped `t_ns` against the last one taken; counts out-of-order frames and steps.
+  Verdict judge(std::int64_t t_ns) {
+    if (!have_ || t_ns > last_) return Verdict::kNext;
+    if (last_ - t_ns <= limit_) {
+      ++out_of_order_;
+      return Verdict::kOutOfOrder;
+    }
+    ++clock_steps_;
+    return Verdict::kClockStep;
+  }
+  /// The frame stamped `t_ns` was mapped.
+  void take(std::int64_t t_ns) {
+    last_ = t_ns;
+    have_ = true;
+  }
+  long out_of_order() const { return out_of_order_; }
+  long clock_steps() const { return clock_steps_; }
+
+ private:
+  std::int64_t limit_ = 0, last_ = 0;
+  bool have_ = false;
+  long out_of_order_ = 0, clock_steps_ = 0;
 };
 
 template <class Read>
@@ -98,6 +147,12 @@ bool SteppedOdometry::advance_to(std::int64_t t, Read&& read) {
   if (!odo_.started()) {
     if (!read(t, std::span<double>(angles_), yaw)) return false;
     odo_.reset(angles_, Pose2{}, yaw);
+    time_ = t;
+    return true;
+  }
+  if (rebase_) {
+    if (!read(t, std::span<double>(angles_), yaw) || !odo_.rebase(angles_, yaw)) return false;
+    rebase_ = false;
     time_ = t;
     return true;
   }
