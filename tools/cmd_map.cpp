@@ -26,6 +26,7 @@
 #include "cli.hpp"
 #include "regolith/common/camera.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/core/frame_order.hpp"
 #include "regolith/core/json_text.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/core/rover.hpp"
@@ -153,7 +154,7 @@ MapSources choose_sources(const MapArgs& a, Params& tm, const RoverDescription& 
 // The recording's inputs to the map: the camera's frames (written as grey PNG into out/frames as
 // they come, with their capture stamps), each wheel's angle samples and the IMU heading samples
 // (when `imu_topic` is set). Samples are sorted by time; frames stay in the order they were recorded
-// (the order the live component took them: mapping::FrameOrder judges them there). Damaged messages
+// (the order the live component took them: FrameOrder judges them there). Damaged messages
 // are skipped with a warning.
 struct RecordedInputs {
   std::vector<std::pair<TimeNs, fs::path>> frames;
@@ -285,12 +286,12 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
     if (frames[i].first > frames[i - 1].first) gaps.push_back(frames[i].first - frames[i - 1].first);
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
   const double rate_hz = gaps.empty() ? 1.0 : 1.0 / to_seconds(gaps[gaps.size() / 2]);
-  mapping::FrameOrder order(mapping::read_input_timeout(tm, rate_hz));
+  FrameOrder order(mapping::read_input_timeout(tm, rate_hz));
   TimeNs shift = 0, last_taken = 0;
   for (const auto& [stamp, path] : frames) {
-    const mapping::FrameOrder::Verdict verdict = order.judge(stamp);
-    if (verdict == mapping::FrameOrder::Verdict::kOutOfOrder) continue;
-    if (verdict == mapping::FrameOrder::Verdict::kClockStep) {
+    const FrameOrder::Verdict verdict = order.admit(stamp);
+    if (verdict == FrameOrder::Verdict::kOutOfOrder) continue;
+    if (verdict == FrameOrder::Verdict::kClockStep) {
       odometry.clock_stepped_back();
       shift += last_taken - stamp + from_seconds(1.0 / rate_hz);
     }
@@ -314,7 +315,6 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
                   f.odometry.x, f.odometry.y, f.odometry.yaw);
     csv += row;
     drive.frames.push_back(f);
-    order.take(stamp);
     last_taken = stamp;
   }
   if (drive.frames.empty()) throw InputError(name + ": no frame after the first encoder samples");

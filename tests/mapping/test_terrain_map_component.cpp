@@ -196,8 +196,8 @@ TEST(SteppedOdometry, SubStepsReadFailuresAndCorruptReadings) {
 }
 
 TEST(FrameOrder, OutOfOrderWithinTheLimitAClockStepBeyondIt) {
-  mapping::FrameOrder order(from_seconds(2.0));
-  using V = mapping::FrameOrder::Verdict;
+  FrameOrder order(from_seconds(2.0));
+  using V = FrameOrder::Verdict;
   EXPECT_EQ(order.judge(from_seconds(5.0)), V::kNext) << "the first frame";
   order.take(from_seconds(5.0));
   EXPECT_EQ(order.judge(from_seconds(5.0)), V::kOutOfOrder) << "the same stamp again";
@@ -208,6 +208,11 @@ TEST(FrameOrder, OutOfOrderWithinTheLimitAClockStepBeyondIt) {
   EXPECT_EQ(order.judge(from_seconds(3.4)), V::kNext) << "on from the new time base";
   EXPECT_EQ(order.out_of_order(), 2);
   EXPECT_EQ(order.clock_steps(), 1);
+  // admit(): judged and taken unless out of order.
+  EXPECT_EQ(order.admit(from_seconds(3.4)), V::kNext);
+  EXPECT_EQ(order.admit(from_seconds(3.4)), V::kOutOfOrder) << "the frame admitted just before";
+  EXPECT_EQ(order.admit(from_seconds(0.5)), V::kClockStep);
+  EXPECT_EQ(order.admit(from_seconds(0.6)), V::kNext) << "the clock step's frame was taken";
 }
 
 TEST(TerrainMapComponent, CorrectedPoseFollowsTheMockRoverAndTheMapFills) {

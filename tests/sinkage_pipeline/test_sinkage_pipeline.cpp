@@ -155,6 +155,31 @@ TEST(SinkagePipeline, EncoderDisconnectInvalidatesOnlyLaterFrames) {
   EXPECT_EQ(diag(*app, "sinkage", "missing_encoder"), "15");
 }
 
+// The hub camera's clock steps back 250 ms for frames 10 and 11 (stamped 0.75 and 0.85 s after
+// frame 9's 0.9 s): their wheel angle would be read at the wrong time, so both are skipped and
+// counted, and the sinkage stream stays in order.
+TEST(SinkagePipeline, FramesStampedBeforeTheLastOneAreSkippedAndCounted) {
+  std::string yaml = deployment("rate_hz: 10, frames: 30, speed_rad_s: 0.5, sinkage_mm: 20");
+  yaml = replace(
+      yaml,
+      "    wheel_cam: &scene {backend: synthetic_wheel, rate_hz: 10, frames: 30, speed_rad_s: 0.5, sinkage_mm: 20}\n",
+      "    wheel_cam: &scene {backend: synthetic_wheel, rate_hz: 10, frames: 30, speed_rad_s: 0.5, sinkage_mm: 20}\n"
+      "    stepped: {backend: fault_injection, stamp_step_after: 10, stamp_step_for: 2, stamp_step_ms: -250, "
+      "inner: *scene}\n");
+  yaml = replace(yaml, "    camera: wheel_cam\n", "    camera: stepped\n");
+  auto app = load(yaml);
+  run_for(*app, 2.45);
+  const auto& v = probe_samples();
+  ASSERT_EQ(v.size(), 23u) << "frames 0-24, 10 and 11 skipped";
+  for (std::size_t i = 1; i < v.size(); ++i) EXPECT_GT(v[i].stamp, v[i - 1].stamp) << i;
+  for (const auto& x : v) {
+    EXPECT_TRUE(x.sequence < 10 || x.sequence > 11) << x.sequence;
+    EXPECT_TRUE(x.result.valid && std::abs(x.result.sinkage_mm - 20.0) < 1.5) << x.sequence;
+  }
+  EXPECT_EQ(diag(*app, "sinkage", "frames_out_of_order"), "2");
+  EXPECT_EQ(diag(*app, "sinkage", "frames"), "23");
+}
+
 // Bench-rig mode: the linear transducer is a second encoder device (here scripted, constant
 // 0.0195 m); the component logs vision vs transducer at every capture time; overlays are saved.
 TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {

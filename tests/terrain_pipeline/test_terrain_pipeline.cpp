@@ -341,6 +341,52 @@ TEST_P(Pipeline, QuarterResolutionReadersGetTheReducedSolve) {
 
 INSTANTIATE_TEST_SUITE_P(Methods, Pipeline, ::testing::Values("tsai_shah", "pentland"));
 
+TEST(PipelineStamps, FramesStampedBeforeTheLastSolvedOneAreSkippedAndCounted) {
+  // The camera's clock steps back 1.2 s for frames 4 and 5 (stamped 0.8 and 1.3 s, after frame 3's
+  // 1.5 s; the limit is the 2 s input timeout): sfs skips both, so the DTM and the grid map made
+  // from it never go back in time.
+  register_once();
+  std::string yaml = deployment("pentland");
+  const std::string cam = "    front: {backend: synthetic_terrain,";
+  const auto at = yaml.find(cam);
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, cam.size(),
+               "    front: {backend: fault_injection, stamp_step_after: 4, stamp_step_for: 2, stamp_step_ms: -1200, "
+               "inner: {backend: synthetic_terrain,");
+  yaml.replace(yaml.find("noise_sigma: 0.01}"), 18, "noise_sigma: 0.01}}");
+  auto app = runtime::Application::load(Params::load_string(yaml, "<test>"), {.sim_time = true, .enable_dds = false});
+  std::atomic<bool> stop{false};
+  app->start();
+  auto& dtm = app->context().channel<common::DtmFrame>(common::kDtmChannel);
+  auto& grid = app->context().channel<traversability::GridMapFrame>(traversability::kGridMapChannel);
+  std::vector<TimeNs> dtm_stamps, grid_stamps;
+  for (int k = 0; k < 20; ++k) {  // 5 s in 0.25 s slices: every published frame seen
+    app->run(kNsPerSec / 4, stop);
+    if (auto l = dtm.acquire(); l && (dtm_stamps.empty() || l->stamp != dtm_stamps.back()))
+      dtm_stamps.push_back(l->stamp);
+    if (auto l = grid.acquire(); l && (grid_stamps.empty() || l->stamp != grid_stamps.back()))
+      grid_stamps.push_back(l->stamp);
+  }
+  app->stop();
+  for (const auto* stamps : {&dtm_stamps, &grid_stamps}) {
+    ASSERT_GE(stamps->size(), 6u);
+    for (std::size_t i = 1; i < stamps->size(); ++i) EXPECT_GT((*stamps)[i], (*stamps)[i - 1]) << i;
+  }
+  for (const auto* c : app->view().components)
+    if (c->name() == "sfs") {
+      std::vector<std::pair<std::string, std::string>> kv;
+      c->diagnostics(kv);
+      bool found = false;
+      for (const auto& [k, v] : kv)
+        if (k == "frames_out_of_order") {
+          EXPECT_EQ(v, "2");
+          found = true;
+        }
+      EXPECT_TRUE(found);
+      EXPECT_EQ(c->errors(), 0u);
+    }
+}
+
 TEST(PipelineConfig, BadSunAndSizeAreConfigErrors) {
   register_once();
   std::string y = deployment("tsai_shah");

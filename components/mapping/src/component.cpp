@@ -316,7 +316,7 @@ class TerrainMapComponent final : public runtime::Component {
   // FrameOrder: a frame stamped at or before the last mapped one is skipped; a step back past the
   // input timeout maps on from the new time base.
   bool in_order(TimeNs stamp) {
-    switch (order_->judge(stamp)) {
+    switch (order_->admit(stamp)) {
       case FrameOrder::Verdict::kNext: return true;
       case FrameOrder::Verdict::kOutOfOrder:
         set_status("frame stamped at or before the last mapped one (the camera clock stepped back): skipped");
@@ -430,7 +430,6 @@ class TerrainMapComponent final : public runtime::Component {
     if (r.wheel_pose.finite()) prev_wheel_ = r.wheel_pose;
     prev_stamp_ = fr.capture_time;
     have_prev_ = true;
-    order_->take(fr.capture_time);
   }
 
   hal::Camera* cam_ = nullptr;

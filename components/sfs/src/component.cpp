@@ -3,6 +3,7 @@
 #include "regolith/sfs/component.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/core/frame_order.hpp"
 #include "regolith/core/image_limits.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
@@ -142,7 +144,9 @@ class SfsComponent final : public runtime::Component {
     }
     if (size_.width < 4 * kMinQuarterSide || size_.height < 4 * kMinQuarterSide)
       quarter_sfs_.reset();  // too small to reduce: quarter-resolution readers get the full solve
-    input_ = &watch_input("camera", from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec);
+    const TimeNs timeout = from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec;
+    input_ = &watch_input("camera", timeout);
+    order_ = FrameOrder(timeout);
 
     gray_.create(size_, CV_8U);
     const cv::Size sz = size_;
@@ -192,6 +196,11 @@ class SfsComponent final : public runtime::Component {
     if (!cam_->latest(c.now, lease)) return;
     const hal::Frame& fr = *lease;
     if (!new_frame_(fr.sequence)) return;
+    if (order_.admit(fr.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
+      out_of_order_.store(order_.out_of_order(), std::memory_order_relaxed);
+      set_status("frame stamped at or before the last one solved (the camera clock stepped back): skipped");
+      return;
+    }
     if (imu_ != nullptr) {  // the sun in the image frame for the body's attitude at capture time
       Attitude a;
       if (imu_->attitude_at(fr.capture_time, a)) {
@@ -266,6 +275,7 @@ class SfsComponent final : public runtime::Component {
     kv.emplace_back("solve_resolution", !heights_wanted_ ? "none (no reader of heights)"
                                         : level_ == 2    ? "quarter"
                                                          : "full");
+    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load(std::memory_order_relaxed)));
   }
 
   std::string result() const override {
@@ -340,6 +350,8 @@ class SfsComponent final : public runtime::Component {
   LatestPool<DtmFrame>* out_ = nullptr;
   runtime::InputWatch* input_ = nullptr;
   NewValue new_frame_;
+  FrameOrder order_;                   ///< the DTM stream never goes back in time (input timeout as limit)
+  std::atomic<long> out_of_order_{0};  ///< order_'s count, for diagnostics() on another thread
 };
 
 }  // namespace

@@ -22,6 +22,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "regolith/core/channels.hpp"
+#include "regolith/core/frame_order.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -246,6 +247,7 @@ class WheelSinkageComponent final : public runtime::Component {
     out_ = &ctx.produce<WheelSinkageSample>(kSinkageChannel, 4);
     const TimeNs frame_timeout = from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec / 2;
     cam_watch_ = &watch_input("camera", frame_timeout);
+    order_ = FrameOrder(frame_timeout);
     // The encoder input is refreshed once per processed frame (when the frame found its angle):
     // stale only when no frame has for as long as the camera may be silent. A single late
     // sample is counted per frame (stale_encoder) instead.
@@ -320,6 +322,7 @@ class WheelSinkageComponent final : public runtime::Component {
       kv.emplace_back(k, std::to_string(v.load()));
     };
     add("frames", frames_);
+    add("frames_out_of_order", out_of_order_);
     add("valid", valid_);
     add("bad_frames", bad_frames_);
     for (std::size_t i = 1; i < enc_problems_.size(); ++i)
@@ -384,6 +387,12 @@ class WheelSinkageComponent final : public runtime::Component {
     if (!cam_->latest(c.now, lease)) return;
     const hal::Frame& fr = *lease;
     if (!new_frame_(fr.sequence)) return;
+    // A frame stamped before the last one would take the wheel angle at the wrong time.
+    if (order_.admit(fr.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+      set_status("frame stamped at or before the last one (the camera clock stepped back): skipped");
+      return;
+    }
     input_updated(*cam_watch_, c.now);
     frames_.fetch_add(1, std::memory_order_relaxed);
     if (fr.corrupt || fr.image.empty() || fr.image.size() != size_ || fr.image.type() != CV_8UC3) {
@@ -558,9 +567,10 @@ class WheelSinkageComponent final : public runtime::Component {
   runtime::InputWatch* cam_watch_ = nullptr;
   runtime::InputWatch* enc_watch_ = nullptr;
   NewValue new_frame_;
+  FrameOrder order_;  // the sinkage stream never goes back in time (the camera timeout as limit)
 
   // counters (read by diagnostics() from the health thread)
-  std::atomic<std::uint64_t> frames_{0}, valid_{0}, bad_frames_{0}, transducer_missing_{0};
+  std::atomic<std::uint64_t> frames_{0}, valid_{0}, bad_frames_{0}, transducer_missing_{0}, out_of_order_{0};
   std::array<std::atomic<std::uint64_t>, 4> enc_problems_{};
   std::array<std::atomic<std::uint64_t>, static_cast<std::size_t>(InvalidReason::kCount)> reasons_{};
 

@@ -13,7 +13,8 @@
 // wrong. Such a frame is withheld and counted once (stats().bad_stamps); readers see the last good
 // frame go stale instead. A new frame stamped before the previous one (the device clock stepped
 // back) is delivered, since its age is what the staleness checks judge, and the step is counted
-// (stats().stamp_steps).
+// (stats().stamp_steps); the components that publish per frame skip it unless the step is larger
+// than their input timeout (regolith::FrameOrder), so their outputs never go back in time.
 //
 // The V4L2 and libcamera backends already map kernel stamps onto the process clock and clamp them
 // to the dequeue time, so this guards what they cannot: other backends (mocks, replays, plugins),

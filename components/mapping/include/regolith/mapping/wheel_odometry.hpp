@@ -11,6 +11,7 @@
 #include <span>
 #include <vector>
 
+#include "regolith/core/frame_order.hpp"
 #include "regolith/mapping/pose2.hpp"
 
 namespace regolith::mapping {
@@ -100,45 +101,6 @@ class SteppedOdometry {
   double max_speed_ = 0.0;
   long reanchored_ = 0;
   bool rebase_ = false;
-};
-
-/// The order of the frames the drive-long map takes, one rule for the terrain_map component and
-/// `regolith map REC.mcap` (which then maps the frames the live component mapped). The odom stream
-/// never goes back in time: a frame stamped at or before the last one taken (a camera clock that
-/// stepped back by up to `step_back_limit_ns`, or a frame delivered twice) is out of order, to be
-/// skipped, since its pose and map would be older than what was published. A step back by more
-/// than the limit is the clock itself stepping back (a time sync): waiting for the stamps to pass
-/// the last one would stop the map that long, so mapping goes on from the new time base
-/// (SteppedOdometry::clock_stepped_back). Both are counted. Allocation-free.
-class FrameOrder {
- public:
-  enum class Verdict { kNext, kOutOfOrder, kClockStep };
-
-  /// `step_back_limit_ns` >= 0: the terrain_map component's input timeout.
-  explicit FrameOrder(std::int64_t step_back_limit_ns) : limit_(step_back_limit_ns) {}
-
-  /// The frame stamped `t_ns` against the last one taken; counts out-of-order frames and steps.
-  Verdict judge(std::int64_t t_ns) {
-    if (!have_ || t_ns > last_) return Verdict::kNext;
-    if (last_ - t_ns <= limit_) {
-      ++out_of_order_;
-      return Verdict::kOutOfOrder;
-    }
-    ++clock_steps_;
-    return Verdict::kClockStep;
-  }
-  /// The frame stamped `t_ns` was mapped.
-  void take(std::int64_t t_ns) {
-    last_ = t_ns;
-    have_ = true;
-  }
-  long out_of_order() const { return out_of_order_; }
-  long clock_steps() const { return clock_steps_; }
-
- private:
-  std::int64_t limit_ = 0, last_ = 0;
-  bool have_ = false;
-  long out_of_order_ = 0, clock_steps_ = 0;
 };
 
 template <class Read>

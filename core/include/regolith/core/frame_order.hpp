@@ -1,0 +1,57 @@
+#pragma once
+// FrameOrder: the rule that keeps a stream of per-frame outputs from going back in time, one rule
+// for every component that publishes per camera frame (terrain_map, sfs and what reads its DTM,
+// wheel_sinkage) and for `regolith map REC.mcap` (which then maps the frames the live terrain_map
+// mapped). Framework-free, allocation-free.
+//
+// A frame stamped at or before the last one admitted (a camera clock that stepped back by up to
+// the limit, or a frame delivered twice) is out of order: skipped by the caller, since everything
+// made from it would be older than what was already published, and everything timed by it (the
+// wheel angle at its capture time) would be read at the wrong time. A step back by more than the
+// limit (callers use their input timeout) is the clock itself stepping back (a time sync): waiting
+// for the stamps to pass the last one would stop the stream that long, so the stream goes on from
+// the new time base. The same rule as joint_states' (runtime/src/builtin_components.cpp). Both are
+// counted.
+#include <cstdint>
+
+namespace regolith {
+
+class FrameOrder {
+ public:
+  enum class Verdict { kNext, kOutOfOrder, kClockStep };
+
+  /// `step_back_limit_ns` >= 0: a step back by more than this is a clock step.
+  explicit FrameOrder(std::int64_t step_back_limit_ns = 0) : limit_(step_back_limit_ns) {}
+
+  /// The frame stamped `t_ns` against the last one admitted; counts what it finds. Admits
+  /// nothing (see admit() and take()).
+  Verdict judge(std::int64_t t_ns) {
+    if (!have_ || t_ns > last_) return Verdict::kNext;
+    if (last_ - t_ns <= limit_) {
+      ++out_of_order_;
+      return Verdict::kOutOfOrder;
+    }
+    ++clock_steps_;
+    return Verdict::kClockStep;
+  }
+  /// The frame stamped `t_ns` was used: later frames are judged against it.
+  void take(std::int64_t t_ns) {
+    last_ = t_ns;
+    have_ = true;
+  }
+  /// judge(), then take() unless the frame is out of order.
+  Verdict admit(std::int64_t t_ns) {
+    const Verdict v = judge(t_ns);
+    if (v != Verdict::kOutOfOrder) take(t_ns);
+    return v;
+  }
+  long out_of_order() const { return out_of_order_; }
+  long clock_steps() const { return clock_steps_; }
+
+ private:
+  std::int64_t limit_ = 0, last_ = 0;
+  bool have_ = false;
+  long out_of_order_ = 0, clock_steps_ = 0;
+};
+
+}  // namespace regolith
