@@ -13,6 +13,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "regolith/core/frame_order.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -53,6 +54,7 @@ class SoilStiffnessComponent final : public runtime::Component {
     out_ = &ctx.produce<SoilStiffnessSample>(kSoilChannel);
     layer_ = &ctx.produce<SinkageLayer>(kSinkageLayerChannel, 2, [] { return SinkageLayer{}; });
     input_ = &watch_input("camera", static_cast<TimeNs>(stale_s * 1e9));
+    order_ = FrameOrder(static_cast<TimeNs>(stale_s * 1e9));
     if (dds::Participant* dp = ctx.dds()) {
       const dds::TopicInfo* info = dds::find_topic(kSoilChannel);
       if (info == nullptr) p.fail({}, "DDS topic terrain/soil is not registered");
@@ -70,6 +72,12 @@ class SoilStiffnessComponent final : public runtime::Component {
     if (!camera_->latest(c.now, lease)) return;
     const hal::Frame& f = *lease;
     if (!new_frame_(f.sequence)) return;
+    // The estimate and the sinkage layer (placed at the odometry of its stamp) never go back in time.
+    if (order_.admit(f.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+      set_status("rear frame stamped at or before the last one (the camera clock stepped back): skipped");
+      return;
+    }
     input_updated(*input_, c.now);
     if (f.corrupt) {
       count_error();
@@ -97,6 +105,7 @@ class SoilStiffnessComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("frames_processed", std::to_string(processed_.load()));
     kv.emplace_back("estimates", std::to_string(estimates_.load()));
+    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load()));
   }
 
   std::string result() const override {
@@ -165,8 +174,9 @@ class SoilStiffnessComponent final : public runtime::Component {
   runtime::InputWatch* input_ = nullptr;
   std::shared_ptr<dds::Outbox<SoilMsg>> dds_;
   NewValue new_frame_;
+  FrameOrder order_;                         // the stale timeout as its step-back limit
   std::atomic<std::uint64_t> processed_{0};  // read by diagnostics() on the health thread
-  std::atomic<std::uint64_t> estimates_{0};
+  std::atomic<std::uint64_t> estimates_{0}, out_of_order_{0};
 };
 
 }  // namespace

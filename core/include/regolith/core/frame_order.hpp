@@ -1,8 +1,8 @@
 #pragma once
 // FrameOrder: the rule that keeps a stream of per-frame outputs from going back in time, one rule
 // for every component that publishes per camera frame (terrain_map, sfs and what reads its DTM,
-// wheel_sinkage) and for `regolith map REC.mcap` (which then maps the frames the live terrain_map
-// mapped). Framework-free, allocation-free.
+// wheel_sinkage, soil_stiffness) and for `regolith map REC.mcap` (which then maps the frames the
+// live terrain_map mapped). Framework-free, allocation-free.
 //
 // A frame stamped at or before the last one admitted (a camera clock that stepped back by up to
 // the limit, or a frame delivered twice) is out of order: skipped by the caller, since everything
