@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/common/camera.hpp"
+#include "regolith/core/frame_order.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"

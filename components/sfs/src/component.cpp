@@ -197,7 +197,7 @@ class SfsComponent final : public runtime::Component {
     const hal::Frame& fr = *lease;
     if (!new_frame_(fr.sequence)) return;
     if (order_.admit(fr.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
-      out_of_order_.store(order_.out_of_order(), std::memory_order_relaxed);
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
       set_status("frame stamped at or before the last one solved (the camera clock stepped back): skipped");
       return;
     }
@@ -350,8 +350,8 @@ class SfsComponent final : public runtime::Component {
   LatestPool<DtmFrame>* out_ = nullptr;
   runtime::InputWatch* input_ = nullptr;
   NewValue new_frame_;
-  FrameOrder order_;                   ///< the DTM stream never goes back in time (input timeout as limit)
-  std::atomic<long> out_of_order_{0};  ///< order_'s count, for diagnostics() on another thread
+  FrameOrder order_;                            ///< the DTM stream never goes back in time (input timeout as limit)
+  std::atomic<std::uint64_t> out_of_order_{0};  ///< frames it skipped, for diagnostics() on another thread
 };
 
 }  // namespace

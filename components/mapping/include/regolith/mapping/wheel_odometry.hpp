@@ -11,7 +11,6 @@
 #include <span>
 #include <vector>
 
-#include "regolith/core/frame_order.hpp"
 #include "regolith/mapping/pose2.hpp"
 
 namespace regolith::mapping {
@@ -43,8 +42,8 @@ class SkidSteerOdometry {
   /// (yaw - the previous yaw), else the wheels'. A non-finite angle leaves the pose unchanged
   /// and returns false (the next good reading spans the gap). A wheel rolling farther than
   /// `max_step_m` in this step (an impossible jump: a corrupt reading the odometry started from)
-  /// re-anchors on these angles without moving (rebase: the distance driven stays) and returns false. Not started:
-  /// reset() is done.
+  /// re-anchors on these angles without moving (rebase(): the distance driven stays) and returns
+  /// false. Not started: reset() is done.
   bool update(std::span<const double> angles, double yaw = std::numeric_limits<double>::quiet_NaN(),
               double max_step_m = std::numeric_limits<double>::infinity());
   const Pose2& pose() const { return pose_; }
