@@ -290,7 +290,11 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   TimeNs shift = 0, last_taken = 0;
   for (const auto& [stamp, path] : frames) {
     const FrameOrder::Verdict verdict = order.admit(stamp);
-    if (verdict == FrameOrder::Verdict::kOutOfOrder) continue;
+    if (verdict == FrameOrder::Verdict::kOutOfOrder) {
+      std::error_code ec;  // not part of the drive: its PNG goes too (a leftover file is harmless)
+      fs::remove(path, ec);
+      continue;
+    }
     if (verdict == FrameOrder::Verdict::kClockStep) {
       odometry.clock_stepped_back();
       shift += last_taken - stamp + from_seconds(1.0 / rate_hz);
@@ -326,7 +330,7 @@ mapping::RecordedDrive drive_from_recording(const fs::path& file, const MapArgs&
   if (order.out_of_order() > 0)
     spdlog::warn(
         "{}: {} frames stamped at or before the frame mapped before them (the camera clock stepped back) "
-        "were skipped (their PNGs are in frames/, not in frames.csv)",
+        "were skipped (not in frames.csv or frames/)",
         name, order.out_of_order());
   if (order.clock_steps() > 0)
     spdlog::warn(

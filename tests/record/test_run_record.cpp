@@ -652,6 +652,8 @@ TEST_F(RunRecord, MapTakesTheFramesOfARecordingTheLiveComponentTook) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("camera front, 12 frames"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 frames stamped at or before the frame mapped before them"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "frames/00004.png")) << "the skipped frame is not part of the drive";
+  EXPECT_TRUE(fs::exists(out / "frames/00005.png"));
 }
 
 TEST_F(RunRecord, ReplayPlaysEveryFileOfASplitRecording) {
