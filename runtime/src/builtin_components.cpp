@@ -8,6 +8,7 @@
 #include <cstring>
 #include <thread>
 
+#include "regolith/core/frame_order.hpp"
 #include "regolith/dds/participant.hpp"
 #include "regolith/dds/sample.hpp"
 #include "regolith/dds/topics.hpp"
@@ -393,6 +394,8 @@ class JointStatePublisher final : public Component {
     if (enc_->wheel_count() > kMaxJoints) p.fail("encoders", "more wheels than JointState supports (16)");
     out_ = &ctx.produce<JointStateSample>("joint_states");
     input_ = &watch_input("encoders", stale_timeout_);
+    order_ = FrameOrder(stale_timeout_);
+    wheel_order_.fill(FrameOrder(stale_timeout_));
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of joint_states"});
     const auto& names = enc_->wheel_names();
     const std::string frame = frame_id_;
@@ -414,11 +417,11 @@ class JointStatePublisher final : public Component {
       hal::AngleSample a;
       double vel = 0.0;
       if (!enc_->latest(w, cycle.now, a)) continue;
-      if (a.stamp < published_[w].stamp && published_[w].stamp - a.stamp <= stale_timeout_) {
-        // A stream never goes back in time: the device's newest usable sample is a little older
-        // than the one already published (its newer ones were rejected as implausible), so the
-        // wheel keeps what was published. A step back by more than the stale timeout is the clock
-        // itself stepping back (a time sync): the stream goes on from there rather than freeze.
+      // FrameOrder per wheel (the stale timeout as its limit): a newest usable sample older than
+      // the one already published (its newer ones were rejected as implausible) leaves the wheel
+      // at what was published; a step back past the timeout is the clock itself (a time sync),
+      // and the wheel goes on from there rather than freeze.
+      if (!wheel_order_[w].repeats(a.stamp) && wheel_order_[w].judge(a.stamp) == FrameOrder::Verdict::kOutOfOrder) {
         a = published_[w];
         vel = published_velocity_[w];
       } else if (!enc_->velocity(w, cycle.now, vel)) {
@@ -432,13 +435,22 @@ class JointStatePublisher final : public Component {
     }
     if (!any) return;  // nothing to publish yet; the slot is reused next cycle
     s->stamp = newest;
-    const bool fresh = newest > last_stamp_ || newest < last_stamp_ - stale_timeout_;
+    // The same rule for the stream: a sample is new when its stamp is later than the last one
+    // published, or the clock stepped back past the timeout.
+    const bool fresh = !order_.repeats(newest) && order_.admit(newest) != FrameOrder::Verdict::kOutOfOrder;
     if (fresh) {
       input_updated(*input_, cycle.now);
-      last_stamp_ = newest;
-      for (std::size_t w = 0; w < s->count; ++w)
-        if (used[w] != 0) published_[w] = {used[w], s->position[w]}, published_velocity_[w] = s->velocity[w];
+      for (std::size_t w = 0; w < s->count; ++w) {
+        if (used[w] == 0) continue;
+        published_[w] = {used[w], s->position[w]};
+        published_velocity_[w] = s->velocity[w];
+        wheel_order_[w].take(used[w]);
+      }
     }
+    long held = order_.out_of_order();
+    for (std::size_t w = 0; w < s->count; ++w) held += wheel_order_[w].out_of_order();
+    held_back_.store(held, std::memory_order_relaxed);
+    clock_steps_.store(order_.clock_steps(), std::memory_order_relaxed);
     out_->commit();
     if (js_ && fresh) {
       if (JointState* m = js_->begin()) {
@@ -454,6 +466,10 @@ class JointStatePublisher final : public Component {
       }
     }
   }
+  void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
+    kv.emplace_back("samples_out_of_order", std::to_string(held_back_.load(std::memory_order_relaxed)));
+    kv.emplace_back("clock_steps", std::to_string(clock_steps_.load(std::memory_order_relaxed)));
+  }
   const hal::WheelEncoders& encoders() const { return *enc_; }
 
  private:
@@ -461,7 +477,10 @@ class JointStatePublisher final : public Component {
   LatestPool<JointStateSample>* out_ = nullptr;
   InputWatch* input_ = nullptr;
   TimeNs stale_timeout_ = 0;
-  TimeNs last_stamp_ = 0;
+  FrameOrder order_;                                // the stream's stamps (stale timeout as limit)
+  std::array<FrameOrder, kMaxJoints> wheel_order_;  // each wheel's
+  std::atomic<long> held_back_{0};    // wheel samples held at the published one, plus stream samples skipped
+  std::atomic<long> clock_steps_{0};  // for diagnostics() on the health thread
   std::array<hal::AngleSample, kMaxJoints> published_{};  // per wheel: the sample last published
   std::array<double, kMaxJoints> published_velocity_{};
   std::string frame_id_;

@@ -1,5 +1,8 @@
 #include "regolith/runtime/component.hpp"
 
+#include <algorithm>
+#include <cstdio>
+
 #include "regolith/runtime/context.hpp"
 #include "regolith/runtime/worker_pool.hpp"
 
@@ -26,6 +29,17 @@ InputWatch& Component::watch_input(const std::string& name, TimeNs timeout) {
   w->timeout = timeout;
   inputs_.push_back(std::move(w));
   return *inputs_.back();
+}
+
+TimeNs read_input_timeout(Params& p, double rate_hz, double slack_s) {
+  const double fallback = 2.0 / std::max(0.1, rate_hz) + slack_s;
+  char doc[256];
+  std::snprintf(doc, sizeof doc,
+                "the camera input is stale after this long, and a frame stamped further back than this before "
+                "the last one taken is a clock step (default 2 frame periods + %g s)",
+                slack_s);
+  return from_seconds(
+      p.get<double>("input_timeout_s", fallback, {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = doc}));
 }
 
 ComponentRegistry& ComponentRegistry::instance() {

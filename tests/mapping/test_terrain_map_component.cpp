@@ -339,6 +339,17 @@ TEST(TerrainMapComponent, FramesStampedBeforeTheLastMappedOneAreSkippedAndCounte
   EXPECT_NEAR(r.last.distance_m, 1.05 * 1.5, 0.01);
 }
 
+TEST(TerrainMapComponent, SkippedFramesAreCountedWhenTheyAreSkippedNotAtTheNextMappedOne) {
+  // The last two frames of the drive (29 and 30) come 1.2 s back: skipped, and no frame is mapped
+  // after them. The diagnostics and the result line say so at once; the state keeps the counts of
+  // its own (the last mapped) frame.
+  const ClockStepRun r = run_with_camera_clock_step(29, 2, -1200.0);
+  EXPECT_EQ(r.last.counters.frames, 29);
+  EXPECT_EQ(r.last.frames_out_of_order, 0) << "as of frame 28, the last one mapped";
+  EXPECT_EQ(detail(r, "frames_out_of_order"), "2");
+  EXPECT_NE(r.result.find("camera clock stepped back"), std::string::npos) << r.result;
+}
+
 TEST(TerrainMapComponent, AClockStepBackPastTheTimeoutMapsOnFromTheNewTimeBase) {
   // From frame 10 on the camera's clock is 3 s behind for good (more than the 2 s timeout): waiting
   // for its stamps to pass frame 9's would stop the map for 3 s, so mapping goes on and the wheel

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdio>
 #include <fstream>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -36,9 +37,10 @@ class ConstantEncoders final : public hal::WheelEncoders {
   void stop() override {}
   bool latest(std::size_t, TimeNs now, hal::AngleSample& out) const override {
     TimeNs t = now - (now - t0_) % (10 * kNsPerMs);
-    // Every step_back_every-th read the newest usable sample is 30 ms older (its newer ones
-    // rejected, or the clock stepped back).
-    if (step_back_every_ > 0 && ++reads_ % step_back_every_ == 0 && t - t0_ >= 30 * kNsPerMs) t -= 30 * kNsPerMs;
+    // In every step_back_every-th 10 ms period the newest usable sample is 30 ms older (its newer
+    // ones rejected, or the clock stepped back).
+    const TimeNs period = (t - t0_) / (10 * kNsPerMs);
+    if (step_back_every_ > 0 && period % step_back_every_ == step_back_every_ - 1 && period >= 3) t -= 30 * kNsPerMs;
     if (step_back_ns_ > 0 && t - t0_ >= 2 * kNsPerSec) t -= step_back_ns_;  // the device clock steps back at 2 s
     out = {t, to_seconds(t - t0_)};
     return true;
@@ -61,7 +63,6 @@ class ConstantEncoders final : public hal::WheelEncoders {
   int lost_per_s_ = 0;
   int step_back_every_ = 0;
   TimeNs step_back_ns_ = 0;
-  mutable std::uint64_t reads_ = 0;
   TimeNs t0_ = 0;
 };
 
@@ -272,8 +273,9 @@ TEST(Application, SimulatedRunPublishesJointStatesAndHealth) {
 
 /// Runs kGood on the simulated clock with `wheel_options` added to its test encoders, reading the
 /// joint_states channel every 10 ms for 3 s: `read` gets each sample (null when there is none).
+/// Returns the joint state publisher's diagnostics at the end.
 template <typename Read>
-void read_joint_states_for_three_seconds(const std::string& wheel_options, Read read) {
+std::map<std::string, std::string> read_joint_states_for_three_seconds(const std::string& wheel_options, Read read) {
   register_test_backends();
   auto app = Application::load(
       Params::load_string(replace(kGood, "wheels: [left, right]}", "wheels: [left, right], " + wheel_options + "}"),
@@ -288,17 +290,21 @@ void read_joint_states_for_three_seconds(const std::string& wheel_options, Read 
     read(js ? &*js : nullptr);
   }
   app->stop();
+  std::vector<std::pair<std::string, std::string>> kv;
+  for (const Component* c : app->view().components)
+    if (c->name() == "joints") c->diagnostics(kv);
+  return {kv.begin(), kv.end()};
 }
 
 TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
-  // The encoders' newest usable sample is 30 ms older on every 5th read: what a rejected newest
+  // The encoders' newest usable sample is 30 ms older in every 5th period: what a rejected newest
   // frame (the plausibility check walks back to an accepted one) or a clock step gives. The
   // published joint states keep their order: stamps and each wheel's angle never decrease (the
   // hardware test saw a published sample 10 ms older than the one before it).
   TimeNs last_stamp = 0;
   std::array<double, 2> last_angle{-1.0, -1.0};
   int samples = 0, back = 0;
-  read_joint_states_for_three_seconds("step_back_every: 5", [&](const JointStateSample* js) {
+  const auto diag = read_joint_states_for_three_seconds("step_back_every: 5", [&](const JointStateSample* js) {
     if (!js) return;
     ++samples;
     back += js->stamp < last_stamp ? 1 : 0;
@@ -311,6 +317,9 @@ TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
   EXPECT_GT(samples, 250);
   EXPECT_EQ(back, 0);
   EXPECT_NEAR(last_angle[0], 3.0, 0.05);  // 1 rad/s for 3 s: still moving
+  // Each wheel held at its published sample in the 60 periods of 300 (100 Hz) that stepped back.
+  EXPECT_EQ(diag.at("samples_out_of_order"), "120");
+  EXPECT_EQ(diag.at("clock_steps"), "0");
 }
 
 TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
@@ -321,7 +330,7 @@ TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
   TimeNs last = 0;
   int newer = 0, older = 0, missing = 0;
   double angle = 0.0;
-  read_joint_states_for_three_seconds("step_back_s_at_2s: 1.5", [&](const JointStateSample* js) {
+  const auto diag = read_joint_states_for_three_seconds("step_back_s_at_2s: 1.5", [&](const JointStateSample* js) {
     if (!js) {
       ++missing;
       return;
@@ -335,6 +344,8 @@ TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
   EXPECT_EQ(older, 1);            // the clock's step
   EXPECT_GT(newer, 280);          // every other cycle a newer sample, before and after it
   EXPECT_NEAR(angle, 1.5, 0.05);  // 3 s of turning at 1 rad/s, read on a clock 1.5 s behind
+  EXPECT_EQ(diag.at("clock_steps"), "1");
+  EXPECT_EQ(diag.at("samples_out_of_order"), "0");
 }
 
 TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {

@@ -4,6 +4,7 @@
 #include "regolith/mapping/component.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -287,11 +288,12 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("vo_failed", std::to_string(l->counters.vo_failed));
     kv.emplace_back("keyframes", std::to_string(l->counters.keyframes));
     kv.emplace_back("odometry_jumps", std::to_string(l->counters.odometry_jumps));
-    kv.emplace_back("frames_rejected", std::to_string(l->frames_rejected));
-    kv.emplace_back("odometry_unavailable", std::to_string(l->odometry_unavailable));
+    // Counted on frames that never reach the map: read live, not from the last mapped frame's state.
+    kv.emplace_back("frames_rejected", std::to_string(rejected_.load(std::memory_order_relaxed)));
+    kv.emplace_back("odometry_unavailable", std::to_string(odometry_unavailable_.load(std::memory_order_relaxed)));
     kv.emplace_back("odometry_reanchored", std::to_string(l->odometry_reanchored));
-    kv.emplace_back("frames_out_of_order", std::to_string(l->frames_out_of_order));
-    kv.emplace_back("clock_steps", std::to_string(l->clock_steps));
+    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load(std::memory_order_relaxed)));
+    kv.emplace_back("clock_steps", std::to_string(clock_steps_.load(std::memory_order_relaxed)));
     kv.emplace_back("cells_known", std::to_string(l->cells_known));
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
@@ -308,19 +310,24 @@ class TerrainMapComponent final : public runtime::Component {
                   "(wheels %.1f cm away)%s%s",
                   l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->cells_known,
                   l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
-                  l->frames_rejected > 0 ? ", frames rejected" : "",
-                  l->frames_out_of_order + l->clock_steps > 0 ? ", camera clock stepped back" : "");
+                  rejected_.load(std::memory_order_relaxed) > 0 ? ", frames rejected" : "",
+                  out_of_order_.load(std::memory_order_relaxed) + clock_steps_.load(std::memory_order_relaxed) > 0
+                      ? ", camera clock stepped back"
+                      : "");
     return buf;
   }
 
  private:
-  // FrameOrder: a frame stamped at or before the last mapped one is skipped; a step back past the
-  // input timeout maps on from the new time base.
+  // FrameOrder: a frame stamped at or before the last one taken (mapped, or rejected below) is
+  // skipped; a step back past the input timeout maps on from the new time base.
   bool in_order(TimeNs stamp) {
-    switch (order_->admit(stamp)) {
+    const FrameOrder::Verdict v = order_->admit(stamp);
+    out_of_order_.store(order_->out_of_order(), std::memory_order_relaxed);
+    clock_steps_.store(order_->clock_steps(), std::memory_order_relaxed);
+    switch (v) {
       case FrameOrder::Verdict::kNext: return true;
       case FrameOrder::Verdict::kOutOfOrder:
-        set_status("frame stamped at or before the last mapped one (the camera clock stepped back): skipped");
+        set_status("frame stamped at or before the last one taken (the camera clock stepped back): skipped");
         return false;
       case FrameOrder::Verdict::kClockStep: odo_->clock_stepped_back(); return true;
     }
@@ -444,7 +451,9 @@ class TerrainMapComponent final : public runtime::Component {
   std::vector<const cv::Mat*> layers_;
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
-  long rejected_ = 0, odometry_unavailable_ = 0, cells_known_ = 0, map_updates_ = 0;
+  long cells_known_ = 0, map_updates_ = 0;
+  // Frames that never reach the map, for diagnostics() / result() on other threads.
+  std::atomic<long> rejected_{0}, odometry_unavailable_{0}, out_of_order_{0}, clock_steps_{0};
   std::optional<FrameOrder> order_;  // its step-back limit is the input timeout
   bool have_prev_ = false;
   Pose2 prev_pose_, prev_wheel_;

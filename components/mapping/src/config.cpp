@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <string>
 
+#include "regolith/runtime/component.hpp"
+
 namespace regolith::mapping {
 
 namespace {
@@ -184,9 +186,7 @@ OdometrySettings read_odometry_settings(Params& p, const RoverDescription& rover
 }
 
 TimeNs read_input_timeout(Params& p, double rate_hz) {
-  return from_seconds(p.get<double>(
-      "input_timeout_s", 2.0 / std::max(0.1, rate_hz) + 1.0,
-      {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = "the camera input is stale after this long"}));
+  return runtime::read_input_timeout(p, rate_hz, 1.0);
 }
 
 }  // namespace regolith::mapping

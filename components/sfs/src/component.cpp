@@ -144,7 +144,7 @@ class SfsComponent final : public runtime::Component {
     }
     if (size_.width < 4 * kMinQuarterSide || size_.height < 4 * kMinQuarterSide)
       quarter_sfs_.reset();  // too small to reduce: quarter-resolution readers get the full solve
-    const TimeNs timeout = from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec;
+    const TimeNs timeout = runtime::read_input_timeout(p, fmt.rate_hz, 1.0);
     input_ = &watch_input("camera", timeout);
     order_ = FrameOrder(timeout);
 

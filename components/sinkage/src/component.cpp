@@ -245,7 +245,7 @@ class WheelSinkageComponent final : public runtime::Component {
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of terrain/wheel_sinkage"});
 
     out_ = &ctx.produce<WheelSinkageSample>(kSinkageChannel, 4);
-    const TimeNs frame_timeout = from_seconds(2.0 / std::max(0.1, fmt.rate_hz)) + kNsPerSec / 2;
+    const TimeNs frame_timeout = runtime::read_input_timeout(p, fmt.rate_hz, 0.5);
     cam_watch_ = &watch_input("camera", frame_timeout);
     order_ = FrameOrder(frame_timeout);
     // The encoder input is refreshed once per processed frame (when the frame found its angle):

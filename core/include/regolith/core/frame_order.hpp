@@ -10,8 +10,9 @@
 // wheel angle at its capture time) would be read at the wrong time. A step back by more than the
 // limit (callers use their input timeout) is the clock itself stepping back (a time sync): waiting
 // for the stamps to pass the last one would stop the stream that long, so the stream goes on from
-// the new time base. The same rule as joint_states' (runtime/src/builtin_components.cpp). Both are
-// counted.
+// the new time base. joint_states (runtime/src/builtin_components.cpp) applies it per wheel and to
+// its stream, where the same sample read again is nothing new (`repeats`), not out of order. Both
+// are counted.
 #include <cstdint>
 
 namespace regolith {
@@ -45,6 +46,9 @@ class FrameOrder {
     if (v != Verdict::kOutOfOrder) take(t_ns);
     return v;
   }
+  /// `t_ns` is the stamp last taken: the same sample read again (a poll faster than the source),
+  /// which a caller that polls skips before judging it.
+  bool repeats(std::int64_t t_ns) const { return have_ && t_ns == last_; }
   long out_of_order() const { return out_of_order_; }
   long clock_steps() const { return clock_steps_; }
 

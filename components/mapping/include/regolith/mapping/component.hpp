@@ -15,7 +15,8 @@ namespace regolith::mapping {
 /// Channel name of TerrainMapState (the component's result, one per mapped frame).
 inline constexpr const char* kOdometryChannel = "odom";
 
-/// What the terrain_map component knows after each frame.
+/// What the terrain_map component knows after each mapped frame. Its counters are as of that
+/// frame; the component's diagnostics read those of frames that never reach the map live.
 struct TerrainMapState {
   TimeNs stamp = 0;            ///< capture time of the frame
   std::uint64_t sequence = 0;  ///< camera frame sequence
@@ -31,7 +32,7 @@ struct TerrainMapState {
   long odometry_reanchored =
       0;  ///< odometry sub-steps whose wheel reading was implausible (re-anchored, distance lost)
   long frames_out_of_order =
-      0;                 ///< frames stamped at or before the last mapped one, by less than the input timeout (skipped)
+      0;                 ///< frames stamped at or before the last one taken, by less than the input timeout (skipped)
   long clock_steps = 0;  ///< stamps further back than the input timeout: mapping went on from there
   long cells_known = 0;  ///< map cells with an elevation (at the last map update)
   long map_updates = 0;  ///< times the derived layers were recomputed (and published)
