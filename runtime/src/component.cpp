@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "regolith/runtime/context.hpp"
+#include "regolith/runtime/input_timeout.hpp"
 #include "regolith/runtime/worker_pool.hpp"
 
 namespace regolith::runtime {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <string>
 
-#include "regolith/runtime/component.hpp"
+#include "regolith/runtime/input_timeout.hpp"
 
 namespace regolith::mapping {
 

@@ -21,6 +21,7 @@
 #include "regolith/core/image_limits.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/runtime/application.hpp"
+#include "regolith/runtime/input_timeout.hpp"
 #include "regolith/sfs/flat_field.hpp"
 
 namespace regolith::sfs {

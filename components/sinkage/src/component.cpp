@@ -30,6 +30,7 @@
 #include "regolith/hal/wheel_encoders.hpp"
 #include "regolith/runtime/component.hpp"
 #include "regolith/runtime/context.hpp"
+#include "regolith/runtime/input_timeout.hpp"
 #include "regolith/sinkage/bench_log.hpp"
 
 namespace regolith::sinkage {

@@ -113,12 +113,6 @@ class Component {
   std::vector<std::unique_ptr<InputWatch>> inputs_;
 };
 
-/// The `input_timeout_s` parameter of a component fed by a camera delivering `rate_hz` frames per
-/// second (declared on `p`): the camera input is stale after this long, and a frame stamped further
-/// back than this before the last one taken is a clock step (FrameOrder). Default two frame
-/// periods + `slack_s` (rates below 0.1 Hz count as 0.1 Hz). One definition for every such component.
-TimeNs read_input_timeout(Params& p, double rate_hz, double slack_s);
-
 /// Component types by name, for YAML (`type: sfs`).
 class ComponentRegistry {
  public:
