@@ -1010,6 +1010,37 @@ TEST(DriveMapper, AGapInTheFramesIsNotAnOdometryJump) {
   EXPECT_EQ(dm2.counters().odometry_jumps, 1);
 }
 
+TEST(DriveMapper, WheelStepsAreShortenedByTheExpectedSlip) {
+  // The wheels report 1 m straight ahead in ten steps. The fusion expects them to overstate the
+  // ground covered by `wheel.slip` (2 % here) and places the rover at 0.98 m; the wheel pose it
+  // reports stays what the wheels said. With no slip expected it follows the wheels.
+  Rig rig(13, 20);
+  const cv::Mat f = rig.frame(Pose2{});
+  auto drive = [&](double slip) {
+    DriveMapperParams p;
+    p.fuse_terrain = false;
+    p.use_vision = false;
+    p.wheel.slip = slip;
+    DriveMapper dm(rig.model, CameraMount{}, rig.sun.vector(), p, {1.5, 0});
+    double wheel_x = 0.0;
+    for (int k = 0; k <= 10; ++k)
+      wheel_x = dm.add_frame(f, Pose2{0.1 * k, 0.0, 0.0}, static_cast<double>(k)).wheel_pose.x;
+    EXPECT_NEAR(wheel_x, 1.0, 1e-12);
+    EXPECT_NEAR(dm.pose().y, 0.0, 1e-12);
+    return dm.pose().x;
+  };
+  EXPECT_NEAR(drive(0.02), 0.98, 1e-9);
+  EXPECT_NEAR(drive(0.0), 1.0, 1e-9);
+  DriveMapperParams bad;
+  bad.wheel.slip = 0.6;
+  try {
+    bad.validate();
+    ADD_FAILURE() << "slip 0.6 accepted";
+  } catch (const regolith::FieldError& e) {
+    EXPECT_STREQ(e.what(), "mapping.wheel.slip: must be in [0, 0.5]");
+  }
+}
+
 TEST(DriveMapper, AStandingRoverHasNoParallaxButStillSightsRocks) {
   // The same view five times: no baseline, so no parallax search runs (not a division by zero);
   // the per-frame rock sightings still do.

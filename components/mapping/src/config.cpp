@@ -11,6 +11,12 @@ namespace {
 
 // The wheel odometry's noise model (`wheel_*`).
 void read_wheel_noise(Params& p, WheelNoise& wheel) {
+  wheel.slip = p.get<double>(
+      "wheel_slip", wheel.slip,
+      {.min = 0.0,
+       .max = 0.5,
+       .doc = "expected fraction by which the wheels' distance exceeds the ground covered; the fusion shortens "
+              "each wheel step by it"});
   wheel.along_fraction =
       p.get<double>("wheel_along_fraction", wheel.along_fraction,
                     {.min = 0.0, .max = 1.0, .doc = "std of the wheel distance, fraction of the step"});

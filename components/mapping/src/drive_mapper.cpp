@@ -30,6 +30,7 @@ void WheelNoise::validate() const {
   auto nonneg = [](double v, const char* f) {
     if (!std::isfinite(v) || v < 0) fail("mapping.wheel", f, "must be >= 0");
   };
+  if (!std::isfinite(slip) || slip < 0 || slip > 0.5) fail("mapping.wheel", "slip", "must be in [0, 0.5]");
   nonneg(along_fraction, "along_fraction");
   nonneg(lateral_fraction, "lateral_fraction");
   nonneg(yaw_per_m_rad, "yaw_per_m_rad");
@@ -244,6 +245,7 @@ Pose2 DriveMapper::wheel_step(const Pose2& wheel, double dt_s, Cov3& q) {
     q(0, 0) = q(1, 1) = p_.wheel.max_step_m * p_.wheel.max_step_m;
     q(2, 2) = p_.wheel.max_step_rad * p_.wheel.max_step_rad;
   } else {
+    step = p_.wheel.ground_step(step);
     q = p_.wheel.covariance(step);
   }
   if (wheel.finite()) last_wheel_ = wheel;

@@ -29,6 +29,10 @@ namespace regolith::mapping {
 
 /// Wheel odometry error model: standard deviations per step, grown with the distance driven.
 struct WheelNoise {
+  /// Expected slip: the fraction by which the wheels' distance exceeds the ground covered (wheels
+  /// on loose soil turn more than they roll). The fusion shortens each wheel step by it before
+  /// predicting with it; the wheel-only odometry published beside the fused one stays raw.
+  double slip = 0.005;
   double along_fraction = 0.02;    ///< std of the distance, fraction of the step
   double lateral_fraction = 0.01;  ///< std across the heading, fraction of the step
   double yaw_per_m_rad = 0.01;     ///< rad of yaw std per m driven
@@ -44,6 +48,8 @@ struct WheelNoise {
   /// False for an odometry jump: a non-finite step, or one longer or turning more than the limits
   /// above allow in `dt_s` (NaN or <= 0: no time, the per-step limits alone).
   bool plausible(const Pose2& step, double dt_s) const;
+  /// `step` (body frame) with its translation shortened by the expected slip; yaw unchanged.
+  Pose2 ground_step(const Pose2& step) const { return {step.x * (1.0 - slip), step.y * (1.0 - slip), step.yaw}; }
 };
 
 /// Parallax heights: the plane sweep in the image (accurate near), the search in the
