@@ -288,7 +288,7 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("vo_failed", std::to_string(l->counters.vo_failed));
     kv.emplace_back("keyframes", std::to_string(l->counters.keyframes));
     kv.emplace_back("odometry_jumps", std::to_string(l->counters.odometry_jumps));
-    // Counted on frames that never reach the map: read live, not from the last mapped frame's state.
+    // Counted per frame received, mapped or not: read live, not from the last mapped frame's state.
     kv.emplace_back("frames_rejected", std::to_string(rejected_.load(std::memory_order_relaxed)));
     kv.emplace_back("odometry_unavailable", std::to_string(odometry_unavailable_.load(std::memory_order_relaxed)));
     kv.emplace_back("odometry_reanchored", std::to_string(l->odometry_reanchored));
@@ -452,7 +452,7 @@ class TerrainMapComponent final : public runtime::Component {
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
   long cells_known_ = 0, map_updates_ = 0;
-  // Frames that never reach the map, for diagnostics() / result() on other threads.
+  // Per frame received, mapped or not, for diagnostics() / result() on other threads.
   std::atomic<long> rejected_{0}, odometry_unavailable_{0}, out_of_order_{0}, clock_steps_{0};
   std::optional<FrameOrder> order_;  // its step-back limit is the input timeout
   bool have_prev_ = false;
