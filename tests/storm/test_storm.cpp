@@ -4,18 +4,24 @@
 //   - the hub camera disconnects about every second (6 outages in 8 s), the wheel encoders give
 //     50 % garbage angles and drop 20 % of their samples, and `burner` (cpu_load, critical) spins
 //     80 ms of CPU in its 50 ms period from the first cycle, then stalls for 2.5 s at 4 s;
-//   - every other rate group keeps its rate: at most 1 % of its cycles slip (0 in most runs; the
-//     host's own stalls aside) in io (100 Hz), sinkage, terrain and health;
+//   - every other rate group keeps its rate: at most 1 % of its cycles slip in io (100 Hz), sinkage,
+//     terrain and health, beyond the cycles a stall of the whole process could cost (a watcher
+//     thread that only sleeps measures them: a virtual machine's vCPU descheduled by its host
+//     delays every thread at once, 25-90 ms seen on the 2-core development VM);
 //   - the health snapshot names the culprit of the burn group's slips (the `burner` entry:
 //     "overruns its rate group's period") and the camera outages;
 //   - the watchdog is fed throughout the overruns, outages and garbage, withheld while the
 //     critical component is really stuck (naming it), and fed again once it steps again.
+#include <algorithm>
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <time.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -36,6 +42,45 @@ namespace {
 struct Notification {
   TimeNs t = 0;  // since the start
   std::string text;
+};
+
+// A thread that only sleeps to absolute 1 ms deadlines: its lateness beyond 5 ms is a stall of the
+// process by the scheduler or the host, which no rate group could have run through. `slips_for`
+// bounds the releases of a group of that period those stalls can have cost: each stall covers
+// gap / period releases plus one it may straddle.
+class StallWatcher {
+ public:
+  StallWatcher() : thread_([this] { watch(); }) {}
+  ~StallWatcher() { stop(); }
+  void stop() {
+    stop_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  std::uint64_t slips_for(TimeNs period) const {
+    std::uint64_t n = 0;
+    for (const TimeNs gap : gaps_) n += static_cast<std::uint64_t>(gap / period) + 1;
+    return n;
+  }
+  TimeNs worst() const { return gaps_.empty() ? 0 : *std::max_element(gaps_.begin(), gaps_.end()); }
+  std::size_t stalls() const { return gaps_.size(); }
+
+ private:
+  void watch() {
+    gaps_.reserve(4096);
+    TimeNs next = monotonic_now();
+    while (!stop_.load(std::memory_order_relaxed)) {
+      next += kNsPerMs;
+      const timespec ts{static_cast<time_t>(next / kNsPerSec), static_cast<long>(next % kNsPerSec)};
+      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+      }
+      const TimeNs late = monotonic_now() - next;
+      if (late > 5 * kNsPerMs && gaps_.size() < gaps_.capacity()) gaps_.push_back(late);
+      if (late > 0) next += late;  // measure each stall once
+    }
+  }
+  std::atomic<bool> stop_{false};
+  std::vector<TimeNs> gaps_;
+  std::thread thread_;
 };
 
 const runtime::HealthEntry* entry(const runtime::HealthSnapshot& s, const char* name, runtime::HealthEntry::Kind kind) {
@@ -62,6 +107,7 @@ TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForT
   bool named_culprit = false, camera_error = false;
   std::atomic<bool> stop{false};
   t0 = monotonic_now();
+  StallWatcher watcher;
   app->start();
   while (monotonic_now() - t0 < 8 * kNsPerSec) {
     app->run(50 * kNsPerMs, stop);  // the slices of `regolith run`'s loop
@@ -76,19 +122,28 @@ TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForT
     if (cam != nullptr && cam->level == runtime::Level::kError) camera_error = true;
   }
   app->stop();
+  watcher.stop();
+  std::printf("process stalls (a sleeping thread > 5 ms late): %zu, worst %.1f ms\n", watcher.stalls(),
+              static_cast<double>(watcher.worst()) * 1e-6);
 
   // ---- rate groups: only the burnt one slips ----
   for (const runtime::RateGroup* g : app->view().groups) {
     const auto& c = g->counters();
+    std::printf("group %s: %llu cycles, %llu slips, wake-up latency max %.1f ms\n", g->config().name.c_str(),
+                static_cast<unsigned long long>(c.cycles), static_cast<unsigned long long>(c.slips),
+                static_cast<double>(g->wakeup_latency().summary().max) * 1e-6);
     if (g->config().name == "burn") {
       EXPECT_GT(c.slips, 20u) << "burn: 80 ms of CPU in every 50 ms period";
     } else {
       // The burnt group's overruns must not spread: a group that shared its thread or a lock with
-      // `burner` would slip in most cycles. A cycle or two started late when the (virtual) machine
-      // itself stalls the process is not that: up to 1 % of the cycles are allowed (seen: io 6 of
-      // 800 on a 2-core VM, 0 in most runs).
+      // `burner` would slip in most cycles. Cycles started late because the (virtual) machine
+      // stalled the whole process are not that (seen: io 16 of 800 in bursts of up to 9, every
+      // group's wake-up 40-90 ms late at the same moments, on a 2-core VM; 0 in most runs): those
+      // the watcher saw are allowed, and 1 % of the cycles beyond them.
       const double expected = 8e9 / static_cast<double>(g->config().period);
-      EXPECT_LE(static_cast<double>(c.slips), 0.01 * expected) << g->config().name << ": slips beyond scheduling noise";
+      const auto stalled = static_cast<double>(watcher.slips_for(g->config().period));
+      EXPECT_LE(static_cast<double>(c.slips), 0.01 * expected + stalled)
+          << g->config().name << ": slips beyond scheduling noise (" << stalled << " explained by process stalls)";
       EXPECT_GT(static_cast<double>(c.cycles), 0.95 * expected) << g->config().name << " kept its rate";
     }
   }
