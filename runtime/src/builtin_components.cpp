@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 #include "regolith/core/frame_order.hpp"
@@ -396,6 +397,7 @@ class JointStatePublisher final : public Component {
     input_ = &watch_input("encoders", stale_timeout_);
     order_ = FrameOrder(stale_timeout_);
     wheel_order_.fill(FrameOrder(stale_timeout_));
+    held_stamp_.fill(std::numeric_limits<TimeNs>::min());  // no stamp held yet (0 is a valid one)
     frame_id_ = p.get<std::string>("frame_id", "base_link", {.doc = "header.frame_id of joint_states"});
     const auto& names = enc_->wheel_names();
     const std::string frame = frame_id_;
@@ -419,9 +421,14 @@ class JointStatePublisher final : public Component {
       if (!enc_->latest(w, cycle.now, a)) continue;
       // FrameOrder per wheel (the stale timeout as its limit): a newest usable sample older than
       // the one already published (its newer ones were rejected as implausible) leaves the wheel
-      // at what was published; a step back past the timeout is the clock itself (a time sync),
-      // and the wheel goes on from there rather than freeze.
-      if (!wheel_order_[w].repeats(a.stamp) && wheel_order_[w].judge(a.stamp) == FrameOrder::Verdict::kOutOfOrder) {
+      // at what was published, and is counted once however many cycles it stays the newest; a
+      // step back past the timeout is the clock itself (a time sync), and the wheel goes on from
+      // there rather than freeze.
+      const bool held =
+          !wheel_order_[w].repeats(a.stamp) &&
+          (a.stamp == held_stamp_[w] || wheel_order_[w].judge(a.stamp) == FrameOrder::Verdict::kOutOfOrder);
+      if (held) {
+        held_stamp_[w] = a.stamp;
         a = published_[w];
         vel = published_velocity_[w];
       } else if (!enc_->velocity(w, cycle.now, vel)) {
@@ -447,10 +454,6 @@ class JointStatePublisher final : public Component {
         wheel_order_[w].take(used[w]);
       }
     }
-    long held = order_.out_of_order();
-    for (std::size_t w = 0; w < s->count; ++w) held += wheel_order_[w].out_of_order();
-    held_back_.store(held, std::memory_order_relaxed);
-    clock_steps_.store(order_.clock_steps(), std::memory_order_relaxed);
     out_->commit();
     if (js_ && fresh) {
       if (JointState* m = js_->begin()) {
@@ -467,8 +470,12 @@ class JointStatePublisher final : public Component {
     }
   }
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
-    kv.emplace_back("samples_out_of_order", std::to_string(held_back_.load(std::memory_order_relaxed)));
-    kv.emplace_back("clock_steps", std::to_string(clock_steps_.load(std::memory_order_relaxed)));
+    // Wheel samples held at the published one, plus stream samples skipped (FrameOrder's counters
+    // may be read from this, the health thread).
+    long held = order_.out_of_order();
+    for (std::size_t w = 0; w < enc_->wheel_count() && w < kMaxJoints; ++w) held += wheel_order_[w].out_of_order();
+    kv.emplace_back("samples_out_of_order", std::to_string(held));
+    kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
   }
   const hal::WheelEncoders& encoders() const { return *enc_; }
 
@@ -477,10 +484,9 @@ class JointStatePublisher final : public Component {
   LatestPool<JointStateSample>* out_ = nullptr;
   InputWatch* input_ = nullptr;
   TimeNs stale_timeout_ = 0;
-  FrameOrder order_;                                // the stream's stamps (stale timeout as limit)
-  std::array<FrameOrder, kMaxJoints> wheel_order_;  // each wheel's
-  std::atomic<long> held_back_{0};    // wheel samples held at the published one, plus stream samples skipped
-  std::atomic<long> clock_steps_{0};  // for diagnostics() on the health thread
+  FrameOrder order_;                                      // the stream's stamps (stale timeout as limit)
+  std::array<FrameOrder, kMaxJoints> wheel_order_;        // each wheel's
+  std::array<TimeNs, kMaxJoints> held_stamp_{};           // per wheel: the older sample last held (counted once)
   std::array<hal::AngleSample, kMaxJoints> published_{};  // per wheel: the sample last published
   std::array<double, kMaxJoints> published_velocity_{};
   std::string frame_id_;

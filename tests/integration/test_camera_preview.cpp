@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_support.hpp"
+#include "diagnostics.hpp"
 #include "regolith/preview/component.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/saliency/component.hpp"
@@ -19,16 +20,7 @@ using namespace regolith;
 
 namespace {
 
-std::map<std::string, std::string> diagnostics_of(const runtime::Application& app, const std::string& name) {
-  std::map<std::string, std::string> out;
-  for (const auto* c : app.view().components)
-    if (c->name() == name) {
-      std::vector<std::pair<std::string, std::string>> kv;
-      c->diagnostics(kv);
-      out.insert(kv.begin(), kv.end());
-    }
-  return out;
-}
+using regolith::testing::diagnostics_of;
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "diagnostics.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/hal/plausible_encoders.hpp"
 #include "regolith/hal/registry.hpp"
@@ -24,12 +25,13 @@ namespace {
 class ConstantEncoders final : public hal::WheelEncoders {
  public:
   ConstantEncoders(std::string id, std::vector<std::string> wheels, Clock* clock, int lost_per_s = 0,
-                   int step_back_every = 0, double step_back_s_at_2s = 0.0)
+                   int step_back_every = 0, double step_back_s_at_2s = 0.0, int step_back_hold = 1)
       : id_(std::move(id)),
         wheels_(std::move(wheels)),
         clock_(clock),
         lost_per_s_(lost_per_s),
         step_back_every_(step_back_every),
+        step_back_hold_(step_back_hold),
         step_back_ns_(static_cast<TimeNs>(step_back_s_at_2s * 1e9)) {}
   const std::string& id() const override { return id_; }
   const std::vector<std::string>& wheel_names() const override { return wheels_; }
@@ -37,10 +39,13 @@ class ConstantEncoders final : public hal::WheelEncoders {
   void stop() override {}
   bool latest(std::size_t, TimeNs now, hal::AngleSample& out) const override {
     TimeNs t = now - (now - t0_) % (10 * kNsPerMs);
-    // In every step_back_every-th 10 ms period the newest usable sample is 30 ms older (its newer
-    // ones rejected, or the clock stepped back).
+    // In the last step_back_hold of every step_back_every 10 ms periods the newest usable sample is
+    // the one 30 ms before the first of them (its newer ones rejected, or the clock stepped back).
     const TimeNs period = (t - t0_) / (10 * kNsPerMs);
-    if (step_back_every_ > 0 && period % step_back_every_ == step_back_every_ - 1 && period >= 3) t -= 30 * kNsPerMs;
+    if (step_back_every_ > 0) {
+      const TimeNs hold_start = period - period % step_back_every_ + step_back_every_ - step_back_hold_;
+      if (period >= hold_start && hold_start >= 3) t = t0_ + hold_start * 10 * kNsPerMs - 30 * kNsPerMs;
+    }
     if (step_back_ns_ > 0 && t - t0_ >= 2 * kNsPerSec) t -= step_back_ns_;  // the device clock steps back at 2 s
     out = {t, to_seconds(t - t0_)};
     return true;
@@ -62,6 +67,7 @@ class ConstantEncoders final : public hal::WheelEncoders {
   Clock* clock_;
   int lost_per_s_ = 0;
   int step_back_every_ = 0;
+  int step_back_hold_ = 1;
   TimeNs step_back_ns_ = 0;
   TimeNs t0_ = 0;
 };
@@ -77,7 +83,8 @@ void register_test_backends() {
         const int lost = p.get<int>("lost_per_s", 0, {.min = 0, .doc = "frames the bus loses per second"});
         const int back = p.get<int>("step_back_every", 0, {.min = 0, .doc = "reads between two that step back"});
         const double step = p.get<double>("step_back_s_at_2s", 0.0, {.unit = "s", .min = 0.0});
-        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock, lost, back, step);
+        const int hold = p.get<int>("step_back_hold", 1, {.min = 1, .doc = "reads the older sample stays the newest"});
+        return std::make_unique<ConstantEncoders>(ctx.id, wheels, ctx.clock, lost, back, step, hold);
       });
 }
 
@@ -290,10 +297,7 @@ std::map<std::string, std::string> read_joint_states_for_three_seconds(const std
     read(js ? &*js : nullptr);
   }
   app->stop();
-  std::vector<std::pair<std::string, std::string>> kv;
-  for (const Component* c : app->view().components)
-    if (c->name() == "joints") c->diagnostics(kv);
-  return {kv.begin(), kv.end()};
+  return regolith::testing::diagnostics_of(*app, "joints");
 }
 
 TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
@@ -319,6 +323,24 @@ TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
   EXPECT_NEAR(last_angle[0], 3.0, 0.05);  // 1 rad/s for 3 s: still moving
   // Each wheel held at its published sample in the 60 periods of 300 (100 Hz) that stepped back.
   EXPECT_EQ(diag.at("samples_out_of_order"), "120");
+  EXPECT_EQ(diag.at("clock_steps"), "0");
+}
+
+TEST(Application, AWheelSampleHeldBackIsCountedOnceHoweverManyCyclesItStaysTheNewest) {
+  // The older sample stays the device's newest for 3 of every 5 periods: each wheel is held at its
+  // published angle in all three, and each such sample counts once (59 samples per wheel).
+  int samples = 0, back = 0;
+  TimeNs last_stamp = 0;
+  const auto diag =
+      read_joint_states_for_three_seconds("step_back_every: 5, step_back_hold: 3", [&](const JointStateSample* js) {
+        if (!js) return;
+        ++samples;
+        back += js->stamp < last_stamp ? 1 : 0;
+        last_stamp = js->stamp;
+      });
+  EXPECT_GT(samples, 250);
+  EXPECT_EQ(back, 0);
+  EXPECT_EQ(diag.at("samples_out_of_order"), "118");
   EXPECT_EQ(diag.at("clock_steps"), "0");
 }
 

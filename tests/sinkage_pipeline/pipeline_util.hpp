@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "diagnostics.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/hal/registry.hpp"
 #include "regolith/mocks/backends.hpp"
@@ -86,18 +87,7 @@ inline void run_for(runtime::Application& app, double seconds) {
   app.stop();
 }
 
-/// diagnostics() value of the component named `name`.
-inline std::string diag(const runtime::Application& app, const std::string& name, const std::string& key) {
-  for (const runtime::Component* c : app.view().components) {
-    if (c->name() != name) continue;
-    std::vector<std::pair<std::string, std::string>> kv;
-    c->diagnostics(kv);
-    for (const auto& [k, v] : kv)
-      if (k == key) return v;
-    return "<no key " + key + ">";
-  }
-  return "<no component " + name + ">";
-}
+using regolith::testing::diagnostic;  // diagnostics() value of a named component
 
 inline std::string replace(std::string s, const std::string& from, const std::string& to) {
   const auto pos = s.find(from);

@@ -56,9 +56,9 @@ TEST(SinkagePipeline, PublishedSinkageMatchesSyntheticTruthNormalLight) {
     EXPECT_GT(v[i].result.confidence, 0.5);
     EXPECT_TRUE(std::isnan(v[i].transducer_mm));
   }
-  EXPECT_EQ(diag(*app, "sinkage", "frames"), "36");
-  EXPECT_EQ(diag(*app, "sinkage", "valid"), "36");
-  EXPECT_EQ(diag(*app, "sinkage", "stale_encoder"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "frames"), "36");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "valid"), "36");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "stale_encoder"), "0");
 }
 
 TEST(SinkagePipeline, PublishedSinkageMatchesSyntheticTruthPoorLight) {
@@ -113,10 +113,10 @@ TEST(SinkagePipeline, StaleEncoderGivesInvalidCountedResults) {
     // The first 3 frames have no sample at all yet (the delayed device starts 300 ms late).
     EXPECT_EQ(x.encoder, x.sequence < 3 ? EncoderProblem::kMissing : EncoderProblem::kStale) << x.sequence;
   }
-  EXPECT_EQ(diag(*app, "sinkage", "stale_encoder"), "17");
-  EXPECT_EQ(diag(*app, "sinkage", "missing_encoder"), "3");
-  EXPECT_EQ(diag(*app, "sinkage", "invalid_bad_encoder_angle"), "20");
-  EXPECT_EQ(diag(*app, "sinkage", "valid"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "stale_encoder"), "17");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "missing_encoder"), "3");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "invalid_bad_encoder_angle"), "20");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "valid"), "0");
 }
 
 // With a tolerant timeout the late samples are not "stale", but the angle at the capture time needs
@@ -130,8 +130,8 @@ TEST(SinkagePipeline, EncoderFarBehindTheFrameGivesNoAngle) {
   run_for(*app, 1.95);
   const auto& v = probe_samples();
   ASSERT_EQ(v.size(), 20u);
-  EXPECT_EQ(diag(*app, "sinkage", "no_encoder_angle"), "17");
-  EXPECT_EQ(diag(*app, "sinkage", "valid"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "no_encoder_angle"), "17");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "valid"), "0");
   for (const auto& x : v) EXPECT_EQ(x.result.confidence, 0.0);
 }
 
@@ -152,7 +152,7 @@ TEST(SinkagePipeline, EncoderDisconnectInvalidatesOnlyLaterFrames) {
   }
   EXPECT_EQ(valid_before, 10u);
   EXPECT_EQ(invalid_after, 15u);
-  EXPECT_EQ(diag(*app, "sinkage", "missing_encoder"), "15");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "missing_encoder"), "15");
 }
 
 // The hub camera's clock steps back 250 ms for frames 10 and 11 (stamped 0.75 and 0.85 s after
@@ -176,8 +176,8 @@ TEST(SinkagePipeline, FramesStampedBeforeTheLastOneAreSkippedAndCounted) {
     EXPECT_TRUE(x.sequence < 10 || x.sequence > 11) << x.sequence;
     EXPECT_TRUE(x.result.valid && std::abs(x.result.sinkage_mm - 20.0) < 1.5) << x.sequence;
   }
-  EXPECT_EQ(diag(*app, "sinkage", "frames_out_of_order"), "2");
-  EXPECT_EQ(diag(*app, "sinkage", "frames"), "23");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "frames_out_of_order"), "2");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "frames"), "23");
 }
 
 // Bench-rig mode: the linear transducer is a second encoder device (here scripted, constant
@@ -218,15 +218,15 @@ TEST(SinkagePipeline, BenchRigLogsVisionAgainstTransducerAndSavesOverlays) {
     EXPECT_EQ(rows[i].illumination, "300-400 lux");
   }
   for (const auto& x : probe_samples()) EXPECT_NEAR(x.transducer_mm, 19.5, 1e-9);
-  EXPECT_EQ(diag(*app, "sinkage", "log_rows"), "20");
-  EXPECT_EQ(diag(*app, "sinkage", "log_dropped"), "0");
-  EXPECT_EQ(diag(*app, "sinkage", "log_write_errors"), "0");
-  EXPECT_EQ(diag(*app, "sinkage", "log_error"), "<no key log_error>");
-  EXPECT_EQ(diag(*app, "sinkage", "overlays_failed"), "0");
-  EXPECT_EQ(diag(*app, "sinkage", "transducer_missing"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_rows"), "20");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_dropped"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_write_errors"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_error"), "<no key log_error>");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "overlays_failed"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "transducer_missing"), "0");
   // Overlays of frames 0, 5, 10, 15 (a frame may be skipped when both slots are busy: counted).
-  const std::uint64_t written = std::stoull(diag(*app, "sinkage", "overlays_written"));
-  const std::uint64_t skipped = std::stoull(diag(*app, "sinkage", "overlays_skipped"));
+  const std::uint64_t written = std::stoull(diagnostic(*app, "sinkage", "overlays_written"));
+  const std::uint64_t skipped = std::stoull(diagnostic(*app, "sinkage", "overlays_skipped"));
   EXPECT_EQ(written + skipped, 4u);
   EXPECT_GE(written, 2u);
   EXPECT_TRUE(fs::exists(dir / "overlays" / "sinkage_00000000.png"));
@@ -244,13 +244,13 @@ TEST(SinkagePipeline, BenchLogAndOverlayWriteFailuresAreCountedAndNamed) {
   auto app = load(deployment("rate_hz: 10, frames: 20, speed_rad_s: 0.5, sinkage_mm: 19.5", comp));
   fs::remove_all(overlays);
   run_for(*app, 1.95);
-  EXPECT_EQ(diag(*app, "sinkage", "frames"), "20");
-  EXPECT_EQ(diag(*app, "sinkage", "valid"), "20");
-  EXPECT_NE(diag(*app, "sinkage", "log_write_errors"), "0");
-  EXPECT_EQ(diag(*app, "sinkage", "log_error"), "/dev/full: No space left on device");
-  EXPECT_EQ(diag(*app, "sinkage", "overlays_written"), "0");
-  const std::uint64_t failed = std::stoull(diag(*app, "sinkage", "overlays_failed"));
-  EXPECT_EQ(failed + std::stoull(diag(*app, "sinkage", "overlays_skipped")), 4u);
+  EXPECT_EQ(diagnostic(*app, "sinkage", "frames"), "20");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "valid"), "20");
+  EXPECT_NE(diagnostic(*app, "sinkage", "log_write_errors"), "0");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_error"), "/dev/full: No space left on device");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "overlays_written"), "0");
+  const std::uint64_t failed = std::stoull(diagnostic(*app, "sinkage", "overlays_failed"));
+  EXPECT_EQ(failed + std::stoull(diagnostic(*app, "sinkage", "overlays_skipped")), 4u);
   EXPECT_GE(failed, 2u);
 }
 

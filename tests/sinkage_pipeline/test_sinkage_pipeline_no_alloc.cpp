@@ -48,7 +48,7 @@ TEST(SinkagePipelineNoAlloc, StepDoesNotAllocateOnceWarm) {
   std::size_t valid = 0;
   for (const auto& s : probe_samples()) valid += s.result.valid ? 1 : 0;
   EXPECT_GE(valid, 27u);
-  EXPECT_EQ(diag(*app, "sinkage", "log_rows"), "30");
+  EXPECT_EQ(diagnostic(*app, "sinkage", "log_rows"), "30");
 }
 
 // Positive control: the same probe counts an allocation made by a member inside each cycle.

@@ -27,6 +27,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_support.hpp"
+#include "diagnostics.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/imu.hpp"
 #include "regolith/runtime/application.hpp"
@@ -72,11 +73,7 @@ long threads() {
   return -1;
 }
 
-std::map<std::string, std::string> details(const runtime::Component& c) {
-  std::vector<std::pair<std::string, std::string>> kv;
-  c.diagnostics(kv);
-  return {kv.begin(), kv.end()};
-}
+using regolith::testing::diagnostics_of;
 
 std::uint64_t num(const std::map<std::string, std::string>& kv, const std::string& key) {
   const auto it = kv.find(key);
@@ -139,7 +136,7 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
     EXPECT_LT(rss_max - rss0, 1L << 20) << "resident memory grew after the warm-up hour";
 
   // ---- rate groups: every release ran or was skipped; slips only where overruns were injected ----
-  const std::uint64_t injected = num(details(component(*app, "drill")), "busy_cycles");
+  const std::uint64_t injected = num(diagnostics_of(component(*app, "drill")), "busy_cycles");
   EXPECT_EQ(injected, static_cast<std::uint64_t>(total_hours)) << "one overrun per simulated hour";
   for (const runtime::RateGroup* g : app->view().groups) {
     const auto& cfg = g->config();
@@ -162,7 +159,7 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
   EXPECT_GT(wheel_cam.dropped, 0u);
   EXPECT_GT(wheel_cam.corrupt, 0u);
   const runtime::Component& sinkage = component(*app, "wheel_sinkage");
-  const auto sk = details(sinkage);
+  const auto sk = diagnostics_of(sinkage);
   std::uint64_t outcomes = num(sk, "valid") + num(sk, "bad_frames");
   for (const auto& [k, v] : sk)
     if (k.rfind("invalid_", 0) == 0) outcomes += std::stoull(v);
@@ -189,7 +186,7 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
   EXPECT_EQ(front.bad_stamps, 0u) << "no frame was stamped in the future";
   EXPECT_NEAR(static_cast<double>(component(*app, "sfs").errors()), static_cast<double>(front.corrupt), 1.0)
       << "sfs rejects exactly the corrupt frames";
-  const auto tm = details(component(*app, "terrain_map"));
+  const auto tm = diagnostics_of(component(*app, "terrain_map"));
   EXPECT_GT(num(tm, "cells_known"), 1000u) << "the map keeps mapping through the outages";
   EXPECT_GT(num(tm, "vo_ok"), num(tm, "frames_mapped") / 3);
   EXPECT_GT(num(tm, "odometry_reanchored"), 0u) << "garbage wheel angles were met and re-anchored";
@@ -210,7 +207,7 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
   // ---- the rear camera and the soil estimate ----
   const hal::CameraStats rear = camera_stats(*app, "rear");
   EXPECT_NEAR(static_cast<double>(component(*app, "soil").errors()), static_cast<double>(rear.corrupt), 1.0);
-  EXPECT_GT(num(details(component(*app, "soil")), "estimates"), 0u);
+  EXPECT_GT(num(diagnostics_of(component(*app, "soil")), "estimates"), 0u);
 
   // ---- encoders: garbage counted, outages counted ----
   for (const char* id : {"wheels", "wheel_leg"}) {

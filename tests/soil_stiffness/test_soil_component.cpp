@@ -23,6 +23,7 @@
 
 #define REGOLITH_ALLOC_COUNT_CYCLES
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "diagnostics.hpp"
 
 using namespace regolith;
 
@@ -198,15 +199,9 @@ TEST(SoilComponent, RearFramesStampedBeforeTheLastOneAreSkippedAndCounted) {
   app->stop();
   ASSERT_GE(stamps.size(), 3u);
   for (std::size_t i = 1; i < stamps.size(); ++i) EXPECT_GT(stamps[i], stamps[i - 1]) << i;
-  for (const auto* c : app->view().components)
-    if (c->name() == "soil") {
-      std::vector<std::pair<std::string, std::string>> kv;
-      c->diagnostics(kv);
-      std::string out_of_order;
-      for (const auto& [key, v] : kv)
-        if (key == "frames_out_of_order") out_of_order = v;
-      EXPECT_EQ(out_of_order, "1") << "frame 2, read at 2 s; frame 3 is never the newest at a 0.5 Hz cycle";
-    }
+  EXPECT_EQ(regolith::testing::diagnostic(*app, "soil", "frames_out_of_order"), "1")
+      << "frame 2, read at 2 s; frame 3 is never the newest at a 0.5 Hz cycle";
+  EXPECT_EQ(regolith::testing::diagnostic(*app, "soil", "clock_steps"), "0");
 }
 
 TEST(SoilComponent, WarmTemplateEstimateDoesNotAllocate) {

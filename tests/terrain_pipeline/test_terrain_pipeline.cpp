@@ -35,11 +35,13 @@
 
 #define REGOLITH_ALLOC_COUNT_CYCLES
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "diagnostics.hpp"
 #include "temp_dir.hpp"
 
 namespace {
 using namespace regolith;
 namespace fs = std::filesystem;
+using regolith::testing::diagnostic;
 using regolith::testing::read_file;
 
 void register_once() {
@@ -261,14 +263,6 @@ class QuarterReader final : public runtime::Component {
   void step(const runtime::CycleInfo&) override {}
 };
 
-std::string diagnostic(const runtime::Component& c, const std::string& key) {
-  std::vector<std::pair<std::string, std::string>> kv;
-  c.diagnostics(kv);
-  for (const auto& [k, v] : kv)
-    if (k == key) return v;
-  return "<none>";
-}
-
 TEST_P(Pipeline, QuarterResolutionReadersGetTheReducedSolve) {
   // Readers that declare only kDtmHeightQuarter (SAMS): the sfs component solves the frame reduced
   // 4x, 16x fewer pixels, and publishes that solve as it is (height_level 2, height4), allocation-free;
@@ -372,17 +366,10 @@ TEST(PipelineStamps, FramesStampedBeforeTheLastSolvedOneAreSkippedAndCounted) {
     ASSERT_GE(stamps->size(), 6u);
     for (std::size_t i = 1; i < stamps->size(); ++i) EXPECT_GT((*stamps)[i], (*stamps)[i - 1]) << i;
   }
+  EXPECT_EQ(diagnostic(*app, "sfs", "frames_out_of_order"), "2");
+  EXPECT_EQ(diagnostic(*app, "sfs", "clock_steps"), "0");
   for (const auto* c : app->view().components)
     if (c->name() == "sfs") {
-      std::vector<std::pair<std::string, std::string>> kv;
-      c->diagnostics(kv);
-      bool found = false;
-      for (const auto& [k, v] : kv)
-        if (k == "frames_out_of_order") {
-          EXPECT_EQ(v, "2");
-          found = true;
-        }
-      EXPECT_TRUE(found);
       EXPECT_EQ(c->errors(), 0u);
     }
 }

@@ -187,7 +187,7 @@ class TerrainMapComponent final : public runtime::Component {
     // ---- outputs ----
     state_ = &ctx.produce<TerrainMapState>(kOdometryChannel, 4);
     input_ = &watch_input("camera", timeout);
-    order_.emplace(timeout);
+    order_ = FrameOrder(timeout);
     if (dds::Participant* part = ctx.dds()) {
       for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic, kTfTopic})
         if (dds::find_topic(topic) == nullptr)
@@ -292,8 +292,8 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("frames_rejected", std::to_string(rejected_.load(std::memory_order_relaxed)));
     kv.emplace_back("odometry_unavailable", std::to_string(odometry_unavailable_.load(std::memory_order_relaxed)));
     kv.emplace_back("odometry_reanchored", std::to_string(l->odometry_reanchored));
-    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load(std::memory_order_relaxed)));
-    kv.emplace_back("clock_steps", std::to_string(clock_steps_.load(std::memory_order_relaxed)));
+    kv.emplace_back("frames_out_of_order", std::to_string(order_.out_of_order()));
+    kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
     kv.emplace_back("cells_known", std::to_string(l->cells_known));
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
@@ -311,9 +311,7 @@ class TerrainMapComponent final : public runtime::Component {
                   l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->cells_known,
                   l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
                   rejected_.load(std::memory_order_relaxed) > 0 ? ", frames rejected" : "",
-                  out_of_order_.load(std::memory_order_relaxed) + clock_steps_.load(std::memory_order_relaxed) > 0
-                      ? ", camera clock stepped back"
-                      : "");
+                  order_.out_of_order() + order_.clock_steps() > 0 ? ", camera clock stepped back" : "");
     return buf;
   }
 
@@ -321,10 +319,7 @@ class TerrainMapComponent final : public runtime::Component {
   // FrameOrder: a frame stamped at or before the last one taken (mapped, or rejected below) is
   // skipped; a step back past the input timeout maps on from the new time base.
   bool in_order(TimeNs stamp) {
-    const FrameOrder::Verdict v = order_->admit(stamp);
-    out_of_order_.store(order_->out_of_order(), std::memory_order_relaxed);
-    clock_steps_.store(order_->clock_steps(), std::memory_order_relaxed);
-    switch (v) {
+    switch (order_.admit(stamp)) {
       case FrameOrder::Verdict::kNext: return true;
       case FrameOrder::Verdict::kOutOfOrder:
         set_status("frame stamped at or before the last one taken (the camera clock stepped back): skipped");
@@ -383,8 +378,8 @@ class TerrainMapComponent final : public runtime::Component {
       s->frames_rejected = rejected_;
       s->odometry_unavailable = odometry_unavailable_;
       s->odometry_reanchored = odo_->reanchored();
-      s->frames_out_of_order = order_->out_of_order();
-      s->clock_steps = order_->clock_steps();
+      s->frames_out_of_order = order_.out_of_order();
+      s->clock_steps = order_.clock_steps();
       s->cells_known = cells_known_;
       s->map_updates = map_updates_;
       s->distance_m = odo_->distance();
@@ -453,8 +448,8 @@ class TerrainMapComponent final : public runtime::Component {
   bool map_due_ = false;
   long cells_known_ = 0, map_updates_ = 0;
   // Per frame received, mapped or not, for diagnostics() / result() on other threads.
-  std::atomic<long> rejected_{0}, odometry_unavailable_{0}, out_of_order_{0}, clock_steps_{0};
-  std::optional<FrameOrder> order_;  // its step-back limit is the input timeout
+  std::atomic<long> rejected_{0}, odometry_unavailable_{0};
+  FrameOrder order_;  // its step-back limit is the input timeout
   bool have_prev_ = false;
   Pose2 prev_pose_, prev_wheel_;
   Cov3 wheel_cov_ = Cov3::Zero();

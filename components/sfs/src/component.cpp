@@ -198,7 +198,6 @@ class SfsComponent final : public runtime::Component {
     const hal::Frame& fr = *lease;
     if (!new_frame_(fr.sequence)) return;
     if (order_.admit(fr.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
-      out_of_order_.fetch_add(1, std::memory_order_relaxed);
       set_status("frame stamped at or before the last one solved (the camera clock stepped back): skipped");
       return;
     }
@@ -276,7 +275,8 @@ class SfsComponent final : public runtime::Component {
     kv.emplace_back("solve_resolution", !heights_wanted_ ? "none (no reader of heights)"
                                         : level_ == 2    ? "quarter"
                                                          : "full");
-    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load(std::memory_order_relaxed)));
+    kv.emplace_back("frames_out_of_order", std::to_string(order_.out_of_order()));
+    kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
   }
 
   std::string result() const override {
@@ -351,8 +351,7 @@ class SfsComponent final : public runtime::Component {
   LatestPool<DtmFrame>* out_ = nullptr;
   runtime::InputWatch* input_ = nullptr;
   NewValue new_frame_;
-  FrameOrder order_;                            ///< the DTM stream never goes back in time (input timeout as limit)
-  std::atomic<std::uint64_t> out_of_order_{0};  ///< frames it skipped, for diagnostics() on another thread
+  FrameOrder order_;  ///< the DTM stream never goes back in time (input timeout as limit)
 };
 
 }  // namespace

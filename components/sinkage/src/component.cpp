@@ -323,7 +323,8 @@ class WheelSinkageComponent final : public runtime::Component {
       kv.emplace_back(k, std::to_string(v.load()));
     };
     add("frames", frames_);
-    add("frames_out_of_order", out_of_order_);
+    kv.emplace_back("frames_out_of_order", std::to_string(order_.out_of_order()));
+    kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
     add("valid", valid_);
     add("bad_frames", bad_frames_);
     for (std::size_t i = 1; i < enc_problems_.size(); ++i)
@@ -390,7 +391,6 @@ class WheelSinkageComponent final : public runtime::Component {
     if (!new_frame_(fr.sequence)) return;
     // A frame stamped before the last one would take the wheel angle at the wrong time.
     if (order_.admit(fr.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
-      out_of_order_.fetch_add(1, std::memory_order_relaxed);
       set_status("frame stamped at or before the last one (the camera clock stepped back): skipped");
       return;
     }
@@ -571,7 +571,7 @@ class WheelSinkageComponent final : public runtime::Component {
   FrameOrder order_;  // the sinkage stream never goes back in time (the camera timeout as limit)
 
   // counters (read by diagnostics() from the health thread)
-  std::atomic<std::uint64_t> frames_{0}, valid_{0}, bad_frames_{0}, transducer_missing_{0}, out_of_order_{0};
+  std::atomic<std::uint64_t> frames_{0}, valid_{0}, bad_frames_{0}, transducer_missing_{0};
   std::array<std::atomic<std::uint64_t>, 4> enc_problems_{};
   std::array<std::atomic<std::uint64_t>, static_cast<std::size_t>(InvalidReason::kCount)> reasons_{};
 

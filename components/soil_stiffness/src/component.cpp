@@ -74,7 +74,6 @@ class SoilStiffnessComponent final : public runtime::Component {
     if (!new_frame_(f.sequence)) return;
     // The estimate and the sinkage layer (placed at the odometry of its stamp) never go back in time.
     if (order_.admit(f.capture_time) == FrameOrder::Verdict::kOutOfOrder) {
-      out_of_order_.fetch_add(1, std::memory_order_relaxed);
       set_status("rear frame stamped at or before the last one (the camera clock stepped back): skipped");
       return;
     }
@@ -105,7 +104,8 @@ class SoilStiffnessComponent final : public runtime::Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     kv.emplace_back("frames_processed", std::to_string(processed_.load()));
     kv.emplace_back("estimates", std::to_string(estimates_.load()));
-    kv.emplace_back("frames_out_of_order", std::to_string(out_of_order_.load()));
+    kv.emplace_back("frames_out_of_order", std::to_string(order_.out_of_order()));
+    kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
   }
 
   std::string result() const override {
@@ -176,7 +176,7 @@ class SoilStiffnessComponent final : public runtime::Component {
   NewValue new_frame_;
   FrameOrder order_;                         // the stale timeout as its step-back limit
   std::atomic<std::uint64_t> processed_{0};  // read by diagnostics() on the health thread
-  std::atomic<std::uint64_t> estimates_{0}, out_of_order_{0};
+  std::atomic<std::uint64_t> estimates_{0};
 };
 
 }  // namespace
