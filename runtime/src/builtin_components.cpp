@@ -163,6 +163,7 @@ class HealthComponent final : public Component {
   void step(const CycleInfo& cycle) override {
     HealthSnapshot* s = out_->begin_write();
     if (s == nullptr) return;
+    if (started_ < 0) started_ = cycle.now;
     s->stamp = cycle.now;
     s->count = 0;
     s->all_critical_ok = true;
@@ -241,9 +242,11 @@ class HealthComponent final : public Component {
       e->wall = comp.wall().summary();
       e->critical = comp.critical();
       e->message = comp.status_message();
+      // An input is stale when its timeout has passed since its last update, or since the start
+      // when it never had one (not before: the first frame is still on its way).
       for (const auto& in : comp.inputs()) {
         const TimeNs last = in->last_update.load(std::memory_order_relaxed);
-        if (last == 0 || cycle.now - last > in->timeout) {
+        if (cycle.now - (last == 0 ? started_ : last) > in->timeout) {
           ++e->stale_inputs;
           in->stale_cycles.fetch_add(1, std::memory_order_relaxed);
         }
@@ -366,6 +369,7 @@ class HealthComponent final : public Component {
   std::vector<std::pair<std::string, hal::WheelEncoders*>> encoders_;
   std::vector<std::pair<std::string, hal::Imu*>> imus_;
   LatestPool<HealthSnapshot>* out_ = nullptr;
+  TimeNs started_ = -1;  // the first report's time: an input never updated is stale a timeout after it
   int stall_cycles_ = 3;
   TimeNs stale_timeout_ = 500 * kNsPerMs;
   std::string hardware_id_;
