@@ -33,11 +33,15 @@ InputWatch& Component::watch_input(const std::string& name, TimeNs timeout) {
 }
 
 TimeNs read_input_timeout(Params& p, double rate_hz, double slack_s) {
-  const double fallback = 2.0 / std::max(0.1, rate_hz) + slack_s;
+  // A camera that does not say its rate (libcamera's default sensor mode; an unopened device in
+  // `regolith config check`) is taken as 1 Hz: 2 s + slack, not the 20 s of the 0.1 Hz floor, so
+  // that an outage of the front camera of a rover is flagged within seconds.
+  const double fallback = 2.0 / (rate_hz > 0.0 ? std::max(0.1, rate_hz) : 1.0) + slack_s;
   char doc[256];
   std::snprintf(doc, sizeof doc,
                 "the camera input is stale after this long, and a frame stamped further back than this before "
-                "the last one taken is a clock step (default 2 frame periods + %g s)",
+                "the last one taken is a clock step (default 2 frame periods + %g s; a camera of unknown rate "
+                "counts as 1 Hz)",
                 slack_s);
   return from_seconds(
       p.get<double>("input_timeout_s", fallback, {.unit = "s", .min = 0.0, .min_exclusive = true, .doc = doc}));

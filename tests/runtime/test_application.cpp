@@ -14,6 +14,7 @@
 #include "regolith/hal/registry.hpp"
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/health.hpp"
+#include "regolith/runtime/input_timeout.hpp"
 #include "regolith/runtime/joint_state.hpp"
 
 using namespace regolith;
@@ -342,6 +343,19 @@ TEST(Application, AWheelSampleHeldBackIsCountedOnceHoweverManyCyclesItStaysTheNe
   EXPECT_EQ(back, 0);
   EXPECT_EQ(diag.at("samples_out_of_order"), "118");
   EXPECT_EQ(diag.at("clock_steps"), "0");
+}
+
+TEST(InputTimeout, TwoFramePeriodsPlusTheSlackAndAnUnknownRateCountsAsOneHertz) {
+  const auto timeout = [](const std::string& yaml, double rate_hz) {
+    Params p = Params::load_string(yaml, "c.yaml");
+    return to_seconds(read_input_timeout(p, rate_hz, 1.0));
+  };
+  EXPECT_DOUBLE_EQ(timeout("{}", 5.0), 1.4);
+  EXPECT_DOUBLE_EQ(timeout("{}", 0.01), 21.0);  // rates below 0.1 Hz count as 0.1 Hz
+  // A camera that does not report its rate (libcamera's default mode, an unopened device): was 21 s,
+  // so a front camera's outage went unflagged for 21 s.
+  EXPECT_DOUBLE_EQ(timeout("{}", 0.0), 3.0);
+  EXPECT_DOUBLE_EQ(timeout("{input_timeout_s: 0.25}", 0.0), 0.25);
 }
 
 TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
