@@ -422,7 +422,12 @@ class WheelSinkageComponent final : public runtime::Component {
     }
     if (problem != EncoderProblem::kNone) {
       enc_problems_[static_cast<std::size_t>(problem)].fetch_add(1, std::memory_order_relaxed);
-      count_error();
+      // A frame captured before the encoders' first sample at start-up (nothing before it to
+      // interpolate from, no angle ever read) is the two devices starting, not a fault: counted,
+      // not an error. Missing or stale encoders always are.
+      const bool starting = problem == EncoderProblem::kNoAngle && newest.stamp > fr.capture_time &&
+                            enc_watch_->updates.load(std::memory_order_relaxed) == 0;
+      if (!starting) count_error();
     }
 
     estimator_->process(fr.image, angle, result_);  // NaN angle -> invalid, kBadAngle
