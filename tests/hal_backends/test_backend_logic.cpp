@@ -227,6 +227,11 @@ TEST(LibcameraConfig, YamlIsValidated) {
   EXPECT_EQ(c.output, PixelFormat::kBgr8);
   ASSERT_EQ(c.controls.size(), 1u);
   EXPECT_EQ(c.controls[0].second, "0.5");
+  EXPECT_EQ(c.rate_hz, 0.0) << "no rate: the camera's own, unknown";
+  auto rated = Params::load_string("rate: 7.5\n", "cam.yaml");
+  EXPECT_EQ(libcam::config_from_params(rated).rate_hz, 7.5);
+  auto bad_rate = Params::load_string("rate: -2\n", "cam.yaml");
+  EXPECT_CONTAINS(error_of([&] { libcam::config_from_params(bad_rate); }), "cam.yaml:1:7: rate: ");
   auto bad_role = Params::load_string("role: selfie\n", "cam.yaml");
   EXPECT_CONTAINS(error_of([&] { libcam::config_from_params(bad_role); }),
                   "cam.yaml:1:7: role: 'selfie' is not one of");

@@ -48,9 +48,11 @@ TEST(HwLibcamera, CapturesVimcWithSensorTimestamps) {
   c.pixel_format = "BGR888";
   c.output = PixelFormat::kBgr8;
   c.buffers = 4;
+  c.rate_hz = 10.0;  // FrameDurationLimits when vimc has it; the nominal rate either way
   libcam::LibcameraCamera cam(c, context("vimc"));
   EXPECT_EQ(cam.device_format(), "BGR888");
   EXPECT_EQ(cam.camera_id(), id);
+  EXPECT_EQ(cam.format().rate_hz, 10.0) << "the components time their camera input by it";
   const TimeNs started = monotonic_now();
   cam.start();
   std::vector<std::uint64_t> seq;

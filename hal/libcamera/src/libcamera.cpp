@@ -1,10 +1,12 @@
 #include "regolith/hal_libcamera/libcamera.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -109,6 +111,8 @@ void Config::validate() const {
   }
   validate_capture(width, height, frame_timeout_s);
   if (buffers < 1 || buffers > 16) throw FieldError("", "buffers", "must be in [1, 16]");
+  if (!(rate_hz >= 0.0) || rate_hz > 1000.0)
+    throw FieldError("", "rate", "must be in [0, 1000] Hz (0: the camera's own)");
   validate_backoff(retry_min_s, retry_max_s);
   if (max_readers < 1 || max_readers > 64) throw FieldError("", "max_readers", "must be in [1, 64]");
 }
@@ -128,6 +132,12 @@ Config config_from_params(Params& p) {
   c.output = pixel_format_from_string(
       p.get<std::string>("pixel_format", "bgr8", {.choices = {"mono8", "bgr8"}, .doc = "output pixel format"}));
   c.buffers = p.get<int>("buffers", c.buffers, {.min = 1, .max = 16, .doc = "requests in flight"});
+  c.rate_hz = p.get<double>("rate", c.rate_hz,
+                            {.unit = "Hz",
+                             .min = 0.0,
+                             .max = 1000.0,
+                             .doc = "frame rate, set through FrameDurationLimits when the camera has it (0: the "
+                                    "camera's own, unknown to the components)"});
   c.frame_timeout_s = p.get<double>("frame_timeout", c.frame_timeout_s,
                                     {.unit = "s",
                                      .min = 0.0,
@@ -205,6 +215,7 @@ struct LibcameraCamera::Impl {
 
   void open(bool first);
   void build_controls();
+  void set_frame_rate(const lc::ControlInfoMap& info);
   void start_streaming();
   void teardown();
   void on_complete(lc::Request* r);
@@ -304,7 +315,7 @@ void LibcameraCamera::Impl::open(bool first) {
   dev_format_name = sc.pixelFormat.toString();
   stride = sc.stride;
   stream = sc.stream();
-  if (first) format = CameraFormat{cfg.width, cfg.height, cfg.output, 0.0};
+  if (first) format = CameraFormat{cfg.width, cfg.height, cfg.output, cfg.rate_hz};
   build_controls();
   alloc = std::make_unique<lc::FrameBufferAllocator>(cam);
   if (alloc->allocate(stream) < 0) throw std::runtime_error(who() + ": cannot allocate buffers");
@@ -323,9 +334,31 @@ void LibcameraCamera::Impl::open(bool first) {
   cam->disconnected.connect(this, &Impl::on_disconnect);
 }
 
+// `rate`: both frame-duration limits at 1 / rate, when the camera has the control. A camera without
+// it keeps its own rate, and `rate` is the nominal one the components time their inputs by (what
+// the V4L2 backend does with a driver that has no frame intervals).
+void LibcameraCamera::Impl::set_frame_rate(const lc::ControlInfoMap& info) {
+  if (!(cfg.rate_hz > 0.0)) return;
+  const auto it = info.find(lc::controls::FrameDurationLimits.id());
+  if (it == info.end()) return;
+  const auto us = static_cast<std::int64_t>(std::llround(1e6 / cfg.rate_hz));
+  const lc::ControlInfo& range = it->second;
+  const auto scalar64 = [](const lc::ControlValue& v) { return v.type() == lc::ControlTypeInteger64 && !v.isArray(); };
+  if (scalar64(range.min()) && scalar64(range.max()) &&
+      (us < range.min().get<std::int64_t>() || us > range.max().get<std::int64_t>())) {
+    char rate[32];
+    std::snprintf(rate, sizeof rate, "%g", cfg.rate_hz);
+    throw DeviceConfigError("rate", who() + ": rate " + rate + " Hz is a frame duration of " + std::to_string(us) +
+                                        " us, outside the camera's " + range.toString() + " us");
+  }
+  const std::array<std::int64_t, 2> limits{us, us};
+  controls->set(lc::controls::FrameDurationLimits, lc::Span<const std::int64_t, 2>(limits));
+}
+
 void LibcameraCamera::Impl::build_controls() {
   controls = std::make_unique<lc::ControlList>(cam->controls());
   const lc::ControlInfoMap& info = cam->controls();
+  set_frame_rate(info);
   std::vector<std::string> names;
   for (const auto& [cid, ci] : info) names.push_back(cid->name());
   std::sort(names.begin(), names.end());
@@ -655,7 +688,7 @@ void register_libcamera_backend(BackendRegistry& r) {
       [](Params& p, const DeviceContext& ctx) -> std::unique_ptr<Camera> {
         Config c = config_from_params(p);
         if (!ctx.open_devices) {
-          return make_unopened_camera(ctx.id, CameraFormat{c.width, c.height, c.output, 0.0});
+          return make_unopened_camera(ctx.id, CameraFormat{c.width, c.height, c.output, c.rate_hz});
         }
         try {
           return std::make_unique<LibcameraCamera>(std::move(c), ctx);

@@ -22,8 +22,12 @@ struct Config {
   int height = 720;            ///< [height] px
   std::string pixel_format =
       "auto";  ///< [format] libcamera format name (BGR888, RGB888, YUYV, UYVY, R8, MJPEG) or auto
-  PixelFormat output = PixelFormat::kBgr8;                    ///< [pixel_format] mono8 | bgr8
-  int buffers = 4;                                            ///< [buffers] requests / buffers in flight (1..16)
+  PixelFormat output = PixelFormat::kBgr8;  ///< [pixel_format] mono8 | bgr8
+  int buffers = 4;                          ///< [buffers] requests / buffers in flight (1..16)
+  /// [rate] Hz, set through FrameDurationLimits when the camera has it (else taken as the nominal
+  /// rate, as the V4L2 backend takes a driver without frame intervals); 0: the sensor mode's own,
+  /// unknown to the components (their input timeouts then assume 1 Hz).
+  double rate_hz = 0.0;
   std::vector<std::pair<std::string, std::string>> controls;  ///< [controls] libcamera control name -> value
   double frame_timeout_s = 2.0;  ///< [frame_timeout] s without a completed request -> fault + restart
   double retry_min_s = 0.2;      ///< [retry_min] s
