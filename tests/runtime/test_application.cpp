@@ -394,12 +394,10 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   auto& health = app->context().channel<HealthSnapshot>("health/snapshot");
   const auto& groups = app->view().groups;
   const auto io = groups[0]->counters(), hl = groups[1]->counters();
-  std::vector<std::pair<std::string, std::string>> kv;
-  for (const Component* c : app->view().components)
-    if (c->name() == "drill") c->diagnostics(kv);
+  const auto kv = regolith::testing::diagnostics_of(*app, "drill");
   ASSERT_EQ(kv.size(), 1u);
-  EXPECT_EQ(kv[0].first, "busy_cycles");
-  const std::uint64_t busy = std::stoull(kv[0].second);
+  ASSERT_EQ(kv.begin()->first, "busy_cycles");
+  const std::uint64_t busy = std::stoull(kv.begin()->second);
   EXPECT_EQ(busy, (io.cycles + 49) / 50) << "the first cycle, then every 50th";
   EXPECT_GE(busy, 19u);
   EXPECT_EQ(io.slips, busy) << "one missed release per injected overrun";
