@@ -82,6 +82,7 @@ void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, D
         kv_us("period_us", e.period);
         kv_int("cycles", static_cast<std::int64_t>(e.cycles));
         kv_int("cycle_slips", static_cast<std::int64_t>(e.slips));
+        kv_int("late_start_slips", static_cast<std::int64_t>(e.late_start_slips));
         kv_us("exec_mean_us", e.exec.mean);
         kv_us("exec_p99_us", e.exec.p99);
         kv_us("exec_max_us", e.exec.max);
@@ -145,6 +146,7 @@ class HealthComponent final : public Component {
     last_heartbeat_.assign(v.components.size(), 0);
     unchanged_.assign(v.components.size(), 0);
     last_slips_.assign(v.groups.size(), 0);
+    last_late_.assign(v.groups.size(), 0);
     slipped_.assign(v.groups.size(), 0);
     last_exec_count_.assign(v.components.size(), 0);
     last_exec_total_.assign(v.components.size(), 0.0);
@@ -210,12 +212,20 @@ class HealthComponent final : public Component {
       e->period = g.config().period;
       e->exec = g.cycle_exec().summary();
       e->wall = g.wakeup_latency().summary();
-      slipped_[gi] = c.slips > last_slips_[gi];
+      e->late_start_slips = c.late_start_slips;
+      // Slips a member caused (the cycle overran) get a culprit; slips from a late start alone
+      // (another thread or group had the CPU, the host stalled) are the group's warning only.
+      const std::uint64_t overrun = c.slips - c.late_start_slips;
+      slipped_[gi] = overrun > last_slips_[gi];
       if (slipped_[gi]) {
         e->level = Level::kWarn;
         e->message = "cycle slips since last report";
+      } else if (c.late_start_slips > last_late_[gi]) {
+        e->level = Level::kWarn;
+        e->message = "cycle slips since last report: started late (CPU taken outside the group)";
       }
-      last_slips_[gi] = c.slips;
+      last_late_[gi] = c.late_start_slips;
+      last_slips_[gi] = overrun;
     }
   }
 
@@ -376,8 +386,9 @@ class HealthComponent final : public Component {
   std::shared_ptr<dds::Outbox<DiagnosticArray>> diag_;
   std::vector<std::uint64_t> last_heartbeat_;
   std::vector<std::uint64_t> unchanged_;
-  std::vector<std::uint64_t> last_slips_;
-  std::vector<unsigned char> slipped_;          // per group: slipped since the last report
+  std::vector<std::uint64_t> last_slips_;       // per group: slips the group's own cycles caused, at the last report
+  std::vector<std::uint64_t> last_late_;        // per group: late-start slips at the last report
+  std::vector<unsigned char> slipped_;          // per group: overran (slipped by its own cycles) since the last report
   std::vector<std::uint64_t> last_exec_count_;  // per component: its exec histogram at the last report
   std::vector<double> last_exec_total_;
   std::vector<double> interval_exec_;           // ... and its execution time since then (ns)

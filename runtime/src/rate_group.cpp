@@ -43,6 +43,7 @@ RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
 void RateGroup::reset(TimeNs start) {
   next_release_ = start + cfg_.offset;
   slip_horizon_ = next_release_;
+  prev_end_ = 0;
 }
 
 void RateGroup::run_cycle(Clock& clock) {
@@ -74,16 +75,23 @@ void RateGroup::run_cycle(Clock& clock) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
 
   // Missed releases: release + j*period (j >= 1) that came and went before this cycle ended and
-  // were not already counted by an earlier (late) cycle.
-  if (end > release + period) {
-    const TimeNs lo = std::max(release, slip_horizon_);
-    const TimeNs j0 = (lo - release) / period + 1;
-    const TimeNs j1 = (end - 1 - release) / period;
-    if (j1 >= j0) {
-      slips_.fetch_add(static_cast<std::uint64_t>(j1 - j0 + 1), std::memory_order_relaxed);
-      slip_horizon_ = release + j1 * period;
-    }
+  // were not already counted by an earlier (late) cycle. Those that would not have been missed had
+  // the cycle started as soon as the group let it (its release, or its previous cycle's end) are
+  // late-start slips: the delay came from outside the group.
+  const TimeNs lo = std::max(release, slip_horizon_);
+  const auto missed_by = [&](TimeNs until) -> TimeNs {
+    if (until <= release + period) return 0;
+    return std::max<TimeNs>(0, (until - 1 - release) / period - ((lo - release) / period + 1) + 1);
+  };
+  const TimeNs missed = missed_by(end);
+  if (missed > 0) {
+    const TimeNs own_start = std::max(release, prev_end_);
+    const TimeNs own = missed_by(own_start + (end - start));
+    slips_.fetch_add(static_cast<std::uint64_t>(missed), std::memory_order_relaxed);
+    late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - std::min(missed, own)), std::memory_order_relaxed);
+    slip_horizon_ = release + ((end - 1 - release) / period) * period;
   }
+  prev_end_ = end;
 
   if (cfg_.overrun == OverrunPolicy::kSkip) {
     const TimeNs elapsed = end - release;
@@ -96,8 +104,13 @@ void RateGroup::run_cycle(Clock& clock) {
 }
 
 RateGroupCounters RateGroup::counters() const {
-  return RateGroupCounters{cycles_.load(std::memory_order_relaxed), slips_.load(std::memory_order_relaxed),
-                           skipped_.load(std::memory_order_relaxed), last_release_.load(std::memory_order_relaxed)};
+  RateGroupCounters c;
+  c.cycles = cycles_.load(std::memory_order_relaxed);
+  c.slips = slips_.load(std::memory_order_relaxed);
+  c.late_start_slips = late_start_slips_.load(std::memory_order_relaxed);
+  c.skipped = skipped_.load(std::memory_order_relaxed);
+  c.last_release = last_release_.load(std::memory_order_relaxed);
+  return c;
 }
 
 }  // namespace regolith::runtime

@@ -424,6 +424,43 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   EXPECT_TRUE(joints_ok) << "the other member of the group is not blamed";
 }
 
+TEST(Application, SlipsFromALateStartNameNoMemberOfTheGroupThatSlipped) {
+  // A 10 Hz group whose drill is busy 35 ms of every 100 ms cycle (never late itself) delays the
+  // 100 Hz io group under the simulated executor's one thread, as a host that deschedules the
+  // process or another thread on the same CPU would in real time. io's slips are then all late
+  // starts: the group warns and says so, and `joints`, which costs nothing, is not blamed.
+  const std::string yaml = replace(
+      replace(kGood, "  - name: health\n", "  - name: slow\n    rate_hz: 10\n    members: [drill]\n  - name: health\n"),
+      "  health: {type: health}", "  health: {type: health}\n  drill: {type: cpu_load, busy_ms: 35, every: 1}");
+  auto app = run_ten_seconds(yaml);
+  const auto& groups = app->view().groups;
+  const auto io = groups[0]->counters(), slow = groups[1]->counters();
+  // At a shared release io (listed first) runs, then the drill until +35 ms: io's next release
+  // starts then, and two more (+20, +30 ms) have passed. Two per drill cycle; the last one (at 10 s)
+  // has no io release after it within the run.
+  EXPECT_EQ(io.slips, 200u);
+  EXPECT_EQ(io.late_start_slips, io.slips);
+  EXPECT_EQ(slow.slips, 0u);
+  auto h = app->context().channel<HealthSnapshot>("health/snapshot").acquire();
+  ASSERT_TRUE(h);
+  int seen = 0;
+  for (std::size_t i = 0; i < h->count; ++i) {
+    const HealthEntry& e = h->entries[i];
+    const std::string name = e.name.data();
+    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io") {
+      ++seen;
+      EXPECT_EQ(e.level, Level::kWarn);
+      EXPECT_STREQ(e.message, "cycle slips since last report: started late (CPU taken outside the group)");
+      EXPECT_EQ(e.late_start_slips, io.late_start_slips);
+    }
+    if (name == "joints" || name == "drill") {
+      ++seen;
+      EXPECT_EQ(e.level, Level::kOk) << name << ": " << e.message;
+    }
+  }
+  EXPECT_EQ(seen, 3);
+}
+
 TEST(Application, HealthWarnsWhileABusLosesFramesAndCountsThem) {
   // An encoder set whose receive queue overflows (EncoderStats::lost, e.g. SocketCAN at full bus
   // load): its health entry carries the count and warns in every report in which it grew.

@@ -126,6 +126,62 @@ TEST_P(SlipTest, OverrunByKPeriodsIsExactlyKSlips) {
 }
 INSTANTIATE_TEST_SUITE_P(K, SlipTest, ::testing::Values(0, 1, 2, 3, 7));
 
+TEST(Scheduler, SlipsFromALateStartAreToldApartFromOverruns) {
+  // Under the simulated executor every group shares one thread: the hog's 35 ms cycle (in its own
+  // 50 ms period, never late itself) delays the 10 ms group, whose 1 ms cycles would all fit had
+  // they started at their release. Those slips are the fast group's, but none is its own doing.
+  Rig r;
+  auto& hog = r.member("hog");
+  auto& quick = r.member("quick");
+  hog.cost_ = 35 * kMs;
+  quick.cost_ = 1 * kMs;
+  r.group("hog", 50 * kMs, {&hog});
+  r.group("fast", 10 * kMs, {&quick});
+  r.run_for(500 * kMs);
+  const auto h = r.groups[0]->counters(), f = r.groups[1]->counters();
+  EXPECT_EQ(h.slips, 0u);
+  EXPECT_EQ(h.late_start_slips, 0u);
+  EXPECT_GE(f.slips, 20u) << "three releases pass under each of the hog's 11 cycles";
+  EXPECT_EQ(f.late_start_slips, f.slips) << "every one from a late start";
+}
+
+TEST(Scheduler, AnOverrunThatAlsoStartedLateCountsOnlyTheDelayAsLate) {
+  // The fast member costs 8 ms of its 10 ms period: on time it fits; started 5 ms late behind the
+  // hog it ends 3 ms past the next release: one slip, a late-start one. Costing 28 ms it misses
+  // two releases by itself, whenever it starts: those are overruns, not late starts.
+  for (const TimeNs cost : {8 * kMs, 28 * kMs}) {
+    Rig r;
+    auto& hog = r.member("hog");
+    auto& slow = r.member("slow");
+    hog.costs_ = {5 * kMs, 0};
+    slow.costs_ = {cost, 1 * kMs};
+    r.group("hog", 1000 * kMs, {&hog});
+    r.group("fast", 10 * kMs, {&slow});
+    r.run_for(100 * kMs);
+    const auto f = r.groups[1]->counters();
+    if (cost == 8 * kMs) {
+      EXPECT_EQ(f.slips, 1u);
+      EXPECT_EQ(f.late_start_slips, 1u);
+    } else {
+      EXPECT_EQ(f.slips, 3u) << "started at 5 ms, ended at 33 ms: releases 10, 20 and 30 ms passed";
+      EXPECT_EQ(f.late_start_slips, 1u) << "on time it would have ended at 28 ms: two slips; the third is the delay's";
+    }
+  }
+}
+
+TEST(Scheduler, ACatchUpBurstAfterAnOverrunIsTheGroupsOwnDoing) {
+  // Catch-up runs the missed releases back to back: those cycles start late because the group's
+  // own previous cycle overran, which is no outside delay.
+  Rig r;
+  auto& m = r.member("m");
+  m.costs_ = {25 * kMs, 9 * kMs};  // the burst of 9 ms cycles falls behind before it catches up
+  r.group("g", 10 * kMs, {&m}, OverrunPolicy::kCatchUp);
+  r.run_for(200 * kMs);
+  const auto c = r.groups[0]->counters();
+  EXPECT_GE(c.slips, 2u);
+  EXPECT_EQ(c.late_start_slips, 0u);
+}
+
 TEST(Scheduler, ExactlyOnePeriodIsNotASlip) {
   Rig r;
   auto& m = r.member("m");

@@ -54,8 +54,13 @@ struct RateGroupConfig {
 };
 
 struct RateGroupCounters {
-  std::uint64_t cycles = 0;   ///< cycles executed
-  std::uint64_t slips = 0;    ///< releases missed (deadline passed before the cycle ended)
+  std::uint64_t cycles = 0;  ///< cycles executed
+  std::uint64_t slips = 0;   ///< releases missed (deadline passed before the cycle ended)
+  /// Of `slips`, those missed only because the cycle started late for reasons outside the group
+  /// (another thread or rate group had the CPU, the host descheduled the process): had the cycle
+  /// started when the group itself let it (its release, or its previous cycle's end), it would
+  /// have ended in time. No member of the group is to blame for these.
+  std::uint64_t late_start_slips = 0;
   std::uint64_t skipped = 0;  ///< releases not executed (skip policy)
   TimeNs last_release = 0;
 };
@@ -85,8 +90,10 @@ class RateGroup {
   std::vector<Component*> members_;
   TimeNs next_release_ = 0;
   TimeNs slip_horizon_ = 0;  // latest release already accounted as missed
+  TimeNs prev_end_ = 0;      // when the previous cycle ended
   std::atomic<std::uint64_t> cycles_{0};
   std::atomic<std::uint64_t> slips_{0};
+  std::atomic<std::uint64_t> late_start_slips_{0};
   std::atomic<std::uint64_t> skipped_{0};
   std::atomic<TimeNs> last_release_{0};
   ExecHistogram cycle_exec_;
