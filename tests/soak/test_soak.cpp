@@ -147,6 +147,7 @@ TEST(Soak, TwentyFourSimulatedHoursOfFaultsLeaveMemoryFilesThreadsAndCountersCon
     // (periods >= 1 s) start up to 150 ms late on the lockstep executor's one thread, never past
     // their period.
     EXPECT_EQ(c.slips, cfg.name == "io" ? injected : 0u) << cfg.name;
+    EXPECT_EQ(c.late_start_slips, 0u) << cfg.name << ": the drill's own cycles started on time";
     EXPECT_EQ(c.skipped, cfg.name == "io" ? injected : 0u) << cfg.name;
   }
 
