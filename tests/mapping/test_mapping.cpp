@@ -1340,7 +1340,8 @@ TEST(RecordedDrive, UnreadableAndOutOfOrderFramesAreSkippedAndNamed) {
   EXPECT_EQ(mj["cues"]["rock_sightings"]["tracks"].get<long>(), s.counters.rock_tracks);
   EXPECT_GT(s.counters.rock_tracks, 0);
   EXPECT_LT(s.counters.rock_tracks, s.counters.rock_sightings);
-  EXPECT_FALSE(mj["cues"]["shadows"]["enabled"].get<bool>());
+  EXPECT_TRUE(mj["cues"]["shadows"]["enabled"].get<bool>()) << "on by default since 2026-12-05";
+  EXPECT_EQ(mj["cues"]["shadows"]["frames"].get<long>(), s.counters.shadow_frames);
 }
 
 // A drive and a map written by hand, so that what the scorer must find is known: two rocks >= 10 cm

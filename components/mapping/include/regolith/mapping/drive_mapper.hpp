@@ -85,8 +85,8 @@ struct DriveMapperParams {
   ParallaxMode parallax_mode = ParallaxMode::kBoth;  ///< which parallax search(es) give heights
   double parallax_spacing_m = 0.0;  ///< m, a parallax search runs when the baseline grew this much since the last one
                                     ///< (0: every frame; the terrain_map component uses 0.15 for its time budget)
-  bool fuse_shadows = false;    ///< object heights from cast shadows (needs fuse_parallax: its rectification); off: no
-                                ///< rock gained and hazard AUC -0.016 .. +0.009 on the dev drives
+  bool fuse_shadows = true;     ///< object heights from cast shadows (needs fuse_parallax: its rectification); on the
+                                ///< dev drives hazard AUC +0.014 / -0.004 / +0.015, no rock gained or lost
   bool fuse_sightings = true;   ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
   bool fuse_shading = true;     ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
                                 ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
