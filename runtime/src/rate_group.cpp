@@ -87,7 +87,8 @@ void RateGroup::run_cycle(Clock& clock) {
   if (missed > 0) {
     const TimeNs own_start = std::max(release, prev_end_);
     const TimeNs own = missed_by(own_start + (end - start));
-    slips_.fetch_add(static_cast<std::uint64_t>(missed), std::memory_order_relaxed);
+    // Kept as two disjoint counts, so that a reader on another thread always sees late <= slips.
+    own_slips_.fetch_add(static_cast<std::uint64_t>(std::min(missed, own)), std::memory_order_relaxed);
     late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - std::min(missed, own)), std::memory_order_relaxed);
     slip_horizon_ = release + ((end - 1 - release) / period) * period;
   }
@@ -106,8 +107,8 @@ void RateGroup::run_cycle(Clock& clock) {
 RateGroupCounters RateGroup::counters() const {
   RateGroupCounters c;
   c.cycles = cycles_.load(std::memory_order_relaxed);
-  c.slips = slips_.load(std::memory_order_relaxed);
   c.late_start_slips = late_start_slips_.load(std::memory_order_relaxed);
+  c.slips = own_slips_.load(std::memory_order_relaxed) + c.late_start_slips;
   c.skipped = skipped_.load(std::memory_order_relaxed);
   c.last_release = last_release_.load(std::memory_order_relaxed);
   return c;

@@ -92,8 +92,8 @@ class RateGroup {
   TimeNs slip_horizon_ = 0;  // latest release already accounted as missed
   TimeNs prev_end_ = 0;      // when the previous cycle ended
   std::atomic<std::uint64_t> cycles_{0};
-  std::atomic<std::uint64_t> slips_{0};
-  std::atomic<std::uint64_t> late_start_slips_{0};
+  std::atomic<std::uint64_t> own_slips_{0};         // slips the cycle would have made starting on time
+  std::atomic<std::uint64_t> late_start_slips_{0};  // the rest (counters().slips is their sum)
   std::atomic<std::uint64_t> skipped_{0};
   std::atomic<TimeNs> last_release_{0};
   ExecHistogram cycle_exec_;
