@@ -29,6 +29,7 @@
 #include "regolith/mapping/plane_sweep.hpp"
 #include "regolith/mapping/rock_sightings.hpp"
 #include "regolith/mapping/rock_tracker.hpp"
+#include "regolith/mapping/shadow.hpp"
 #include "regolith/mapping/world_map.hpp"
 #include "regolith/terrain_scene/drive.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
@@ -265,6 +266,111 @@ TEST(GroundVisualOdometry, ExcludingTheRocksTakesTheirPullOffTheTilt) {
   ASSERT_TRUE(m.ok());
   EXPECT_FALSE(m.ground_tilt);
   EXPECT_EQ(m.ground_pitch_rad, m.pitch_rad);
+}
+
+// ---- ShadowCue: exact top-down scenes ----
+
+namespace {
+
+// A ground-rectified frame (4 x 4 m, 2 cm cells; x forward, y left) with ground of brightness 100,
+// a lit square block of `side` m centred at (x, y), and the shadow a block `h` m tall casts with the
+// sun at azimuth `az` (counter-clockwise from +x, towards the sun) and elevation `el`: every ground
+// point whose ray towards the sun meets the block's footprint below the block's height.
+struct ShadowScene {
+  direct_depth::RectifiedGrid grid{4.0, 2.0, 0.02, 200, 200};
+  cv::Mat img = cv::Mat(200, 200, CV_32F, cv::Scalar(100.0f));
+  cv::Mat valid = cv::Mat(200, 200, CV_8U, cv::Scalar(255));
+  cv::Vec3d sun;
+  ShadowScene(double x, double y, double side, double h, double az, double el) {
+    sun = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+    const double len = h / std::tan(el);
+    auto in_block = [&](double px, double py) {
+      return std::abs(px - x) <= 0.5 * side && std::abs(py - y) <= 0.5 * side;
+    };
+    for (int i = 0; i < grid.rows; ++i)
+      for (int j = 0; j < grid.cols; ++j) {
+        const cv::Point2d c = grid.center(i, j);
+        if (in_block(c.x, c.y)) {
+          img.at<float>(i, j) = 150.0f;
+          continue;
+        }
+        for (double t = 0.0; t <= len; t += 0.002)
+          if (in_block(c.x + t * std::cos(az), c.y + t * std::sin(az))) {
+            img.at<float>(i, j) = 20.0f;
+            break;
+          }
+      }
+  }
+};
+
+// The tallest caster height the cue found, and where.
+struct Caster {
+  double h = 0.0, x = 0.0, y = 0.0;
+};
+Caster tallest(const ShadowCue& cue) {
+  Caster c;
+  for (int i = 0; i < cue.height().rows; ++i)
+    for (int j = 0; j < cue.height().cols; ++j) {
+      const float v = cue.height().at<float>(i, j);
+      if (std::isfinite(v) && v > c.h) c = {v, cue.x().at<float>(i, j), cue.y().at<float>(i, j)};
+    }
+  return c;
+}
+
+}  // namespace
+
+TEST(ShadowCue, MeasuresACastersHeightFromItsShadowWhereverTheSunStands) {
+  // A 0.2 m block 0.15 m tall at (2, 0.3): ahead of the camera (the shadow towards it), behind it
+  // (the shadow away from it), to either side and diagonally, at a low and a middle sun. The height
+  // is L tan(el) with L counted in 2 cm steps along the walk: within 1.5 cells of L.
+  const double kH = 0.15, kX = 2.0, kY = 0.3, kSide = 0.2;
+  for (const double el_deg : {20.0, 40.0})
+    for (const double az_deg : {0.0, 180.0, 90.0, -90.0, 135.0, -45.0}) {
+      SCOPED_TRACE(::testing::Message() << "sun azimuth " << az_deg << " deg, elevation " << el_deg << " deg");
+      const double el = el_deg * CV_PI / 180.0, az = az_deg * CV_PI / 180.0;
+      const ShadowScene scene(kX, kY, kSide, kH, az, el);
+      ShadowCue cue(scene.grid, ShadowParams{});
+      EXPECT_GT(cue.compute(scene.img, scene.valid, scene.sun), 0);
+      const Caster c = tallest(cue);
+      EXPECT_NEAR(c.h, kH, 1.5 * 0.02 * std::tan(el) + 1e-6);
+      std::printf("shadow cue: sun az %4.0f el %2.0f deg: height %.3f m (true %.3f), foot (%.2f, %.2f)\n", az_deg,
+                  el_deg, c.h, kH, c.x, c.y);
+      // The caster's foot is the block's cell next to its shadow: on the block's anti-sun side.
+      EXPECT_LE(std::abs(c.x - kX), 0.5 * kSide + 0.03);
+      EXPECT_LE(std::abs(c.y - kY), 0.5 * kSide + 0.03);
+      // Shadow cells: the dark ones, and nothing else (the block is lit, the ground too).
+      EXPECT_EQ(cv::countNonZero(cue.shadow()), cv::countNonZero(scene.img < 50.0f));
+    }
+}
+
+TEST(ShadowCue, NoHeightFromShadowsItCannotMeasure) {
+  const double el = 30.0 * CV_PI / 180.0;
+  {
+    // The block outside the seen cells: every walk towards the sun leaves the view, so it is
+    // dropped (unknown), not taken as a short shadow.
+    ShadowScene scene(2.0, 0.0, 0.2, 0.15, CV_PI, el);  // sun behind: the shadow lies beyond the block
+    for (int i = 0; i < scene.grid.rows; ++i)
+      for (int j = 0; j < scene.grid.cols; ++j)
+        if (scene.grid.center(i, j).x < 2.11) scene.valid.at<uchar>(i, j) = 0;  // the block and the near ground unseen
+    ShadowCue cue(scene.grid, ShadowParams{});
+    EXPECT_EQ(cue.compute(scene.img, scene.valid, scene.sun), 0);
+    EXPECT_EQ(tallest(cue).h, 0.0);
+  }
+  {
+    // A sun below min_elevation_rad (shadows everywhere) or above max_elevation_rad (none worth
+    // measuring): no cue at all.
+    const ShadowScene low(2.0, 0.0, 0.2, 0.01, 0.0, 0.03), high(2.0, 0.0, 0.2, 0.02, 0.0, 1.4);
+    ShadowCue cue(low.grid, ShadowParams{});
+    EXPECT_EQ(cue.compute(low.img, low.valid, low.sun), 0);
+    EXPECT_EQ(cue.compute(high.img, high.valid, high.sun), 0);
+    EXPECT_EQ(cv::countNonZero(cue.shadow()), 0);
+  }
+  {
+    // A shadow shorter than min_length_m (4 cm: a 1 cm pebble at 30 deg) is noise.
+    const ShadowScene pebble(2.0, 0.0, 0.04, 0.01, 0.0, el);
+    ShadowCue cue(pebble.grid, ShadowParams{});
+    EXPECT_EQ(cue.compute(pebble.img, pebble.valid, pebble.sun), 0);
+  }
 }
 
 TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {
