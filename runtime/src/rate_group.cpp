@@ -86,10 +86,10 @@ void RateGroup::run_cycle(Clock& clock) {
   const TimeNs missed = missed_by(end);
   if (missed > 0) {
     const TimeNs own_start = std::max(release, prev_end_);
-    const TimeNs own = missed_by(own_start + (end - start));
+    const TimeNs own = std::min(missed, missed_by(own_start + (end - start)));
     // Kept as two disjoint counts, so that a reader on another thread always sees late <= slips.
-    own_slips_.fetch_add(static_cast<std::uint64_t>(std::min(missed, own)), std::memory_order_relaxed);
-    late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - std::min(missed, own)), std::memory_order_relaxed);
+    own_slips_.fetch_add(static_cast<std::uint64_t>(own), std::memory_order_relaxed);
+    late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - own), std::memory_order_relaxed);
     slip_horizon_ = release + ((end - 1 - release) / period) * period;
   }
   prev_end_ = end;
