@@ -32,18 +32,19 @@ void Summary::print(std::ostream& os, bool final) {
       "regolith '{}'  {:.1f} s{}{}\n", app_.name(), app_.sim_time() ? sim : wall,
       app_.sim_time() ? fmt::format(" simulated in {:.1f} s wall ({:.0f}x)", wall, wall > 0 ? sim / wall : 0.0) : "",
       final ? "  [final]" : "");
-  // late = slips from a late start alone (the CPU was taken outside the group: RateGroupCounters).
-  out << fmt::format("{:<12} {:>8} {:>9} {:>6} {:>5} {:>9} {:>9} {:>9} {:>10}\n", "rate group", "rate Hz", "cycles",
-                     "slips", "late", "exec avg", "exec p99", "exec max", "wake p99");
+  // late / stall = slips from a late start / a stall mid-cycle alone (the CPU was taken outside the
+  // group: RateGroupCounters).
+  out << fmt::format("{:<12} {:>8} {:>9} {:>6} {:>5} {:>5} {:>9} {:>9} {:>9} {:>10}\n", "rate group", "rate Hz",
+                     "cycles", "slips", "late", "stall", "exec avg", "exec p99", "exec max", "wake p99");
   for (const auto* g : v.groups) {
     const auto c = g->counters();
     const auto e = g->cycle_exec().summary();
     const auto w = g->wakeup_latency().summary();
     // Under --sim-time the cycle times are simulated (members cost nothing unless they model it):
     // the per-component CPU times below are the meaningful numbers then.
-    out << fmt::format("{:<12} {:>8.1f} {:>9} {:>6} {:>5} {:>9} {:>9} {:>9} {:>10}\n", g->config().name,
+    out << fmt::format("{:<12} {:>8.1f} {:>9} {:>6} {:>5} {:>5} {:>9} {:>9} {:>9} {:>10}\n", g->config().name,
                        1e9 / static_cast<double>(g->config().period), c.cycles, c.slips, c.late_start_slips,
-                       app_.sim_time() ? "-" : us(e.mean), app_.sim_time() ? "-" : us(e.p99),
+                       c.stall_slips, app_.sim_time() ? "-" : us(e.mean), app_.sim_time() ? "-" : us(e.p99),
                        app_.sim_time() ? "-" : us(e.max), app_.sim_time() ? "-" : us(w.p99));
   }
   // cpu = CLOCK_THREAD_CPUTIME_ID around step(); wall = elapsed (includes preemption, page faults).

@@ -83,6 +83,7 @@ void fill_diagnostics(const HealthSnapshot& s, const std::string& hardware_id, D
         kv_int("cycles", static_cast<std::int64_t>(e.cycles));
         kv_int("cycle_slips", static_cast<std::int64_t>(e.slips));
         kv_int("late_start_slips", static_cast<std::int64_t>(e.late_start_slips));
+        kv_int("stall_slips", static_cast<std::int64_t>(e.stall_slips));
         kv_us("exec_mean_us", e.exec.mean);
         kv_us("exec_p99_us", e.exec.p99);
         kv_us("exec_max_us", e.exec.max);
@@ -147,6 +148,7 @@ class HealthComponent final : public Component {
     unchanged_.assign(v.components.size(), 0);
     last_slips_.assign(v.groups.size(), 0);
     last_late_.assign(v.groups.size(), 0);
+    last_stall_.assign(v.groups.size(), 0);
     slipped_.assign(v.groups.size(), 0);
     last_exec_count_.assign(v.components.size(), 0);
     last_exec_total_.assign(v.components.size(), 0.0);
@@ -213,9 +215,11 @@ class HealthComponent final : public Component {
       e->exec = g.cycle_exec().summary();
       e->wall = g.wakeup_latency().summary();
       e->late_start_slips = c.late_start_slips;
-      // Slips a member caused (the cycle overran) get a culprit; slips from a late start alone
-      // (another thread or group had the CPU, the host stalled) are the group's warning only.
-      const std::uint64_t overrun = c.slips - c.late_start_slips;
+      e->stall_slips = c.stall_slips;
+      // Slips a member caused (the cycle overran) get a culprit; slips from a late start or a
+      // stall alone (another thread or group had the CPU, the host descheduled it) are the
+      // group's warning only.
+      const std::uint64_t overrun = c.slips - c.late_start_slips - c.stall_slips;
       slipped_[gi] = overrun > last_slips_[gi];
       if (slipped_[gi]) {
         e->level = Level::kWarn;
@@ -223,8 +227,12 @@ class HealthComponent final : public Component {
       } else if (c.late_start_slips > last_late_[gi]) {
         e->level = Level::kWarn;
         e->message = "cycle slips since last report: started late (CPU taken outside the group)";
+      } else if (c.stall_slips > last_stall_[gi]) {
+        e->level = Level::kWarn;
+        e->message = "cycle slips since last report: stalled mid-cycle (CPU taken outside the group)";
       }
       last_late_[gi] = c.late_start_slips;
+      last_stall_[gi] = c.stall_slips;
       last_slips_[gi] = overrun;
     }
   }
@@ -388,6 +396,7 @@ class HealthComponent final : public Component {
   std::vector<std::uint64_t> unchanged_;
   std::vector<std::uint64_t> last_slips_;       // per group: slips the group's own cycles caused, at the last report
   std::vector<std::uint64_t> last_late_;        // per group: late-start slips at the last report
+  std::vector<std::uint64_t> last_stall_;       // per group: stall slips at the last report
   std::vector<unsigned char> slipped_;          // per group: overran (slipped by its own cycles) since the last report
   std::vector<std::uint64_t> last_exec_count_;  // per component: its exec histogram at the last report
   std::vector<double> last_exec_total_;

@@ -47,7 +47,7 @@ std::vector<Event> HealthEvents::update(const HealthSnapshot& s) {
   for (std::uint32_t i = 0; i < s.count && i < s.entries.size(); ++i) {
     const HealthEntry& e = s.entries[i];
     const std::string who = std::string(kind_name(e.kind)) + " " + name_of(e);
-    Seen cur{who, e.level, e.slips, e.errors, e.late_start_slips};
+    Seen cur{who, e.level, e.slips, e.errors, e.late_start_slips, e.stall_slips};
     const auto prev = std::find_if(seen_.begin(), seen_.end(), [&](const Seen& p) { return p.key == who; });
     const Level before = prev != seen_.end() ? prev->level : Level::kOk;
     const std::string why = e.message != nullptr ? e.message : "";
@@ -62,9 +62,11 @@ std::vector<Event> HealthEvents::update(const HealthSnapshot& s) {
     }
     if (e.kind == HealthEntry::Kind::kRateGroup && prev != seen_.end() && e.slips > prev->slips) {
       const std::uint64_t late = e.late_start_slips - std::min(e.late_start_slips, prev->late_start_slips);
+      const std::uint64_t stalled = e.stall_slips - std::min(e.stall_slips, prev->stall_slips);
       out.push_back(
           {Event::Severity::kWarn, who + ": " + std::to_string(e.slips - prev->slips) + " cycle slips (" +
                                        (late > 0 ? std::to_string(late) + " from a late start, " : std::string()) +
+                                       (stalled > 0 ? std::to_string(stalled) + " from a stall, " : std::string()) +
                                        std::to_string(e.slips) + " in total)"});
     }
     now.push_back(std::move(cur));

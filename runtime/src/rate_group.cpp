@@ -4,6 +4,8 @@
 #include <ctime>
 #include <stdexcept>
 
+#include <sys/resource.h>
+
 namespace regolith::runtime {
 
 namespace {
@@ -16,6 +18,14 @@ struct CycleFlag {
     t_member = nullptr;
   }
 };
+
+// Voluntary context switches of the calling thread so far: the times it blocked (I/O, a lock, a
+// condition variable, a sleep). Allocation-free (one getrusage system call).
+std::uint64_t voluntary_switches() {
+  rusage u{};
+  getrusage(RUSAGE_THREAD, &u);
+  return static_cast<std::uint64_t>(u.ru_nvcsw);
+}
 }  // namespace
 
 bool in_rate_group_cycle() {
@@ -43,7 +53,8 @@ RateGroup::RateGroup(RateGroupConfig cfg, std::vector<Component*> members)
 void RateGroup::reset(TimeNs start) {
   next_release_ = start + cfg_.offset;
   slip_horizon_ = next_release_;
-  prev_end_ = 0;
+  sched_end_ = 0;
+  own_end_ = 0;
 }
 
 void RateGroup::run_cycle(Clock& clock) {
@@ -54,6 +65,10 @@ void RateGroup::run_cycle(Clock& clock) {
   const TimeNs start = clock.now();
   wakeup_.record(start - release);
   last_release_.store(release, std::memory_order_relaxed);
+
+  // On a real clock: the thread's CPU time and its blocking waits over the cycle (for stalls).
+  const std::uint64_t waits0 = sim ? 0 : voluntary_switches();
+  const TimeNs cpu0 = sim ? 0 : thread_cpu_now();
 
   CycleInfo info{release, start, period, cycles_.load(std::memory_order_relaxed)};
   for (Component* m : members_) {
@@ -71,28 +86,43 @@ void RateGroup::run_cycle(Clock& clock) {
     m->heartbeat_.fetch_add(1, std::memory_order_relaxed);
   }
   const TimeNs end = clock.now();
-  cycle_exec_.record(end - start);
+  const TimeNs duration = end - start;
+  cycle_exec_.record(duration);
   cycles_.fetch_add(1, std::memory_order_relaxed);
+  // Stall: wall time of the cycle beyond the thread's CPU time while no step blocked, i.e. the
+  // thread was runnable but off the CPU (preempted by another thread, or the host descheduled the
+  // virtual CPU: neither moves the thread's CPU clock). A step that blocked (a voluntary context
+  // switch: I/O, a lock, waiting on a worker pool) gets no such credit: waiting inside a cycle is
+  // the member's own doing. Under the simulated clock time passes only as the members model it.
+  TimeNs stall = 0;
+  if (!sim && voluntary_switches() == waits0)
+    stall = std::clamp<TimeNs>(duration - (thread_cpu_now() - cpu0), 0, duration);
 
   // Missed releases: release + j*period (j >= 1) that came and went before this cycle ended and
-  // were not already counted by an earlier (late) cycle. Those that would not have been missed had
-  // the cycle started as soon as the group let it (its release, or its previous cycle's end) are
-  // late-start slips: the delay came from outside the group.
+  // were not already counted by an earlier (late) cycle. Split three ways, each part disjoint:
+  // - late-start slips: those the cycle would not have missed had every cycle started as soon as
+  //   the group let it (its release, or that schedule's previous end): the delay came from
+  //   outside the group;
+  // - stall slips: of the rest, those it would not have missed had no cycle been stalled either
+  //   (above): the CPU was taken from inside a cycle, this one or one it ran into;
+  // - own slips: the rest, the members' doing.
   const TimeNs lo = std::max(release, slip_horizon_);
   const auto missed_by = [&](TimeNs until) -> TimeNs {
     if (until <= release + period) return 0;
     return std::max<TimeNs>(0, (until - 1 - release) / period - ((lo - release) / period + 1) + 1);
   };
+  sched_end_ = std::max(release, sched_end_) + duration;
+  own_end_ = std::max(release, own_end_) + duration - stall;
   const TimeNs missed = missed_by(end);
   if (missed > 0) {
-    const TimeNs own_start = std::max(release, prev_end_);
-    const TimeNs own = std::min(missed, missed_by(own_start + (end - start)));
-    // Kept as two disjoint counts, so that a reader on another thread always sees late <= slips.
+    const TimeNs on_time = std::min(missed, missed_by(sched_end_));
+    const TimeNs own = std::min(on_time, missed_by(own_end_));
+    // Kept as disjoint counts, so that a reader on another thread always sees each part <= slips.
     own_slips_.fetch_add(static_cast<std::uint64_t>(own), std::memory_order_relaxed);
-    late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - own), std::memory_order_relaxed);
+    stall_slips_.fetch_add(static_cast<std::uint64_t>(on_time - own), std::memory_order_relaxed);
+    late_start_slips_.fetch_add(static_cast<std::uint64_t>(missed - on_time), std::memory_order_relaxed);
     slip_horizon_ = release + ((end - 1 - release) / period) * period;
   }
-  prev_end_ = end;
 
   if (cfg_.overrun == OverrunPolicy::kSkip) {
     const TimeNs elapsed = end - release;
@@ -108,7 +138,8 @@ RateGroupCounters RateGroup::counters() const {
   RateGroupCounters c;
   c.cycles = cycles_.load(std::memory_order_relaxed);
   c.late_start_slips = late_start_slips_.load(std::memory_order_relaxed);
-  c.slips = own_slips_.load(std::memory_order_relaxed) + c.late_start_slips;
+  c.stall_slips = stall_slips_.load(std::memory_order_relaxed);
+  c.slips = own_slips_.load(std::memory_order_relaxed) + c.late_start_slips + c.stall_slips;
   c.skipped = skipped_.load(std::memory_order_relaxed);
   c.last_release = last_release_.load(std::memory_order_relaxed);
   return c;

@@ -189,7 +189,8 @@ class FakeRover {
              {{"period_us", "10000.0000"},
               {"cycles", std::to_string(1000 + i)},
               {"cycle_slips", "5"},
-              {"late_start_slips", "4"},
+              {"late_start_slips", "3"},
+              {"stall_slips", "1"},
               {"exec_p99_us", "812.5000"},
               {"wakeup_p99_us", "64.2500"}});
       status(s->status._buffer[1], 1, "component: wheel_sinkage", "input stale",
@@ -780,9 +781,11 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   const std::string html = dom.is_string() ? dom.get<std::string>() : std::string();
   ASSERT_TRUE(filled) << html;
   EXPECT_NE(html.find(R"(<tr class="ok" data-name="rate_group: fast">)"), std::string::npos) << html;
-  // a count that does not grow is history, not news (the row stays "ok"); the late starts beside it
-  EXPECT_NE(html.find(R"(<td class="num bad">5 (4 late)</td>)"), std::string::npos) << html;
+  // a count that does not grow is history, not news (the row stays "ok"); the late starts and
+  // stalls beside it
+  EXPECT_NE(html.find(R"(<td class="num bad">5 (3 late, 1 stalled)</td>)"), std::string::npos) << html;
   EXPECT_EQ(html.find("late_start_slips"), std::string::npos) << "shown in the slips cell, not again among the rest";
+  EXPECT_EQ(html.find("stall_slips"), std::string::npos) << "shown in the slips cell, not again among the rest";
   EXPECT_NE(html.find(R"(<tr class="warn" data-name="component: wheel_sinkage">)"), std::string::npos);
   EXPECT_NE(html.find(R"(<tr class="error" data-name="camera: front">)"), std::string::npos);
   EXPECT_NE(html.find(R"(<b id="soil-k">812.3</b>)"), std::string::npos);

@@ -85,6 +85,13 @@ TEST(HealthEvents, FaultsRecoveriesAndSlipsBecomeOneLineEach) {
       {entry(K::kRateGroup, "io", Level::kOk, "ok", 3), entry(K::kCamera, "front", Level::kOk, "running")}, 4));
   ASSERT_EQ(e3.size(), 1u);
   EXPECT_EQ(e3[0].text, "camera front: recovered (running)");
+  // Slips the group did not cause are told apart in the count: late starts and stalls.
+  HealthEntry outside = entry(K::kRateGroup, "io", Level::kOk, "ok", 6);
+  outside.late_start_slips = 1;
+  outside.stall_slips = 2;
+  auto e4 = ev.update(snapshot({outside, entry(K::kCamera, "front", Level::kOk, "running")}, 5));
+  ASSERT_EQ(e4.size(), 1u);
+  EXPECT_EQ(e4[0].text, "rate group io: 3 cycle slips (1 from a late start, 2 from a stall, 6 in total)");
   // A first snapshot reports errors at once; warnings (inputs not delivered yet at start-up)
   // only when the next snapshot still has them.
   HealthEvents late;

@@ -1,7 +1,10 @@
 // Rate groups under the simulated clock: periods, member order, exact slip counts, skip vs
 // catch-up, statistics. Members model their execution time by advancing the simulated clock.
+#include <algorithm>
 #include <atomic>
 #include <vector>
+
+#include <time.h>
 
 #include <gtest/gtest.h>
 
@@ -180,6 +183,109 @@ TEST(Scheduler, ACatchUpBurstAfterAnOverrunIsTheGroupsOwnDoing) {
   const auto c = r.groups[0]->counters();
   EXPECT_GE(c.slips, 2u);
   EXPECT_EQ(c.late_start_slips, 0u);
+}
+
+namespace {
+
+// A real (not simulated) clock the test moves by hand, so that a cycle's wall time and its
+// thread's CPU time can be set apart: a member "stalled" by the host advances it without using
+// the CPU, a busy one by the CPU it burned, a blocking one while it sleeps.
+class HandClock final : public Clock {
+ public:
+  TimeNs now() const override { return now_; }
+  void sleep_until(TimeNs t) override { now_ = std::max(now_, t); }
+  bool simulated() const override { return false; }
+  void advance(TimeNs dt) { now_ += dt; }
+
+ private:
+  TimeNs now_ = 1000 * kMs;
+};
+
+enum class Kind { kStalled, kBusy, kBlocking };
+
+class HandMember final : public Component {
+ public:
+  HandMember(HandClock& clock, std::vector<std::pair<Kind, TimeNs>> cycles)
+      : clock_(clock), cycles_(std::move(cycles)) {}
+  void configure(Params&, Context&) override {}
+  void step(const CycleInfo&) override {
+    const auto [kind, cost] = cycles_[std::min(calls_++, cycles_.size() - 1)];
+    switch (kind) {
+      case Kind::kStalled:  // off the CPU without waiting for anything: the host took it
+        clock_.advance(cost);
+        break;
+      case Kind::kBusy: {  // computing: the wall time is the CPU time
+        const TimeNs c0 = thread_cpu_now();
+        while (thread_cpu_now() - c0 < cost) {
+        }
+        clock_.advance(thread_cpu_now() - c0);
+        break;
+      }
+      case Kind::kBlocking: {  // waiting on I/O (a voluntary context switch) while time passes
+        const timespec nap{0, 200000};
+        nanosleep(&nap, nullptr);
+        clock_.advance(cost);
+        break;
+      }
+    }
+  }
+
+ private:
+  HandClock& clock_;
+  std::vector<std::pair<Kind, TimeNs>> cycles_;
+  std::size_t calls_ = 0;
+};
+
+RateGroupCounters run_by_hand(std::vector<std::pair<Kind, TimeNs>> cycles, int n,
+                              OverrunPolicy policy = OverrunPolicy::kSkip) {
+  HandClock clock;
+  HandMember m(clock, std::move(cycles));
+  RateGroupConfig c;
+  c.name = "g";
+  c.period = 10 * kMs;
+  c.overrun = policy;
+  RateGroup g(c, {&m});
+  g.reset(clock.now());
+  for (int i = 0; i < n; ++i) {
+    clock.sleep_until(g.next_release());
+    g.run_cycle(clock);
+  }
+  return g.counters();
+}
+
+}  // namespace
+
+TEST(Scheduler, AStallMidCycleIsToldApartFromAnOverrunAndFromBlocking) {
+  // 35 ms in a 10 ms period: three releases pass, whatever the cause. Off the CPU without waiting
+  // (the host descheduled the thread) is no member's doing; computing for 35 ms, or blocking on
+  // I/O inside the cycle, is.
+  const auto stalled = run_by_hand({{Kind::kStalled, 35 * kMs}, {Kind::kStalled, 0}}, 6);
+  EXPECT_EQ(stalled.slips, 3u);
+  EXPECT_EQ(stalled.stall_slips, 3u);
+  EXPECT_EQ(stalled.late_start_slips, 0u);
+
+  const auto busy = run_by_hand({{Kind::kBusy, 35 * kMs}, {Kind::kStalled, 0}}, 6);
+  EXPECT_EQ(busy.slips, 3u);
+  EXPECT_EQ(busy.stall_slips, 0u) << "the wall time was the thread's own CPU time";
+  EXPECT_EQ(busy.late_start_slips, 0u);
+
+  const auto blocking = run_by_hand({{Kind::kBlocking, 35 * kMs}, {Kind::kStalled, 0}}, 6);
+  EXPECT_EQ(blocking.slips, 3u);
+  EXPECT_EQ(blocking.stall_slips, 0u) << "a step that blocks inside its cycle gets no credit";
+}
+
+TEST(Scheduler, ACatchUpBurstAfterAStallIsTheStallsDoing) {
+  // Catch-up after a 25 ms stall: the missed releases run back to back, 8 ms of CPU each. Started
+  // on time each would fit; they slip only because the stall pushed them: stall slips, not the
+  // member's, however long the burst runs. With the same 25 ms spent computing, the burst is
+  // the group's own doing.
+  const auto after_stall =
+      run_by_hand({{Kind::kStalled, 25 * kMs}, {Kind::kBusy, 8 * kMs}}, 8, OverrunPolicy::kCatchUp);
+  EXPECT_GE(after_stall.slips, 3u) << "two releases under the stall, then the burst falls behind";
+  EXPECT_EQ(after_stall.stall_slips, after_stall.slips);
+  const auto after_overrun = run_by_hand({{Kind::kBusy, 25 * kMs}, {Kind::kBusy, 8 * kMs}}, 8, OverrunPolicy::kCatchUp);
+  EXPECT_EQ(after_overrun.slips, after_stall.slips);
+  EXPECT_EQ(after_overrun.stall_slips, 0u);
 }
 
 TEST(Scheduler, ExactlyOnePeriodIsNotASlip) {

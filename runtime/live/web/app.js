@@ -84,14 +84,17 @@ function onDiagnostics(msg) {
     cell(row, s.message);
     const period = Number(kv.period_us);
     cell(row, period > 0 ? fixed(1e6 / period, 1) : "", "num");
-    // A rate group's slips from a late start alone (the CPU was taken outside the group) beside them.
+    // A rate group's slips from a late start or a stall alone (the CPU was taken outside the group)
+    // beside them.
     const late = Number(kv.late_start_slips ?? 0);
-    cell(row, (kv.cycle_slips ?? "") + (late > 0 ? ` (${late} late)` : ""), "num" + (slips > 0 ? " bad" : ""));
+    const stalled = Number(kv.stall_slips ?? 0);
+    const outside = [late > 0 ? `${late} late` : "", stalled > 0 ? `${stalled} stalled` : ""].filter((x) => x).join(", ");
+    cell(row, (kv.cycle_slips ?? "") + (outside ? ` (${outside})` : ""), "num" + (slips > 0 ? " bad" : ""));
     cell(row, micros(kv.exec_p99_us), "num");
     cell(row, micros(kv.wakeup_p99_us), "num");
     const errors = kv.errors ?? kv.faults ?? "";
     cell(row, errors, "num" + (Number(errors) > 0 ? " bad" : ""));
-    const shown = new Set(["period_us", "cycle_slips", "late_start_slips", "exec_p99_us", "wakeup_p99_us", "errors",
+    const shown = new Set(["period_us", "cycle_slips", "late_start_slips", "stall_slips", "exec_p99_us", "wakeup_p99_us", "errors",
       "faults"]);
     const other = cell(row, s.values.filter((v) => !shown.has(v.key)).map((v) => `${v.key} ${v.value}`).join(" · "), "other");
     other.title = other.textContent; // the cell is cut to one line

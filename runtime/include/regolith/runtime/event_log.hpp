@@ -46,7 +46,7 @@ class HealthEvents {
   struct Seen {
     std::string key;
     Level level = Level::kOk;
-    std::uint64_t slips = 0, errors = 0, late_start_slips = 0;
+    std::uint64_t slips = 0, errors = 0, late_start_slips = 0, stall_slips = 0;
   };
   std::vector<Seen> seen_;
   bool first_ = true;

@@ -27,12 +27,13 @@ struct HealthEntry {
   std::uint64_t cycles = 0;
   std::uint64_t slips = 0;
   std::uint64_t late_start_slips = 0;  ///< rate groups: of `slips`, missed only by a late start (RateGroupCounters)
-  std::uint64_t errors = 0;            ///< component errors / device faults
-  std::uint64_t stale_inputs = 0;      ///< inputs stale right now
-  std::uint64_t frames = 0;            ///< devices: frames or samples delivered
-  std::uint64_t dropped = 0;           ///< devices: dropped frames / rejected samples
-  std::uint64_t lost = 0;              ///< encoders: frames lost before they were read (bus receive queue)
-  std::uint64_t bad_stamps = 0;        ///< cameras: frames withheld, stamped after they were read (device clock)
+  std::uint64_t stall_slips = 0;   ///< rate groups: of `slips`, missed only by a stall mid-cycle (RateGroupCounters)
+  std::uint64_t errors = 0;        ///< component errors / device faults
+  std::uint64_t stale_inputs = 0;  ///< inputs stale right now
+  std::uint64_t frames = 0;        ///< devices: frames or samples delivered
+  std::uint64_t dropped = 0;       ///< devices: dropped frames / rejected samples
+  std::uint64_t lost = 0;          ///< encoders: frames lost before they were read (bus receive queue)
+  std::uint64_t bad_stamps = 0;    ///< cameras: frames withheld, stamped after they were read (device clock)
   TimeNs period = 0;
   StatsSummary exec{};  ///< execution time on the schedule clock
   StatsSummary wall{};  ///< execution time on CLOCK_MONOTONIC

@@ -61,6 +61,12 @@ struct RateGroupCounters {
   /// started when the group itself let it (its release, or its previous cycle's end), it would
   /// have ended in time. No member of the group is to blame for these.
   std::uint64_t late_start_slips = 0;
+  /// Of `slips`, those missed only because the group's thread was runnable but off the CPU inside
+  /// a cycle (preempted, or the host descheduled the virtual CPU: wall time that is not the
+  /// thread's CPU time while no step blocked), in this cycle or in the previous one it ran into.
+  /// Real clock only. No member of the group is to blame for these either; a step that blocks
+  /// (I/O, a lock) is, and gets no such credit.
+  std::uint64_t stall_slips = 0;
   std::uint64_t skipped = 0;  ///< releases not executed (skip policy)
   TimeNs last_release = 0;
 };
@@ -90,10 +96,14 @@ class RateGroup {
   std::vector<Component*> members_;
   TimeNs next_release_ = 0;
   TimeNs slip_horizon_ = 0;  // latest release already accounted as missed
-  TimeNs prev_end_ = 0;      // when the previous cycle ended
+  // When the previous cycle would have ended had no cycle started late from outside (sched_end_),
+  // and had none been stalled either (own_end_): the schedules the slips are split by.
+  TimeNs sched_end_ = 0;
+  TimeNs own_end_ = 0;
   std::atomic<std::uint64_t> cycles_{0};
   std::atomic<std::uint64_t> own_slips_{0};         // slips the cycle would have made starting on time
-  std::atomic<std::uint64_t> late_start_slips_{0};  // the rest (counters().slips is their sum)
+  std::atomic<std::uint64_t> stall_slips_{0};       // those only a stall made (off the CPU mid-cycle)
+  std::atomic<std::uint64_t> late_start_slips_{0};  // the rest (counters().slips is the sum of the three)
   std::atomic<std::uint64_t> skipped_{0};
   std::atomic<TimeNs> last_release_{0};
   ExecHistogram cycle_exec_;
