@@ -97,6 +97,32 @@ double zc_poly(double x) {
   return v;
 }
 
+// Tsai-Shah solves in the oriented frame, where the light's tilt lies in the first quadrant (its
+// backward differences then run downstream of the light): the cv::flip code that takes an image
+// there and back, 2 for none.
+int orienting_flip(const LightDirection& l) {
+  const bool flip_x = std::cos(l.tilt_rad) < 0, flip_y = std::sin(l.tilt_rad) < 0;
+  return flip_x && flip_y ? -1 : (flip_x ? 1 : (flip_y ? 0 : 2));
+}
+
+void orient(const cv::Mat& src, cv::Mat& dst, int flip) {
+  if (flip == 2)
+    src.copyTo(dst);
+  else
+    cv::flip(src, dst, flip);
+}
+
+// Height (up) = -depth, taken from the oriented frame back to the image frame (`scratch` holds the
+// flipped depth).
+void height_from_oriented_depth(const cv::Mat& z, int flip, cv::Mat& scratch, cv::Mat& height) {
+  if (flip == 2) {
+    z.convertTo(height, CV_32F, -1.0);
+  } else {
+    cv::flip(z, scratch, flip);
+    scratch.convertTo(height, CV_32F, -1.0);
+  }
+}
+
 }  // namespace
 
 cv::Vec3d LightDirection::vector() const {
@@ -428,15 +454,11 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
     tsai_shah_marching(l, out);
     return;
   }
-  const bool flip_x = std::cos(l.tilt_rad) < 0, flip_y = std::sin(l.tilt_rad) < 0;
   const double tx = std::abs(std::cos(l.tilt_rad)), ty = std::abs(std::sin(l.tilt_rad));
   const float ps = static_cast<float>(tx * std::tan(l.slant_rad));
   const float qs = static_cast<float>(ty * std::tan(l.slant_rad));
-  const int flip = flip_x && flip_y ? -1 : (flip_x ? 1 : (flip_y ? 0 : 2));
-  if (flip == 2)
-    e_.copyTo(work_e_);
-  else
-    cv::flip(e_, work_e_, flip);
+  const int flip = orienting_flip(l);
+  orient(e_, work_e_, flip);
   const cv::Size sz = e_.size();
   z_.create(sz, CV_32F);
   fill(z_, 0.0f);
@@ -493,13 +515,7 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
   }
   out.iterations = std::min(it, params_.iterations);
   out.final_mean_update = mean_upd;
-  // Height (up) = -depth, mirrored back to the image frame.
-  if (flip == 2)
-    z_.convertTo(out.height, CV_32F, -1.0);
-  else {
-    cv::flip(z_, z_new_, flip);
-    z_new_.convertTo(out.height, CV_32F, -1.0);
-  }
+  height_from_oriented_depth(z_, flip, z_new_, out.height);
   mask_.copyTo(out.valid);
 }
 
@@ -512,19 +528,13 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
 // solution of the same discretisation in one pass. The integration memory is limited by a leak
 // (upstream values scaled by 1 - 1/leak) so integrated noise does not drift.
 void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& out) {
-  const bool flip_x = std::cos(l.tilt_rad) < 0, flip_y = std::sin(l.tilt_rad) < 0;
   const double ct = std::abs(std::cos(l.tilt_rad)), st = std::abs(std::sin(l.tilt_rad));
   const double ss = std::sin(l.slant_rad), cs = std::cos(l.slant_rad);
   const float ps = static_cast<float>(ct * std::tan(l.slant_rad));
   const float qs = static_cast<float>(st * std::tan(l.slant_rad));
-  const int flip = flip_x && flip_y ? -1 : (flip_x ? 1 : (flip_y ? 0 : 2));
-  if (flip == 2) {
-    e_.copyTo(work_e_);
-    mask_.copyTo(work_mask_);
-  } else {
-    cv::flip(e_, work_e_, flip);
-    cv::flip(mask_, work_mask_, flip);
-  }
+  const int flip = orienting_flip(l);
+  orient(e_, work_e_, flip);
+  orient(mask_, work_mask_, flip);
   const cv::Size sz = e_.size();
   z_.create(sz, CV_32F);
   z_new_.create(sz, CV_32F);
@@ -624,12 +634,7 @@ void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& ou
     out.iterations = max_used;
     out.final_mean_update = sum_last / static_cast<double>(sz.area());
   }
-  if (flip == 2)
-    z_.convertTo(out.height, CV_32F, -1.0);
-  else {
-    cv::flip(z_, z_new_, flip);
-    z_new_.convertTo(out.height, CV_32F, -1.0);
-  }
+  height_from_oriented_depth(z_, flip, z_new_, out.height);
   mask_.copyTo(out.valid);
 }
 
