@@ -496,10 +496,16 @@ class JointStatePublisher final : public Component {
   void diagnostics(std::vector<std::pair<std::string, std::string>>& kv) const override {
     // Wheel samples held at the published one, plus stream samples skipped (FrameOrder's counters
     // may be read from this, the health thread).
-    long held = order_.out_of_order();
-    for (std::size_t w = 0; w < enc_->wheel_count() && w < kMaxJoints; ++w) held += wheel_order_[w].out_of_order();
+    // Clock steps: the stream's, and each wheel's summed (a wheel read from a node of its own can
+    // step alone, which the stream does not see while another wheel's stamps are newer).
+    long held = order_.out_of_order(), wheel_steps = 0;
+    for (std::size_t w = 0; w < enc_->wheel_count() && w < kMaxJoints; ++w) {
+      held += wheel_order_[w].out_of_order();
+      wheel_steps += wheel_order_[w].clock_steps();
+    }
     kv.emplace_back("samples_out_of_order", std::to_string(held));
     kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
+    kv.emplace_back("wheel_clock_steps", std::to_string(wheel_steps));
   }
   const hal::WheelEncoders& encoders() const { return *enc_; }
 

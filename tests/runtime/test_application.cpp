@@ -325,6 +325,7 @@ TEST(Application, JointStatesNeverGoBackWhenTheDevicesNewestSampleDoes) {
   // Each wheel held at its published sample in the 60 periods of 300 (100 Hz) that stepped back.
   EXPECT_EQ(diag.at("samples_out_of_order"), "120");
   EXPECT_EQ(diag.at("clock_steps"), "0");
+  EXPECT_EQ(diag.at("wheel_clock_steps"), "0");
 }
 
 TEST(Application, AWheelSampleHeldBackIsCountedOnceHoweverManyCyclesItStaysTheNewest) {
@@ -381,6 +382,7 @@ TEST(Application, JointStatesFollowTheClockWhenItStepsBackForGood) {
   EXPECT_GT(newer, 280);          // every other cycle a newer sample, before and after it
   EXPECT_NEAR(angle, 1.5, 0.05);  // 3 s of turning at 1 rad/s, read on a clock 1.5 s behind
   EXPECT_EQ(diag.at("clock_steps"), "1");
+  EXPECT_EQ(diag.at("wheel_clock_steps"), "2") << "each wheel's stamps stepped back once";
   EXPECT_EQ(diag.at("samples_out_of_order"), "0");
 }
 
