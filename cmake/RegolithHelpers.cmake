@@ -28,13 +28,20 @@ function(regolith_glue_code target)
     "$<$<AND:$<OR:$<CONFIG:Release>,$<CONFIG:RelWithDebInfo>>,$<COMPILE_LANGUAGE:CXX>>:-O1;-Wno-null-dereference>")
 endfunction()
 
-# regolith_pixel_kernels(<target>): a library of pixel arithmetic (no parsing of outside data).
-# Fuzz builds keep edge coverage, ASan and UBSan in it but drop libFuzzer's comparison tracing:
-# its compares are loop bounds and pixel values, which teach the fuzzer nothing about the input's
-# structure, and tracing them took 77 % of tests/fuzz image's time (296 executions / s) and
-# 27-40 % of sfs's and terrain's.
+# regolith_pixel_kernels(<target> [SOURCES ...]): a library (or those of its sources) of pixel and
+# model arithmetic, no parsing of outside data. Fuzz builds keep edge coverage, ASan and UBSan in
+# it but drop libFuzzer's comparison tracing: its compares are loop bounds and pixel values, which
+# teach the fuzzer nothing about the input's structure, and tracing them took 77 % of tests/fuzz
+# image's time (296 executions / s), 27-40 % of sfs's and terrain's and 41 % of soil_fit's.
 function(regolith_pixel_kernels target)
-  if(REGOLITH_FUZZ)
+  cmake_parse_arguments(ARG "" "" "SOURCES" ${ARGN})
+  if(NOT REGOLITH_FUZZ)
+    return()
+  endif()
+  if(ARG_SOURCES)
+    set_property(SOURCE ${ARG_SOURCES} TARGET_DIRECTORY ${target} APPEND PROPERTY COMPILE_OPTIONS
+                 -fno-sanitize-coverage=trace-cmp)
+  else()
     target_compile_options(${target} PRIVATE -fno-sanitize-coverage=trace-cmp)
   endif()
 endfunction()
