@@ -1284,7 +1284,7 @@ TEST(RecordedDrive, ACorruptedOdometryLineNeitherSizesTheWindowNorMovesThePose) 
   std::vector<std::string> rows;
   for (std::string line; std::getline(odo, line);) rows.push_back(line);
   ASSERT_EQ(rows.size(), 7u);
-  for (const std::string& r : rows) EXPECT_EQ(std::count(r.begin(), r.end(), ','), 10) << r;
+  for (const std::string& r : rows) EXPECT_EQ(std::count(r.begin(), r.end(), ','), 11) << r;  // 12 columns
   EXPECT_NE(rows[4].find(",1000000.000000,"), std::string::npos) << rows[4];
   EXPECT_NE(rows[5].find(",1e+300,"), std::string::npos) << rows[5];
   const nlohmann::json mj = nlohmann::json::parse(std::ifstream(d / "out" / "map.json"));
@@ -1639,6 +1639,38 @@ TEST(EvaluateMap, BrokenFilesAreErrorsNamingTheFileAndTheField) {
 
 // The hazard AUC is scored over the seen cells with a value; the seen cells left unknown are
 // counted and scored as 0 in a second AUC, so a map cannot look better by leaving a rock NaN.
+TEST(EvaluateMap, TheCovarianceIsCheckedAgainstTheErrorItClaims) {
+  // Frame 1 is 2 cm off across the track (x) and 0.01 rad off in heading. Claimed 1 cm and 0.01
+  // rad: a squared Mahalanobis distance of 4 (inside the 95 % ellipse, 5.99) and a heading z of 1;
+  // claimed 0.5 cm: 16, outside.
+  const regolith::testing::TempDir tmp("mapping_covariance");
+  const HandScoredDrive hd(tmp.path());
+  const auto poses = [&](const std::string& cov) {
+    std::ofstream(hd.map / "odometry.csv")
+        << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad,cov_xy\n"
+        << "0,0,0,1.5707963,0,0,0,first,0,0,1.5707963,0\n"
+        << "1,0.02,0.1,1.5807963," << cov << ",ok,0,0.11,1.5707963,0\n";
+  };
+  hd.detections("");
+  poses("1e-4,1e-4,1e-4");
+  nlohmann::json p = evaluate_map(hd.drive, hd.map)["poses"];
+  EXPECT_EQ(p["covariance_frames"].get<int>(), 1) << "the first frame claims no covariance: not scored";
+  EXPECT_NEAR(p["position_mahalanobis2_mean"].get<double>(), 4.0, 1e-3);
+  EXPECT_DOUBLE_EQ(p["position_within_95pct_ellipse"].get<double>(), 1.0);
+  EXPECT_NEAR(p["heading_z_rms"].get<double>(), 1.0, 1e-3);
+  poses("2.5e-5,1e-4,1e-4");
+  p = evaluate_map(hd.drive, hd.map)["poses"];
+  EXPECT_NEAR(p["position_mahalanobis2_mean"].get<double>(), 16.0, 1e-2);
+  EXPECT_DOUBLE_EQ(p["position_within_95pct_ellipse"].get<double>(), 0.0);
+  // Without covariance columns (an older odometry.csv) the checks are NaN, the rest scored.
+  std::ofstream(hd.map / "odometry.csv") << "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
+                                         << "0,0,0,1.5707963,0,0,1.5707963\n1,0.02,0.1,1.5707963,0,0.11,1.5707963\n";
+  p = evaluate_map(hd.drive, hd.map)["poses"];
+  EXPECT_EQ(p["covariance_frames"].get<int>(), 0);
+  EXPECT_TRUE(std::isnan(p["position_mahalanobis2_mean"].get<double>()));
+  EXPECT_NEAR(p["final_position_error_m"].get<double>(), 0.02, 1e-9);
+}
+
 TEST(EvaluateMap, UnknownHazardCellsAreCountedAndScoredAsZeroInTheSecondAuc) {
   const regolith::testing::TempDir tmp("mapping_eval_unknown");
   const HandScoredDrive hd(tmp.path());

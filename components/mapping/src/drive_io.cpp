@@ -360,10 +360,11 @@ void write_rocks_csv(const fs::path& out, DriveMapSummary& sum) {
   sum.written.push_back(out / "rocks.csv");
 }
 
-// odometry.csv: one line per used frame, the corrected pose and its covariance beside the wheel pose.
+// odometry.csv: one line per used frame, the corrected pose and its covariance beside the wheel pose
+// (cov_xy last: added after the other columns, which keep their places).
 void write_odometry_csv(const fs::path& out, DriveMapSummary& sum) {
   std::ostringstream o;
-  o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad\n";
+  o << "frame,x_m,y_m,yaw_rad,cov_xx,cov_yy,cov_yawyaw,vo,wheel_x_m,wheel_y_m,wheel_yaw_rad,cov_xy\n";
   for (std::size_t k = 0; k < sum.reports.size(); ++k) {
     const FrameReport& r = sum.reports[k];
     const auto g = [](double v) {
@@ -375,7 +376,7 @@ void write_odometry_csv(const fs::path& out, DriveMapSummary& sum) {
       << csv_fixed(r.pose.yaw, 8) << ',' << g(r.covariance(0, 0)) << ',' << g(r.covariance(1, 1)) << ','
       << g(r.covariance(2, 2)) << ',' << (r.vo == VoStatus::kOk ? "ok" : (k == 0 ? "first" : "wheel")) << ','
       << csv_fixed(r.wheel_pose.x, 6) << ',' << csv_fixed(r.wheel_pose.y, 6) << ',' << csv_fixed(r.wheel_pose.yaw, 8)
-      << '\n';
+      << ',' << g(r.covariance(0, 1)) << '\n';
   }
   write_file((out / "odometry.csv").string(), o.str(), "the corrected odometry");
   sum.written.push_back(out / "odometry.csv");

@@ -232,6 +232,10 @@ struct ScoredGrid {
 // true path length over the frames both tables have).
 nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir) {
   double path = 0, mean_err = 0, mean_err_w = 0;
+  // Is the reported covariance honest? Per frame with one, the error normalised by it: the squared
+  // Mahalanobis distance of (x, y) (with cov_xy when the file has it) and the heading's z.
+  double d2_sum = 0, zyaw2_sum = 0;
+  int n_cov = 0, within95 = 0;
   int n = 0;
   const Row* last_t = nullptr;
   const Row* last_e = nullptr;
@@ -243,6 +247,22 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
       path += std::hypot(t.at("rover_x_m") - last_t->at("rover_x_m"), t.at("rover_y_m") - last_t->at("rover_y_m"));
     mean_err += std::hypot(e.at("x_m") - t.at("rover_x_m"), e.at("y_m") - t.at("rover_y_m"));
     mean_err_w += std::hypot(e.at("wheel_x_m") - t.at("rover_x_m"), e.at("wheel_y_m") - t.at("rover_y_m"));
+    const auto col = [&](const char* k) {
+      const auto c = e.find(k);
+      return c != e.end() ? c->second : std::nan("");
+    };
+    const double cxx = col("cov_xx"), cyy = col("cov_yy"), cww = col("cov_yawyaw");
+    const double cxy = std::isfinite(col("cov_xy")) ? col("cov_xy") : 0.0;
+    const double det = cxx * cyy - cxy * cxy;
+    if (cxx > 0 && cyy > 0 && cww > 0 && det > 0) {
+      const double ex = e.at("x_m") - t.at("rover_x_m"), ey = e.at("y_m") - t.at("rover_y_m");
+      const double ew = std::remainder(e.at("yaw_rad") - t.at("rover_yaw_rad"), 2 * 3.14159265358979323846);
+      const double d2 = (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
+      d2_sum += d2;
+      zyaw2_sum += ew * ew / cww;
+      within95 += d2 <= 5.991 ? 1 : 0;  // chi-square, 2 degrees of freedom, 95 %
+      ++n_cov;
+    }
     ++n;
     last_t = &t, last_e = &e;
   }
@@ -262,7 +282,14 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
           {"wheel_final_position_error_m", fw},
           {"wheel_final_position_error_pct", 100 * fw / path},
           {"wheel_final_heading_error_deg", yaw_err(le.at("wheel_yaw_rad"), lt.at("rover_yaw_rad"))},
-          {"wheel_mean_position_error_m", mean_err_w / n}};
+          {"wheel_mean_position_error_m", mean_err_w / n},
+          // Covariance consistency (NaN without covariance columns): an honest covariance gives
+          // a mean squared Mahalanobis distance of 2 (position) and 1 (heading) and 95 % of the
+          // frames inside the 95 % ellipse; more is over-confident.
+          {"covariance_frames", n_cov},
+          {"position_mahalanobis2_mean", n_cov > 0 ? d2_sum / n_cov : std::nan("")},
+          {"position_within_95pct_ellipse", n_cov > 0 ? static_cast<double>(within95) / n_cov : std::nan("")},
+          {"heading_z_rms", n_cov > 0 ? std::sqrt(zyaw2_sum / n_cov) : std::nan("")}};
 }
 
 // The map's grids and the truth heightfield averaged onto its cells.
