@@ -7,14 +7,18 @@
 //   const auto kv = rt::diagnostics_of(*app, "wheel_sinkage");  // key -> value
 //
 // A missing component or key reads "<no component NAME>" / "<no key KEY>", so that the expectation
-// that compares it fails with a message saying which.
+// that compares it fails with a message saying which. And one entry of a health snapshot:
+//
+//   const runtime::HealthEntry* io = rt::health_entry(*snapshot, "io", runtime::HealthEntry::Kind::kRateGroup);
 #include <map>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/component.hpp"
+#include "regolith/runtime/health.hpp"
 
 namespace regolith::testing {
 
@@ -44,6 +48,14 @@ inline std::string diagnostic(const runtime::Application& app, const std::string
   for (const runtime::Component* c : app.view().components)
     if (c->name() == name) return diagnostic(*c, key);
   return "<no component " + name + ">";
+}
+
+/// The entry of `s` for `name` of `kind` (a rate group and a component may share a name), or nullptr.
+inline const runtime::HealthEntry* health_entry(const runtime::HealthSnapshot& s, std::string_view name,
+                                                runtime::HealthEntry::Kind kind) {
+  for (std::uint32_t i = 0; i < s.count && i < s.entries.size(); ++i)
+    if (s.entries[i].kind == kind && name == s.entries[i].name.data()) return &s.entries[i];
+  return nullptr;
 }
 
 }  // namespace regolith::testing

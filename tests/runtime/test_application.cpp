@@ -19,6 +19,7 @@
 
 using namespace regolith;
 using namespace regolith::runtime;
+namespace rt = regolith::testing;
 
 namespace {
 
@@ -411,19 +412,16 @@ TEST(Application, ASimulatedOverrunSlipsItsOwnGroupOnlyAndHealthNamesIt) {
   ASSERT_TRUE(h);
   // The last report (slips in every second): the group warns, and the culprit is the drill, by its
   // simulated execution time (its wall time is nil).
-  bool group_warned = false, drill_named = false, joints_ok = false;
-  for (std::size_t i = 0; i < h->count; ++i) {
-    const HealthEntry& e = h->entries[i];
-    const std::string name = e.name.data();
-    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io")
-      group_warned = e.level == Level::kWarn && e.slips == io.slips;
-    if (name == "drill")
-      drill_named = e.level == Level::kWarn && std::string(e.message) == "overruns its rate group's period";
-    if (name == "joints") joints_ok = e.level == Level::kOk;
-  }
-  EXPECT_TRUE(group_warned);
-  EXPECT_TRUE(drill_named);
-  EXPECT_TRUE(joints_ok) << "the other member of the group is not blamed";
+  using K = HealthEntry::Kind;
+  const HealthEntry* group = rt::health_entry(*h, "io", K::kRateGroup);
+  const HealthEntry* drill = rt::health_entry(*h, "drill", K::kComponent);
+  const HealthEntry* joints = rt::health_entry(*h, "joints", K::kComponent);
+  ASSERT_TRUE(group && drill && joints);
+  EXPECT_EQ(group->level, Level::kWarn);
+  EXPECT_EQ(group->slips, io.slips);
+  EXPECT_EQ(drill->level, Level::kWarn);
+  EXPECT_STREQ(drill->message, "overruns its rate group's period");
+  EXPECT_EQ(joints->level, Level::kOk) << "the other member of the group is not blamed";
 }
 
 TEST(Application, SlipsFromALateStartNameNoMemberOfTheGroupThatSlipped) {
@@ -445,22 +443,17 @@ TEST(Application, SlipsFromALateStartNameNoMemberOfTheGroupThatSlipped) {
   EXPECT_EQ(slow.slips, 0u);
   auto h = app->context().channel<HealthSnapshot>("health/snapshot").acquire();
   ASSERT_TRUE(h);
-  int seen = 0;
-  for (std::size_t i = 0; i < h->count; ++i) {
-    const HealthEntry& e = h->entries[i];
-    const std::string name = e.name.data();
-    if (e.kind == HealthEntry::Kind::kRateGroup && name == "io") {
-      ++seen;
-      EXPECT_EQ(e.level, Level::kWarn);
-      EXPECT_STREQ(e.message, "cycle slips since last report: started late (CPU taken outside the group)");
-      EXPECT_EQ(e.late_start_slips, io.late_start_slips);
-    }
-    if (name == "joints" || name == "drill") {
-      ++seen;
-      EXPECT_EQ(e.level, Level::kOk) << name << ": " << e.message;
-    }
+  using K = HealthEntry::Kind;
+  const HealthEntry* group = rt::health_entry(*h, "io", K::kRateGroup);
+  ASSERT_TRUE(group);
+  EXPECT_EQ(group->level, Level::kWarn);
+  EXPECT_STREQ(group->message, "cycle slips since last report: started late (CPU taken outside the group)");
+  EXPECT_EQ(group->late_start_slips, io.late_start_slips);
+  for (const char* name : {"joints", "drill"}) {
+    const HealthEntry* e = rt::health_entry(*h, name, K::kComponent);
+    ASSERT_TRUE(e) << name;
+    EXPECT_EQ(e->level, Level::kOk) << name << ": " << e->message;
   }
-  EXPECT_EQ(seen, 3);
 }
 
 TEST(Application, HealthWarnsWhileABusLosesFramesAndCountsThem) {

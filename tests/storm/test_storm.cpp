@@ -27,6 +27,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_support.hpp"
+#include "diagnostics.hpp"
 #include "regolith/core/params.hpp"
 #include "regolith/hal/camera.hpp"
 #include "regolith/hal/wheel_encoders.hpp"
@@ -83,12 +84,6 @@ class StallWatcher {
   std::thread thread_;
 };
 
-const runtime::HealthEntry* entry(const runtime::HealthSnapshot& s, const char* name, runtime::HealthEntry::Kind kind) {
-  for (std::uint32_t i = 0; i < s.count; ++i)
-    if (s.entries[i].kind == kind && std::strcmp(s.entries[i].name.data(), name) == 0) return &s.entries[i];
-  return nullptr;
-}
-
 TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForTheStall) {
   if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs 2 CPUs (one is burnt)";
   cli::register_everything();
@@ -114,11 +109,11 @@ TEST(Storm, OtherGroupsKeepTheirRateTheCulpritIsNamedAndTheWatchdogStopsOnlyForT
     const auto snapshot = health.acquire();
     notifier.update(app->view(), snapshot ? &*snapshot : nullptr, app->clock().now());
     if (!snapshot) continue;
-    const auto* burner = entry(*snapshot, "burner", runtime::HealthEntry::Kind::kComponent);
+    const auto* burner = testing::health_entry(*snapshot, "burner", runtime::HealthEntry::Kind::kComponent);
     if (burner != nullptr && burner->level == runtime::Level::kWarn &&
         std::strcmp(burner->message, "overruns its rate group's period") == 0)
       named_culprit = true;
-    const auto* cam = entry(*snapshot, "wheel_cam", runtime::HealthEntry::Kind::kCamera);
+    const auto* cam = testing::health_entry(*snapshot, "wheel_cam", runtime::HealthEntry::Kind::kCamera);
     if (cam != nullptr && cam->level == runtime::Level::kError) camera_error = true;
   }
   app->stop();
