@@ -66,21 +66,24 @@ void RateGroup::run_cycle(Clock& clock) {
   wakeup_.record(start - release);
   last_release_.store(release, std::memory_order_relaxed);
 
-  // On a real clock: the thread's CPU time and its blocking waits over the cycle (for stalls).
+  // On a real clock, for stalls: the thread's blocking waits over the cycle, and the CPU time its
+  // steps took on this thread (read where each member's CPU is read anyway).
   const std::uint64_t waits0 = sim ? 0 : voluntary_switches();
-  const TimeNs cpu0 = sim ? 0 : thread_cpu_now();
+  TimeNs step_cpu = 0;
 
   CycleInfo info{release, start, period, cycles_.load(std::memory_order_relaxed)};
   for (Component* m : members_) {
     const TimeNs t0 = clock.now();
     const TimeNs w0 = sim ? monotonic_now() : t0;
-    const TimeNs c0 = thread_cpu_now() + m->worker_cpu_ns();
+    const TimeNs c0 = thread_cpu_now(), k0 = m->worker_cpu_ns();
     info.now = t0;
     t_member = m;
     m->step(info);
     t_member = nullptr;
     const TimeNs t1 = clock.now();
-    m->cpu_.record(thread_cpu_now() + m->worker_cpu_ns() - c0);
+    const TimeNs c1 = thread_cpu_now();
+    step_cpu += c1 - c0;
+    m->cpu_.record(c1 - c0 + m->worker_cpu_ns() - k0);
     m->exec_.record(t1 - t0);
     m->wall_.record(sim ? monotonic_now() - w0 : t1 - t0);
     m->heartbeat_.fetch_add(1, std::memory_order_relaxed);
@@ -95,8 +98,7 @@ void RateGroup::run_cycle(Clock& clock) {
   // switch: I/O, a lock, waiting on a worker pool) gets no such credit: waiting inside a cycle is
   // the member's own doing. Under the simulated clock time passes only as the members model it.
   TimeNs stall = 0;
-  if (!sim && voluntary_switches() == waits0)
-    stall = std::clamp<TimeNs>(duration - (thread_cpu_now() - cpu0), 0, duration);
+  if (!sim && voluntary_switches() == waits0) stall = std::clamp<TimeNs>(duration - step_cpu, 0, duration);
 
   // Missed releases: release + j*period (j >= 1) that came and went before this cycle ended and
   // were not already counted by an earlier (late) cycle. Split three ways, each part disjoint:
