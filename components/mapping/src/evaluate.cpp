@@ -245,17 +245,17 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
     const Row& t = it->second;
     if (last_t)
       path += std::hypot(t.at("rover_x_m") - last_t->at("rover_x_m"), t.at("rover_y_m") - last_t->at("rover_y_m"));
-    mean_err += std::hypot(e.at("x_m") - t.at("rover_x_m"), e.at("y_m") - t.at("rover_y_m"));
+    const double ex = e.at("x_m") - t.at("rover_x_m"), ey = e.at("y_m") - t.at("rover_y_m");
+    mean_err += std::hypot(ex, ey);
     mean_err_w += std::hypot(e.at("wheel_x_m") - t.at("rover_x_m"), e.at("wheel_y_m") - t.at("rover_y_m"));
     const auto col = [&](const char* k) {
       const auto c = e.find(k);
       return c != e.end() ? c->second : std::nan("");
     };
-    const double cxx = col("cov_xx"), cyy = col("cov_yy"), cww = col("cov_yawyaw");
-    const double cxy = std::isfinite(col("cov_xy")) ? col("cov_xy") : 0.0;
+    const double cxx = col("cov_xx"), cyy = col("cov_yy"), cww = col("cov_yawyaw"), cxy_read = col("cov_xy");
+    const double cxy = std::isfinite(cxy_read) ? cxy_read : 0.0;
     const double det = cxx * cyy - cxy * cxy;
     if (cxx > 0 && cyy > 0 && cww > 0 && det > 0) {
-      const double ex = e.at("x_m") - t.at("rover_x_m"), ey = e.at("y_m") - t.at("rover_y_m");
       const double ew = std::remainder(e.at("yaw_rad") - t.at("rover_yaw_rad"), 2 * 3.14159265358979323846);
       const double d2 = (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
       d2_sum += d2;
