@@ -89,6 +89,12 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                                               .max = 0.5,
                                               .doc = "error of one VO tilt: the ranging tilt is shrunk towards the "
                                                      "mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
+  mp.vo_lateral_bias = p.get<double>(
+      "vo_lateral_bias", mp.vo_lateral_bias,
+      {.min = 0.0,
+       .max = 1.0,
+       .doc = "fraction of each keyframe segment's length the visual odometry may run sideways (a tilt error); added "
+              "to the published pose covariance only, across the segment (0: the fit's covariance alone)"});
   mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
                                {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
                                        "(rocks pull the joint fit nose-down)"});

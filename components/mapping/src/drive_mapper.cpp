@@ -87,6 +87,7 @@ void DriveMapperParams::validate() const {
     fail("mapping", "parallax_spacing_m", "must be >= 0");
   if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
     fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
+  if (!(vo_lateral_bias >= 0 && vo_lateral_bias <= 1)) fail("mapping", "vo_lateral_bias", "must be in [0, 1]");
 }
 
 namespace {
@@ -224,6 +225,7 @@ DriveMapper::Located DriveMapper::track(const cv::Mat& gray, const Pose2& wheel,
                .covariance = compose_covariance(key_foot_, key_cov_, rel, wheel_since_key_cov_)};
   report_.pose = compose(here.foot, inverse(mount));
   report_.covariance = compose_covariance(here.foot, here.covariance, inverse(mount), Cov3::Zero());
+  report_.covariance += consider_ + segment_consider();
   // A new keyframe when the view has moved on, the fit thinned out, or vision failed on a
   // frame that itself is good (a black or saturated frame never becomes the keyframe).
   const bool frame_good = m.frame_cells >= 4 * p_.vo.min_points;
@@ -279,6 +281,21 @@ void DriveMapper::fuse_motion(const VoMeasurement& m, const Pose2& pred, const C
   }
   wheel_since_key_ = rel;
   wheel_since_key_cov_ = rel_cov;
+  segment_vision_ = segment_vision_ || (m.ok() && p_.use_vision);
+}
+
+Cov3 DriveMapper::segment_consider() const {
+  // Across the segment's direction (keyframe foot to here, world frame), std = bias x its length.
+  Cov3 c = Cov3::Zero();
+  const Pose2& rel = wheel_since_key_;
+  const double length = std::hypot(rel.x, rel.y);
+  if (!segment_vision_ || !(length > 0)) return c;
+  const double heading = key_foot_.yaw + std::atan2(rel.y, rel.x);
+  const double nx = -std::sin(heading), ny = std::cos(heading), v = std::pow(p_.vo_lateral_bias * length, 2);
+  c(0, 0) = v * nx * nx;
+  c(0, 1) = c(1, 0) = v * nx * ny;
+  c(1, 1) = v * ny * ny;
+  return c;
 }
 
 void DriveMapper::fuse_parallax(const VoMeasurement& m) {
@@ -313,6 +330,8 @@ void DriveMapper::sight_rocks(const cv::Mat& gray) {
 }
 
 void DriveMapper::promote(const Located& here) {
+  consider_ += segment_consider();  // the closed segment's bias is the pose's for good
+  segment_vision_ = false;
   vo_.promote_last();
   if (use_parallax()) parallax_.promote();
   if (use_sweep()) sweep_.promote();
