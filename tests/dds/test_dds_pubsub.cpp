@@ -521,7 +521,7 @@ TEST_F(DdsPubSub, EchoPrintsJsonLines) {
               "unknown topic 'camera/image_raw' (known: joint_states, imu, "
               "diagnostics, terrain/grid_map, "
               "terrain/rocks, terrain/wheel_sinkage, terrain/soil, odom, "
-              "odom/wheel, terrain/world_map, tf, tf_static, clock, rosout, "
+              "odom/wheel, terrain/world_map, terrain/world_rocks, tf, tf_static, clock, rosout, "
               "preview/rocks/compressed, preview/sinkage/compressed)");
   }
 }

@@ -246,12 +246,14 @@ TEST(DdsTopics, TableLookupAndList) {
   EXPECT_EQ(rd::find_topic("odom/wheel")->ros_type, "nav_msgs/msg/Odometry");
   EXPECT_EQ(rd::find_topic("terrain/world_map")->ros_type, "grid_map_msgs/msg/GridMap");
   EXPECT_EQ(rd::find_topic("terrain/world_map")->cls, rd::TopicClass::kState);
+  EXPECT_EQ(rd::find_topic("terrain/world_rocks")->ros_type, "vision_msgs/msg/Detection3DArray");
+  EXPECT_EQ(rd::find_topic("terrain/world_rocks")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("camera/image_raw"), nullptr);
   EXPECT_EQ(rd::find_topic("/tf")->ros_type, "tf2_msgs/msg/TFMessage");
   EXPECT_EQ(rd::find_topic("tf_static")->cls, rd::TopicClass::kState);
   EXPECT_EQ(rd::find_topic("/clock")->ros_type, "rosgraph_msgs/msg/Clock");
   EXPECT_EQ(rd::find_topic("/rosout")->ros_type, "rcl_interfaces/msg/Log");
-  EXPECT_EQ(rd::known_topics().size(), 16u);
+  EXPECT_EQ(rd::known_topics().size(), 17u);
   // State topics are latched for late readers; readers never ask for a
   // deadline.
   for (const auto& t : rd::known_topics()) {

@@ -293,9 +293,9 @@ TEST(LiveNode, EveryChannelOfTheMockedRoverDecodesAsEchoPrintsIt) {
   }
   // What the mocked rover publishes in 6 s: every topic but /rosout (no event) and the latched ones
   // a late subscriber may have missed.
-  for (const char* t :
-       {"joint_states", "imu", "terrain/grid_map", "terrain/rocks", "terrain/wheel_sinkage", "terrain/soil", "odom",
-        "odom/wheel", "terrain/world_map", "preview/rocks/compressed", "preview/sinkage/compressed"})
+  for (const char* t : {"joint_states", "imu", "terrain/grid_map", "terrain/rocks", "terrain/wheel_sinkage",
+                        "terrain/soil", "odom", "odom/wheel", "terrain/world_map", "terrain/world_rocks",
+                        "preview/rocks/compressed", "preview/sinkage/compressed"})
     EXPECT_GT(decoded["/" + ns + "/" + t], 0) << t;
   EXPECT_GT(decoded["/diagnostics"], 0);
   EXPECT_GT(decoded["/tf"], 0);

@@ -972,6 +972,23 @@ TEST(RockTracker, TriangulatesAContactOffTheGroundPlaneAcrossFrames) {
   const double loose_error = loose.table().at<float>(kTrackX, 0) - (contact[0] + radius);
   EXPECT_GT(loose_error, 0.02);
   EXPECT_LT(loose_error, 0.7 * first_error);
+  // The covariance to report adds what all 16 frames share: along the nearest frame's view (from
+  // the last foot, 1.5 m, to the rock) the far-ground tilt and height errors, (R^2 + h^2) / h x 0.02
+  // and R / h x 0.03 (R = 2.78 m, that frame's ground range of the contact, met on the plane), and
+  // a quarter of the width; across it the sighting's lateral sigma (0.03) and half the footprint
+  // radius (the height, 0.15 m, exceeds the sighted radius, 0.1 m).
+  const double range = std::hypot(2.5, 0.5) * h / (h - contact[2]);
+  const double along = std::hypot((range * range + h * h) / h * 0.02, range / h * 0.03, 0.05);
+  const double across = std::hypot(0.03, 0.5 * 0.15);
+  const cv::Mat& lt = loose.table();
+  const double dxx = lt.at<float>(kTrackPosXx, 0) - lt.at<float>(kTrackSxx, 0);
+  const double dxy = lt.at<float>(kTrackPosXy, 0) - lt.at<float>(kTrackSxy, 0);
+  const double dyy = lt.at<float>(kTrackPosYy, 0) - lt.at<float>(kTrackSyy, 0);
+  const double mid = 0.5 * (dxx + dyy), rad = std::hypot(0.5 * (dxx - dyy), dxy);
+  EXPECT_NEAR(std::sqrt(mid + rad), along, 0.03 * along);
+  EXPECT_NEAR(std::sqrt(mid - rad), across, 0.1 * across);
+  const double axis = 0.5 * std::atan2(2 * dxy, dxx - dyy), view = std::atan2(0.5, 4.1 - 1.5);
+  EXPECT_NEAR(axis, view, 0.02) << "the long axis lies along the view";
 }
 
 TEST(RockTracker, KeepsRocksApartClosesStaleTracksAndRefusesBadParameters) {
@@ -1516,10 +1533,38 @@ struct HandScoredDrive {
     std::ofstream(map / "odometry.csv") << "frame,x_m,y_m,yaw_rad,wheel_x_m,wheel_y_m,wheel_yaw_rad\n"
                                         << "0,0,0,1.5707963,0,0,1.5707963\n1,0,0.1,1.5707963,0,0.11,1.5707963\n";
   }
-  void detections(const std::string& rows) const {
-    std::ofstream(map / "rocks.csv") << "x_m,y_m,height_m,width_m,score\n" << rows;
+  void detections(const std::string& rows, const std::string& header = "x_m,y_m,height_m,width_m,score") const {
+    std::ofstream(map / "rocks.csv") << header << "\n" << rows;
   }
 };
+
+TEST(EvaluateMap, EachRocksClaimedCovarianceIsCheckedFromTheTruthsSide) {
+  const regolith::testing::TempDir tmp("mapping_rock_covariance");
+  const HandScoredDrive hd(tmp.path());
+  const std::string cov = "x_m,y_m,height_m,width_m,score,cov_xx,cov_xy,cov_yy";
+  // Rock 1 (0, 1.5) reported 0.2 m short along y with sd 0.1 m along y: d^2 = 4 (inside the 95 %
+  // ellipse, 5.99); rock 2 (0.5, 1.2) reported 0.1 m off in x with sd 0.02 m: d^2 = 25 (outside).
+  hd.detections("0,1.3,0.2,0.3,1,0.0004,0,0.01\n0.6,1.2,0.2,0.2,1,0.0004,0,0.0004\n", cov);
+  nlohmann::json j = evaluate_map(hd.drive, hd.map);
+  EXPECT_EQ(j["rocks"]["covariance_rocks"].get<int>(), 2);
+  EXPECT_NEAR(j["rocks"]["position_mahalanobis2_mean"].get<double>(), (4.0 + 25.0) / 2, 1e-6);
+  EXPECT_DOUBLE_EQ(j["rocks"]["position_within_95pct_ellipse"].get<double>(), 0.5);
+  // One correlated report at (0.1, 1.6), cov [[0.01, 0.009], [0.009, 0.01]] (det 1.9e-5): rock 1's
+  // error (0.1, 0.1) lies along its long axis, d^2 = 2e-5 / 1.9e-5; rock 2, missed, is 0.57 m
+  // from it, across the axis (-0.4, 0.4): d^2 = 6.08e-3 / 1.9e-5 = 320. A missed rock counts
+  // against the report nearest it: its ellipse does not cover where the rock is.
+  hd.detections("0.1,1.6,0.2,0.3,1,0.01,0.009,0.01\n", cov);
+  j = evaluate_map(hd.drive, hd.map);
+  EXPECT_EQ(j["rocks"]["covariance_rocks"].get<int>(), 2);
+  EXPECT_NEAR(j["rocks"]["position_mahalanobis2_mean"].get<double>(), (2e-5 + 6.08e-3) / 1.9e-5 / 2, 1e-6);
+  EXPECT_DOUBLE_EQ(j["rocks"]["position_within_95pct_ellipse"].get<double>(), 0.5);
+  // An older rocks.csv without the covariance: the checks are NaN, the rest scored.
+  hd.detections("0,1.5,0.2,0.3,1\n");
+  j = evaluate_map(hd.drive, hd.map);
+  EXPECT_EQ(j["rocks"]["covariance_rocks"].get<int>(), 0);
+  EXPECT_TRUE(std::isnan(j["rocks"]["position_mahalanobis2_mean"].get<double>()));
+  EXPECT_EQ(j["rocks"]["hits"].get<int>(), 1);
+}
 
 // Pixels of exactly this BGR colour.
 int count_colour(const cv::Mat& img, const cv::Vec3b& c) {

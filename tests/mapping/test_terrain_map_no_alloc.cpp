@@ -31,6 +31,9 @@ TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   yaml.replace(yaml.find(ns), ns.size(), "namespace: noalloc" + std::to_string(getpid()));
   const std::string dom = "domain: 0";
   yaml.replace(yaml.find(dom), dom.size(), "domain: " + std::to_string(regolith::testing::test_domain()));
+  // Rocks enough that the map reports some (terrain/world_rocks published with rocks in it).
+  const std::string ground = "fractal_rms_m: 0.003";
+  yaml.replace(yaml.find(ground), ground.size(), "fractal_rms_m: 0.003\n      rocks_per_m2: 0.6\n     ");
   auto app = runtime::Application::load(Params::load_string(yaml, "terrain_map_test.yaml"), {.sim_time = true});
   ASSERT_NE(app->dds(), nullptr);
   auto& state = app->context().channel<mapping::TerrainMapState>(mapping::kOdometryChannel);
@@ -45,5 +48,6 @@ TEST(TerrainMapNoAlloc, StepsAllocateNothingOnceRunningWithDds) {
   EXPECT_GE(l->counters.frames - frames_before, 20);  // frames mapped while counting
   EXPECT_GE(l->map_updates, 10);                      // map layers derived and published
   EXPECT_GT(l->counters.keyframes, 1);
+  EXPECT_GE(l->rocks, 1);  // measured 5 at the end of the drive
   EXPECT_EQ(regolith::testing::cycle_allocations() - before, 0u) << "heap allocations inside terrain_map cycles";
 }

@@ -545,5 +545,5 @@ TEST(RecordDds, FoxgloveParsesTheSchemaOfEveryRosType) {
   std::size_t channels = 0;
   while (std::getline(in, line)) channels += json::parse(line).contains("channel") ? 1 : 0;
   EXPECT_EQ(channels, types.size());
-  EXPECT_EQ(types.size(), 44u);
+  EXPECT_EQ(types.size(), 47u);
 }

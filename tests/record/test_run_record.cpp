@@ -156,7 +156,8 @@ TEST_F(RunRecord, SimTimeRunRecordsEveryPublishedSample) {
   for (const std::string& t :
        {n + "joint_states", n + "imu", std::string("/diagnostics"), std::string("/tf_static"), std::string("/tf"),
         n + "odom", n + "odom/wheel", n + "terrain/grid_map", n + "terrain/rocks", n + "terrain/wheel_sinkage",
-        n + "terrain/soil", n + "terrain/world_map", std::string("/clock"), std::string("/rosout")}) {
+        n + "terrain/soil", n + "terrain/world_map", n + "terrain/world_rocks", std::string("/clock"),
+        std::string("/rosout")}) {
     EXPECT_TRUE(recorded.count(t)) << t;
   }
   // Simulated time: every published sample is in the file, exactly.

@@ -34,10 +34,14 @@ namespace {
 using OdometryMsg = msgs::nav_msgs::Odometry;
 using TfMsg = msgs::tf2_msgs::TFMessage;
 using GridMapMsg = msgs::grid_map_msgs::GridMap;
+using RocksMsg = msgs::vision_msgs::Detection3DArray;
 constexpr double kUnobserved = 1e6;  // variance of what a planar odometry does not estimate (z, roll, pitch)
 constexpr const char* kOdomTopic = "odom";
 constexpr const char* kWheelOdomTopic = "odom/wheel";
 constexpr const char* kMapTopic = "terrain/world_map";
+constexpr const char* kRocksTopic = "terrain/world_rocks";
+// Rocks per terrain/world_rocks sample: the strongest this many of the map's (reserved at configure).
+constexpr std::uint32_t kMaxPublishedRocks = 256;
 constexpr const char* kTfTopic = "/tf";
 // Cells per side of the live map window. The algorithm takes up to 4096 (offline `regolith map`);
 // on the rover the map is kept twice at configure (warm-up and the mapper, ~130 B per cell each)
@@ -182,6 +186,7 @@ class TerrainMapComponent final : public runtime::Component {
       p.fail("encoders", std::string("rover.wheels reported by '") + enc_->id() + "': " + e.problem());
     }
     gray_.create(fmt.height, fmt.width, CV_8U);
+    rocks_.reserve(mapper_->map().max_rock_candidates());
     for (const auto& name : want) layers_.push_back(&mapper_->map().layer(name));
 
     // ---- outputs ----
@@ -189,7 +194,7 @@ class TerrainMapComponent final : public runtime::Component {
     input_ = &watch_input("camera", timeout);
     order_ = FrameOrder(timeout);
     if (dds::Participant* part = ctx.dds()) {
-      for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic, kTfTopic})
+      for (const char* topic : {kOdomTopic, kWheelOdomTopic, kMapTopic, kRocksTopic, kTfTopic})
         if (dds::find_topic(topic) == nullptr)
           p.fail({}, std::string("DDS topic ") + topic + " is unknown to this build");
       const std::string frame = frame_id_, child = child_frame_id_;
@@ -229,6 +234,18 @@ class TerrainMapComponent final : public runtime::Component {
                                                  m.info.length_x = nx * res;
                                                  m.info.length_y = ny * res;
                                                });
+      // The map's rocks in the odom frame, as vision_msgs/Detection3DArray (latched like the map).
+      rocks_msg_ =
+          part->make_outbox<RocksMsg>(kRocksTopic, dds::find_topic(kRocksTopic)->writer_qos(),
+                                      dds::OutboxOptions{dds::OutboxMode::kLatest, 3}, [frame](RocksMsg& m) {
+                                        dds::reserve(m, dds::Detection3DArrayCapacity{kMaxPublishedRocks, 1, 32, 32});
+                                        dds::copy_string(m.header.frame_id, 32, frame);
+                                        for (std::uint32_t k = 0; k < kMaxPublishedRocks; ++k) {
+                                          auto& d = m.detections._buffer[k];
+                                          dds::copy_string(d.header.frame_id, 32, frame);
+                                          dds::copy_string(d.results._buffer[0].hypothesis.class_id, 32, "rock");
+                                        }
+                                      });
     }
   }
 
@@ -295,6 +312,7 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("frames_out_of_order", std::to_string(order_.out_of_order()));
     kv.emplace_back("clock_steps", std::to_string(order_.clock_steps()));
     kv.emplace_back("cells_known", std::to_string(l->cells_known));
+    kv.emplace_back("rocks", std::to_string(l->rocks));
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3f %.3f %.2f", l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232);
     kv.emplace_back("pose_x_y_yawdeg", buf);
@@ -306,10 +324,10 @@ class TerrainMapComponent final : public runtime::Component {
     char buf[256];
     const double dw = std::hypot(l->pose.x - l->wheel_pose.x, l->pose.y - l->wheel_pose.y);
     std::snprintf(buf, sizeof buf,
-                  "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known, pose %.2f %.2f m %.1f deg "
-                  "(wheels %.1f cm away)%s%s",
+                  "map %ld frames (VO %ld ok / %ld failed, %ld keyframes), %ld cells known, %ld rocks, pose %.2f %.2f "
+                  "m %.1f deg (wheels %.1f cm away)%s%s",
                   l->counters.frames, l->counters.vo_ok, l->counters.vo_failed, l->counters.keyframes, l->cells_known,
-                  l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
+                  l->rocks, l->pose.x, l->pose.y, l->pose.yaw * 57.29577951308232, 100.0 * dw,
                   rejected_.load(std::memory_order_relaxed) > 0 ? ", frames rejected" : "",
                   order_.out_of_order() + order_.clock_steps() > 0 ? ", camera clock stepped back" : "");
     return buf;
@@ -356,6 +374,7 @@ class TerrainMapComponent final : public runtime::Component {
       for (int j = 0; j < el.cols; ++j) known += std::isfinite(row[j]) ? 1 : 0;
     }
     cells_known_ = known;
+    rocks_known_ = static_cast<long>(map.rocks(rocks_));
     ++map_updates_;
     map_due_ = true;
   }
@@ -381,6 +400,7 @@ class TerrainMapComponent final : public runtime::Component {
       s->frames_out_of_order = order_.out_of_order();
       s->clock_steps = order_.clock_steps();
       s->cells_known = cells_known_;
+      s->rocks = rocks_known_;
       s->map_updates = map_updates_;
       s->distance_m = odo_->distance();
       state_->commit();
@@ -427,12 +447,52 @@ class TerrainMapComponent final : public runtime::Component {
         }
         map_msg_->commit();
       }
+      if (rocks_msg_) publish_rocks(fr.capture_time);
       map_due_ = false;
     }
     prev_pose_ = r.pose;
     if (r.wheel_pose.finite()) prev_wheel_ = r.wheel_pose;
     prev_stamp_ = fr.capture_time;
     have_prev_ = true;
+  }
+
+  // terrain/world_rocks: the map's rocks, strongest first. Each: one hypothesis "rock" with its
+  // score and pose (the centre at half its height above the map's ground there, or above z = 0
+  // where the map has no elevation; x / y covariance from the tracker, z variance (height / 2)^2,
+  // orientation not estimated), and a box of its width x width x height.
+  void publish_rocks(TimeNs stamp) {
+    RocksMsg* m = rocks_msg_->begin();
+    if (m == nullptr) return;
+    const WorldMap& map = mapper_->map();
+    const std::size_t n = std::min<std::size_t>(rocks_.size(), kMaxPublishedRocks);
+    const cv::Mat& el = map.layer("elevation");
+    dds::set_stamp(m->header.stamp, stamp);
+    dds::set_length(m->detections, static_cast<std::uint32_t>(n));
+    for (std::size_t k = 0; k < n; ++k) {
+      const MapRock& r = rocks_[k];
+      auto& d = m->detections._buffer[k];
+      d.header.stamp = m->header.stamp;
+      const int j = static_cast<int>(std::lround((r.x_m - map.origin_x()) / map.resolution()));
+      const int i = static_cast<int>(std::lround((r.y_m - map.origin_y()) / map.resolution()));
+      const float g = (i >= 0 && j >= 0 && i < el.rows && j < el.cols) ? el.at<float>(i, j) : 0.0f;
+      auto& h = d.results._buffer[0];
+      h.hypothesis.score = r.score;
+      auto& pose = h.pose.pose;
+      pose.position.x = r.x_m;
+      pose.position.y = r.y_m;
+      pose.position.z = (std::isfinite(g) ? g : 0.0) + 0.5 * r.height_m;
+      double* cv = h.pose.covariance;
+      std::fill(cv, cv + 36, 0.0);
+      cv[0] = r.cov_xx;
+      cv[1] = cv[6] = r.cov_xy;
+      cv[7] = r.cov_yy;
+      cv[14] = 0.25 * r.height_m * r.height_m;
+      cv[21] = cv[28] = cv[35] = kUnobserved;
+      d.bbox.center = pose;
+      d.bbox.size.x = d.bbox.size.y = r.width_m;
+      d.bbox.size.z = r.height_m;
+    }
+    rocks_msg_->commit();
   }
 
   hal::Camera* cam_ = nullptr;
@@ -446,7 +506,7 @@ class TerrainMapComponent final : public runtime::Component {
   std::vector<const cv::Mat*> layers_;
   int map_every_ = 2, since_map_ = 0;
   bool map_due_ = false;
-  long cells_known_ = 0, map_updates_ = 0;
+  long cells_known_ = 0, map_updates_ = 0, rocks_known_ = 0;
   // Per frame received, mapped or not, for diagnostics() / result() on other threads.
   std::atomic<long> rejected_{0}, odometry_unavailable_{0};
   FrameOrder order_;  // its step-back limit is the input timeout
@@ -459,6 +519,8 @@ class TerrainMapComponent final : public runtime::Component {
   std::shared_ptr<dds::Outbox<OdometryMsg>> odom_msg_, wheel_msg_;
   std::shared_ptr<dds::Outbox<TfMsg>> tf_msg_;
   std::shared_ptr<dds::Outbox<GridMapMsg>> map_msg_;
+  std::shared_ptr<dds::Outbox<RocksMsg>> rocks_msg_;
+  std::vector<MapRock> rocks_;  // the map's rocks at the last map update (capacity reserved at configure)
   runtime::InputWatch* input_ = nullptr;
   NewValue new_frame_;
 };
@@ -469,7 +531,7 @@ void register_component() {
   runtime::ComponentRegistry::instance().add(
       "terrain_map",
       "camera + wheel encoders (+ IMU heading) -> visual/wheel odometry and a world-frame terrain map "
-      "(odom, odom/wheel, terrain/world_map)",
+      "(odom, odom/wheel, terrain/world_map, terrain/world_rocks)",
       [] { return std::make_unique<TerrainMapComponent>(); });
 }
 

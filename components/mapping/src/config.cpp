@@ -53,6 +53,13 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
       "track_rocks", mp.tracks.enabled,
       {.doc = "follow sighted rocks across frames and triangulate their ground contact (false: each sighting alone, "
               "ranged on the ground plane)"});
+  mp.tracks.report_tilt_sigma_rad = p.get<double>(
+      "rock_report_tilt_sigma_rad", mp.tracks.report_tilt_sigma_rad,
+      {.unit = "rad",
+       .min = 0.0,
+       .max = 0.5,
+       .doc = "error of the camera's tilt against the far ground shared by a rock's frames: enters the reported rock "
+              "covariance (rocks.csv, terrain/world_rocks) only"});
   mp.tracks.ground_sigma_m = p.get<double>(
       "rock_ground_sigma_m", mp.tracks.ground_sigma_m,
       {.unit = "m",

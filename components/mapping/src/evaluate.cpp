@@ -469,6 +469,29 @@ nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vec
     }
   for (std::size_t b = 0; b < det.size(); ++b)
     if (m.rock_of_detection[b] < 0) ++false_alarms;
+  // Is each rock's claimed position covariance honest (rocks.csv's cov_xx, cov_xy, cov_yy)? Per
+  // observed true rock >= 10 cm with a detection within 1 m (matched or not: a rock placed 0.5 m
+  // short is what its covariance has to cover), the squared Mahalanobis distance of the nearest
+  // such detection's error. (A detection near no rock is a false alarm, scored by the precision.)
+  double d2_sum = 0;
+  int n_cov = 0, within95 = 0;
+  for (const TRock& t : truth_rocks) {
+    if (!t.observed || t.h < 0.10) continue;
+    const Row* near = nullptr;
+    double best = 1.0;
+    for (const Row& r : det) {
+      const double d = std::hypot(r.at("x_m") - t.x, r.at("y_m") - t.y);
+      if (d <= best) best = d, near = &r;
+    }
+    if (near == nullptr || !near->count("cov_xx") || !near->count("cov_xy") || !near->count("cov_yy")) continue;
+    const double a = near->at("cov_xx"), b = near->at("cov_xy"), c = near->at("cov_yy"), det2 = a * c - b * b;
+    if (!(a > 0) || !(c > 0) || !(det2 > 0)) continue;
+    const double ex = near->at("x_m") - t.x, ey = near->at("y_m") - t.y;
+    const double d2 = (c * ex * ex - 2 * b * ex * ey + a * ey * ey) / det2;
+    d2_sum += d2;
+    within95 += d2 <= 5.991 ? 1 : 0;
+    ++n_cov;
+  }
   const double recall = positives ? static_cast<double>(hits) / positives : std::nan("");
   const double precision = (hits + false_alarms) ? static_cast<double>(hits) / (hits + false_alarms) : std::nan("");
   std::sort(herr.begin(), herr.end());
@@ -479,7 +502,10 @@ nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vec
           {"recall", recall},
           {"precision", precision},
           {"f1", (recall + precision) > 0 ? 2 * recall * precision / (recall + precision) : 0.0},
-          {"median_height_error_pct", herr.empty() ? std::nan("") : herr[herr.size() / 2]}};
+          {"median_height_error_pct", herr.empty() ? std::nan("") : herr[herr.size() / 2]},
+          {"covariance_rocks", n_cov},
+          {"position_mahalanobis2_mean", n_cov ? d2_sum / n_cov : std::nan("")},
+          {"position_within_95pct_ellipse", n_cov ? static_cast<double>(within95) / n_cov : std::nan("")}};
 }
 
 // --- hazard: ROC AUC over the seen cells with a hazard value; positive = on a rock >= 10 cm,

@@ -30,6 +30,7 @@ void RockTrackerParams::validate() const {
   if (!std::isfinite(ray_sigma_per_m) || ray_sigma_per_m < 0) fail("ray_sigma_per_m", "must be >= 0");
   if (!std::isfinite(gate) || gate <= 0) fail("gate", "must be > 0");
   if (max_age_frames < 1) fail("max_age_frames", "must be >= 1");
+  if (!std::isfinite(report_tilt_sigma_rad) || report_tilt_sigma_rad < 0) fail("report_tilt_sigma_rad", "must be >= 0");
 }
 
 RockTracker::RockTracker(const RockTrackerParams& params, int max_sightings)
@@ -93,7 +94,14 @@ void RockTracker::add(Track& t, const Ray& r, const cv::Mat& st, int k) {
   // Keep the kObservations nearest (heaviest) frames for the height.
   auto weakest = std::min_element(t.obs.begin(), t.obs.end(),
                                   [](const Observation& a, const Observation& b) { return a.weight < b.weight; });
-  if (ow > weakest->weight) *weakest = {r.o.x(), r.o.y(), static_cast<double>(st.at<float>(kSightTopSlope, k)), ow};
+  if (ow > weakest->weight)
+    *weakest = {r.o.x(),
+                r.o.y(),
+                static_cast<double>(st.at<float>(kSightTopSlope, k)),
+                ow,
+                r.range,
+                static_cast<double>(st.at<float>(kSightWidth, k)),
+                static_cast<double>(st.at<float>(kSightSigmaLateral, k))};
   ++t.frames;
   t.last = frame_;
 }
@@ -192,6 +200,16 @@ void RockTracker::write(const Track& t, cv::Mat& table, int col) const {
     ws += o.weight;
   }
   const Eigen::Matrix2d cov = t.a.inverse().topLeftCorner<2, 2>();
+  // The errors all frames share, along the nearest frame's view (u) and across it, for the report.
+  const Eigen::Vector2d n(-u.y(), u.x());
+  const double h = std::max(t.mount_m, 1e-3), rr = near->range;
+  const double along2 = std::pow((rr * rr + h * h) / h * p_.report_tilt_sigma_rad, 2) +
+                        std::pow(rr / h * p_.ground_sigma_m, 2) + std::pow(0.25 * near->width, 2);
+  // Across: which part of the rock the blobs were (a side-lit rock shows one half; its footprint
+  // radius is at least its height, RockSightingParams::footprint_per_height): half that radius.
+  const double height = ws > 0 ? hs / ws : 0.0;
+  const double across2 = std::pow(near->sigma_lateral, 2) + std::pow(0.5 * std::max(radius, height), 2);
+  const Eigen::Matrix2d pos = cov + along2 * u * u.transpose() + across2 * n * n.transpose();
   const auto set = [&](TrackRow r, double v) { table.at<float>(r, col) = static_cast<float>(v); };
   set(kTrackX, c.x());
   set(kTrackY, c.y());
@@ -202,6 +220,9 @@ void RockTracker::write(const Track& t, cv::Mat& table, int col) const {
   set(kTrackSxy, cov(0, 1));
   set(kTrackSyy, cov(1, 1));
   set(kTrackFrames, t.frames);
+  set(kTrackPosXx, pos(0, 0));
+  set(kTrackPosXy, pos(0, 1));
+  set(kTrackPosYy, pos(1, 1));
 }
 
 }  // namespace regolith::mapping

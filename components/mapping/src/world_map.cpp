@@ -505,6 +505,7 @@ std::vector<MapRock> WorldMap::relief_rocks() const {
     r.height_m = h;
     r.width_m = 2.0 * std::sqrt(area / 3.14159265358979323846);
     r.score = std::clamp(h / p_.hazard_height_m, 0.0, 1.0);
+    r.cov_xx = r.cov_yy = 0.25 * p_.resolution_m * p_.resolution_m;
     out.push_back(r);
   }
   return out;
@@ -512,7 +513,15 @@ std::vector<MapRock> WorldMap::relief_rocks() const {
 
 std::vector<MapRock> WorldMap::rocks() const {
   std::vector<MapRock> out;
-  if (p_.rocks_from_relief) out = relief_rocks();
+  out.reserve(max_rock_candidates());
+  rocks(out);
+  return out;
+}
+
+std::size_t WorldMap::rocks(std::vector<MapRock>& out) const {
+  out.clear();
+  if (p_.rocks_from_relief)
+    for (const MapRock& r : relief_rocks()) out.push_back(r);
   // Rocks tracked across frames: enough frames, evidence and height, inside the window.
   const double x0 = ox_ - 0.5 * p_.resolution_m, y0 = oy_ - 0.5 * p_.resolution_m;
   for (int k = 0; k < n_closed_ + n_live_; ++k) {
@@ -528,16 +537,21 @@ std::vector<MapRock> WorldMap::rocks() const {
         !(r.x_m >= x0 && r.x_m < x0 + cols_ * p_.resolution_m && r.y_m >= y0 && r.y_m < y0 + rows_ * p_.resolution_m))
       continue;
     r.score = std::clamp(r.height_m / p_.hazard_height_m, 0.0, 1.0) * std::min(1.0, e / (2.0 * p_.rock_min_evidence));
+    r.cov_xx = v(kTrackPosXx);
+    r.cov_xy = v(kTrackPosXy);
+    r.cov_yy = v(kTrackPosYy);
     out.push_back(r);
   }
-  // One rock per place: the strongest of those closer than rock_merge_m.
+  // One rock per place: the strongest of those closer than rock_merge_m (kept in place, in front).
   std::sort(out.begin(), out.end(), [](const MapRock& a, const MapRock& b) { return a.score > b.score; });
-  std::vector<MapRock> kept;
-  for (const MapRock& r : out) {
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < out.size(); ++k) {
     bool near = false;
-    for (const MapRock& k : kept) near = near || std::hypot(r.x_m - k.x_m, r.y_m - k.y_m) < p_.rock_merge_m;
-    if (!near) kept.push_back(r);
+    for (std::size_t m = 0; m < kept && !near; ++m)
+      near = std::hypot(out[k].x_m - out[m].x_m, out[k].y_m - out[m].y_m) < p_.rock_merge_m;
+    if (!near) out[kept++] = out[k];
   }
+  out.resize(kept);
   return kept;
 }
 

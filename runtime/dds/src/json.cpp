@@ -183,6 +183,15 @@ json to_json(const msgs::vision_msgs::Detection2D& m) {
 json to_json(const msgs::vision_msgs::Detection2DArray& m) {
   return {{"header", to_json(m.header)}, {"detections", structs(m.detections)}};
 }
+json to_json(const msgs::vision_msgs::BoundingBox3D& m) {
+  return {{"center", to_json(m.center)}, {"size", to_json(m.size)}};
+}
+json to_json(const msgs::vision_msgs::Detection3D& m) {
+  return {{"header", to_json(m.header)}, {"results", structs(m.results)}, {"bbox", to_json(m.bbox)}, {"id", str(m.id)}};
+}
+json to_json(const msgs::vision_msgs::Detection3DArray& m) {
+  return {{"header", to_json(m.header)}, {"detections", structs(m.detections)}};
+}
 json to_json(const msgs::regolith_msgs::WheelSinkage& m) {
   return {{"header", to_json(m.header)},
           {"wheel_names", strings(m.wheel_names)},

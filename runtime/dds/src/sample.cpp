@@ -150,4 +150,23 @@ void reserve(msgs::regolith_msgs::RockArray& m, const RockArrayCapacity& c) {
   reserve_sequence(m.hazard, c.rocks);
 }
 
+void reserve(msgs::vision_msgs::Detection3DArray& m, const Detection3DArrayCapacity& c) {
+  reserve_header(m.header, c.frame_id_capacity);
+  reserve_sequence(m.detections, c.detections);
+  for (std::uint32_t i = 0; i < c.detections; ++i) {
+    auto& d = m.detections._buffer[i];
+    reserve_header(d.header, c.frame_id_capacity);
+    d.id = alloc_string(c.string_capacity);
+    reserve_sequence(d.results, c.hypotheses);
+    d.results._length = c.hypotheses;
+    for (std::uint32_t k = 0; k < c.hypotheses; ++k) {
+      auto& r = d.results._buffer[k];
+      r.hypothesis.class_id = alloc_string(c.string_capacity);
+      r.pose.pose.orientation.w = 1.0;
+    }
+    d.bbox.center.orientation.w = 1.0;
+  }
+  m.detections._length = 0;
+}
+
 }  // namespace regolith::dds

@@ -23,8 +23,8 @@ TopicInfo entry(std::string_view name, TopicClass cls) {
   return TopicInfo{name, MsgTraits<Msg>::ros_type, cls, MsgTraits<Msg>::descriptor(), &render<Msg>};
 }
 
-const std::array<TopicInfo, 16>& table() {
-  static const std::array<TopicInfo, 16> t = {
+const std::array<TopicInfo, 17>& table() {
+  static const std::array<TopicInfo, 17> t = {
       entry<msgs::sensor_msgs::JointState>("joint_states", TopicClass::kStream),
       entry<msgs::sensor_msgs::Imu>("imu", TopicClass::kStream),
       entry<msgs::diagnostic_msgs::DiagnosticArray>("/diagnostics", TopicClass::kDiagnostics),
@@ -35,6 +35,7 @@ const std::array<TopicInfo, 16>& table() {
       entry<msgs::nav_msgs::Odometry>("odom", TopicClass::kStream),
       entry<msgs::nav_msgs::Odometry>("odom/wheel", TopicClass::kStream),
       entry<msgs::grid_map_msgs::GridMap>("terrain/world_map", TopicClass::kState),
+      entry<msgs::vision_msgs::Detection3DArray>("terrain/world_rocks", TopicClass::kState),
       entry<msgs::tf2_msgs::TFMessage>("/tf", TopicClass::kStream),
       entry<msgs::tf2_msgs::TFMessage>("/tf_static", TopicClass::kState),
       entry<msgs::rosgraph_msgs::Clock>("/clock", TopicClass::kStream),

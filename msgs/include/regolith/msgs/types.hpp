@@ -39,8 +39,11 @@
 #include "std_msgs/msg/MultiArrayLayout.h"
 #include "tf2_msgs/msg/TFMessage.h"
 #include "vision_msgs/msg/BoundingBox2D.h"
+#include "vision_msgs/msg/BoundingBox3D.h"
 #include "vision_msgs/msg/Detection2D.h"
 #include "vision_msgs/msg/Detection2DArray.h"
+#include "vision_msgs/msg/Detection3D.h"
+#include "vision_msgs/msg/Detection3DArray.h"
 #include "vision_msgs/msg/ObjectHypothesis.h"
 #include "vision_msgs/msg/ObjectHypothesisWithPose.h"
 #include "vision_msgs/msg/Point2D.h"
@@ -91,6 +94,9 @@ REGOLITH_MSGS_ALIAS(vision_msgs, ObjectHypothesis)
 REGOLITH_MSGS_ALIAS(vision_msgs, ObjectHypothesisWithPose)
 REGOLITH_MSGS_ALIAS(vision_msgs, Detection2D)
 REGOLITH_MSGS_ALIAS(vision_msgs, Detection2DArray)
+REGOLITH_MSGS_ALIAS(vision_msgs, BoundingBox3D)
+REGOLITH_MSGS_ALIAS(vision_msgs, Detection3D)
+REGOLITH_MSGS_ALIAS(vision_msgs, Detection3DArray)
 REGOLITH_MSGS_ALIAS(regolith_msgs, WheelSinkage)
 REGOLITH_MSGS_ALIAS(regolith_msgs, SoilStiffness)
 REGOLITH_MSGS_ALIAS(regolith_msgs, RockArray)

@@ -3,7 +3,8 @@
 // <camera>), the wheel encoders (rover.wheels, skid-steer odometry) and, when the rover has one,
 // the IMU heading feed DriveMapper::add_frame once per new frame. Outputs: channel `odom`
 // (TerrainMapState, below), DDS `odom` and `odom/wheel` (nav_msgs/Odometry) and
-// `terrain/world_map` (grid_map_msgs/GridMap, frame `odom`). See components/mapping/README.md.
+// `terrain/world_map` (grid_map_msgs/GridMap, frame `odom`) and `terrain/world_rocks`
+// (vision_msgs/Detection3DArray, frame `odom`). See components/mapping/README.md.
 #include <cstdint>
 
 #include "regolith/core/time.hpp"
@@ -35,6 +36,7 @@ struct TerrainMapState {
       0;                 ///< frames stamped at or before the last one taken, by less than the input timeout (skipped)
   long clock_steps = 0;  ///< stamps further back than the input timeout: mapping went on from there
   long cells_known = 0;  ///< map cells with an elevation (at the last map update)
+  long rocks = 0;        ///< rocks the map reports (WorldMap::rocks, at the last map update)
   long map_updates = 0;  ///< times the derived layers were recomputed (and published)
   double distance_m = 0.0;  ///< wheel odometry distance driven
 };

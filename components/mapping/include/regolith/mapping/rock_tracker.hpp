@@ -46,7 +46,11 @@ struct RockTrackerParams {
   double ray_sigma_per_m = 0.01;  ///< ... growing by this per m of range (a pixel and the tilt's error)
   double gate = 3.0;              ///< association gate, in standard deviations
   int max_age_frames = 15;        ///< a track unseen for this many frames is closed
-  void validate() const;          ///< FieldError("mapping.tracks", ...)
+  /// rad, error of the camera's tilt against the far ground that every frame of a track shares, for
+  /// the reported covariance only (kTrackPosXx..; the ranging tilt's rms against the truth's
+  /// large-scale ground plane on the dev drives: 0.007-0.023 rad in pitch, 0.018-0.030 in roll).
+  double report_tilt_sigma_rad = 0.02;
+  void validate() const;  ///< FieldError("mapping.tracks", ...)
 };
 
 /// Rows of RockTracker::table() and closed().
@@ -60,6 +64,16 @@ enum TrackRow {
   kTrackSxy,
   kTrackSyy,
   kTrackFrames,  ///< frames that saw it
+  /// m^2, the covariance of the centre to report (the map's rocks, terrain/world_rocks): the
+  /// triangulation's (kTrackSxx..) plus the errors every frame shares, which more frames do not
+  /// average out (RockTrackerParams::report_tilt_sigma_rad, ground_sigma_m): along the nearest
+  /// frame's view, a tilt error against the far ground ((R^2 + h^2) / h x it, R its range, h the
+  /// camera height), the ground's height there (R / h x ground_sigma_m) and a quarter of the
+  /// width; across it the sighting's lateral sigma (kSightSigmaLateral: a pixel and a quarter of
+  /// the width, as the blob may be the rock's lit half).
+  kTrackPosXx,
+  kTrackPosXy,
+  kTrackPosYy,
   kTrackRows
 };
 
@@ -84,9 +98,11 @@ class RockTracker {
 
  private:
   struct Observation {
-    double ox = 0, oy = 0;  // camera centre (world)
-    double slope = 0;       // tan of the top ray's angle
-    double weight = 0;      // score / range^2; 0 = empty
+    double ox = 0, oy = 0;        // camera centre (world)
+    double slope = 0;             // tan of the top ray's angle
+    double weight = 0;            // score / range^2; 0 = empty
+    double range = 0, width = 0;  // m, of the sighting
+    double sigma_lateral = 0;     // m, across its view (a pixel, and which part of the rock the blob is)
   };
   struct Track {
     Eigen::Matrix3d a;

@@ -71,10 +71,13 @@ struct WorldMapParams {
 };
 
 struct MapRock {
-  double x_m = 0.0, y_m = 0.0;  ///< world position of the highest cell
-  double height_m = 0.0;        ///< relief at its top
-  double width_m = 0.0;         ///< equivalent diameter of the footprint
+  double x_m = 0.0, y_m = 0.0;  ///< world position (a tracked rock's centre; a relief rock's highest cell)
+  double height_m = 0.0;        ///< above its ground
+  double width_m = 0.0;         ///< footprint diameter
   double score = 0.0;           ///< 0..1
+  /// Covariance of (x_m, y_m), m^2: a tracked rock's from the triangulation of its contact (the
+  /// rays and the ground prior, RockTracker); a relief rock's (resolution / 2)^2.
+  double cov_xx = 0.0, cov_xy = 0.0, cov_yy = 0.0;
 };
 
 class WorldMap {
@@ -125,8 +128,15 @@ class WorldMap {
   /// Recomputes elevation, variance, confidence, traversability, relief and hazard from the
   /// accumulators. No heap allocation after the first call.
   void finish();
-  /// Rocks from the relief layer (call finish() first). Allocates (for offline use and reports).
+  /// The map's rocks, strongest first (call finish() first): the tracked rocks with enough frames,
+  /// evidence and height inside the window (and connected relief blobs with rocks_from_relief),
+  /// one per rock_merge_m. Allocates (for offline use and reports).
   std::vector<MapRock> rocks() const;
+  /// The same into `out` (cleared first). No heap allocation when `out`'s capacity is at least
+  /// max_rock_candidates() and rocks_from_relief is off (the relief blobs allocate). Returns out.size().
+  std::size_t rocks(std::vector<MapRock>& out) const;
+  /// Most rocks rocks() can consider at once (every closed and live track the map holds).
+  std::size_t max_rock_candidates() const { return static_cast<std::size_t>(tracks_.cols); }
 
  private:
   void add(int i, int j, double z, double w);

@@ -221,4 +221,15 @@ struct RockArrayCapacity {
 };
 void reserve(msgs::regolith_msgs::RockArray& m, const RockArrayCapacity& c);
 
+/// vision_msgs/Detection3DArray with room for up to `detections` detections (length 0), each
+/// with `hypotheses` results (length set, orientations identity) and its header's frame_id and
+/// id strings reserved.
+struct Detection3DArrayCapacity {
+  std::uint32_t detections = 0;
+  std::uint32_t hypotheses = 1;
+  std::size_t string_capacity = 32;
+  std::size_t frame_id_capacity = 32;
+};
+void reserve(msgs::vision_msgs::Detection3DArray& m, const Detection3DArrayCapacity& c);
+
 }  // namespace regolith::dds
