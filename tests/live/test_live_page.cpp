@@ -168,6 +168,9 @@ class FakeRover {
     rocks_ = make<m::regolith_msgs::RockArray>(p, "terrain/rocks", [](auto& s) {
       rd::reserve(s, rd::RockArrayCapacity{3, 1, 32, 32});
     });
+    world_rocks_ = make<m::vision_msgs::Detection3DArray>(p, "terrain/world_rocks", [](auto& s) {
+      rd::reserve(s, rd::Detection3DArrayCapacity{2, 1, 32, 32});
+    });
     odom_ = make<m::nav_msgs::Odometry>(p, "odom", [](auto& s) { rd::reserve(s, 32); });
     // a camera preview as camera_preview publishes it: a 160x120 JPEG with a red box
     cv::Mat img(120, 160, CV_8UC3, cv::Scalar(90, 90, 90));
@@ -284,6 +287,33 @@ class FakeRover {
       }
       done(rocks_, "rocks", s);
     }
+    if (auto* s = world_rocks_->begin()) {
+      // Two rocks of the world map, in its frame: one with a correlated covariance.
+      rd::set_time(s->header.stamp, stamp);
+      rd::copy_string(s->header.frame_id, 32, "odom");
+      rd::set_length(s->detections, 2);
+      for (std::uint32_t k = 0; k < 2; ++k) {
+        auto& d = s->detections._buffer[k];
+        rd::set_time(d.header.stamp, stamp);
+        rd::copy_string(d.header.frame_id, 32, "odom");
+        rd::copy_string(d.results._buffer[0].hypothesis.class_id, 32, "rock");
+        auto& h = d.results._buffer[0];
+        h.hypothesis.score = 0.75 + 0.125 * k;
+        h.pose.pose.position.x = 2.0 + 0.5 * k;
+        h.pose.pose.position.y = -0.5 - 0.75 * k;
+        h.pose.pose.position.z = 0.1;
+        for (double& c : h.pose.covariance) c = 0.0;
+        h.pose.covariance[0] = 0.04;
+        h.pose.covariance[1] = h.pose.covariance[6] = k == 0 ? 0.0 : 0.015;
+        h.pose.covariance[7] = 0.01;
+        h.pose.covariance[14] = 0.0025;
+        h.pose.covariance[21] = h.pose.covariance[28] = h.pose.covariance[35] = 1e6;
+        d.bbox.center = h.pose.pose;
+        d.bbox.size.x = d.bbox.size.y = 0.3 + 0.1 * k;
+        d.bbox.size.z = 0.2;
+      }
+      done(world_rocks_, "world_rocks", s);
+    }
     if (auto* s = odom_->begin()) {
       rd::set_time(s->header.stamp, stamp);
       rd::copy_string(s->header.frame_id, 32, "odom");
@@ -342,6 +372,7 @@ class FakeRover {
   std::shared_ptr<rd::Outbox<m::regolith_msgs::SoilStiffness>> soil_;
   std::shared_ptr<rd::Outbox<m::grid_map_msgs::GridMap>> map_;
   std::shared_ptr<rd::Outbox<m::regolith_msgs::RockArray>> rocks_;
+  std::shared_ptr<rd::Outbox<m::vision_msgs::Detection3DArray>> world_rocks_;
   std::shared_ptr<rd::Outbox<m::nav_msgs::Odometry>> odom_;
   std::shared_ptr<rd::Outbox<m::sensor_msgs::CompressedImage>> preview_, wheel_preview_;
   std::vector<std::uint8_t> jpeg_;
@@ -694,6 +725,7 @@ TEST(LivePage, CdrModuleDecodesRelayedSamplesExactly) {
                                                      {"soil", "/" + rig.ns + "/terrain/soil"},
                                                      {"world_map", "/" + rig.ns + "/terrain/world_map"},
                                                      {"rocks", "/" + rig.ns + "/terrain/rocks"},
+                                                     {"world_rocks", "/" + rig.ns + "/terrain/world_rocks"},
                                                      {"odom", "/" + rig.ns + "/odom"},
                                                      {"rocks_preview", "/" + rig.ns + "/preview/rocks/compressed"}};
 
@@ -793,6 +825,10 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
   EXPECT_NE(html.find(R"(<tr class="error"><td>rock_3</td>)"), std::string::npos);
   EXPECT_NE(html.find(">front_left</td>"), std::string::npos);
   EXPECT_NE(html.find("40×30 cells of 0.10 m"), std::string::npos);
+  // the map's rocks (terrain/world_rocks, in the map's frame) drawn on it
+  EXPECT_NE(html.find("2 rocks from /" + rig.ns + "/terrain/world_rocks: footprint filled, 95 % position ellipse"),
+            std::string::npos)
+      << html;
   // both camera previews decoded and shown (the image's own size, from the JPEG; decoding is
   // asynchronous, after the message arrived)
   const bool shown = until(
@@ -813,6 +849,10 @@ TEST(LivePage, ChromiumShowsThePanelsFilled) {
 
   // Let the sinkage plot gather a few points, then the screenshot must not be blank.
   std::this_thread::sleep_for(std::chrono::seconds(2));
+  browser.evaluate("document.getElementById('map-canvas').scrollIntoView()");
+  std::ofstream(fs::path(REGOLITH_BINARY_DIR) / "tests" / "live" / "live_page_map.png", std::ios::binary)
+      << browser.screenshot();  // the map panel, for a human look
+  browser.evaluate("window.scrollTo(0, 0)");
   const std::string png = browser.screenshot();
   const fs::path shot = fs::path(REGOLITH_BINARY_DIR) / "tests" / "live" / "live_page.png";  // for a human look
   std::ofstream(shot, std::ios::binary) << png;

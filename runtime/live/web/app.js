@@ -15,6 +15,7 @@ const TOPICS = {
   gridMap: { suffix: "/terrain/grid_map", schema: "grid_map_msgs/msg/GridMap" },
   worldMap: { suffix: "/terrain/world_map", schema: "grid_map_msgs/msg/GridMap" },
   rocks: { suffix: "/terrain/rocks", schema: "regolith_msgs/msg/RockArray" },
+  worldRocks: { suffix: "/terrain/world_rocks", schema: "vision_msgs/msg/Detection3DArray" },
   odom: { suffix: "/odom", schema: "nav_msgs/msg/Odometry" },
   tf: { suffix: "/tf", schema: "tf2_msgs/msg/TFMessage" },
   rocksPreview: { suffix: "/preview/rocks/compressed", schema: "sensor_msgs/msg/CompressedImage" },
@@ -184,6 +185,7 @@ function onSoil(msg) {
 
 // ---- (d) terrain map --------------------------------------------------------------------------
 const maps = { gridMap: null, worldMap: null }; // latest GridMap of each topic
+let worldRocks = null; // latest Detection3DArray of the map's rocks (drawn on a map of its frame)
 const path = []; // rover positions {frame, x, y, yaw} from odom (else /tf)
 let pathFromOdom = false;
 let baseFrame = "base_link"; // the rover's frame: odometry's child_frame_id once known
@@ -282,6 +284,33 @@ function drawMap() {
     g.stroke();
     g.lineWidth = 1;
   }
+  // The map's rocks (terrain/world_rocks, same frame): the footprint (width) filled, and the
+  // ellipse the rock's position covariance puts it in with 95 % (2.45 sd) dashed.
+  const rocks = worldRocks && worldRocks.header.frame_id === frame ? worldRocks.detections : [];
+  for (const d of rocks) {
+    const h = d.results[0];
+    if (!h) continue;
+    const [cx, cy] = toCanvas(h.pose.pose.position.x, h.pose.pose.position.y);
+    g.fillStyle = "rgba(255,171,64,0.55)";
+    g.strokeStyle = "#ffab40";
+    g.beginPath();
+    g.arc(cx, cy, Math.max(2, (0.5 * d.bbox.size.x / res) * px), 0, 2 * Math.PI);
+    g.fill();
+    const c = h.pose.covariance, a = c[0], b = c[1], e = c[7];
+    const mid = 0.5 * (a + e), rad = Math.hypot(0.5 * (a - e), b);
+    if (mid - rad > 0) {
+      // Canvas axes: right = -y, down = -x; the ellipse's major axis at `angle` from +x in the map.
+      const angle = 0.5 * Math.atan2(2 * b, a - e), k = (2.45 / res) * px;
+      g.setLineDash([4, 3]);
+      g.beginPath();
+      g.ellipse(cx, cy, k * Math.sqrt(mid + rad), k * Math.sqrt(mid - rad), -Math.PI / 2 - angle, 0, 2 * Math.PI);
+      g.stroke();
+      g.setLineDash([]);
+    }
+  }
+  $("map-rocks").textContent = rocks.length
+    ? `${rocks.length} rocks from ${TOPICS.worldRocks.topic}: footprint filled, 95 % position ellipse dashed`
+    : "";
   // The rover: its last pose in the map's frame, or the origin of a body-frame map.
   const rover = track.length > 0 ? track[track.length - 1] : frame === baseFrame ? { x: 0, y: 0, yaw: 0 } : null;
   if (rover) {
@@ -363,6 +392,10 @@ const HANDLERS = {
   soil: onSoil,
   gridMap: (m) => onMap("gridMap", m),
   worldMap: (m) => onMap("worldMap", m),
+  worldRocks: (m) => {
+    worldRocks = m;
+    drawMap();
+  },
   rocks: onRocks,
   rocksPreview: (m) => onPreview("rocksPreview", m),
   sinkagePreview: (m) => onPreview("sinkagePreview", m),

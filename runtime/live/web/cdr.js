@@ -123,6 +123,15 @@ const detection2D = (r) => ({
   },
   id: r.string(),
 });
+const detection3D = (r) => ({
+  header: header(r),
+  results: r.sequence((q) => ({
+    hypothesis: { class_id: q.string(), score: q.float64() },
+    pose: poseWithCovariance(q),
+  }), 4),
+  bbox: { center: pose(r), size: vector3(r) },
+  id: r.string(),
+});
 const transformStamped = (r) => ({
   header: header(r),
   child_frame_id: r.string(),
@@ -166,6 +175,7 @@ export const decoders = {
     height_m: r.float64Sequence(),
     hazard: r.sequence((q) => q.bool(), 1),
   }),
+  "vision_msgs/msg/Detection3DArray": (r) => ({ header: header(r), detections: r.sequence(detection3D, 4) }),
   "nav_msgs/msg/Odometry": (r) => ({
     header: header(r),
     child_frame_id: r.string(),
