@@ -129,20 +129,28 @@ void reserve(msgs::grid_map_msgs::GridMap& m, const GridMapCapacity& c) {
   m.inner_start_index = 0;
 }
 
+namespace {
+// One vision_msgs Detection2D / Detection3D: its frame_id and id strings, `hypotheses` results
+// (class_id reserved, orientation identity; the sequence's length left as it is).
+template <class Detection>
+void reserve_detection(Detection& d, std::uint32_t hypotheses, std::size_t string_capacity,
+                       std::size_t frame_id_capacity) {
+  d.header.frame_id = alloc_string(frame_id_capacity);
+  d.id = alloc_string(string_capacity);
+  reserve_sequence(d.results, hypotheses);
+  for (std::uint32_t k = 0; k < hypotheses; ++k) {
+    auto& r = d.results._buffer[k];
+    r.hypothesis.class_id = alloc_string(string_capacity);
+    r.pose.pose.orientation.w = 1.0;
+  }
+}
+}  // namespace
+
 void reserve(msgs::regolith_msgs::RockArray& m, const RockArrayCapacity& c) {
   reserve_header(m.header, c.frame_id_capacity);
   reserve_sequence(m.detections, c.rocks);
-  for (std::uint32_t i = 0; i < c.rocks; ++i) {
-    auto& d = m.detections._buffer[i];
-    d.header.frame_id = alloc_string(c.frame_id_capacity);
-    d.id = alloc_string(c.string_capacity);
-    reserve_sequence(d.results, c.hypotheses);
-    for (std::uint32_t k = 0; k < c.hypotheses; ++k) {
-      auto& r = d.results._buffer[k];
-      r.hypothesis.class_id = alloc_string(c.string_capacity);
-      r.pose.pose.orientation.w = 1.0;
-    }
-  }
+  for (std::uint32_t i = 0; i < c.rocks; ++i)
+    reserve_detection(m.detections._buffer[i], c.hypotheses, c.string_capacity, c.frame_id_capacity);
   reserve_sequence(m.ground_range_m, c.rocks);
   reserve_sequence(m.lateral_offset_m, c.rocks);
   reserve_sequence(m.width_m, c.rocks);
@@ -155,15 +163,8 @@ void reserve(msgs::vision_msgs::Detection3DArray& m, const Detection3DArrayCapac
   reserve_sequence(m.detections, c.detections);
   for (std::uint32_t i = 0; i < c.detections; ++i) {
     auto& d = m.detections._buffer[i];
-    reserve_header(d.header, c.frame_id_capacity);
-    d.id = alloc_string(c.string_capacity);
-    reserve_sequence(d.results, c.hypotheses);
+    reserve_detection(d, c.hypotheses, c.string_capacity, c.frame_id_capacity);
     d.results._length = c.hypotheses;
-    for (std::uint32_t k = 0; k < c.hypotheses; ++k) {
-      auto& r = d.results._buffer[k];
-      r.hypothesis.class_id = alloc_string(c.string_capacity);
-      r.pose.pose.orientation.w = 1.0;
-    }
     d.bbox.center.orientation.w = 1.0;
   }
   m.detections._length = 0;

@@ -110,12 +110,13 @@ const float32MultiArray = (r) => ({
   layout: { dim: r.sequence(multiArrayDimension, 12), data_offset: r.uint32() },
   data: r.float32Sequence(),
 });
+const hypothesisWithPose = (r) => ({
+  hypothesis: { class_id: r.string(), score: r.float64() },
+  pose: poseWithCovariance(r),
+});
 const detection2D = (r) => ({
   header: header(r),
-  results: r.sequence((q) => ({
-    hypothesis: { class_id: q.string(), score: q.float64() },
-    pose: poseWithCovariance(q),
-  }), 4),
+  results: r.sequence(hypothesisWithPose, 4),
   bbox: {
     center: { position: { x: r.float64(), y: r.float64() }, theta: r.float64() },
     size_x: r.float64(),
@@ -125,10 +126,7 @@ const detection2D = (r) => ({
 });
 const detection3D = (r) => ({
   header: header(r),
-  results: r.sequence((q) => ({
-    hypothesis: { class_id: q.string(), score: q.float64() },
-    pose: poseWithCovariance(q),
-  }), 4),
+  results: r.sequence(hypothesisWithPose, 4),
   bbox: { center: pose(r), size: vector3(r) },
   id: r.string(),
 });
