@@ -437,9 +437,19 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   for (std::size_t k = 1; k < corrected.size(); ++k)
     cv::line(img, frame.px(corrected[k - 1].x, corrected[k - 1].y), frame.px(corrected[k].x, corrected[k].y),
              cv::Scalar(0, 220, 0), 2, cv::LINE_AA);
-  for (const MapRock& r : rocks)
+  for (const MapRock& r : rocks) {
     cv::circle(img, frame.px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m * frame.px_per_m())),
                cv::Scalar(0, 230, 255), 2, cv::LINE_AA);
+    // The 95 % ellipse of its position (2.45 sd along the covariance's axes), thin.
+    const double mid = 0.5 * (r.cov_xx + r.cov_yy), rad = std::hypot(0.5 * (r.cov_xx - r.cov_yy), r.cov_xy);
+    if (!(mid - rad > 0)) continue;
+    const double k = 2.45 * frame.px_per_m(), theta = 0.5 * std::atan2(2 * r.cov_xy, r.cov_xx - r.cov_yy);
+    const cv::Size axes(std::max(1, static_cast<int>(k * std::sqrt(mid + rad))),
+                        std::max(1, static_cast<int>(k * std::sqrt(mid - rad))));
+    // North up: a direction theta counter-clockwise from east is -theta in the image (rows down).
+    cv::ellipse(img, frame.px(r.x_m, r.y_m), axes, -theta * 180.0 / 3.14159265358979323846, 0, 360,
+                cv::Scalar(0, 230, 255), 1, cv::LINE_AA);
+  }
   // Scale bar (1 m), north arrow, legend.
   plot::put_scale_bar_and_north(img, frame.px_per_m());
   // The hazard tint's scale (on mid-grey ground): probability of an obstacle 0 .. 1.
@@ -457,7 +467,7 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   const plot::LegendEntry legend[] = {{"corrected path", {0, 220, 0}},
                                       {"wheel odometry", {255, 120, 0}},
                                       {"hazard", {0, 0, 255}},
-                                      {"rocks", {0, 230, 255}}};
+                                      {"rocks, 95 % ellipse", {0, 230, 255}}};
   plot::put_legend(img, {10, 18}, legend);
   return img;
 }
