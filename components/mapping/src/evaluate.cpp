@@ -228,6 +228,15 @@ struct ScoredGrid {
   cv::Point2d centre(int i, int j) const { return {ox + j * res, oy + i * res}; }
 };
 
+// The squared Mahalanobis distance of the error (ex, ey) under the covariance [[cxx, cxy], [cxy,
+// cyy]]; NaN unless that covariance is positive definite.
+double mahalanobis2(double ex, double ey, double cxx, double cxy, double cyy) {
+  const double det = cxx * cyy - cxy * cxy;
+  if (!(cxx > 0) || !(cyy > 0) || !(det > 0)) return std::nan("");
+  return (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
+}
+constexpr double kChi2TwoDof95 = 5.991;  // chi-square, 2 degrees of freedom, 95 %
+
 // --- poses: the corrected and the wheel path against the truth, frame by frame (`path_m`: the
 // true path length over the frames both tables have).
 nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir) {
@@ -254,13 +263,12 @@ nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>&
     };
     const double cxx = col("cov_xx"), cyy = col("cov_yy"), cww = col("cov_yawyaw"), cxy_read = col("cov_xy");
     const double cxy = std::isfinite(cxy_read) ? cxy_read : 0.0;
-    const double det = cxx * cyy - cxy * cxy;
-    if (cxx > 0 && cyy > 0 && cww > 0 && det > 0) {
+    const double d2 = mahalanobis2(ex, ey, cxx, cxy, cyy);
+    if (std::isfinite(d2) && cww > 0) {
       const double ew = std::remainder(e.at("yaw_rad") - t.at("rover_yaw_rad"), 2 * 3.14159265358979323846);
-      const double d2 = (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
       d2_sum += d2;
       zyaw2_sum += ew * ew / cww;
-      within95 += d2 <= 5.991 ? 1 : 0;  // chi-square, 2 degrees of freedom, 95 %
+      within95 += d2 <= kChi2TwoDof95 ? 1 : 0;
       ++n_cov;
     }
     ++n;
@@ -484,12 +492,11 @@ nlohmann::json score_rocks(const std::vector<TRock>& truth_rocks, const std::vec
       if (d <= best) best = d, near = &r;
     }
     if (near == nullptr || !near->count("cov_xx") || !near->count("cov_xy") || !near->count("cov_yy")) continue;
-    const double a = near->at("cov_xx"), b = near->at("cov_xy"), c = near->at("cov_yy"), det2 = a * c - b * b;
-    if (!(a > 0) || !(c > 0) || !(det2 > 0)) continue;
-    const double ex = near->at("x_m") - t.x, ey = near->at("y_m") - t.y;
-    const double d2 = (c * ex * ex - 2 * b * ex * ey + a * ey * ey) / det2;
+    const double d2 = mahalanobis2(near->at("x_m") - t.x, near->at("y_m") - t.y, near->at("cov_xx"), near->at("cov_xy"),
+                                   near->at("cov_yy"));
+    if (!std::isfinite(d2)) continue;
     d2_sum += d2;
-    within95 += d2 <= 5.991 ? 1 : 0;
+    within95 += d2 <= kChi2TwoDof95 ? 1 : 0;
     ++n_cov;
   }
   const double recall = positives ? static_cast<double>(hits) / positives : std::nan("");
