@@ -5,7 +5,8 @@
 //   2. real time: slips of the 30 Hz group, and the capture -> receipt latency of terrain/rocks
 //      measured by a C++ DDS subscriber in another process (`regolith echo --delay`: receipt
 //      ROS time - header stamp, the frame's capture time);
-//   3. the peer, same frame, same run, one thread: OpenCV StereoSGBM with 64 disparities.
+//   3. the peer, same frame, same run, one thread: OpenCV StereoSGBM with 64 disparities, once
+//      after each 0.5 s window of (1); sgbm64_ratio is the median of the per-window ratios.
 // The last line per resolution is for scripts:
 //   pipeline WxH cpu_ms_per_frame=X hz_one_core=X slips_at_30hz=N latency_p50_ms=X
 //   latency_p99_ms=X sgbm64_ratio=X
@@ -116,8 +117,52 @@ std::uint64_t group_cycles(const runtime::Application& app) {
   return n;
 }
 
+// 3. Peer: StereoSGBM, 64 disparities, one thread, on a rendered frame of the same size and a
+// copy shifted by 8 px. Timed between the simulated-clock windows of the pipeline (below), so a
+// shared host that slows down or speeds up during the run moves both sides of the ratio alike.
+class SgbmPeer {
+ public:
+  SgbmPeer(int w, int h) : sgbm_(cv::StereoSGBM::create(0, 64, 5)) {
+    terrain_scene::SceneParams sp;
+    const terrain_scene::Terrain terrain(sp);
+    terrain_scene::CameraPose cam;
+    cam.width = w;
+    cam.height = h;
+    cam.fx = cam.fy = 0.5 * w / std::tan(0.5 * kHfov);
+    cam.cx = 0.5 * (w - 1);
+    cam.cy = 0.5 * (h - 1);
+    cam.height_m = 0.5;
+    cam.pitch_rad = 0.35;
+    const auto img = terrain_scene::render_camera(terrain, cam, terrain_scene::Sun{-3.78, 0.6}, {});
+    left_ = terrain_scene::to_u8(img.image);
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -8, 0, 1, 0);
+    cv::warpAffine(left_, right_, shift, left_.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    once();  // warm-up
+  }
+  // CPU ms of one disparity map on one thread.
+  double once() {
+    const int threads = cv::getNumThreads();
+    cv::setNumThreads(1);
+    const double t0 = thread_cpu_ms();
+    sgbm_->compute(left_, right_, disp_);
+    const double ms = thread_cpu_ms() - t0;
+    cv::setNumThreads(threads);
+    return ms;
+  }
+
+ private:
+  cv::Ptr<cv::StereoSGBM> sgbm_;
+  cv::Mat left_, right_, disp_;
+};
+
 // 1. Simulated clock: CPU per frame per member.
-double cpu_per_frame(int w, int h, double sim_s) {
+struct SimResult {
+  double cpu_ms = 0;               // pipeline CPU per frame over all windows
+  std::vector<double> peer_ms;     // the peer, once after each window
+  std::vector<double> peer_ratio;  // per window: peer ms / pipeline CPU ms per frame
+};
+
+SimResult cpu_per_frame(int w, int h, double sim_s, SgbmPeer& peer) {
   auto app = runtime::Application::load(Params::load_string(deployment(w, h, "pipeline_sim"), "<pipeline>"),
                                         {.sim_time = true, .enable_dds = true});
   std::atomic<bool> stop{false};
@@ -125,11 +170,27 @@ double cpu_per_frame(int w, int h, double sim_s) {
   app->run(static_cast<TimeNs>(1.0 * static_cast<double>(kNsPerSec)), stop);  // warm-up: buffers, plans
   const auto c0 = member_cpu(*app);
   const std::uint64_t n0 = group_cycles(*app);
-  app->run(static_cast<TimeNs>(sim_s * static_cast<double>(kNsPerSec)), stop);
+  // Windows of 0.5 s (15 frames), each followed by one peer run.
+  SimResult res;
+  const int windows = std::max(4, static_cast<int>(std::lround(sim_s / 0.5)));
+  const auto window = static_cast<TimeNs>(sim_s / windows * static_cast<double>(kNsPerSec));
+  auto pipeline_ms = [](const std::vector<MemberCpu>& c) {
+    double ms = 0;
+    for (const auto& m : c) ms += m.total_ms;
+    return ms;
+  };
+  for (int i = 0; i < windows; ++i) {
+    const double before = pipeline_ms(member_cpu(*app));
+    const std::uint64_t nb = group_cycles(*app);
+    app->run(window, stop);
+    const double frames = static_cast<double>(std::max<std::uint64_t>(1, group_cycles(*app) - nb));
+    const double per_frame = (pipeline_ms(member_cpu(*app)) - before) / frames;
+    res.peer_ms.push_back(peer.once());
+    res.peer_ratio.push_back(res.peer_ms.back() / per_frame);
+  }
   const auto c1 = member_cpu(*app);
   const std::uint64_t frames = group_cycles(*app) - n0;
   app->stop();
-  double sum = 0;
   std::printf("  simulated clock, %llu frames at %.0f Hz, per frame:   CPU (all its threads)   elapsed   CPU ms/Mpx\n",
               static_cast<unsigned long long>(frames), kRateHz);
   const double mpx = static_cast<double>(w) * static_cast<double>(h) * 1e-6;
@@ -137,12 +198,12 @@ double cpu_per_frame(int w, int h, double sim_s) {
   double wall = 0;
   for (std::size_t i = 0; i < c1.size(); ++i) {
     const double ms = (c1[i].total_ms - c0[i].total_ms) / nf, wms = (c1[i].wall_ms - c0[i].wall_ms) / nf;
-    sum += ms;
+    res.cpu_ms += ms;
     wall += wms;
     std::printf("    %-16s %8.2f ms %8.2f ms %8.1f\n", c1[i].name.c_str(), ms, wms, ms / mpx);
   }
-  std::printf("    %-16s %8.2f ms %8.2f ms %8.1f\n", "total", sum, wall, sum / mpx);
-  return sum;
+  std::printf("    %-16s %8.2f ms %8.2f ms %8.1f\n", "total", res.cpu_ms, wall, res.cpu_ms / mpx);
+  return res;
 }
 
 // 2. Real time: slips and latency from another process.
@@ -218,39 +279,6 @@ RealTime real_time(int w, int h, double seconds, const std::string& regolith) {
   return r;
 }
 
-// 3. Peer: StereoSGBM, 64 disparities, one thread, on a rendered frame of the same size and a
-// copy shifted by 8 px.
-double sgbm64_ms(int w, int h) {
-  terrain_scene::SceneParams sp;
-  const terrain_scene::Terrain terrain(sp);
-  terrain_scene::CameraPose cam;
-  cam.width = w;
-  cam.height = h;
-  cam.fx = cam.fy = 0.5 * w / std::tan(0.5 * kHfov);
-  cam.cx = 0.5 * (w - 1);
-  cam.cy = 0.5 * (h - 1);
-  cam.height_m = 0.5;
-  cam.pitch_rad = 0.35;
-  const auto img = terrain_scene::render_camera(terrain, cam, terrain_scene::Sun{-3.78, 0.6}, {});
-  const cv::Mat left = terrain_scene::to_u8(img.image);
-  cv::Mat right;
-  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -8, 0, 1, 0);
-  cv::warpAffine(left, right, shift, left.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  const int threads = cv::getNumThreads();
-  cv::setNumThreads(1);
-  auto sgbm = cv::StereoSGBM::create(0, 64, 5);
-  cv::Mat disp;
-  sgbm->compute(left, right, disp);  // warm-up
-  std::vector<double> t;
-  for (int i = 0; i < 5; ++i) {
-    const double t0 = thread_cpu_ms();
-    sgbm->compute(left, right, disp);
-    t.push_back(thread_cpu_ms() - t0);
-  }
-  cv::setNumThreads(threads);
-  return quantile(t, 0.5);
-}
-
 bool parse_size(const std::string& s, int& w, int& h) {
   return std::sscanf(s.c_str(), "%dx%d", &w, &h) == 2 && w >= 64 && h >= 48 && w <= 4096 && h <= 4096;
 }
@@ -301,22 +329,26 @@ int main(int argc, char** argv) {
   for (const auto& [w, h] : sizes) {
     std::printf("pipeline %dx%d: sfs + sams (%d threads) + traversability, one %.0f Hz rate group, DDS on\n", w, h,
                 g_sams_threads, kRateHz);
-    const double cpu = cpu_per_frame(w, h, sim_s);
+    SgbmPeer peer(w, h);
+    const SimResult sim = cpu_per_frame(w, h, sim_s, peer);
+    const double cpu = sim.cpu_ms;
     const RealTime rt = real_time(w, h, realtime_s, regolith);
-    const double sgbm = sgbm64_ms(w, h);
+    const double sgbm = quantile(sim.peer_ms, 0.5), ratio = quantile(sim.peer_ratio, 0.5);
     const double p50 = quantile(rt.latency_ms, 0.5), p99 = quantile(rt.latency_ms, 0.99);
     std::printf(
         "  real time %.0f s: %llu cycles, %llu slips; terrain/rocks capture -> receipt in another process "
         "(%zu samples): p50 %.1f ms, p99 %.1f ms\n",
         realtime_s, static_cast<unsigned long long>(rt.cycles), static_cast<unsigned long long>(rt.slips),
         rt.latency_ms.size(), p50, p99);
-    std::printf("  peer: StereoSGBM 64 disparities, one thread, same size: %.1f ms per frame (%.1fx the pipeline)\n",
-                sgbm, sgbm / cpu);
+    std::printf(
+        "  peer: StereoSGBM 64 disparities, one thread, same size, once after each of the %zu simulated-clock windows: "
+        "median %.1f ms per frame; peer / pipeline per window: median %.1fx (%.1f .. %.1f)\n",
+        sim.peer_ms.size(), sgbm, ratio, quantile(sim.peer_ratio, 0.0), quantile(sim.peer_ratio, 1.0));
     char line[512];
     std::snprintf(line, sizeof line,
                   "pipeline %dx%d cpu_ms_per_frame=%.2f hz_one_core=%.1f slips_at_30hz=%llu latency_p50_ms=%.1f "
                   "latency_p99_ms=%.1f sgbm64_ratio=%.1f",
-                  w, h, cpu, 1000.0 / cpu, static_cast<unsigned long long>(rt.slips), p50, p99, sgbm / cpu);
+                  w, h, cpu, 1000.0 / cpu, static_cast<unsigned long long>(rt.slips), p50, p99, ratio);
     lines.emplace_back(line);
     std::printf("%s\n", line);
     std::fflush(stdout);

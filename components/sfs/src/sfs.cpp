@@ -7,8 +7,11 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
@@ -527,110 +530,352 @@ void ShapeFromShading::tsai_shah(const LightDirection& l, SfsResult& out) {
 // pixel's scalar equation with Newton's method (upstream values already final) gives the exact
 // solution of the same discretisation in one pass. The integration memory is limited by a leak
 // (upstream values scaled by 1 - 1/leak) so integrated noise does not drift.
+namespace {
+
+// The constants of one marching solve (light, bounds, Newton limits).
+struct MarchSetup {
+  float lam, ps, qs, norm_s, maxs, tol, gmax, black, inv_lin, fct, fst, fcs;
+  int max_it;
+};
+
+// One pixel's scalar equation E = R(p(t), q(t)) with p = t - zl, q = t - zu (the upstream depths
+// zl, zu already leaked; has_l / has_u false on the first column / row). Returns Z; `k_used` the
+// Newton iterations, `last` the final |step| (0 when no step was taken).
+inline float march_pixel(const MarchSetup& m, float e_raw, bool masked, bool has_l, bool has_u, float zl, float zu,
+                         int& k_used, float& last) {
+  k_used = 0;
+  last = 0.0f;
+  if (!has_l && !has_u) return 0.0f;
+  const float wa = has_l ? 1.0f : 0.0f, wb = has_u ? 1.0f : 0.0f;
+  const float e = std::min(e_raw, 1.0f);
+  // Linear (Pentland-like) initial guess, then Newton on f(t) = E - R(p(t), q(t)).
+  const float wsum = wa * m.fct + wb * m.fst;
+  // Black pixels (no data, sky, deep cast shadow) carry no shading information: continue flat.
+  // Other masked pixels (attached shadow, saturation) are still solved: the gradient bound keeps
+  // them sane, and they hold the steep faces of rocks.
+  if (masked && e_raw < m.black) return wsum > 1e-6f ? (wa * m.fct * zl + wb * m.fst * zu) / wsum : 0.5f * (zl + zu);
+  float t = wsum > 1e-6f ? ((e - m.fcs) * m.inv_lin * (m.fct + m.fst) + wa * m.fct * zl + wb * m.fst * zu) / wsum
+                         : 0.5f * (zl + zu);
+  // f(t) = E - R(p(t), q(t)) and dR/dt.
+  auto eval = [&](float tt, float& drdt) {
+    const float p = wa * (tt - zl), q = wb * (tt - zu);
+    const float pq = 1.0f + p * p + q * q;
+    const float npq = std::sqrt(pq);
+    const float num = 1.0f + p * m.ps + q * m.qs;
+    const float inv = 1.0f / (npq * m.norm_s);
+    const float drdp = m.ps * inv - p * num * inv / pq;
+    const float drdq = m.qs * inv - q * num * inv / pq;
+    drdt = wa * drdp + wb * drdq;
+    return e - std::max(0.0f, num * inv);
+  };
+  // Bound the backward differences to |p|, |q| <= gmax (steeper than ~63 deg is not recoverable
+  // from shading: grazing and near-maximum brightness are ill-conditioned).
+  const float lo = std::max(has_l ? zl - m.gmax : -1e30f, has_u ? zu - m.gmax : -1e30f);
+  const float hi = std::max(lo, std::min(has_l ? zl + m.gmax : 1e30f, has_u ? zu + m.gmax : 1e30f));
+  t = std::clamp(t, lo, hi);
+  float drdt = 0.0f;
+  float f = eval(t, drdt);
+  int k = 0;
+  for (k = 1; k <= m.max_it; ++k) {
+    if (drdt < 1e-4f) break;  // at the reflectance maximum along t (or flat)
+    float dz = std::clamp(f / drdt, -m.maxs, m.maxs);
+    // Backtracking: accept the step only if |f| decreases. When E exceeds the largest reflectance
+    // reachable along t (no root), this settles at the maximum.
+    float d_new = 0.0f, f_new = f;
+    bool improved = false;
+    for (int h = 0; h < 6; ++h, dz *= 0.5f) {
+      dz = std::clamp(t + dz, lo, hi) - t;
+      f_new = eval(t + dz, d_new);
+      // Stay on the branch through flat ground where R increases with t (drdt > 0 in the oriented
+      // frame); the far branch (past the reflectance maximum) is the spurious root.
+      if (std::abs(f_new) < std::abs(f) && d_new > 0.0f) {
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) {
+      last = 0.0f;
+      break;
+    }
+    t += dz;
+    f = f_new;
+    drdt = d_new;
+    last = std::abs(dz);
+    if (last < m.tol) break;
+  }
+  k_used = std::min(k, m.max_it);
+  return t;
+}
+
+// One row of the march, the scalar reference: left to right, each pixel after its left neighbour.
+void march_row(const MarchSetup& m, const cv::Mat& e, const cv::Mat& mask, cv::Mat& z, int r, int& max_used,
+               double& sum_last) {
+  const float* pe = e.ptr<float>(r);
+  const uchar* pm = mask.ptr<uchar>(r);
+  const float* pzu = r > 0 ? z.ptr<float>(r - 1) : nullptr;
+  float* pz = z.ptr<float>(r);
+  for (int c = 0; c < e.cols; ++c) {
+    const bool has_l = c > 0, has_u = pzu != nullptr;
+    const float zl = has_l ? m.lam * pz[c - 1] : 0.0f, zu = has_u ? m.lam * pzu[c] : 0.0f;
+    int k = 0;
+    float last = 0.0f;
+    pz[c] = march_pixel(m, pe[c], pm[c] == 0, has_l, has_u, zl, zu, k, last);
+    max_used = std::max(max_used, k);
+    sum_last += static_cast<double>(last);
+  }
+}
+
+#if CV_SIMD128
+using V4 = cv::v_float32x4;
+
+// N 128-bit vectors in lockstep: 4 N rows, N independent chains of square roots and divisions
+// for the processor to overlap (one vector's chain alone leaves it waiting on each result).
+template <int N>
+struct VN {
+  V4 v[N];
+  static constexpr int nlanes = N * V4::nlanes;
+};
+template <class F, int... I>
+VN<sizeof...(I)> lanewise_impl(F&& f, std::integer_sequence<int, I...>) {
+  return VN<sizeof...(I)>{{f(I)...}};
+}
+template <int N, class F>
+VN<N> lanewise(F&& f) {
+  return lanewise_impl(f, std::make_integer_sequence<int, N>{});
+}
+template <int N>
+VN<N> operator+(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] + y.v[i]; });
+}
+template <int N>
+VN<N> operator-(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] - y.v[i]; });
+}
+template <int N>
+VN<N> operator*(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] * y.v[i]; });
+}
+template <int N>
+VN<N> operator/(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] / y.v[i]; });
+}
+template <int N>
+VN<N> operator&(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] & y.v[i]; });
+}
+template <int N>
+VN<N> operator|(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] | y.v[i]; });
+}
+template <int N>
+VN<N> operator~(const VN<N>& x) {
+  return lanewise<N>([&](int i) { return ~x.v[i]; });
+}
+template <int N>
+VN<N> operator<(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] < y.v[i]; });
+}
+template <int N>
+VN<N> operator>(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return x.v[i] > y.v[i]; });
+}
+template <int N>
+VN<N> vmin(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return cv::v_min(x.v[i], y.v[i]); });
+}
+template <int N>
+VN<N> vmax(const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return cv::v_max(x.v[i], y.v[i]); });
+}
+template <int N>
+VN<N> vselect(const VN<N>& m, const VN<N>& x, const VN<N>& y) {
+  return lanewise<N>([&](int i) { return cv::v_select(m.v[i], x.v[i], y.v[i]); });
+}
+template <int N>
+VN<N> vsqrt(const VN<N>& x) {
+  return lanewise<N>([&](int i) { return cv::v_sqrt(x.v[i]); });
+}
+template <int N>
+VN<N> vabs(const VN<N>& x) {
+  return lanewise<N>([&](int i) { return cv::v_abs(x.v[i]); });
+}
+template <int N>
+bool vany(const VN<N>& x) {
+  V4 m = x.v[0];
+  for (int i = 1; i < N; ++i) m = m | x.v[i];
+  return cv::v_check_any(m);
+}
+template <class W>
+W vload(const float* p) {
+  return lanewise<W::nlanes / V4::nlanes>([&](int i) { return cv::v_load(p + i * V4::nlanes); });
+}
+template <int N>
+void vstore(float* p, const VN<N>& x) {
+  for (int i = 0; i < N; ++i) cv::v_store(p + i * V4::nlanes, x.v[i]);
+}
+template <class W>
+W vsplat(float x) {
+  return lanewise<W::nlanes / V4::nlanes>([&](int) { return cv::v_setall_f32(x); });
+}
+// Lanes moved up by one: lane 0 = x, lane j = v's lane j - 1.
+template <int N>
+VN<N> shift_in(float x, const VN<N>& v) {
+  return lanewise<N>(
+      [&](int i) { return cv::v_extract<V4::nlanes - 1>(i == 0 ? cv::v_setall_f32(x) : v.v[i - 1], v.v[i]); });
+}
+
+// W::nlanes rows of the march in the lanes of 128-bit vectors (SSE2 on x86-64, NEON on arm64),
+// a skewed wavefront: lane j solves row r0 + j at column s - j, whose upstream pixels (same row,
+// column - 1; row above, same column) were solved at step s - 1. A lane's
+// left neighbour is its own previous result and its upper neighbour the previous result of lane
+// j - 1 (lane 0 reads the row above the band), so the band's state stays in registers. The lanes
+// run march_pixel's operations in the same order (IEEE add, multiply, divide and square root, each
+// exact as in the scalar code), with masks where march_pixel branches: lanes that finished, or
+// whose backtracking found its step, wait for the others.
+template <class W>
+void march_rows_simd(const MarchSetup& m, const cv::Mat& e, const cv::Mat& mask, cv::Mat& z, int r0, int& max_used,
+                     double& sum_last) {
+  constexpr int K = W::nlanes;
+  const int cols = e.cols;
+  const float* pe[K];
+  const uchar* pm[K];
+  float* pz[K];
+  for (int j = 0; j < K; ++j) {
+    pe[j] = e.ptr<float>(r0 + j);
+    pm[j] = mask.ptr<uchar>(r0 + j);
+    pz[j] = z.ptr<float>(r0 + j);
+  }
+  const float* above = r0 > 0 ? z.ptr<float>(r0 - 1) : nullptr;
+  const W zero = vsplat<W>(0.0f), one = vsplat<W>(1.0f), half = vsplat<W>(0.5f);
+  const W lam = vsplat<W>(m.lam), ps = vsplat<W>(m.ps), qs = vsplat<W>(m.qs), norm_s = vsplat<W>(m.norm_s);
+  const W fct = vsplat<W>(m.fct), fst = vsplat<W>(m.fst), fcs = vsplat<W>(m.fcs), inv_lin = vsplat<W>(m.inv_lin);
+  const W gmax = vsplat<W>(m.gmax), lin_gain = vsplat<W>(m.fct + m.fst), tol = vsplat<W>(m.tol);
+  const W black = vsplat<W>(m.black), maxs = vsplat<W>(m.maxs), neg_maxs = vsplat<W>(-m.maxs);
+  const W big = vsplat<W>(1e30f), neg_big = vsplat<W>(-1e30f), tiny_w = vsplat<W>(1e-6f), flat_d = vsplat<W>(1e-4f);
+  W prev = zero;  // each lane's last result: its next left neighbour, and lane j + 1's upper one
+  alignas(16) float buf_e[K], buf_m[K], buf_l[K], buf_u[K], buf_v[K], out[K], lasts[K];
+  for (int j = 0; j < K; ++j) buf_u[j] = r0 + j > 0 ? 1.0f : 0.0f;
+  const W wb = vload<W>(buf_u), has_u = wb > zero;
+  for (int s = 0; s < cols + K - 1; ++s) {
+    for (int j = 0; j < K; ++j) {
+      const int c = s - j;
+      const bool in = c >= 0 && c < cols;
+      buf_v[j] = in ? 1.0f : 0.0f;
+      buf_e[j] = in ? pe[j][c] : 0.0f;
+      buf_m[j] = in && pm[j][c] == 0 ? 1.0f : 0.0f;
+      buf_l[j] = in && c > 0 ? 1.0f : 0.0f;
+    }
+    const W wa = vload<W>(buf_l), valid = vload<W>(buf_v) > zero, has_l = wa > zero;
+    const W e_raw = vload<W>(buf_e), masked = vload<W>(buf_m) > zero;
+    // Upstream depths, leaked: left = this lane's previous result; up = lane j - 1's (lane 0: the row above).
+    const W zl = vselect(has_l, lam * prev, zero);
+    const W zu = vselect(has_u, lam * shift_in(above != nullptr && s < cols ? above[s] : 0.0f, prev), zero);
+    const W e_v = vmin(e_raw, one);
+    const W wsum = wa * fct + wb * fst;
+    const W has_w = wsum > tiny_w;
+    const W mid = half * (zl + zu);
+    const W black_z = vselect(has_w, (wa * fct * zl + wb * fst * zu) / wsum, mid);
+    const W lin = ((e_v - fcs) * inv_lin * lin_gain + wa * fct * zl + wb * fst * zu) / wsum;
+    const W lo = vmax(vselect(has_l, zl - gmax, neg_big), vselect(has_u, zu - gmax, neg_big));
+    const W hi = vmax(lo, vmin(vselect(has_l, zl + gmax, big), vselect(has_u, zu + gmax, big)));
+    W t = vmin(vmax(vselect(has_w, lin, mid), lo), hi);
+    auto eval = [&](const W& tt, W& drdt) {
+      const W p = wa * (tt - zl), q = wb * (tt - zu);
+      const W pq = one + p * p + q * q;
+      const W npq = vsqrt(pq);
+      const W num = one + p * ps + q * qs;
+      const W inv = one / (npq * norm_s);
+      const W drdp = ps * inv - p * num * inv / pq;
+      const W drdq = qs * inv - q * num * inv / pq;
+      drdt = wa * drdp + wb * drdq;
+      return e_v - vmax(zero, num * inv);
+    };
+    const W first = ~(has_l | has_u);
+    const W is_black = masked & (e_raw < black);
+    W active = valid & ~first & ~is_black;
+    W drdt = zero, last = zero;
+    W f = eval(t, drdt);
+    for (int k = 1; k <= m.max_it && vany(active); ++k) {
+      max_used = std::max(max_used, k);
+      active = active & ~(drdt < flat_d);  // at the reflectance maximum along t (or flat)
+      if (!vany(active)) break;
+      W dz = vmin(vmax(f / drdt, neg_maxs), maxs);
+      W searching = active, step = zero, f_new = f, d_new = drdt;
+      for (int h = 0; h < 6 && vany(searching); ++h) {
+        dz = vmin(vmax(t + dz, lo), hi) - t;
+        W dn = zero;
+        const W fn = eval(t + dz, dn);
+        const W ok = searching & (vabs(fn) < vabs(f)) & (dn > zero);
+        step = vselect(ok, dz, step);
+        f_new = vselect(ok, fn, f_new);
+        d_new = vselect(ok, dn, d_new);
+        searching = searching & ~ok;
+        dz = dz * half;
+      }
+      const W improved = active & ~searching;
+      last = vselect(active, vselect(improved, vabs(step), zero), last);
+      t = vselect(improved, t + step, t);
+      f = vselect(improved, f_new, f);
+      drdt = vselect(improved, d_new, drdt);
+      active = improved & ~(last < tol);
+    }
+    prev = vselect(first, zero, vselect(is_black, black_z, t));
+    vstore(out, prev);
+    vstore(lasts, vselect(valid, last, zero));
+    for (int j = 0; j < K; ++j) {
+      const int c = s - j;
+      if (c < 0 || c >= cols) continue;
+      pz[j][c] = out[j];
+      sum_last += static_cast<double>(lasts[j]);
+    }
+  }
+}
+#endif
+
+}  // namespace
+
 void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& out) {
   const double ct = std::abs(std::cos(l.tilt_rad)), st = std::abs(std::sin(l.tilt_rad));
   const double ss = std::sin(l.slant_rad), cs = std::cos(l.slant_rad);
-  const float ps = static_cast<float>(ct * std::tan(l.slant_rad));
-  const float qs = static_cast<float>(st * std::tan(l.slant_rad));
   const int flip = orienting_flip(l);
   orient(e_, work_e_, flip);
   orient(mask_, work_mask_, flip);
   const cv::Size sz = e_.size();
   z_.create(sz, CV_32F);
   z_new_.create(sz, CV_32F);
-  const float lam = params_.tsai_shah_leak_px > 0 ? static_cast<float>(1.0 - 1.0 / params_.tsai_shah_leak_px) : 1.0f;
-  const float norm_s = std::sqrt(1.0f + ps * ps + qs * qs);
-  const float maxs = static_cast<float>(params_.max_step) * 4.0f;
-  const float tol = static_cast<float>(params_.tolerance);
-  const float gmax = static_cast<float>(params_.tsai_shah_max_gradient);
-  const int max_it = params_.tsai_shah_newton_iterations;
-  const float black = params_.tsai_shah_skip_black ? static_cast<float>(0.5 * params_.shadow_level) : -1.0f;
   if (ss < 1e-3) {  // light along the line of sight: shading carries no gradient information
     fill(z_, 0.0f);
     out.iterations = 0;
     out.final_mean_update = 0.0;
   } else {
-    const float inv_lin = static_cast<float>(1.0 / (ss * (ct + st)));
-    const float fct = static_cast<float>(ct), fst = static_cast<float>(st), fcs = static_cast<float>(cs);
+    MarchSetup m{};
+    m.lam = params_.tsai_shah_leak_px > 0 ? static_cast<float>(1.0 - 1.0 / params_.tsai_shah_leak_px) : 1.0f;
+    m.ps = static_cast<float>(ct * std::tan(l.slant_rad));
+    m.qs = static_cast<float>(st * std::tan(l.slant_rad));
+    m.norm_s = std::sqrt(1.0f + m.ps * m.ps + m.qs * m.qs);
+    m.maxs = static_cast<float>(params_.max_step) * 4.0f;
+    m.tol = static_cast<float>(params_.tolerance);
+    m.gmax = static_cast<float>(params_.tsai_shah_max_gradient);
+    m.max_it = params_.tsai_shah_newton_iterations;
+    m.black = params_.tsai_shah_skip_black ? static_cast<float>(0.5 * params_.shadow_level) : -1.0f;
+    m.inv_lin = static_cast<float>(1.0 / (ss * (ct + st)));
+    m.fct = static_cast<float>(ct);
+    m.fst = static_cast<float>(st);
+    m.fcs = static_cast<float>(cs);
     int max_used = 0;
     double sum_last = 0.0;
-    for (int r = 0; r < sz.height; ++r) {
-      const float* pe = work_e_.ptr<float>(r);
-      const uchar* pmask = work_mask_.ptr<uchar>(r);
-      const float* pzu = r > 0 ? z_.ptr<float>(r - 1) : nullptr;
-      float* pz = z_.ptr<float>(r);
-      for (int c = 0; c < sz.width; ++c) {
-        const bool has_l = c > 0, has_u = r > 0;
-        const float zl = has_l ? lam * pz[c - 1] : 0.0f, zu = has_u ? lam * pzu[c] : 0.0f;
-        const float wa = has_l ? 1.0f : 0.0f, wb = has_u ? 1.0f : 0.0f;
-        const float e = std::min(pe[c], 1.0f);
-        if (!has_l && !has_u) {
-          pz[c] = 0.0f;
-          continue;
-        }
-        // Linear (Pentland-like) initial guess, then Newton on f(t) = E - R(p(t), q(t)).
-        const float wsum = wa * fct + wb * fst;
-        // Black pixels (no data, sky, deep cast shadow) carry no shading information: continue
-        // flat. Other masked pixels (attached shadow, saturation) are still solved: the gradient
-        // bound keeps them sane, and they hold the steep faces of rocks.
-        if (!pmask[c] && pe[c] < black) {
-          pz[c] = wsum > 1e-6f ? (wa * fct * zl + wb * fst * zu) / wsum : 0.5f * (zl + zu);
-          continue;
-        }
-        float t = wsum > 1e-6f ? ((e - fcs) * inv_lin * (fct + fst) + wa * fct * zl + wb * fst * zu) / wsum
-                               : 0.5f * (zl + zu);
-        // f(t) = E - R(p(t), q(t)) and dR/dt.
-        auto eval = [&](float tt, float& drdt) {
-          const float p = wa * (tt - zl), q = wb * (tt - zu);
-          const float pq = 1.0f + p * p + q * q;
-          const float npq = std::sqrt(pq);
-          const float num = 1.0f + p * ps + q * qs;
-          const float inv = 1.0f / (npq * norm_s);
-          const float drdp = ps * inv - p * num * inv / pq;
-          const float drdq = qs * inv - q * num * inv / pq;
-          drdt = wa * drdp + wb * drdq;
-          return e - std::max(0.0f, num * inv);
-        };
-        // Bound the backward differences to |p|, |q| <= gmax (steeper than ~63 deg is not
-        // recoverable from shading: grazing and near-maximum brightness are ill-conditioned).
-        const float lo = std::max(has_l ? zl - gmax : -1e30f, has_u ? zu - gmax : -1e30f);
-        const float hi = std::min(has_l ? zl + gmax : 1e30f, has_u ? zu + gmax : 1e30f);
-        t = std::clamp(t, lo, std::max(lo, hi));
-        float last = 0.0f, drdt = 0.0f;
-        float f = eval(t, drdt);
-        int k = 0;
-        for (k = 1; k <= max_it; ++k) {
-          if (drdt < 1e-4f) break;  // at the reflectance maximum along t (or flat)
-          float dz = std::clamp(f / drdt, -maxs, maxs);
-          // Backtracking: accept the step only if |f| decreases. When E exceeds the largest
-          // reflectance reachable along t (no root), this settles at the maximum.
-          float d_new = 0.0f, f_new = f;
-          bool improved = false;
-          for (int h = 0; h < 6; ++h, dz *= 0.5f) {
-            dz = std::clamp(t + dz, lo, std::max(lo, hi)) - t;
-            f_new = eval(t + dz, d_new);
-            // Stay on the branch through flat ground where R increases with t (drdt > 0 in the
-            // oriented frame); the far branch (past the reflectance maximum) is the spurious root.
-            if (std::abs(f_new) < std::abs(f) && d_new > 0.0f) {
-              improved = true;
-              break;
-            }
-          }
-          if (!improved) {
-            last = 0.0f;
-            break;
-          }
-          t += dz;
-          f = f_new;
-          drdt = d_new;
-          last = std::abs(dz);
-          if (last < tol) break;
-        }
-        max_used = std::max(max_used, std::min(k, max_it));
-        sum_last += static_cast<double>(last);
-        pz[c] = t;
-      }
+    int r = 0;
+#if CV_SIMD128
+    if (params_.tsai_shah_simd) {
+      using Wide = VN<2>;
+      using Narrow = VN<1>;
+      for (; r + Wide::nlanes <= sz.height; r += Wide::nlanes)
+        march_rows_simd<Wide>(m, work_e_, work_mask_, z_, r, max_used, sum_last);
+      for (; r + Narrow::nlanes <= sz.height; r += Narrow::nlanes)
+        march_rows_simd<Narrow>(m, work_e_, work_mask_, z_, r, max_used, sum_last);
     }
+#endif
+    for (; r < sz.height; ++r) march_row(m, work_e_, work_mask_, z_, r, max_used, sum_last);
     out.iterations = max_used;
     out.final_mean_update = sum_last / static_cast<double>(sz.area());
   }

@@ -103,6 +103,10 @@ struct SfsParams {
   /// instead of being solved. Off by default: on rendered terrain the attached shadows of rocks
   /// are black and solving them (to the gradient bound) scores better (r 0.70 vs 0.59).
   bool tsai_shah_skip_black = false;
+  /// Marching: solve four rows per 128-bit vector (SSE2 / NEON). Off = the scalar sweep, kept as
+  /// the reference: both give the same heights bit for bit where the compiler does not fuse
+  /// multiply-adds (x86-64; tests/sfs checks it).
+  bool tsai_shah_simd = true;
   bool kalman_gain = false;            ///< Jacobi: reference Kalman-style gain (freezes; for comparison)
   bool gauss_seidel = false;           ///< Tsai-Shah: in-place raster update instead of Jacobi
   double step_damping = 0.5;           ///< Tsai-Shah damped Newton step fraction (0, 1]
