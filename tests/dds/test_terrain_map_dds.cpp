@@ -6,6 +6,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -70,7 +72,7 @@ struct MapSample {
 
 // One rock of terrain/world_rocks (vision_msgs/Detection3D).
 struct RockSample {
-  std::string frame, class_id;
+  std::string frame, class_id, id;
   std::size_t results = 0;
   double score = 0, x = 0, y = 0, z = 0, cxx = 0, cxy = 0, cyx = 0, cyy = 0, czz = 0, cyaw = 0;
   double bx = 0, by = 0, bz = 0, sx = 0, sy = 0, sz = 0;
@@ -81,6 +83,7 @@ std::vector<RockSample> rocks_of(const m::vision_msgs::Detection3DArray& a) {
     const auto& d = a.detections._buffer[k];
     RockSample r;
     r.frame = d.header.frame_id != nullptr ? d.header.frame_id : "";
+    r.id = d.id != nullptr ? d.id : "";
     r.results = d.results._length;
     if (d.results._length > 0) {
       const auto& h = d.results._buffer[0];
@@ -179,12 +182,19 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   std::size_t maps = 0, rock_samples = 0;
   std::string rocks_frame;
   std::vector<RockSample> last_rocks;
+  std::map<std::string, std::vector<RockSample>> by_id;  // every sample's rocks by their id
+  std::size_t duplicate_ids = 0;
   auto drain = [&] {
     rocks.take(
         [&](const m::vision_msgs::Detection3DArray& a, const dds_sample_info_t&) {
           ++rock_samples;
           rocks_frame = a.header.frame_id != nullptr ? a.header.frame_id : "";
           last_rocks = rocks_of(a);
+          std::set<std::string> ids;
+          for (const RockSample& r : last_rocks) {
+            duplicate_ids += ids.insert(r.id).second ? 0 : 1;
+            by_id[r.id].push_back(r);
+          }
         },
         100);
     odom.take([&](const m::nav_msgs::Odometry& o, const dds_sample_info_t&) { corrected.push_back(odom_of(o)); }, 1000);
@@ -387,4 +397,19 @@ TEST(TerrainMapDds, OdometryAndWorldMapReadInAnotherProcess) {
   }
   EXPECT_GE(last_rocks.size(), 1u);
   EXPECT_GE(2 * near_truth, static_cast<int>(last_rocks.size())) << "most published rocks stand on a true rock";
+  // Identity across updates: every rock has an id (its track number), unique within a message;
+  // the rocks of the last message were published before under the same id, and an id stays on one
+  // rock (its reports stay within 0.3 m of each other).
+  EXPECT_EQ(by_id.count(""), 0u) << "a tracked rock without an id";
+  EXPECT_EQ(duplicate_ids, 0u);
+  int seen_before = 0;
+  for (const RockSample& r : last_rocks) seen_before += by_id[r.id].size() > 1 ? 1 : 0;
+  EXPECT_GE(seen_before, 1) << "no rock of the last message kept its id from an earlier one";
+  for (const auto& [id, reports] : by_id) {
+    double spread = 0;
+    for (const RockSample& a : reports)
+      for (const RockSample& b : reports) spread = std::max(spread, std::hypot(a.x - b.x, a.y - b.y));
+    std::printf("world rock id %s: %zu reports within %.3f m\n", id.c_str(), reports.size(), spread);
+    EXPECT_LT(spread, 0.3) << "id " << id << " moved between rocks";
+  }
 }

@@ -40,6 +40,7 @@ constexpr const char* kOdomTopic = "odom";
 constexpr const char* kWheelOdomTopic = "odom/wheel";
 constexpr const char* kMapTopic = "terrain/world_map";
 constexpr const char* kRocksTopic = "terrain/world_rocks";
+constexpr std::size_t kIdCapacity = 32;  // characters of a Detection3D's id and class_id
 // Rocks per terrain/world_rocks sample: the strongest this many of the map's (reserved at configure).
 constexpr std::uint32_t kMaxPublishedRocks = 256;
 constexpr const char* kTfTopic = "/tf";
@@ -235,17 +236,17 @@ class TerrainMapComponent final : public runtime::Component {
                                                  m.info.length_y = ny * res;
                                                });
       // The map's rocks in the odom frame, as vision_msgs/Detection3DArray (latched like the map).
-      rocks_msg_ =
-          part->make_outbox<RocksMsg>(kRocksTopic, dds::find_topic(kRocksTopic)->writer_qos(),
-                                      dds::OutboxOptions{dds::OutboxMode::kLatest, 3}, [frame](RocksMsg& m) {
-                                        dds::reserve(m, dds::Detection3DArrayCapacity{kMaxPublishedRocks, 1, 32, 32});
-                                        dds::copy_string(m.header.frame_id, 32, frame);
-                                        for (std::uint32_t k = 0; k < kMaxPublishedRocks; ++k) {
-                                          auto& d = m.detections._buffer[k];
-                                          dds::copy_string(d.header.frame_id, 32, frame);
-                                          dds::copy_string(d.results._buffer[0].hypothesis.class_id, 32, "rock");
-                                        }
-                                      });
+      rocks_msg_ = part->make_outbox<RocksMsg>(
+          kRocksTopic, dds::find_topic(kRocksTopic)->writer_qos(), dds::OutboxOptions{dds::OutboxMode::kLatest, 3},
+          [frame](RocksMsg& m) {
+            dds::reserve(m, dds::Detection3DArrayCapacity{kMaxPublishedRocks, 1, kIdCapacity, 32});
+            dds::copy_string(m.header.frame_id, 32, frame);
+            for (std::uint32_t k = 0; k < kMaxPublishedRocks; ++k) {
+              auto& d = m.detections._buffer[k];
+              dds::copy_string(d.header.frame_id, 32, frame);
+              dds::copy_string(d.results._buffer[0].hypothesis.class_id, kIdCapacity, "rock");
+            }
+          });
     }
   }
 
@@ -456,11 +457,10 @@ class TerrainMapComponent final : public runtime::Component {
     have_prev_ = true;
   }
 
-  // terrain/world_rocks: the map's rocks, strongest first. Each: one hypothesis "rock" with its
-  // score and pose (the centre at half its height above the map's ground there, or above z = 0
-  // where the map has no elevation; x / y covariance MapRock's: the triangulation plus the errors a
-  // track's frames share; z variance (height / 2)^2,
-  // orientation not estimated), and a box of its width x width x height.
+  // terrain/world_rocks: the map's rocks, strongest first. Each: its track number as id, one
+  // hypothesis "rock" with its score and pose (the centre at half its height above the map's ground there, or above z =
+  // 0 where the map has no elevation; x / y covariance MapRock's: the triangulation plus the errors a track's frames
+  // share; z variance (height / 2)^2, orientation not estimated), and a box of its width x width x height.
   void publish_rocks(TimeNs stamp) {
     RocksMsg* m = rocks_msg_->begin();
     if (m == nullptr) return;
@@ -492,6 +492,11 @@ class TerrainMapComponent final : public runtime::Component {
       d.bbox.center = pose;
       d.bbox.size.x = d.bbox.size.y = r.width_m;
       d.bbox.size.z = r.height_m;
+      // The same rock keeps its id across messages while its track lives ("" for a relief rock).
+      if (r.id > 0)
+        dds::format_int(d.id, kIdCapacity, r.id);
+      else
+        dds::copy_string(d.id, kIdCapacity, "");
     }
     rocks_msg_->commit();
   }

@@ -350,12 +350,13 @@ void write_map_json(const RecordedDrive& drive, const DriveMapperParams& params,
 // rocks.csv: one line per rock of the map.
 void write_rocks_csv(const fs::path& out, DriveMapSummary& sum) {
   std::ostringstream o;
-  // The five columns first; then the covariance of (x_m, y_m), m^2 (MapRock).
-  o << "x_m,y_m,height_m,width_m,score,cov_xx,cov_xy,cov_yy\n";
+  // The five columns first; then the covariance of (x_m, y_m), m^2, and the track number
+  // (MapRock; the id of terrain/world_rocks).
+  o << "x_m,y_m,height_m,width_m,score,cov_xx,cov_xy,cov_yy,id\n";
   char buf[256];
   for (const MapRock& r : sum.rocks) {
-    std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g\n", r.x_m, r.y_m, r.height_m, r.width_m,
-                  r.score, r.cov_xx, r.cov_xy, r.cov_yy);
+    std::snprintf(buf, sizeof buf, "%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%ld\n", r.x_m, r.y_m, r.height_m, r.width_m,
+                  r.score, r.cov_xx, r.cov_xy, r.cov_yy, r.id);
     o << buf;
   }
   write_file((out / "rocks.csv").string(), o.str(), "the rocks table");

@@ -78,7 +78,7 @@ void RockTracker::add(Track& t, const Ray& r, const cv::Mat& st, int k) {
     t.a(2, 2) = 1.0 / (p_.ground_sigma_m * p_.ground_sigma_m);  // the contact is near the ground plane (z = 0)
     t.b = Eigen::Vector3d::Zero();
     t.mount_m = r.o.z();
-    ++opened_;
+    t.id = ++opened_;
   }
   const double w = 1.0 / (r.sigma * r.sigma);
   const Eigen::Matrix3d m = Eigen::Matrix3d::Identity() - r.d * r.d.transpose();
@@ -223,6 +223,7 @@ void RockTracker::write(const Track& t, cv::Mat& table, int col) const {
   set(kTrackPosXx, pos(0, 0));
   set(kTrackPosXy, pos(0, 1));
   set(kTrackPosYy, pos(1, 1));
+  set(kTrackId, static_cast<double>(t.id));
 }
 
 }  // namespace regolith::mapping

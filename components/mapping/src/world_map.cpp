@@ -540,6 +540,7 @@ std::size_t WorldMap::rocks(std::vector<MapRock>& out) const {
     r.cov_xx = v(kTrackPosXx);
     r.cov_xy = v(kTrackPosXy);
     r.cov_yy = v(kTrackPosYy);
+    r.id = std::isfinite(v(kTrackId)) ? std::lround(v(kTrackId)) : 0;
     out.push_back(r);
   }
   // One rock per place: the strongest of those closer than rock_merge_m (kept in place, in front).

@@ -74,6 +74,10 @@ enum TrackRow {
   kTrackPosXx,
   kTrackPosXy,
   kTrackPosYy,
+  /// The track's number, 1, 2, ... in the order the tracker opened them (since construction or
+  /// reset()); a track keeps it until it closes, and the map keeps it with the closed track.
+  /// Exact in the float table up to 2^24 tracks.
+  kTrackId,
   kTrackRows
 };
 
@@ -110,6 +114,7 @@ class RockTracker {
     double score = 0, width_sum = 0, radius_sum = 0, weight_sum = 0, height_m = 0;
     double mount_m = 0;
     int frames = 0;  // 0 = free slot
+    long id = 0;     // opened_ when it opened: kTrackId
     long last = 0;   // frame counter of the last sighting
     std::array<Observation, kObservations> obs;
   };
