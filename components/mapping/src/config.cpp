@@ -102,6 +102,12 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
        .max = 1.0,
        .doc = "fraction of each keyframe segment's length the visual odometry may run sideways (a tilt error); added "
               "to the published pose covariance only, across the segment (0: the fit's covariance alone)"});
+  mp.vo_yaw_bias_rad = p.get<double>(
+      "vo_yaw_bias_rad", mp.vo_yaw_bias_rad,
+      {.min = 0.0,
+       .max = 0.5,
+       .doc = "heading error (rad) a keyframe segment's visual odometry may carry; added to the published "
+              "pose covariance only, per segment (0: the fit's heading variance alone)"});
   mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
                                {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
                                        "(rocks pull the joint fit nose-down)"});

@@ -88,6 +88,7 @@ void DriveMapperParams::validate() const {
   if (!(keyframe_min_inlier_fraction >= 0 && keyframe_min_inlier_fraction <= 1))
     fail("mapping", "keyframe_min_inlier_fraction", "must be in [0, 1]");
   if (!(vo_lateral_bias >= 0 && vo_lateral_bias <= 1)) fail("mapping", "vo_lateral_bias", "must be in [0, 1]");
+  if (!(vo_yaw_bias_rad >= 0 && vo_yaw_bias_rad <= 0.5)) fail("mapping", "vo_yaw_bias_rad", "must be in [0, 0.5]");
 }
 
 namespace {
@@ -285,11 +286,14 @@ void DriveMapper::fuse_motion(const VoMeasurement& m, const Pose2& pred, const C
 }
 
 Cov3 DriveMapper::segment_consider() const {
-  // Across the segment's direction (keyframe foot to here, world frame), std = bias x its length.
+  // Across the segment's direction (keyframe foot to here, world frame), std = bias x its length;
+  // heading: the segment's yaw bias.
   Cov3 c = Cov3::Zero();
+  if (!segment_vision_) return c;
+  c(2, 2) = p_.vo_yaw_bias_rad * p_.vo_yaw_bias_rad;
   const Pose2& rel = wheel_since_key_;
   const double length = std::hypot(rel.x, rel.y);
-  if (!segment_vision_ || !(length > 0)) return c;
+  if (!(length > 0)) return c;
   const double heading = key_foot_.yaw + std::atan2(rel.y, rel.x);
   const double nx = -std::sin(heading), ny = std::cos(heading), v = std::pow(p_.vo_lateral_bias * length, 2);
   c(0, 0) = v * nx * nx;
