@@ -174,9 +174,12 @@ TEST(Sfs, TsaiShahMarchingVectorLanesMatchTheScalarSweep) {
                      (skip_black ? " skip_black" : ""));
         EXPECT_EQ(vec.iterations, ref.iterations);
         EXPECT_NEAR(vec.final_mean_update, ref.final_mean_update, 1e-9);
-        EXPECT_LT(max_diff, 1e-3);
 #if defined(__x86_64__)
         EXPECT_EQ(differing, 0) << "max |difference| " << max_diff;
+#else
+        // Fused multiply-adds may round differently in the two paths; a wrong lane, shift or mask
+        // moves heights by 0.02-2 px here.
+        EXPECT_LT(max_diff, 1e-2) << differing << " pixels differ";
 #endif
       }
   }
