@@ -34,6 +34,22 @@ void read_wheel_noise(Params& p, WheelNoise& wheel) {
                      .doc = "faster wheel steps between frames are odometry jumps (ignored, counted)"});
 }
 
+// The errors the published pose covariance carries beyond the fit's (`vo_*_bias*`).
+void read_consider_terms(Params& p, DriveMapperParams& mp) {
+  mp.vo_lateral_bias = p.get<double>(
+      "vo_lateral_bias", mp.vo_lateral_bias,
+      {.min = 0.0,
+       .max = 1.0,
+       .doc = "fraction of each keyframe segment's length the visual odometry may run sideways (a tilt error); added "
+              "to the published pose covariance only, across the segment (0: the fit's covariance alone)"});
+  mp.vo_yaw_bias_rad = p.get<double>(
+      "vo_yaw_bias_rad", mp.vo_yaw_bias_rad,
+      {.min = 0.0,
+       .max = 0.5,
+       .doc = "heading error (rad) a keyframe segment's visual odometry may carry; added to the published "
+              "pose covariance only, per segment (0: the fit's heading variance alone)"});
+}
+
 }  // namespace
 
 DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
@@ -96,18 +112,7 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                                               .max = 0.5,
                                               .doc = "error of one VO tilt: the ranging tilt is shrunk towards the "
                                                      "mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
-  mp.vo_lateral_bias = p.get<double>(
-      "vo_lateral_bias", mp.vo_lateral_bias,
-      {.min = 0.0,
-       .max = 1.0,
-       .doc = "fraction of each keyframe segment's length the visual odometry may run sideways (a tilt error); added "
-              "to the published pose covariance only, across the segment (0: the fit's covariance alone)"});
-  mp.vo_yaw_bias_rad = p.get<double>(
-      "vo_yaw_bias_rad", mp.vo_yaw_bias_rad,
-      {.min = 0.0,
-       .max = 0.5,
-       .doc = "heading error (rad) a keyframe segment's visual odometry may carry; added to the published "
-              "pose covariance only, per segment (0: the fit's heading variance alone)"});
+  read_consider_terms(p, mp);
   mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
                                {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
                                        "(rocks pull the joint fit nose-down)"});

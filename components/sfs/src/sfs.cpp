@@ -867,6 +867,9 @@ void ShapeFromShading::tsai_shah_marching(const LightDirection& l, SfsResult& ou
     int r = 0;
 #if CV_SIMD128
     if (params_.tsai_shah_simd) {
+      // Two vectors per step measured fastest (640x480 ortho frames, one core: scalar 20.5 ms,
+      // one vector 14.5, two 8.0-8.6, three 8.9-10.1, four 9.3-10.2: more lanes wait longer for
+      // the slowest one's backtracking).
       using Wide = VN<2>;
       using Narrow = VN<1>;
       for (; r + Wide::nlanes <= sz.height; r += Wide::nlanes)
