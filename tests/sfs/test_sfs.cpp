@@ -173,13 +173,15 @@ TEST(Sfs, TsaiShahMarchingVectorLanesMatchTheScalarSweep) {
         SCOPED_TRACE(std::to_string(roi.width) + "x" + std::to_string(roi.height) + " az " + std::to_string(cs.az_deg) +
                      (skip_black ? " skip_black" : ""));
         EXPECT_EQ(vec.iterations, ref.iterations);
-        EXPECT_NEAR(vec.final_mean_update, ref.final_mean_update, 1e-9);
 #if defined(__x86_64__)
         EXPECT_EQ(differing, 0) << "max |difference| " << max_diff;
+        EXPECT_NEAR(vec.final_mean_update, ref.final_mean_update, 1e-9);  // summed in another order
 #else
-        // Fused multiply-adds may round differently in the two paths; a wrong lane, shift or mask
-        // moves heights by 0.02-2 px here.
+        // Fused multiply-adds may round differently in the two paths (arm64 under qemu: the mean
+        // last Newton step differs by up to 0.1 %); a wrong lane, shift or mask moves heights by
+        // 0.02-2 px here.
         EXPECT_LT(max_diff, 1e-2) << differing << " pixels differ";
+        EXPECT_NEAR(vec.final_mean_update, ref.final_mean_update, 0.01 * ref.final_mean_update + 1e-9);
 #endif
       }
   }
