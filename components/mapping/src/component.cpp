@@ -458,9 +458,10 @@ class TerrainMapComponent final : public runtime::Component {
   }
 
   // terrain/world_rocks: the map's rocks, strongest first. Each: its track number as id, one
-  // hypothesis "rock" with its score and pose (the centre at half its height above the map's ground there, or above z =
-  // 0 where the map has no elevation; x / y covariance MapRock's: the triangulation plus the errors a track's frames
-  // share; z variance (height / 2)^2, orientation not estimated), and a box of its width x width x height.
+  // hypothesis "rock" with its score and pose (the centre at half its height above the map's
+  // ground there, or above z = 0 where the map has no elevation; x / y covariance MapRock's: the
+  // triangulation plus the errors a track's frames share; z variance (height / 2)^2, orientation
+  // not estimated), and a box of its width x width x height.
   void publish_rocks(TimeNs stamp) {
     RocksMsg* m = rocks_msg_->begin();
     if (m == nullptr) return;

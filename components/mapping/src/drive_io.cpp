@@ -296,7 +296,7 @@ nlohmann::json write_layers(const WorldMap& map, const cv::Rect& roi, const fs::
 // map.json's `cues`: which cues made this map (a stationary rover has no parallax; a sun outside the shadow cue's
 // elevation range has no shadows).
 nlohmann::json cues_json(const RecordedDrive& drive, const DriveMapperParams& params, const DriveCounters& counters) {
-  const double sun_el = drive.sun_elevation_deg * 3.14159265358979323846 / 180.0;
+  const double sun_el = drive.sun_elevation_deg * kDeg;
   const bool sun_ok = sun_el >= params.shadow.min_elevation_rad && sun_el <= params.shadow.max_elevation_rad;
   nlohmann::json cues;
   cues["parallax"] = {{"enabled", params.fuse_terrain && params.fuse_parallax},
@@ -448,8 +448,7 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
     const cv::Size axes(std::max(1, static_cast<int>(k * std::sqrt(mid + rad))),
                         std::max(1, static_cast<int>(k * std::sqrt(mid - rad))));
     // North up: a direction theta counter-clockwise from east is -theta in the image (rows down).
-    cv::ellipse(img, frame.px(r.x_m, r.y_m), axes, -theta * 180.0 / 3.14159265358979323846, 0, 360,
-                cv::Scalar(0, 230, 255), 1, cv::LINE_AA);
+    cv::ellipse(img, frame.px(r.x_m, r.y_m), axes, -theta / kDeg, 0, 360, cv::Scalar(0, 230, 255), 1, cv::LINE_AA);
   }
   // Scale bar (1 m), north arrow, legend.
   plot::put_scale_bar_and_north(img, frame.px_per_m());
