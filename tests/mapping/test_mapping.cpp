@@ -1104,6 +1104,48 @@ TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   EXPECT_GT(map.layer("hazard").at<float>(cell(1.0, 1.0)), 0.9f);
 }
 
+TEST(WorldMap, ARockSeenAgainByANewTrackKeepsItsFirstNumber) {
+  WorldMapParams p;
+  p.resolution_m = 0.04;
+  p.length_x_m = p.length_y_m = 8;
+  WorldMap map(p, 0, 0);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat live(kTrackRows, 4, CV_32F, cv::Scalar(nan)), closed(kTrackRows, 4, CV_32F, cv::Scalar(nan)),
+      none(kTrackRows, 4, CV_32F, cv::Scalar(nan));
+  auto set = [](cv::Mat& t, int k, double x, double y, double score, long id) {
+    for (auto [row, v] : {std::pair{kTrackX, x},
+                          {kTrackY, y},
+                          {kTrackHeight, 0.15},
+                          {kTrackWidth, 0.2},
+                          {kTrackScore, score},
+                          {kTrackSxx, 1e-3},
+                          {kTrackSxy, 0.0},
+                          {kTrackSyy, 1e-3},
+                          {kTrackFrames, 5.0},
+                          {kTrackPosXx, 1e-2},
+                          {kTrackPosXy, 0.0},
+                          {kTrackPosYy, 1e-2},
+                          {kTrackId, double(id)}})
+      t.at<float>(row, k) = static_cast<float>(v);
+  };
+  // Track 3 saw the rock and closed; track 9 opens on it later, and a rock 1 m away is track 7.
+  set(closed, 0, 1.0, 1.0, 1.2, 3);
+  map.fuse_rock_tracks(closed, 1, none, 0);
+  ASSERT_EQ(map.rocks().size(), 1u);
+  EXPECT_EQ(map.rocks()[0].id, 3);
+  set(live, 0, 1.12, 1.02, 1.8, 9);
+  set(live, 1, 2.0, 1.0, 3.0, 7);
+  map.fuse_rock_tracks(none, 0, live, 2);
+  std::vector<MapRock> rocks = map.rocks();
+  std::sort(rocks.begin(), rocks.end(), [](const MapRock& a, const MapRock& b) { return a.x_m < b.x_m; });
+  ASSERT_EQ(rocks.size(), 2u);
+  // The new track is stronger: its position, the rock's first number.
+  EXPECT_NEAR(rocks[0].x_m, 1.12, 1e-6);
+  EXPECT_EQ(rocks[0].id, 3);
+  EXPECT_NEAR(rocks[1].x_m, 2.0, 1e-6);
+  EXPECT_EQ(rocks[1].id, 7);
+}
+
 TEST(DriveMapper, VisionCorrectsWheelDriftOnARenderedDrive) {
   const DriveRun vo = run_rendered_drive(11, true), wheel = run_rendered_drive(11, false);
   const double e_vo = std::hypot(vo.est.x - vo.truth.x, vo.est.y - vo.truth.y);
@@ -1140,7 +1182,7 @@ TEST(DriveMapper, ThePublishedCovarianceCoversThePoseErrorOnRenderedDrives) {
       z.insert(z.end(), r.heading_z.begin(), r.heading_z.end());
     }
     double mean = 0, inside = 0, zz = 0;
-    for (double v : d2) mean += v / static_cast<double>(d2.size()), inside += v <= 5.991 ? 1.0 : 0.0;
+    for (double v : d2) mean += v / static_cast<double>(d2.size()), inside += v <= kChi2TwoDof95 ? 1.0 : 0.0;
     for (double v : z) zz += v * v / static_cast<double>(z.size());
     const Score s{mean, inside / static_cast<double>(d2.size()), std::sqrt(zz)};
     std::printf("bias %.3f yaw bias %.4f: mean d2 %.2f inside %.3f heading z rms %.2f\n", bias, yaw_bias, s.mean,

@@ -441,10 +441,11 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
   for (const MapRock& r : rocks) {
     cv::circle(img, frame.px(r.x_m, r.y_m), std::max(4, static_cast<int>(0.5 * r.width_m * frame.px_per_m())),
                cv::Scalar(0, 230, 255), 2, cv::LINE_AA);
-    // The 95 % ellipse of its position (2.45 sd along the covariance's axes), thin.
+    // The 95 % ellipse of its position (kChi2TwoDof95), thin.
     const double mid = 0.5 * (r.cov_xx + r.cov_yy), rad = std::hypot(0.5 * (r.cov_xx - r.cov_yy), r.cov_xy);
     if (!(mid - rad > 0)) continue;
-    const double k = 2.45 * frame.px_per_m(), theta = 0.5 * std::atan2(2 * r.cov_xy, r.cov_xx - r.cov_yy);
+    const double k = std::sqrt(kChi2TwoDof95) * frame.px_per_m(),
+                 theta = 0.5 * std::atan2(2 * r.cov_xy, r.cov_xx - r.cov_yy);
     const cv::Size axes(std::max(1, static_cast<int>(k * std::sqrt(mid + rad))),
                         std::max(1, static_cast<int>(k * std::sqrt(mid - rad))));
     // North up: a direction theta counter-clockwise from east is -theta in the image (rows down).

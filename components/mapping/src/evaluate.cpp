@@ -228,15 +228,6 @@ struct ScoredGrid {
   cv::Point2d centre(int i, int j) const { return {ox + j * res, oy + i * res}; }
 };
 
-// The squared Mahalanobis distance of the error (ex, ey) under the covariance [[cxx, cxy], [cxy,
-// cyy]]; NaN unless that covariance is positive definite.
-double mahalanobis2(double ex, double ey, double cxx, double cxy, double cyy) {
-  const double det = cxx * cyy - cxy * cxy;
-  if (!(cxx > 0) || !(cyy > 0) || !(det > 0)) return std::nan("");
-  return (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
-}
-constexpr double kChi2TwoDof95 = 5.991;  // chi-square, 2 degrees of freedom, 95 %
-
 // --- poses: the corrected and the wheel path against the truth, frame by frame (`path_m`: the
 // true path length over the frames both tables have).
 nlohmann::json score_poses(const std::map<int, Row>& tp, const std::vector<Row>& est, const fs::path& map_dir) {

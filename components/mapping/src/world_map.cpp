@@ -543,14 +543,19 @@ std::size_t WorldMap::rocks(std::vector<MapRock>& out) const {
     r.id = std::isfinite(v(kTrackId)) ? std::lround(v(kTrackId)) : 0;
     out.push_back(r);
   }
-  // One rock per place: the strongest of those closer than rock_merge_m (kept in place, in front).
+  // One rock per place: the strongest of those closer than rock_merge_m (kept in place, in front),
+  // under the oldest track number among them, so that a rock whose track was lost and reopened (or
+  // that a second track also holds) keeps the number it was first reported with.
   std::sort(out.begin(), out.end(), [](const MapRock& a, const MapRock& b) { return a.score > b.score; });
+  const auto older = [](long a, long b) { return a > 0 && (b <= 0 || a < b); };
   std::size_t kept = 0;
   for (std::size_t k = 0; k < out.size(); ++k) {
-    bool near = false;
-    for (std::size_t m = 0; m < kept && !near; ++m)
-      near = std::hypot(out[k].x_m - out[m].x_m, out[k].y_m - out[m].y_m) < p_.rock_merge_m;
-    if (!near) out[kept++] = out[k];
+    std::size_t m = 0;
+    while (m < kept && !(std::hypot(out[k].x_m - out[m].x_m, out[k].y_m - out[m].y_m) < p_.rock_merge_m)) ++m;
+    if (m == kept)
+      out[kept++] = out[k];
+    else if (older(out[k].id, out[m].id))
+      out[m].id = out[k].id;
   }
   out.resize(kept);
   return kept;

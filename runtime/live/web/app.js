@@ -285,7 +285,8 @@ function drawMap() {
     g.lineWidth = 1;
   }
   // The map's rocks (terrain/world_rocks, same frame): the footprint (width) filled, and the
-  // ellipse the rock's position covariance puts it in with 95 % (2.45 sd) dashed.
+  // ellipse the rock's position covariance puts it in with 95 % (2.45 sd: sqrt of the chi-square 95 % point
+  // for 2 degrees of freedom, regolith::mapping::kChi2TwoDof95) dashed.
   const rocks = worldRocks && worldRocks.header.frame_id === frame ? worldRocks.detections : [];
   for (const d of rocks) {
     const h = d.results[0];

@@ -22,6 +22,20 @@ struct Pose2 {
 
 using Cov3 = Eigen::Matrix3d;  ///< covariance of (x, y, yaw), m^2 / m rad / rad^2
 
+/// A planar position's 95 % region under its covariance: squared Mahalanobis distance <= this
+/// (chi-square, 2 degrees of freedom), the ellipse sqrt(kChi2TwoDof95) = 2.448 standard deviations
+/// along the covariance's axes. One constant for the scoring (evaluate), the overview's ellipses and
+/// the live page's (runtime/live/web/app.js, which spells it 2.45).
+inline constexpr double kChi2TwoDof95 = 5.991;
+
+/// The squared Mahalanobis distance of the error (ex, ey) under the covariance [[cxx, cxy], [cxy,
+/// cyy]]; NaN unless that covariance is positive definite.
+inline double mahalanobis2(double ex, double ey, double cxx, double cxy, double cyy) {
+  const double det = cxx * cyy - cxy * cxy;
+  if (!(cxx > 0) || !(cyy > 0) || !(det > 0)) return std::nan("");
+  return (cyy * ex * ex - 2 * cxy * ex * ey + cxx * ey * ey) / det;
+}
+
 inline double wrap_angle(double a) {
   return std::remainder(a, 2.0 * 3.14159265358979323846);
 }

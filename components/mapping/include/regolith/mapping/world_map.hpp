@@ -78,10 +78,11 @@ struct MapRock {
   /// Covariance of (x_m, y_m), m^2: a tracked rock's from the triangulation of its contact (the
   /// rays and the ground prior, RockTracker); a relief rock's (resolution / 2)^2.
   double cov_xx = 0.0, cov_xy = 0.0, cov_yy = 0.0;
-  /// A tracked rock's track number (kTrackId): the same rock keeps it from map update to map update
-  /// while its track lives (a rock lost for RockTrackerParams::max_age_frames and seen again gets a
-  /// new track and number; where two tracks hold one place the stronger's number is reported).
-  /// 0 for a relief rock (no identity across updates).
+  /// A tracked rock's track number (kTrackId): the same rock keeps it from map update to map update.
+  /// Where several tracks (or a relief rock) hold one place (closer than rock_merge_m) the strongest
+  /// gives the position and the oldest track its number, so a rock lost for
+  /// RockTrackerParams::max_age_frames and seen again by a new track keeps the number it was first
+  /// reported with. 0 for a relief rock no track holds (no identity across updates).
   long id = 0;
 };
 
