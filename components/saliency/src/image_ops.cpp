@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace regolith::saliency {
@@ -239,29 +240,30 @@ void gabor_energy(const cv::Mat& src, const cv::Mat& even, const cv::Mat& odd, c
   // Blocks of kBlock output pixels keep their two sums in registers over all taps (one load of
   // the image per tap pair instead of two loads and two stores of the sums); every pixel still
   // adds its taps in row-major order from 0, so the result is the same bit for bit.
-  using V4 = float __attribute__((vector_size(16)));  // GCC / Clang vector extension (SSE, NEON)
-  constexpr int kVecs = 4, kBlock = 4 * kVecs;
+  // OpenCV's universal intrinsics (SSE2 / NEON), as the SfS march: a multiply then an add per tap
+  // in every lane, the scalar code's operations in its order.
+  using V4 = cv::v_float32x4;
+  constexpr int kVecs = 4, kBlock = V4::nlanes * kVecs;
   const int wb = w - w % kBlock;
   for (int y = 0; y < h; ++y) {
     float* d = dst.ptr<float>(y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
-      V4 se[kVecs] = {}, so[kVecs] = {};
+      V4 se[kVecs], so[kVecs];
+      for (int k = 0; k < kVecs; ++k) se[k] = so[k] = cv::v_setzero_f32();
       for (int i = 0; i < kh; ++i) {
         const float* ke = even.ptr<float>(i);
         const float* ko = odd.ptr<float>(i);
         const float* p = pad.ptr<float>(y + i) + x0;
         for (int j = 0; j < kw; ++j) {
-          const V4 a = {ke[j], ke[j], ke[j], ke[j]}, b = {ko[j], ko[j], ko[j], ko[j]};
+          const V4 a = cv::v_setall_f32(ke[j]), b = cv::v_setall_f32(ko[j]);
           for (int k = 0; k < kVecs; ++k) {
-            V4 q;
-            std::memcpy(&q, p + j + 4 * k, sizeof q);
-            se[k] += a * q;
-            so[k] += b * q;
+            const V4 q = cv::v_load(p + j + V4::nlanes * k);
+            se[k] = se[k] + a * q;
+            so[k] = so[k] + b * q;
           }
         }
       }
-      for (int k = 0; k < kVecs; ++k)
-        for (int l = 0; l < 4; ++l) d[x0 + 4 * k + l] = std::abs(se[k][l]) + std::abs(so[k][l]);
+      for (int k = 0; k < kVecs; ++k) cv::v_store(d + x0 + V4::nlanes * k, cv::v_abs(se[k]) + cv::v_abs(so[k]));
     }
     if (wb == w) continue;
     std::fill(e + wb, e + w, 0.f);
@@ -348,35 +350,30 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
   rows.create(3 * ph, w, CV_32F);
   const float *xr = k.row_re.data(), *xi = k.row_im.data(), *yr = k.col_re.data(), *yi = k.col_im.data();
   // As the direct pass: blocks of kBlock pixels keep their sums in registers over all taps.
-  using V4 = float __attribute__((vector_size(16)));  // GCC / Clang vector extension (SSE, NEON)
-  constexpr int kVecs = 4, kBlock = 4 * kVecs;
+  using V4 = cv::v_float32x4;
+  constexpr int kVecs = 4, kLanes = V4::nlanes, kBlock = kLanes * kVecs;
   const int wb = w - w % kBlock;
-  const auto load = [](const float* p) {
-    V4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  };
-  const auto store = [](float* p, const V4& v) { std::memcpy(p, &v, sizeof v); };
   for (int y = 0; y < ph; ++y) {
     const float* p = pad.ptr<float>(y);
     float* re = rows.ptr<float>(y);
     float* im = rows.ptr<float>(ph + y);
     float* box = rows.ptr<float>(2 * ph + y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
-      V4 sr[kVecs] = {}, si[kVecs] = {}, sb[kVecs] = {};
+      V4 sr[kVecs], si[kVecs], sb[kVecs];
+      for (int v = 0; v < kVecs; ++v) sr[v] = si[v] = sb[v] = cv::v_setzero_f32();
       for (int j = 0; j < n; ++j) {
-        const V4 a = {xr[j], xr[j], xr[j], xr[j]}, b = {xi[j], xi[j], xi[j], xi[j]};
+        const V4 a = cv::v_setall_f32(xr[j]), b = cv::v_setall_f32(xi[j]);
         for (int v = 0; v < kVecs; ++v) {
-          const V4 q = load(p + x0 + j + 4 * v);
-          sr[v] += a * q;
-          si[v] += b * q;
-          sb[v] += q;
+          const V4 q = cv::v_load(p + x0 + j + kLanes * v);
+          sr[v] = sr[v] + a * q;
+          si[v] = si[v] + b * q;
+          sb[v] = sb[v] + q;
         }
       }
       for (int v = 0; v < kVecs; ++v) {
-        store(re + x0 + 4 * v, sr[v]);
-        store(im + x0 + 4 * v, si[v]);
-        store(box + x0 + 4 * v, sb[v]);
+        cv::v_store(re + x0 + kLanes * v, sr[v]);
+        cv::v_store(im + x0 + kLanes * v, si[v]);
+        cv::v_store(box + x0 + kLanes * v, sb[v]);
       }
     }
     for (int x = wb; x < w; ++x) {
@@ -397,21 +394,27 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
   for (int y = 0; y < h; ++y) {
     float* d = dst.ptr<float>(y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
-      V4 cr[kVecs] = {}, ci[kVecs] = {}, cs[kVecs] = {};
+      V4 cr[kVecs], ci[kVecs], cs[kVecs];
+      for (int v = 0; v < kVecs; ++v) cr[v] = ci[v] = cs[v] = cv::v_setzero_f32();
       for (int i = 0; i < n; ++i) {
-        const V4 a = {yr[i], yr[i], yr[i], yr[i]}, b = {yi[i], yi[i], yi[i], yi[i]};
+        const V4 a = cv::v_setall_f32(yr[i]), b = cv::v_setall_f32(yi[i]);
         const float* re = rows.ptr<float>(y + i) + x0;
         const float* im = rows.ptr<float>(ph + y + i) + x0;
         const float* box = rows.ptr<float>(2 * ph + y + i) + x0;
         for (int v = 0; v < kVecs; ++v) {
-          const V4 qr = load(re + 4 * v), qi = load(im + 4 * v);
-          cr[v] += a * qr - b * qi;
-          ci[v] += a * qi + b * qr;
-          cs[v] += load(box + 4 * v);
+          const V4 qr = cv::v_load(re + kLanes * v), qi = cv::v_load(im + kLanes * v);
+          cr[v] = cr[v] + (a * qr - b * qi);
+          ci[v] = ci[v] + (a * qi + b * qr);
+          cs[v] = cs[v] + cv::v_load(box + kLanes * v);
         }
       }
-      for (int v = 0; v < kVecs; ++v)
-        for (int l = 0; l < 4; ++l) d[x0 + 4 * v + l] = energy(cr[v][l], ci[v][l], cs[v][l]);
+      float lr[kBlock], li[kBlock], ls[kBlock];
+      for (int v = 0; v < kVecs; ++v) {
+        cv::v_store(lr + kLanes * v, cr[v]);
+        cv::v_store(li + kLanes * v, ci[v]);
+        cv::v_store(ls + kLanes * v, cs[v]);
+      }
+      for (int l = 0; l < kBlock; ++l) d[x0 + l] = energy(lr[l], li[l], ls[l]);
     }
     for (int x = wb; x < w; ++x) {
       float cre = 0.0f, cim = 0.0f, s = 0.0f;
