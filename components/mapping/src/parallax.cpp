@@ -66,8 +66,10 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
   for (cv::Mat* m :
        {&key_, &cur_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_, &tmp_, &z_, &x_, &y_, &conf_})
     m->create(grid_.rows, grid_.cols, CV_32F);
+  for (cv::Mat* m : {&a_row_, &b_row_, &a_col_, &b_col_}) m->create(grid_.rows, grid_.cols, CV_32F);
   key_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
+  cur_ok4_.create(grid_.rows, grid_.cols, CV_8U);
 }
 
 void GroundParallax::set_frame(const cv::Mat& gray) {
@@ -115,35 +117,65 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     return cv::Point2d(-(h + x * x * ih) * t[0] + x * y * ih * t[1], -x * y * ih * t[0] + (h + y * y * ih) * t[1]);
   };
   auto true_ground = [&](const cv::Point2d& p, const cv::Vec2d& t) { return p + shift(p.x, p.y, t); };
-  auto nominal = [&](double x, double y, const cv::Vec2d& t) { return cv::Point2d(x, y) - shift(x, y, t); };
+  // Where keyframe cell (i, j) lands in the current grid for displacement d: its true ground
+  // point moved d along the baseline, into the current camera's ground frame (rotated, shifted,
+  // scaled by height_ratio: X = X0 + d xd, Y = Y0 + d yd), then shown where the current tilt puts
+  // it (nominal: quadratic in X, Y). So the fractional cell is a0 + d b + d^2 c per axis, with a0
+  // and b per cell and c the same for every cell; made once here, the search then costs two
+  // multiply-adds per cell and hypothesis for the position.
+  const double hr = height_ratio, t0 = ct[0], t1 = ct[1], ir = 1.0 / grid_.resolution_m;
+  const double xd = hr * (ca * bx - sa * by), yd = hr * (sa * bx + ca * by);
+  const double cr = -(xd * xd * t0 - xd * yd * t1) * ih * ir, cc = -(xd * yd * t0 - yd * yd * t1) * ih * ir;
+  for (int i = 0; i < R; ++i) {
+    float* ar = a_row_.ptr<float>(i);
+    float* br = b_row_.ptr<float>(i);
+    float* ac = a_col_.ptr<float>(i);
+    float* bc = b_col_.ptr<float>(i);
+    for (int j = 0; j < C; ++j) {
+      const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
+      const double x0 = hr * (ca * pc.x - sa * pc.y + a.x), y0 = hr * (sa * pc.x + ca * pc.y + a.y);
+      const double qx = x0 + (h + x0 * x0 * ih) * t0 - x0 * y0 * ih * t1;
+      const double qy = y0 + x0 * y0 * ih * t0 - (h + y0 * y0 * ih) * t1;
+      const double dqx = xd + (2 * x0 * xd * t0 - (x0 * yd + y0 * xd) * t1) * ih;
+      const double dqy = yd + ((x0 * yd + y0 * xd) * t0 - 2 * y0 * yd * t1) * ih;
+      ar[j] = static_cast<float>((grid_.x_far_m - qx) * ir - 0.5);
+      ac[j] = static_cast<float>((grid_.y_left_m - qy) * ir - 0.5);
+      br[j] = static_cast<float>(-dqx * ir);
+      bc[j] = static_cast<float>(-dqy * ir);
+    }
+  }
+  // The current frame's cells whose bilinear footprint (the cell and its right, lower and
+  // lower-right neighbours) is usable.
+  for (int i = 0; i < R; ++i) {
+    uchar* ok4 = cur_ok4_.ptr<uchar>(i);
+    const uchar* u = cur_ok.ptr<uchar>(i);
+    const uchar* v = i + 1 < R ? cur_ok.ptr<uchar>(i + 1) : nullptr;
+    for (int j = 0; j < C; ++j) ok4[j] = v && j + 1 < C && u[j] && u[j + 1] && v[j] && v[j + 1] ? 1 : 0;
+  }
+  const float g = static_cast<float>(gain), o = static_cast<float>(bias);
   for (int t = 0; t < n; ++t) {
     const double d = d_lo + t * step;
+    const float fd = static_cast<float>(d), kr = static_cast<float>(cr * d * d), kc = static_cast<float>(cc * d * d);
     for (int i = 0; i < R; ++i) {
       float* e = e_.ptr<float>(i);
       const float* kv = key.ptr<float>(i);
       const uchar* ko = key_ok.ptr<uchar>(i);
+      const float* ar = a_row_.ptr<float>(i);
+      const float* br = b_row_.ptr<float>(i);
+      const float* ac = a_col_.ptr<float>(i);
+      const float* bc = b_col_.ptr<float>(i);
       for (int j = 0; j < C; ++j) {
-        if (!ko[j]) {
+        const float ci = ar[j] + kr + br[j] * fd, cj = ac[j] + kc + bc[j] * fd;
+        const int i0 = static_cast<int>(std::floor(ci)), j0 = static_cast<int>(std::floor(cj));
+        if (!ko[j] || i0 < 0 || j0 < 0 || i0 >= R || j0 >= C || !cur_ok4_.ptr<uchar>(i0)[j0]) {
           e[j] = penalty;
           continue;
         }
-        const cv::Point2d pc = true_ground(grid_.center(i, j), kt);
-        const double px = pc.x + d * bx, py = pc.y + d * by;
-        // The current camera's rectification scales metres by height_ratio (its height differs).
-        const cv::Point2d q =
-            nominal(height_ratio * (ca * px - sa * py + a.x), height_ratio * (sa * px + ca * py + a.y), ct);
-        const cv::Point2d cell = grid_.cell(q.x, q.y);
-        const int i0 = static_cast<int>(std::floor(cell.x)), j0 = static_cast<int>(std::floor(cell.y));
-        if (i0 < 0 || j0 < 0 || i0 + 1 >= R || j0 + 1 >= C || !cur_ok.at<uchar>(i0, j0) ||
-            !cur_ok.at<uchar>(i0 + 1, j0) || !cur_ok.at<uchar>(i0, j0 + 1) || !cur_ok.at<uchar>(i0 + 1, j0 + 1)) {
-          e[j] = penalty;
-          continue;
-        }
-        const float fi = static_cast<float>(cell.x - i0), fj = static_cast<float>(cell.y - j0);
+        const float fi = ci - static_cast<float>(i0), fj = cj - static_cast<float>(j0);
         const float* ra = cur.ptr<float>(i0);
         const float* rb = cur.ptr<float>(i0 + 1);
         const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
-        const float r = top + fi * (bot - top) - static_cast<float>(gain) * kv[j] - static_cast<float>(bias);
+        const float r = top + fi * (bot - top) - g * kv[j] - o;
         e[j] = r * r;
       }
     }

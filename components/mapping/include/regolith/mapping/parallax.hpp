@@ -82,7 +82,8 @@ class GroundParallax {
   direct_depth::RectifiedGrid grid_;
   double h_;
   bool has_key_ = false;
-  cv::Mat key_, key_ok_, cur_, cur_ok_;
+  cv::Mat key_, key_ok_, cur_, cur_ok_, cur_ok4_;
+  cv::Mat a_row_, b_row_, a_col_, b_col_;  // per keyframe cell: its current cell = a + d b (+ d^2 c, shared)
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
 };
