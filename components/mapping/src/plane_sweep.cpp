@@ -76,6 +76,7 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
     q->create(H, W, CV_32F);
   key_ok_.create(H, W, CV_8U);
   cur_ok_.create(H, W, CV_8U);
+  cur_ok4_.create(H, W, CV_8U);
   row_step_.create(H, 1, CV_64F);
   fill(z_, kNaNf);
   fill(x_, kNaNf);
@@ -116,6 +117,14 @@ void PlaneSweep::load(const cv::Mat& gray, cv::Mat& img, cv::Mat& ok) {
 
 void PlaneSweep::set_frame(const cv::Mat& gray) {
   load(gray, cur_, cur_ok_);
+  // Where the bilinear footprint (the pixel, its right, lower and lower-right neighbours) is usable.
+  const int H = cur_ok_.rows, W = cur_ok_.cols;
+  for (int i = 0; i < H; ++i) {
+    uchar* ok4 = cur_ok4_.ptr<uchar>(i);
+    const uchar* u = cur_ok_.ptr<uchar>(i);
+    const uchar* v = i + 1 < H ? cur_ok_.ptr<uchar>(i + 1) : nullptr;
+    for (int j = 0; j < W; ++j) ok4[j] = v && j + 1 < W && (u[j] & u[j + 1] & v[j] & v[j + 1]) ? 1 : 0;
+  }
 }
 
 void PlaneSweep::promote() {
@@ -181,7 +190,8 @@ PlaneSweep::Sweep PlaneSweep::project_rays(const Pose2& m, const cv::Vec2d& kt, 
       const double du = fx * (o1[0] * o[2] - o[0] * o1[2]) / (o[2] * o[2]);
       const double dv = fy * (o1[1] * o[2] - o[1] * o1[2]) / (o[2] * o[2]);
       max_disp = std::max(max_disp, std::hypot(du, dv));
-      ox[j] = static_cast<float>(o1[0]), oy[j] = static_cast<float>(o1[1]), oz[j] = static_cast<float>(o1[2]);
+      // o1 with the focal lengths applied (the sweep's projection needs them only so)
+      ox[j] = static_cast<float>(fx * o1[0]), oy[j] = static_cast<float>(fy * o1[1]), oz[j] = static_cast<float>(o1[2]);
       gx[j] = static_cast<float>(g0), gy[j] = static_cast<float>(g1);
     }
     double step = max_disp > 0 ? p_.step_px / max_disp : (w_hi - w_lo);
@@ -215,6 +225,12 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
   fill(second_, kBig);
   fill(bests_, -1.0f);
   const float g = static_cast<float>(gain), b = static_cast<float>(bias);
+  // The projection in float with one reciprocal (u, v to ~1e-5 px at these sizes); ox_ / oy_ hold
+  // fx o1 and fy o1.
+  const float fax = static_cast<float>(fx * o0[0]), fay = static_cast<float>(fy * o0[1]),
+              az = static_cast<float>(o0[2]);
+  const float fcx = static_cast<float>(cx), fcy = static_cast<float>(ccy);
+  const float umax = static_cast<float>(W - 1), vmax = static_cast<float>(H - 1);
   // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
   // matching windows see one hypothesis index); such minima are discarded below.
   for (int t = 0; t < max_n; ++t) {
@@ -223,31 +239,25 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
       const float* kv = key_.ptr<float>(i);
       const uchar* ko = key_ok_.ptr<uchar>(i);
       float* e = e_.ptr<float>(i);
-      const double w = w_lo + t * row_step_.at<double>(i);
-      const double ax = o0[0], ay = o0[1], az = o0[2];
+      const float w = static_cast<float>(w_lo + t * row_step_.at<double>(i));
       for (int j = 0; j < W; ++j) {
-        if (!ko[j] || std::isnan(ox[j])) {
+        const float qz = az + w * oz[j];  // NaN where the pixel is not swept
+        if (!ko[j] || !(qz > 1e-3f)) {
           e[j] = kPenalty;
           continue;
         }
-        const double qz = az + w * oz[j];
-        if (!(qz > 1e-3)) {
+        const float iq = 1.0f / qz;
+        const float u = (fax + w * ox[j]) * iq + fcx, v = (fay + w * oy[j]) * iq + fcy;
+        if (!(u >= 0.0f && v >= 0.0f && u < umax && v < vmax)) {
           e[j] = kPenalty;
           continue;
         }
-        const double u = fx * (ax + w * ox[j]) / qz + cx, v = fy * (ay + w * oy[j]) / qz + ccy;
-        const int j0 = static_cast<int>(std::floor(u)), i0 = static_cast<int>(std::floor(v));
-        if (i0 < 0 || j0 < 0 || i0 + 1 >= H || j0 + 1 >= W) {
+        const int j0 = static_cast<int>(u), i0 = static_cast<int>(v);
+        if (!cur_ok4_.ptr<uchar>(i0)[j0]) {
           e[j] = kPenalty;
           continue;
         }
-        const uchar* ua = cur_ok_.ptr<uchar>(i0);
-        const uchar* ub = cur_ok_.ptr<uchar>(i0 + 1);
-        if (!(ua[j0] & ua[j0 + 1] & ub[j0] & ub[j0 + 1])) {
-          e[j] = kPenalty;
-          continue;
-        }
-        const float fj = static_cast<float>(u - j0), fi = static_cast<float>(v - i0);
+        const float fj = u - static_cast<float>(j0), fi = v - static_cast<float>(i0);
         const float* ra = cur_.ptr<float>(i0);
         const float* rb = cur_.ptr<float>(i0 + 1);
         const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);

@@ -84,7 +84,8 @@ class PlaneSweep {
 
  private:
   /// One compute's hypotheses: a keyframe point at w (height h (1 - w)) is seen by the current
-  /// camera at o0 + w o1 (o1 per pixel in ox_/oy_/oz_), w from w_lo in `steps` steps of row_step_.
+  /// camera at o0 + w o1 (o1 per pixel in ox_/oy_/oz_, its x and y times fx and fy), w from w_lo in
+  /// `steps` steps of row_step_.
   struct Sweep {
     cv::Vec3d o0;
     double w_lo = 0.0;
@@ -104,10 +105,10 @@ class PlaneSweep {
   double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0;  // pinhole model at the working scale
   bool has_key_ = false;
   long samples_ = 0;
-  cv::Mat undist_x_, undist_y_, undist_;  // distortion maps (empty for a pinhole camera)
-  cv::Mat nrm_;                           // CV_32FC3 nominal ray per pixel (body frame, not normalised)
-  cv::Mat key_, key_ok_, cur_, cur_ok_;
-  cv::Mat ray_, ox_, oy_, oz_, row_step_;  // per compute: tilted key ray scale, o1 components, step per row
+  cv::Mat undist_x_, undist_y_, undist_;           // distortion maps (empty for a pinhole camera)
+  cv::Mat nrm_;                                    // CV_32FC3 nominal ray per pixel (body frame, not normalised)
+  cv::Mat key_, key_ok_, cur_, cur_ok_, cur_ok4_;  // cur_ok4_: the bilinear footprint at (i, j) usable
+  cv::Mat ray_, ox_, oy_, oz_, row_step_;          // per compute: tilted key ray scale, o1 components, step per row
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
 };
