@@ -22,6 +22,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "regolith/common/box.hpp"
 #include "regolith/core/error.hpp"
 #include "regolith/mapping/drive_io.hpp"
 #include "regolith/mapping/drive_mapper.hpp"
@@ -373,6 +374,27 @@ TEST(ShadowCue, NoHeightFromShadowsItCannotMeasure) {
     ShadowCue cue(pebble.grid, ShadowParams{});
     EXPECT_EQ(cue.compute(pebble.img, pebble.valid, pebble.sun), 0);
   }
+}
+
+// The matching searches' window sums (one per hypothesis): equal to OpenCV's unnormalised box
+// filter with replicated borders for the direct small radii and the running larger ones, on rows
+// and columns shorter than the window too.
+TEST(BoxSum, EqualsOpenCvBoxFilterWithReplicatedBorders) {
+  cv::RNG rng(7);
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(7, 5), cv::Size(41, 33), cv::Size(280, 180)})
+    for (int radius = 1; radius <= 6; ++radius)
+      for (const bool running : {false, true}) {
+        cv::Mat src(size, CV_32F), ref, dst, tmp, acc;
+        rng.fill(src, cv::RNG::UNIFORM, 0.0, 65025.0);
+        cv::boxFilter(src, ref, CV_32F, {2 * radius + 1, 2 * radius + 1}, {-1, -1}, false, cv::BORDER_REPLICATE);
+        common::box_sum(src, dst, tmp, radius, running ? &acc : nullptr);
+        double worst = 0;
+        for (int i = 0; i < size.height; ++i)
+          for (int j = 0; j < size.width; ++j)
+            worst = std::max(worst, std::abs(static_cast<double>(dst.at<float>(i, j)) - ref.at<float>(i, j)) /
+                                        static_cast<double>(ref.at<float>(i, j)));
+        EXPECT_LT(worst, 1e-5) << size << " radius " << radius << (running ? " running" : " direct");
+      }
 }
 
 TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {

@@ -1,8 +1,10 @@
 #pragma once
 // Box sums over a (2 radius + 1)^2 window with clamped (replicated) borders, CV_32F, separable:
-// a vertical pass into a caller-owned scratch image, then a running horizontal sum in double.
-// The vertical pass sums the window's rows directly (sequential memory, no drift) for small
-// radii; for larger ones it keeps running column sums in `acc` (CV_64F, one row: O(1) per pixel).
+// a vertical pass into a caller-owned scratch image, then a horizontal one. For small radii
+// (<= kDirectBoxRadius) both sum the window directly in float (sequential memory, no drift, and
+// the compiler vectorises them: the matching searches run one per hypothesis); for larger ones
+// the vertical pass keeps running column sums in `acc` (CV_64F, one row: O(1) per pixel) when
+// given, and the horizontal pass a running sum in double.
 // No allocation once `dst`, `tmp` (src's size, CV_32F) and `acc` (1 x cols, CV_64F) exist (the
 // real-time path preallocates them).
 #include <algorithm>
@@ -11,11 +13,13 @@
 
 namespace regolith::common {
 
+inline constexpr int kDirectBoxRadius = 3;
+
 inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, cv::Mat* acc = nullptr) {
   const int w = radius, R = src.rows, C = src.cols;
   dst.create(R, C, CV_32F);
   tmp.create(R, C, CV_32F);
-  if (acc != nullptr && w > 3) {
+  if (acc != nullptr && w > kDirectBoxRadius) {
     acc->create(1, C, CV_64F);
     double* a = acc->ptr<double>(0);
     std::fill(a, a + C, 0.0);
@@ -40,6 +44,24 @@ inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, 
         for (int j = 0; j < C; ++j) t[j] += s[j];
       }
     }
+  }
+  if (w <= kDirectBoxRadius) {
+    const int j0 = std::min(w, C), j1 = std::max(j0, C - w);  // [j0, j1): the window inside the row
+    for (int i = 0; i < R; ++i) {
+      const float* t = tmp.ptr<float>(i);
+      float* d = dst.ptr<float>(i);
+      for (int j = j0; j < j1; ++j) d[j] = t[j - w];
+      for (int k = -w + 1; k <= w; ++k)
+        for (int j = j0; j < j1; ++j) d[j] += t[j + k];
+      const auto clamped = [&](int j) {
+        float s = t[std::clamp(j - w, 0, C - 1)];
+        for (int k = -w + 1; k <= w; ++k) s += t[std::clamp(j + k, 0, C - 1)];
+        d[j] = s;
+      };
+      for (int j = 0; j < j0; ++j) clamped(j);
+      for (int j = j1; j < C; ++j) clamped(j);
+    }
+    return;
   }
   for (int i = 0; i < R; ++i) {
     const float* t = tmp.ptr<float>(i);
