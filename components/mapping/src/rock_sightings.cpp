@@ -1,6 +1,7 @@
 #include "regolith/mapping/rock_sightings.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -111,17 +112,26 @@ void RockSightings::contrast_and_thresholds() {
   blur(img_, p_.smooth_sigma_px);
   const cv::Mat& valid = depth_.valid_map();
   float* med = row_med_.ptr<float>(0);
+  // Each row's median (its (n / 2)-th smallest seen value, exactly): a histogram of the values'
+  // whole grey levels finds the level that holds it, and only that level's values are ordered.
+  const auto level = [](float x) { return std::clamp(static_cast<int>(x), 0, 255); };
   for (int i = 0; i < H; ++i) {
-    std::size_t n = 0;
     const float* a = img_.ptr<float>(i);
     const uchar* v = valid.ptr<uchar>(i);
+    std::array<int, 256> hist{};
+    int n = 0;
     for (int j = 0; j < W; ++j)
-      if (v[j]) values_[n++] = a[j];
+      if (v[j]) ++hist[static_cast<std::size_t>(level(a[j]))], ++n;
     med[i] = std::numeric_limits<float>::quiet_NaN();
     if (n < 16) continue;
-    std::nth_element(values_.begin(), values_.begin() + static_cast<std::ptrdiff_t>(n / 2),
-                     values_.begin() + static_cast<std::ptrdiff_t>(n));
-    med[i] = values_[n / 2];
+    int below = 0, b = 0;
+    while (below + hist[static_cast<std::size_t>(b)] <= n / 2) below += hist[static_cast<std::size_t>(b++)];
+    std::size_t m = 0;
+    for (int j = 0; j < W; ++j)
+      if (v[j] && level(a[j]) == b) values_[m++] = a[j];
+    const auto k = static_cast<std::ptrdiff_t>(n / 2 - below);
+    std::nth_element(values_.begin(), values_.begin() + k, values_.begin() + static_cast<std::ptrdiff_t>(m));
+    med[i] = values_[static_cast<std::size_t>(k)];
   }
   float* row_thr = row_thr_.ptr<float>(0);
   for (int i = 0; i < H; ++i) {

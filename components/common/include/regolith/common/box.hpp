@@ -63,16 +63,29 @@ inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, 
     }
     return;
   }
-  for (int i = 0; i < R; ++i) {
-    const float* t = tmp.ptr<float>(i);
-    float* d = dst.ptr<float>(i);
-    double run = 0;
-    for (int j = -w; j <= w; ++j) run += t[std::clamp(j, 0, C - 1)];
-    for (int j = 0; j < C; ++j) {
-      d[j] = static_cast<float>(run);
-      run += t[std::min(j + w + 1, C - 1)] - t[std::max(j - w, 0)];
+  // The running sums of N rows at once: each row's sum is one chain of dependent adds, so N
+  // independent chains keep the adder busy (each row's result is the single-row one exactly).
+  const auto running_rows = [&]<int N>(int i0) {
+    const float* t[N];
+    float* d[N];
+    double run[N];
+    for (int q = 0; q < N; ++q) {
+      t[q] = tmp.ptr<float>(i0 + q);
+      d[q] = dst.ptr<float>(i0 + q);
+      run[q] = 0;
+      for (int j = -w; j <= w; ++j) run[q] += t[q][std::clamp(j, 0, C - 1)];
     }
-  }
+    for (int j = 0; j < C; ++j) {
+      const int in = std::min(j + w + 1, C - 1), out = std::max(j - w, 0);
+      for (int q = 0; q < N; ++q) {
+        d[q][j] = static_cast<float>(run[q]);
+        run[q] += t[q][in] - t[q][out];
+      }
+    }
+  };
+  int i = 0;
+  for (; i + 4 <= R; i += 4) running_rows.template operator()<4>(i);
+  for (; i < R; ++i) running_rows.template operator()<1>(i);
 }
 
 }  // namespace regolith::common
