@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "regolith/core/error.hpp"
@@ -161,12 +162,23 @@ void downsample_stb(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp) {
   tmp.create(sh + 2, std::max(dw + 2, 1), CV_32F);
   dst.create(dh, dw, CV_32F);
   float *e = tmp.ptr<float>(sh) + 1, *o = tmp.ptr<float>(sh + 1) + 1;
+  // Pixel pairs (2j, 2j + 1) wholly inside the row: j in [0, inner); the others are clamped.
+  const int inner = sw / 2;
   for (int y = 0; y < sh; ++y) {
     const float* s = src.ptr<float>(y);
-    for (int j = -1; j <= dw; ++j) {
-      e[j] = s[std::clamp(2 * j, 0, sw - 1)];
-      o[j] = s[std::clamp(2 * j + 1, 0, sw - 1)];
+    int j = 0;
+    for (; j + cv::v_float32x4::nlanes <= inner; j += cv::v_float32x4::nlanes) {
+      cv::v_float32x4 even, odd;
+      cv::v_load_deinterleave(s + 2 * j, even, odd);
+      cv::v_store(e + j, even);
+      cv::v_store(o + j, odd);
     }
+    for (; j < inner; ++j) e[j] = s[2 * j], o[j] = s[2 * j + 1];
+    for (int k : {-1, inner, inner + 1})
+      if (k <= dw) {
+        e[k] = s[std::clamp(2 * k, 0, sw - 1)];
+        o[k] = s[std::clamp(2 * k + 1, 0, sw - 1)];
+      }
     float* t = tmp.ptr<float>(y);
     for (int i = 0; i < dw; ++i) {
       float acc = 0.f;
