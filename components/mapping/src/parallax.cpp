@@ -144,14 +144,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       bc[j] = static_cast<float>(-dqy * ir);
     }
   }
-  // The current frame's cells whose bilinear footprint (the cell and its right, lower and
-  // lower-right neighbours) is usable.
-  for (int i = 0; i < R; ++i) {
-    uchar* ok4 = cur_ok4_.ptr<uchar>(i);
-    const uchar* u = cur_ok.ptr<uchar>(i);
-    const uchar* v = i + 1 < R ? cur_ok.ptr<uchar>(i + 1) : nullptr;
-    for (int j = 0; j < C; ++j) ok4[j] = v && j + 1 < C && u[j] && u[j + 1] && v[j] && v[j + 1] ? 1 : 0;
-  }
+  bilinear_footprint_usable(cur_ok, cur_ok4_);
   const float g = static_cast<float>(gain), o = static_cast<float>(bias);
   for (int t = 0; t < n; ++t) {
     const double d = d_lo + t * step;

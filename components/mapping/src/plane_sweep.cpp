@@ -216,14 +216,7 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
   fill(best_, kBig);
   fill(second_, kBig);
   fill(bests_, -1.0f);
-  // Where the current frame's bilinear footprint (the pixel, its right, lower and lower-right
-  // neighbours) is usable.
-  for (int i = 0; i < H; ++i) {
-    uchar* ok4 = cur_ok4_.ptr<uchar>(i);
-    const uchar* u = cur_ok_.ptr<uchar>(i);
-    const uchar* v = i + 1 < H ? cur_ok_.ptr<uchar>(i + 1) : nullptr;
-    for (int j = 0; j < W; ++j) ok4[j] = v && j + 1 < W && (u[j] & u[j + 1] & v[j] & v[j + 1]) ? 1 : 0;
-  }
+  bilinear_footprint_usable(cur_ok_, cur_ok4_);
   const float g = static_cast<float>(gain), b = static_cast<float>(bias);
   // The projection in float with one reciprocal (u, v to ~1e-5 px at these sizes); ox_ / oy_ hold
   // fx o1 and fy o1.

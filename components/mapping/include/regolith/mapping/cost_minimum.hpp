@@ -11,6 +11,20 @@
 
 namespace regolith::mapping {
 
+/// `ok4` (CV_8U, `ok`'s size, made by the caller) = 1 where the bilinear footprint of (i, j) — the
+/// sample, its right, lower and lower-right neighbours — is usable in `ok` (CV_8U, non-zero =
+/// usable); 0 on the last row and column. Both searches sample the current frame bilinearly, so
+/// one lookup per hypothesis replaces four.
+inline void bilinear_footprint_usable(const cv::Mat& ok, cv::Mat& ok4) {
+  const int R = ok.rows, C = ok.cols;
+  for (int i = 0; i < R; ++i) {
+    uchar* o = ok4.ptr<uchar>(i);
+    const uchar* u = ok.ptr<uchar>(i);
+    const uchar* v = i + 1 < R ? ok.ptr<uchar>(i + 1) : nullptr;
+    for (int j = 0; j < C; ++j) o[j] = v && j + 1 < C && u[j] && u[j + 1] && v[j] && v[j + 1] ? 1 : 0;
+  }
+}
+
 /// Rows [r0, r1] of CV_32F images: where c1 is a bracketed minimum below best, records it (best,
 /// index t - 1 in `at`, its neighbours in left / right). `second` (optional, filled with the same
 /// "none" value as best) keeps the lowest of the other bracketed minima: another valley of the
