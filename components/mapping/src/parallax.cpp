@@ -146,6 +146,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
   }
   bilinear_footprint_usable(cur_ok, cur_ok4_);
   const float g = static_cast<float>(gain), o = static_cast<float>(bias);
+  const float frows = static_cast<float>(R), fcols = static_cast<float>(C);
   for (int t = 0; t < n; ++t) {
     const double d = d_lo + t * step;
     const float fd = static_cast<float>(d), kr = static_cast<float>(cr * d * d), kc = static_cast<float>(cc * d * d);
@@ -159,8 +160,13 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const float* bc = b_col_.ptr<float>(i);
       for (int j = 0; j < C; ++j) {
         const float ci = ar[j] + kr + br[j] * fd, cj = ac[j] + kc + bc[j] * fd;
-        const int i0 = static_cast<int>(std::floor(ci)), j0 = static_cast<int>(std::floor(cj));
-        if (!ko[j] || i0 < 0 || j0 < 0 || i0 >= R || j0 >= C || !cur_ok4_.ptr<uchar>(i0)[j0]) {
+        // Inside the grid (a NaN fails too) before the conversion; there truncation is the floor.
+        if (!ko[j] || !(ci >= 0.0f && cj >= 0.0f && ci < frows && cj < fcols)) {
+          e[j] = penalty;
+          continue;
+        }
+        const int i0 = static_cast<int>(ci), j0 = static_cast<int>(cj);
+        if (!cur_ok4_.ptr<uchar>(i0)[j0]) {
           e[j] = penalty;
           continue;
         }
