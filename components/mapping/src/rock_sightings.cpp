@@ -114,7 +114,7 @@ void RockSightings::contrast_and_thresholds() {
   float* med = row_med_.ptr<float>(0);
   // Each row's median (its (n / 2)-th smallest seen value, exactly): a histogram of the values'
   // whole grey levels finds the level that holds it, and only that level's values are ordered.
-  const auto level = [](float x) { return std::clamp(static_cast<int>(x), 0, 255); };
+  const auto level = [](float x) { return x > 0.0f ? (x < 255.0f ? static_cast<int>(x) : 255) : 0; };  // NaN: 0
   for (int i = 0; i < H; ++i) {
     const float* a = img_.ptr<float>(i);
     const uchar* v = valid.ptr<uchar>(i);
