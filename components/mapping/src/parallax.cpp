@@ -138,8 +138,9 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const double qy = y0 + x0 * y0 * ih * t0 - (h + y0 * y0 * ih) * t1;
       const double dqx = xd + (2 * x0 * xd * t0 - (x0 * yd + y0 * xd) * t1) * ih;
       const double dqy = yd + ((x0 * yd + y0 * xd) * t0 - 2 * y0 * yd * t1) * ih;
-      ar[j] = static_cast<float>((grid_.x_far_m - qx) * ir - 0.5);
-      ac[j] = static_cast<float>((grid_.y_left_m - qy) * ir - 0.5);
+      const cv::Point2d cell = grid_.cell(qx, qy);  // its (row, column) at d = 0; b below is its slope
+      ar[j] = static_cast<float>(cell.x);
+      ac[j] = static_cast<float>(cell.y);
       br[j] = static_cast<float>(-dqx * ir);
       bc[j] = static_cast<float>(-dqy * ir);
     }
