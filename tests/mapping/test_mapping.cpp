@@ -24,6 +24,7 @@
 
 #include "regolith/common/box.hpp"
 #include "regolith/core/error.hpp"
+#include "regolith/mapping/cost_minimum.hpp"
 #include "regolith/mapping/drive_io.hpp"
 #include "regolith/mapping/drive_mapper.hpp"
 #include "regolith/mapping/evaluate.hpp"
@@ -395,6 +396,55 @@ TEST(BoxSum, EqualsOpenCvBoxFilterWithReplicatedBorders) {
                                         static_cast<double>(ref.at<float>(i, j)));
         EXPECT_LT(worst, 1e-5) << size << " radius " << radius << (running ? " running" : " direct");
       }
+}
+
+TEST(CostMinimum, KeepsTheDeepestAndSecondDeepestValleyOfEachCellsCostCurve) {
+  // Cost curves with ties, plateaus, NaN and a column count that is no multiple of the vector
+  // width, fed slice by slice as the searches do, against a per-cell scan of the whole curve.
+  cv::RNG rng(11);
+  const int rows = 3, cols = 37, steps = 24;
+  std::vector<cv::Mat> slices;
+  for (int t = 0; t < steps; ++t) {
+    cv::Mat s(rows, cols, CV_32F);
+    for (int i = 0; i < rows; ++i)
+      for (int j = 0; j < cols; ++j) {
+        const int pick = rng.uniform(0, 10);
+        s.at<float>(i, j) = pick == 0   ? std::numeric_limits<float>::quiet_NaN()
+                            : pick <= 3 ? 5.0f  // a plateau value shared by many steps
+                                        : static_cast<float>(rng.uniform(0, 12));
+      }
+    slices.push_back(s);
+  }
+  constexpr float kNone = 1e30f;
+  cv::Mat best(rows, cols, CV_32F, cv::Scalar(kNone)), second(rows, cols, CV_32F, cv::Scalar(kNone));
+  cv::Mat at(rows, cols, CV_32F, cv::Scalar(-1)), left(rows, cols, CV_32F), right(rows, cols, CV_32F);
+  for (int t = 2; t < steps; ++t)
+    keep_bracketed_minimum(slices[t - 2], slices[t - 1], slices[t], best, at, left, right, t, 0, rows - 1, &second);
+  int valleys = 0;
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      float b = kNone, s2 = kNone, where = -1, l = 0, r = 0;
+      for (int t = 1; t + 1 < steps; ++t) {
+        const float lo = slices[t - 1].at<float>(i, j), c = slices[t].at<float>(i, j),
+                    hi = slices[t + 1].at<float>(i, j);
+        if (!(c <= lo && c <= hi)) continue;
+        ++valleys;
+        if (c < b) {
+          s2 = b, b = c, where = static_cast<float>(t), l = lo, r = hi;
+        } else if (c < s2) {
+          s2 = c;
+        }
+      }
+      SCOPED_TRACE(::testing::Message() << "cell " << i << "," << j);
+      EXPECT_EQ(best.at<float>(i, j), b);
+      EXPECT_EQ(second.at<float>(i, j), s2);
+      EXPECT_EQ(at.at<float>(i, j), where);
+      if (where >= 0) {
+        EXPECT_EQ(left.at<float>(i, j), l);
+        EXPECT_EQ(right.at<float>(i, j), r);
+      }
+    }
+  EXPECT_GT(valleys, rows * cols);  // the curves do have valleys to find
 }
 
 TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {

@@ -69,8 +69,8 @@ RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockS
   row_thr_.create(1, m.height, CV_32F);
   row_med_.create(1, m.height, CV_32F);
   acc_.create(1, m.width, CV_64F);
-  values_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
-  stack_.resize(values_.size());
+  values_.resize(static_cast<std::size_t>(m.width));  // one row's values at a time (the row median)
+  stack_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
   table_.create(kSightRows, p_.max_sightings + 1, CV_32F);  // + a spare column for merge_halves
   fill(table_, kNaNf);
   x_ = table_.row(kSightX), y_ = table_.row(kSightY), h_ = table_.row(kSightHeight), w_ = table_.row(kSightWidth);

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 
 namespace regolith::mapping {
 
@@ -40,18 +41,33 @@ inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const c
     float* lf = left.ptr<float>(i);
     float* rt = right.ptr<float>(i);
     float* sc = second != nullptr ? second->ptr<float>(i) : nullptr;
-    for (int j = 0; j < best.cols; ++j) {
-      if (!(c[j] <= l[j] && c[j] <= r[j])) continue;
-      if (c[j] < b[j]) {
-        if (sc != nullptr) sc[j] = b[j];
-        b[j] = c[j];
-        bs[j] = static_cast<float>(t - 1);
-        lf[j] = l[j];
-        rt[j] = r[j];
-      } else if (sc != nullptr && c[j] < sc[j]) {
-        sc[j] = c[j];
+    const auto update = [&](int j0, int j1) {
+      for (int j = j0; j < j1; ++j) {
+        if (!(c[j] <= l[j] && c[j] <= r[j])) continue;
+        if (c[j] < b[j]) {
+          if (sc != nullptr) sc[j] = b[j];
+          b[j] = c[j];
+          bs[j] = static_cast<float>(t - 1);
+          lf[j] = l[j];
+          rt[j] = r[j];
+        } else if (sc != nullptr && c[j] < sc[j]) {
+          sc[j] = c[j];
+        }
       }
+    };
+    // Four cells at a time first: most cells are no minimum below the best (or the second) at a
+    // given t, and one vector compare rejects four of them (the second is never below the best,
+    // so "below the second" covers both updates). The cells of a block that may update go through
+    // the scalar rule, so the result is the scalar loop's exactly.
+    const float* bar = sc != nullptr ? sc : b;
+    const int n = best.cols;
+    int j = 0;
+    for (; j + cv::v_float32x4::nlanes <= n; j += cv::v_float32x4::nlanes) {
+      const cv::v_float32x4 vc = cv::v_load(c + j);
+      const cv::v_float32x4 hit = (vc <= cv::v_load(l + j)) & (vc <= cv::v_load(r + j)) & (vc < cv::v_load(bar + j));
+      if (cv::v_check_any(hit)) update(j, j + cv::v_float32x4::nlanes);
     }
+    update(j, n);
   }
 }
 
