@@ -69,7 +69,8 @@ RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockS
   row_thr_.create(1, m.height, CV_32F);
   row_med_.create(1, m.height, CV_32F);
   acc_.create(1, m.width, CV_64F);
-  values_.resize(static_cast<std::size_t>(m.width));  // one row's values at a time (the row median)
+  values_.resize(static_cast<std::size_t>(m.width));  // one row's values and levels at a time (the row median)
+  levels_.resize(static_cast<std::size_t>(m.width));
   stack_.resize(static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height));
   table_.create(kSightRows, p_.max_sightings + 1, CV_32F);  // + a spare column for merge_halves
   fill(table_, kNaNf);
@@ -112,23 +113,36 @@ void RockSightings::contrast_and_thresholds() {
   blur(img_, p_.smooth_sigma_px);
   const cv::Mat& valid = depth_.valid_map();
   float* med = row_med_.ptr<float>(0);
-  // Each row's median (its (n / 2)-th smallest seen value, exactly): a histogram of the values'
-  // whole grey levels finds the level that holds it, and only that level's values are ordered.
-  const auto level = [](float x) { return x > 0.0f ? (x < 255.0f ? static_cast<int>(x) : 255) : 0; };  // NaN: 0
+  // Each row's median (its (n / 2)-th smallest seen value, exactly): a histogram of the values in
+  // quarter grey levels finds the level that holds it, and only that level's values are ordered.
+  // The ground's contrast is a few grey levels, so whole levels would put a third of a row in the
+  // median's bin. A value's level is 4 x it, truncated and clamped to 0..kLevels - 1 (NaN: 0),
+  // made for the row at once (compare-selects the compiler vectorises); an unseen pixel adds 0 to
+  // its level's count.
+  constexpr int kLevels = 512;
+  constexpr float kTop = static_cast<float>(kLevels - 1);
+  std::uint16_t* lv = levels_.data();
   for (int i = 0; i < H; ++i) {
     const float* a = img_.ptr<float>(i);
     const uchar* v = valid.ptr<uchar>(i);
-    std::array<int, 256> hist{};
+    for (int j = 0; j < W; ++j) {
+      const float lo = a[j] > 0.0f ? 4.0f * a[j] : 0.0f;
+      lv[j] = static_cast<std::uint16_t>(static_cast<int>(lo < kTop ? lo : kTop));
+    }
+    std::array<int, kLevels> hist{};
     int n = 0;
-    for (int j = 0; j < W; ++j)
-      if (v[j]) ++hist[static_cast<std::size_t>(level(a[j]))], ++n;
+    for (int j = 0; j < W; ++j) {
+      const int seen = v[j] != 0;
+      hist[lv[j]] += seen;
+      n += seen;
+    }
     med[i] = std::numeric_limits<float>::quiet_NaN();
     if (n < 16) continue;
     int below = 0, b = 0;
     while (below + hist[static_cast<std::size_t>(b)] <= n / 2) below += hist[static_cast<std::size_t>(b++)];
     std::size_t m = 0;
     for (int j = 0; j < W; ++j)
-      if (v[j] && level(a[j]) == b) values_[m++] = a[j];
+      if (v[j] && lv[j] == b) values_[m++] = a[j];
     const auto k = static_cast<std::ptrdiff_t>(n / 2 - below);
     std::nth_element(values_.begin(), values_.begin() + k, values_.begin() + static_cast<std::ptrdiff_t>(m));
     med[i] = values_[static_cast<std::size_t>(k)];

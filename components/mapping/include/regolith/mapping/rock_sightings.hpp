@@ -26,6 +26,7 @@
 // `tilt_sigma_rad` move a far contact by (h^2 + Y^2) / h x the angle), the blob's image box
 // (for overlays and single-image reports), the contact's ground point and the top ray's slope
 // (for RockTracker, which triangulates the contact across frames). Everything is allocated in the constructor.
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -133,6 +134,7 @@ class RockSightings {
   void contrast_and_thresholds();
   cv::Mat gray_f_, img_, bg_, wimg_, wsum_, tmp_, tmp2_, mask_, label_, row_thr_, row_med_, acc_;
   std::vector<float> values_;
+  std::vector<std::uint16_t> levels_;
   std::vector<int> stack_;
   int count_ = 0;
   cv::Mat table_;
