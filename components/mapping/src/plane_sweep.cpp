@@ -78,6 +78,8 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
   cur_ok_.create(H, W, CV_8U);
   cur_ok4_.create(H, W, CV_8U);
   row_step_.create(H, 1, CV_64F);
+  proj_u_.create(1, W, CV_32F);
+  proj_v_.create(1, W, CV_32F);
   fill(z_, kNaNf);
   fill(x_, kNaNf);
   fill(y_, kNaNf);
@@ -166,7 +168,7 @@ PlaneSweep::Sweep PlaneSweep::project_rays(const Pose2& m, const cv::Vec2d& kt, 
     float *ox = ox_.ptr<float>(i), *oy = oy_.ptr<float>(i), *oz = oz_.ptr<float>(i);
     float* gx = x_.ptr<float>(i);  // ground point, kept in x_/y_ until the results overwrite them
     float* gy = y_.ptr<float>(i);
-    double max_disp = 0.0;
+    double max_disp2 = 0.0;
     for (int j = 0; j < W; ++j) {
       ox[j] = kNaNf;
       const cv::Vec3d d = rk * cv::Vec3d(n[j][0], n[j][1], n[j][2]);
@@ -181,11 +183,12 @@ PlaneSweep::Sweep PlaneSweep::project_rays(const Pose2& m, const cv::Vec2d& kt, 
       // Image motion per unit w at the ground: d(u, v) / dw.
       const double du = fx * (o1[0] * o[2] - o[0] * o1[2]) / (o[2] * o[2]);
       const double dv = fy * (o1[1] * o[2] - o[1] * o1[2]) / (o[2] * o[2]);
-      max_disp = std::max(max_disp, std::hypot(du, dv));
+      max_disp2 = std::max(max_disp2, du * du + dv * dv);
       // o1 with the focal lengths applied (the sweep's projection needs them only so)
       ox[j] = static_cast<float>(fx * o1[0]), oy[j] = static_cast<float>(fy * o1[1]), oz[j] = static_cast<float>(o1[2]);
       gx[j] = static_cast<float>(g0), gy[j] = static_cast<float>(g1);
     }
+    const double max_disp = std::sqrt(max_disp2);  // the largest image motion per unit w (px)
     double step = max_disp > 0 ? p_.step_px / max_disp : (w_hi - w_lo);
     step = std::max(step, (w_hi - w_lo) / (p_.max_steps - 1));
     row_step_.at<double>(i) = step;
@@ -224,6 +227,8 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
               az = static_cast<float>(o0[2]);
   const float fcx = static_cast<float>(cx), fcy = static_cast<float>(ccy);
   const float umax = static_cast<float>(W - 1), vmax = static_cast<float>(H - 1);
+  float* pu = proj_u_.ptr<float>(0);
+  float* pv = proj_v_.ptr<float>(0);
   // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
   // matching windows see one hypothesis index); such minima are discarded below.
   for (int t = 0; t < max_n; ++t) {
@@ -233,14 +238,20 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
       const uchar* ko = key_ok_.ptr<uchar>(i);
       float* e = e_.ptr<float>(i);
       const float w = static_cast<float>(w_lo + t * row_step_.at<double>(i));
+      // The row's projections first, branch-free (the compiler vectorises the division); then
+      // the checks and bilinear samples pixel by pixel.
+      for (int j = 0; j < W; ++j) {
+        const float iq = 1.0f / (az + w * oz[j]);
+        pu[j] = (fax + w * ox[j]) * iq + fcx;
+        pv[j] = (fay + w * oy[j]) * iq + fcy;
+      }
       for (int j = 0; j < W; ++j) {
         const float qz = az + w * oz[j];  // NaN where the pixel is not swept
         if (!ko[j] || !(qz > 1e-3f)) {
           e[j] = kPenalty;
           continue;
         }
-        const float iq = 1.0f / qz;
-        const float u = (fax + w * ox[j]) * iq + fcx, v = (fay + w * oy[j]) * iq + fcy;
+        const float u = pu[j], v = pv[j];
         if (!(u >= 0.0f && v >= 0.0f && u < umax && v < vmax)) {
           e[j] = kPenalty;
           continue;
