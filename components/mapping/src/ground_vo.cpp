@@ -262,10 +262,10 @@ int GroundVisualOdometry::linearise(const Level& lv, const std::vector<Point>& p
     const double qx = tx - dpx * th[kPitch] - drx * th[kRoll], qy = ty - dpy * th[kPitch] - dry * th[kRoll];
     const cv::Point2d cell = lv.grid.cell(qx, qy);  // (row, col)
     residuals_[k] = std::numeric_limits<float>::quiet_NaN();
-    // Inside the level (a NaN fails too) before the conversion: there truncation is the floor.
-    if (!(cell.x >= 0.0 && cell.y >= 0.0)) continue;
+    // The bilinear footprint inside the level (a NaN fails too) before the conversion: there
+    // truncation is the floor, and no value is too large for an int.
+    if (!(cell.x >= 0.0 && cell.y >= 0.0 && cell.x < rows - 1 && cell.y < cols - 1)) continue;
     const int i0 = static_cast<int>(cell.x), j0 = static_cast<int>(cell.y);
-    if (i0 + 1 >= rows || j0 + 1 >= cols) continue;
     const uchar* u0 = lv.usable.ptr<uchar>(i0);
     const uchar* u1 = lv.usable.ptr<uchar>(i0 + 1);
     if (u0[j0] != kGradient || u0[j0 + 1] != kGradient || u1[j0] != kGradient || u1[j0 + 1] != kGradient) continue;
