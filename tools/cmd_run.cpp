@@ -308,6 +308,11 @@ int compare_recordings(const std::string& a, const std::string& b) {
     return by_topic;
   };
   const auto ta = load(a), tb = load(b);
+  // Camera previews are drawn and encoded by a worker thread outside the rate groups, which skips a
+  // frame while it is still busy with an earlier one and draws the hazard overlay only when the
+  // grid of the same frame is still the newest: on a loaded machine a replay can differ there
+  // without any real-time output differing. They are compared and shown, but do not fail it.
+  const auto best_effort = [](const std::string& t) { return t.find("/preview/") != std::string::npos; };
   int differ = 0;
   std::printf("%-34s %8s %8s %10s  %s\n", "topic", "recorded", "replayed", "identical", "first difference");
   for (const auto& [topic, sa] : ta) {
@@ -324,11 +329,10 @@ int compare_recordings(const std::string& a, const std::string& b) {
       }
     }
     const bool ok = sa.size() == sb.size() && same == sa.size();
-    if (!ok) ++differ;
-    std::printf("%-34s %8zu %8zu %10zu  %s\n", topic.c_str(), sa.size(), sb.size(), same,
-                ok           ? "-"
-                : first >= 0 ? ("sample " + std::to_string(first)).c_str()
-                             : "count");
+    if (!ok && !best_effort(topic)) ++differ;
+    const std::string where = ok ? "-" : first >= 0 ? "sample " + std::to_string(first) : "count";
+    std::printf("%-34s %8zu %8zu %10zu  %s%s\n", topic.c_str(), sa.size(), sb.size(), same, where.c_str(),
+                !ok && best_effort(topic) ? " (best effort: not counted)" : "");
   }
   return differ;
 }

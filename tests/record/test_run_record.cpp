@@ -569,6 +569,22 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("replay differs from the recording"), std::string::npos) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(n + R"(terrain/rocks\s+\d+\s+\d+\s+\d+\s+sample \d+)"))) << r.out;
+
+  // Other preview settings only (JPEG quality): the previews differ, but they are best effort (a
+  // worker thread outside the rate groups draws them), so the replay still compares as identical.
+  yaml = read_text(cfg);
+  const auto src = yaml.find("    source: rocks\n");
+  ASSERT_NE(src, std::string::npos);
+  yaml.insert(src + std::string("    source: rocks\n").size(), "    jpeg_quality: 40\n");
+  const fs::path quality = dir_ / "quality.yaml";
+  std::ofstream(quality) << yaml;
+  r = run("replay " + a.string() + " --quiet --config " + quality.string() + " --record " + (dir_ / "q.mcap").string() +
+          " --compare");
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("replay identical to the recording"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::regex_search(
+      r.out, std::regex(n + R"(preview/rocks/compressed\s+\d+\s+\d+\s+\d+\s+\S+ \d* ?\(best effort: not counted\))")))
+      << r.out;
 }
 
 TEST_F(RunRecord, MapReadsARecordingWithItsWheelOdometry) {
