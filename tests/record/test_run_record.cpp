@@ -556,16 +556,20 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   EXPECT_NE(r.out.find("/hal/cameras/front/image has "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("frame 999 is past the end"), std::string::npos) << r.out;
 
+  // The recording replayed by an edited deployment (written to STEM.yaml, recorded to STEM.mcap).
+  const auto replay_edited = [&](const std::string& yaml, const std::string& stem) {
+    const fs::path edited = dir_ / (stem + ".yaml");
+    std::ofstream(edited) << yaml;
+    return run("replay " + a.string() + " --quiet --config " + edited.string() + " --record " +
+               (dir_ / (stem + ".mcap")).string() + " --compare");
+  };
   // Another deployment on the same inputs (a different rock threshold): the rocks differ and the
   // comparison says where, with exit status 1.
   std::string yaml = read_text(cfg);
   const auto at = yaml.find("threshold_scale: 2.0");
   ASSERT_NE(at, std::string::npos);
   yaml.replace(at, 20, "threshold_scale: 0.5");
-  const fs::path changed = dir_ / "changed.yaml";
-  std::ofstream(changed) << yaml;
-  r = run("replay " + a.string() + " --quiet --config " + changed.string() + " --record " + (dir_ / "c.mcap").string() +
-          " --compare");
+  r = replay_edited(yaml, "changed");
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("replay differs from the recording"), std::string::npos) << r.out;
   EXPECT_TRUE(std::regex_search(r.out, std::regex(n + R"(terrain/rocks\s+\d+\s+\d+\s+\d+\s+sample \d+)"))) << r.out;
@@ -576,10 +580,7 @@ TEST_F(RunRecord, ReplayPublishesTheRecordedRunBitForBit) {
   const auto src = yaml.find("    source: rocks\n");
   ASSERT_NE(src, std::string::npos);
   yaml.insert(src + std::string("    source: rocks\n").size(), "    jpeg_quality: 40\n");
-  const fs::path quality = dir_ / "quality.yaml";
-  std::ofstream(quality) << yaml;
-  r = run("replay " + a.string() + " --quiet --config " + quality.string() + " --record " + (dir_ / "q.mcap").string() +
-          " --compare");
+  r = replay_edited(yaml, "quality");
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("replay identical to the recording"), std::string::npos) << r.out;
   EXPECT_TRUE(std::regex_search(
