@@ -633,16 +633,30 @@ TEST(RockSightings, PixelScalesGrowWithTheImage) {
   EXPECT_EQ(same.max_pixels, ref.max_pixels);
   EXPECT_EQ(same.row_band_px, ref.row_band_px);
   EXPECT_EQ(same.merge_gap_px, ref.merge_gap_px);
-  const RockSightingParams wide = ref.scaled_to_width(640);
+  // A camera up to max_width_px (480) wide is measured at its own size; a wider one in a working
+  // frame halved until it is that narrow, for which its parameters are made.
+  EXPECT_EQ(ref.reduction(320), 1);
+  EXPECT_EQ(ref.reduction(480), 1);
+  EXPECT_EQ(ref.reduction(640), 2);
+  EXPECT_EQ(ref.reduction(1280), 4);
+  EXPECT_EQ(ref.reduction(2048), 8);
+  EXPECT_EQ(ref.scaled_to_width(640).background_sigma_px, ref.background_sigma_px);  // working frame 320 px
+  EXPECT_EQ(ref.scaled_to_width(1280).min_pixels, ref.min_pixels);
+  RockSightingParams full = ref;
+  full.max_width_px = 0;
+  EXPECT_EQ(full.reduction(4096), 1);
+  const RockSightingParams wide = full.scaled_to_width(640);
   EXPECT_DOUBLE_EQ(wide.background_sigma_px, 2 * ref.background_sigma_px);  // lengths x2
   EXPECT_EQ(wide.row_band_px, 2 * ref.row_band_px);
   EXPECT_EQ(wide.min_pixels, 4 * ref.min_pixels);  // areas x4
   EXPECT_EQ(wide.max_pixels, 4 * ref.max_pixels);
   EXPECT_EQ(wide.merge_gap_px, 2 * ref.merge_gap_px);
-  EXPECT_DOUBLE_EQ(wide.threshold, ref.threshold);        // not a pixel quantity
-  EXPECT_NO_THROW(ref.scaled_to_width(4096).validate());  // clamped to what validate() accepts
+  EXPECT_DOUBLE_EQ(wide.threshold, ref.threshold);         // not a pixel quantity
+  EXPECT_NO_THROW(full.scaled_to_width(4096).validate());  // clamped to what validate() accepts
   EXPECT_NO_THROW(ref.scaled_to_width(16).validate());
   EXPECT_THROW(ref.scaled_to_width(0), FieldError);
+  full.max_width_px = 8;
+  EXPECT_THROW(full.validate(), FieldError);
 }
 
 TEST(RockSightings, RangesRocksSeenInOneFrame) {
@@ -680,6 +694,57 @@ TEST(RockSightings, RangesRocksSeenInOneFrame) {
   RockSightingParams bad;
   bad.threshold = 0;
   EXPECT_THROW(RockSightings(dd, bad), FieldError);
+}
+
+TEST(RockSightings, AWideFrameIsMeasuredHalvedAndReportedInCameraPixels) {
+  // The same scene through a 640x480 camera (rendered at that size): measured in its 320x240
+  // working frame (means of 2x2 pixels), the sightings stand on the scene's exact rocks as a
+  // 320 px camera's do, while their image boxes and the object mask are the camera's.
+  Rig rig(11, 40);
+  rig.cam.fx = rig.cam.fy = rig.model.fx = rig.model.fy = 440;
+  rig.cam.cx = rig.model.cx = 319.5;
+  rig.cam.cy = rig.model.cy = 239.5;
+  rig.cam.width = rig.model.width = 640;
+  rig.cam.height = rig.model.height = 480;
+  const direct_depth::DirectDepth dd(rig.model);
+  RockSightings sightings(dd, RockSightingParams{}.scaled_to_width(640));
+  ASSERT_EQ(sightings.reduction(), 2);
+  const cv::Mat f = rig.frame(Pose2{0, 0, 0});
+  const int n = sightings.compute(f);
+  ASSERT_GT(n, 2);
+  EXPECT_EQ(sightings.mask().size(), cv::Size(320, 240));
+  int on_rock = 0;
+  for (int k = 0; k < n; ++k) {
+    const double x = sightings.x().at<float>(0, k), y = sightings.y().at<float>(0, k);
+    for (const auto& r : rig.terrain.rocks())
+      if (std::hypot(x - r.x_m, y - r.y_m) <= std::max(1.2 * std::max(r.radius_x_m, r.radius_y_m), 0.10)) {
+        ++on_rock;
+        break;
+      }
+  }
+  std::printf("640x480 frame: sightings %d, on a rock %d\n", n, on_rock);
+  EXPECT_GE(5 * on_rock, 2 * n);  // measured 7 of 12 (the 320 px camera: 8 of 14)
+  EXPECT_GE(on_rock, 5);
+  // Boxes in camera pixels: a working pixel (c, r) covers camera pixels 2c..2c+1, 2r..2r+1.
+  cv::Mat objects(480, 640, CV_8U), up;
+  sightings.object_mask(objects, 0);
+  cv::resize(sightings.mask(), up, objects.size(), 0, 0, cv::INTER_NEAREST);
+  EXPECT_EQ(cv::countNonZero(up & ~objects), 0);  // every masked working pixel, 2x2 in the camera's
+  for (int k = 0; k < n; ++k) {
+    const auto at = [&](SightingRow r) { return static_cast<int>(sightings.table().at<float>(r, k)); };
+    const cv::Rect box(at(kSightCol0), at(kSightRow0), at(kSightCol1) - at(kSightCol0) + 1,
+                       at(kSightRow1) - at(kSightRow0) + 1);
+    ASSERT_EQ(box & cv::Rect(0, 0, 640, 480), box);
+    EXPECT_EQ(box.x % 2, 0);
+    EXPECT_EQ(box.width % 2, 0);
+    EXPECT_EQ(cv::countNonZero(objects(box)), box.area());
+    // The blob's top and lowest (contact) rows are the box's first and last.
+    EXPECT_GT(cv::countNonZero(up(cv::Rect(box.x, box.y, box.width, 1))), 0);
+    EXPECT_GT(cv::countNonZero(up(cv::Rect(box.x, box.y + box.height - 1, box.width, 1))), 0);
+  }
+  cv::Mat small(240, 320, CV_8U);
+  EXPECT_THROW(sightings.object_mask(small, 0), FieldError);  // the camera's size, not the working one
+  EXPECT_THROW(sightings.compute(cv::Mat(240, 320, CV_8U, cv::Scalar(100))), FieldError);
 }
 
 // Featureless textured ground for synthetic sightings: 320x240 grey 120 +- sigma (normal noise).

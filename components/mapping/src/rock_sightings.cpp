@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -22,11 +23,27 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 using common::fill;
 
+// The camera seen through frames halved `f` times over (2x2 means): pixel (c, r) of the working
+// frame covers camera pixels f c .. f c + f - 1, so its centre is at f c + (f - 1) / 2.
+direct_depth::CameraModel reduced(direct_depth::CameraModel m, int f) {
+  const double shift = 0.5 * (f - 1);
+  m.fx /= f, m.fy /= f;
+  m.cx = (m.cx - shift) / f, m.cy = (m.cy - shift) / f;
+  m.width /= f, m.height /= f;
+  return m;
+}
+
 }  // namespace
+
+int RockSightingParams::reduction(int width_px) const {
+  int f = 1;
+  while (max_width_px > 0 && width_px / f > max_width_px) f *= 2;
+  return f;
+}
 
 RockSightingParams RockSightingParams::scaled_to_width(int width_px) const {
   if (width_px <= 0) fail("width", "must be > 0 px");
-  const double s = static_cast<double>(width_px) / kReferenceWidthPx;
+  const double s = static_cast<double>(width_px / reduction(width_px)) / kReferenceWidthPx;
   RockSightingParams p = *this;
   p.background_sigma_px = std::clamp(background_sigma_px * s, std::min(background_sigma_px, 4.0), 64.0);
   p.smooth_sigma_px = std::clamp(smooth_sigma_px * s, 0.0, 16.0);
@@ -58,11 +75,19 @@ void RockSightingParams::validate() const {
     fail("footprint_per_height", "must be in [0, 5]");
   if (!std::isfinite(silhouette_floor) || silhouette_floor < 0 || silhouette_floor > 1)
     fail("silhouette_floor", "must be in [0, 1]");
+  if (max_width_px < 0 || (max_width_px > 0 && max_width_px < 16))
+    fail("max_width_px", "must be 0 (full size) or at least 16 px");
 }
 
 RockSightings::RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params)
-    : p_((params.validate(), params)), depth_(depth), rot_(depth.body_from_optical()) {
-  const auto& m = depth.model();
+    : p_((params.validate(), params)),
+      camera_(depth),
+      f_(p_.reduction(depth.model().width)),
+      work_(f_ > 1 ? std::make_unique<direct_depth::DirectDepth>(reduced(depth.model(), f_)) : nullptr),
+      depth_(work_ ? *work_ : depth),
+      rot_(depth.body_from_optical()) {
+  for (int f = 2; f <= f_; f *= 2) halves_.emplace_back(depth.model().height / f, depth.model().width / f, CV_8U);
+  const auto& m = depth_.model();
   for (cv::Mat* q : {&gray_f_, &img_, &bg_, &wimg_, &wsum_, &tmp_, &tmp2_}) q->create(m.height, m.width, CV_32F);
   mask_.create(m.height, m.width, CV_8U);
   label_.create(m.height, m.width, CV_32S);
@@ -158,11 +183,28 @@ void RockSightings::contrast_and_thresholds() {
   }
 }
 
-int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt, const cv::Vec3d& sun) {
-  const auto& cam = depth_.model();
-  const int H = cam.height, W = cam.width;
-  if (gray.empty() || gray.type() != CV_8UC1 || gray.cols != W || gray.rows != H)
-    fail("gray", "expected an 8-bit grey frame of " + std::to_string(W) + "x" + std::to_string(H));
+const cv::Mat& RockSightings::reduce(const cv::Mat& gray) {
+  const cv::Mat* src = &gray;
+  for (cv::Mat& dst : halves_) {
+    for (int i = 0; i < dst.rows; ++i) {
+      const uchar* a = src->ptr<uchar>(2 * i);
+      const uchar* b = src->ptr<uchar>(2 * i + 1);
+      uchar* d = dst.ptr<uchar>(i);
+      for (int j = 0; j < dst.cols; ++j)
+        d[j] = static_cast<uchar>((a[2 * j] + a[2 * j + 1] + b[2 * j] + b[2 * j + 1] + 2) / 4);
+    }
+    src = &dst;
+  }
+  return *src;
+}
+
+int RockSightings::compute(const cv::Mat& camera_gray, const cv::Vec2d& tilt, const cv::Vec3d& sun) {
+  const auto& cam = camera_.model();
+  if (camera_gray.empty() || camera_gray.type() != CV_8UC1 || camera_gray.cols != cam.width ||
+      camera_gray.rows != cam.height)
+    fail("gray", "expected an 8-bit grey frame of " + std::to_string(cam.width) + "x" + std::to_string(cam.height));
+  const cv::Mat& gray = reduce(camera_gray);
+  const int H = gray.rows, W = gray.cols;
   if (!std::isfinite(sun[0]) || !std::isfinite(sun[1]) || !std::isfinite(sun[2]))
     fail("sun", "must be finite (zero: unknown)");
   count_ = 0;
@@ -248,6 +290,11 @@ int RockSightings::compute(const cv::Mat& gray, const cv::Vec2d& tilt, const cv:
       if (measure(count_, cb, rmin, rmax, cmin, cmax, std::clamp(contrast / pixels - 1.0, 0.05, 1.0))) ++count_;
     }
   if (p_.merge_halves) merge_halves();
+  for (int k = 0; k < count_ && f_ > 1; ++k) {  // the boxes in camera pixels
+    for (const SightingRow r : {kSightCol0, kSightRow0}) table_.at<float>(r, k) *= static_cast<float>(f_);
+    for (const SightingRow r : {kSightCol1, kSightRow1})
+      table_.at<float>(r, k) = table_.at<float>(r, k) * static_cast<float>(f_) + static_cast<float>(f_ - 1);
+  }
   return count_;
 }
 
@@ -317,9 +364,22 @@ double RockSightings::silhouette(double h_ray, double tan_alpha, const cv::Vec2d
 }
 
 void RockSightings::object_mask(cv::Mat& out, int margin_px) const {
-  if (out.type() != CV_8UC1 || out.size() != mask_.size())
-    fail("objects", "expected an 8-bit image of " + std::to_string(mask_.cols) + "x" + std::to_string(mask_.rows));
-  mask_.copyTo(out);
+  const auto& cam = camera_.model();
+  if (out.type() != CV_8UC1 || out.cols != cam.width || out.rows != cam.height)
+    fail("objects", "expected an 8-bit image of " + std::to_string(cam.width) + "x" + std::to_string(cam.height));
+  if (f_ == 1) {
+    mask_.copyTo(out);
+  } else {  // each working pixel covers f_ x f_ camera pixels; a halving leaves the odd last row / column out
+    out.setTo(0);
+    const auto row_bytes = static_cast<std::size_t>(mask_.cols) * static_cast<std::size_t>(f_);
+    for (int i = 0; i < mask_.rows; ++i) {
+      const uchar* m = mask_.ptr<uchar>(i);
+      uchar* o = out.ptr<uchar>(i * f_);
+      for (int j = 0; j < mask_.cols; ++j)
+        for (int c = 0; c < f_; ++c) o[j * f_ + c] = m[j];
+      for (int r = 1; r < f_; ++r) std::memcpy(out.ptr<uchar>(i * f_ + r), o, row_bytes);
+    }
+  }
   const cv::Rect frame(0, 0, out.cols, out.rows);
   for (int k = 0; k < count_; ++k) {
     const auto at = [&](SightingRow r) { return static_cast<int>(table_.at<float>(r, k)); };

@@ -27,6 +27,7 @@
 // (for overlays and single-image reports), the contact's ground point and the top ray's slope
 // (for RockTracker, which triangulates the contact across frames). Everything is allocated in the constructor.
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -59,12 +60,21 @@ struct RockSightingParams {
   /// h_ray cos alpha (a dome's value; a footprint measured too wide would take it to 0).
   bool silhouette_height = true;
   double silhouette_floor = 0.75;
+  /// px, frames wider than this are measured at a half, a quarter, ... of their size (means of 2x2
+  /// pixels) so that they are at most this wide (0: always at full size). The blobs are then
+  /// those of a frame of about the reference width whatever the camera, at a quarter of the work
+  /// per halving; the pixel parameters above are in pixels of that working frame.
+  int max_width_px = 480;
   void validate() const;  ///< FieldError("mapping.sightings", ...)
+
+  /// How many times a frame `width_px` wide is halved before it is measured: 1, 2, 4, ...
+  int reduction(int width_px) const;
 
   /// The image widths the pixel parameters above are given for: 320 px.
   static constexpr int kReferenceWidthPx = 320;
-  /// The same parameters for frames `width_px` wide: lengths (background and smoothing scales, row
-  /// band) grow by s = width / kReferenceWidthPx, areas (min / max pixels) by s^2, the merge gap by
+  /// The same parameters for a camera `width_px` wide, i.e. for its working frame (`max_width_px`)
+  /// w = width_px / reduction(width_px) px wide: lengths (background and smoothing scales, row
+  /// band) grow by s = w / kReferenceWidthPx, areas (min / max pixels) by s^2, the merge gap by
   /// max(1, s); clamped to what validate() accepts. A rock then makes the same blob whatever the
   /// camera's resolution (a 640 px camera with the 320 px scales takes its texture for rocks).
   RockSightingParams scaled_to_width(int width_px) const;
@@ -79,8 +89,8 @@ enum SightingRow {
   kSightScore,
   kSightSigmaRange,
   kSightSigmaLateral,
-  kSightCol0,  ///< the blob's image box: first column, first row, last column, last row (px, inclusive;
-  kSightRow0,  ///< first row 0 = cut by the top edge: the height is then a lower bound)
+  kSightCol0,  ///< the blob's image box: first column, first row, last column, last row (px of the
+  kSightRow0,  ///< camera frame, inclusive; first row 0 = cut by the top edge: the height is then a lower bound)
   kSightCol1,
   kSightRow1,
   kSightContactX,  ///< the contact's ground point (camera foot frame, on the ground plane): the ray
@@ -91,7 +101,8 @@ enum SightingRow {
 
 class RockSightings {
  public:
-  /// `depth` must outlive this object.
+  /// `depth` (the camera's) must outlive this object. A camera wider than `max_width_px` gets a
+  /// working frame and its own DirectDepth for it, made here.
   RockSightings(const direct_depth::DirectDepth& depth, const RockSightingParams& params);
 
   /// One 8-bit grey frame (camera size, else FieldError naming "gray"); tilt = the camera's
@@ -109,8 +120,11 @@ class RockSightings {
   const cv::Mat& score() const { return s_; }
   /// Row `row` (SightingRow) of the table: one value per sighting, NaN after count().
   cv::Mat row(SightingRow r) const { return table_.row(r); }
-  /// The last frame's blob mask (CV_8U, 255 = above the threshold), for overlays.
+  /// The last frame's blob mask (CV_8U, 255 = above the threshold) in the working frame
+  /// (reduction() times smaller than the camera's), for overlays.
   const cv::Mat& mask() const { return mask_; }
+  /// The factor between the camera frame and the working frame (1: measured at full size).
+  int reduction() const { return f_; }
   /// What stands on the ground in the last frame, for GroundVisualOdometry::exclude: the blob
   /// mask plus each sighting's image box grown by `margin_px` (a rock's inside can match the
   /// ground's brightness; its far side and top are seen over the ground behind it). `out` must be CV_8U of the camera's
@@ -123,14 +137,20 @@ class RockSightings {
   /// table column k; false (column untouched) when it is out of range or height.
   bool measure(int k, double cb, int rmin, int rmax, int cmin, int cmax, double score);
   void merge_halves();
+  /// `gray` halved until it is the working frame (itself when f_ = 1).
+  const cv::Mat& reduce(const cv::Mat& gray);
   cv::Vec3d ray(double col, double row) const;
   /// The rock's height from its top ray's height h_ray over the centre (seen along the horizontal
   /// unit `view`, depression tan_alpha), footprint radius `radius`: see silhouette_height.
   double silhouette(double h_ray, double tan_alpha, const cv::Vec2d& view, double radius) const;
   cv::Vec3d sun_;  // of the current frame (zero: unknown)
   RockSightingParams p_;
-  const direct_depth::DirectDepth& depth_;
-  cv::Matx33d rot_;  // body from optical, with the tilt of the current frame
+  const direct_depth::DirectDepth& camera_;          // the camera's (object_mask's size)
+  int f_ = 1;                                        // camera frame / working frame
+  std::unique_ptr<direct_depth::DirectDepth> work_;  // the working frame's when f_ > 1
+  const direct_depth::DirectDepth& depth_;           // the working frame's: *work_ or camera_
+  std::vector<cv::Mat> halves_;                      // the camera frame halved once, twice, ...
+  cv::Matx33d rot_;                                  // body from optical, with the tilt of the current frame
   void contrast_and_thresholds();
   cv::Mat gray_f_, img_, bg_, wimg_, wsum_, tmp_, tmp2_, mask_, label_, row_thr_, row_med_, acc_;
   std::vector<float> values_;
