@@ -454,6 +454,47 @@ TEST(Traversability, GroundRectifiedSfsRecoversRockHeights) {
   EXPECT_GT(r_sum / 4, rw_sum / 4 + 0.1);
 }
 
+TEST(Traversability, ElevationOnlyGridsLeaveTheTraversabilityLayersUnknown) {
+  // traversability_layers false (the drive-long map's per-frame grid): the same elevation and
+  // confidence, no slope / roughness / step / traversability (NaN), whatever the last frame left.
+  const direct_depth::CameraModel m = cam();
+  const direct_depth::DirectDepth dd(m);
+  const terrain_scene::Terrain t(rock_field());
+  const auto img = terrain_scene::render_camera(t, pose_of(m), terrain_scene::Sun{2.0, 0.6});
+  cv::Mat img8;
+  img.image.convertTo(img8, CV_8U, 255.0);
+  const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
+  TraversabilityParams only = params();
+  only.traversability_layers = false;
+  TraversabilityMapper full_mapper(dd, params()), only_mapper(dd, only);
+  GridMap full, g;
+  full_mapper.compute_from_image(img8, light, full);
+  full_mapper.compute_from_image(img8, light, g);  // layers filled: the elevation-only frame must clear them
+  only_mapper.compute_from_image(img8, light, g);
+  ASSERT_EQ(g.layers, full.layers);
+  // Cells with a value, and cells whose value differs from the other grid's (NaN = NaN).
+  const auto known = [](const cv::Mat& layer) {
+    int n = 0;
+    for (int i = 0; i < layer.rows; ++i)
+      for (int j = 0; j < layer.cols; ++j) n += !std::isnan(layer.at<float>(i, j));
+    return n;
+  };
+  const auto differing = [](const cv::Mat& a, const cv::Mat& b) {
+    int n = 0;
+    for (int i = 0; i < a.rows; ++i)
+      for (int j = 0; j < a.cols; ++j) {
+        const float x = a.at<float>(i, j), y = b.at<float>(i, j);
+        n += !(x == y || (std::isnan(x) && std::isnan(y)));
+      }
+    return n;
+  };
+  EXPECT_GT(known(full.layer("elevation")), 1000);
+  for (const char* kept : {"elevation", "confidence"}) EXPECT_EQ(differing(full.layer(kept), g.layer(kept)), 0) << kept;
+  EXPECT_GT(known(full.layer("traversability")), 1000);
+  for (const char* gone : {"traversability_slope", "traversability_roughness", "traversability_step", "traversability"})
+    EXPECT_EQ(known(g.layer(gone)), 0) << gone;  // every cell NaN
+}
+
 TEST(Traversability, ColumnMajorExport) {
   GridMap g;
   g.resolution_m = 1;

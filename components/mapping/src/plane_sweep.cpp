@@ -71,8 +71,8 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
       nrm_.at<cv::Vec3f>(i, j) =
           cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
     }
-  for (cv::Mat* q : {&key_,  &cur_,    &ray_,  &ox_,    &oy_,    &oz_,  &e_, &c0_, &c1_, &c2_,
-                     &best_, &second_, &left_, &right_, &bests_, &tmp_, &z_, &x_,  &y_,  &conf_})
+  for (cv::Mat* q : {&key_, &cur_, &ox_, &oy_, &oz_, &e_, &c0_, &c1_, &c2_, &best_, &second_, &left_, &right_, &bests_,
+                     &tmp_, &z_, &x_, &y_, &conf_})
     q->create(H, W, CV_32F);
   key_ok_.create(H, W, CV_8U);
   cur_ok_.create(H, W, CV_8U);

@@ -362,7 +362,11 @@ void TraversabilityMapper::finish_grid(GridMap& out) {
 }
 
 void TraversabilityMapper::layers_from_elevation(GridMap& out) {
-  compute_layers(out, p_, layer_ws_);
+  if (p_.traversability_layers) {
+    compute_layers(out, p_, layer_ws_);
+    return;
+  }
+  for (std::size_t k = 1; k < 5; ++k) fill(out.data[k], kNaNf);  // layers 1-4: the traversability's
 }
 
 namespace {

@@ -108,8 +108,8 @@ struct DriveMapperParams {
                                 ///< dev drives hazard AUC +0.014 / -0.004 / +0.015, no rock gained or lost
   bool fuse_sightings = true;   ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
   bool fuse_shading = true;     ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
-                                ///< cells parallax cannot reach; ~50 ms per 320x240 frame: the terrain_map component
-                                ///< leaves it off for its time budget)
+                                ///< cells parallax cannot reach; ~5 ms per frame; the terrain_map component
+                                ///< leaves it off, chosen when it cost ~50 ms)
   double shading_weight = 0.1;  ///< x the SfS grid's confidence when fused (components/mapping/README.md: the sweep)
   static traversability::TraversabilityParams default_terrain() {
     traversability::TraversabilityParams t;
@@ -118,6 +118,7 @@ struct DriveMapperParams {
     t.length_y_m = 6.0;
     t.resolution_m = 0.04;
     t.max_range_m = 5.0;
+    t.traversability_layers = false;  // the map fuses the elevation and makes its own layers
     return t;
   }
   void validate() const;

@@ -108,7 +108,7 @@ class PlaneSweep {
   cv::Mat undist_x_, undist_y_, undist_;           // distortion maps (empty for a pinhole camera)
   cv::Mat nrm_;                                    // CV_32FC3 nominal ray per pixel (body frame, not normalised)
   cv::Mat key_, key_ok_, cur_, cur_ok_, cur_ok4_;  // cur_ok4_: the bilinear footprint at (i, j) usable
-  cv::Mat ray_, ox_, oy_, oz_, row_step_;          // per compute: tilted key ray scale, o1 components, step per row
+  cv::Mat ox_, oy_, oz_, row_step_;                // per compute: o1 components, step per row
   cv::Mat proj_u_, proj_v_;                        // one row's projected (u, v) for one hypothesis
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;

@@ -80,6 +80,9 @@ struct TraversabilityParams {
   double step_radius_m = 0.10;         ///< m, neighbourhood for max - min height (step)
   double weight_slope = 0.4, weight_step = 0.4, weight_roughness = 0.2;  ///< combination weights
   double full_confidence_points = 4.0;                                   ///< points per cell for confidence 1
+  /// false: a frame makes only `elevation` and `confidence`, the traversability layers are NaN (for a
+  /// consumer that fuses the elevation and derives its own layers, e.g. the drive-long map)
+  bool traversability_layers = true;
   // Ground-rectified SfS (compute_from_image).
   double rectify_resolution_m = 0.02;   ///< m per cell of the ground-rectified image
   double ground_detrend_sigma_m = 0.5;  ///< m, smooth background removed from ground SfS heights (0 = off)
