@@ -745,6 +745,16 @@ TEST(RockSightings, AWideFrameIsMeasuredHalvedAndReportedInCameraPixels) {
   cv::Mat small(240, 320, CV_8U);
   EXPECT_THROW(sightings.object_mask(small, 0), FieldError);  // the camera's size, not the working one
   EXPECT_THROW(sightings.compute(cv::Mat(240, 320, CV_8U, cv::Scalar(100))), FieldError);
+  // A camera too flat to halve that often (8192 x 8: 32x to 256 px wide leaves no row) names the field.
+  direct_depth::CameraModel flat = rig.model;
+  flat.width = 8192, flat.height = 8, flat.cx = 4095.5, flat.cy = 3.5;
+  const direct_depth::DirectDepth flat_dd(flat);
+  try {
+    RockSightings refused(flat_dd, RockSightingParams{});
+    ADD_FAILURE() << "an 8192x8 camera was accepted";
+  } catch (const FieldError& e) {
+    EXPECT_NE(std::string(e.what()).find("max_width_px"), std::string::npos) << e.what();
+  }
 }
 
 // Featureless textured ground for synthetic sightings: 320x240 grey 120 +- sigma (normal noise).

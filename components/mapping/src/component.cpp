@@ -137,7 +137,6 @@ class TerrainMapComponent final : public runtime::Component {
     // ---- the mapper (DriveMapperParams read by name, shared with `regolith map --set`) ----
     DriveMapperParams defaults;
     defaults.parallax_spacing_m = 0.15;  // a parallax search per 15 cm of baseline: the component's time budget
-    defaults.fuse_shading = false;       // chosen at ~50 ms per 320x240 frame (now ~5 ms: README, "shading")
     DriveMapperParams mp = read_drive_mapper_params(p, defaults);
     const double window_m = std::max(mp.map.length_x_m, mp.map.length_y_m);
     const double cells_per_side = window_m / mp.map.resolution_m;

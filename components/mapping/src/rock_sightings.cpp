@@ -23,9 +23,12 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 using common::fill;
 
-// The camera seen through frames halved `f` times over (2x2 means): pixel (c, r) of the working
+// The camera seen through frames reduced `f` times (f = 2, 4, ...: 2x2 means, repeated): pixel (c, r) of the working
 // frame covers camera pixels f c .. f c + f - 1, so its centre is at f c + (f - 1) / 2.
 direct_depth::CameraModel reduced(direct_depth::CameraModel m, int f) {
+  if (m.height / f < 1)
+    fail("max_width_px", "a " + std::to_string(m.width) + "x" + std::to_string(m.height) + " camera reduced " +
+                             std::to_string(f) + "x to this width keeps no row: raise it, or 0 for full size");
   const double shift = 0.5 * (f - 1);
   m.fx /= f, m.fy /= f;
   m.cx = (m.cx - shift) / f, m.cy = (m.cy - shift) / f;
