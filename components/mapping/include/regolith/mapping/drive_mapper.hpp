@@ -108,8 +108,8 @@ struct DriveMapperParams {
                                 ///< dev drives hazard AUC +0.014 / -0.004 / +0.015, no rock gained or lost
   bool fuse_sightings = true;   ///< rocks sighted in each frame, followed across frames (RockTracker; far rocks)
   bool fuse_shading = true;     ///< heights from ground-rectified SfS (weak from a grazing view, but it fills the
-                                ///< cells parallax cannot reach; ~5 ms per frame; the terrain_map component
-                                ///< leaves it off, chosen when it cost ~50 ms)
+                                ///< cells parallax cannot reach; ~5 ms per frame, on in the terrain_map component
+                                ///< too since 2026-12-06)
   double shading_weight = 0.1;  ///< x the SfS grid's confidence when fused (components/mapping/README.md: the sweep)
   static traversability::TraversabilityParams default_terrain() {
     traversability::TraversabilityParams t;

@@ -3,6 +3,9 @@
 // made to work from a moving rover): far rocks are a few pixels of parallax but many pixels of
 // image, so where motion parallax is too weak the image itself says where a rock stands.
 //
+//  0. A camera wider than `max_width_px` is measured in a working frame: its frame halved (means of
+//     2x2 pixels) until it is at most that wide, with a DirectDepth of its own; the boxes and the
+//     object mask are given back in camera pixels.
 //  1. Contrast against the local ground: d = I - B (B = the frame blurred over
 //     `background_sigma_px`, three box passes; then again leaving out the pixels the first pass
 //     found, so a bright rock does not lift the ground around it), |d| smoothed over
@@ -67,7 +70,7 @@ struct RockSightingParams {
   int max_width_px = 480;
   void validate() const;  ///< FieldError("mapping.sightings", ...)
 
-  /// How many times a frame `width_px` wide is halved before it is measured: 1, 2, 4, ...
+  /// The factor a frame `width_px` wide is reduced by before it is measured: 1 (full size), 2, 4, ...
   int reduction(int width_px) const;
 
   /// The image widths the pixel parameters above are given for: 320 px.
