@@ -414,7 +414,9 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
   DriveMapperParams defaults;
   defaults.parallax_spacing_m = 0.15;
   regolith::Params p = regolith::Params::load_string(
-      "track_rocks: false\nrock_merge_m: 0.4\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\n", "m.yaml");
+      "track_rocks: false\nrock_merge_m: 0.4\nsighting_tilt_window: 3\nmap_resolution_m: 0.02\nsighting_max_width_px: "
+      "0\n",
+      "m.yaml");
   const DriveMapperParams got = regolith::mapping::read_drive_mapper_params(p, defaults);
   p.finish();
   EXPECT_FALSE(got.tracks.enabled);
@@ -433,6 +435,8 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
   }
   EXPECT_DOUBLE_EQ(got.map.rock_merge_m, 0.4);
   EXPECT_EQ(got.sighting_tilt_window, 3);
+  EXPECT_EQ(got.sightings.max_width_px, 0);  // full size
+  EXPECT_EQ(defaults.sightings.max_width_px, 480);
   EXPECT_DOUBLE_EQ(got.map.resolution_m, 0.02);
   EXPECT_DOUBLE_EQ(got.parallax_spacing_m, 0.15);  // not given: the caller's default
   EXPECT_DOUBLE_EQ(got.tracks.ground_sigma_m, DriveMapperParams{}.tracks.ground_sigma_m);
@@ -444,6 +448,15 @@ TEST(TerrainMapParams, OneReaderForTheComponentAndTheCli) {
   } catch (const regolith::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("--set:1:"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("rock_min_frames"), std::string::npos) << e.what();
+  }
+  regolith::Params narrow = regolith::Params::load_string("sighting_max_width_px: 8\n", "--set");
+  try {
+    regolith::mapping::read_drive_mapper_params(narrow);
+    ADD_FAILURE() << "sighting_max_width_px 8 accepted";
+  } catch (const regolith::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sighting_max_width_px: must be 0 (full size) or at least 16 px"),
+              std::string::npos)
+        << e.what();
   }
   regolith::Params typo = regolith::Params::load_string("rock_min_frame: 4\n", "--set");
   regolith::mapping::read_drive_mapper_params(typo);

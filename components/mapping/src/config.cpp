@@ -50,6 +50,35 @@ void read_consider_terms(Params& p, DriveMapperParams& mp) {
               "pose covariance only, per segment (0: the fit's heading variance alone)"});
 }
 
+// How rocks are sighted and ranged, and what of them the VO's tilt refit leaves out.
+void read_sighting_settings(Params& p, DriveMapperParams& mp) {
+  mp.sighting_tilt_window = p.get<int>(
+      "sighting_tilt_window", mp.sighting_tilt_window,
+      {.min = 1,
+       .max = 64,
+       .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
+  mp.sighting_tilt_noise_rad = p.get<double>("sighting_tilt_noise_rad", mp.sighting_tilt_noise_rad,
+                                             {.unit = "rad",
+                                              .min = 0.0,
+                                              .max = 0.5,
+                                              .doc = "error of one VO tilt: the ranging tilt is shrunk towards the "
+                                                     "mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
+  mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
+                               {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
+                                       "(rocks pull the joint fit nose-down)"});
+  mp.object_margin_px =
+      p.get<int>("object_margin_px", mp.object_margin_px,
+                 {.min = 0, .max = 64, .doc = "pixels around each sighted rock's box left out of that refit"});
+  mp.sightings.max_width_px = p.get<int>(
+      "sighting_max_width_px", mp.sightings.max_width_px,
+      {.unit = "px",
+       .min = 0,
+       .max = 16384,
+       .doc = "a wider camera's frames are halved until at most this wide before rocks are sighted (0: full size)"});
+  if (mp.sightings.max_width_px > 0 && mp.sightings.max_width_px < 16)
+    p.fail("sighting_max_width_px", "must be 0 (full size) or at least 16 px");
+}
+
 }  // namespace
 
 DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
@@ -101,24 +130,8 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.map.rock_merge_m = p.get<double>(
       "rock_merge_m", mp.map.rock_merge_m,
       {.unit = "m", .min = 0.0, .max = 5.0, .doc = "reported rocks closer than this are one rock (the stronger kept)"});
-  mp.sighting_tilt_window = p.get<int>(
-      "sighting_tilt_window", mp.sighting_tilt_window,
-      {.min = 1,
-       .max = 64,
-       .doc = "rocks are ranged with the median camera tilt (VO) of this many frames, shrunk towards the mount"});
-  mp.sighting_tilt_noise_rad = p.get<double>("sighting_tilt_noise_rad", mp.sighting_tilt_noise_rad,
-                                             {.unit = "rad",
-                                              .min = 0.0,
-                                              .max = 0.5,
-                                              .doc = "error of one VO tilt: the ranging tilt is shrunk towards the "
-                                                     "mount by prior^2 / (prior^2 + this^2) (0: not shrunk)"});
+  read_sighting_settings(p, mp);
   read_consider_terms(p, mp);
-  mp.ground_tilt = p.get<bool>("ground_tilt", mp.ground_tilt,
-                               {.doc = "range rocks with the VO tilt refitted without the keyframe's sighted objects "
-                                       "(rocks pull the joint fit nose-down)"});
-  mp.object_margin_px =
-      p.get<int>("object_margin_px", mp.object_margin_px,
-                 {.min = 0, .max = 64, .doc = "pixels around each sighted rock's box left out of that refit"});
   mp.parallax_spacing_m = p.get<double>("parallax_spacing_m", mp.parallax_spacing_m,
                                         {.unit = "m",
                                          .min = 0.0,

@@ -28,7 +28,9 @@ using common::fill;
 direct_depth::CameraModel reduced(direct_depth::CameraModel m, int f) {
   if (m.height / f < 1)
     fail("max_width_px", "a " + std::to_string(m.width) + "x" + std::to_string(m.height) + " camera reduced " +
-                             std::to_string(f) + "x to this width keeps no row: raise it, or 0 for full size");
+                             std::to_string(f) +
+                             "x to this width keeps no row: raise it (sighting_max_width_px), or 0 "
+                             "for full size");
   const double shift = 0.5 * (f - 1);
   m.fx /= f, m.fy /= f;
   m.cx = (m.cx - shift) / f, m.cy = (m.cy - shift) / f;
