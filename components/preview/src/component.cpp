@@ -34,6 +34,9 @@ enum class Source : std::uint8_t { kRocks, kSinkage };
 struct Slot {
   cv::Mat frame;  ///< the camera's size and type, allocated at configure
   saliency::RockFrame rocks;
+  /// The traversability grid of the rocks' frame (hazard_map), leased in step() while it was the
+  /// newest, released by the worker once drawn: the overlay does not depend on the worker's timing.
+  LatestPool<traversability::GridMapFrame>::Lease grid;
   sinkage::WheelSinkageSample sinkage;
   TimeNs stamp = 0;
   std::uint64_t sequence = 0;
@@ -184,7 +187,14 @@ class PreviewComponent final : public runtime::Component {
       unmatched_.fetch_add(1, std::memory_order_relaxed);
       return false;
     }
-    return hand_over(dtm->gray, rocks->stamp, rocks->sequence, [&](Slot& s) { s.rocks = *rocks; });
+    // The grid of the same frame (traversability runs before this in the rocks' rate group): held
+    // by the slot until drawn. At most kSlots leases: within the channel's readers (GridMapFrame's 4).
+    auto grid = grid_ != nullptr ? grid_->acquire() : decltype(grid_->acquire()){};
+    if (grid && grid->sequence != rocks->sequence) grid.reset();
+    return hand_over(dtm->gray, rocks->stamp, rocks->sequence, [&](Slot& s) {
+      s.rocks = *rocks;
+      s.grid = std::move(grid);
+    });
   }
 
   bool take_sinkage() {
@@ -215,14 +225,13 @@ class PreviewComponent final : public runtime::Component {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
         continue;
       }
-      const Slot& s = slots_[static_cast<std::size_t>(idx)];
+      Slot& s = slots_[static_cast<std::size_t>(idx)];
       bool ok = false;
       try {
         if (source_ == Source::kRocks) {
           const std::span rocks(s.rocks.rocks.data(), std::min<std::size_t>(s.rocks.count, saliency::kMaxRocks));
-          // the traversability grid of the same frame (traversability runs in the rocks' rate group)
-          const auto grid = grid_ != nullptr ? grid_->acquire() : decltype(grid_->acquire()){};
-          const traversability::GridMap* map = grid && grid->sequence == s.sequence ? &grid->map : nullptr;
+          // the traversability grid of the same frame, leased by step()
+          const traversability::GridMap* map = s.grid ? &s.grid->map : nullptr;
           if (map != nullptr && !map->layers.empty()) {
             const cv::Size size = preview_size(size_, width_);
             if (cells.size() != size || !cells_grid.same_as(*map)) {
@@ -244,6 +253,7 @@ class PreviewComponent final : public runtime::Component {
       }
       const TimeNs stamp = s.stamp;
       const std::uint64_t sequence = s.sequence;
+      s.grid.reset();  // the traversability component may write that slot again
       free_->push(idx);
       if (!ok) {
         encode_failures_.fetch_add(1, std::memory_order_relaxed);
