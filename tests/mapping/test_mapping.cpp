@@ -745,6 +745,22 @@ TEST(RockSightings, AWideFrameIsMeasuredHalvedAndReportedInCameraPixels) {
   cv::Mat small(240, 320, CV_8U);
   EXPECT_THROW(sightings.object_mask(small, 0), FieldError);  // the camera's size, not the working one
   EXPECT_THROW(sightings.compute(cv::Mat(240, 320, CV_8U, cv::Scalar(100))), FieldError);
+  // An odd-sized camera: the last row and column are left out of the halving, and out of the mask.
+  rig.cam.width = rig.model.width = 641;
+  rig.cam.height = rig.model.height = 481;
+  rig.cam.cx = rig.model.cx = 320.0;
+  rig.cam.cy = rig.model.cy = 240.0;
+  const direct_depth::DirectDepth odd_dd(rig.model);
+  RockSightings odd(odd_dd, RockSightingParams{}.scaled_to_width(641));
+  const int n_odd = odd.compute(rig.frame(Pose2{0, 0, 0}));
+  EXPECT_GE(n_odd, n - 2);  // the same scene, half a pixel wider
+  cv::Mat odd_objects(481, 641, CV_8U);
+  odd.object_mask(odd_objects, 2);
+  EXPECT_EQ(cv::countNonZero(odd_objects.row(480)), 0);
+  for (int k = 0; k < n_odd; ++k) {
+    EXPECT_LE(odd.table().at<float>(kSightCol1, k), 639.0f);
+    EXPECT_LE(odd.table().at<float>(kSightRow1, k), 479.0f);
+  }
   // A camera too flat to halve that often (8192 x 8: 32x to 256 px wide leaves no row) names the field.
   direct_depth::CameraModel flat = rig.model;
   flat.width = 8192, flat.height = 8, flat.cx = 4095.5, flat.cy = 3.5;
