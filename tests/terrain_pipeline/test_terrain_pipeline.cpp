@@ -1037,6 +1037,8 @@ TEST(AssessCli, ABadSceneFileNamesTheFileAndTheField) {
            sun + "}",
        "other_size.json: camera.width x camera.height is 640x480 px, but the image is 160x120"},
       {"no_projection", "{" + camera + ", " + sun + "}", "no_projection.json: projection: must be"},
+      {"drive", R"({"traverse": "t", "frames_csv": "frames.csv", )" + camera + "}",
+       "drive.json: a recorded drive's description (frames_csv), not one image's scene: `regolith map DIR`"},
       {"sun_text", R"({"projection": "perspective", )" + camera + R"(, "sun_elevation_deg": "high"})",
        "sun_text.json: sun_elevation_deg: must be a number"},
       {"no_pixel_size", R"({"projection": "orthographic", "sun_slant_deg": 30, "sun_tilt_deg": 0})",

@@ -74,6 +74,12 @@ SceneDescription read_scene_description(const std::string& file, int width, int 
   } else if (projection == "perspective") {
     size_check("camera.width", "camera.height");
     read_perspective(j, file, d);
+  } else if (projection.empty() && j.is_object() && j.contains("frames_csv")) {
+    // A recorded drive's description (../shared/data/synthetic_dev/traverse/): its sun is in the
+    // world frame and each frame has its own heading, so it does not describe one image.
+    throw InputError(file + ": a recorded drive's description (frames_csv), not one image's scene: `regolith map " +
+                     "DIR` maps the drive; for one of its frames give --camera fx,fy,cx,cy --height --pitch and " +
+                     "--sun-slant / --sun-tilt");
   } else {
     throw InputError(file + ": projection: must be \"orthographic\" or \"perspective\"" +
                      (projection.empty() ? std::string(" (missing)") : " (got \"" + projection + "\")"));

@@ -27,7 +27,8 @@ struct SceneDescription {
 ///    the description's folder);
 ///  * "perspective": camera {width, height (the image's), fx, fy, cx, cy, h_m, pitch_deg
 ///    [, roll_deg]}, sun_elevation_deg (-90..90) and sun_azimuth_deg.
-/// InputError "FILE: FIELD: why" for anything missing, invalid or of another image size.
+/// InputError "FILE: FIELD: why" for anything missing, invalid or of another image size; a recorded
+/// drive's input.json (frames_csv, no projection) is named as such, with what to use instead.
 SceneDescription read_scene_description(const std::string& file, int width, int height);
 
 }  // namespace regolith::common
