@@ -187,13 +187,13 @@ class PreviewComponent final : public runtime::Component {
       unmatched_.fetch_add(1, std::memory_order_relaxed);
       return false;
     }
-    // The grid of the same frame (traversability runs before this in the rocks' rate group): held
-    // by the slot until drawn. At most kSlots leases: within the channel's readers (GridMapFrame's 4).
-    auto grid = grid_ != nullptr ? grid_->acquire() : decltype(grid_->acquire()){};
-    if (grid && grid->sequence != rocks->sequence) grid.reset();
     return hand_over(dtm->gray, rocks->stamp, rocks->sequence, [&](Slot& s) {
       s.rocks = *rocks;
-      s.grid = std::move(grid);
+      // The grid of the same frame (traversability runs before this in the rocks' rate group), held
+      // by the slot until drawn: leased only once a slot is free, so at most kSlots leases, within
+      // the channel's readers (GridMapFrame's 4).
+      if (grid_ != nullptr)
+        if (auto grid = grid_->acquire(); grid && grid->sequence == rocks->sequence) s.grid = std::move(grid);
     });
   }
 
