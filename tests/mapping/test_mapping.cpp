@@ -86,6 +86,14 @@ struct Rig {
         sun{2.3, 0.8} {
     std::tie(cam, model) = camera_320x240(220, 0.67, 0.6);
   }
+  /// Another image size for the same camera: focal length `f_px`, principal point at the centre.
+  void resize(int width, int height, double f_px) {
+    cam.fx = cam.fy = model.fx = model.fy = f_px;
+    cam.cx = model.cx = 0.5 * (width - 1);
+    cam.cy = model.cy = 0.5 * (height - 1);
+    cam.width = model.width = width;
+    cam.height = model.height = height;
+  }
   cv::Mat frame(const Pose2& foot, double pitch_offset = 0.0, double roll = 0.0, std::uint64_t noise_seed = 7) {
     cam.x_m = foot.x;
     cam.y_m = foot.y;
@@ -701,11 +709,7 @@ TEST(RockSightings, AWideFrameIsMeasuredHalvedAndReportedInCameraPixels) {
   // working frame (means of 2x2 pixels), the sightings stand on the scene's exact rocks as a
   // 320 px camera's do, while their image boxes and the object mask are the camera's.
   Rig rig(11, 40);
-  rig.cam.fx = rig.cam.fy = rig.model.fx = rig.model.fy = 440;
-  rig.cam.cx = rig.model.cx = 319.5;
-  rig.cam.cy = rig.model.cy = 239.5;
-  rig.cam.width = rig.model.width = 640;
-  rig.cam.height = rig.model.height = 480;
+  rig.resize(640, 480, 440);
   const direct_depth::DirectDepth dd(rig.model);
   RockSightings sightings(dd, RockSightingParams{}.scaled_to_width(640));
   ASSERT_EQ(sightings.reduction(), 2);
@@ -746,10 +750,7 @@ TEST(RockSightings, AWideFrameIsMeasuredHalvedAndReportedInCameraPixels) {
   EXPECT_THROW(sightings.object_mask(small, 0), FieldError);  // the camera's size, not the working one
   EXPECT_THROW(sightings.compute(cv::Mat(240, 320, CV_8U, cv::Scalar(100))), FieldError);
   // An odd-sized camera: the last row and column are left out of the halving, and out of the mask.
-  rig.cam.width = rig.model.width = 641;
-  rig.cam.height = rig.model.height = 481;
-  rig.cam.cx = rig.model.cx = 320.0;
-  rig.cam.cy = rig.model.cy = 240.0;
+  rig.resize(641, 481, 440);
   const direct_depth::DirectDepth odd_dd(rig.model);
   RockSightings odd(odd_dd, RockSightingParams{}.scaled_to_width(641));
   const int n_odd = odd.compute(rig.frame(Pose2{0, 0, 0}));

@@ -366,7 +366,8 @@ void TraversabilityMapper::layers_from_elevation(GridMap& out) {
     compute_layers(out, p_, layer_ws_);
     return;
   }
-  for (std::size_t k = 1; k < 5; ++k) fill(out.data[k], kNaNf);  // layers 1-4: the traversability's
+  for (const char* name : {"traversability_slope", "traversability_roughness", "traversability_step", "traversability"})
+    fill(out.data[out.layer_index(name)], kNaNf);
 }
 
 namespace {
