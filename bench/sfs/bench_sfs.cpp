@@ -17,6 +17,7 @@
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
+#include "regolith/terrain_scene/camera_model.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -98,25 +99,11 @@ void BM_StereoSGBM(benchmark::State& st) {
   }
 }
 
-// Camera model of a rendered pose (no distortion).
-direct_depth::CameraModel model_of(const terrain_scene::CameraPose& c) {
-  direct_depth::CameraModel cm;
-  cm.fx = c.fx;
-  cm.fy = c.fy;
-  cm.cx = c.cx;
-  cm.cy = c.cy;
-  cm.width = c.width;
-  cm.height = c.height;
-  cm.mount_height_m = c.height_m;
-  cm.pitch_rad = c.pitch_rad;
-  return cm;
-}
-
 // SfS on the left image + traversability grid (metric scale, layers) from it: one frame of the
 // monocular path (frame grab / vignetting excluded).
 void run_sfs_trav(benchmark::State& st, sfs::Method m) {
   const Pair& p = pair();
-  const direct_depth::DirectDepth dd(model_of(p.left));
+  const direct_depth::DirectDepth dd(terrain_scene::camera_model_of(p.left));
   sfs::SfsParams sp;
   sp.method = m;
   sfs::ShapeFromShading s(sp);
@@ -137,7 +124,7 @@ void run_sfs_trav(benchmark::State& st, sfs::Method m) {
 // Tsai-Shah there with the sun in the ground frame, metric grid + layers.
 void run_ground_trav(benchmark::State& st, sfs::Method m) {
   const Pair& p = pair();
-  const direct_depth::DirectDepth dd(model_of(p.left));
+  const direct_depth::DirectDepth dd(terrain_scene::camera_model_of(p.left));
   traversability::TraversabilityParams tp;
   tp.ground_sfs.method = m;
   traversability::TraversabilityMapper mapper(dd, tp);

@@ -7,6 +7,7 @@
 
 #include "regolith/sfs/sfs.hpp"
 #include "regolith/soil_stiffness/track_analysis.hpp"
+#include "regolith/track_scene/camera_model.hpp"
 #include "regolith/track_scene/track_scene.hpp"
 
 using namespace regolith;
@@ -20,15 +21,7 @@ struct Fixture {
   Fixture() {
     p.tracks = {{0.4, 60.0}, {-0.4, 60.0}};
     scene = track_scene::generate_track_scene(p);
-    const auto& c = p.camera;
-    cam.width = c.width;
-    cam.height = c.height;
-    cam.fx = c.fx;
-    cam.fy = c.fy;
-    cam.cx = c.cx;
-    cam.cy = c.cy;
-    cam.mount_height_m = c.mount_height_m;
-    cam.pitch_rad = c.pitch_rad;
+    cam = track_scene::camera_model_of(p.camera);
     rover.wheel_width_m = p.wheel_width_m;
     rover.wheel_diameter_m = p.wheel_diameter_m;
   }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "regolith/direct_depth/direct_depth.hpp"
+#include "regolith/terrain_scene/camera_model.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 
 namespace {
@@ -131,19 +132,6 @@ TEST(DirectDepth, ProjectIsInverseIncludingDistortion) {
   EXPECT_FALSE(dd.project(-1.0, 0.0).has_value());
 }
 
-terrain_scene::CameraPose pose_of(const CameraModel& m) {
-  terrain_scene::CameraPose p;
-  p.fx = m.fx;
-  p.fy = m.fy;
-  p.cx = m.cx;
-  p.cy = m.cy;
-  p.width = m.width;
-  p.height = m.height;
-  p.height_m = m.mount_height_m;
-  p.pitch_rad = m.pitch_rad;
-  return p;
-}
-
 TEST(DirectDepth, RoundTripWithSceneRangeImage) {
   const CameraModel m = model();
   const DirectDepth dd(m);
@@ -157,7 +145,7 @@ TEST(DirectDepth, RoundTripWithSceneRangeImage) {
     sp.y_min_m = -5;
     sp.y_max_m = 5;
     const terrain_scene::Terrain t(sp);
-    const auto img = terrain_scene::render_camera(t, pose_of(m), {0.5, 0.8});
+    const auto img = terrain_scene::render_camera(t, terrain_scene::camera_pose_of(m), {0.5, 0.8});
     std::vector<double> rel;
     for (int r = 0; r < m.height; ++r)
       for (int c = 0; c < m.width; ++c) {
@@ -192,7 +180,7 @@ TEST(DirectDepth, RockSizesAgainstGeneratorTruth) {
   sp.rock_radius_max_m = 0.15;
   sp.seed = 11;
   const terrain_scene::Terrain t(sp);
-  const auto img = terrain_scene::render_camera(t, pose_of(m), {0.5, 0.8});
+  const auto img = terrain_scene::render_camera(t, terrain_scene::camera_pose_of(m), {0.5, 0.8});
   double ew = 0, eh_vert = 0, eh_round = 0;
   int n = 0;
   for (const auto& b : img.rock_boxes) {

@@ -19,6 +19,7 @@
 #include "regolith/runtime/application.hpp"
 #include "regolith/runtime/rate_group.hpp"
 #include "regolith/soil_stiffness/component.hpp"
+#include "regolith/track_scene/camera_model.hpp"
 #include "regolith/track_scene/track_scene.hpp"
 
 #define REGOLITH_ALLOC_COUNT_CYCLES
@@ -208,15 +209,7 @@ TEST(SoilComponent, WarmTemplateEstimateDoesNotAllocate) {
   track_scene::TrackSceneParams p;
   p.sun.elevation_rad = 0.5;
   const cv::Mat image = track_scene::generate_track_scene(p).image;
-  soil::CameraModel cam;
-  cam.width = p.camera.width;
-  cam.height = p.camera.height;
-  cam.fx = p.camera.fx;
-  cam.fy = p.camera.fy;
-  cam.cx = p.camera.cx;
-  cam.cy = p.camera.cy;
-  cam.mount_height_m = p.camera.mount_height_m;
-  cam.pitch_rad = p.camera.pitch_rad;
+  const soil::CameraModel cam = track_scene::camera_model_of(p.camera);
   soil::RoverConfig rover;
   rover.wheel_width_m = p.wheel_width_m;
   rover.wheel_diameter_m = p.wheel_diameter_m;

@@ -9,6 +9,7 @@
 
 #include "regolith/soil_stiffness/run.hpp"
 #include "regolith/soil_stiffness/track_analysis.hpp"
+#include "regolith/track_scene/camera_model.hpp"
 #include "regolith/track_scene/track_scene.hpp"
 #include "temp_dir.hpp"
 
@@ -16,20 +17,6 @@ using namespace regolith;
 using soil::SoilEstimate;
 
 namespace {
-
-// The mock renders with its own (independent) pinhole; the estimator uses direct_depth's model.
-soil::CameraModel to_ground(const track_scene::CameraModel& c) {
-  soil::CameraModel g;
-  g.width = c.width;
-  g.height = c.height;
-  g.fx = c.fx;
-  g.fy = c.fy;
-  g.cx = c.cx;
-  g.cy = c.cy;
-  g.mount_height_m = c.mount_height_m;
-  g.pitch_rad = c.pitch_rad;
-  return g;
-}
 
 soil::RoverConfig rover_for(const track_scene::TrackSceneParams& p, double load) {
   soil::RoverConfig r;
@@ -54,7 +41,8 @@ SceneRun run_scene(const track_scene::TrackSceneParams& p, soil::TrackAnalysisPa
   // these scenes (mocks/track_scene) render no cast shadows and no berms, with the sun above
   // the walls: 1-D photoclinometry's case (the template fit is tested in test_rut_template.cpp)
   ap.profile_source = soil::ProfileSource::kPhotoclinometry;
-  soil::SoilStiffnessEstimator est(to_ground(p.camera), rover_for(p, p.tracks.empty() ? 60.0 : p.tracks[0].load_n), ap);
+  soil::SoilStiffnessEstimator est(track_scene::camera_model_of(p.camera),
+                                   rover_for(p, p.tracks.empty() ? 60.0 : p.tracks[0].load_n), ap);
   est.estimate(r.scene.image, {p.sun.azimuth_rad, p.sun.elevation_rad}, r.est);
   return r;
 }
@@ -174,7 +162,7 @@ TEST(TrackAnalysis, NoTracksGivesNoEstimate) {
 
 TEST(TrackAnalysis, SaturatedBlackAndBadFrames) {
   track_scene::TrackSceneParams p;
-  soil::SoilStiffnessEstimator est(to_ground(p.camera), rover_for(p, 60.0), {});
+  soil::SoilStiffnessEstimator est(track_scene::camera_model_of(p.camera), rover_for(p, 60.0), {});
   SoilEstimate e;
   est.estimate(cv::Mat(480, 640, CV_8U, cv::Scalar(255)), {1.57, 0.78}, e);
   EXPECT_FALSE(e.ok);
@@ -200,13 +188,13 @@ TEST(TrackAnalysis, ConfiguredTracksOutsideRegionOrAbsent) {
   const auto scene = track_scene::generate_track_scene(p);
   soil::TrackAnalysisParams ap;
   ap.tracks = {{2.5, 0.0}};
-  soil::SoilStiffnessEstimator est(to_ground(p.camera), rover_for(p, 60.0), ap);
+  soil::SoilStiffnessEstimator est(track_scene::camera_model_of(p.camera), rover_for(p, 60.0), ap);
   SoilEstimate e;
   est.estimate(scene.image, {p.sun.azimuth_rad, p.sun.elevation_rad}, e);
   EXPECT_FALSE(e.ok);
   EXPECT_NE(e.reason.find("outside the region"), std::string::npos) << e.reason;
   ap.tracks = {{0.0, 0.0}};  // flat ground between the ruts
-  soil::SoilStiffnessEstimator est2(to_ground(p.camera), rover_for(p, 60.0), ap);
+  soil::SoilStiffnessEstimator est2(track_scene::camera_model_of(p.camera), rover_for(p, 60.0), ap);
   est2.estimate(scene.image, {p.sun.azimuth_rad, p.sun.elevation_rad}, e);
   EXPECT_FALSE(e.ok);
   EXPECT_NE(e.reason.find("no track found at configured lateral"), std::string::npos) << e.reason;
@@ -234,13 +222,13 @@ TEST(TrackAnalysis, ParamsRejectBadFieldsNamingThem) {
   soil::RoverConfig rc;
   rc.wheel_count = 0;
   try {
-    soil::SoilStiffnessEstimator est(to_ground(track_scene::CameraModel{}), rc, {});
+    soil::SoilStiffnessEstimator est(track_scene::camera_model_of(track_scene::CameraModel{}), rc, {});
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("wheel_count"), std::string::npos);
   }
   // the camera is direct_depth's model: its validation names the field
-  soil::CameraModel cam = to_ground(track_scene::CameraModel{});
+  soil::CameraModel cam = track_scene::camera_model_of(track_scene::CameraModel{});
   cam.mount_height_m = -1.0;
   try {
     soil::SoilStiffnessEstimator est(cam, soil::RoverConfig{}, {});
@@ -255,7 +243,7 @@ TEST(RunSoilAnalysis, WritesPlotsAndJson) {
   const auto scene = track_scene::generate_track_scene(p);
   const regolith::testing::TempDir tmp("soil_analysis");
   const std::filesystem::path dir = tmp / "out";
-  const auto f = soil::run_soil_analysis(scene.image, to_ground(p.camera), rover_for(p, 60.0), {},
+  const auto f = soil::run_soil_analysis(scene.image, track_scene::camera_model_of(p.camera), rover_for(p, 60.0), {},
                                          {p.sun.azimuth_rad, p.sun.elevation_rad}, dir);
   ASSERT_TRUE(f.estimate.ok) << f.estimate.reason;
   for (const auto& path : {f.json, f.dtm_png, f.profiles_png, f.pz_png}) {
@@ -268,8 +256,9 @@ TEST(RunSoilAnalysis, WritesPlotsAndJson) {
   EXPECT_NEAR(j["fixed_n"]["k"].get<double>(), f.estimate.k_fixed, 1e-6 * f.estimate.k_fixed);
   EXPECT_EQ(j["tracks"].size(), 2u);
   // a frame without tracks still gives a JSON saying why
-  const auto g = soil::run_soil_analysis(cv::Mat(480, 640, CV_8U, cv::Scalar(255)), to_ground(p.camera),
-                                         rover_for(p, 60.0), {}, {1.57, 0.78}, dir / "bad");
+  const auto g =
+      soil::run_soil_analysis(cv::Mat(480, 640, CV_8U, cv::Scalar(255)), track_scene::camera_model_of(p.camera),
+                              rover_for(p, 60.0), {}, {1.57, 0.78}, dir / "bad");
   EXPECT_FALSE(g.estimate.ok);
   std::ifstream is2(g.json);
   const auto j2 = nlohmann::json::parse(is2);

@@ -27,6 +27,7 @@
 
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
+#include "regolith/terrain_scene/camera_model.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -50,19 +51,6 @@ terrain_scene::CameraPose left_pose() {
   p.pitch_rad = 0.45;
   p.y_m = 0.5 * kBaseline;  // left camera: +y (REP-103 left)
   return p;
-}
-
-direct_depth::CameraModel model_of(const terrain_scene::CameraPose& p) {
-  direct_depth::CameraModel m;
-  m.fx = p.fx;
-  m.fy = p.fy;
-  m.cx = p.cx;
-  m.cy = p.cy;
-  m.width = p.width;
-  m.height = p.height;
-  m.mount_height_m = p.height_m;
-  m.pitch_rad = p.pitch_rad;
-  return m;
 }
 
 struct RockRow {
@@ -174,7 +162,7 @@ TEST(TerrainStereo, StereoRangeMatchesTruth) {
 
 TEST(TerrainStereo, RockSizesSfsDirectDepthVsStereo) {
   const auto lp = left_pose();
-  const direct_depth::DirectDepth dd(model_of(lp));
+  const direct_depth::DirectDepth dd(terrain_scene::camera_model_of(lp));
   std::vector<RockRow> rows;
   for (std::uint64_t seed = 1; seed <= kSeeds; ++seed) {
     const Scene sc = make_scene(seed);

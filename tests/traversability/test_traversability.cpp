@@ -11,6 +11,7 @@
 #include "regolith/core/error.hpp"
 #include "regolith/direct_depth/direct_depth.hpp"
 #include "regolith/sfs/sfs.hpp"
+#include "regolith/terrain_scene/camera_model.hpp"
 #include "regolith/terrain_scene/terrain_scene.hpp"
 #include "regolith/traversability/traversability.hpp"
 
@@ -276,20 +277,6 @@ RockStats rock_heights(const GridMap& g, const terrain_scene::Terrain& t, bool p
   return s;
 }
 
-// Rover camera pose matching cam().
-terrain_scene::CameraPose pose_of(const direct_depth::CameraModel& m) {
-  terrain_scene::CameraPose pose;
-  pose.fx = m.fx;
-  pose.fy = m.fy;
-  pose.cx = m.cx;
-  pose.cy = m.cy;
-  pose.width = m.width;
-  pose.height = m.height;
-  pose.height_m = m.mount_height_m;
-  pose.pitch_rad = m.pitch_rad;
-  return pose;
-}
-
 terrain_scene::SceneParams rock_field() {
   terrain_scene::SceneParams sp;
   sp.seed = 21;
@@ -329,7 +316,7 @@ TEST(Traversability, SfsScaleRecoveryOnRenderedScene) {
   const direct_depth::CameraModel m = cam();
   const direct_depth::DirectDepth dd(m);
   const terrain_scene::Terrain t(rock_field());
-  const terrain_scene::CameraPose pose = pose_of(m);
+  const terrain_scene::CameraPose pose = terrain_scene::camera_pose_of(m);
   for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{2.0, 0.6}}) {
     const auto img = terrain_scene::render_camera(t, pose, sun);
     const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
@@ -365,7 +352,7 @@ TEST(Traversability, GroundLightIsTheOrthographicSun) {
   const direct_depth::CameraModel m = cam();
   for (const terrain_scene::Sun sun :
        {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{-1.0, 0.9}, terrain_scene::Sun{3.0, 0.2}}) {
-    const cv::Vec2d il = terrain_scene::camera_light(pose_of(m), sun);
+    const cv::Vec2d il = terrain_scene::camera_light(terrain_scene::camera_pose_of(m), sun);
     const cv::Vec2d ol = terrain_scene::ortho_light(sun);
     const ImageLight g = traversability::ground_light(m, {il[0], il[1]});
     EXPECT_NEAR(g.slant_rad, ol[0], 1e-9);
@@ -422,7 +409,7 @@ TEST(Traversability, GroundRectifiedSfsRecoversRockHeights) {
   const terrain_scene::Terrain t(rock_field());
   for (const terrain_scene::Sun sun : {terrain_scene::Sun{2.5, 0.4}, terrain_scene::Sun{2.0, 0.6},
                                        terrain_scene::Sun{0.5, 0.5}, terrain_scene::Sun{-1.5, 0.7}}) {
-    const auto img = terrain_scene::render_camera(t, pose_of(m), sun);
+    const auto img = terrain_scene::render_camera(t, terrain_scene::camera_pose_of(m), sun);
     cv::Mat img8;
     img.image.convertTo(img8, CV_8U, 255.0);
     const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
@@ -432,8 +419,8 @@ TEST(Traversability, GroundRectifiedSfsRecoversRockHeights) {
     const RockStats s = rock_heights(g, t, false);
     // The sun reversed in azimuth (a wrong light): heights come out inverted / flat.
     const ImageLight wrong = [&] {
-      const cv::Vec2d l =
-          terrain_scene::camera_light(pose_of(m), terrain_scene::Sun{sun.azimuth_rad + CV_PI, sun.elevation_rad});
+      const cv::Vec2d l = terrain_scene::camera_light(terrain_scene::camera_pose_of(m),
+                                                      terrain_scene::Sun{sun.azimuth_rad + CV_PI, sun.elevation_rad});
       return ImageLight{l[0], l[1]};
     }();
     GridMap gw;
@@ -460,7 +447,7 @@ TEST(Traversability, ElevationOnlyGridsLeaveTheTraversabilityLayersUnknown) {
   const direct_depth::CameraModel m = cam();
   const direct_depth::DirectDepth dd(m);
   const terrain_scene::Terrain t(rock_field());
-  const auto img = terrain_scene::render_camera(t, pose_of(m), terrain_scene::Sun{2.0, 0.6});
+  const auto img = terrain_scene::render_camera(t, terrain_scene::camera_pose_of(m), terrain_scene::Sun{2.0, 0.6});
   cv::Mat img8;
   img.image.convertTo(img8, CV_8U, 255.0);
   const ImageLight light{img.light_slant_rad, img.light_tilt_rad};
