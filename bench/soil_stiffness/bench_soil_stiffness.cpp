@@ -30,7 +30,7 @@ Fixture& fx() {
   static Fixture f;
   return f;
 }
-double g_full_ns = 0, g_sfs_ns = 0;
+double g_full_ns = 0, g_photo_ns = 0, g_sfs_ns = 0;
 
 void BM_SoilEstimate(benchmark::State& st) {
   auto& f = fx();
@@ -43,6 +43,22 @@ void BM_SoilEstimate(benchmark::State& st) {
   if (!out.ok) st.SkipWithError(out.reason.c_str());
 }
 BENCHMARK(BM_SoilEstimate)->Unit(benchmark::kMillisecond);
+
+// The same with the 1-D photoclinometry profiles (what a deployment on sunlit ruts without cast
+// shadows may choose: components/soil_stiffness/example_rover.yaml).
+void BM_SoilEstimatePhotoclinometry(benchmark::State& st) {
+  auto& f = fx();
+  soil::TrackAnalysisParams ap;
+  ap.profile_source = soil::ProfileSource::kPhotoclinometry;
+  soil::SoilStiffnessEstimator est(f.cam, f.rover, ap);
+  soil::SoilEstimate out;
+  for (auto _ : st) {
+    est.estimate(f.scene.image, {f.p.sun.azimuth_rad, f.p.sun.elevation_rad}, out);
+    benchmark::DoNotOptimize(out.k_fixed);
+  }
+  if (!out.ok) st.SkipWithError(out.reason.c_str());
+}
+BENCHMARK(BM_SoilEstimatePhotoclinometry)->Unit(benchmark::kMillisecond);
 
 void BM_SfsOnRegion(benchmark::State& st) {
   auto& f = fx();
@@ -83,6 +99,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
     for (const auto& r : runs) {
       const double ns = r.GetAdjustedRealTime();
       if (r.benchmark_name() == "BM_SoilEstimate") g_full_ns = ns;
+      if (r.benchmark_name() == "BM_SoilEstimatePhotoclinometry") g_photo_ns = ns;
       if (r.benchmark_name() == "BM_SfsOnRegion") g_sfs_ns = ns;
     }
     ConsoleReporter::ReportRuns(runs);
@@ -96,7 +113,11 @@ int main(int argc, char** argv) {
   RatioReporter rep;
   benchmark::RunSpecifiedBenchmarks(&rep);
   if (g_full_ns > 0 && g_sfs_ns > 0)
-    std::printf("whole soil estimate / SfS(Pentland) of the same region = %.2f\n", g_full_ns / g_sfs_ns);
+    std::printf("whole soil estimate / SfS(Pentland) of the same region = %.2f (rut-template profiles)\n",
+                g_full_ns / g_sfs_ns);
+  if (g_photo_ns > 0 && g_sfs_ns > 0)
+    std::printf("whole soil estimate / SfS(Pentland) of the same region = %.2f (photoclinometry profiles)\n",
+                g_photo_ns / g_sfs_ns);
   benchmark::Shutdown();
   return 0;
 }

@@ -39,6 +39,23 @@ soil::RutLight low_sun_from_left() {
 
 constexpr double kWheel = 0.12;
 
+// The rear camera's image of one rut (depth z, centre `centre` m left) of the template's own model,
+// with 4 DN of noise.
+cv::Mat render_rut(const dd::CameraModel& cam, const soil::RutLight& l, double z, double centre) {
+  const dd::DirectDepth geometry(cam);
+  soil::RutTemplateFit render(cam, kWheel, {}, {}, 10);
+  cv::Mat img(cam.height, cam.width, CV_8UC1);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 4.0);
+  for (int r = 0; r < cam.height; ++r)
+    for (int c = 0; c < cam.width; ++c) {
+      const auto g = geometry.ground(c, r);
+      const double v = g.valid ? render.predict(l, centre, z, g.lateral_m - centre) : 0.0;
+      img.at<unsigned char>(r, c) = cv::saturate_cast<unsigned char>(v + noise(rng));
+    }
+  return img;
+}
+
 }  // namespace
 
 TEST(RutTemplate, FlatGroundIsFlatBrightnessEverywhere) {
@@ -69,20 +86,10 @@ class RutTemplateSun : public ::testing::TestWithParam<double> {};
 
 TEST_P(RutTemplateSun, FitRecoversDepthAndCentreThroughPerspectiveAndNoise) {
   const dd::CameraModel cam = rear_camera();
-  const dd::DirectDepth geometry(cam);
   soil::RutLight l = low_sun_from_left();
   l.sun.azimuth_rad = GetParam();
-  soil::RutTemplateFit render(cam, kWheel, {}, {}, 10);
   const double z_true = 0.023, centre_true = 0.205;
-  cv::Mat img(cam.height, cam.width, CV_8UC1);
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0.0, 4.0);
-  for (int r = 0; r < cam.height; ++r)
-    for (int c = 0; c < cam.width; ++c) {
-      const auto g = geometry.ground(c, r);
-      const double v = g.valid ? render.predict(l, centre_true, z_true, g.lateral_m - centre_true) : 0.0;
-      img.at<unsigned char>(r, c) = cv::saturate_cast<unsigned char>(v + noise(rng));
-    }
+  const cv::Mat img = render_rut(cam, l, z_true, centre_true);
   std::vector<double> ranges;
   for (double x = 0.8; x < 1.9; x += 0.01) ranges.push_back(x);  // the image sees 0.38-2.1 m
   std::vector<double> depth(ranges.size());
@@ -99,6 +106,32 @@ TEST_P(RutTemplateSun, FitRecoversDepthAndCentreThroughPerspectiveAndNoise) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Azimuths, RutTemplateSun, ::testing::Values(1.4, -1.4, 0.0, 3.14159, 2.5, -0.6));
+
+// The fit reads each hypothesis' footprint means once per window on the lattice of sample offsets
+// when the centre step is a whole number of sample steps (the defaults: 2 mm each), instead of once
+// per (sample, centre offset): the same costs, so the same depths and centre as the direct
+// evaluation (a centre step one part in a million longer takes that path).
+TEST(RutTemplate, TheLatticeOfFootprintMeansFitsAsTheDirectEvaluation) {
+  const dd::CameraModel cam = rear_camera();
+  const soil::RutLight l = low_sun_from_left();
+  const cv::Mat img = render_rut(cam, l, 0.017, 0.21);
+  std::vector<double> ranges;
+  for (double x = 0.8; x < 1.9; x += 0.01) ranges.push_back(x);
+  const int n = static_cast<int>(ranges.size());
+  soil::RutTemplateParams direct;
+  direct.centre_step_m *= 1.000001;
+  std::vector<double> d_lattice(ranges.size()), d_direct(ranges.size());
+  soil::RutTemplateFit lattice_fit(cam, kWheel, {}, {}, n), direct_fit(cam, kWheel, {}, direct, n);
+  const double c_lattice = lattice_fit.fit(img, l, 0.2, ranges.data(), n, 10, d_lattice.data());
+  const double c_direct = direct_fit.fit(img, l, 0.2, ranges.data(), n, 10, d_direct.data());
+  EXPECT_NEAR(c_lattice, c_direct, 1e-6);
+  EXPECT_NEAR(c_lattice, 0.21, 0.003);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_TRUE(std::isfinite(d_lattice[static_cast<std::size_t>(i)])) << i;
+    EXPECT_NEAR(d_lattice[static_cast<std::size_t>(i)], d_direct[static_cast<std::size_t>(i)], 1e-6) << i;
+    EXPECT_NEAR(d_lattice[static_cast<std::size_t>(i)], 0.017, 0.001) << i;
+  }
+}
 
 // A rut inside a larger shadow (the rover's own, a rock's): the cross-section is uniformly dark,
 // at the ambient level, and no depth explains it better than another. Not measurable (NaN),

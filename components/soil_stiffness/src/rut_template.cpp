@@ -85,6 +85,12 @@ RutTemplateFit::RutTemplateFit(const direct_depth::CameraModel& camera, double w
   px_y_.resize(px_x_.size());
   foot_.resize(static_cast<std::size_t>(max_rows_));
   sse_.resize(static_cast<std::size_t>(nz_) * static_cast<std::size_t>(nc_));
+  const double r = p_.centre_step_m / p_.sample_step_m;
+  if (std::abs(r - std::round(r)) < 1e-9 && std::round(r) >= 1.0) {
+    lattice_r_ = static_cast<int>(std::lround(r));
+    lattice_n_ = nsamp_ + lattice_r_ * (nc_ - 1);
+    lattice_.resize(static_cast<std::size_t>(nz_) * static_cast<std::size_t>(lattice_n_));
+  }
 }
 
 double RutTemplateFit::profile_height(double z, double d) const {
@@ -194,6 +200,54 @@ double RutTemplateFit::footprint_mean(const double* P, double u, double f, doubl
   return std::min(saturation_dn, (at(u + 0.5 * f) - at(u - 0.5 * f)) / f);
 }
 
+void RutTemplateFit::fill_lattice(double f, double saturation_dn) {
+  // lattice point m = j - r c (shifted by r (nc - 1) to start at 0) is the ground offset
+  // u = (j - nsamp/2) sample_step - (c - nc/2) centre_step = (m - nsamp/2 + r (nc/2)) sample_step
+  const int r = lattice_r_;
+  for (int k = 0; k < nz_; ++k) {
+    const double* P = prefix_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(nfine_);
+    double* T = lattice_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(lattice_n_);
+    for (int i = 0; i < lattice_n_; ++i) {
+      const int m = i - r * (nc_ - 1);
+      T[i] = footprint_mean(P, (m - nsamp_ / 2 + r * (nc_ / 2)) * p_.sample_step_m, f, saturation_dn);
+    }
+  }
+}
+
+double RutTemplateFit::window_cost(int k, int c, double f, double saturation_dn) const {
+  // Huber cost of the window's observations against hypothesis k shifted by offset c.
+  double s = 0.0;
+  if (lattice_r_ > 0) {
+    const double* T = lattice_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(lattice_n_) +
+                      static_cast<std::size_t>(lattice_r_ * (nc_ - 1 - c));
+    // branch-free Huber (h = min(|r|, k): h (|r| - h / 2)), weighted 0 where a sample has no
+    // observation; four partial sums so that the loop vectorises
+    const double kh = p_.huber_dn;
+    const double* o = obs_.data();
+    const double* w = obs_n_.data();
+    double acc[4] = {0.0, 0.0, 0.0, 0.0};
+    int j = 0;
+    for (; j + 4 <= nsamp_; j += 4)
+      for (int q = 0; q < 4; ++q) {
+        const double a = std::abs(o[j + q] - T[j + q]), h = std::min(a, kh);
+        acc[q] += w[j + q] != 0.0 ? h * (a - 0.5 * h) : 0.0;
+      }
+    for (; j < nsamp_; ++j) {
+      const double a = std::abs(o[j] - T[j]), h = std::min(a, kh);
+      acc[0] += w[j] != 0.0 ? h * (a - 0.5 * h) : 0.0;
+    }
+    return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+  }
+  const double* P = prefix_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(nfine_);
+  const double shift = (c - nc_ / 2) * p_.centre_step_m;
+  for (int j = 0; j < nsamp_; ++j) {
+    if (obs_n_[static_cast<std::size_t>(j)] == 0.0) continue;
+    const double u = (j - nsamp_ / 2) * p_.sample_step_m - shift;
+    s += huber(obs_[static_cast<std::size_t>(j)] - footprint_mean(P, u, f, saturation_dn), p_.huber_dn);
+  }
+  return s;
+}
+
 double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double lateral_m, const double* ranges_m,
                            int count, int window, double* depth_m) {
   if (grey.empty() || grey.type() != CV_8UC1) throw std::invalid_argument("rut template fit: expected a CV_8UC1 image");
@@ -262,17 +316,10 @@ double RutTemplateFit::fit(const cv::Mat& grey, const RutLight& light, double la
     const double f = std::max(2.0 * fine_step_, std::hypot(foot / nfoot, p_.sample_step_m));
     int best_k = 0, best_c = 0;
     double best = std::numeric_limits<double>::infinity();
+    if (lattice_r_ > 0) fill_lattice(f, light.saturation_dn);
     for (int k = 0; k < nz_; ++k) {
-      const double* P = prefix_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(nfine_);
       for (int c = 0; c < nc_; ++c) {
-        const double shift = (c - nc_ / 2) * p_.centre_step_m;
-        double s = 0.0;
-        for (int j = 0; j < nsamp_; ++j) {
-          if (obs_n_[static_cast<std::size_t>(j)] == 0.0) continue;
-          const double u = (j - nsamp_ / 2) * p_.sample_step_m - shift;
-          const double pred = footprint_mean(P, u, f, light.saturation_dn);
-          s += huber(obs_[static_cast<std::size_t>(j)] - pred, p_.huber_dn);
-        }
+        const double s = window_cost(k, c, f, light.saturation_dn);
         sse_[static_cast<std::size_t>(k) * static_cast<std::size_t>(nc_) + static_cast<std::size_t>(c)] = s;
         if (s < best) {
           best = s;

@@ -88,6 +88,10 @@ class RutTemplateFit {
   /// Mean brightness over a footprint f centred at ground offset u, from the prefix sums P of one
   /// template, clamped at saturation [DN].
   double footprint_mean(const double* P, double u, double f, double saturation_dn) const;
+  /// lattice_ for the current window's footprint f.
+  void fill_lattice(double f, double saturation_dn);
+  /// The window's Huber cost against depth hypothesis k at centre offset c.
+  double window_cost(int k, int c, double f, double saturation_dn) const;
 
   direct_depth::DirectDepth geometry_;
   double H_ = 0.0, b_ = 0.0;
@@ -101,6 +105,11 @@ class RutTemplateFit {
   std::vector<double> px_x_, px_y_;      // per row and sample: pixel position (NaN outside)
   std::vector<double> foot_;             // per row: pixel footprint [m]
   std::vector<double> sse_;              // [nz][nc]
+  // When the centre step is a whole number r of sample steps, every (sample j, offset c) reads a
+  // template at a lattice point j - r c: per window, each hypothesis' footprint means are made
+  // once on that lattice ([nz][nsamp + r (nc - 1)]) instead of once per offset (r = 0: no lattice).
+  int lattice_r_ = 0, lattice_n_ = 0;
+  std::vector<double> lattice_;
   int unmeasurable_ = 0;
   bool built_ = false;  // templates of built_light_ / built_lateral_ in prefix_
   RutLight built_light_;
