@@ -32,24 +32,9 @@ Fixture& fx() {
 }
 double g_full_ns = 0, g_photo_ns = 0, g_sfs_ns = 0;
 
-void BM_SoilEstimate(benchmark::State& st) {
+// The whole estimate, profiles from `ap.profile_source`.
+void time_estimate(benchmark::State& st, const soil::TrackAnalysisParams& ap) {
   auto& f = fx();
-  soil::SoilStiffnessEstimator est(f.cam, f.rover, {});
-  soil::SoilEstimate out;
-  for (auto _ : st) {
-    est.estimate(f.scene.image, {f.p.sun.azimuth_rad, f.p.sun.elevation_rad}, out);
-    benchmark::DoNotOptimize(out.k_fixed);
-  }
-  if (!out.ok) st.SkipWithError(out.reason.c_str());
-}
-BENCHMARK(BM_SoilEstimate)->Unit(benchmark::kMillisecond);
-
-// The same with the 1-D photoclinometry profiles (what a deployment on sunlit ruts without cast
-// shadows may choose: components/soil_stiffness/example_rover.yaml).
-void BM_SoilEstimatePhotoclinometry(benchmark::State& st) {
-  auto& f = fx();
-  soil::TrackAnalysisParams ap;
-  ap.profile_source = soil::ProfileSource::kPhotoclinometry;
   soil::SoilStiffnessEstimator est(f.cam, f.rover, ap);
   soil::SoilEstimate out;
   for (auto _ : st) {
@@ -57,6 +42,19 @@ void BM_SoilEstimatePhotoclinometry(benchmark::State& st) {
     benchmark::DoNotOptimize(out.k_fixed);
   }
   if (!out.ok) st.SkipWithError(out.reason.c_str());
+}
+
+void BM_SoilEstimate(benchmark::State& st) {
+  time_estimate(st, {});
+}  // rut-template profiles
+BENCHMARK(BM_SoilEstimate)->Unit(benchmark::kMillisecond);
+
+// The same with the 1-D photoclinometry profiles (what a deployment on sunlit ruts without cast
+// shadows may choose: components/soil_stiffness/example_rover.yaml).
+void BM_SoilEstimatePhotoclinometry(benchmark::State& st) {
+  soil::TrackAnalysisParams ap;
+  ap.profile_source = soil::ProfileSource::kPhotoclinometry;
+  time_estimate(st, ap);
 }
 BENCHMARK(BM_SoilEstimatePhotoclinometry)->Unit(benchmark::kMillisecond);
 
