@@ -948,6 +948,58 @@ TEST(WorldMap, AFaintLookGivesAnElevationButNoReliefOrHazard) {
   EXPECT_THROW(bad.validate(), std::exception);
 }
 
+TEST(WorldMap, OneMismatchedCellDoesNotStandOutButARockDoes) {
+  // Flat ground at 0 in every 4 cm cell of a 0.8 m patch, one cell 0.2 m up (one look matched on the
+  // wrong texture) and a rock 0.12 m high and 5 x 5 cells (20 cm) wide. With the default 3 x 3
+  // median of the known cells the lone cell takes its neighbours' ground (no relief, no hazard of
+  // its own) while the rock keeps its height but for its corner cells; off, the lone cell stands
+  // 0.2 m up. The fused means are kept: finishing twice gives the same layers.
+  for (const double median : {WorldMapParams{}.elevation_median_m, 0.0}) {
+    WorldMapParams p = small_window(2, 2);
+    p.resolution_m = 0.04;
+    p.elevation_median_m = median;
+    WorldMap map(p, 0, 0);
+    const cv::Point lone = cell_of(map, 0.4, 0.2), rock = cell_of(map, 0.6, -0.1);
+    std::vector<cv::Vec3f> pts;
+    for (int i = cell_of(map, 0.2, -0.4).y; i <= cell_of(map, 0.96, 0.4).y; ++i)  // ahead of the foot at (0, 0)
+      for (int j = cell_of(map, 0.2, -0.4).x; j <= cell_of(map, 0.96, 0.4).x; ++j) {
+        const cv::Point2d c = map.cell_center(i, j);
+        const bool on_rock = std::abs(j - rock.x) <= 2 && std::abs(i - rock.y) <= 2;
+        const float z = cv::Point(j, i) == lone ? 0.2f : on_rock ? 0.12f : 0.0f;
+        pts.emplace_back(static_cast<float>(c.x), static_cast<float>(c.y), z);
+      }
+    const int n = static_cast<int>(pts.size());
+    cv::Mat x(1, n, CV_32F), y(1, n, CV_32F), z(1, n, CV_32F), w(1, n, CV_32F, cv::Scalar(1));
+    for (int k = 0; k < n; ++k) x.at<float>(k) = pts[k][0], y.at<float>(k) = pts[k][1], z.at<float>(k) = pts[k][2];
+    ASSERT_EQ(map.fuse_points(x, y, z, w, Pose2{}), n);
+    for (int pass = 0; pass < 2; ++pass) {
+      map.finish();
+      const cv::Mat& el = map.layer("elevation");
+      const auto at = [&](cv::Point c, int dx = 0, int dy = 0) { return el.at<float>(c + cv::Point(dx, dy)); };
+      EXPECT_NEAR(at(rock), 0.12f, 1e-6) << median;
+      EXPECT_NEAR(at(rock, 2, 0), 0.12f, 1e-6) << "an edge cell of the rock, " << median;
+      EXPECT_NEAR(at(rock, 3, 0), 0.0f, 1e-6) << "beside the rock, " << median;
+      if (median > 0) {
+        EXPECT_NEAR(at(lone), 0.0f, 1e-6) << pass;
+        EXPECT_NEAR(at(rock, 2, 2), 0.0f, 1e-6) << "a corner cell: 4 of its 9 on the rock";
+        EXPECT_LT(map.layer("hazard").at<float>(lone), 0.01f);
+      } else {
+        EXPECT_NEAR(at(lone), 0.2f, 1e-6) << pass;
+        EXPECT_NEAR(at(rock, 2, 2), 0.12f, 1e-6);
+        EXPECT_GT(map.layer("hazard").at<float>(lone), 0.1f);
+      }
+    }
+  }
+  WorldMapParams bad;
+  bad.elevation_median_m = 0.2;  // 5 cells of 4 cm
+  try {
+    bad.validate();
+    FAIL() << "a 5-cell median was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("elevation_median_m"), std::string::npos) << e.what();
+  }
+}
+
 TEST(WorldMap, AFilledHoleTakesTheLocalGroundNotTheRockBesideIt) {
   // Flat ground at 0 seen everywhere on a 2 m patch but one cell, which a 0.3 m rock top borders
   // on one side. Filled (fill_radius_m): the hole takes the local ground (a neighbour average

@@ -1,6 +1,7 @@
 #include "regolith/mapping/world_map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -16,6 +17,8 @@ namespace regolith::mapping {
 namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
+constexpr int kMaxMedianRadius = 3;  // elevation_median_m, in cells
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
   throw FieldError("mapping.map", field, why);
@@ -65,6 +68,8 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(sighting_radius_m) || sighting_radius_m <= 0) fail("sighting_radius_m", "must be > 0");
   if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
   if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
+  if (!(elevation_median_m >= 0) || std::lround(elevation_median_m / resolution_m) > kMaxMedianRadius)
+    fail("elevation_median_m", "must be in [0, 3 cells]");
   if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
   if (rock_min_frames < 1) fail("rock_min_frames", "must be >= 1");
   if (max_rocks < 1 || max_rocks > 1 << 20) fail("max_rocks", "must be 1..1048576");
@@ -390,6 +395,7 @@ void WorldMap::finish() {
       const float n = count_.at<float>(i, j);
       cnt.at<float>(i, j) = n > 0 ? n : kNaNf;
     }
+  median_of_known(el);
   // Small holes (cells up to ~fill_radius from seen ones: behind a rock, between two looks): how
   // near they are to seen cells (the smoothed confidence), for the fill below.
   if (p_.fill_radius_m > 0) {
@@ -464,6 +470,26 @@ void WorldMap::finish() {
       const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * conf.at<float>(i, j) * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
     }
+}
+
+void WorldMap::median_of_known(cv::Mat& el) {
+  const int r = static_cast<int>(std::lround(p_.elevation_median_m / p_.resolution_m));
+  if (r < 1) return;
+  std::array<float, (2 * kMaxMedianRadius + 1) * (2 * kMaxMedianRadius + 1)> v{};
+  for (int i = 0; i < rows_; ++i)
+    for (int j = 0; j < cols_; ++j) {
+      float& out = scratch_.at<float>(i, j);
+      out = el.at<float>(i, j);
+      if (!std::isfinite(out)) continue;
+      std::size_t n = 0;
+      for (int a = std::max(0, i - r); a <= std::min(rows_ - 1, i + r); ++a)
+        for (int b = std::max(0, j - r); b <= std::min(cols_ - 1, j + r); ++b)
+          if (const float z = el.at<float>(a, b); std::isfinite(z)) v[n++] = z;
+      const auto mid = v.begin() + static_cast<std::ptrdiff_t>(n / 2);
+      std::nth_element(v.begin(), mid, v.begin() + static_cast<std::ptrdiff_t>(n));
+      out = *mid;
+    }
+  scratch_.copyTo(el);
 }
 
 std::vector<MapRock> WorldMap::relief_rocks() const {

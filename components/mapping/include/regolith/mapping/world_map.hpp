@@ -48,9 +48,14 @@ struct WorldMapParams {
   double observation_sigma_m = 0.02;  ///< m, std of one look (floor of elevation_variance)
   double robust_sigma_m = 0.03;       ///< m, looks this far from a well-seen cell's mean weigh half (0 = plain mean)
   double fill_radius_m = 0.0;         ///< m, holes this close to observed cells are interpolated (0 = off)
-  double fill_min_weight = 0.05;      ///< smoothed confidence a hole needs to be filled
-  double ground_sigma_m = 0.25;       ///< m, scale of the smoothed local ground (relief = elevation - ground)
-  double hazard_height_m = 0.10;      ///< m, obstacle height the hazard is the probability of
+  /// m, half-side of the square over which each known cell's elevation is the median of the known
+  /// cells' fused means (what the layers and everything derived from them show; the fused means
+  /// themselves are kept): one look's mismatch at a cell does not stand out of its neighbours.
+  /// Rounded to whole cells, at most 3; 0 = off. Default: one cell at 4 cm (a 3 x 3 median).
+  double elevation_median_m = 0.04;
+  double fill_min_weight = 0.05;  ///< smoothed confidence a hole needs to be filled
+  double ground_sigma_m = 0.25;   ///< m, scale of the smoothed local ground (relief = elevation - ground)
+  double hazard_height_m = 0.10;  ///< m, obstacle height the hazard is the probability of
   double hazard_relief_weight =
       0.2;  ///< probability the parallax relief alone carries at hazard_height_m and full confidence (a weak cue)
   double hazard_evidence_scale = 1.0;  ///< summed sighting scores at which p(sighted rock) = 1 - 1/e
@@ -164,6 +169,8 @@ class WorldMap {
   traversability::GridMap trav_;            // view of elevation for compute_layers
   traversability::LayerWorkspace trav_ws_;  // compute_layers' scratch, reused every frame
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
+  // elevation_median_m: the known cells' median over their neighbourhood (written back to the layer).
+  void median_of_known(cv::Mat& el);
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)
   std::vector<double> line_, line_w_;
