@@ -958,6 +958,7 @@ TEST(WorldMap, OneMismatchedCellDoesNotStandOutButARockDoes) {
     WorldMapParams p = small_window(2, 2);
     p.resolution_m = 0.04;
     p.elevation_median_m = median;
+    p.hazard_blur_m = 0;  // each cell's own hazard
     WorldMap map(p, 0, 0);
     const cv::Point lone = cell_of(map, 0.4, 0.2), rock = cell_of(map, 0.6, -0.1);
     std::vector<cv::Vec3f> pts;
@@ -1272,6 +1273,7 @@ TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   p.resolution_m = 0.04;
   p.length_x_m = 8;
   p.length_y_m = 8;
+  p.hazard_blur_m = 0;  // each cell's own hazard (the blur: TheHazardIsAveragedOverTheKnownCellsAroundIt)
   WorldMap map(p, 0, 0);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat live(kTrackRows, 4, CV_32F, cv::Scalar(nan)), closed(kTrackRows, 4, CV_32F, cv::Scalar(nan));
@@ -1318,6 +1320,65 @@ TEST(WorldMap, TrackedRocksBecomeRocksAndHazard) {
   EXPECT_NEAR(rocks[0].x_m, 1.0, 1e-6);
   EXPECT_TRUE(std::isnan(map.layer("rock_evidence").at<float>(cell(0.0, 2.0))));
   EXPECT_GT(map.layer("hazard").at<float>(cell(1.0, 1.0)), 0.9f);
+}
+
+TEST(WorldMap, TheHazardIsAveragedOverTheKnownCellsAroundIt) {
+  // A sighted rock (evidence painted as a Gaussian of its 3 cm position uncertainty) on a map
+  // finished with and without hazard_blur_m (default 4 cm = 1 cell): with it, every known cell's
+  // hazard is the Gaussian-weighted mean (sigma 1 cell, cut at 2) of the known cells' hazards
+  // without it; unknown cells stay unknown, and the rock's cells stay above its surroundings.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat live(kTrackRows, 4, CV_32F, cv::Scalar(nan)), closed(kTrackRows, 4, CV_32F, cv::Scalar(nan));
+  for (auto [row, v] : {std::pair{kTrackX, 1.0},
+                        {kTrackY, 1.0},
+                        {kTrackHeight, 0.2},
+                        {kTrackWidth, 0.25},
+                        {kTrackScore, 2.0},
+                        {kTrackSxx, 0.03 * 0.03},
+                        {kTrackSxy, 0.0},
+                        {kTrackSyy, 0.03 * 0.03},
+                        {kTrackFrames, 6.0}})
+    closed.at<float>(row, 0) = static_cast<float>(v);
+  WorldMapParams p;
+  p.resolution_m = 0.04;
+  p.length_x_m = p.length_y_m = 4;
+  ASSERT_DOUBLE_EQ(p.hazard_blur_m, 0.04);
+  WorldMapParams off = p;
+  off.hazard_blur_m = 0;
+  WorldMap blurred(p, 0, 0), sharp(off, 0, 0);
+  for (WorldMap* m : {&blurred, &sharp}) {
+    m->fuse_rock_tracks(closed, 1, live, 0);
+    m->finish();
+  }
+  const cv::Mat& h = blurred.layer("hazard");
+  const cv::Mat& h0 = sharp.layer("hazard");
+  int known = 0;
+  for (int i = 0; i < h.rows; ++i)
+    for (int j = 0; j < h.cols; ++j) {
+      if (!std::isfinite(h0.at<float>(i, j))) {
+        EXPECT_TRUE(std::isnan(h.at<float>(i, j))) << i << "," << j;
+        continue;
+      }
+      double s = 0, w = 0;
+      for (int a = -2; a <= 2; ++a)
+        for (int b = -2; b <= 2; ++b) {
+          if (i + a < 0 || j + b < 0 || i + a >= h.rows || j + b >= h.cols) continue;
+          const float v = h0.at<float>(i + a, j + b);
+          if (!std::isfinite(v)) continue;
+          const double g = std::exp(-0.5 * (a * a + b * b));
+          s += g * v, w += g;
+        }
+      EXPECT_NEAR(h.at<float>(i, j), s / w, 1e-5) << i << "," << j;
+      ++known;
+    }
+  EXPECT_GT(known, 20);
+  const cv::Point c = cell_of(blurred, 1.0, 1.0);
+  EXPECT_GT(h.at<float>(c), 0.5f);
+  EXPECT_LT(h.at<float>(c), h0.at<float>(c));  // the peak spread over its neighbours
+  EXPECT_GT(h.at<float>(c), h.at<float>(c + cv::Point(3, 0)));
+  WorldMapParams bad = p;
+  bad.hazard_blur_m = 0.2;  // 5 cells
+  EXPECT_THROW(bad.validate(), std::exception);
 }
 
 TEST(WorldMap, ARockSeenAgainByANewTrackKeepsItsFirstNumber) {

@@ -214,6 +214,13 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
                      .max = 0.5,
                      .doc = "each known cell's elevation is the median of the known cells within this half-side "
                             "(whole cells, at most 3; 0 = off): one mismatched look does not stand out"});
+  mp.map.hazard_blur_m = p.get<double>(
+      "map_hazard_blur_m", mp.map.hazard_blur_m,
+      {.unit = "m",
+       .min = 0.0,
+       .max = 1.0,
+       .doc = "standard deviation of the Gaussian over which the known cells' hazard is averaged (at most 4 "
+              "cells; 0 = off): where a cue put an obstacle is uncertain by about a cell"});
   read_wheel_noise(p, mp.wheel);
   return mp;
 }

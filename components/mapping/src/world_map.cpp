@@ -18,7 +18,8 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-constexpr int kMaxMedianRadius = 3;  // elevation_median_m, in cells
+constexpr int kMaxMedianRadius = 3;    // elevation_median_m, in cells
+constexpr double kMaxBlurSigma = 4.0;  // hazard_blur_m, in cells
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
   throw FieldError("mapping.map", field, why);
@@ -70,6 +71,8 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
   if (!(elevation_median_m >= 0) || std::lround(elevation_median_m / resolution_m) > kMaxMedianRadius)
     fail("elevation_median_m", "must be in [0, 3 cells]");
+  if (!(hazard_blur_m >= 0) || hazard_blur_m / resolution_m > kMaxBlurSigma)
+    fail("hazard_blur_m", "must be in [0, 4 cells]");
   if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
   if (rock_min_frames < 1) fail("rock_min_frames", "must be >= 1");
   if (max_rocks < 1 || max_rocks > 1 << 20) fail("max_rocks", "must be 1..1048576");
@@ -470,6 +473,7 @@ void WorldMap::finish() {
       const double p_relief = std::isfinite(r) ? p_.hazard_relief_weight * conf.at<float>(i, j) * frac(r) : 0.0;
       hazard.at<float>(i, j) = static_cast<float>(1.0 - (1.0 - p_sight) * (1.0 - p_shadow) * (1.0 - p_relief));
     }
+  blur_known(hazard);
 }
 
 void WorldMap::median_of_known(cv::Mat& el) {
@@ -490,6 +494,57 @@ void WorldMap::median_of_known(cv::Mat& el) {
       out = *mid;
     }
   scratch_.copyTo(el);
+}
+
+void WorldMap::blur_known(cv::Mat& hazard) {
+  const double sigma = p_.hazard_blur_m / p_.resolution_m;
+  if (!(sigma > 0)) return;
+  constexpr int kMaxR = static_cast<int>(2.0 * kMaxBlurSigma);
+  const int r = std::min(kMaxR, static_cast<int>(std::ceil(2.0 * sigma - 1e-9)));
+  std::array<double, 2 * kMaxR + 1> g{};
+  for (int q = -r; q <= r; ++q) g[static_cast<std::size_t>(q + r)] = std::exp(-0.5 * q * q / (sigma * sigma));
+  // Normalised convolution: the known cells' hazard (A) and their indicator (B), blurred along
+  // the rows in place, then down the columns straight into the ratio, row by row (line_ and
+  // line_w_ hold one output row's sums).
+  cv::Mat& A = scratch2_;
+  cv::Mat& B = scratch3_;
+  for (int i = 0; i < rows_; ++i) {
+    const float* hp = hazard.ptr<float>(i);
+    float* ap = A.ptr<float>(i);
+    float* bp = B.ptr<float>(i);
+    for (int j = 0; j < cols_; ++j) {
+      const bool known = std::isfinite(hp[j]);
+      ap[j] = known ? hp[j] : 0.0f;
+      bp[j] = known ? 1.0f : 0.0f;
+    }
+    for (float* row : {ap, bp}) {
+      std::copy(row, row + cols_, line_.begin());
+      for (int q = 0; q < cols_; ++q) {
+        double acc = 0.0;
+        for (int t = std::max(-r, -q); t <= std::min(r, cols_ - 1 - q); ++t)
+          acc += g[static_cast<std::size_t>(t + r)] * line_[static_cast<std::size_t>(q + t)];
+        row[q] = static_cast<float>(acc);
+      }
+    }
+  }
+  for (int i = 0; i < rows_; ++i) {
+    std::fill(line_.begin(), line_.begin() + cols_, 0.0);
+    std::fill(line_w_.begin(), line_w_.begin() + cols_, 0.0);
+    for (int a = std::max(-r, -i); a <= std::min(r, rows_ - 1 - i); ++a) {
+      const double ga = g[static_cast<std::size_t>(a + r)];
+      const float* ap = A.ptr<float>(i + a);
+      const float* bp = B.ptr<float>(i + a);
+      for (int j = 0; j < cols_; ++j) {
+        line_[static_cast<std::size_t>(j)] += ga * ap[j];
+        line_w_[static_cast<std::size_t>(j)] += ga * bp[j];
+      }
+    }
+    float* hp = hazard.ptr<float>(i);
+    for (int j = 0; j < cols_; ++j)
+      if (std::isfinite(hp[j]))
+        hp[j] = static_cast<float>(
+            std::clamp(line_[static_cast<std::size_t>(j)] / line_w_[static_cast<std::size_t>(j)], 0.0, 1.0));
+  }
 }
 
 std::vector<MapRock> WorldMap::relief_rocks() const {

@@ -53,6 +53,10 @@ struct WorldMapParams {
   /// themselves are kept): one look's mismatch at a cell does not stand out of its neighbours.
   /// Rounded to whole cells, at most 3; 0 = off. Default: one cell at 4 cm (a 3 x 3 median).
   double elevation_median_m = 0.04;
+  /// m, standard deviation of the Gaussian over which the hazard of the known cells is averaged
+  /// (normalised over the known cells, kernel cut at 2 sigma; unknown cells stay unknown): where a
+  /// cue put an obstacle is uncertain by about a cell. At most 4 cells; 0 = off.
+  double hazard_blur_m = 0.04;
   double fill_min_weight = 0.05;  ///< smoothed confidence a hole needs to be filled
   double ground_sigma_m = 0.25;   ///< m, scale of the smoothed local ground (relief = elevation - ground)
   double hazard_height_m = 0.10;  ///< m, obstacle height the hazard is the probability of
@@ -171,6 +175,8 @@ class WorldMap {
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
   // elevation_median_m: the known cells' median over their neighbourhood (written back to the layer).
   void median_of_known(cv::Mat& el);
+  // hazard_blur_m: the known cells' hazard averaged with Gaussian weights (in place).
+  void blur_known(cv::Mat& hazard);
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)
   std::vector<double> line_, line_w_;
