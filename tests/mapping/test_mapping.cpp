@@ -992,13 +992,19 @@ TEST(WorldMap, OneMismatchedCellDoesNotStandOutButARockDoes) {
     }
   }
   WorldMapParams bad;
-  bad.elevation_median_m = 0.2;  // 5 cells of 4 cm
+  bad.elevation_median_m = -0.04;
   try {
     bad.validate();
-    FAIL() << "a 5-cell median was accepted";
+    FAIL() << "a negative median window was accepted";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("elevation_median_m"), std::string::npos) << e.what();
   }
+  // A map finer than the window asks for (0.04 m at 5 mm cells: 8) takes the largest window there
+  // is (3 cells), so every resolution the mapper accepts still configures with the defaults.
+  WorldMapParams fine = small_window(2, 2);
+  fine.resolution_m = 0.005;
+  EXPECT_NO_THROW(fine.validate());
+  EXPECT_NO_THROW(WorldMap(fine, 0, 0).finish());
 }
 
 TEST(WorldMap, AFilledHoleTakesTheLocalGroundNotTheRockBesideIt) {
@@ -1377,7 +1383,7 @@ TEST(WorldMap, TheHazardIsAveragedOverTheKnownCellsAroundIt) {
   EXPECT_LT(h.at<float>(c), h0.at<float>(c));  // the peak spread over its neighbours
   EXPECT_GT(h.at<float>(c), h.at<float>(c + cv::Point(3, 0)));
   WorldMapParams bad = p;
-  bad.hazard_blur_m = 0.2;  // 5 cells
+  bad.hazard_blur_m = std::nan("");
   EXPECT_THROW(bad.validate(), std::exception);
 }
 

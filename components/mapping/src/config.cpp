@@ -207,20 +207,20 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
        .max = 1.0,
        .doc = "holes in the elevation this close to seen cells (behind rocks, between looks) take the smoothed local "
               "ground there, with a lowered confidence and no relief or hazard of their own (0 = off)"});
-  mp.map.elevation_median_m =
-      p.get<double>("map_elevation_median_m", mp.map.elevation_median_m,
-                    {.unit = "m",
-                     .min = 0.0,
-                     .max = 0.5,
-                     .doc = "each known cell's elevation is the median of the known cells within this half-side "
-                            "(whole cells, at most 3; 0 = off): one mismatched look does not stand out"});
+  mp.map.elevation_median_m = p.get<double>(
+      "map_elevation_median_m", mp.map.elevation_median_m,
+      {.unit = "m",
+       .min = 0.0,
+       .max = 0.5,
+       .doc = "each known cell's elevation is the median of the known cells within this half-side "
+              "(whole cells, at most 3 however fine the map; 0 = off): one mismatched look does not stand out"});
   mp.map.hazard_blur_m = p.get<double>(
       "map_hazard_blur_m", mp.map.hazard_blur_m,
       {.unit = "m",
        .min = 0.0,
        .max = 1.0,
        .doc = "standard deviation of the Gaussian over which the known cells' hazard is averaged (at most 4 "
-              "cells; 0 = off): where a cue put an obstacle is uncertain by about a cell"});
+              "cells however fine the map; 0 = off): where a cue put an obstacle is uncertain by about a cell"});
   read_wheel_noise(p, mp.wheel);
   return mp;
 }

@@ -69,10 +69,8 @@ void WorldMapParams::validate() const {
   if (!std::isfinite(sighting_radius_m) || sighting_radius_m <= 0) fail("sighting_radius_m", "must be > 0");
   if (!std::isfinite(rock_min_evidence) || rock_min_evidence <= 0) fail("rock_min_evidence", "must be > 0");
   if (!std::isfinite(rock_merge_m) || rock_merge_m < 0) fail("rock_merge_m", "must be >= 0");
-  if (!(elevation_median_m >= 0) || std::lround(elevation_median_m / resolution_m) > kMaxMedianRadius)
-    fail("elevation_median_m", "must be in [0, 3 cells]");
-  if (!(hazard_blur_m >= 0) || hazard_blur_m / resolution_m > kMaxBlurSigma)
-    fail("hazard_blur_m", "must be in [0, 4 cells]");
+  if (!std::isfinite(elevation_median_m) || elevation_median_m < 0) fail("elevation_median_m", "must be >= 0");
+  if (!std::isfinite(hazard_blur_m) || hazard_blur_m < 0) fail("hazard_blur_m", "must be >= 0");
   if (!(rock_min_confidence >= 0 && rock_min_confidence < 1)) fail("rock_min_confidence", "must be in [0, 1)");
   if (rock_min_frames < 1) fail("rock_min_frames", "must be >= 1");
   if (max_rocks < 1 || max_rocks > 1 << 20) fail("max_rocks", "must be 1..1048576");
@@ -477,7 +475,10 @@ void WorldMap::finish() {
 }
 
 void WorldMap::median_of_known(cv::Mat& el) {
-  const int r = static_cast<int>(std::lround(p_.elevation_median_m / p_.resolution_m));
+  // whole cells, at most kMaxMedianRadius (a finer map than the metric size asks for gets the
+  // largest window there is)
+  const int r =
+      static_cast<int>(std::min<long>(kMaxMedianRadius, std::lround(p_.elevation_median_m / p_.resolution_m)));
   if (r < 1) return;
   std::array<float, (2 * kMaxMedianRadius + 1) * (2 * kMaxMedianRadius + 1)> v{};
   for (int i = 0; i < rows_; ++i)
@@ -497,7 +498,7 @@ void WorldMap::median_of_known(cv::Mat& el) {
 }
 
 void WorldMap::blur_known(cv::Mat& hazard) {
-  const double sigma = p_.hazard_blur_m / p_.resolution_m;
+  const double sigma = std::min(kMaxBlurSigma, p_.hazard_blur_m / p_.resolution_m);  // cells, capped
   if (!(sigma > 0)) return;
   constexpr int kMaxR = static_cast<int>(2.0 * kMaxBlurSigma);
   const int r = std::min(kMaxR, static_cast<int>(std::ceil(2.0 * sigma - 1e-9)));

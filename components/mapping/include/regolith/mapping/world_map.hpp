@@ -51,11 +51,12 @@ struct WorldMapParams {
   /// m, half-side of the square over which each known cell's elevation is the median of the known
   /// cells' fused means (what the layers and everything derived from them show; the fused means
   /// themselves are kept): one look's mismatch at a cell does not stand out of its neighbours.
-  /// Rounded to whole cells, at most 3; 0 = off. Default: one cell at 4 cm (a 3 x 3 median).
+  /// Rounded to whole cells, at most 3 (a finer map gets a 7 x 7 window); 0 = off. Default: one
+  /// cell at 4 cm (a 3 x 3 median).
   double elevation_median_m = 0.04;
   /// m, standard deviation of the Gaussian over which the hazard of the known cells is averaged
   /// (normalised over the known cells, kernel cut at 2 sigma; unknown cells stay unknown): where a
-  /// cue put an obstacle is uncertain by about a cell. At most 4 cells; 0 = off.
+  /// cue put an obstacle is uncertain by about a cell. At most 4 cells (a finer map gets 4); 0 = off.
   double hazard_blur_m = 0.04;
   double fill_min_weight = 0.05;  ///< smoothed confidence a hole needs to be filled
   double ground_sigma_m = 0.25;   ///< m, scale of the smoothed local ground (relief = elevation - ground)
