@@ -18,9 +18,11 @@ void need(bool ok, const char* field, const char* what, double got) {
   if (!ok) throw FieldError("", field, std::string(what) + " (got " + number_text(got) + ")");
 }
 
+// Huber loss, branch-free (h = min(|r|, k): h (|r| - h / 2), i.e. r^2 / 2 within k, linear beyond)
+// so that loops over it vectorise.
 double huber(double r, double k) {
-  const double a = std::abs(r);
-  return a <= k ? 0.5 * r * r : k * (a - 0.5 * k);
+  const double a = std::abs(r), h = std::min(a, k);
+  return h * (a - 0.5 * h);
 }
 
 }  // namespace
@@ -216,28 +218,20 @@ void RutTemplateFit::fill_lattice(double f, double saturation_dn) {
 
 double RutTemplateFit::window_cost(int k, int c, double f, double saturation_dn) const {
   // Huber cost of the window's observations against hypothesis k shifted by offset c.
-  double s = 0.0;
   if (lattice_r_ > 0) {
     const double* T = lattice_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(lattice_n_) +
                       static_cast<std::size_t>(lattice_r_ * (nc_ - 1 - c));
-    // branch-free Huber (h = min(|r|, k): h (|r| - h / 2)), weighted 0 where a sample has no
-    // observation; four partial sums so that the loop vectorises
-    const double kh = p_.huber_dn;
+    // samples without an observation add 0; four partial sums so that the loop vectorises
     const double* o = obs_.data();
     const double* w = obs_n_.data();
     double acc[4] = {0.0, 0.0, 0.0, 0.0};
     int j = 0;
     for (; j + 4 <= nsamp_; j += 4)
-      for (int q = 0; q < 4; ++q) {
-        const double a = std::abs(o[j + q] - T[j + q]), h = std::min(a, kh);
-        acc[q] += w[j + q] != 0.0 ? h * (a - 0.5 * h) : 0.0;
-      }
-    for (; j < nsamp_; ++j) {
-      const double a = std::abs(o[j] - T[j]), h = std::min(a, kh);
-      acc[0] += w[j] != 0.0 ? h * (a - 0.5 * h) : 0.0;
-    }
+      for (int q = 0; q < 4; ++q) acc[q] += w[j + q] != 0.0 ? huber(o[j + q] - T[j + q], p_.huber_dn) : 0.0;
+    for (; j < nsamp_; ++j) acc[0] += w[j] != 0.0 ? huber(o[j] - T[j], p_.huber_dn) : 0.0;
     return (acc[0] + acc[1]) + (acc[2] + acc[3]);
   }
+  double s = 0.0;
   const double* P = prefix_.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(nfine_);
   const double shift = (c - nc_ / 2) * p_.centre_step_m;
   for (int j = 0; j < nsamp_; ++j) {
