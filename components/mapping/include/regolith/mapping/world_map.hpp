@@ -158,6 +158,10 @@ class WorldMap {
   void add(int i, int j, double z, double w);
   std::vector<MapRock> relief_rocks() const;
   void smooth_known(const cv::Mat& src, const cv::Mat& w, cv::Mat& dst, double sigma_cells);
+  // elevation_median_m: the known cells' median over their neighbourhood (written back to the layer).
+  void median_of_known(cv::Mat& el);
+  // hazard_blur_m: the known cells' hazard averaged with Gaussian weights (in place).
+  void blur_known(cv::Mat& hazard);
   WorldMapParams p_;
   int rows_ = 0, cols_ = 0;
   double ox_ = 0.0, oy_ = 0.0;
@@ -174,10 +178,6 @@ class WorldMap {
   traversability::GridMap trav_;            // view of elevation for compute_layers
   traversability::LayerWorkspace trav_ws_;  // compute_layers' scratch, reused every frame
   cv::Mat scratch_, scratch2_, scratch3_, mask_;
-  // elevation_median_m: the known cells' median over their neighbourhood (written back to the layer).
-  void median_of_known(cv::Mat& el);
-  // hazard_blur_m: the known cells' hazard averaged with Gaussian weights (in place).
-  void blur_known(cv::Mat& hazard);
   cv::Mat ground_w_;  // confidence of the cells the local ground is smoothed from
   cv::Mat fill_w_;    // fill_radius_m: how near each hole is to seen cells (smoothed confidence; 0 where known)
   std::vector<double> line_, line_w_;
