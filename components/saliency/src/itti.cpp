@@ -308,15 +308,18 @@ void IttiSaliency::prepare(cv::Size size) {
       sc.gabor_rows[static_cast<size_t>(l)].create(gabor_separable_.empty() ? 2 : 3 * (ls.height + 2 * r), ls.width,
                                                    CV_32F);
     }
-    for (cv::Mat* m : {&sc.centre, &sc.surround, &sc.diff, &sc.acc, &sc.excit, &sc.inhib}) m->create(map_size_, CV_32F);
+    for (cv::Mat* m : {&sc.diff, &sc.acc, &sc.excit, &sc.inhib}) m->create(map_size_, CV_32F);
   }
   for (Scratch& sc : scratch_) {  // built per job: a copy would share the tables' row buffers
     sc.to_map.assign(static_cast<size_t>(levels), ResizeTable());
+    sc.at_map.assign(static_cast<size_t>(levels), cv::Mat());
     for (int l = 0; l < levels; ++l) {
       const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
-      if (l != params_.map_level)
+      if (l != params_.map_level) {
         sc.to_map[static_cast<size_t>(l)].build(
             ls, map_size_, l < params_.map_level ? ResizeTable::Mode::kArea : ResizeTable::Mode::kLinear);
+        sc.at_map[static_cast<size_t>(l)].create(map_size_, CV_32F);
+      }
     }
   }
   to_input_.build(map_size_, size, ResizeTable::Mode::kLinear);
@@ -363,21 +366,20 @@ void IttiSaliency::normalise(cv::Mat& map, Scratch& s) {
 void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat>& pyr, cv::Mat& out, Scratch& sc) {
   fill_value(out, 0.f);
   const int ml = params_.map_level;
+  // Every level a centre or a surround reads, at the map level once (= cv::resize INTER_AREA
+  // below the map level, INTER_LINEAR above it, through precomputed tables); a level serves
+  // several centre-surround pairs.
+  auto at_map = [&](int l) -> const cv::Mat& {
+    return l == ml ? pyr[static_cast<size_t>(ml)] : sc.at_map[static_cast<size_t>(l)];
+  };
+  for (int l = params_.centre_min; l <= params_.max_level(); ++l) {
+    const bool used = l <= params_.centre_max || l >= params_.centre_min + params_.delta_min;
+    if (l != ml && used)
+      sc.to_map[static_cast<size_t>(l)].apply(pyr[static_cast<size_t>(l)], sc.at_map[static_cast<size_t>(l)]);
+  }
   for (int c = params_.centre_min; c <= params_.centre_max; ++c) {
     for (int d = params_.delta_min; d <= params_.delta_max; ++d) {
-      const int s = c + d;
-      const cv::Mat& pc = pyr[static_cast<size_t>(c)];
-      const cv::Mat& ps = pyr[static_cast<size_t>(s)];
-      // = cv::resize INTER_AREA (c < ml) / INTER_LINEAR, through precomputed tables.
-      if (c == ml)
-        pc.copyTo(sc.centre);
-      else
-        sc.to_map[static_cast<size_t>(c)].apply(pc, sc.centre);
-      if (s == ml)
-        ps.copyTo(sc.surround);
-      else
-        sc.to_map[static_cast<size_t>(s)].apply(ps, sc.surround);
-      cv::absdiff(sc.centre, sc.surround, sc.diff);
+      cv::absdiff(at_map(c), at_map(c + d), sc.diff);
       cv::multiply(sc.diff, border_, sc.diff);
       normalise(sc.diff, sc);
       out += sc.diff;

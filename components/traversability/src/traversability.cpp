@@ -129,6 +129,8 @@ TraversabilityMapper::TraversabilityMapper(const direct_depth::DirectDepth& dept
   rect_blur_.create(rx, ry, CV_32F);
   rect_mask_.create(rx, ry, CV_8U);
   line_.assign(static_cast<std::size_t>(std::max({sz.width, sz.height, rx, ry})), 0.0);
+  column_sums_.assign(line_.size(), 0.0);
+  plane_.assign(static_cast<std::size_t>(std::max(sz.area(), rx * ry)), 0.0);
 }
 
 void TraversabilityMapper::check_image(const cv::Mat& m, const cv::Mat& valid, const char* what) const {
@@ -179,15 +181,18 @@ ImageLight ground_light(const direct_depth::CameraModel& m, const ImageLight& l)
 }
 
 // Three passes of a running box filter of half-width k (separable): ~Gaussian of sigma
-// sqrt(3 * ((2k+1)^2 - 1) / 12). Border: clamped. Uses line_ (sized in the constructor).
+// sqrt(3 * ((2k+1)^2 - 1) / 12). Border: clamped. Uses line_, column_sums_ and plane_ (sized in the
+// constructor). The column pass runs down all columns at once, row by row (contiguous memory),
+// with each column's sums in the same order as a pass along it.
 void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma_px) {
   // Half-width at most 2^24 (a sigma of 1e9 px looped 2e9 times per line at configure: a hang).
   const double kd = std::round((std::sqrt(4.0 * sigma_px * sigma_px + 1.0) - 1.0) / 2.0);
   const int k = static_cast<int>(std::clamp(kd, 1.0, static_cast<double>(1 << 24)));
   src.copyTo(dst);
   const int W = dst.cols, H = dst.rows;
-  auto pass = [&](float* base, int n, std::ptrdiff_t stride) {
-    for (int i = 0; i < n; ++i) line_[static_cast<std::size_t>(i)] = static_cast<double>(base[i * stride]);
+  const double inv = 1.0 / (2 * k + 1);
+  auto row_pass = [&](float* base, int n) {
+    for (int i = 0; i < n; ++i) line_[static_cast<std::size_t>(i)] = static_cast<double>(base[i]);
     double acc = 0.0;
     if (k < n) {
       for (int i = -k; i <= k; ++i) acc += line_[static_cast<std::size_t>(std::clamp(i, 0, n - 1))];
@@ -195,17 +200,40 @@ void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma
       for (int i = 0; i < n; ++i) acc += line_[static_cast<std::size_t>(i)];
       acc += k * line_[0] + (k - n + 1) * line_[static_cast<std::size_t>(n - 1)];
     }
-    const double inv = 1.0 / (2 * k + 1);
     for (int i = 0; i < n; ++i) {
-      base[i * stride] = static_cast<float>(acc * inv);
+      base[i] = static_cast<float>(acc * inv);
       acc += line_[static_cast<std::size_t>(std::min(i + k + 1, n - 1))] -
              line_[static_cast<std::size_t>(std::max(i - k, 0))];
     }
   };
+  double* acc = column_sums_.data();
+  auto col = [&](int r) { return plane_.data() + static_cast<std::ptrdiff_t>(r) * W; };  // row r as doubles
+  auto add_row = [&](const double* x) {
+    for (int c = 0; c < W; ++c) acc[c] += x[c];
+  };
   for (int rep = 0; rep < 3; ++rep) {
-    for (int r = 0; r < H; ++r) pass(dst.ptr<float>(r), W, 1);
-    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(dst.step1());
-    for (int c = 0; c < W; ++c) pass(dst.ptr<float>(0) + c, H, stride);
+    for (int r = 0; r < H; ++r) row_pass(dst.ptr<float>(r), W);
+    for (int r = 0; r < H; ++r) {
+      const float* d = dst.ptr<float>(r);
+      double* x = col(r);
+      for (int c = 0; c < W; ++c) x[c] = static_cast<double>(d[c]);
+    }
+    std::fill(acc, acc + W, 0.0);
+    if (k < H) {
+      for (int i = -k; i <= k; ++i) add_row(col(std::clamp(i, 0, H - 1)));
+    } else {
+      for (int i = 0; i < H; ++i) add_row(col(i));
+      for (int c = 0; c < W; ++c) acc[c] += k * col(0)[c] + (k - H + 1) * col(H - 1)[c];
+    }
+    for (int i = 0; i < H; ++i) {
+      float* d = dst.ptr<float>(i);
+      const double* in = col(std::min(i + k + 1, H - 1));
+      const double* out = col(std::max(i - k, 0));
+      for (int c = 0; c < W; ++c) {
+        d[c] = static_cast<float>(acc[c] * inv);
+        acc[c] += in[c] - out[c];
+      }
+    }
   }
 }
 
@@ -509,6 +537,22 @@ PlaneSums disc_plane_sums(const cv::Mat& prefix, int i, int j, int r, const std:
   return s;
 }
 
+// The least-squares plane z = a + b dx + c dy from its normal equations (symmetric 3 x 3), by the
+// adjugate: false when the system is singular (|det| <= 1e-18, collinear cells). Closed form
+// instead of cv::solve, whose array wrapping cost more than the solve for every cell of a grid.
+bool solve_plane(const PlaneSums& s, cv::Vec3d& sol) {
+  const double a = s.s1, b = s.sx, c = s.sy, e = s.sxx, f = s.sxy, g = s.syy;
+  const double c00 = e * g - f * f, c01 = c * f - b * g, c02 = b * f - c * e;
+  const double det = a * c00 + b * c01 + c * c02;
+  if (!(std::abs(det) > 1e-18)) return false;
+  const double c11 = a * g - c * c, c12 = b * c - a * f, c22 = a * e - b * b;
+  const double inv = 1.0 / det;
+  sol[0] = (c00 * s.sz + c01 * s.sxz + c02 * s.syz) * inv;
+  sol[1] = (c01 * s.sz + c11 * s.sxz + c12 * s.syz) * inv;
+  sol[2] = (c02 * s.sz + c12 * s.sxz + c22 * s.syz) * inv;
+  return true;
+}
+
 }  // namespace
 
 void compute_layers(GridMap& map, const TraversabilityParams& p) {
@@ -580,10 +624,8 @@ void compute_layers(GridMap& map, const TraversabilityParams& p, LayerWorkspace&
       const PlaneSums ps = disc_plane_sums(ws.prefix, i, j, rs, ws.half, res);
       float vs = kNaNf, vr = kNaNf;
       if (ps.s1 >= 3) {
-        const cv::Matx33d A(ps.s1, ps.sx, ps.sy, ps.sx, ps.sxx, ps.sxy, ps.sy, ps.sxy, ps.syy);
-        const cv::Vec3d bb(ps.sz, ps.sxz, ps.syz);
         cv::Vec3d sol;
-        if (cv::solve(A, bb, sol, cv::DECOMP_LU) && std::abs(cv::determinant(A)) > 1e-18) {
+        if (solve_plane(ps, sol)) {
           const double slope = std::atan(std::hypot(sol[1], sol[2]));
           // Residual sum of squares from the normal equations.
           const double ssr = ps.szz - sol[0] * ps.sz - sol[1] * ps.sxz - sol[2] * ps.syz;

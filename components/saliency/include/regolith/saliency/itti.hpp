@@ -139,11 +139,12 @@ class IttiSaliency {
  private:
   /// Scratch of one channel job: every buffer a job writes is its own, so jobs can run at once.
   struct Scratch {
-    cv::Mat centre, surround, diff, excit, inhib, acc;
+    cv::Mat diff, excit, inhib, acc;
     std::vector<cv::Mat> down_tmp, gabor_pad, gabor_rows;  // per level
     // level -> map level resampling (INTER_AREA below it, INTER_LINEAR above it); a table
     // keeps its own row buffer, so every job has its own copy
     std::vector<ResizeTable> to_map;
+    std::vector<cv::Mat> at_map;  // per level: the level resampled to the map level
   };
   void prepare(cv::Size size);
   void build_pyramid(std::vector<cv::Mat>& pyr, Scratch& s, int from = 0);

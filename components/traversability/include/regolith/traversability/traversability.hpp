@@ -195,7 +195,9 @@ class TraversabilityMapper {
   ImageLight last_ground_light_{};
   cv::Mat metric_, blur_, tmp_;
   cv::Mat ground_step_x_, ground_step_y_;  // m per px along columns / rows (footprints)
-  std::vector<double> line_;
+  std::vector<double> line_;               // smooth(): one row
+  std::vector<double> column_sums_;        // smooth(): the running sum of every column
+  std::vector<double> plane_;              // smooth(): the image as doubles for the column pass
   cv::Mat sum_, count_;
   LayerWorkspace layer_ws_;  // compute_layers' scratch, reused every frame
   int nx_ = 0, ny_ = 0;
