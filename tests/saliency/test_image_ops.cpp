@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "alloc_counter.hpp"  // the one TU of this binary that replaces operator new
+#include "regolith/saliency/bit_mask.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
@@ -237,6 +238,67 @@ TEST(ImageOps, ConnectedComponentsEqualOpenCvLabelsAndStats) {
   EXPECT_EQ(cc.run(u), 3);
   EXPECT_EQ(cv::norm(cc.labels(), labels, cv::NORM_INF), 0.0);
   EXPECT_THROW(cc.run(cv::Mat(3, 3, CV_32F)), std::invalid_argument);
+}
+
+TEST(ImageOps, BitMaskMorphologyAndRunsEqualTheByteImplementations) {
+  // Widths around the 64-pixel word (63, 64, 65, 128, 130), small images, the detector's 5 x 5
+  // ellipse and others, a run longer than a word (radius 70), against erode_8u / dilate_8u /
+  // ConnectedComponents (themselves checked against OpenCV above), bit for bit.
+  const cv::Size sizes[] = {{1, 1}, {2, 3}, {7, 5}, {63, 9}, {64, 20}, {65, 33}, {128, 7}, {130, 61}, {161, 120}};
+  const cv::Mat kernels[] = {
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}),
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}),
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {9, 9}),
+      cv::getStructuringElement(cv::MORPH_RECT, {3, 7}),
+      cv::getStructuringElement(cv::MORPH_CROSS, {7, 5}),
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {141, 5}),
+      (cv::Mat_<uchar>(5, 3) << 0, 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1)};  // lopsided, asymmetric
+  int seed = 300;
+  rs::BitMask bits, out;
+  rs::RunComponents runs;
+  rs::ConnectedComponents cc;
+  cv::Mat pad, ref, got;
+  for (const cv::Size s : sizes) {
+    for (int trial = 0; trial < 3; ++trial) {
+      cv::Mat grey = random_binary(s, seed++);
+      cv::Mat noise(s, CV_8U);
+      cv::randu(noise, 0, 200);
+      grey = grey / 2 + noise / 4;  // grey levels: the threshold picks the mask
+      const int thr = 60 + 10 * trial;
+      const cv::Mat bin = grey > thr;
+      bits.threshold(grey, thr);
+      bits.unpack(got);
+      ASSERT_EQ(cv::norm(got, bin, cv::NORM_INF), 0.0) << s << " threshold " << thr;
+      for (const cv::Mat& k : kernels) {
+        rs::BinaryMorphology morph(k);
+        rs::erode_8u(bin, ref, k, pad);
+        morph.erode(bits, out);
+        out.unpack(got);
+        EXPECT_EQ(cv::norm(got, ref, cv::NORM_INF), 0.0) << s << " erode " << k.size();
+        rs::dilate_8u(bin, ref, k, pad);
+        morph.dilate(bits, out);
+        out.unpack(got);
+        EXPECT_EQ(cv::norm(got, ref, cv::NORM_INF), 0.0) << s << " dilate " << k.size();
+      }
+      const int n_ref = cc.run(bin);
+      ASSERT_EQ(runs.run(bits), n_ref - 1) << s;
+      for (int i = 1; i < n_ref; ++i)
+        for (std::size_t f = 0; f < 5; ++f)
+          EXPECT_EQ(runs.stats(i - 1)[f], cc.stats(i)[f]) << s << " component " << i << " stat " << f;
+    }
+  }
+  // A pixel whose only neighbour is diagonal, across a word boundary; a full row of 64.
+  cv::Mat u(4, 128, CV_8U, cv::Scalar(0));
+  u.at<uchar>(0, 63) = 255;
+  u.at<uchar>(1, 64) = 255;
+  u.row(3).colRange(0, 64).setTo(255);
+  bits.threshold(u, 0);
+  EXPECT_EQ(runs.run(bits), 2);
+  EXPECT_EQ(runs.stats(0), (std::array<int, 5>{63, 0, 2, 2, 2}));
+  EXPECT_EQ(runs.stats(1), (std::array<int, 5>{0, 3, 64, 1, 64}));
+  const cv::Mat gappy = (cv::Mat_<uchar>(1, 3) << 1, 0, 1);
+  EXPECT_THROW(rs::BinaryMorphology{gappy}, std::invalid_argument);
+  EXPECT_THROW(bits.threshold(cv::Mat(3, 3, CV_32F), 1), std::invalid_argument);
 }
 
 TEST(ImageOps, IttiAndBoxesAllocateNothingPerFrameOnceWarm) {

@@ -106,12 +106,18 @@ BoxDetector::BoxDetector(PostProcessParams params) : params_(params) {
   params_.validate();
   if (params_.open_radius > 0) {
     const int d = 2 * params_.open_radius + 1;
-    open_k_ = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(d, d));
+    open_.emplace(cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(d, d)));
   }
   if (params_.close_radius > 0) {
     const int d = 2 * params_.close_radius + 1;
-    close_k_ = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(d, d));
+    close_.emplace(cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(d, d)));
   }
+}
+
+const cv::Mat& BoxDetector::mask() const {
+  if (mask_stale_ && bits_.rows() > 0) bits_.unpack(mask_);
+  mask_stale_ = false;
+  return mask_;
 }
 
 void PreparedMap::prepare(const cv::Mat& saliency) {
@@ -133,21 +139,22 @@ int BoxDetector::detect(const PreparedMap& map, std::vector<Detection>& out) {
       map.integral.cols != map8.cols + 1 || map.integral.type() != CV_64F)
     throw std::invalid_argument("BoxDetector::detect: the map is not prepared (PreparedMap::prepare)");
   const int thr = std::clamp(static_cast<int>(std::lround(params_.threshold_scale * otsu)), 0, 254);
-  cv::threshold(map8, mask_, thr, 255, cv::THRESH_BINARY);  // > thr -> 255
-  // Opening / closing = cv::morphologyEx MORPH_OPEN / MORPH_CLOSE with the default border,
-  // and 8-connected labelling = cv::connectedComponentsWithStats, by own code into buffers
-  // kept between calls (the OpenCV calls allocate engines and tables at every call).
-  if (!open_k_.empty()) {
-    erode_8u(mask_, morph_tmp_, open_k_, morph_pad_);
-    dilate_8u(morph_tmp_, mask_, open_k_, morph_pad_);
+  bits_.threshold(map8, thr);  // > thr
+  mask_stale_ = true;
+  // Opening / closing = cv::morphologyEx MORPH_OPEN / MORPH_CLOSE with the default border, and
+  // 8-connected labelling = cv::connectedComponentsWithStats, on bits into buffers kept between
+  // calls (the OpenCV calls allocate engines and tables at every call).
+  if (open_) {
+    open_->erode(bits_, bits_tmp_);
+    open_->dilate(bits_tmp_, bits_);
   }
-  if (!close_k_.empty()) {
-    dilate_8u(mask_, morph_tmp_, close_k_, morph_pad_);
-    erode_8u(morph_tmp_, mask_, close_k_, morph_pad_);
+  if (close_) {
+    close_->dilate(bits_, bits_tmp_);
+    close_->erode(bits_tmp_, bits_);
   }
-  const int n = components_.run(mask_);
-  if (n <= 1) return thr;
-  for (int i = 1; i < n; ++i) {
+  const int n = components_.run(bits_);
+  if (n < 1) return thr;
+  for (int i = 0; i < n; ++i) {
     const std::array<int, 5>& st = components_.stats(i);
     const int area = st[cv::CC_STAT_AREA];
     if (area < params_.min_area) continue;

@@ -5,10 +5,12 @@
 // saliency inside its box.
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "regolith/saliency/bit_mask.hpp"
 #include "regolith/saliency/image_ops.hpp"
 
 namespace regolith::saliency {
@@ -59,16 +61,21 @@ class BoxDetector {
   /// The same on a prepared map.
   int detect(const PreparedMap& map, std::vector<Detection>& out);
 
-  /// The binary mask of the last call (CV_8U 0/255) after morphology.
-  const cv::Mat& mask() const { return mask_; }
+  /// The binary mask of the last call (CV_8U 0/255) after morphology (unpacked from its bits on
+  /// the first call after a detect()).
+  const cv::Mat& mask() const;
   const PostProcessParams& params() const { return params_; }
 
  private:
   PostProcessParams params_;
   PreparedMap prepared_;
-  cv::Mat mask_, open_k_, close_k_;
-  cv::Mat morph_tmp_, morph_pad_;
-  ConnectedComponents components_;
+  // The mask as bits: threshold, opening and closing with elliptical elements, 8-connected runs
+  // (the results of erode_8u / dilate_8u / ConnectedComponents at a fraction of their cost).
+  BitMask bits_, bits_tmp_;
+  std::optional<BinaryMorphology> open_, close_;
+  RunComponents components_;
+  mutable cv::Mat mask_;
+  mutable bool mask_stale_ = true;
 };
 
 /// Convenience: float or 8-bit saliency -> CV_8U 0..255 (float clamped to
