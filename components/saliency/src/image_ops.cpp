@@ -353,6 +353,14 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
   using V4 = cv::v_float32x4;
   constexpr int kVecs = 4, kLanes = V4::nlanes, kBlock = kLanes * kVecs;
   const int wb = w - w % kBlock;
+  // The kernels make() builds are even in their real and odd in their imaginary taps: then tap
+  // pairs (j, n - 1 - j) share one multiply per part (sum and difference of the two pixels).
+  bool folded = true;
+  for (int j = 0; j <= r; ++j) {
+    const auto m = static_cast<std::size_t>(n - 1 - j), i = static_cast<std::size_t>(j);
+    folded = folded && k.row_re[i] == k.row_re[m] && k.row_im[i] == -k.row_im[m] && k.col_re[i] == k.col_re[m] &&
+             k.col_im[i] == -k.col_im[m];
+  }
   for (int y = 0; y < ph; ++y) {
     const float* p = pad.ptr<float>(y);
     float* re = rows.ptr<float>(y);
@@ -361,7 +369,25 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
       V4 sr[kVecs], si[kVecs], sb[kVecs];
       for (int v = 0; v < kVecs; ++v) sr[v] = si[v] = sb[v] = cv::v_setzero_f32();
-      for (int j = 0; j < n; ++j) {
+      if (folded) {
+        for (int j = 0; j < r; ++j) {
+          const V4 a = cv::v_setall_f32(xr[j]), b = cv::v_setall_f32(xi[j]);
+          for (int v = 0; v < kVecs; ++v) {
+            const V4 q0 = cv::v_load(p + x0 + j + kLanes * v), q1 = cv::v_load(p + x0 + n - 1 - j + kLanes * v);
+            const V4 sum = q0 + q1;
+            sr[v] = sr[v] + a * sum;
+            si[v] = si[v] + b * (q0 - q1);
+            sb[v] = sb[v] + sum;
+          }
+        }
+        const V4 a = cv::v_setall_f32(xr[r]);
+        for (int v = 0; v < kVecs; ++v) {
+          const V4 q = cv::v_load(p + x0 + r + kLanes * v);
+          sr[v] = sr[v] + a * q;
+          sb[v] = sb[v] + q;
+        }
+      }
+      for (int j = 0; j < (folded ? 0 : n); ++j) {
         const V4 a = cv::v_setall_f32(xr[j]), b = cv::v_setall_f32(xi[j]);
         for (int v = 0; v < kVecs; ++v) {
           const V4 q = cv::v_load(p + x0 + j + kLanes * v);
@@ -391,12 +417,39 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
   const auto energy = [&](float cre, float cim, float s) {
     return std::abs((cre - me * s) * ie) + std::abs((-cim - mo * s) * io);
   };
+  const V4 vme = cv::v_setall_f32(me), vmo = cv::v_setall_f32(mo), vie = cv::v_setall_f32(ie),
+           vio = cv::v_setall_f32(io);
   for (int y = 0; y < h; ++y) {
     float* d = dst.ptr<float>(y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
       V4 cr[kVecs], ci[kVecs], cs[kVecs];
       for (int v = 0; v < kVecs; ++v) cr[v] = ci[v] = cs[v] = cv::v_setzero_f32();
-      for (int i = 0; i < n; ++i) {
+      if (folded) {
+        for (int i = 0; i < r; ++i) {
+          const V4 a = cv::v_setall_f32(yr[i]), b = cv::v_setall_f32(yi[i]);
+          const int m = n - 1 - i;
+          const float *re0 = rows.ptr<float>(y + i) + x0, *re1 = rows.ptr<float>(y + m) + x0;
+          const float *im0 = rows.ptr<float>(ph + y + i) + x0, *im1 = rows.ptr<float>(ph + y + m) + x0;
+          const float *bx0 = rows.ptr<float>(2 * ph + y + i) + x0, *bx1 = rows.ptr<float>(2 * ph + y + m) + x0;
+          for (int v = 0; v < kVecs; ++v) {
+            const V4 r0 = cv::v_load(re0 + kLanes * v), r1 = cv::v_load(re1 + kLanes * v);
+            const V4 i0 = cv::v_load(im0 + kLanes * v), i1 = cv::v_load(im1 + kLanes * v);
+            cr[v] = cr[v] + (a * (r0 + r1) - b * (i0 - i1));
+            ci[v] = ci[v] + (a * (i0 + i1) + b * (r0 - r1));
+            cs[v] = cs[v] + (cv::v_load(bx0 + kLanes * v) + cv::v_load(bx1 + kLanes * v));
+          }
+        }
+        const V4 a = cv::v_setall_f32(yr[r]);
+        const float* re = rows.ptr<float>(y + r) + x0;
+        const float* im = rows.ptr<float>(ph + y + r) + x0;
+        const float* box = rows.ptr<float>(2 * ph + y + r) + x0;
+        for (int v = 0; v < kVecs; ++v) {
+          cr[v] = cr[v] + a * cv::v_load(re + kLanes * v);
+          ci[v] = ci[v] + a * cv::v_load(im + kLanes * v);
+          cs[v] = cs[v] + cv::v_load(box + kLanes * v);
+        }
+      }
+      for (int i = 0; i < (folded ? 0 : n); ++i) {
         const V4 a = cv::v_setall_f32(yr[i]), b = cv::v_setall_f32(yi[i]);
         const float* re = rows.ptr<float>(y + i) + x0;
         const float* im = rows.ptr<float>(ph + y + i) + x0;
@@ -408,13 +461,11 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
           cs[v] = cs[v] + cv::v_load(box + kLanes * v);
         }
       }
-      float lr[kBlock], li[kBlock], ls[kBlock];
+      // energy() lane by lane, the same operations in the same order
       for (int v = 0; v < kVecs; ++v) {
-        cv::v_store(lr + kLanes * v, cr[v]);
-        cv::v_store(li + kLanes * v, ci[v]);
-        cv::v_store(ls + kLanes * v, cs[v]);
+        const V4 even = (cr[v] - vme * cs[v]) * vie, odd = (cv::v_setzero_f32() - ci[v] - vmo * cs[v]) * vio;
+        cv::v_store(d + x0 + kLanes * v, cv::v_abs(even) + cv::v_abs(odd));
       }
-      for (int l = 0; l < kBlock; ++l) d[x0 + l] = energy(lr[l], li[l], ls[l]);
     }
     for (int x = wb; x < w; ++x) {
       float cre = 0.0f, cim = 0.0f, s = 0.0f;

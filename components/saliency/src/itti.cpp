@@ -66,22 +66,35 @@ struct IterativeKernels {
   }
 };
 
-// Scale a non-negative map linearly so that [min, max] -> [0, top]. Returns
-// false if flat.
-bool rescale(cv::Mat& map, double top) {
-  double mn = 0.0, mx = 0.0;
-  cv::minMaxLoc(map, &mn, &mx);
-  if (!(mx - mn > 1e-12)) {
+// Negative values (and NaN) := 0, then scale linearly so that [min, max] -> [0, top]. Returns
+// false (the map all 0) if flat. Plain loops: the maps are small (the map level), where OpenCV's
+// per-call dispatch cost more than the arithmetic.
+bool clamp_and_rescale(cv::Mat& map, double top) {
+  float mn = std::numeric_limits<float>::infinity(), mx = 0.f;
+  for (int y = 0; y < map.rows; ++y) {
+    float* m = map.ptr<float>(y);
+    for (int x = 0; x < map.cols; ++x) {
+      const float v = m[x] > 0.f ? m[x] : 0.f;
+      m[x] = v;
+      mn = std::min(mn, v);
+      mx = std::max(mx, v);
+    }
+  }
+  const double range = static_cast<double>(mx) - static_cast<double>(mn);
+  if (!(range > 1e-12)) {
     fill_value(map, 0.f);
     return false;
   }
-  map.convertTo(map, CV_32F, top / (mx - mn), -mn * top / (mx - mn));
+  const float a = static_cast<float>(top / range), b = static_cast<float>(-static_cast<double>(mn) * top / range);
+  for (int y = 0; y < map.rows; ++y) {
+    float* m = map.ptr<float>(y);
+    for (int x = 0; x < map.cols; ++x) m[x] = m[x] * a + b;
+  }
   return true;
 }
 
 void iterate_dog(cv::Mat& map, const IttiParams& p, const IterativeKernels& k, cv::Mat& excit, cv::Mat& inhib) {
-  cv::threshold(map, map, 0.0, 0.0, cv::THRESH_TOZERO);
-  if (!rescale(map, 10.0)) return;
+  if (!clamp_and_rescale(map, 10.0)) return;
   const double cex2 = p.excit_coeff * p.excit_coeff;
   const double cin2 = p.inhib_coeff * p.inhib_coeff;
   for (int it = 0; it < p.iterations; ++it) {
@@ -205,8 +218,7 @@ void downsample_stb(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp) {
 
 void normalise_local_max(cv::Mat& map) {
   CV_Assert(map.type() == CV_32FC1);
-  cv::threshold(map, map, 0.0, 0.0, cv::THRESH_TOZERO);
-  if (!rescale(map, 10.0)) return;
+  if (!clamp_and_rescale(map, 10.0)) return;
   // Local maxima: inner pixels >= their 4 neighbours and >= 1 (10 % of the
   // range). Itti 1998 averages the maxima other than the global one; with none,
   // the factor is 10^2.
@@ -228,8 +240,11 @@ void normalise_local_max(cv::Mat& map) {
   }
   double mean_other = 0.0;
   if (n > 1) mean_other = (sum - gmax) / (n - 1);
-  const double f = (10.0 - mean_other) * (10.0 - mean_other);
-  map *= f;
+  const float f = static_cast<float>((10.0 - mean_other) * (10.0 - mean_other));
+  for (int y = 0; y < map.rows; ++y) {
+    float* m = map.ptr<float>(y);
+    for (int x = 0; x < map.cols; ++x) m[x] *= f;
+  }
 }
 
 void normalise_iterative(cv::Mat& map, const IttiParams& p) {
@@ -379,10 +394,18 @@ void IttiSaliency::centre_surround_channel(const std::vector<cv::Mat>& pyr, cv::
   }
   for (int c = params_.centre_min; c <= params_.centre_max; ++c) {
     for (int d = params_.delta_min; d <= params_.delta_max; ++d) {
-      cv::absdiff(at_map(c), at_map(c + d), sc.diff);
-      cv::multiply(sc.diff, border_, sc.diff);
+      const cv::Mat &centre = at_map(c), &surround = at_map(c + d);
+      for (int y = 0; y < map_size_.height; ++y) {  // |centre - surround| x border ramp
+        const float *pc = centre.ptr<float>(y), *ps = surround.ptr<float>(y), *pb = border_.ptr<float>(y);
+        float* o = sc.diff.ptr<float>(y);
+        for (int x = 0; x < map_size_.width; ++x) o[x] = std::abs(pc[x] - ps[x]) * pb[x];
+      }
       normalise(sc.diff, sc);
-      out += sc.diff;
+      for (int y = 0; y < map_size_.height; ++y) {
+        const float* pd = sc.diff.ptr<float>(y);
+        float* o = out.ptr<float>(y);
+        for (int x = 0; x < map_size_.width; ++x) o[x] += pd[x];
+      }
     }
   }
 }
@@ -491,11 +514,14 @@ const Conspicuity& IttiSaliency::conspicuity(const cv::Mat& image, const cv::Mat
     }
     if (height.channels() != 1) throw std::invalid_argument("height: must have one channel");
   }
-  to_unit_float(image, bgr_);
-
-  // Intensity (and colour opponency) at level 0.
+  // Intensity (and colour opponency) at level 0; a grey image is its own intensity.
   cv::Mat& i0 = intensity_pyr_[0];
-  intensity_of(bgr_, i0);
+  if (ch == 1) {
+    to_unit_float(image, i0);
+  } else {
+    to_unit_float(image, bgr_);
+    intensity_of(bgr_, i0);
+  }
   const bool colour = params_.use_colour && ch >= 3;
   if (colour) {
     double gmax = 0.0;
@@ -587,8 +613,10 @@ void IttiSaliency::compute(const cv::Mat& image, const cv::Mat& height, cv::Mat&
   cv::minMaxLoc(combined_, nullptr, &mx);
   if (mx > 0.0) combined_ *= 1.0 / mx;
   to_input_.apply(combined_, saliency);
-  cv::threshold(saliency, saliency, 1.0, 1.0, cv::THRESH_TRUNC);
-  cv::threshold(saliency, saliency, 0.0, 0.0, cv::THRESH_TOZERO);
+  for (int y = 0; y < saliency.rows; ++y) {  // into [0, 1] (NaN -> 0)
+    float* m = saliency.ptr<float>(y);
+    for (int x = 0; x < saliency.cols; ++x) m[x] = m[x] > 1.f ? 1.f : (m[x] > 0.f ? m[x] : 0.f);
+  }
 }
 
 }  // namespace regolith::saliency
