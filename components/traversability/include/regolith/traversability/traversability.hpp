@@ -87,10 +87,14 @@ struct TraversabilityParams {
   double rectify_resolution_m = 0.02;   ///< m per cell of the ground-rectified image
   double ground_detrend_sigma_m = 0.5;  ///< m, smooth background removed from ground SfS heights (0 = off)
   /// Solver for the rectified image. Default Tsai-Shah marching: no heap allocation per frame.
+  /// Two Newton iterations per cell (the solver's default is 3): on the development drives the
+  /// map's elevation and detail r are equal or higher on all six (320 and 640 px) with 2, for ~4 %
+  /// less CPU in this component (README "Ground solve: Newton iterations").
   sfs::SfsParams ground_sfs = default_ground_sfs();
   static sfs::SfsParams default_ground_sfs() {
     sfs::SfsParams s;
     s.method = sfs::Method::kTsaiShah;
+    s.tsai_shah_newton_iterations = 2;
     return s;
   }
   void validate() const;  ///< throws std::invalid_argument naming the field
