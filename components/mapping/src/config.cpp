@@ -79,6 +79,24 @@ void read_sighting_settings(Params& p, DriveMapperParams& mp) {
     p.fail("sighting_max_width_px", "must be 0 (full size) or at least 16 px");
 }
 
+// The shading cue: its weight and the ground-rectified solve's integration memory and detrend.
+void read_shading_settings(Params& p, DriveMapperParams& mp) {
+  mp.shading_weight = p.get<double>(
+      "shading_weight", mp.shading_weight,
+      {.min = 0.0,
+       .max = 10.0,
+       .doc = "weight of the ground-rectified SfS heights against parallax (x the SfS grid's confidence)"});
+  mp.terrain.ground_sfs.tsai_shah_leak_px =
+      p.get<double>("shading_leak_px", mp.terrain.ground_sfs.tsai_shah_leak_px,
+                    {.unit = "px",
+                     .min = 0.0,
+                     .max = 1e6,
+                     .doc = "memory of the shading cue's Tsai-Shah integration, in rectified cells (0 = none)"});
+  mp.terrain.ground_detrend_sigma_m = p.get<double>(
+      "shading_detrend_m", mp.terrain.ground_detrend_sigma_m,
+      {.unit = "m", .min = 0.0, .max = 100.0, .doc = "smooth background removed from the shading heights"});
+}
+
 }  // namespace
 
 DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
@@ -89,11 +107,7 @@ DriveMapperParams read_drive_mapper_params(Params& p, DriveMapperParams mp) {
   mp.fuse_shading = p.get<bool>("fuse_shading", mp.fuse_shading, {.doc = "heights from ground-rectified SfS"});
   mp.fuse_sightings = p.get<bool>("fuse_sightings", mp.fuse_sightings,
                                   {.doc = "rocks sighted in each frame, followed across frames (far rocks)"});
-  mp.shading_weight = p.get<double>(
-      "shading_weight", mp.shading_weight,
-      {.min = 0.0,
-       .max = 10.0,
-       .doc = "weight of the ground-rectified SfS heights against parallax (x the SfS grid's confidence)"});
+  read_shading_settings(p, mp);
   mp.tracks.enabled = p.get<bool>(
       "track_rocks", mp.tracks.enabled,
       {.doc = "follow sighted rocks across frames and triangulate their ground contact (false: each sighting alone, "
