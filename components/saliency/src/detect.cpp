@@ -120,14 +120,22 @@ const cv::Mat& BoxDetector::mask() const {
   return mask_;
 }
 
-void PreparedMap::prepare(const cv::Mat& saliency) {
+void PreparedMap::prepare(const cv::Mat& saliency, bool sums_now) {
   to_8bit(saliency, map8);
   otsu = otsu_threshold(map8);
-  cv::integral(map8, integral, CV_64F);
+  integral.create(map8.rows + 1, map8.cols + 1, CV_64F);
+  summed = false;
+  if (sums_now) sums();
+}
+
+const cv::Mat& PreparedMap::sums() const {
+  if (!summed) cv::integral(map8, integral, CV_64F);  // into the buffer prepare() sized
+  summed = true;
+  return integral;
 }
 
 int BoxDetector::detect(const cv::Mat& saliency, std::vector<Detection>& out) {
-  prepared_.prepare(saliency);
+  prepared_.prepare(saliency, false);
   return detect(prepared_, out);
 }
 
@@ -154,6 +162,7 @@ int BoxDetector::detect(const PreparedMap& map, std::vector<Detection>& out) {
   }
   const int n = components_.run(bits_);
   if (n < 1) return thr;
+  double box_pixels = 0.0;
   for (int i = 0; i < n; ++i) {
     const std::array<int, 5>& st = components_.stats(i);
     const int area = st[cv::CC_STAT_AREA];
@@ -161,12 +170,30 @@ int BoxDetector::detect(const PreparedMap& map, std::vector<Detection>& out) {
     Detection d;
     d.box = cv::Rect(st[cv::CC_STAT_LEFT], st[cv::CC_STAT_TOP], st[cv::CC_STAT_WIDTH], st[cv::CC_STAT_HEIGHT]);
     d.area = area;
-    const auto& b = d.box;
-    const cv::Mat& ii = map.integral;
-    const double s = ii.at<double>(b.y + b.height, b.x + b.width) - ii.at<double>(b.y, b.x + b.width) -
-                     ii.at<double>(b.y + b.height, b.x) + ii.at<double>(b.y, b.x);
-    d.score = s / (255.0 * b.area());
+    box_pixels += static_cast<double>(d.box.area());
     out.push_back(d);
+  }
+  // Score = mean of map8 in the box: summed directly while the boxes cover less than the frame,
+  // else from the integral image (exact integer sums either way, so the same scores).
+  const bool direct = !map.summed && box_pixels <= static_cast<double>(map8.total());
+  for (Detection& d : out) {
+    const cv::Rect& b = d.box;
+    double s = 0.0;
+    if (direct) {
+      std::uint64_t sum = 0;
+      for (int y = b.y; y < b.y + b.height; ++y) {
+        const uchar* p = map8.ptr<uchar>(y) + b.x;
+        std::uint32_t row = 0;
+        for (int x = 0; x < b.width; ++x) row += p[x];
+        sum += row;
+      }
+      s = static_cast<double>(sum);
+    } else {
+      const cv::Mat& ii = map.sums();
+      s = ii.at<double>(b.y + b.height, b.x + b.width) - ii.at<double>(b.y, b.x + b.width) -
+          ii.at<double>(b.y + b.height, b.x) + ii.at<double>(b.y, b.x);
+    }
+    d.score = s / (255.0 * b.area());
   }
   // Descending score; equal scores in raster order of the box corner (deterministic).
   std::sort(out.begin(), out.end(), [](const Detection& a, const Detection& b) {

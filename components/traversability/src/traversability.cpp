@@ -414,16 +414,18 @@ int disc_half_width(int r, int di) {
 // scan in each, so the cost per cell does not grow with w. `better(a, b)`: a is more extreme.
 template <class Better>
 void sliding_row_extreme(const cv::Mat& e, int w, float none, Better better, cv::Mat& out, std::vector<float>& fwd,
-                         std::vector<float>& bwd) {
+                         std::vector<float>& bwd, std::vector<float>& row) {
   const int ny = e.cols, k = 2 * w + 1, len = ny + 2 * w;
   fwd.resize(static_cast<std::size_t>(len));
   bwd.resize(static_cast<std::size_t>(len));
+  row.resize(static_cast<std::size_t>(len));
   for (int i = 0; i < e.rows; ++i) {
     const float* z = e.ptr<float>(i);
-    const auto at = [&](int t) {
+    for (int t = 0; t < len; ++t) {  // the row, `none` outside it and for NaN cells
       const int j = t - w;
-      return (j < 0 || j >= ny || !std::isfinite(z[j])) ? none : z[j];
-    };
+      row[static_cast<std::size_t>(t)] = (j < 0 || j >= ny || !std::isfinite(z[j])) ? none : z[j];
+    }
+    const auto at = [&](int t) { return row[static_cast<std::size_t>(t)]; };
     for (int b0 = 0; b0 < len; b0 += k) {
       const int b1 = std::min(len, b0 + k) - 1;
       fwd[b0] = at(b0);
@@ -458,9 +460,9 @@ void disc_extremes(const cv::Mat& e, int r, LayerWorkspace& ws) {
     const int w = disc_half_width(r, di);
     if (w != made) {
       sliding_row_extreme(
-          e, w, -inf, [](float a, float b) { return a > b; }, ws.rowmax, ws.block_fwd, ws.block_bwd);
+          e, w, -inf, [](float a, float b) { return a > b; }, ws.rowmax, ws.block_fwd, ws.block_bwd, ws.block_row);
       sliding_row_extreme(
-          e, w, inf, [](float a, float b) { return a < b; }, ws.rowmin, ws.block_fwd, ws.block_bwd);
+          e, w, inf, [](float a, float b) { return a < b; }, ws.rowmin, ws.block_fwd, ws.block_bwd, ws.block_row);
       made = w;
     }
     for (int side = 0; side < (di == 0 ? 1 : 2); ++side) {
@@ -626,7 +628,7 @@ void compute_layers(GridMap& map, const TraversabilityParams& p, LayerWorkspace&
       if (ps.s1 >= 3) {
         cv::Vec3d sol;
         if (solve_plane(ps, sol)) {
-          const double slope = std::atan(std::hypot(sol[1], sol[2]));
+          const double slope = std::atan(std::sqrt(sol[1] * sol[1] + sol[2] * sol[2]));  // (no overflow here)
           // Residual sum of squares from the normal equations.
           const double ssr = ps.szz - sol[0] * ps.sz - sol[1] * ps.sxz - sol[2] * ps.syz;
           const double rough = std::sqrt(std::max(0.0, ssr) / ps.s1);

@@ -43,10 +43,16 @@ int otsu_threshold(const cv::Mat& image8u, const cv::Mat& mask = cv::Mat());
 /// the box scores). Detectors at several threshold scales over one map share one preparation
 /// (CandidateExtractor). Buffers are allocated on the first map of a given size.
 struct PreparedMap {
-  cv::Mat map8;      ///< CV_8U 0..255 (to_8bit)
-  int otsu = 0;      ///< otsu_threshold(map8)
-  cv::Mat integral;  ///< CV_64F, (rows + 1) x (cols + 1) sums of map8
-  void prepare(const cv::Mat& saliency);
+  cv::Mat map8;  ///< CV_8U 0..255 (to_8bit)
+  int otsu = 0;  ///< otsu_threshold(map8)
+  /// CV_64F, (rows + 1) x (cols + 1) sums of map8 once `summed` (always sized by prepare()).
+  mutable cv::Mat integral;
+  mutable bool summed = false;
+  /// `sums` false: the integral image is left for sums() (a single detection sums its few boxes
+  /// directly, which costs less than the integral of a whole frame).
+  void prepare(const cv::Mat& saliency, bool sums = true);
+  /// The integral image, made now if prepare() left it.
+  const cv::Mat& sums() const;
 };
 
 /// Reusable detector; buffers are allocated on the first frame of a given size.

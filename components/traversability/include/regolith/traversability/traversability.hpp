@@ -145,6 +145,7 @@ struct LayerWorkspace {
   cv::Mat zmax, zmin;                       ///< CV_32F: highest / lowest elevation over each cell's step disc
   cv::Mat rowmax, rowmin;                   ///< CV_32F: one half-width's running row extremes
   std::vector<float> block_fwd, block_bwd;  ///< block scans of one row (van Herk / Gil-Werman)
+  std::vector<float> block_row;             ///< the row padded, NaN cells as the neutral value
   std::vector<int> half;                    ///< half-width of each row of the plane-fit disc
 };
 
