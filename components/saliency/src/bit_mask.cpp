@@ -18,6 +18,21 @@ int trailing_zeros(std::uint64_t x) {
   return __builtin_ctzll(x);
 }  // x != 0
 
+// out[k] op= the bits of `lo` shifted down by r (0..63) bits: pixel x of the result is pixel x + r
+// of `lo` (which has a readable word past its last).
+template <bool kOr>
+void combine_shifted(std::uint64_t* out, const std::uint64_t* lo, int r, int nw) {
+  if (r == 0) {
+    for (int k = 0; k < nw; ++k) out[k] = kOr ? (out[k] | lo[k]) : (out[k] & lo[k]);
+    return;
+  }
+  const int l = 64 - r;
+  for (int k = 0; k < nw; ++k) {
+    const std::uint64_t v = (lo[k] >> r) | (lo[k + 1] << l);
+    out[k] = kOr ? (out[k] | v) : (out[k] & v);
+  }
+}
+
 }  // namespace
 
 void BitMask::create(int rows, int cols) {
@@ -129,10 +144,10 @@ void BinaryMorphology::apply(const BitMask& src, BitMask& dst, bool dilate) {
         const int q = o >= 0 ? o / 64 : -((-o + 63) / 64);  // floor(o / 64)
         const int r = o - 64 * q;
         const std::uint64_t* lo = padded_.data() + pw + q;
-        for (int k = 0; k < nw; ++k) {
-          const std::uint64_t v = r == 0 ? lo[k] : (lo[k] >> r) | (lo[k + 1] << (64 - r));
-          out[k] = dilate ? (out[k] | v) : (out[k] & v);
-        }
+        if (dilate)
+          combine_shifted<true>(out, lo, r, nw);
+        else
+          combine_shifted<false>(out, lo, r, nw);
       }
     }
   }
