@@ -114,59 +114,60 @@ TEST(ImageOps, SobelThroughCorrelationEqualsCvSobel) {
   EXPECT_LT(rel_diff(dst, ref), 1e-6);
 }
 
-TEST(ImageOps, ErodeDilateEqualOpenCvDefaultBorder) {
+TEST(ImageOps, BinaryMorphologyEqualsOpenCvDefaultBorder) {
+  // The detector's masks as bits (BitMask) against cv::erode / cv::dilate / cv::morphologyEx with
+  // the default border: every shape and size of element, the open-then-close of BoxDetector.
   int seed = 10;
+  rs::BitMask bits, a, b;
+  cv::Mat got;
   for (const int shape : {cv::MORPH_ELLIPSE, cv::MORPH_RECT, cv::MORPH_CROSS}) {
     for (const cv::Size ks : {cv::Size(5, 5), cv::Size(3, 7), cv::Size(1, 1), cv::Size(9, 9)}) {
       const cv::Mat k = cv::getStructuringElement(shape, ks);
+      rs::BinaryMorphology morph(k);
       for (const cv::Size s : kSizes) {
         const cv::Mat src = random_binary(s, seed++);
-        cv::Mat re, rd, e, d, pad;
+        cv::Mat re, rd, ro, rc;
         cv::erode(src, re, k);
         cv::dilate(src, rd, k);
-        rs::erode_8u(src, e, k, pad);
-        rs::dilate_8u(src, d, k, pad);
-        EXPECT_EQ(cv::norm(e, re, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
-        EXPECT_EQ(cv::norm(d, rd, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
-        // Open / close as morphologyEx, in place like BoxDetector.
-        cv::Mat ro, rc, x = src.clone(), tmp;
         cv::morphologyEx(src, ro, cv::MORPH_OPEN, k);
         cv::morphologyEx(ro, rc, cv::MORPH_CLOSE, k);
-        rs::erode_8u(x, tmp, k, pad);
-        rs::dilate_8u(tmp, x, k, pad);
-        EXPECT_EQ(cv::norm(x, ro, cv::NORM_INF), 0.0) << s;
-        rs::dilate_8u(x, tmp, k, pad);
-        rs::erode_8u(tmp, x, k, pad);
-        EXPECT_EQ(cv::norm(x, rc, cv::NORM_INF), 0.0) << s;
+        bits.threshold(src, 0);
+        morph.erode(bits, a);
+        a.unpack(got);
+        EXPECT_EQ(cv::norm(got, re, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
+        morph.dilate(bits, b);
+        b.unpack(got);
+        EXPECT_EQ(cv::norm(got, rd, cv::NORM_INF), 0.0) << shape << " " << ks << " " << s;
+        morph.dilate(a, b);  // open
+        b.unpack(got);
+        EXPECT_EQ(cv::norm(got, ro, cv::NORM_INF), 0.0) << s;
+        morph.dilate(b, a);  // then close, in place as BoxDetector's buffers allow
+        morph.erode(a, a);
+        a.unpack(got);
+        EXPECT_EQ(cv::norm(got, rc, cv::NORM_INF), 0.0) << s;
       }
     }
   }
-  // Grey values too (the operations are not binary-only).
-  cv::Mat g(23, 31, CV_8U), ref, out, pad;
-  cv::randu(g, 0, 256);
-  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5});
-  cv::erode(g, ref, k);
-  rs::erode_8u(g, out, k, pad);
-  EXPECT_EQ(cv::norm(out, ref, cv::NORM_INF), 0.0);
-  rs::erode_8u(g, g, k, pad);  // in place
-  EXPECT_EQ(cv::norm(g, ref, cv::NORM_INF), 0.0);
-  // Kernels whose rows are not single runs (gaps, an empty row; the per-member path), runs that
-  // are not nested (a slanted bar) and an asymmetric run set, grey and in place.
-  const cv::Mat gappy = (cv::Mat_<uchar>(3, 5) << 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1);
+  // Elements whose rows are runs but not nested (a slanted bar) or asymmetric; one with a gap in a
+  // row is refused (the detector's ellipses never have one).
   const cv::Mat slanted = (cv::Mat_<uchar>(3, 5) << 1, 1, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 1, 1);
   const cv::Mat lopsided = (cv::Mat_<uchar>(5, 3) << 0, 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1);
-  for (const cv::Mat& kk : {gappy, slanted, lopsided}) {
-    cv::Mat grey(29, 37, CV_8U), r_e, r_d, o_e, o_d;
-    cv::randu(grey, 0, 256);
-    cv::erode(grey, r_e, kk);
-    cv::dilate(grey, r_d, kk);
-    rs::erode_8u(grey, o_e, kk, pad);
-    rs::dilate_8u(grey, o_d, kk, pad);
-    EXPECT_EQ(cv::norm(o_e, r_e, cv::NORM_INF), 0.0) << kk;
-    EXPECT_EQ(cv::norm(o_d, r_d, cv::NORM_INF), 0.0) << kk;
-    rs::dilate_8u(grey, grey, kk, pad);
-    EXPECT_EQ(cv::norm(grey, r_d, cv::NORM_INF), 0.0) << kk;
+  for (const cv::Mat& kk : {slanted, lopsided}) {
+    const cv::Mat src = random_binary({37, 29}, seed++);
+    cv::Mat re, rd;
+    cv::erode(src, re, kk);
+    cv::dilate(src, rd, kk);
+    rs::BinaryMorphology morph(kk);
+    bits.threshold(src, 0);
+    morph.erode(bits, a);
+    a.unpack(got);
+    EXPECT_EQ(cv::norm(got, re, cv::NORM_INF), 0.0) << kk;
+    morph.dilate(bits, a);
+    a.unpack(got);
+    EXPECT_EQ(cv::norm(got, rd, cv::NORM_INF), 0.0) << kk;
   }
+  const cv::Mat gappy = (cv::Mat_<uchar>(3, 5) << 1, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1);
+  EXPECT_THROW(rs::BinaryMorphology{gappy}, std::invalid_argument);
 }
 
 TEST(ImageOps, ResizeTableEqualsCvResize) {
@@ -208,56 +209,49 @@ TEST(ImageOps, ResizeTableEqualsCvResize) {
   EXPECT_THROW(t.apply(wrong, out), std::invalid_argument);
 }
 
-TEST(ImageOps, ConnectedComponentsEqualOpenCvLabelsAndStats) {
+TEST(ImageOps, RunComponentsEqualOpenCvStatsAndNumbering) {
+  // 8-connected components of a BitMask: cv::connectedComponentsWithStats' count and statistics,
+  // component k here being its label k + 1 (the same numbering).
   int seed = 200;
-  rs::ConnectedComponents cc;
-  for (const cv::Size s : kSizes) {
-    for (int trial = 0; trial < 4; ++trial) {
-      const cv::Mat bin = random_binary(s, seed++);
-      cv::Mat labels, stats, centroids;
-      const int n_ref = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
-      const int n = cc.run(bin);
-      ASSERT_EQ(n, n_ref) << s;
-      // Same numbering as OpenCV, pixel for pixel.
-      EXPECT_EQ(cv::norm(cc.labels(), labels, cv::NORM_INF), 0.0) << s;
-      for (int i = (static_cast<std::size_t>(cv::countNonZero(bin)) == bin.total() ? 1 : 0); i < n; ++i)
-        for (int f = 0; f < 5; ++f)
-          EXPECT_EQ(cc.stats(i)[static_cast<std::size_t>(f)], stats.at<int>(i, f))
-              << s << " label " << i << " stat " << f;
-    }
-  }
-  // Spiral / U shapes that need label merges across rows.
+  rs::BitMask bits;
+  rs::RunComponents cc;
+  auto same_as_opencv = [&](const cv::Mat& bin, const std::string& what) {
+    cv::Mat labels, stats, centroids;
+    const int n_ref = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
+    bits.threshold(bin, 0);
+    const int n = cc.run(bits);
+    ASSERT_EQ(n, n_ref - 1) << what;
+    for (int i = 0; i < n; ++i)
+      for (int f = 0; f < 5; ++f)
+        EXPECT_EQ(cc.stats(i)[static_cast<std::size_t>(f)], stats.at<int>(i + 1, f))
+            << what << " component " << i << " stat " << f;
+  };
+  for (const cv::Size s : kSizes)
+    for (int trial = 0; trial < 4; ++trial) same_as_opencv(random_binary(s, seed++), "random");
+  // A U shape that needs merges across rows, and a diagonal pair (one component, 8-connected).
   cv::Mat u(20, 30, CV_8U, cv::Scalar(0));
   cv::rectangle(u, cv::Rect(2, 2, 3, 15), 255, -1);
   cv::rectangle(u, cv::Rect(20, 2, 3, 15), 255, -1);
   cv::rectangle(u, cv::Rect(2, 15, 21, 2), 255, -1);
   u.at<uchar>(0, 10) = 255;
-  u.at<uchar>(1, 11) = 255;  // diagonal pair: one component with 8-connectivity
-  cv::Mat labels, stats, centroids;
-  ASSERT_EQ(cc.run(u), cv::connectedComponentsWithStats(u, labels, stats, centroids, 8, CV_32S));
-  EXPECT_EQ(cc.run(u), 3);
-  EXPECT_EQ(cv::norm(cc.labels(), labels, cv::NORM_INF), 0.0);
-  EXPECT_THROW(cc.run(cv::Mat(3, 3, CV_32F)), std::invalid_argument);
+  u.at<uchar>(1, 11) = 255;
+  same_as_opencv(u, "U");
+  EXPECT_EQ(cc.run(bits), 2);
 }
 
-TEST(ImageOps, BitMaskMorphologyAndRunsEqualTheByteImplementations) {
-  // Widths around the 64-pixel word (63, 64, 65, 128, 130), small images, the detector's 5 x 5
-  // ellipse and others, a run longer than a word (radius 70), against erode_8u / dilate_8u /
-  // ConnectedComponents (themselves checked against OpenCV above), bit for bit.
+TEST(ImageOps, BitMasksAroundTheWordSizeEqualOpenCv) {
+  // Widths around the 64-pixel word (63, 64, 65, 128, 130), grey images thresholded at several
+  // levels, the detector's 5 x 5 ellipse and others, a row run longer than a word (141 wide):
+  // against cv::erode / cv::dilate and cv::connectedComponentsWithStats, bit for bit.
   const cv::Size sizes[] = {{1, 1}, {2, 3}, {7, 5}, {63, 9}, {64, 20}, {65, 33}, {128, 7}, {130, 61}, {161, 120}};
   const cv::Mat kernels[] = {
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}),
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}),
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, {9, 9}),
-      cv::getStructuringElement(cv::MORPH_RECT, {3, 7}),
-      cv::getStructuringElement(cv::MORPH_CROSS, {7, 5}),
-      cv::getStructuringElement(cv::MORPH_ELLIPSE, {141, 5}),
-      (cv::Mat_<uchar>(5, 3) << 0, 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 0, 1)};  // lopsided, asymmetric
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}), cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}),
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, {9, 9}), cv::getStructuringElement(cv::MORPH_RECT, {3, 7}),
+      cv::getStructuringElement(cv::MORPH_CROSS, {7, 5}),   cv::getStructuringElement(cv::MORPH_ELLIPSE, {141, 5})};
   int seed = 300;
   rs::BitMask bits, out;
   rs::RunComponents runs;
-  rs::ConnectedComponents cc;
-  cv::Mat pad, ref, got;
+  cv::Mat ref, got, labels, stats, centroids;
   for (const cv::Size s : sizes) {
     for (int trial = 0; trial < 3; ++trial) {
       cv::Mat grey = random_binary(s, seed++);
@@ -271,23 +265,24 @@ TEST(ImageOps, BitMaskMorphologyAndRunsEqualTheByteImplementations) {
       ASSERT_EQ(cv::norm(got, bin, cv::NORM_INF), 0.0) << s << " threshold " << thr;
       for (const cv::Mat& k : kernels) {
         rs::BinaryMorphology morph(k);
-        rs::erode_8u(bin, ref, k, pad);
+        cv::erode(bin, ref, k);
         morph.erode(bits, out);
         out.unpack(got);
         EXPECT_EQ(cv::norm(got, ref, cv::NORM_INF), 0.0) << s << " erode " << k.size();
-        rs::dilate_8u(bin, ref, k, pad);
+        cv::dilate(bin, ref, k);
         morph.dilate(bits, out);
         out.unpack(got);
         EXPECT_EQ(cv::norm(got, ref, cv::NORM_INF), 0.0) << s << " dilate " << k.size();
       }
-      const int n_ref = cc.run(bin);
+      const int n_ref = cv::connectedComponentsWithStats(bin, labels, stats, centroids, 8, CV_32S);
       ASSERT_EQ(runs.run(bits), n_ref - 1) << s;
       for (int i = 1; i < n_ref; ++i)
-        for (std::size_t f = 0; f < 5; ++f)
-          EXPECT_EQ(runs.stats(i - 1)[f], cc.stats(i)[f]) << s << " component " << i << " stat " << f;
+        for (int f = 0; f < 5; ++f)
+          EXPECT_EQ(runs.stats(i - 1)[static_cast<std::size_t>(f)], stats.at<int>(i, f))
+              << s << " component " << i << " stat " << f;
     }
   }
-  // A pixel whose only neighbour is diagonal, across a word boundary; a full row of 64.
+  // A pixel whose only neighbour is diagonal, across a word boundary; a full run of 64.
   cv::Mat u(4, 128, CV_8U, cv::Scalar(0));
   u.at<uchar>(0, 63) = 255;
   u.at<uchar>(1, 64) = 255;
@@ -296,8 +291,6 @@ TEST(ImageOps, BitMaskMorphologyAndRunsEqualTheByteImplementations) {
   EXPECT_EQ(runs.run(bits), 2);
   EXPECT_EQ(runs.stats(0), (std::array<int, 5>{63, 0, 2, 2, 2}));
   EXPECT_EQ(runs.stats(1), (std::array<int, 5>{0, 3, 64, 1, 64}));
-  const cv::Mat gappy = (cv::Mat_<uchar>(1, 3) << 1, 0, 1);
-  EXPECT_THROW(rs::BinaryMorphology{gappy}, std::invalid_argument);
   EXPECT_THROW(bits.threshold(cv::Mat(3, 3, CV_32F), 1), std::invalid_argument);
 }
 

@@ -237,7 +237,7 @@ int RunComponents::run(const BitMask& mask) {
       }
     }
   }
-  // Numbering as ConnectedComponents (OpenCV): by each component's first 2x2 block in
+  // Numbering as OpenCV's block-based labelling: by each component's first 2x2 block in
   // block-raster order; a run's first block is the one of its first pixel.
   const int nbx = (w + 1) / 2;
   int roots = 0;

@@ -2,7 +2,8 @@
 // Binary images as bits (64 pixels per word) for the detector's post-processing: the threshold,
 // the opening and closing with an elliptical element and the 8-connected components of a saliency
 // map cost a few word operations per 64 pixels instead of one byte operation per pixel, with the
-// results of erode_8u / dilate_8u / ConnectedComponents (tests/saliency compare them bit for bit).
+// results of cv::erode / cv::dilate / cv::connectedComponentsWithStats (tests/saliency compare
+// them bit for bit).
 // Buffers are sized on the first image of a given size; later calls allocate nothing.
 #include <array>
 #include <cstdint>
@@ -35,8 +36,8 @@ class BitMask {
 };
 
 /// Erosion and dilation of a BitMask by a structuring element whose every row is one run of
-/// members (ellipses, rectangles, crosses; anchor at the centre), as erode_8u / dilate_8u: pixels
-/// outside the image do not take part.
+/// members (ellipses, rectangles, crosses; anchor at the centre), as cv::erode / cv::dilate with
+/// the default border: pixels outside the image do not take part.
 class BinaryMorphology {
  public:
   /// Throws std::invalid_argument when `kernel` (CV_8UC1, non-empty) has a row that is not one
@@ -58,8 +59,8 @@ class BinaryMorphology {
 };
 
 /// 8-connected components of a BitMask with the statistics and the numbering of
-/// ConnectedComponents (label k >= 1 there is component k - 1 here), found from the runs of set
-/// bits along each row.
+/// cv::connectedComponentsWithStats(..., 8, CV_32S) (its label k >= 1 is component k - 1 here),
+/// found from the runs of set bits along each row.
 class RunComponents {
  public:
   /// Returns the number of components (the background not counted).

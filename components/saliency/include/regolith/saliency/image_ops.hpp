@@ -61,12 +61,6 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
 /// centre anchor, 0, BORDER_REPLICATE)); used by tests and the slope feature.
 void correlate_replicate(const cv::Mat& src, const cv::Mat& kernel, cv::Mat& dst, cv::Mat& pad);
 
-/// Grey erosion / dilation of a CV_8UC1 image by a structuring element (CV_8UC1, nonzero =
-/// member, anchor at the centre), as cv::erode / cv::dilate with the default border (pixels
-/// outside the image do not take part). `src` and `dst` may alias; `pad` is scratch.
-void erode_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad);
-void dilate_8u(const cv::Mat& src, cv::Mat& dst, const cv::Mat& kernel, cv::Mat& pad);
-
 /// Precomputed resampling of a CV_32FC1 image from one size to another, equal to
 /// cv::resize with INTER_LINEAR (any scale) or INTER_AREA (downscaling, both factors >= 1).
 class ResizeTable {
@@ -112,30 +106,5 @@ class GaussianBlur32f {
 /// cv::Sobel(src, gx, CV_32F, 1, 0, 3, scale) and (0, 1) with the default border
 /// (BORDER_REFLECT_101), in one pass, of a CV_32FC1 image. `gx`, `gy` must not alias `src`.
 void sobel3_32f(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy, float scale);
-
-/// Two-pass union-find labelling of the 8-connected components of the nonzero pixels of a
-/// CV_8UC1 image, with the labels and statistics of cv::connectedComponentsWithStats(...,
-/// 8, CV_32S): label 0 = background, components numbered in the order OpenCV's block-based
-/// algorithm gives them (by the first 2x2 block, in raster order of blocks, that holds one of
-/// their pixels). Buffers are sized on the first image of a given size.
-class ConnectedComponents {
- public:
-  /// Returns the number of labels including the background.
-  int run(const cv::Mat& binary);
-  /// CV_32SC1 labels of the last run.
-  const cv::Mat& labels() const { return labels_; }
-  /// Statistics of `label` (0 .. n-1) in cv::ConnectedComponentsTypes order: left, top,
-  /// width, height, area (px).
-  const std::array<int, 5>& stats(int label) const { return stats_[static_cast<std::size_t>(label)]; }
-
- private:
-  int find(int a);
-  void unite(int a, int b);
-  cv::Mat labels_;
-  std::vector<int> parent_;  // provisional label -> parent (root = smallest label of the set)
-  std::vector<int> final_;   // root provisional label -> its first 2x2 block, then its final label
-  std::vector<int> order_;   // roots sorted by their first block
-  std::vector<std::array<int, 5>> stats_;
-};
 
 }  // namespace regolith::saliency
