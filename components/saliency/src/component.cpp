@@ -60,8 +60,6 @@ class RegionRuns {
       }
     }
   }
-  std::size_t count() const { return count_; }
-
   /// Mean of `m` (one channel, the mask's size) over the region: integer sums for 8-bit images,
   /// double for float ones, as cv::mean with the mask.
   template <typename T>
@@ -434,8 +432,6 @@ class SamsComponent final : public runtime::Component {
   }
 
  private:
-  /// `m` outside the searched region `roi` := v, by loop (Mat::setTo with a scalar allocates).
-
   /// work_height4_ := h4 (floor(frame / 4) a side), its last column / row repeated to fill the
   /// pyramid level's size.
   void pad_quarter(const cv::Mat& h4) {
