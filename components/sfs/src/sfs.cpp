@@ -958,25 +958,48 @@ void ShapeFromShading::bichsel_pentland(const LightDirection& l, SfsResult& out)
   static const int dc8[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
   std::array<std::array<float, kLevels>, 8> drop{};
   const cv::Vec3d s = l.vector();
+  constexpr int kSteps = 2000;  // slopes m = 0.005 j, j = 1..kSteps (up to 10)
   for (int k = 0; k < 8; ++k) {
     // Step direction w from the neighbour to the pixel; the surface is assumed to descend along
     // w with slope m >= 0 (gradient parallel to the step): E(m) = (m w.s_xy + s_z)/sqrt(1+m^2).
-    // drop = smallest m whose brightness crosses E ("minimum downhill"), infinite if none.
+    // drop = smallest m whose brightness crosses E ("minimum downhill"), infinite if none: for
+    // level e, the first step j where E(m_j) >= e differs from E(m_{j-1}) >= e (E(m_0) = s_z),
+    // found at m_j - 0.0025. One walk over the steps serves every level: the comparison flips
+    // between j - 1 and j exactly for the levels with min(E_{j-1}, E_j) < e <= max(E_{j-1}, E_j),
+    // and each is checked with that same comparison (as E - e >= 0: the same sign in IEEE).
     const double wx = -dc8[k], wy = -dr8[k];
     const double wl = std::hypot(wx, wy);
     const double ws = (wx * s[0] + wy * s[1]) / wl;
+    auto& dk = drop[static_cast<size_t>(k)];
+    std::array<bool, kLevels> done{};
+    const auto level_e = [](int lev) { return (lev + 0.5) / kLevels; };
     for (int lev = 0; lev < kLevels; ++lev) {
-      const double e = (lev + 0.5) / kLevels;
-      double prev = s[2] - e, found = -1.0;
-      if (std::abs(prev) < 0.5 / kLevels) found = 0.0;
-      for (int j = 1; j <= 2000 && found < 0; ++j) {
-        const double m = j * 0.005;
-        const double d = (m * ws + s[2]) / std::sqrt(1 + m * m) - e;
-        if ((d >= 0) != (prev >= 0)) found = m - 0.0025;
-        prev = d;
+      dk[static_cast<size_t>(lev)] = std::numeric_limits<float>::infinity();
+      if (std::abs(s[2] - level_e(lev)) < 0.5 / kLevels) {
+        dk[static_cast<size_t>(lev)] = 0.0f;
+        done[static_cast<size_t>(lev)] = true;
       }
-      drop[static_cast<size_t>(k)][static_cast<size_t>(lev)] =
-          found < 0 ? std::numeric_limits<float>::infinity() : static_cast<float>(found * wl);
+    }
+    double prev = s[2];
+    for (int j = 1; j <= kSteps; ++j) {
+      const double m = j * 0.005;
+      const double cur = (m * ws + s[2]) / std::sqrt(1 + m * m);
+      const double lo = std::min(prev, cur), hi = std::max(prev, cur);
+      if (!(lo < hi)) {  // no level between them (or not a number)
+        prev = cur;
+        continue;
+      }
+      // candidate levels: e in (lo, hi], widened by one level each way, then checked exactly
+      const double first = std::floor(lo * kLevels - 0.5) - 1.0, last = std::ceil(hi * kLevels - 0.5) + 1.0;
+      const int l0 = static_cast<int>(std::clamp(first, 0.0, kLevels - 1.0));
+      const int l1 = static_cast<int>(std::clamp(last, 0.0, kLevels - 1.0));
+      for (int lev = l0; lev <= l1; ++lev) {
+        const double e = level_e(lev);
+        if (done[static_cast<size_t>(lev)] || ((cur - e >= 0) == (prev - e >= 0))) continue;
+        dk[static_cast<size_t>(lev)] = static_cast<float>((m - 0.0025) * wl);
+        done[static_cast<size_t>(lev)] = true;
+      }
+      prev = cur;
     }
   }
   z_.create(sz, CV_32F);
@@ -1005,6 +1028,8 @@ void ShapeFromShading::bichsel_pentland(const LightDirection& l, SfsResult& out)
       const int r = rev_r ? sz.height - 1 - i : i;
       float* pz = z_.ptr<float>(r);
       const float* pl = z_new_.ptr<float>(r);
+      const float* nrow[3] = {r > 0 ? z_.ptr<float>(r - 1) : nullptr, pz,
+                              r + 1 < sz.height ? z_.ptr<float>(r + 1) : nullptr};
       for (int j = 0; j < sz.width; ++j) {
         const int c = rev_c ? sz.width - 1 - j : j;
         const auto lev = static_cast<size_t>(pl[c]);
@@ -1012,7 +1037,7 @@ void ShapeFromShading::bichsel_pentland(const LightDirection& l, SfsResult& out)
         for (int k = 0; k < 8; ++k) {
           const int rn = r + dr8[k], cn = c + dc8[k];
           if (rn < 0 || cn < 0 || rn >= sz.height || cn >= sz.width) continue;
-          const float hn = z_.at<float>(rn, cn);
+          const float hn = nrow[1 + dr8[k]][cn];
           if (hn <= kLow) continue;
           best = std::max(best, hn - drop[static_cast<size_t>(k)][lev]);
         }
