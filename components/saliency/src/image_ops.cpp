@@ -439,7 +439,7 @@ void ResizeTable::build(cv::Size src, cv::Size dst, Mode mode) {
   rows_.create(src.height, dst.width, CV_32F);
 }
 
-void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst) {
+void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst, bool clamp_unit) {
   if (src.type() != CV_32FC1 || src.size() != src_)
     throw std::invalid_argument("ResizeTable::apply: source must be CV_32FC1 of the built size");
   dst.create(dst_, CV_32F);
@@ -456,21 +456,37 @@ void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst) {
       r[d] = acc;
     }
   }
+  // Down the columns: the first tap's product, then each further tap's (a zero weight skipped),
+  // in that order; a row of one or two taps (every row of a linear table) in one pass.
+  const auto unit = [](float v) { return v > 1.f ? 1.f : (v > 0.f ? v : 0.f); };  // NaN -> 0
   for (int d = 0; d < dst_.height; ++d) {
     float* o = dst.ptr<float>(d);
     const int k0 = y_.begin[static_cast<std::size_t>(d)];
     const int k1 = y_.begin[static_cast<std::size_t>(d) + 1];
-    {
-      const float b = y_.weight[static_cast<std::size_t>(k0)];
-      const float* r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0)]);
-      for (int x = 0; x < dw; ++x) o[x] = b * r[x];
+    const float b = y_.weight[static_cast<std::size_t>(k0)];
+    const float* r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0)]);
+    if (k1 - k0 <= 2) {
+      const float b1 = k1 - k0 == 2 ? y_.weight[static_cast<std::size_t>(k0) + 1] : 0.f;
+      const float* r1 = b1 != 0.f ? rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0) + 1]) : nullptr;
+      if (r1 != nullptr && clamp_unit)
+        for (int x = 0; x < dw; ++x) o[x] = unit(b * r[x] + b1 * r1[x]);
+      else if (r1 != nullptr)
+        for (int x = 0; x < dw; ++x) o[x] = b * r[x] + b1 * r1[x];
+      else if (clamp_unit)
+        for (int x = 0; x < dw; ++x) o[x] = unit(b * r[x]);
+      else
+        for (int x = 0; x < dw; ++x) o[x] = b * r[x];
+      continue;
     }
+    for (int x = 0; x < dw; ++x) o[x] = b * r[x];
     for (int k = k0 + 1; k < k1; ++k) {
-      const float b = y_.weight[static_cast<std::size_t>(k)];
-      if (b == 0.f) continue;
-      const float* r = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k)]);
-      for (int x = 0; x < dw; ++x) o[x] += b * r[x];
+      const float bk = y_.weight[static_cast<std::size_t>(k)];
+      if (bk == 0.f) continue;
+      const float* rk = rows_.ptr<float>(y_.index[static_cast<std::size_t>(k)]);
+      for (int x = 0; x < dw; ++x) o[x] += bk * rk[x];
     }
+    if (clamp_unit)
+      for (int x = 0; x < dw; ++x) o[x] = unit(o[x]);
   }
 }
 

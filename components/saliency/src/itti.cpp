@@ -612,11 +612,7 @@ void IttiSaliency::compute(const cv::Mat& image, const cv::Mat& height, cv::Mat&
   double mx = 0.0;
   cv::minMaxLoc(combined_, nullptr, &mx);
   if (mx > 0.0) combined_ *= 1.0 / mx;
-  to_input_.apply(combined_, saliency);
-  for (int y = 0; y < saliency.rows; ++y) {  // into [0, 1] (NaN -> 0)
-    float* m = saliency.ptr<float>(y);
-    for (int x = 0; x < saliency.cols; ++x) m[x] = m[x] > 1.f ? 1.f : (m[x] > 0.f ? m[x] : 0.f);
-  }
+  to_input_.apply(combined_, saliency, /*clamp_unit=*/true);  // into [0, 1] (NaN -> 0)
 }
 
 }  // namespace regolith::saliency

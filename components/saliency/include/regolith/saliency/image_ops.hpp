@@ -69,8 +69,9 @@ class ResizeTable {
   /// Allocates the tables. Throws std::invalid_argument on empty sizes or an area upscale.
   void build(cv::Size src, cv::Size dst, Mode mode);
   /// `src` CV_32FC1 of the source size; `dst` pre-sized (or created) CV_32FC1 of the target
-  /// size. No allocation once `dst` has the target size.
-  void apply(const cv::Mat& src, cv::Mat& dst);
+  /// size. No allocation once `dst` has the target size. `clamp_unit`: each output clamped into
+  /// [0, 1] (NaN -> 0) as it is written.
+  void apply(const cv::Mat& src, cv::Mat& dst, bool clamp_unit = false);
   cv::Size src_size() const { return src_; }
   cv::Size dst_size() const { return dst_; }
 
