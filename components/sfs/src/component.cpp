@@ -216,19 +216,18 @@ class SfsComponent final : public runtime::Component {
       set_status(fr.corrupt ? "corrupt frame skipped" : "frame size/type differs from the camera format");
       return;
     }
-    // Size and type are checked above and the light at configure: nothing here throws.
-    if (fr.image.type() == CV_8UC3)
-      cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
-    else
-      fr.image.copyTo(gray_);
+    // Size and type are checked above and the light at configure: nothing here throws. A grey
+    // frame is read where the lease holds it (copied once, into the DTM slot, below).
+    if (fr.image.type() == CV_8UC3) cv::cvtColor(fr.image, gray_, cv::COLOR_BGR2GRAY);
+    const cv::Mat& gray = fr.image.type() == CV_8UC3 ? gray_ : fr.image;
     const bool solve = !light_ || (sun_in_view_ && heights_wanted_);
     // The solve of this level: the full frame's, or the reduced frame's (level 2).
     const SfsResult& res = level_ == 2 ? quarter_res_ : res_;
     if (solve && level_ == 2) {
-      reduce4(gray_, quarter_gray_);
+      reduce4(gray, quarter_gray_);
       quarter_sfs_->compute(quarter_gray_, light_, quarter_res_);
     } else if (solve) {
-      sfs_->compute(gray_, light_, res_);
+      sfs_->compute(gray, light_, res_);
     }
     if (solve && res.status == SfsStatus::kUnreliableLight) {
       count_error();
@@ -237,7 +236,7 @@ class SfsComponent final : public runtime::Component {
     }
     DtmFrame* d = out_->begin_write();
     if (d == nullptr) return;
-    gray_.copyTo(d->gray);
+    gray.copyTo(d->gray);
     const bool slot_was_solved = d->solved;  // what this slot held from its last write
     d->solved = solve;
     d->height_level = solve ? level_ : 0;
