@@ -507,36 +507,52 @@ struct PlaneSums {
   double s1 = 0, sx = 0, sy = 0, sz = 0, sxx = 0, syy = 0, sxy = 0, sxz = 0, syz = 0, szz = 0;
 };
 
-// The plane sums over the disc of radius r cells around (i, j), one row segment at a time from
-// the row prefix sums (the disc's half-widths are in `half`).
-PlaneSums disc_plane_sums(const cv::Mat& prefix, int i, int j, int r, const std::vector<int>& half, double res) {
-  PlaneSums s;
+// The plane sums over the disc of radius r cells around every cell (i, j) of row i, one disc row
+// di = -r..r at a time from the row prefix sums (the disc's half-widths are in `half`), for the
+// whole grid row at once: `acc` holds the ten sums of each column, kPlaneSums arrays of `cols`. A
+// disc row's segment with no known cell has sums of exactly 0 (equal prefix sums), so adding its
+// terms adds zeros: every cell gets the same operations in the same order as a disc summed alone.
+constexpr int kPlaneSums = 10;
+void row_plane_sums(const cv::Mat& prefix, int i, int r, const std::vector<int>& half, double res,
+                    std::vector<double>& acc) {
   const int rows = prefix.rows, cols = prefix.cols - 1;
-  const double jd = j;
+  acc.assign(static_cast<std::size_t>(kPlaneSums) * static_cast<std::size_t>(cols), 0.0);
+  double* s1 = acc.data();
+  double *sx = s1 + cols, *sy = sx + cols, *sz = sy + cols, *sxx = sz + cols, *syy = sxx + cols;
+  double *sxy = syy + cols, *sxz = sxy + cols, *syz = sxz + cols, *szz = syz + cols;
   for (int di = -r; di <= r; ++di) {
     const int ii = i + di;
     if (ii < 0 || ii >= rows) continue;
     const int w = half[static_cast<std::size_t>(std::abs(di))];
-    const int a = std::max(0, j - w), b = std::min(cols - 1, j + w);
-    const cv::Vec6d* P = prefix.ptr<cv::Vec6d>(ii);
-    const cv::Vec6d S = P[b + 1] - P[a];
-    if (S[0] == 0.0) continue;
     const double x = di * res;
-    const double sum_dj = S[1] - jd * S[0];                          // sum of column offsets
-    const double sum_dj2 = S[2] - 2.0 * jd * S[1] + jd * jd * S[0];  // of their squares
-    const double sum_zdj = S[4] - jd * S[3];
-    s.s1 += S[0];
-    s.sx += x * S[0];
-    s.sy += res * sum_dj;
-    s.sz += S[3];
-    s.sxx += x * x * S[0];
-    s.syy += res * res * sum_dj2;
-    s.sxy += x * res * sum_dj;
-    s.sxz += x * S[3];
-    s.syz += res * sum_zdj;
-    s.szz += S[5];
+    const cv::Vec6d* P = prefix.ptr<cv::Vec6d>(ii);
+    for (int j = 0; j < cols; ++j) {
+      const int a = std::max(0, j - w), b = std::min(cols - 1, j + w);
+      const cv::Vec6d S = P[b + 1] - P[a];
+      const double jd = j;
+      const double sum_dj = S[1] - jd * S[0];                          // sum of column offsets
+      const double sum_dj2 = S[2] - 2.0 * jd * S[1] + jd * jd * S[0];  // of their squares
+      const double sum_zdj = S[4] - jd * S[3];
+      s1[j] += S[0];
+      sx[j] += x * S[0];
+      sy[j] += res * sum_dj;
+      sz[j] += S[3];
+      sxx[j] += x * x * S[0];
+      syy[j] += res * res * sum_dj2;
+      sxy[j] += x * res * sum_dj;
+      sxz[j] += x * S[3];
+      syz[j] += res * sum_zdj;
+      szz[j] += S[5];
+    }
   }
-  return s;
+}
+
+// Column j's sums out of row_plane_sums' arrays.
+PlaneSums plane_sums_at(const std::vector<double>& acc, int cols, int j) {
+  const auto at = [&](int k) {
+    return acc[static_cast<std::size_t>(k) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(j)];
+  };
+  return PlaneSums{at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7), at(8), at(9)};
 }
 
 // The least-squares plane z = a + b dx + c dy from its normal equations (symmetric 3 x 3), by the
@@ -615,7 +631,8 @@ void compute_layers(GridMap& map, const TraversabilityParams& p, LayerWorkspace&
   row_prefix_sums(e, zn > 0 ? zsum / zn : 0.0, ws.prefix);
   disc_extremes(e, rst, ws);
   const double wsum = p.weight_slope + p.weight_step + p.weight_roughness;
-  for (int i = 0; i < nx; ++i)
+  for (int i = 0; i < nx; ++i) {
+    row_plane_sums(ws.prefix, i, rs, ws.half, res, ws.plane_sums);
     for (int j = 0; j < ny; ++j) {
       const float z0 = e.at<float>(i, j);
       if (!std::isfinite(z0)) {
@@ -623,7 +640,7 @@ void compute_layers(GridMap& map, const TraversabilityParams& p, LayerWorkspace&
         continue;
       }
       // Plane z = a + b dx + c dy over the disc of radius rs (metres).
-      const PlaneSums ps = disc_plane_sums(ws.prefix, i, j, rs, ws.half, res);
+      const PlaneSums ps = plane_sums_at(ws.plane_sums, ny, j);
       float vs = kNaNf, vr = kNaNf;
       if (ps.s1 >= 3) {
         cv::Vec3d sol;
@@ -653,6 +670,7 @@ void compute_layers(GridMap& map, const TraversabilityParams& p, LayerWorkspace&
       }
       tt.at<float>(i, j) = t;
     }
+  }
 }
 
 }  // namespace regolith::traversability

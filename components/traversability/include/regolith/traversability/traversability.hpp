@@ -147,6 +147,7 @@ struct LayerWorkspace {
   std::vector<float> block_fwd, block_bwd;  ///< block scans of one row (van Herk / Gil-Werman)
   std::vector<float> block_row;             ///< the row padded, NaN cells as the neutral value
   std::vector<int> half;                    ///< half-width of each row of the plane-fit disc
+  std::vector<double> plane_sums;           ///< one grid row's plane-fit sums (10 arrays of its columns)
 };
 
 class TraversabilityMapper {
