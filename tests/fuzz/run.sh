@@ -60,8 +60,10 @@ fi
 # exec/s) and soil_fit (a whole rut analysis per input: ~50 exec/s), measured 2026-12-02 alone
 # on one core of the idle machine; sfs and terrain doubled on 2026-12-05 when their pixel libraries
 # lost comparison tracing (~450 and ~170 exec/s).
+# sfs 20000 -> 50000 on 2026-12-06, when Bichsel-Pentland's slope table became one walk per
+# direction (869 exec/s in a fresh-clone CI run, where 20000 took 23 s).
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000 [deployment_check]=1000
-                    [pixel_convert]=5000000 [soil_scene]=100000 [drive]=100000 [sfs]=20000 [image]=150000 [mcap]=100000
+                    [pixel_convert]=5000000 [soil_scene]=100000 [drive]=100000 [sfs]=50000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000 [live_messages]=2000000 [terrain]=8000 [soil_fit]=5000)
 # Seconds one input may take before libFuzzer calls it a hang: 10, except deployment_check, which
 # builds a whole rover's configure-time tables per input (0.3-1 s in a release build, several
