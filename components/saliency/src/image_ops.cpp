@@ -459,6 +459,7 @@ void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst, bool clamp_unit) {
   // Down the columns: the first tap's product, then each further tap's (a zero weight skipped),
   // in that order; a row of one or two taps (every row of a linear table) in one pass.
   const auto unit = [](float v) { return v > 1.f ? 1.f : (v > 0.f ? v : 0.f); };  // NaN -> 0
+  const auto same = [](float v) { return v; };
   for (int d = 0; d < dst_.height; ++d) {
     float* o = dst.ptr<float>(d);
     const int k0 = y_.begin[static_cast<std::size_t>(d)];
@@ -468,14 +469,13 @@ void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst, bool clamp_unit) {
     if (k1 - k0 <= 2) {
       const float b1 = k1 - k0 == 2 ? y_.weight[static_cast<std::size_t>(k0) + 1] : 0.f;
       const float* r1 = b1 != 0.f ? rows_.ptr<float>(y_.index[static_cast<std::size_t>(k0) + 1]) : nullptr;
-      if (r1 != nullptr && clamp_unit)
-        for (int x = 0; x < dw; ++x) o[x] = unit(b * r[x] + b1 * r1[x]);
-      else if (r1 != nullptr)
-        for (int x = 0; x < dw; ++x) o[x] = b * r[x] + b1 * r1[x];
-      else if (clamp_unit)
-        for (int x = 0; x < dw; ++x) o[x] = unit(b * r[x]);
-      else
-        for (int x = 0; x < dw; ++x) o[x] = b * r[x];
+      const auto write = [&](auto finish) {  // one loop per case, each vectorisable
+        if (r1 != nullptr)
+          for (int x = 0; x < dw; ++x) o[x] = finish(b * r[x] + b1 * r1[x]);
+        else
+          for (int x = 0; x < dw; ++x) o[x] = finish(b * r[x]);
+      };
+      clamp_unit ? write(unit) : write(same);
       continue;
     }
     for (int x = 0; x < dw; ++x) o[x] = b * r[x];
