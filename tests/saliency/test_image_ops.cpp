@@ -4,8 +4,10 @@
 // this thread while armed).
 // The replaced global operator new/delete pair malloc/free; GCC cannot see that they match.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <new>
 #include <random>
@@ -202,6 +204,27 @@ TEST(ImageOps, ResizeTableEqualsCvResize) {
     t.apply(src, dst);
     EXPECT_LT(rel_diff(dst, ref), 2e-6) << from << " -> " << to << " interp " << interp;
   }
+  // Clamped as written (Itti's map -> input): each output of cv::resize put into [0, 1], NaN -> 0.
+  cv::Mat src = random_float({40, 30}, 7) * 3.0 - 1.0;  // values in [-1, 2]
+  src.at<float>(5, 7) = std::numeric_limits<float>::quiet_NaN();
+  src.at<float>(9, 20) = -0.f;
+  cv::Mat ref, dst;
+  cv::resize(src, ref, {640, 480}, 0, 0, cv::INTER_LINEAR);
+  rs::ResizeTable clamped;
+  clamped.build({40, 30}, {640, 480}, rs::ResizeTable::Mode::kLinear);
+  clamped.apply(src, dst, /*clamp_unit=*/true);
+  int nan_outputs = 0;
+  for (int y = 0; y < ref.rows; ++y)
+    for (int x = 0; x < ref.cols; ++x) {
+      const float r = ref.at<float>(y, x), d = dst.at<float>(y, x);
+      if (std::isnan(r)) {
+        ++nan_outputs;
+        ASSERT_EQ(d, 0.f) << y << "," << x;
+      } else {
+        ASSERT_NEAR(d, std::clamp(r, 0.f, 1.f), 2e-6f) << y << "," << x;
+      }
+    }
+  EXPECT_GT(nan_outputs, 0);
   rs::ResizeTable t;
   EXPECT_THROW(t.build({10, 10}, {20, 20}, rs::ResizeTable::Mode::kArea), std::invalid_argument);
   t.build({10, 10}, {5, 5}, rs::ResizeTable::Mode::kLinear);

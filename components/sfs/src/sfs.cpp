@@ -40,15 +40,19 @@ void check_gray(const cv::Mat& gray) {
 // Value at quantile `q` of E over mask (E assumed in [0, 2]); histogram based, no allocation.
 double masked_quantile(const cv::Mat& e, const cv::Mat& mask, double q) {
   constexpr int kBins = 2048;
+  // One pass: each bin's count and the sum of its values (in scan order), then the bin that holds
+  // the quantile; the estimate is the mean of that bin's values (exact for a uniform image).
   std::array<int, kBins> hist{};
+  std::array<double, kBins> sums{};
   long n = 0;
   for (int r = 0; r < e.rows; ++r) {
     const float* pe = e.ptr<float>(r);
     const uchar* pm = mask.ptr<uchar>(r);
     for (int c = 0; c < e.cols; ++c) {
       if (!pm[c]) continue;
-      const int b = std::clamp(static_cast<int>(pe[c] * (kBins / 2.0f)), 0, kBins - 1);
-      ++hist[static_cast<size_t>(b)];
+      const auto b = static_cast<size_t>(std::clamp(static_cast<int>(pe[c] * (kBins / 2.0f)), 0, kBins - 1));
+      ++hist[b];
+      sums[b] += static_cast<double>(pe[c]);
       ++n;
     }
   }
@@ -63,19 +67,8 @@ double masked_quantile(const cv::Mat& e, const cv::Mat& mask, double q) {
       break;
     }
   }
-  // Refine: mean of the values falling in that bin (exact for a uniform image).
-  double sum = 0.0;
-  long m = 0;
-  for (int r = 0; r < e.rows; ++r) {
-    const float* pe = e.ptr<float>(r);
-    const uchar* pm = mask.ptr<uchar>(r);
-    for (int c = 0; c < e.cols; ++c) {
-      if (!pm[c]) continue;
-      if (std::clamp(static_cast<int>(pe[c] * (kBins / 2.0f)), 0, kBins - 1) != bin) continue;
-      sum += static_cast<double>(pe[c]);
-      ++m;
-    }
-  }
+  const long m = hist[static_cast<size_t>(bin)];
+  const double sum = sums[static_cast<size_t>(bin)];
   return m > 0 ? sum / static_cast<double>(m) : (bin + 0.5) / (kBins / 2.0);
 }
 

@@ -85,7 +85,8 @@ class ResizeTable {
   static void build_area(int src, int dst, Axis& a);
   cv::Size src_, dst_;
   Axis x_, y_;
-  cv::Mat rows_;  // src rows resampled horizontally: src.rows x dst.cols
+  int x_taps_ = 0;  // taps per output along x when every output has the same number, else 0
+  cv::Mat rows_;    // src rows resampled horizontally: src.rows x dst.cols
 };
 
 /// cv::GaussianBlur(src, dst, cv::Size(0, 0), sigma, sigma, cv::BORDER_REFLECT_101) of a CV_32FC1
