@@ -174,6 +174,26 @@ void BM_TrainedGrey(benchmark::State& st) {
   trained(st, true);
 }
 
+// The pixel score map the sams component publishes as its saliency layer with method trained
+// (each candidate's blobs filled and painted with its score), from one extracted and scored frame.
+void BM_TrainedScoreMap(benchmark::State& st) {
+  cv::setNumThreads(1);
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  rs::CandidateExtractor extractor(model.candidates);
+  rs::CandidateSet set;
+  extractor.extract(img, set);
+  const std::vector<float> scores = model.score(set);
+  cv::Mat map;
+  std::vector<int> spans;
+  for (auto _ : st) {
+    rs::TrainedModel::score_map(set, scores, map, spans);
+    benchmark::DoNotOptimize(map.data);
+  }
+  st.counters["candidates"] = static_cast<double>(set.candidates.size());
+}
+BENCHMARK(BM_TrainedScoreMap)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
 // The orientation channel's Gabor energy, 4 orientations, on pyramid levels 2..8 of a 640x480
 // frame (what one SAMS / Itti call filters): /10 the direct 9x9 pair, /11 the separable form.
 void BM_GaborEnergy(benchmark::State& st) {

@@ -402,6 +402,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     std::vector<float> scores;
     std::vector<rs::Detection> dets;
     std::vector<std::uint32_t> order;
+    std::vector<int> spans;
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
@@ -422,7 +423,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       ex.extract(gray, set);
       model.score(set, scores);
       rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou, dets, order);
-      rs::TrainedModel::score_map(set, scores, map);
+      rs::TrainedModel::score_map(set, scores, map, spans);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

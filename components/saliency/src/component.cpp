@@ -452,7 +452,7 @@ class SamsComponent final : public runtime::Component {
       extractor_->extract(work_gray_, candidates_);
       model_.score(candidates_, scores_);
       TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
-      TrainedModel::score_map(candidates_, scores_, saliency_);
+      TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
       roi_runs_.fill_outside(saliency_, 0.f);
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
@@ -585,6 +585,7 @@ class SamsComponent final : public runtime::Component {
   std::unique_ptr<CandidateExtractor> extractor_;
   CandidateSet candidates_;
   std::vector<float> scores_;
+  std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
   std::vector<std::uint32_t> order_;
   double score_threshold_ = 0.5, nms_iou_ = 0.3;
   cv::Size size_;

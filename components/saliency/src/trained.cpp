@@ -681,19 +681,48 @@ void TrainedModel::select(const CandidateSet& set, const std::vector<float>& sco
 }
 
 void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map) {
+  std::vector<int> spans;
+  score_map(set, scores, map, spans);
+}
+
+void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map,
+                             std::vector<int>& spans) {
   map.create(set.size, CV_32F);
   for (int y = 0; y < map.rows; ++y) std::fill(map.ptr<float>(y), map.ptr<float>(y) + map.cols, 0.0f);
   if (set.sources <= 0) return;
   const float per_source = 1.0f / static_cast<float>(set.sources);
+  spans.resize(2 * static_cast<std::size_t>(map.rows + map.cols));  // no-op once sized
   for (size_t i = 0; i < set.candidates.size(); ++i) {
     const RockCandidate& c = set.candidates[i];
     const float w = scores[i] * per_source;
-    for (int y = c.box.y; y < c.box.y + c.box.height; ++y) {
-      const uchar* sp = set.source_masks.ptr<uchar>(y);
-      float* mp = map.ptr<float>(y);
-      for (int x = c.box.x; x < c.box.x + c.box.width; ++x) {
-        const unsigned hit = sp[x] & c.source_bits;
-        if (hit != 0u) mp[x] += w * static_cast<float>(__builtin_popcount(hit));
+    const int bx = c.box.x, by = c.box.y, bw = c.box.width, bh = c.box.height;
+    // Per source of the candidate: its blob filled to the pixels that lie between the blob's
+    // first and last pixel both along their row and along their column in the box (holes and
+    // notches closed; the outline's outer bends kept, unlike a convex hull).
+    int* row_first = spans.data();
+    int* row_last = row_first + bh;
+    int* col_first = row_last + bh;
+    int* col_last = col_first + bw;
+    for (unsigned bits = c.source_bits; bits != 0u; bits &= bits - 1u) {
+      const unsigned bit = bits & (~bits + 1u);
+      std::fill(row_first, row_first + bh, bw);
+      std::fill(row_last, row_last + bh, -1);
+      std::fill(col_first, col_first + bw, bh);
+      std::fill(col_last, col_last + bw, -1);
+      for (int y = 0; y < bh; ++y) {
+        const uchar* sp = set.source_masks.ptr<uchar>(by + y) + bx;
+        for (int x = 0; x < bw; ++x) {
+          if ((sp[x] & bit) == 0u) continue;
+          row_first[y] = std::min(row_first[y], x);
+          row_last[y] = x;
+          col_first[x] = std::min(col_first[x], y);
+          col_last[x] = y;
+        }
+      }
+      for (int y = 0; y < bh; ++y) {
+        float* mp = map.ptr<float>(by + y) + bx;
+        for (int x = row_first[y]; x <= row_last[y]; ++x)
+          if (y >= col_first[x] && y <= col_last[x]) mp[x] += w;
       }
     }
   }
