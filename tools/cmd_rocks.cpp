@@ -292,7 +292,8 @@ struct RockDetectors {
   sal::CandidateSet cand_set;
   cv::Mat map, map8, h, enlarged, full_map;
   std::vector<sal::Detection> dets;
-  std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
+  std::vector<int> spans, refine_scratch;  // TrainedModel::score_map's and refine()'s
+  std::string enlarged_note;               // set by the first image processed enlarged (said once per run)
 };
 
 // SAMS and Itti-Koch build a pyramid of 2^(centre_max + delta_max) px a side (256 px by default). A smaller image
@@ -317,15 +318,16 @@ const cv::Mat& pyramid_input(const RockMethod& m, RockDetectors& d, const cv::Ma
   return d.enlarged;
 }
 
-// The boxes of one image in d.dets, and its saliency map in d.map (trained: only when `want_map`; the map is for
-// people, detection needs only the scores). DataError naming `path` when the method fails on the image.
+// The boxes of one image in d.dets, and its saliency map in d.map (trained: when `want_map` or the model refines
+// its boxes on the map). DataError naming `path` when the method fails on the image.
 void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, const std::string& path, bool want_map) {
   try {
     if (m.trained) {
       m.extractor->extract(img, d.cand_set);
       const std::vector<float> scores = m.model->score(d.cand_set);
-      if (want_map) sal::TrainedModel::score_map(d.cand_set, scores, d.map);
+      if (want_map || m.model->refine_fraction > 0.0) sal::TrainedModel::score_map(d.cand_set, scores, d.map, d.spans);
       d.dets = sal::TrainedModel::select(d.cand_set, scores, m.model->score_threshold, m.model->nms_iou);
+      sal::TrainedModel::refine(d.map, m.model->refine_fraction, d.dets, d.refine_scratch);
     } else if (d.peer) {
       d.peer->compute(img, d.map);
     } else if (m.method == sal::Method::kContrast) {
@@ -522,7 +524,7 @@ void run_train(const std::string& images, const std::string& masks, const std::s
   }
   std::cerr << "train rocks: " << m.training_images << " image(s), " << m.training_samples << " candidates ("
             << m.training_positives << " positive), score threshold " << m.score_threshold << ", NMS IoU " << m.nms_iou
-            << " -> " << out << '\n';
+            << ", box refinement " << m.refine_fraction << " -> " << out << '\n';
   if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }
 
@@ -589,7 +591,7 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
      << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)}, {"trained", sal::summarise(r.pooled)}})
      << "\n| test fold | images | GT | contrast N-MODA@0.2 / @0.5 / max F | "
         "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen score "
-        "threshold, NMS IoU |\n|---:|---:|---:|---|---|---:|---|\n";
+        "threshold, NMS IoU, box refinement |\n|---:|---:|---:|---|---|---:|---|\n";
   for (int f = 0; f < e.folds; ++f) {
     std::vector<size_t> idx;
     for (size_t i = 0; i < frames.size(); ++i)
@@ -599,9 +601,10 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "| %d | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | "
-                  "%d | %.2f, %.2f |\n",
+                  "%d | %.2f, %.2f, %.2f |\n",
                   f + 1, t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02, t.n_moda05, t.max_f, t.boxes,
-                  r.thresholds[static_cast<size_t>(f)], r.nms_ious[static_cast<size_t>(f)]);
+                  r.thresholds[static_cast<size_t>(f)], r.nms_ious[static_cast<size_t>(f)],
+                  r.refine_fractions[static_cast<size_t>(f)]);
     md << buf;
   }
   // Per subset, when the dataset has a manifest.csv (image,...,subset,...) beside the image

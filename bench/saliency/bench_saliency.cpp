@@ -175,24 +175,32 @@ void BM_TrainedGrey(benchmark::State& st) {
 }
 
 // The pixel score map the sams component publishes as its saliency layer with method trained
-// (each candidate's blobs filled and painted with its score), from one extracted and scored frame.
+// (each candidate's blobs filled and painted with its score), from one extracted and scored frame
+// (/0, /1: the two sizes); /2, /3 the same plus the box refinement on it.
 void BM_TrainedScoreMap(benchmark::State& st) {
+  const bool refine = st.range(0) >= 2;
   cv::setNumThreads(1);
-  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
+  const cv::Mat img = frame(size_of(static_cast<int>(st.range(0) % 2)));
   const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
   rs::CandidateExtractor extractor(model.candidates);
   rs::CandidateSet set;
   extractor.extract(img, set);
   const std::vector<float> scores = model.score(set);
+  const std::vector<rs::Detection> kept = rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou);
+  std::vector<rs::Detection> dets = kept;
   cv::Mat map;
-  std::vector<int> spans;
+  std::vector<int> spans, scratch;
   for (auto _ : st) {
     rs::TrainedModel::score_map(set, scores, map, spans);
+    if (refine) {
+      std::copy(kept.begin(), kept.end(), dets.begin());
+      rs::TrainedModel::refine(map, model.refine_fraction, dets, scratch);
+    }
     benchmark::DoNotOptimize(map.data);
   }
   st.counters["candidates"] = static_cast<double>(set.candidates.size());
 }
-BENCHMARK(BM_TrainedScoreMap)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrainedScoreMap)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
 
 // The orientation channel's Gabor energy, 4 orientations, on pyramid levels 2..8 of a 640x480
 // frame (what one SAMS / Itti call filters): /10 the direct 9x9 pair, /11 the separable form.

@@ -174,3 +174,23 @@ TEST(Plot, ANorthUpFrameCropsToTheCellsAndThePathAndPutsNorthUp) {
 }
 
 }  // namespace
+
+TEST(Plot, ALegendWrapsWhereTheNextEntryWouldPassTheEdgeAndSaysHowManyLines) {
+  const plot::LegendEntry legend[] = {{"corrected path", {0, 220, 0}},
+                                      {"wheel odometry", {255, 120, 0}},
+                                      {"hazard", {0, 0, 255}},
+                                      {"rocks, 95 % ellipse", {0, 230, 255}}};
+  EXPECT_EQ(plot::legend_lines(legend, 10, 700), 1);
+  EXPECT_EQ(plot::legend_lines(legend, 10, 320), 2);
+  EXPECT_EQ(plot::legend_lines(legend, 10, 40), 4);  // narrower than any entry: one per line
+  EXPECT_EQ(plot::legend_lines(std::span<const plot::LegendEntry>(), 10, 320), 0);
+  // What it draws: every line inside the image, nothing past the edge it was given.
+  cv::Mat img(80, 330, CV_8UC3, cv::Scalar(0, 0, 0));
+  EXPECT_EQ(plot::put_legend(img, {10, 18}, legend), 2);
+  cv::Mat drawn;
+  cv::cvtColor(img, drawn, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(cv::countNonZero(drawn(cv::Rect(img.cols - 9, 0, 9, img.rows))), 0);         // the 10 px margin
+  EXPECT_GT(cv::countNonZero(drawn(cv::Rect(0, 4, img.cols, 18))), 0);                   // line 1
+  EXPECT_GT(cv::countNonZero(drawn(cv::Rect(0, 4 + plot::kLegendLinePx, 120, 18))), 0);  // line 2
+  EXPECT_EQ(cv::countNonZero(drawn(cv::Rect(0, 4 + 2 * plot::kLegendLinePx, img.cols, 18))), 0);
+}

@@ -393,7 +393,7 @@ TEST(ImageOps, Sobel3EqualsCvSobel) {
 
 TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
   // What the `sams` component runs per frame with method trained: candidates and features, the
-  // forest's scores, NMS, the pixel score map; the second image of a size (other content)
+  // forest's scores, NMS, the pixel score map, the box refinement; the second image of a size (other content)
   // allocates nothing.
   const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
   for (const cv::Size s : {cv::Size(320, 240), cv::Size(640, 480)}) {
@@ -402,7 +402,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     std::vector<float> scores;
     std::vector<rs::Detection> dets;
     std::vector<std::uint32_t> order;
-    std::vector<int> spans;
+    std::vector<int> spans, refine_scratch;
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
@@ -424,6 +424,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       model.score(set, scores);
       rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou, dets, order);
       rs::TrainedModel::score_map(set, scores, map, spans);
+      rs::TrainedModel::refine(map, model.refine_fraction, dets, refine_scratch);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

@@ -326,6 +326,7 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   EXPECT_EQ(l.candidates, m1.candidates);
   EXPECT_EQ(l.score_threshold, m1.score_threshold);
   EXPECT_EQ(l.nms_iou, m1.nms_iou);
+  EXPECT_EQ(l.refine_fraction, m1.refine_fraction);
   EXPECT_EQ(l.score(frames[0].set), m1.score(frames[0].set));
   EXPECT_EQ(lz.score(frames[1].set), m1.score(frames[1].set));
   // On its own training scenes the model finds most discs (a sanity check, not an accuracy claim).
@@ -375,6 +376,47 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string trunc = (dir / "truncated.yml").string();
   std::ofstream(trunc) << text.substr(0, text.size() / 2);
   expect_error(trunc, "corrupt");
+  // The box refinement's key: out of range is refused; a model written before it existed (no
+  // key) keeps its boxes as selected.
+  const std::size_t key = text.find("box_refine_fraction: ");
+  ASSERT_NE(key, std::string::npos);
+  const std::size_t eol = text.find('\n', key);
+  const std::string refine_bad = (dir / "refine_bad.yml").string();
+  std::ofstream(refine_bad) << text.substr(0, key) + "box_refine_fraction: 1.5" + text.substr(eol);
+  expect_error(refine_bad, "box_refine_fraction must be in [0, 1)");
+  const std::string older = (dir / "older.yml").string();
+  std::ofstream(older) << text.substr(0, key) + text.substr(eol + 1);
+  EXPECT_EQ(rs::TrainedModel::load(older).refine_fraction, 0.0);
+}
+
+TEST(Trained, RefineShrinksABoxToTheStrongestPartOfTheMapInsideIt) {
+  // A detection whose box took in a rock (map 0.8) and, beside it, a weaker blob (0.3) joined to it
+  // by a faint bridge (0.1): at 0.3 x the peak (0.24) the rock stands alone and the box becomes
+  // its bounding box; at 0.1 x (0.08) the three are one part and the box the whole of them.
+  cv::Mat map = cv::Mat::zeros(60, 80, CV_32F);
+  map(cv::Rect(10, 10, 20, 15)).setTo(0.8f);  // the rock
+  map(cv::Rect(30, 15, 10, 3)).setTo(0.1f);   // the bridge
+  map(cv::Rect(40, 12, 25, 20)).setTo(0.3f);  // the weaker blob
+  map(cv::Rect(70, 40, 5, 5)).setTo(0.9f);    // outside the box: never read
+  const rs::Detection wide{cv::Rect(5, 5, 62, 30), 0.7, 900};
+  std::vector<int> scratch;
+  std::vector<rs::Detection> dets{wide};
+  rs::TrainedModel::refine(map, 0.3, dets, scratch);
+  EXPECT_EQ(dets[0].box, cv::Rect(10, 10, 20, 15));
+  EXPECT_EQ(dets[0].score, 0.7);
+  EXPECT_EQ(dets[0].area, 900);
+  dets = {wide};
+  rs::TrainedModel::refine(map, 0.1, dets, scratch);
+  EXPECT_EQ(dets[0].box, cv::Rect(10, 10, 55, 22));
+  dets = {wide};
+  rs::TrainedModel::refine(map, 0.0, dets, scratch);  // off
+  EXPECT_EQ(dets[0].box, wide.box);
+  dets = {rs::Detection{cv::Rect(0, 40, 20, 20), 0.5, 100}};  // nothing of the map inside
+  rs::TrainedModel::refine(map, 0.3, dets, scratch);
+  EXPECT_EQ(dets[0].box, cv::Rect(0, 40, 20, 20));
+  dets = {rs::Detection{cv::Rect(60, 30, 40, 40), 0.5, 100}};  // reaching past the map's edge
+  rs::TrainedModel::refine(map, 0.3, dets, scratch);
+  EXPECT_EQ(dets[0].box, cv::Rect(70, 40, 5, 5));
 }
 
 TEST(Trained, ForestScoresEqualOpenCvPredictOnTheDevImages) {

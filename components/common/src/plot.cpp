@@ -407,11 +407,38 @@ cv::Mat render_height_map(const cv::Mat& height, const std::string& title, const
   return render_map(height, style);
 }
 
-void put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries) {
+namespace {
+constexpr double kLegendScale = 0.42;
+constexpr int kLegendGapPx = 14;
+
+// Lays the entries out from x0 (baseline y0), calling put(entry, origin) for each; the lines used.
+template <class Put>
+int lay_out_legend(std::span<const LegendEntry> entries, int x0, int y0, int max_x, Put&& put) {
+  int lines = entries.empty() ? 0 : 1;
+  cv::Point at(x0, y0);
   for (const LegendEntry& e : entries) {
-    cv::putText(img, e.text, org, cv::FONT_HERSHEY_SIMPLEX, 0.42, e.colour, 1, cv::LINE_AA);
-    org.x += static_cast<int>(std::strlen(e.text)) * 8 + 14;
+    int base = 0;
+    const int w = cv::getTextSize(e.text, cv::FONT_HERSHEY_SIMPLEX, kLegendScale, 1, &base).width;
+    if (at.x > x0 && at.x + w > max_x) {  // a new line; an entry wider than the line stays alone on its own
+      at = cv::Point(x0, at.y + kLegendLinePx);
+      ++lines;
+    }
+    put(e, at);
+    at.x += w + kLegendGapPx;
   }
+  return lines;
+}
+}  // namespace
+
+int legend_lines(std::span<const LegendEntry> entries, int x0, int max_x) {
+  return lay_out_legend(entries, x0, 0, max_x, [](const LegendEntry&, cv::Point) {});
+}
+
+int put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries, int max_x) {
+  return lay_out_legend(
+      entries, org.x, org.y, max_x < 0 ? img.cols - 10 : max_x, [&](const LegendEntry& e, cv::Point at) {
+        cv::putText(img, e.text, at, cv::FONT_HERSHEY_SIMPLEX, kLegendScale, e.colour, 1, cv::LINE_AA);
+      });
 }
 
 void put_scale_bar_and_north(cv::Mat& img, double px_per_m) {

@@ -451,26 +451,31 @@ cv::Mat render_overview(const WorldMap& map, const std::vector<Pose2>& corrected
     // North up: a direction theta counter-clockwise from east is -theta in the image (rows down).
     cv::ellipse(img, frame.px(r.x_m, r.y_m), axes, -theta / kDeg, 0, 360, cv::Scalar(0, 230, 255), 1, cv::LINE_AA);
   }
-  // Scale bar (1 m), north arrow, legend.
   plot::put_scale_bar_and_north(img, frame.px_per_m());
-  // The hazard tint's scale (on mid-grey ground): probability of an obstacle 0 .. 1.
-  const cv::Rect hb(img.cols - 150, img.rows - 26, 120, 8);
-  for (int x = 0; x < hb.width; ++x) {
-    const double a = 0.8 * x / (hb.width - 1.0), g = 150;
-    cv::line(img, hb.tl() + cv::Point(x, 0), hb.tl() + cv::Point(x, hb.height - 1),
-             cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
-  }
-  cv::putText(img, "hazard 0", hb.tl() + cv::Point(-72, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
-              1, cv::LINE_AA);
-  cv::putText(img, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
-              1, cv::LINE_AA);
-  // Legend, in the colours it explains.
+  // Above the map, on a band of its own (a narrow map has no room for it inside): the legend in
+  // the colours it explains, wrapped to the width, then the hazard tint's scale (on mid-grey
+  // ground: probability of an obstacle 0 .. 1).
   const plot::LegendEntry legend[] = {{"corrected path", {0, 220, 0}},
                                       {"wheel odometry", {255, 120, 0}},
                                       {"hazard", {0, 0, 255}},
                                       {"rocks, 95 % ellipse", {0, 230, 255}}};
-  plot::put_legend(img, {10, 18}, legend);
-  return img;
+  const int width = std::max(img.cols, 240);
+  const int lines = plot::legend_lines(legend, 10, width - 10);
+  const int band_h = 12 + plot::kLegendLinePx * (lines + 1);
+  cv::Mat out(band_h + img.rows, width, CV_8UC3, cv::Scalar(40, 30, 25));
+  img.copyTo(out(cv::Rect(0, band_h, img.cols, img.rows)));
+  plot::put_legend(out, {10, 18}, legend, width - 10);
+  const cv::Rect hb(82, 18 + plot::kLegendLinePx * lines - 8, 120, 8);
+  for (int x = 0; x < hb.width; ++x) {
+    const double a = 0.8 * x / (hb.width - 1.0), g = 150;
+    cv::line(out, hb.tl() + cv::Point(x, 0), hb.tl() + cv::Point(x, hb.height - 1),
+             cv::Scalar(g * (1 - a), g * (1 - a), g * (1 - a) + 255 * a));
+  }
+  cv::putText(out, "hazard 0", hb.tl() + cv::Point(-72, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
+              1, cv::LINE_AA);
+  cv::putText(out, "1", hb.tl() + cv::Point(hb.width + 5, 8), cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(255, 255, 255),
+              1, cv::LINE_AA);
+  return out;
 }
 
 }  // namespace regolith::mapping

@@ -266,6 +266,12 @@ class SamsComponent final : public runtime::Component {
                               .min_exclusive = true,
                               .doc = "method trained: a box overlapping a better one by more than this IoU is "
                                      "dropped (default the model's)"});
+    refine_fraction_ = p.get<double>(
+        "box_refine_fraction", model_.refine_fraction,
+        {.min = 0.0,
+         .max = 0.99,
+         .doc = "method trained: each kept box shrunk to the strongest part of the saliency map inside it at this "
+                "fraction of its peak; 0 keeps the boxes as selected (default the model's)"});
     extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
     const std::size_t most = extractor_->max_candidates(size_);
     candidates_.candidates.reserve(most);
@@ -453,6 +459,7 @@ class SamsComponent final : public runtime::Component {
       model_.score(candidates_, scores_);
       TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
       TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
+      TrainedModel::refine(saliency_, refine_fraction_, dets_, refine_scratch_);
       roi_runs_.fill_outside(saliency_, 0.f);
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
@@ -585,9 +592,9 @@ class SamsComponent final : public runtime::Component {
   std::unique_ptr<CandidateExtractor> extractor_;
   CandidateSet candidates_;
   std::vector<float> scores_;
-  std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
+  std::vector<int> score_spans_, refine_scratch_;  // TrainedModel::score_map's and refine()'s scratch
   std::vector<std::uint32_t> order_;
-  double score_threshold_ = 0.5, nms_iou_ = 0.3;
+  double score_threshold_ = 0.5, nms_iou_ = 0.3, refine_fraction_ = 0.0;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

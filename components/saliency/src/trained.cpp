@@ -122,6 +122,9 @@ void TrainParams::validate() const {
   if (inner_folds < 2) throw std::invalid_argument("TrainParams.inner_folds: must be >= 2");
   if (score_thresholds.empty()) throw std::invalid_argument("TrainParams.score_thresholds: empty");
   if (nms_ious.empty()) throw std::invalid_argument("TrainParams.nms_ious: empty");
+  if (refine_fractions.empty()) throw std::invalid_argument("TrainParams.refine_fractions: empty");
+  for (double f : refine_fractions)
+    if (!(f >= 0.0 && f < 1.0)) throw std::invalid_argument("TrainParams.refine_fractions: each must be in [0, 1)");
   // cv::RNG is multiply-with-carry: from state 0 it draws 0 for ever (every bootstrap sample
   // the first candidate), and the forest learns nothing
   if (seed == 0) throw std::invalid_argument("TrainParams.seed: must be non-zero (OpenCV's generator stays at 0)");
@@ -730,6 +733,57 @@ void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& 
     for (float* p = map.ptr<float>(y); p != map.ptr<float>(y) + map.cols; ++p) *p = std::min(*p, 1.0f);
 }
 
+void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets,
+                          std::vector<int>& scratch) {
+  if (!(fraction > 0.0) || dets.empty()) return;
+  CV_Assert(map.type() == CV_32FC1);
+  scratch.resize(2 * map.total());  // per pixel of a box: its part (0 none yet), then the flood's stack
+  const cv::Rect frame(0, 0, map.cols, map.rows);
+  for (Detection& d : dets) {
+    const cv::Rect roi = d.box & frame;
+    if (roi.empty()) continue;
+    float peak = 0.f;
+    for (int y = roi.y; y < roi.br().y; ++y)
+      for (int x = roi.x; x < roi.br().x; ++x) peak = std::max(peak, map.at<float>(y, x));
+    if (!(peak > 0.f)) continue;
+    const auto cut = static_cast<float>(fraction * peak);
+    const int w = roi.width, h = roi.height;
+    int* part = scratch.data();
+    int* stack = part + static_cast<std::ptrdiff_t>(w) * h;
+    std::fill(part, part + static_cast<std::ptrdiff_t>(w) * h, 0);
+    const auto on = [&](int x, int y) { return map.at<float>(roi.y + y, roi.x + x) >= cut; };
+    double best_sum = 0.0;
+    cv::Rect best;
+    int label = 0;
+    for (int y0 = 0; y0 < h; ++y0)
+      for (int x0 = 0; x0 < w; ++x0) {
+        if (part[y0 * w + x0] != 0 || !on(x0, y0)) continue;
+        ++label;
+        int top = 0, x_min = x0, x_max = x0, y_min = y0, y_max = y0;
+        double sum = 0.0;
+        part[y0 * w + x0] = label;
+        stack[top++] = y0 * w + x0;
+        while (top > 0) {
+          const int q = stack[--top], qx = q % w, qy = q / w;
+          sum += static_cast<double>(map.at<float>(roi.y + qy, roi.x + qx));
+          x_min = std::min(x_min, qx), x_max = std::max(x_max, qx);
+          y_min = std::min(y_min, qy), y_max = std::max(y_max, qy);
+          for (int ny = std::max(qy - 1, 0); ny <= std::min(qy + 1, h - 1); ++ny)
+            for (int nx = std::max(qx - 1, 0); nx <= std::min(qx + 1, w - 1); ++nx)
+              if (part[ny * w + nx] == 0 && on(nx, ny)) {
+                part[ny * w + nx] = label;
+                stack[top++] = ny * w + nx;
+              }
+        }
+        if (sum > best_sum) {
+          best_sum = sum;
+          best = cv::Rect(roi.x + x_min, roi.y + y_min, x_max - x_min + 1, y_max - y_min + 1);
+        }
+      }
+    if (best_sum > 0.0) d.box = best;
+  }
+}
+
 std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
   return select(set, score(set), threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms);
 }
@@ -757,7 +811,7 @@ void TrainedModel::save(const std::string& path) const {
        << candidates.close_radius;
     fs << "working_width_px" << candidates.working_width_px;
     fs << "}";
-    fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou;
+    fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou << "box_refine_fraction" << refine_fraction;
     fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
        << training_positives;
     fs << "forest"
@@ -813,6 +867,10 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.nms_iou = static_cast<double>(fs["nms_iou"]);
     if (!(m.score_threshold >= 0.0 && m.score_threshold <= 1.0) || !(m.nms_iou > 0.0 && m.nms_iou <= 1.0))
       throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
+    // absent in models written before 2026-12-06: the boxes as selected
+    m.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
+    if (!(m.refine_fraction >= 0.0 && m.refine_fraction < 1.0))
+      throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
     m.training_images = static_cast<int>(fs["training_images"]);
     m.training_samples = static_cast<int>(fs["training_samples"]);
     m.training_positives = static_cast<int>(fs["training_positives"]);
@@ -868,7 +926,7 @@ LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& e
 namespace {
 
 struct Choice {
-  double threshold = 0.5, nms = 0.3;
+  double threshold = 0.5, nms = 0.3, refine = 0.0;
 };
 
 // Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS) pair with
@@ -897,18 +955,25 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
   } else {
     return Choice{};
   }
+  std::vector<cv::Mat> maps(frames.size());  // the pixel maps the refinement reads
+  for (size_t i = 0; i < frames.size(); ++i) TrainedModel::score_map(frames[i]->set, scores[i], maps[i]);
   Choice best;
   double best_obj = -1e300;
-  for (double nms : tp.nms_ious) {
-    for (double t : tp.score_thresholds) {
-      std::vector<FrameRecord> recs;
-      for (size_t i = 0; i < frames.size(); ++i)
-        recs.push_back(
-            evaluate_frame(frames[i]->name, TrainedModel::select(frames[i]->set, scores[i], t, nms), frames[i]->truth));
-      const double o = objective(summarise(recs));
-      if (o > best_obj) {
-        best_obj = o;
-        best = Choice{t, nms};
+  std::vector<int> scratch;
+  for (double refine : tp.refine_fractions) {
+    for (double nms : tp.nms_ious) {
+      for (double t : tp.score_thresholds) {
+        std::vector<FrameRecord> recs;
+        for (size_t i = 0; i < frames.size(); ++i) {
+          std::vector<Detection> dets = TrainedModel::select(frames[i]->set, scores[i], t, nms);
+          TrainedModel::refine(maps[i], refine, dets, scratch);
+          recs.push_back(evaluate_frame(frames[i]->name, dets, frames[i]->truth));
+        }
+        const double o = objective(summarise(recs));
+        if (o > best_obj) {
+          best_obj = o;
+          best = Choice{t, nms, refine};
+        }
       }
     }
   }
@@ -927,6 +992,7 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
   const Choice c = choose_thresholds(frames, tparams);
   m.score_threshold = c.threshold;
   m.nms_iou = c.nms;
+  m.refine_fraction = c.refine;
   m.forest_ = std::make_shared<TrainedModel::Forest>();
   m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
   m.forest_->flatten();
@@ -942,6 +1008,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   r.fold_of = grouped_folds(groups, folds);
   r.pooled.resize(frames.size());
   cv::Mat map, map8;
+  std::vector<int> scratch;
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -954,12 +1021,14 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
     const TrainedModel m = train_model(train, cparams, tparams);
     r.thresholds.push_back(m.score_threshold);
     r.nms_ious.push_back(m.nms_iou);
+    r.refine_fractions.push_back(m.refine_fraction);
     for (size_t i : test) {
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       to_8bit(map, map8);
-      r.pooled[i] = evaluate_frame(frames[i].name, TrainedModel::select(frames[i].set, s, m.score_threshold, m.nms_iou),
-                                   frames[i].truth, map8);
+      std::vector<Detection> dets = TrainedModel::select(frames[i].set, s, m.score_threshold, m.nms_iou);
+      TrainedModel::refine(map, m.refine_fraction, dets, scratch);
+      r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }
     r.fold_summaries.push_back(summarise(r.pooled, test));
   }

@@ -91,8 +91,13 @@ struct LegendEntry {
   cv::Scalar colour;
 };
 
-/// Writes the entries left to right from `org` (the first one's baseline), each in its colour.
-void put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries);
+/// Writes the entries left to right from `org` (the first one's baseline), each in its colour,
+/// starting a new line kLegendLinePx lower before an entry that would pass `max_x` (< 0: 10 px
+/// short of the image's right edge). Returns the number of lines written.
+int put_legend(cv::Mat& img, cv::Point org, std::span<const LegendEntry> entries, int max_x = -1);
+/// The lines put_legend takes for `entries` from x = `x0` within `max_x`.
+int legend_lines(std::span<const LegendEntry> entries, int x0, int max_x);
+inline constexpr int kLegendLinePx = 18;
 
 /// The furniture of a north-up map picture drawn at `px_per_m`: a 1 m scale bar at its bottom
 /// left and a north arrow at its top right, white.

@@ -84,6 +84,8 @@ struct TrainParams {
   std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50,
                                        0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90};
   std::vector<double> nms_ious{0.2, 0.3, 0.5};
+  /// TrainedModel::refine_fraction candidates (0: boxes as selected), chosen with the thresholds.
+  std::vector<double> refine_fractions{0.0, 0.3};
   void validate() const;
 };
 
@@ -175,6 +177,10 @@ class TrainedModel {
   CandidateParams candidates;
   double score_threshold = 0.5;
   double nms_iou = 0.3;
+  /// refine(): each kept box shrunk to the strongest part of the pixel map inside it at this
+  /// fraction of the map's peak there; 0 keeps the boxes as selected (models written before
+  /// 2026-12-06 have no such key and read 0).
+  double refine_fraction = 0.0;
   int training_images = 0, training_samples = 0, training_positives = 0;
 
   bool trained() const;
@@ -207,6 +213,13 @@ class TrainedModel {
                         std::vector<int>& spans);
   /// The same with a scratch of its own (allocates; for tools and tests).
   static void score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map);
+  /// Box refinement: inside each detection's box, the pixels of `map` (score_map()'s) at or above
+  /// `fraction` x the box's highest value, in 8-connected parts; the box becomes the bounding box
+  /// of the part with the largest sum of map values (a blob that took in a neighbour, a shadow or
+  /// bright ground keeps the rock it was scored for). Boxes only shrink; scores, order and areas
+  /// stay. `fraction` <= 0 or a box whose map is 0 changes nothing. `scratch`: no allocation
+  /// once it has been used at the map's size.
+  static void refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, std::vector<int>& scratch);
 
   /// Writes the YAML file; throws ModelError naming the file.
   void save(const std::string& path) const;
@@ -246,7 +259,7 @@ struct TrainedCvResult {
   std::vector<FrameRecord> pooled;  ///< per frame (input order), scored with its test fold's model
   std::vector<int> fold_of;
   std::vector<Summary> fold_summaries;
-  std::vector<double> thresholds, nms_ious;  ///< chosen per fold
+  std::vector<double> thresholds, nms_ious, refine_fractions;  ///< chosen per fold
 };
 
 /// k-fold CV grouped by sol (grouped_folds of the frames' groups): each test fold is scored
