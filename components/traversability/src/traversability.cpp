@@ -200,10 +200,22 @@ void TraversabilityMapper::smooth(const cv::Mat& src, cv::Mat& dst, double sigma
       for (int i = 0; i < n; ++i) acc += line_[static_cast<std::size_t>(i)];
       acc += k * line_[0] + (k - n + 1) * line_[static_cast<std::size_t>(n - 1)];
     }
-    for (int i = 0; i < n; ++i) {
+    // The window slides: in at i + k + 1, out at i - k, both clamped to the line; the middle run,
+    // where neither clamps, without the clamps (the same sums).
+    const double* l = line_.data();
+    const int mid_begin = std::min(k, n), mid_end = std::max(mid_begin, n - k - 1);
+    int i = 0;
+    for (; i < mid_begin; ++i) {
       base[i] = static_cast<float>(acc * inv);
-      acc += line_[static_cast<std::size_t>(std::min(i + k + 1, n - 1))] -
-             line_[static_cast<std::size_t>(std::max(i - k, 0))];
+      acc += l[std::min(i + k + 1, n - 1)] - l[0];
+    }
+    for (; i < mid_end; ++i) {
+      base[i] = static_cast<float>(acc * inv);
+      acc += l[i + k + 1] - l[i - k];
+    }
+    for (; i < n; ++i) {
+      base[i] = static_cast<float>(acc * inv);
+      acc += l[std::min(i + k + 1, n - 1)] - l[std::max(i - k, 0)];
     }
   };
   double* acc = column_sums_.data();
