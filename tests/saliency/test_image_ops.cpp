@@ -99,10 +99,22 @@ TEST(ImageOps, SeparableGaborEnergyEqualsTheDirectOne) {
         const cv::Mat src = random_float(s, seed++);
         cv::Mat ref, dst, pad, rows;
         rs::gabor_energy(src, even, odd, ref, pad, rows);
-        rs::gabor_energy(src, sep, dst, pad, rows);
+        rs::GaborLevel level;
+        rs::gabor_energy(src, sep, dst, level, rows);
         EXPECT_LT(rel_diff(dst, ref), 2e-5) << s << " k" << ks << " theta " << theta;
+        // A level prepared once serves every orientation: the same bits as preparing it anew.
+        rs::GaborLevel shared;
+        shared.prepare(src, rs::SeparableGabor::make(ks, 7.0 / 3.0, 7.0, 0.0));
+        cv::Mat again;
+        rs::gabor_energy(shared, sep, again, rows);
+        EXPECT_EQ(cv::norm(again, dst, cv::NORM_INF), 0.0) << s << " k" << ks << " theta " << theta;
       }
     }
+  rs::GaborLevel level;  // prepared for 3 taps, asked for 9
+  level.prepare(random_float({20, 20}, 1), rs::SeparableGabor::make(3, 7.0 / 3.0, 7.0, 0.0));
+  cv::Mat out, rows;
+  EXPECT_THROW(rs::gabor_energy(level, rs::SeparableGabor::make(9, 7.0 / 3.0, 7.0, 0.0), out, rows),
+               std::invalid_argument);
   EXPECT_THROW(rs::SeparableGabor::make(4, 1.0, 7.0, 0.0), std::invalid_argument);
   EXPECT_THROW(rs::SeparableGabor::make(9, 0.0, 7.0, 0.0), std::invalid_argument);
 }

@@ -198,38 +198,97 @@ SeparableGabor SeparableGabor::make(int size, double sigma, double period, doubl
   return k;
 }
 
-void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv::Mat& pad, cv::Mat& rows) {
-  if (src.type() != CV_32FC1 || src.empty())
-    throw std::invalid_argument("gabor_energy: image must be non-empty CV_32FC1");
+namespace {
+
+void check_separable(const SeparableGabor& k) {
   const int n = k.size();
   if (n < 1 || n % 2 == 0 || k.row_im.size() != k.row_re.size() || k.col_re.size() != k.row_re.size() ||
       k.col_im.size() != k.row_re.size())
     throw std::invalid_argument("gabor_energy: the separable kernel's taps must be odd in number and match");
-  const int w = src.cols, h = src.rows, r = n / 2, ph = h + 2 * r;
-  pad_replicate_32f(src, pad, r, r);
-  // Rows [0, ph): real part, [ph, 2 ph): imaginary part, [2 ph, 3 ph): box sum, of the row pass.
-  rows.create(3 * ph, w, CV_32F);
-  const float *xr = k.row_re.data(), *xi = k.row_im.data(), *yr = k.col_re.data(), *yi = k.col_im.data();
-  // As the direct pass: blocks of kBlock pixels keep their sums in registers over all taps.
-  using V4 = cv::v_float32x4;
-  constexpr int kVecs = 4, kLanes = V4::nlanes, kBlock = kLanes * kVecs;
-  const int wb = w - w % kBlock;
-  // The kernels make() builds are even in their real and odd in their imaginary taps: then tap
-  // pairs (j, n - 1 - j) share one multiply per part (sum and difference of the two pixels).
+}
+
+// The kernels make() builds are even in their real and odd in their imaginary taps: then tap pairs
+// (j, n - 1 - j) share one multiply per part (sum and difference of the two pixels).
+bool is_folded(const SeparableGabor& k) {
+  const int n = k.size(), r = n / 2;
   bool folded = true;
   for (int j = 0; j <= r; ++j) {
     const auto m = static_cast<std::size_t>(n - 1 - j), i = static_cast<std::size_t>(j);
     folded = folded && k.row_re[i] == k.row_re[m] && k.row_im[i] == -k.row_im[m] && k.col_re[i] == k.col_re[m] &&
              k.col_im[i] == -k.col_im[m];
   }
+  return folded;
+}
+
+// Blocks of kBlock pixels keep their sums in registers over all taps (the pixels from the last
+// whole block on are summed one by one).
+using V4 = cv::v_float32x4;
+constexpr int kVecs = 4, kLanes = V4::nlanes, kBlock = kLanes * kVecs;
+
+}  // namespace
+
+void GaborLevel::prepare(const cv::Mat& src, const SeparableGabor& k) {
+  if (src.type() != CV_32FC1 || src.empty())
+    throw std::invalid_argument("gabor_energy: image must be non-empty CV_32FC1");
+  check_separable(k);
+  const int n = k.size(), w = src.cols, h = src.rows, r = n / 2, ph = h + 2 * r;
+  taps = n;
+  folded = is_folded(k);
+  size = src.size();
+  pad_replicate_32f(src, pad, r, r);
+  // The n x n window sums, in the order the filtering sums its taps: tap pairs from the outside
+  // in then the centre where folded, else tap by tap, over the rows then down the columns; the
+  // pixels from the last whole block on tap by tap.
+  const int wb = folded ? w - w % kBlock : 0;  // pixels [0, wb) in tap pairs, the rest tap by tap
+  // One tap (or tap pair) at a time over a whole run of pixels: the inner loops vectorise, and
+  // each pixel's sum still adds its taps in the filtering's order.
+  const auto sum_taps = [&](float* o, auto&& at) {  // at(t): row of tap t's pixels, aligned with o
+    std::fill(o, o + w, 0.0f);
+    for (int j = 0; j < r && wb > 0; ++j) {
+      const float *a = at(j), *b = at(n - 1 - j);
+      for (int x = 0; x < wb; ++x) o[x] = o[x] + (a[x] + b[x]);
+    }
+    if (wb > 0) {
+      const float* c = at(r);
+      for (int x = 0; x < wb; ++x) o[x] = o[x] + c[x];
+    }
+    for (int j = 0; j < n && wb < w; ++j) {
+      const float* a = at(j);
+      for (int x = wb; x < w; ++x) o[x] += a[x];
+    }
+  };
+  rows.create(ph, w, CV_32F);
+  for (int y = 0; y < ph; ++y) {
+    const float* p = pad.ptr<float>(y);
+    sum_taps(rows.ptr<float>(y), [&](int t) { return p + t; });
+  }
+  box.create(h, w, CV_32F);
+  for (int y = 0; y < h; ++y) sum_taps(box.ptr<float>(y), [&](int t) { return rows.ptr<float>(y + t); });
+}
+
+void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, GaborLevel& level, cv::Mat& rows) {
+  level.prepare(src, k);
+  gabor_energy(level, k, dst, rows);
+}
+
+void gabor_energy(const GaborLevel& level, const SeparableGabor& k, cv::Mat& dst, cv::Mat& rows) {
+  check_separable(k);
+  if (level.pad.empty() || k.size() != level.taps || is_folded(k) != level.folded)
+    throw std::invalid_argument("gabor_energy: the level was prepared for a kernel of another size or symmetry");
+  const cv::Mat& pad = level.pad;
+  const int n = k.size(), w = level.size.width, h = level.size.height, r = n / 2, ph = h + 2 * r;
+  // Rows [0, ph): real part, [ph, 2 ph): imaginary part, of the row pass.
+  rows.create(2 * ph, w, CV_32F);
+  const float *xr = k.row_re.data(), *xi = k.row_im.data(), *yr = k.col_re.data(), *yi = k.col_im.data();
+  const int wb = w - w % kBlock;
+  const bool folded = level.folded;
   for (int y = 0; y < ph; ++y) {
     const float* p = pad.ptr<float>(y);
     float* re = rows.ptr<float>(y);
     float* im = rows.ptr<float>(ph + y);
-    float* box = rows.ptr<float>(2 * ph + y);
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
-      V4 sr[kVecs], si[kVecs], sb[kVecs];
-      for (int v = 0; v < kVecs; ++v) sr[v] = si[v] = sb[v] = cv::v_setzero_f32();
+      V4 sr[kVecs], si[kVecs];
+      for (int v = 0; v < kVecs; ++v) sr[v] = si[v] = cv::v_setzero_f32();
       if (folded) {
         for (int j = 0; j < r; ++j) {
           const V4 a = cv::v_setall_f32(xr[j]), b = cv::v_setall_f32(xi[j]);
@@ -238,14 +297,12 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
             const V4 sum = q0 + q1;
             sr[v] = sr[v] + a * sum;
             si[v] = si[v] + b * (q0 - q1);
-            sb[v] = sb[v] + sum;
           }
         }
         const V4 a = cv::v_setall_f32(xr[r]);
         for (int v = 0; v < kVecs; ++v) {
           const V4 q = cv::v_load(p + x0 + r + kLanes * v);
           sr[v] = sr[v] + a * q;
-          sb[v] = sb[v] + q;
         }
       }
       for (int j = 0; j < (folded ? 0 : n); ++j) {
@@ -254,23 +311,20 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
           const V4 q = cv::v_load(p + x0 + j + kLanes * v);
           sr[v] = sr[v] + a * q;
           si[v] = si[v] + b * q;
-          sb[v] = sb[v] + q;
         }
       }
       for (int v = 0; v < kVecs; ++v) {
         cv::v_store(re + x0 + kLanes * v, sr[v]);
         cv::v_store(im + x0 + kLanes * v, si[v]);
-        cv::v_store(box + x0 + kLanes * v, sb[v]);
       }
     }
     for (int x = wb; x < w; ++x) {
-      float sr = 0.0f, si = 0.0f, sb = 0.0f;
+      float sr = 0.0f, si = 0.0f;
       for (int j = 0; j < n; ++j) {
         sr += xr[j] * p[x + j];
         si += xi[j] * p[x + j];
-        sb += p[x + j];
       }
-      re[x] = sr, im[x] = si, box[x] = sb;
+      re[x] = sr, im[x] = si;
     }
   }
   dst.create(h, w, CV_32F);
@@ -282,61 +336,56 @@ void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv:
            vio = cv::v_setall_f32(io);
   for (int y = 0; y < h; ++y) {
     float* d = dst.ptr<float>(y);
+    const float* sums = level.box.ptr<float>(y);  // the window sums the kernels' means apply to
     for (int x0 = 0; x0 < wb; x0 += kBlock) {
-      V4 cr[kVecs], ci[kVecs], cs[kVecs];
-      for (int v = 0; v < kVecs; ++v) cr[v] = ci[v] = cs[v] = cv::v_setzero_f32();
+      V4 cr[kVecs], ci[kVecs];
+      for (int v = 0; v < kVecs; ++v) cr[v] = ci[v] = cv::v_setzero_f32();
       if (folded) {
         for (int i = 0; i < r; ++i) {
           const V4 a = cv::v_setall_f32(yr[i]), b = cv::v_setall_f32(yi[i]);
           const int m = n - 1 - i;
           const float *re0 = rows.ptr<float>(y + i) + x0, *re1 = rows.ptr<float>(y + m) + x0;
           const float *im0 = rows.ptr<float>(ph + y + i) + x0, *im1 = rows.ptr<float>(ph + y + m) + x0;
-          const float *bx0 = rows.ptr<float>(2 * ph + y + i) + x0, *bx1 = rows.ptr<float>(2 * ph + y + m) + x0;
           for (int v = 0; v < kVecs; ++v) {
             const V4 r0 = cv::v_load(re0 + kLanes * v), r1 = cv::v_load(re1 + kLanes * v);
             const V4 i0 = cv::v_load(im0 + kLanes * v), i1 = cv::v_load(im1 + kLanes * v);
             cr[v] = cr[v] + (a * (r0 + r1) - b * (i0 - i1));
             ci[v] = ci[v] + (a * (i0 + i1) + b * (r0 - r1));
-            cs[v] = cs[v] + (cv::v_load(bx0 + kLanes * v) + cv::v_load(bx1 + kLanes * v));
           }
         }
         const V4 a = cv::v_setall_f32(yr[r]);
         const float* re = rows.ptr<float>(y + r) + x0;
         const float* im = rows.ptr<float>(ph + y + r) + x0;
-        const float* box = rows.ptr<float>(2 * ph + y + r) + x0;
         for (int v = 0; v < kVecs; ++v) {
           cr[v] = cr[v] + a * cv::v_load(re + kLanes * v);
           ci[v] = ci[v] + a * cv::v_load(im + kLanes * v);
-          cs[v] = cs[v] + cv::v_load(box + kLanes * v);
         }
       }
       for (int i = 0; i < (folded ? 0 : n); ++i) {
         const V4 a = cv::v_setall_f32(yr[i]), b = cv::v_setall_f32(yi[i]);
         const float* re = rows.ptr<float>(y + i) + x0;
         const float* im = rows.ptr<float>(ph + y + i) + x0;
-        const float* box = rows.ptr<float>(2 * ph + y + i) + x0;
         for (int v = 0; v < kVecs; ++v) {
           const V4 qr = cv::v_load(re + kLanes * v), qi = cv::v_load(im + kLanes * v);
           cr[v] = cr[v] + (a * qr - b * qi);
           ci[v] = ci[v] + (a * qi + b * qr);
-          cs[v] = cs[v] + cv::v_load(box + kLanes * v);
         }
       }
       // energy() lane by lane, the same operations in the same order
       for (int v = 0; v < kVecs; ++v) {
-        const V4 even = (cr[v] - vme * cs[v]) * vie, odd = (cv::v_setzero_f32() - ci[v] - vmo * cs[v]) * vio;
+        const V4 cs = cv::v_load(sums + x0 + kLanes * v);
+        const V4 even = (cr[v] - vme * cs) * vie, odd = (cv::v_setzero_f32() - ci[v] - vmo * cs) * vio;
         cv::v_store(d + x0 + kLanes * v, cv::v_abs(even) + cv::v_abs(odd));
       }
     }
     for (int x = wb; x < w; ++x) {
-      float cre = 0.0f, cim = 0.0f, s = 0.0f;
+      float cre = 0.0f, cim = 0.0f;
       for (int i = 0; i < n; ++i) {
         const float qr = rows.ptr<float>(y + i)[x], qi = rows.ptr<float>(ph + y + i)[x];
         cre += yr[i] * qr - yi[i] * qi;
         cim += yr[i] * qi + yi[i] * qr;
-        s += rows.ptr<float>(2 * ph + y + i)[x];
       }
-      d[x] = energy(cre, cim, s);
+      d[x] = energy(cre, cim, sums[x]);
     }
   }
 }

@@ -318,9 +318,11 @@ void IttiSaliency::prepare(cv::Size size) {
     sc.gabor_rows.assign(static_cast<size_t>(levels), cv::Mat());
     for (int l = params_.centre_min; orientation && l < levels; ++l) {
       const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
-      sc.gabor_pad[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
-      // the separable pass's three row planes, or the direct pass's two accumulator rows
-      sc.gabor_rows[static_cast<size_t>(l)].create(gabor_separable_.empty() ? 2 : 3 * (ls.height + 2 * r), ls.width,
+      // the direct pass's padded level (the separable pass reads the shared gabor_levels_)
+      if (gabor_separable_.empty())
+        sc.gabor_pad[static_cast<size_t>(l)].create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
+      // the separable pass's two row planes, or the direct pass's two accumulator rows
+      sc.gabor_rows[static_cast<size_t>(l)].create(gabor_separable_.empty() ? 2 : 2 * (ls.height + 2 * r), ls.width,
                                                    CV_32F);
     }
     for (cv::Mat* m : {&sc.diff, &sc.acc, &sc.excit, &sc.inhib}) m->create(map_size_, CV_32F);
@@ -336,6 +338,15 @@ void IttiSaliency::prepare(cv::Size size) {
         sc.at_map[static_cast<size_t>(l)].create(map_size_, CV_32F);
       }
     }
+  }
+  // Per level, the padded image and window sums every orientation's separable pass reads.
+  gabor_levels_.assign(static_cast<size_t>(levels), GaborLevel());
+  for (int l = params_.centre_min; !gabor_separable_.empty() && l < levels; ++l) {
+    const cv::Size ls = level_sizes_[static_cast<size_t>(l)];
+    GaborLevel& g = gabor_levels_[static_cast<size_t>(l)];
+    g.pad.create(ls.height + 2 * r, ls.width + 2 * r, CV_32F);
+    g.rows.create(ls.height + 2 * r, ls.width, CV_32F);
+    g.box.create(ls, CV_32F);
   }
   to_input_.build(map_size_, size, ResizeTable::Mode::kLinear);
   combined_.create(map_size_, CV_32F);
@@ -434,8 +445,7 @@ void IttiSaliency::orientation_job(int t) {
     // |even| + |odd| with the filter2D correlation and BORDER_REPLICATE (own direct
     // convolution: cv::filter2D builds a filter engine on the heap at every call).
     if (!gabor_separable_.empty())
-      gabor_energy(intensity_pyr_[li], gabor_separable_[static_cast<size_t>(t)], op[li], sc.gabor_pad[li],
-                   sc.gabor_rows[li]);
+      gabor_energy(gabor_levels_[li], gabor_separable_[static_cast<size_t>(t)], op[li], sc.gabor_rows[li]);
     else
       gabor_energy(intensity_pyr_[li], gabor_even_[static_cast<size_t>(t)], gabor_odd_[static_cast<size_t>(t)], op[li],
                    sc.gabor_pad[li], sc.gabor_rows[li]);
@@ -550,6 +560,9 @@ const Conspicuity& IttiSaliency::conspicuity(const cv::Mat& image, const cv::Mat
   // summed in angle order afterwards, so the result does not depend on the thread count.
   build_pyramid(intensity_pyr_, scratch_[0]);
   const int n_orient = params_.num_orientations;
+  if (n_orient > 0 && !gabor_separable_.empty())  // shared by the orientation jobs: made first
+    for (int l = params_.centre_min; l <= params_.max_level(); ++l)
+      gabor_levels_[static_cast<size_t>(l)].prepare(intensity_pyr_[static_cast<size_t>(l)], gabor_separable_[0]);
   const bool with_height = !height.empty();
   if (colour)
     consp_.colour.create(map_size_, CV_32F);

@@ -53,9 +53,26 @@ struct SeparableGabor {
   int size() const { return static_cast<int>(row_re.size()); }
 };
 
-/// gabor_energy() of the pair `k` describes (the same map up to float rounding). `pad` and `rows`
-/// are scratch (sized on first use for a given size).
-void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, cv::Mat& pad, cv::Mat& rows);
+/// What the separable Gabor energy of one image needs whatever the orientation: the image padded
+/// by replication and the sums of its kernel-sized windows (which the kernels' means apply to),
+/// made once and read by every orientation's gabor_energy(). Buffers kept between calls.
+struct GaborLevel {
+  cv::Mat pad, box;  ///< (h + n - 1) x (w + n - 1) padded image; h x w window sums
+  cv::Mat rows;      ///< scratch: the window sums along the rows
+  cv::Size size;     ///< of the image
+  int taps = 0;      ///< n
+  bool folded = false;
+  /// For `src` (CV_32FC1) and kernels of `k`'s size and symmetry (those of every make()).
+  /// Throws std::invalid_argument on an empty or non-float image or a malformed kernel.
+  void prepare(const cv::Mat& src, const SeparableGabor& k);
+};
+
+/// gabor_energy() of the pair `k` describes (the same map up to float rounding), of the image
+/// `level` was prepared from; `rows` is scratch (sized on first use for a given size). Throws
+/// std::invalid_argument when `level` was prepared for a kernel of another size or symmetry.
+void gabor_energy(const GaborLevel& level, const SeparableGabor& k, cv::Mat& dst, cv::Mat& rows);
+/// The same of `src`, preparing `level` first.
+void gabor_energy(const cv::Mat& src, const SeparableGabor& k, cv::Mat& dst, GaborLevel& level, cv::Mat& rows);
 
 /// Single-kernel version of the same correlation (= cv::filter2D(src, dst, CV_32F, kernel,
 /// centre anchor, 0, BORDER_REPLICATE)); used by tests and the slope feature.

@@ -140,7 +140,7 @@ class IttiSaliency {
   /// Scratch of one channel job: every buffer a job writes is its own, so jobs can run at once.
   struct Scratch {
     cv::Mat diff, excit, inhib, acc;
-    std::vector<cv::Mat> down_tmp, gabor_pad, gabor_rows;  // per level
+    std::vector<cv::Mat> down_tmp, gabor_pad, gabor_rows;  // per level (gabor_pad: the direct pass's)
     // level -> map level resampling (INTER_AREA below it, INTER_LINEAR above it); a table
     // keeps its own row buffer, so every job has its own copy
     std::vector<ResizeTable> to_map;
@@ -163,6 +163,7 @@ class IttiSaliency {
   std::vector<std::vector<cv::Mat>> orient_pyr_;  // [theta][level]
   std::vector<cv::Mat> gabor_even_, gabor_odd_;
   std::vector<SeparableGabor> gabor_separable_;  // per orientation when the envelope is isotropic
+  std::vector<GaborLevel> gabor_levels_;         // per level: what every orientation's separable pass reads
   cv::Mat tmp_, tmp2_, border_;
   Conspicuity consp_;
   cv::Mat combined_;
