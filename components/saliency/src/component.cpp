@@ -459,8 +459,8 @@ class SamsComponent final : public runtime::Component {
       model_.score(candidates_, scores_);
       TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
       TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
-      TrainedModel::refine(saliency_, refine_fraction_, dets_, refine_scratch_);
       roi_runs_.fill_outside(saliency_, 0.f);
+      TrainedModel::refine(saliency_, refine_fraction_, dets_, refine_scratch_);  // on the map it publishes
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
