@@ -337,6 +337,19 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
     gt += r.at05.n_gt;
   }
   EXPECT_GT(matched, gt / 2) << matched << " of " << gt;
+  // detect() is select() on the scores, then refine() on the pixel map at the model's fraction.
+  rs::TrainedModel refining = l;
+  refining.refine_fraction = 0.5;
+  const std::vector<float> sc = refining.score(frames[2].set);
+  std::vector<rs::Detection> want = rs::TrainedModel::select(frames[2].set, sc, l.score_threshold, l.nms_iou);
+  cv::Mat map;
+  std::vector<int> scratch;
+  rs::TrainedModel::score_map(frames[2].set, sc, map);
+  rs::TrainedModel::refine(map, 0.5, want, scratch);
+  const std::vector<rs::Detection> got = refining.detect(frames[2].set);
+  ASSERT_EQ(got.size(), want.size());
+  ASSERT_FALSE(got.empty());
+  for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].box, want[i].box) << i;
 }
 
 TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {

@@ -785,7 +785,15 @@ void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detec
 }
 
 std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
-  return select(set, score(set), threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms);
+  const std::vector<float> s = score(set);
+  std::vector<Detection> out = select(set, s, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms);
+  if (refine_fraction > 0.0) {
+    cv::Mat map;
+    score_map(set, s, map);
+    std::vector<int> scratch;
+    refine(map, refine_fraction, out, scratch);
+  }
+  return out;
 }
 
 void TrainedModel::save(const std::string& path) const {

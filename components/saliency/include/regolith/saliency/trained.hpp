@@ -192,7 +192,8 @@ class TrainedModel {
   void score(const CandidateSet& set, std::vector<float>& scores) const;
   /// The same scores by cv::ml::RTrees::predict (allocates): the reference the tests hold score() to.
   std::vector<float> score_by_opencv(const CandidateSet& set) const;
-  /// Scored boxes after NMS and the threshold, best first. `threshold` / `nms` < 0: the model's.
+  /// Scored boxes after NMS and the threshold, best first, refined on the pixel map with the
+  /// model's refine_fraction (refine()). `threshold` / `nms` < 0: the model's.
   std::vector<Detection> detect(const CandidateSet& set, double threshold = -1.0, double nms = -1.0) const;
   /// Same, from precomputed scores.
   static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
