@@ -292,8 +292,9 @@ struct RockDetectors {
   sal::CandidateSet cand_set;
   cv::Mat map, map8, h, enlarged, full_map;
   std::vector<sal::Detection> dets;
-  std::vector<int> spans, refine_scratch;  // TrainedModel::score_map's and refine()'s
-  std::string enlarged_note;               // set by the first image processed enlarged (said once per run)
+  std::vector<int> spans;  // TrainedModel::score_map's scratch
+  sal::TrainedModel::BoxScratch box_scratch;
+  std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
 };
 
 // SAMS and Itti-Koch build a pyramid of 2^(centre_max + delta_max) px a side (256 px by default). A smaller image
@@ -326,8 +327,8 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
       m.extractor->extract(img, d.cand_set);
       const std::vector<float> scores = m.model->score(d.cand_set);
       if (want_map || m.model->refine_fraction > 0.0) sal::TrainedModel::score_map(d.cand_set, scores, d.map, d.spans);
-      d.dets = sal::TrainedModel::select(d.cand_set, scores, m.model->score_threshold, m.model->nms_iou);
-      sal::TrainedModel::refine(d.map, m.model->refine_fraction, d.dets, d.refine_scratch);
+      sal::TrainedModel::boxes(d.cand_set, scores, d.map, m.model->score_threshold, m.model->nms_iou,
+                               m.model->refine_fraction, d.dets, d.box_scratch);
     } else if (d.peer) {
       d.peer->compute(img, d.map);
     } else if (m.method == sal::Method::kContrast) {

@@ -189,7 +189,8 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   const std::vector<rs::Detection> kept = rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou);
   std::vector<rs::Detection> dets = kept;
   cv::Mat map;
-  std::vector<int> spans, scratch;
+  std::vector<int> spans;
+  rs::TrainedModel::BoxScratch scratch;
   for (auto _ : st) {
     rs::TrainedModel::score_map(set, scores, map, spans);
     if (refine) {

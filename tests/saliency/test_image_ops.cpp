@@ -413,13 +413,13 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     rs::CandidateSet set;
     std::vector<float> scores;
     std::vector<rs::Detection> dets;
-    std::vector<std::uint32_t> order;
-    std::vector<int> spans, refine_scratch;
+    std::vector<int> spans;
+    rs::TrainedModel::BoxScratch box_scratch;
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
     dets.reserve(most);
-    order.reserve(most);
+    box_scratch.reserve(s, most);
     auto frame = [&](int seed) {
       cv::Mat gray(s, CV_8U, cv::Scalar(100));
       std::mt19937 rng(static_cast<unsigned>(seed));
@@ -434,9 +434,9 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     auto run = [&](const cv::Mat& gray) {
       ex.extract(gray, set);
       model.score(set, scores);
-      rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou, dets, order);
       rs::TrainedModel::score_map(set, scores, map, spans);
-      rs::TrainedModel::refine(map, model.refine_fraction, dets, refine_scratch);
+      rs::TrainedModel::boxes(set, scores, map, model.score_threshold, model.nms_iou, model.refine_fraction, dets,
+                              box_scratch);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

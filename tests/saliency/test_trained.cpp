@@ -343,7 +343,7 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   const std::vector<float> sc = refining.score(frames[2].set);
   std::vector<rs::Detection> want = rs::TrainedModel::select(frames[2].set, sc, l.score_threshold, l.nms_iou);
   cv::Mat map;
-  std::vector<int> scratch;
+  rs::TrainedModel::BoxScratch scratch;
   rs::TrainedModel::score_map(frames[2].set, sc, map);
   rs::TrainedModel::refine(map, 0.5, want, scratch);
   const std::vector<rs::Detection> got = refining.detect(frames[2].set);
@@ -412,7 +412,7 @@ TEST(Trained, RefineShrinksABoxToTheStrongestPartOfTheMapInsideIt) {
   map(cv::Rect(40, 12, 25, 20)).setTo(0.3f);  // the weaker blob
   map(cv::Rect(70, 40, 5, 5)).setTo(0.9f);    // outside the box: never read
   const rs::Detection wide{cv::Rect(5, 5, 62, 30), 0.7, 900};
-  std::vector<int> scratch;
+  rs::TrainedModel::BoxScratch scratch;
   std::vector<rs::Detection> dets{wide};
   rs::TrainedModel::refine(map, 0.3, dets, scratch);
   EXPECT_EQ(dets[0].box, cv::Rect(10, 10, 20, 15));

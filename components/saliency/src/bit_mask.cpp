@@ -178,10 +178,9 @@ int RunComponents::find(int a) {
   return a;
 }
 
-int RunComponents::run(const BitMask& mask) {
-  const int h = mask.rows(), w = mask.cols(), nw = mask.words();
+void RunComponents::reserve(int rows, int cols) {
   // At most one run per two pixels of a row.
-  const std::size_t cap = static_cast<std::size_t>(h) * static_cast<std::size_t>((w + 1) / 2);
+  const std::size_t cap = static_cast<std::size_t>(rows) * static_cast<std::size_t>((cols + 1) / 2);
   if (spans_.capacity() < cap) {
     spans_.reserve(cap);
     parent_.resize(cap);
@@ -190,6 +189,13 @@ int RunComponents::run(const BitMask& mask) {
     order_.resize(cap);
     stats_.resize(cap);
   }
+  if (row_start_.capacity() < static_cast<std::size_t>(rows) + 1)
+    row_start_.reserve(static_cast<std::size_t>(rows) + 1);
+}
+
+int RunComponents::run(const BitMask& mask) {
+  const int h = mask.rows(), w = mask.cols(), nw = mask.words();
+  reserve(h, w);
   row_start_.resize(static_cast<std::size_t>(h) + 1);
   spans_.clear();
   // The runs of set bits of each row, and their unions with the runs of the row above that touch

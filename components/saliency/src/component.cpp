@@ -276,7 +276,7 @@ class SamsComponent final : public runtime::Component {
     const std::size_t most = extractor_->max_candidates(size_);
     candidates_.candidates.reserve(most);
     scores_.reserve(most);
-    order_.reserve(most);
+    box_scratch_.reserve(size_, most);
   }
 
   // The image region searched (pixels that see the flat ground within max_range_m, at full and at
@@ -457,10 +457,11 @@ class SamsComponent final : public runtime::Component {
       // Candidates -> forest scores -> NMS; the pixel score map is the saliency layer.
       extractor_->extract(work_gray_, candidates_);
       model_.score(candidates_, scores_);
-      TrainedModel::select(candidates_, scores_, score_threshold_, nms_iou_, dets_, order_);
       TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
       roi_runs_.fill_outside(saliency_, 0.f);
-      TrainedModel::refine(saliency_, refine_fraction_, dets_, refine_scratch_);  // on the map it publishes
+      // refined on the map it publishes
+      TrainedModel::boxes(candidates_, scores_, saliency_, score_threshold_, nms_iou_, refine_fraction_, dets_,
+                          box_scratch_);
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
@@ -592,8 +593,8 @@ class SamsComponent final : public runtime::Component {
   std::unique_ptr<CandidateExtractor> extractor_;
   CandidateSet candidates_;
   std::vector<float> scores_;
-  std::vector<int> score_spans_, refine_scratch_;  // TrainedModel::score_map's and refine()'s scratch
-  std::vector<std::uint32_t> order_;
+  std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
+  TrainedModel::BoxScratch box_scratch_;
   double score_threshold_ = 0.5, nms_iou_ = 0.3, refine_fraction_ = 0.0;
   cv::Size size_;
   RangingParams ranging_;

@@ -733,66 +733,67 @@ void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& 
     for (float* p = map.ptr<float>(y); p != map.ptr<float>(y) + map.cols; ++p) *p = std::min(*p, 1.0f);
 }
 
-void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets,
-                          std::vector<int>& scratch) {
+void TrainedModel::BoxScratch::reserve(cv::Size map, std::size_t candidates) {
+  order.reserve(candidates);
+  if (map.empty()) return;
+  // no-ops once sized: the words of any box of the map, the parts of the largest box
+  above.create(map.height, map.width);
+  parts.reserve(map.height, map.width);
+  sums.reserve(static_cast<std::size_t>(map.height) * static_cast<std::size_t>((map.width + 1) / 2));
+}
+
+void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {
   if (!(fraction > 0.0) || dets.empty()) return;
   CV_Assert(map.type() == CV_32FC1);
-  scratch.resize(2 * map.total());  // per pixel of a box: its part (0 none yet), then the flood's stack
+  scratch.reserve(map.size(), 0);
   const cv::Rect frame(0, 0, map.cols, map.rows);
   for (Detection& d : dets) {
     const cv::Rect roi = d.box & frame;
     if (roi.empty()) continue;
     float peak = 0.f;
     for (int y = roi.y; y < roi.br().y; ++y)
-      for (int x = roi.x; x < roi.br().x; ++x) peak = std::max(peak, map.at<float>(y, x));
+      for (const float* p = map.ptr<float>(y) + roi.x; p != map.ptr<float>(y) + roi.br().x; ++p)
+        peak = std::max(peak, *p);
     if (!(peak > 0.f)) continue;
     const auto cut = static_cast<float>(fraction * peak);
-    const int w = roi.width, h = roi.height;
-    int* part = scratch.data();
-    int* stack = part + static_cast<std::ptrdiff_t>(w) * h;
-    std::fill(part, part + static_cast<std::ptrdiff_t>(w) * h, 0);
-    const auto on = [&](int x, int y) { return map.at<float>(roi.y + y, roi.x + x) >= cut; };
-    double best_sum = 0.0;
-    cv::Rect best;
-    int label = 0;
-    for (int y0 = 0; y0 < h; ++y0)
-      for (int x0 = 0; x0 < w; ++x0) {
-        if (part[y0 * w + x0] != 0 || !on(x0, y0)) continue;
-        ++label;
-        int top = 0, x_min = x0, x_max = x0, y_min = y0, y_max = y0;
-        double sum = 0.0;
-        part[y0 * w + x0] = label;
-        stack[top++] = y0 * w + x0;
-        while (top > 0) {
-          const int q = stack[--top], qx = q % w, qy = q / w;
-          sum += static_cast<double>(map.at<float>(roi.y + qy, roi.x + qx));
-          x_min = std::min(x_min, qx), x_max = std::max(x_max, qx);
-          y_min = std::min(y_min, qy), y_max = std::max(y_max, qy);
-          for (int ny = std::max(qy - 1, 0); ny <= std::min(qy + 1, h - 1); ++ny)
-            for (int nx = std::max(qx - 1, 0); nx <= std::min(qx + 1, w - 1); ++nx)
-              if (part[ny * w + nx] == 0 && on(nx, ny)) {
-                part[ny * w + nx] = label;
-                stack[top++] = ny * w + nx;
-              }
-        }
-        if (sum > best_sum) {
-          best_sum = sum;
-          best = cv::Rect(roi.x + x_min, roi.y + y_min, x_max - x_min + 1, y_max - y_min + 1);
-        }
-      }
-    if (best_sum > 0.0) d.box = best;
+    BitMask& above = scratch.above;
+    above.create(roi.height, roi.width);
+    for (int y = 0; y < roi.height; ++y) {
+      const float* p = map.ptr<float>(roi.y + y) + roi.x;
+      std::uint64_t* bits = above.row(y);
+      std::fill(bits, bits + above.words(), std::uint64_t{0});
+      for (int x = 0; x < roi.width; ++x)
+        if (p[x] >= cut) bits[x / 64] |= std::uint64_t{1} << (x % 64);
+    }
+    const int n = scratch.parts.run(above);
+    scratch.sums.assign(static_cast<std::size_t>(n), 0.0);
+    scratch.parts.for_each_run([&](int part, int row, int begin, int end) {
+      const float* p = map.ptr<float>(roi.y + row) + roi.x;
+      double& sum = scratch.sums[static_cast<std::size_t>(part)];
+      for (int x = begin; x < end; ++x) sum += static_cast<double>(p[x]);
+    });
+    const auto best = std::max_element(scratch.sums.begin(), scratch.sums.end());  // the first of equal sums
+    if (best == scratch.sums.end() || !(*best > 0.0)) continue;
+    const std::array<int, 5>& st = scratch.parts.stats(static_cast<int>(best - scratch.sums.begin()));
+    d.box = cv::Rect(roi.x + st[0], roi.y + st[1], st[2], st[3]);
   }
+}
+
+void TrainedModel::boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map,
+                         double threshold, double nms, double refine_fraction, std::vector<Detection>& out,
+                         BoxScratch& scratch) {
+  select(set, scores, threshold, nms, out, scratch.order);
+  refine(map, refine_fraction, out, scratch);
 }
 
 std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
   const std::vector<float> s = score(set);
-  std::vector<Detection> out = select(set, s, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms);
-  if (refine_fraction > 0.0) {
-    cv::Mat map;
-    score_map(set, s, map);
-    std::vector<int> scratch;
-    refine(map, refine_fraction, out, scratch);
-  }
+  cv::Mat map;
+  if (refine_fraction > 0.0) score_map(set, s, map);
+  std::vector<Detection> out;
+  BoxScratch scratch;
+  boxes(set, s, map, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms, refine_fraction, out,
+        scratch);
   return out;
 }
 
@@ -964,17 +965,18 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
     return Choice{};
   }
   std::vector<cv::Mat> maps(frames.size());  // the pixel maps the refinement reads
-  for (size_t i = 0; i < frames.size(); ++i) TrainedModel::score_map(frames[i]->set, scores[i], maps[i]);
+  if (std::any_of(tp.refine_fractions.begin(), tp.refine_fractions.end(), [](double f) { return f > 0.0; }))
+    for (size_t i = 0; i < frames.size(); ++i) TrainedModel::score_map(frames[i]->set, scores[i], maps[i]);
   Choice best;
   double best_obj = -1e300;
-  std::vector<int> scratch;
+  std::vector<Detection> dets;
+  TrainedModel::BoxScratch scratch;
   for (double refine : tp.refine_fractions) {
     for (double nms : tp.nms_ious) {
       for (double t : tp.score_thresholds) {
         std::vector<FrameRecord> recs;
         for (size_t i = 0; i < frames.size(); ++i) {
-          std::vector<Detection> dets = TrainedModel::select(frames[i]->set, scores[i], t, nms);
-          TrainedModel::refine(maps[i], refine, dets, scratch);
+          TrainedModel::boxes(frames[i]->set, scores[i], maps[i], t, nms, refine, dets, scratch);
           recs.push_back(evaluate_frame(frames[i]->name, dets, frames[i]->truth));
         }
         const double o = objective(summarise(recs));
@@ -1016,7 +1018,8 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   r.fold_of = grouped_folds(groups, folds);
   r.pooled.resize(frames.size());
   cv::Mat map, map8;
-  std::vector<int> scratch;
+  std::vector<Detection> dets;
+  TrainedModel::BoxScratch scratch;
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -1034,8 +1037,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       to_8bit(map, map8);
-      std::vector<Detection> dets = TrainedModel::select(frames[i].set, s, m.score_threshold, m.nms_iou);
-      TrainedModel::refine(map, m.refine_fraction, dets, scratch);
+      TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.refine_fraction, dets, scratch);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }
     r.fold_summaries.push_back(summarise(r.pooled, test));

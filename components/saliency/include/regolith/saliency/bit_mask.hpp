@@ -65,9 +65,20 @@ class RunComponents {
  public:
   /// Returns the number of components (the background not counted).
   int run(const BitMask& mask);
+  /// Sizes the buffers for masks of up to rows x cols: run() on them allocates nothing.
+  void reserve(int rows, int cols);
   /// Component `i` (0 .. run() - 1) in cv::ConnectedComponentsTypes order: left, top, width,
   /// height, area (px).
   const std::array<int, 5>& stats(int i) const { return stats_[static_cast<std::size_t>(i)]; }
+  /// After run(): f(component, row, begin, end) for every run of set pixels [begin, end) of a row,
+  /// rows in order.
+  template <class F>
+  void for_each_run(F&& f) {
+    for (std::size_t i = 0; i < spans_.size(); ++i) {
+      const Span& s = spans_[i];
+      f(label_[static_cast<std::size_t>(find(static_cast<int>(i)))], s.row, s.begin, s.end);
+    }
+  }
 
  private:
   struct Span {

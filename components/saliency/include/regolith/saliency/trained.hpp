@@ -214,13 +214,26 @@ class TrainedModel {
                         std::vector<int>& spans);
   /// The same with a scratch of its own (allocates; for tools and tests).
   static void score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map);
+  /// Scratch of refine() and boxes(): no allocation once reserve()d (or used) at a map's size
+  /// and candidate count.
+  struct BoxScratch {
+    void reserve(cv::Size map, std::size_t candidates);
+    std::vector<std::uint32_t> order;  // select()'s
+    BitMask above;                     // a box's pixels at or above the cut
+    RunComponents parts;               // their 8-connected parts
+    std::vector<double> sums;          // per part, its sum of map values
+  };
   /// Box refinement: inside each detection's box, the pixels of `map` (score_map()'s) at or above
   /// `fraction` x the box's highest value, in 8-connected parts; the box becomes the bounding box
-  /// of the part with the largest sum of map values (a blob that took in a neighbour, a shadow or
-  /// bright ground keeps the rock it was scored for). Boxes only shrink; scores, order and areas
-  /// stay. `fraction` <= 0 or a box whose map is 0 changes nothing. `scratch`: no allocation
-  /// once it has been used at the map's size.
-  static void refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, std::vector<int>& scratch);
+  /// of the part with the largest sum of map values (ties: the part RunComponents numbers first; a
+  /// blob that took in a neighbour, a shadow or bright ground keeps the rock it was scored for).
+  /// Boxes only shrink; scores, order and areas stay. `fraction` <= 0 or a box whose map is 0
+  /// changes nothing.
+  static void refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch);
+  /// The boxes every user of a model reports: select() at `threshold` and `nms`, then refine() on
+  /// `map` at `refine_fraction` (`map` is not read when that is 0).
+  static void boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map, double threshold,
+                    double nms, double refine_fraction, std::vector<Detection>& out, BoxScratch& scratch);
 
   /// Writes the YAML file; throws ModelError naming the file.
   void save(const std::string& path) const;
