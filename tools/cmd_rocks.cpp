@@ -294,6 +294,8 @@ struct RockDetectors {
   std::vector<sal::Detection> dets;
   std::vector<int> spans;  // TrainedModel::score_map's scratch
   sal::TrainedModel::BoxScratch box_scratch;
+  sal::GuidedFilter guide{sal::TrainedModel::kMapGuideRadiusPx, sal::TrainedModel::kMapGuideEps};
+  cv::Mat unit, intensity;    // the trained map's guide
   std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
 };
 
@@ -329,6 +331,11 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
       if (want_map || m.model->refine_fraction > 0.0) sal::TrainedModel::score_map(d.cand_set, scores, d.map, d.spans);
       sal::TrainedModel::boxes(d.cand_set, scores, d.map, m.model->score_threshold, m.model->nms_iou,
                                m.model->refine_fraction, d.dets, d.box_scratch);
+      if (want_map) {
+        sal::to_unit_float(img, d.unit);
+        sal::intensity_of(d.unit, d.intensity);
+        sal::TrainedModel::guide_map(d.intensity, d.map, d.guide);
+      }
     } else if (d.peer) {
       d.peer->compute(img, d.map);
     } else if (m.method == sal::Method::kContrast) {

@@ -176,9 +176,10 @@ void BM_TrainedGrey(benchmark::State& st) {
 
 // The pixel score map the sams component publishes as its saliency layer with method trained
 // (each candidate's blobs filled and painted with its score), from one extracted and scored frame
-// (/0, /1: the two sizes); /2, /3 the same plus the box refinement on it.
+// (/0, /1: the two sizes); /2, /3 the same plus the box refinement on it; /4, /5 plus the guided
+// filter after it (the map the component publishes).
 void BM_TrainedScoreMap(benchmark::State& st) {
-  const bool refine = st.range(0) >= 2;
+  const bool refine = st.range(0) >= 2, guided = st.range(0) >= 4;
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0) % 2)));
   const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
@@ -191,17 +192,54 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   cv::Mat map;
   std::vector<int> spans;
   rs::TrainedModel::BoxScratch scratch;
+  rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
+  cv::Mat grey;
+  cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
   for (auto _ : st) {
     rs::TrainedModel::score_map(set, scores, map, spans);
     if (refine) {
       std::copy(kept.begin(), kept.end(), dets.begin());
       rs::TrainedModel::refine(map, model.refine_fraction, dets, scratch);
     }
+    if (guided) rs::TrainedModel::guide_map(grey, map, guide);
     benchmark::DoNotOptimize(map.data);
   }
   st.counters["candidates"] = static_cast<double>(set.candidates.size());
 }
-BENCHMARK(BM_TrainedScoreMap)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrainedScoreMap)->DenseRange(0, 5)->Unit(benchmark::kMillisecond);
+
+// The trained map's guided filter alone at 560x500 (radius 12 px): /20 GuidedFilter, /21 the same
+// formula written with cv::boxFilter (normalised, BORDER_REFLECT_101 instead of clipped windows),
+// the usual OpenCV way; its ratio is printed at the end.
+void BM_GuidedFilter(benchmark::State& st) {
+  cv::setNumThreads(1);
+  cv::Mat grey, guide, map(500, 560, CV_32F);
+  cv::cvtColor(frame({560, 500}), grey, cv::COLOR_BGR2GRAY);
+  grey.convertTo(guide, CV_32F, 1.0 / 255.0);
+  cv::randu(map, 0.0, 1.0);
+  const int r = rs::TrainedModel::kMapGuideRadiusPx;
+  const double eps = rs::TrainedModel::kMapGuideEps;
+  rs::GuidedFilter ours(r, eps);
+  cv::Mat out, mi, mp, mip, mii, a, b, ma, mb;
+  const cv::Size k(2 * r + 1, 2 * r + 1);
+  for (auto _ : st) {
+    if (st.range(0) == 20) {
+      ours.apply(guide, map, out, 0.f, 1.f);
+    } else {
+      cv::boxFilter(guide, mi, CV_32F, k);
+      cv::boxFilter(map, mp, CV_32F, k);
+      cv::boxFilter(guide.mul(map), mip, CV_32F, k);
+      cv::boxFilter(guide.mul(guide), mii, CV_32F, k);
+      a = (mip - mi.mul(mp)) / (mii - mi.mul(mi) + eps);
+      b = mp - a.mul(mi);
+      cv::boxFilter(a, ma, CV_32F, k);
+      cv::boxFilter(b, mb, CV_32F, k);
+      out = ma.mul(guide) + mb;
+    }
+    benchmark::DoNotOptimize(out.data);
+  }
+}
+BENCHMARK(BM_GuidedFilter)->Arg(20)->Arg(21)->Unit(benchmark::kMillisecond);
 
 // The orientation channel's Gabor energy, 4 orientations, on pyramid levels 2..8 of a 640x480
 // frame (what one SAMS / Itti call filters): /10 the direct 9x9 pair, /11 the separable form.
@@ -265,6 +303,11 @@ class RatioReporter : public benchmark::ConsoleReporter {
       std::printf(
           "\nGabor energy, 4 orientations on levels 2..8 of 640x480: separable %.3f ms, direct %.3f ms CPU: x%.2f\n",
           separable->second, direct->second, separable->second / direct->second);
+    const auto gf = times_.find("BM_GuidedFilter/20"), gf_cv = times_.find("BM_GuidedFilter/21");
+    if (gf != times_.end() && gf_cv != times_.end())
+      std::printf(
+          "\nGuided filter of the trained map at 560x500, r 12: %.3f ms, with cv::boxFilter %.3f ms CPU: x%.2f\n",
+          gf->second, gf_cv->second, gf->second / gf_cv->second);
     for (const char* size : {"0", "1"}) {
       const auto itti = times_.find(std::string("BM_Itti/") + size);
       if (itti == times_.end()) continue;

@@ -390,6 +390,85 @@ TEST(ImageOps, GaussianBlur32fEqualsCvGaussianBlur) {
   EXPECT_THROW(blur.apply(cv::Mat(4, 4, CV_8U), dst, 1.0), std::invalid_argument);
 }
 
+// The guided filter written out per pixel: each clipped window's least-squares a, b, then their
+// means over the windows holding the pixel.
+cv::Mat guided_reference(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
+  const int W = src.cols, H = src.rows;
+  cv::Mat a(H, W, CV_64F), b(H, W, CV_64F), out(H, W, CV_32F);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      double si = 0, sp = 0, sip = 0, sii = 0, n = 0;
+      for (int v = std::max(y - r, 0); v <= std::min(y + r, H - 1); ++v)
+        for (int u = std::max(x - r, 0); u <= std::min(x + r, W - 1); ++u) {
+          const double i = guide.at<float>(v, u), p = src.at<float>(v, u);
+          si += i, sp += p, sip += i * p, sii += i * i, n += 1;
+        }
+      const double mi = si / n, mp = sp / n;
+      a.at<double>(y, x) = (sip / n - mi * mp) / (sii / n - mi * mi + eps);
+      b.at<double>(y, x) = mp - a.at<double>(y, x) * mi;
+    }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      double sa = 0, sb = 0, n = 0;
+      for (int v = std::max(y - r, 0); v <= std::min(y + r, H - 1); ++v)
+        for (int u = std::max(x - r, 0); u <= std::min(x + r, W - 1); ++u)
+          sa += a.at<double>(v, u), sb += b.at<double>(v, u), n += 1;
+      out.at<float>(y, x) = static_cast<float>(sa / n * guide.at<float>(y, x) + sb / n);
+    }
+  return out;
+}
+
+TEST(ImageOps, GuidedFilterEqualsItsDefinitionAndKeepsTheGuidesEdges) {
+  int seed = 70;
+  for (const cv::Size& s : {cv::Size(1, 1), cv::Size(7, 3), cv::Size(31, 17), cv::Size(64, 48)})
+    for (int r : {1, 4, 12}) {
+      const cv::Mat guide = random_float(s, ++seed), src = random_float(s, ++seed);
+      rs::GuidedFilter gf(r, 1e-3);
+      cv::Mat ours;
+      gf.apply(guide, src, ours);
+      const cv::Mat ref = guided_reference(guide, src, r, 1e-3);
+      double worst = 0;
+      for (int y = 0; y < s.height; ++y)
+        for (int x = 0; x < s.width; ++x)
+          worst = std::max(worst, std::abs(double(ours.at<float>(y, x)) - ref.at<float>(y, x)));
+      EXPECT_LT(worst, 2e-4) << s << " r " << r;
+      cv::Mat alias = src.clone();
+      gf.apply(guide, alias, alias);  // in place
+      EXPECT_EQ(cv::norm(alias, ours, cv::NORM_INF), 0.0) << s << " r " << r << " in place";
+      cv::Mat g8, from8;
+      guide.convertTo(g8, CV_8U, 255.0);
+      cv::Mat g8f;
+      g8.convertTo(g8f, CV_32F, 1.0 / 255.0);
+      gf.apply(g8, src, from8);  // an 8-bit guide reads as value / 255
+      gf.apply(g8f, src, ours);
+      EXPECT_LT(cv::norm(from8, ours, cv::NORM_INF), 1e-6) << s << " r " << r << " 8-bit guide";
+    }
+  // A rock (a bright square in the guide) whose painted map has a hole of low values inside it
+  // (its mid-grey middle): within the rock's flat guide the filter smooths the hole up towards its
+  // surroundings, and across the rock's edge it keeps the map's step where a plain mean of the
+  // same windows bleeds it onto the ground.
+  cv::Mat guide(60, 60, CV_32F, cv::Scalar(0.2f)), map(60, 60, CV_32F, cv::Scalar(0.f));
+  const cv::Rect square(15, 15, 30, 30);
+  guide(square).setTo(0.8f);
+  map(square).setTo(1.f);
+  map(cv::Rect(25, 25, 8, 8)).setTo(0.2f);
+  rs::GuidedFilter gf(6, 1e-3);
+  cv::Mat out, box;
+  gf.apply(guide, map, out, 0.f, 1.f);
+  cv::blur(map, box, cv::Size(13, 13));  // the plain mean of the same windows
+  EXPECT_GT(out.at<float>(29, 29), 0.6f) << "the hole is filled in";
+  EXPECT_LT(out.at<float>(30, 12), 0.1f * box.at<float>(30, 12)) << "3 px outside the rock";
+  EXPECT_LT(out.at<float>(30, 5), 0.01f);
+  double lo, hi;
+  cv::minMaxLoc(out, &lo, &hi);
+  EXPECT_GE(lo, 0.0);
+  EXPECT_LE(hi, 1.0);
+  EXPECT_THROW(rs::GuidedFilter(0, 1e-3), std::invalid_argument);
+  EXPECT_THROW(rs::GuidedFilter(4, 0.0), std::invalid_argument);
+  EXPECT_THROW(gf.apply(cv::Mat(5, 5, CV_32F), cv::Mat(4, 4, CV_32F), out), std::invalid_argument);
+  EXPECT_THROW(gf.apply(cv::Mat(4, 4, CV_16U), cv::Mat(4, 4, CV_32F), out), std::invalid_argument);
+}
+
 TEST(ImageOps, Sobel3EqualsCvSobel) {
   int seed = 90;
   for (const cv::Size& s : kSizes) {
@@ -405,8 +484,8 @@ TEST(ImageOps, Sobel3EqualsCvSobel) {
 
 TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
   // What the `sams` component runs per frame with method trained: candidates and features, the
-  // forest's scores, NMS, the pixel score map, the box refinement; the second image of a size (other content)
-  // allocates nothing.
+  // forest's scores, NMS, the pixel score map, the box refinement, the map's guided filter; the second image of a size
+  // (other content) allocates nothing.
   const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
   for (const cv::Size s : {cv::Size(320, 240), cv::Size(640, 480)}) {
     rs::CandidateExtractor ex(model.candidates);
@@ -415,6 +494,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     std::vector<rs::Detection> dets;
     std::vector<int> spans;
     rs::TrainedModel::BoxScratch box_scratch;
+    rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
@@ -437,6 +517,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       rs::TrainedModel::score_map(set, scores, map, spans);
       rs::TrainedModel::boxes(set, scores, map, model.score_threshold, model.nms_iou, model.refine_fraction, dets,
                               box_scratch);
+      rs::TrainedModel::guide_map(gray, map, guide);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

@@ -545,12 +545,12 @@ TEST(Trained, ShippedModelIsTheRetrainingOfTheDevSet) {
   const rs::Summary s = rs::summarise(r.pooled);
   EXPECT_EQ(s.images, 60);
   EXPECT_EQ(s.gt, 559);
-  // Measured 0.308 / 0.168 / 0.773 with the default seed (components/saliency/README.md; the
+  // Measured 0.308 / 0.182 / 0.781 with the default seed (components/saliency/README.md; the
   // contrast peer scores 0.245 / 0.141 / 0.704): a no-regression floor, max F above the peer's
-  // (0.754 before the pixel map filled each blob).
+  // (0.754 before the pixel map filled each blob, 0.773 before its guided filter).
   EXPECT_GT(s.n_moda02, 0.28) << s.n_moda02;
   EXPECT_GT(s.n_moda05, 0.14) << s.n_moda05;
-  EXPECT_GT(s.max_f, 0.76) << s.max_f;
+  EXPECT_GT(s.max_f, 0.775) << s.max_f;
 }
 
 TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {

@@ -272,6 +272,19 @@ class SamsComponent final : public runtime::Component {
          .max = 0.99,
          .doc = "method trained: each kept box shrunk to the strongest part of the saliency map inside it at this "
                 "fraction of its peak; 0 keeps the boxes as selected (default the model's)"});
+    const int guide_radius = p.get<int>(
+        "map_guide_radius_px", TrainedModel::kMapGuideRadiusPx,
+        {.min = 0.0,
+         .max = 256.0,
+         .doc = "method trained: window radius of the guided filter that moves the saliency map's borders onto "
+                "the image's edges (TrainedModel::guide_map); 0 publishes the painted map as it is"});
+    const double guide_eps = p.get<double>(
+        "map_guide_eps", TrainedModel::kMapGuideEps,
+        {.min = 0.0,
+         .min_exclusive = true,
+         .doc = "method trained: the guided filter's ridge on the intensity gain (intensity in 0..1): larger "
+                "smooths across weaker edges"});
+    if (guide_radius > 0) guide_ = std::make_unique<GuidedFilter>(guide_radius, guide_eps);
     extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
     const std::size_t most = extractor_->max_candidates(size_);
     candidates_.candidates.reserve(most);
@@ -462,6 +475,10 @@ class SamsComponent final : public runtime::Component {
       // refined on the map it publishes
       TrainedModel::boxes(candidates_, scores_, saliency_, score_threshold_, nms_iou_, refine_fraction_, dets_,
                           box_scratch_);
+      if (guide_) {
+        TrainedModel::guide_map(work_gray_, saliency_, *guide_);
+        roi_runs_.fill_outside(saliency_, 0.f);
+      }
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
@@ -595,6 +612,7 @@ class SamsComponent final : public runtime::Component {
   std::vector<float> scores_;
   std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
   TrainedModel::BoxScratch box_scratch_;
+  std::unique_ptr<GuidedFilter> guide_;  // null: map_guide_radius_px 0
   double score_threshold_ = 0.5, nms_iou_ = 0.3, refine_fraction_ = 0.0;
   cv::Size size_;
   RangingParams ranging_;

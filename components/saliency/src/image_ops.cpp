@@ -645,4 +645,118 @@ void sobel3_32f(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy, float scale) {
   }
 }
 
+// ---- GuidedFilter ----
+
+GuidedFilter::GuidedFilter(int radius_px, double eps) : r_(radius_px), eps_(eps) {
+  if (radius_px < 1) throw std::invalid_argument("GuidedFilter: radius must be >= 1 px");
+  if (!std::isfinite(eps) || eps <= 0.0) throw std::invalid_argument("GuidedFilter: eps must be > 0");
+}
+
+void GuidedFilter::box_mean(const cv::Mat& in, cv::Mat& out) {
+  const int W = in.cols, H = in.rows, r = r_;
+  rows_.create(H, W, CV_32F);
+  out.create(H, W, CV_32F);
+  inv_count_x_.resize(static_cast<std::size_t>(W));  // no-op once sized
+  column_.resize(static_cast<std::size_t>(W));
+  float* ix = inv_count_x_.data();
+  for (int x = 0; x < W; ++x) ix[x] = 1.0f / static_cast<float>(std::min(x + r, W - 1) - std::max(x - r, 0) + 1);
+  // Along the rows: a running window sum, one pixel in and one out per step (float: a window
+  // holds at most 2 r + 1 values of a map in [0, 1]; the rounding stays near 1e-6 of it).
+  // Four rows at a time: four independent sums keep the adder busy where one running sum would
+  // wait on itself.
+  constexpr int kLanes = 4;
+  for (int y0 = 0; y0 < H; y0 += kLanes) {
+    const int lanes = std::min(kLanes, H - y0);
+    const float* s[kLanes];
+    float* o[kLanes];
+    float sum[kLanes] = {};
+    for (int k = 0; k < kLanes; ++k) {
+      const int y = y0 + std::min(k, lanes - 1);  // a short last group repeats its last row
+      s[k] = in.ptr<float>(y);
+      o[k] = rows_.ptr<float>(y);
+    }
+    for (int x = 0; x <= std::min(r, W - 1); ++x)
+      for (int k = 0; k < kLanes; ++k) sum[k] += s[k][x];
+    for (int k = 0; k < kLanes; ++k) o[k][0] = sum[k] * ix[0];
+    for (int x = 1; x < W; ++x) {
+      const bool in_ = x + r < W, out_ = x - r - 1 >= 0;
+      for (int k = 0; k < kLanes; ++k) {
+        if (in_) sum[k] += s[k][x + r];
+        if (out_) sum[k] -= s[k][x - r - 1];
+        o[k][x] = sum[k] * ix[x];
+      }
+    }
+  }
+  // Down the columns: the same with a row of column sums (vectorised along the row).
+  float* c = column_.data();
+  std::fill(c, c + W, 0.f);
+  for (int y = 0; y <= std::min(r, H - 1); ++y) {
+    const float* p = rows_.ptr<float>(y);
+    for (int x = 0; x < W; ++x) c[x] += p[x];
+  }
+  for (int y = 0; y < H; ++y) {
+    if (y > 0 && y + r < H) {
+      const float* p = rows_.ptr<float>(y + r);
+      for (int x = 0; x < W; ++x) c[x] += p[x];
+    }
+    if (y > 0 && y - r - 1 >= 0) {
+      const float* p = rows_.ptr<float>(y - r - 1);
+      for (int x = 0; x < W; ++x) c[x] -= p[x];
+    }
+    const float inv = 1.0f / static_cast<float>(std::min(y + r, H - 1) - std::max(y - r, 0) + 1);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < W; ++x) o[x] = c[x] * inv;
+  }
+}
+
+void GuidedFilter::apply(const cv::Mat& guide, const cv::Mat& src, cv::Mat& dst, float lo, float hi) {
+  if (src.empty() || src.type() != CV_32FC1)
+    throw std::invalid_argument("GuidedFilter: src must be non-empty CV_32FC1");
+  if (guide.size() != src.size() || (guide.type() != CV_8UC1 && guide.type() != CV_32FC1))
+    throw std::invalid_argument("GuidedFilter: guide must be CV_8UC1 or CV_32FC1 of the source's size");
+  const int W = src.cols, H = src.rows;
+  guide_.create(H, W, CV_32F);
+  ip_.create(H, W, CV_32F);
+  ii_.create(H, W, CV_32F);
+  for (int y = 0; y < H; ++y) {
+    float* g = guide_.ptr<float>(y);
+    if (guide.type() == CV_8UC1) {
+      const uchar* q = guide.ptr<uchar>(y);
+      for (int x = 0; x < W; ++x) g[x] = static_cast<float>(q[x]) * (1.0f / 255.0f);
+    } else {
+      std::copy(guide.ptr<float>(y), guide.ptr<float>(y) + W, g);
+    }
+    const float* p = src.ptr<float>(y);
+    float *ip = ip_.ptr<float>(y), *ii = ii_.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      ip[x] = g[x] * p[x];
+      ii[x] = g[x] * g[x];
+    }
+  }
+  box_mean(guide_, mean_i_);
+  box_mean(src, mean_p_);
+  box_mean(ip_, mean_ip_);
+  box_mean(ii_, mean_ii_);
+  // a and b of each window, into ip_ and ii_ (their products are no longer needed)
+  const auto eps = static_cast<float>(eps_);
+  for (int y = 0; y < H; ++y) {
+    const float *mi = mean_i_.ptr<float>(y), *mp = mean_p_.ptr<float>(y), *mip = mean_ip_.ptr<float>(y),
+                *mii = mean_ii_.ptr<float>(y);
+    float *a = ip_.ptr<float>(y), *b = ii_.ptr<float>(y);
+    for (int x = 0; x < W; ++x) {
+      const float var = std::max(mii[x] - mi[x] * mi[x], 0.0f);
+      a[x] = (mip[x] - mi[x] * mp[x]) / (var + eps);
+      b[x] = mp[x] - a[x] * mi[x];
+    }
+  }
+  box_mean(ip_, mean_ip_);  // mean a
+  box_mean(ii_, mean_ii_);  // mean b
+  dst.create(H, W, CV_32F);
+  for (int y = 0; y < H; ++y) {
+    const float *g = guide_.ptr<float>(y), *ma = mean_ip_.ptr<float>(y), *mb = mean_ii_.ptr<float>(y);
+    float* o = dst.ptr<float>(y);
+    for (int x = 0; x < W; ++x) o[x] = std::min(std::max(ma[x] * g[x] + mb[x], lo), hi);
+  }
+}
+
 }  // namespace regolith::saliency

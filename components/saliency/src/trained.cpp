@@ -742,6 +742,10 @@ void TrainedModel::BoxScratch::reserve(cv::Size map, std::size_t candidates) {
   sums.reserve(static_cast<std::size_t>(map.height) * static_cast<std::size_t>((map.width + 1) / 2));
 }
 
+void TrainedModel::guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) {
+  filter.apply(intensity, map, map, 0.0f, 1.0f);
+}
+
 void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {
   if (!(fraction > 0.0) || dets.empty()) return;
   CV_Assert(map.type() == CV_32FC1);
@@ -929,6 +933,9 @@ LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& e
     throw DataError(item.image_path + ": " + e.what());
   }
   f.labels = label_candidates(f.set, f.truth, positive_iou);
+  cv::Mat unit;
+  to_unit_float(img, unit);
+  intensity_of(unit, f.intensity);
   return f;
 }
 
@@ -1020,6 +1027,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   cv::Mat map, map8;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
+  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -1036,8 +1044,9 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
     for (size_t i : test) {
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
-      to_8bit(map, map8);
       TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.refine_fraction, dets, scratch);
+      if (!frames[i].intensity.empty()) TrainedModel::guide_map(frames[i].intensity, map, guide);
+      to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }
     r.fold_summaries.push_back(summarise(r.pooled, test));

@@ -122,6 +122,31 @@ class GaussianBlur32f {
   std::vector<int> row_index_;  // reflected row of each vertical tap, per output row
 };
 
+/// Guided filter (He, Sun & Tang, ECCV 2010) of a CV_32FC1 image: in every (2 r + 1)^2 window
+/// the source is fitted as a * guide + b by least squares with the ridge `eps` on a; each output
+/// pixel is mean(a) * guide + mean(b) over the windows that hold it. Windows are clipped at the
+/// image's border (means over the pixels inside). Where the guide is flat the output is the
+/// source's local mean; across an edge of the guide it keeps the edge: an edge-preserving
+/// smoothing that makes the source follow the guide's outlines. Buffers kept between calls:
+/// allocation-free from the second image of a size on. `dst` may alias `src`.
+class GuidedFilter {
+ public:
+  /// Throws std::invalid_argument when radius < 1 or eps is not finite and > 0.
+  GuidedFilter(int radius_px, double eps);
+  /// `guide`: CV_8UC1 (read as value / 255) or CV_32FC1, of src's size; `src` CV_32FC1. `dst`
+  /// becomes CV_32FC1, clamped to [lo, hi] (the source's range when it has one).
+  void apply(const cv::Mat& guide, const cv::Mat& src, cv::Mat& dst, float lo = -FLT_MAX, float hi = FLT_MAX);
+  int radius() const { return r_; }
+  double eps() const { return eps_; }
+
+ private:
+  void box_mean(const cv::Mat& in, cv::Mat& out);  // mean over each pixel's clipped window
+  int r_;
+  double eps_;
+  cv::Mat guide_, ip_, ii_, mean_i_, mean_p_, mean_ip_, mean_ii_, rows_;
+  std::vector<float> inv_count_x_, column_;  // 1 / each column's window width; the running column sums
+};
+
 /// cv::Sobel(src, gx, CV_32F, 1, 0, 3, scale) and (0, 1) with the default border
 /// (BORDER_REFLECT_101), in one pass, of a CV_32FC1 image. `gx`, `gy` must not alias `src`.
 void sobel3_32f(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy, float scale);
