@@ -276,8 +276,9 @@ class SamsComponent final : public runtime::Component {
         "map_guide_radius_px", TrainedModel::kMapGuideRadiusPx,
         {.min = 0.0,
          .max = 256.0,
-         .doc = "method trained: window radius of the guided filter that moves the saliency map's borders onto "
-                "the image's edges (TrainedModel::guide_map); 0 publishes the painted map as it is"});
+         .doc = "method trained: window radius of the guided filter the saliency map goes through, smoothing it "
+                "inside the image's even regions and keeping its steps at the image's edges "
+                "(TrainedModel::guide_map); 0 publishes the painted map as it is"});
     const double guide_eps = p.get<double>(
         "map_guide_eps", TrainedModel::kMapGuideEps,
         {.min = 0.0,

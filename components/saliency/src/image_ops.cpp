@@ -679,10 +679,10 @@ void GuidedFilter::box_mean(const cv::Mat& in, cv::Mat& out) {
       for (int k = 0; k < kLanes; ++k) sum[k] += s[k][x];
     for (int k = 0; k < kLanes; ++k) o[k][0] = sum[k] * ix[0];
     for (int x = 1; x < W; ++x) {
-      const bool in_ = x + r < W, out_ = x - r - 1 >= 0;
+      const bool enters = x + r < W, leaves = x - r - 1 >= 0;
       for (int k = 0; k < kLanes; ++k) {
-        if (in_) sum[k] += s[k][x + r];
-        if (out_) sum[k] -= s[k][x - r - 1];
+        if (enters) sum[k] += s[k][x + r];
+        if (leaves) sum[k] -= s[k][x - r - 1];
         o[k][x] = sum[k] * ix[x];
       }
     }

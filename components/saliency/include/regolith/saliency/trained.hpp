@@ -216,9 +216,11 @@ class TrainedModel {
   static void score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map);
   /// The guided filter every published pixel map goes through after score_map() (and after
   /// refine(), which reads the painted map): `map` := GuidedFilter(radius, eps) of itself with the
-  /// image's intensity as the guide, in [0, 1]. The painted blobs are contrast blobs; a rock's
-  /// outline is an edge of the image, and the filter moves the map's borders onto it (grouped CV
-  /// max F 0.773 -> 0.781, every seed +0.007 to +0.010; README "Pixel map"). The defaults below.
+  /// image's intensity as the guide, in [0, 1]. Inside a rock (an even stretch of the image) the
+  /// map is smoothed, so the low values the painting leaves on its fringe and middle rise towards
+  /// its core's; across the rock's outline (an edge of the image) the map's step is kept rather
+  /// than bled onto the ground (grouped CV max F 0.773 -> 0.781, every seed +0.006 to +0.010;
+  /// components/saliency/README.md, "The map follows the image's edges"). The defaults below.
   static void guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter);
   static constexpr int kMapGuideRadiusPx = 12;
   static constexpr double kMapGuideEps = 1e-3;
