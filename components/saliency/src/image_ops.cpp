@@ -664,23 +664,23 @@ void GuidedFilter::box_mean(const cv::Mat& in, cv::Mat& out) {
   // holds at most 2 r + 1 values of a map in [0, 1]; the rounding stays near 1e-6 of it).
   // Four rows at a time: four independent sums keep the adder busy where one running sum would
   // wait on itself.
-  constexpr int kLanes = 4;
-  for (int y0 = 0; y0 < H; y0 += kLanes) {
-    const int lanes = std::min(kLanes, H - y0);
-    const float* s[kLanes];
-    float* o[kLanes];
-    float sum[kLanes] = {};
-    for (int k = 0; k < kLanes; ++k) {
-      const int y = y0 + std::min(k, lanes - 1);  // a short last group repeats its last row
+  constexpr int kRows = 4;
+  for (int y0 = 0; y0 < H; y0 += kRows) {
+    const int rows = std::min(kRows, H - y0);
+    const float* s[kRows];
+    float* o[kRows];
+    float sum[kRows] = {};
+    for (int k = 0; k < kRows; ++k) {
+      const int y = y0 + std::min(k, rows - 1);  // a short last group repeats its last row
       s[k] = in.ptr<float>(y);
       o[k] = rows_.ptr<float>(y);
     }
     for (int x = 0; x <= std::min(r, W - 1); ++x)
-      for (int k = 0; k < kLanes; ++k) sum[k] += s[k][x];
-    for (int k = 0; k < kLanes; ++k) o[k][0] = sum[k] * ix[0];
+      for (int k = 0; k < kRows; ++k) sum[k] += s[k][x];
+    for (int k = 0; k < kRows; ++k) o[k][0] = sum[k] * ix[0];
     for (int x = 1; x < W; ++x) {
       const bool enters = x + r < W, leaves = x - r - 1 >= 0;
-      for (int k = 0; k < kLanes; ++k) {
+      for (int k = 0; k < kRows; ++k) {
         if (enters) sum[k] += s[k][x + r];
         if (leaves) sum[k] -= s[k][x - r - 1];
         o[k][x] = sum[k] * ix[x];

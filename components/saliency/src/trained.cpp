@@ -733,8 +733,8 @@ void TrainedModel::score_map(const CandidateSet& set, const std::vector<float>& 
     for (float* p = map.ptr<float>(y); p != map.ptr<float>(y) + map.cols; ++p) *p = std::min(*p, 1.0f);
 }
 
-void TrainedModel::BoxScratch::reserve(cv::Size map, std::size_t candidates) {
-  order.reserve(candidates);
+void TrainedModel::BoxScratch::reserve(cv::Size map, std::size_t candidate_count) {
+  order.reserve(candidate_count);
   if (map.empty()) return;
   // no-ops once sized: the words of any box of the map, the parts of the largest box
   above.create(map.height, map.width);

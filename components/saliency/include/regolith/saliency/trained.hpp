@@ -227,7 +227,7 @@ class TrainedModel {
   /// Scratch of refine() and boxes(): no allocation once reserve()d (or used) at a map's size
   /// and candidate count.
   struct BoxScratch {
-    void reserve(cv::Size map, std::size_t candidates);
+    void reserve(cv::Size map, std::size_t candidate_count);
     std::vector<std::uint32_t> order;  // select()'s
     BitMask above;                     // a box's pixels at or above the cut
     RunComponents parts;               // their 8-connected parts
