@@ -749,7 +749,6 @@ void TrainedModel::guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilte
 void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {
   if (!(fraction > 0.0) || dets.empty()) return;
   CV_Assert(map.type() == CV_32FC1);
-  scratch.reserve(map.size(), 0);
   const cv::Rect frame(0, 0, map.cols, map.rows);
   for (Detection& d : dets) {
     const cv::Rect roi = d.box & frame;

@@ -224,8 +224,8 @@ class TrainedModel {
   static void guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter);
   static constexpr int kMapGuideRadiusPx = 12;
   static constexpr double kMapGuideEps = 1e-3;
-  /// Scratch of refine() and boxes(): no allocation once reserve()d (or used) at a map's size
-  /// and candidate count.
+  /// Scratch of refine() and boxes(): no allocation once reserve()d at a map's size and candidate
+  /// count (without it, the buffers grow to the largest box and list seen).
   struct BoxScratch {
     void reserve(cv::Size map, std::size_t candidate_count);
     std::vector<std::uint32_t> order;  // select()'s
