@@ -352,6 +352,18 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].box, want[i].box) << i;
 }
 
+TEST(Trained, CrossValidationRefusesAFrameWithoutTheImageThatGuidesItsMap) {
+  std::vector<rs::LabelledFrame> frames = synthetic_frames(4);
+  for (auto& f : frames) f.intensity = cv::Mat(f.set.size, CV_32FC1, cv::Scalar(0.5f));
+  frames[2].intensity.release();
+  try {
+    rs::cross_validate_trained(frames, {}, small_forest(), 2);
+    FAIL() << "expected an error naming the frame";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(frames[2].name + ": no intensity image"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const regolith::testing::TempDir tmp("trained_bad");  // removed whatever the outcome
   const fs::path& dir = tmp.path();

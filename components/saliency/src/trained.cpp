@@ -1019,7 +1019,13 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
 TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames, const CandidateParams& cparams,
                                        const TrainParams& tparams, int folds) {
   std::vector<std::string> groups;
-  for (const auto& f : frames) groups.push_back(f.group);
+  for (const auto& f : frames) {
+    // The scored maps are guided by the image (as `regolith rocks` and the component guide
+    // theirs): a frame without its intensity would be scored on another map, silently.
+    if (f.intensity.empty())
+      throw std::invalid_argument(f.name + ": no intensity image to guide the pixel map (make_labelled_frame sets it)");
+    groups.push_back(f.group);
+  }
   TrainedCvResult r;
   r.fold_of = grouped_folds(groups, folds);
   r.pooled.resize(frames.size());
@@ -1044,7 +1050,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.refine_fraction, dets, scratch);
-      if (!frames[i].intensity.empty()) TrainedModel::guide_map(frames[i].intensity, map, guide);
+      TrainedModel::guide_map(frames[i].intensity, map, guide);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }

@@ -288,7 +288,8 @@ struct TrainedCvResult {
 };
 
 /// k-fold CV grouped by sol (grouped_folds of the frames' groups): each test fold is scored
-/// by a model trained (thresholds included) on the other folds only.
+/// by a model trained (thresholds included) on the other folds only; its pixel map is guided by
+/// the frame's intensity. std::invalid_argument naming the frame when a frame has no intensity.
 TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames, const CandidateParams& cparams,
                                        const TrainParams& tparams, int folds);
 
