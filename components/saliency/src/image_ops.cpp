@@ -503,32 +503,27 @@ void ResizeTable::apply(const cv::Mat& src, cv::Mat& dst, bool clamp_unit) {
   // Along the rows: each output the sum of its taps' products from 0, in tap order. With the same
   // number of taps for every output (a linear table; an area table of a whole-number scale) the
   // count is a constant of the loop, which the compiler unrolls: same sums, less loop overhead.
-  const auto fixed = [&](auto taps) {
+  // kTaps 0: each output's own count, from the table's begin offsets.
+  const auto along_rows = [&](auto taps) {
     constexpr int kTaps = decltype(taps)::value;
     for (int y = 0; y < src_.height; ++y) {
       const float* s = src.ptr<float>(y);
       float* r = rows_.ptr<float>(y);
       for (int d = 0; d < dw; ++d) {
         float acc = 0.f;
-        for (int t = 0; t < kTaps; ++t) acc += xw[d * kTaps + t] * s[xi[d * kTaps + t]];
+        if constexpr (kTaps > 0)
+          for (int t = 0; t < kTaps; ++t) acc += xw[d * kTaps + t] * s[xi[d * kTaps + t]];
+        else
+          for (int k = xb[d]; k < xb[d + 1]; ++k) acc += xw[k] * s[xi[k]];
         r[d] = acc;
       }
     }
   };
   switch (x_taps_) {
-    case 2: fixed(std::integral_constant<int, 2>{}); break;
-    case 3: fixed(std::integral_constant<int, 3>{}); break;
-    case 4: fixed(std::integral_constant<int, 4>{}); break;
-    default:
-      for (int y = 0; y < src_.height; ++y) {
-        const float* s = src.ptr<float>(y);
-        float* r = rows_.ptr<float>(y);
-        for (int d = 0; d < dw; ++d) {
-          float acc = 0.f;
-          for (int k = xb[d]; k < xb[d + 1]; ++k) acc += xw[k] * s[xi[k]];
-          r[d] = acc;
-        }
-      }
+    case 2: along_rows(std::integral_constant<int, 2>{}); break;
+    case 3: along_rows(std::integral_constant<int, 3>{}); break;
+    case 4: along_rows(std::integral_constant<int, 4>{}); break;
+    default: along_rows(std::integral_constant<int, 0>{});
   }
   // Down the columns: the first tap's product, then each further tap's (a zero weight skipped),
   // in that order; a row of one or two taps (every row of a linear table) in one pass.
