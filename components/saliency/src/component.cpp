@@ -272,6 +272,17 @@ class SamsComponent final : public runtime::Component {
          .max = 0.99,
          .doc = "method trained: each kept box shrunk to the strongest part of the saliency map inside it at this "
                 "fraction of its peak; 0 keeps the boxes as selected (default the model's)"});
+    crowd_.count = p.get<int>(
+        "crowd_count", model_.crowd.count,
+        {.min = 0.0,
+         .max = 1000.0,
+         .doc = "method trained: a frame with at least this many boxes at or above score_threshold is a rock field "
+                "and keeps its boxes down to crowd_score_threshold as well; 0 = no such rule (default the model's)"});
+    crowd_.threshold =
+        p.get<double>("crowd_score_threshold", model_.crowd.threshold,
+                      {.min = 0.0,
+                       .max = 1.0,
+                       .doc = "method trained: lowest box score a rock-field frame keeps (default the model's)"});
     const int guide_radius = p.get<int>(
         "map_guide_radius_px", TrainedModel::kMapGuideRadiusPx,
         {.min = 0.0,
@@ -474,7 +485,7 @@ class SamsComponent final : public runtime::Component {
       TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
       roi_runs_.fill_outside(saliency_, 0.f);
       // refined on the map it publishes
-      TrainedModel::boxes(candidates_, scores_, saliency_, score_threshold_, nms_iou_, refine_fraction_, dets_,
+      TrainedModel::boxes(candidates_, scores_, saliency_, score_threshold_, nms_iou_, crowd_, refine_fraction_, dets_,
                           box_scratch_);
       if (guide_) {
         TrainedModel::guide_map(work_gray_, saliency_, *guide_);
@@ -615,6 +626,7 @@ class SamsComponent final : public runtime::Component {
   TrainedModel::BoxScratch box_scratch_;
   std::unique_ptr<GuidedFilter> guide_;  // null: map_guide_radius_px 0
   double score_threshold_ = 0.5, nms_iou_ = 0.3, refine_fraction_ = 0.0;
+  CrowdRule crowd_;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

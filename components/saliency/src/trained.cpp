@@ -125,6 +125,11 @@ void TrainParams::validate() const {
   if (refine_fractions.empty()) throw std::invalid_argument("TrainParams.refine_fractions: empty");
   for (double f : refine_fractions)
     if (!(f >= 0.0 && f < 1.0)) throw std::invalid_argument("TrainParams.refine_fractions: each must be in [0, 1)");
+  if (crowd_counts.empty()) throw std::invalid_argument("TrainParams.crowd_counts: empty (0 alone: no crowd rule)");
+  for (int c : crowd_counts)
+    if (c < 0) throw std::invalid_argument("TrainParams.crowd_counts: each must be >= 0");
+  for (double d : crowd_drops)
+    if (!(d > 0.0 && d < 1.0)) throw std::invalid_argument("TrainParams.crowd_drops: each must be in (0, 1)");
   // cv::RNG is multiply-with-carry: from state 0 it draws 0 for ever (every bootstrap sample
   // the first candidate), and the forest learns nothing
   if (seed == 0) throw std::invalid_argument("TrainParams.seed: must be non-zero (OpenCV's generator stays at 0)");
@@ -661,20 +666,24 @@ std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::
   std::vector<std::uint32_t> order;
   out.reserve(set.candidates.size());
   order.reserve(set.candidates.size());
-  select(set, scores, threshold, nms, out, order);
+  select(set, scores, threshold, nms, CrowdRule{}, out, order);
   return out;
 }
 
 void TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
-                          std::vector<Detection>& out, std::vector<std::uint32_t>& order) {
+                          const CrowdRule& crowd, std::vector<Detection>& out, std::vector<std::uint32_t>& order) {
   out.clear();
   order.resize(set.candidates.size());
   std::iota(order.begin(), order.end(), std::uint32_t{0});
   // Descending score, ties in candidate order (std::sort does not allocate; stable_sort would).
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return scores[a] != scores[b] ? scores[a] > scores[b] : a < b; });
+  // Below the threshold, a crowded image (crowd.count boxes kept above it) goes on to the crowd's.
+  const bool crowd_lower = crowd.on() && crowd.threshold < threshold;
   for (std::uint32_t i : order) {
-    if (scores[i] < threshold) break;
+    if (scores[i] < threshold &&
+        !(crowd_lower && scores[i] >= crowd.threshold && out.size() >= static_cast<std::size_t>(crowd.count)))
+      break;
     const cv::Rect& b = set.candidates[i].box;
     const bool suppressed =
         std::any_of(out.begin(), out.end(), [&](const Detection& d) { return iou(d.box, b) > nms; });
@@ -783,9 +792,9 @@ void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detec
 }
 
 void TrainedModel::boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map,
-                         double threshold, double nms, double refine_fraction, std::vector<Detection>& out,
-                         BoxScratch& scratch) {
-  select(set, scores, threshold, nms, out, scratch.order);
+                         double threshold, double nms, const CrowdRule& crowd, double refine_fraction,
+                         std::vector<Detection>& out, BoxScratch& scratch) {
+  select(set, scores, threshold, nms, crowd, out, scratch.order);
   refine(map, refine_fraction, out, scratch);
 }
 
@@ -795,8 +804,8 @@ std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double thre
   if (refine_fraction > 0.0) score_map(set, s, map);
   std::vector<Detection> out;
   BoxScratch scratch;
-  boxes(set, s, map, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms, refine_fraction, out,
-        scratch);
+  boxes(set, s, map, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms,
+        threshold < 0.0 ? crowd : CrowdRule{}, refine_fraction, out, scratch);
   return out;
 }
 
@@ -824,6 +833,7 @@ void TrainedModel::save(const std::string& path) const {
     fs << "working_width_px" << candidates.working_width_px;
     fs << "}";
     fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou << "box_refine_fraction" << refine_fraction;
+    fs << "crowd_count" << crowd.count << "crowd_threshold" << crowd.threshold;
     fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
        << training_positives;
     fs << "forest"
@@ -883,6 +893,13 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
     if (!(m.refine_fraction >= 0.0 && m.refine_fraction < 1.0))
       throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
+    if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
+      m.crowd.count = static_cast<int>(fs["crowd_count"]);
+      m.crowd.threshold = fs["crowd_threshold"].empty() ? -1.0 : static_cast<double>(fs["crowd_threshold"]);
+      if (m.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
+      if (!(m.crowd.threshold >= 0.0 && m.crowd.threshold <= 1.0))
+        throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
+    }
     m.training_images = static_cast<int>(fs["training_images"]);
     m.training_samples = static_cast<int>(fs["training_samples"]);
     m.training_positives = static_cast<int>(fs["training_positives"]);
@@ -942,6 +959,7 @@ namespace {
 
 struct Choice {
   double threshold = 0.5, nms = 0.3, refine = 0.0;
+  CrowdRule crowd;
 };
 
 // Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS) pair with
@@ -977,19 +995,31 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
   double best_obj = -1e300;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
-  for (double refine : tp.refine_fractions) {
-    for (double nms : tp.nms_ious) {
-      for (double t : tp.score_thresholds) {
-        std::vector<FrameRecord> recs;
-        for (size_t i = 0; i < frames.size(); ++i) {
-          TrainedModel::boxes(frames[i]->set, scores[i], maps[i], t, nms, refine, dets, scratch);
-          recs.push_back(evaluate_frame(frames[i]->name, dets, frames[i]->truth));
-        }
-        const double o = objective(summarise(recs));
-        if (o > best_obj) {
+  const auto score_of = [&](const Choice& c) {
+    std::vector<FrameRecord> recs;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      TrainedModel::boxes(frames[i]->set, scores[i], maps[i], c.threshold, c.nms, c.crowd, c.refine, dets, scratch);
+      recs.push_back(evaluate_frame(frames[i]->name, dets, frames[i]->truth));
+    }
+    return objective(summarise(recs));
+  };
+  for (double refine : tp.refine_fractions)
+    for (double nms : tp.nms_ious)
+      for (double t : tp.score_thresholds)
+        if (const double o = score_of(Choice{t, nms, refine, {}}); o > best_obj) {
           best_obj = o;
-          best = Choice{t, nms, refine};
+          best = Choice{t, nms, refine, {}};
         }
+  // Then the crowd rule with those three (ties: the earlier, so no rule unless it gains).
+  const Choice plain = best;
+  for (int count : tp.crowd_counts) {
+    if (count <= 0) continue;
+    for (double drop : tp.crowd_drops) {
+      Choice c = plain;
+      c.crowd = CrowdRule{count, std::max(0.0, plain.threshold - drop)};
+      if (const double o = score_of(c); o > best_obj) {
+        best_obj = o;
+        best = c;
       }
     }
   }
@@ -1009,6 +1039,7 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
   m.score_threshold = c.threshold;
   m.nms_iou = c.nms;
   m.refine_fraction = c.refine;
+  m.crowd = c.crowd;
   m.forest_ = std::make_shared<TrainedModel::Forest>();
   m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
   m.forest_->flatten();
@@ -1046,10 +1077,12 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
     r.thresholds.push_back(m.score_threshold);
     r.nms_ious.push_back(m.nms_iou);
     r.refine_fractions.push_back(m.refine_fraction);
+    r.crowds.push_back(m.crowd);
     for (size_t i : test) {
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
-      TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.refine_fraction, dets, scratch);
+      TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.crowd, m.refine_fraction, dets,
+                          scratch);
       TrainedModel::guide_map(frames[i].intensity, map, guide);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);

@@ -86,7 +86,21 @@ struct TrainParams {
   std::vector<double> nms_ious{0.2, 0.3, 0.5};
   /// TrainedModel::refine_fraction candidates (0: boxes as selected), chosen with the thresholds.
   std::vector<double> refine_fractions{0.0, 0.3};
+  /// TrainedModel::crowd candidates, chosen after the three above on the same inner CV: counts
+  /// (0: no crowd rule) and how far below the score threshold a crowded image's boxes may score.
+  std::vector<int> crowd_counts{0, 6, 8, 10, 12};
+  std::vector<double> crowd_drops{0.05, 0.10, 0.15};
   void validate() const;
+};
+
+/// A crowded image's lower bar: an image in which at least `count` boxes reach the score
+/// threshold (after NMS) is a rock field, where a candidate is more likely a rock than the same
+/// score says over all images; its boxes down to `threshold` are kept as well (NMS against all
+/// kept). count 0: no such rule.
+struct CrowdRule {
+  int count = 0;
+  double threshold = 1.0;
+  bool on() const { return count > 0; }
 };
 
 /// One candidate box with its features.
@@ -181,6 +195,9 @@ class TrainedModel {
   /// fraction of the map's peak there; 0 keeps the boxes as selected (models written before
   /// 2026-12-06 have no such key and read 0).
   double refine_fraction = 0.0;
+  /// The crowded image's lower bar (select(); models written before 2026-12-07 have no such keys
+  /// and read off).
+  CrowdRule crowd;
   int training_images = 0, training_samples = 0, training_positives = 0;
 
   bool trained() const;
@@ -193,15 +210,17 @@ class TrainedModel {
   /// The same scores by cv::ml::RTrees::predict (allocates): the reference the tests hold score() to.
   std::vector<float> score_by_opencv(const CandidateSet& set) const;
   /// Scored boxes after NMS and the threshold, best first, refined on the pixel map with the
-  /// model's refine_fraction (refine()). `threshold` / `nms` < 0: the model's.
+  /// model's refine_fraction (refine()). `threshold` / `nms` < 0: the model's; the model's crowd
+  /// rule applies with the model's threshold only.
   std::vector<Detection> detect(const CandidateSet& set, double threshold = -1.0, double nms = -1.0) const;
-  /// Same, from precomputed scores.
+  /// Same, from precomputed scores (no crowd rule).
   static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
                                        double nms);
-  /// The same into `out`, with `order` as scratch (no allocation within their capacities). Ties
-  /// in score keep the candidates' order.
+  /// The same into `out`, with `order` as scratch (no allocation within their capacities), and
+  /// the crowd rule: once `crowd.count` boxes are kept, candidates down to `crowd.threshold` are
+  /// taken too. Ties in score keep the candidates' order.
   static void select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
-                     std::vector<Detection>& out, std::vector<std::uint32_t>& order);
+                     const CrowdRule& crowd, std::vector<Detection>& out, std::vector<std::uint32_t>& order);
   /// Pixel score map (CV_32F [0,1]): at each pixel, the mean over the sources of the score of the
   /// candidate whose blob in that source covers the pixel (0 where none does), each blob filled to
   /// the pixels between its first and last pixel along both their row and their column in the
@@ -240,10 +259,11 @@ class TrainedModel {
   /// Boxes only shrink; scores, order and areas stay. `fraction` <= 0 or a box whose map is 0
   /// changes nothing.
   static void refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch);
-  /// The boxes every user of a model reports: select() at `threshold` and `nms`, then refine() on
-  /// `map` at `refine_fraction` (`map` is not read when that is 0).
+  /// The boxes every user of a model reports: select() at `threshold`, `nms` and `crowd`, then
+  /// refine() on `map` at `refine_fraction` (`map` is not read when that is 0).
   static void boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map, double threshold,
-                    double nms, double refine_fraction, std::vector<Detection>& out, BoxScratch& scratch);
+                    double nms, const CrowdRule& crowd, double refine_fraction, std::vector<Detection>& out,
+                    BoxScratch& scratch);
 
   /// Writes the YAML file; throws ModelError naming the file.
   void save(const std::string& path) const;
@@ -285,6 +305,7 @@ struct TrainedCvResult {
   std::vector<int> fold_of;
   std::vector<Summary> fold_summaries;
   std::vector<double> thresholds, nms_ious, refine_fractions;  ///< chosen per fold
+  std::vector<CrowdRule> crowds;                               ///< chosen per fold
 };
 
 /// k-fold CV grouped by sol (grouped_folds of the frames' groups): each test fold is scored
