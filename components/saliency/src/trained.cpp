@@ -962,8 +962,9 @@ struct Choice {
   CrowdRule crowd;
 };
 
-// Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS) pair with
-// the best mean of N-MODA@0.2 and @0.5 over them (ties: the first in grid order).
+// Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS, refinement)
+// with the best mean of N-MODA@0.2 and @0.5 over them (ties: the first in grid order), then the
+// crowd rule for those (only when it beats them).
 Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp) {
   std::vector<std::string> groups;
   for (const auto* f : frames) groups.push_back(f->group);

@@ -17,8 +17,9 @@
 //  3. a random forest (cv::ml::RTrees, regression on the soft label min(1, IoU / 0.5) with the
 //     best-matching non-ignored ground-truth component; fixed RNG, no randomness elsewhere)
 //     whose mean tree output is the box score in [0,1];
-//  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold; both chosen on
-//     out-of-fold predictions of an inner grouped CV over the training images only.
+//  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold, lower in an image
+//     with many sure boxes (CrowdRule); all chosen on out-of-fold predictions of an inner
+//     grouped CV over the training images only.
 // The model file (cv::FileStorage YAML; gzip-compressed when the name ends in .gz) starts with a format name and
 // version; loading a missing, corrupt or other-version file throws ModelError naming the file.
 #include <array>
