@@ -389,7 +389,10 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   std::vector<const rs::LabelledFrame*> ptrs;
   for (const auto& f : frames) ptrs.push_back(&f);
   const std::string good = (dir / "good.yml").string();
-  rs::train_model(ptrs, {}, small_forest()).save(good);
+  rs::TrainedModel trained = rs::train_model(ptrs, {}, small_forest());
+  trained.crowd = rs::CrowdRule{5, 0.3};  // a rule to read back (and to lose with its keys below)
+  trained.save(good);
+  EXPECT_EQ(rs::TrainedModel::load(good).crowd.count, 5);
   std::string text = read_all(good);
   const std::string v2 = (dir / "v2.yml").string();
   std::string t2 = text;
@@ -401,29 +404,30 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string trunc = (dir / "truncated.yml").string();
   std::ofstream(trunc) << text.substr(0, text.size() / 2);
   expect_error(trunc, "corrupt");
+  // `yaml` with the line of key `key` replaced by `line` (removed when empty).
+  const auto with_key = [](const std::string& yaml, const std::string& key, const std::string& line) {
+    const std::size_t at = yaml.find(key + ": ");
+    if (at == std::string::npos) {
+      ADD_FAILURE() << "no key " << key << " in the model file";
+      return yaml;
+    }
+    const std::size_t eol = yaml.find('\n', at);
+    return yaml.substr(0, at) + (line.empty() ? "" : line + "\n") + yaml.substr(eol + 1);
+  };
   // The box refinement's key: out of range is refused; a model written before it existed (no
   // key) keeps its boxes as selected.
-  const std::size_t key = text.find("box_refine_fraction: ");
-  ASSERT_NE(key, std::string::npos);
-  const std::size_t eol = text.find('\n', key);
   const std::string refine_bad = (dir / "refine_bad.yml").string();
-  std::ofstream(refine_bad) << text.substr(0, key) + "box_refine_fraction: 1.5" + text.substr(eol);
+  std::ofstream(refine_bad) << with_key(text, "box_refine_fraction", "box_refine_fraction: 1.5");
   expect_error(refine_bad, "box_refine_fraction must be in [0, 1)");
   const std::string older = (dir / "older.yml").string();
-  std::ofstream(older) << text.substr(0, key) + text.substr(eol + 1);
+  std::ofstream(older) << with_key(text, "box_refine_fraction", "");
   EXPECT_EQ(rs::TrainedModel::load(older).refine_fraction, 0.0);
   // The crowd rule's keys: likewise (a model written before them has no rule).
-  const std::size_t ckey = text.find("crowd_count: ");
-  ASSERT_NE(ckey, std::string::npos);
-  const std::size_t tkey = text.find("crowd_threshold: ");
-  ASSERT_NE(tkey, std::string::npos);
-  const std::size_t teol = text.find('\n', tkey);
   const std::string crowd_bad = (dir / "crowd_bad.yml").string();
-  std::ofstream(crowd_bad) << text.substr(0, tkey) + "crowd_threshold: -0.5" + text.substr(teol);
+  std::ofstream(crowd_bad) << with_key(text, "crowd_threshold", "crowd_threshold: -0.5");
   expect_error(crowd_bad, "crowd_threshold must be in [0, 1]");
   const std::string no_crowd = (dir / "no_crowd.yml").string();
-  std::ofstream(no_crowd) << text.substr(0, std::min(ckey, tkey)) +
-                                 text.substr(text.find('\n', std::max(ckey, tkey)) + 1);
+  std::ofstream(no_crowd) << with_key(with_key(text, "crowd_count", ""), "crowd_threshold", "");
   EXPECT_FALSE(rs::TrainedModel::load(no_crowd).crowd.on());
 }
 
