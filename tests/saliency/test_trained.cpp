@@ -426,6 +426,9 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string crowd_bad = (dir / "crowd_bad.yml").string();
   std::ofstream(crowd_bad) << with_key(text, "crowd_threshold", "crowd_threshold: -0.5");
   expect_error(crowd_bad, "crowd_threshold must be in [0, 1]");
+  const std::string half_crowd = (dir / "half_crowd.yml").string();
+  std::ofstream(half_crowd) << with_key(text, "crowd_threshold", "");
+  expect_error(half_crowd, "crowd_count without crowd_threshold");
   const std::string no_crowd = (dir / "no_crowd.yml").string();
   std::ofstream(no_crowd) << with_key(with_key(text, "crowd_count", ""), "crowd_threshold", "");
   EXPECT_FALSE(rs::TrainedModel::load(no_crowd).crowd.on());

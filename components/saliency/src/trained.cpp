@@ -895,7 +895,9 @@ TrainedModel TrainedModel::load(const std::string& path) {
       throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
     if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
       m.crowd.count = static_cast<int>(fs["crowd_count"]);
-      m.crowd.threshold = fs["crowd_threshold"].empty() ? -1.0 : static_cast<double>(fs["crowd_threshold"]);
+      if (fs["crowd_threshold"].empty())
+        throw ModelError(path + ": rock model: crowd_count without crowd_threshold (both or neither)");
+      m.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
       if (m.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
       if (!(m.crowd.threshold >= 0.0 && m.crowd.threshold <= 1.0))
         throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
