@@ -50,13 +50,18 @@ namespace {
 namespace fs = std::filesystem;
 namespace sal = regolith::saliency;
 
-// "off", or "<count>: <threshold>" (a fold table's crowd rule).
-std::string crowd_text(const sal::CrowdRule& c) {
-  if (!c.on()) return "off";
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%d: %.2f", c.count, c.threshold);
+// A model's box parameters as "<score threshold>, <NMS IoU>, <box refinement>, <crowd rule>",
+// the crowd rule "off" or "<count>: <threshold>" (the training message, the CV's fold table).
+std::string box_text(const sal::BoxParams& b) {
+  char buf[96];
+  if (b.crowd.on())
+    std::snprintf(buf, sizeof buf, "%.2f, %.2f, %.2f, %d: %.2f", b.score_threshold, b.nms_iou, b.refine_fraction,
+                  b.crowd.count, b.crowd.threshold);
+  else
+    std::snprintf(buf, sizeof buf, "%.2f, %.2f, %.2f, off", b.score_threshold, b.nms_iou, b.refine_fraction);
   return buf;
 }
+constexpr const char* kBoxTextFields = "score threshold, NMS IoU, box refinement, crowd rule (boxes: threshold)";
 
 // Default SAMS weights, contrast parameters and post-processing (see
 // components/saliency/README.md for the cross-validation that chose them).
@@ -336,9 +341,9 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
     if (m.trained) {
       m.extractor->extract(img, d.cand_set);
       const std::vector<float> scores = m.model->score(d.cand_set);
-      if (want_map || m.model->refine_fraction > 0.0) sal::TrainedModel::score_map(d.cand_set, scores, d.map, d.spans);
-      sal::TrainedModel::boxes(d.cand_set, scores, d.map, m.model->score_threshold, m.model->nms_iou, m.model->crowd,
-                               m.model->refine_fraction, d.dets, d.box_scratch);
+      if (want_map || m.model->box.refine_fraction > 0.0)
+        sal::TrainedModel::score_map(d.cand_set, scores, d.map, d.spans);
+      sal::TrainedModel::boxes(d.cand_set, scores, d.map, m.model->box, d.dets, d.box_scratch);
       if (want_map) {
         sal::to_unit_float(img, d.unit);
         sal::intensity_of(d.unit, d.intensity);
@@ -539,9 +544,8 @@ void run_train(const std::string& images, const std::string& masks, const std::s
     throw InputError(ex.what());
   }
   std::cerr << "train rocks: " << m.training_images << " image(s), " << m.training_samples << " candidates ("
-            << m.training_positives << " positive), score threshold " << m.score_threshold << ", NMS IoU " << m.nms_iou
-            << ", box refinement " << m.refine_fraction << ", crowd rule (boxes: threshold) " << crowd_text(m.crowd)
-            << " -> " << out << '\n';
+            << m.training_positives << " positive); " << kBoxTextFields << ": " << box_text(m.box) << " -> " << out
+            << '\n';
   if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }
 
@@ -607,8 +611,8 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
      << frames.size() << " (" << failed << " skipped), GT components >= " << e.min_gt_area << " px.\n\n"
      << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)}, {"trained", sal::summarise(r.pooled)}})
      << "\n| test fold | images | GT | contrast N-MODA@0.2 / @0.5 / max F | "
-        "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen score "
-        "threshold, NMS IoU, box refinement, crowd rule (boxes: threshold) |\n|---:|---:|---:|---|---|---:|---|\n";
+        "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen "
+     << kBoxTextFields << " |\n|---:|---:|---:|---|---|---:|---|\n";
   for (int f = 0; f < e.folds; ++f) {
     std::vector<size_t> idx;
     for (size_t i = 0; i < frames.size(); ++i)
@@ -618,10 +622,9 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "| %d | %d | %d | %.3f / %.3f / %.3f | %.3f / %.3f / %.3f | "
-                  "%d | %.2f, %.2f, %.2f, %s |\n",
+                  "%d | %s |\n",
                   f + 1, t.images, t.gt, c.n_moda02, c.n_moda05, c.max_f, t.n_moda02, t.n_moda05, t.max_f, t.boxes,
-                  r.thresholds[static_cast<size_t>(f)], r.nms_ious[static_cast<size_t>(f)],
-                  r.refine_fractions[static_cast<size_t>(f)], crowd_text(r.crowds[static_cast<size_t>(f)]).c_str());
+                  box_text(r.box_params[static_cast<size_t>(f)]).c_str());
     md << buf;
   }
   // Per subset, when the dataset has a manifest.csv (image,...,subset,...) beside the image

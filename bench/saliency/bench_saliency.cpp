@@ -159,8 +159,7 @@ void trained(benchmark::State& st, bool grey) {
   rs::CandidateSet set;
   for (auto _ : st) {
     extractor.extract(img, set);
-    const std::vector<rs::Detection> out =
-        rs::TrainedModel::select(set, model.score(set), model.score_threshold, model.nms_iou);
+    const std::vector<rs::Detection> out = rs::TrainedModel::select(set, model.score(set), model.box);
     benchmark::DoNotOptimize(out.data());
   }
   record(st);
@@ -187,7 +186,7 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   rs::CandidateSet set;
   extractor.extract(img, set);
   const std::vector<float> scores = model.score(set);
-  const std::vector<rs::Detection> kept = rs::TrainedModel::select(set, scores, model.score_threshold, model.nms_iou);
+  const std::vector<rs::Detection> kept = rs::TrainedModel::select(set, scores, model.box);
   std::vector<rs::Detection> dets = kept;
   cv::Mat map;
   std::vector<int> spans;
@@ -199,7 +198,7 @@ void BM_TrainedScoreMap(benchmark::State& st) {
     rs::TrainedModel::score_map(set, scores, map, spans);
     if (refine) {
       std::copy(kept.begin(), kept.end(), dets.begin());
-      rs::TrainedModel::refine(map, model.refine_fraction, dets, scratch);
+      rs::TrainedModel::refine(map, model.box.refine_fraction, dets, scratch);
     }
     if (guided) rs::TrainedModel::guide_map(grey, map, guide);
     benchmark::DoNotOptimize(map.data);

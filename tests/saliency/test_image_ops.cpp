@@ -515,8 +515,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       ex.extract(gray, set);
       model.score(set, scores);
       rs::TrainedModel::score_map(set, scores, map, spans);
-      rs::TrainedModel::boxes(set, scores, map, model.score_threshold, model.nms_iou, model.crowd,
-                              model.refine_fraction, dets, box_scratch);
+      rs::TrainedModel::boxes(set, scores, map, model.box, dets, box_scratch);
       rs::TrainedModel::guide_map(gray, map, guide);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};

@@ -324,9 +324,7 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   m1.save(gz);
   const rs::TrainedModel l = rs::TrainedModel::load(a), lz = rs::TrainedModel::load(gz);
   EXPECT_EQ(l.candidates, m1.candidates);
-  EXPECT_EQ(l.score_threshold, m1.score_threshold);
-  EXPECT_EQ(l.nms_iou, m1.nms_iou);
-  EXPECT_EQ(l.refine_fraction, m1.refine_fraction);
+  EXPECT_EQ(l.box, m1.box);
   EXPECT_EQ(l.score(frames[0].set), m1.score(frames[0].set));
   EXPECT_EQ(lz.score(frames[1].set), m1.score(frames[1].set));
   // On its own training scenes the model finds most discs (a sanity check, not an accuracy claim).
@@ -339,9 +337,9 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   EXPECT_GT(matched, gt / 2) << matched << " of " << gt;
   // detect() is select() on the scores, then refine() on the pixel map at the model's fraction.
   rs::TrainedModel refining = l;
-  refining.refine_fraction = 0.5;
+  refining.box.refine_fraction = 0.5;
   const std::vector<float> sc = refining.score(frames[2].set);
-  std::vector<rs::Detection> want = rs::TrainedModel::select(frames[2].set, sc, l.score_threshold, l.nms_iou);
+  std::vector<rs::Detection> want = rs::TrainedModel::select(frames[2].set, sc, l.box);
   cv::Mat map;
   rs::TrainedModel::BoxScratch scratch;
   rs::TrainedModel::score_map(frames[2].set, sc, map);
@@ -390,9 +388,9 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   for (const auto& f : frames) ptrs.push_back(&f);
   const std::string good = (dir / "good.yml").string();
   rs::TrainedModel trained = rs::train_model(ptrs, {}, small_forest());
-  trained.crowd = rs::CrowdRule{5, 0.3};  // a rule to read back (and to lose with its keys below)
+  trained.box.crowd = rs::CrowdRule{5, 0.3};  // a rule to read back (and to lose with its keys below)
   trained.save(good);
-  EXPECT_EQ(rs::TrainedModel::load(good).crowd.count, 5);
+  EXPECT_EQ(rs::TrainedModel::load(good).box.crowd, (rs::CrowdRule{5, 0.3}));
   std::string text = read_all(good);
   const std::string v2 = (dir / "v2.yml").string();
   std::string t2 = text;
@@ -421,7 +419,7 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   expect_error(refine_bad, "box_refine_fraction must be in [0, 1)");
   const std::string older = (dir / "older.yml").string();
   std::ofstream(older) << with_key(text, "box_refine_fraction", "");
-  EXPECT_EQ(rs::TrainedModel::load(older).refine_fraction, 0.0);
+  EXPECT_EQ(rs::TrainedModel::load(older).box.refine_fraction, 0.0);
   // The crowd rule's keys: likewise (a model written before them has no rule).
   const std::string crowd_bad = (dir / "crowd_bad.yml").string();
   std::ofstream(crowd_bad) << with_key(text, "crowd_threshold", "crowd_threshold: -0.5");
@@ -431,7 +429,7 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   expect_error(half_crowd, "crowd_count without crowd_threshold");
   const std::string no_crowd = (dir / "no_crowd.yml").string();
   std::ofstream(no_crowd) << with_key(with_key(text, "crowd_count", ""), "crowd_threshold", "");
-  EXPECT_FALSE(rs::TrainedModel::load(no_crowd).crowd.on());
+  EXPECT_FALSE(rs::TrainedModel::load(no_crowd).box.crowd.on());
 }
 
 TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {
@@ -445,7 +443,7 @@ TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {
   std::vector<rs::Detection> out;
   std::vector<std::uint32_t> order;
   const auto kept = [&](rs::CrowdRule crowd) {
-    rs::TrainedModel::select(set, scores, 0.65, 0.3, crowd, out, order);
+    rs::TrainedModel::select(set, scores, rs::BoxParams{0.65, 0.3, 0.0, crowd}, out, order);
     std::vector<float> s;
     for (const auto& d : out) s.push_back(static_cast<float>(d.score));
     return s;
@@ -458,8 +456,8 @@ TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {
   EXPECT_EQ(kept({4, 0.45}), (std::vector<float>{0.9f, 0.8f, 0.7f}));
   // A crowd threshold above the threshold never removes a box.
   EXPECT_EQ(kept({1, 0.85}), (std::vector<float>{0.9f, 0.8f, 0.7f}));
-  // The convenience overload has no crowd rule.
-  EXPECT_EQ(rs::TrainedModel::select(set, scores, 0.65, 0.3).size(), 3u);
+  // The returning overload is the same selection.
+  EXPECT_EQ(rs::TrainedModel::select(set, scores, rs::BoxParams{0.65, 0.3, 0.0, {3, 0.45}}).size(), 5u);
 }
 
 TEST(Trained, RefineShrinksABoxToTheStrongestPartOfTheMapInsideIt) {

@@ -257,29 +257,31 @@ class SamsComponent final : public runtime::Component {
     } catch (const ModelError& e) {
       p.fail("model", e.what());
     }
-    score_threshold_ =
-        p.get<double>("score_threshold", model_.score_threshold,
+    // The model's BoxParams, each overridable here.
+    BoxParams& box = model_.box;
+    box.score_threshold =
+        p.get<double>("score_threshold", box.score_threshold,
                       {.min = 0.0, .max = 1.0, .doc = "method trained: lowest box score kept (default the model's)"});
-    nms_iou_ = p.get<double>("nms_iou", model_.nms_iou,
-                             {.min = 0.0,
-                              .max = 1.0,
-                              .min_exclusive = true,
-                              .doc = "method trained: a box overlapping a better one by more than this IoU is "
-                                     "dropped (default the model's)"});
-    refine_fraction_ = p.get<double>(
-        "box_refine_fraction", model_.refine_fraction,
+    box.nms_iou = p.get<double>("nms_iou", box.nms_iou,
+                                {.min = 0.0,
+                                 .max = 1.0,
+                                 .min_exclusive = true,
+                                 .doc = "method trained: a box overlapping a better one by more than this IoU is "
+                                        "dropped (default the model's)"});
+    box.refine_fraction = p.get<double>(
+        "box_refine_fraction", box.refine_fraction,
         {.min = 0.0,
          .max = 0.99,
          .doc = "method trained: each kept box shrunk to the strongest part of the saliency map inside it at this "
                 "fraction of its peak; 0 keeps the boxes as selected (default the model's)"});
-    crowd_.count = p.get<int>(
-        "crowd_count", model_.crowd.count,
+    box.crowd.count = p.get<int>(
+        "crowd_count", box.crowd.count,
         {.min = 0.0,
          .max = 1000.0,
          .doc = "method trained: a frame with at least this many boxes at or above score_threshold is a rock field "
                 "and keeps its boxes down to crowd_score_threshold as well; 0 = no such rule (default the model's)"});
-    crowd_.threshold =
-        p.get<double>("crowd_score_threshold", model_.crowd.threshold,
+    box.crowd.threshold =
+        p.get<double>("crowd_score_threshold", box.crowd.threshold,
                       {.min = 0.0,
                        .max = 1.0,
                        .doc = "method trained: lowest box score a rock-field frame keeps (default the model's)"});
@@ -485,8 +487,7 @@ class SamsComponent final : public runtime::Component {
       TrainedModel::score_map(candidates_, scores_, saliency_, score_spans_);
       roi_runs_.fill_outside(saliency_, 0.f);
       // refined on the map it publishes
-      TrainedModel::boxes(candidates_, scores_, saliency_, score_threshold_, nms_iou_, crowd_, refine_fraction_, dets_,
-                          box_scratch_);
+      TrainedModel::boxes(candidates_, scores_, saliency_, model_.box, dets_, box_scratch_);
       if (guide_) {
         TrainedModel::guide_map(work_gray_, saliency_, *guide_);
         roi_runs_.fill_outside(saliency_, 0.f);
@@ -618,15 +619,13 @@ class SamsComponent final : public runtime::Component {
   bool trained_ = false;
   int max_detections_ = 32;
   // method trained
-  TrainedModel model_;
+  TrainedModel model_;  // its BoxParams as the parameters set them
   std::unique_ptr<CandidateExtractor> extractor_;
   CandidateSet candidates_;
   std::vector<float> scores_;
   std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
   TrainedModel::BoxScratch box_scratch_;
   std::unique_ptr<GuidedFilter> guide_;  // null: map_guide_radius_px 0
-  double score_threshold_ = 0.5, nms_iou_ = 0.3, refine_fraction_ = 0.0;
-  CrowdRule crowd_;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

@@ -660,18 +660,20 @@ std::vector<float> TrainedModel::score_by_opencv(const CandidateSet& set) const 
   return out;
 }
 
-std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
-                                            double nms) {
+std::vector<Detection> TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores,
+                                            const BoxParams& p) {
   std::vector<Detection> out;
   std::vector<std::uint32_t> order;
   out.reserve(set.candidates.size());
   order.reserve(set.candidates.size());
-  select(set, scores, threshold, nms, CrowdRule{}, out, order);
+  select(set, scores, p, out, order);
   return out;
 }
 
-void TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
-                          const CrowdRule& crowd, std::vector<Detection>& out, std::vector<std::uint32_t>& order) {
+void TrainedModel::select(const CandidateSet& set, const std::vector<float>& scores, const BoxParams& p,
+                          std::vector<Detection>& out, std::vector<std::uint32_t>& order) {
+  const double threshold = p.score_threshold;
+  const CrowdRule& crowd = p.crowd;
   out.clear();
   order.resize(set.candidates.size());
   std::iota(order.begin(), order.end(), std::uint32_t{0});
@@ -686,7 +688,7 @@ void TrainedModel::select(const CandidateSet& set, const std::vector<float>& sco
       break;
     const cv::Rect& b = set.candidates[i].box;
     const bool suppressed =
-        std::any_of(out.begin(), out.end(), [&](const Detection& d) { return iou(d.box, b) > nms; });
+        std::any_of(out.begin(), out.end(), [&](const Detection& d) { return iou(d.box, b) > p.nms_iou; });
     if (suppressed) continue;
     out.push_back(Detection{b, scores[i], set.candidates[i].area});
   }
@@ -792,20 +794,18 @@ void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detec
 }
 
 void TrainedModel::boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map,
-                         double threshold, double nms, const CrowdRule& crowd, double refine_fraction,
-                         std::vector<Detection>& out, BoxScratch& scratch) {
-  select(set, scores, threshold, nms, crowd, out, scratch.order);
-  refine(map, refine_fraction, out, scratch);
+                         const BoxParams& p, std::vector<Detection>& out, BoxScratch& scratch) {
+  select(set, scores, p, out, scratch.order);
+  refine(map, p.refine_fraction, out, scratch);
 }
 
-std::vector<Detection> TrainedModel::detect(const CandidateSet& set, double threshold, double nms) const {
+std::vector<Detection> TrainedModel::detect(const CandidateSet& set) const {
   const std::vector<float> s = score(set);
   cv::Mat map;
-  if (refine_fraction > 0.0) score_map(set, s, map);
+  if (box.refine_fraction > 0.0) score_map(set, s, map);
   std::vector<Detection> out;
   BoxScratch scratch;
-  boxes(set, s, map, threshold < 0.0 ? score_threshold : threshold, nms < 0.0 ? nms_iou : nms,
-        threshold < 0.0 ? crowd : CrowdRule{}, refine_fraction, out, scratch);
+  boxes(set, s, map, box, out, scratch);
   return out;
 }
 
@@ -832,8 +832,9 @@ void TrainedModel::save(const std::string& path) const {
        << candidates.close_radius;
     fs << "working_width_px" << candidates.working_width_px;
     fs << "}";
-    fs << "score_threshold" << score_threshold << "nms_iou" << nms_iou << "box_refine_fraction" << refine_fraction;
-    fs << "crowd_count" << crowd.count << "crowd_threshold" << crowd.threshold;
+    fs << "score_threshold" << box.score_threshold << "nms_iou" << box.nms_iou << "box_refine_fraction"
+       << box.refine_fraction;
+    fs << "crowd_count" << box.crowd.count << "crowd_threshold" << box.crowd.threshold;
     fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
        << training_positives;
     fs << "forest"
@@ -885,21 +886,22 @@ TrainedModel TrainedModel::load(const std::string& path) {
     } catch (const std::invalid_argument& e) {
       throw ModelError(path + ": rock model: " + e.what());
     }
-    m.score_threshold = static_cast<double>(fs["score_threshold"]);
-    m.nms_iou = static_cast<double>(fs["nms_iou"]);
-    if (!(m.score_threshold >= 0.0 && m.score_threshold <= 1.0) || !(m.nms_iou > 0.0 && m.nms_iou <= 1.0))
+    BoxParams& b = m.box;
+    b.score_threshold = static_cast<double>(fs["score_threshold"]);
+    b.nms_iou = static_cast<double>(fs["nms_iou"]);
+    if (!(b.score_threshold >= 0.0 && b.score_threshold <= 1.0) || !(b.nms_iou > 0.0 && b.nms_iou <= 1.0))
       throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
     // absent in models written before 2026-12-06: the boxes as selected
-    m.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
-    if (!(m.refine_fraction >= 0.0 && m.refine_fraction < 1.0))
+    b.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
+    if (!(b.refine_fraction >= 0.0 && b.refine_fraction < 1.0))
       throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
     if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
-      m.crowd.count = static_cast<int>(fs["crowd_count"]);
+      b.crowd.count = static_cast<int>(fs["crowd_count"]);
       if (fs["crowd_threshold"].empty())
         throw ModelError(path + ": rock model: crowd_count without crowd_threshold (both or neither)");
-      m.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
-      if (m.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
-      if (!(m.crowd.threshold >= 0.0 && m.crowd.threshold <= 1.0))
+      b.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
+      if (b.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
+      if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0))
         throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
     }
     m.training_images = static_cast<int>(fs["training_images"]);
@@ -959,15 +961,10 @@ LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& e
 
 namespace {
 
-struct Choice {
-  double threshold = 0.5, nms = 0.3, refine = 0.0;
-  CrowdRule crowd;
-};
-
 // Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS, refinement)
 // with the best mean of N-MODA@0.2 and @0.5 over them (ties: the first in grid order), then the
 // crowd rule for those (only when it beats them).
-Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp) {
+BoxParams choose_box_params(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp) {
   std::vector<std::string> groups;
   for (const auto* f : frames) groups.push_back(f->group);
   std::vector<std::string> distinct = groups;
@@ -989,19 +986,19 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
         if (fold[i] == f) inner.score(frames[i]->set, scores[i]);
     }
   } else {
-    return Choice{};
+    return BoxParams{};
   }
   std::vector<cv::Mat> maps(frames.size());  // the pixel maps the refinement reads
   if (std::any_of(tp.refine_fractions.begin(), tp.refine_fractions.end(), [](double f) { return f > 0.0; }))
     for (size_t i = 0; i < frames.size(); ++i) TrainedModel::score_map(frames[i]->set, scores[i], maps[i]);
-  Choice best;
+  BoxParams best;
   double best_obj = -1e300;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
-  const auto score_of = [&](const Choice& c) {
+  const auto score_of = [&](const BoxParams& c) {
     std::vector<FrameRecord> recs;
     for (size_t i = 0; i < frames.size(); ++i) {
-      TrainedModel::boxes(frames[i]->set, scores[i], maps[i], c.threshold, c.nms, c.crowd, c.refine, dets, scratch);
+      TrainedModel::boxes(frames[i]->set, scores[i], maps[i], c, dets, scratch);
       recs.push_back(evaluate_frame(frames[i]->name, dets, frames[i]->truth));
     }
     return objective(summarise(recs));
@@ -1009,17 +1006,17 @@ Choice choose_thresholds(const std::vector<const LabelledFrame*>& frames, const 
   for (double refine : tp.refine_fractions)
     for (double nms : tp.nms_ious)
       for (double t : tp.score_thresholds)
-        if (const double o = score_of(Choice{t, nms, refine, {}}); o > best_obj) {
+        if (const double o = score_of(BoxParams{t, nms, refine, {}}); o > best_obj) {
           best_obj = o;
-          best = Choice{t, nms, refine, {}};
+          best = BoxParams{t, nms, refine, {}};
         }
   // Then the crowd rule with those three (ties: the earlier, so no rule unless it gains).
-  const Choice plain = best;
+  const BoxParams plain = best;
   for (int count : tp.crowd_counts) {
     if (count <= 0) continue;
     for (double drop : tp.crowd_drops) {
-      Choice c = plain;
-      c.crowd = CrowdRule{count, std::max(0.0, plain.threshold - drop)};
+      BoxParams c = plain;
+      c.crowd = CrowdRule{count, std::max(0.0, plain.score_threshold - drop)};
       if (const double o = score_of(c); o > best_obj) {
         best_obj = o;
         best = c;
@@ -1038,11 +1035,7 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
   if (frames.empty()) throw std::invalid_argument("train rocks: no training images");
   TrainedModel m;
   m.candidates = cparams;
-  const Choice c = choose_thresholds(frames, tparams);
-  m.score_threshold = c.threshold;
-  m.nms_iou = c.nms;
-  m.refine_fraction = c.refine;
-  m.crowd = c.crowd;
+  m.box = choose_box_params(frames, tparams);
   m.forest_ = std::make_shared<TrainedModel::Forest>();
   m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
   m.forest_->flatten();
@@ -1077,15 +1070,11 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
         train.push_back(&frames[i]);
     }
     const TrainedModel m = train_model(train, cparams, tparams);
-    r.thresholds.push_back(m.score_threshold);
-    r.nms_ious.push_back(m.nms_iou);
-    r.refine_fractions.push_back(m.refine_fraction);
-    r.crowds.push_back(m.crowd);
+    r.box_params.push_back(m.box);
     for (size_t i : test) {
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
-      TrainedModel::boxes(frames[i].set, s, map, m.score_threshold, m.nms_iou, m.crowd, m.refine_fraction, dets,
-                          scratch);
+      TrainedModel::boxes(frames[i].set, s, map, m.box, dets, scratch);
       TrainedModel::guide_map(frames[i].intensity, map, guide);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);

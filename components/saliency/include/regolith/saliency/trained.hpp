@@ -18,8 +18,8 @@
 //     best-matching non-ignored ground-truth component; fixed RNG, no randomness elsewhere)
 //     whose mean tree output is the box score in [0,1];
 //  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold, lower in an image
-//     with many sure boxes (CrowdRule); all chosen on out-of-fold predictions of an inner
-//     grouped CV over the training images only.
+//     with many sure boxes (CrowdRule), then the boxes refined on the pixel map (BoxParams); all
+//     chosen on out-of-fold predictions of an inner grouped CV over the training images only.
 // The model file (cv::FileStorage YAML; gzip-compressed when the name ends in .gz) starts with a format name and
 // version; loading a missing, corrupt or other-version file throws ModelError naming the file.
 #include <array>
@@ -102,6 +102,20 @@ struct CrowdRule {
   int count = 0;
   double threshold = 1.0;
   bool on() const { return count > 0; }
+  bool operator==(const CrowdRule&) const = default;
+};
+
+/// How a model's scored candidates become its boxes (TrainedModel::boxes()): chosen together by
+/// the inner grouped CV of train_model(), stored in the model file, and overridable per
+/// deployment (the `sams` component's parameters of the same names).
+struct BoxParams {
+  double score_threshold = 0.5;  ///< a box scores at least this (a crowded image: crowd.threshold)
+  double nms_iou = 0.3;          ///< greedy NMS: a box overlapping a kept one by IoU above this is dropped
+  /// refine(): each kept box shrunk to the strongest part of the pixel map inside it at this
+  /// fraction of the map's peak there; 0 keeps the boxes as selected.
+  double refine_fraction = 0.0;
+  CrowdRule crowd;  ///< the crowded image's lower bar (off: none)
+  bool operator==(const BoxParams&) const = default;
 };
 
 /// One candidate box with its features.
@@ -190,15 +204,9 @@ class TrainedModel {
   TrainedModel& operator=(const TrainedModel&);
 
   CandidateParams candidates;
-  double score_threshold = 0.5;
-  double nms_iou = 0.3;
-  /// refine(): each kept box shrunk to the strongest part of the pixel map inside it at this
-  /// fraction of the map's peak there; 0 keeps the boxes as selected (models written before
-  /// 2026-12-06 have no such key and read 0).
-  double refine_fraction = 0.0;
-  /// The crowded image's lower bar (select(); models written before 2026-12-07 have no such keys
-  /// and read off).
-  CrowdRule crowd;
+  /// The model's boxes. Models written before 2026-12-06 have no refine fraction and read 0, those
+  /// before 2026-12-07 no crowd rule and read it off.
+  BoxParams box;
   int training_images = 0, training_samples = 0, training_positives = 0;
 
   bool trained() const;
@@ -210,18 +218,19 @@ class TrainedModel {
   void score(const CandidateSet& set, std::vector<float>& scores) const;
   /// The same scores by cv::ml::RTrees::predict (allocates): the reference the tests hold score() to.
   std::vector<float> score_by_opencv(const CandidateSet& set) const;
-  /// Scored boxes after NMS and the threshold, best first, refined on the pixel map with the
-  /// model's refine_fraction (refine()). `threshold` / `nms` < 0: the model's; the model's crowd
-  /// rule applies with the model's threshold only.
-  std::vector<Detection> detect(const CandidateSet& set, double threshold = -1.0, double nms = -1.0) const;
-  /// Same, from precomputed scores (no crowd rule).
-  static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, double threshold,
-                                       double nms);
-  /// The same into `out`, with `order` as scratch (no allocation within their capacities), and
-  /// the crowd rule: once `crowd.count` boxes are kept, candidates down to `crowd.threshold` are
-  /// taken too. Ties in score keep the candidates' order.
-  static void select(const CandidateSet& set, const std::vector<float>& scores, double threshold, double nms,
-                     const CrowdRule& crowd, std::vector<Detection>& out, std::vector<std::uint32_t>& order);
+  /// The model's boxes (`box`) of a candidate set, best first: score(), then boxes() on the
+  /// painted pixel map (allocates; for tools and tests).
+  std::vector<Detection> detect(const CandidateSet& set) const;
+  /// The boxes of precomputed scores before refinement, best first: the candidates at or above
+  /// `p.score_threshold` in descending score (ties keep the candidates' order), each dropped when
+  /// it overlaps a kept box by IoU above `p.nms_iou`; once `p.crowd.count` boxes are kept,
+  /// candidates down to `p.crowd.threshold` are taken too. `p.refine_fraction` is not read
+  /// (boxes() applies it). Into `out`, with `order` as scratch: no allocation within their
+  /// capacities.
+  static void select(const CandidateSet& set, const std::vector<float>& scores, const BoxParams& p,
+                     std::vector<Detection>& out, std::vector<std::uint32_t>& order);
+  /// The same, returned (allocates).
+  static std::vector<Detection> select(const CandidateSet& set, const std::vector<float>& scores, const BoxParams& p);
   /// Pixel score map (CV_32F [0,1]): at each pixel, the mean over the sources of the score of the
   /// candidate whose blob in that source covers the pixel (0 where none does), each blob filled to
   /// the pixels between its first and last pixel along both their row and their column in the
@@ -260,11 +269,10 @@ class TrainedModel {
   /// Boxes only shrink; scores, order and areas stay. `fraction` <= 0 or a box whose map is 0
   /// changes nothing.
   static void refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch);
-  /// The boxes every user of a model reports: select() at `threshold`, `nms` and `crowd`, then
-  /// refine() on `map` at `refine_fraction` (`map` is not read when that is 0).
-  static void boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map, double threshold,
-                    double nms, const CrowdRule& crowd, double refine_fraction, std::vector<Detection>& out,
-                    BoxScratch& scratch);
+  /// The boxes every user of a model reports: select() with `p`, then refine() on `map` at
+  /// `p.refine_fraction` (`map` is not read when that is 0).
+  static void boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map, const BoxParams& p,
+                    std::vector<Detection>& out, BoxScratch& scratch);
 
   /// Writes the YAML file; throws ModelError naming the file.
   void save(const std::string& path) const;
@@ -297,7 +305,7 @@ LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& e
                                   double positive_iou);
 
 /// Trains on `frames` (all of them): inner grouped CV (by LabelledFrame::group) to choose the
-/// score threshold and NMS IoU, then the forest on every frame. Deterministic.
+/// model's BoxParams, then the forest on every frame. Deterministic.
 TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const CandidateParams& cparams,
                          const TrainParams& tparams);
 
@@ -305,8 +313,7 @@ struct TrainedCvResult {
   std::vector<FrameRecord> pooled;  ///< per frame (input order), scored with its test fold's model
   std::vector<int> fold_of;
   std::vector<Summary> fold_summaries;
-  std::vector<double> thresholds, nms_ious, refine_fractions;  ///< chosen per fold
-  std::vector<CrowdRule> crowds;                               ///< chosen per fold
+  std::vector<BoxParams> box_params;  ///< chosen per fold
 };
 
 /// k-fold CV grouped by sol (grouped_folds of the frames' groups): each test fold is scored
