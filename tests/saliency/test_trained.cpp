@@ -432,6 +432,21 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   EXPECT_FALSE(rs::TrainedModel::load(no_crowd).box.crowd.on());
 }
 
+TEST(Trained, TheMapGuideRadiusScalesWithTheImageWidth) {
+  rs::TrainedModel m;
+  m.candidates.working_width_px = 560;
+  EXPECT_EQ(m.map_guide_radius_px(560), rs::TrainedModel::kMapGuideRadiusPx);
+  EXPECT_EQ(m.map_guide_radius_px(1120), 24);
+  EXPECT_EQ(m.map_guide_radius_px(320), 7);  // 6.86
+  EXPECT_EQ(m.map_guide_radius_px(20), 1);   // never below one pixel
+  // A model without a working width: every image at the radius as given.
+  m.candidates.working_width_px = 0;
+  EXPECT_EQ(m.map_guide_radius_px(1120), rs::TrainedModel::kMapGuideRadiusPx);
+  // The shipped model's images (560 px wide, as the development set's) keep the radius chosen on them.
+  EXPECT_EQ(rs::TrainedModel::load(rs::default_trained_model_path()).map_guide_radius_px(560),
+            rs::TrainedModel::kMapGuideRadiusPx);
+}
+
 TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {
   // Six disjoint candidates scored 0.9, 0.8, 0.7, 0.6, 0.5, 0.4 and a seventh at 0.55 overlapping
   // the best one; threshold 0.65 keeps three.

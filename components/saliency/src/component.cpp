@@ -286,12 +286,13 @@ class SamsComponent final : public runtime::Component {
                        .max = 1.0,
                        .doc = "method trained: lowest box score a rock-field frame keeps (default the model's)"});
     const int guide_radius = p.get<int>(
-        "map_guide_radius_px", TrainedModel::kMapGuideRadiusPx,
+        "map_guide_radius_px", model_.map_guide_radius_px(size_.width),
         {.min = 0.0,
          .max = 256.0,
          .doc = "method trained: window radius of the guided filter the saliency map goes through, smoothing it "
                 "inside the image's even regions and keeping its steps at the image's edges "
-                "(TrainedModel::guide_map); 0 publishes the painted map as it is"});
+                "(TrainedModel::guide_map; default 12 px at the model's working width, in proportion to the "
+                "camera's width); 0 publishes the painted map as it is"});
     const double guide_eps = p.get<double>(
         "map_guide_eps", TrainedModel::kMapGuideEps,
         {.min = 0.0,

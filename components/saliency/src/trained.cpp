@@ -757,6 +757,12 @@ void TrainedModel::guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilte
   filter.apply(intensity, map, map, 0.0f, 1.0f);
 }
 
+int TrainedModel::map_guide_radius_px(int image_width_px) const {
+  const int working = candidates.working_width_px;
+  if (working <= 0 || image_width_px <= 0) return kMapGuideRadiusPx;
+  return std::max(1, static_cast<int>(std::lround(kMapGuideRadiusPx * static_cast<double>(image_width_px) / working)));
+}
+
 void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {
   if (!(fraction > 0.0) || dets.empty()) return;
   CV_Assert(map.type() == CV_32FC1);
@@ -1059,7 +1065,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   cv::Mat map, map8;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
-  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);
+  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);  // re-made per radius
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -1075,6 +1081,8 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       TrainedModel::boxes(frames[i].set, s, map, m.box, dets, scratch);
+      if (const int radius = m.map_guide_radius_px(map.cols); radius != guide.radius())
+        guide = GuidedFilter(radius, TrainedModel::kMapGuideEps);
       TrainedModel::guide_map(frames[i].intensity, map, guide);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);

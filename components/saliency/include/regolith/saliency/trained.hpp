@@ -251,8 +251,14 @@ class TrainedModel {
   /// than bled onto the ground (grouped CV max F 0.773 -> 0.781, every seed +0.006 to +0.010;
   /// components/saliency/README.md, "The map follows the image's edges"). The defaults below.
   static void guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter);
+  /// The filter's radius at the model's working width (candidates.working_width_px, where its
+  /// pixel scales hold; chosen on the 560 px development images), and its ridge.
   static constexpr int kMapGuideRadiusPx = 12;
   static constexpr double kMapGuideEps = 1e-3;
+  /// The radius for an image `image_width_px` wide: kMapGuideRadiusPx in proportion to the image's
+  /// width against the working width (rounded, at least 1), so that it spans as much of a rock
+  /// whatever the camera; kMapGuideRadiusPx for a model without a working width.
+  int map_guide_radius_px(int image_width_px) const;
   /// Scratch of refine() and boxes(): no allocation once reserve()d at a map's size and candidate
   /// count (without it, the buffers grow to the largest box and list seen).
   struct BoxScratch {
