@@ -35,6 +35,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
 #include "regolith/saliency/peers.hpp"
+#include "regolith/saliency/train_rocks.hpp"
 #include "regolith/saliency/trained.hpp"
 
 #ifdef REGOLITH_HAVE_SFS

@@ -15,6 +15,7 @@
 
 #include "regolith/core/error.hpp"
 #include "regolith/saliency/dataset.hpp"
+#include "regolith/saliency/train_rocks.hpp"
 #include "regolith/saliency/trained.hpp"
 #include "temp_dir.hpp"
 

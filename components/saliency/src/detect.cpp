@@ -11,6 +11,12 @@
 
 namespace regolith::saliency {
 
+double iou(const cv::Rect& a, const cv::Rect& b) {
+  const double inter = (a & b).area();
+  const double uni = static_cast<double>(a.area()) + b.area() - inter;
+  return uni > 0.0 ? inter / uni : 0.0;
+}
+
 void PostProcessParams::validate() const {
   if (!std::isfinite(threshold_scale) || threshold_scale <= 0.0 || threshold_scale > 10.0) {
     throw std::invalid_argument("PostProcessParams.threshold_scale: must be in (0, 10] (got " +

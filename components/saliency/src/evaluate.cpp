@@ -12,12 +12,6 @@
 
 namespace regolith::saliency {
 
-double iou(const cv::Rect& a, const cv::Rect& b) {
-  const double inter = (a & b).area();
-  const double uni = static_cast<double>(a.area()) + b.area() - inter;
-  return uni > 0.0 ? inter / uni : 0.0;
-}
-
 int FrameTruth::valid_count() const {
   return static_cast<int>(std::count_if(objects.begin(), objects.end(), [](const GtObject& o) { return !o.ignored; }));
 }

@@ -1,12 +1,13 @@
 // Training the rock model (trained.hpp): labels, the forest, the inner CV that chooses the box
 // parameters, and the grouped cross-validation of the whole stage.
+#include "regolith/saliency/train_rocks.hpp"
+
 #include <algorithm>
 
 #include <opencv2/ml.hpp>
 
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/image_ops.hpp"
-#include "regolith/saliency/trained.hpp"
 #include "trained_forest.hpp"
 
 namespace regolith::saliency {

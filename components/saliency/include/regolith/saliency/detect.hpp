@@ -33,6 +33,9 @@ struct Detection {
   int area = 0;        ///< px, pixels of the connected component
 };
 
+/// Box IoU |A n B| / |A u B| (0 when both are empty).
+double iou(const cv::Rect& a, const cv::Rect& b);
+
 /// Otsu (1979) on a 256-bin histogram: T* = argmax w0 w1 (mu0 - mu1)^2, class 0
 /// = values <= T*. Returns 0 for a constant histogram.
 int otsu_threshold(const std::array<double, 256>& histogram);

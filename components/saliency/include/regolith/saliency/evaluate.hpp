@@ -25,9 +25,6 @@
 
 namespace regolith::saliency {
 
-/// Box IoU |A n B| / |A u B| (0 when both are empty).
-double iou(const cv::Rect& a, const cv::Rect& b);
-
 struct GtObject {
   cv::Rect box;  ///< x/y min inclusive, max exclusive
   int area = 0;  ///< px, mask pixels of the component
