@@ -72,13 +72,17 @@ declare -A timeout_s=([deployment_check]=60)
 build=build/fuzz
 all_targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene drive sfs image mcap
              hal_messages live_messages terrain soil_fit)
+# Built and run only when named: rock_model still finds a SEGV inside OpenCV's own forest reader
+# (cv::ml::RTrees::read on a corrupted forest, ~100 k executions in; tests/fuzz/README.md), which
+# the CI run must not depend on the seed to miss.
+extra_targets=(rock_model)
 targets=("$@")
 if ((${#targets[@]} == 0)); then
   targets=("${all_targets[@]}")
 fi
 for t in "${targets[@]}"; do
-  if [[ " ${all_targets[*]} " != *" $t "* ]]; then
-    echo "tests/fuzz/run.sh: unknown target '$t' (the targets: ${all_targets[*]}; --help for the usage)" >&2
+  if [[ " ${all_targets[*]} ${extra_targets[*]} " != *" $t "* ]]; then
+    echo "tests/fuzz/run.sh: unknown target '$t' (the targets: ${all_targets[*]} ${extra_targets[*]}; --help for the usage)" >&2
     exit 2
   fi
 done

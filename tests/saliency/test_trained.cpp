@@ -383,6 +383,21 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string other = (dir / "other.yml").string();
   std::ofstream(other) << "%YAML:1.0\n---\nformat: \"something.else\"\nversion: 1\n";
   expect_error(other, "not a regolith rock model");
+  // Text on which OpenCV 4.6's YAML reader loops for ever (rock_model fuzz target) is refused
+  // before it runs; so is a flow collection left open.
+  const std::string hangs = (dir / "hangs.yml").string();
+  std::ofstream(hangs) << "%YAML:1.\n   -h\n}\n ";
+  expect_error(hangs, "the top level is not a map on line 2");
+  const std::string open_list = (dir / "open_list.yml").string();
+  std::ofstream(open_list) << "%YAML:1.0\n---\nformat: [ 1, 2\n";
+  expect_error(open_list, "an unclosed '['");
+  // A gzip file cut short: zlib's error, named.
+  const std::string cut_gz = (dir / "cut.yml.gz").string();
+  {
+    const std::string gz = read_all(rs::default_trained_model_path());
+    std::ofstream(cut_gz, std::ios::binary) << gz.substr(0, gz.size() / 3);
+  }
+  expect_error(cut_gz, "corrupt rock model file");
   // A real model with another version number, and the same model truncated.
   const auto frames = synthetic_frames(4);
   std::vector<const rs::LabelledFrame*> ptrs;
@@ -431,6 +446,30 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
   const std::string no_crowd = (dir / "no_crowd.yml").string();
   std::ofstream(no_crowd) << with_key(with_key(text, "crowd_count", ""), "crowd_threshold", "");
   EXPECT_FALSE(rs::TrainedModel::load(no_crowd).box.crowd.on());
+}
+
+TEST(Trained, ParseReadsAModelFromItsTextAsLoadReadsTheFile) {
+  const auto frames = synthetic_frames(4);
+  std::vector<const rs::LabelledFrame*> ptrs;
+  for (const auto& f : frames) ptrs.push_back(&f);
+  const regolith::testing::TempDir tmp("trained_parse");
+  const std::string path = (tmp.path() / "m.yml").string();
+  rs::train_model(ptrs, {}, small_forest()).save(path);
+  const rs::TrainedModel loaded = rs::TrainedModel::load(path);
+  const rs::TrainedModel parsed = rs::TrainedModel::parse(read_all(path), "m");
+  EXPECT_EQ(parsed.box, loaded.box);
+  EXPECT_EQ(parsed.candidates, loaded.candidates);
+  EXPECT_EQ(parsed.score(frames[0].set), loaded.score(frames[0].set));
+  // Errors start with the name the caller gave the text.
+  for (const std::string& text : {std::string("%YAML:1.0\n---\nformat: \"other\"\nversion: 1\n"),
+                                  std::string("{{{ not a model"), std::string()}) {
+    try {
+      rs::TrainedModel::parse(text, "embedded.yml");
+      ADD_FAILURE() << "no error for '" << text << "'";
+    } catch (const rs::ModelError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("embedded.yml: ", 0), 0u) << e.what();
+    }
+  }
 }
 
 TEST(Trained, TheMapGuideRadiusScalesWithTheImageWidth) {

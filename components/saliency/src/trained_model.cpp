@@ -1,8 +1,13 @@
 // The trained rock model (trained.hpp, steps 3-4): scores, boxes, the pixel map and the model file.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <numeric>
+#include <string>
+#include <vector>
+
+#include <zlib.h>
 
 #include "regolith/core/csv.hpp"
 #include "regolith/saliency/image_ops.hpp"
@@ -252,12 +257,12 @@ void TrainedModel::save(const std::string& path) const {
   if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": model file not written");
 }
 
-TrainedModel TrainedModel::load(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
+namespace {
+
+// The model in an open FileStorage; `path` names it in every error.
+TrainedModel read_model(const cv::FileStorage& fs, const std::string& path) {
   TrainedModel m;
   try {
-    cv::FileStorage fs(path, cv::FileStorage::READ);
-    if (!fs.isOpened()) throw ModelError(path + ": cannot read rock model file");
     const std::string format = fs["format"].isString() ? static_cast<std::string>(fs["format"]) : "";
     if (format != kTrainedModelFormat)
       throw ModelError(path + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
@@ -313,7 +318,7 @@ TrainedModel TrainedModel::load(const std::string& path) {
     m.training_positives = static_cast<int>(fs["training_positives"]);
     const cv::FileNode f = fs["forest"];
     if (!f.isMap()) throw ModelError(path + ": rock model: missing 'forest'");
-    m.forest_ = std::make_shared<Forest>();
+    m.forest_ = std::make_shared<TrainedModel::Forest>();
     m.forest_->rtrees = cv::ml::RTrees::create();
     m.forest_->rtrees->read(f);
     if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
@@ -325,8 +330,105 @@ TrainedModel TrainedModel::load(const std::string& path) {
     throw ModelError(path + ": " + e.what());
   } catch (const cv::Exception& e) {
     throw ModelError(path + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
+  } catch (const std::exception& e) {  // OpenCV's reader also lets std::length_error and the like out
+    throw ModelError(path + ": corrupt rock model file (" + e.what() + ")");
   }
   return m;
+}
+
+// `fs` opened by `open` (cv::Exception: corrupt), then read_model.
+// The model file's bytes, gzip-decompressed when they are gzip (zlib's reader passes other files
+// through), at most kMaxModelBytes.
+constexpr std::size_t kMaxModelBytes = std::size_t{256} << 20;
+std::string read_model_text(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (f == nullptr) throw ModelError(path + ": cannot read rock model file");
+  std::string text;
+  std::vector<char> buf(1 << 16);
+  int n = 0;
+  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) {
+    text.append(buf.data(), static_cast<std::size_t>(n));
+    if (text.size() > kMaxModelBytes) {
+      gzclose(f);
+      throw ModelError(path + ": rock model file larger than " + std::to_string(kMaxModelBytes >> 20) + " MB");
+    }
+  }
+  int err = Z_OK;
+  const std::string why = n < 0 ? gzerror(f, &err) : "";
+  gzclose(f);
+  if (n < 0) throw ModelError(path + ": corrupt rock model file (" + why + ")");
+  return text;
+}
+
+// What OpenCV's YAML reader is given: a model file begins with its %YAML header, its top level is
+// a map (the first line after the header, and "---", starts with a key at column 0), it has no
+// NUL byte, and its flow collections ({ } and [ ], outside quoted strings and comments) close in
+// order. OpenCV 4.6's reader loops for ever on a top-level sequence indented by a space or more
+// and followed by a line less indented ("%YAML:1.\n   -h\n}\n " and "...\n.\n ": found by
+// the rock_model fuzz target), so such text is refused before it runs.
+void check_model_text(const std::string& text, const std::string& path) {
+  const auto corrupt = [&](const std::string& why, std::size_t at) {
+    const long line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
+    throw ModelError(path + ": corrupt rock model file (" + why + " on line " + std::to_string(line) + ")");
+  };
+  if (text.rfind("%YAML", 0) != 0) corrupt("no %YAML header", 0);
+  std::size_t first = text.find('\n');  // the line after the header
+  if (first != std::string::npos && text.compare(first + 1, 3, "---") == 0) first = text.find('\n', first + 1);
+  if (first == std::string::npos || first + 1 >= text.size()) corrupt("no content after the header", text.size());
+  std::size_t key = first + 1;
+  const auto key_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; };
+  while (key < text.size() && key_char(text[key])) ++key;
+  if (key == first + 1 || key >= text.size() || text[key] != ':') corrupt("the top level is not a map", first + 1);
+  std::vector<char> open;
+  bool quoted = false, comment = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char ch = text[i];
+    if (ch == '\0') corrupt("a NUL byte", i);
+    if (comment) {
+      comment = ch != '\n';
+      continue;
+    }
+    if (quoted) {
+      if (ch == '\\')
+        ++i;  // the escaped character
+      else if (ch == '"')
+        quoted = false;
+      continue;
+    }
+    if (ch == '"') {
+      quoted = true;
+    } else if (ch == '#' && (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\t' || text[i - 1] == '\n')) {
+      comment = true;
+    } else if (ch == '{' || ch == '[') {
+      open.push_back(ch);
+    } else if (ch == '}' || ch == ']') {
+      if (open.empty() || open.back() != (ch == '}' ? '{' : '[')) corrupt(std::string("an unmatched '") + ch + "'", i);
+      open.pop_back();
+    }
+  }
+  if (quoted) corrupt("an unclosed string", text.size());
+  if (!open.empty()) corrupt(std::string("an unclosed '") + open.back() + "'", text.size());
+}
+
+}  // namespace
+
+TrainedModel TrainedModel::load(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
+  return parse(read_model_text(path), path);
+}
+
+TrainedModel TrainedModel::parse(const std::string& text, const std::string& name) {
+  check_model_text(text, name);
+  cv::FileStorage fs;
+  try {
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    throw ModelError(name + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
+  } catch (const std::exception& e) {  // std::length_error from its YAML reader (rock_model fuzz target)
+    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
+  }
+  if (!fs.isOpened()) throw ModelError(name + ": cannot read rock model file");
+  return read_model(fs, name);
 }
 
 std::string default_trained_model_path() {

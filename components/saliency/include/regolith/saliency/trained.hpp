@@ -266,6 +266,8 @@ class TrainedModel {
   void save(const std::string& path) const;
   /// Throws ModelError naming the file (missing, corrupt, other format or version).
   static TrainedModel load(const std::string& path);
+  /// The same from the text of an (uncompressed, YAML) model file; errors name `name`.
+  static TrainedModel parse(const std::string& text, const std::string& name);
 
   struct Forest;
   std::shared_ptr<Forest> forest_;
