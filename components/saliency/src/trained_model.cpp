@@ -259,84 +259,74 @@ void TrainedModel::save(const std::string& path) const {
 
 namespace {
 
-// The model in an open FileStorage; `path` names it in every error.
+// The model in an open FileStorage; `path` names it in every error. What OpenCV throws while
+// reading is turned into a ModelError by parse().
 TrainedModel read_model(const cv::FileStorage& fs, const std::string& path) {
   TrainedModel m;
+  const std::string format = fs["format"].isString() ? static_cast<std::string>(fs["format"]) : "";
+  if (format != kTrainedModelFormat)
+    throw ModelError(path + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
+                     "')");
+  const int version = fs["version"].isInt() ? static_cast<int>(fs["version"]) : -1;
+  if (version != kTrainedModelVersion)
+    throw ModelError(path + ": rock model version " + std::to_string(version) + ", this build reads version " +
+                     std::to_string(kTrainedModelVersion) + " (re-train with `regolith train rocks`)");
+  if (static_cast<int>(fs["feature_count"]) != kFeatureCount)
+    throw ModelError(path + ": rock model has " + std::to_string(static_cast<int>(fs["feature_count"])) +
+                     " features, this build computes " + std::to_string(kFeatureCount));
+  const cv::FileNode c = fs["candidates"];
+  if (!c.isMap()) throw ModelError(path + ": rock model: missing 'candidates'");
+  m.candidates.coarse.sigma_px = static_cast<double>(c["coarse_sigma_px"]);
+  m.candidates.coarse.smooth_sigma_px = static_cast<double>(c["coarse_smooth_px"]);
+  m.candidates.fine.sigma_px = static_cast<double>(c["fine_sigma_px"]);
+  m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
+  c["coarse_scales"] >> m.candidates.coarse_scales;
+  c["fine_scales"] >> m.candidates.fine_scales;
+  m.candidates.chroma.sigma_px = static_cast<double>(c["chroma_sigma_px"]);
+  m.candidates.chroma.smooth_sigma_px = static_cast<double>(c["chroma_smooth_px"]);
+  c["chroma_scales"] >> m.candidates.chroma_scales;
+  m.candidates.min_area = static_cast<int>(c["min_area_px"]);
+  m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
+  m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);
+  // absent in models written before 2026-11-28: each image at its own size, as they were trained
+  m.candidates.working_width_px = c["working_width_px"].isInt() ? static_cast<int>(c["working_width_px"]) : 0;
   try {
-    const std::string format = fs["format"].isString() ? static_cast<std::string>(fs["format"]) : "";
-    if (format != kTrainedModelFormat)
-      throw ModelError(path + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
-                       "')");
-    const int version = fs["version"].isInt() ? static_cast<int>(fs["version"]) : -1;
-    if (version != kTrainedModelVersion)
-      throw ModelError(path + ": rock model version " + std::to_string(version) + ", this build reads version " +
-                       std::to_string(kTrainedModelVersion) + " (re-train with `regolith train rocks`)");
-    if (static_cast<int>(fs["feature_count"]) != kFeatureCount)
-      throw ModelError(path + ": rock model has " + std::to_string(static_cast<int>(fs["feature_count"])) +
-                       " features, this build computes " + std::to_string(kFeatureCount));
-    const cv::FileNode c = fs["candidates"];
-    if (!c.isMap()) throw ModelError(path + ": rock model: missing 'candidates'");
-    m.candidates.coarse.sigma_px = static_cast<double>(c["coarse_sigma_px"]);
-    m.candidates.coarse.smooth_sigma_px = static_cast<double>(c["coarse_smooth_px"]);
-    m.candidates.fine.sigma_px = static_cast<double>(c["fine_sigma_px"]);
-    m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
-    c["coarse_scales"] >> m.candidates.coarse_scales;
-    c["fine_scales"] >> m.candidates.fine_scales;
-    m.candidates.chroma.sigma_px = static_cast<double>(c["chroma_sigma_px"]);
-    m.candidates.chroma.smooth_sigma_px = static_cast<double>(c["chroma_smooth_px"]);
-    c["chroma_scales"] >> m.candidates.chroma_scales;
-    m.candidates.min_area = static_cast<int>(c["min_area_px"]);
-    m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
-    m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);
-    // absent in models written before 2026-11-28: each image at its own size, as they were trained
-    m.candidates.working_width_px = c["working_width_px"].isInt() ? static_cast<int>(c["working_width_px"]) : 0;
-    try {
-      m.candidates.validate();
-    } catch (const std::invalid_argument& e) {
-      throw ModelError(path + ": rock model: " + e.what());
-    }
-    BoxParams& b = m.box;
-    b.score_threshold = static_cast<double>(fs["score_threshold"]);
-    b.nms_iou = static_cast<double>(fs["nms_iou"]);
-    if (!(b.score_threshold >= 0.0 && b.score_threshold <= 1.0) || !(b.nms_iou > 0.0 && b.nms_iou <= 1.0))
-      throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
-    // absent in models written before 2026-12-06: the boxes as selected
-    b.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
-    if (!(b.refine_fraction >= 0.0 && b.refine_fraction < 1.0))
-      throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
-    if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
-      b.crowd.count = static_cast<int>(fs["crowd_count"]);
-      if (fs["crowd_threshold"].empty())
-        throw ModelError(path + ": rock model: crowd_count without crowd_threshold (both or neither)");
-      b.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
-      if (b.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
-      if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0))
-        throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
-    }
-    m.training_images = static_cast<int>(fs["training_images"]);
-    m.training_samples = static_cast<int>(fs["training_samples"]);
-    m.training_positives = static_cast<int>(fs["training_positives"]);
-    const cv::FileNode f = fs["forest"];
-    if (!f.isMap()) throw ModelError(path + ": rock model: missing 'forest'");
-    m.forest_ = std::make_shared<TrainedModel::Forest>();
-    m.forest_->rtrees = cv::ml::RTrees::create();
-    m.forest_->rtrees->read(f);
-    if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
-      throw ModelError(path + ": rock model: the forest is empty or has the wrong input size");
-    m.forest_->flatten();
-  } catch (const ModelError&) {
-    throw;
-  } catch (const std::runtime_error& e) {  // Forest::flatten
-    throw ModelError(path + ": " + e.what());
-  } catch (const cv::Exception& e) {
-    throw ModelError(path + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
-  } catch (const std::exception& e) {  // OpenCV's reader also lets std::length_error and the like out
-    throw ModelError(path + ": corrupt rock model file (" + e.what() + ")");
+    m.candidates.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ModelError(path + ": rock model: " + e.what());
   }
+  BoxParams& b = m.box;
+  b.score_threshold = static_cast<double>(fs["score_threshold"]);
+  b.nms_iou = static_cast<double>(fs["nms_iou"]);
+  if (!(b.score_threshold >= 0.0 && b.score_threshold <= 1.0) || !(b.nms_iou > 0.0 && b.nms_iou <= 1.0))
+    throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
+  // absent in models written before 2026-12-06: the boxes as selected
+  b.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
+  if (!(b.refine_fraction >= 0.0 && b.refine_fraction < 1.0))
+    throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
+  if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
+    b.crowd.count = static_cast<int>(fs["crowd_count"]);
+    if (fs["crowd_threshold"].empty())
+      throw ModelError(path + ": rock model: crowd_count without crowd_threshold (both or neither)");
+    b.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
+    if (b.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
+    if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0))
+      throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
+  }
+  m.training_images = static_cast<int>(fs["training_images"]);
+  m.training_samples = static_cast<int>(fs["training_samples"]);
+  m.training_positives = static_cast<int>(fs["training_positives"]);
+  const cv::FileNode f = fs["forest"];
+  if (!f.isMap()) throw ModelError(path + ": rock model: missing 'forest'");
+  m.forest_ = std::make_shared<TrainedModel::Forest>();
+  m.forest_->rtrees = cv::ml::RTrees::create();
+  m.forest_->rtrees->read(f);
+  if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
+    throw ModelError(path + ": rock model: the forest is empty or has the wrong input size");
+  m.forest_->flatten();
   return m;
 }
 
-// `fs` opened by `open` (cv::Exception: corrupt), then read_model.
 // The model file's bytes, gzip-decompressed when they are gzip (zlib's reader passes other files
 // through), at most kMaxModelBytes.
 constexpr std::size_t kMaxModelBytes = std::size_t{256} << 20;
@@ -419,16 +409,20 @@ TrainedModel TrainedModel::load(const std::string& path) {
 
 TrainedModel TrainedModel::parse(const std::string& text, const std::string& name) {
   check_model_text(text, name);
-  cv::FileStorage fs;
   try {
+    cv::FileStorage fs;
     fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+    if (!fs.isOpened()) throw ModelError(name + ": cannot read rock model file");
+    return read_model(fs, name);
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // Forest::flatten
+    throw ModelError(name + ": " + e.what());
   } catch (const cv::Exception& e) {
     throw ModelError(name + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
-  } catch (const std::exception& e) {  // std::length_error from its YAML reader (rock_model fuzz target)
+  } catch (const std::exception& e) {  // OpenCV's reader also lets std::length_error out (rock_model fuzz target)
     throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
   }
-  if (!fs.isOpened()) throw ModelError(name + ": cannot read rock model file");
-  return read_model(fs, name);
 }
 
 std::string default_trained_model_path() {

@@ -25,9 +25,9 @@ struct TrainParams {
   std::vector<double> score_thresholds{0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50,
                                        0.55, 0.60, 0.65, 0.70, 0.75, 0.80, 0.85, 0.90};
   std::vector<double> nms_ious{0.2, 0.3, 0.5};
-  /// TrainedModel::refine_fraction candidates (0: boxes as selected), chosen with the thresholds.
+  /// BoxParams::refine_fraction candidates (0: boxes as selected), chosen with the thresholds.
   std::vector<double> refine_fractions{0.0, 0.3};
-  /// TrainedModel::crowd candidates, chosen after the three above on the same inner CV: counts
+  /// BoxParams::crowd candidates, chosen after the three above on the same inner CV: counts
   /// (0: no crowd rule) and how far below the score threshold a crowded image's boxes may score.
   std::vector<int> crowd_counts{0, 6, 8, 10, 12};
   std::vector<double> crowd_drops{0.05, 0.10, 0.15};
