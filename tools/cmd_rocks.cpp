@@ -34,6 +34,7 @@
 #include "regolith/saliency/dataset.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/model_file.hpp"
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/train_rocks.hpp"
 #include "regolith/saliency/trained.hpp"
@@ -251,7 +252,7 @@ RockMethod configure(const RockOptions& o) {
   if (m.trained) {
     const std::string path = o.model.empty() ? sal::default_trained_model_path() : o.model;
     try {
-      m.model = sal::TrainedModel::load(path);
+      m.model = sal::load_trained_model(path);
     } catch (const sal::ModelError& e) {
       throw InputError(e.what());
     }
@@ -542,7 +543,7 @@ void run_train(const std::string& images, const std::string& masks, const std::s
     throw InputError(images + ": " + ex.what());
   }
   try {
-    m.save(out);
+    sal::save_trained_model(m, out);
   } catch (const sal::ModelError& ex) {
     throw InputError(ex.what());
   }

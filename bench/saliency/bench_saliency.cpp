@@ -20,6 +20,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/model_file.hpp"
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/trained.hpp"
 #ifdef REGOLITH_HAVE_SFS  // bench/saliency/CMakeLists.txt, when regolith::sfs is built
@@ -154,7 +155,7 @@ void trained(benchmark::State& st, bool grey) {
   cv::setNumThreads(1);
   cv::Mat img = frame(size_of(static_cast<int>(st.range(0))));
   if (grey) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
-  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
   rs::CandidateExtractor extractor(model.candidates);
   rs::CandidateSet set;
   for (auto _ : st) {
@@ -181,7 +182,7 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   const bool refine = st.range(0) >= 2, guided = st.range(0) >= 4;
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0) % 2)));
-  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
   rs::CandidateExtractor extractor(model.candidates);
   rs::CandidateSet set;
   extractor.extract(img, set);

@@ -1,20 +1,21 @@
 // libFuzzer target: the rock model file of the trained detector (`model:` of the sams component,
 // `regolith rocks --method trained --model`, `regolith train rocks` output), read from its text by
-// `TrainedModel::parse` (the same reader as `TrainedModel::load`, without the gzip layer). Only
+// `parse_trained_model` (the same reader as `load_trained_model`, without the gzip layer). Only
 // ModelError may leave it; a model that loads must score a candidate (features taken from the
-// input's first bytes) to a number in [0, 1] without reading outside its forest.
+// input's first bytes) to a number in [0, 1], its walk of the trees staying inside them (ASan).
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "regolith/saliency/model_file.hpp"
 #include "regolith/saliency/trained.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   namespace rs = regolith::saliency;
   rs::TrainedModel model;
   try {
-    model = rs::TrainedModel::parse(std::string(reinterpret_cast<const char*>(data), size), "fuzz.yml");
+    model = rs::parse_trained_model(std::string(reinterpret_cast<const char*>(data), size), "fuzz.yml");
   } catch (const rs::ModelError&) {
     return 0;  // refused with a message naming the file
   }

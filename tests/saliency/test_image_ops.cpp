@@ -21,6 +21,7 @@
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/model_file.hpp"
 #include "regolith/saliency/trained.hpp"
 
 namespace rs = regolith::saliency;
@@ -486,7 +487,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
   // What the `sams` component runs per frame with method trained: candidates and features, the
   // forest's scores, NMS, the pixel score map, the box refinement, the map's guided filter; the second image of a size
   // (other content) allocates nothing.
-  const rs::TrainedModel model = rs::TrainedModel::load(rs::default_trained_model_path());
+  const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
   for (const cv::Size s : {cv::Size(320, 240), cv::Size(640, 480)}) {
     rs::CandidateExtractor ex(model.candidates);
     rs::CandidateSet set;

@@ -24,6 +24,7 @@
 #include "regolith/runtime/worker_pool.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/itti.hpp"
+#include "regolith/saliency/model_file.hpp"
 #include "regolith/saliency/peers.hpp"
 #include "regolith/saliency/trained.hpp"
 
@@ -253,7 +254,7 @@ class SamsComponent final : public runtime::Component {
         "model", default_trained_model_path(),
         {.doc = "rock model file of method trained (`regolith train rocks`; default the shipped model)"});
     try {
-      model_ = TrainedModel::load(path);
+      model_ = saliency::load_trained_model(path);
     } catch (const ModelError& e) {
       p.fail("model", e.what());
     }

@@ -1,7 +1,9 @@
 #pragma once
 // Internal to regolith::saliency: the trained model's forest, shared by the model
-// (trained_model.cpp: scoring, files) and its training (train_rocks.cpp).
+// (trained_model.cpp: scoring), its training (train_rocks.cpp) and its file (model_file.cpp).
+#include <cmath>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -11,19 +13,24 @@
 
 namespace regolith::saliency {
 
+/// The forest as flat arrays, for an allocation-free evaluation (cv::ml::StatModel::predict makes
+/// matrices at every call) and for the model file. Tree k is the nodes [roots[k], roots[k+1])
+/// (the last runs to the end), its root first; every split's children lie after it in its own
+/// tree, so a walk from a root always ends at a leaf.
 struct TrainedModel::Forest {
+  /// The forest OpenCV trained: only in a freshly trained model (score_by_opencv); null in a
+  /// model read from its file.
   cv::Ptr<cv::ml::RTrees> rtrees;
-  // The trees again, flat, for an allocation-free evaluation (cv::ml::StatModel::predict makes
-  // matrices at every call). Leaves have var < 0.
   struct Node {
-    int var = -1;
-    float threshold = 0.0f;
-    int left = -1, right = -1;
-    double value = 0.0;
+    int var = -1;               ///< the feature a split tests; -1 at a leaf
+    float threshold = 0.0f;     ///< x[var] <= threshold goes left
+    int left = -1, right = -1;  ///< indices into nodes; -1 at a leaf
+    double value = 0.0;         ///< the node's mean label (the output at a leaf)
   };
   std::vector<Node> nodes;
   std::vector<int> roots;
 
+  /// nodes / roots from rtrees; throws std::runtime_error when check() fails.
   void flatten() {
     nodes.clear();
     roots.clear();
@@ -35,28 +42,56 @@ struct TrainedModel::Forest {
       Node& o = nodes[i];
       o.value = n.value;
       if (n.split < 0) continue;
-      const auto& sp = splits.at(static_cast<std::size_t>(n.split));
+      if (n.split >= static_cast<int>(splits.size())) throw std::runtime_error("rock model: a node's split is missing");
+      const auto& sp = splits[static_cast<std::size_t>(n.split)];
       // every feature is an ordered variable (fit_forest's var_type): no categorical subsets
       o.var = sp.varIdx;
       o.threshold = sp.c;
       // value <= c goes left; an inversed split swaps the children
       o.left = sp.inversed ? n.right : n.left;
       o.right = sp.inversed ? n.left : n.right;
-      if (o.var < 0 || o.var >= kFeatureCount || o.left < 0 || o.right < 0 ||
-          static_cast<std::size_t>(o.left) >= src.size() || static_cast<std::size_t>(o.right) >= src.size())
-        throw std::runtime_error("rock model: a tree node points outside the forest");
     }
     roots = rtrees->getRoots();
-    for (int r : roots)
-      if (r < 0 || static_cast<std::size_t>(r) >= nodes.size()) throw std::runtime_error("rock model: bad tree root");
+    check();
+  }
+
+  /// Throws std::runtime_error naming the tree and node when the arrays are not a forest of
+  /// kFeatureCount features as described above (a walk could leave the arrays or never end).
+  void check() const {
+    if (roots.empty()) throw std::runtime_error("rock model: the forest has no trees");
+    if (roots.front() != 0) throw std::runtime_error("rock model: the first tree does not start at node 0");
+    for (std::size_t k = 0; k < roots.size(); ++k) {
+      const long begin = roots[k];
+      const long end = k + 1 < roots.size() ? roots[k + 1] : static_cast<long>(nodes.size());
+      const auto bad = [&](long i, const std::string& why) {
+        return std::runtime_error("rock model: tree " + std::to_string(k) + " node " + std::to_string(i - begin) +
+                                  ": " + why);
+      };
+      if (end <= begin || end > static_cast<long>(nodes.size()))
+        throw std::runtime_error("rock model: tree " + std::to_string(k) + " has no nodes");
+      for (long i = begin; i < end; ++i) {
+        const Node& n = nodes[static_cast<std::size_t>(i)];
+        if (!std::isfinite(n.value)) throw bad(i, "value is not finite");
+        if (n.var == -1) {
+          if (n.left != -1 || n.right != -1) throw bad(i, "a leaf (var -1) with children");
+          continue;
+        }
+        if (n.var < 0 || n.var >= kFeatureCount)
+          throw bad(i, "var " + std::to_string(n.var) + " is not a feature (0-" + std::to_string(kFeatureCount - 1) +
+                           ", or -1 at a leaf)");
+        if (!std::isfinite(n.threshold)) throw bad(i, "threshold is not finite");
+        if (n.left <= i || n.left >= end || n.right <= i || n.right >= end)
+          throw bad(i, "a child outside the nodes after it in its tree");
+      }
+    }
   }
 
   float predict(const float* x) const {
     double sum = 0.0;
     for (int r : roots) {
       int k = r;
-      // depth <= max_depth (<= 30): the bound only stops a malformed file's cycle
-      for (int step = 0; nodes[static_cast<std::size_t>(k)].var >= 0 && step < 64; ++step) {
+      // check(): every step goes to a later node of the tree, so this ends at a leaf
+      while (nodes[static_cast<std::size_t>(k)].var >= 0) {
         const Node& n = nodes[static_cast<std::size_t>(k)];
         k = x[n.var] <= n.threshold ? n.left : n.right;
       }

@@ -1,25 +1,14 @@
-// The trained rock model (trained.hpp, steps 3-4): scores, boxes, the pixel map and the model file.
+// The trained rock model (trained.hpp, steps 3-4): scores, boxes and the pixel map (its file:
+// model_file.cpp).
 #include <algorithm>
-#include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <numeric>
 #include <string>
 #include <vector>
 
-#include <zlib.h>
-
-#include "regolith/core/csv.hpp"
 #include "regolith/saliency/image_ops.hpp"
 #include "regolith/saliency/trained.hpp"
 #include "trained_forest.hpp"
-
-#ifndef REGOLITH_ROCKS_MODEL_SOURCE
-#define REGOLITH_ROCKS_MODEL_SOURCE ""
-#endif
-#ifndef REGOLITH_ROCKS_MODEL_INSTALLED
-#define REGOLITH_ROCKS_MODEL_INSTALLED ""
-#endif
 
 namespace regolith::saliency {
 
@@ -29,7 +18,7 @@ TrainedModel::TrainedModel(const TrainedModel&) = default;
 TrainedModel& TrainedModel::operator=(const TrainedModel&) = default;
 
 bool TrainedModel::trained() const {
-  return forest_ && forest_->rtrees && forest_->rtrees->isTrained();
+  return forest_ && !forest_->roots.empty();
 }
 
 cv::Mat feature_matrix(const std::vector<RockCandidate>& cands) {
@@ -53,7 +42,9 @@ void TrainedModel::score(const CandidateSet& set, std::vector<float>& scores) co
 }
 
 std::vector<float> TrainedModel::score_by_opencv(const CandidateSet& set) const {
-  if (!trained()) throw std::logic_error("TrainedModel::score_by_opencv: no trained forest");
+  if (!trained() || !forest_->rtrees)
+    throw std::logic_error(
+        "TrainedModel::score_by_opencv: no forest as OpenCV trained it (a model read from a file has none)");
   std::vector<float> out(set.candidates.size(), 0.0f);
   if (out.empty()) return out;
   const cv::Mat x = feature_matrix(set.candidates);
@@ -216,221 +207,6 @@ std::vector<Detection> TrainedModel::detect(const CandidateSet& set) const {
   BoxScratch scratch;
   boxes(set, s, map, box, out, scratch);
   return out;
-}
-
-void TrainedModel::save(const std::string& path) const {
-  if (!trained()) throw ModelError(path + ": cannot save an untrained model");
-  try {
-    cv::FileStorage fs(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
-    if (!fs.isOpened()) throw ModelError(path + ": cannot open for writing");
-    fs << "format" << kTrainedModelFormat;
-    fs << "version" << kTrainedModelVersion;
-    fs << "feature_count" << kFeatureCount;
-    fs << "features"
-       << "[";
-    for (const auto& n : feature_names()) fs << n;
-    fs << "]";
-    fs << "candidates"
-       << "{";
-    fs << "coarse_sigma_px" << candidates.coarse.sigma_px << "coarse_smooth_px" << candidates.coarse.smooth_sigma_px;
-    fs << "fine_sigma_px" << candidates.fine.sigma_px << "fine_smooth_px" << candidates.fine.smooth_sigma_px;
-    fs << "coarse_scales" << candidates.coarse_scales << "fine_scales" << candidates.fine_scales;
-    fs << "chroma_sigma_px" << candidates.chroma.sigma_px << "chroma_smooth_px" << candidates.chroma.smooth_sigma_px;
-    fs << "chroma_scales" << candidates.chroma_scales;
-    fs << "min_area_px" << candidates.min_area << "open_radius_px" << candidates.open_radius << "close_radius_px"
-       << candidates.close_radius;
-    fs << "working_width_px" << candidates.working_width_px;
-    fs << "}";
-    fs << "score_threshold" << box.score_threshold << "nms_iou" << box.nms_iou << "box_refine_fraction"
-       << box.refine_fraction;
-    fs << "crowd_count" << box.crowd.count << "crowd_threshold" << box.crowd.threshold;
-    fs << "training_images" << training_images << "training_samples" << training_samples << "training_positives"
-       << training_positives;
-    fs << "forest"
-       << "{";
-    forest_->rtrees->write(fs);
-    fs << "}";
-    fs.release();
-  } catch (const cv::Exception& e) {
-    throw ModelError(path + ": cannot write model (" + trim_blanks(e.msg) + ")");
-  }
-  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": model file not written");
-}
-
-namespace {
-
-// The model in an open FileStorage; `path` names it in every error. What OpenCV throws while
-// reading is turned into a ModelError by parse().
-TrainedModel read_model(const cv::FileStorage& fs, const std::string& path) {
-  TrainedModel m;
-  const std::string format = fs["format"].isString() ? static_cast<std::string>(fs["format"]) : "";
-  if (format != kTrainedModelFormat)
-    throw ModelError(path + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
-                     "')");
-  const int version = fs["version"].isInt() ? static_cast<int>(fs["version"]) : -1;
-  if (version != kTrainedModelVersion)
-    throw ModelError(path + ": rock model version " + std::to_string(version) + ", this build reads version " +
-                     std::to_string(kTrainedModelVersion) + " (re-train with `regolith train rocks`)");
-  if (static_cast<int>(fs["feature_count"]) != kFeatureCount)
-    throw ModelError(path + ": rock model has " + std::to_string(static_cast<int>(fs["feature_count"])) +
-                     " features, this build computes " + std::to_string(kFeatureCount));
-  const cv::FileNode c = fs["candidates"];
-  if (!c.isMap()) throw ModelError(path + ": rock model: missing 'candidates'");
-  m.candidates.coarse.sigma_px = static_cast<double>(c["coarse_sigma_px"]);
-  m.candidates.coarse.smooth_sigma_px = static_cast<double>(c["coarse_smooth_px"]);
-  m.candidates.fine.sigma_px = static_cast<double>(c["fine_sigma_px"]);
-  m.candidates.fine.smooth_sigma_px = static_cast<double>(c["fine_smooth_px"]);
-  c["coarse_scales"] >> m.candidates.coarse_scales;
-  c["fine_scales"] >> m.candidates.fine_scales;
-  m.candidates.chroma.sigma_px = static_cast<double>(c["chroma_sigma_px"]);
-  m.candidates.chroma.smooth_sigma_px = static_cast<double>(c["chroma_smooth_px"]);
-  c["chroma_scales"] >> m.candidates.chroma_scales;
-  m.candidates.min_area = static_cast<int>(c["min_area_px"]);
-  m.candidates.open_radius = static_cast<int>(c["open_radius_px"]);
-  m.candidates.close_radius = static_cast<int>(c["close_radius_px"]);
-  // absent in models written before 2026-11-28: each image at its own size, as they were trained
-  m.candidates.working_width_px = c["working_width_px"].isInt() ? static_cast<int>(c["working_width_px"]) : 0;
-  try {
-    m.candidates.validate();
-  } catch (const std::invalid_argument& e) {
-    throw ModelError(path + ": rock model: " + e.what());
-  }
-  BoxParams& b = m.box;
-  b.score_threshold = static_cast<double>(fs["score_threshold"]);
-  b.nms_iou = static_cast<double>(fs["nms_iou"]);
-  if (!(b.score_threshold >= 0.0 && b.score_threshold <= 1.0) || !(b.nms_iou > 0.0 && b.nms_iou <= 1.0))
-    throw ModelError(path + ": rock model: score_threshold / nms_iou out of range");
-  // absent in models written before 2026-12-06: the boxes as selected
-  b.refine_fraction = fs["box_refine_fraction"].empty() ? 0.0 : static_cast<double>(fs["box_refine_fraction"]);
-  if (!(b.refine_fraction >= 0.0 && b.refine_fraction < 1.0))
-    throw ModelError(path + ": rock model: box_refine_fraction must be in [0, 1)");
-  if (!fs["crowd_count"].empty()) {  // models written before 2026-12-07: no crowd rule
-    b.crowd.count = static_cast<int>(fs["crowd_count"]);
-    if (fs["crowd_threshold"].empty())
-      throw ModelError(path + ": rock model: crowd_count without crowd_threshold (both or neither)");
-    b.crowd.threshold = static_cast<double>(fs["crowd_threshold"]);
-    if (b.crowd.count < 0) throw ModelError(path + ": rock model: crowd_count must be >= 0");
-    if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0))
-      throw ModelError(path + ": rock model: crowd_threshold must be in [0, 1]");
-  }
-  m.training_images = static_cast<int>(fs["training_images"]);
-  m.training_samples = static_cast<int>(fs["training_samples"]);
-  m.training_positives = static_cast<int>(fs["training_positives"]);
-  const cv::FileNode f = fs["forest"];
-  if (!f.isMap()) throw ModelError(path + ": rock model: missing 'forest'");
-  m.forest_ = std::make_shared<TrainedModel::Forest>();
-  m.forest_->rtrees = cv::ml::RTrees::create();
-  m.forest_->rtrees->read(f);
-  if (!m.forest_->rtrees->isTrained() || m.forest_->rtrees->getVarCount() != kFeatureCount)
-    throw ModelError(path + ": rock model: the forest is empty or has the wrong input size");
-  m.forest_->flatten();
-  return m;
-}
-
-// The model file's bytes, gzip-decompressed when they are gzip (zlib's reader passes other files
-// through), at most kMaxModelBytes.
-constexpr std::size_t kMaxModelBytes = std::size_t{256} << 20;
-std::string read_model_text(const std::string& path) {
-  gzFile f = gzopen(path.c_str(), "rb");
-  if (f == nullptr) throw ModelError(path + ": cannot read rock model file");
-  std::string text;
-  std::vector<char> buf(1 << 16);
-  int n = 0;
-  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) {
-    text.append(buf.data(), static_cast<std::size_t>(n));
-    if (text.size() > kMaxModelBytes) {
-      gzclose(f);
-      throw ModelError(path + ": rock model file larger than " + std::to_string(kMaxModelBytes >> 20) + " MB");
-    }
-  }
-  int err = Z_OK;
-  const std::string why = n < 0 ? gzerror(f, &err) : "";
-  gzclose(f);
-  if (n < 0) throw ModelError(path + ": corrupt rock model file (" + why + ")");
-  return text;
-}
-
-// What OpenCV's YAML reader is given: a model file begins with its %YAML header, its top level is
-// a map (the first line after the header, and "---", starts with a key at column 0), it has no
-// NUL byte, and its flow collections ({ } and [ ], outside quoted strings and comments) close in
-// order. OpenCV 4.6's reader loops for ever on a top-level sequence indented by a space or more
-// and followed by a line less indented ("%YAML:1.\n   -h\n}\n " and "...\n.\n ": found by
-// the rock_model fuzz target), so such text is refused before it runs.
-void check_model_text(const std::string& text, const std::string& path) {
-  const auto corrupt = [&](const std::string& why, std::size_t at) {
-    const long line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
-    throw ModelError(path + ": corrupt rock model file (" + why + " on line " + std::to_string(line) + ")");
-  };
-  if (text.rfind("%YAML", 0) != 0) corrupt("no %YAML header", 0);
-  std::size_t first = text.find('\n');  // the line after the header
-  if (first != std::string::npos && text.compare(first + 1, 3, "---") == 0) first = text.find('\n', first + 1);
-  if (first == std::string::npos || first + 1 >= text.size()) corrupt("no content after the header", text.size());
-  std::size_t key = first + 1;
-  const auto key_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; };
-  while (key < text.size() && key_char(text[key])) ++key;
-  if (key == first + 1 || key >= text.size() || text[key] != ':') corrupt("the top level is not a map", first + 1);
-  std::vector<char> open;
-  bool quoted = false, comment = false;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const char ch = text[i];
-    if (ch == '\0') corrupt("a NUL byte", i);
-    if (comment) {
-      comment = ch != '\n';
-      continue;
-    }
-    if (quoted) {
-      if (ch == '\\')
-        ++i;  // the escaped character
-      else if (ch == '"')
-        quoted = false;
-      continue;
-    }
-    if (ch == '"') {
-      quoted = true;
-    } else if (ch == '#' && (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\t' || text[i - 1] == '\n')) {
-      comment = true;
-    } else if (ch == '{' || ch == '[') {
-      open.push_back(ch);
-    } else if (ch == '}' || ch == ']') {
-      if (open.empty() || open.back() != (ch == '}' ? '{' : '[')) corrupt(std::string("an unmatched '") + ch + "'", i);
-      open.pop_back();
-    }
-  }
-  if (quoted) corrupt("an unclosed string", text.size());
-  if (!open.empty()) corrupt(std::string("an unclosed '") + open.back() + "'", text.size());
-}
-
-}  // namespace
-
-TrainedModel TrainedModel::load(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
-  return parse(read_model_text(path), path);
-}
-
-TrainedModel TrainedModel::parse(const std::string& text, const std::string& name) {
-  check_model_text(text, name);
-  try {
-    cv::FileStorage fs;
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    if (!fs.isOpened()) throw ModelError(name + ": cannot read rock model file");
-    return read_model(fs, name);
-  } catch (const ModelError&) {
-    throw;
-  } catch (const std::runtime_error& e) {  // Forest::flatten
-    throw ModelError(name + ": " + e.what());
-  } catch (const cv::Exception& e) {
-    throw ModelError(name + ": corrupt rock model file (" + trim_blanks(e.msg) + ")");
-  } catch (const std::exception& e) {  // OpenCV's reader also lets std::length_error out (rock_model fuzz target)
-    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
-  }
-}
-
-std::string default_trained_model_path() {
-  const std::string src = REGOLITH_ROCKS_MODEL_SOURCE;
-  if (!src.empty() && std::filesystem::is_regular_file(src)) return src;
-  const std::string inst = REGOLITH_ROCKS_MODEL_INSTALLED;
-  if (!inst.empty()) return inst;
-  return src;
 }
 
 }  // namespace regolith::saliency

@@ -20,8 +20,8 @@
 //  4. greedy non-maximum suppression (IoU > nms_iou) and a score threshold, lower in an image
 //     with many sure boxes (CrowdRule), then the boxes refined on the pixel map (BoxParams); all
 //     chosen on out-of-fold predictions of an inner grouped CV over the training images only.
-// The model file (cv::FileStorage YAML; gzip-compressed when the name ends in .gz) starts with a format name and
-// version; loading a missing, corrupt or other-version file throws ModelError naming the file.
+// The model file (format name and version, these parameters, the forest's arrays) is read and
+// written by model_file.hpp, library regolith::saliency_model_file.
 // Training and cross-validation (labels from ground truth, the inner CV that chooses BoxParams)
 // are in train_rocks.hpp, library regolith::saliency_eval.
 #include <array>
@@ -39,15 +39,10 @@
 
 namespace regolith::saliency {
 
-/// A model file problem (missing, unreadable, corrupt, other version). The message names the file.
-class ModelError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 inline constexpr int kFeatureCount = 44;
-/// 4: 44 features (+ the chroma map), chroma candidates; 3: 42 features.
-inline constexpr int kTrainedModelVersion = 4;
+/// 5: the forest as plain arrays per tree, every key required (model_file.hpp); 4: 44 features
+/// (+ the chroma map), chroma candidates, OpenCV's forest; 3: 42 features.
+inline constexpr int kTrainedModelVersion = 5;
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -186,8 +181,7 @@ class TrainedModel {
   TrainedModel& operator=(const TrainedModel&);
 
   CandidateParams candidates;
-  /// The model's boxes. Models written before 2026-12-06 have no refine fraction and read 0, those
-  /// before 2026-12-07 no crowd rule and read it off.
+  /// The model's boxes.
   BoxParams box;
   int training_images = 0, training_samples = 0, training_positives = 0;
 
@@ -262,18 +256,9 @@ class TrainedModel {
   static void boxes(const CandidateSet& set, const std::vector<float>& scores, const cv::Mat& map, const BoxParams& p,
                     std::vector<Detection>& out, BoxScratch& scratch);
 
-  /// Writes the YAML file; throws ModelError naming the file.
-  void save(const std::string& path) const;
-  /// Throws ModelError naming the file (missing, corrupt, other format or version).
-  static TrainedModel load(const std::string& path);
-  /// The same from the text of an (uncompressed, YAML) model file; errors name `name`.
-  static TrainedModel parse(const std::string& text, const std::string& name);
-
+  /// The forest (trained_forest.hpp, internal): set by training and by the model file's reader.
   struct Forest;
   std::shared_ptr<Forest> forest_;
 };
-
-/// The shipped model: the source-tree file when it exists, else the installed one.
-std::string default_trained_model_path();
 
 }  // namespace regolith::saliency

@@ -1,0 +1,51 @@
+#pragma once
+// The trained rock model's file (library regolith::saliency_model_file): YAML read and written
+// with yaml-cpp, gzip-compressed when the name ends in .gz. It holds a format name and version,
+// the candidate parameters, the box rule (BoxParams), the training counts and the forest as
+// plain arrays, one map per tree:
+//
+//   forest:
+//     trees:
+//       - var: [37, 10, -1, ...]      # the feature each node's split tests; -1 at a leaf
+//         threshold: [4.41459846, ...]  # x[var] <= threshold goes to `left`
+//         left: [1, 2, -1, ...]       # node indices within the tree, after the node; -1 at a leaf
+//         right: [...]
+//         value: [...]                # the node's mean label; a leaf's is its output
+//
+// Every number is written with enough digits to read back the same float / double, so a model
+// scores the same after a save and a load, and re-training the same images writes the same text.
+// Reading checks everything it reads (types, ranges, the trees' shape): a missing, corrupt,
+// other-format or other-version file throws ModelError naming the file and the field; nothing in
+// a file can make the reader or the model's walk of its trees crash or loop (fuzz target
+// rock_model). The algorithm library (regolith::saliency) takes no yaml-cpp; its callers that
+// read or write models (the `sams` component, the CLI, the tests) link this one.
+#include <stdexcept>
+#include <string>
+
+#include "regolith/saliency/trained.hpp"
+
+namespace regolith::saliency {
+
+/// A model file problem (missing, unreadable, corrupt, other format or version, cannot write).
+/// The message starts with the file's name.
+class ModelError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The model in file `path` (gzip or plain YAML, at most kMaxModelFileBytes once decompressed).
+TrainedModel load_trained_model(const std::string& path);
+/// The same from the text of a plain YAML model file; errors start with `name`.
+TrainedModel parse_trained_model(const std::string& text, const std::string& name);
+/// The model's YAML text (what save_trained_model writes, before compression).
+std::string trained_model_text(const TrainedModel& model);
+/// Writes `model` to `path` (gzip when it ends in .gz) through a temporary file beside it, so a
+/// failed save leaves an existing file as it was. Throws ModelError naming the file.
+void save_trained_model(const TrainedModel& model, const std::string& path);
+
+inline constexpr std::size_t kMaxModelFileBytes = std::size_t{64} << 20;
+
+/// The shipped model: the source-tree file when it exists, else the installed one.
+std::string default_trained_model_path();
+
+}  // namespace regolith::saliency

@@ -1,0 +1,355 @@
+// The trained rock model's file (model_file.hpp): YAML through yaml-cpp, gzip through zlib.
+#include "regolith/saliency/model_file.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <zlib.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include "trained_forest.hpp"
+
+#ifndef REGOLITH_ROCKS_MODEL_SOURCE
+#define REGOLITH_ROCKS_MODEL_SOURCE ""
+#endif
+#ifndef REGOLITH_ROCKS_MODEL_INSTALLED
+#define REGOLITH_ROCKS_MODEL_INSTALLED ""
+#endif
+
+namespace regolith::saliency {
+namespace {
+
+constexpr std::size_t kMaxTrees = 100000;
+constexpr std::size_t kMaxNodes = std::size_t{1} << 24;  // over all trees
+
+template <class T>
+const char* kind() {
+  if constexpr (std::is_same_v<T, int>) return "an integer";
+  if constexpr (std::is_same_v<T, double> || std::is_same_v<T, float>) return "a number";
+  if constexpr (std::is_same_v<T, std::string>) return "a string";
+  if constexpr (std::is_same_v<T, std::vector<int>>) return "a list of integers";
+  if constexpr (std::is_same_v<T, std::vector<std::string>>) return "a list of strings";
+  return "a list of numbers";
+}
+
+// The typed fields of one map of the file; every error starts with the file's name and names the
+// field by its path from the top ("candidates.min_area_px", "forest.trees[3].left") and its line.
+class Fields {
+ public:
+  Fields(const YAML::Node& map, const std::string& file, std::string prefix)
+      : map_(map), file_(file), prefix_(std::move(prefix)) {}
+
+  template <class T>
+  T get(const std::string& key) const {
+    const YAML::Node n = node(key);
+    try {
+      return n.as<T>();
+    } catch (const YAML::Exception&) {
+      throw error(key, std::string("is not ") + kind<T>(), n);
+    }
+  }
+  YAML::Node node(const std::string& key) const {
+    const YAML::Node n = map_[key];
+    if (!n.IsDefined() || n.IsNull()) throw ModelError(file_ + ": rock model: '" + prefix_ + key + "' is missing");
+    return n;
+  }
+  Fields map(const std::string& key) const {
+    const YAML::Node n = node(key);
+    if (!n.IsMap()) throw error(key, "is not a map", n);
+    return {n, file_, prefix_ + key + "."};
+  }
+  /// The maps of list `key` (1 to `max_count` of them).
+  std::vector<Fields> maps(const std::string& key, std::size_t max_count) const {
+    const YAML::Node n = node(key);
+    if (!n.IsSequence() || n.size() == 0 || n.size() > max_count)
+      throw error(key, "is not a list of 1 to " + std::to_string(max_count) + " maps", n);
+    std::vector<Fields> out;
+    for (std::size_t k = 0; k < n.size(); ++k) {
+      const std::string item = key + "[" + std::to_string(k) + "]";
+      if (!n[k].IsMap()) throw error(item, "is not a map", n[k]);
+      out.emplace_back(n[k], file_, prefix_ + item + ".");
+    }
+    return out;
+  }
+  ModelError error(const std::string& key, const std::string& why, const YAML::Node& at) const {
+    return ModelError(file_ + ": rock model: '" + prefix_ + key + "' " + why + " (line " +
+                      std::to_string(at.Mark().line + 1) + ")");
+  }
+  ModelError error(const std::string& why) const { return ModelError(file_ + ": rock model: " + why); }
+  const std::string& prefix() const { return prefix_; }
+
+ private:
+  YAML::Node map_;
+  const std::string& file_;
+  std::string prefix_;
+};
+
+// The one scalar `key` of the top-level map as text, "" when absent or not a scalar: the format
+// and version are read leniently so that another file or version is named as such.
+std::string scalar_text(const YAML::Node& root, const char* key) {
+  const YAML::Node n = root[key];
+  return n.IsDefined() && n.IsScalar() ? n.Scalar() : std::string();
+}
+
+void read_candidates(const Fields& c, CandidateParams& p) {
+  p.coarse.sigma_px = c.get<double>("coarse_sigma_px");
+  p.coarse.smooth_sigma_px = c.get<double>("coarse_smooth_px");
+  p.fine.sigma_px = c.get<double>("fine_sigma_px");
+  p.fine.smooth_sigma_px = c.get<double>("fine_smooth_px");
+  p.coarse_scales = c.get<std::vector<double>>("coarse_scales");
+  p.fine_scales = c.get<std::vector<double>>("fine_scales");
+  p.chroma.sigma_px = c.get<double>("chroma_sigma_px");
+  p.chroma.smooth_sigma_px = c.get<double>("chroma_smooth_px");
+  p.chroma_scales = c.get<std::vector<double>>("chroma_scales");
+  p.min_area = c.get<int>("min_area_px");
+  p.open_radius = c.get<int>("open_radius_px");
+  p.close_radius = c.get<int>("close_radius_px");
+  p.working_width_px = c.get<int>("working_width_px");
+  try {
+    p.validate();
+  } catch (const std::invalid_argument& e) {
+    throw c.error(e.what());
+  }
+}
+
+void read_box(const Fields& f, BoxParams& b) {
+  b.score_threshold = f.get<double>("score_threshold");
+  b.nms_iou = f.get<double>("nms_iou");
+  b.refine_fraction = f.get<double>("box_refine_fraction");
+  b.crowd.count = f.get<int>("crowd_count");
+  b.crowd.threshold = f.get<double>("crowd_threshold");
+  if (!(b.score_threshold >= 0.0 && b.score_threshold <= 1.0) || !(b.nms_iou > 0.0 && b.nms_iou <= 1.0))
+    throw f.error("score_threshold / nms_iou out of range");
+  if (!(b.refine_fraction >= 0.0 && b.refine_fraction < 1.0)) throw f.error("box_refine_fraction must be in [0, 1)");
+  if (b.crowd.count < 0) throw f.error("crowd_count must be >= 0");
+  if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0)) throw f.error("crowd_threshold must be in [0, 1]");
+}
+
+// The trees of `forest.trees`, appended to one set of flat arrays (tree-local child indices
+// become indices into them), then checked as a whole (Forest::check, whose errors name the tree).
+void read_forest(const Fields& f, TrainedModel::Forest& forest) {
+  for (const Fields& t : f.maps("trees", kMaxTrees)) {
+    const auto var = t.get<std::vector<int>>("var");
+    const auto threshold = t.get<std::vector<float>>("threshold");
+    const auto left = t.get<std::vector<int>>("left");
+    const auto right = t.get<std::vector<int>>("right");
+    const auto value = t.get<std::vector<double>>("value");
+    const std::size_t n = var.size();
+    if (n == 0 || threshold.size() != n || left.size() != n || right.size() != n || value.size() != n)
+      throw f.error("'" + t.prefix().substr(0, t.prefix().size() - 1) +
+                    "': var, threshold, left, right and value are not lists of one length (> 0)");
+    if (forest.nodes.size() + n > kMaxNodes) throw f.error("more than " + std::to_string(kMaxNodes) + " tree nodes");
+    const int offset = static_cast<int>(forest.nodes.size());
+    forest.roots.push_back(offset);
+    // an index outside the tree becomes one outside it after the offset too (check() names it)
+    const auto shift = [&](int i) { return i >= 0 && static_cast<std::size_t>(i) < n ? i + offset : (i < 0 ? i : -2); };
+    for (std::size_t i = 0; i < n; ++i)
+      forest.nodes.push_back({var[i], threshold[i], shift(left[i]), shift(right[i]), value[i]});
+  }
+  forest.check();
+}
+
+TrainedModel read_model(const YAML::Node& root, const std::string& name) {
+  const std::string format = scalar_text(root, "format");
+  if (format != kTrainedModelFormat)
+    throw ModelError(name + ": not a regolith rock model (format '" + format + "', expected '" + kTrainedModelFormat +
+                     "')");
+  const std::string version = scalar_text(root, "version");
+  if (version != std::to_string(kTrainedModelVersion))
+    throw ModelError(name + ": rock model version " + (version.empty() ? "(none)" : version) +
+                     ", this build reads version " + std::to_string(kTrainedModelVersion) +
+                     " (re-train with `regolith train rocks`)");
+  const Fields top(root, name, "");
+  if (top.get<int>("feature_count") != kFeatureCount)
+    throw top.error("it has " + std::to_string(top.get<int>("feature_count")) + " features, this build computes " +
+                    std::to_string(kFeatureCount));
+  const auto features = top.get<std::vector<std::string>>("features");
+  if (features != feature_names()) throw top.error("its feature names differ from this build's");
+  TrainedModel m;
+  read_candidates(top.map("candidates"), m.candidates);
+  read_box(top, m.box);
+  m.training_images = top.get<int>("training_images");
+  m.training_samples = top.get<int>("training_samples");
+  m.training_positives = top.get<int>("training_positives");
+  auto forest = std::make_shared<TrainedModel::Forest>();
+  try {
+    read_forest(top.map("forest"), *forest);
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // Forest::check
+    throw ModelError(name + ": " + e.what());
+  }
+  m.forest_ = std::move(forest);
+  return m;
+}
+
+// The model file's bytes, gzip-decompressed when they are gzip (zlib's reader passes other files
+// through), at most kMaxModelFileBytes.
+std::string read_model_text(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (f == nullptr) throw ModelError(path + ": cannot read rock model file");
+  std::string text;
+  std::vector<char> buf(1 << 16);
+  int n = 0;
+  while ((n = gzread(f, buf.data(), static_cast<unsigned>(buf.size()))) > 0) {
+    text.append(buf.data(), static_cast<std::size_t>(n));
+    if (text.size() > kMaxModelFileBytes) {
+      gzclose(f);
+      throw ModelError(path + ": rock model file larger than " + std::to_string(kMaxModelFileBytes >> 20) + " MB");
+    }
+  }
+  int err = Z_OK;
+  const std::string why = n < 0 ? gzerror(f, &err) : "";
+  gzclose(f);
+  if (n < 0) throw ModelError(path + ": corrupt rock model file (" + why + ")");
+  return text;
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+// `text` into `path`, gzip-compressed (level 9; zlib writes no time stamp, so the same text gives
+// the same bytes) when `gzip`. False on any error.
+bool write_file(const std::string& path, const std::string& text, bool gzip) {
+  if (!gzip) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    out.close();
+    return !out.fail();
+  }
+  gzFile f = gzopen(path.c_str(), "wb9");
+  if (f == nullptr) return false;
+  bool ok = true;
+  for (std::size_t at = 0; ok && at < text.size();) {
+    const unsigned chunk = static_cast<unsigned>(std::min<std::size_t>(text.size() - at, 1 << 20));
+    ok = gzwrite(f, text.data() + at, chunk) == static_cast<int>(chunk);
+    at += chunk;
+  }
+  return gzclose(f) == Z_OK && ok;
+}
+
+}  // namespace
+
+TrainedModel parse_trained_model(const std::string& text, const std::string& name) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
+  }
+  if (!root.IsMap()) throw ModelError(name + ": corrupt rock model file (its top level is not a YAML map)");
+  try {
+    return read_model(root, name);
+  } catch (const YAML::Exception& e) {  // anything the typed reads above did not name
+    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
+  }
+}
+
+TrainedModel load_trained_model(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
+  return parse_trained_model(read_model_text(path), path);
+}
+
+std::string trained_model_text(const TrainedModel& model) {
+  if (!model.trained()) throw std::invalid_argument("trained_model_text: the model has no forest");
+  const TrainedModel::Forest& forest = *model.forest_;
+  YAML::Emitter e;
+  e.SetIndent(2);
+  // enough digits that every float / double reads back as itself
+  e.SetFloatPrecision(std::numeric_limits<float>::max_digits10);
+  e.SetDoublePrecision(std::numeric_limits<double>::max_digits10);
+  e << YAML::Comment("regolith trained rock model (`regolith train rocks`); format: regolith/saliency/model_file.hpp");
+  e << YAML::BeginMap;
+  e << YAML::Key << "format" << YAML::Value << kTrainedModelFormat;
+  e << YAML::Key << "version" << YAML::Value << kTrainedModelVersion;
+  e << YAML::Key << "feature_count" << YAML::Value << kFeatureCount;
+  e << YAML::Key << "features" << YAML::Value << YAML::Flow << feature_names();
+  const CandidateParams& c = model.candidates;
+  e << YAML::Key << "candidates" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "coarse_sigma_px" << YAML::Value << c.coarse.sigma_px;
+  e << YAML::Key << "coarse_smooth_px" << YAML::Value << c.coarse.smooth_sigma_px;
+  e << YAML::Key << "fine_sigma_px" << YAML::Value << c.fine.sigma_px;
+  e << YAML::Key << "fine_smooth_px" << YAML::Value << c.fine.smooth_sigma_px;
+  e << YAML::Key << "coarse_scales" << YAML::Value << YAML::Flow << c.coarse_scales;
+  e << YAML::Key << "fine_scales" << YAML::Value << YAML::Flow << c.fine_scales;
+  e << YAML::Key << "chroma_sigma_px" << YAML::Value << c.chroma.sigma_px;
+  e << YAML::Key << "chroma_smooth_px" << YAML::Value << c.chroma.smooth_sigma_px;
+  e << YAML::Key << "chroma_scales" << YAML::Value << YAML::Flow << c.chroma_scales;
+  e << YAML::Key << "min_area_px" << YAML::Value << c.min_area;
+  e << YAML::Key << "open_radius_px" << YAML::Value << c.open_radius;
+  e << YAML::Key << "close_radius_px" << YAML::Value << c.close_radius;
+  e << YAML::Key << "working_width_px" << YAML::Value << c.working_width_px;
+  e << YAML::EndMap;
+  const BoxParams& b = model.box;
+  e << YAML::Key << "score_threshold" << YAML::Value << b.score_threshold;
+  e << YAML::Key << "nms_iou" << YAML::Value << b.nms_iou;
+  e << YAML::Key << "box_refine_fraction" << YAML::Value << b.refine_fraction;
+  e << YAML::Key << "crowd_count" << YAML::Value << b.crowd.count;
+  e << YAML::Key << "crowd_threshold" << YAML::Value << b.crowd.threshold;
+  e << YAML::Key << "training_images" << YAML::Value << model.training_images;
+  e << YAML::Key << "training_samples" << YAML::Value << model.training_samples;
+  e << YAML::Key << "training_positives" << YAML::Value << model.training_positives;
+  e << YAML::Key << "forest" << YAML::Value << YAML::BeginMap << YAML::Key << "trees" << YAML::Value << YAML::BeginSeq;
+  std::vector<int> var, left, right;
+  std::vector<float> threshold;
+  std::vector<double> value;
+  for (std::size_t k = 0; k < forest.roots.size(); ++k) {
+    const int begin = forest.roots[k];
+    const int end = k + 1 < forest.roots.size() ? forest.roots[k + 1] : static_cast<int>(forest.nodes.size());
+    var.clear(), left.clear(), right.clear(), threshold.clear(), value.clear();
+    for (int i = begin; i < end; ++i) {
+      const TrainedModel::Forest::Node& n = forest.nodes[static_cast<std::size_t>(i)];
+      var.push_back(n.var);
+      threshold.push_back(n.threshold);
+      left.push_back(n.left < 0 ? -1 : n.left - begin);
+      right.push_back(n.right < 0 ? -1 : n.right - begin);
+      value.push_back(n.value);
+    }
+    e << YAML::BeginMap;
+    e << YAML::Key << "var" << YAML::Value << YAML::Flow << var;
+    e << YAML::Key << "threshold" << YAML::Value << YAML::Flow << threshold;
+    e << YAML::Key << "left" << YAML::Value << YAML::Flow << left;
+    e << YAML::Key << "right" << YAML::Value << YAML::Flow << right;
+    e << YAML::Key << "value" << YAML::Value << YAML::Flow << value;
+    e << YAML::EndMap;
+  }
+  e << YAML::EndSeq << YAML::EndMap << YAML::EndMap;
+  if (!e.good()) throw std::logic_error("trained_model_text: " + e.GetLastError());
+  return std::string(e.c_str()) + "\n";
+}
+
+void save_trained_model(const TrainedModel& model, const std::string& path) {
+  if (!model.trained()) throw ModelError(path + ": cannot save an untrained model");
+  const std::string text = trained_model_text(model);
+  // through a temporary beside it: a failed write leaves an existing model file as it was
+  const std::string tmp = path + ".part";
+  if (!write_file(tmp, text, ends_with(path, ".gz"))) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw ModelError(path + ": cannot write the rock model file");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw ModelError(path + ": cannot write the rock model file (" + ec.message() + ")");
+  }
+}
+
+std::string default_trained_model_path() {
+  const std::string src = REGOLITH_ROCKS_MODEL_SOURCE;
+  if (!src.empty() && std::filesystem::is_regular_file(src)) return src;
+  const std::string inst = REGOLITH_ROCKS_MODEL_INSTALLED;
+  if (!inst.empty()) return inst;
+  return src;
+}
+
+}  // namespace regolith::saliency
