@@ -309,8 +309,9 @@ struct RockDetectors {
   std::vector<sal::Detection> dets;
   std::vector<int> spans;  // TrainedModel::score_map's scratch
   sal::TrainedModel::BoxScratch box_scratch;
-  sal::GuidedFilter guide{sal::TrainedModel::kMapGuideRadiusPx, sal::TrainedModel::kMapGuideEps};  // per radius
-  cv::Mat unit, intensity;    // the trained map's guide
+  sal::GuidedFilter guide{sal::TrainedModel::kMapGuideRadiusPx,
+                          sal::TrainedModel::kMapGuideEps};  // re-made per radius (guide_map_at_width)
+  cv::Mat unit, intensity;                                   // the trained map's guide
   std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
 };
 
@@ -349,9 +350,7 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
       if (want_map) {
         sal::to_unit_float(img, d.unit);
         sal::intensity_of(d.unit, d.intensity);
-        if (const int radius = m.model->map_guide_radius_px(img.cols); radius != d.guide.radius())
-          d.guide = sal::GuidedFilter(radius, sal::TrainedModel::kMapGuideEps);
-        sal::TrainedModel::guide_map(d.intensity, d.map, d.guide);
+        m.model->guide_map_at_width(d.intensity, d.map, d.guide);
       }
     } else if (d.peer) {
       d.peer->compute(img, d.map);

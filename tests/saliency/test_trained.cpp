@@ -526,6 +526,18 @@ TEST(Trained, TheMapGuideRadiusScalesWithTheImageWidth) {
   // The shipped model's images (560 px wide, as the development set's) keep the radius chosen on them.
   EXPECT_EQ(rs::load_trained_model(rs::default_trained_model_path()).map_guide_radius_px(560),
             rs::TrainedModel::kMapGuideRadiusPx);
+  // guide_map_at_width: the filter re-made at the image's radius (its eps kept), then guide_map.
+  m.candidates.working_width_px = 560;
+  cv::Mat intensity(240, 320, CV_32FC1), map(240, 320, CV_32FC1);
+  cv::randu(intensity, 0.0f, 1.0f);
+  cv::randu(map, 0.0f, 1.0f);
+  cv::Mat want = map.clone(), got = map.clone();
+  rs::GuidedFilter seven(7, 2e-3), filter(rs::TrainedModel::kMapGuideRadiusPx, 2e-3);
+  rs::TrainedModel::guide_map(intensity, want, seven);
+  m.guide_map_at_width(intensity, got, filter);
+  EXPECT_EQ(filter.radius(), 7);
+  EXPECT_EQ(filter.eps(), 2e-3);
+  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
 }
 
 TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {

@@ -217,7 +217,8 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   cv::Mat map, map8;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
-  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);  // re-made per radius
+  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx,
+                     TrainedModel::kMapGuideEps);  // re-made per radius (guide_map_at_width)
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -233,9 +234,7 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       TrainedModel::boxes(frames[i].set, s, map, m.box, dets, scratch);
-      if (const int radius = m.map_guide_radius_px(map.cols); radius != guide.radius())
-        guide = GuidedFilter(radius, TrainedModel::kMapGuideEps);
-      TrainedModel::guide_map(frames[i].intensity, map, guide);
+      m.guide_map_at_width(frames[i].intensity, map, guide);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }

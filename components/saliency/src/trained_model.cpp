@@ -157,6 +157,12 @@ int TrainedModel::map_guide_radius_px(int image_width_px) const {
   return std::max(1, static_cast<int>(std::lround(kMapGuideRadiusPx * static_cast<double>(image_width_px) / working)));
 }
 
+void TrainedModel::guide_map_at_width(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) const {
+  if (const int radius = map_guide_radius_px(intensity.cols); radius != filter.radius())
+    filter = GuidedFilter(radius, filter.eps());
+  guide_map(intensity, map, filter);
+}
+
 void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {
   if (!(fraction > 0.0) || dets.empty()) return;
   CV_Assert(map.type() == CV_32FC1);

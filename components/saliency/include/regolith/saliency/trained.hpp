@@ -235,6 +235,10 @@ class TrainedModel {
   /// width against the working width (rounded, at least 1), so that it spans as much of a rock
   /// whatever the camera; kMapGuideRadiusPx for a model without a working width.
   int map_guide_radius_px(int image_width_px) const;
+  /// guide_map() with `filter` first re-made at map_guide_radius_px(intensity.cols) (same eps)
+  /// when its radius differs: for callers whose images differ in width (`regolith rocks`, the
+  /// grouped CV); allocates only when the radius changes.
+  void guide_map_at_width(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) const;
   /// Scratch of refine() and boxes(): no allocation once reserve()d at a map's size and candidate
   /// count (without it, the buffers grow to the largest box and list seen).
   struct BoxScratch {
