@@ -529,6 +529,10 @@ std::vector<sal::LabelledFrame> load_labelled(const std::string& images, const s
 }
 
 void run_train(const std::string& images, const std::string& masks, const std::string& out, int min_gt_area) {
+  // checked before the images are read and the forest trained, not after
+  if (const std::filesystem::path dir = std::filesystem::path(out).parent_path();
+      !dir.empty() && !std::filesystem::is_directory(dir))
+    throw InputError(out + ": cannot write the rock model file (no directory " + dir.string() + ")");
   sal::CandidateParams cp;
   const sal::TrainParams tp;
   int failed = 0;

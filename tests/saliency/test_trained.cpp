@@ -785,4 +785,15 @@ TEST(Trained, CliTrainsAModelAndDetectsWithItAndNamesABadModelFile) {
   } catch (const regolith::InputError& e) {
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
   }
+  // A model to write into a directory that does not exist: refused before any training.
+  const std::string nowhere = (dir / "no_such_dir" / "m.yml.gz").string();
+  try {
+    run({"train", "rocks", "--images", (dir / "images").string(), "--masks", (dir / "masks").string(), "--out",
+         nowhere});
+    ADD_FAILURE() << "no error for " << nowhere;
+  } catch (const regolith::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(nowhere + ": cannot write the rock model file (no directory"),
+              std::string::npos)
+        << e.what();
+  }
 }
