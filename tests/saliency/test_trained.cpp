@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <zlib.h>
+
 #include <CLI/CLI.hpp>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -418,6 +420,16 @@ TEST(Trained, MissingCorruptAndOtherVersionModelFilesGiveAnErrorNamingTheFile) {
     std::ofstream(cut_gz, std::ios::binary) << gz.substr(0, gz.size() / 3);
   }
   expect_error(cut_gz, "corrupt rock model file");
+  // Text beyond the reader's bound (compressed here to 17 kB): refused before yaml-cpp reads it.
+  const std::string huge = (dir / "huge.yml.gz").string();
+  {
+    const std::string text = "# " + std::string(rs::kMaxModelFileBytes, 'x') + "\n";
+    gzFile f = gzopen(huge.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    ASSERT_EQ(gzwrite(f, text.data(), static_cast<unsigned>(text.size())), static_cast<int>(text.size()));
+    ASSERT_EQ(gzclose(f), Z_OK);
+  }
+  expect_error(huge, "rock model file larger than 16 MiB once decompressed");
   // A real model with another version number, and the same model truncated.
   const auto frames = synthetic_frames(4);
   std::vector<const rs::LabelledFrame*> ptrs;

@@ -202,7 +202,8 @@ std::string read_model_text(const std::string& path) {
     text.append(buf.data(), static_cast<std::size_t>(n));
     if (text.size() > kMaxModelFileBytes) {
       gzclose(f);
-      throw ModelError(path + ": rock model file larger than " + std::to_string(kMaxModelFileBytes >> 20) + " MB");
+      throw ModelError(path + ": rock model file larger than " + std::to_string(kMaxModelFileBytes >> 20) +
+                       " MiB once decompressed");
     }
   }
   int err = Z_OK;
