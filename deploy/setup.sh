@@ -20,7 +20,7 @@ RUN_PACKAGES=(
   libcamera-dev libcamera-ipa libcamera-tools libv4l-dev linux-libc-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsystemd-dev
   libzstd-dev                # record/: MCAP chunk compression
-  zlib1g-dev                 # saliency/: the rock model file is read (and gunzipped) before OpenCV parses it
+  zlib1g-dev                 # saliency/: the rock model file (.yml.gz) is gunzipped and gzipped
   libfftw3-dev               # sfs/: FFTW plans made once (allocation-free Pentland)
   libwebsocketpp-dev libboost-dev  # runtime/live: Foxglove WebSocket server (header-only; optional)
 )

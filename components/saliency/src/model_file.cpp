@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <string>
@@ -213,20 +212,11 @@ std::string read_model_text(const std::string& path) {
   return text;
 }
 
-bool ends_with(const std::string& s, const std::string& tail) {
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-}
-
-// `text` into `path`, gzip-compressed (level 9; zlib writes no time stamp, so the same text gives
-// the same bytes) when `gzip`. False on any error.
-bool write_file(const std::string& path, const std::string& text, bool gzip) {
-  if (!gzip) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.close();
-    return !out.fail();
-  }
-  gzFile f = gzopen(path.c_str(), "wb9");
+// `text` into `path` through zlib's writer: gzip-compressed (level 9; zlib writes no time stamp,
+// so the same text gives the same bytes) when `gzip`, else as it is (zlib's transparent mode).
+// False on any error.
+bool write_model_bytes(const std::string& path, const std::string& text, bool gzip) {
+  gzFile f = gzopen(path.c_str(), gzip ? "wb9" : "wbT");
   if (f == nullptr) return false;
   bool ok = true;
   for (std::size_t at = 0; ok && at < text.size();) {
@@ -332,7 +322,7 @@ void save_trained_model(const TrainedModel& model, const std::string& path) {
   const std::string text = trained_model_text(model);
   // through a temporary beside it: a failed write leaves an existing model file as it was
   const std::string tmp = path + ".part";
-  if (!write_file(tmp, text, ends_with(path, ".gz"))) {
+  if (!write_model_bytes(tmp, text, path.ends_with(".gz"))) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
     throw ModelError(path + ": cannot write the rock model file");

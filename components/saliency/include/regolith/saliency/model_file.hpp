@@ -22,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "regolith/core/text_file.hpp"
 #include "regolith/saliency/trained.hpp"
 
 namespace regolith::saliency {
@@ -43,10 +44,10 @@ std::string trained_model_text(const TrainedModel& model);
 /// failed save leaves an existing file as it was. Throws ModelError naming the file.
 void save_trained_model(const TrainedModel& model, const std::string& path);
 
-/// 16 MiB, as a deployment file: yaml-cpp holds ~50 bytes per byte of text while it reads (the
-/// shipped model, 1.25 MB of text, peaks at 85 MB resident), so this bounds a load to ~1 GB; the
-/// shipped model's 100 trees of depth 8 take 1.25 MB.
-inline constexpr std::size_t kMaxModelFileBytes = std::size_t{16} << 20;
+/// The bound of every text file from outside (regolith/core/text_file.hpp, 16 MiB): yaml-cpp
+/// holds ~50 bytes per byte of text while it reads (the shipped model, 1.25 MB of text, peaks at
+/// 85 MB resident), so a load stays under ~1 GB.
+inline constexpr std::size_t kMaxModelFileBytes = kMaxTextFileBytes;
 
 /// The shipped model: the source-tree file when it exists, else the installed one.
 std::string default_trained_model_path();
