@@ -312,6 +312,7 @@ struct RockDetectors {
   sal::GuidedFilter guide{sal::TrainedModel::kMapGuideRadiusPx,
                           sal::TrainedModel::kMapGuideEps};  // re-made per radius (guide_map_at_width)
   cv::Mat unit, intensity;                                   // the trained map's guide
+  sal::PixelStage pixel;                                     // the trained map's last step
   std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
 };
 
@@ -351,6 +352,7 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
         sal::to_unit_float(img, d.unit);
         sal::intensity_of(d.unit, d.intensity);
         m.model->guide_map_at_width(d.intensity, d.map, d.guide);
+        m.model->pixel_stage(d.intensity, d.map, d.pixel);
       }
     } else if (d.peer) {
       d.peer->compute(img, d.map);
@@ -616,7 +618,9 @@ void run_trained_cv(const EvalOptions& e, const RockOptions& o) {
      << "-fold cross-validation grouped by sol (each fold scored by a model "
         "trained on the other folds only)\n\nImages: "
      << frames.size() << " (" << failed << " skipped), GT components >= " << e.min_gt_area << " px.\n\n"
-     << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)}, {"trained", sal::summarise(r.pooled)}})
+     << sal::markdown_table({{"contrast (defaults)", sal::summarise(crec)},
+                             {"trained, map before the pixel stage", sal::summarise(r.pooled_guided)},
+                             {"trained", sal::summarise(r.pooled)}})
      << "\n| test fold | images | GT | contrast N-MODA@0.2 / @0.5 / max F | "
         "trained N-MODA@0.2 / @0.5 / max F | trained boxes | chosen "
      << kBoxTextFields << " |\n|---:|---:|---:|---|---|---:|---|\n";

@@ -177,9 +177,9 @@ void BM_TrainedGrey(benchmark::State& st) {
 // The pixel score map the sams component publishes as its saliency layer with method trained
 // (each candidate's blobs filled and painted with its score), from one extracted and scored frame
 // (/0, /1: the two sizes); /2, /3 the same plus the box refinement on it; /4, /5 plus the guided
-// filter after it (the map the component publishes).
+// filter after it; /6, /7 plus the pixel stage (the map the component publishes).
 void BM_TrainedScoreMap(benchmark::State& st) {
-  const bool refine = st.range(0) >= 2, guided = st.range(0) >= 4;
+  const bool refine = st.range(0) >= 2, guided = st.range(0) >= 4, pixel = st.range(0) >= 6;
   cv::setNumThreads(1);
   const cv::Mat img = frame(size_of(static_cast<int>(st.range(0) % 2)));
   const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
@@ -193,6 +193,7 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   std::vector<int> spans;
   rs::TrainedModel::BoxScratch scratch;
   rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
+  rs::PixelStage stage;
   cv::Mat grey;
   cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
   for (auto _ : st) {
@@ -202,11 +203,12 @@ void BM_TrainedScoreMap(benchmark::State& st) {
       rs::TrainedModel::refine(map, model.box.refine_fraction, dets, scratch);
     }
     if (guided) rs::TrainedModel::guide_map(grey, map, guide);
+    if (pixel) model.pixel_stage(grey, map, stage);
     benchmark::DoNotOptimize(map.data);
   }
   st.counters["candidates"] = static_cast<double>(set.candidates.size());
 }
-BENCHMARK(BM_TrainedScoreMap)->DenseRange(0, 5)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrainedScoreMap)->DenseRange(0, 7)->Unit(benchmark::kMillisecond);
 
 // The trained map's guided filter alone at 560x500 (radius 12 px): /20 GuidedFilter, /21 the same
 // formula written with cv::boxFilter (normalised, BORDER_REFLECT_101 instead of clipped windows),

@@ -485,9 +485,10 @@ TEST(ImageOps, Sobel3EqualsCvSobel) {
 
 TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
   // What the `sams` component runs per frame with method trained: candidates and features, the
-  // forest's scores, NMS, the pixel score map, the box refinement, the map's guided filter; the second image of a size
-  // (other content) allocates nothing.
+  // forest's scores, NMS, the pixel score map, the box refinement, the map's guided filter and the
+  // pixel stage; the second image of a size (other content) allocates nothing.
   const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
+  ASSERT_TRUE(model.has_pixel_stage());
   for (const cv::Size s : {cv::Size(320, 240), cv::Size(640, 480)}) {
     rs::CandidateExtractor ex(model.candidates);
     rs::CandidateSet set;
@@ -496,6 +497,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     std::vector<int> spans;
     rs::TrainedModel::BoxScratch box_scratch;
     rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
+    rs::PixelStage stage;
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
@@ -518,6 +520,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       rs::TrainedModel::score_map(set, scores, map, spans);
       rs::TrainedModel::boxes(set, scores, map, model.box, dets, box_scratch);
       rs::TrainedModel::guide_map(gray, map, guide);
+      model.pixel_stage(gray, map, stage);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

@@ -301,6 +301,12 @@ class SamsComponent final : public runtime::Component {
          .doc = "method trained: the guided filter's ridge on the intensity gain (intensity in 0..1): larger "
                 "smooths across weaker edges"});
     if (guide_radius > 0) guide_ = std::make_unique<GuidedFilter>(guide_radius, guide_eps);
+    pixel_stage_ =
+        p.get<bool>("pixel_stage", true,
+                    {.doc = "method trained: the map's last step, the model's pixel forest (each cell of a grid a "
+                            "quarter of the model's working width scored from the map and the image around it; "
+                            "a model without one publishes the guided map)"}) &&
+        model_.has_pixel_stage();
     extractor_ = std::make_unique<CandidateExtractor>(model_.candidates);
     const std::size_t most = extractor_->max_candidates(size_);
     candidates_.candidates.reserve(most);
@@ -490,10 +496,9 @@ class SamsComponent final : public runtime::Component {
       roi_runs_.fill_outside(saliency_, 0.f);
       // refined on the map it publishes
       TrainedModel::boxes(candidates_, scores_, saliency_, model_.box, dets_, box_scratch_);
-      if (guide_) {
-        TrainedModel::guide_map(work_gray_, saliency_, *guide_);
-        roi_runs_.fill_outside(saliency_, 0.f);
-      }
+      if (guide_) TrainedModel::guide_map(work_gray_, saliency_, *guide_);
+      if (pixel_stage_) model_.pixel_stage(work_gray_, saliency_, pixel_);
+      if (guide_ || pixel_stage_) roi_runs_.fill_outside(saliency_, 0.f);
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
@@ -628,6 +633,8 @@ class SamsComponent final : public runtime::Component {
   std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
   TrainedModel::BoxScratch box_scratch_;
   std::unique_ptr<GuidedFilter> guide_;  // null: map_guide_radius_px 0
+  bool pixel_stage_ = false;             // the model has one and `pixel_stage` is on
+  PixelStage pixel_;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

@@ -153,6 +153,20 @@ void read_forest(const Fields& f, TrainedModel::Forest& forest) {
       forest.nodes.push_back({var[i], threshold[i], shift(left[i]), shift(right[i]), value[i]});
   }
   forest.check();
+  forest.build_walk();
+}
+
+// read_forest() into a new forest of `feature_count` features, its shape errors as ModelError.
+std::shared_ptr<TrainedModel::Forest> read_checked_forest(const Fields& f, int feature_count, const std::string& name) {
+  auto forest = std::make_shared<TrainedModel::Forest>(feature_count);
+  try {
+    read_forest(f, *forest);
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // Forest::check
+    throw ModelError(name + ": " + e.what());
+  }
+  return forest;
 }
 
 TrainedModel read_model(const YAML::Node& root, const std::string& name) {
@@ -177,15 +191,19 @@ TrainedModel read_model(const YAML::Node& root, const std::string& name) {
   m.training_images = top.get<int>("training_images");
   m.training_samples = top.get<int>("training_samples");
   m.training_positives = top.get<int>("training_positives");
-  auto forest = std::make_shared<TrainedModel::Forest>();
-  try {
-    read_forest(top.map("forest"), *forest);
-  } catch (const ModelError&) {
-    throw;
-  } catch (const std::runtime_error& e) {  // Forest::check
-    throw ModelError(name + ": " + e.what());
-  }
-  m.forest_ = std::move(forest);
+  m.forest_ = read_checked_forest(top.map("forest"), kFeatureCount, name);
+  // the pixel stage: a map, or `none` for a model trained without one
+  if (top.node("pixel_stage").IsScalar() && top.get<std::string>("pixel_stage") == "none") return m;
+  const Fields px = top.map("pixel_stage");
+  if (px.get<int>("grid_divisor") != kPixelGridDivisor)
+    throw px.error("its pixel stage's grid_divisor is " + std::to_string(px.get<int>("grid_divisor")) +
+                   ", this build's is " + std::to_string(kPixelGridDivisor));
+  if (px.get<int>("feature_count") != kPixelFeatureCount)
+    throw px.error("its pixel stage has " + std::to_string(px.get<int>("feature_count")) +
+                   " features, this build computes " + std::to_string(kPixelFeatureCount));
+  if (px.get<std::vector<std::string>>("features") != pixel_feature_names())
+    throw px.error("its pixel stage's feature names differ from this build's");
+  m.pixel_forest_ = read_checked_forest(px.map("forest"), kPixelFeatureCount, name);
   return m;
 }
 
@@ -249,9 +267,41 @@ TrainedModel load_trained_model(const std::string& path) {
   return parse_trained_model(read_model_text(path), path);
 }
 
+namespace {
+
+// `forest` as a map {trees: [...]}, one map of plain arrays per tree, children tree-local.
+void emit_forest(YAML::Emitter& e, const TrainedModel::Forest& forest) {
+  e << YAML::BeginMap << YAML::Key << "trees" << YAML::Value << YAML::BeginSeq;
+  std::vector<int> var, left, right;
+  std::vector<float> threshold;
+  std::vector<double> value;
+  for (std::size_t k = 0; k < forest.roots.size(); ++k) {
+    const int begin = forest.roots[k];
+    const int end = k + 1 < forest.roots.size() ? forest.roots[k + 1] : static_cast<int>(forest.nodes.size());
+    var.clear(), left.clear(), right.clear(), threshold.clear(), value.clear();
+    for (int i = begin; i < end; ++i) {
+      const TrainedModel::Forest::Node& n = forest.nodes[static_cast<std::size_t>(i)];
+      var.push_back(n.var);
+      threshold.push_back(n.threshold);
+      left.push_back(n.left < 0 ? -1 : n.left - begin);
+      right.push_back(n.right < 0 ? -1 : n.right - begin);
+      value.push_back(n.value);
+    }
+    e << YAML::BeginMap;
+    e << YAML::Key << "var" << YAML::Value << YAML::Flow << var;
+    e << YAML::Key << "threshold" << YAML::Value << YAML::Flow << threshold;
+    e << YAML::Key << "left" << YAML::Value << YAML::Flow << left;
+    e << YAML::Key << "right" << YAML::Value << YAML::Flow << right;
+    e << YAML::Key << "value" << YAML::Value << YAML::Flow << value;
+    e << YAML::EndMap;
+  }
+  e << YAML::EndSeq << YAML::EndMap;
+}
+
+}  // namespace
+
 std::string trained_model_text(const TrainedModel& model) {
   if (!model.trained()) throw std::invalid_argument("trained_model_text: the model has no forest");
-  const TrainedModel::Forest& forest = *model.forest_;
   YAML::Emitter e;
   e.SetIndent(2);
   // enough digits that every float / double reads back as itself
@@ -288,31 +338,21 @@ std::string trained_model_text(const TrainedModel& model) {
   e << YAML::Key << "training_images" << YAML::Value << model.training_images;
   e << YAML::Key << "training_samples" << YAML::Value << model.training_samples;
   e << YAML::Key << "training_positives" << YAML::Value << model.training_positives;
-  e << YAML::Key << "forest" << YAML::Value << YAML::BeginMap << YAML::Key << "trees" << YAML::Value << YAML::BeginSeq;
-  std::vector<int> var, left, right;
-  std::vector<float> threshold;
-  std::vector<double> value;
-  for (std::size_t k = 0; k < forest.roots.size(); ++k) {
-    const int begin = forest.roots[k];
-    const int end = k + 1 < forest.roots.size() ? forest.roots[k + 1] : static_cast<int>(forest.nodes.size());
-    var.clear(), left.clear(), right.clear(), threshold.clear(), value.clear();
-    for (int i = begin; i < end; ++i) {
-      const TrainedModel::Forest::Node& n = forest.nodes[static_cast<std::size_t>(i)];
-      var.push_back(n.var);
-      threshold.push_back(n.threshold);
-      left.push_back(n.left < 0 ? -1 : n.left - begin);
-      right.push_back(n.right < 0 ? -1 : n.right - begin);
-      value.push_back(n.value);
-    }
+  e << YAML::Key << "forest" << YAML::Value;
+  emit_forest(e, *model.forest_);
+  e << YAML::Key << "pixel_stage" << YAML::Value;
+  if (!model.has_pixel_stage()) {
+    e << "none";
+  } else {
     e << YAML::BeginMap;
-    e << YAML::Key << "var" << YAML::Value << YAML::Flow << var;
-    e << YAML::Key << "threshold" << YAML::Value << YAML::Flow << threshold;
-    e << YAML::Key << "left" << YAML::Value << YAML::Flow << left;
-    e << YAML::Key << "right" << YAML::Value << YAML::Flow << right;
-    e << YAML::Key << "value" << YAML::Value << YAML::Flow << value;
+    e << YAML::Key << "grid_divisor" << YAML::Value << kPixelGridDivisor;
+    e << YAML::Key << "feature_count" << YAML::Value << kPixelFeatureCount;
+    e << YAML::Key << "features" << YAML::Value << YAML::Flow << pixel_feature_names();
+    e << YAML::Key << "forest" << YAML::Value;
+    emit_forest(e, *model.pixel_forest_);
     e << YAML::EndMap;
   }
-  e << YAML::EndSeq << YAML::EndMap << YAML::EndMap;
+  e << YAML::EndMap;
   if (!e.good()) throw std::logic_error("trained_model_text: " + e.GetLastError());
   return std::string(e.c_str()) + "\n";
 }

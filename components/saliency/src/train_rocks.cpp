@@ -29,12 +29,51 @@ void TrainParams::validate() const {
     if (c < 0) throw std::invalid_argument("TrainParams.crowd_counts: each must be >= 0");
   for (double d : crowd_drops)
     if (!(d > 0.0 && d < 1.0)) throw std::invalid_argument("TrainParams.crowd_drops: each must be in (0, 1)");
+  if (pixel_trees < 0 || pixel_trees > 1000)
+    throw std::invalid_argument("TrainParams.pixel_trees: must be in [0, 1000]");
+  if (pixel_max_depth < 1 || pixel_max_depth > 30)
+    throw std::invalid_argument("TrainParams.pixel_max_depth: must be in [1, 30]");
+  if (pixel_min_sample_count < 1) throw std::invalid_argument("TrainParams.pixel_min_sample_count: must be >= 1");
+  if (pixel_samples < 1) throw std::invalid_argument("TrainParams.pixel_samples: must be >= 1");
   // cv::RNG is multiply-with-carry: from state 0 it draws 0 for ever (every bootstrap sample
   // the first candidate), and the forest learns nothing
   if (seed == 0) throw std::invalid_argument("TrainParams.seed: must be non-zero (OpenCV's generator stays at 0)");
 }
 
 namespace {
+
+// A regression forest on the rows of `x` (CV_32F, every column an ordered variable) and labels
+// `y`, with cv::theRNG() pinned to `seed` while it trains: bit-for-bit reproducible.
+cv::Ptr<cv::ml::RTrees> fit_rtrees(const cv::Mat& x, const cv::Mat& y, int trees, int max_depth, int min_samples,
+                                   uint64_t seed) {
+  cv::Mat var_type(1, x.cols + 1, CV_8U, cv::Scalar(cv::ml::VAR_ORDERED));
+  auto data =
+      cv::ml::TrainData::create(x, cv::ml::ROW_SAMPLE, y, cv::noArray(), cv::noArray(), cv::noArray(), var_type);
+  auto rt = cv::ml::RTrees::create();
+  rt->setMaxDepth(max_depth);
+  rt->setMinSampleCount(min_samples);
+  rt->setRegressionAccuracy(1e-6f);
+  rt->setUseSurrogates(false);
+  rt->setMaxCategories(2);
+  rt->setCVFolds(0);
+  rt->setCalculateVarImportance(false);
+  rt->setActiveVarCount(0);
+  rt->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER, trees, 0.0));
+  // RTrees draws its bootstrap samples and split variables from cv::theRNG(): pin it for a
+  // bit-for-bit reproducible forest, and restore the caller's state afterwards.
+  const uint64 saved = cv::theRNG().state;
+  cv::theRNG().state = seed;
+  bool ok = false;
+  try {
+    ok = rt->train(data);
+  } catch (...) {
+    cv::theRNG().state = saved;
+    throw;
+  }
+  cv::theRNG().state = saved;
+  if (!ok) throw std::runtime_error("train rocks: cv::ml::RTrees::train failed");
+  return rt;
+}
 
 cv::Ptr<cv::ml::RTrees> fit_forest(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp, int* samples,
                                    int* positives) {
@@ -47,35 +86,39 @@ cv::Ptr<cv::ml::RTrees> fit_forest(const std::vector<const LabelledFrame*>& fram
   if (samples) *samples = static_cast<int>(all.size());
   if (positives) *positives = static_cast<int>(std::count(labels.begin(), labels.end(), 1.0f));
   if (all.size() < 2) throw std::invalid_argument("train rocks: fewer than 2 candidates to train on");
-  const cv::Mat x = feature_matrix(all);
   const cv::Mat y(static_cast<int>(labels.size()), 1, CV_32F, labels.data());
-  cv::Mat var_type(1, kFeatureCount + 1, CV_8U, cv::Scalar(cv::ml::VAR_ORDERED));
-  auto data = cv::ml::TrainData::create(x, cv::ml::ROW_SAMPLE, y.clone(), cv::noArray(), cv::noArray(), cv::noArray(),
-                                        var_type);
-  auto rt = cv::ml::RTrees::create();
-  rt->setMaxDepth(tp.max_depth);
-  rt->setMinSampleCount(tp.min_sample_count);
-  rt->setRegressionAccuracy(1e-6f);
-  rt->setUseSurrogates(false);
-  rt->setMaxCategories(2);
-  rt->setCVFolds(0);
-  rt->setCalculateVarImportance(false);
-  rt->setActiveVarCount(0);
-  rt->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER, tp.trees, 0.0));
-  // RTrees draws its bootstrap samples and split variables from cv::theRNG(): pin it for a
-  // bit-for-bit reproducible forest, and restore the caller's state afterwards.
-  const uint64 saved = cv::theRNG().state;
-  cv::theRNG().state = tp.seed;
-  bool ok = false;
-  try {
-    ok = rt->train(data);
-  } catch (...) {
-    cv::theRNG().state = saved;
-    throw;
+  return fit_rtrees(feature_matrix(all), y.clone(), tp.trees, tp.max_depth, tp.min_sample_count, tp.seed);
+}
+
+// The pixel stage's forest (pixel_stage.hpp): on every frame's out-of-fold map (`scores`: the
+// inner CV's), painted and guided as `m` will paint and guide it, tp.pixel_samples cells drawn
+// at random (cv::RNG seeded with tp.seed) with their rock fraction in the truth mask.
+cv::Ptr<cv::ml::RTrees> fit_pixel_forest(const std::vector<const LabelledFrame*>& frames,
+                                         const std::vector<std::vector<float>>& scores, const TrainedModel& m,
+                                         const TrainParams& tp) {
+  cv::Mat x(0, kPixelFeatureCount, CV_32F), y(0, 1, CV_32F), map, rock, rock_cells;
+  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);
+  PixelStage stage;
+  ResizeTable down;
+  cv::RNG rng(tp.seed);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const LabelledFrame& f = *frames[i];
+    if (f.intensity.empty())
+      throw std::invalid_argument(f.name + ": no intensity image for the pixel stage (make_labelled_frame sets it)");
+    TrainedModel::score_map(f.set, scores[i], map);
+    m.guide_map_at_width(f.intensity, map, guide);
+    const cv::Size grid = pixel_grid_size(map.size(), m.candidates.working_width_px);
+    stage.compute(f.intensity, map, grid);
+    f.truth.mask.convertTo(rock, CV_32F, 1.0 / 255.0);
+    down.build(rock.size(), grid, ResizeTable::Mode::kArea);
+    down.apply(rock, rock_cells);
+    for (int k = 0; k < tp.pixel_samples; ++k) {
+      const int c = rng.uniform(0, grid.area());
+      x.push_back(stage.features().row(c));
+      y.push_back(rock_cells.at<float>(c / grid.width, c % grid.width));
+    }
   }
-  cv::theRNG().state = saved;
-  if (!ok) throw std::runtime_error("train rocks: cv::ml::RTrees::train failed");
-  return rt;
+  return fit_rtrees(x, y, tp.pixel_trees, tp.pixel_max_depth, tp.pixel_min_sample_count, tp.seed);
 }
 
 double objective(const Summary& s) {
@@ -119,10 +162,10 @@ LabelledFrame make_labelled_frame(const DatasetItem& item, CandidateExtractor& e
 
 namespace {
 
-// Out-of-fold scores of `frames` by an inner grouped CV, then the (threshold, NMS, refinement)
-// with the best mean of N-MODA@0.2 and @0.5 over them (ties: the first in grid order), then the
-// crowd rule for those (only when it beats them).
-BoxParams choose_box_params(const std::vector<const LabelledFrame*>& frames, const TrainParams& tp) {
+// Out-of-fold scores of `frames` by an inner grouped CV (tp.inner_folds, fewer when there are
+// fewer groups); empty when there are fewer than two groups.
+std::vector<std::vector<float>> out_of_fold_scores(const std::vector<const LabelledFrame*>& frames,
+                                                   const TrainParams& tp) {
   std::vector<std::string> groups;
   for (const auto* f : frames) groups.push_back(f->group);
   std::vector<std::string> distinct = groups;
@@ -144,8 +187,17 @@ BoxParams choose_box_params(const std::vector<const LabelledFrame*>& frames, con
         if (fold[i] == f) inner.score(frames[i]->set, scores[i]);
     }
   } else {
-    return BoxParams{};
+    scores.clear();
   }
+  return scores;
+}
+
+// The (threshold, NMS, refinement) with the best mean of N-MODA@0.2 and @0.5 over the frames'
+// out-of-fold `scores` (ties: the first in grid order), then the crowd rule for those (only when
+// it beats them). Defaults without scores.
+BoxParams choose_box_params(const std::vector<const LabelledFrame*>& frames,
+                            const std::vector<std::vector<float>>& scores, const TrainParams& tp) {
+  if (scores.empty()) return BoxParams{};
   std::vector<cv::Mat> maps(frames.size());  // the pixel maps the refinement reads
   if (std::any_of(tp.refine_fractions.begin(), tp.refine_fractions.end(), [](double f) { return f > 0.0; }))
     for (size_t i = 0; i < frames.size(); ++i) TrainedModel::score_map(frames[i]->set, scores[i], maps[i]);
@@ -193,10 +245,16 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
   if (frames.empty()) throw std::invalid_argument("train rocks: no training images");
   TrainedModel m;
   m.candidates = cparams;
-  m.box = choose_box_params(frames, tparams);
+  const std::vector<std::vector<float>> oof = out_of_fold_scores(frames, tparams);
+  m.box = choose_box_params(frames, oof, tparams);
   m.forest_ = std::make_shared<TrainedModel::Forest>();
   m.forest_->rtrees = fit_forest(frames, tparams, &m.training_samples, &m.training_positives);
   m.forest_->flatten();
+  if (tparams.pixel_trees > 0 && !oof.empty()) {
+    m.pixel_forest_ = std::make_shared<TrainedModel::Forest>(kPixelFeatureCount);
+    m.pixel_forest_->rtrees = fit_pixel_forest(frames, oof, m, tparams);
+    m.pixel_forest_->flatten();
+  }
   m.training_images = static_cast<int>(frames.size());
   return m;
 }
@@ -214,7 +272,9 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   TrainedCvResult r;
   r.fold_of = grouped_folds(groups, folds);
   r.pooled.resize(frames.size());
+  r.pooled_guided.resize(frames.size());
   cv::Mat map, map8;
+  PixelStage stage;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
   GuidedFilter guide(TrainedModel::kMapGuideRadiusPx,
@@ -235,6 +295,9 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       TrainedModel::score_map(frames[i].set, s, map);
       TrainedModel::boxes(frames[i].set, s, map, m.box, dets, scratch);
       m.guide_map_at_width(frames[i].intensity, map, guide);
+      to_8bit(map, map8);
+      r.pooled_guided[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
+      m.pixel_stage(frames[i].intensity, map, stage);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }

@@ -1,6 +1,7 @@
 #pragma once
 // Internal to regolith::saliency: the trained model's forest, shared by the model
 // (trained_model.cpp: scoring), its training (train_rocks.cpp) and its file (model_file.cpp).
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -29,6 +30,12 @@ struct TrainedModel::Forest {
   };
   std::vector<Node> nodes;
   std::vector<int> roots;
+  /// How many features a split may test: kFeatureCount for the box forest, kPixelFeatureCount for
+  /// the pixel stage's.
+  int feature_count = kFeatureCount;
+
+  Forest() = default;
+  explicit Forest(int features) : feature_count(features) {}
 
   /// nodes / roots from rtrees; throws std::runtime_error when check() fails.
   void flatten() {
@@ -53,10 +60,11 @@ struct TrainedModel::Forest {
     }
     roots = rtrees->getRoots();
     check();
+    build_walk();
   }
 
   /// Throws std::runtime_error naming the tree and node when the arrays are not a forest of
-  /// kFeatureCount features as described above (a walk could leave the arrays or never end).
+  /// feature_count features as described above (a walk could leave the arrays or never end).
   void check() const {
     if (roots.empty()) throw std::runtime_error("rock model: the forest has no trees");
     if (roots.front() != 0) throw std::runtime_error("rock model: the first tree does not start at node 0");
@@ -76,14 +84,86 @@ struct TrainedModel::Forest {
           if (n.left != -1 || n.right != -1) throw bad(i, "a leaf (var -1) with children");
           continue;
         }
-        if (n.var < 0 || n.var >= kFeatureCount)
-          throw bad(i, "var " + std::to_string(n.var) + " is not a feature (0-" + std::to_string(kFeatureCount - 1) +
+        if (n.var < 0 || n.var >= feature_count)
+          throw bad(i, "var " + std::to_string(n.var) + " is not a feature (0-" + std::to_string(feature_count - 1) +
                            ", or -1 at a leaf)");
         if (!std::isfinite(n.threshold)) throw bad(i, "threshold is not finite");
         if (n.left <= i || n.left >= end || n.right <= i || n.right >= end)
           throw bad(i, "a child outside the nodes after it in its tree");
       }
     }
+  }
+
+  /// The trees for predict_rows(): per node its feature, threshold and children (a leaf's both
+  /// itself, so a walk of the tree's depth ends on its leaf whatever the depth of that leaf), and
+  /// each tree's depth. Made by build_walk() after check().
+  struct Step {
+    int var = 0;
+    float threshold = 0.0f;
+    int child[2] = {0, 0};  ///< [0]: x[var] <= threshold; [1]: otherwise (NaN included)
+  };
+  std::vector<Step> steps;
+  std::vector<int> depths;
+
+  /// steps / depths from nodes / roots (which check() has accepted).
+  void build_walk() {
+    steps.assign(nodes.size(), Step{});
+    depths.assign(roots.size(), 0);
+    std::vector<int> depth(nodes.size(), 0);
+    for (std::size_t k = 0; k < roots.size(); ++k) {
+      const int begin = roots[k];
+      const int end = k + 1 < roots.size() ? roots[k + 1] : static_cast<int>(nodes.size());
+      for (int i = begin; i < end; ++i) {
+        const Node& n = nodes[static_cast<std::size_t>(i)];
+        Step& s = steps[static_cast<std::size_t>(i)];
+        if (n.var < 0) {
+          s.child[0] = s.child[1] = i;
+          continue;
+        }
+        s = Step{n.var, n.threshold, {n.left, n.right}};
+        // children lie after their node (check()), so a node's depth is known before theirs
+        const int d = depth[static_cast<std::size_t>(i)] + 1;
+        depth[static_cast<std::size_t>(n.left)] = depth[static_cast<std::size_t>(n.right)] = d;
+        depths[k] = std::max(depths[k], d);
+      }
+    }
+  }
+
+  /// predict() of every row of `x` (CV_32F, feature_count columns) into `out` (x.rows values),
+  /// tree by tree over all rows, eight rows walked side by side (independent chains of loads the
+  /// processor overlaps), each for the tree's depth; the sums in `sums` (x.rows doubles, scratch):
+  /// the same values as predict() row by row.
+  void predict_rows(const cv::Mat& x, double* sums, float* out) const {
+    const int n = x.rows;
+    std::fill(sums, sums + n, 0.0);
+    const Step* st = steps.data();
+    constexpr int kLanes = 8;
+    for (std::size_t t = 0; t < roots.size(); ++t) {
+      const int root = roots[t], depth = depths[t];
+      int i = 0;
+      for (; i + kLanes <= n; i += kLanes) {
+        int k[kLanes];
+        const float* xs[kLanes];
+        for (int j = 0; j < kLanes; ++j) k[j] = root, xs[j] = x.ptr<float>(i + j);
+        for (int d = 0; d < depth; ++d)
+          for (int j = 0; j < kLanes; ++j) {
+            const Step& s = st[k[j]];
+            k[j] = s.child[!(xs[j][s.var] <= s.threshold)];
+          }
+        for (int j = 0; j < kLanes; ++j) sums[i + j] += nodes[static_cast<std::size_t>(k[j])].value;
+      }
+      for (; i < n; ++i) {
+        const float* xi = x.ptr<float>(i);
+        int k = root;
+        for (int d = 0; d < depth; ++d) {
+          const Step& s = st[k];
+          k = s.child[!(xi[s.var] <= s.threshold)];
+        }
+        sums[i] += nodes[static_cast<std::size_t>(k)].value;
+      }
+    }
+    const double count = static_cast<double>(std::max<std::size_t>(roots.size(), 1));
+    for (int i = 0; i < n; ++i) out[i] = static_cast<float>(sums[i] / count);
   }
 
   float predict(const float* x) const {

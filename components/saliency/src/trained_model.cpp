@@ -21,6 +21,26 @@ bool TrainedModel::trained() const {
   return forest_ && !forest_->roots.empty();
 }
 
+bool TrainedModel::has_pixel_stage() const {
+  return pixel_forest_ && !pixel_forest_->roots.empty();
+}
+
+void TrainedModel::pixel_stage(const cv::Mat& intensity, cv::Mat& map, PixelStage& stage) const {
+  if (!has_pixel_stage()) return;
+  stage.compute(intensity, map, pixel_grid_size(map.size(), candidates.working_width_px));
+  // cells: continuous (made by create()), one value per feature row
+  pixel_forest_->predict_rows(stage.features(), stage.sums(), stage.cells().ptr<float>(0));
+  stage.upsample(map, map_guide_radius_px(map.cols), kMapGuideEps);
+}
+
+std::vector<float> TrainedModel::pixel_values_by_opencv(const cv::Mat& features) const {
+  if (!has_pixel_stage() || !pixel_forest_->rtrees)
+    throw std::logic_error("TrainedModel::pixel_values_by_opencv: no pixel forest as OpenCV trained it");
+  cv::Mat y;
+  pixel_forest_->rtrees->predict(features, y);
+  return std::vector<float>(y.begin<float>(), y.end<float>());
+}
+
 cv::Mat feature_matrix(const std::vector<RockCandidate>& cands) {
   cv::Mat m(static_cast<int>(cands.size()), kFeatureCount, CV_32F);
   for (size_t i = 0; i < cands.size(); ++i)

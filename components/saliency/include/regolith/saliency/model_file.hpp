@@ -11,6 +11,11 @@
 //         left: [1, 2, -1, ...]       # node indices within the tree, after the node; -1 at a leaf
 //         right: [...]
 //         value: [...]                # the node's mean label; a leaf's is its output
+//   pixel_stage:                      # pixel_stage.hpp; `pixel_stage: none` for a model without
+//     grid_divisor: 4
+//     feature_count: 13
+//     features: [map, map_blur1, ...]
+//     forest: {trees: [...]}          # as above, over the pixel features
 //
 // Every number is written with enough digits to read back the same float / double, so a model
 // scores the same after a save and a load, and re-training the same images writes the same text.

@@ -31,6 +31,12 @@ struct TrainParams {
   /// (0: no crowd rule) and how far below the score threshold a crowded image's boxes may score.
   std::vector<int> crowd_counts{0, 6, 8, 10, 12};
   std::vector<double> crowd_drops{0.05, 0.10, 0.15};
+  /// The pixel stage's forest (pixel_stage.hpp), trained on the inner CV's out-of-fold maps:
+  /// pixel_samples random cells of each training image; 0 trees: a model without a pixel stage.
+  int pixel_trees = 10;
+  int pixel_max_depth = 10;
+  int pixel_min_sample_count = 20;
+  int pixel_samples = 3000;
   void validate() const;
 };
 
@@ -62,6 +68,8 @@ TrainedModel train_model(const std::vector<const LabelledFrame*>& frames, const 
 
 struct TrainedCvResult {
   std::vector<FrameRecord> pooled;  ///< per frame (input order), scored with its test fold's model
+  /// The same with the map before the pixel stage (the guided map): the stage's ablation.
+  std::vector<FrameRecord> pooled_guided;
   std::vector<int> fold_of;
   std::vector<Summary> fold_summaries;
   std::vector<BoxParams> box_params;  ///< chosen per fold

@@ -36,13 +36,15 @@
 #include "regolith/saliency/contrast.hpp"
 #include "regolith/saliency/detect.hpp"
 #include "regolith/saliency/image_ops.hpp"
+#include "regolith/saliency/pixel_stage.hpp"
 
 namespace regolith::saliency {
 
 inline constexpr int kFeatureCount = 44;
-/// 5: the forest as plain arrays per tree, every key required (model_file.hpp); 4: 44 features
-/// (+ the chroma map), chroma candidates, OpenCV's forest; 3: 42 features.
-inline constexpr int kTrainedModelVersion = 5;
+/// 6: + the pixel stage (pixel_stage.hpp) and its forest; 5: the forest as plain arrays per tree,
+/// every key required (model_file.hpp); 4: 44 features (+ the chroma map), chroma candidates,
+/// OpenCV's forest; 3: 42 features.
+inline constexpr int kTrainedModelVersion = 6;
 inline constexpr const char* kTrainedModelFormat = "regolith.saliency.trained_rocks";
 
 /// Names of the features, in order (kFeatureCount entries).
@@ -239,6 +241,18 @@ class TrainedModel {
   /// when its radius differs: for callers whose images differ in width (`regolith rocks`, the
   /// grouped CV); allocates only when the radius changes.
   void guide_map_at_width(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) const;
+  /// The pixel stage (pixel_stage.hpp), the published map's last step after guide_map(): `map`
+  /// := the pixel forest's rock fraction of each cell of pixel_grid_size(), brought back to the
+  /// map's size and through the guided filter of guide_map() (map_guide_radius_px(), kMapGuideEps)
+  /// so that it follows the image's edges, in [0, 1]. `intensity`: the image's (CV_32FC1 in [0, 1] or CV_8UC1, the
+  /// map's size). A model without a pixel stage leaves `map` as it is. No allocation once `stage` has seen a map of
+  /// this size.
+  void pixel_stage(const cv::Mat& intensity, cv::Mat& map, PixelStage& stage) const;
+  bool has_pixel_stage() const;
+  /// The pixel forest's value of each row of `features` (PixelStage::features()) by
+  /// cv::ml::RTrees::predict (allocates): the reference pixel_stage()'s own walk is held to in the
+  /// tests; only in a freshly trained model (std::logic_error otherwise).
+  std::vector<float> pixel_values_by_opencv(const cv::Mat& features) const;
   /// Scratch of refine() and boxes(): no allocation once reserve()d at a map's size and candidate
   /// count (without it, the buffers grow to the largest box and list seen).
   struct BoxScratch {
@@ -263,6 +277,8 @@ class TrainedModel {
   /// The forest (trained_forest.hpp, internal): set by training and by the model file's reader.
   struct Forest;
   std::shared_ptr<Forest> forest_;
+  /// The pixel stage's forest (kPixelFeatureCount features); null: no pixel stage.
+  std::shared_ptr<Forest> pixel_forest_;
 };
 
 }  // namespace regolith::saliency
