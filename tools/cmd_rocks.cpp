@@ -553,7 +553,8 @@ void run_train(const std::string& images, const std::string& masks, const std::s
     throw InputError(ex.what());
   }
   std::cerr << "train rocks: " << m.training_images << " image(s), " << m.training_samples << " candidates ("
-            << m.training_positives << " positive); " << kBoxTextFields << ": " << box_text(m.box) << " -> " << out
+            << m.training_positives << " positive); " << kBoxTextFields << ": " << box_text(m.box)
+            << (m.has_pixel_stage() ? "; with a pixel stage" : "; no pixel stage (a single sol group)") << " -> " << out
             << '\n';
   if (failed > 0) throw InputError(std::to_string(failed) + " image(s) skipped (see the errors above)");
 }

@@ -32,7 +32,8 @@ struct TrainParams {
   std::vector<int> crowd_counts{0, 6, 8, 10, 12};
   std::vector<double> crowd_drops{0.05, 0.10, 0.15};
   /// The pixel stage's forest (pixel_stage.hpp), trained on the inner CV's out-of-fold maps:
-  /// pixel_samples random cells of each training image; 0 trees: a model without a pixel stage.
+  /// pixel_samples random cells of each training image; 0 trees: a model without a pixel stage
+  /// (as one trained on images of a single group, which has no out-of-fold maps).
   int pixel_trees = 10;
   int pixel_max_depth = 10;
   int pixel_min_sample_count = 20;
