@@ -293,7 +293,7 @@ class SamsComponent final : public runtime::Component {
          .doc = "method trained: window radius of the guided filter the saliency map goes through, smoothing it "
                 "inside the image's even regions and keeping its steps at the image's edges "
                 "(TrainedModel::guide_map; default 12 px at the model's working width, in proportion to the "
-                "camera's width); 0 publishes the painted map as it is"});
+                "camera's width); 0: the painted map goes on unfiltered (to the pixel stage, or published)"});
     const double guide_eps = p.get<double>(
         "map_guide_eps", TrainedModel::kMapGuideEps,
         {.min = 0.0,

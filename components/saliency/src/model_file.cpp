@@ -245,30 +245,6 @@ bool write_model_bytes(const std::string& path, const std::string& text, bool gz
   return gzclose(f) == Z_OK && ok;
 }
 
-}  // namespace
-
-TrainedModel parse_trained_model(const std::string& text, const std::string& name) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
-  }
-  if (!root.IsMap()) throw ModelError(name + ": corrupt rock model file (its top level is not a YAML map)");
-  try {
-    return read_model(root, name);
-  } catch (const YAML::Exception& e) {  // anything the typed reads above did not name
-    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
-  }
-}
-
-TrainedModel load_trained_model(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
-  return parse_trained_model(read_model_text(path), path);
-}
-
-namespace {
-
 // `forest` as a map {trees: [...]}, one map of plain arrays per tree, children tree-local.
 void emit_forest(YAML::Emitter& e, const TrainedModel::Forest& forest) {
   e << YAML::BeginMap << YAML::Key << "trees" << YAML::Value << YAML::BeginSeq;
@@ -299,6 +275,26 @@ void emit_forest(YAML::Emitter& e, const TrainedModel::Forest& forest) {
 }
 
 }  // namespace
+
+TrainedModel parse_trained_model(const std::string& text, const std::string& name) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
+  }
+  if (!root.IsMap()) throw ModelError(name + ": corrupt rock model file (its top level is not a YAML map)");
+  try {
+    return read_model(root, name);
+  } catch (const YAML::Exception& e) {  // anything the typed reads above did not name
+    throw ModelError(name + ": corrupt rock model file (" + e.what() + ")");
+  }
+}
+
+TrainedModel load_trained_model(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw ModelError(path + ": rock model file not found");
+  return parse_trained_model(read_model_text(path), path);
+}
 
 std::string trained_model_text(const TrainedModel& model) {
   if (!model.trained()) throw std::invalid_argument("trained_model_text: the model has no forest");
