@@ -793,6 +793,40 @@ TEST(Trained, ForestScoresEqualOpenCvPredictOnTheDevImages) {
   EXPECT_GT(compared, 100u);
 }
 
+TEST(Trained, ANarrowTallImageIsNotEnlargedPastTwiceTheWorkingArea) {
+  // The working width alone would make a 17 x 500 strip 560 x 16,470 px (3.4 GB of buffers, 40 s):
+  // the working image holds at most 2 x 560^2 px, the aspect kept; up to a 1:2 portrait image
+  // nothing changes.
+  rs::CandidateParams cp;
+  cp.working_width_px = 560;
+  rs::CandidateExtractor ex(cp);
+  EXPECT_EQ(ex.working_size({17, 500}), cv::Size(146, 4295));
+  EXPECT_EQ(ex.working_size({560, 2000}), cv::Size(419, 1497));  // at the working width, but tall
+  EXPECT_EQ(ex.working_size({560, 1120}), cv::Size(560, 1120));  // exactly at the bound
+  EXPECT_EQ(ex.working_size({280, 500}), cv::Size(560, 1000));
+  EXPECT_EQ(ex.working_size({1120, 1000}), cv::Size(560, 500));
+  // The whole detector on such a strip: boxes inside it, a map of its size in [0, 1].
+  const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
+  cv::Mat strip(500, 17, CV_8U);
+  cv::randu(strip, 60, 90);
+  cv::circle(strip, {8, 250}, 6, cv::Scalar(200), cv::FILLED);
+  rs::CandidateExtractor shipped(model.candidates);
+  rs::CandidateSet set;
+  shipped.extract(strip, set);
+  for (const auto& d : model.detect(set)) EXPECT_EQ(d.box & cv::Rect(0, 0, 17, 500), d.box);
+  cv::Mat map;
+  rs::TrainedModel::score_map(set, model.score(set), map);
+  rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
+  model.guide_map_at_width(strip, map, guide);
+  rs::PixelStage stage;
+  model.pixel_stage(strip, map, stage);
+  ASSERT_EQ(map.size(), strip.size());
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(map, &lo, &hi);
+  EXPECT_GE(lo, 0.0);
+  EXPECT_LE(hi, 1.0);
+}
+
 // The shipped model works at its training images' width (560 px): an image of another size is
 // resampled to it and the boxes mapped back, so the same rocks are found at any resolution.
 // Measured on all 60 dev images (in-sample, shipped model), N-MODA@0.2 / @0.5: 0.426 / 0.318 at

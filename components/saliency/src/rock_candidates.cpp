@@ -120,9 +120,16 @@ CandidateExtractor::CandidateExtractor(CandidateParams params)
 
 cv::Size CandidateExtractor::working_size(cv::Size size) const {
   const int w = params_.working_width_px;
-  if (w <= 0 || w == size.width || size.width <= 0) return size;
+  if (w <= 0 || size.width <= 0) return size;
   const double s = static_cast<double>(w) / size.width;
-  return {w, std::max(1, static_cast<int>(std::lround(size.height * s)))};
+  const double area = static_cast<double>(size.width) * size.height;
+  const double most = kMaxWorkingAreaFactor * static_cast<double>(w) * w;
+  if (area * s * s <= most)
+    return w == size.width ? size : cv::Size{w, std::max(1, static_cast<int>(std::lround(size.height * s)))};
+  // a narrow, tall image: the largest scale that keeps the working image within `most` pixels
+  const double t = std::sqrt(most / area);
+  return {std::max(1, static_cast<int>(std::lround(size.width * t))),
+          std::max(1, static_cast<int>(std::lround(size.height * t)))};
 }
 
 std::size_t CandidateExtractor::max_candidates(cv::Size size) const {

@@ -66,7 +66,9 @@ struct CandidateParams {
   /// px: every image is resampled to this width (aspect kept) before its candidates and features
   /// are computed, and the boxes are mapped back; the pixel scales above and the box-size features
   /// hold at this width. `regolith train rocks` sets it to the training images' median width;
-  /// 0: each image at its own size (a model file without the key).
+  /// 0: each image at its own size (a model file without the key). An image taller than twice
+  /// its width is resampled to at most 2 x working_width_px^2 pixels instead (CandidateExtractor::
+  /// working_size: a 17 x 500 strip would otherwise become 560 x 16,470 and 3.4 GB of buffers).
   int working_width_px = 0;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -126,7 +128,9 @@ class CandidateExtractor {
   void extract(const cv::Mat& image, CandidateSet& out);
   /// Most candidates one image of `size` can give.
   std::size_t max_candidates(cv::Size size) const;
-  /// The size an image of `size` is processed at (params().working_width_px; `size` when 0).
+  /// The size an image of `size` is processed at: params().working_width_px wide (`size` when 0),
+  /// the aspect kept, but never more than kMaxWorkingAreaFactor x working_width_px^2 pixels.
+  static constexpr double kMaxWorkingAreaFactor = 2.0;
   cv::Size working_size(cv::Size size) const;
   const CandidateParams& params() const { return params_; }
 
