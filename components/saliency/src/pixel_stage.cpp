@@ -47,7 +47,6 @@ void PixelStage::compute(const cv::Mat& intensity, const cv::Mat& map, cv::Size 
     map_size_ = map.size();
     grid_ = grid;
   }
-  intensity_ = &intensity;
   const cv::Mat* in = &intensity;
   if (intensity.type() == CV_8UC1) {
     intensity.convertTo(unit_, CV_32F, 1.0 / 255.0);  // into unit_'s buffer once it has the size
@@ -116,14 +115,14 @@ void PixelStage::compute(const cv::Mat& intensity, const cv::Mat& map, cv::Size 
   sums_.resize(static_cast<std::size_t>(grid.area()));  // no-op once sized
 }
 
-void PixelStage::upsample(cv::Mat& map, int guide_radius_px, double guide_eps) {
-  if (cells_.size() != grid_ || up_.dst_size() != map_size_ || intensity_ == nullptr)
+void PixelStage::upsample(const cv::Mat& intensity, cv::Mat& map, int guide_radius_px, double guide_eps) {
+  if (cells_.size() != grid_ || up_.dst_size() != map_size_)
     throw std::logic_error("PixelStage::upsample before compute()");
   up_.apply(cells_, map, true);
   if (guide_radius_px <= 0) return;
   if (!guide_ || guide_->radius() != guide_radius_px || guide_->eps() != guide_eps)
     guide_.emplace(guide_radius_px, guide_eps);
-  guide_->apply(*intensity_, map, map, 0.0f, 1.0f);
+  guide_->apply(intensity, map, map, 0.0f, 1.0f);
 }
 
 }  // namespace regolith::saliency

@@ -124,8 +124,7 @@ cv::Size CandidateExtractor::working_size(cv::Size size) const {
   const double s = static_cast<double>(w) / size.width;
   const double area = static_cast<double>(size.width) * size.height;
   const double most = kMaxWorkingAreaFactor * static_cast<double>(w) * w;
-  if (area * s * s <= most)
-    return w == size.width ? size : cv::Size{w, std::max(1, static_cast<int>(std::lround(size.height * s)))};
+  if (area * s * s <= most) return {w, std::max(1, static_cast<int>(std::lround(size.height * s)))};
   // a narrow, tall image: the largest scale that keeps the working image within `most` pixels
   const double t = std::sqrt(most / area);
   return {std::max(1, static_cast<int>(std::lround(size.width * t))),

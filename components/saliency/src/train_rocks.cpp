@@ -172,22 +172,19 @@ std::vector<std::vector<float>> out_of_fold_scores(const std::vector<const Label
   std::sort(distinct.begin(), distinct.end());
   distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
   const int k = std::min<int>(tp.inner_folds, static_cast<int>(distinct.size()));
+  if (k < 2) return {};
   std::vector<std::vector<float>> scores(frames.size());
-  if (k >= 2) {
-    const std::vector<int> fold = grouped_folds(groups, k);
-    for (int f = 0; f < k; ++f) {
-      std::vector<const LabelledFrame*> train;
-      for (size_t i = 0; i < frames.size(); ++i)
-        if (fold[i] != f) train.push_back(frames[i]);
-      TrainedModel inner;
-      inner.forest_ = std::make_shared<TrainedModel::Forest>();
-      inner.forest_->rtrees = fit_forest(train, tp, nullptr, nullptr);
-      inner.forest_->flatten();
-      for (size_t i = 0; i < frames.size(); ++i)
-        if (fold[i] == f) inner.score(frames[i]->set, scores[i]);
-    }
-  } else {
-    scores.clear();
+  const std::vector<int> fold = grouped_folds(groups, k);
+  for (int f = 0; f < k; ++f) {
+    std::vector<const LabelledFrame*> train;
+    for (size_t i = 0; i < frames.size(); ++i)
+      if (fold[i] != f) train.push_back(frames[i]);
+    TrainedModel inner;
+    inner.forest_ = std::make_shared<TrainedModel::Forest>();
+    inner.forest_->rtrees = fit_forest(train, tp, nullptr, nullptr);
+    inner.forest_->flatten();
+    for (size_t i = 0; i < frames.size(); ++i)
+      if (fold[i] == f) inner.score(frames[i]->set, scores[i]);
   }
   return scores;
 }

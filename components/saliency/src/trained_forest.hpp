@@ -136,47 +136,40 @@ struct TrainedModel::Forest {
   void predict_rows(const cv::Mat& x, double* sums, float* out) const {
     const int n = x.rows;
     std::fill(sums, sums + n, 0.0);
-    const Step* st = steps.data();
     constexpr int kLanes = 8;
     for (std::size_t t = 0; t < roots.size(); ++t) {
-      const int root = roots[t], depth = depths[t];
+      const int root = roots[t], depth = depths[t];  // the 8 lanes: leaf()'s walk, interleaved
       int i = 0;
       for (; i + kLanes <= n; i += kLanes) {
         int k[kLanes];
         const float* xs[kLanes];
         for (int j = 0; j < kLanes; ++j) k[j] = root, xs[j] = x.ptr<float>(i + j);
         for (int d = 0; d < depth; ++d)
-          for (int j = 0; j < kLanes; ++j) {
-            const Step& s = st[k[j]];
-            k[j] = s.child[!(xs[j][s.var] <= s.threshold)];
-          }
+          for (int j = 0; j < kLanes; ++j) k[j] = next(k[j], xs[j]);
         for (int j = 0; j < kLanes; ++j) sums[i + j] += nodes[static_cast<std::size_t>(k[j])].value;
       }
-      for (; i < n; ++i) {
-        const float* xi = x.ptr<float>(i);
-        int k = root;
-        for (int d = 0; d < depth; ++d) {
-          const Step& s = st[k];
-          k = s.child[!(xi[s.var] <= s.threshold)];
-        }
-        sums[i] += nodes[static_cast<std::size_t>(k)].value;
-      }
+      for (; i < n; ++i) sums[i] += nodes[static_cast<std::size_t>(leaf(t, x.ptr<float>(i)))].value;
     }
     const double count = static_cast<double>(std::max<std::size_t>(roots.size(), 1));
     for (int i = 0; i < n; ++i) out[i] = static_cast<float>(sums[i] / count);
   }
 
+  /// One step of a walk from node `k`: x[var] <= threshold goes left, anything else (NaN
+  /// included) right; a leaf stays where it is.
+  int next(int k, const float* x) const {
+    const Step& s = steps[static_cast<std::size_t>(k)];
+    return s.child[!(x[s.var] <= s.threshold)];
+  }
+  /// The leaf of tree `t` that `x` reaches: depths[t] steps from its root.
+  int leaf(std::size_t t, const float* x) const {
+    int k = roots[t];
+    for (int d = 0; d < depths[t]; ++d) k = next(k, x);
+    return k;
+  }
+
   float predict(const float* x) const {
     double sum = 0.0;
-    for (int r : roots) {
-      int k = r;
-      // check(): every step goes to a later node of the tree, so this ends at a leaf
-      while (nodes[static_cast<std::size_t>(k)].var >= 0) {
-        const Node& n = nodes[static_cast<std::size_t>(k)];
-        k = x[n.var] <= n.threshold ? n.left : n.right;
-      }
-      sum += nodes[static_cast<std::size_t>(k)].value;
-    }
+    for (std::size_t t = 0; t < roots.size(); ++t) sum += nodes[static_cast<std::size_t>(leaf(t, x))].value;
     return roots.empty() ? 0.0f : static_cast<float>(sum / static_cast<double>(roots.size()));
   }
 };

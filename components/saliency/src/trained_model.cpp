@@ -30,7 +30,7 @@ void TrainedModel::pixel_stage(const cv::Mat& intensity, cv::Mat& map, PixelStag
   stage.compute(intensity, map, pixel_grid_size(map.size(), candidates.working_width_px));
   // cells: continuous (made by create()), one value per feature row
   pixel_forest_->predict_rows(stage.features(), stage.sums(), stage.cells().ptr<float>(0));
-  stage.upsample(map, map_guide_radius_px(map.cols), kMapGuideEps);
+  stage.upsample(intensity, map, map_guide_radius_px(map.cols), kMapGuideEps);
 }
 
 std::vector<float> TrainedModel::pixel_values_by_opencv(const cv::Mat& features) const {
