@@ -309,11 +309,9 @@ struct RockDetectors {
   std::vector<sal::Detection> dets;
   std::vector<int> spans;  // TrainedModel::score_map's scratch
   sal::TrainedModel::BoxScratch box_scratch;
-  sal::GuidedFilter guide{sal::TrainedModel::kMapGuideRadiusPx,
-                          sal::TrainedModel::kMapGuideEps};  // re-made per radius (guide_map_at_width)
-  cv::Mat unit, intensity;                                   // the trained map's guide
-  sal::PixelStage pixel;                                     // the trained map's last step
-  std::string enlarged_note;  // set by the first image processed enlarged (said once per run)
+  cv::Mat unit, intensity;             // the trained map's guide
+  sal::TrainedMapScratch map_scratch;  // the trained map's filter and pixel stage
+  std::string enlarged_note;           // set by the first image processed enlarged (said once per run)
 };
 
 // SAMS and Itti-Koch build a pyramid of 2^(centre_max + delta_max) px a side (256 px by default). A smaller image
@@ -351,8 +349,7 @@ void detect_rocks(const RockMethod& m, RockDetectors& d, const cv::Mat& img, con
       if (want_map) {
         sal::to_unit_float(img, d.unit);
         sal::intensity_of(d.unit, d.intensity);
-        m.model->guide_map_at_width(d.intensity, d.map, d.guide);
-        m.model->pixel_stage(d.intensity, d.map, d.pixel);
+        m.model->finish_map(d.intensity, d.map, d.map_scratch);
       }
     } else if (d.peer) {
       d.peer->compute(img, d.map);

@@ -192,8 +192,7 @@ void BM_TrainedScoreMap(benchmark::State& st) {
   cv::Mat map;
   std::vector<int> spans;
   rs::TrainedModel::BoxScratch scratch;
-  rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
-  rs::PixelStage stage;
+  rs::TrainedMapScratch map_scratch;
   cv::Mat grey;
   cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
   for (auto _ : st) {
@@ -202,8 +201,8 @@ void BM_TrainedScoreMap(benchmark::State& st) {
       std::copy(kept.begin(), kept.end(), dets.begin());
       rs::TrainedModel::refine(map, model.box.refine_fraction, dets, scratch);
     }
-    if (guided) rs::TrainedModel::guide_map(grey, map, guide);
-    if (pixel) model.pixel_stage(grey, map, stage);
+    if (guided) model.guide_map(grey, map, map_scratch);
+    if (pixel) model.pixel_stage(grey, map, map_scratch);
     benchmark::DoNotOptimize(map.data);
   }
   st.counters["candidates"] = static_cast<double>(set.candidates.size());

@@ -38,8 +38,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       map.at<float>(i / map.cols, i % map.cols) = static_cast<float>(b) / 255.0f;
       intensity.at<std::uint8_t>(i / map.cols, i % map.cols) = static_cast<std::uint8_t>(b * 7u);
     }
-    rs::PixelStage stage;
-    model.pixel_stage(intensity, map, stage);
+    rs::TrainedMapScratch scratch;
+    model.pixel_stage(intensity, map, scratch);
     for (int i = 0; i < map.rows * map.cols; ++i) {
       const float v = map.at<float>(i / map.cols, i % map.cols);
       if (!(v >= 0.0f && v <= 1.0f)) __builtin_trap();

@@ -496,8 +496,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
     std::vector<rs::Detection> dets;
     std::vector<int> spans;
     rs::TrainedModel::BoxScratch box_scratch;
-    rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
-    rs::PixelStage stage;
+    rs::TrainedMapScratch map_scratch;
     cv::Mat map;
     const std::size_t most = ex.max_candidates(s);
     scores.reserve(most);
@@ -519,8 +518,7 @@ TEST(ImageOps, TrainedRockStagesAllocateNothingPerFrameOnceWarm) {
       model.score(set, scores);
       rs::TrainedModel::score_map(set, scores, map, spans);
       rs::TrainedModel::boxes(set, scores, map, model.box, dets, box_scratch);
-      rs::TrainedModel::guide_map(gray, map, guide);
-      model.pixel_stage(gray, map, stage);
+      model.finish_map(gray, map, map_scratch);
     };
     const cv::Mat frames[] = {frame(1), frame(2), frame(3), frame(4)};
     run(frames[0]);

@@ -349,9 +349,9 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   cv::Mat map_trained, map_loaded;
   rs::TrainedModel::score_map(frames[2].set, m1.score(frames[2].set), map_trained);
   map_loaded = map_trained.clone();
-  rs::PixelStage stage_trained, stage_loaded;
-  m1.pixel_stage(frames[2].intensity, map_trained, stage_trained);
-  l.pixel_stage(frames[2].intensity, map_loaded, stage_loaded);
+  rs::TrainedMapScratch trained_scratch, loaded_scratch;
+  m1.pixel_stage(frames[2].intensity, map_trained, trained_scratch);
+  l.pixel_stage(frames[2].intensity, map_loaded, loaded_scratch);
   EXPECT_EQ(cv::norm(map_trained, map_loaded, cv::NORM_INF), 0.0);
   // Its walk (eight cells side by side, tree by tree) gives RTrees::predict's values, on a grid
   // whose cell count is not a multiple of eight (79 x 58).
@@ -359,7 +359,8 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   rs::TrainedModel::score_map(frames[3].set, m1.score(frames[3].set), crop_map);
   crop_map = crop_map(cv::Rect(0, 0, 314, 233)).clone();
   crop_intensity = frames[3].intensity(cv::Rect(0, 0, 314, 233)).clone();
-  m1.pixel_stage(crop_intensity, crop_map, stage_trained);
+  m1.pixel_stage(crop_intensity, crop_map, trained_scratch);
+  rs::PixelStage& stage_trained = trained_scratch.stage;
   ASSERT_EQ(stage_trained.grid(), cv::Size(79, 58));
   const std::vector<float> reference = m1.pixel_values_by_opencv(stage_trained.features());
   ASSERT_EQ(reference.size(), std::size_t{79 * 58});
@@ -376,7 +377,7 @@ TEST(Trained, TrainingIsDeterministicBitForBitAndTheModelRoundTrips) {
   EXPECT_FALSE(rs::parse_trained_model(plain_text, "plain").has_pixel_stage());
   // ... whose published map is the guided one, untouched by pixel_stage().
   cv::Mat untouched = map_loaded.clone();
-  plain.pixel_stage(frames[2].intensity, untouched, stage_loaded);
+  plain.pixel_stage(frames[2].intensity, untouched, loaded_scratch);
   EXPECT_EQ(cv::norm(untouched, map_loaded, cv::NORM_INF), 0.0);
   // A failed save leaves the file that was there as it was.
   const std::string unwritable = (dir / "no_such_dir" / "m.yml").string();
@@ -674,18 +675,56 @@ TEST(Trained, TheMapGuideRadiusScalesWithTheImageWidth) {
   // The shipped model's images (560 px wide, as the development set's) keep the radius chosen on them.
   EXPECT_EQ(rs::load_trained_model(rs::default_trained_model_path()).map_guide_radius_px(560),
             rs::TrainedModel::kMapGuideRadiusPx);
-  // guide_map_at_width: the filter re-made at the image's radius (its eps kept), then guide_map.
+  // guide_map: the filter at the image's radius (7 px at 320 px wide) and the default ridge unless
+  // the options set them; radius 0 leaves the map as it is.
   m.candidates.working_width_px = 560;
   cv::Mat intensity(240, 320, CV_32FC1), map(240, 320, CV_32FC1);
   cv::randu(intensity, 0.0f, 1.0f);
   cv::randu(map, 0.0f, 1.0f);
-  cv::Mat want = map.clone(), got = map.clone();
-  rs::GuidedFilter seven(7, 2e-3), filter(rs::TrainedModel::kMapGuideRadiusPx, 2e-3);
-  rs::TrainedModel::guide_map(intensity, want, seven);
-  m.guide_map_at_width(intensity, got, filter);
-  EXPECT_EQ(filter.radius(), 7);
-  EXPECT_EQ(filter.eps(), 2e-3);
-  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
+  const auto filtered = [&](int radius, double eps) {
+    cv::Mat out;
+    rs::GuidedFilter(radius, eps).apply(intensity, map, out, 0.0f, 1.0f);
+    return out;
+  };
+  rs::TrainedMapScratch scratch;
+  cv::Mat got = map.clone();
+  m.guide_map(intensity, got, scratch);
+  EXPECT_EQ(cv::norm(got, filtered(7, rs::TrainedModel::kMapGuideEps), cv::NORM_INF), 0.0);
+  rs::TrainedMapOptions o;
+  o.guide_radius_px = 5;
+  o.guide_eps = 2e-3;
+  got = map.clone();
+  m.guide_map(intensity, got, scratch, o);  // the scratch's filter re-made
+  EXPECT_EQ(scratch.guide->radius(), 5);
+  EXPECT_EQ(scratch.guide->eps(), 2e-3);
+  EXPECT_EQ(cv::norm(got, filtered(5, 2e-3), cv::NORM_INF), 0.0);
+  o.guide_radius_px = 0;
+  got = map.clone();
+  m.guide_map(intensity, got, scratch, o);
+  EXPECT_EQ(cv::norm(got, map, cv::NORM_INF), 0.0);
+  // The pixel stage ends with the same filter: its map at radius 5 is its map at radius 0 (the
+  // grid only interpolated back) through GuidedFilter(5, eps); pixel_stage false leaves the map.
+  const rs::TrainedModel shipped = rs::load_trained_model(rs::default_trained_model_path());
+  cv::Mat bare = map.clone(), guided = map.clone();
+  shipped.pixel_stage(intensity, bare, scratch, o);
+  o.guide_radius_px = 5;
+  shipped.pixel_stage(intensity, guided, scratch, o);
+  cv::Mat want;
+  rs::GuidedFilter(5, 2e-3).apply(intensity, bare, want, 0.0f, 1.0f);
+  EXPECT_GT(cv::norm(bare, map, cv::NORM_INF), 0.1);
+  EXPECT_EQ(cv::norm(guided, want, cv::NORM_INF), 0.0);
+  o.pixel_stage = false;
+  got = map.clone();
+  shipped.pixel_stage(intensity, got, scratch, o);
+  EXPECT_EQ(cv::norm(got, map, cv::NORM_INF), 0.0);
+  // finish_map is the two steps in turn.
+  o = {};
+  cv::Mat two = map.clone();
+  shipped.guide_map(intensity, two, scratch, o);
+  shipped.pixel_stage(intensity, two, scratch, o);
+  got = map.clone();
+  shipped.finish_map(intensity, got, scratch);
+  EXPECT_EQ(cv::norm(got, two, cv::NORM_INF), 0.0);
 }
 
 TEST(Trained, ACrowdedImageKeepsItsBoxesDownToTheCrowdThreshold) {
@@ -816,10 +855,8 @@ TEST(Trained, ANarrowTallImageIsNotEnlargedPastTwiceTheWorkingArea) {
   for (const auto& d : model.detect(set)) EXPECT_EQ(d.box & cv::Rect(0, 0, 17, 500), d.box);
   cv::Mat map;
   rs::TrainedModel::score_map(set, model.score(set), map);
-  rs::GuidedFilter guide(rs::TrainedModel::kMapGuideRadiusPx, rs::TrainedModel::kMapGuideEps);
-  model.guide_map_at_width(strip, map, guide);
-  rs::PixelStage stage;
-  model.pixel_stage(strip, map, stage);
+  rs::TrainedMapScratch map_scratch;
+  model.finish_map(strip, map, map_scratch);
   ASSERT_EQ(map.size(), strip.size());
   double lo = 0.0, hi = 0.0;
   cv::minMaxLoc(map, &lo, &hi);

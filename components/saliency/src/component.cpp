@@ -286,22 +286,22 @@ class SamsComponent final : public runtime::Component {
                       {.min = 0.0,
                        .max = 1.0,
                        .doc = "method trained: lowest box score a rock-field frame keeps (default the model's)"});
-    const int guide_radius = p.get<int>(
+    map_options_.guide_radius_px = p.get<int>(
         "map_guide_radius_px", model_.map_guide_radius_px(size_.width),
         {.min = 0.0,
          .max = 256.0,
          .doc = "method trained: window radius of the guided filter the saliency map goes through, smoothing it "
                 "inside the image's even regions and keeping its steps at the image's edges "
                 "(TrainedModel::guide_map; default 12 px at the model's working width, in proportion to the "
-                "camera's width); 0: the painted map goes on unfiltered (to the pixel stage, or published)"});
-    const double guide_eps = p.get<double>(
+                "camera's width); the pixel stage's grid goes through the same filter; 0: no filter (the painted "
+                "map goes on as it is, the stage's grid is only interpolated back)"});
+    map_options_.guide_eps = p.get<double>(
         "map_guide_eps", TrainedModel::kMapGuideEps,
         {.min = 0.0,
          .min_exclusive = true,
          .doc = "method trained: the guided filter's ridge on the intensity gain (intensity in 0..1): larger "
                 "smooths across weaker edges"});
-    if (guide_radius > 0) guide_ = std::make_unique<GuidedFilter>(guide_radius, guide_eps);
-    pixel_stage_ =
+    map_options_.pixel_stage =
         p.get<bool>("pixel_stage", true,
                     {.doc = "method trained: the map's last step, the model's pixel forest (each cell of a grid a "
                             "quarter of the model's working width scored from the map and the image around it; "
@@ -496,9 +496,8 @@ class SamsComponent final : public runtime::Component {
       roi_runs_.fill_outside(saliency_, 0.f);
       // refined on the map it publishes
       TrainedModel::boxes(candidates_, scores_, saliency_, model_.box, dets_, box_scratch_);
-      if (guide_) TrainedModel::guide_map(work_gray_, saliency_, *guide_);
-      if (pixel_stage_) model_.pixel_stage(work_gray_, saliency_, pixel_);
-      if (guide_ || pixel_stage_) roi_runs_.fill_outside(saliency_, 0.f);
+      model_.finish_map(work_gray_, saliency_, map_scratch_, map_options_);
+      roi_runs_.fill_outside(saliency_, 0.f);
       if (dets_.size() > static_cast<std::size_t>(max_detections_))
         dets_.resize(static_cast<std::size_t>(max_detections_));
       rank_and_range();
@@ -632,9 +631,8 @@ class SamsComponent final : public runtime::Component {
   std::vector<float> scores_;
   std::vector<int> score_spans_;  // TrainedModel::score_map's scratch
   TrainedModel::BoxScratch box_scratch_;
-  std::unique_ptr<GuidedFilter> guide_;  // null: map_guide_radius_px 0
-  bool pixel_stage_ = false;             // the model has one and `pixel_stage` is on
-  PixelStage pixel_;
+  TrainedMapOptions map_options_;  // map_guide_radius_px, map_guide_eps, pixel_stage
+  TrainedMapScratch map_scratch_;
   cv::Size size_;
   RangingParams ranging_;
   std::unique_ptr<direct_depth::DirectDepth> depth_;

@@ -115,14 +115,11 @@ void PixelStage::compute(const cv::Mat& intensity, const cv::Mat& map, cv::Size 
   sums_.resize(static_cast<std::size_t>(grid.area()));  // no-op once sized
 }
 
-void PixelStage::upsample(const cv::Mat& intensity, cv::Mat& map, int guide_radius_px, double guide_eps) {
+void PixelStage::upsample(const cv::Mat& intensity, cv::Mat& map, GuidedFilter* guide) {
   if (cells_.size() != grid_ || up_.dst_size() != map_size_)
     throw std::logic_error("PixelStage::upsample before compute()");
   up_.apply(cells_, map, true);
-  if (guide_radius_px <= 0) return;
-  if (!guide_ || guide_->radius() != guide_radius_px || guide_->eps() != guide_eps)
-    guide_.emplace(guide_radius_px, guide_eps);
-  guide_->apply(intensity, map, map, 0.0f, 1.0f);
+  if (guide) guide->apply(intensity, map, map, 0.0f, 1.0f);
 }
 
 }  // namespace regolith::saliency

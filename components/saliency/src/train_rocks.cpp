@@ -97,8 +97,8 @@ cv::Ptr<cv::ml::RTrees> fit_pixel_forest(const std::vector<const LabelledFrame*>
                                          const std::vector<std::vector<float>>& scores, const TrainedModel& m,
                                          const TrainParams& tp) {
   cv::Mat x(0, kPixelFeatureCount, CV_32F), y(0, 1, CV_32F), map, rock, rock_cells;
-  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx, TrainedModel::kMapGuideEps);
-  PixelStage stage;
+  TrainedMapScratch scratch;
+  PixelStage& stage = scratch.stage;
   ResizeTable down;
   cv::RNG rng(tp.seed);
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -106,7 +106,7 @@ cv::Ptr<cv::ml::RTrees> fit_pixel_forest(const std::vector<const LabelledFrame*>
     if (f.intensity.empty())
       throw std::invalid_argument(f.name + ": no intensity image for the pixel stage (make_labelled_frame sets it)");
     TrainedModel::score_map(f.set, scores[i], map);
-    m.guide_map_at_width(f.intensity, map, guide);
+    m.guide_map(f.intensity, map, scratch);
     const cv::Size grid = pixel_grid_size(map.size(), m.candidates.working_width_px);
     stage.compute(f.intensity, map, grid);
     f.truth.mask.convertTo(rock, CV_32F, 1.0 / 255.0);
@@ -271,11 +271,9 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
   r.pooled.resize(frames.size());
   r.pooled_guided.resize(frames.size());
   cv::Mat map, map8;
-  PixelStage stage;
   std::vector<Detection> dets;
   TrainedModel::BoxScratch scratch;
-  GuidedFilter guide(TrainedModel::kMapGuideRadiusPx,
-                     TrainedModel::kMapGuideEps);  // re-made per radius (guide_map_at_width)
+  TrainedMapScratch map_scratch;
   for (int f = 0; f < folds; ++f) {
     std::vector<const LabelledFrame*> train;
     std::vector<size_t> test;
@@ -291,10 +289,11 @@ TrainedCvResult cross_validate_trained(const std::vector<LabelledFrame>& frames,
       const std::vector<float> s = m.score(frames[i].set);
       TrainedModel::score_map(frames[i].set, s, map);
       TrainedModel::boxes(frames[i].set, s, map, m.box, dets, scratch);
-      m.guide_map_at_width(frames[i].intensity, map, guide);
+      // the published map (finish_map), scored after each of its two steps
+      m.guide_map(frames[i].intensity, map, map_scratch);
       to_8bit(map, map8);
       r.pooled_guided[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
-      m.pixel_stage(frames[i].intensity, map, stage);
+      m.pixel_stage(frames[i].intensity, map, map_scratch);
       to_8bit(map, map8);
       r.pooled[i] = evaluate_frame(frames[i].name, dets, frames[i].truth, map8);
     }

@@ -25,14 +25,6 @@ bool TrainedModel::has_pixel_stage() const {
   return pixel_forest_ && !pixel_forest_->roots.empty();
 }
 
-void TrainedModel::pixel_stage(const cv::Mat& intensity, cv::Mat& map, PixelStage& stage) const {
-  if (!has_pixel_stage()) return;
-  stage.compute(intensity, map, pixel_grid_size(map.size(), candidates.working_width_px));
-  // cells: continuous (made by create()), one value per feature row
-  pixel_forest_->predict_rows(stage.features(), stage.sums(), stage.cells().ptr<float>(0));
-  stage.upsample(intensity, map, map_guide_radius_px(map.cols), kMapGuideEps);
-}
-
 std::vector<float> TrainedModel::pixel_values_by_opencv(const cv::Mat& features) const {
   if (!has_pixel_stage() || !pixel_forest_->rtrees)
     throw std::logic_error("TrainedModel::pixel_values_by_opencv: no pixel forest as OpenCV trained it");
@@ -167,20 +159,44 @@ void TrainedModel::BoxScratch::reserve(cv::Size map, std::size_t candidate_count
   sums.reserve(static_cast<std::size_t>(map.height) * static_cast<std::size_t>((map.width + 1) / 2));
 }
 
-void TrainedModel::guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) {
-  filter.apply(intensity, map, map, 0.0f, 1.0f);
-}
-
 int TrainedModel::map_guide_radius_px(int image_width_px) const {
   const int working = candidates.working_width_px;
   if (working <= 0 || image_width_px <= 0) return kMapGuideRadiusPx;
   return std::max(1, static_cast<int>(std::lround(kMapGuideRadiusPx * static_cast<double>(image_width_px) / working)));
 }
 
-void TrainedModel::guide_map_at_width(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) const {
-  if (const int radius = map_guide_radius_px(intensity.cols); radius != filter.radius())
-    filter = GuidedFilter(radius, filter.eps());
-  guide_map(intensity, map, filter);
+namespace {
+
+// The scratch's filter at the options' radius (by the image's width unless set) and ridge,
+// re-made when either differs; null for radius 0.
+GuidedFilter* map_filter(const TrainedModel& m, int image_width_px, TrainedMapScratch& s, const TrainedMapOptions& o) {
+  const int radius = o.guide_radius_px.value_or(m.map_guide_radius_px(image_width_px));
+  if (radius <= 0) return nullptr;
+  if (!s.guide || s.guide->radius() != radius || s.guide->eps() != o.guide_eps) s.guide.emplace(radius, o.guide_eps);
+  return &*s.guide;
+}
+
+}  // namespace
+
+void TrainedModel::guide_map(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                             const TrainedMapOptions& o) const {
+  if (GuidedFilter* filter = map_filter(*this, map.cols, scratch, o)) filter->apply(intensity, map, map, 0.0f, 1.0f);
+}
+
+void TrainedModel::pixel_stage(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                               const TrainedMapOptions& o) const {
+  if (!o.pixel_stage || !has_pixel_stage()) return;
+  PixelStage& stage = scratch.stage;
+  stage.compute(intensity, map, pixel_grid_size(map.size(), candidates.working_width_px));
+  // cells: continuous (made by create()), one value per feature row
+  pixel_forest_->predict_rows(stage.features(), stage.sums(), stage.cells().ptr<float>(0));
+  stage.upsample(intensity, map, map_filter(*this, map.cols, scratch, o));
+}
+
+void TrainedModel::finish_map(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                              const TrainedMapOptions& o) const {
+  guide_map(intensity, map, scratch, o);
+  pixel_stage(intensity, map, scratch, o);
 }
 
 void TrainedModel::refine(const cv::Mat& map, double fraction, std::vector<Detection>& dets, BoxScratch& scratch) {

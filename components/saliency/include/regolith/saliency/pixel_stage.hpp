@@ -11,7 +11,6 @@
 // stage's errors on new images rather than to trust its in-sample confidence. Grouped CV on the
 // dev images: max F 0.781 -> 0.802, every fold up (components/saliency/README.md, "The pixel
 // stage").
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,16 +47,15 @@ class PixelStage {
   /// Scratch of grid.area() doubles for the caller's per-cell sums.
   double* sums() { return sums_.data(); }
   /// cells() brought to `map`'s size (bilinear, as cv::resize INTER_LINEAR), clamped to [0, 1],
-  /// then through a guided filter of radius `guide_radius_px` (eps `guide_eps`) with `intensity`
-  /// (compute()'s) as the guide, so that the coarse grid's steps follow the image's edges (0: none).
-  void upsample(const cv::Mat& intensity, cv::Mat& map, int guide_radius_px, double guide_eps);
+  /// then through `guide` (when not null) with `intensity` (compute()'s) as the guide, so that the
+  /// coarse grid's steps follow the image's edges.
+  void upsample(const cv::Mat& intensity, cv::Mat& map, GuidedFilter* guide);
 
  private:
   cv::Size map_size_{}, grid_{};
   ResizeTable down_, up_;
   GaussianBlur32f blur1_, blur2_, blur4_, blur8_, blur16_;
-  std::optional<GuidedFilter> guide_;  // re-made when its radius or eps changes
-  cv::Mat unit_;                       // an 8-bit intensity as [0, 1] floats
+  cv::Mat unit_;  // an 8-bit intensity as [0, 1] floats
   cv::Mat i_, g_, g1_, g4_, g8_, i1_, i4_, i16_, ii_, ii1_, gx_, gy_, grad_, grad2_;
   cv::Mat features_, cells_;
   std::vector<double> sums_;

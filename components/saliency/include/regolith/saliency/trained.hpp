@@ -27,6 +27,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -178,6 +179,23 @@ class CandidateExtractor {
   std::vector<Sides> sides_;
 };
 
+/// How a trained model's published map is made from the painted one (TrainedModel::finish_map;
+/// the defaults are the model's own).
+struct TrainedMapOptions {
+  /// Window radius of the guided filter both steps end with; unset: TrainedModel::map_guide_radius_px() of
+  /// the image's width; 0: no filter (the painted map goes on as it is, the stage's grid is
+  /// only interpolated back).
+  std::optional<int> guide_radius_px;
+  /// The filter's ridge on the intensity gain (intensity in [0, 1]).
+  double guide_eps = 1e-3;  // TrainedModel::kMapGuideEps
+  /// Whether the pixel stage runs (a model without one never runs it).
+  bool pixel_stage = true;
+};
+/// Scratch of TrainedModel::finish_map's steps: no allocation once it has seen a map of this size and radius.
+struct TrainedMapScratch {
+  std::optional<GuidedFilter> guide;  // at the radius and ridge in use
+  PixelStage stage;
+};
 /// A trained model: candidate parameters, chosen thresholds and the forest.
 class TrainedModel {
  public:
@@ -225,14 +243,6 @@ class TrainedModel {
                         std::vector<int>& spans);
   /// The same with a scratch of its own (allocates; for tools and tests).
   static void score_map(const CandidateSet& set, const std::vector<float>& scores, cv::Mat& map);
-  /// The guided filter every published pixel map goes through after score_map() (and after
-  /// refine(), which reads the painted map): `map` := GuidedFilter(radius, eps) of itself with the
-  /// image's intensity as the guide, in [0, 1]. Inside a rock (an even stretch of the image) the
-  /// map is smoothed, so the low values the painting leaves on its fringe and middle rise towards
-  /// its core's; across the rock's outline (an edge of the image) the map's step is kept rather
-  /// than bled onto the ground (grouped CV max F 0.773 -> 0.781, every seed +0.006 to +0.010;
-  /// components/saliency/README.md, "The map follows the image's edges"). The defaults below.
-  static void guide_map(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter);
   /// The filter's radius at the model's working width (candidates.working_width_px, where its
   /// pixel scales hold; chosen on the 560 px development images), and its ridge.
   static constexpr int kMapGuideRadiusPx = 12;
@@ -241,17 +251,27 @@ class TrainedModel {
   /// width against the working width (rounded, at least 1), so that it spans as much of a rock
   /// whatever the camera; kMapGuideRadiusPx for a model without a working width.
   int map_guide_radius_px(int image_width_px) const;
-  /// guide_map() with `filter` first re-made at map_guide_radius_px(intensity.cols) (same eps)
-  /// when its radius differs: for callers whose images differ in width (`regolith rocks`, the
-  /// grouped CV); allocates only when the radius changes.
-  void guide_map_at_width(const cv::Mat& intensity, cv::Mat& map, GuidedFilter& filter) const;
-  /// The pixel stage (pixel_stage.hpp), the published map's last step after guide_map(): `map`
-  /// := the pixel forest's rock fraction of each cell of pixel_grid_size(), brought back to the
-  /// map's size and through the guided filter of guide_map() (map_guide_radius_px(), kMapGuideEps)
-  /// so that it follows the image's edges, in [0, 1]. `intensity`: the image's (CV_32FC1 in [0, 1] or CV_8UC1, the
-  /// map's size). A model without a pixel stage leaves `map` as it is. No allocation once `stage` has seen a map of
-  /// this size.
-  void pixel_stage(const cv::Mat& intensity, cv::Mat& map, PixelStage& stage) const;
+  /// The published map, made from score_map()'s painting after boxes() have been refined on it:
+  /// guide_map(), then pixel_stage(). Every user of a model publishes this map (the `sams`
+  /// component, `regolith rocks --saliency-dir`, the grouped CV's max F). `intensity`: the image's
+  /// (CV_32FC1 in [0, 1] or CV_8UC1, the map's size); `map` CV_32FC1 in [0, 1], in place.
+  void finish_map(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                  const TrainedMapOptions& o = {}) const;
+  /// The first step: `map` := the guided filter of itself with the image's intensity as the guide,
+  /// in [0, 1]. Inside a rock (an even stretch of the image) the map is smoothed, so the low values
+  /// the painting leaves on its fringe and middle rise towards its core's; across the rock's
+  /// outline (an edge of the image) the map's step is kept rather than bled onto the ground
+  /// (grouped CV max F 0.773 -> 0.781, every seed +0.006 to +0.010; components/saliency/README.md,
+  /// "The map follows the image's edges").
+  void guide_map(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                 const TrainedMapOptions& o = {}) const;
+  /// The second step, the pixel stage (pixel_stage.hpp): `map` := the pixel forest's rock fraction
+  /// of each cell of pixel_grid_size() (scratch.stage keeps the grid's features and values),
+  /// brought back to the map's size and through the same guided filter, so that it follows the
+  /// image's edges, in [0, 1]. A model without a pixel stage, or `o.pixel_stage` false, leaves
+  /// `map` as it is.
+  void pixel_stage(const cv::Mat& intensity, cv::Mat& map, TrainedMapScratch& scratch,
+                   const TrainedMapOptions& o = {}) const;
   bool has_pixel_stage() const;
   /// The pixel forest's value of each row of `features` (PixelStage::features()) by
   /// cv::ml::RTrees::predict (allocates): the reference pixel_stage()'s own walk is held to in the
@@ -284,5 +304,7 @@ class TrainedModel {
   /// The pixel stage's forest (kPixelFeatureCount features); null: no pixel stage.
   std::shared_ptr<Forest> pixel_forest_;
 };
+
+static_assert(TrainedMapOptions{}.guide_eps == TrainedModel::kMapGuideEps);
 
 }  // namespace regolith::saliency
