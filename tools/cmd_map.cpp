@@ -397,13 +397,18 @@ const bool registered = add_command([](CLI::App& app) {
           if (a->quiet) return;
           std::printf("frame %4d  x %8.4f  y %8.4f  yaw %8.4f  sd %.3f m  vo %-4s inliers %5d%s%s\n", f.index, r.pose.x,
                       r.pose.y, r.pose.yaw, std::sqrt(std::max(r.covariance(0, 0), r.covariance(1, 1))),
-                      r.vo == mapping::VoStatus::kOk ? "ok" : "-", r.vo_inliers, r.keyframe ? "  keyframe" : "",
-                      r.odometry_jump ? "  odometry jump" : "");
+                      r.vo == mapping::VoStatus::kOk          ? "ok"
+                      : r.vo == mapping::VoStatus::kUncertain ? "unc"
+                                                              : "-",
+                      r.vo_inliers, r.keyframe ? "  keyframe" : "", r.odometry_jump ? "  odometry jump" : "");
         });
     for (const auto& n : s.notes) spdlog::warn("{}", n);
-    std::printf("%s: %ld frames (%ld skipped), vision %ld ok / %ld lost, %ld keyframes, path %.3f m, %zu rocks\n",
-                a->drive.c_str(), s.counters.frames, s.skipped, s.counters.vo_ok, s.counters.vo_failed,
-                s.counters.keyframes, s.path_length_m, s.rocks.size());
+    std::printf(
+        "%s: %ld frames (%ld skipped), vision %ld ok / %ld lost / %ld too uncertain, %ld keyframes, path %.3f m, %zu "
+        "rocks\n",
+        a->drive.c_str(), s.counters.frames, s.skipped, s.counters.vo_ok,
+        s.counters.vo_failed - s.counters.vo_uncertain, s.counters.vo_uncertain, s.counters.keyframes, s.path_length_m,
+        s.rocks.size());
     for (const auto& w : s.written) std::printf("wrote %s\n", w.string().c_str());
     // The (empty) outputs stay, but a script must not take a drive of which nothing was read for
     // a map of flat, unknown ground.

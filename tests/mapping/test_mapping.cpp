@@ -168,6 +168,16 @@ TEST(GroundVisualOdometry, SelfAlignmentIsIdentityAndUnusableFramesAreReported) 
   EXPECT_NEAR(same.pose.x, 0, 1e-4);
   EXPECT_NEAR(same.pose.y, 0, 1e-4);
   EXPECT_NEAR(same.pose.yaw, 0, 1e-4);
+  // A fit that settles but fixes the motion more loosely than max_sigma_m is reported as such.
+  GroundVoParams strict;
+  strict.max_sigma_m = 1e-7;
+  GroundVisualOdometry picky(dd, strict);
+  picky.track(f, {});
+  picky.promote_last();
+  const VoMeasurement& loose = picky.track(rig.frame(Pose2{0.05, 0.0, 0.0}), Pose2{0.05, 0.0, 0.0});
+  EXPECT_EQ(loose.status, VoStatus::kUncertain);
+  EXPECT_GT(loose.inliers, strict.min_points);
+  EXPECT_STREQ(to_string(loose.status), "the motion it fixes is too uncertain (translation sigma above max_sigma_m)");
   // Black and saturated frames have no usable ground: reported, never a pose.
   EXPECT_EQ(vo.track(cv::Mat(240, 320, CV_8U, cv::Scalar(0)), {}).status, VoStatus::kTooFewPoints);
   EXPECT_EQ(vo.track(cv::Mat(240, 320, CV_8U, cv::Scalar(255)), {}).status, VoStatus::kTooFewPoints);
@@ -1489,6 +1499,7 @@ TEST(DriveMapper, BlackFrameAndOdometryJumpFallBackAndAreCounted) {
   EXPECT_EQ(r.counters.frames, 30);
   EXPECT_EQ(r.counters.odometry_jumps, 2);                                // a spike jumps out and back
   EXPECT_GE(r.counters.vo_failed, 1);                                     // the black frame
+  EXPECT_GE(r.counters.vo_failed - r.counters.vo_uncertain, 1);           // a loss, not a fit too loose to use
   EXPECT_LT(std::hypot(r.est.x - r.truth.x, r.est.y - r.truth.y), 0.05);  // the jump was ignored
 }
 

@@ -291,6 +291,10 @@ class TerrainMapComponent final : public runtime::Component {
     publish(*r, fr);
     if (!odometry_ok)
       set_status("no wheel angles at the frame's capture time: vision only");
+    else if (r->vo == VoStatus::kUncertain)
+      set_status(
+          "visual odometry too uncertain against the keyframe: wheel odometry carries this frame, which "
+          "becomes the keyframe");
     else if (r->vo != VoStatus::kOk && r->vo != VoStatus::kNoKeyframe)
       set_status("visual odometry lost: wheel odometry carries the pose");
     else
@@ -303,6 +307,7 @@ class TerrainMapComponent final : public runtime::Component {
     kv.emplace_back("frames_mapped", std::to_string(l->counters.frames));
     kv.emplace_back("vo_ok", std::to_string(l->counters.vo_ok));
     kv.emplace_back("vo_failed", std::to_string(l->counters.vo_failed));
+    kv.emplace_back("vo_uncertain", std::to_string(l->counters.vo_uncertain));
     kv.emplace_back("keyframes", std::to_string(l->counters.keyframes));
     kv.emplace_back("odometry_jumps", std::to_string(l->counters.odometry_jumps));
     // Counted per frame received, mapped or not: read live, not from the last mapped frame's state.

@@ -338,6 +338,7 @@ void write_map_json(const RecordedDrive& drive, const DriveMapperParams& params,
   mj["frames_skipped"] = sum.skipped;
   mj["vo_ok"] = sum.counters.vo_ok;
   mj["vo_failed"] = sum.counters.vo_failed;
+  mj["vo_uncertain"] = sum.counters.vo_uncertain;
   mj["odometry_jumps"] = sum.counters.odometry_jumps;
   mj["keyframes"] = sum.counters.keyframes;
   mj["path_length_m"] = sum.path_length_m;

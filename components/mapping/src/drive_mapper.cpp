@@ -279,6 +279,7 @@ void DriveMapper::fuse_motion(const VoMeasurement& m, const Pose2& pred, const C
     ++counters_.vo_ok;
   } else if (p_.use_vision) {
     ++counters_.vo_failed;
+    if (m.status == VoStatus::kUncertain) ++counters_.vo_uncertain;
   }
   wheel_since_key_ = rel;
   wheel_since_key_cov_ = rel_cov;

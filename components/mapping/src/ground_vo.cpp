@@ -69,6 +69,7 @@ const char* to_string(VoStatus s) {
     case VoStatus::kNoKeyframe: return "no keyframe";
     case VoStatus::kTooFewPoints: return "too little ground in common with the keyframe";
     case VoStatus::kNoTexture: return "too little texture to fix the motion";
+    case VoStatus::kUncertain: return "the motion it fixes is too uncertain (translation sigma above max_sigma_m)";
     case VoStatus::kDiverged: return "alignment diverged from the wheel prediction";
   }
   return "?";
@@ -419,8 +420,10 @@ const VoMeasurement& GroundVisualOdometry::track(const cv::Mat& gray, const Pose
   }
   last_.pose = m;
   const Pose2 corr = between(prior, m);
-  if (!last_.covariance.allFinite() || std::sqrt(std::max(cov(0, 0), cov(1, 1))) > p_.max_sigma_m) {
+  if (!last_.covariance.allFinite()) {
     last_.status = VoStatus::kNoTexture;
+  } else if (std::sqrt(std::max(cov(0, 0), cov(1, 1))) > p_.max_sigma_m) {
+    last_.status = VoStatus::kUncertain;
   } else if (std::hypot(corr.x, corr.y) > p_.max_correction_m || std::abs(corr.yaw) > p_.max_correction_rad) {
     last_.status = VoStatus::kDiverged;
   } else {

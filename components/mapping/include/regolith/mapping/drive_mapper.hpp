@@ -147,6 +147,9 @@ struct FrameReport {
 
 struct DriveCounters {
   long frames = 0, vo_ok = 0, vo_failed = 0, odometry_jumps = 0, keyframes = 0;
+  /// Of vo_failed (frames whose visual motion was not used): those whose fit settled but fixed the
+  /// motion too loosely (VoStatus::kUncertain: the keyframe's reach ended; not a loss of tracking).
+  long vo_uncertain = 0;
   long parallax_frames = 0;  ///< frames whose parallax heights were fused (none while the rover stands still)
   long shadow_frames = 0;    ///< frames with cast-shadow casters fused
   long rock_sightings = 0;   ///< rocks sighted and fused, over all frames

@@ -38,7 +38,7 @@ struct GroundVoParams {
   double min_support = 0.2;           ///< image pixels per cell below which a cell is too blurred to use
   double tukey_c = 4.685;             ///< Tukey constant in robust standard deviations
   int min_points = 300;               ///< inlier cells needed for a measurement
-  double max_sigma_m = 0.01;          ///< m, a fit whose translation std exceeds this is "no texture"
+  double max_sigma_m = 0.01;          ///< m, a fit whose translation std exceeds this is kUncertain (not used)
   double max_correction_m = 0.15;     ///< m, farther from the prior than this = diverged
   double max_correction_rad = 0.15;   ///< rad
   double covariance_inflation = 8.0;  ///< x the Gauss-Newton covariance (neighbouring cells are correlated)
@@ -50,7 +50,10 @@ struct GroundVoParams {
   void validate() const;
 };
 
-enum class VoStatus { kOk, kNoKeyframe, kTooFewPoints, kNoTexture, kDiverged };
+/// Why a frame's fit gave no motion (kOk: it did). kUncertain: the fit settled on enough ground,
+/// but the motion it fixes is looser than max_sigma_m (typically the keyframe's ground seen far
+/// and oblique, late in a keyframe's reach); the frame then becomes the keyframe.
+enum class VoStatus { kOk, kNoKeyframe, kTooFewPoints, kNoTexture, kUncertain, kDiverged };
 const char* to_string(VoStatus s);
 
 struct VoMeasurement {
