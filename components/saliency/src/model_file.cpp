@@ -2,6 +2,8 @@
 #include "regolith/saliency/model_file.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -27,6 +29,27 @@ namespace {
 
 constexpr std::size_t kMaxTrees = 100000;
 constexpr std::size_t kMaxNodes = std::size_t{1} << 24;  // over all trees
+// One node in `forest.nodes`: var, threshold, left, right (4 bytes each), value (8), little-endian.
+constexpr std::size_t kNodeBytes = 24;
+
+// Little-endian fields of a node record (whatever the host's byte order).
+void put_le(std::string& out, std::uint64_t v, int bytes) {
+  for (int k = 0; k < bytes; ++k) out.push_back(static_cast<char>((v >> (8 * k)) & 0xFFu));
+}
+// Only base64's alphabet, padding and white space: yaml-cpp 0.7's DecodeBase64 indexes its table
+// with a plain (signed) char, so a byte >= 0x80 reads outside it (a SEGV the rock_model fuzz target
+// found); such text never reaches it.
+bool is_base64_text(const std::string& s) {
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/' ||
+           c == '=' || c == ' ' || c == '\n' || c == '\r' || c == '\t';
+  });
+}
+std::uint64_t get_le(const unsigned char* p, int bytes) {
+  std::uint64_t v = 0;
+  for (int k = 0; k < bytes; ++k) v |= std::uint64_t{p[k]} << (8 * k);
+  return v;
+}
 
 template <class T>
 const char* kind() {
@@ -35,6 +58,7 @@ const char* kind() {
   if constexpr (std::is_same_v<T, std::string>) return "a string";
   if constexpr (std::is_same_v<T, std::vector<int>>) return "a list of integers";
   if constexpr (std::is_same_v<T, std::vector<std::string>>) return "a list of strings";
+  if constexpr (std::is_same_v<T, YAML::Binary>) return "base64 binary";
   return "a list of numbers";
 }
 
@@ -131,26 +155,45 @@ void read_box(const Fields& f, BoxParams& b) {
   if (!(b.crowd.threshold >= 0.0 && b.crowd.threshold <= 1.0)) throw f.error("crowd_threshold must be in [0, 1]");
 }
 
-// The trees of `forest.trees`, appended to one set of flat arrays (tree-local child indices
-// become indices into them), then checked as a whole (Forest::check, whose errors name the tree).
+// The trees of a forest map: `tree_sizes` (each tree's node count, in order) and `nodes` (their
+// records back to back, kNodeBytes each, children tree-local), appended to one set of flat arrays
+// (tree-local child indices become indices into them), then checked as a whole (Forest::check,
+// whose errors name the tree).
 void read_forest(const Fields& f, TrainedModel::Forest& forest) {
-  for (const Fields& t : f.maps("trees", kMaxTrees)) {
-    const auto var = t.get<std::vector<int>>("var");
-    const auto threshold = t.get<std::vector<float>>("threshold");
-    const auto left = t.get<std::vector<int>>("left");
-    const auto right = t.get<std::vector<int>>("right");
-    const auto value = t.get<std::vector<double>>("value");
-    const std::size_t n = var.size();
-    if (n == 0 || threshold.size() != n || left.size() != n || right.size() != n || value.size() != n)
-      throw f.error("'" + t.prefix().substr(0, t.prefix().size() - 1) +
-                    "': var, threshold, left, right and value are not lists of one length (> 0)");
-    if (forest.nodes.size() + n > kMaxNodes) throw f.error("more than " + std::to_string(kMaxNodes) + " tree nodes");
+  const auto sizes = f.get<std::vector<int>>("tree_sizes");
+  if (sizes.empty() || sizes.size() > kMaxTrees)
+    throw f.error("tree_sizes", "is not a list of 1 to " + std::to_string(kMaxTrees) + " node counts",
+                  f.node("tree_sizes"));
+  std::size_t total = 0;
+  for (int n : sizes) {
+    if (n <= 0) throw f.error("tree_sizes", "holds a tree of " + std::to_string(n) + " nodes", f.node("tree_sizes"));
+    total += static_cast<std::size_t>(n);
+    if (total > kMaxNodes)
+      throw f.error("tree_sizes", "holds more than " + std::to_string(kMaxNodes) + " nodes", f.node("tree_sizes"));
+  }
+  if (const YAML::Node text = f.node("nodes"); !text.IsScalar() || !is_base64_text(text.Scalar()))
+    throw f.error("nodes", "is not base64 binary", text);
+  const auto nodes = f.get<YAML::Binary>("nodes");
+  if (nodes.size() != total * kNodeBytes)
+    throw f.error("nodes",
+                  "holds " + std::to_string(nodes.size()) + " bytes, tree_sizes' " + std::to_string(total) +
+                      " nodes need " + std::to_string(total * kNodeBytes),
+                  f.node("nodes"));
+  forest.nodes.reserve(total);
+  const unsigned char* p = nodes.data();
+  for (int n : sizes) {
     const int offset = static_cast<int>(forest.nodes.size());
     forest.roots.push_back(offset);
     // an index outside the tree becomes one outside it after the offset too (check() names it)
-    const auto shift = [&](int i) { return i >= 0 && static_cast<std::size_t>(i) < n ? i + offset : (i < 0 ? i : -2); };
-    for (std::size_t i = 0; i < n; ++i)
-      forest.nodes.push_back({var[i], threshold[i], shift(left[i]), shift(right[i]), value[i]});
+    const auto shift = [&](std::int32_t i) { return i >= 0 && i < n ? i + offset : (i < 0 ? i : -2); };
+    for (int i = 0; i < n; ++i, p += kNodeBytes) {
+      const auto var = static_cast<std::int32_t>(get_le(p, 4));
+      const auto threshold = std::bit_cast<float>(static_cast<std::uint32_t>(get_le(p + 4, 4)));
+      const auto left = static_cast<std::int32_t>(get_le(p + 8, 4));
+      const auto right = static_cast<std::int32_t>(get_le(p + 12, 4));
+      const auto value = std::bit_cast<double>(get_le(p + 16, 8));
+      forest.nodes.push_back({var, threshold, shift(left), shift(right), value});
+    }
   }
   forest.check();
   forest.build_walk();
@@ -245,33 +288,29 @@ bool write_model_bytes(const std::string& path, const std::string& text, bool gz
   return gzclose(f) == Z_OK && ok;
 }
 
-// `forest` as a map {trees: [...]}, one map of plain arrays per tree, children tree-local.
+// `forest` as a map {tree_sizes: [...], nodes: !!binary}, children tree-local (read_forest()).
 void emit_forest(YAML::Emitter& e, const TrainedModel::Forest& forest) {
-  e << YAML::BeginMap << YAML::Key << "trees" << YAML::Value << YAML::BeginSeq;
-  std::vector<int> var, left, right;
-  std::vector<float> threshold;
-  std::vector<double> value;
+  std::vector<int> sizes;
+  std::string bytes;
+  bytes.reserve(forest.nodes.size() * kNodeBytes);
   for (std::size_t k = 0; k < forest.roots.size(); ++k) {
     const int begin = forest.roots[k];
     const int end = k + 1 < forest.roots.size() ? forest.roots[k + 1] : static_cast<int>(forest.nodes.size());
-    var.clear(), left.clear(), right.clear(), threshold.clear(), value.clear();
+    sizes.push_back(end - begin);
     for (int i = begin; i < end; ++i) {
       const TrainedModel::Forest::Node& n = forest.nodes[static_cast<std::size_t>(i)];
-      var.push_back(n.var);
-      threshold.push_back(n.threshold);
-      left.push_back(n.left < 0 ? -1 : n.left - begin);
-      right.push_back(n.right < 0 ? -1 : n.right - begin);
-      value.push_back(n.value);
+      put_le(bytes, static_cast<std::uint32_t>(n.var), 4);
+      put_le(bytes, std::bit_cast<std::uint32_t>(n.threshold), 4);
+      put_le(bytes, static_cast<std::uint32_t>(n.left < 0 ? -1 : n.left - begin), 4);
+      put_le(bytes, static_cast<std::uint32_t>(n.right < 0 ? -1 : n.right - begin), 4);
+      put_le(bytes, std::bit_cast<std::uint64_t>(n.value), 8);
     }
-    e << YAML::BeginMap;
-    e << YAML::Key << "var" << YAML::Value << YAML::Flow << var;
-    e << YAML::Key << "threshold" << YAML::Value << YAML::Flow << threshold;
-    e << YAML::Key << "left" << YAML::Value << YAML::Flow << left;
-    e << YAML::Key << "right" << YAML::Value << YAML::Flow << right;
-    e << YAML::Key << "value" << YAML::Value << YAML::Flow << value;
-    e << YAML::EndMap;
   }
-  e << YAML::EndSeq << YAML::EndMap;
+  e << YAML::BeginMap;
+  e << YAML::Key << "tree_sizes" << YAML::Value << YAML::Flow << sizes;
+  e << YAML::Key << "nodes" << YAML::Value
+    << YAML::Binary(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  e << YAML::EndMap;
 }
 
 }  // namespace
