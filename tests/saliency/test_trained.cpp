@@ -861,6 +861,21 @@ TEST(Trained, ANarrowTallImageIsNotEnlargedPastTwiceTheWorkingArea) {
   EXPECT_EQ(ex.working_size({560, 1120}), cv::Size(560, 1120));  // exactly at the bound
   EXPECT_EQ(ex.working_size({280, 500}), cv::Size(560, 1000));
   EXPECT_EQ(ex.working_size({1120, 1000}), cv::Size(560, 500));
+  // A model without a working width processes an image at its own size, up to 2048 x 2048 px: a
+  // larger one is refused before any buffer is made (it would need ~2.5 GB and more).
+  rs::CandidateParams own_size;
+  own_size.working_width_px = 0;
+  rs::CandidateExtractor unscaled(own_size);
+  EXPECT_EQ(unscaled.working_size({4000, 3000}), cv::Size(4000, 3000));
+  rs::CandidateSet none;
+  try {
+    unscaled.extract(cv::Mat(2048, 2049, CV_8U, cv::Scalar(90)), none);
+    ADD_FAILURE() << "a 2049 x 2048 image was processed at its own size";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "2049x2048 px is more than the 2048x2048 px a rock model without a working width processes "
+                 "(`regolith train rocks` gives its models one)");
+  }
   // The whole detector on such a strip: boxes inside it, a map of its size in [0, 1].
   const rs::TrainedModel model = rs::load_trained_model(rs::default_trained_model_path());
   cv::Mat strip(500, 17, CV_8U);

@@ -142,6 +142,10 @@ std::size_t CandidateExtractor::max_candidates(cv::Size size) const {
 void CandidateExtractor::extract(const cv::Mat& image, CandidateSet& out) {
   if (image.empty()) throw std::invalid_argument("empty image");
   const cv::Size size = image.size(), ws = working_size(size);
+  if (params_.working_width_px <= 0 && static_cast<double>(size.width) * size.height > kMaxUnscaledAreaPx)
+    throw std::invalid_argument(std::to_string(size.width) + "x" + std::to_string(size.height) +
+                                " px is more than the 2048x2048 px a rock model without a working width processes "
+                                "(`regolith train rocks` gives its models one)");
   const bool resample = ws != size;
   // Intensity and chromaticity at the image's size; then, for an image of another width than
   // the model's, resampled to the working size (tables made once per size: no allocation after).

@@ -123,7 +123,9 @@ struct CandidateSet {
 class CandidateExtractor {
  public:
   explicit CandidateExtractor(CandidateParams params = {});
-  /// `image`: as ContrastSaliency::compute. Throws std::invalid_argument on bad input.
+  /// `image`: as ContrastSaliency::compute. Throws std::invalid_argument on bad input, and on an
+  /// image of more than kMaxUnscaledAreaPx pixels for a model without a working width (it would
+  /// be processed at its own size: ~600 bytes of buffers per pixel).
   /// Allocation-free from the second image of a size on (and the first of the same size into
   /// `out`): every buffer is kept, and `out.candidates` is reserved for the most candidates an
   /// image can give (each source's components are disjoint and >= min_area px).
@@ -133,6 +135,8 @@ class CandidateExtractor {
   /// The size an image of `size` is processed at: params().working_width_px wide (`size` when 0),
   /// the aspect kept, but never more than kMaxWorkingAreaFactor x working_width_px^2 pixels.
   static constexpr double kMaxWorkingAreaFactor = 2.0;
+  /// The most pixels a model without a working width processes (2048 x 2048: ~2.5 GB of buffers).
+  static constexpr double kMaxUnscaledAreaPx = 2048.0 * 2048.0;
   cv::Size working_size(cv::Size size) const;
   const CandidateParams& params() const { return params_; }
 
