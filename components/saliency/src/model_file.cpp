@@ -38,7 +38,7 @@ void put_le(std::string& out, std::uint64_t v, int bytes) {
 }
 // Only base64's alphabet, padding and white space: yaml-cpp 0.7's DecodeBase64 indexes its table
 // with a plain (signed) char, so a byte >= 0x80 reads outside it (a SEGV the rock_model fuzz target
-// found); such text never reaches it.
+// found; jbeder/yaml-cpp issue 646); such text never reaches it.
 bool is_base64_text(const std::string& s) {
   return std::all_of(s.begin(), s.end(), [](char c) {
     return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/' ||
