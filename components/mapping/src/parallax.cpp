@@ -70,6 +70,7 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
   key_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok4_.create(grid_.rows, grid_.cols, CV_8U);
+  span_.resize(static_cast<std::size_t>(grid_.rows));
 }
 
 void GroundParallax::set_frame(const cv::Mat& gray) {
@@ -146,6 +147,19 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     }
   }
   bilinear_footprint_usable(cur_ok, cur_ok4_);
+  // A keyframe cell outside the keyframe's view (or clipped) costs the penalty at every
+  // hypothesis: written once here, then each row's search runs only over its span of usable cells
+  // (about half of the grid lies outside the camera's wedge).
+  for (int i = 0; i < R; ++i) {
+    const uchar* ko = key_ok.ptr<uchar>(i);
+    float* e = e_.ptr<float>(i);
+    int lo = 0, hi = C;
+    while (lo < C && !ko[lo]) ++lo;
+    while (hi > lo && !ko[hi - 1]) --hi;
+    span_[static_cast<std::size_t>(i)] = {lo, hi};
+    std::fill(e, e + lo, penalty);
+    std::fill(e + hi, e + C, penalty);
+  }
   const float g = static_cast<float>(gain), o = static_cast<float>(bias);
   const float frows = static_cast<float>(R), fcols = static_cast<float>(C);
   for (int t = 0; t < n; ++t) {
@@ -159,7 +173,8 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const float* br = b_row_.ptr<float>(i);
       const float* ac = a_col_.ptr<float>(i);
       const float* bc = b_col_.ptr<float>(i);
-      for (int j = 0; j < C; ++j) {
+      const auto [lo, hi] = span_[static_cast<std::size_t>(i)];
+      for (int j = lo; j < hi; ++j) {
         const float ci = ar[j] + kr + br[j] * fd, cj = ac[j] + kc + bc[j] * fd;
         // Inside the grid (a NaN fails too) before the conversion; there truncation is the floor.
         if (!ko[j] || !(ci >= 0.0f && cj >= 0.0f && ci < frows && cj < fcols)) {
