@@ -416,6 +416,42 @@ TEST(BoxSum, EqualsOpenCvBoxFilterWithReplicatedBorders) {
       }
 }
 
+// The parallax search sums its windows only over each row's span of usable cells: every sum
+// there is the whole image's bit for bit (spans at the borders, inside, empty, one column, the
+// whole row), and nothing outside a span is written.
+TEST(BoxSum, SpansGiveTheWholeImagesSumsBitForBitAndWriteNothingElse) {
+  cv::RNG rng(5);
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(3, 4), cv::Size(41, 33), cv::Size(280, 180)})
+    for (int radius = 1; radius <= 6; ++radius) {
+      cv::Mat src(size, CV_32F), whole, tmp;
+      rng.fill(src, cv::RNG::UNIFORM, 0.0, 65025.0);
+      common::box_sum(src, whole, tmp, radius);
+      std::vector<common::ColumnSpan> spans;
+      for (int i = 0; i < size.height; ++i) {
+        const int a = rng.uniform(0, size.width + 1), b = rng.uniform(0, size.width + 1);
+        spans.push_back(i % 5 == 0   ? common::ColumnSpan{0, size.width}
+                        : i % 5 == 1 ? common::ColumnSpan{a, a}
+                                     : common::ColumnSpan{std::min(a, b), std::max(a, b)});
+      }
+      constexpr float kUntouched = -7.0f;
+      cv::Mat dst(size, CV_32F, cv::Scalar(kUntouched)), tmp2(size, CV_32F);
+      common::box_sum_spans(src, dst, tmp2, radius, spans.data());
+      int inside = 0;
+      for (int i = 0; i < size.height; ++i)
+        for (int j = 0; j < size.width; ++j) {
+          const bool in = j >= spans[static_cast<std::size_t>(i)].begin && j < spans[static_cast<std::size_t>(i)].end;
+          if (in) {
+            ++inside;
+            EXPECT_EQ(dst.at<float>(i, j), whole.at<float>(i, j))
+                << size << " radius " << radius << " at " << i << "," << j;
+          } else if (radius <= common::kDirectBoxRadius) {
+            EXPECT_EQ(dst.at<float>(i, j), kUntouched) << size << " radius " << radius << " at " << i << "," << j;
+          }
+        }
+      EXPECT_GT(inside, 0);
+    }
+}
+
 TEST(CostMinimum, KeepsTheDeepestAndSecondDeepestValleyOfEachCellsCostCurve) {
   // Cost curves with ties, plateaus, NaN and a column count that is no multiple of the vector
   // width, fed slice by slice as the searches do, against a per-cell scan of the whole curve.
@@ -463,6 +499,23 @@ TEST(CostMinimum, KeepsTheDeepestAndSecondDeepestValleyOfEachCellsCostCurve) {
       }
     }
   EXPECT_GT(valleys, rows * cols);  // the curves do have valleys to find
+
+  // Limited to a span per row (as the parallax search runs it): the same records inside, none
+  // outside.
+  const std::vector<common::ColumnSpan> spans = {{0, cols}, {5, 30}, {9, 9}};
+  cv::Mat best2(rows, cols, CV_32F, cv::Scalar(kNone)), second2(rows, cols, CV_32F, cv::Scalar(kNone));
+  cv::Mat at2(rows, cols, CV_32F, cv::Scalar(-1)), left2(rows, cols, CV_32F), right2(rows, cols, CV_32F);
+  for (int t = 2; t < steps; ++t)
+    keep_bracketed_minimum(slices[t - 2], slices[t - 1], slices[t], best2, at2, left2, right2, t, 0, rows - 1, &second2,
+                           spans.data());
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) {
+      SCOPED_TRACE(::testing::Message() << "span cell " << i << "," << j);
+      const bool in = j >= spans[static_cast<std::size_t>(i)].begin && j < spans[static_cast<std::size_t>(i)].end;
+      EXPECT_EQ(best2.at<float>(i, j), in ? best.at<float>(i, j) : kNone);
+      EXPECT_EQ(second2.at<float>(i, j), in ? second.at<float>(i, j) : kNone);
+      EXPECT_EQ(at2.at<float>(i, j), in ? at.at<float>(i, j) : -1.0f);
+    }
 }
 
 TEST(GroundParallax, MeasuresRockHeightsAndFlatGroundFromTwoFrames) {

@@ -70,7 +70,7 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
   key_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok4_.create(grid_.rows, grid_.cols, CV_8U);
-  span_.resize(static_cast<std::size_t>(grid_.rows));
+  spans_.resize(static_cast<std::size_t>(grid_.rows));
 }
 
 void GroundParallax::set_frame(const cv::Mat& gray) {
@@ -148,15 +148,17 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
   }
   bilinear_footprint_usable(cur_ok, cur_ok4_);
   // A keyframe cell outside the keyframe's view (or clipped) costs the penalty at every
-  // hypothesis: written once here, then each row's search runs only over its span of usable cells
-  // (about half of the grid lies outside the camera's wedge).
+  // hypothesis: written once here, then each row's search (samples, window sums, minima) runs
+  // only over its span of usable cells (about half of the grid lies outside the camera's wedge).
+  // A cell outside the spans keeps no minimum (bests_ -1); inside, every window sum is the whole
+  // grid's bit for bit.
   for (int i = 0; i < R; ++i) {
     const uchar* ko = key_ok.ptr<uchar>(i);
     float* e = e_.ptr<float>(i);
     int lo = 0, hi = C;
     while (lo < C && !ko[lo]) ++lo;
     while (hi > lo && !ko[hi - 1]) --hi;
-    span_[static_cast<std::size_t>(i)] = {lo, hi};
+    spans_[static_cast<std::size_t>(i)] = {lo, hi};
     std::fill(e, e + lo, penalty);
     std::fill(e + hi, e + C, penalty);
   }
@@ -173,8 +175,8 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const float* br = b_row_.ptr<float>(i);
       const float* ac = a_col_.ptr<float>(i);
       const float* bc = b_col_.ptr<float>(i);
-      const auto [lo, hi] = span_[static_cast<std::size_t>(i)];
-      for (int j = lo; j < hi; ++j) {
+      const common::ColumnSpan span = spans_[static_cast<std::size_t>(i)];
+      for (int j = span.begin; j < span.end; ++j) {
         const float ci = ar[j] + kr + br[j] * fd, cj = ac[j] + kc + bc[j] * fd;
         // Inside the grid (a NaN fails too) before the conversion; there truncation is the floor.
         if (!ko[j] || !(ci >= 0.0f && cj >= 0.0f && ci < frows && cj < fcols)) {
@@ -197,8 +199,9 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
-    common::box_sum(e_, c2_, tmp_, p_.window);
-    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, 0, R - 1, &second_);
+    common::box_sum_spans(e_, c2_, tmp_, p_.window, spans_.data());
+    if (t >= 2)
+      keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, 0, R - 1, &second_, spans_.data());
   }
   // Sub-step minimum, height, true position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);

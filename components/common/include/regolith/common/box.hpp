@@ -15,6 +15,42 @@ namespace regolith::common {
 
 inline constexpr int kDirectBoxRadius = 3;
 
+/// Columns [begin, end) of one image row: where a matching search has cells worth computing.
+struct ColumnSpan {
+  int begin = 0;
+  int end = 0;
+};
+
+/// Row i of the direct (radius <= kDirectBoxRadius) window sums, written to dst only over the
+/// columns of `out`: the vertical pass into `tmp` over those columns and the radius either side,
+/// then the horizontal pass. Each sum adds the same samples in the same order whatever `out` is,
+/// so a value equals the whole row's (box_sum) bit for bit.
+inline void box_sum_row(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int w, int i, ColumnSpan out) {
+  const int R = src.rows, C = src.cols;
+  if (out.begin >= out.end) return;
+  const int vb = std::max(0, out.begin - w), ve = std::min(C, out.end + w);
+  float* t = tmp.ptr<float>(i);
+  const float* s0 = src.ptr<float>(std::clamp(i - w, 0, R - 1));
+  std::copy(s0 + vb, s0 + ve, t + vb);
+  for (int k = -w + 1; k <= w; ++k) {
+    const float* s = src.ptr<float>(std::clamp(i + k, 0, R - 1));
+    for (int j = vb; j < ve; ++j) t[j] += s[j];
+  }
+  const int j0 = std::min(w, C), j1 = std::max(j0, C - w);  // [j0, j1): the window inside the row
+  const int ib = std::max(j0, out.begin), ie = std::max(ib, std::min(j1, out.end));
+  float* d = dst.ptr<float>(i);
+  for (int j = ib; j < ie; ++j) d[j] = t[j - w];
+  for (int k = -w + 1; k <= w; ++k)
+    for (int j = ib; j < ie; ++j) d[j] += t[j + k];
+  const auto clamped = [&](int j) {
+    float sum = t[std::clamp(j - w, 0, C - 1)];
+    for (int k = -w + 1; k <= w; ++k) sum += t[std::clamp(j + k, 0, C - 1)];
+    d[j] = sum;
+  };
+  for (int j = out.begin; j < std::min(out.end, j0); ++j) clamped(j);
+  for (int j = std::max(out.begin, j1); j < out.end; ++j) clamped(j);
+}
+
 inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, cv::Mat* acc = nullptr) {
   const int w = radius, R = src.rows, C = src.cols;
   dst.create(R, C, CV_32F);
@@ -34,6 +70,9 @@ inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, 
       const float* out = src.ptr<float>(std::max(i - w, 0));
       for (int j = 0; j < C; ++j) a[j] += static_cast<double>(in[j]) - out[j];
     }
+  } else if (w <= kDirectBoxRadius) {
+    for (int i = 0; i < R; ++i) box_sum_row(src, dst, tmp, w, i, {0, C});
+    return;
   } else {
     for (int i = 0; i < R; ++i) {
       float* t = tmp.ptr<float>(i);
@@ -44,24 +83,6 @@ inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, 
         for (int j = 0; j < C; ++j) t[j] += s[j];
       }
     }
-  }
-  if (w <= kDirectBoxRadius) {
-    const int j0 = std::min(w, C), j1 = std::max(j0, C - w);  // [j0, j1): the window inside the row
-    for (int i = 0; i < R; ++i) {
-      const float* t = tmp.ptr<float>(i);
-      float* d = dst.ptr<float>(i);
-      for (int j = j0; j < j1; ++j) d[j] = t[j - w];
-      for (int k = -w + 1; k <= w; ++k)
-        for (int j = j0; j < j1; ++j) d[j] += t[j + k];
-      const auto clamped = [&](int j) {
-        float s = t[std::clamp(j - w, 0, C - 1)];
-        for (int k = -w + 1; k <= w; ++k) s += t[std::clamp(j + k, 0, C - 1)];
-        d[j] = s;
-      };
-      for (int j = 0; j < j0; ++j) clamped(j);
-      for (int j = j1; j < C; ++j) clamped(j);
-    }
-    return;
   }
   // The running sums of N rows at once: each row's sum is one chain of dependent adds, so N
   // independent chains keep the adder busy (each row's result is the single-row one exactly).
@@ -86,6 +107,19 @@ inline void box_sum(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, 
   int i = 0;
   for (; i + 4 <= R; i += 4) running_rows.template operator()<4>(i);
   for (; i < R; ++i) running_rows.template operator()<1>(i);
+}
+
+/// box_sum over each row's span only (`spans`: one per row of src), bit for bit box_sum's values
+/// there; dst outside the spans is left as it was. A radius above kDirectBoxRadius sums the whole
+/// image (its running sums start at the row's first column).
+inline void box_sum_spans(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int radius, const ColumnSpan* spans) {
+  if (radius > kDirectBoxRadius) {
+    box_sum(src, dst, tmp, radius);
+    return;
+  }
+  dst.create(src.rows, src.cols, CV_32F);
+  tmp.create(src.rows, src.cols, CV_32F);
+  for (int i = 0; i < src.rows; ++i) box_sum_row(src, dst, tmp, radius, i, spans[i]);
 }
 
 }  // namespace regolith::common

@@ -10,6 +10,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/intrin.hpp>
 
+#include "regolith/common/box.hpp"
+
 namespace regolith::mapping {
 
 /// `ok4` (CV_8U, `ok`'s size, made by the caller) = 1 where the bilinear footprint of (i, j) — the
@@ -29,9 +31,11 @@ inline void bilinear_footprint_usable(const cv::Mat& ok, cv::Mat& ok4) {
 /// Rows [r0, r1] of CV_32F images: where c1 is a bracketed minimum below best, records it (best,
 /// index t - 1 in `at`, its neighbours in left / right). `second` (optional, filled with the same
 /// "none" value as best) keeps the lowest of the other bracketed minima: another valley of the
-/// cost, as deep as the best one on a repetitive texture.
+/// cost, as deep as the best one on a repetitive texture. `spans` (optional, one per row of the
+/// images) limits each row to its columns; the others are left as they were.
 inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const cv::Mat& c2, cv::Mat& best, cv::Mat& at,
-                                   cv::Mat& left, cv::Mat& right, int t, int r0, int r1, cv::Mat* second = nullptr) {
+                                   cv::Mat& left, cv::Mat& right, int t, int r0, int r1, cv::Mat* second = nullptr,
+                                   const common::ColumnSpan* spans = nullptr) {
   for (int i = r0; i <= r1; ++i) {
     const float* l = c0.ptr<float>(i);
     const float* c = c1.ptr<float>(i);
@@ -60,8 +64,8 @@ inline void keep_bracketed_minimum(const cv::Mat& c0, const cv::Mat& c1, const c
     // so "below the second" covers both updates). The cells of a block that may update go through
     // the scalar rule, so the result is the scalar loop's exactly.
     const float* bar = sc != nullptr ? sc : b;
-    const int n = best.cols;
-    int j = 0;
+    const int n = spans != nullptr ? spans[i].end : best.cols;
+    int j = spans != nullptr ? spans[i].begin : 0;
     for (; j + cv::v_float32x4::nlanes <= n; j += cv::v_float32x4::nlanes) {
       const cv::v_float32x4 vc = cv::v_load(c + j);
       const cv::v_float32x4 hit = (vc <= cv::v_load(l + j)) & (vc <= cv::v_load(r + j)) & (vc < cv::v_load(bar + j));

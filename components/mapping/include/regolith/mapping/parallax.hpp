@@ -17,11 +17,11 @@
 // The class keeps its own rectification of the keyframe and the current frame (a wider and
 // farther window than the odometry's: what is mapped reaches farther than what is tracked).
 // All buffers are allocated in the constructor; nothing per frame allocates.
-#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "regolith/common/box.hpp"
 #include "regolith/direct_depth/ground_rectifier.hpp"
 #include "regolith/mapping/pose2.hpp"
 
@@ -89,7 +89,7 @@ class GroundParallax {
   cv::Mat a_row_, b_row_, a_col_, b_col_;  // per keyframe cell: its current cell = a + d b (+ d^2 c, shared)
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
-  std::vector<std::pair<int, int>> span_;  // per row: [first, last + 1) of the keyframe's usable cells
+  std::vector<common::ColumnSpan> spans_;  // per row: first to last + 1 of the keyframe's usable cells
 };
 
 }  // namespace regolith::mapping
