@@ -78,6 +78,9 @@ PlaneSweep::PlaneSweep(const direct_depth::DirectDepth& depth, const PlaneSweepP
   cur_ok_.create(H, W, CV_8U);
   cur_ok4_.create(H, W, CV_8U);
   row_step_.create(H, 1, CV_64F);
+  row_n_.assign(static_cast<std::size_t>(H), 0);
+  row_last_.assign(static_cast<std::size_t>(H), 0);
+  row_last_e_.assign(static_cast<std::size_t>(H), 0);
   proj_u_.create(1, W, CV_32F);
   proj_v_.create(1, W, CV_32F);
   fill(z_, kNaNf);
@@ -192,7 +195,8 @@ PlaneSweep::Sweep PlaneSweep::project_rays(const Pose2& m, const cv::Vec2d& kt, 
     double step = max_disp > 0 ? p_.step_px / max_disp : (w_hi - w_lo);
     step = std::max(step, (w_hi - w_lo) / (p_.max_steps - 1));
     row_step_.at<double>(i) = step;
-    if (max_disp > 0) max_n = std::max(max_n, static_cast<int>(std::ceil((w_hi - w_lo) / step)) + 1);
+    row_n_[static_cast<std::size_t>(i)] = max_disp > 0 ? static_cast<int>(std::ceil((w_hi - w_lo) / step)) + 1 : 0;
+    max_n = std::max(max_n, row_n_[static_cast<std::size_t>(i)]);
   }
   return {.o0 = o0, .w_lo = w_lo, .steps = max_n};
 }
@@ -215,6 +219,16 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
   }
   r0 = std::max(0, r0 - p_.window);
   r1 = std::min(H - 1, r1 + p_.window);
+  // Each row's last t: of its minima (its row_n_ hypotheses and one to bracket the last), and of
+  // its costs (the latest of the rows whose window holds it).
+  for (int i = r0; i <= r1; ++i)
+    row_last_[static_cast<std::size_t>(i)] = std::min(row_n_[static_cast<std::size_t>(i)], max_n - 1);
+  for (int i = r0; i <= r1; ++i) {
+    int last = -1;
+    for (int k = std::max(r0, i - p_.window); k <= std::min(r1, i + p_.window); ++k)
+      last = std::max(last, row_last_[static_cast<std::size_t>(k)]);
+    row_last_e_[static_cast<std::size_t>(i)] = last;
+  }
   cv::Mat e_rows = e_.rowRange(r0, r1 + 1), tmp_rows = tmp_.rowRange(r0, r1 + 1);
   fill(best_, kBig);
   fill(second_, kBig);
@@ -229,10 +243,15 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
   const float umax = static_cast<float>(W - 1), vmax = static_cast<float>(H - 1);
   float* pu = proj_u_.ptr<float>(0);
   float* pv = proj_v_.ptr<float>(0);
-  // Rows whose own range is covered sweep on below min_height (every row runs max_n steps so the
-  // matching windows see one hypothesis index); such minima are discarded below.
+  // A window spans rows of one hypothesis index t (each row at its own height for t), so a row's
+  // costs are made while a neighbour in its window still sweeps; its own minima are kept only up
+  // to one step past its range (that step brackets the last), so a valley below min_height (a
+  // neighbour's range) never displaces one inside the row's own.
   for (int t = 0; t < max_n; ++t) {
+    long active = 0;
     for (int i = r0; i <= r1; ++i) {
+      if (t > row_last_e_[static_cast<std::size_t>(i)]) continue;
+      ++active;
       const float *ox = ox_.ptr<float>(i), *oy = oy_.ptr<float>(i), *oz = oz_.ptr<float>(i);
       const float* kv = key_.ptr<float>(i);
       const uchar* ko = key_ok_.ptr<uchar>(i);
@@ -269,13 +288,16 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
         e[j] = r * r;
       }
     }
-    samples_ += static_cast<long>(r1 - r0 + 1) * W;
+    samples_ += active * W;
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
     std::swap(c1_, c2_);
     cv::Mat c2_rows = c2_.rowRange(r0, r1 + 1);
-    common::box_sum(e_rows, c2_rows, tmp_rows, p_.window);
-    if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, r0, r1, &second_);
+    for (int i = r0; i <= r1; ++i) {
+      if (t > row_last_[static_cast<std::size_t>(i)]) continue;
+      common::box_sum_row(e_rows, c2_rows, tmp_rows, p_.window, i - r0, {0, W});
+      if (t >= 2) keep_bracketed_minimum(c0_, c1_, c2_, best_, bests_, left_, right_, t, i, i, &second_);
+    }
   }
 }
 
@@ -305,7 +327,7 @@ void PlaneSweep::read_heights(const Sweep& sweep) {
       if (!parabola_minimum(l, bc, r, cells, noise2, off, match)) continue;
       const double w = w_lo + (t + off) * step;
       const double z = h * (1.0 - w);
-      if (z < p_.min_height_m) continue;  // beyond this row's own range
+      if (z < p_.min_height_m) continue;  // the bracketing step past the row's range
       // A height step (m) spans `step` in w: the sharper the image fixes the step, the better the
       // height; far rows (large steps) fix heights poorly and weigh accordingly.
       const double dz = h * step;

@@ -22,6 +22,8 @@
 // camera wider than `max_width_px` is swept at a working scale of 2x2 (4x4, ...) block means:
 // the outputs then have the working size (width / scale x height / scale).
 // All buffers are allocated in the constructor: set_frame / promote / compute do not allocate.
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "regolith/direct_depth/direct_depth.hpp"
@@ -105,11 +107,12 @@ class PlaneSweep {
   double fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0;  // pinhole model at the working scale
   bool has_key_ = false;
   long samples_ = 0;
-  cv::Mat undist_x_, undist_y_, undist_;           // distortion maps (empty for a pinhole camera)
-  cv::Mat nrm_;                                    // CV_32FC3 nominal ray per pixel (body frame, not normalised)
-  cv::Mat key_, key_ok_, cur_, cur_ok_, cur_ok4_;  // cur_ok4_: the bilinear footprint at (i, j) usable
-  cv::Mat ox_, oy_, oz_, row_step_;                // per compute: o1 components, step per row
-  cv::Mat proj_u_, proj_v_;                        // one row's projected (u, v) for one hypothesis
+  cv::Mat undist_x_, undist_y_, undist_;            // distortion maps (empty for a pinhole camera)
+  cv::Mat nrm_;                                     // CV_32FC3 nominal ray per pixel (body frame, not normalised)
+  cv::Mat key_, key_ok_, cur_, cur_ok_, cur_ok4_;   // cur_ok4_: the bilinear footprint at (i, j) usable
+  cv::Mat ox_, oy_, oz_, row_step_;                 // per compute: o1 components, step per row
+  std::vector<int> row_n_, row_last_, row_last_e_;  // per row: its hypotheses; its last t, of minima and of costs
+  cv::Mat proj_u_, proj_v_;                         // one row's projected (u, v) for one hypothesis
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
 };
