@@ -71,6 +71,8 @@ GroundParallax::GroundParallax(const direct_depth::DirectDepth& depth, const Par
   cur_ok_.create(grid_.rows, grid_.cols, CV_8U);
   cur_ok4_.create(grid_.rows, grid_.cols, CV_8U);
   spans_.resize(static_cast<std::size_t>(grid_.rows));
+  proj_i_.resize(static_cast<std::size_t>(grid_.cols));
+  proj_j_.resize(static_cast<std::size_t>(grid_.cols));
 }
 
 void GroundParallax::set_frame(const cv::Mat& gray) {
@@ -176,8 +178,15 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
       const float* ac = a_col_.ptr<float>(i);
       const float* bc = b_col_.ptr<float>(i);
       const common::ColumnSpan span = spans_[static_cast<std::size_t>(i)];
+      float* pi = proj_i_.data();
+      float* pj = proj_j_.data();
+      // The row's positions first, branch-free (vectorised); then the checks and samples.
       for (int j = span.begin; j < span.end; ++j) {
-        const float ci = ar[j] + kr + br[j] * fd, cj = ac[j] + kc + bc[j] * fd;
+        pi[j] = ar[j] + kr + br[j] * fd;
+        pj[j] = ac[j] + kc + bc[j] * fd;
+      }
+      for (int j = span.begin; j < span.end; ++j) {
+        const float ci = pi[j], cj = pj[j];
         // Inside the grid (a NaN fails too) before the conversion; there truncation is the floor.
         if (!ko[j] || !(ci >= 0.0f && cj >= 0.0f && ci < frows && cj < fcols)) {
           e[j] = penalty;
