@@ -65,15 +65,16 @@ fi
 declare -A ci_runs=([candump]=10000000 [can_decoder]=1000000 [deployment_yaml]=60000 [deployment_check]=1000
                     [pixel_convert]=5000000 [soil_scene]=100000 [drive]=100000 [sfs]=50000 [image]=150000 [mcap]=100000
                     [hal_messages]=1000000 [live_messages]=2000000 [terrain]=8000 [soil_fit]=5000
-                    [rock_model]=60000)
+                    [rock_model]=60000 [mapper]=200)
 # rock_model (the model file through yaml-cpp): ~1,500 exec/s on one core beside other work
-# (2026-12-07).
+# (2026-12-07). mapper (a whole DriveMapper over up to nine rendered frames per input): ~4 exec/s
+# on one core (2026-12-07), so 200 is ~50 s.
 # Seconds one input may take before libFuzzer calls it a hang: 10, except deployment_check, which
 # builds a whole rover's configure-time tables per input (0.3-1 s in a release build, several
 # seconds under ASan on a shared core).
 declare -A timeout_s=([deployment_check]=60)
 build=build/fuzz
-all_targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene drive sfs image mcap
+all_targets=(candump can_decoder deployment_yaml deployment_check pixel_convert soil_scene drive mapper sfs image mcap
              hal_messages live_messages terrain soil_fit rock_model)
 targets=("$@")
 if ((${#targets[@]} == 0)); then
