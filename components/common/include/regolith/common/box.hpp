@@ -21,10 +21,11 @@ struct ColumnSpan {
   int end = 0;
 };
 
-/// Row i of the direct (radius <= kDirectBoxRadius) window sums, written to dst only over the
-/// columns of `out`: the vertical pass into `tmp` over those columns and the radius either side,
-/// then the horizontal pass. Each sum adds the same samples in the same order whatever `out` is,
-/// so a value equals the whole row's (box_sum) bit for bit.
+/// Row i of the direct window sums, written to dst only over the columns of `out`: the vertical
+/// pass into `tmp` over those columns and the radius either side, then the horizontal pass. Each
+/// sum adds the same samples in the same order whatever `out` is, so a value equals box_sum's bit
+/// for bit for radius <= kDirectBoxRadius (box_sum's running sums of larger radii round
+/// differently; here any radius adds its 2 radius + 1 terms per pass).
 inline void box_sum_row(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int w, int i, ColumnSpan out) {
   const int R = src.rows, C = src.cols;
   if (out.begin >= out.end) return;
