@@ -452,6 +452,72 @@ TEST(BoxSum, SpansGiveTheWholeImagesSumsBitForBitAndWriteNothingElse) {
     }
 }
 
+TEST(CostMinimum, BilinearCostsSampleInsideTheUsableFootprintAndPenaliseTheRest) {
+  // The sample costs both searches make: against the four-weight bilinear sample in double where
+  // the footprint is usable, the penalty everywhere else: an unusable key
+  // sample, an unusable current pixel under the footprint, positions on the last row or column
+  // (no footprint), outside, negative, NaN and infinite; nothing written outside the span.
+  cv::RNG rng(5);
+  const int rows = 9, cols = 13, n = 400;
+  cv::Mat cur(rows, cols, CV_32F), ok(rows, cols, CV_8U, cv::Scalar(255)), ok4(rows, cols, CV_8U);
+  rng.fill(cur, cv::RNG::UNIFORM, 0.0, 255.0);
+  ok.at<uchar>(4, 6) = 0;
+  bilinear_footprint_usable(ok, ok4);
+  std::vector<float> at_row(n), at_col(n), key(n), e(n + 2, -1.0f);
+  std::vector<uchar> key_ok(n);
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  const float specials[] = {nan,
+                            inf,
+                            -inf,
+                            -0.5f,
+                            0.0f,
+                            static_cast<float>(rows - 1),
+                            static_cast<float>(cols - 1),
+                            static_cast<float>(rows - 1) - 1e-3f,
+                            1e9f};
+  for (int j = 0; j < n; ++j) {
+    at_row[j] = rng.uniform(-1.0f, static_cast<float>(rows));
+    at_col[j] = rng.uniform(-1.0f, static_cast<float>(cols));
+    if (j % 7 == 0) at_row[j] = specials[(j / 7) % 9];
+    if (j % 11 == 0) at_col[j] = specials[(j / 11) % 9];
+    key[j] = rng.uniform(0.0f, 255.0f);
+    key_ok[j] = j % 13 == 0 ? 0 : 1;
+  }
+  const float gain = 1.1f, bias = -3.0f, penalty = 4.0f * 255.0f * 255.0f;
+  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, penalty, {0, n},
+                 e.data() + 1);
+  EXPECT_EQ(e[0], -1.0f);
+  EXPECT_EQ(e[n + 1], -1.0f);
+  int sampled = 0, near_hole = 0;
+  for (int j = 0; j < n; ++j) {
+    SCOPED_TRACE(::testing::Message() << "sample " << j << " at (" << at_row[j] << ", " << at_col[j] << ")");
+    const float got = e[static_cast<std::size_t>(j) + 1];
+    const float r = at_row[j], c = at_col[j];
+    const bool inside = r >= 0 && c >= 0 && r < rows - 1 && c < cols - 1;
+    const bool hole = inside && static_cast<int>(r) >= 3 && static_cast<int>(r) <= 4 && static_cast<int>(c) >= 5 &&
+                      static_cast<int>(c) <= 6;  // the footprint holds pixel (4, 6)
+    if (!key_ok[j] || !inside || hole) {
+      EXPECT_EQ(got, penalty);
+      near_hole += hole;
+      continue;
+    }
+    const int i0 = static_cast<int>(std::floor(r)), j0 = static_cast<int>(std::floor(c));
+    const double a = static_cast<double>(r) - i0, b = static_cast<double>(c) - j0;
+    const double v = (1 - a) * (1 - b) * cur.at<float>(i0, j0) + (1 - a) * b * cur.at<float>(i0, j0 + 1) +
+                     a * (1 - b) * cur.at<float>(i0 + 1, j0) + a * b * cur.at<float>(i0 + 1, j0 + 1);
+    const double res = v - gain * key[j] - bias;
+    EXPECT_NEAR(got, res * res, 1e-4 * (std::abs(res) + 1) * std::abs(res) + 1e-3);
+    ++sampled;
+  }
+  EXPECT_GT(sampled, n / 2);
+  EXPECT_GT(near_hole, 0);
+  // A span: only its columns are written.
+  std::fill(e.begin(), e.end(), -1.0f);
+  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, penalty, {10, 20},
+                 e.data() + 1);
+  for (int j = 0; j < n; ++j) EXPECT_EQ(e[static_cast<std::size_t>(j) + 1] == -1.0f, j < 10 || j >= 20) << j;
+}
+
 TEST(CostMinimum, KeepsTheDeepestAndSecondDeepestValleyOfEachCellsCostCurve) {
   // Cost curves with ties, plateaus, NaN and a column count that is no multiple of the vector
   // width, fed slice by slice as the searches do, against a per-cell scan of the whole curve.

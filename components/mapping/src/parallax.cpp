@@ -165,7 +165,6 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     std::fill(e + hi, e + C, penalty);
   }
   const float g = static_cast<float>(gain), o = static_cast<float>(bias);
-  const float frows = static_cast<float>(R), fcols = static_cast<float>(C);
   for (int t = 0; t < n; ++t) {
     const double d = d_lo + t * step;
     const float fd = static_cast<float>(d), kr = static_cast<float>(cr * d * d), kc = static_cast<float>(cc * d * d);
@@ -185,25 +184,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
         pi[j] = ar[j] + kr + br[j] * fd;
         pj[j] = ac[j] + kc + bc[j] * fd;
       }
-      for (int j = span.begin; j < span.end; ++j) {
-        const float ci = pi[j], cj = pj[j];
-        // Inside the grid (a NaN fails too) before the conversion; there truncation is the floor.
-        if (!ko[j] || !(ci >= 0.0f && cj >= 0.0f && ci < frows && cj < fcols)) {
-          e[j] = penalty;
-          continue;
-        }
-        const int i0 = static_cast<int>(ci), j0 = static_cast<int>(cj);
-        if (!cur_ok4_.ptr<uchar>(i0)[j0]) {
-          e[j] = penalty;
-          continue;
-        }
-        const float fi = ci - static_cast<float>(i0), fj = cj - static_cast<float>(j0);
-        const float* ra = cur.ptr<float>(i0);
-        const float* rb = cur.ptr<float>(i0 + 1);
-        const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
-        const float r = top + fi * (bot - top) - g * kv[j] - o;
-        e[j] = r * r;
-      }
+      bilinear_costs(pi, pj, kv, ko, cur, cur_ok4_, g, o, penalty, span, e);
     }
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);

@@ -240,7 +240,6 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
   const float fax = static_cast<float>(fx * o0[0]), fay = static_cast<float>(fy * o0[1]),
               az = static_cast<float>(o0[2]);
   const float fcx = static_cast<float>(cx), fcy = static_cast<float>(ccy);
-  const float umax = static_cast<float>(W - 1), vmax = static_cast<float>(H - 1);
   float* pu = proj_u_.ptr<float>(0);
   float* pv = proj_v_.ptr<float>(0);
   // A window spans rows of one hypothesis index t (each row at its own height for t), so a row's
@@ -257,36 +256,15 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
       const uchar* ko = key_ok_.ptr<uchar>(i);
       float* e = e_.ptr<float>(i);
       const float w = static_cast<float>(w_lo + t * row_step_.at<double>(i));
-      // The row's projections first, branch-free (the compiler vectorises the division); then
-      // the checks and bilinear samples pixel by pixel.
+      // The row's projections first, branch-free (the compiler vectorises the division; NaN
+      // where the pixel is not swept or the point is not ahead of the current camera).
       for (int j = 0; j < W; ++j) {
-        const float iq = 1.0f / (az + w * oz[j]);
-        pu[j] = (fax + w * ox[j]) * iq + fcx;
+        const float qz = az + w * oz[j];
+        const float iq = 1.0f / qz;
+        pu[j] = qz > 1e-3f ? (fax + w * ox[j]) * iq + fcx : kNaNf;
         pv[j] = (fay + w * oy[j]) * iq + fcy;
       }
-      for (int j = 0; j < W; ++j) {
-        const float qz = az + w * oz[j];  // NaN where the pixel is not swept
-        if (!ko[j] || !(qz > 1e-3f)) {
-          e[j] = kPenalty;
-          continue;
-        }
-        const float u = pu[j], v = pv[j];
-        if (!(u >= 0.0f && v >= 0.0f && u < umax && v < vmax)) {
-          e[j] = kPenalty;
-          continue;
-        }
-        const int j0 = static_cast<int>(u), i0 = static_cast<int>(v);
-        if (!cur_ok4_.ptr<uchar>(i0)[j0]) {
-          e[j] = kPenalty;
-          continue;
-        }
-        const float fj = u - static_cast<float>(j0), fi = v - static_cast<float>(i0);
-        const float* ra = cur_.ptr<float>(i0);
-        const float* rb = cur_.ptr<float>(i0 + 1);
-        const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
-        const float r = top + fi * (bot - top) - g * kv[j] - b;
-        e[j] = r * r;
-      }
+      bilinear_costs(pv, pu, kv, ko, cur_, cur_ok4_, g, b, kPenalty, {0, W}, e);
     }
     samples_ += active * W;
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.

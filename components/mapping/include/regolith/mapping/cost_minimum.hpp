@@ -28,6 +28,37 @@ inline void bilinear_footprint_usable(const cv::Mat& ok, cv::Mat& ok4) {
   }
 }
 
+/// One row of a search's sample costs for one hypothesis, over the columns of `span`: e[j] =
+/// (cur(at_row[j], at_col[j]) - gain key[j] - bias)^2 with `cur` (CV_32F) sampled bilinearly, or
+/// `penalty` where the keyframe sample is unusable (key_ok[j] == 0), the position lies outside
+/// cur's bilinear footprint (or is NaN) or that footprint is unusable (`cur_ok4` of
+/// bilinear_footprint_usable). Both searches run it: GroundParallax on the rectified grid,
+/// PlaneSweep in the image.
+inline void bilinear_costs(const float* at_row, const float* at_col, const float* key, const uchar* key_ok,
+                           const cv::Mat& cur, const cv::Mat& cur_ok4, float gain, float bias, float penalty,
+                           common::ColumnSpan span, float* e) {
+  const float row_max = static_cast<float>(cur.rows - 1), col_max = static_cast<float>(cur.cols - 1);
+  for (int j = span.begin; j < span.end; ++j) {
+    const float ci = at_row[j], cj = at_col[j];
+    // Inside the footprint (a NaN fails too) before the conversion; there truncation is the floor.
+    if (!key_ok[j] || !(ci >= 0.0f && cj >= 0.0f && ci < row_max && cj < col_max)) {
+      e[j] = penalty;
+      continue;
+    }
+    const int i0 = static_cast<int>(ci), j0 = static_cast<int>(cj);
+    if (!cur_ok4.ptr<uchar>(i0)[j0]) {
+      e[j] = penalty;
+      continue;
+    }
+    const float fi = ci - static_cast<float>(i0), fj = cj - static_cast<float>(j0);
+    const float* ra = cur.ptr<float>(i0);
+    const float* rb = cur.ptr<float>(i0 + 1);
+    const float top = ra[j0] + fj * (ra[j0 + 1] - ra[j0]), bot = rb[j0] + fj * (rb[j0 + 1] - rb[j0]);
+    const float r = top + fi * (bot - top) - gain * key[j] - bias;
+    e[j] = r * r;
+  }
+}
+
 /// Rows [r0, r1] of CV_32F images: where c1 is a bracketed minimum below best, records it (best,
 /// index t - 1 in `at`, its neighbours in left / right). `second` (optional, filled with the same
 /// "none" value as best) keeps the lowest of the other bracketed minima: another valley of the
