@@ -18,6 +18,7 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kBig = 1e30f;
+constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sample
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
   throw FieldError("mapping.parallax", field, why);
@@ -90,6 +91,22 @@ void GroundParallax::promote() {
   std::swap(key_, cur_);
   std::swap(key_ok_, cur_ok_);
   has_key_ = true;
+  // A keyframe cell outside the keyframe's view (or clipped) costs the penalty at every
+  // hypothesis: written once per keyframe here (compute writes e_ only inside the spans), then
+  // each row's search (samples, window sums, minima) runs only over its span of usable cells
+  // (about half of the grid lies outside the camera's wedge). A cell outside the spans keeps no
+  // minimum (bests_ -1); inside, every window sum is the whole grid's bit for bit.
+  for (int i = 0; i < key_ok_.rows; ++i) {
+    const uchar* ko = key_ok_.ptr<uchar>(i);
+    float* e = e_.ptr<float>(i);
+    const int C = key_ok_.cols;
+    int lo = 0, hi = C;
+    while (lo < C && !ko[lo]) ++lo;
+    while (hi > lo && !ko[hi - 1]) --hi;
+    spans_[static_cast<std::size_t>(i)] = {lo, hi};
+    std::fill(e, e + lo, kPenalty);
+    std::fill(e + hi, e + C, kPenalty);
+  }
 }
 
 bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv::Vec2d& kt, const cv::Vec2d& ct,
@@ -108,7 +125,6 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
   const double d_lo = base * (1 - k_hi), d_hi = base * (1 - k_lo);
   const double step = p_.step_cells * grid_.resolution_m;
   const int n = static_cast<int>(std::floor((d_hi - d_lo) / step)) + 1;
-  const float penalty = static_cast<float>(4.0 * 255.0 * 255.0);  // unusable sample
   fill(best_, kBig);
   fill(second_, kBig);
   fill(bests_, -1.0f);
@@ -149,21 +165,6 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     }
   }
   bilinear_footprint_usable(cur_ok, cur_ok4_);
-  // A keyframe cell outside the keyframe's view (or clipped) costs the penalty at every
-  // hypothesis: written once here, then each row's search (samples, window sums, minima) runs
-  // only over its span of usable cells (about half of the grid lies outside the camera's wedge).
-  // A cell outside the spans keeps no minimum (bests_ -1); inside, every window sum is the whole
-  // grid's bit for bit.
-  for (int i = 0; i < R; ++i) {
-    const uchar* ko = key_ok.ptr<uchar>(i);
-    float* e = e_.ptr<float>(i);
-    int lo = 0, hi = C;
-    while (lo < C && !ko[lo]) ++lo;
-    while (hi > lo && !ko[hi - 1]) --hi;
-    spans_[static_cast<std::size_t>(i)] = {lo, hi};
-    std::fill(e, e + lo, penalty);
-    std::fill(e + hi, e + C, penalty);
-  }
   const float g = static_cast<float>(gain), o = static_cast<float>(bias);
   for (int t = 0; t < n; ++t) {
     const double d = d_lo + t * step;
@@ -184,7 +185,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
         pi[j] = ar[j] + kr + br[j] * fd;
         pj[j] = ac[j] + kc + bc[j] * fd;
       }
-      bilinear_costs(pi, pj, kv, ko, cur, cur_ok4_, g, o, penalty, span, e);
+      bilinear_costs(pi, pj, kv, ko, cur, cur_ok4_, g, o, kPenalty, span, e);
     }
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
@@ -200,9 +201,9 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     for (int j = 0; j < C; ++j) {
       const float t = bests_.at<float>(i, j);
       const float b = best_.at<float>(i, j);
-      if (t < 0 || b >= penalty) continue;
+      if (t < 0 || b >= kPenalty) continue;
       const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
-      if (l >= penalty || r >= penalty) continue;
+      if (l >= kPenalty || r >= kPenalty) continue;
       double off = 0.0, conf = 0.0;
       if (!parabola_minimum(l, b, r, cells, noise2, off, conf)) continue;
       const double d = d_lo + (t + off) * step;

@@ -90,7 +90,7 @@ class GroundParallax {
   cv::Mat e_, c0_, c1_, c2_, best_, second_, left_, right_, bests_, tmp_;
   cv::Mat z_, x_, y_, conf_;
   std::vector<float> proj_i_, proj_j_;     // one row's current-grid positions for a hypothesis
-  std::vector<common::ColumnSpan> spans_;  // per row: first to last + 1 of the keyframe's usable cells
+  std::vector<common::ColumnSpan> spans_;  // per row: first to last + 1 of the keyframe's usable cells (promote)
 };
 
 }  // namespace regolith::mapping
