@@ -414,6 +414,21 @@ TEST(BoxSum, EqualsOpenCvBoxFilterWithReplicatedBorders) {
                                         static_cast<double>(ref.at<float>(i, j)));
         EXPECT_LT(worst, 1e-5) << size << " radius " << radius << (running ? " running" : " direct");
       }
+  // box_sum_row at any radius (the plane sweep's window goes to 8; its rows are summed in
+  // batches of nine), row by row over whole rows.
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(5, 3), cv::Size(41, 33)})
+    for (int radius = 1; radius <= 9; ++radius) {
+      cv::Mat src(size, CV_32F), ref, dst(size, CV_32F), tmp(size, CV_32F);
+      rng.fill(src, cv::RNG::UNIFORM, 0.0, 65025.0);
+      cv::boxFilter(src, ref, CV_32F, {2 * radius + 1, 2 * radius + 1}, {-1, -1}, false, cv::BORDER_REPLICATE);
+      for (int i = 0; i < size.height; ++i) common::box_sum_row(src, dst, tmp, radius, i, {0, size.width});
+      double worst = 0;
+      for (int i = 0; i < size.height; ++i)
+        for (int j = 0; j < size.width; ++j)
+          worst = std::max(worst, std::abs(static_cast<double>(dst.at<float>(i, j)) - ref.at<float>(i, j)) /
+                                      static_cast<double>(ref.at<float>(i, j)));
+      EXPECT_LT(worst, 1e-5) << size << " radius " << radius << " rows";
+    }
 }
 
 // The parallax search sums its windows only over each row's span of usable cells: every sum

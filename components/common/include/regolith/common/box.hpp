@@ -10,6 +10,7 @@
 #include <algorithm>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 
 namespace regolith::common {
 
@@ -31,18 +32,43 @@ inline void box_sum_row(const cv::Mat& src, cv::Mat& dst, cv::Mat& tmp, int w, i
   if (out.begin >= out.end) return;
   const int vb = std::max(0, out.begin - w), ve = std::min(C, out.end + w);
   float* t = tmp.ptr<float>(i);
-  const float* s0 = src.ptr<float>(std::clamp(i - w, 0, R - 1));
-  std::copy(s0 + vb, s0 + ve, t + vb);
-  for (int k = -w + 1; k <= w; ++k) {
-    const float* s = src.ptr<float>(std::clamp(i + k, 0, R - 1));
-    for (int j = vb; j < ve; ++j) t[j] += s[j];
+  // The window's rows top to bottom, each column's sum kept in a register, four columns at a
+  // time (the scalar tail adds in the same order); the rows in batches of kRowBatch, a later batch
+  // adding to the stored sum (the same adds in the same order: a float stored and loaded is
+  // unchanged).
+  constexpr int L = cv::v_float32x4::nlanes, kRowBatch = 9;
+  const float* rows[kRowBatch];
+  for (int k0 = 0; k0 < 2 * w + 1; k0 += kRowBatch) {
+    const int n = std::min(kRowBatch, 2 * w + 1 - k0);
+    for (int k = 0; k < n; ++k) rows[k] = src.ptr<float>(std::clamp(i - w + k0 + k, 0, R - 1));
+    const float* first = k0 == 0 ? rows[0] : t;  // the batch's first term
+    const int kb = k0 == 0 ? 1 : 0;              // its first row still to add
+    int j = vb;
+    for (; j + L <= ve; j += L) {
+      cv::v_float32x4 a = cv::v_load(first + j);
+      for (int k = kb; k < n; ++k) a = a + cv::v_load(rows[k] + j);
+      cv::v_store(t + j, a);
+    }
+    for (; j < ve; ++j) {
+      float a = first[j];
+      for (int k = kb; k < n; ++k) a += rows[k][j];
+      t[j] = a;
+    }
   }
   const int j0 = std::min(w, C), j1 = std::max(j0, C - w);  // [j0, j1): the window inside the row
   const int ib = std::max(j0, out.begin), ie = std::max(ib, std::min(j1, out.end));
   float* d = dst.ptr<float>(i);
-  for (int j = ib; j < ie; ++j) d[j] = t[j - w];
-  for (int k = -w + 1; k <= w; ++k)
-    for (int j = ib; j < ie; ++j) d[j] += t[j + k];
+  int c = ib;  // the same way along the row
+  for (; c + L <= ie; c += L) {
+    cv::v_float32x4 a = cv::v_load(t + c - w);
+    for (int k = -w + 1; k <= w; ++k) a = a + cv::v_load(t + c + k);
+    cv::v_store(d + c, a);
+  }
+  for (; c < ie; ++c) {
+    float a = t[c - w];
+    for (int k = -w + 1; k <= w; ++k) a += t[c + k];
+    d[c] = a;
+  }
   const auto clamped = [&](int j) {
     float sum = t[std::clamp(j - w, 0, C - 1)];
     for (int k = -w + 1; k <= w; ++k) sum += t[std::clamp(j + k, 0, C - 1)];
