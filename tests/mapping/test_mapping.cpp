@@ -469,9 +469,9 @@ TEST(BoxSum, SpansGiveTheWholeImagesSumsBitForBitAndWriteNothingElse) {
 
 TEST(CostMinimum, BilinearCostsSampleInsideTheUsableFootprintAndPenaliseTheRest) {
   // The sample costs both searches make: against the four-weight bilinear sample in double where
-  // the footprint is usable, the penalty everywhere else: an unusable key
-  // sample, an unusable current pixel under the footprint, positions on the last row or column
-  // (no footprint), outside, negative, NaN and infinite; nothing written outside the span.
+  // the footprint is usable, the penalty everywhere else: an unusable key sample, an unusable
+  // current pixel under the footprint, positions on the last row or column (no footprint),
+  // outside, negative, NaN and infinite; nothing written outside the span.
   cv::RNG rng(5);
   const int rows = 9, cols = 13, n = 400;
   cv::Mat cur(rows, cols, CV_32F), ok(rows, cols, CV_8U, cv::Scalar(255)), ok4(rows, cols, CV_8U);
@@ -498,9 +498,8 @@ TEST(CostMinimum, BilinearCostsSampleInsideTheUsableFootprintAndPenaliseTheRest)
     key[j] = rng.uniform(0.0f, 255.0f);
     key_ok[j] = j % 13 == 0 ? 0 : 1;
   }
-  const float gain = 1.1f, bias = -3.0f, penalty = 4.0f * 255.0f * 255.0f;
-  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, penalty, {0, n},
-                 e.data() + 1);
+  const float gain = 1.1f, bias = -3.0f, penalty = kUnusableSampleCost;
+  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, {0, n}, e.data() + 1);
   EXPECT_EQ(e[0], -1.0f);
   EXPECT_EQ(e[n + 1], -1.0f);
   int sampled = 0, near_hole = 0;
@@ -528,8 +527,7 @@ TEST(CostMinimum, BilinearCostsSampleInsideTheUsableFootprintAndPenaliseTheRest)
   EXPECT_GT(near_hole, 0);
   // A span: only its columns are written.
   std::fill(e.begin(), e.end(), -1.0f);
-  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, penalty, {10, 20},
-                 e.data() + 1);
+  bilinear_costs(at_row.data(), at_col.data(), key.data(), key_ok.data(), cur, ok4, gain, bias, {10, 20}, e.data() + 1);
   for (int j = 0; j < n; ++j) EXPECT_EQ(e[static_cast<std::size_t>(j) + 1] == -1.0f, j < 10 || j >= 20) << j;
 }
 

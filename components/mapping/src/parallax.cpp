@@ -18,7 +18,6 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kBig = 1e30f;
-constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sample
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
   throw FieldError("mapping.parallax", field, why);
@@ -104,8 +103,8 @@ void GroundParallax::promote() {
     while (lo < C && !ko[lo]) ++lo;
     while (hi > lo && !ko[hi - 1]) --hi;
     spans_[static_cast<std::size_t>(i)] = {lo, hi};
-    std::fill(e, e + lo, kPenalty);
-    std::fill(e + hi, e + C, kPenalty);
+    std::fill(e, e + lo, kUnusableSampleCost);
+    std::fill(e + hi, e + C, kUnusableSampleCost);
   }
 }
 
@@ -185,7 +184,7 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
         pi[j] = ar[j] + kr + br[j] * fd;
         pj[j] = ac[j] + kc + bc[j] * fd;
       }
-      bilinear_costs(pi, pj, kv, ko, cur, cur_ok4_, g, o, kPenalty, span, e);
+      bilinear_costs(pi, pj, kv, ko, cur, cur_ok4_, g, o, span, e);
     }
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
     std::swap(c0_, c1_);
@@ -201,9 +200,9 @@ bool GroundParallax::compute(const Pose2& m, double gain, double bias, const cv:
     for (int j = 0; j < C; ++j) {
       const float t = bests_.at<float>(i, j);
       const float b = best_.at<float>(i, j);
-      if (t < 0 || b >= kPenalty) continue;
+      if (t < 0 || b >= kUnusableSampleCost) continue;
       const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
-      if (l >= kPenalty || r >= kPenalty) continue;
+      if (l >= kUnusableSampleCost || r >= kUnusableSampleCost) continue;
       double off = 0.0, conf = 0.0;
       if (!parabola_minimum(l, b, r, cells, noise2, off, conf)) continue;
       const double d = d_lo + (t + off) * step;

@@ -19,7 +19,6 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kBig = 1e30f;
-constexpr float kPenalty = 4.0f * 255.0f * 255.0f;  // cost of an unusable sample
 
 [[noreturn]] void fail(const std::string& field, const std::string& why) {
   throw FieldError("mapping.sweep", field, why);
@@ -276,7 +275,7 @@ void PlaneSweep::sweep_costs(const Sweep& sweep, double gain, double bias) {
         pu[j] = qz > kNear ? (fax + w * ox[j]) * iq + fcx : kNaNf;
         pv[j] = (fay + w * oy[j]) * iq + fcy;
       }
-      bilinear_costs(pv, pu, kv, ko, cur_, cur_ok4_, g, b, kPenalty, {0, W}, e);
+      bilinear_costs(pv, pu, kv, ko, cur_, cur_ok4_, g, b, {0, W}, e);
     }
     samples_ += active * W;
     // Rolling three cost slices: c0 = t-2, c1 = t-1, c2 = t; a minimum at t-1 is bracketed.
@@ -297,7 +296,6 @@ void PlaneSweep::read_heights(const Sweep& sweep) {
   // Sub-step minimum, height, position and confidence.
   const double cells = (2 * p_.window + 1) * (2 * p_.window + 1);
   const double noise2 = p_.noise_dn * p_.noise_dn;
-  const float pen_sum = static_cast<float>(kPenalty);  // any window holding an unusable sample
   for (int i = 0; i < H; ++i) {
     const double step = row_step_.at<double>(i);
     float* zz = z_.ptr<float>(i);
@@ -310,9 +308,10 @@ void PlaneSweep::read_heights(const Sweep& sweep) {
       xx[j] = yy[j] = kNaNf;
       const float t = bests_.at<float>(i, j);
       const float bc = best_.at<float>(i, j);
-      if (std::isnan(ox[j]) || t < 0 || bc >= pen_sum) continue;
+      if (std::isnan(ox[j]) || t < 0 || bc >= kUnusableSampleCost)
+        continue;  // bc so high: its window holds an unusable sample
       const double l = left_.at<float>(i, j), r = right_.at<float>(i, j);
-      if (l >= pen_sum || r >= pen_sum) continue;
+      if (l >= kUnusableSampleCost || r >= kUnusableSampleCost) continue;
       double off = 0.0, match = 0.0;
       if (!parabola_minimum(l, bc, r, cells, noise2, off, match)) continue;
       const double w = w_lo + (t + off) * step;

@@ -28,26 +28,30 @@ inline void bilinear_footprint_usable(const cv::Mat& ok, cv::Mat& ok4) {
   }
 }
 
+/// The cost of a sample that cannot be compared (4 x the largest squared grey-level difference):
+/// both searches' sample costs, and the level at or above which a window sum holds one.
+inline constexpr float kUnusableSampleCost = 4.0f * 255.0f * 255.0f;
+
 /// One row of a search's sample costs for one hypothesis, over the columns of `span`: e[j] =
 /// (cur(at_row[j], at_col[j]) - gain key[j] - bias)^2 with `cur` (CV_32F) sampled bilinearly, or
-/// `penalty` where the keyframe sample is unusable (key_ok[j] == 0), the position lies outside
+/// kUnusableSampleCost where the keyframe sample is unusable (key_ok[j] == 0), the position lies outside
 /// cur's bilinear footprint (or is NaN) or that footprint is unusable (`cur_ok4` of
 /// bilinear_footprint_usable). Both searches run it: GroundParallax on the rectified grid,
 /// PlaneSweep in the image.
 inline void bilinear_costs(const float* at_row, const float* at_col, const float* key, const uchar* key_ok,
-                           const cv::Mat& cur, const cv::Mat& cur_ok4, float gain, float bias, float penalty,
-                           common::ColumnSpan span, float* e) {
+                           const cv::Mat& cur, const cv::Mat& cur_ok4, float gain, float bias, common::ColumnSpan span,
+                           float* e) {
   const float row_max = static_cast<float>(cur.rows - 1), col_max = static_cast<float>(cur.cols - 1);
   for (int j = span.begin; j < span.end; ++j) {
     const float ci = at_row[j], cj = at_col[j];
     // Inside the footprint (a NaN fails too) before the conversion; there truncation is the floor.
     if (!key_ok[j] || !(ci >= 0.0f && cj >= 0.0f && ci < row_max && cj < col_max)) {
-      e[j] = penalty;
+      e[j] = kUnusableSampleCost;
       continue;
     }
     const int i0 = static_cast<int>(ci), j0 = static_cast<int>(cj);
     if (!cur_ok4.ptr<uchar>(i0)[j0]) {
-      e[j] = penalty;
+      e[j] = kUnusableSampleCost;
       continue;
     }
     const float fi = ci - static_cast<float>(i0), fj = cj - static_cast<float>(j0);
